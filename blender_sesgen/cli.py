@@ -1,0 +1,49 @@
+"""``python -m blender_sesgen`` / ``sesgen``: check and render SES scripts.
+
+Each subcommand lives in its own module exposing ``add_arguments(parser)`` and
+``run(args) -> int``; modules are imported only when their command runs (bpy is heavy).
+Expected failures (:class:`SesgenError`) print one line on stderr and exit 2.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from .errors import SesgenError
+
+# command -> (module relative to this package, one-line help)
+COMMANDS = {
+    "check": (".check", "validate a script and print a summary of its scene, rig and motion"),
+    "render": (".render_cli", "render a script to a stereo multilayer-EXR sequence with ground truth"),
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m blender_sesgen",
+        description="Synthetic stereo egomotion sequences with exact ground truth, rendered by Blender Cycles.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for name, (module, help_text) in COMMANDS.items():
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        importlib.import_module(module, __package__).add_arguments(p)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    module = importlib.import_module(COMMANDS[args.command][0], __package__)
+    try:
+        return int(module.run(args) or 0)
+    except SesgenError as e:
+        print(str(e) if str(e).startswith(tuple("/.<")) or ": error:" in str(e) else f"error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

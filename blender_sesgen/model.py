@@ -1,0 +1,278 @@
+"""The scene model: what an SES script means, as frozen dataclasses (no bpy).
+
+Everything here is in the SES world (right-handed, Y up) and the OpenCV camera frame;
+angles are degrees unless a name says ``_rad``. Produced by ``ses.parse``; consumed by
+the Blender builder, the CLI summary and the render manifest. ``to_json`` gives a plain
+dict (the golden-test and manifest form).
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import ClassVar, Literal, Optional
+
+import numpy as np
+
+Vec3 = tuple[float, float, float]
+Mat4 = tuple[tuple[float, float, float, float], ...]  # 4 rows of 4, row-major
+
+
+def mat4(T: np.ndarray) -> Mat4:
+    return tuple(tuple(float(x) for x in row) for row in np.asarray(T, dtype=float))
+
+
+# --- materials and textures -------------------------------------------------------------
+
+@dataclass(frozen=True, kw_only=True)
+class TextureRef:
+    """``texture`` of an object or material.
+
+    kind 'builtin': one of textures.BUILTIN_TEXTURES (``number`` and canonical ``name``);
+    kind 'image': an image file (``path`` absolute, resolved relative to the script;
+    ``source`` as written in the script).
+    """
+    kind: Literal["builtin", "image"]
+    name: str
+    number: Optional[int] = None
+    path: Optional[str] = None
+    source: Optional[str] = None
+    scale: float = 1.0  # texture-space scale (extension: bigger = finer pattern)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Material:
+    """``MATERIAL name N ...``: a physically based (Principled BSDF) material."""
+    name: str
+    colour: Vec3 = (0.8, 0.8, 0.8)
+    texture: Optional[TextureRef] = None
+    roughness: float = 0.5
+    metallic: float = 0.0
+    specular: float = 0.5
+    emission: Vec3 = (0.0, 0.0, 0.0)
+    emission_strength: float = 0.0
+
+
+# --- objects ----------------------------------------------------------------------------
+
+@dataclass(frozen=True, kw_only=True)
+class SceneObject:
+    """Common tags of every object. ``id`` is the segmentation label (1..32767)."""
+    shape: ClassVar[str] = "object"
+    id: int
+    name: str                      # from ``name`` or generated: "<shape>_<id>"
+    colour: Vec3 = (1.0, 1.0, 1.0)  # multiplies the texture
+    texture: Optional[TextureRef] = None
+    material: Optional[str] = None  # name of a Material
+    line: int = 0                  # source line (for messages); not part of the scene's meaning
+
+
+@dataclass(frozen=True, kw_only=True)
+class Placed(SceneObject):
+    """An object with ``position x y z [rx ry rz]``: centre and XYZ Euler rotation (deg)."""
+    position: Vec3
+    rotation_deg: Vec3 = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Quad(SceneObject):
+    shape: ClassVar[str] = "quad"
+    vertices: tuple[Vec3, Vec3, Vec3, Vec3]  # in order around the boundary, SES world
+
+
+@dataclass(frozen=True, kw_only=True)
+class Cuboid(Placed):
+    shape: ClassVar[str] = "cuboid"
+    size: Vec3  # full edge lengths along the object's local x, y, z
+
+
+@dataclass(frozen=True, kw_only=True)
+class Sphere(Placed):
+    shape: ClassVar[str] = "sphere"
+    radius: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class Cylinder(Placed):
+    shape: ClassVar[str] = "cylinder"
+    radius: float
+    height: float  # along the object's local Y axis, centred on position
+
+
+@dataclass(frozen=True, kw_only=True)
+class Mesh(Placed):
+    """``MESH id N file path ...``: an imported OBJ/PLY/STL/glTF mesh.
+
+    The file's coordinates are taken as SES-world units and axes (Y up), scaled by
+    ``scale`` then rotated and moved to ``position``.
+    """
+    shape: ClassVar[str] = "mesh"
+    path: str          # absolute, resolved relative to the script
+    source: str        # as written in the script
+    scale: Vec3 = (1.0, 1.0, 1.0)
+
+
+# --- environment ------------------------------------------------------------------------
+
+@dataclass(frozen=True, kw_only=True)
+class Light:
+    """``LIGHT sun|point|area ...``.
+
+    sun: ``direction`` (the way the light travels, SES world), ``strength`` in W/m^2.
+    point: ``position``, ``strength`` in W, ``size`` = radius.
+    area: ``position``, ``direction`` (the way it emits), ``size`` = edge, ``strength`` in W.
+    """
+    kind: Literal["sun", "point", "area"]
+    colour: Vec3 = (1.0, 1.0, 1.0)
+    strength: float = 3.0
+    position: Optional[Vec3] = None
+    direction: Optional[Vec3] = None
+    size: float = 0.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class World:
+    """``WORLD colour r g b [strength s]`` or ``WORLD sky [strength s] [elevation e] [azimuth a]``."""
+    kind: Literal["colour", "sky"]
+    colour: Vec3 = (0.05, 0.05, 0.05)
+    strength: float = 1.0
+    sun_elevation_deg: float = 45.0
+    sun_azimuth_deg: float = 0.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class Fog:
+    """Distance fog on the RGB output only (ground truth never fogged)."""
+    start: float
+    end: float
+    colour: Vec3 = (0.7, 0.7, 0.7)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Noise:
+    """Additive Gaussian noise (8-bit grey levels) for exported RGB; EXR stays clean."""
+    sigma: float
+    seed: int = 0
+
+
+@dataclass(frozen=True, kw_only=True)
+class RenderSettings:
+    """``RENDER samples N [denoise on|off] [seed n]``; CLI flags override."""
+    samples: int = 16
+    denoise: bool = False
+    seed: int = 0
+
+
+# --- rig and motion ---------------------------------------------------------------------
+
+@dataclass(frozen=True, kw_only=True)
+class Rig:
+    """``CAMERA``: pinhole intrinsics (pixels, OpenCV convention) and stereo baseline."""
+    width: int = 640
+    height: int = 480
+    focal_px: float = 389.0
+    cx: float = 319.5
+    cy: float = 239.5
+    baseline: float = 0.12  # 0 = monocular
+    near: float = 0.05
+    far: float = 1000.0
+
+    @property
+    def stereo(self) -> bool:
+        return self.baseline > 0.0
+
+    @property
+    def views(self) -> tuple[str, ...]:
+        return ("left", "right") if self.stereo else ("left",)
+
+    def K(self) -> np.ndarray:
+        return np.array([[self.focal_px, 0.0, self.cx], [0.0, self.focal_px, self.cy], [0.0, 0.0, 1.0]])
+
+
+@dataclass(frozen=True, kw_only=True)
+class Motion:
+    """How the rig moves, as written: ``kind`` 'static' (no motion lines), 'ego', 'pose'
+    or 'trajectory'. ``ego``: one (U, V, W, alpha, beta, gamma) per EGO line;
+    ``keyframes``: one (x, y, z, rx, ry, rz) per POSE line; ``trajectory_*``: the
+    TRAJECTORY file (absolute path, format), replayed relative to START."""
+    kind: Literal["static", "ego", "pose", "trajectory"] = "static"
+    ego: tuple[tuple[float, float, float, float, float, float], ...] = ()
+    keyframes: tuple[tuple[float, float, float, float, float, float], ...] = ()
+    trajectory_path: Optional[str] = None
+    trajectory_format: Optional[Literal["tum", "kitti"]] = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class Timeline:
+    """The per-frame poses of the left (reference) camera: ``T_world_left[k]`` is the 4x4
+    pose (SES world, OpenCV camera) at frame k; frame count = len(T_world_left)."""
+    T_world_left: tuple[Mat4, ...]
+
+    @property
+    def frames(self) -> int:
+        return len(self.T_world_left)
+
+    def left(self) -> np.ndarray:
+        """(N, 4, 4) left-camera poses."""
+        return np.array(self.T_world_left, dtype=float)
+
+    def right(self, baseline: float) -> np.ndarray:
+        """(N, 4, 4) right-camera poses: T_world_left @ trans(B, 0, 0)."""
+        T = self.left().copy()
+        T[:, :3, 3] += baseline * T[:, :3, 0]
+        return T
+
+    def ego_table(self) -> np.ndarray:
+        """(N-1, 6) per-step (U, V, W, alpha, beta, gamma), deg, recovered from the poses."""
+        from .poses import ego_from_poses
+        T = self.left()
+        return np.array([ego_from_poses(T[k], T[k + 1]) for k in range(len(T) - 1)]).reshape(-1, 6)
+
+
+# --- the scene --------------------------------------------------------------------------
+
+@dataclass(frozen=True, kw_only=True)
+class Scene:
+    source: str                           # the script's path as given ("<string>" if none)
+    objects: tuple[SceneObject, ...]
+    rig: Rig = field(default_factory=Rig)
+    start_position: Vec3 = (0.0, 0.0, 0.0)
+    start_rotation_deg: Vec3 = (0.0, 0.0, 0.0)
+    motion: Motion = field(default_factory=Motion)
+    timeline: Timeline = field(default_factory=lambda: Timeline(T_world_left=()))
+    materials: tuple[Material, ...] = ()
+    lights: tuple[Light, ...] = ()        # empty: the renderer adds the default lighting
+    world: Optional[World] = None         # None: the renderer's default world
+    fog: Optional[Fog] = None
+    noise: Optional[Noise] = None
+    render: RenderSettings = field(default_factory=RenderSettings)
+
+    @property
+    def frames(self) -> int:
+        return self.timeline.frames
+
+    def material(self, name: str) -> Material:
+        for m in self.materials:
+            if m.name == name:
+                return m
+        raise KeyError(name)
+
+    def to_json(self) -> dict:
+        """A plain, JSON-serialisable dict (objects carry their ``shape``; no ``line``)."""
+        return _jsonable(self)
+
+
+def _jsonable(value):
+    if dataclasses.is_dataclass(value):
+        out = {}
+        if isinstance(value, SceneObject):
+            out["shape"] = value.shape
+        for f in dataclasses.fields(value):
+            if f.name == "line":
+                continue
+            out[f.name] = _jsonable(getattr(value, f.name))
+        return out
+    if isinstance(value, (tuple, list)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, float) and value == 0.0:
+        return 0.0  # no "-0.0" in golden files
+    return value
