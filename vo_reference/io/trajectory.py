@@ -6,12 +6,17 @@ seconds. Formats:
 - KITTI: 12 numbers per line, the first 3 rows of T row-major; no timestamps in the
   file (optionally a separate ``times.txt``, one second value per line).
 - EuRoC csv: ``#timestamp [ns], p_x, p_y, p_z, q_w, q_x, q_y, q_z, ...`` (scalar first).
+- sesgen render: a render folder (or its ``manifest.json``, format ``sesgen-render/1``) whose
+  ``poses`` key holds ``{"left": [4x4 per frame], "right": [...]}``; optional ``timestamps``
+  (a list, or one list per view) or ``fps``; otherwise the frame index is the timestamp.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
+
+import json
 
 import numpy as np
 
@@ -130,21 +135,83 @@ def _write_atomic(path, text: str) -> None:
     tmp.replace(path)
 
 
-def read_trajectory(path, fmt: str = "auto", times_path=None) -> Trajectory:
-    """Read a trajectory, guessing the format from the content when ``fmt='auto'``."""
+def read_render_poses(render_dir_or_manifest, view: str = "left") -> Trajectory:
+    """Ground-truth poses of one view of a sesgen render (``T_world_cam``, OpenCV camera).
+
+    ``render_dir_or_manifest`` is the render folder or its ``manifest.json``. Timestamps come
+    from the manifest's ``timestamps`` key (a list, or ``{view: list}``), else from ``fps``
+    (frame k at k / fps), else they are the frame indices 0, 1, 2, ...
+    """
+    path = Path(render_dir_or_manifest)
+    if path.is_dir():
+        path = path / "manifest.json"
+    if not path.is_file():
+        raise VoError(f"{path}: no render manifest (expected a render folder or its manifest.json)")
+    try:
+        manifest = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as e:
+        raise VoError(f"{path}: not a readable JSON manifest ({e})") from None
+    fmt = str(manifest.get("format", "")) if isinstance(manifest, dict) else ""
+    if not fmt.startswith("sesgen-render/"):
+        raise VoError(f"{path}: not a sesgen render manifest (format {fmt or 'missing'!r})")
+    poses = manifest.get("poses")
+    if not isinstance(poses, dict) or view not in poses:
+        have = sorted(poses) if isinstance(poses, dict) else []
+        raise VoError(f"{path}: no poses for view {view!r} (have {have})")
+    try:
+        T_rows = np.asarray(poses[view], dtype=float)
+    except (TypeError, ValueError):
+        raise VoError(f"{path}: poses[{view!r}] is not a list of 4x4 matrices") from None
+    n = T_rows.shape[0] if T_rows.ndim >= 1 else 0
+    if n == 0:
+        raise VoError(f"{path}: poses[{view!r}] is empty")
+    T = np.tile(np.eye(4), (n, 1, 1))
+    if T_rows.shape[1:] in ((4, 4), (3, 4)):
+        T[:, : T_rows.shape[1], :] = T_rows
+    elif T_rows.shape[1:] in ((16,), (12,)):
+        T[:, :3, :] = T_rows[:, :12].reshape(n, 3, 4)
+    else:
+        raise VoError(f"{path}: poses[{view!r}] has shape {T_rows.shape}, expected (N, 4, 4)")
+    if not np.all(np.isfinite(T)):
+        raise VoError(f"{path}: poses[{view!r}] holds non-finite values")
+    ts = manifest.get("timestamps")
+    if isinstance(ts, dict):
+        ts = ts.get(view)
+    if ts is not None:
+        ts = np.asarray(ts, dtype=float)
+        if ts.shape != (n,):
+            raise VoError(f"{path}: {ts.size} timestamps for {n} poses")
+    elif manifest.get("fps"):
+        ts = np.arange(n, dtype=float) / float(manifest["fps"])
+    else:
+        ts = np.arange(n, dtype=float)
+    return Trajectory(T, ts)
+
+
+def read_trajectory(path, fmt: str = "auto", times_path=None, view: str = "left") -> Trajectory:
+    """Read a trajectory, guessing the format from the content when ``fmt='auto'``.
+
+    ``fmt``: ``tum``, ``kitti`` (``times_path``: optional KITTI ``times.txt``), ``euroc``,
+    ``sesgen`` (a render folder or manifest; ``view`` picks the camera) or ``auto``.
+    """
     path = Path(path)
     if fmt == "auto":
         fmt = guess_format(path)
     readers = {"tum": read_tum, "euroc": read_euroc}
     if fmt == "kitti":
         return read_kitti(path, times_path)
+    if fmt == "sesgen":
+        return read_render_poses(path, view)
     if fmt not in readers:
-        raise VoError(f"unknown trajectory format {fmt!r} (tum, kitti, euroc)")
+        raise VoError(f"unknown trajectory format {fmt!r} (tum, kitti, euroc, sesgen)")
     return readers[fmt](path)
 
 
 def guess_format(path: Path) -> str:
-    if not Path(path).is_file():
+    path = Path(path)
+    if path.is_dir() or path.name == "manifest.json":
+        return "sesgen"
+    if not path.is_file():
         raise VoError(f"{path}: no such trajectory file")
     with open(path, encoding="utf-8", errors="replace") as f:
         for line in f:

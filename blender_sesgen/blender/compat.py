@@ -1,0 +1,89 @@
+"""Blender 4.2 LTS ... 5.0 differences, in one place.
+
+- multilayer EXR: 5.0 needs ``image_settings.media_type`` set before ``file_format``;
+- animation: 4.4+ layered actions keep F-curves in a channelbag per slot (5.0 removed
+  ``Action.fcurves``);
+- node trees of materials/worlds: 5.0 always has one (``use_nodes`` is deprecated), 4.x
+  needs ``use_nodes = True``;
+- pass names in multilayer EXR channels: ``Object Index`` (5.0) vs ``IndexOB`` (4.x);
+- Principled BSDF: ``Specular IOR Level`` (4.0+) vs ``Specular`` (3.x).
+"""
+from __future__ import annotations
+
+import bpy
+
+
+def version() -> tuple[int, int, int]:
+    return tuple(bpy.app.version)
+
+
+def version_string() -> str:
+    return bpy.app.version_string
+
+
+def set_multilayer_exr(image_settings, codec: str = "ZIP", bits: str = "32") -> None:
+    """Multilayer OpenEXR, float32, lossless."""
+    if hasattr(image_settings, "media_type"):  # 5.0
+        image_settings.media_type = "MULTI_LAYER_IMAGE"
+    image_settings.file_format = "OPEN_EXR_MULTILAYER"
+    image_settings.color_depth = bits
+    image_settings.exr_codec = codec
+
+
+def set_png(image_settings, bits: str = "8") -> None:
+    if hasattr(image_settings, "media_type"):
+        image_settings.media_type = "IMAGE"
+    image_settings.file_format = "PNG"
+    image_settings.color_mode = "RGB"
+    image_settings.color_depth = bits
+
+
+def exr_channel_names(view_layer: str = "ViewLayer") -> dict:
+    """Names of the EXR channels (``layer.pass.channel``) that hold each product."""
+    index_pass = "Object Index" if version() >= (5, 0, 0) else "IndexOB"
+    return {
+        "rgb": [f"{view_layer}.Combined.{c}" for c in "RGBA"],
+        "depth": f"{view_layer}.Depth.Z",
+        "object_index": f"{view_layer}.{index_pass}.X",
+        "normal": [f"{view_layer}.Normal.{c}" for c in "XYZ"],
+        "position": [f"{view_layer}.Position.{c}" for c in "XYZ"],
+    }
+
+
+def node_tree(idblock):
+    """The shader node tree of a material or world, creating it on 4.x."""
+    if getattr(idblock, "node_tree", None) is None:
+        idblock.use_nodes = True
+    return idblock.node_tree
+
+
+def object_fcurves(obj):
+    """The F-curves animating ``obj`` (layered actions on 4.4+, ``Action.fcurves`` before)."""
+    ad = obj.animation_data
+    if ad is None or ad.action is None:
+        return []
+    action = ad.action
+    slot = getattr(ad, "action_slot", None)
+    if slot is not None and hasattr(action, "layers"):
+        from bpy_extras import anim_utils
+        cb = anim_utils.action_get_channelbag_for_slot(action, slot)
+        return list(cb.fcurves) if cb is not None else []
+    return list(action.fcurves)
+
+
+def principled_input(bsdf, name: str):
+    """A Principled BSDF input by its current name (``Specular`` was renamed in 4.0)."""
+    aliases = {"Specular IOR Level": ("Specular IOR Level", "Specular"),
+               "Emission Color": ("Emission Color", "Emission")}
+    for n in aliases.get(name, (name,)):
+        if n in bsdf.inputs:
+            return bsdf.inputs[n]
+    raise KeyError(name)
+
+
+def sky_type_for(preferred: tuple[str, ...] = ("MULTIPLE_SCATTERING", "NISHITA", "HOSEK_WILKIE")) -> str:
+    items = [e.identifier for e in bpy.types.ShaderNodeTexSky.bl_rna.properties["sky_type"].enum_items]
+    for p in preferred:
+        if p in items:
+            return p
+    return items[0]

@@ -1,0 +1,143 @@
+"""Cycles settings, passes, EXR output and the render of one view of one frame.
+
+Ground truth (Depth = planar z, Object Index) comes from Cycles' first sample, which goes
+through the exact pixel centre, so it is exact for any sample count, filter or denoiser;
+the beauty pass is anti-aliased. Output: multilayer OpenEXR, float32, ZIP (lossless).
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import sys
+import time
+
+import bpy
+
+from ..errors import SesgenError
+from . import compat
+
+_TIME_RE = re.compile(r"Time:\s*(?:(\d+):)?(\d+):(\d+(?:\.\d+)?)")
+
+
+def gpu_devices(kinds=("OPTIX", "CUDA", "HIP", "METAL", "ONEAPI")) -> tuple[str, list[str]]:
+    """(backend, device names) of the first GPU backend with devices; ('', []) if none."""
+    prefs = bpy.context.preferences.addons["cycles"].preferences
+    for kind in kinds:
+        try:
+            prefs.compute_device_type = kind
+        except TypeError:
+            continue
+        prefs.get_devices()
+        devs = [d for d in prefs.devices if d.type == kind]
+        if devs:
+            return kind, [d.name for d in devs]
+    prefs.compute_device_type = "NONE"
+    return "", []
+
+
+def enable_gpu() -> str:
+    backend, names = gpu_devices()
+    if not backend:
+        raise SesgenError("--device gpu: Cycles found no GPU (OptiX/CUDA/HIP/Metal/oneAPI)")
+    prefs = bpy.context.preferences.addons["cycles"].preferences
+    for d in prefs.devices:
+        d.use = d.type == backend
+    return f"{backend}: {', '.join(names)}"
+
+
+def configure(bscene, *, samples: int, denoise: bool, device: str, threads: int = 0,
+              normal_pass: bool = False, position_pass: bool = False) -> None:
+    r = bscene.render
+    r.engine = "CYCLES"
+    c = bscene.cycles
+    c.device = "GPU" if device.lower() == "gpu" else "CPU"
+    c.samples = int(samples)
+    c.use_adaptive_sampling = False
+    c.use_denoising = bool(denoise)
+    if denoise:
+        c.denoiser = "OPENIMAGEDENOISE"
+    c.use_animated_seed = False
+    c.sample_clamp_indirect = 10.0
+    c.caustics_reflective = c.caustics_refractive = False
+    r.use_motion_blur = False
+    r.film_transparent = False
+    r.use_persistent_data = False
+    r.use_multiview = False
+    r.threads_mode = "FIXED" if threads > 0 else "AUTO"
+    if threads > 0:
+        r.threads = int(threads)
+    r.use_file_extension = False
+    r.use_compositing = False
+    r.use_sequencer = False
+    r.dither_intensity = 0.0
+    bscene.view_settings.view_transform = "Standard"
+    bscene.view_settings.look = "None"
+    bscene.view_settings.exposure = 0.0
+    bscene.view_settings.gamma = 1.0
+    vl = bscene.view_layers[0]
+    vl.name = "ViewLayer"
+    vl.use_pass_combined = True
+    vl.use_pass_z = True
+    vl.use_pass_object_index = True
+    vl.use_pass_normal = bool(normal_pass)
+    vl.use_pass_position = bool(position_pass)
+    compat.set_multilayer_exr(r.image_settings)
+
+
+class _Stats:
+    """Collects the render time Cycles reports (``Time: mm:ss.ss``) through render_stats."""
+
+    def __init__(self):
+        self.last = None
+
+    def __call__(self, text, *args):
+        m = _TIME_RE.search(str(text))
+        if m:
+            self.last = 3600 * int(m.group(1) or 0) + 60 * int(m.group(2)) + float(m.group(3))
+
+
+@contextlib.contextmanager
+def quiet_stdout(enabled: bool = True):
+    """Silence Blender's per-tile log lines (C-level stdout) while rendering."""
+    if not enabled:
+        yield
+        return
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):
+        yield
+        return
+    sys.stdout.flush()
+    saved = os.dup(fd)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, fd)
+        yield
+    finally:
+        os.dup2(saved, fd)
+        os.close(saved)
+        os.close(devnull)
+
+
+def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: bool = True) -> dict:
+    """Render ``camera`` at Blender frame ``frame`` into the multilayer EXR ``filepath``.
+
+    Returns {"wall_s": seconds around the render call, "cycles_s": Cycles' own render time}.
+    """
+    bscene.camera = camera
+    bscene.cycles.seed = int(seed)
+    bscene.frame_set(int(frame))
+    bscene.render.filepath = filepath
+    stats = _Stats()
+    bpy.app.handlers.render_stats.append(stats)
+    t0 = time.perf_counter()
+    try:
+        with quiet_stdout(quiet):
+            result = bpy.ops.render.render(write_still=True, scene=bscene.name)
+    finally:
+        bpy.app.handlers.render_stats.remove(stats)
+    wall = time.perf_counter() - t0
+    if "FINISHED" not in result:
+        raise RuntimeError(f"Cycles render did not finish ({result}) for frame {frame}")
+    return {"wall_s": wall, "cycles_s": stats.last}

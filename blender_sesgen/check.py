@@ -1,0 +1,76 @@
+"""``python -m blender_sesgen check SCENE.ses``: validate a script and print a summary.
+
+Exit 0 with the summary on stdout; exit 2 with every error as ``file:line:col: error: ...``
+on stderr (no traceback) when the script is wrong.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from collections import Counter
+
+import numpy as np
+
+from .errors import ScriptError
+from .intrinsics import field_of_view_deg
+from .model import Scene
+from .poses import R_to_euler_xyz_deg
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("script", metavar="SCENE.ses", help="the SES script to check")
+
+
+def run(args: argparse.Namespace) -> int:
+    from .ses import parse_file
+    try:
+        scene = parse_file(args.script)
+    except ScriptError as e:
+        for err in getattr(e, "errors", (e,)):
+            print(err, file=sys.stderr)
+        return 2
+    print(summary(scene))
+    return 0
+
+
+def _pose_text(T: np.ndarray) -> str:
+    """Position and the START-convention Euler angles: R_world_cam = R(rx, ry, rz) @ diag(1,-1,-1)."""
+    rx, ry, rz = R_to_euler_xyz_deg(T[:3, :3] @ np.diag([1.0, -1.0, -1.0]))
+    x, y, z = T[:3, 3] + 0.0  # + 0.0: no "-0" in the output
+    return f"position {x:.4g} {y:.4g} {z:.4g}  rotation {rx + 0.0:.4g} {ry + 0.0:.4g} {rz + 0.0:.4g} deg"
+
+
+def summary(scene: Scene) -> str:
+    """A human-readable summary of a parsed scene (what `check` prints)."""
+    rig = scene.rig
+    kinds = Counter(o.shape for o in scene.objects)
+    fov_h, fov_v = field_of_view_deg(rig.width, rig.height, rig.focal_px)
+    T = scene.timeline.left()
+    path_length = float(np.linalg.norm(np.diff(T[:, :3, 3], axis=0), axis=1).sum()) if len(T) > 1 else 0.0
+    textures = Counter(o.texture.name for o in scene.objects if o.texture)
+    lines = [
+        f"scene     {scene.source}",
+        f"objects   {len(scene.objects)}: " + ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())),
+        f"ids       {min(o.id for o in scene.objects)}..{max(o.id for o in scene.objects)}",
+        "textures  " + (", ".join(f"{name} x{n}" for name, n in sorted(textures.items())) or "none"),
+        f"rig       {rig.width}x{rig.height} px, focal {rig.focal_px:g} px, principal ({rig.cx:g}, {rig.cy:g}), "
+        + (f"stereo baseline {rig.baseline:g}" if rig.stereo else "monocular"),
+        f"K         {np.array2string(rig.K(), precision=4, suppress_small=True).replace(chr(10), '')}",
+        f"fov       {fov_h:.2f} x {fov_v:.2f} deg (horizontal x vertical), clip {rig.near:g}..{rig.far:g}",
+        f"motion    {scene.motion.kind}, {scene.frames} frames, path length {path_length:.4g}",
+        f"start     {_pose_text(T[0])}",
+        f"end       {_pose_text(T[-1])}",
+        f"lights    " + (", ".join(light.kind for light in scene.lights) or "default lighting"),
+        f"world     " + (scene.world.kind if scene.world else "default"),
+    ]
+    extras = []
+    if scene.materials:
+        extras.append(f"{len(scene.materials)} materials ({', '.join(m.name for m in scene.materials)})")
+    if scene.fog:
+        extras.append(f"fog {scene.fog.start:g}..{scene.fog.end:g}")
+    if scene.noise:
+        extras.append(f"noise sigma {scene.noise.sigma:g} seed {scene.noise.seed}")
+    r = scene.render
+    extras.append(f"render {r.samples} samples, denoise {'on' if r.denoise else 'off'}, seed {r.seed}")
+    lines.append("extras    " + "; ".join(extras))
+    return "\n".join(lines)

@@ -1,0 +1,100 @@
+"""``python -m blender_sesgen render SCENE.ses --out DIR ...`` (also ``blender -b -P render.py --``).
+
+Exit codes: 0 done; 2 bad input (script, options, or a folder holding another scene's
+output: nothing is created or touched); 1 render failure.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+from .contract import RenderOptions
+from .errors import SesgenError
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("scene", metavar="SCENE.ses", help="the SES script to render")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder (manifest.json, exr/, poses/, scene.ses)")
+    p.add_argument("--frames", metavar="A:B", help="frame range, half-open like Python (A:B, A:, :B or K); default all")
+    p.add_argument("--samples", type=int, metavar="N", help="Cycles samples per pixel (default: the script's RENDER, else 16)")
+    p.add_argument("--denoise", action=argparse.BooleanOptionalAction, default=None,
+                   help="OpenImageDenoise on the beauty pass (ground truth is never denoised)")
+    p.add_argument("--seed", type=int, metavar="S", help="base random seed (per frame/view seeds derive from it)")
+    p.add_argument("--resume", action="store_true", help="render only the frames not complete in DIR")
+    p.add_argument("--force", action="store_true", help="write into DIR even if it holds another scene's output")
+    p.add_argument("--resolution-scale", type=float, default=1.0, metavar="S",
+                   help="scale the image size and K (e.g. 0.5 for a quick look)")
+    p.add_argument("--device", choices=("cpu", "gpu"), default="cpu", help="Cycles device (default cpu)")
+    p.add_argument("--threads", type=int, default=0, metavar="N", help="CPU threads (0 = automatic)")
+    p.add_argument("--normal-pass", action="store_true", help="also write the Normal pass")
+    p.add_argument("--position-pass", action="store_true", help="also write the Position pass")
+    p.add_argument("--contact-sheet", nargs="?", const="contact_sheet.png", metavar="PNG",
+                   help="after rendering, write a contact sheet (RGB, disparity, segmentation) into DIR")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.add_argument("--verbose", action="store_true", help="show Blender's own render log")
+
+
+def _fmt(seconds: float) -> str:
+    s = int(round(seconds))
+    return f"{s // 3600:d}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60:02d}:{s % 60:02d}"
+
+
+def run(args: argparse.Namespace) -> int:
+    from .pipeline import RenderJob, parse_frames
+    t_start = time.perf_counter()
+    options = RenderOptions(
+        samples=args.samples, denoise=args.denoise, seed=args.seed, device=args.device,
+        resolution_scale=args.resolution_scale,
+        frames=parse_frames(args.frames) if args.frames else None,
+        normal_pass=args.normal_pass, position_pass=args.position_pass, threads=args.threads,
+        verbose=args.verbose,
+    )
+    job = RenderJob.prepare(args.scene, args.out, options, resume=args.resume, force=args.force)  # SesgenError -> 2
+    todo = job.pending_frames()
+    s = job.settings
+    views = job.scene.rig.views
+    if not args.quiet:
+        print(f"sesgen render: {args.scene} -> {args.out}: {len(todo)} of {len(job.frames)} frames to render, "
+              f"{len(views)} view(s), {s.width}x{s.height}, {s.samples} samples"
+              f"{' + denoise' if s.denoise else ''}, seed {s.seed}, {s.device}", flush=True)
+    try:
+        job.build()
+    except SesgenError:
+        raise
+    except Exception as e:  # noqa: BLE001 - a Blender failure while building
+        print(f"error: building the Blender scene failed: {e}", file=sys.stderr)
+        return 1
+
+    def progress(i, n, r, elapsed):
+        if args.quiet:
+            return
+        eta = elapsed / i * (n - i)
+        cyc = f", cycles {r.cycles_s:.2f} s" if r.cycles_s is not None else ""
+        print(f"frame {r.frame:6d}  [{i}/{n}]  {r.wall_s:.2f} s{cyc}  elapsed {_fmt(elapsed)}  ETA {_fmt(eta)}",
+              flush=True)
+
+    try:
+        results = job.run(progress)
+    except SesgenError:
+        raise
+    except Exception as e:  # noqa: BLE001 - Cycles/IO failure: the folder stays consistent
+        print(f"error: render failed: {e}", file=sys.stderr)
+        return 1
+    if args.contact_sheet:
+        from .contact_sheet import write_contact_sheet
+        from pathlib import Path
+        png = Path(args.contact_sheet)
+        if not png.is_absolute():
+            png = Path(args.out) / png
+        write_contact_sheet(Path(args.out), png)
+        if not args.quiet:
+            print(f"contact sheet: {png}")
+    if not args.quiet:
+        wall = time.perf_counter() - t_start
+        cyc = [r.cycles_s for r in results]
+        tail = ""
+        if results and all(c is not None for c in cyc):
+            tail = f"; Cycles reported {sum(cyc):.1f} s ({sum(cyc) / wall:.0%} of wall time)"
+        print(f"done: {len(results)} frames in {_fmt(wall)}{tail}", flush=True)
+    return 0

@@ -1,0 +1,108 @@
+"""The SES grammar as data: each keyword's tags, their value counts and which are required.
+
+A tag's ``kind`` says how its values are read:
+- ``numbers``: finite numbers; ``counts`` lists the allowed counts (``position``: 3 or 6);
+- ``int``: one integer;
+- ``text``: one token of any kind (bare word, quoted string or number), e.g. a file name;
+- ``choice``: one bare word from ``choices``;
+- ``flag``: no values (``LIGHT sun``, ``WORLD sky``).
+``usage`` is what messages and docs show. This table is the single source of the tag
+syntax; docs/ses-language.md documents it (a test checks that every tag appears there).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True)
+class Tag:
+    name: str
+    kind: str                    # numbers | int | text | choice | flag
+    counts: tuple[int, ...] = (1,)
+    required: bool = False
+    usage: str = ""
+    choices: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Statement:
+    keyword: str
+    tags: dict[str, Tag] = field(default_factory=dict)
+    positional: int = 0          # EGO / POSE: a fixed count of numbers and no tags
+    positional_usage: str = ""
+
+
+def _tags(*tags: Tag) -> dict[str, Tag]:
+    return {t.name: t for t in tags}
+
+
+def _num(name, counts=(1,), required=False, usage=""):
+    return Tag(name, "numbers", counts, required, usage or f"{name} v")
+
+
+# Tags every object accepts.
+COMMON_OBJECT_TAGS = (
+    Tag("id", "int", required=True, usage="id N"),
+    Tag("name", "text", usage="name N"),
+    Tag("texture", "text", usage="texture T"),
+    _num("texture_scale", usage="texture_scale s"),
+    _num("colour", (3,), usage="colour r g b"),
+    Tag("material", "text", usage="material M"),
+)
+POSITION = _num("position", (3, 6), usage="position x y z [rx ry rz]")
+POSITION_REQUIRED = Tag("position", "numbers", (3, 6), True, POSITION.usage)
+
+STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
+    Statement("QUAD", _tags(*COMMON_OBJECT_TAGS,
+                            _num("vertices", (12,), True, "vertices x1 y1 z1 x2 y2 z2 x3 y3 z3 x4 y4 z4"))),
+    Statement("CUBOID", _tags(*COMMON_OBJECT_TAGS, POSITION_REQUIRED,
+                              _num("dim", (3,), True, "dim sx sy sz"))),
+    Statement("SPHERE", _tags(*COMMON_OBJECT_TAGS, POSITION_REQUIRED,
+                              _num("dim", (1,), True, "dim r"))),
+    Statement("CYLINDER", _tags(*COMMON_OBJECT_TAGS, POSITION_REQUIRED,
+                                _num("dim", (2,), True, "dim r h"))),
+    Statement("MESH", _tags(*COMMON_OBJECT_TAGS, Tag("file", "text", required=True, usage="file PATH"),
+                            POSITION, _num("scale", (1, 3), usage="scale s | scale sx sy sz"))),
+    Statement("CAMERA", _tags(_num("resolution", (2,), True, "resolution W H"),
+                              _num("focal", (1,), True, "focal F"),
+                              _num("principal", (2,), usage="principal cx cy"),
+                              _num("baseline", usage="baseline B"),
+                              _num("near", usage="near n"),
+                              _num("far", usage="far f"))),
+    Statement("START", _tags(POSITION_REQUIRED)),
+    Statement("EGO", positional=6, positional_usage="EGO U V W alpha beta gamma"),
+    Statement("POSE", positional=6, positional_usage="POSE x y z rx ry rz"),
+    Statement("TRAJECTORY", _tags(Tag("file", "text", required=True, usage="file PATH"),
+                                  Tag("format", "choice", required=True, usage="format tum|kitti",
+                                      choices=("tum", "kitti")))),
+    Statement("LIGHT", _tags(Tag("sun", "flag", usage="sun"), Tag("point", "flag", usage="point"),
+                             Tag("area", "flag", usage="area"),
+                             _num("colour", (3,), usage="colour r g b"),
+                             _num("strength", usage="strength s"),
+                             _num("position", (3,), usage="position x y z"),
+                             _num("direction", (3,), usage="direction dx dy dz"),
+                             _num("size", usage="size s"))),
+    Statement("WORLD", _tags(_num("colour", (3,), usage="colour r g b"), Tag("sky", "flag", usage="sky"),
+                             _num("strength", usage="strength s"),
+                             _num("elevation", usage="elevation deg"),
+                             _num("azimuth", usage="azimuth deg"))),
+    Statement("MATERIAL", _tags(Tag("name", "text", required=True, usage="name N"),
+                                _num("colour", (3,), usage="colour r g b"),
+                                Tag("texture", "text", usage="texture T"),
+                                _num("texture_scale", usage="texture_scale s"),
+                                _num("roughness", usage="roughness r"),
+                                _num("metallic", usage="metallic m"),
+                                _num("specular", usage="specular s"),
+                                _num("emission", (3,), usage="emission r g b"),
+                                _num("emission_strength", usage="emission_strength s"))),
+    Statement("FOG", _tags(_num("start", (1,), True, "start s"), _num("end", (1,), True, "end e"),
+                           _num("colour", (3,), usage="colour r g b"))),
+    Statement("NOISE", _tags(_num("sigma", (1,), True, "sigma s"), Tag("seed", "int", usage="seed n"))),
+    Statement("RENDER", _tags(Tag("samples", "int", required=True, usage="samples N"),
+                              Tag("denoise", "choice", usage="denoise on|off", choices=("on", "off")),
+                              Tag("seed", "int", usage="seed n"))),
+)}
+
+OBJECT_KEYWORDS = ("QUAD", "CUBOID", "SPHERE", "CYLINDER", "MESH")
+SINGLETON_KEYWORDS = ("CAMERA", "START", "TRAJECTORY", "WORLD", "FOG", "NOISE", "RENDER")
+TAG_SYNONYMS = {"color": "colour"}

@@ -1,0 +1,167 @@
+"""The error table of the SES language: every bad case names file, line and column.
+
+Each case gives a script, the 1-based line of the error, a *marker* (a piece of that line
+whose first character is where the column must point; None = column 1) and a regular
+expression the message must match. Columns are computed here from the script text, so the
+expectation never comes from the parser itself.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from blender_sesgen.errors import ScriptError, SesgenError
+from blender_sesgen.ses import parse_bytes, parse_file, parse_string
+
+OBJ = "CUBOID id 1 position 0 0 0 dim 1 1 1\n"   # one valid object, for scripts that need one
+CAM = "CAMERA resolution 640 480 focal 389"
+
+CASES = {
+    # id: (script, line, marker, message regex)
+    "unknown keyword + did-you-mean": (OBJ + "CUBIOD id 2 position 0 0 0 dim 1 1 1\n", 2, None,
+                                       r"unknown keyword 'CUBIOD'; did you mean 'CUBOID'\?"),
+    "unknown keyword, nothing close": (OBJ + "TELEPORT 1 2 3\n", 2, None, r"unknown keyword 'TELEPORT'"),
+    "line starting with a number": (OBJ + "  12 13\n", 2, "12", r"expected a keyword"),
+    "unknown tag": (OBJ + "SPHERE id 2 position 0 0 0 dim 1 radius 3\n", 2, "radius",
+                    r"SPHERE has no tag 'radius'"),
+    "unknown tag + did-you-mean": (OBJ + "SPHERE id 2 postion 0 0 0 dim 1\n", 2, "postion",
+                                   r"no tag 'postion'; did you mean 'position'\?"),
+    "duplicate tag": (OBJ + "SPHERE id 2 dim 1 position 0 0 0 dim 2\n", 2, "dim 2",
+                      r"SPHERE tag 'dim' is given twice \(first at column 13\)"),
+    "duplicate tag via synonym": (OBJ + "SPHERE id 2 colour 1 1 1 position 0 0 0 dim 1 color 0 0 0\n", 2,
+                                  "color", r"'colour' is given twice"),
+    "missing required tag": (OBJ + "CUBOID id 2 position 0 0 0\n", 2, None,
+                             r"CUBOID needs the tag 'dim' \(dim sx sy sz\)"),
+    "missing id": ("SPHERE position 0 0 0 dim 1\n", 1, None, r"SPHERE needs the tag 'id'"),
+    "wrong value count": (OBJ + "CUBOID id 2 position 0 0 0 dim 1 2\n", 2, "dim",
+                          r"CUBOID 'dim' needs 3 numbers, got 2"),
+    "wrong value count, too many": (OBJ + "SPHERE id 2 position 0 0 0 dim 1 2\n", 2, "dim",
+                                    r"SPHERE 'dim' needs 1 number, got 2"),
+    "position needs 3 or 6": (OBJ + "SPHERE id 2 position 0 0 0 1 dim 1\n", 2, "position",
+                              r"'position' needs 3 or 6 numbers, got 4"),
+    "EGO value count": (OBJ + "EGO 0 0 0.1 0 0\n", 2, None, r"EGO needs 6 numbers .*got 5"),
+    "EGO too many values": (OBJ + "EGO 0 0 0.1 0 0 0 7\n", 2, "7", r"EGO needs 6 numbers .*got 7"),
+    "non-number": (OBJ + "CUBOID id 2 position 0 zero 0 dim 1 1 1\n", 2, "zero",
+                   r"CUBOID 'position' expects a number, got 'zero'"),
+    "quoted non-number": (OBJ + 'SPHERE id 2 position 0 0 0 dim "1"\n', 2, '"1"',
+                          r"SPHERE 'dim' expects a number, got '\"1\"'"),
+    "non-integer id": (OBJ + "SPHERE id 2.5 position 0 0 0 dim 1\n", 2, "2.5", r"'id' must be an integer"),
+    "nan": (OBJ + "SPHERE id 2 position 0 nan 0 dim 1\n", 2, "nan", r"'nan' is not allowed, numbers must be finite"),
+    "inf": (OBJ + "EGO 0 0 -Inf 0 0 0\n", 2, "-Inf", r"'-Inf' is not allowed"),
+    "overflow": (OBJ + "SPHERE id 2 position 0 1e999 0 dim 1\n", 2, "1e999", r"out of range"),
+    "duplicate id": (OBJ + "SPHERE id 1 position 0 0 0 dim 1\n", 2, "1 position",
+                     r"duplicate id 1: already used by the CUBOID on line 1"),
+    "id zero": ("SPHERE id 0 position 0 0 0 dim 1\n", 1, "0 pos", r"'id' must lie in 1\.\.32767"),
+    "id too large": ("SPHERE id 32768 position 0 0 0 dim 1\n", 1, "32768", r"'id' must lie in 1\.\.32767"),
+    "id negative": ("SPHERE id -4 position 0 0 0 dim 1\n", 1, "-4", r"'id' must lie in 1\.\.32767"),
+    "non-coplanar quad": ("QUAD id 1 vertices 0 0 0  1 0 0  1 0.5 1  0 0 1\n", 1, "vertices",
+                          r"QUAD vertices are not coplanar"),
+    "quad repeated vertex": ("QUAD id 1 vertices 0 0 0  1 0 0  1 0 0  0 0 1\n", 1, "vertices",
+                             r"QUAD vertices 2 and 3 are the same point"),
+    "quad zero area": ("QUAD id 1 vertices 0 0 0  1 0 0  2 0 0  3 0 0\n", 1, "vertices", r"QUAD has zero area"),
+    "quad bow tie": ("QUAD id 1 vertices 0 0 0  1 0 1  1 0 0  0 0 1\n", 1, "vertices", r"self-intersecting"),
+    "zero dim": ("CUBOID id 1 position 0 0 0 dim 1 0 1\n", 1, "0 1\n", r"CUBOID 'dim' must be positive, got 0"),
+    "negative radius": ("SPHERE id 1 position 0 0 0 dim -0.5\n", 1, "-0.5", r"'dim' must be positive, got -0.5"),
+    "negative cylinder height": ("CYLINDER id 1 position 0 0 0 dim 0.5 -2\n", 1, "-2", r"must be positive"),
+    "focal zero": (OBJ + "CAMERA resolution 640 480 focal 0\n", 2, "0\n", r"CAMERA 'focal' must be positive"),
+    "focal negative": (OBJ + "CAMERA resolution 640 480 focal -389\n", 2, "-389", r"'focal' must be positive"),
+    "resolution zero": (OBJ + "CAMERA resolution 0 480 focal 389\n", 2, "0 480",
+                        r"'resolution' must be whole numbers in 1\.\.16384"),
+    "resolution too large": (OBJ + "CAMERA resolution 640 16385 focal 389\n", 2, "16385", r"1\.\.16384"),
+    "resolution fractional": (OBJ + "CAMERA resolution 640.5 480 focal 389\n", 2, "640.5", r"whole numbers"),
+    "negative baseline": (OBJ + CAM + " baseline -0.1\n", 2, "-0.1", r"'baseline' must be zero or positive"),
+    "near >= far": (OBJ + CAM + " near 10 far 5\n", 2, "5\n", r"'near' \(10\) must be less than 'far' \(5\)"),
+    "near >= default far": (OBJ + CAM + " near 2000\n", 2, "2000", r"'near' \(2000\) must be less than 'far'"),
+    "two cameras": (OBJ + CAM + "\n" + CAM + "\n", 3, None, r"only one CAMERA statement .*line 2"),
+    "EGO mixed with POSE": (OBJ + "EGO 0 0 0.1 0 0 0\nPOSE 0 0 0 0 0 0\n", 3, None,
+                            r"POSE cannot be mixed with EGO \(first EGO on line 2\)"),
+    "POSE mixed with EGO": (OBJ + "POSE 0 0 0 0 0 0\nPOSE 0 0 1 0 0 0\nEGO 0 0 0.1 0 0 0\n", 4, None,
+                            r"EGO cannot be mixed with POSE"),
+    "START with POSE": (OBJ + "START position 0 0 0\nPOSE 0 0 0 0 0 0\n", 2, None, r"START cannot be used with POSE"),
+    "missing texture file": (OBJ + "SPHERE id 2 texture wall.png position 0 0 0 dim 1\n", 2, "wall.png",
+                             r"'wall\.png' is neither a built-in texture name nor an existing image file"),
+    "texture name typo": (OBJ + "SPHERE id 2 texture brick position 0 0 0 dim 1\n", 2, "brick",
+                          r"did you mean 'bricks'\?"),
+    "texture number out of palette": (OBJ + "SPHERE id 2 texture 99 position 0 0 0 dim 1\n", 2, "99",
+                                      r"'texture' 99 is not a built-in texture"),
+    "missing mesh file": (OBJ + 'MESH id 2 file "models/chair.obj"\n', 2, '"models',
+                          r"MESH 'file' file 'models/chair\.obj' not found"),
+    "missing trajectory file": (OBJ + "TRAJECTORY file path.txt format tum\n", 2, "path.txt",
+                                r"TRAJECTORY 'file' file 'path\.txt' not found"),
+    "trajectory bad format": (OBJ + "TRAJECTORY file p.txt format euroc\n", 2, "euroc",
+                              r"'format' must be one of tum, kitti"),
+    "no objects": (CAM + "\nSTART position 0 0 0\n", 1, None, r"no objects"),
+    "empty script": ("// nothing here\n\n", 1, None, r"no objects"),
+    "unterminated string": (OBJ + 'SPHERE id 2 texture "wall.png position 0 0 0 dim 1\n', 2, '"wall',
+                            r"unterminated string"),
+    "colour out of range": (OBJ + "SPHERE id 2 colour 1 1.5 1 position 0 0 0 dim 1\n", 2, "1.5",
+                            r"'colour' values must lie in 0\.\.1"),
+    "undefined material": (OBJ + "SPHERE id 2 material steel position 0 0 0 dim 1\n", 2, "steel",
+                           r"'material' 'steel' is not defined"),
+    "light without kind": (OBJ + "LIGHT strength 3\n", 2, None, r"LIGHT needs exactly one of sun, point, area"),
+    "sun without direction": (OBJ + "LIGHT sun strength 3\n", 2, None, r"LIGHT sun needs the tag 'direction'"),
+    "world colour and sky": (OBJ + "WORLD colour 0 0 0 sky\n", 2, None, r"WORLD needs either"),
+    "fog end before start": (OBJ + "FOG start 5 end 2\n", 2, "2\n", r"FOG 'end' \(2\) must be greater"),
+    "negative noise": (OBJ + "NOISE sigma -1\n", 2, "-1", r"'sigma' must be zero or positive"),
+    "render zero samples": (OBJ + "RENDER samples 0\n", 2, "0\n", r"'samples' must lie in 1\.\.1000000"),
+    "render denoise value": (OBJ + "RENDER samples 4 denoise maybe\n", 2, "maybe", r"must be one of on, off"),
+}
+
+
+def _expected_col(script: str, line: int, marker) -> int:
+    text = script.splitlines(keepends=True)[line - 1]
+    if marker is None:
+        return len(text) - len(text.lstrip()) + 1
+    return text.index(marker) + 1
+
+
+@pytest.mark.parametrize("case", list(CASES), ids=list(CASES))
+def test_error_table(case, tmp_path):
+    script, line, marker, pattern = CASES[case]
+    path = tmp_path / "scene.ses"
+    path.write_text(script, encoding="utf-8")
+    with pytest.raises(ScriptError) as info:
+        parse_file(path)
+    err = info.value
+    assert (err.file, err.line, err.col) == (str(path), line, _expected_col(script, line, marker)), str(err)
+    assert re.search(pattern, err.message), err.message
+    assert str(err) == f"{path}:{line}:{err.col}: error: {err.message}"
+
+
+def test_not_utf8(tmp_path):
+    path = tmp_path / "latin1.ses"
+    path.write_bytes(OBJ.encode() + "// caf\u00e9 in latin-1\n".encode("latin-1"))
+    with pytest.raises(ScriptError) as info:
+        parse_file(path)
+    # the bad byte is the 'é' (0xe9): line 2, after "// caf" (6 characters)
+    assert (info.value.line, info.value.col) == (2, 7)
+    assert "not UTF-8" in info.value.message and "0xe9" in info.value.message
+
+
+def test_all_errors_are_collected_in_source_order():
+    script = ("SPHERE id 0 position 0 0 0 dim 1\n"
+              "CUBIOD id 3\n"
+              "SPHERE id 4 position 0 0 0 dim -1\n")
+    with pytest.raises(ScriptError) as info:
+        parse_string(script, source="s.ses")
+    where = [(e.line, e.col) for e in info.value.errors]
+    assert where == [(1, 11), (2, 1), (3, 32)]
+    assert info.value is info.value.errors[0]
+
+
+def test_missing_script_file_is_a_project_error(tmp_path):
+    with pytest.raises(SesgenError, match="cannot read the script"):
+        parse_file(tmp_path / "absent.ses")
+
+
+def test_bad_trajectory_file_content(tmp_path):
+    (tmp_path / "p.txt").write_text("0 0 0 0 0 0 0 1\n1 0 0 0 0 0 1\n")
+    with pytest.raises(ScriptError, match=r"TRAJECTORY file 'p\.txt' line 2: a TUM pose has 8 numbers, got 7"):
+        parse_string(OBJ + "TRAJECTORY file p.txt format tum\n", base_dir=str(tmp_path))
+
+
+def test_errors_yield_no_scene_even_with_valid_lines():
+    with pytest.raises(ScriptError):
+        parse_bytes((OBJ * 1 + "SPHERE id 2 position 0 0 0 dim 0\n").encode())

@@ -1,0 +1,72 @@
+"""``python -m vo_reference evaluate``: APE, RPE (and KITTI, egomotion) of an estimate vs ground truth."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ..errors import VoError
+from ..io.trajectory import guess_format, read_trajectory
+from .align import METHODS
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--gt", required=True, help="ground-truth trajectory file, or a sesgen render folder / manifest.json")
+    p.add_argument("--est", required=True, help="estimated trajectory file")
+    p.add_argument("--format", default="auto", choices=("tum", "kitti", "euroc", "auto"),
+                   help="trajectory file format (default: guessed from the content; a folder is a render)")
+    p.add_argument("--align", default="se3", choices=METHODS,
+                   help="alignment of the estimate before APE/RPE (default: se3; sim3 for monocular)")
+    p.add_argument("--n-align", type=int, default=-1, metavar="N",
+                   help="align on the first N poses only (default: all)")
+    p.add_argument("--delta", type=float, default=1, metavar="N", help="RPE pair distance (default: 1)")
+    p.add_argument("--delta-unit", default="f", choices=("f", "m"), help="RPE delta in frames (f) or metres (m)")
+    p.add_argument("--all-pairs", action="store_true", help="RPE over all pairs (i, i+delta), not consecutive ones")
+    p.add_argument("--kitti", action="store_true", help="also the KITTI odometry metric (t_err %%, r_err deg/100 m)")
+    p.add_argument("--egomotion", action="store_true",
+                   help="also the SESGen per-frame egomotion table (U V W alpha beta gamma, RMSE per component)")
+    p.add_argument("--max-diff", type=float, default=0.01, metavar="S",
+                   help="timestamp association tolerance in seconds (default: 0.01, as evo)")
+    p.add_argument("--view", default="left", choices=("left", "right"), help="render view used as ground truth")
+    p.add_argument("--json", metavar="OUT.json", help="write the metrics as JSON")
+    p.add_argument("--plot", metavar="DIR", help="write a report folder: plots (PNG), metrics.json, summary.md")
+
+
+def _fmt_of(path: str, fmt: str) -> str:
+    p = Path(path)
+    if p.is_dir() or p.name == "manifest.json":
+        return "sesgen"
+    return guess_format(p) if fmt == "auto" else fmt
+
+
+def run(args: argparse.Namespace) -> int:
+    from .report import write_json, write_report
+    from .trajectory_eval import evaluate_trajectory, summary_lines
+
+    fmt_gt, fmt_est = _fmt_of(args.gt, args.format), _fmt_of(args.est, args.format)
+    gt = read_trajectory(args.gt, fmt_gt, view=args.view)
+    est = read_trajectory(args.est, fmt_est)
+    by_index = "kitti" in (fmt_gt, fmt_est)  # KITTI pose files carry no timestamps
+    if by_index and len(gt) != len(est):
+        raise VoError(f"{args.est}: {len(est)} poses for {len(gt)} ground-truth poses; "
+                      "KITTI files have no timestamps, so they must have one pose per frame")
+    if args.delta_unit == "f" and args.delta != int(args.delta):
+        raise VoError(f"--delta in frames must be an integer, got {args.delta}")
+    ev = evaluate_trajectory(gt, est, align=args.align, n_align=args.n_align, delta=args.delta,
+                             delta_unit=args.delta_unit, all_pairs=args.all_pairs, kitti=args.kitti,
+                             egomotion=args.egomotion, max_diff_s=args.max_diff, by_index=by_index)
+    print(f"gt:  {args.gt} ({fmt_gt}, {len(gt)} poses)")
+    print(f"est: {args.est} ({fmt_est}, {len(est)} poses)")
+    print("\n".join(summary_lines(ev)))
+    if ev.egomotion is not None:
+        print()
+        print(ev.egomotion.to_markdown(max_rows=20), end="")
+    inputs = {"gt": args.gt, "est": args.est}
+    if args.json:
+        m = ev.metrics()
+        m["inputs"] = inputs
+        write_json(args.json, m)
+        print(f"metrics: {args.json}")
+    if args.plot:
+        files = write_report(args.plot, ev, inputs=inputs)
+        print(f"report:  {args.plot} ({len(files)} files)")
+    return 0

@@ -1,0 +1,101 @@
+"""OpenEXR 3.x reading and writing, every part of multi-part files.
+
+Blender 5.0 writes a multilayer EXR as one part per pass (``ViewLayer.Combined``,
+``ViewLayer.Depth``, ``ViewLayer.Object Index``...), so a reader must walk all parts; a
+reader that looks at the first part only (``cv2.imread``) sees just the beauty pass.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import VoError
+
+
+def read_exr_channels(path) -> dict[str, np.ndarray]:
+    """All channels of all parts: full channel name -> (H, W) array (row 0 = top).
+
+    Raises VoError for a missing file, a file OpenEXR cannot read, or parts whose sizes
+    disagree.
+    """
+    import OpenEXR
+    path = Path(path)
+    if not path.is_file():
+        raise VoError(f"{path}: no such EXR file")
+    channels: dict[str, np.ndarray] = {}
+    try:
+        with OpenEXR.File(str(path), separate_channels=True) as f:
+            for part in f.parts:
+                for name, ch in part.channels.items():
+                    channels[name] = np.asarray(ch.pixels)
+    except VoError:
+        raise
+    except Exception as e:  # OpenEXR raises RuntimeError/OSError/... for bad files
+        raise VoError(f"{path}: not a readable EXR file ({type(e).__name__}: {e})") from None
+    shapes = {a.shape for a in channels.values()}
+    if len(shapes) > 1:
+        raise VoError(f"{path}: EXR parts of different sizes {sorted(shapes)}")
+    if not channels:
+        raise VoError(f"{path}: EXR file has no channels")
+    return channels
+
+
+def write_exr_parts(path, parts: dict[str, dict[str, np.ndarray]], *, compression: str = "zip") -> Path:
+    """Write a multi-part EXR (one part per key; each part's channels given by full name),
+    float32/uint32/float16 as given, atomically. ``compression``: 'zip' or 'none'."""
+    import OpenEXR
+    path = Path(path)
+    comp = {"zip": OpenEXR.ZIP_COMPRESSION, "none": OpenEXR.NO_COMPRESSION}[compression]
+    oparts = []
+    for pname, chans in parts.items():
+        header = {"compression": comp, "type": OpenEXR.scanlineimage}
+        oparts.append(OpenEXR.Part(header, {n: OpenEXR.Channel(np.ascontiguousarray(a)) for n, a in chans.items()},
+                                   name=pname))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.part{os.getpid()}{path.suffix}")
+    try:
+        with OpenEXR.File(oparts) as f:
+            f.write(str(tmp))
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
+def write_exr_single(path, channels: dict[str, np.ndarray]) -> Path:
+    """Write a single-part EXR with the given channels (e.g. {'Y': disparity})."""
+    import OpenEXR
+    path = Path(path)
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.part{os.getpid()}{path.suffix}")
+    try:
+        with OpenEXR.File(header, {n: np.ascontiguousarray(a) for n, a in channels.items()}) as f:
+            f.write(str(tmp))
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
+def find_pass(channels: dict[str, np.ndarray], pass_names: tuple[str, ...], components: tuple[str, ...]):
+    """The channel names ``<layer>.<pass>.<component>`` for the first pass name that has
+    all ``components`` (layer 'ViewLayer' preferred, any layer accepted), or None."""
+    for pname in pass_names:
+        for comp_layer_first in (True, False):
+            found = []
+            for c in components:
+                suffix = f"{pname}.{c}"
+                cands = [n for n in channels if n == suffix or n.endswith("." + suffix)]
+                if comp_layer_first:
+                    cands = [n for n in cands if n.startswith("ViewLayer.")]
+                if not cands:
+                    break
+                found.append(sorted(cands)[0])
+            else:
+                return found
+    return None

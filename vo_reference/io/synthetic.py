@@ -1,0 +1,130 @@
+"""Write render folders in the ``sesgen-render/1`` layout without Blender.
+
+For tests and examples: the EXRs are multi-part, one part per pass, with the channel
+names Blender 5.0 writes (``ViewLayer.Combined.R/G/B/A``, ``ViewLayer.Depth.Z``,
+``ViewLayer.Object Index.X``), background depth 1e10, and a manifest with the keys of the
+render contract. Pass arrays of your own, or use :func:`plane_scene` for a textured plane
+whose depth is known in closed form.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Sequence as Seq
+
+import numpy as np
+
+from .exr import write_exr_parts
+from .files import write_text_atomic
+
+BACKGROUND_DEPTH = 1e10
+
+
+def exr_parts(rgb_linear: np.ndarray, depth: np.ndarray, ids: np.ndarray | None,
+              alpha: np.ndarray | None = None, layer: str = "ViewLayer") -> dict:
+    """The parts of one Blender 5.0 multilayer EXR (depth +inf -> 1e10)."""
+    H, W = depth.shape
+    z = np.asarray(depth, dtype=np.float32).copy()
+    z[~np.isfinite(z)] = BACKGROUND_DEPTH
+    rgb = np.asarray(rgb_linear, dtype=np.float32)
+    a = np.ones((H, W), np.float32) if alpha is None else np.asarray(alpha, np.float32)
+    parts = {
+        f"{layer}.Combined": {f"{layer}.Combined.{c}": np.ascontiguousarray(x)
+                              for c, x in zip("RGBA", (rgb[..., 0], rgb[..., 1], rgb[..., 2], a))},
+        f"{layer}.Depth": {f"{layer}.Depth.Z": z},
+    }
+    if ids is not None:
+        parts[f"{layer}.Object Index"] = {f"{layer}.Object Index.X": np.asarray(ids, dtype=np.float32)}
+    return parts
+
+
+def write_render(root, *, K: np.ndarray, baseline_m: float, T_world_left: np.ndarray,
+                 frames: Seq[dict], noise: tuple[float, int] | None = None,
+                 objects: list | None = None, extra: dict | None = None,
+                 drop_passes: Seq[str] = ()) -> Path:
+    """Write ``root/manifest.json`` and ``root/exr/<view>/NNNNNN.exr``.
+
+    ``frames[k]`` = {"left": (rgb_linear (H,W,3), depth (H,W), ids (H,W)), "right": (...)};
+    views are those present in frame 0. ``drop_passes`` (e.g. ``("Depth",)``) leaves
+    passes out, to make broken fixtures. Returns root.
+    """
+    root = Path(root)
+    T_left = np.asarray(T_world_left, dtype=float)
+    views = [v for v in ("left", "right") if v in frames[0]]
+    H, W = frames[0]["left"][1].shape
+    T_left_right = np.eye(4)
+    T_left_right[0, 3] = baseline_m
+    poses = {"left": T_left}
+    if "right" in views:
+        poses["right"] = T_left @ T_left_right
+    files: dict[str, list[str]] = {v: [] for v in views}
+    for k, fr in enumerate(frames):
+        for v in views:
+            rgb, depth, ids = fr[v]
+            parts = exr_parts(rgb, depth, ids)
+            parts = {n: c for n, c in parts.items() if n.split(".", 1)[1] not in drop_passes}
+            rel = f"exr/{v}/{k:06d}.exr"
+            write_exr_parts(root / rel, parts)
+            files[v].append(rel)
+    manifest = {
+        "format": "sesgen-render/1",
+        "resolution": [int(W), int(H)],
+        "K": np.asarray(K, dtype=float).tolist(),
+        "baseline": float(baseline_m),
+        "near": 0.05,
+        "far": 1000.0,
+        "frames": len(frames),
+        "views": views,
+        "depth": {"kind": "planar_z", "background": BACKGROUND_DEPTH},
+        "objects": objects if objects is not None else [],
+        "poses": {v: poses[v].tolist() for v in views},
+        "files": files,
+        "complete": [True] * len(frames),
+        "render": {"engine": "synthetic", "samples": 0, "denoise": False, "seed": 0},
+        "generator": {"vo_reference.io.synthetic": "1"},
+        "scene_sha256": "0" * 64,
+    }
+    if noise is not None:
+        manifest["noise"] = {"sigma": float(noise[0]), "seed": int(noise[1])}
+    manifest.update(extra or {})
+    write_text_atomic(root / "manifest.json", json.dumps(manifest, indent=1))
+    return root
+
+
+def plane_depth(K: np.ndarray, T_world_cam: np.ndarray, n_world: np.ndarray, d_world: float,
+                W: int, H: int) -> np.ndarray:
+    """Planar z of the plane {X : n·X = d} seen by a camera (inf where not hit in front)."""
+    u, v = np.meshgrid(np.arange(W, dtype=float), np.arange(H, dtype=float))
+    rays = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], -1)  # z = 1
+    R, C = T_world_cam[:3, :3], T_world_cam[:3, 3]
+    n_cam = R.T @ n_world
+    denom = rays @ n_cam
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = (d_world - n_world @ C) / denom
+    z[~np.isfinite(z) | (z <= 0)] = np.inf
+    return z
+
+
+def plane_scene(root, *, W: int = 64, H: int = 48, f: float = 50.0, baseline_m: float = 0.2,
+                frames: int = 3, step_m: float = 0.1, stereo: bool = True, plane_z: float = 4.0,
+                noise: tuple[float, int] | None = None, object_id: int = 7) -> Path:
+    """A fronto-parallel textured plane at world z = plane_z, the rig moving along x.
+
+    The plane covers the whole view, so depth = plane_z - camera z everywhere."""
+    K = np.array([[f, 0, W / 2 - 0.5], [0, f, H / 2 - 0.5], [0, 0, 1.0]])
+    T = np.tile(np.eye(4), (frames, 1, 1))
+    T[:, 0, 3] = np.arange(frames) * step_m
+    rng = np.random.default_rng(0)
+    tex = rng.uniform(0.05, 0.9, (H, W, 3)).astype(np.float32)
+    fr = []
+    for k in range(frames):
+        d = {}
+        for v in (("left", "right") if stereo else ("left",)):
+            Tv = T[k].copy()
+            if v == "right":
+                Tv[0, 3] += baseline_m
+            z = plane_depth(K, Tv, np.array([0, 0, 1.0]), plane_z, W, H).astype(np.float32)
+            d[v] = (np.roll(tex, k, axis=1), z, np.full((H, W), object_id, np.int32))
+        fr.append(d)
+    return write_render(root, K=K, baseline_m=baseline_m if stereo else 0.0, T_world_left=T, frames=fr,
+                        noise=noise, objects=[{"id": object_id, "name": "plane", "shape": "QUAD"}])

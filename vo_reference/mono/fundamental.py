@@ -1,0 +1,147 @@
+"""Fundamental matrix: Hartley-normalised 8-point, Sampson distance, our own RANSAC.
+
+Convention: ``x2ᵀ F x1 = 0`` for a point seen at pixel ``x1`` in view 1 and ``x2`` in
+view 2 (Hartley & Zisserman, *Multiple View Geometry*, 2nd ed., Alg. 11.1 and 11.4).
+Points are (N, 2) arrays of pixel coordinates.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import VoError
+
+
+def hartley_normalisation(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Similarity ``T`` moving the centroid to the origin and the mean distance to √2.
+
+    ``x``: (..., N, 2). Returns the normalised points (..., N, 2) and T (..., 3, 3).
+    """
+    x = np.asarray(x, dtype=float)
+    c = x.mean(axis=-2, keepdims=True)
+    d = np.linalg.norm(x - c, axis=-1).mean(axis=-1)
+    s = np.sqrt(2.0) / np.maximum(d, 1e-12)
+    T = np.zeros(x.shape[:-2] + (3, 3))
+    T[..., 0, 0] = s
+    T[..., 1, 1] = s
+    T[..., 0, 2] = -s * c[..., 0, 0]
+    T[..., 1, 2] = -s * c[..., 0, 1]
+    T[..., 2, 2] = 1.0
+    return (x - c) * s[..., None, None], T
+
+
+def _design_matrix(x1n: np.ndarray, x2n: np.ndarray) -> np.ndarray:
+    """Rows of A f = 0 with f = F row-major (..., N, 9)."""
+    u1, v1 = x1n[..., 0], x1n[..., 1]
+    u2, v2 = x2n[..., 0], x2n[..., 1]
+    one = np.ones_like(u1)
+    return np.stack([u2 * u1, u2 * v1, u2, v2 * u1, v2 * v1, v2, u1, v1, one], axis=-1)
+
+
+def enforce_rank2(F: np.ndarray) -> np.ndarray:
+    """Closest rank-2 matrix (Frobenius) by zeroing the smallest singular value."""
+    U, S, Vt = np.linalg.svd(F)
+    S = S.copy()
+    S[..., 2] = 0.0
+    return U @ (S[..., :, None] * Vt)
+
+
+def eight_point(x1: np.ndarray, x2: np.ndarray) -> np.ndarray:
+    """Normalised 8-point algorithm (H&Z Alg. 11.1), rank 2, ‖F‖ = 1.
+
+    ``x1, x2``: (..., N, 2) with N ≥ 8; a leading batch axis solves many samples at once.
+    """
+    x1 = np.asarray(x1, dtype=float)
+    x2 = np.asarray(x2, dtype=float)
+    if x1.shape != x2.shape or x1.shape[-1] != 2 or x1.shape[-2] < 8:
+        raise VoError(f"eight_point needs two (N>=8, 2) point sets, got {x1.shape} and {x2.shape}")
+    x1n, T1 = hartley_normalisation(x1)
+    x2n, T2 = hartley_normalisation(x2)
+    A = _design_matrix(x1n, x2n)
+    _, _, Vt = np.linalg.svd(A, full_matrices=True)
+    Fn = enforce_rank2(Vt[..., -1, :].reshape(x1.shape[:-2] + (3, 3)))
+    F = np.swapaxes(T2, -1, -2) @ Fn @ T1
+    return F / np.linalg.norm(F, axis=(-2, -1), keepdims=True)
+
+
+def sampson_distance(F: np.ndarray, x1: np.ndarray, x2: np.ndarray) -> np.ndarray:
+    """First-order geometric error (pixels) of each correspondence, H&Z eq. 11.9.
+
+    ``F``: (3, 3) or (B, 3, 3); returns (N,) or (B, N): sqrt of the Sampson error.
+    """
+    h1 = np.column_stack([x1, np.ones(len(x1))])
+    h2 = np.column_stack([x2, np.ones(len(x2))])
+    Fx1 = h1 @ np.swapaxes(F, -1, -2)            # (..., N, 3) rows F x1
+    Ftx2 = h2 @ F                                # (..., N, 3) rows Fᵀ x2
+    num = np.einsum("...ni,ni->...n", Fx1, h2)
+    den = Fx1[..., 0] ** 2 + Fx1[..., 1] ** 2 + Ftx2[..., 0] ** 2 + Ftx2[..., 1] ** 2
+    return np.abs(num) / np.sqrt(np.maximum(den, 1e-300))
+
+
+@dataclass(frozen=True)
+class RansacResult:
+    F: np.ndarray            # (3, 3), refit on all inliers
+    inliers: np.ndarray      # (N,) bool
+    iterations: int          # hypotheses drawn
+
+    @property
+    def inlier_ratio(self) -> float:
+        return float(self.inliers.mean()) if self.inliers.size else 0.0
+
+
+def ransac_iterations(inlier_ratio: float, confidence: float, sample_size: int = 8) -> float:
+    """Samples needed to draw one all-inlier sample with probability ``confidence``."""
+    w = float(np.clip(inlier_ratio, 1e-9, 1.0))
+    p_good = w**sample_size
+    if p_good >= 1.0 - 1e-15:
+        return 1.0
+    return float(np.log(1.0 - confidence) / np.log1p(-p_good))
+
+
+def ransac_fundamental(x1: np.ndarray, x2: np.ndarray, threshold_px: float = 1.0,
+                       confidence: float = 0.999, max_iterations: int = 5000,
+                       seed: int | None = 0, batch: int = 64) -> RansacResult:
+    """RANSAC over 8-point samples, scored by inlier count with Sampson distance.
+
+    The number of iterations adapts to the best inlier ratio seen (H&Z Alg. 4.5),
+    capped by ``max_iterations``; ``seed`` fixes the sampling (``None``: random). The
+    winner is refit on all its inliers (twice, re-selecting the inliers in between).
+    Hypotheses are drawn and scored ``batch`` at a time.
+    """
+    x1 = np.asarray(x1, dtype=float)
+    x2 = np.asarray(x2, dtype=float)
+    n = len(x1)
+    if n < 8 or x2.shape != x1.shape:
+        raise VoError(f"RANSAC needs at least 8 correspondences, got {n}")
+    rng = np.random.default_rng(seed)
+    best_count, best_cost, best_F = -1, np.inf, None
+    needed, drawn = float(max_iterations), 0
+    while drawn < min(needed, max_iterations):
+        b = int(min(batch, max(1, min(needed, max_iterations) - drawn)))
+        idx = np.argpartition(rng.random((b, n)), 8, axis=1)[:, :8]
+        drawn += b
+        with np.errstate(all="ignore"):
+            F = eight_point(x1[idx], x2[idx])
+        ok = np.all(np.isfinite(F), axis=(1, 2))
+        if not ok.any():
+            continue
+        F = F[ok]
+        d = sampson_distance(F, x1, x2)
+        inl = d < threshold_px
+        count = inl.sum(axis=1)
+        cost = np.where(inl, d**2, threshold_px**2).sum(axis=1)   # MSAC tie-break
+        j = int(np.lexsort((cost, -count))[0])
+        if count[j] > best_count or (count[j] == best_count and cost[j] < best_cost):
+            best_count, best_cost, best_F = int(count[j]), float(cost[j]), F[j]
+            needed = ransac_iterations(best_count / n, confidence)
+    if best_F is None or best_count < 8:
+        raise VoError(f"RANSAC found no fundamental matrix with 8 inliers among {n} matches")
+    F, inliers = best_F, sampson_distance(best_F, x1, x2) < threshold_px
+    for _ in range(2):
+        F_new = eight_point(x1[inliers], x2[inliers])
+        inl_new = sampson_distance(F_new, x1, x2) < threshold_px
+        if inl_new.sum() < 8:
+            break
+        F, inliers = F_new, inl_new
+    return RansacResult(F, inliers, drawn)

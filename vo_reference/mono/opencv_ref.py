@@ -1,0 +1,31 @@
+"""The comparison solver: OpenCV's findEssentialMat (RANSAC) + recoverPose.
+
+recoverPose returns the *point* transform (x2 = R x1 + t); the camera motion is its
+inverse, ``T_c1_c2 = [Rᵀ | −Rᵀ t]`` — converted here, in one place.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import VoError
+from .essential import camera_motion
+from .relative_pose import RelativePose
+
+
+def opencv_relative_pose(x1: np.ndarray, x2: np.ndarray, K: np.ndarray, threshold_px: float = 1.0,
+                         confidence: float = 0.999, seed: int | None = 0) -> RelativePose:
+    import cv2
+    if len(x1) < 5:
+        raise VoError(f"OpenCV needs at least 5 matches, got {len(x1)}")
+    if seed is not None:
+        cv2.setRNGSeed(int(seed))
+    p1 = np.ascontiguousarray(x1, dtype=np.float64)
+    p2 = np.ascontiguousarray(x2, dtype=np.float64)
+    E, mask = cv2.findEssentialMat(p1, p2, K, method=cv2.RANSAC, prob=confidence, threshold=threshold_px)
+    if E is None or E.shape[0] < 3:
+        raise VoError("OpenCV findEssentialMat found no essential matrix")
+    E = E[:3]                                   # several solutions come stacked: take the first
+    n, R, t, mask2 = cv2.recoverPose(E, p1, p2, K, mask=mask.copy())
+    inl = mask2.ravel() > 0
+    t = t.ravel() / np.linalg.norm(t)
+    return RelativePose(R, t, inl, np.zeros((0, 3)), 0)

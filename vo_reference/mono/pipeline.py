@@ -1,0 +1,135 @@
+"""Frame-to-frame monocular VO: correspondences k−1 -> k, relative pose (ours and,
+optionally, OpenCV's on the very same matches), scaled step, accumulated trajectory.
+
+T_world_cam[k] = T_world_cam[k−1] · [R_k | s_k · ĉ_k] where (R_k, ĉ_k) is the unit-length
+camera motion of frame k in frame k−1 and s_k comes from the scale source. A frame whose
+two-view estimate fails keeps the previous motion direction (constant velocity) and is
+flagged. The first pose is the ground truth's first pose when there is one (else I).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from ..errors import VoError
+from ..lie import se3
+from .features import correspondences
+from .relative_pose import estimate_relative_pose
+
+
+@dataclass
+class MonoVoConfig:
+    features: str = "klt"          # klt | orb | sift
+    best_n: int = 1000             # keep the best N correspondences by error
+    n_features: int = 3000         # corners / keypoints detected per frame
+    ratio: float = 0.75            # Lowe's ratio test (orb, sift)
+    fb_threshold_px: float = 1.0   # LK forward-backward check
+    threshold_px: float = 1.0      # RANSAC Sampson threshold
+    confidence: float = 0.999
+    max_iterations: int = 5000
+    seed: int | None = 0
+    refine: str = "sampson"        # none | pnp | sampson
+    min_flow_px: float = 0.5       # median flow below this: no motion estimated (static)
+    compare_opencv: bool = False
+
+
+@dataclass
+class FrameRecord:
+    k: int
+    n_matches: int = 0
+    n_inliers: int = 0
+    step_m: float = 0.0
+    T_rel: np.ndarray | None = None           # our unit camera motion (4, 4), None if failed
+    status: str = "ok"                        # ok | static | failed (reason in message)
+    message: str = ""
+    n_inliers_cv: int = 0
+    T_rel_cv: np.ndarray | None = None
+    seconds: float = 0.0
+
+    @property
+    def inlier_ratio(self) -> float:
+        return self.n_inliers / self.n_matches if self.n_matches else 0.0
+
+
+@dataclass
+class MonoVoResult:
+    T_world_cam: np.ndarray                   # (N, 4, 4) ours
+    records: list[FrameRecord]
+    T_world_cam_cv: np.ndarray | None = None  # (N, 4, 4) OpenCV's, same scale
+    info: dict = field(default_factory=dict)
+
+
+def _step(T_rel: np.ndarray, s: float) -> np.ndarray:
+    return se3(T_rel[:3, :3], s * T_rel[:3, 3])
+
+
+def run_mono_vo(gray_of: Callable[[int], np.ndarray], num_frames: int, K: np.ndarray, scale,
+                cfg: MonoVoConfig | None = None, mask: np.ndarray | None = None,
+                T_world_first: np.ndarray | None = None,
+                progress: Callable[[FrameRecord], None] | None = None) -> MonoVoResult:
+    """Run the pipeline over frames 0..num_frames−1 of ``gray_of(k)`` (prepared uint8 grey)."""
+    cfg = cfg or MonoVoConfig()
+    if num_frames < 2:
+        raise VoError(f"mono VO needs at least 2 frames, got {num_frames}")
+    K = np.asarray(K, dtype=float)
+    T0 = np.eye(4) if T_world_first is None else np.asarray(T_world_first, dtype=float)
+    T = np.tile(T0, (num_frames, 1, 1))
+    Tcv = np.tile(T0, (num_frames, 1, 1)) if cfg.compare_opencv else None
+    records = [FrameRecord(0, status="first")]
+    prev_img = gray_of(0)
+    last_rel, last_rel_cv = np.eye(4), np.eye(4)
+    for k in range(1, num_frames):
+        t_start = time.perf_counter()
+        img = gray_of(k)
+        rec = FrameRecord(k)
+        m = correspondences(prev_img, img, cfg.features, mask, cfg.best_n, cfg.n_features,
+                            cfg.ratio, cfg.fb_threshold_px)
+        rec.n_matches = len(m)
+        rel = rel_cv = None
+        if len(m) >= 8 and np.median(np.linalg.norm(m.x2 - m.x1, axis=1)) < cfg.min_flow_px:
+            rec.status, rec.message = "static", "median flow below min_flow_px"
+        elif len(m) < 8:
+            rec.status, rec.message = "failed", f"{len(m)} matches"
+        else:
+            try:
+                rel = estimate_relative_pose(m.x1, m.x2, K, cfg.threshold_px, cfg.confidence,
+                                             cfg.max_iterations, cfg.seed, cfg.refine)
+                rec.T_rel, rec.n_inliers = rel.T_c1_c2, rel.n_inliers
+            except VoError as e:
+                rec.status, rec.message = "failed", str(e)
+            if cfg.compare_opencv:
+                from .opencv_ref import opencv_relative_pose
+                try:
+                    rel_cv = opencv_relative_pose(m.x1, m.x2, K, cfg.threshold_px, cfg.confidence, cfg.seed)
+                    rec.T_rel_cv, rec.n_inliers_cv = rel_cv.T_c1_c2, rel_cv.n_inliers
+                except VoError as e:
+                    rec.message += f" (OpenCV: {e})"
+        s = 0.0
+        if rel is not None:
+            s = scale.step_length(k, rel, m.x1[rel.inliers])
+            if s is None:
+                s = records[-1].step_m
+                rec.message = "no scale for this step: previous step length used"
+        elif rec.status != "static":
+            s = scale.step_length(k, None, np.zeros((0, 2))) if scale.name in ("gt", "speed", "none") else records[-1].step_m
+        rec.step_m = float(s)
+        if rec.status == "static":
+            s_ours = s_cv = 0.0
+        else:
+            s_ours = s_cv = rec.step_m
+        if rec.T_rel is not None:
+            last_rel = rec.T_rel
+        if rec.T_rel_cv is not None:
+            last_rel_cv = rec.T_rel_cv
+        T[k] = T[k - 1] @ (_step(last_rel, s_ours) if rec.status != "static" else np.eye(4))
+        if Tcv is not None:
+            Tcv[k] = Tcv[k - 1] @ (_step(last_rel_cv, s_cv) if rec.status != "static" else np.eye(4))
+        rec.seconds = time.perf_counter() - t_start
+        records.append(rec)
+        if progress is not None:
+            progress(rec)
+        prev_img = img
+    return MonoVoResult(T, records, Tcv, {"features": cfg.features, "refine": cfg.refine, "scale": scale.name})

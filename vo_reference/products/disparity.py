@@ -1,0 +1,138 @@
+"""Disparity ground truth from planar depth, and its file formats.
+
+Rectified parallel rig, baseline B (m), focal fx (px): d = fx·B/Z >= 0. Left view:
+x_right = x_left - d; right view: x_left = x_right + d. In float arrays an invalid
+disparity (no surface: Z = +inf) is NaN; ``np.isfinite(d)`` is the validity mask.
+
+Formats:
+- PFM / EXR (channel 'Y') / .npy: float32, NaN invalid (PFM writes +inf for invalid, as
+  Middlebury does; :func:`read_disparity` returns NaN for it).
+- KITTI PNG16: uint16 round(d·256), 0 = invalid (valid values clipped to 1..65535).
+- colour PNG: a visualisation, black = invalid.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import VoError
+from ..io.files import read_image, write_bytes_atomic, write_image_atomic, write_png16
+from ..io.pfm import read_pfm, write_pfm
+
+
+def disparity_from_depth(depth: np.ndarray, fx: float, baseline_m: float) -> np.ndarray:
+    """float32 d = fx·B/Z; NaN where Z is not finite and positive."""
+    z = np.asarray(depth, dtype=np.float64)
+    valid = np.isfinite(z) & (z > 0)
+    d = np.full(z.shape, np.nan, dtype=np.float32)
+    d[valid] = (float(fx) * float(baseline_m)) / z[valid]
+    return d
+
+
+def sequence_disparity(seq, k: int, view: str = "left") -> np.ndarray:
+    """Disparity of frame k in ``view`` of a stereo sequence with depth ground truth."""
+    if seq.baseline_m <= 0:
+        raise VoError("disparity needs a stereo sequence (baseline 0)")
+    z = seq.depth(k, view)
+    if z is None:
+        raise VoError(f"{seq!r} has no depth ground truth: cannot derive disparity")
+    return disparity_from_depth(z, seq.K[0, 0], seq.baseline_m)
+
+
+# --- KITTI PNG16 ------------------------------------------------------------------------
+
+def disparity_to_png16(d: np.ndarray) -> np.ndarray:
+    """uint16 round(d·256), 0 = invalid; a valid d is clipped to [1/256, 65535/256]."""
+    d = np.asarray(d, dtype=np.float64)
+    valid = np.isfinite(d) & (d >= 0)
+    out = np.zeros(d.shape, dtype=np.uint16)
+    out[valid] = np.clip(np.rint(d[valid] * 256.0), 1, 65535).astype(np.uint16)
+    return out
+
+
+def png16_to_disparity(v: np.ndarray) -> np.ndarray:
+    v = np.asarray(v)
+    d = v.astype(np.float32) / 256.0
+    d[v == 0] = np.nan
+    return d
+
+
+def write_disparity_png16(path, d: np.ndarray) -> Path:
+    return write_png16(path, disparity_to_png16(d))
+
+
+def read_disparity_png16(path) -> np.ndarray:
+    v = read_image(path)
+    if v.dtype != np.uint16 or v.ndim != 2:
+        raise VoError(f"{path}: expected a 16-bit grey PNG (KITTI disparity), got {v.dtype} {v.shape}")
+    return png16_to_disparity(v)
+
+
+# --- float formats ----------------------------------------------------------------------
+
+def write_disparity(path, d: np.ndarray) -> Path:
+    """Float disparity by extension: .pfm, .exr, .npy (.png -> KITTI PNG16)."""
+    path = Path(path)
+    d = np.asarray(d, dtype=np.float32)
+    ext = path.suffix.lower()
+    if ext == ".pfm":
+        return write_pfm(path, np.where(np.isfinite(d), d, np.inf).astype(np.float32))
+    if ext == ".exr":
+        from ..io.exr import write_exr_single
+        return write_exr_single(path, {"Y": d})
+    if ext == ".npy":
+        import io
+        buf = io.BytesIO()
+        np.save(buf, d)
+        return write_bytes_atomic(path, buf.getvalue())
+    if ext == ".png":
+        return write_disparity_png16(path, d)
+    raise VoError(f"{path}: unknown disparity format {ext!r} (.pfm, .exr, .npy, .png)")
+
+
+def read_disparity(path) -> np.ndarray:
+    """float32 disparity, NaN invalid, from .pfm, .exr, .npy or KITTI .png."""
+    path = Path(path)
+    ext = path.suffix.lower()
+    if ext == ".pfm":
+        d = read_pfm(path)
+    elif ext == ".exr":
+        from ..io.exr import read_exr_channels
+        ch = read_exr_channels(path)
+        if len(ch) != 1:
+            raise VoError(f"{path}: expected one disparity channel, found {sorted(ch)}")
+        d = next(iter(ch.values()))
+    elif ext == ".npy":
+        if not path.is_file():
+            raise VoError(f"{path}: no such file")
+        d = np.load(path)
+    elif ext == ".png":
+        return read_disparity_png16(path)
+    else:
+        raise VoError(f"{path}: unknown disparity format {ext!r}")
+    d = np.asarray(d, dtype=np.float32).copy()
+    d[~np.isfinite(d)] = np.nan
+    return d
+
+
+# --- visualisation ----------------------------------------------------------------------
+
+def disparity_color(d: np.ndarray, max_disp: float | None = None) -> np.ndarray:
+    """uint8 RGB visualisation (OpenCV 'turbo' map: near = red, far = blue), black = invalid.
+    ``max_disp`` fixes the scale (default: the 99.5th percentile of the valid values)."""
+    import cv2
+    d = np.asarray(d, dtype=np.float32)
+    valid = np.isfinite(d)
+    if max_disp is None:
+        max_disp = float(np.percentile(d[valid], 99.5)) if valid.any() else 1.0
+    max_disp = max(float(max_disp), 1e-6)
+    v = np.zeros(d.shape, np.uint8)
+    v[valid] = np.clip(d[valid] / max_disp * 255.0 + 0.5, 0, 255).astype(np.uint8)
+    bgr = cv2.applyColorMap(v, cv2.COLORMAP_TURBO)
+    bgr[~valid] = 0
+    return bgr[..., ::-1].copy()
+
+
+def write_disparity_color(path, d: np.ndarray, max_disp: float | None = None) -> Path:
+    return write_image_atomic(path, disparity_color(d, max_disp)[..., ::-1])

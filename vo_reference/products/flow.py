@@ -1,0 +1,238 @@
+"""Optical flow and occlusion ground truth from depth + K + poses (static scene).
+
+A source pixel p = (u, v) with planar depth Z back-projects to X_src = Z·K⁻¹(u, v, 1)ᵀ,
+moves to the target camera X_tgt = T_tgt_src·X_src and projects to p' = π(K·X_tgt); the
+flow is p' − p. It is checked against the target frame's own depth map:
+
+- *out of image*: p' outside the target image (pixel centres at integers, the image
+  covers [−0.5, W−0.5) × [−0.5, H−0.5)) or X_tgt behind the camera;
+- *hidden*: the target depth at p' is smaller than X_tgt's depth (something is in front).
+  The target depth is sampled by bilinear interpolation of **inverse** depth over the
+  2×2 neighbours of p' (exact for a plane), with relative tolerance ``rtol``;
+- *occluded* = out of image or hidden; *valid* = the source depth is finite.
+
+Stereo occlusion uses the same test with T_right_left = trans(−B, 0, 0): a left pixel
+whose point has no visible partner in the right view.
+
+Flow arrays are float32 (H, W, 2) (u, v), NaN where the source pixel has no depth.
+Files: Middlebury ``.flo`` (invalid = 1e10, readers treat > 1e9 as unknown) and KITTI
+flow PNG (16-bit RGB: u·64 + 2¹⁵, v·64 + 2¹⁵, valid flag).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import VoError
+from ..io.files import read_image, write_bytes_atomic, write_image_atomic
+from ..lie import se3_inverse
+
+FLO_MAGIC = 202021.25
+FLO_UNKNOWN = 1e10
+
+
+@dataclass(frozen=True)
+class Warp:
+    """Where each source pixel goes in the target view (all (H, W))."""
+    u: np.ndarray          # float64 target x, NaN where not valid
+    v: np.ndarray          # float64 target y
+    z: np.ndarray          # float64 depth in the target camera
+    valid: np.ndarray      # bool: source depth finite (and > 0)
+    out_of_image: np.ndarray  # bool: valid and (p' outside the image or behind the camera)
+    hidden: np.ndarray     # bool: valid, in the image, and behind the target's surface
+
+    @property
+    def occluded(self) -> np.ndarray:
+        return self.out_of_image | self.hidden
+
+    @property
+    def visible(self) -> np.ndarray:
+        return self.valid & ~self.occluded
+
+
+def warp_depth(depth_src: np.ndarray, K: np.ndarray, T_tgt_src: np.ndarray,
+               depth_tgt: np.ndarray | None = None, rtol: float = 1e-3) -> Warp:
+    """Project every source pixel into the target view and test its visibility there
+    (``depth_tgt`` None: only the out-of-image test)."""
+    z_src = np.asarray(depth_src, dtype=np.float64)
+    H, W = z_src.shape
+    K = np.asarray(K, dtype=np.float64)
+    T = np.asarray(T_tgt_src, dtype=np.float64)
+    valid = np.isfinite(z_src) & (z_src > 0)
+    uu, vv = np.meshgrid(np.arange(W, dtype=np.float64), np.arange(H, dtype=np.float64))
+    zs = np.where(valid, z_src, 0.0)
+    # back-project: X = Z·K⁻¹(u, v, 1) (general K, skew included)
+    Kinv = np.linalg.inv(K)
+    pix = np.stack([uu, vv, np.ones_like(uu)], axis=-1)
+    Xs = (pix @ Kinv.T) * zs[..., None]
+    Xt = Xs @ T[:3, :3].T + T[:3, 3]
+    zt = Xt[..., 2]
+    front = valid & (zt > 1e-12)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        proj = Xt @ K.T
+        u = np.where(front, proj[..., 0] / proj[..., 2], np.nan)
+        v = np.where(front, proj[..., 1] / proj[..., 2], np.nan)
+    inside = front & (u >= -0.5) & (u < W - 0.5) & (v >= -0.5) & (v < H - 0.5)
+    out = valid & ~inside
+    hidden = np.zeros_like(valid)
+    if depth_tgt is not None:
+        zt_map = np.asarray(depth_tgt, dtype=np.float64)
+        if zt_map.shape != (H, W):
+            raise VoError(f"target depth is {zt_map.shape}, source {(H, W)}")
+        with np.errstate(divide="ignore"):
+            inv = np.where(np.isfinite(zt_map) & (zt_map > 0), 1.0 / zt_map, 0.0)
+        ui, vi = u[inside], v[inside]
+        x0 = np.clip(np.floor(ui), 0, W - 1).astype(np.intp)
+        y0 = np.clip(np.floor(vi), 0, H - 1).astype(np.intp)
+        x1 = np.minimum(x0 + 1, W - 1)
+        y1 = np.minimum(y0 + 1, H - 1)
+        ax = np.clip(ui - x0, 0.0, 1.0)
+        ay = np.clip(vi - y0, 0.0, 1.0)
+        inv_p = ((1 - ax) * (1 - ay) * inv[y0, x0] + ax * (1 - ay) * inv[y0, x1]
+                 + (1 - ax) * ay * inv[y1, x0] + ax * ay * inv[y1, x1])
+        # hidden  <=>  z_point > z_surface·(1+rtol)  <=>  inv_surface·z_point > 1 + rtol
+        h = inv_p * zt[inside] > 1.0 + rtol
+        hidden[inside] = h
+    return Warp(u=u, v=v, z=np.where(front, zt, np.nan), valid=valid, out_of_image=out, hidden=hidden)
+
+
+@dataclass(frozen=True)
+class Flow:
+    flow: np.ndarray        # float32 (H, W, 2), NaN where not valid
+    valid: np.ndarray       # bool: source depth known
+    occluded: np.ndarray    # bool: valid but hidden or out of image in the target frame
+    out_of_image: np.ndarray
+
+    @property
+    def noc(self) -> np.ndarray:
+        """Valid and not occluded (KITTI's 'noc')."""
+        return self.valid & ~self.occluded
+
+
+def flow_from_depth(depth_src, K, T_world_src, T_world_tgt, depth_tgt=None, rtol: float = 1e-3) -> Flow:
+    """Flow from a source frame to a target frame of the same camera (static scene)."""
+    T_tgt_src = se3_inverse(np.asarray(T_world_tgt, float)) @ np.asarray(T_world_src, float)
+    w = warp_depth(depth_src, K, T_tgt_src, depth_tgt, rtol)
+    H, W = w.u.shape
+    uu, vv = np.meshgrid(np.arange(W, dtype=np.float64), np.arange(H, dtype=np.float64))
+    f = np.stack([w.u - uu, w.v - vv], axis=-1)
+    f[~w.valid] = np.nan
+    return Flow(flow=f.astype(np.float32), valid=w.valid, occluded=w.valid & w.occluded,
+                out_of_image=w.out_of_image)
+
+
+def sequence_flow(seq, k_src: int, k_tgt: int, view: str = "left", rtol: float = 1e-3) -> Flow:
+    """Flow of ``view`` from frame k_src to frame k_tgt (forward: k+1, backward: k-1)."""
+    T = seq.T_world_cam(view)
+    z_src = seq.depth(k_src, view)
+    if T is None or z_src is None:
+        raise VoError(f"{seq!r} has no depth/pose ground truth: cannot derive optical flow")
+    return flow_from_depth(z_src, seq.K, T[k_src], T[k_tgt], seq.depth(k_tgt, view), rtol)
+
+
+def forward_flow(seq, k: int, view: str = "left") -> Flow:
+    return sequence_flow(seq, k, k + 1, view)
+
+
+def backward_flow(seq, k: int, view: str = "left") -> Flow:
+    return sequence_flow(seq, k, k - 1, view)
+
+
+def stereo_occlusion(depth_left, depth_right, K, baseline_m: float, rtol: float = 1e-3) -> np.ndarray:
+    """bool (H, W): left pixels with depth whose point has no visible partner in the right
+    view (hidden there or outside the right image)."""
+    T_right_left = np.eye(4)
+    T_right_left[0, 3] = -float(baseline_m)
+    w = warp_depth(depth_left, K, T_right_left, depth_right, rtol)
+    return w.valid & w.occluded
+
+
+def stereo_occlusion_right(depth_right, depth_left, K, baseline_m: float, rtol: float = 1e-3) -> np.ndarray:
+    """The same for right pixels (partner sought in the left view)."""
+    T_left_right = np.eye(4)
+    T_left_right[0, 3] = float(baseline_m)
+    w = warp_depth(depth_right, K, T_left_right, depth_left, rtol)
+    return w.valid & w.occluded
+
+
+def sequence_stereo_occlusion(seq, k: int, view: str = "left", rtol: float = 1e-3) -> np.ndarray:
+    if seq.baseline_m <= 0 or "right" not in seq.views:
+        raise VoError("stereo occlusion needs a stereo sequence")
+    zl, zr = seq.depth(k, "left"), seq.depth(k, "right")
+    if zl is None or zr is None:
+        raise VoError(f"{seq!r} has no depth ground truth")
+    if view == "left":
+        return stereo_occlusion(zl, zr, seq.K, seq.baseline_m, rtol)
+    return stereo_occlusion_right(zr, zl, seq.K, seq.baseline_m, rtol)
+
+
+# --- files ------------------------------------------------------------------------------
+
+def write_flo(path, flow: np.ndarray) -> Path:
+    """Middlebury .flo: 'PIEH' (float 202021.25), int32 W, H, float32 (u, v) row-major;
+    NaN -> 1e10 (unknown)."""
+    f = np.asarray(flow, dtype=np.float32)
+    if f.ndim != 3 or f.shape[2] != 2:
+        raise VoError(f"{path}: flow must be (H, W, 2), got {f.shape}")
+    H, W = f.shape[:2]
+    f = np.where(np.isfinite(f), f, np.float32(FLO_UNKNOWN)).astype("<f4")
+    data = np.array([FLO_MAGIC], "<f4").tobytes() + np.array([W, H], "<i4").tobytes() + f.tobytes()
+    return write_bytes_atomic(path, data)
+
+
+def read_flo(path) -> np.ndarray:
+    """(H, W, 2) float32, NaN where unknown (|value| > 1e9)."""
+    path = Path(path)
+    if not path.is_file():
+        raise VoError(f"{path}: no such .flo file")
+    raw = path.read_bytes()
+    if len(raw) < 12 or np.frombuffer(raw[:4], "<f4")[0] != np.float32(FLO_MAGIC):
+        raise VoError(f"{path}: not a Middlebury .flo file (bad magic)")
+    W, H = (int(x) for x in np.frombuffer(raw[4:12], "<i4"))
+    if len(raw) < 12 + 8 * W * H:
+        raise VoError(f"{path}: .flo data truncated")
+    f = np.frombuffer(raw, "<f4", count=2 * W * H, offset=12).reshape(H, W, 2).astype(np.float32)
+    f[np.abs(f) > 1e9] = np.nan
+    return f
+
+
+def write_kitti_flow_png(path, flow: np.ndarray, valid: np.ndarray | None = None) -> Path:
+    """KITTI flow PNG (16-bit, 3 channels R, G, B = u·64 + 2¹⁵, v·64 + 2¹⁵, valid).
+    ``valid`` defaults to the finite flow vectors; values are clipped to the 16-bit range."""
+    f = np.asarray(flow, dtype=np.float64)
+    ok = np.all(np.isfinite(f), axis=-1) if valid is None else (np.asarray(valid, bool) & np.all(np.isfinite(f), axis=-1))
+    img = np.zeros(f.shape[:2] + (3,), np.uint16)
+    for c in range(2):
+        img[..., c][ok] = np.clip(np.rint(f[..., c][ok] * 64.0 + 32768.0), 0, 65535).astype(np.uint16)
+    img[..., 2] = ok
+    return write_image_atomic(path, img[..., ::-1])  # OpenCV writes BGR
+
+
+def read_kitti_flow_png(path) -> tuple[np.ndarray, np.ndarray]:
+    """-> (flow (H, W, 2) float32 with NaN where invalid, valid bool)."""
+    img = read_image(path)
+    if img.dtype != np.uint16 or img.ndim != 3 or img.shape[2] != 3:
+        raise VoError(f"{path}: expected a 16-bit 3-channel PNG (KITTI flow), got {img.dtype} {img.shape}")
+    rgb = img[..., ::-1].astype(np.float64)
+    valid = rgb[..., 2] > 0
+    f = ((rgb[..., :2] - 32768.0) / 64.0).astype(np.float32)
+    f[~valid] = np.nan
+    return f, valid
+
+
+def flow_color(flow: np.ndarray, max_flow: float | None = None) -> np.ndarray:
+    """uint8 RGB visualisation: hue = direction, saturation = magnitude; black = invalid."""
+    import cv2
+    f = np.asarray(flow, dtype=np.float32)
+    ok = np.all(np.isfinite(f), axis=-1)
+    mag = np.hypot(f[..., 0], f[..., 1])
+    if max_flow is None:
+        max_flow = float(np.percentile(mag[ok], 99)) if ok.any() else 1.0
+    ang = np.arctan2(-f[..., 1], -f[..., 0]) / np.pi  # -1..1
+    hsv = np.zeros(f.shape[:2] + (3,), np.uint8)
+    hsv[..., 0] = np.where(ok, ((ang + 1) * 90) % 180, 0).astype(np.uint8)
+    hsv[..., 1] = np.where(ok, np.clip(mag / max(max_flow, 1e-6) * 255, 0, 255), 0).astype(np.uint8)
+    hsv[..., 2] = np.where(ok, 255, 0).astype(np.uint8)
+    return cv2.cvtColor(hsv, cv2.COLOR_HSV2RGB)

@@ -1,0 +1,247 @@
+"""An accurate stereo VO: the paper's pipeline with each error source of its Sec. 5 removed.
+
+Per stereo frame pair k -> k+1:
+
+1. Shi–Tomasi keypoints of the left image at k (integer pixel positions).
+2. **Sub-pixel disparity**: pyramidal Lucas–Kanade from the left to the right image at k,
+   accepted only when the match stays on the epipolar line (|dy| small), has a positive
+   disparity, and the right -> left track comes back within ``fb_max`` px.
+3. **Sub-pixel tracking**: pyramidal LK left k -> left k+1 with a forward–backward check,
+   then the same stereo LK at k+1 (seeded with the disparity at k).
+4. **Robust estimation**: RANSAC PnP (OpenCV P3P) on the 3-D points of frame k against their
+   left positions at k+1.
+5. **Non-linear refinement of the exact rigid motion**: Gauss–Newton on SE(3) minimising the
+   reprojection error of the frame-k points in the *left and right* images at k+1 (Huber
+   weights, inliers re-selected), so no first-order motion model is involved.
+
+The result is T_k_k1 (left camera at k+1 in the left camera frame at k) and its twist
+[U, V, W, alpha, beta, gamma] = log(T_k_k1) (the SES EGO convention).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from ..errors import VoError
+from ..lie import se3, se3_exp, se3_inverse
+from .groundtruth import backproject
+from .keypoints import shi_tomasi
+from .motion_field import T_to_twist
+from .paper import StepResult
+
+
+@dataclass
+class AccurateParams:
+    max_corners: int = 600
+    quality: float = 0.005
+    min_distance: float = 8.0
+    lk_window: int = 21
+    lk_levels: int = 3
+    lk_iterations: int = 30
+    fb_max: float = 0.5          # forward-backward (and left-right-left) tolerance, px
+    row_max: float = 1.0         # |y_right - y_left| allowed for a stereo match, px
+    d_min: float = 0.5           # smallest accepted disparity, px
+    ransac_px: float = 1.5       # RANSAC reprojection threshold, px
+    ransac_iterations: int = 200
+    huber_px: float = 0.5        # Huber threshold of the refinement, px
+    inlier_px: float = 2.0       # final inlier threshold, px
+    gn_iterations: int = 10
+
+
+class _Pyramids:
+    """LK settings shared by the calls of one run (OpenCV's Python binding cannot take
+    prebuilt pyramids, so each call builds its own)."""
+
+    def __init__(self, params: AccurateParams):
+        self.p = params
+
+    def get(self, img: np.ndarray) -> np.ndarray:
+        return img
+
+
+def _lk(pyr: _Pyramids, a: np.ndarray, b: np.ndarray, pts: np.ndarray, guess: np.ndarray | None = None):
+    p = pyr.p
+    crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, p.lk_iterations, 0.01)
+    flags = 0
+    nxt = None
+    if guess is not None:
+        flags = cv2.OPTFLOW_USE_INITIAL_FLOW
+        nxt = guess.astype(np.float32).reshape(-1, 1, 2).copy()
+    out, st, _ = cv2.calcOpticalFlowPyrLK(pyr.get(a), pyr.get(b), pts.astype(np.float32).reshape(-1, 1, 2), nxt,
+                                          winSize=(p.lk_window, p.lk_window), maxLevel=p.lk_levels,
+                                          criteria=crit, flags=flags)
+    return out.reshape(-1, 2).astype(np.float64), st.reshape(-1).astype(bool)
+
+
+def track_fb(pyr: _Pyramids, a, b, pts, guess=None):
+    """LK a -> b with a forward–backward check; returns positions in b and a validity mask."""
+    if pts.shape[0] == 0:
+        return np.zeros((0, 2)), np.zeros(0, bool)
+    fwd, s1 = _lk(pyr, a, b, pts, guess)
+    back, s2 = _lk(pyr, b, a, fwd, pts)
+    ok = s1 & s2 & (np.linalg.norm(back - pts, axis=1) < pyr.p.fb_max)
+    H, W = a.shape
+    ok &= (fwd[:, 0] >= 0) & (fwd[:, 0] <= W - 1) & (fwd[:, 1] >= 0) & (fwd[:, 1] <= H - 1)
+    return fwd, ok
+
+
+def stereo_lk(pyr: _Pyramids, left, right, pts, guess_disp=None):
+    """Sub-pixel right-image positions (N, 2) of left keypoints and a validity mask."""
+    guess = None
+    if guess_disp is not None:
+        guess = pts - np.stack([guess_disp, np.zeros_like(guess_disp)], axis=1)
+    pr, ok = track_fb(pyr, left, right, pts, guess)
+    p = pyr.p
+    ok &= (np.abs(pr[:, 1] - pts[:, 1]) < p.row_max) & ((pts[:, 0] - pr[:, 0]) > p.d_min)
+    return pr, ok
+
+
+def triangulate(pl: np.ndarray, pr: np.ndarray, K: np.ndarray, baseline_m: float) -> np.ndarray:
+    """3-D points (N, 3) in the left camera from rectified left/right pixels (x from both, y from left)."""
+    d = pl[:, 0] - pr[:, 0]
+    Z = K[0, 0] * baseline_m / d
+    return backproject(pl, Z, K)
+
+
+def _project_jac(P: np.ndarray, K: np.ndarray):
+    """Pixels (N, 2) and d(pixel)/dP (N, 2, 3) of camera-frame points."""
+    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
+    X, Y, Z = P[:, 0], P[:, 1], P[:, 2]
+    iz = 1.0 / Z
+    uv = np.stack([fx * X * iz + cx, fy * Y * iz + cy], axis=1)
+    J = np.zeros((P.shape[0], 2, 3))
+    J[:, 0, 0] = fx * iz
+    J[:, 0, 2] = -fx * X * iz * iz
+    J[:, 1, 1] = fy * iz
+    J[:, 1, 2] = -fy * Y * iz * iz
+    return uv, J
+
+
+def refine_pose(P0: np.ndarray, obs_left: np.ndarray, obs_right: np.ndarray | None, K: np.ndarray,
+                baseline_m: float, T_k1_k: np.ndarray, iterations: int = 10, huber_px: float = 0.5) -> np.ndarray:
+    """Gauss–Newton on SE(3): T_k1_k minimising the reprojection error of the frame-k points
+    ``P0`` (N, 3) in the left (and, where given and finite, right) image at k+1.
+
+    Update T <- exp(delta) T with delta = [v, w]; Huber weights with threshold ``huber_px``.
+    """
+    T = T_k1_k.copy()
+    has_r = obs_right is not None
+    if has_r:
+        rmask = np.all(np.isfinite(obs_right), axis=1)
+    b = np.array([baseline_m, 0.0, 0.0])
+    for _ in range(iterations):
+        P1 = P0 @ T[:3, :3].T + T[:3, 3]
+        if np.any(P1[:, 2] <= 0):
+            raise VoError("pose refinement diverged (points behind the camera)")
+        # dP1/ddelta = [I, -skew(P1)]
+        dP = np.zeros((P1.shape[0], 3, 6))
+        dP[:, 0, 0] = dP[:, 1, 1] = dP[:, 2, 2] = 1.0
+        dP[:, 0, 4], dP[:, 0, 5] = P1[:, 2], -P1[:, 1]
+        dP[:, 1, 3], dP[:, 1, 5] = -P1[:, 2], P1[:, 0]
+        dP[:, 2, 3], dP[:, 2, 4] = P1[:, 1], -P1[:, 0]
+        uv, J = _project_jac(P1, K)
+        res = [uv - obs_left]
+        jac = [J @ dP]
+        if has_r:
+            uvr, Jr = _project_jac(P1[rmask] - b, K)
+            res.append(uvr - obs_right[rmask])
+            jac.append(Jr @ dP[rmask])
+        r = np.concatenate(res).reshape(-1, 2)
+        A = np.concatenate(jac)                                    # (M, 2, 6)
+        e = np.linalg.norm(r, axis=1)
+        w = np.where(e <= huber_px, 1.0, huber_px / np.maximum(e, 1e-12))
+        Aw = A * w[:, None, None]
+        Hm = np.einsum("nij,nik->jk", Aw, A)
+        g = np.einsum("nij,ni->j", Aw, r)
+        delta = -np.linalg.solve(Hm + 1e-9 * np.eye(6), g)
+        T = se3_exp(delta[3:], delta[:3]) @ T
+        if np.linalg.norm(delta) < 1e-12:
+            break
+    return T
+
+
+def _residuals(P0, obs_left, obs_right, K, baseline_m, T_k1_k):
+    P1 = P0 @ T_k1_k[:3, :3].T + T_k1_k[:3, 3]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        uv, _ = _project_jac(P1, K)
+        e = np.linalg.norm(uv - obs_left, axis=1)
+        if obs_right is not None:
+            uvr, _ = _project_jac(P1 - np.array([baseline_m, 0, 0]), K)
+            er = np.linalg.norm(uvr - obs_right, axis=1)
+            e = np.where(np.isfinite(er), np.maximum(e, er), e)
+    return np.where(P1[:, 2] > 0, e, np.inf)
+
+
+def estimate_motion(P0: np.ndarray, obs_left: np.ndarray, obs_right: np.ndarray | None, K: np.ndarray,
+                    baseline_m: float, params: AccurateParams | None = None, robust: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """T_k_k1 from frame-k 3-D points and their left (and right) pixels at k+1; returns (T_k_k1, inliers)."""
+    p = params or AccurateParams()
+    n = P0.shape[0]
+    if n < 4:
+        raise VoError(f"only {n} tracked stereo points (need >= 4)")
+    T = np.eye(4)
+    inl = np.ones(n, bool)
+    if robust:
+        ok, rvec, tvec, idx = cv2.solvePnPRansac(P0.astype(np.float64), obs_left.astype(np.float64), K, None,
+                                                 iterationsCount=p.ransac_iterations,
+                                                 reprojectionError=p.ransac_px, confidence=0.999,
+                                                 flags=cv2.SOLVEPNP_P3P)
+        if ok and idx is not None and len(idx) >= 4:
+            R, _ = cv2.Rodrigues(rvec)
+            T = se3(R, tvec.reshape(3))
+            inl = np.zeros(n, bool)
+            inl[idx.reshape(-1)] = True
+    obs_r = obs_right
+    for _ in range(2 if robust else 1):
+        T = refine_pose(P0[inl], obs_left[inl], None if obs_r is None else obs_r[inl], K, baseline_m, T,
+                        p.gn_iterations, p.huber_px if robust else np.inf)
+        if robust:
+            inl = _residuals(P0, obs_left, obs_r, K, baseline_m, T) < p.inlier_px
+            if inl.sum() < 4:
+                raise VoError("too few inliers after refinement")
+    return se3_inverse(T), inl
+
+
+def accurate_step(left0, right0, left1, right1, K: np.ndarray, baseline_m: float,
+                  params: AccurateParams | None = None, gt=None, gt_depth: bool = False, gt_flow: bool = False,
+                  pyramids: _Pyramids | None = None) -> StepResult:
+    """Accurate estimate of the step k -> k+1 from the stereo pairs at k and k+1.
+
+    ``gt_depth``: frame-k depth from the render (``gt``), no stereo matching at k; the
+    refinement then uses the left image at k+1 only unless ``gt_flow`` also gives the exact
+    right positions. ``gt_flow``: exact left/right positions at k+1 from the ground truth.
+    """
+    p = params or AccurateParams()
+    if (gt_depth or gt_flow) and gt is None:
+        raise VoError("--gt-depth/--gt-flow need ground truth (a render folder with depth and poses)")
+    pyr = pyramids or _Pyramids(p)
+    margin = p.lk_window // 2 + 1
+    pts = shi_tomasi(left0, p.max_corners, p.quality, p.min_distance, margin)
+    f = K[0, 0]
+    if gt_depth:
+        Z = gt.depth(pts)
+        ok = np.isfinite(Z)
+        pts, Z = pts[ok], Z[ok]
+        P0 = backproject(pts, Z, K)
+        disp = f * baseline_m / Z
+    else:
+        pr, ok = stereo_lk(pyr, left0, right0, pts)
+        pts, pr = pts[ok], pr[ok]
+        disp = pts[:, 0] - pr[:, 0]
+        P0 = triangulate(pts, pr, K, baseline_m)
+    if gt_flow:
+        l1, r1 = gt.correspondences(pts)
+        ok = np.all(np.isfinite(l1), axis=1)
+        P0, pts, l1, r1 = P0[ok], pts[ok], l1[ok], r1[ok]
+    else:
+        l1, ok = track_fb(pyr, left0, left1, pts)
+        P0, pts, l1, disp = P0[ok], pts[ok], l1[ok], disp[ok]
+        if gt_depth:
+            r1 = None
+        else:
+            r1, okr = stereo_lk(pyr, left1, right1, l1, disp)
+            r1[~okr] = np.nan
+    T_k_k1, inl = estimate_motion(P0, l1, r1, K, baseline_m, p, robust=not (gt_depth and gt_flow))
+    return StepResult(T_to_twist(T_k_k1), T_k_k1, int(inl.sum()), pts[inl], l1[inl], P0[inl, 2])
