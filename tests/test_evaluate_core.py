@@ -75,7 +75,7 @@ def test_origin_alignment_makes_first_poses_equal():
 
 def test_degenerate_alignment_is_a_vo_error():
     T = np.tile(np.eye(4), (10, 1, 1))
-    T[:, 0, 3] = np.arange(10)  # collinear positions: the rotation about the line is free... but rank 1
+    T[:, 0, 3] = np.arange(10)  # collinear positions: the rotation about the line is undetermined
     traj = Trajectory.from_poses(T)
     with pytest.raises(VoError, match="degenerate"):
         align(traj, traj, "se3")
@@ -225,3 +225,18 @@ def test_evaluate_trajectory_of_a_perfect_scaled_estimate():
     assert m["ape_trans_rmse"] < 1e-9 and m["rpe_trans_rmse"] < 1e-9
     assert np.all(ev.egomotion.rmse < 1e-6)
     json.dumps(m)  # JSON-ready
+
+
+def test_write_report_folder(tmp_path):
+    pytest.importorskip("matplotlib")
+    from vo_reference.evaluate.report import write_report
+    gt = _random_trajectory(80)
+    T = gt.T_world_cam.copy()
+    T[:, :3, 3] += np.random.default_rng(2).normal(0, 0.01, (80, 3))
+    ev = evaluate_trajectory(gt, Trajectory(T, gt.timestamps_s), egomotion=True)
+    files = write_report(tmp_path / "rep", ev, title="noisy", inputs={"gt": "a", "est": "b"})
+    assert {"metrics", "trajectories", "ape", "rpe", "egomotion", "summary"} <= set(files)
+    m = json.loads((tmp_path / "rep" / "metrics.json").read_text())
+    assert m["ape_trans_rmse"] == pytest.approx(ev.ape.trans.rmse) and m["inputs"]["gt"] == "a"
+    md = (tmp_path / "rep" / "summary.md").read_text()
+    assert md.startswith("# noisy") and "Egomotion per frame (twist" in md and "![egomotion](egomotion.png)" in md

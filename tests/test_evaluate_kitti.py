@@ -46,7 +46,7 @@ def test_segments_follow_the_devkit_rules():
 
 
 def test_hand_computed_scale_and_rotation_error():
-    """Estimate 1 % too long: every segment has t_err = 1.01 m per 100 m nominal... exactly.
+    """Estimate 1 % too long: every segment has t_err = 1.01 m per 100 m nominal.
 
     gt: 1 m/frame; est: 1.01 m/frame. Segment a -> a+101 (101 m of gt, L = 100):
     E translation = 101 * 0.01 = 1.01 m -> t_err = 1.01/100 = 1.01 %.

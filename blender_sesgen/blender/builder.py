@@ -351,5 +351,15 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -
     bscene.render.resolution_y = int(height)
     bscene.render.resolution_percentage = 100
     bscene.render.pixel_aspect_x = bscene.render.pixel_aspect_y = 1.0
+    activate(bscene)
     bscene.frame_set(rig.blender_frame(0))
     return built
+
+
+def activate(bscene) -> None:
+    """Make ``bscene`` the scene of the window(s): Blender evaluates animation (and the
+    render operator picks its frame) from the context scene, even in background mode."""
+    wm = bpy.context.window_manager
+    for w in (wm.windows if wm is not None else []):
+        if w.scene != bscene:
+            w.scene = bscene

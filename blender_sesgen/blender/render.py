@@ -125,6 +125,8 @@ def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: boo
 
     Returns {"wall_s": seconds around the render call, "cycles_s": Cycles' own render time}.
     """
+    from .builder import activate
+    activate(bscene)
     bscene.camera = camera
     bscene.cycles.seed = int(seed)
     bscene.frame_set(int(frame))

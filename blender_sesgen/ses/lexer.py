@@ -38,7 +38,7 @@ class Token:
 
 
 def decode(data: bytes, diags: Diagnostics) -> str | None:
-    """UTF-8 text of a script (a leading BOM is dropped); None and an error if not UTF-8."""
+    """UTF-8 text of a script; None and an error if it is not UTF-8."""
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as e:
@@ -48,12 +48,14 @@ def decode(data: bytes, diags: Diagnostics) -> str | None:
         diags.error(line, col, f"the file is not UTF-8 text (byte 0x{data[e.start]:02x} cannot be decoded); "
                     "save it as UTF-8")
         return None
-    return text[1:] if text.startswith("\ufeff") else text
+    return text
 
 
 def tokenize(text: str, diags: Diagnostics) -> list[list[Token]]:
     """Token lists of the non-empty lines, in order (comments and blank lines dropped)."""
     lines = []
+    if text.startswith("\ufeff"):  # a UTF-8 byte-order mark is not part of the script
+        text = text[1:]
     for lineno, raw in enumerate(text.splitlines(), start=1):
         tokens = _tokenize_line(raw, lineno, diags)
         if tokens:

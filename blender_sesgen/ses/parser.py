@@ -165,10 +165,10 @@ class _Builder:
                               f"(0 = none, 1..{max(BUILTIN_TEXTURES)}: see docs/ses-language.md)")
                 return None
             return model.TextureRef(kind="builtin", name=BUILTIN_TEXTURES[number][0], number=number, scale=scale)
-        if tok.kind == "word" and tok.lower in NAME_TO_NUMBER:
+        if tok.lower in NAME_TO_NUMBER:  # bare or quoted: a name ("./noise" names a file)
             number = NAME_TO_NUMBER[tok.lower]
             return model.TextureRef(kind="builtin", name=tok.lower, number=number, scale=scale)
-        hint = did_you_mean(text, NAME_TO_NUMBER) if tok.kind == "word" else ""
+        hint = did_you_mean(text, NAME_TO_NUMBER)
         path = self._existing_file(stmt, "texture", f"{stmt.keyword} 'texture' '{text}' is neither a built-in "
                                    f"texture name nor an existing image file (looked for "
                                    f"{os.path.join(self.base_dir, text)}){hint}")

@@ -99,14 +99,59 @@ def ransac_iterations(inlier_ratio: float, confidence: float, sample_size: int =
     return float(np.log(1.0 - confidence) / np.log1p(-p_good))
 
 
+def calibrated_fundamental(F: np.ndarray, K: np.ndarray) -> np.ndarray:
+    """Project F (..., 3, 3) onto the fundamental matrices of a calibrated pair with
+    intrinsics K: E = KᵀFK with singular values forced to (1, 1, 0), F = K⁻ᵀ E K⁻¹."""
+    E = K.T @ F @ K
+    U, _, Vt = np.linalg.svd(E)
+    E = U @ (np.array([1.0, 1.0, 0.0])[:, None] * Vt)
+    Kinv = np.linalg.inv(K)
+    F = Kinv.T @ E @ Kinv
+    return F / np.linalg.norm(F, axis=(-2, -1), keepdims=True)
+
+
+def _msac(F, x1, x2, threshold_px):
+    d = sampson_distance(F, x1, x2)
+    inl = d < threshold_px
+    return inl, int(inl.sum()), float(np.where(inl, d**2, threshold_px**2).sum())
+
+
+def _local_optimisation(F, count, cost, x1, x2, threshold_px, K=None, rounds: int = 4):
+    """LO-RANSAC (Chum et al. 2003): refit a new best hypothesis on its own inliers with the
+    8-point algorithm while that raises the inlier count (or lowers the cost)."""
+    inl = sampson_distance(F, x1, x2) < threshold_px
+    for _ in range(rounds):
+        if inl.sum() < 8:
+            break
+        F_new = eight_point(x1[inl], x2[inl])
+        if K is not None:
+            F_new = calibrated_fundamental(F_new, K)
+        inl_new, c_new, cost_new = _msac(F_new, x1, x2, threshold_px)
+        if c_new > count or (c_new == count and cost_new < cost):
+            F, inl, count, cost = F_new, inl_new, c_new, cost_new
+        else:
+            break
+    return count, cost, F
+
+
 def ransac_fundamental(x1: np.ndarray, x2: np.ndarray, threshold_px: float = 1.0,
                        confidence: float = 0.999, max_iterations: int = 5000,
-                       seed: int | None = 0, batch: int = 64) -> RansacResult:
+                       seed: int | None = 0, batch: int = 64, min_iterations: int = 256,
+                       K: np.ndarray | None = None) -> RansacResult:
     """RANSAC over 8-point samples, scored by inlier count with Sampson distance.
 
     The number of iterations adapts to the best inlier ratio seen (H&Z Alg. 4.5),
-    capped by ``max_iterations``; ``seed`` fixes the sampling (``None``: random). The
-    winner is refit on all its inliers (twice, re-selecting the inliers in between).
+    at least ``min_iterations`` (with noisy points an all-inlier 8-point sample is not
+    necessarily a good model, so the textbook count stops too early) and at most
+    ``max_iterations``; ``seed`` fixes the sampling (``None``: random). Each new
+    best hypothesis is locally optimised (refit on its inliers, LO-RANSAC); the winner is
+    refit on all its inliers (twice, re-selecting the inliers in between).
+
+    With intrinsics ``K`` every hypothesis is first projected onto the calibrated
+    fundamental matrices (:func:`calibrated_fundamental`, i.e. E = KᵀFK with singular values
+    (1, 1, 0)) and scored as such: 5 instead of 7 degrees of freedom, which stops a wrong F
+    fitted to a dominant plane from out-scoring the true motion. The returned F is then
+    calibrated too.
     Hypotheses are drawn and scored ``batch`` at a time.
     """
     x1 = np.asarray(x1, dtype=float)
@@ -117,8 +162,11 @@ def ransac_fundamental(x1: np.ndarray, x2: np.ndarray, threshold_px: float = 1.0
     rng = np.random.default_rng(seed)
     best_count, best_cost, best_F = -1, np.inf, None
     needed, drawn = float(max_iterations), 0
-    while drawn < min(needed, max_iterations):
-        b = int(min(batch, max(1, min(needed, max_iterations) - drawn)))
+
+    def target():
+        return min(max(needed, min_iterations), max_iterations)
+    while drawn < target():
+        b = int(min(batch, max(1, target() - drawn)))
         idx = np.argpartition(rng.random((b, n)), 8, axis=1)[:, :8]
         drawn += b
         with np.errstate(all="ignore"):
@@ -127,19 +175,24 @@ def ransac_fundamental(x1: np.ndarray, x2: np.ndarray, threshold_px: float = 1.0
         if not ok.any():
             continue
         F = F[ok]
+        if K is not None:
+            F = calibrated_fundamental(F, K)
         d = sampson_distance(F, x1, x2)
         inl = d < threshold_px
         count = inl.sum(axis=1)
         cost = np.where(inl, d**2, threshold_px**2).sum(axis=1)   # MSAC tie-break
         j = int(np.lexsort((cost, -count))[0])
         if count[j] > best_count or (count[j] == best_count and cost[j] < best_cost):
-            best_count, best_cost, best_F = int(count[j]), float(cost[j]), F[j]
+            best_count, best_cost, best_F = _local_optimisation(F[j], int(count[j]), float(cost[j]),
+                                                                x1, x2, threshold_px, K)
             needed = ransac_iterations(best_count / n, confidence)
     if best_F is None or best_count < 8:
         raise VoError(f"RANSAC found no fundamental matrix with 8 inliers among {n} matches")
     F, inliers = best_F, sampson_distance(best_F, x1, x2) < threshold_px
     for _ in range(2):
         F_new = eight_point(x1[inliers], x2[inliers])
+        if K is not None:
+            F_new = calibrated_fundamental(F_new, K)
         inl_new = sampson_distance(F_new, x1, x2) < threshold_px
         if inl_new.sum() < 8:
             break

@@ -8,7 +8,8 @@ flow is p' − p. It is checked against the target frame's own depth map:
   covers [−0.5, W−0.5) × [−0.5, H−0.5)) or X_tgt behind the camera;
 - *hidden*: the target depth at p' is smaller than X_tgt's depth (something is in front).
   The target depth is sampled by bilinear interpolation of **inverse** depth over the
-  2×2 neighbours of p' (exact for a plane), with relative tolerance ``rtol``;
+  2×2 neighbours of p' (exact for a plane; extrapolated in the half-pixel image border),
+  with relative tolerance ``rtol``;
 - *occluded* = out of image or hidden; *valid* = the source depth is finite.
 
 Stereo occlusion uses the same test with T_right_left = trans(−B, 0, 0): a left pixel
@@ -84,12 +85,14 @@ def warp_depth(depth_src: np.ndarray, K: np.ndarray, T_tgt_src: np.ndarray,
         with np.errstate(divide="ignore"):
             inv = np.where(np.isfinite(zt_map) & (zt_map > 0), 1.0 / zt_map, 0.0)
         ui, vi = u[inside], v[inside]
-        x0 = np.clip(np.floor(ui), 0, W - 1).astype(np.intp)
-        y0 = np.clip(np.floor(vi), 0, H - 1).astype(np.intp)
+        # 2x2 cell around p'; in the half-pixel border the cell's plane is extrapolated
+        # (linear in inverse depth, so still exact for a plane)
+        x0 = np.clip(np.floor(ui), 0, max(W - 2, 0)).astype(np.intp)
+        y0 = np.clip(np.floor(vi), 0, max(H - 2, 0)).astype(np.intp)
         x1 = np.minimum(x0 + 1, W - 1)
         y1 = np.minimum(y0 + 1, H - 1)
-        ax = np.clip(ui - x0, 0.0, 1.0)
-        ay = np.clip(vi - y0, 0.0, 1.0)
+        ax = ui - x0
+        ay = vi - y0
         inv_p = ((1 - ax) * (1 - ay) * inv[y0, x0] + ax * (1 - ay) * inv[y0, x1]
                  + (1 - ax) * ay * inv[y1, x0] + ax * ay * inv[y1, x1])
         # hidden  <=>  z_point > z_surface·(1+rtol)  <=>  inv_surface·z_point > 1 + rtol

@@ -245,3 +245,51 @@ def accurate_step(left0, right0, left1, right1, K: np.ndarray, baseline_m: float
             r1[~okr] = np.nan
     T_k_k1, inl = estimate_motion(P0, l1, r1, K, baseline_m, p, robust=not (gt_depth and gt_flow))
     return StepResult(T_to_twist(T_k_k1), T_k_k1, int(inl.sum()), pts[inl], l1[inl], P0[inl, 2])
+
+
+def row_lk_disparity(left: np.ndarray, right: np.ndarray, pts: np.ndarray, d0: np.ndarray, half: int = 5,
+                     iterations: int = 8, gain_bias: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """Sub-pixel disparity of left-image points (N, 2) by Lucas–Kanade *along the row* (1-D).
+
+    Minimises sum_w (a R(x + u - d, y + v) + b - L(x + u, y + v))^2 over the window
+    u, v in [-half, half] by Gauss–Newton in (d, a, b) (a, b: gain and offset between the
+    cameras), starting from ``d0``. The rectified rig's epipolar constraint is built in
+    (no vertical freedom, unlike 2-D LK). Samples and x-gradients are bilinear.
+    Returns disparity (N,) and a validity mask (|d - d0| <= 1.5 px, sane gain).
+    """
+    P = np.asarray(pts, dtype=np.float64)
+    n = P.shape[0]
+    if n == 0:
+        return np.zeros(0), np.zeros(0, bool)
+    Lf = left.astype(np.float32)
+    Rf = right.astype(np.float32)
+    Rx = cv2.Sobel(Rf, cv2.CV_32F, 1, 0, ksize=1, scale=0.5)      # central difference
+    o = np.arange(-half, half + 1, dtype=np.float64)
+    m = o.size * o.size
+    ys = (P[:, 1, None, None] + o[None, :, None] + 0 * o[None, None, :]).reshape(n, m).astype(np.float32)
+    xs0 = (P[:, 0, None, None] + 0 * o[None, :, None] + o[None, None, :]).reshape(n, m)
+    T = cv2.remap(Lf, xs0.astype(np.float32), ys, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE).astype(np.float64)
+    d = np.asarray(d0, dtype=np.float64).copy()
+    a = np.ones(n)
+    b = np.zeros(n)
+    for _ in range(iterations):
+        mx = (xs0 - d[:, None]).astype(np.float32)
+        Rw = cv2.remap(Rf, mx, ys, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE).astype(np.float64)
+        Gw = cv2.remap(Rx, mx, ys, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE).astype(np.float64)
+        r = a[:, None] * Rw + b[:, None] - T                     # residual
+        J_d = -a[:, None] * Gw                                    # d r / d d
+        if gain_bias:
+            J = np.stack([J_d, Rw, np.ones_like(Rw)], axis=2)     # (n, m, 3)
+            Hm = np.einsum("nmi,nmj->nij", J, J) + 1e-6 * np.eye(3)
+            g = np.einsum("nmi,nm->ni", J, r)
+            step = -np.linalg.solve(Hm, g[..., None])[..., 0]
+            d += step[:, 0]
+            a += step[:, 1]
+            b += step[:, 2]
+        else:
+            step = -(J_d * r).sum(1) / np.maximum((J_d * J_d).sum(1), 1e-9)
+            d += step
+        if np.all(np.abs(step if step.ndim == 1 else step[:, 0]) < 1e-3):
+            break
+    ok = np.isfinite(d) & (np.abs(d - d0) <= 1.5) & (a > 0.5) & (a < 2.0)
+    return d, ok

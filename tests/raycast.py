@@ -1,0 +1,151 @@
+"""An independent analytic ray caster: the oracle of the render tests (numpy only).
+
+It knows nothing of Blender or of blender_sesgen's pose code: primitives are given in the
+SES world (Y up) by their defining numbers, rays come from an OpenCV pinhole (K, T_world_cam),
+and every intersection is closed form in float64:
+- quad: plane through the 4 vertices, inside test on the two triangles (0,1,2), (0,2,3);
+- box: slab test in the box's own frame (R from XYZ Euler degrees, R = Rz Ry Rx);
+- sphere: the quadratic;
+- cylinder (axis along local Y): the quadratic on x,z plus the two caps.
+Depth is planar z in the camera frame (what Cycles' Depth pass holds); misses are inf.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def euler_xyz_deg(rx, ry, rz) -> np.ndarray:
+    ax, ay, az = np.radians([rx, ry, rz])
+    Rx = np.array([[1, 0, 0], [0, np.cos(ax), -np.sin(ax)], [0, np.sin(ax), np.cos(ax)]])
+    Ry = np.array([[np.cos(ay), 0, np.sin(ay)], [0, 1, 0], [-np.sin(ay), 0, np.cos(ay)]])
+    Rz = np.array([[np.cos(az), -np.sin(az), 0], [np.sin(az), np.cos(az), 0], [0, 0, 1]])
+    return Rz @ Ry @ Rx
+
+
+@dataclass
+class QuadP:
+    id: int
+    vertices: np.ndarray  # (4, 3)
+
+
+@dataclass
+class BoxP:
+    id: int
+    centre: np.ndarray
+    rotation_deg: tuple
+    size: np.ndarray
+
+
+@dataclass
+class SphereP:
+    id: int
+    centre: np.ndarray
+    radius: float
+
+
+@dataclass
+class CylinderP:
+    id: int
+    centre: np.ndarray
+    rotation_deg: tuple
+    radius: float
+    height: float
+
+
+def _tri_hit(o, d, a, b, c):
+    """Moller-Trumbore for many rays (o (3,), d (n,3)) against one triangle: t or inf."""
+    e1, e2 = b - a, c - a
+    p = np.cross(d, e2)
+    det = p @ e1
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / det
+        s = o - a
+        u = (p @ s) * inv
+        q = np.cross(s, e1)
+        v = (d @ q) * inv
+        t = (q @ e2) * inv
+    ok = (np.abs(det) > 1e-15) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)
+    return np.where(ok, t, np.inf)
+
+
+def hit_t(prim, o, d):
+    """Ray parameter t (ray o + t d) of the first hit, inf if none. d: (n, 3)."""
+    if isinstance(prim, QuadP):
+        V = np.asarray(prim.vertices, dtype=float)
+        return np.minimum(_tri_hit(o, d, V[0], V[1], V[2]), _tri_hit(o, d, V[0], V[2], V[3]))
+    if isinstance(prim, SphereP):
+        oc = o - prim.centre
+        a = np.einsum("ij,ij->i", d, d)
+        b = 2 * d @ oc
+        c = oc @ oc - prim.radius**2
+        disc = b * b - 4 * a * c
+        sq = np.sqrt(np.where(disc >= 0, disc, 0))
+        t1 = (-b - sq) / (2 * a)
+        t2 = (-b + sq) / (2 * a)
+        t = np.where(t1 > 0, t1, np.where(t2 > 0, t2, np.inf))
+        return np.where(disc >= 0, t, np.inf)
+    R = euler_xyz_deg(*prim.rotation_deg)
+    ol = R.T @ (o - prim.centre)
+    dl = d @ R  # rows: R^T d
+    if isinstance(prim, BoxP):
+        h = np.asarray(prim.size, dtype=float) / 2
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t1 = (-h - ol) / dl
+            t2 = (h - ol) / dl
+        tmin = np.nanmax(np.minimum(t1, t2), axis=1)
+        tmax = np.nanmin(np.maximum(t1, t2), axis=1)
+        return np.where((tmax >= tmin) & (tmax > 0), np.where(tmin > 0, tmin, tmax), np.inf)
+    if isinstance(prim, CylinderP):
+        r, h2 = prim.radius, prim.height / 2
+        a = dl[:, 0] ** 2 + dl[:, 2] ** 2
+        b = 2 * (ol[0] * dl[:, 0] + ol[2] * dl[:, 2])
+        c = ol[0] ** 2 + ol[2] ** 2 - r * r
+        disc = b * b - 4 * a * c
+        sq = np.sqrt(np.where(disc >= 0, disc, 0))
+        best = np.full(len(d), np.inf)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for t in ((-b - sq) / (2 * a), (-b + sq) / (2 * a)):
+                y = ol[1] + t * dl[:, 1]
+                ok = (disc >= 0) & (t > 0) & (np.abs(y) <= h2)
+                best = np.where(ok & (t < best), t, best)
+            for yc in (-h2, h2):
+                t = (yc - ol[1]) / dl[:, 1]
+                x = ol[0] + t * dl[:, 0]
+                z = ol[2] + t * dl[:, 2]
+                ok = (t > 0) & (x * x + z * z <= r * r)
+                best = np.where(ok & (t < best), t, best)
+        return best
+    raise TypeError(prim)
+
+
+def cast(prims, K, T_world_cam, u, v):
+    """Depth (planar z) and id seen through pixel coordinates (u, v) (OpenCV; arrays)."""
+    K = np.asarray(K, dtype=float)
+    T = np.asarray(T_world_cam, dtype=float)
+    u = np.asarray(u, dtype=float).ravel()
+    v = np.asarray(v, dtype=float).ravel()
+    rays_cam = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=1)
+    d = rays_cam @ T[:3, :3].T  # world directions with unit camera z: t == planar depth
+    o = T[:3, 3]
+    depth = np.full(len(u), np.inf)
+    ids = np.zeros(len(u), dtype=np.int64)
+    for p in prims:
+        t = hit_t(p, o, d)
+        closer = t < depth
+        depth = np.where(closer, t, depth)
+        ids = np.where(closer, p.id, ids)
+    return depth, ids
+
+
+def render_truth(prims, K, T_world_cam, width, height, edge_eps_px=1e-3):
+    """Per pixel centre: depth (H, W), id (H, W) and a mask of pixels whose centre lies
+    within ``edge_eps_px`` of a silhouette edge (the id changes within that distance)."""
+    vv, uu = np.mgrid[0:height, 0:width].astype(float)
+    depth, ids = cast(prims, K, T_world_cam, uu, vv)
+    near_edge = np.zeros(depth.shape, dtype=bool)
+    for a in np.linspace(0, 2 * np.pi, 16, endpoint=False):
+        _, ids2 = cast(prims, K, T_world_cam, uu + edge_eps_px * np.cos(a), vv + edge_eps_px * np.sin(a))
+        near_edge |= ids2 != ids
+    return depth.reshape(height, width), ids.reshape(height, width), near_edge.reshape(height, width)

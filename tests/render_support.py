@@ -1,0 +1,85 @@
+"""Helpers of the render tests: the oracle scene, EXR reading (OpenEXR), CLI runs."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+import raycast
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _planar_quad(centre, rotation_deg, half_w, half_h):
+    R = raycast.euler_xyz_deg(*rotation_deg)
+    c = np.asarray(centre, dtype=float)
+    corners = [(-half_w, -half_h), (half_w, -half_h), (half_w, half_h), (-half_w, half_h)]
+    return np.array([c + R @ np.array([a, b, 0.0]) for a, b in corners])
+
+
+# The oracle scene: floor, back wall, a tilted quad, a rotated and an axis-aligned cuboid,
+# a sphere, a rotated camera with an off-centre principal point, a rotating EGO path.
+TILTED = _planar_quad((-1.3, 0.9, -2.0), (10.0, 35.0, -8.0), 0.45, 0.6)
+ORACLE_PRIMS = [
+    raycast.QuadP(1, np.array([[-3, 0, -4], [3, 0, -4], [3, 0, 4], [-3, 0, 4]], dtype=float)),
+    raycast.QuadP(2, np.array([[-3, 0, -4], [-3, 3, -4], [3, 3, -4], [3, 0, -4]], dtype=float)),
+    raycast.QuadP(3, TILTED),
+    raycast.BoxP(4, np.array([0.6, 0.55, -1.2]), (25.0, 40.0, -15.0), np.array([0.7, 0.5, 0.9])),
+    raycast.BoxP(5, np.array([-0.45, 0.25, -0.3]), (0.0, 0.0, 0.0), np.array([0.5, 0.5, 0.5])),
+    raycast.SphereP(6, np.array([0.9, 1.35, -2.2]), 0.4),
+]
+ORACLE_START = ((0.2, 1.3, 3.0), (-10.0, 6.0, 3.0))
+ORACLE_EGO = [(0.05, -0.02, -0.15, 2.0, -3.0, 1.5), (-0.04, 0.03, -0.2, -1.5, 4.0, -2.0)]
+
+
+def oracle_script(width=160, height=120, focal=110.0, principal=(81.3, 57.6), baseline=0.15) -> str:
+    v = " ".join(f"{x:.10g}" for x in TILTED.reshape(-1))
+    (sx, sy, sz), (rx, ry, rz) = ORACLE_START
+    lines = [
+        "// oracle scene of tests/test_render_oracle.py",
+        f"CAMERA resolution {width} {height} focal {focal} principal {principal[0]} {principal[1]} "
+        f"baseline {baseline} near 0.05 far 100",
+        f"START position {sx} {sy} {sz} {rx} {ry} {rz}",
+        "QUAD id 1 texture 4 vertices -3 0 -4  3 0 -4  3 0 4  -3 0 4",
+        "QUAD id 2 texture 3 vertices -3 0 -4  -3 3 -4  3 3 -4  3 0 -4",
+        f"QUAD id 3 texture 1 vertices {v}",
+        "CUBOID id 4 texture 2 position 0.6 0.55 -1.2 25 40 -15 dim 0.7 0.5 0.9",
+        "CUBOID id 5 texture 7 colour 0.8 0.6 0.5 position -0.45 0.25 -0.3 dim 0.5 0.5 0.5",
+        "SPHERE id 6 texture 9 position 0.9 1.35 -2.2 dim 0.4",
+    ]
+    lines += [f"EGO {' '.join(str(x) for x in e)}" for e in ORACLE_EGO]
+    return "\n".join(lines) + "\n"
+
+
+def read_exr(path) -> dict[str, np.ndarray]:
+    """All channels of a (multi-part) EXR: {name: (H, W) array}."""
+    import OpenEXR
+    out = {}
+    with OpenEXR.File(str(path), separate_channels=True) as f:
+        for part in f.parts:
+            for name, ch in part.channels.items():
+                out[name] = np.array(ch.pixels)
+    return out
+
+
+def depth_and_ids(exr: dict, manifest: dict):
+    depth = exr[manifest["depth"]["channel"]].astype(np.float64)
+    ids = np.rint(exr[manifest["segmentation"]["channel"]]).astype(np.int64)
+    return depth, ids
+
+
+def load_manifest(out: Path) -> dict:
+    return json.loads((Path(out) / "manifest.json").read_text())
+
+
+def render_cmd(*args) -> list[str]:
+    return [sys.executable, "-m", "blender_sesgen", "render", *map(str, args)]
+
+
+def run_render(*args, timeout=300) -> subprocess.CompletedProcess:
+    env = dict(os.environ, PYTHONPATH=str(REPO))
+    return subprocess.run(render_cmd(*args), cwd=REPO, env=env, capture_output=True, text=True, timeout=timeout)
