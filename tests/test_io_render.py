@@ -189,3 +189,30 @@ def test_not_a_sequence_folder(tmp_path):
         open_sequence(tmp_path)
     with pytest.raises(VoError, match="no such folder"):
         open_sequence(tmp_path / "nope")
+
+
+def test_frames_complete_state_and_timestamps_from_manifest(tiny):
+    _edit_manifest(tiny[0], frames_complete=[True, False], fps=25.0, timestamps=[0.0, 0.04])
+    seq = RenderSequence(tiny[0])
+    assert seq.frame_complete(0) and not seq.frame_complete(1)
+    assert np.allclose(seq.timestamps_s, [0.0, 0.04])
+    _edit_manifest(tiny[0], timestamps=None)
+    assert np.allclose(RenderSequence(tiny[0]).timestamps_s, [0.0, 0.04])  # from fps
+
+
+def test_manifest_channel_names_are_used(tmp_path):
+    """The renderer records the channel names; a renamed view layer is found through them."""
+    K = np.array([[10.0, 0, 1.5], [0, 10.0, 1.5], [0, 0, 1]])
+    H = W = 4
+    root = tmp_path / "r"
+    write_render(root, K=K, baseline_m=0.0, T_world_left=np.eye(4)[None],
+                 frames=[{"left": (np.zeros((H, W, 3)), np.ones((H, W)), np.zeros((H, W)))}])
+    parts = {"Main.Combined": {f"Main.Combined.{c}": np.full((H, W), 0.5, np.float32) for c in "RGBA"},
+             "Main.Depth": {"Main.Depth.Z": np.full((H, W), 2.5, np.float32)},
+             "Main.Depth2": {"Other.Depth.Z": np.full((H, W), 9.0, np.float32)},
+             "Main.Object Index": {"Main.Object Index.X": np.full((H, W), 3.0, np.float32)}}
+    write_exr_parts(root / "exr/left/000000.exr", parts)
+    _edit_manifest(root, channels={"rgb": [f"Main.Combined.{c}" for c in "RGBA"], "depth": "Main.Depth.Z",
+                                   "object_index": "Main.Object Index.X"})
+    seq = RenderSequence(root)
+    assert np.all(seq.depth(0) == 2.5) and np.all(seq.ids(0) == 3) and np.all(seq.rgb_linear(0) == 0.5)

@@ -208,3 +208,20 @@ def test_errors(tmp_path):
         read_flo(tmp_path / "x.flo")
     with pytest.raises(VoError, match="no such"):
         read_flo(tmp_path / "none.flo")
+
+
+def test_sequence_forward_and_backward_flow_on_a_render(tmp_path):
+    """Rig moving +0.1 m along x in front of a plane at 4 m, f = 50: flow = ∓1.25 px."""
+    from vo_reference.io.sequence import open_sequence
+    from vo_reference.io.synthetic import plane_scene
+    from vo_reference.products.flow import backward_flow, forward_flow, sequence_stereo_occlusion
+    seq = open_sequence(plane_scene(tmp_path / "p", frames=3, step_m=0.1, f=50.0, plane_z=4.0))
+    fw, bw = forward_flow(seq, 1), backward_flow(seq, 1)
+    assert np.allclose(fw.flow[..., 0], -1.25, atol=1e-5) and np.allclose(fw.flow[..., 1], 0, atol=1e-5)
+    assert np.allclose(bw.flow[..., 0], 1.25, atol=1e-5)
+    # the columns that leave the image are exactly the occluded ones
+    assert np.array_equal(fw.occluded.any(axis=0), np.arange(64) < 1) and not fw.occluded[:, 1:].any()
+    assert bw.occluded[:, -1].all() and not bw.occluded[:, :-1].any()
+    # stereo: d = 50·0.2/4 = 2.5 px, the first 2 left columns have no partner in the right view
+    occ = sequence_stereo_occlusion(seq, 0)
+    assert occ[:, :2].all() and not occ[:, 2:].any()

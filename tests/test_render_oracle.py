@@ -82,23 +82,25 @@ def test_stereo_consistency(oracle_render):
         v, u = np.nonzero(il > 0)
         Z = zl[v, u]
         xr = u - f * B / Z
-        ok = (xr >= 0) & (xr <= W - 1.000001)
+        ok = (xr >= 1) & (xr <= W - 2.000001)
         v, u, Z, xr = v[ok], u[ok], Z[ok], xr[ok]
         j0 = np.floor(xr).astype(int)
         a = xr - j0
-        same = (ir[v, j0] == ir[v, j0 + 1]) & (ir[v, j0] > 0)
-        v, u, Z, j0, a = v[same], u[same], Z[same], j0[same], a[same]
-        # inverse depth is affine across a plane: interpolate 1/Z between the two neighbours
-        Zr = 1.0 / ((1 - a) / zr[v, j0] + a / zr[v, j0 + 1])
+        # the right view's 4 pixels around x_r: same object and one plane (1/Z affine along
+        # the row, i.e. not across a box's crease), so that 1/Z interpolates exactly
+        q = np.stack([1.0 / zr[v, j0 + d] for d in (-1, 0, 1, 2)])
+        i4 = np.stack([ir[v, j0 + d] for d in (-1, 0, 1, 2)])
+        planar = (np.abs(q[0] - 2 * q[1] + q[2]) <= 1e-5 * q[1]) & (np.abs(q[1] - 2 * q[2] + q[3]) <= 1e-5 * q[1])
+        same = np.all(i4 == i4[1], axis=0) & (i4[1] > 0) & planar
+        v, u, Z, j0, a, q = v[same], u[same], Z[same], j0[same], a[same], q[:, same]
+        Zr = 1.0 / ((1 - a) * q[1] + a * q[2])
         visible = Zr >= Z * (1 - 1e-3)  # else something nearer hides the point on the right
         v, u, Z, j0, Zr = v[visible], u[visible], Z[visible], j0[visible], Zr[visible]
         assert np.all(ir[v, j0] == il[v, u]), "warped pixel lands on another object"
         rel = np.abs(Zr - Z) / Z
-        flat = ~np.isin(il[v, u], list(SPHERE_IDS))
-        assert rel[flat].max() <= 3e-4, f"frame {k}: stereo depth mismatch {rel[flat].max():.2e}"
-        assert np.median(rel[~flat]) <= 3e-4  # curved: linear interpolation of 1/Z is approximate
+        assert rel.max() <= 3e-4, f"frame {k}: stereo depth mismatch {rel.max():.2e}"
         checked += len(v)
-    assert checked > 0.5 * m["frames"] * W * H
+    assert checked > 0.4 * m["frames"] * W * H, checked
 
 
 def test_manifest_poses_are_the_ego_integration(oracle_render):

@@ -118,11 +118,11 @@ class RenderSequence:
     def frame_complete(self, k: int) -> bool:
         """True when frame k is recorded complete and its EXR files exist for every view.
 
-        The manifest's per-frame state is read from ``complete`` (list of bools, or dict
-        view -> list); without it, existence of the listed files decides."""
+        The manifest's per-frame state is ``frames_complete`` (list of bools; a dict
+        view -> list is accepted too); without it, existence of the listed files decides."""
         if not 0 <= int(k) < self.num_frames:
             return False
-        state = self.manifest.get("complete")
+        state = self.manifest.get("frames_complete", self.manifest.get("complete"))
         for v in self.views:
             rel = self._files[v][int(k)]
             if not rel or not (self.root / rel).is_file():
@@ -150,9 +150,15 @@ class RenderSequence:
             self._cache.popitem(last=False)
         return ch
 
-    def _pass(self, k, view, names, comps, what):
+    def _pass(self, k, view, names, comps, what, key=None):
         ch = self._channels(k, view)
-        found = find_pass(ch, names, comps)
+        found = None
+        named = (self.manifest.get("channels") or {}).get(key) if key else None
+        if named:  # the manifest names the channels: use them exactly
+            named = [named] if isinstance(named, str) else list(named)[:len(comps)]
+            found = named if all(n in ch for n in named) else None
+        if found is None:
+            found = find_pass(ch, names, comps)
         if found is None:
             have = sorted(n for n in ch if n != "__path__")
             raise VoError(f"{ch['__path__']}: missing {what} pass "
@@ -162,7 +168,7 @@ class RenderSequence:
     # --- images and ground truth ------------------------------------------------------
     def rgb_linear(self, k: int, view: str = "left") -> np.ndarray:
         """float32 (H, W, 3) scene-linear RGB (the Combined pass as written)."""
-        r, g, b = self._pass(k, view, PASS_COMBINED, ("R", "G", "B"), "Combined (RGB)")
+        r, g, b = self._pass(k, view, PASS_COMBINED, ("R", "G", "B"), "Combined (RGB)", "rgb")
         return np.stack([r, g, b], axis=-1).astype(np.float32)
 
     def alpha(self, k: int, view: str = "left") -> np.ndarray | None:
@@ -178,14 +184,14 @@ class RenderSequence:
 
     def depth(self, k: int, view: str = "left") -> np.ndarray:
         """float32 (H, W) planar z in metres, +inf where nothing was hit."""
-        (z,) = self._pass(k, view, PASS_DEPTH, ("Z",), "Depth")
+        (z,) = self._pass(k, view, PASS_DEPTH, ("Z",), "Depth", "depth")
         z = z.astype(np.float32, copy=True)
         z[~np.isfinite(z) | (z >= 0.999 * self.depth_background) | (z <= 0.0)] = np.inf
         return z
 
     def ids(self, k: int, view: str = "left") -> np.ndarray:
         """int32 (H, W) object ids (the script's ``id``), 0 = background."""
-        (x,) = self._pass(k, view, PASS_INDEX, ("X",), "Object Index")
+        (x,) = self._pass(k, view, PASS_INDEX, ("X",), "Object Index", "object_index")
         return np.rint(np.nan_to_num(x, nan=0.0)).astype(np.int32)
 
     def T_world_cam(self, view: str = "left") -> np.ndarray:

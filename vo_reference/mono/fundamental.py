@@ -145,7 +145,7 @@ def ransac_fundamental(x1: np.ndarray, x2: np.ndarray, threshold_px: float = 1.0
     necessarily a good model, so the textbook count stops too early) and at most
     ``max_iterations``; ``seed`` fixes the sampling (``None``: random). Each new
     best hypothesis is locally optimised (refit on its inliers, LO-RANSAC); the winner is
-    refit on all its inliers (twice, re-selecting the inliers in between).
+    refit on its inliers, re-selecting them, until the inlier set is stable (≤ 5 rounds).
 
     With intrinsics ``K`` every hypothesis is first projected onto the calibrated
     fundamental matrices (:func:`calibrated_fundamental`, i.e. E = KᵀFK with singular values
@@ -189,12 +189,15 @@ def ransac_fundamental(x1: np.ndarray, x2: np.ndarray, threshold_px: float = 1.0
     if best_F is None or best_count < 8:
         raise VoError(f"RANSAC found no fundamental matrix with 8 inliers among {n} matches")
     F, inliers = best_F, sampson_distance(best_F, x1, x2) < threshold_px
-    for _ in range(2):
+    for _ in range(5):   # refit on the inliers until the inlier set is stable
         F_new = eight_point(x1[inliers], x2[inliers])
         if K is not None:
             F_new = calibrated_fundamental(F_new, K)
         inl_new = sampson_distance(F_new, x1, x2) < threshold_px
         if inl_new.sum() < 8:
             break
-        F, inliers = F_new, inl_new
+        F = F_new
+        if np.array_equal(inl_new, inliers):
+            break
+        inliers = inl_new
     return RansacResult(F, inliers, drawn)

@@ -62,6 +62,9 @@ class MonoVoResult:
     info: dict = field(default_factory=dict)
 
 
+FORWARD = se3(np.eye(3), np.array([0.0, 0.0, 1.0]))   # straight ahead: a prior hypothesis
+
+
 def _step(T_rel: np.ndarray, s: float) -> np.ndarray:
     return se3(T_rel[:3, :3], s * T_rel[:3, 3])
 
@@ -96,7 +99,9 @@ def run_mono_vo(gray_of: Callable[[int], np.ndarray], num_frames: int, K: np.nda
         else:
             try:
                 rel = estimate_relative_pose(m.x1, m.x2, K, cfg.threshold_px, cfg.confidence,
-                                             cfg.max_iterations, cfg.seed, cfg.refine)
+                                             cfg.max_iterations, cfg.seed, cfg.refine,
+                                             priors=(last_rel, FORWARD),
+                                             triangulate=getattr(scale, "needs_points", False))
                 rec.T_rel, rec.n_inliers = rel.T_c1_c2, rel.n_inliers
             except VoError as e:
                 rec.status, rec.message = "failed", str(e)

@@ -4,9 +4,10 @@ Refinements (``refine``):
 - ``none``: the pose from E decomposition (E from the 8-point F refit on the inliers);
 - ``pnp``: the seed report's chain — non-linear triangulation of the inliers, then
   non-linear PnP of camera 2 on those points, repeated ``rounds`` times;
-- ``sampson`` (default): minimise the Sampson distances of the inliers over the five
-  degrees of freedom of E = [t]ₓR (rotation vector + unit t), then non-linearly
-  triangulate the points. Sampson's error is the first-order geometric error, so this is
+- ``sampson`` (default): a robust Sampson fit over all matches from the RANSAC pose and
+  from prior motions (keep the one with most inliers), then minimise the Sampson
+  distances of its inliers over the five degrees of freedom of E = [t]ₓR (rotation
+  vector + unit t), settle the sign of t by cheirality, and non-linearly triangulate. Sampson's error is the first-order geometric error, so this is
   the two-view "gold standard" fit without carrying every point as a parameter.
 """
 from __future__ import annotations
@@ -22,7 +23,7 @@ from ..lie import skew
 from .essential import camera_motion, choose_pose, essential_from_fundamental
 from .fundamental import ransac_fundamental
 from .pnp import nonlinear_pnp
-from .triangulation import projection_matrix, triangulate_nonlinear
+from .triangulation import projection_matrix, triangulate_linear, triangulate_nonlinear
 
 REFINEMENTS = ("none", "pnp", "sampson")
 
@@ -52,60 +53,120 @@ def _tangent_basis(t: np.ndarray) -> np.ndarray:
     return np.column_stack([b1, np.cross(t, b1)])
 
 
+def _sampson_residuals(R, t, h1, h2, Kinv):
+    F = Kinv.T @ skew(t) @ R @ Kinv
+    Fx1 = h1 @ F.T
+    Ftx2 = h2 @ F
+    num = np.sum(Fx1 * h2, axis=1)
+    den = Fx1[:, 0] ** 2 + Fx1[:, 1] ** 2 + Ftx2[:, 0] ** 2 + Ftx2[:, 1] ** 2
+    return num / np.sqrt(den)
+
+
 def refine_sampson(R: np.ndarray, t: np.ndarray, x1: np.ndarray, x2: np.ndarray, K: np.ndarray,
-                   max_nfev: int = 50) -> tuple[np.ndarray, np.ndarray]:
-    """Minimise Σ Sampson(E(R, t))² in pixels over a rotation increment and a unit t."""
+                   loss: str = "linear", f_scale: float = 1.0, max_nfev: int = 50
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Minimise Σ ρ(Sampson(E(R, t))) in pixels over a rotation increment and a unit t
+    (``loss``/``f_scale`` as scipy's least_squares: a robust loss lets all matches in)."""
     Kinv = np.linalg.inv(K)
     h1 = np.column_stack([x1, np.ones(len(x1))])
     h2 = np.column_stack([x2, np.ones(len(x2))])
     B = _tangent_basis(t)
 
     def model(p):
-        Rp = Rotation.from_rotvec(p[:3]).as_matrix() @ R
         tp = t + B @ p[3:]
-        tp = tp / np.linalg.norm(tp)
-        return Rp, tp
+        return Rotation.from_rotvec(p[:3]).as_matrix() @ R, tp / np.linalg.norm(tp)
 
     def fun(p):
-        Rp, tp = model(p)
-        F = Kinv.T @ skew(tp) @ Rp @ Kinv
-        Fx1 = h1 @ F.T
-        Ftx2 = h2 @ F
-        num = np.sum(Fx1 * h2, axis=1)
-        den = Fx1[:, 0] ** 2 + Fx1[:, 1] ** 2 + Ftx2[:, 0] ** 2 + Ftx2[:, 1] ** 2
-        return num / np.sqrt(den)
+        return _sampson_residuals(*model(p), h1, h2, Kinv)
 
-    res = least_squares(fun, np.zeros(5), method="lm" if len(x1) >= 5 else "trf",
+    method = "lm" if loss == "linear" and len(x1) >= 5 else "trf"
+    res = least_squares(fun, np.zeros(5), method=method, loss=loss, f_scale=f_scale,
                         max_nfev=max_nfev * 6, xtol=1e-12, ftol=1e-12)
     return model(res.x)
 
 
+def _inliers(R, t, x1, x2, K, threshold_px):
+    h1 = np.column_stack([x1, np.ones(len(x1))])
+    h2 = np.column_stack([x2, np.ones(len(x2))])
+    return np.abs(_sampson_residuals(R, t, h1, h2, np.linalg.inv(K))) < threshold_px
+
+
+def _cheirality_sign(R, t, x1, x2, K):
+    """±t, whichever puts more linearly triangulated points in front of both cameras."""
+    P1 = projection_matrix(K, np.eye(3), np.zeros(3))
+    best = None
+    for s in (1.0, -1.0):
+        X = triangulate_linear(P1, projection_matrix(K, R, s * t), x1, x2)
+        front = np.isfinite(X[:, 2]) & (X[:, 2] > 0) & (X @ R[2] + s * t[2] > 0)
+        if best is None or front.sum() > best[1].sum():
+            best = (s * t, front, X)
+    return best
+
+
+def _point_transform(T_c1_c2: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    C = T_c1_c2[:3, 3]
+    n = np.linalg.norm(C)
+    if n < 1e-9:
+        return None
+    R = T_c1_c2[:3, :3].T
+    return R, -R @ C / n
+
+
 def estimate_relative_pose(x1: np.ndarray, x2: np.ndarray, K: np.ndarray, threshold_px: float = 1.0,
                            confidence: float = 0.999, max_iterations: int = 5000,
-                           seed: int | None = 0, refine: str = "sampson", rounds: int = 2) -> RelativePose:
-    """Relative pose of frame 2 to frame 1 from pixel matches (N, 2) (unit translation)."""
+                           seed: int | None = 0, refine: str = "sampson", rounds: int = 2,
+                           priors: tuple = (), triangulate: bool = True) -> RelativePose:
+    """Relative pose of frame 2 to frame 1 from pixel matches (N, 2) (unit translation).
+
+    With ``refine='sampson'``, the RANSAC pose and each motion in ``priors`` (camera motions
+    T_c1_c2, e.g. the previous frame's: a constant-velocity hypothesis) are refined with a
+    robust (Cauchy) Sampson fit over all matches, and the one with the most inliers wins.
+    That guards against the rotation/translation ambiguity of forward motion, where a noisy
+    8-point sample can lead RANSAC into a false optimum with sideways translation.
+    ``triangulate=False`` keeps the linear triangulation in ``X_c1`` (the non-linear one
+    is only needed when the points set the scale).
+    """
     if refine not in REFINEMENTS:
         raise VoError(f"unknown refinement {refine!r} ({', '.join(REFINEMENTS)})")
+    x1 = np.asarray(x1, dtype=float)
+    x2 = np.asarray(x2, dtype=float)
     r = ransac_fundamental(x1, x2, threshold_px, confidence, max_iterations, seed)
     idx = np.flatnonzero(r.inliers)
-    a, b = x1[idx], x2[idx]
-    choice = choose_pose(essential_from_fundamental(r.F, K), K, a, b)
+    choice = choose_pose(essential_from_fundamental(r.F, K), K, x1[idx], x2[idx])
     R, t = choice.R, choice.t
-    front = choice.in_front
-    if front.sum() < 8:
-        raise VoError(f"only {int(front.sum())} of {len(idx)} inliers in front of both cameras")
     P1 = projection_matrix(K, np.eye(3), np.zeros(3))
-    X = choice.X[front]
     if refine == "sampson":
-        R, t = refine_sampson(R, t, a[front], b[front], K)
-        X = triangulate_nonlinear(P1, projection_matrix(K, R, t), a[front], b[front])
-    elif refine == "pnp":
-        for _ in range(rounds):
-            X = triangulate_nonlinear(P1, projection_matrix(K, R, t), a[front], b[front], X)
-            R, t = nonlinear_pnp(X, b[front], K, R, t)
-        scale = np.linalg.norm(t)
-        t = t / scale
-        X = X / scale
+        starts = [(R, t)] + [p for p in (_point_transform(T) for T in priors) if p is not None]
+        best = None
+        for R0, t0 in starts:
+            Rr, tr = refine_sampson(R0, t0, x1, x2, K, loss="cauchy", f_scale=threshold_px)
+            inl = _inliers(Rr, tr, x1, x2, K, threshold_px)
+            if best is None or inl.sum() > best[2].sum():
+                best = (Rr, tr, inl)
+        R, t, inl = best
+        if inl.sum() < 8:
+            raise VoError(f"only {int(inl.sum())} inliers after the robust refinement")
+        R, t = refine_sampson(R, t, x1[inl], x2[inl], K)
+        idx = np.flatnonzero(inl)
+        t, front, X = _cheirality_sign(R, t, x1[idx], x2[idx], K)
+        if front.sum() < 8:
+            raise VoError(f"only {int(front.sum())} of {len(idx)} inliers in front of both cameras")
+        X = X[front]
+        if triangulate:
+            X = triangulate_nonlinear(P1, projection_matrix(K, R, t), x1[idx[front]], x2[idx[front]], X)
+    else:
+        front = choice.in_front
+        if front.sum() < 8:
+            raise VoError(f"only {int(front.sum())} of {len(idx)} inliers in front of both cameras")
+        X = choice.X[front]
+        if refine == "pnp":
+            a, b = x1[idx[front]], x2[idx[front]]
+            for _ in range(rounds):
+                X = triangulate_nonlinear(P1, projection_matrix(K, R, t), a, b, X)
+                R, t = nonlinear_pnp(X, b, K, R, t)
+            scale = np.linalg.norm(t)
+            t = t / scale
+            X = X / scale
     inliers = np.zeros(len(x1), bool)
     inliers[idx[front]] = True
     return RelativePose(R, t, inliers, X, r.iterations)

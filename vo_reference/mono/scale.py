@@ -63,6 +63,7 @@ def _median_ratio(z_metric: np.ndarray, z_unit: np.ndarray, min_points: int = 5)
 
 class DepthScale:
     name = "depth"
+    needs_points = True
 
     def __init__(self, depth_of: Callable[[int], np.ndarray | None]):
         self.depth_of = depth_of
@@ -81,6 +82,7 @@ class DepthScale:
 
 class StereoScale:
     name = "stereo"
+    needs_points = True
 
     def __init__(self, left_of: Callable[[int], np.ndarray], right_of: Callable[[int], np.ndarray],
                  fx: float, baseline_m: float, max_dy_px: float = 1.0, min_disparity_px: float = 1.0):

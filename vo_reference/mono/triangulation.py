@@ -82,6 +82,6 @@ def triangulate_nonlinear(P1: np.ndarray, P2: np.ndarray, x1: np.ndarray, x2: np
         return csr_matrix((vals.ravel(), (rows.ravel(), cols.ravel())), shape=(4 * m, 3 * m))
 
     res = least_squares(fun, X0[ok].ravel(), jac=jac, method="trf", tr_solver="lsmr",
-                        x_scale="jac", max_nfev=max_nfev, xtol=1e-14, ftol=1e-14, gtol=1e-14)
+                        x_scale="jac", max_nfev=max_nfev, xtol=1e-10, ftol=1e-10, gtol=1e-10)
     X[ok] = res.x.reshape(m, 3)
     return X

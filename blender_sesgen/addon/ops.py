@@ -1,0 +1,198 @@
+"""Operators: gather the settings, call ``session`` (hence the pipeline), report.
+
+Expected failures (:class:`SesgenError`, e.g. a script error ``file:line:col: error: ...``)
+are reported as errors and shown in the panel's status line; they create nothing.
+"""
+from __future__ import annotations
+
+import os
+
+import bpy
+from bpy.props import StringProperty
+from bpy_extras.io_utils import ImportHelper
+
+from ..errors import SesgenError
+from . import props, session, state
+
+
+def _fail(op, context, values, e: Exception):
+    text = str(e)
+    op.report({"ERROR"}, text)
+    shown = state.error_line(e)
+    session.set_status(values, f"Error: {shown}", context=context)
+    return {"CANCELLED"}
+
+
+class SESGEN_OT_check(bpy.types.Operator):
+    """Parse the script again and report its summary or its errors"""
+    bl_idname = "sesgen.check"
+    bl_label = "Check Script"
+
+    def execute(self, context):
+        values = session.read_settings(context)
+        try:
+            path = session.script_path(values)
+            state.forget(path)
+            scene = state.parse_script(path)
+        except SesgenError as e:
+            return _fail(self, context, values, e)
+        msg = "Script OK: " + "; ".join(state.summary_lines(scene)[:2])
+        self.report({"INFO"}, msg)
+        session.set_status(values, msg, context=context)
+        return {"FINISHED"}
+
+
+class SESGEN_OT_build(bpy.types.Operator):
+    """Build the script's scene (objects, stereo rig with keyframes, camera path) in the scene 'SESGen'; rebuilding replaces it"""
+    bl_idname = "sesgen.build"
+    bl_label = "Build Scene"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return session.RenderSession.active is None and context.scene is not None
+
+    def execute(self, context):
+        values = session.read_settings(context)
+        try:
+            msg = session.build_scene(context, values)
+        except SesgenError as e:
+            return _fail(self, context, values, e)
+        self.report({"INFO"}, msg)
+        return {"FINISHED"}
+
+
+class SESGEN_OT_render(bpy.types.Operator):
+    """Render the sequence into the output folder (ESC cancels; the folder stays resumable)"""
+    bl_idname = "sesgen.render"
+    bl_label = "Render Sequence"
+
+    _timer = None
+    _session = None
+
+    @classmethod
+    def poll(cls, context):
+        return session.RenderSession.active is None and context.scene is not None
+
+    def execute(self, context):  # headless: every frame, synchronously
+        values = session.read_settings(context)
+        try:
+            msg = session.render_all(context, values)
+        except SesgenError as e:
+            return _fail(self, context, values, e)
+        self.report({"INFO"}, msg)
+        return {"FINISHED"}
+
+    def invoke(self, context, event):  # interactive: one frame per timer tick
+        values = session.read_settings(context)
+        try:
+            self._session = session.RenderSession.start(context, values)
+        except SesgenError as e:
+            return _fail(self, context, values, e)
+        if self._session.finished:
+            self.report({"INFO"}, self._session.close())
+            return {"FINISHED"}
+        wm = context.window_manager
+        wm.progress_begin(0, self._session.total)
+        self._status(context)
+        self._timer = wm.event_timer_add(0.01, window=context.window)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _status(self, context, text=None):
+        ws = getattr(context, "workspace", None)
+        if ws is not None:
+            ws.status_text_set(text if text is not None else
+                               f"SESGen: {self._session.describe()}   (Esc: cancel, resumable)")
+
+    def _end(self, context, msg, level="INFO"):
+        wm = context.window_manager
+        if self._timer is not None:
+            wm.event_timer_remove(self._timer)
+            self._timer = None
+        wm.progress_end()
+        self._status(context, None)
+        self.report({level}, msg)
+
+    def modal(self, context, event):
+        s = self._session
+        if event.type == "ESC" and event.value == "PRESS":
+            self._end(context, s.cancel(), "WARNING")
+            return {"CANCELLED"}
+        if event.type != "TIMER" or event.timer is not self._timer:
+            return {"PASS_THROUGH"}
+        try:
+            s.step()
+        except Exception as e:  # noqa: BLE001 - reported; completed frames stay on disk
+            self._end(context, s.fail(e), "ERROR")
+            return {"CANCELLED"}
+        context.window_manager.progress_update(s.done)
+        self._status(context)
+        if s.finished:
+            self._end(context, s.close())
+            return {"FINISHED"}
+        return {"RUNNING_MODAL"}
+
+    def cancel(self, context):  # Blender stops the operator (e.g. the file is closed)
+        if self._session is not None and not self._session.finished:
+            self._end(context, self._session.cancel(), "WARNING")
+
+
+class SESGEN_OT_open_output(bpy.types.Operator):
+    """Open the output folder in the system's file browser"""
+    bl_idname = "sesgen.open_output"
+    bl_label = "Open Output Folder"
+
+    @classmethod
+    def poll(cls, context):
+        return os.path.isdir(props.abspath(context.scene.sesgen.output_dir))
+
+    def execute(self, context):
+        return bpy.ops.wm.path_open(filepath=props.abspath(context.scene.sesgen.output_dir))
+
+
+class SESGEN_OT_preview(bpy.types.Operator):
+    """Show one rendered frame's ground truth (disparity, segmentation, depth) or RGB in an image editor"""
+    bl_idname = "sesgen.preview"
+    bl_label = "Preview Ground Truth"
+
+    def execute(self, context):
+        values = session.read_settings(context)
+        try:
+            _img, text = session.preview(context, values)
+        except SesgenError as e:
+            return _fail(self, context, values, e)
+        self.report({"INFO"}, f"preview: {text} (image '{session.PREVIEW_IMAGE}')")
+        return {"FINISHED"}
+
+
+class SESGEN_OT_import(bpy.types.Operator, ImportHelper):
+    """Import an SES scene script: set it in the SESGen panel and build its scene"""
+    bl_idname = "sesgen.import_ses"
+    bl_label = "Import SES Script"
+    bl_options = {"REGISTER", "UNDO"}
+
+    filename_ext = ".ses"
+    filter_glob: StringProperty(default="*.ses", options={"HIDDEN"})
+
+    @classmethod
+    def poll(cls, context):
+        return session.RenderSession.active is None and context.scene is not None
+
+    def execute(self, context):
+        context.scene.sesgen.script_path = self.filepath
+        values = session.read_settings(context)
+        try:
+            msg = session.build_scene(context, values)
+        except SesgenError as e:
+            return _fail(self, context, values, e)
+        self.report({"INFO"}, msg)
+        return {"FINISHED"}
+
+
+def menu_import(self, context):
+    self.layout.operator(SESGEN_OT_import.bl_idname, text="SES Script (.ses)")
+
+
+CLASSES = (SESGEN_OT_check, SESGEN_OT_build, SESGEN_OT_render, SESGEN_OT_open_output,
+           SESGEN_OT_preview, SESGEN_OT_import)

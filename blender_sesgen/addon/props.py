@@ -1,0 +1,76 @@
+"""The add-on's settings: one PropertyGroup on every Scene (``scene.sesgen``)."""
+from __future__ import annotations
+
+import bpy
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
+
+from .preview import KINDS
+
+
+class SESGEN_PG_settings(bpy.types.PropertyGroup):
+    script_path: StringProperty(name="Script", description="The SES scene script (.ses)",
+                                subtype="FILE_PATH", default="")
+    # frames
+    use_frame_range: BoolProperty(name="Frame Range", default=False,
+                                  description="Render only the frames First..Last (else every frame)")
+    frame_first: IntProperty(name="First", min=0, default=0, description="First frame to render (0-based)")
+    frame_last: IntProperty(name="Last", min=0, default=0, description="Last frame to render (inclusive)")
+    # sampling
+    override_render: BoolProperty(name="Override Script Settings", default=False,
+                                  description="Use these samples/denoise/seed instead of the script's RENDER line")
+    samples: IntProperty(name="Samples", min=1, soft_max=4096, default=16, description="Cycles samples per pixel")
+    denoise: BoolProperty(name="Denoise", default=False,
+                          description="OpenImageDenoise on the beauty pass (ground truth is never denoised)")
+    seed: IntProperty(name="Seed", min=0, default=0, description="Base seed (per-frame/view seeds derive from it)")
+    resolution_scale: FloatProperty(name="Resolution Scale", min=0.01, max=4.0, soft_max=2.0, default=1.0,
+                                    description="Scale the image size and K (e.g. 0.5 for a quick look)")
+    device: EnumProperty(name="Device", items=(("cpu", "CPU", "Render on the CPU"),
+                                               ("gpu", "GPU", "Render on the GPU (CUDA/OptiX/HIP/Metal/oneAPI)")),
+                         default="cpu")
+    # output
+    output_dir: StringProperty(name="Output", description="Output folder (manifest.json, exr/, poses/, scene.ses)",
+                               subtype="DIR_PATH", default="")
+    resume: BoolProperty(name="Resume", default=True,
+                         description="Render only the frames not complete in the output folder")
+    overwrite: BoolProperty(name="Overwrite", default=False,
+                            description="Write into a folder that holds another scene's or other settings' output")
+    # preview
+    preview_frame: IntProperty(name="Frame", min=0, default=0, description="Frame to preview")
+    preview_view: EnumProperty(name="View", items=(("left", "Left", ""), ("right", "Right", "")), default="left")
+    preview_kind: EnumProperty(name="Show", default="disparity",
+                               items=tuple((k, k.capitalize(), f"Preview the {k} of a rendered frame") for k in KINDS))
+    # state shown in the panel
+    status: StringProperty(name="Status", default="")
+    progress: FloatProperty(name="Progress", min=0.0, max=1.0, default=0.0, subtype="FACTOR")
+    origin_scene: StringProperty(name="Origin Scene", default="", options={"HIDDEN"},
+                                 description="The scene the settings came from before a build switched to SESGen")
+
+
+def snapshot(pg) -> dict:
+    """The settings as a plain dict (safe to keep after the scene holding them is gone)."""
+    return {k: getattr(pg, k) for k in pg.bl_rna.properties.keys() if k != "rna_type"}
+
+
+def restore(pg, values: dict) -> None:
+    for k, v in values.items():
+        setattr(pg, k, v)
+
+
+def abspath(path: str) -> str:
+    """A Blender path ('//' = relative to the .blend) as an absolute file-system path."""
+    import os
+    return os.path.abspath(bpy.path.abspath(path)) if path else ""
+
+
+def render_options(values: dict):
+    """RenderOptions from a settings snapshot (None = the script's value)."""
+    from ..contract import RenderOptions
+    o = values["override_render"]
+    return RenderOptions(
+        samples=values["samples"] if o else None,
+        denoise=values["denoise"] if o else None,
+        seed=values["seed"] if o else None,
+        device=values["device"],
+        resolution_scale=float(values["resolution_scale"]),
+        frames=(values["frame_first"], values["frame_last"] + 1) if values["use_frame_range"] else None,
+    )

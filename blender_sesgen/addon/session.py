@@ -1,0 +1,297 @@
+"""What the operators do, as plain functions over a settings snapshot (bpy, no UI).
+
+Everything goes through :class:`blender_sesgen.pipeline.RenderJob`, the code path of the
+command line: ``prepare`` (parse + validate, writes nothing), ``build`` (the builder makes
+the dedicated scene 'SESGen'), ``render_frame`` (one frame, atomically, then the manifest).
+This module only adds what the UI needs around it: leaving the SESGen scene before the
+builder replaces it, a curve showing the camera path, copying the settings onto the new
+scene, and status/progress for the panel.
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+import time
+import uuid
+from pathlib import Path
+from typing import Optional
+
+import bpy
+import numpy as np
+
+from .. import poses
+from ..errors import SesgenError
+from ..pipeline import RenderJob
+from . import props
+from .state import error_line
+
+SCENE_NAME = "SESGen"          # blender.builder.SCENE_NAME (not imported: keeps bpy modules lazy)
+PATH_TAG = "sesgen_camera_path"
+PATH_NAME = "SESGen camera path"
+
+
+# --- status shown in the panel ----------------------------------------------------------
+
+def _settings_scenes(values: dict) -> list:
+    names = {values.get("origin_scene") or "", SCENE_NAME}
+    return [s for s in bpy.data.scenes if s.name in names and hasattr(s, "sesgen")]
+
+
+def set_status(values: dict, text: str, progress: Optional[float] = None, context=None) -> None:
+    """Show ``text`` (and progress 0..1) in the panel of the origin and SESGen scenes."""
+    targets = _settings_scenes(values)
+    if context is not None and getattr(context, "scene", None) is not None and context.scene not in targets:
+        targets.append(context.scene)
+    for s in targets:
+        s.sesgen.status = text
+        if progress is not None:
+            s.sesgen.progress = progress
+    _redraw()
+
+
+def _redraw() -> None:
+    wm = bpy.context.window_manager
+    for win in getattr(wm, "windows", ()):
+        for area in win.screen.areas:
+            if area.type in {"VIEW_3D", "IMAGE_EDITOR"}:
+                area.tag_redraw()
+
+
+# --- build ------------------------------------------------------------------------------
+
+def read_settings(context) -> dict:
+    """Snapshot of ``context.scene.sesgen`` with its origin scene filled in."""
+    values = props.snapshot(context.scene.sesgen)
+    if context.scene.name != SCENE_NAME:
+        values["origin_scene"] = context.scene.name
+    return values
+
+
+def script_path(values: dict) -> str:
+    path = props.abspath(values["script_path"])
+    if not path:
+        raise SesgenError("choose an SES script first")
+    return path
+
+
+def prepare_build_job(values: dict) -> RenderJob:
+    """A job for building only: parsed and validated, its output folder never touched."""
+    nowhere = Path(tempfile.gettempdir()) / f"sesgen-build-only-{uuid.uuid4().hex}"
+    return RenderJob.prepare(script_path(values), nowhere, props.render_options(values))
+
+
+def prepare_render_job(values: dict) -> RenderJob:
+    out = props.abspath(values["output_dir"])
+    if not out:
+        raise SesgenError("choose an output folder first")
+    return RenderJob.prepare(script_path(values), out, props.render_options(values),
+                             resume=values["resume"], force=values["overwrite"])
+
+
+def _fallback_scene(values: dict):
+    origin = bpy.data.scenes.get(values.get("origin_scene") or "")
+    if origin is not None and origin.name != SCENE_NAME:
+        return origin
+    for s in bpy.data.scenes:
+        if s.name != SCENE_NAME:
+            return s
+    return bpy.data.scenes.new("Scene")
+
+
+def _remove_camera_path() -> None:
+    for o in [o for o in bpy.data.objects if o.get(PATH_TAG)]:
+        bpy.data.objects.remove(o)
+    for c in [c for c in bpy.data.curves if c.get(PATH_TAG)]:
+        bpy.data.curves.remove(c)
+
+
+def add_camera_path(built, scene) -> object:
+    """A poly curve through the left camera's positions (not rendered)."""
+    P = np.array([poses.camera_matrix_world(T)[:3, 3] for T in scene.timeline.left()], dtype=float)
+    cu = bpy.data.curves.new(PATH_NAME, "CURVE")
+    cu[PATH_TAG] = 1
+    cu.dimensions = "3D"
+    spline = cu.splines.new("POLY")
+    spline.points.add(len(P) - 1)
+    co = np.concatenate([P, np.ones((len(P), 1))], axis=1).astype(np.float32)
+    spline.points.foreach_set("co", co.ravel())
+    ob = bpy.data.objects.new(PATH_NAME, cu)
+    ob[PATH_TAG] = 1
+    ob["sesgen"] = 1          # the builder's tag: its next clear removes this object too
+    ob.hide_render = True
+    built.collection.objects.link(ob)
+    return ob
+
+
+def build(context, values: dict, job: RenderJob):
+    """``job.build()`` plus the camera path; the windows showing SESGen keep showing it."""
+    wm = context.window_manager
+    windows = list(getattr(wm, "windows", ()))
+    showing = [w for w in windows if w.scene.name == SCENE_NAME]
+    if getattr(context, "window", None) is not None and context.window not in showing:
+        showing.append(context.window)
+    if showing:
+        fallback = _fallback_scene(values)
+        for w in showing:
+            w.scene = fallback
+    _remove_camera_path()
+    job.build()
+    built = job.built
+    add_camera_path(built, job.scene)
+    values = dict(values)
+    props.restore(built.scene.sesgen, values)
+    for w in showing:
+        w.scene = built.scene
+    return built
+
+
+def build_scene(context, values: dict) -> str:
+    """The Build Scene button: returns a one-line report."""
+    job = prepare_build_job(values)
+    built = build(context, values, job)
+    n = sum(len(v) for v in built.objects.values())
+    msg = (f"built {n} objects, {len(built.cameras)} camera(s) keyed over {job.scene.frames} frames "
+           f"in scene '{built.scene.name}'")
+    set_status(values, msg)
+    return msg
+
+
+# --- render -----------------------------------------------------------------------------
+
+class RenderSession:
+    """One render through the pipeline, a frame at a time (the modal operator steps it
+    on a timer; the headless path steps it in a loop). Every completed frame is on disk
+    and marked in the manifest, so stopping between steps leaves a resumable folder."""
+
+    active: Optional["RenderSession"] = None  # at most one render at a time
+
+    def __init__(self, values: dict, job: RenderJob):
+        self.values = values
+        self.job = job
+        self.todo: list[int] = []
+        self.done = 0
+        self.t0 = time.perf_counter()
+        self.cancelled = False
+
+    @classmethod
+    def start(cls, context, values: dict) -> "RenderSession":
+        """Prepare (SesgenError: nothing created), build, write the folder's skeleton."""
+        if cls.active is not None:
+            raise SesgenError("a render is already running")
+        job = prepare_render_job(values)
+        s = cls(values, job)
+        build(context, values, job)
+        job.begin()
+        s.todo = job.pending_frames()
+        cls.active = s
+        set_status(values, s.describe(), 0.0)
+        return s
+
+    @property
+    def total(self) -> int:
+        return len(self.todo)
+
+    @property
+    def finished(self) -> bool:
+        return self.cancelled or self.done >= self.total
+
+    def describe(self) -> str:
+        st = self.job.settings
+        if self.total == 0:
+            return f"nothing to render: frames {self.job.frames[0]}..{self.job.frames[-1]} are complete"
+        if self.done == 0:
+            return f"rendering {self.total} frame(s), {st.width}x{st.height}, {st.samples} samples"
+        el = time.perf_counter() - self.t0
+        eta = el / self.done * (self.total - self.done)
+        return f"frame {self.todo[self.done - 1]}: {self.done}/{self.total} done, ETA {eta:.0f} s"
+
+    def step(self) -> None:
+        """Render the next pending frame (all its views) through ``RenderJob.render_frame``."""
+        if self.finished:
+            return
+        k = self.todo[self.done]
+        self.job.render_frame(k)
+        self.done += 1
+        set_status(self.values, self.describe(), self.done / max(self.total, 1))
+
+    def cancel(self) -> str:
+        self.cancelled = True
+        msg = (f"cancelled after {self.done} of {self.total} frame(s); {self.job.out_dir} is consistent: "
+               "Render again with Resume to continue")
+        self.close(msg)
+        return msg
+
+    def close(self, msg: Optional[str] = None) -> str:
+        if RenderSession.active is self:
+            RenderSession.active = None
+        if msg is None:
+            msg = (f"rendered {self.done} frame(s) into {self.job.out_dir} in {time.perf_counter() - self.t0:.1f} s"
+                   if self.total else self.describe())
+        set_status(self.values, msg, self.done / self.total if self.total else 1.0)
+        return msg
+
+    def fail(self, e: BaseException) -> str:
+        msg = f"render failed at frame {self.todo[self.done] if self.done < self.total else '?'}: {e}"
+        self.cancelled = True
+        return self.close(msg)
+
+
+def render_all(context, values: dict) -> str:
+    """The headless path: every pending frame, synchronously."""
+    s = RenderSession.start(context, values)
+    try:
+        while not s.finished:
+            s.step()
+    except Exception as e:  # noqa: BLE001 - reported; the folder stays consistent
+        raise SesgenError(s.fail(e)) from e
+    return s.close()
+
+
+# --- preview ----------------------------------------------------------------------------
+
+PREVIEW_IMAGE = "SESGen preview"
+
+
+def preview(context, values: dict):
+    """Make the image data-block 'SESGen preview' for the chosen frame/view/kind."""
+    from .preview import preview_rgba
+    out = props.abspath(values["output_dir"])
+    if not out or not os.path.isdir(out):
+        raise SesgenError("no output folder to preview: render first")
+    rgba, text = preview_rgba(out, values["preview_frame"], values["preview_view"], values["preview_kind"])
+    H, W = rgba.shape[:2]
+    img = bpy.data.images.get(PREVIEW_IMAGE)
+    if img is not None and tuple(img.size) != (W, H):
+        bpy.data.images.remove(img)
+        img = None
+    if img is None:
+        img = bpy.data.images.new(PREVIEW_IMAGE, W, H, alpha=True)
+    img.pixels.foreach_set(np.ascontiguousarray(np.flipud(rgba), dtype=np.float32).ravel())
+    img.update()
+    img["sesgen_preview"] = text
+    show_image(context, img)
+    return img, text
+
+
+def show_image(context, img) -> None:
+    """Show ``img`` in an image editor: an open one, else a new window (UI sessions only)."""
+    wm = context.window_manager
+    for win in getattr(wm, "windows", ()):
+        for area in win.screen.areas:
+            if area.type == "IMAGE_EDITOR":
+                area.spaces.active.image = img
+                area.tag_redraw()
+                return
+    if bpy.app.background or getattr(context, "window", None) is None:
+        return  # headless: the image data-block is the result
+    before = set(wm.windows[:])
+    try:
+        bpy.ops.wm.window_new()
+    except RuntimeError:  # no window to copy from: the image data-block is still there
+        return
+    new = [w for w in wm.windows if w not in before]
+    if not new:
+        return
+    area = max(new[0].screen.areas, key=lambda a: a.width * a.height)
+    area.type = "IMAGE_EDITOR"
+    area.spaces.active.image = img

@@ -1,0 +1,91 @@
+"""What the panel shows about a script, without bpy: parse status and scene summary.
+
+The panel redraws often, so ``script_info(path)`` parses a file once per change (cached on
+path, modification time and size) and returns a :class:`ScriptInfo` to draw from.
+"""
+from __future__ import annotations
+
+import os
+from collections import Counter
+from dataclasses import dataclass, field
+from typing import Optional
+
+from ..errors import ScriptError, SesgenError
+from ..model import Scene
+
+
+@dataclass(frozen=True)
+class ScriptInfo:
+    """``state``: 'none' (no path), 'missing', 'error' or 'ok'."""
+    state: str
+    path: str = ""
+    scene: Optional[Scene] = None
+    errors: tuple = ()              # ((line, col, message), ...) in source order
+    message: str = ""               # the first error as one line ("line L:C: message")
+    summary: tuple = field(default=())  # lines for the panel
+
+    @property
+    def ok(self) -> bool:
+        return self.state == "ok"
+
+
+_cache: dict = {}
+
+
+def error_line(e: Exception) -> str:
+    """One line for the panel: ``line 12:30: CUBOID 'dim' needs 3 numbers, got 2``."""
+    if isinstance(e, ScriptError):
+        return f"line {e.line}:{e.col}: {e.message}"
+    return str(e)
+
+
+def summary_lines(scene: Scene) -> tuple[str, ...]:
+    rig = scene.rig
+    kinds = Counter(o.shape for o in scene.objects)
+    objects = ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())) or "none"
+    r = scene.render
+    return (
+        f"Objects: {len(scene.objects)} ({objects})",
+        f"Frames: {scene.frames} ({scene.motion.kind} motion)",
+        f"Rig: {rig.width}x{rig.height} px, f {rig.focal_px:g} px, "
+        + (f"baseline {rig.baseline:g}" if rig.stereo else "monocular"),
+        f"Script render: {r.samples} samples, denoise {'on' if r.denoise else 'off'}, seed {r.seed}",
+    )
+
+
+def parse_script(path: str) -> Scene:
+    """Parse ``path`` (SesgenError/ScriptError on failure)."""
+    from ..ses import parse_file
+    return parse_file(path)
+
+
+def script_info(path: str) -> ScriptInfo:
+    """Parse status and summary of the script at ``path`` (an absolute path or '')."""
+    if not path:
+        return ScriptInfo("none")
+    try:
+        st = os.stat(path)
+    except OSError:
+        return ScriptInfo("missing", path, message=f"no such file: {path}")
+    key = (path, st.st_mtime_ns, st.st_size)
+    hit = _cache.get(path)
+    if hit is not None and hit[0] == key:
+        return hit[1]
+    try:
+        scene = parse_script(path)
+        info = ScriptInfo("ok", path, scene=scene, summary=summary_lines(scene))
+    except ScriptError as e:
+        errs = tuple((x.line, x.col, x.message) for x in getattr(e, "errors", (e,)))
+        info = ScriptInfo("error", path, errors=errs, message=error_line(e))
+    except SesgenError as e:
+        info = ScriptInfo("error", path, message=str(e))
+    _cache[path] = (key, info)
+    return info
+
+
+def forget(path: Optional[str] = None) -> None:
+    """Drop the cached parse of ``path`` (all when None)."""
+    if path is None:
+        _cache.clear()
+    else:
+        _cache.pop(path, None)

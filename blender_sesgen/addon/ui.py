@@ -1,0 +1,101 @@
+"""The 3D-view sidebar tab "SESGen": script, build, render, preview."""
+from __future__ import annotations
+
+import bpy
+
+from . import props, session, state
+
+
+class _SidebarPanel:
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "SESGen"
+
+
+class SESGEN_PT_main(_SidebarPanel, bpy.types.Panel):
+    bl_label = "SES Scene"
+
+    def draw(self, context):
+        s = context.scene.sesgen
+        layout = self.layout
+        row = layout.row(align=True)
+        row.prop(s, "script_path", text="")
+        row.operator("sesgen.check", text="", icon="FILE_REFRESH")
+        info = state.script_info(props.abspath(s.script_path))
+        box = layout.box()
+        if info.state == "none":
+            box.label(text="Choose an .ses script", icon="INFO")
+        elif info.state in ("missing", "error"):
+            box.alert = True
+            box.label(text=info.message, icon="ERROR")
+            for line, col, msg in info.errors[1:4]:
+                box.label(text=f"line {line}:{col}: {msg}")
+            if len(info.errors) > 4:
+                box.label(text=f"... and {len(info.errors) - 4} more errors")
+        else:
+            box.label(text="Script OK", icon="CHECKMARK")
+            col = box.column(align=True)
+            for line in info.summary:
+                col.label(text=line)
+        layout.operator("sesgen.build", icon="SCENE_DATA")
+
+
+class SESGEN_PT_render(_SidebarPanel, bpy.types.Panel):
+    bl_label = "Render"
+    bl_parent_id = "SESGEN_PT_main"
+
+    def draw(self, context):
+        s = context.scene.sesgen
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        col = layout.column(heading="Frames")
+        col.prop(s, "use_frame_range", text="Range")
+        sub = col.column(align=True)
+        sub.active = s.use_frame_range
+        sub.prop(s, "frame_first")
+        sub.prop(s, "frame_last")
+        col = layout.column(heading="Sampling")
+        col.prop(s, "override_render", text="Override Script")
+        sub = col.column(align=True)
+        sub.active = s.override_render
+        sub.prop(s, "samples")
+        sub.prop(s, "denoise")
+        sub.prop(s, "seed")
+        layout.prop(s, "resolution_scale")
+        layout.prop(s, "device")
+        layout.prop(s, "output_dir")
+        col = layout.column(heading="Existing Output")
+        col.prop(s, "resume")
+        col.prop(s, "overwrite")
+        layout.use_property_split = False
+        running = session.RenderSession.active is not None
+        if running and hasattr(layout, "progress"):
+            layout.progress(factor=s.progress, type="BAR", text=f"{s.progress:.0%} (Esc to cancel)")
+        row = layout.row()
+        row.scale_y = 1.4
+        row.operator("sesgen.render", icon="RENDER_ANIMATION")
+        layout.operator("sesgen.open_output", icon="FILE_FOLDER")
+        if s.status:
+            box = layout.box()
+            box.alert = s.status.startswith("Error")
+            box.label(text=s.status, icon="ERROR" if box.alert else "INFO")
+
+
+class SESGEN_PT_preview(_SidebarPanel, bpy.types.Panel):
+    bl_label = "Ground-Truth Preview"
+    bl_parent_id = "SESGEN_PT_main"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        s = context.scene.sesgen
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        layout.prop(s, "preview_kind")
+        layout.prop(s, "preview_frame")
+        layout.prop(s, "preview_view")
+        layout.operator("sesgen.preview", icon="IMAGE_DATA")
+
+
+CLASSES = (SESGEN_PT_main, SESGEN_PT_render, SESGEN_PT_preview)

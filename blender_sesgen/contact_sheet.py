@@ -1,0 +1,139 @@
+"""Contact sheet of a render folder: one PNG, a row per chosen frame with left RGB, right RGB,
+left disparity and left segmentation (pure: numpy + zlib, reads EXRs with ``exr.py``).
+
+    python -m blender_sesgen.contact_sheet OUT [--png OUT/contact_sheet.png] [--frames 4]
+
+RGB: linear beauty -> sRGB, clipped. Disparity d = fx * B / Z (px), colour-mapped from 0 to
+its 99th percentile over the sheet; background black. Segmentation: a fixed colour per id
+(background black). For a monocular render the columns are RGB, inverse depth, segmentation.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import struct
+import sys
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+from .exr import read_exr
+
+GAP = 4  # pixels between panels
+
+
+def write_png(path, rgb: np.ndarray) -> None:
+    """Write an (H, W, 3) uint8 image as an 8-bit RGB PNG (stdlib zlib only)."""
+    rgb = np.ascontiguousarray(rgb, dtype=np.uint8)
+    H, W, _ = rgb.shape
+    raw = np.concatenate([np.zeros((H, 1), dtype=np.uint8), rgb.reshape(H, W * 3)], axis=1).tobytes()
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", W, H, 8, 2, 0, 0, 0))
+           + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b""))
+    tmp = Path(str(path) + ".tmp")
+    tmp.write_bytes(png)
+    tmp.replace(path)
+
+
+def linear_to_srgb8(rgb: np.ndarray) -> np.ndarray:
+    x = np.clip(np.nan_to_num(rgb), 0.0, 1.0)
+    s = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+    return (s * 255 + 0.5).astype(np.uint8)
+
+
+# a perceptually ordered ramp (dark blue -> cyan -> yellow -> dark red), like 'turbo'
+_STOPS = np.array([[0.19, 0.07, 0.23], [0.27, 0.47, 0.93], [0.10, 0.83, 0.78], [0.64, 0.99, 0.24],
+                   [0.98, 0.73, 0.22], [0.88, 0.28, 0.06], [0.48, 0.02, 0.01]])
+
+
+def colormap(t: np.ndarray) -> np.ndarray:
+    t = np.clip(np.nan_to_num(t), 0, 1) * (len(_STOPS) - 1)
+    i = np.minimum(t.astype(int), len(_STOPS) - 2)
+    f = (t - i)[..., None]
+    return ((_STOPS[i] * (1 - f) + _STOPS[i + 1] * f) * 255 + 0.5).astype(np.uint8)
+
+
+def id_colours(ids: np.ndarray) -> np.ndarray:
+    """A fixed, well-spread colour per id (golden-ratio hues); 0 = black."""
+    ids = ids.astype(np.int64)
+    h = (ids * 0.618033988749895) % 1.0
+    s = 0.55 + 0.45 * ((ids * 7) % 3) / 2
+    v = 0.75 + 0.25 * ((ids * 5) % 2)
+    k = (np.stack([5.0, 3.0, 1.0], -1) + h[..., None] * 6) % 6
+    rgb = v[..., None] - v[..., None] * s[..., None] * np.clip(np.minimum(k, 4 - k), 0, 1)
+    rgb[ids == 0] = 0
+    return (rgb * 255 + 0.5).astype(np.uint8)
+
+
+def _panels(out: Path, m: dict, k: int) -> list[np.ndarray]:
+    left = read_exr(out / m["files"]["left"][k])
+    ch = m["channels"]
+    rgb_l = np.stack([left[c] for c in ch["rgb"][:3]], -1)
+    Z = left[ch["depth"]].astype(np.float64)
+    valid = Z < m["depth"]["background"] * 0.5
+    ids = np.rint(left[ch["object_index"]]).astype(np.int64)
+    panels = [linear_to_srgb8(rgb_l)]
+    if "right" in m["views"]:
+        right = read_exr(out / m["files"]["right"][k])
+        panels.append(linear_to_srgb8(np.stack([right[c] for c in ch["rgb"][:3]], -1)))
+        disp = np.where(valid, m["K"][0][0] * m["baseline"] / np.where(valid, Z, 1.0), np.nan)
+    else:
+        disp = np.where(valid, 1.0 / np.where(valid, Z, 1.0), np.nan)
+    panels.append(disp)  # colour-mapped later, with one scale for the sheet
+    panels.append(id_colours(ids))
+    return panels
+
+
+def write_contact_sheet(out_dir, png_path=None, n_frames: int = 4) -> Path:
+    """Write the contact sheet of the render in ``out_dir``; returns the PNG path."""
+    out = Path(out_dir)
+    m = json.loads((out / "manifest.json").read_text())
+    done = [k for k, d in enumerate(m["frames_complete"]) if d]
+    if not done:
+        raise ValueError(f"{out}: no complete frame to show")
+    pick = sorted({done[int(round(i))] for i in np.linspace(0, len(done) - 1, min(n_frames, len(done)))})
+    rows = [_panels(out, m, k) for k in pick]
+    disp_all = np.concatenate([r[-2][np.isfinite(r[-2])] for r in rows] or [np.array([1.0])])
+    scale = float(np.percentile(disp_all, 99)) if disp_all.size else 1.0
+    W, H = m["resolution"]
+    sheet_rows = []
+    for r in rows:
+        d = r[-2]
+        dm = colormap(d / max(scale, 1e-12))
+        dm[~np.isfinite(d)] = 0
+        r[-2] = dm
+        gap = np.full((H, GAP, 3), 255, dtype=np.uint8)
+        row = [r[0]]
+        for p in r[1:]:
+            row += [gap, p]
+        sheet_rows.append(np.concatenate(row, axis=1))
+    hgap = np.full((GAP, sheet_rows[0].shape[1], 3), 255, dtype=np.uint8)
+    parts = [sheet_rows[0]]
+    for sr in sheet_rows[1:]:
+        parts += [hgap, sr]
+    png = Path(png_path) if png_path else out / "contact_sheet.png"
+    write_png(png, np.concatenate(parts, axis=0))
+    return png
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m blender_sesgen.contact_sheet", description=__doc__.splitlines()[0])
+    p.add_argument("out", help="a render folder (with manifest.json)")
+    p.add_argument("--png", help="output PNG (default OUT/contact_sheet.png)")
+    p.add_argument("--frames", type=int, default=4, help="how many frames (rows), evenly spaced")
+    a = p.parse_args(argv)
+    try:
+        png = write_contact_sheet(a.out, a.png, a.frames)
+    except (OSError, ValueError, KeyError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    print(png)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,132 @@
+"""A small pure reader (numpy + zlib) for the EXR files this package writes.
+
+Enough OpenEXR for our own output: scanline images, single- or multi-part (Blender 5.0
+writes one part per pass), compression NONE / ZIPS / ZIP, pixel types UINT / HALF /
+FLOAT. It exists so that the contact sheet and the add-on's preview work inside Blender's
+own Python, which has no OpenEXR module. Other readers (vo_reference, the tests) use the
+OpenEXR package.
+
+    channels = read_exr("exr/left/000000.exr")   # {"ViewLayer.Depth.Z": (H, W) float32, ...}
+"""
+from __future__ import annotations
+
+import struct
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+MAGIC = 20000630
+_PIXEL_DTYPES = {0: np.dtype("<u4"), 1: np.dtype("<f2"), 2: np.dtype("<f4")}
+_LINES_PER_BLOCK = {0: 1, 2: 1, 3: 16}  # NONE, ZIPS, ZIP
+
+
+class ExrError(ValueError):
+    """Not an EXR this reader understands."""
+
+
+def _cstr(buf: bytes, pos: int) -> tuple[str, int]:
+    end = buf.index(b"\0", pos)
+    return buf[pos:end].decode("latin-1"), end + 1
+
+
+def _read_header(buf: bytes, pos: int) -> tuple[dict, int]:
+    header = {}
+    while buf[pos] != 0:
+        name, pos = _cstr(buf, pos)
+        typ, pos = _cstr(buf, pos)
+        (size,) = struct.unpack_from("<i", buf, pos)
+        pos += 4
+        value = buf[pos:pos + size]
+        pos += size
+        if typ == "chlist":
+            chans, p = [], 0
+            while value[p] != 0:
+                cname, p = _cstr(value, p)
+                ptype, _linear, xs, ys = struct.unpack_from("<iB3xii", value, p)
+                p += 16
+                chans.append((cname, ptype, xs, ys))
+            header[name] = chans
+        elif typ == "compression":
+            header[name] = value[0]
+        elif typ == "box2i":
+            header[name] = struct.unpack("<4i", value)
+        elif typ == "int":
+            header[name] = struct.unpack("<i", value)[0]
+        elif typ == "string":
+            header[name] = value.decode("utf-8", "replace")
+        else:
+            header[name] = value
+    return header, pos + 1
+
+
+def _unzip(data: bytes, expected: int) -> bytes:
+    if len(data) >= expected:  # stored uncompressed
+        return data
+    raw = np.frombuffer(zlib.decompress(data), dtype=np.uint8)
+    x = raw.astype(np.int64)
+    x[1:] -= 128
+    t = (np.cumsum(x) & 0xFF).astype(np.uint8)
+    out = np.empty_like(t)
+    half = (len(t) + 1) // 2
+    out[0::2] = t[:half]
+    out[1::2] = t[half:]
+    return out.tobytes()
+
+
+def read_exr(path) -> dict[str, np.ndarray]:
+    """All channels of all parts: {channel name: (H, W) array} (row 0 = top)."""
+    buf = Path(path).read_bytes()
+    if len(buf) < 8 or struct.unpack_from("<i", buf, 0)[0] != MAGIC:
+        raise ExrError(f"{path}: not an OpenEXR file")
+    (version,) = struct.unpack_from("<i", buf, 4)
+    if version & 0x200 or version & 0x800:
+        raise ExrError(f"{path}: tiled or deep EXR not supported")
+    multipart = bool(version & 0x1000)
+    pos = 8
+    headers = []
+    if multipart:
+        while buf[pos] != 0:
+            h, pos = _read_header(buf, pos)
+            headers.append(h)
+        pos += 1
+    else:
+        h, pos = _read_header(buf, pos)
+        headers.append(h)
+    layouts = []
+    for h in headers:
+        comp = h.get("compression", 0)
+        if comp not in _LINES_PER_BLOCK:
+            raise ExrError(f"{path}: compression {comp} not supported (NONE, ZIPS, ZIP only)")
+        x0, y0, x1, y1 = h["dataWindow"]
+        W, H = x1 - x0 + 1, y1 - y0 + 1
+        lpb = _LINES_PER_BLOCK[comp]
+        n_chunks = h.get("chunkCount", -(-H // lpb))
+        layouts.append((h, W, H, y0, lpb, n_chunks))
+    offsets = []
+    for *_, n_chunks in layouts:
+        offsets.append(struct.unpack_from(f"<{n_chunks}Q", buf, pos))
+        pos += 8 * n_chunks
+    out: dict[str, np.ndarray] = {}
+    for part, ((h, W, H, y0, lpb, _), offs) in enumerate(zip(layouts, offsets)):
+        chans = h["channels"]
+        if any(xs != 1 or ys != 1 for _, _, xs, ys in chans):
+            raise ExrError(f"{path}: subsampled channels not supported")
+        arrays = {name: np.empty((H, W), dtype=_PIXEL_DTYPES[pt]) for name, pt, _, _ in chans}
+        row_bytes = sum(W * _PIXEL_DTYPES[pt].itemsize for _, pt, _, _ in chans)
+        for off in offs:
+            p = off + (4 if multipart else 0)
+            y, size = struct.unpack_from("<ii", buf, p)
+            data = buf[p + 8:p + 8 + size]
+            n_lines = min(lpb, y0 + H - y)
+            block = _unzip(data, row_bytes * n_lines) if h.get("compression", 0) else data
+            q = 0
+            for line in range(n_lines):
+                r = y - y0 + line
+                for name, pt, _, _ in chans:
+                    dt = _PIXEL_DTYPES[pt]
+                    arrays[name][r] = np.frombuffer(block, dtype=dt, count=W, offset=q)
+                    q += W * dt.itemsize
+        for name, a in arrays.items():
+            out[name] = a.astype(a.dtype.newbyteorder("="))
+    return out
