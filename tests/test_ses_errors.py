@@ -8,7 +8,6 @@ expectation never comes from the parser itself.
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 import pytest
 

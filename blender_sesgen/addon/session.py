@@ -123,6 +123,15 @@ def add_camera_path(built, scene) -> object:
     return ob
 
 
+def _tag_camera_actions(built) -> None:
+    """Tag the cameras' keyframe actions with the builder's tag so that the next build
+    removes them too (else every rebuild leaves two orphan actions behind)."""
+    for cam in built.cameras.values():
+        ad = cam.animation_data
+        if ad is not None and ad.action is not None:
+            ad.action["sesgen"] = 1
+
+
 def build(context, values: dict, job: RenderJob):
     """``job.build()`` plus the camera path; the windows showing SESGen keep showing it."""
     wm = context.window_manager
@@ -137,6 +146,7 @@ def build(context, values: dict, job: RenderJob):
     _remove_camera_path()
     job.build()
     built = job.built
+    _tag_camera_actions(built)
     add_camera_path(built, job.scene)
     values = dict(values)
     props.restore(built.scene.sesgen, values)

@@ -17,6 +17,7 @@ from .. import model, poses
 from ..intrinsics import default_principal_point
 from ..textures import BUILTIN_TEXTURES, NAME_TO_NUMBER
 from .diagnostics import Diagnostics
+from .geometry import quad_problem
 from .grammar import OBJECT_KEYWORDS, SINGLETON_KEYWORDS
 from .lexer import Token, decode, tokenize
 from .statements import ParsedStatement, TagValue, did_you_mean, read_statement
@@ -251,7 +252,6 @@ class _Builder:
         return dict(position=values[:3], rotation_deg=values[3:] or (0.0, 0.0, 0.0))
 
     def _quad(self, stmt, common):
-        from .geometry import quad_problem
         v = self._vec(stmt, "vertices")
         vertices = (v[0:3], v[3:6], v[6:9], v[9:12])
         problem = quad_problem(vertices)

@@ -1,0 +1,407 @@
+"""The add-on installed as an extension (bpy): install/enable/disable, Build, Render, errors.
+
+Each test runs a child Python with ``BLENDER_USER_RESOURCES`` set to a fresh temporary
+folder before ``import bpy`` (extension install state is process-global). The child
+installs the built zip with ``bpy.ops.extensions.package_install_files``, drives the
+add-on's operators and prints facts as JSON; the checks here compare those facts with the
+scene model (parsed here by the pure core) and with independent statements of the
+conventions in DESIGN.md.
+"""
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from blender_sesgen import contract
+from blender_sesgen.addon import package
+from blender_sesgen.ses import parse_file
+
+pytestmark = [pytest.mark.render,
+              pytest.mark.skipif(importlib.util.find_spec("bpy") is None, reason="needs the bpy wheel")]
+
+REPO = Path(__file__).resolve().parents[1]
+SCENES = sorted((REPO / "scenes").glob("*.ses"))
+MODULE = "bl_ext.user_default.blender_sesgen"
+# SES world (Y up) -> Blender world (Z up): (x, y, z) -> (x, -z, y)   (DESIGN.md)
+C_BLENDER_SES = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])
+FLIP_CV = np.diag([1.0, -1.0, -1.0, 1.0])  # Blender camera <-> OpenCV camera axes
+TOL = 1e-5
+
+PRELUDE = """
+import json, os, sys
+import bpy
+import numpy as np
+ZIP = os.environ["SESGEN_TEST_ZIP"]
+r = bpy.ops.extensions.package_install_files(filepath=ZIP, repo="user_default", enable_on_install=True)
+assert r == {"FINISHED"}, r
+MODULE = "bl_ext.user_default.blender_sesgen"
+RESULT = {"install": sorted(r)}
+def S():
+    return bpy.context.scene.sesgen   # always re-fetch: a build replaces the SESGen scene
+def call(op, **kw):
+    try:
+        return {"result": sorted(op(**kw)), "error": None}
+    except RuntimeError as e:
+        return {"result": None, "error": str(e)}
+def counts():
+    return {k: len(getattr(bpy.data, k)) for k in ("scenes", "objects", "meshes", "materials", "curves",
+            "cameras", "lights", "node_groups", "collections", "worlds", "images", "actions")}
+"""
+
+
+@pytest.fixture(scope="module")
+def addon_zip(tmp_path_factory) -> Path:
+    return package.build_zip(tmp_path_factory.mktemp("dist"))
+
+
+def run_child(body: str, zip_path: Path, tmp: Path) -> dict:
+    user = tmp / "blender_user"
+    user.mkdir(exist_ok=True)
+    script = tmp / "child.py"
+    script.write_text(PRELUDE + textwrap.dedent(body) + '\nprint("SESGEN_RESULT " + json.dumps(RESULT))\n')
+    env = dict(os.environ, BLENDER_USER_RESOURCES=str(user), SESGEN_TEST_ZIP=str(zip_path))
+    r = subprocess.run([sys.executable, str(script)], cwd=tmp, env=env, capture_output=True, text=True, timeout=600)
+    lines = [l for l in r.stdout.splitlines() if l.startswith("SESGEN_RESULT ")]
+    assert r.returncode == 0 and lines, f"child failed (rc {r.returncode}):\n{r.stdout[-4000:]}\n{r.stderr[-4000:]}"
+    return json.loads(lines[-1][len("SESGEN_RESULT "):])
+
+
+def to_ses(P_blender) -> np.ndarray:
+    return np.asarray(P_blender, dtype=float) @ C_BLENDER_SES  # row vectors: C^T p
+
+
+def R_xyz_deg(rx, ry, rz) -> np.ndarray:
+    """R = Rz @ Ry @ Rx (SES rule: X then Y then Z about the world axes)."""
+    a, b, c = np.radians([rx, ry, rz])
+    Rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+    Ry = np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
+    Rz = np.array([[np.cos(c), -np.sin(c), 0], [np.sin(c), np.cos(c), 0], [0, 0, 1]])
+    return Rz @ Ry @ Rx
+
+
+# --- install, register, unregister -----------------------------------------------------
+
+def test_blender_validates_the_zip(addon_zip):
+    """Blender's own extension tool (``blender_ext.py validate``) accepts the zip."""
+    bpy_dir = Path(importlib.util.find_spec("bpy").origin).parent
+    tools = sorted(bpy_dir.glob("*/scripts/addons_core/bl_pkg/cli/blender_ext.py"))
+    assert tools, f"no blender_ext.py under {bpy_dir}"
+    r = subprocess.run([sys.executable, str(tools[-1]), "validate", str(addon_zip)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_zip_installs_enables_and_disables_cleanly(addon_zip, tmp_path):
+    res = run_child("""
+        import addon_utils
+        OPS = ["check", "build", "render", "open_output", "preview", "import_ses"]
+        PANELS = ["SESGEN_PT_main", "SESGEN_PT_render", "SESGEN_PT_preview"]
+        def menu_funcs():
+            return [getattr(f, "__module__", "") for f in getattr(bpy.types.TOPBAR_MT_file_import.draw, "_draw_funcs", [])]
+        def state():
+            ops = {}
+            for o in OPS:
+                try:
+                    bpy.ops.sesgen.__getattr__(o).get_rna_type()
+                    ops[o] = True
+                except KeyError:
+                    ops[o] = False
+            return {"enabled": MODULE in bpy.context.preferences.addons,
+                    "ops": ops, "op_classes": [c for c in dir(bpy.types) if c.startswith("SESGEN_")],
+                    "panels": {p: hasattr(bpy.types, p) for p in PANELS},
+                    "scene_prop": "sesgen" in bpy.types.Scene.bl_rna.properties,
+                    "scene_attr": hasattr(bpy.types.Scene, "sesgen"),
+                    "menu": [m for m in menu_funcs() if "blender_sesgen" in m],
+                    "module_file": getattr(sys.modules.get(MODULE), "__file__", None)}
+        RESULT["enabled"] = state()
+        RESULT["defaults"] = {k: getattr(bpy.context.scene.sesgen, k) for k in ("samples", "resume", "device", "resolution_scale")}
+        bpy.ops.preferences.addon_disable(module=MODULE)
+        RESULT["disabled"] = state()
+        bpy.ops.preferences.addon_enable(module=MODULE)
+        RESULT["reenabled"] = state()
+    """, addon_zip, tmp_path)
+    assert res["install"] == ["FINISHED"]
+    on = res["enabled"]
+    assert on["enabled"] and all(on["ops"].values()), on["ops"]
+    assert all(on["panels"].values()) and on["scene_prop"] and on["scene_attr"]
+    assert len(on["menu"]) == 1
+    assert "/extensions/user_default/blender_sesgen/" in on["module_file"].replace(os.sep, "/")
+    assert res["defaults"] == {"samples": 16, "resume": True, "device": "cpu", "resolution_scale": 1.0}
+    off = res["disabled"]
+    assert not off["enabled"]
+    assert not any(off["ops"].values()), off["ops"]
+    assert off["op_classes"] == [] and not any(off["panels"].values())
+    assert not off["scene_prop"] and not off["scene_attr"] and off["menu"] == []
+    again = res["reenabled"]
+    assert again["enabled"] and all(again["ops"].values()) and len(again["menu"]) == 1
+
+
+# --- Build --------------------------------------------------------------------------------
+
+BUILD_BODY = """
+S().script_path = SCRIPT
+RESULT["build1"] = call(bpy.ops.sesgen.build)
+RESULT["counts1"] = counts()
+RESULT["build2"] = call(bpy.ops.sesgen.build)
+RESULT["counts2"] = counts()
+RESULT["window_scene"] = bpy.context.scene.name
+RESULT["panel_script"] = bpy.context.scene.sesgen.script_path
+sc = bpy.data.scenes["SESGen"]
+RESULT["frame_range"] = [sc.frame_start, sc.frame_end]
+RESULT["names"] = sorted(o.name for o in bpy.data.objects)
+objs = []
+for o in sc.objects:
+    d = {"name": o.name, "type": o.type, "pass_index": o.pass_index, "hide_render": o.hide_render,
+         "collections": [c.name for c in o.users_collection],
+         "matrix_world": [list(r) for r in o.matrix_world]}
+    if o.type == "MESH" and len(o.data.vertices):
+        mw = np.array(o.matrix_world)
+        v = np.array([tuple(x.co) for x in o.data.vertices])
+        d["world_vertices"] = (v @ mw[:3, :3].T + mw[:3, 3]).tolist()
+    if o.type == "MESH" and not len(o.data.vertices):   # a sphere: one point of a point cloud
+        ev = o.evaluated_get(bpy.context.evaluated_depsgraph_get())
+        geometry = ev.evaluated_geometry()   # keep the geometry set alive while reading it
+        pc = geometry.pointcloud
+        d["points"] = [list(ev.matrix_world @ p.co) for p in pc.points]
+        d["radius"] = [p.radius * ev.matrix_world.to_scale()[0] for p in pc.points]
+    if o.type == "CURVE":
+        d["curve_points"] = [list(o.matrix_world @ p.co.xyz) for s in o.data.splines for p in s.points]
+    if o.type == "CAMERA":
+        poses = []
+        for f in range(sc.frame_start, sc.frame_end + 1):
+            sc.frame_set(f)
+            poses.append([list(r) for r in o.matrix_world])
+        d["poses"] = poses
+        from importlib import import_module
+        compat = import_module(MODULE + ".blender.compat")
+        d["keys"] = [len(fc.keyframe_points) for fc in compat.object_fcurves(o)]
+    objs.append(d)
+RESULT["objects"] = objs
+"""
+
+
+@pytest.mark.parametrize("script", SCENES, ids=[p.name for p in SCENES])
+def test_build_creates_the_model_objects_rig_and_path(addon_zip, tmp_path, script):
+    res = run_child(f"SCRIPT = {str(script)!r}\n" + BUILD_BODY, addon_zip, tmp_path)
+    model = parse_file(script)
+    N = model.frames
+    assert res["build1"]["error"] is None and res["build2"]["error"] is None
+    assert res["counts1"] == res["counts2"], "rebuilding must replace, never duplicate"
+    assert not any(n.endswith(".001") for n in res["names"])
+    assert res["window_scene"] == "SESGen" and res["panel_script"] == str(script)
+    assert res["frame_range"] == [0, N - 1]
+
+    objs = res["objects"]
+    by_id = {}
+    for o in objs:
+        if o["pass_index"]:
+            by_id.setdefault(o["pass_index"], []).append(o)
+    assert sorted(by_id) == sorted(o.id for o in model.objects), "pass_index = script id, one object each"
+    for m in model.objects:
+        (o,) = by_id[m.id]
+        assert o["collections"] == ["SESGen objects"]
+        if m.shape == "quad":
+            np.testing.assert_allclose(to_ses(o["world_vertices"]), m.vertices, atol=TOL)
+        elif m.shape == "cuboid":
+            R = R_xyz_deg(*m.rotation_deg)
+            half = np.array(m.size) / 2
+            corners = [np.array(m.position) + R @ (half * s) for s in
+                       np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T]
+            got = to_ses(o["world_vertices"])
+            assert len(got) == 8
+            for c in corners:  # every expected corner is a vertex
+                assert np.min(np.linalg.norm(got - c, axis=1)) < TOL, (m.name, c)
+        elif m.shape == "sphere":
+            np.testing.assert_allclose(to_ses(o["points"]), [m.position], atol=TOL)
+            np.testing.assert_allclose(o["radius"], [m.radius], rtol=1e-6)
+        elif m.shape == "cylinder":
+            R = R_xyz_deg(*m.rotation_deg)
+            local = (to_ses(o["world_vertices"]) - np.array(m.position)) @ R  # rows: R^T (p - c)
+            np.testing.assert_allclose(np.abs(local[:, 1]), m.height / 2, atol=TOL)
+            np.testing.assert_allclose(np.hypot(local[:, 0], local[:, 2]), m.radius, atol=TOL)
+            assert len(local) >= 16
+
+    cams = {o["name"]: o for o in objs if o["type"] == "CAMERA"}
+    expected = contract.view_poses(model)
+    assert sorted(cams) == sorted(f"SESGen_{v}" for v in expected)
+    for view, T_expected in expected.items():
+        cam = cams[f"SESGen_{view}"]
+        assert cam["keys"] and all(k == N for k in cam["keys"]), cam["keys"]
+        assert len(cam["poses"]) == N
+        for k, M in enumerate(cam["poses"]):
+            T = np.array(M) @ FLIP_CV                    # OpenCV camera in Blender's world
+            T_ses = np.eye(4)
+            T_ses[:3, :3] = C_BLENDER_SES.T @ T[:3, :3]
+            T_ses[:3, 3] = C_BLENDER_SES.T @ T[:3, 3]
+            np.testing.assert_allclose(T_ses, T_expected[k], atol=TOL, err_msg=f"{view} frame {k}")
+
+    (path,) = [o for o in objs if o["type"] == "CURVE"]
+    assert path["hide_render"] and path["pass_index"] == 0
+    np.testing.assert_allclose(to_ses(path["curve_points"]), model.timeline.left()[:, :3, 3], atol=TOL)
+
+
+# --- Render (the execute path: every frame synchronously, through RenderJob) -----------------
+
+def test_render_operator_writes_the_output_contract_and_preview(addon_zip, tmp_path):
+    out = tmp_path / "out"
+    res = run_child(f"""
+        S().script_path = {str(REPO / 'scenes' / 'minimal.ses')!r}
+        s = S()
+        s.output_dir = {str(out)!r}
+        s.use_frame_range, s.frame_first, s.frame_last = True, 0, 1
+        s.override_render, s.samples, s.seed = True, 1, 3
+        s.resolution_scale = 0.5
+        RESULT["render"] = call(bpy.ops.sesgen.render)
+        RESULT["status"] = S().status
+        RESULT["progress"] = S().progress
+        previews = {{}}
+        for kind in ("segmentation", "disparity", "depth", "rgb"):
+            S().preview_kind = kind
+            S().preview_view = "right" if kind == "disparity" else "left"
+            S().preview_frame = 1
+            r = call(bpy.ops.sesgen.preview)
+            img = bpy.data.images["SESGen preview"]
+            px = np.empty(len(img.pixels), dtype=np.float32)
+            img.pixels.foreach_get(px)
+            previews[kind] = {{"call": r, "size": list(img.size), "text": img["sesgen_preview"],
+                              "pixels": np.flipud(px.reshape(img.size[1], img.size[0], 4)).round(5).tolist()}}
+        S().preview_frame = 2
+        previews["not_rendered"] = call(bpy.ops.sesgen.preview)
+        RESULT["previews"] = previews
+    """, addon_zip, tmp_path)
+    assert res["render"] == {"result": ["FINISHED"], "error": None}
+    assert res["status"].startswith("rendered 2 frame(s)") and res["progress"] == 1.0
+
+    m = json.loads((out / "manifest.json").read_text())
+    for key in ("format", "generator", "scene_sha256", "resolution", "K", "baseline", "near", "far", "frames",
+                "views", "depth", "segmentation", "channels", "objects", "poses", "trajectories", "files",
+                "frames_complete", "render"):
+        assert key in m, key
+    assert m["format"] == contract.FORMAT
+    assert m["resolution"] == [32, 24] and m["frames"] == 3 and m["views"] == ["left", "right"]
+    assert m["frames_complete"] == [True, True, False]
+    assert m["render"]["samples"] == 1 and m["render"]["seed"] == 3 and m["render"]["resolution_scale"] == 0.5
+    assert (out / "scene.ses").read_text() == (REPO / "scenes" / "minimal.ses").read_text()
+    for v in m["views"]:
+        assert (out / m["trajectories"]["tum"][v]).is_file() and (out / m["trajectories"]["kitti"][v]).is_file()
+        for k in (0, 1):
+            assert (out / m["files"][v][k]).is_file()
+        assert not (out / m["files"][v][2]).exists()
+    assert not [p for p in out.rglob("*") if ".tmp-" in p.name]
+
+    # the EXRs hold the contract's channels; read them with the OpenEXR package (independent reader)
+    OpenEXR = pytest.importorskip("OpenEXR")
+    ids_seen = {}
+    for v in m["views"]:
+        chans = {}
+        with OpenEXR.File(str(out / m["files"][v][1]), separate_channels=True) as f:
+            for part in f.parts:
+                chans.update({n: c.pixels for n, c in part.channels.items()})
+        for n in (*m["channels"]["rgb"], m["channels"]["depth"], m["channels"]["object_index"]):
+            assert n in chans and chans[n].shape == (24, 32), n
+        ids_seen[v] = np.rint(chans[m["channels"]["object_index"]]).astype(int)
+        z = chans[m["channels"]["depth"]]
+        assert np.all(z > 0)
+        if v == "right":
+            z_right = z
+    assert set(np.unique(ids_seen["left"])) <= {0, 1, 2, 3, 4, 5}
+
+    pv = res["previews"]
+    for kind in ("segmentation", "disparity", "depth", "rgb"):
+        assert pv[kind]["call"]["error"] is None, pv[kind]
+        assert pv[kind]["size"] == [32, 24]
+    # segmentation preview: a colour per id, one id per colour, background black
+    seg = np.array(pv["segmentation"]["pixels"])[..., :3]
+    ids = ids_seen["left"]
+    colour_of = {}
+    for i in np.unique(ids):
+        cols = np.unique(seg[ids == i].reshape(-1, 3), axis=0)
+        assert len(cols) == 1, f"id {i} drawn in {len(cols)} colours"
+        colour_of[int(i)] = tuple(cols[0])
+    assert len(set(colour_of.values())) == len(colour_of)
+    if 0 in colour_of:
+        assert colour_of[0] == (0, 0, 0)
+    assert "ids [" in pv["segmentation"]["text"]
+    # disparity preview of the right view: its scale is the largest f*B/Z of that view
+    d_max = m["K"][0][0] * m["baseline"] / z_right[z_right < 1e9].min()
+    assert f"0..{d_max:.2f} px" in pv["disparity"]["text"]
+    assert "not rendered" in pv["not_rendered"]["error"]
+
+
+def test_cancel_leaves_a_resumable_folder_and_resume_completes_it(addon_zip, tmp_path):
+    out = tmp_path / "out"
+    res = run_child(f"""
+        from importlib import import_module
+        session = import_module(MODULE + ".addon.session")
+        S().script_path = {str(REPO / 'scenes' / 'minimal.ses')!r}
+        s = S()
+        s.output_dir = {str(out)!r}
+        s.override_render, s.samples = True, 1
+        s.resolution_scale = 0.5
+        # what the modal operator does: one step per timer tick, then ESC
+        run = session.RenderSession.start(bpy.context, session.read_settings(bpy.context))
+        RESULT["todo"] = list(run.todo)
+        run.step()
+        RESULT["cancel"] = run.cancel()
+        RESULT["active_after_cancel"] = session.RenderSession.active is not None
+        RESULT["manifest_after_cancel"] = json.load(open(os.path.join({str(out)!r}, "manifest.json")))["frames_complete"]
+        RESULT["mtime0"] = os.path.getmtime(os.path.join({str(out)!r}, "exr/left/000000.exr"))
+        RESULT["resume"] = call(bpy.ops.sesgen.render)
+        RESULT["status"] = S().status
+        RESULT["mtime0_after"] = os.path.getmtime(os.path.join({str(out)!r}, "exr/left/000000.exr"))
+        RESULT["again"] = call(bpy.ops.sesgen.render)
+        RESULT["status_again"] = S().status
+    """, addon_zip, tmp_path)
+    assert res["todo"] == [0, 1, 2]
+    assert "cancelled after 1 of 3" in res["cancel"] and not res["active_after_cancel"]
+    assert res["manifest_after_cancel"] == [True, False, False]
+    assert res["resume"]["error"] is None and res["status"].startswith("rendered 2 frame(s)")
+    assert res["mtime0_after"] == res["mtime0"], "resume must not re-render complete frames"
+    m = json.loads((out / "manifest.json").read_text())
+    assert m["frames_complete"] == [True, True, True]
+    assert all((out / m["files"][v][k]).is_file() for v in m["views"] for k in range(3))
+    assert res["again"]["error"] is None and res["status_again"].startswith("nothing to render")
+
+
+# --- errors ------------------------------------------------------------------------------------
+
+BAD = "CAMERA resolution 64 48 focal 40\nSTART position 0 1 3\nCUBOID id 1 position 0 0 0 dim 1 1\nEGO 0 0 0.1 0 0 0\n"
+
+
+def test_bad_script_reports_its_line_and_creates_nothing(addon_zip, tmp_path):
+    bad = tmp_path / "bad.ses"
+    bad.write_text(BAD)
+    out = tmp_path / "out"
+    res = run_child(f"""
+        before = counts()
+        S().script_path = {str(bad)!r}
+        S().output_dir = {str(out)!r}
+        RESULT["build"] = call(bpy.ops.sesgen.build)
+        RESULT["status"] = S().status
+        RESULT["render"] = call(bpy.ops.sesgen.render)
+        RESULT["import"] = call(bpy.ops.sesgen.import_ses, filepath={str(bad)!r})
+        RESULT["check"] = call(bpy.ops.sesgen.check)
+        RESULT["unchanged"] = counts() == before
+        RESULT["scenes"] = [s.name for s in bpy.data.scenes]
+        # a good script with an output folder that holds something else: refused, nothing touched
+        S().script_path = {str(REPO / 'scenes' / 'minimal.ses')!r}
+        os.makedirs({str(out)!r}); open(os.path.join({str(out)!r}, "notes.txt"), "w").write("mine")
+        RESULT["foreign"] = call(bpy.ops.sesgen.render)
+        RESULT["out_files"] = sorted(os.listdir({str(out)!r}))
+    """, addon_zip, tmp_path)
+    for op in ("build", "render", "import", "check"):
+        err = res[op]["error"]
+        assert err is not None, op
+        assert f"{bad}:3:" in err and "dim" in err, (op, err)
+    assert res["status"].startswith("Error: line 3:")
+    assert res["unchanged"] and res["scenes"] == ["Scene"]
+    assert not (out / "manifest.json").exists()
+    assert res["foreign"]["error"] is not None and "not empty" in res["foreign"]["error"]
+    assert res["out_files"] == ["notes.txt"]
