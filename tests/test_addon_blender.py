@@ -313,6 +313,25 @@ def test_render_operator_writes_the_output_contract_and_preview(addon_zip, tmp_p
             z_right = z
     assert set(np.unique(ids_seen["left"])) <= {0, 1, 2, 3, 4, 5}
 
+    # the same images as the command line with the same settings (one code path: RenderJob)
+    cli_out = tmp_path / "cli"
+    r = subprocess.run([sys.executable, "-m", "blender_sesgen", "render", str(REPO / "scenes" / "minimal.ses"),
+                        "--out", str(cli_out), "--frames", "0:2", "--samples", "1", "--seed", "3",
+                        "--resolution-scale", "0.5", "--quiet"], cwd=REPO, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    m_cli = json.loads((cli_out / "manifest.json").read_text())
+    assert m_cli["poses"] == m["poses"] and m_cli["K"] == m["K"] and m_cli["frames_complete"] == m["frames_complete"]
+    for v in m["views"]:
+        for k in (0, 1):
+            a, b = {}, {}
+            for path, d in ((out / m["files"][v][k], a), (cli_out / m["files"][v][k], b)):
+                with OpenEXR.File(str(path), separate_channels=True) as f:
+                    for part in f.parts:
+                        d.update({n: c.pixels.copy() for n, c in part.channels.items()})
+            assert a.keys() == b.keys()
+            for n in a:
+                np.testing.assert_array_equal(a[n], b[n], err_msg=f"{v} {k} {n}")
+
     pv = res["previews"]
     for kind in ("segmentation", "disparity", "depth", "rgb"):
         assert pv[kind]["call"]["error"] is None, pv[kind]
@@ -405,3 +424,48 @@ def test_bad_script_reports_its_line_and_creates_nothing(addon_zip, tmp_path):
     assert not (out / "manifest.json").exists()
     assert res["foreign"]["error"] is not None and "not empty" in res["foreign"]["error"]
     assert res["out_files"] == ["notes.txt"]
+
+
+def test_panels_draw_with_real_properties_and_operators(addon_zip, tmp_path):
+    """Each panel's draw() runs against a recording layout that checks every property and
+    operator it names exists (no window needed)."""
+    bad = tmp_path / "bad.ses"
+    bad.write_text(BAD)
+    res = run_child(f"""
+        from importlib import import_module
+        ui = import_module(MODULE + ".addon.ui")
+        problems, drawn = [], []
+        class Layout:
+            def __init__(self): self.__dict__["attrs"] = {{}}
+            def __setattr__(self, k, v): self.attrs[k] = v
+            def __getattr__(self, k): return self.attrs.get(k, False)
+            def row(self, **kw): return Layout()
+            def column(self, **kw): return Layout()
+            def box(self): return Layout()
+            def label(self, text="", icon="NONE"): drawn.append(text)
+            def progress(self, **kw): drawn.append("progress")
+            def prop(self, data, name, **kw):
+                if name not in data.bl_rna.properties: problems.append("prop " + name)
+            def operator(self, idname, **kw):
+                mod, op = idname.split(".")
+                try:
+                    getattr(getattr(bpy.ops, mod), op).get_rna_type()
+                except KeyError:
+                    problems.append("operator " + idname)
+        class Self: pass
+        def draw_all(tag):
+            for cls in ui.CLASSES:
+                me = Self(); me.layout = Layout()
+                cls.draw(me, bpy.context)
+            RESULT[tag] = list(drawn); drawn.clear()
+        draw_all("empty")
+        S().script_path = {str(REPO / 'scenes' / 'minimal.ses')!r}
+        draw_all("ok")
+        S().script_path = {str(bad)!r}
+        draw_all("error")
+        RESULT["problems"] = problems
+    """, addon_zip, tmp_path)
+    assert res["problems"] == []
+    assert "Choose an .ses script" in res["empty"]
+    assert "Script OK" in res["ok"] and any(t.startswith("Objects: 5") for t in res["ok"])
+    assert any(t.startswith("line 3:") and "dim" in t for t in res["error"])

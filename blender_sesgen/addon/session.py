@@ -23,7 +23,6 @@ from .. import poses
 from ..errors import SesgenError
 from ..pipeline import RenderJob
 from . import props
-from .state import error_line
 
 SCENE_NAME = "SESGen"          # blender.builder.SCENE_NAME (not imported: keeps bpy modules lazy)
 PATH_TAG = "sesgen_camera_path"

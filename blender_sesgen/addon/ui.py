@@ -38,6 +38,10 @@ class SESGEN_PT_main(_SidebarPanel, bpy.types.Panel):
             for line in info.summary:
                 col.label(text=line)
         layout.operator("sesgen.build", icon="SCENE_DATA")
+        if s.status:  # the last build/render/preview result or error
+            box = layout.box()
+            box.alert = s.status.startswith("Error")
+            box.label(text=s.status, icon="ERROR" if box.alert else "INFO")
 
 
 class SESGEN_PT_render(_SidebarPanel, bpy.types.Panel):
@@ -76,10 +80,6 @@ class SESGEN_PT_render(_SidebarPanel, bpy.types.Panel):
         row.scale_y = 1.4
         row.operator("sesgen.render", icon="RENDER_ANIMATION")
         layout.operator("sesgen.open_output", icon="FILE_FOLDER")
-        if s.status:
-            box = layout.box()
-            box.alert = s.status.startswith("Error")
-            box.label(text=s.status, icon="ERROR" if box.alert else "INFO")
 
 
 class SESGEN_PT_preview(_SidebarPanel, bpy.types.Panel):

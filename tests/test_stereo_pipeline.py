@@ -1,0 +1,105 @@
+"""Stereo VO end to end on exactly ray-cast synthetic stereo images (tests/stereo_synth.py)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vo_reference.errors import VoError
+from vo_reference.stereo.blockmatch import sad_disparity, sad_track
+from vo_reference.stereo.groundtruth import GroundTruthStep
+from vo_reference.stereo.pipeline import parse_frames, run_stereo_vo
+
+import stereo_synth as S
+
+
+@pytest.fixture(scope="module")
+def seq():
+    frames, T = S.sequence(S.smooth_twists(5))
+    return S.ArraySequence(frames, T)
+
+
+def test_sad_tracking_finds_integer_shifts():
+    rng = np.random.default_rng(0)
+    import cv2
+    img = cv2.GaussianBlur(rng.integers(0, 255, (120, 160)).astype(np.uint8), (5, 5), 1)
+    moved = np.roll(img, (3, -5), axis=(0, 1))          # content moves by dx=-5, dy=+3
+    pts = np.stack([rng.integers(30, 130, 50), rng.integers(30, 90, 50)], axis=1)
+    p1, cost = sad_track(img, moved, pts, block=9, search=8)
+    np.testing.assert_array_equal(p1 - pts, np.tile([-5, 3], (50, 1)))
+    assert np.all(cost == 0)
+    right = np.roll(img, -7, axis=1)                     # x_right = x_left - 7
+    d, ok = sad_disparity(img, right, pts, block=9, d_max=20)
+    assert ok.all() and np.all(d == 7)
+
+
+def test_sad_disparity_matches_ground_truth_to_a_pixel(seq):
+    from vo_reference.stereo.keypoints import shi_tomasi
+    left, right, depth = seq.image_gray(0), seq.image_gray(0, "right"), seq.depth(0)
+    pts = shi_tomasi(left, 300, 0.01, 7, 10)
+    d, ok = sad_disparity(left, right, pts, 9, 40)
+    d_true = S.F * S.B / depth[pts[:, 1].astype(int), pts[:, 0].astype(int)]
+    assert ok.mean() > 0.8
+    assert np.all(np.abs(d[ok] - d_true[ok]) <= 1.0)
+
+
+def test_ground_truth_correspondences_follow_the_images(seq):
+    """The GT projection (depth + K + pose) lands where the next image shows the same texture."""
+    T = seq.T_world_cam()
+    gt = GroundTruthStep(seq.depth(0), S.K, S.B, np.linalg.inv(T[0]) @ T[1])
+    from vo_reference.stereo.keypoints import shi_tomasi
+    pts = shi_tomasi(seq.image_gray(0), 100, 0.01, 7, 20)
+    l1, _ = gt.correspondences(pts)
+    p1, _ = sad_track(seq.image_gray(0), seq.image_gray(1), pts, 9, 8)
+    assert np.median(np.linalg.norm(p1 - l1, axis=1)) < 0.75
+
+
+def rmse(res):
+    e = res.twists - res.gt_twists
+    e[:, 3:] = np.degrees(e[:, 3:])
+    return np.sqrt((e ** 2).mean(0))
+
+
+def test_paper_method_on_images(seq):
+    r = run_stereo_vo(seq, "paper")
+    e = rmse(r)
+    paper = np.array([0.0049, 0.0101, 0.0062, 0.101, 0.091, 0.057])   # its Table 1 RMSE
+    assert np.all(e < 3 * paper), e                                   # the paper's order of magnitude
+
+
+def test_accurate_method_on_images(seq):
+    r = run_stereo_vo(seq, "accurate")
+    e = rmse(r)
+    assert np.all(e[:3] < 5e-4) and np.all(e[3:] < 0.01), e   # >= 10x below the paper's Table 1
+
+
+def test_accurate_with_gt_depth_and_flow_is_exact(seq):
+    r = run_stereo_vo(seq, "accurate", gt_depth=True, gt_flow=True)
+    err = np.linalg.norm(r.twists - r.gt_twists, axis=1) / np.linalg.norm(r.gt_twists, axis=1)
+    assert err.max() < 1e-3
+    np.testing.assert_allclose(r.trajectory.T_world_cam, seq.T_world_cam(), atol=1e-5)
+
+
+def test_paper_with_gt_depth_and_flow_has_only_the_linearisation_error(seq):
+    r = run_stereo_vo(seq, "paper", gt_depth=True, gt_flow=True)
+    err = np.abs(r.twists - r.gt_twists)
+    assert np.all(err[:, :3] < 1e-3) and np.all(np.degrees(err[:, 3:]) < 0.02)   # < 1/3 of Table 1
+    assert err.max() > 1e-7
+
+
+def test_gt_switches_need_ground_truth(seq):
+    class NoGT(S.ArraySequence):
+        def depth(self, k, view="left"):
+            return None
+    s = NoGT(seq.frames, seq.T_world_cam())
+    with pytest.raises(VoError):
+        run_stereo_vo(s, "paper", gt_depth=True)
+
+
+def test_parse_frames():
+    assert parse_frames(None, 10) == (0, 9)
+    assert parse_frames("2:5", 10) == (2, 4)
+    assert parse_frames(":-1", 10) == (0, 8)
+    with pytest.raises(VoError):
+        parse_frames("5:6", 10)
+    with pytest.raises(VoError):
+        parse_frames("x", 10)

@@ -1,0 +1,66 @@
+"""Plots of a mono VO run: all trajectories together (ours, OpenCV's, ground truth) and the
+per-frame errors. matplotlib is imported only here."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+COLOURS = {"ground truth": "tab:green", "ours": "tab:red", "OpenCV": "tab:blue"}
+
+
+def _plt():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def plot_paths(paths: dict[str, np.ndarray], path, title: str = "") -> Path:
+    """Positions (N, 3) per name; top view x–z (OpenCV world of a forward camera) and the
+    side view z–y (y down, so drawn inverted)."""
+    plt = _plt()
+    fig, axs = plt.subplots(1, 2, figsize=(12, 5.5))
+    for name, P in paths.items():
+        P = np.asarray(P)
+        kw = dict(color=COLOURS.get(name), lw=1.5 if name == "ground truth" else 1.0, label=name)
+        axs[0].plot(P[:, 0], P[:, 2], "-", **kw)
+        axs[1].plot(P[:, 2], P[:, 1], "-", **kw)
+    first = next(iter(paths.values()))
+    axs[0].plot(first[0, 0], first[0, 2], "ko", ms=4, label="start")
+    axs[0].set(xlabel="x (m)", ylabel="z (m)", title="top view")
+    axs[0].set_aspect("equal", adjustable="datalim")
+    axs[1].set(xlabel="z (m)", ylabel="y (m, down)", title="side view")
+    axs[1].invert_yaxis()
+    for ax in axs:
+        ax.grid(True, alpha=0.3)
+    axs[0].legend(loc="best")
+    if title:
+        fig.suptitle(title)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_frame_series(series: dict[str, np.ndarray], path, title: str = "") -> Path:
+    """One panel per named per-frame series (frames 1..N−1), skipping all-nan ones."""
+    plt = _plt()
+    series = {k: np.asarray(v, float) for k, v in series.items() if np.isfinite(np.asarray(v, float)).any()}
+    n = max(1, len(series))
+    fig, axs = plt.subplots(n, 1, figsize=(10, 2.2 * n), sharex=True, squeeze=False)
+    for ax, (name, v) in zip(axs[:, 0], series.items()):
+        ax.plot(np.arange(1, len(v) + 1), v, ".-", lw=0.8, ms=3)
+        ax.set_ylabel(name, fontsize=8)
+        ax.grid(True, alpha=0.3)
+    axs[-1, 0].set_xlabel("frame")
+    if title:
+        fig.suptitle(title)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

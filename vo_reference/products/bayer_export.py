@@ -1,0 +1,100 @@
+"""Export target ``bayer``: a render as raw Bayer frames in the RobotCar style, so the mono
+VO runs on ground truth end to end (demosaic -> undistort -> features -> geometry).
+
+``python -m vo_reference export RENDER OUT --to bayer [--opt pattern=gbrg]
+[--opt dist=k1,k2,p1,p2[,k3]] [--opt view=left]`` writes::
+
+    OUT/<microseconds>.png      8-bit Bayer mosaics (one channel), pattern ``pattern``
+    OUT/stereo.timestamps       '<microseconds> 1' per frame (RobotCar layout)
+    OUT/model.txt               RobotCar camera model: fx fy cx cy + G_camera_image (= I)
+    OUT/poses.txt               ground truth T_world_cam of the view, KITTI format
+    OUT/model_distortion_lut.bin   with ``dist`` only: the undistortion table, RobotCar
+                                binary layout (float64, all u then all v, row-major,
+                                0-based: undistorted pixel -> distorted pixel to sample)
+    OUT/bayer.json              pattern, distortion coefficients, source frames
+
+With ``dist`` (OpenCV coefficients on the render's K) each frame is first distorted — the
+lens acts before the colour filter array — then mosaicked; pixels that would sample
+outside the ideal image are black. Read it back with
+``python -m vo_reference mono-vo OUT --bayer gbrg [--lut OUT/model_distortion_lut.bin]``.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import VoError
+from ..io.files import write_image_atomic, write_text_atomic
+from ..mono.bayer import check_pattern, mosaic
+from ..mono.camera_model import write_camera_model
+from ..mono.undistort import distortion_maps, lut_from_distortion, remap, write_lut
+
+
+def parse_distortion(text: str | None) -> np.ndarray | None:
+    if text is None or not str(text).strip():
+        return None
+    try:
+        d = np.array([float(v) for v in str(text).replace(",", " ").split()])
+    except ValueError:
+        raise VoError(f"dist={text!r}: expected k1,k2,p1,p2[,k3]") from None
+    if d.size not in (4, 5):
+        raise VoError(f"dist={text!r}: expected 4 or 5 coefficients (k1,k2,p1,p2[,k3])")
+    return d
+
+
+def timestamp_names(timestamps_s: np.ndarray) -> list[str]:
+    """16-digit microsecond names (unique, increasing) for the frames' times."""
+    us = np.round(np.asarray(timestamps_s, dtype=float) * 1e6).astype(np.int64)
+    us = us - min(0, int(us.min()))
+    for i in range(1, len(us)):          # keep names unique when times repeat
+        us[i] = max(us[i], us[i - 1] + 1)
+    return [f"{u:016d}" for u in us]
+
+
+def write_bayer_frames(frames_rgb, timestamps_s, T_world_cam, K, out, pattern: str = "gbrg",
+                       dist=None) -> Path:
+    """Write RGB frames (iterable of uint8 (H, W, 3)) in the layout of the module docstring."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    pattern = check_pattern(pattern)
+    names = timestamp_names(timestamps_s)
+    maps = None
+    for name, rgb in zip(names, frames_rgb):
+        rgb = np.asarray(rgb)
+        if rgb.dtype != np.uint8 or rgb.ndim != 3:
+            raise VoError(f"Bayer export needs uint8 RGB frames, got {rgb.dtype} {rgb.shape}")
+        if dist is not None:
+            if maps is None:
+                h, w = rgb.shape[:2]
+                maps = distortion_maps(K, dist, w, h)
+                write_lut(out / "model_distortion_lut.bin", *lut_from_distortion(K, dist, w, h))
+            rgb = remap(rgb, *maps)
+        write_image_atomic(out / f"{name}.png", mosaic(rgb, pattern))
+    write_text_atomic(out / "stereo.timestamps", "".join(f"{int(n)} 1\n" for n in names))
+    write_camera_model(out / "model.txt", K)
+    if T_world_cam is not None:
+        T = np.asarray(T_world_cam)
+        write_text_atomic(out / "poses.txt", "".join(" ".join(f"{v:.9e}" for v in P[:3].ravel()) + "\n" for P in T))
+    return out
+
+
+def export_bayer(seq, out: Path, opts) -> None:
+    """The ``bayer`` target of :mod:`vo_reference.products.exports` (options via --opt)."""
+    from .exports import image_rgb
+    extra = dict(opts.extra)
+    pattern = check_pattern(extra.pop("pattern", "gbrg"))
+    dist = parse_distortion(extra.pop("dist", None))
+    view = extra.pop("view", "left")
+    if extra:
+        raise VoError(f"bayer export: unknown option(s) {', '.join(sorted(extra))} (pattern, dist, view)")
+    if view not in seq.views:
+        raise VoError(f"bayer export: no view {view!r} (views: {', '.join(seq.views)})")
+    frames = list(opts.frames)
+    T = seq.T_world_cam(view)
+    write_bayer_frames((image_rgb(seq, k, view, opts) for k in frames), seq.timestamps_s[frames],
+                       None if T is None else T[frames], seq.K, out, pattern, dist)
+    info = {"pattern": pattern, "view": view, "distortion": None if dist is None else dist.tolist(),
+            "source_frames": frames, "K": np.asarray(seq.K).tolist()}
+    write_text_atomic(Path(out) / "bayer.json", json.dumps(info, indent=1) + "\n")
