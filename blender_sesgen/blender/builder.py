@@ -60,6 +60,11 @@ def clear_previous() -> None:
     """Remove the SESGen scene and every data-block this module created before."""
     old = bpy.data.scenes.get(SCENE_NAME)
     if old is not None:
+        others = [s for s in bpy.data.scenes if s != old] or [bpy.data.scenes.new("Scene")]
+        wm = bpy.context.window_manager
+        for w in (wm.windows if wm is not None else []):
+            if w.scene == old:
+                w.scene = others[0]
         bpy.data.scenes.remove(old)
     for coll_name in _ID_COLLECTIONS:
         coll = getattr(bpy.data, coll_name, None)
@@ -106,12 +111,13 @@ class MaterialFactory:
                 raise SesgenError(f"object {obj.name}: unknown material '{obj.material}'") from None
         tex = obj.texture if obj.texture is not None else (mat_model.texture if mat_model else None)
         colour = tuple(np.multiply(obj.colour, mat_model.colour if mat_model else (1.0, 1.0, 1.0)))
-        key = (tex, colour, mat_model)
+        spherical = isinstance(obj, Sphere) and tex is not None and tex.kind == "image"
+        key = (tex, colour, mat_model, spherical)
         if key not in self.cache:
-            self.cache[key] = self._make(f"sesgen_{obj.name}", colour, tex, mat_model)
+            self.cache[key] = self._make(f"sesgen_{obj.name}", colour, tex, mat_model, spherical)
         return self.cache[key]
 
-    def _make(self, name: str, colour, tex: Optional[TextureRef], m: Optional[Material]):
+    def _make(self, name: str, colour, tex: Optional[TextureRef], m: Optional[Material], spherical: bool = False):
         mat = tag(bpy.data.materials.new(name))
         nt = compat.node_tree(mat)
         nt.nodes.clear()
@@ -119,7 +125,7 @@ class MaterialFactory:
         out.target = "ALL"
         bsdf = nt.nodes.new("ShaderNodeBsdfPrincipled")
         if tex is not None:
-            tex_col = textures.texture_colour(nt, tex)
+            tex_col = textures.texture_colour(nt, tex, spherical)
             mul = nt.nodes.new("ShaderNodeMix")
             mul.data_type, mul.blend_type = "RGBA", "MULTIPLY"
             mul.inputs[0].default_value = 1.0
@@ -254,8 +260,10 @@ def build_mesh(m: Mesh, collection, material) -> list:
     if not os.path.isfile(m.path):
         raise SesgenError(f"MESH {m.name}: file not found: {m.path}")
     before = set(bpy.data.objects)
+    from .render import quiet_stdout
     try:
-        result = _IMPORTERS[ext](m.path)
+        with quiet_stdout():
+            result = _IMPORTERS[ext](m.path)
     except Exception as e:  # importer errors are bad input
         raise SesgenError(f"MESH {m.name}: cannot import {m.source}: {e}") from None
     if "FINISHED" not in result:

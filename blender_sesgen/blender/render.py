@@ -59,6 +59,9 @@ def configure(bscene, *, samples: int, denoise: bool, device: str, threads: int 
         c.denoiser = "OPENIMAGEDENOISE"
     c.use_animated_seed = False
     c.sample_clamp_indirect = 10.0
+    # enough bounces for indirect light in a closed room, fewer than Cycles' 12 (speed)
+    c.max_bounces, c.diffuse_bounces, c.glossy_bounces = 6, 3, 3
+    c.transmission_bounces, c.volume_bounces, c.transparent_max_bounces = 6, 0, 8
     c.caustics_reflective = c.caustics_refractive = False
     r.use_motion_blur = False
     r.film_transparent = False

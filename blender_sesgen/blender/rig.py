@@ -46,6 +46,7 @@ def add_camera(collection, name: str, width: int, height: int, K, near: float, f
     collection.objects.link(obj)
     obj.rotation_mode = "QUATERNION"
     key_poses(obj, T_world_cam)
+    tag(obj.animation_data.action)
     return obj
 
 

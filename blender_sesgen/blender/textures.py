@@ -230,14 +230,23 @@ BUILDERS: dict[str, Callable] = {
 assert set(BUILDERS) == {name for name, _ in BUILTIN_TEXTURES.values()}
 
 
-def texture_colour(nt, ref):
-    """Build the node setup of TextureRef ``ref`` in node tree ``nt``; return its colour socket."""
+def texture_colour(nt, ref, spherical: bool = False):
+    """Build the node setup of TextureRef ``ref`` in node tree ``nt``; return its colour socket.
+
+    Image textures use the UVs, or (``spherical``: spheres, which are point clouds without
+    UVs) a spherical projection of the object-local direction.
+    """
     n = _Nodes(nt)
     coords = n.new("ShaderNodeTexCoord")
     if ref.kind == "image":
         img = bpy.data.images.load(ref.path, check_existing=True)
+        img["sesgen"] = 1
         tex = n.new("ShaderNodeTexImage", interpolation="Cubic", extension="REPEAT")
         tex.image = img
+        if spherical:
+            tex.projection = "SPHERE"
+            n.link(coords.outputs["Object"], tex.inputs["Vector"])
+            return tex.outputs["Color"]
         uv = n.mapping(coords.outputs["UV"], float(ref.scale))
         n.link(uv, tex.inputs["Vector"])
         return tex.outputs["Color"]

@@ -35,8 +35,8 @@ def looks_like_image_folder(root) -> bool:
     return root.is_dir() and any(p.suffix.lower() in IMAGE_EXTS for p in root.iterdir())
 
 
-def read_robotcar_timestamps(path) -> dict[str, float]:
-    """'<microseconds> <chunk>' lines -> {'<microseconds>': seconds}."""
+def read_robotcar_timestamps(path) -> dict[int, float]:
+    """'<microseconds> <chunk>' lines -> {microseconds: seconds}."""
     out = {}
     for lineno, line in enumerate(Path(path).read_text(encoding="utf-8", errors="replace").splitlines(), 1):
         parts = line.split()
@@ -44,7 +44,7 @@ def read_robotcar_timestamps(path) -> dict[str, float]:
             continue
         if not parts[0].isdigit():
             raise VoError(f"{path}:{lineno}: expected '<microseconds> <chunk>', got {line[:60]!r}")
-        out[parts[0]] = int(parts[0]) * 1e-6
+        out[int(parts[0])] = int(parts[0]) * 1e-6
     return out
 
 
@@ -89,10 +89,10 @@ class ImageFolderSequence:
         ts_files = sorted(self.root.glob("*.timestamps"))
         if ts_files:
             table = read_robotcar_timestamps(ts_files[0])
-            missing = [s for s in stems if s not in table]
+            missing = [s for s in stems if not s.isdigit() or int(s) not in table]
             if missing:
                 raise VoError(f"{ts_files[0]}: no timestamp for image {missing[0]} ({len(missing)} missing)")
-            return np.array([table[s] for s in stems])
+            return np.array([table[int(s)] for s in stems])
         if (self.root / "times.txt").is_file():
             t = np.loadtxt(self.root / "times.txt", dtype=float, ndmin=1)
             if len(t) != self.num_frames:

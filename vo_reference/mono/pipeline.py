@@ -34,6 +34,7 @@ class MonoVoConfig:
     refine: str = "sampson"        # none | pnp | sampson
     min_flow_px: float = 0.5       # median flow below this: no motion estimated (static)
     compare_opencv: bool = False
+    opencv_method: str = "usac"    # usac (USAC_ACCURATE) | ransac (classic RANSAC)
 
 
 @dataclass
@@ -108,7 +109,8 @@ def run_mono_vo(gray_of: Callable[[int], np.ndarray], num_frames: int, K: np.nda
             if cfg.compare_opencv:
                 from .opencv_ref import opencv_relative_pose
                 try:
-                    rel_cv = opencv_relative_pose(m.x1, m.x2, K, cfg.threshold_px, cfg.confidence, cfg.seed)
+                    rel_cv = opencv_relative_pose(m.x1, m.x2, K, cfg.threshold_px, cfg.confidence, cfg.seed,
+                                                  cfg.opencv_method)
                     rec.T_rel_cv, rec.n_inliers_cv = rel_cv.T_c1_c2, rel_cv.n_inliers
                 except VoError as e:
                     rec.message += f" (OpenCV: {e})"

@@ -72,7 +72,7 @@ def write_bayer_frames(frames_rgb, timestamps_s, T_world_cam, K, out, pattern: s
                 write_lut(out / "model_distortion_lut.bin", *lut_from_distortion(K, dist, w, h))
             rgb = remap(rgb, *maps)
         write_image_atomic(out / f"{name}.png", mosaic(rgb, pattern))
-    write_text_atomic(out / "stereo.timestamps", "".join(f"{int(n)} 1\n" for n in names))
+    write_text_atomic(out / "stereo.timestamps", "".join(f"{n} 1\n" for n in names))
     write_camera_model(out / "model.txt", K)
     if T_world_cam is not None:
         T = np.asarray(T_world_cam)
