@@ -31,9 +31,9 @@ SPHERE id 4 texture 2 position 0.6 0.5 0 dim 0.4
 """
 
 
-def small_script(tmp_path, steps=2, name="small.ses") -> Path:
+def small_script(tmp_path, steps=2, name="small.ses", extra="") -> Path:
     p = tmp_path / name
-    p.write_text(SMALL + "EGO 0.02 0 -0.1 0 1 0\n" * steps)
+    p.write_text(SMALL + extra + "EGO 0.02 0 -0.1 0 1 0\n" * steps)
     return p
 
 
@@ -48,7 +48,7 @@ def same_exrs(a: Path, b: Path, m: dict) -> None:
 
 def test_output_contract(tmp_path):
     out = tmp_path / "out"
-    script = small_script(tmp_path)
+    script = small_script(tmp_path, extra="NOISE sigma 2.5 seed 7\n")
     r = run_render(script, "--out", out, "--samples", "1")
     assert r.returncode == 0, r.stderr
     # one progress line per frame, with elapsed time and ETA
@@ -65,6 +65,8 @@ def test_output_contract(tmp_path):
     assert m["objects"][3] == {"id": 4, "name": m["objects"][3]["name"], "shape": "sphere", "texture": "voronoi",
                                "material": None}
     assert m["frames_complete"] == [True] * 3
+    assert m["noise"] == {"sigma": 2.5, "seed": 7}
+    assert m["render"]["samples"] == 1 and m["render"]["engine"] == "CYCLES"
     assert (out / "scene.ses").read_text() == script.read_text()
     import hashlib
     assert m["scene_sha256"] == hashlib.sha256(script.read_bytes()).hexdigest()

@@ -149,6 +149,8 @@ class MaterialFactory:
             else:
                 emission.default_value = (*colour, 1.0)
             bsdf.inputs["Emission Strength"].default_value = self.ambient
+            if hasattr(mat, "cycles") and hasattr(mat.cycles, "emission_sampling"):
+                mat.cycles.emission_sampling = "NONE"  # ambient, not a light to sample
         shader = bsdf.outputs["BSDF"]
         if self.scene.fog is not None:
             shader = lighting.fog_mix(nt, shader, self.scene.fog)

@@ -138,7 +138,9 @@ def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: boo
     bpy.app.handlers.render_stats.append(stats)
     t0 = time.perf_counter()
     try:
-        with quiet_stdout(quiet):
+        # the render takes its frame from the *context* scene: make it ours even where
+        # there is no window to activate (blender -b)
+        with quiet_stdout(quiet), bpy.context.temp_override(scene=bscene):
             result = bpy.ops.render.render(write_still=True, scene=bscene.name)
     finally:
         bpy.app.handlers.render_stats.remove(stats)

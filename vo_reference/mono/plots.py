@@ -17,8 +17,8 @@ def _plt():
 
 
 def plot_paths(paths: dict[str, np.ndarray], path, title: str = "") -> Path:
-    """Positions (N, 3) per name; top view x–z (OpenCV world of a forward camera) and the
-    side view z–y (y down, so drawn inverted)."""
+    """Positions (N, 3) per name; top view x–z and side view z–y (the ground plane of a
+    forward-looking OpenCV camera's world is x–z)."""
     plt = _plt()
     fig, axs = plt.subplots(1, 2, figsize=(12, 5.5))
     for name, P in paths.items():
@@ -30,8 +30,7 @@ def plot_paths(paths: dict[str, np.ndarray], path, title: str = "") -> Path:
     axs[0].plot(first[0, 0], first[0, 2], "ko", ms=4, label="start")
     axs[0].set(xlabel="x (m)", ylabel="z (m)", title="top view")
     axs[0].set_aspect("equal", adjustable="datalim")
-    axs[1].set(xlabel="z (m)", ylabel="y (m, down)", title="side view")
-    axs[1].invert_yaxis()
+    axs[1].set(xlabel="z (m)", ylabel="y (m)", title="side view")
     for ax in axs:
         ax.grid(True, alpha=0.3)
     axs[0].legend(loc="best")
