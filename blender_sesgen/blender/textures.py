@@ -88,6 +88,32 @@ class _Nodes:
         self.link(b, m.inputs[7])
         return m.outputs[2]
 
+    def planar(self, p):
+        """Coordinates whose first two axes lie in the surface: the object-local position
+        with its axes permuted so that the axis closest to the normal comes last (for the
+        2-D patterns, bricks and tiles, which only use x and y)."""
+        nrm = self.new("ShaderNodeVectorMath", operation="ABSOLUTE")
+        self.link(self.coords.outputs["Normal"], nrm.inputs[0])
+        sep = self.new("ShaderNodeSeparateXYZ")
+        self.link(nrm.outputs[0], sep.inputs[0])
+        nx, ny, nz = sep.outputs["X"], sep.outputs["Y"], sep.outputs["Z"]
+        fy = self.math("GREATER_THAN", self.math("SUBTRACT", ny, self.math("MAXIMUM", nx, nz)), 0.0)
+        fx = self.math("MULTIPLY", self.math("GREATER_THAN", self.math("SUBTRACT", nx, self.math("MAXIMUM", ny, nz)), 0.0),
+                       self.math("SUBTRACT", 1.0, fy))
+        fz = self.math("SUBTRACT", self.math("SUBTRACT", 1.0, fy), fx)
+        ps = self.new("ShaderNodeSeparateXYZ")
+        self.link(p, ps.inputs[0])
+        x, y, z = ps.outputs["X"], ps.outputs["Y"], ps.outputs["Z"]
+
+        def blend(a, b, c):  # fy * a + fx * b + fz * c
+            return self.math("ADD", self.math("ADD", self.math("MULTIPLY", fy, a), self.math("MULTIPLY", fx, b)),
+                             self.math("MULTIPLY", fz, c))
+        out = self.new("ShaderNodeCombineXYZ")
+        self.link(blend(x, z, x), out.inputs["X"])   # normal ~y: (x, z) ; ~x: (z, y) ; ~z: (x, y)
+        self.link(blend(z, y, y), out.inputs["Y"])
+        self.link(blend(y, x, z), out.inputs["Z"])
+        return out.outputs[0]
+
     def math(self, op, a, b=None):
         m = self.new("ShaderNodeMath", operation=op)
         for i, v in enumerate((a, b)):
@@ -101,6 +127,7 @@ class _Nodes:
 
 
 GREY = lambda v: (v, v, v)  # noqa: E731
+OFFSET = (0.1371, 0.2913, 0.1733)  # scene units, added to object coordinates
 
 
 def _noise(n: _Nodes, p):
@@ -121,7 +148,7 @@ def _voronoi(n: _Nodes, p):
 
 def _bricks(n: _Nodes, p):
     b = n.new("ShaderNodeTexBrick", offset=0.5, offset_frequency=2, squash=1.0, squash_frequency=2)
-    n.link(p, b.inputs["Vector"])
+    n.link(n.planar(p), b.inputs["Vector"])
     b.inputs["Color1"].default_value = (0.55, 0.18, 0.10, 1)
     b.inputs["Color2"].default_value = (0.85, 0.45, 0.30, 1)
     b.inputs["Mortar"].default_value = (0.9, 0.9, 0.85, 1)
@@ -179,7 +206,7 @@ def _granite(n: _Nodes, p):
 
 def _tiles(n: _Nodes, p):
     b = n.new("ShaderNodeTexBrick", offset=0.0, offset_frequency=1, squash=1.0, squash_frequency=1)
-    n.link(p, b.inputs["Vector"])
+    n.link(n.planar(p), b.inputs["Vector"])
     b.inputs["Color1"].default_value = (0.2, 0.35, 0.55, 1)
     b.inputs["Color2"].default_value = (0.9, 0.88, 0.8, 1)
     b.inputs["Mortar"].default_value = (0.08, 0.08, 0.08, 1)
@@ -250,5 +277,11 @@ def texture_colour(nt, ref, spherical: bool = False):
         uv = n.mapping(coords.outputs["UV"], float(ref.scale))
         n.link(uv, tex.inputs["Vector"])
         return tex.outputs["Color"]
-    p = n.mapping(coords.outputs["Object"], float(ref.scale))
+    n.coords = coords
+    # a fixed offset keeps surfaces on coordinate planes (a floor at y = 0) off the
+    # patterns' cell boundaries, where a texture would flicker between two values
+    off = n.new("ShaderNodeVectorMath", operation="ADD")
+    n.link(coords.outputs["Object"], off.inputs[0])
+    off.inputs[1].default_value = OFFSET
+    p = n.mapping(off.outputs[0], float(ref.scale))
     return BUILDERS[ref.name](n, p)
