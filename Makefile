@@ -22,8 +22,13 @@ test: $(STAMP)
 test-fast: $(STAMP)
 	$(PY) -m pytest -q -m "not render and not slow"
 
+# The main job: script -> render (half resolution, 8 samples) -> contact sheet -> both stereo VOs -> report.
 demo: $(STAMP)
 	$(PY) -m blender_sesgen check $(DEMO_SCENE)
+	$(PY) -m blender_sesgen render $(DEMO_SCENE) --out $(DEMO_OUT)/render --resolution-scale 0.5 --samples 8 --no-denoise --resume --force --contact-sheet
+	$(PY) -m vo_reference run $(DEMO_OUT)/render --report $(DEMO_OUT)/report
+	@echo "demo: contact sheet $(DEMO_OUT)/render/contact_sheet.png, report $(DEMO_OUT)/report/"
+
 
 addon:
 	$(PY) -m blender_sesgen.addon.package --out dist
