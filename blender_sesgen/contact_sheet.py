@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import contract
 from .exr import read_exr
 
 GAP = 4  # pixels between panels
@@ -73,15 +74,15 @@ def _panels(out: Path, m: dict, k: int) -> list[np.ndarray]:
     left = read_exr(out / m["files"]["left"][k])
     ch = m["channels"]
     rgb_l = np.stack([left[c] for c in ch["rgb"][:3]], -1)
-    Z = left[ch["depth"]].astype(np.float64)
-    valid = Z < m["depth"]["background"] * 0.5
+    Z = contract.depth_m(left[ch["depth"]])
+    valid = np.isfinite(Z)
     ids = np.rint(left[ch["object_index"]]).astype(np.int64)
     panels = [linear_to_srgb8(rgb_l)]
     if "right" in m["views"]:
         right = read_exr(out / m["files"]["right"][k])
         panels.append(linear_to_srgb8(np.stack([right[c] for c in ch["rgb"][:3]], -1)))
-        disp = np.where(valid, m["K"][0][0] * m["baseline"] / np.where(valid, Z, 1.0), np.nan)
-    else:
+        disp = np.where(valid, contract.disparity_px(Z, m["K"][0][0], m["baseline"]), np.nan)
+    else:  # monocular: show inverse depth instead
         disp = np.where(valid, 1.0 / np.where(valid, Z, 1.0), np.nan)
     panels.append(disp)  # colour-mapped later, with one scale for the sheet
     panels.append(id_colours(ids))

@@ -32,6 +32,18 @@ from .model import Scene, TextureRef
 
 FORMAT = "sesgen-render/1"
 DEPTH_BACKGROUND = 1e10
+
+
+def depth_m(z: np.ndarray) -> np.ndarray:
+    """Cycles' planar depth with the background (1e10) turned into +inf."""
+    z = np.asarray(z, dtype=np.float32)
+    return np.where(z >= DEPTH_BACKGROUND * 0.5, np.inf, z)
+
+
+def disparity_px(depth: np.ndarray, focal_px: float, baseline: float) -> np.ndarray:
+    """Rectified disparity d = fx * B / Z in pixels (0 where Z is infinite)."""
+    with np.errstate(divide="ignore"):
+        return (float(focal_px) * float(baseline) / depth_m(depth)).astype(np.float32)
 DEFAULT_FPS = 25.0
 MANIFEST = "manifest.json"
 SCENE_COPY = "scene.ses"

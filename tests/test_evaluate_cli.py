@@ -8,7 +8,9 @@ import sys
 import numpy as np
 import pytest
 
-from vo_reference.evaluate.disparity_io import read_disparity, read_mask, write_pfm
+from vo_reference.evaluate.disparity_io import read_mask
+from vo_reference.io.pfm import write_pfm
+from vo_reference.products.disparity import read_disparity
 
 HEADLINE = {"ape_trans_rmse", "ape_rot_rmse_deg", "rpe_trans_rmse", "rpe_rot_rmse_deg"}
 

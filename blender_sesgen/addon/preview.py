@@ -23,16 +23,8 @@ from ..exr import read_exr
 KINDS = ("disparity", "segmentation", "depth", "rgb")
 
 
-def depth_m(z: np.ndarray) -> np.ndarray:
-    """Cycles' planar depth with the background (1e10) turned into +inf (DESIGN.md)."""
-    z = np.asarray(z, dtype=np.float32)
-    return np.where(z >= contract.DEPTH_BACKGROUND * 0.5, np.inf, z)
-
-
-def disparity_px(depth: np.ndarray, focal_px: float, baseline: float) -> np.ndarray:
-    """Rectified disparity d = fx * B / Z (0 where Z is infinite)."""
-    with np.errstate(divide="ignore"):
-        return (float(focal_px) * float(baseline) / depth_m(depth)).astype(np.float32)
+depth_m = contract.depth_m
+disparity_px = contract.disparity_px
 
 
 def _rgba(rgb8: np.ndarray) -> np.ndarray:

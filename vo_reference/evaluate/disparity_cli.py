@@ -15,7 +15,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from .disparity import disparity_metrics
-    from .disparity_io import read_disparity, read_mask
+    from ..products.disparity import read_disparity
+    from .disparity_io import read_mask
     from .report import write_json
 
     gt = read_disparity(args.gt)

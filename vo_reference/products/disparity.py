@@ -91,29 +91,62 @@ def write_disparity(path, d: np.ndarray) -> Path:
     raise VoError(f"{path}: unknown disparity format {ext!r} (.pfm, .exr, .npy, .png)")
 
 
-def read_disparity(path) -> np.ndarray:
-    """float32 disparity, NaN invalid, from .pfm, .exr, .npy or KITTI .png."""
+def read_disparity(path, channel: str | None = None) -> np.ndarray:
+    """float32 disparity (px), NaN where invalid, by extension (the one disparity reader):
+
+    - ``.pfm`` (Middlebury 2014 / SceneFlow; inf = invalid), ``.npy``, ``.tif``/``.tiff`` float;
+    - ``.exr``: the only channel, the one named ``channel``, or one whose name is (or ends
+      in ``.``) disparity / Y / R / Z / V;
+    - ``.png``: 16-bit KITTI (value / 256, 0 = invalid) or 8-bit (value = disparity,
+      0 = invalid, as Middlebury 2003 at scale 1).
+    """
     path = Path(path)
+    if not path.is_file():
+        raise VoError(f"{path}: no such disparity file")
     ext = path.suffix.lower()
     if ext == ".pfm":
         d = read_pfm(path)
     elif ext == ".exr":
         from ..io.exr import read_exr_channels
-        ch = read_exr_channels(path)
-        if len(ch) != 1:
-            raise VoError(f"{path}: expected one disparity channel, found {sorted(ch)}")
-        d = next(iter(ch.values()))
+        d = _pick_channel(path, read_exr_channels(path), channel)
     elif ext == ".npy":
-        if not path.is_file():
-            raise VoError(f"{path}: no such file")
-        d = np.load(path)
-    elif ext == ".png":
-        return read_disparity_png16(path)
+        try:
+            d = np.load(path, allow_pickle=False)
+        except (OSError, ValueError) as e:
+            raise VoError(f"{path}: not a readable .npy array ({e})") from None
+    elif ext in (".png", ".tif", ".tiff"):
+        img = read_image(path)
+        if img.ndim == 3:
+            raise VoError(f"{path}: a disparity image must have one channel, got {img.shape[2]}")
+        if ext == ".png" and img.dtype == np.uint16:
+            return png16_to_disparity(img)
+        d = img.astype(np.float32)
+        if np.issubdtype(img.dtype, np.integer):
+            d[img == 0] = np.nan
     else:
-        raise VoError(f"{path}: unknown disparity format {ext!r}")
-    d = np.asarray(d, dtype=np.float32).copy()
+        raise VoError(f"{path}: unknown disparity format {ext!r} (.png, .pfm, .npy, .tif, .exr)")
+    d = np.asarray(d, dtype=np.float32)
+    if d.ndim == 3 and d.shape[2] == 1:
+        d = d[:, :, 0]
+    if d.ndim != 2:
+        raise VoError(f"{path}: expected a 2-D disparity map, got shape {d.shape}")
+    d = d.copy()
     d[~np.isfinite(d)] = np.nan
     return d
+
+
+def _pick_channel(path: Path, channels: dict[str, np.ndarray], channel: str | None) -> np.ndarray:
+    if channel is not None:
+        if channel not in channels:
+            raise VoError(f"{path}: no channel {channel!r} (have {sorted(channels)})")
+        return channels[channel]
+    if len(channels) == 1:
+        return next(iter(channels.values()))
+    for want in ("disparity", "Disparity", "Y", "R", "Z", "V"):
+        for name in sorted(channels):
+            if name == want or name.endswith("." + want):
+                return channels[name]
+    raise VoError(f"{path}: several channels {sorted(channels)}; say which one")
 
 
 # --- visualisation ----------------------------------------------------------------------
