@@ -29,6 +29,10 @@ DEFAULT_SUN_AZIMUTH_DEG = 30.0
 DEFAULT_SUN_STRENGTH = 2.0
 DEFAULT_FILL_IRRADIANCE = 1.5
 DEFAULT_AMBIENT = 0.05
+# Blender's physical sky is in absolute units: at strength 1 a white ground under a 45 deg
+# sun reads ~39 (linear), far past white. ``WORLD sky strength s`` means s / SKY_EXPOSURE,
+# so that strength 1 is well exposed (white ground ~0.75 at 45 deg, ~0.35 at 20 deg).
+SKY_EXPOSURE = 50.0
 
 
 def ses_vec_to_blender(v) -> Vector:
@@ -106,7 +110,7 @@ def build_world(bscene, world: World | None, fog: Fog | None, name: str):
     nt.nodes.clear()
     out = nt.nodes.new("ShaderNodeOutputWorld")
     bg = nt.nodes.new("ShaderNodeBackground")
-    bg.inputs["Strength"].default_value = float(w.strength)
+    bg.inputs["Strength"].default_value = float(w.strength) / (SKY_EXPOSURE if w.kind == "sky" else 1.0)
     if w.kind == "sky":
         sky = nt.nodes.new("ShaderNodeTexSky")
         sky.sky_type = compat.sky_type_for()

@@ -66,7 +66,7 @@ def main() -> None:
            "// Forward 0.2-0.4 m/frame, a left then a right bend (<= 0.4 deg/frame), small bumps and sway.",
            "CAMERA resolution 640 480 focal 389 baseline 0.5 near 0.1 far 500",
            f"START position 0 {EYE_HEIGHT} 0",
-           "LIGHT sun direction -0.4 -1 -0.3 strength 3",
+           "LIGHT sun direction -0.4 -1 -0.3 strength 2",
            "WORLD sky strength 0.6 elevation 40 azimuth 30", ""]
     next_id = 1
     rng = np.random.default_rng(7)
