@@ -72,6 +72,7 @@ class RenderJob:
         self._previous = previous                  # manifest found in the folder (or None)
         self.manifest: Optional[dict] = None       # set by begin()
         self.built = None                          # blender.builder.BuiltScene after build()
+        self.exposure: Optional[float] = None      # film exposure, set by build()
         self.timings: list[FrameResult] = []
 
     # --- preparation (pure, writes nothing) -------------------------------------------
@@ -137,6 +138,10 @@ class RenderJob:
         if self.options.position_pass:
             m["channels"]["position"] = ch["position"]
         m["depth"]["channel"] = ch["depth"]
+        if self.exposure is not None:
+            m["render"]["exposure"] = self.exposure
+            m["render"]["exposure_rule"] = ("auto: default lighting, 90th-percentile luminance of frame 0 = 0.8"
+                                            if not self.scene.lights else "1 (the script's own lights)")
         m["segmentation"]["channel"] = ch["object_index"]
         if self._previous is not None and _same_settings(self._previous, self.settings):
             prev_done = self._previous.get("frames_complete", [])
@@ -163,6 +168,22 @@ class RenderJob:
         render.configure(self.built.scene, samples=s.samples, denoise=s.denoise, device=self.options.device,
                          threads=self.options.threads, normal_pass=self.options.normal_pass,
                          position_pass=self.options.position_pass)
+        self._set_exposure()
+
+    def _set_exposure(self) -> None:
+        """Default lighting only: one film exposure for the whole sequence (blender/exposure.py),
+        taken from the manifest being resumed so that resumed frames match."""
+        if self.scene.lights:
+            self.exposure = 1.0
+            return
+        from .blender import exposure, rig
+        prev = (self._previous or {}).get("render", {}).get("exposure")
+        same_scene = (self._previous or {}).get("scene_sha256") == contract.sha256_text(self.scene_text)
+        if prev is not None and same_scene and _same_settings(self._previous, self.settings):
+            self.exposure = float(prev)
+        else:
+            self.exposure = exposure.measure_exposure(self.built.scene, self.built.cameras["left"], rig.blender_frame(0))
+        exposure.set_exposure(self.built.scene, self.exposure)
 
     def pending_frames(self) -> list[int]:
         """Requested frames not complete yet (all requested ones unless resuming)."""

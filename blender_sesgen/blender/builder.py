@@ -288,7 +288,9 @@ def build_mesh(m: Mesh, collection, material) -> list:
         if o.data is not None:
             tag(o.data)
         kept.append((o, np.array(o.matrix_world)))
-    for o, W in kept:
+    for i, (o, W) in enumerate(kept):  # named after the script, not the file
+        o.name = m.name if len(kept) == 1 else f"{m.name}_{i}"
+        o.data.name = o.name
         o.parent = None
         collection.objects.link(o)
         o.matrix_world = Matrix((place @ W).tolist())

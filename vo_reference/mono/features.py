@@ -12,6 +12,14 @@ from ..errors import VoError
 
 METHODS = ("klt", "orb", "sift")
 
+# KLT defaults. LK assumes the window only translates; in forward motion the flow of a
+# window also scales and shears (most on the road, at grazing angles), so a large window
+# biases the track. PLACEHOLDER
+LK_WINDOW = 21
+LK_LEVELS = 3
+CORNER_QUALITY = 0.01
+CORNER_MIN_DISTANCE = 8
+
 
 @dataclass(frozen=True)
 class Matches:
@@ -69,7 +77,7 @@ def match_descriptors(img1: np.ndarray, img2: np.ndarray, method: str = "orb",
 
 
 def detect_corners(img: np.ndarray, mask: np.ndarray | None = None, max_corners: int = 3000,
-                   min_distance: int = 8, quality: float = 0.01) -> np.ndarray:
+                   min_distance: int = CORNER_MIN_DISTANCE, quality: float = CORNER_QUALITY) -> np.ndarray:
     """Shi-Tomasi corners (N, 2)."""
     import cv2
     pts = cv2.goodFeaturesToTrack(img, maxCorners=max_corners, qualityLevel=quality,
@@ -77,7 +85,7 @@ def detect_corners(img: np.ndarray, mask: np.ndarray | None = None, max_corners:
     return np.zeros((0, 2)) if pts is None else pts.reshape(-1, 2).astype(float)
 
 
-def lk_track(img1: np.ndarray, img2: np.ndarray, x1: np.ndarray, win: int = 21, levels: int = 3,
+def lk_track(img1: np.ndarray, img2: np.ndarray, x1: np.ndarray, win: int = LK_WINDOW, levels: int = LK_LEVELS,
              fb_threshold_px: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Pyramidal LK 1 -> 2 and back 2 -> 1 for every point of ``x1`` (N, 2).
 
@@ -96,7 +104,7 @@ def lk_track(img1: np.ndarray, img2: np.ndarray, x1: np.ndarray, win: int = 21, 
     return p2.reshape(-1, 2).astype(float), fb, ok
 
 
-def track_lk(img1: np.ndarray, img2: np.ndarray, x1: np.ndarray, win: int = 21, levels: int = 3,
+def track_lk(img1: np.ndarray, img2: np.ndarray, x1: np.ndarray, win: int = LK_WINDOW, levels: int = LK_LEVELS,
              fb_threshold_px: float = 1.0) -> Matches:
     """LK tracks of ``x1`` passing the forward-backward check; error = the FB distance."""
     x2, fb, ok = lk_track(img1, img2, x1, win, levels, fb_threshold_px)
@@ -106,11 +114,15 @@ def track_lk(img1: np.ndarray, img2: np.ndarray, x1: np.ndarray, win: int = 21, 
 def correspondences(img1: np.ndarray, img2: np.ndarray, method: str = "klt",
                     mask: np.ndarray | None = None, best_n: int | None = 1000,
                     n_features: int = 3000, ratio: float = 0.75,
-                    fb_threshold_px: float = 1.0) -> Matches:
+                    fb_threshold_px: float = 1.0, lk_window: int = LK_WINDOW,
+                    lk_levels: int = LK_LEVELS, corner_quality: float = CORNER_QUALITY,
+                    corner_min_distance: int = CORNER_MIN_DISTANCE) -> Matches:
     """Matches from frame 1 to frame 2 by ``method`` (klt, orb, sift), both ends inside the
-    mask, sorted by error and cut to the best ``best_n``."""
+    mask, sorted by error and cut to the best ``best_n``. The ``lk_*`` and ``corner_*``
+    settings apply to ``klt``."""
     if method == "klt":
-        m = track_lk(img1, img2, detect_corners(img1, mask, n_features), fb_threshold_px=fb_threshold_px)
+        x1 = detect_corners(img1, mask, n_features, corner_min_distance, corner_quality)
+        m = track_lk(img1, img2, x1, lk_window, lk_levels, fb_threshold_px)
     elif method in ("orb", "sift"):
         m = match_descriptors(img1, img2, method, mask, n_features, ratio)
     else:

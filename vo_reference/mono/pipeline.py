@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import VoError
 from ..lie import se3
-from .features import correspondences
+from .features import CORNER_MIN_DISTANCE, CORNER_QUALITY, LK_LEVELS, LK_WINDOW, correspondences
 from .relative_pose import estimate_relative_pose
 
 
@@ -27,6 +27,10 @@ class MonoVoConfig:
     n_features: int = 3000         # corners / keypoints detected per frame
     ratio: float = 0.75            # Lowe's ratio test (orb, sift)
     fb_threshold_px: float = 1.0   # LK forward-backward check
+    lk_window: int = LK_WINDOW     # LK window side (px)
+    lk_levels: int = LK_LEVELS     # LK pyramid levels above the image
+    corner_quality: float = CORNER_QUALITY        # Shi-Tomasi quality (fraction of the best corner)
+    corner_min_distance: int = CORNER_MIN_DISTANCE  # Shi-Tomasi minimum distance (px)
     threshold_px: float = 1.0      # RANSAC Sampson threshold
     confidence: float = 0.999
     max_iterations: int = 5000
@@ -90,7 +94,8 @@ def run_mono_vo(gray_of: Callable[[int], np.ndarray], num_frames: int, K: np.nda
         img = gray_of(k)
         rec = FrameRecord(k)
         m = correspondences(prev_img, img, cfg.features, mask, cfg.best_n, cfg.n_features,
-                            cfg.ratio, cfg.fb_threshold_px)
+                            cfg.ratio, cfg.fb_threshold_px, cfg.lk_window, cfg.lk_levels,
+                            cfg.corner_quality, cfg.corner_min_distance)
         rec.n_matches = len(m)
         rel = rel_cv = None
         if len(m) >= 8 and np.median(np.linalg.norm(m.x2 - m.x1, axis=1)) < cfg.min_flow_px:

@@ -1,0 +1,52 @@
+"""Automatic exposure for the *default* lighting (scripts with no LIGHT statement).
+
+The default lights (lighting.default_lights) must make any SESGen script "well lit, not
+black" — but no fixed light power suits both a 5 m room and a camera 2 m above a 100 m
+ground. So, once per sequence, a tiny preview of frame 0 (left view) is rendered and the
+film exposure (Cycles' linear ``film_exposure``: scales the beauty pass only; depth and
+object index are geometry) is set so that the 90th percentile of its luminance reads
+TARGET. The same factor is used for every frame and view, so brightness is constant over
+the sequence, as VO assumes; it is recorded in the manifest and reused on --resume.
+Scripts with their own LIGHTs are rendered with exactly the light they ask for.
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+
+import bpy
+import numpy as np
+
+TARGET = 0.8            # linear luminance of the 90th percentile pixel
+PREVIEW_WIDTH = 96      # px; the preview keeps the aspect ratio
+PREVIEW_SAMPLES = 8
+
+
+def measure_exposure(bscene, camera, frame: int) -> float:
+    """The film exposure that brings the preview's 90th-percentile luminance to TARGET."""
+    from ..exr import read_exr
+    from .render import render_view
+
+    r, c = bscene.render, bscene.cycles
+    saved = (r.resolution_percentage, c.samples, c.use_denoising, c.film_exposure)
+    pct = max(1, min(100, int(100 * PREVIEW_WIDTH / max(r.resolution_x, 1))))
+    r.resolution_percentage, c.samples, c.use_denoising, c.film_exposure = pct, PREVIEW_SAMPLES, False, 1.0
+    fd, path = tempfile.mkstemp(suffix=".exr", prefix="sesgen-exposure-")
+    os.close(fd)
+    try:
+        render_view(bscene, camera, frame, seed=0, filepath=path)
+        ch = read_exr(path)
+    finally:
+        r.resolution_percentage, c.samples, c.use_denoising, c.film_exposure = saved
+        if os.path.exists(path):
+            os.remove(path)
+    rgb = [ch[k] for k in sorted(ch) if k.endswith("Combined.R") or k.endswith("Combined.G") or k.endswith("Combined.B")]
+    lum = 0.2126 * rgb[2] + 0.7152 * rgb[1] + 0.0722 * rgb[0]  # sorted: B, G, R
+    p90 = float(np.percentile(lum, 90))
+    if not np.isfinite(p90) or p90 <= 1e-6:
+        return 1.0  # nothing lit in view: leave the exposure alone
+    return float(np.clip(TARGET / p90, 1e-4, 1e4))
+
+
+def set_exposure(bscene, exposure: float) -> None:
+    bscene.cycles.film_exposure = float(exposure)
