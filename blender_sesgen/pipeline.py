@@ -140,7 +140,7 @@ class RenderJob:
         m["depth"]["channel"] = ch["depth"]
         if self.exposure is not None:
             m["render"]["exposure"] = self.exposure
-            m["render"]["exposure_rule"] = ("auto: default lighting, 90th-percentile luminance of frame 0 = 0.8"
+            m["render"]["exposure_rule"] = ("auto: default lighting, 90th-percentile luminance of frame 0 = 0.6"
                                             if not self.scene.lights else "1 (the script's own lights)")
         m["segmentation"]["channel"] = ch["object_index"]
         if self._previous is not None and _same_settings(self._previous, self.settings):

@@ -17,7 +17,7 @@ import tempfile
 import bpy
 import numpy as np
 
-TARGET = 0.8            # linear luminance of the 90th percentile pixel
+TARGET = 0.6            # linear luminance of the 90th percentile pixel (sRGB ~200: highlights keep texture)
 PREVIEW_WIDTH = 96      # px; the preview keeps the aspect ratio
 PREVIEW_SAMPLES = 8
 
