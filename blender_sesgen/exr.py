@@ -1,10 +1,10 @@
 """A small pure reader (numpy + zlib) for the EXR files this package writes.
 
 Enough OpenEXR for our own output: scanline images, single- or multi-part (Blender 5.0
-writes one part per pass), compression NONE / ZIPS / ZIP, pixel types UINT / HALF /
-FLOAT. It exists so that the contact sheet and the add-on's preview work inside Blender's
-own Python, which has no OpenEXR module. Other readers (vo_reference, the tests) use the
-OpenEXR package.
+writes one part per pass, 4.x one part holding every pass), compression NONE / ZIPS /
+ZIP, pixel types UINT / HALF / FLOAT. It exists so that the contact sheet and the
+add-on's preview work inside Blender's own Python, which has no OpenEXR module. Other
+readers (vo_reference, the tests) use the OpenEXR package.
 
     channels = read_exr("exr/left/000000.exr")   # {"ViewLayer.Depth.Z": (H, W) float32, ...}
 """

@@ -138,6 +138,7 @@ class RenderJob:
         if self.options.position_pass:
             m["channels"]["position"] = ch["position"]
         m["depth"]["channel"] = ch["depth"]
+        m["render"]["exr"]["layout"] = ch.get("layout", m["render"]["exr"]["layout"])
         if self.exposure is not None:
             m["render"]["exposure"] = self.exposure
             m["render"]["exposure_rule"] = ("auto: default lighting, 90th-percentile luminance of frame 0 = 0.6"

@@ -166,11 +166,10 @@ for o in sc.objects:
         v = np.array([tuple(x.co) for x in o.data.vertices])
         d["world_vertices"] = (v @ mw[:3, :3].T + mw[:3, 3]).tolist()
     if o.type == "MESH" and not len(o.data.vertices):   # a sphere: one point of a point cloud
-        ev = o.evaluated_get(bpy.context.evaluated_depsgraph_get())
-        geometry = ev.evaluated_geometry()   # keep the geometry set alive while reading it
-        pc = geometry.pointcloud
-        d["points"] = [list(ev.matrix_world @ p.co) for p in pc.points]
-        d["radius"] = [p.radius * ev.matrix_world.to_scale()[0] for p in pc.points]
+        from importlib import import_module
+        pts = import_module(MODULE + ".blender.compat").evaluated_points(o)  # 4.2+ and 5.0
+        d["points"] = [list(c) for c, _ in pts]
+        d["radius"] = [r for _, r in pts]
     if o.type == "CURVE":
         d["curve_points"] = [list(o.matrix_world @ p.co.xyz) for s in o.data.splines for p in s.points]
     if o.type == "CAMERA":

@@ -6,7 +6,13 @@
 - node trees of materials/worlds: 5.0 always has one (``use_nodes`` is deprecated), 4.x
   needs ``use_nodes = True``;
 - pass names in multilayer EXR channels: ``Object Index`` (5.0) vs ``IndexOB`` (4.x);
-- Principled BSDF: ``Specular IOR Level`` (4.0+) vs ``Specular`` (3.x).
+- Principled BSDF: ``Specular IOR Level`` (4.0+) vs ``Specular`` (3.x);
+- physical sky: ``MULTIPLE_SCATTERING`` (5.0) vs ``NISHITA`` (4.x) (``sky_type_for``);
+- evaluated geometry: ``Object.evaluated_geometry()`` (4.5+) vs the point cloud of a
+  geometry-nodes object appearing as a depsgraph instance (4.2-4.4) (``evaluated_points``).
+
+Verified with the ``bpy`` wheels 4.2.23 LTS, 4.4.0, 4.5.15 LTS and 5.0.1 (docs/rendering.md,
+bench/check_blender_versions.sh).
 """
 from __future__ import annotations
 
@@ -47,6 +53,8 @@ def exr_channel_names(view_layer: str = "ViewLayer") -> dict:
         "object_index": f"{view_layer}.{index_pass}.X",
         "normal": [f"{view_layer}.Normal.{c}" for c in "XYZ"],
         "position": [f"{view_layer}.Position.{c}" for c in "XYZ"],
+        "layout": ("multilayer, one part per pass" if version() >= (5, 0, 0)
+                   else "multilayer, one part holding every pass"),
     }
 
 
@@ -87,3 +95,26 @@ def sky_type_for(preferred: tuple[str, ...] = ("MULTIPLE_SCATTERING", "NISHITA",
         if p in items:
             return p
     return items[0]
+
+
+def evaluated_points(obj, depsgraph=None) -> list[tuple]:
+    """World-space (centre, radius) of the points of ``obj``'s evaluated point cloud (the
+    SPHERE primitive: one point made by geometry nodes on an empty mesh).
+
+    4.5+ reads ``Object.evaluated_geometry().pointcloud``; 4.2-4.4 have no such API, there the
+    point cloud is an instance (of the evaluated object) in ``depsgraph.object_instances``.
+    """
+    dg = depsgraph if depsgraph is not None else bpy.context.evaluated_depsgraph_get()
+    ev = obj.evaluated_get(dg)
+    if hasattr(ev, "evaluated_geometry"):  # 4.5+
+        geometry = ev.evaluated_geometry()  # keep the geometry set alive while reading it
+        pc = geometry.pointcloud
+        mw = ev.matrix_world
+        return [] if pc is None else [(tuple(mw @ p.co), p.radius * mw.to_scale()[0]) for p in pc.points]
+    out = []
+    for inst in dg.object_instances:
+        io = inst.object
+        if io.type == "POINTCLOUD" and io.original == obj.original:
+            mw = inst.matrix_world
+            out += [(tuple(mw @ p.co), p.radius * mw.to_scale()[0]) for p in io.data.points]
+    return out

@@ -3,6 +3,7 @@
 Blender 5.0 writes a multilayer EXR as one part per pass (``ViewLayer.Combined``,
 ``ViewLayer.Depth``, ``ViewLayer.Object Index``...), so a reader must walk all parts; a
 reader that looks at the first part only (``cv2.imread``) sees just the beauty pass.
+Blender 4.x writes a single part holding every pass (index pass named ``IndexOB``).
 """
 from __future__ import annotations
 

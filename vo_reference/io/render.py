@@ -7,6 +7,9 @@
     OUT/exr/right/NNNNNN.exr   ViewLayer.Combined.R/G/B/A, ViewLayer.Depth.Z,
                                ViewLayer.Object Index.X (float32)
 
+Blender 4.x writes the same channels in one single-part file and names the index pass
+``IndexOB`` (``ViewLayer.IndexOB.X``): both layouts and both names read the same.
+
 Depth is planar z; Cycles writes 1e10 (the manifest's ``depth.background``) where a ray
 hits nothing: the reader returns +inf there, never a finite depth.
 """

@@ -29,7 +29,7 @@ from ..lie import se3, se3_exp, se3_inverse
 from .blockmatch import sad_disparity
 from .groundtruth import backproject
 from .keypoints import shi_tomasi
-from .motion_field import T_to_twist
+from .motion_field import T_to_twist, solve_small
 from .paper import StepResult
 
 
@@ -52,20 +52,36 @@ class AccurateParams:
     huber_px: float = 0.5        # Huber threshold of the refinement, px
     inlier_px: float = 1.0       # final inlier threshold, px
     gn_iterations: int = 10
+    carry_tracks: bool = True      # carry inlier keypoints to the next step (else fresh corners each step)
+    retrack_fraction: float = 0.7  # detect new corners when fewer carried keypoints survive
 
 
-class _Pyramids:
-    """LK settings shared by the calls of one run (OpenCV's Python binding cannot take
-    prebuilt pyramids, so each call builds its own)."""
+class StereoTracks:
+    """State carried from one step to the next (keypoints are tracked, not re-detected).
+
+    After a step k -> k+1 it holds the inlier keypoints' sub-pixel left and right positions
+    in frame k+1 (``left`` is that frame's left image), so the next step starts from them and
+    only tops up with new corners (and their stereo matching) where too few survive. This
+    halves the per-frame image work; positions and disparities are measured exactly as for
+    fresh corners (LK with a forward-backward check, 1-D row LK)."""
 
     def __init__(self, params: AccurateParams):
         self.p = params
+        self.left: np.ndarray | None = None
+        self.pts = np.zeros((0, 2))
+        self.pr = np.zeros((0, 2))
 
-    def get(self, img: np.ndarray) -> np.ndarray:
-        return img
+    def carried(self, left0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Left/right positions (N, 2) in ``left0`` carried from the previous step, if it ended there."""
+        if self.left is left0:
+            return self.pts, self.pr
+        return np.zeros((0, 2)), np.zeros((0, 2))
+
+    def keep(self, left1: np.ndarray, pts: np.ndarray, pr: np.ndarray) -> None:
+        self.left, self.pts, self.pr = left1, pts, pr
 
 
-def _lk(pyr: _Pyramids, a: np.ndarray, b: np.ndarray, pts: np.ndarray, guess: np.ndarray | None = None):
+def _lk(pyr: StereoTracks, a: np.ndarray, b: np.ndarray, pts: np.ndarray, guess: np.ndarray | None = None):
     p = pyr.p
     crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, p.lk_iterations, 0.01)
     flags = 0
@@ -73,13 +89,13 @@ def _lk(pyr: _Pyramids, a: np.ndarray, b: np.ndarray, pts: np.ndarray, guess: np
     if guess is not None:
         flags = cv2.OPTFLOW_USE_INITIAL_FLOW
         nxt = guess.astype(np.float32).reshape(-1, 1, 2).copy()
-    out, st, _ = cv2.calcOpticalFlowPyrLK(pyr.get(a), pyr.get(b), pts.astype(np.float32).reshape(-1, 1, 2), nxt,
+    out, st, _ = cv2.calcOpticalFlowPyrLK(a, b, pts.astype(np.float32).reshape(-1, 1, 2), nxt,
                                           winSize=(p.lk_window, p.lk_window), maxLevel=p.lk_levels,
                                           criteria=crit, flags=flags)
     return out.reshape(-1, 2).astype(np.float64), st.reshape(-1).astype(bool)
 
 
-def track_fb(pyr: _Pyramids, a, b, pts, guess=None):
+def track_fb(pyr: StereoTracks, a, b, pts, guess=None):
     """LK a -> b with a forward–backward check; returns positions in b and a validity mask."""
     if pts.shape[0] == 0:
         return np.zeros((0, 2)), np.zeros(0, bool)
@@ -174,7 +190,7 @@ def refine_pose(P0: np.ndarray, obs_left: np.ndarray, obs_right: np.ndarray | No
         Aw = A * w[:, None, None]
         Hm = np.einsum("nij,nik->jk", Aw, A)
         g = np.einsum("nij,ni->j", Aw, r)
-        delta = -np.linalg.solve(Hm + 1e-9 * np.eye(6), g)
+        delta = -solve_small(Hm + 1e-9 * np.eye(6), g)
         T = se3_exp(delta[3:], delta[:3]) @ T
         if np.linalg.norm(delta) < 1e-12:
             break
@@ -223,22 +239,47 @@ def estimate_motion(P0: np.ndarray, obs_left: np.ndarray, obs_right: np.ndarray 
     return se3_inverse(T), inl
 
 
+def _detect(left0: np.ndarray, right0: np.ndarray, have: np.ndarray, p: AccurateParams) -> tuple[np.ndarray, np.ndarray]:
+    """New Shi–Tomasi corners away from the ``have`` (N, 2) points, with their stereo match."""
+    n_new = p.max_corners - have.shape[0]
+    if n_new <= 0:
+        return np.zeros((0, 2)), np.zeros((0, 2))
+    pts = shi_tomasi(left0, p.max_corners, p.quality, p.min_distance, p.lk_window // 2 + 1)
+    if have.shape[0]:
+        # drop corners closer than min_distance to a carried point (one grid look-up)
+        occ = np.zeros(left0.shape, np.uint8)
+        hi = np.rint(have).astype(int)
+        ok = (hi[:, 0] >= 0) & (hi[:, 0] < occ.shape[1]) & (hi[:, 1] >= 0) & (hi[:, 1] < occ.shape[0])
+        occ[hi[ok, 1], hi[ok, 0]] = 1
+        r = int(np.ceil(p.min_distance))
+        occ = cv2.dilate(occ, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1)))
+        pts = pts[occ[pts[:, 1].astype(int), pts[:, 0].astype(int)] == 0]
+    pts = pts[:n_new]
+    pr, ok = stereo_match(left0, right0, pts, p)
+    return pts[ok], pr[ok]
+
+
 def accurate_step(left0, right0, left1, right1, K: np.ndarray, baseline_m: float,
                   params: AccurateParams | None = None, gt=None, gt_depth: bool = False, gt_flow: bool = False,
-                  pyramids: _Pyramids | None = None) -> StepResult:
+                  tracks: StereoTracks | None = None) -> StepResult:
     """Accurate estimate of the step k -> k+1 from the stereo pairs at k and k+1.
 
+    ``tracks``: state of a running sequence; keypoints that ended the previous step in
+    ``left0`` are carried on, and new corners are detected only when fewer than
+    ``retrack_fraction`` of ``max_corners`` survive (fresh corners every step without it).
     ``gt_depth``: frame-k depth from the render (``gt``), no stereo matching at k; the
     refinement then uses the left image at k+1 only unless ``gt_flow`` also gives the exact
     right positions. ``gt_flow``: exact left/right positions at k+1 from the ground truth.
+    With either switch corners are detected afresh at integer pixels every step (where the
+    depth pass is exact).
     """
     p = params or AccurateParams()
     if (gt_depth or gt_flow) and gt is None:
         raise VoError("--gt-depth/--gt-flow need ground truth (a render folder with depth and poses)")
-    pyr = pyramids or _Pyramids(p)
-    margin = p.lk_window // 2 + 1
-    pts = shi_tomasi(left0, p.max_corners, p.quality, p.min_distance, margin)
+    trk = tracks or StereoTracks(p)
     f = K[0, 0]
+    if gt_depth or gt_flow:
+        pts = shi_tomasi(left0, p.max_corners, p.quality, p.min_distance, p.lk_window // 2 + 1)
     if gt_depth:
         Z = gt.depth(pts)
         ok = np.isfinite(Z)
@@ -246,25 +287,36 @@ def accurate_step(left0, right0, left1, right1, K: np.ndarray, baseline_m: float
         P0 = backproject(pts, Z, K)
         disp = f * baseline_m / Z
     else:
-        pr, ok = stereo_match(left0, right0, pts, p)
-        pts, pr = pts[ok], pr[ok]
+        if gt_flow:
+            pr, ok = stereo_match(left0, right0, pts, p)
+            pts, pr = pts[ok], pr[ok]
+        else:
+            pts, pr = trk.carried(left0) if p.carry_tracks else (np.zeros((0, 2)), np.zeros((0, 2)))
+            if pts.shape[0] < p.retrack_fraction * p.max_corners:
+                pn, prn = _detect(left0, right0, pts, p)
+                pts, pr = np.concatenate([pts, pn]), np.concatenate([pr, prn])
         disp = pts[:, 0] - pr[:, 0]
         P0 = triangulate(pts, pr, K, baseline_m)
+    r1_all = None
     if gt_flow:
         l1, r1 = gt.correspondences(pts)
         ok = np.all(np.isfinite(l1), axis=1)
         P0, pts, l1, r1 = P0[ok], pts[ok], l1[ok], r1[ok]
     else:
-        l1, ok = track_fb(pyr, left0, left1, pts)
+        l1, ok = track_fb(trk, left0, left1, pts)
         P0, pts, l1, disp = P0[ok], pts[ok], l1[ok], disp[ok]
         if gt_depth:
             r1 = None
         else:
             r1, okr = stereo_match(left1, right1, l1, p, disp)
             r1[~okr] = np.nan
+            r1_all = r1
             if not p.use_right:
                 r1 = None
     T_k_k1, inl = estimate_motion(P0, l1, r1, K, baseline_m, p, robust=not (gt_depth and gt_flow))
+    if r1_all is not None and not gt_flow:
+        keep = inl & np.all(np.isfinite(r1_all), axis=1)
+        trk.keep(left1, l1[keep], r1_all[keep])
     return StepResult(T_to_twist(T_k_k1), T_k_k1, int(inl.sum()), pts[inl], l1[inl], P0[inl, 2])
 
 
@@ -285,38 +337,47 @@ def row_lk_disparity(left: np.ndarray, right: np.ndarray, pts: np.ndarray, d0: n
     Lf = left.astype(np.float32)
     Rf = right.astype(np.float32)
     Rx = cv2.Sobel(Rf, cv2.CV_32F, 1, 0, ksize=1, scale=0.5)      # central difference
-    o = np.arange(-half, half + 1, dtype=np.float64)
+    RG = cv2.merge([Rf, Rx])                                     # one remap samples both
+    o = np.arange(-half, half + 1, dtype=np.float32)
     m = o.size * o.size
-    ys = (P[:, 1, None, None] + o[None, :, None] + 0 * o[None, None, :]).reshape(n, m).astype(np.float32)
-    xs0 = (P[:, 0, None, None] + 0 * o[None, :, None] + o[None, None, :]).reshape(n, m)
-    T = cv2.remap(Lf, xs0.astype(np.float32), ys, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE).astype(np.float64)
+    Pf = P.astype(np.float32)
+    ys = np.ascontiguousarray(np.broadcast_to(Pf[:, 1, None, None] + o[None, :, None], (n, o.size, o.size)).reshape(n, m))
+    xs0 = np.ascontiguousarray(np.broadcast_to(Pf[:, 0, None, None] + o[None, None, :], (n, o.size, o.size)).reshape(n, m))
+    T = cv2.remap(Lf, xs0, ys, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     d = np.asarray(d0, dtype=np.float64).copy()
     a = np.ones(n)
     b = np.zeros(n)
+    act = np.arange(n)                       # points still moving (> 1e-3 px per iteration)
     for _ in range(iterations):
-        mx = (xs0 - d[:, None]).astype(np.float32)
-        Rw = cv2.remap(Rf, mx, ys, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE).astype(np.float64)
-        Gw = cv2.remap(Rx, mx, ys, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE).astype(np.float64)
-        r = a[:, None] * Rw + b[:, None] - T                     # residual
-        J_d = -a[:, None] * Gw                                    # d r / d d
+        full = act.size == n
+        xa, ya, Ta = (xs0, ys, T) if full else (xs0[act], ys[act], T[act])
+        da, aa = d[act], a[act].astype(np.float32)
+        mx = xa - da.astype(np.float32)[:, None]
+        RGw = cv2.remap(RG, mx, ya, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        Rw, Gw = RGw[..., 0], RGw[..., 1]
+        r = aa[:, None] * Rw + b[act, None].astype(np.float32) - Ta  # residual
+        J_d = -aa[:, None] * Gw                                   # d r / d d
         if gain_bias:
             # normal equations of the Jacobian columns [J_d, Rw, 1], summed over the window
-            s_dd, s_dR, s_d1 = (J_d * J_d).sum(1), (J_d * Rw).sum(1), J_d.sum(1)
-            s_RR, s_R1 = (Rw * Rw).sum(1), Rw.sum(1)
-            Hm = np.empty((n, 3, 3))
+            f8 = np.float64
+            s_dd, s_dR, s_d1 = (J_d * J_d).sum(1, dtype=f8), (J_d * Rw).sum(1, dtype=f8), J_d.sum(1, dtype=f8)
+            s_RR, s_R1 = (Rw * Rw).sum(1, dtype=f8), Rw.sum(1, dtype=f8)
+            Hm = np.empty((act.size, 3, 3))
             Hm[:, 0, 0], Hm[:, 0, 1], Hm[:, 0, 2] = s_dd, s_dR, s_d1
             Hm[:, 1, 0], Hm[:, 1, 1], Hm[:, 1, 2] = s_dR, s_RR, s_R1
             Hm[:, 2, 0], Hm[:, 2, 1], Hm[:, 2, 2] = s_d1, s_R1, float(m)
             Hm += 1e-6 * np.eye(3)
-            g = np.stack([(J_d * r).sum(1), (Rw * r).sum(1), r.sum(1)], axis=1)
+            g = np.stack([(J_d * r).sum(1, dtype=f8), (Rw * r).sum(1, dtype=f8), r.sum(1, dtype=f8)], axis=1)
             step = -np.linalg.solve(Hm, g[..., None])[..., 0]
-            d += step[:, 0]
-            a += step[:, 1]
-            b += step[:, 2]
+            d[act] += step[:, 0]
+            a[act] += step[:, 1]
+            b[act] += step[:, 2]
+            sd = step[:, 0]
         else:
-            step = -(J_d * r).sum(1) / np.maximum((J_d * J_d).sum(1), 1e-9)
-            d += step
-        if np.all(np.abs(step if step.ndim == 1 else step[:, 0]) < 1e-3):
+            sd = -(J_d * r).sum(1, dtype=np.float64) / np.maximum((J_d * J_d).sum(1, dtype=np.float64), 1e-9)
+            d[act] += sd
+        act = act[np.abs(sd) >= 1e-3]
+        if act.size == 0:
             break
     ok = np.isfinite(d) & (np.abs(d - d0) <= 1.5) & (a > 0.5) & (a < 2.0)
     return d, ok

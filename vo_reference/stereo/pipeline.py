@@ -15,7 +15,7 @@ import numpy as np
 from ..errors import VoError
 from ..io.trajectory import Trajectory
 from ..lie import relative
-from .accurate import AccurateParams, _Pyramids, accurate_step
+from .accurate import AccurateParams, StereoTracks, accurate_step
 from .groundtruth import GroundTruthStep
 from .motion_field import T_to_twist, compose
 from .baseline import baseline_step
@@ -80,7 +80,7 @@ def run_stereo_vo(seq, method: str = "accurate", *, gt_depth: bool = False, gt_f
     B = float(seq.baseline_m)
     if params is None:
         params = PaperParams() if method == "paper" else AccurateParams()
-    pyr = _Pyramids(params) if method == "accurate" else None
+    tracks = StereoTracks(params) if method == "accurate" else None
 
     steps, n_pts, secs, gt_tw = [], [], [], []
     left0, right0 = seq.image_gray(first, "left"), seq.image_gray(first, "right")
@@ -98,7 +98,7 @@ def run_stereo_vo(seq, method: str = "accurate", *, gt_depth: bool = False, gt_f
         elif method == "opencv-baseline":
             res = baseline_step(left0, right0, left1, K, B)
         else:
-            res = accurate_step(left0, right0, left1, right1, K, B, params, gt, gt_depth, gt_flow, pyr)
+            res = accurate_step(left0, right0, left1, right1, K, B, params, gt, gt_depth, gt_flow, tracks)
         dt = time.perf_counter() - t0
         steps.append(res.T_k_k1)
         n_pts.append(res.n_points)
