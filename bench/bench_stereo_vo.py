@@ -5,11 +5,14 @@
 INPUT: a render folder or KITTI folder (default ../shared/data/kitti/sequence_1). Speed is
 measured on images resized to --size (default 640x480, K scaled accordingly; image reading
 excluded); accuracy (end-point drift and Sim3 position RMSE in % of the path, per-frame RMSE)
-on the native images. Prints one line per method: paper, accurate, opencv-baseline.
+on the native images. Prints one line per method: paper, accurate, opencv-baseline, with the
+process CPU time per step (all threads; less sensitive than wall time to other users of the
+machine) and the 1-minute load average.
 """
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -78,12 +81,14 @@ def main():
     W, H = (int(v) for v in a.size.lower().split("x"))
     small = Resized(seq, W, H, frames)
     print(f"{a.input}: frames {frames[0]}..{frames[1]}, native {seq.resolution[0]}x{seq.resolution[1]}; "
-          f"speed at {W}x{H}; cv2 threads {cv2.getNumThreads()}")
+          f"speed at {W}x{H}; cv2 threads {cv2.getNumThreads()}; load average {os.getloadavg()[0]:.2f} "
+          f"on {os.cpu_count()} cores")
     for m in a.methods.split(","):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         r = run_stereo_vo(small, m, frames=frames)
-        fps = r.fps
-        line = f"{m:16s} {fps:6.1f} frames/s at {W}x{H} ({len(r.seconds)} steps, {time.perf_counter() - t0:.1f} s)"
+        cpu_ms = 1000 * (time.process_time() - c0) / len(r.seconds)
+        line = (f"{m:16s} {r.fps:6.1f} frames/s at {W}x{H} ({len(r.seconds)} steps, {time.perf_counter() - t0:.1f} s; "
+                f"CPU {cpu_ms:.0f} ms/step, load {os.getloadavg()[0]:.2f})")
         if not a.no_accuracy and seq.T_world_cam("left") is not None:
             line += "  |  native: " + accuracy(seq, run_stereo_vo(seq, m, frames=frames))
         print(line, flush=True)

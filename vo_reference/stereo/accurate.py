@@ -2,7 +2,9 @@
 
 Per stereo frame pair k -> k+1:
 
-1. Shi–Tomasi keypoints of the left image at k (integer pixel positions).
+1. Keypoints of the left image at k: the inliers of the previous step, carried with their
+   sub-pixel left/right positions (:class:`StereoTracks`), topped up with new Shi–Tomasi
+   corners (integer pixels) away from them when fewer than 70 % of ``max_corners`` survive.
 2. **Sub-pixel disparity**: integer SAD block matching along the row with a left-right
    check, refined by Lucas–Kanade *along the row* (1-D, with gain and offset between the
    cameras) — :func:`stereo_match`.
