@@ -29,6 +29,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--gt-depth", action="store_true", help="run the methods with ground-truth depth")
     p.add_argument("--gt-flow", action="store_true", help="run the methods with ground-truth correspondences")
     p.add_argument("--frames", metavar="A:B", help="frame range, half-open like Python (default: all)")
+    p.add_argument("--align", default="origin", choices=["none", "origin", "se3", "sim3"],
+                   help="trajectory alignment for APE (default origin: the VO starts at the ground-truth "
+                        "first pose, so APE is the drift; se3 fitted to a short, nearly straight path is ill-posed)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--quiet", action="store_true", help="no per-frame progress lines")
 
@@ -78,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
         mdir.mkdir(parents=True, exist_ok=True)
         write_kitti(mdir / "est.txt", res.trajectory)
         write_tum(mdir / "est_tum.txt", res.trajectory)
-        ev = evaluate_trajectory(gt, res.trajectory, align="se3", egomotion=True, by_index=True)
+        ev = evaluate_trajectory(gt, res.trajectory, align=args.align, egomotion=True, by_index=True)
         files = write_report(mdir, ev, title=f"Stereo VO ({m}{variant}) on {root.name}",
                              inputs={"render": root, "est": mdir / "est.txt"}, plots=not args.no_plots,
                              extra={"fps": res.fps, "n_points_min": int(res.n_points.min()),
