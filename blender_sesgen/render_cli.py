@@ -6,6 +6,7 @@ output: nothing is created or touched); 1 render failure.
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import sys
 import time
 
@@ -40,6 +41,13 @@ def _fmt(seconds: float) -> str:
     return f"{s // 3600:d}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60:02d}:{s % 60:02d}"
 
 
+def _have_bpy() -> bool:
+    try:
+        return importlib.util.find_spec("bpy") is not None
+    except ImportError:
+        return False
+
+
 def run(args: argparse.Namespace) -> int:
     from .pipeline import RenderJob, parse_frames
     t_start = time.perf_counter()
@@ -51,6 +59,9 @@ def run(args: argparse.Namespace) -> int:
         verbose=args.verbose,
     )
     job = RenderJob.prepare(args.scene, args.out, options, resume=args.resume, force=args.force)  # SesgenError -> 2
+    if not _have_bpy():
+        raise SesgenError("rendering needs Blender's Python module 'bpy': pip install 'blender-sesgen[render]' "
+                          "(Python 3.11), or run inside Blender: blender -b -P render.py -- SCENE.ses --out DIR")
     todo = job.pending_frames()
     s = job.settings
     views = job.scene.rig.views
