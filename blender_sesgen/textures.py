@@ -3,7 +3,7 @@
 SESGen numbered its textures and its example scripts use 1-10, so numbers 1..12 are
 fixed forever (new textures get new numbers, never reuse). ``texture 0`` means plain
 colour. The Blender node set for each name lives in ``blender/textures.py``; pictures
-of each are in docs/textures.md.
+of each are in docs/rendering.md (Textures).
 """
 from __future__ import annotations
 
