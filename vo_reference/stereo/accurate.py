@@ -323,8 +323,7 @@ def accurate_step(left0, right0, left1, right1, K: np.ndarray, baseline_m: float
 
 
 def row_lk_disparity(left: np.ndarray, right: np.ndarray, pts: np.ndarray, d0: np.ndarray, half: int = 5,
-                     iterations: int = 8, gain_bias: bool = True,
-                     dy: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                     iterations: int = 8, gain_bias: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """Sub-pixel disparity of left-image points (N, 2) by Lucas–Kanade *along the row* (1-D).
 
     Minimises sum_w (a R(x + u - d, y + v) + b - L(x + u, y + v))^2 over the window
@@ -347,14 +346,13 @@ def row_lk_disparity(left: np.ndarray, right: np.ndarray, pts: np.ndarray, d0: n
     ys = np.ascontiguousarray(np.broadcast_to(Pf[:, 1, None, None] + o[None, :, None], (n, o.size, o.size)).reshape(n, m))
     xs0 = np.ascontiguousarray(np.broadcast_to(Pf[:, 0, None, None] + o[None, None, :], (n, o.size, o.size)).reshape(n, m))
     T = cv2.remap(Lf, xs0, ys, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    ysr = ys if dy is None else np.ascontiguousarray(ys + np.asarray(dy, np.float32)[:, None])
     d = np.asarray(d0, dtype=np.float64).copy()
     a = np.ones(n)
     b = np.zeros(n)
     act = np.arange(n)                       # points still moving (> 1e-3 px per iteration)
     for _ in range(iterations):
         full = act.size == n
-        xa, ya, Ta = (xs0, ysr, T) if full else (xs0[act], ysr[act], T[act])
+        xa, ya, Ta = (xs0, ys, T) if full else (xs0[act], ys[act], T[act])
         da, aa = d[act], a[act].astype(np.float32)
         mx = xa - da.astype(np.float32)[:, None]
         RGw = cv2.remap(RG, mx, ya, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
