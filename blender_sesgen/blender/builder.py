@@ -11,7 +11,8 @@ Blender's Z-up world with ``poses.ses_to_blender_world``:
 - SPHERE: a one-point point cloud (Cycles intersects it as an exact sphere: silhouette
   and depth are those of the ideal sphere, no tessellation at all);
 - CYLINDER: a closed prism whose segment count keeps the silhouette within
-  ``SILHOUETTE_TOLERANCE_PX`` of the ideal cylinder from the closest camera position;
+  ``SILHOUETTE_TOLERANCE_PX`` of the ideal cylinder from the closest camera position and
+  the depth of its side within ``DEPTH_TOLERANCE_REL`` (relative) of the ideal surface;
 - MESH: imported OBJ/PLY/STL/glTF, file coordinates taken as SES-local (Y up).
 Object ``pass_index`` = script ``id``.
 """
@@ -34,6 +35,7 @@ from . import compat, lighting, rig, textures
 SCENE_NAME = "SESGen"
 TAG = "sesgen"
 SILHOUETTE_TOLERANCE_PX = 0.25
+DEPTH_TOLERANCE_REL = 2e-5  # the prism's radial error r(1 - cos(pi/n)) / closest distance
 MAX_SEGMENTS = 4096
 DEFAULT_ROUGHNESS = 0.6
 # ID collections that may hold data-blocks we created (tagged with TAG)
@@ -75,10 +77,14 @@ def clear_previous() -> None:
 
 
 def segments_for(radius: float, min_distance: float, focal_px: float,
-                 tolerance_px: float = SILHOUETTE_TOLERANCE_PX) -> int:
+                 tolerance_px: float = SILHOUETTE_TOLERANCE_PX,
+                 depth_tolerance_rel: float = DEPTH_TOLERANCE_REL) -> int:
     """Sides of a regular polygon inscribed in a circle of ``radius`` whose radial error
-    r(1 - cos(pi/n)), seen from ``min_distance`` with ``focal_px``, is at most ``tolerance_px``."""
-    max_err = tolerance_px * max(min_distance, 1e-9) / focal_px
+    r(1 - cos(pi/n)), seen from ``min_distance`` with ``focal_px``, is at most ``tolerance_px``
+    and at most ``depth_tolerance_rel`` of ``min_distance`` (so ground-truth depth on the
+    curved side is that of the ideal cylinder to that relative error)."""
+    d = max(min_distance, 1e-9)
+    max_err = min(tolerance_px * d / focal_px, depth_tolerance_rel * d)
     if max_err >= radius:
         return 8
     n = math.ceil(math.pi / math.acos(1.0 - max_err / radius))
