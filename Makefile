@@ -1,5 +1,5 @@
 # Two commands on a fresh machine (Python 3.11):  make demo   |   make test
-PYTHON ?= python3.11
+PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
@@ -9,6 +9,7 @@ DEMO_OUT   ?= out/demo
 .PHONY: setup test test-fast demo addon bench clean
 
 $(STAMP): pyproject.toml
+	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "needs Python 3.11 (the bpy 5.0.1 wheel): make PYTHON=/path/to/python3.11 ...")'
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[render,vo,test]'
