@@ -252,3 +252,26 @@ def test_imported_meshes_are_placed_exactly(tmp_path):
         assert ((ids != id_true) & ~near).sum() == 0
         hit = (id_true > 0) & ~near
         assert (np.abs(depth - z_true) / np.where(hit, z_true, 1))[hit].max() <= 2e-4
+
+
+def test_camera_inside_a_sphere_sees_its_inner_surface(tmp_path):
+    """Kubric's oracle: from inside a sphere of radius 10 every pixel sees the sphere, at the
+    ray caster's depth (Cycles' exact point spheres are never hit from inside, so such a
+    sphere is built as a fine mesh: same depth bounds as the other primitives)."""
+    script = tmp_path / "dome.ses"
+    script.write_text("CAMERA resolution 48 36 focal 30 baseline 0.5 near 0.05 far 100\n"
+                      "START position 1 2 -3 -20 30 10\n"
+                      "SPHERE id 7 texture 2 position 0 0 0 dim 10\n"
+                      "EGO 0.5 0 1 5 -10 0\n")
+    out = tmp_path / "out"
+    r = run_render(script, "--out", out, "--samples", "1", "--quiet")
+    assert r.returncode == 0, r.stderr
+    m = load_manifest(out)
+    W, H = m["resolution"]
+    prims = [raycast.SphereP(7, np.array([0.0, 0.0, 0.0]), 10.0)]
+    for view, k in _views_frames(m):
+        depth, ids = depth_and_ids(read_exr(out / m["files"][view][k]), m)
+        z_true, id_true, _ = raycast.render_truth(prims, m["K"], m["poses"][view][k], W, H)
+        assert (id_true == 7).all() and (ids == 7).all(), f"{view} {k}: background seen from inside"
+        rel = np.abs(depth - z_true) / z_true
+        assert rel.mean() <= 3e-5 and rel.max() <= 2e-4, f"{view} {k}: mean {rel.mean():.2e} max {rel.max():.2e}"

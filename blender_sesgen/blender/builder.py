@@ -9,7 +9,9 @@ Blender's Z-up world with ``poses.ses_to_blender_world``:
 - QUAD: one planar face through its 4 vertices (UVs (0,0) (1,0) (1,1) (0,1));
 - CUBOID: a box of the exact edge lengths;
 - SPHERE: a one-point point cloud (Cycles intersects it as an exact sphere: silhouette
-  and depth are those of the ideal sphere, no tessellation at all);
+  and depth are those of the ideal sphere, no tessellation at all) — but Cycles never hits
+  a point from inside, so a sphere that a camera enters (a dome, a spherical room) is a
+  smooth UV-sphere mesh with the cylinder's silhouette and depth tolerances instead;
 - CYLINDER: a closed prism whose segment count keeps the silhouette within
   ``SILHOUETTE_TOLERANCE_PX`` of the ideal cylinder from the closest camera position and
   the depth of its side within ``DEPTH_TOLERANCE_REL`` (relative) of the ideal surface;
@@ -37,6 +39,7 @@ TAG = "sesgen"
 SILHOUETTE_TOLERANCE_PX = 0.25
 DEPTH_TOLERANCE_REL = 2e-5  # the prism's radial error r(1 - cos(pi/n)) / closest distance
 MAX_SEGMENTS = 4096
+MAX_SPHERE_SEGMENTS = 1024  # a UV sphere of 1024 x 512 faces
 DEFAULT_ROUGHNESS = 0.6
 # ID collections that may hold data-blocks we created (tagged with TAG)
 _ID_COLLECTIONS = ("objects", "meshes", "materials", "lights", "cameras", "worlds", "node_groups",
@@ -230,6 +233,35 @@ def build_sphere(s: Sphere, collection, material):
     return obj
 
 
+def _cameras_inside(scene: Scene, centre, radius: float) -> tuple[bool, float]:
+    """Whether any camera of the sequence is inside the sphere, and the closest any camera
+    gets to its surface (from either side)."""
+    cams = [scene.timeline.left()[:, :3, 3]]
+    if scene.rig.stereo:
+        cams.append(scene.timeline.right(scene.rig.baseline)[:, :3, 3])
+    dist = np.linalg.norm(np.concatenate(cams) - np.asarray(centre, dtype=float), axis=1)
+    return bool(np.any(dist < radius)), max(float(np.min(np.abs(dist - radius))), scene.rig.near)
+
+
+def build_sphere_mesh(s: Sphere, collection, n: int):
+    """A smooth UV sphere with ``n`` segments around and n/2 from pole to pole (vertices on
+    the ideal sphere); its texture coordinates come from the shader, as for point spheres."""
+    n_lat = max(n // 2, 4)
+    lat = np.pi * np.arange(1, n_lat) / n_lat                  # rings between the poles
+    lon = 2 * np.pi * np.arange(n) / n
+    ring = np.stack([np.outer(np.sin(lat), np.cos(lon)), np.repeat(np.cos(lat)[:, None], n, 1),
+                     -np.outer(np.sin(lat), np.sin(lon))], axis=-1).reshape(-1, 3)
+    verts = np.concatenate([[(0, 1, 0)], ring, [(0, -1, 0)]]) * s.radius
+    south = len(verts) - 1
+    idx = lambda i, j: 1 + i * n + j % n  # noqa: E731 - ring i, meridian j
+    faces = [(0, idx(0, j), idx(0, j + 1)) for j in range(n)]
+    faces += [(idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1)) for i in range(n_lat - 2) for j in range(n)]
+    faces += [(south, idx(n_lat - 2, j + 1), idx(n_lat - 2, j)) for j in range(n)]
+    obj = _mesh_object(s.name, verts, faces, None, collection, smooth_faces=range(len(faces)))
+    _set_world_matrix(obj, poses.object_pose(s.position, s.rotation_deg))
+    return obj
+
+
 def build_cylinder(c: Cylinder, collection, n: int):
     r, h2 = c.radius, c.height / 2.0
     ang = 2 * np.pi * np.arange(n) / n
@@ -334,7 +366,14 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -
         elif isinstance(o, Cuboid):
             objs = [build_cuboid(o, coll)]
         elif isinstance(o, Sphere):
-            objs = [build_sphere(o, coll, mats.get(o))]
+            inside, d_surface = _cameras_inside(scene, o.position, o.radius)
+            if inside:
+                n = min(segments_for(o.radius, d_surface, focal), MAX_SPHERE_SEGMENTS)
+                built.segments[o.id] = n
+                objs = [build_sphere_mesh(o, coll, n)]
+                objs[0].data.materials.append(mats.get(o))
+            else:
+                objs = [build_sphere(o, coll, mats.get(o))]
         elif isinstance(o, Cylinder):
             bound = math.hypot(o.radius, o.height / 2.0)
             n = segments_for(o.radius, _min_camera_distance(scene, o.position, bound), focal)
