@@ -1,0 +1,87 @@
+"""Surface appearance: the ``texture`` / ``texture_scale`` tags -> TextureRef, and MATERIAL
+statements -> named :class:`blender_sesgen.model.Material` (names unique).
+
+A texture is a built-in (number or name, see blender_sesgen.textures) or an existing image
+file relative to the script; the file is only checked to exist, never read.
+"""
+from __future__ import annotations
+
+import os
+from typing import Optional
+
+from .. import model
+from ..textures import BUILTIN_TEXTURES, NAME_TO_NUMBER
+from .checks import Checks, scalar, vec
+from .lexer import Token
+from .statements import ParsedStatement, did_you_mean
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tga", ".tif", ".tiff", ".exr", ".hdr", ".webp")
+
+
+def texture(stmt: ParsedStatement, check: Checks) -> Optional[model.TextureRef]:
+    """The statement's texture (None if it has none, is 0, or is wrong: then with an error)."""
+    tv = stmt.tags.get("texture")
+    scale_tv = stmt.tags.get("texture_scale")
+    check.positive(stmt, "texture_scale")
+    scale = float(scale_tv.values[0]) if scale_tv else 1.0
+    if tv is None:
+        if scale_tv is not None:
+            check.err(scale_tv.tag, f"{stmt.keyword} 'texture_scale' needs a 'texture'")
+        return None
+    tok: Token = tv.tokens[0]
+    text = tv.values[0]
+    if tok.kind == "number":
+        value = float(text)
+        if not value.is_integer():
+            check.err(tok, f"{stmt.keyword} 'texture' number must be an integer, got {text}")
+            return None
+        number = int(value)
+        if number == 0:
+            return None
+        if number not in BUILTIN_TEXTURES:
+            check.err(tok, f"{stmt.keyword} 'texture' {number} is not a built-in texture "
+                           f"(0 = none, 1..{max(BUILTIN_TEXTURES)}: see docs/ses-language.md)")
+            return None
+        return model.TextureRef(kind="builtin", name=BUILTIN_TEXTURES[number][0], number=number, scale=scale)
+    if tok.lower in NAME_TO_NUMBER:  # bare or quoted: a name ("./noise" names a file)
+        number = NAME_TO_NUMBER[tok.lower]
+        return model.TextureRef(kind="builtin", name=tok.lower, number=number, scale=scale)
+    hint = did_you_mean(text, NAME_TO_NUMBER)
+    path = check.existing_file(stmt, "texture", f"{stmt.keyword} 'texture' '{text}' is neither a built-in "
+                               f"texture name nor an existing image file (looked for "
+                               f"{os.path.join(check.base_dir, text)}){hint}")
+    if path is None:
+        return None
+    if path.suffix.lower() not in IMAGE_SUFFIXES:
+        check.err(tok, f"{stmt.keyword} 'texture' file '{text}' is not an image "
+                       f"({', '.join(IMAGE_SUFFIXES)})")
+        return None
+    return model.TextureRef(kind="image", name=path.stem, path=str(path), source=text, scale=scale)
+
+
+def materials(statements: list[ParsedStatement], check: Checks) -> dict[str, model.Material]:
+    """The MATERIAL statements' materials by name, in source order (faulty ones left out)."""
+    found: dict[str, model.Material] = {}
+    first_line: dict[str, int] = {}
+    for stmt in statements:
+        name = stmt.get("name")
+        if name in found or name in first_line:
+            check.err(stmt.tags["name"].tokens[0],
+                      f"MATERIAL '{name}' is defined twice (first on line {first_line[name]})")
+            continue
+        first_line[name] = stmt.token.line
+        for tag in ("colour", "emission", "roughness", "metallic", "specular"):
+            check.unit_range(stmt, tag)
+        check.positive(stmt, "emission_strength", allow_zero=True)
+        before = len(check.diags.items)
+        tex = texture(stmt, check)
+        if len(check.diags.items) != before:
+            continue
+        found[name] = model.Material(
+            name=name, colour=vec(stmt, "colour", (0.8, 0.8, 0.8)), texture=tex,
+            roughness=float(scalar(stmt, "roughness", 0.5)),
+            metallic=float(scalar(stmt, "metallic", 0.0)),
+            specular=float(scalar(stmt, "specular", 0.5)),
+            emission=vec(stmt, "emission", (0.0, 0.0, 0.0)),
+            emission_strength=float(scalar(stmt, "emission_strength", 0.0)))
+    return found
