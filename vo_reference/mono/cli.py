@@ -30,6 +30,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--threshold", type=float, default=1.0, metavar="PX", help="RANSAC Sampson threshold (default 1 px)")
     p.add_argument("--refine", choices=("sampson", "pnp", "none"), default="sampson",
                    help="pose refinement after E (default sampson; pnp = non-linear triangulation + PnP)")
+    p.add_argument("--solver", choices=("5pt", "8pt"), default="5pt",
+                   help="minimal solver in our RANSAC: 5pt = calibrated 5-point essential matrix (default), "
+                        "8pt = normalised 8-point fundamental matrix")
+    p.add_argument("--score", choices=("msac", "count"), default="msac",
+                   help="hypothesis selection: msac = lowest truncated-quadratic Sampson cost, bounded "
+                        "(arctan) robust refinement (default); count = most inliers, Cauchy refinement "
+                        "(the earlier rule)")
     p.add_argument("--seed", type=int, default=0, help="RANSAC seed (default 0)")
     p.add_argument("--blur", type=float, default=0.0, metavar="SIGMA", help="Gaussian blur sigma in px (default 0)")
     p.add_argument("--equalize", choices=("none", "hist", "clahe"), default="none", help="contrast (default none)")
@@ -146,7 +153,8 @@ def run(args: argparse.Namespace) -> int:
         scale = scales.UnitScale()
 
     cfg = MonoVoConfig(features=args.features, best_n=args.best_n, threshold_px=args.threshold,
-                       seed=args.seed, refine=args.refine, compare_opencv=args.compare_opencv,
+                       seed=args.seed, refine=args.refine, solver=args.solver, score=args.score,
+                       compare_opencv=args.compare_opencv,
                        opencv_method=args.opencv_method)
     n = len(idx)
 

@@ -116,7 +116,14 @@ def _msac(F, x1, x2, threshold_px):
     return inl, int(inl.sum()), float(np.where(inl, d**2, threshold_px**2).sum())
 
 
-def _local_optimisation(F, count, cost, x1, x2, threshold_px, K=None, rounds: int = 4):
+def _better(count, cost, best_count, best_cost, by_cost):
+    """Hypothesis order: MSAC cost first (``by_cost``) or inlier count first."""
+    if by_cost:
+        return cost < best_cost or (cost == best_cost and count > best_count)
+    return count > best_count or (count == best_count and cost < best_cost)
+
+
+def _local_optimisation(F, count, cost, x1, x2, threshold_px, K=None, rounds: int = 4, by_cost: bool = False):
     """LO-RANSAC (Chum et al. 2003): refit a new best hypothesis on its own inliers with the
     8-point algorithm while that raises the inlier count (or lowers the cost)."""
     inl = sampson_distance(F, x1, x2) < threshold_px
@@ -127,7 +134,7 @@ def _local_optimisation(F, count, cost, x1, x2, threshold_px, K=None, rounds: in
         if K is not None:
             F_new = calibrated_fundamental(F_new, K)
         inl_new, c_new, cost_new = _msac(F_new, x1, x2, threshold_px)
-        if c_new > count or (c_new == count and cost_new < cost):
+        if _better(c_new, cost_new, count, cost, by_cost):
             F, inl, count, cost = F_new, inl_new, c_new, cost_new
         else:
             break
@@ -137,7 +144,7 @@ def _local_optimisation(F, count, cost, x1, x2, threshold_px, K=None, rounds: in
 def ransac_fundamental(x1: np.ndarray, x2: np.ndarray, threshold_px: float = 1.0,
                        confidence: float = 0.999, max_iterations: int = 5000,
                        seed: int | None = 0, batch: int = 64, min_iterations: int = 256,
-                       K: np.ndarray | None = None) -> RansacResult:
+                       K: np.ndarray | None = None, score: str = "count") -> RansacResult:
     """RANSAC over 8-point samples, scored by inlier count with Sampson distance.
 
     The number of iterations adapts to the best inlier ratio seen (H&Z Alg. 4.5),
@@ -152,8 +159,13 @@ def ransac_fundamental(x1: np.ndarray, x2: np.ndarray, threshold_px: float = 1.0
     (1, 1, 0)) and scored as such: 5 instead of 7 degrees of freedom, which stops a wrong F
     fitted to a dominant plane from out-scoring the true motion. The returned F is then
     calibrated too.
-    Hypotheses are drawn and scored ``batch`` at a time.
+    Hypotheses are drawn and scored ``batch`` at a time. ``score='count'`` (default) ranks
+    them by inlier count (MSAC cost as tie-break), ``score='msac'`` by the MSAC cost
+    Σ min(d², τ²) (inlier count as tie-break).
     """
+    if score not in ("count", "msac"):
+        raise VoError(f"unknown RANSAC score {score!r} (msac, count)")
+    by_cost = score == "msac"
     x1 = np.asarray(x1, dtype=float)
     x2 = np.asarray(x2, dtype=float)
     n = len(x1)
@@ -181,10 +193,10 @@ def ransac_fundamental(x1: np.ndarray, x2: np.ndarray, threshold_px: float = 1.0
         inl = d < threshold_px
         count = inl.sum(axis=1)
         cost = np.where(inl, d**2, threshold_px**2).sum(axis=1)   # MSAC tie-break
-        j = int(np.lexsort((cost, -count))[0])
-        if count[j] > best_count or (count[j] == best_count and cost[j] < best_cost):
+        j = int(np.lexsort((-count, cost))[0] if by_cost else np.lexsort((cost, -count))[0])
+        if best_F is None or _better(count[j], cost[j], best_count, best_cost, by_cost):
             best_count, best_cost, best_F = _local_optimisation(F[j], int(count[j]), float(cost[j]),
-                                                                x1, x2, threshold_px, K)
+                                                                x1, x2, threshold_px, K, by_cost=by_cost)
             needed = ransac_iterations(best_count / n, confidence)
     if best_F is None or best_count < 8:
         raise VoError(f"RANSAC found no fundamental matrix with 8 inliers among {n} matches")

@@ -36,6 +36,8 @@ class MonoVoConfig:
     max_iterations: int = 5000
     seed: int | None = 0
     refine: str = "sampson"        # none | pnp | sampson
+    solver: str = "5pt"            # minimal solver in our RANSAC: 5pt (calibrated E) | 8pt (F)
+    score: str = "msac"            # hypothesis selection: msac (truncated quadratic) | count (inliers)
     min_flow_px: float = 0.5       # median flow below this: no motion estimated (static)
     compare_opencv: bool = False
     opencv_method: str = "usac"    # usac (USAC_ACCURATE) | ransac (classic RANSAC)
@@ -107,7 +109,8 @@ def run_mono_vo(gray_of: Callable[[int], np.ndarray], num_frames: int, K: np.nda
                 rel = estimate_relative_pose(m.x1, m.x2, K, cfg.threshold_px, cfg.confidence,
                                              cfg.max_iterations, cfg.seed, cfg.refine,
                                              priors=(last_rel, FORWARD),
-                                             triangulate=getattr(scale, "needs_points", False))
+                                             triangulate=getattr(scale, "needs_points", False),
+                                             solver=cfg.solver, select=cfg.score)
                 rec.T_rel, rec.n_inliers = rel.T_c1_c2, rel.n_inliers
             except VoError as e:
                 rec.status, rec.message = "failed", str(e)
@@ -144,4 +147,6 @@ def run_mono_vo(gray_of: Callable[[int], np.ndarray], num_frames: int, K: np.nda
         if progress is not None:
             progress(rec)
         prev_img = img
-    return MonoVoResult(T, records, Tcv, {"features": cfg.features, "refine": cfg.refine, "scale": scale.name})
+    return MonoVoResult(T, records, Tcv, {"features": cfg.features, "refine": cfg.refine,
+                                             "solver": cfg.solver, "score": cfg.score,
+                                             "scale": scale.name})

@@ -1,14 +1,22 @@
-"""Our two-view solver: RANSAC F -> E -> cheirality -> optional non-linear refinement.
+"""Our two-view solver: RANSAC (5-point E or 8-point F) -> E -> cheirality -> optional
+non-linear refinement.
+
+Minimal solvers (``solver``):
+- ``5pt`` (default): the calibrated 5-point essential matrix (``five_point.py``) in our
+  RANSAC on normalised points K⁻¹x, scored by the Sampson distance in pixels;
+- ``8pt``: the normalised 8-point fundamental matrix in our RANSAC (``fundamental.py``),
+  then E = KᵀFK.
 
 Refinements (``refine``):
-- ``none``: the pose from E decomposition (E from the 8-point F refit on the inliers);
+- ``none``: the pose from E decomposition (E of the RANSAC winner refit on its inliers);
 - ``pnp``: the seed report's chain — non-linear triangulation of the inliers, then
   non-linear PnP of camera 2 on those points, repeated ``rounds`` times;
 - ``sampson`` (default): a robust Sampson fit over all matches from the RANSAC pose and
-  from prior motions (keep the one with most inliers), then minimise the Sampson
+  from prior motions (keep the one with the lowest MSAC cost, or most inliers with
+  ``select='count'``), then minimise the Sampson
   distances of its inliers over the five degrees of freedom of E = [t]ₓR (rotation
-  vector + unit t), settle the sign of t by cheirality, and non-linearly triangulate. Sampson's error is the first-order geometric error, so this is
-  the two-view "gold standard" fit without carrying every point as a parameter.
+  vector + unit t), settle the sign of t by cheirality, and non-linearly triangulate.
+  Sampson's error is the first-order geometric error, so this is the two-view "gold standard" fit without carrying every point as a parameter.
 """
 from __future__ import annotations
 
@@ -21,11 +29,18 @@ from scipy.spatial.transform import Rotation
 from ..errors import VoError
 from ..lie import skew
 from .essential import camera_motion, choose_pose, essential_from_fundamental
+from .five_point import ransac_essential
 from .fundamental import ransac_fundamental
 from .pnp import nonlinear_pnp
 from .triangulation import projection_matrix, triangulate_linear, triangulate_nonlinear
 
 REFINEMENTS = ("none", "pnp", "sampson")
+SCORES = ("msac", "count")
+# robust loss of the all-matches Sampson fit for each score: arctan is bounded (a smooth
+# truncated quadratic, like MSAC); Cauchy grows without bound (log), so a few gross
+# outliers can pull the fit to a wrong motion that brings them closer
+ROBUST_LOSS = {"msac": "arctan", "count": "cauchy"}
+SOLVERS = ("5pt", "8pt")
 
 
 @dataclass(frozen=True)
@@ -91,6 +106,14 @@ def _inliers(R, t, x1, x2, K, threshold_px):
     return np.abs(_sampson_residuals(R, t, h1, h2, np.linalg.inv(K))) < threshold_px
 
 
+def _msac(R, t, x1, x2, K, threshold_px):
+    """Inliers and the MSAC cost Σ min(d², τ²) of the Sampson distances d (pixels)."""
+    h1 = np.column_stack([x1, np.ones(len(x1))])
+    h2 = np.column_stack([x2, np.ones(len(x2))])
+    d2 = _sampson_residuals(R, t, h1, h2, np.linalg.inv(K)) ** 2
+    return d2 < threshold_px**2, float(np.minimum(d2, threshold_px**2).sum())
+
+
 def _cheirality_sign(R, t, x1, x2, K):
     """±t, whichever puts more linearly triangulated points in front of both cameras."""
     P1 = projection_matrix(K, np.eye(3), np.zeros(3))
@@ -115,35 +138,50 @@ def _point_transform(T_c1_c2: np.ndarray) -> tuple[np.ndarray, np.ndarray] | Non
 def estimate_relative_pose(x1: np.ndarray, x2: np.ndarray, K: np.ndarray, threshold_px: float = 1.0,
                            confidence: float = 0.999, max_iterations: int = 5000,
                            seed: int | None = 0, refine: str = "sampson", rounds: int = 2,
-                           priors: tuple = (), triangulate: bool = True) -> RelativePose:
+                           priors: tuple = (), triangulate: bool = True, solver: str = "5pt", select: str = "msac") -> RelativePose:
     """Relative pose of frame 2 to frame 1 from pixel matches (N, 2) (unit translation).
 
     With ``refine='sampson'``, the RANSAC pose and each motion in ``priors`` (camera motions
     T_c1_c2, e.g. the previous frame's: a constant-velocity hypothesis) are refined with a
-    robust (Cauchy) Sampson fit over all matches, and the one with the most inliers wins.
+    robust Sampson fit over all matches (bounded arctan loss; Cauchy with ``select='count'``),
+    and the one with the lowest MSAC cost Σ min(d², τ²) wins (``select='count'``: the most
+    inliers); ``select`` also sets the RANSAC score.
     That guards against the rotation/translation ambiguity of forward motion, where a noisy
     8-point sample can lead RANSAC into a false optimum with sideways translation.
     ``triangulate=False`` keeps the linear triangulation in ``X_c1`` (the non-linear one
-    is only needed when the points set the scale).
+    is only needed when the points set the scale). ``solver``: ``5pt`` (calibrated 5-point
+    RANSAC) or ``8pt`` (8-point F RANSAC).
     """
     if refine not in REFINEMENTS:
         raise VoError(f"unknown refinement {refine!r} ({', '.join(REFINEMENTS)})")
+    if select not in SCORES:
+        raise VoError(f"unknown score {select!r} ({', '.join(SCORES)})")
+    if solver not in SOLVERS:
+        raise VoError(f"unknown solver {solver!r} ({', '.join(SOLVERS)})")
     x1 = np.asarray(x1, dtype=float)
     x2 = np.asarray(x2, dtype=float)
-    r = ransac_fundamental(x1, x2, threshold_px, confidence, max_iterations, seed)
+    K = np.asarray(K, dtype=float)
+    if solver == "5pt":
+        r = ransac_essential(x1, x2, K, threshold_px, confidence, max_iterations, seed,
+                             score="msac" if select == "msac" else "count")
+        E = r.E
+    else:
+        r = ransac_fundamental(x1, x2, threshold_px, confidence, max_iterations, seed)
+        E = essential_from_fundamental(r.F, K)
     idx = np.flatnonzero(r.inliers)
-    choice = choose_pose(essential_from_fundamental(r.F, K), K, x1[idx], x2[idx])
+    choice = choose_pose(E, K, x1[idx], x2[idx])
     R, t = choice.R, choice.t
     P1 = projection_matrix(K, np.eye(3), np.zeros(3))
     if refine == "sampson":
         starts = [(R, t)] + [p for p in (_point_transform(T) for T in priors) if p is not None]
         best = None
         for R0, t0 in starts:
-            Rr, tr = refine_sampson(R0, t0, x1, x2, K, loss="cauchy", f_scale=threshold_px)
-            inl = _inliers(Rr, tr, x1, x2, K, threshold_px)
-            if best is None or inl.sum() > best[2].sum():
-                best = (Rr, tr, inl)
-        R, t, inl = best
+            Rr, tr = refine_sampson(R0, t0, x1, x2, K, loss=ROBUST_LOSS[select], f_scale=threshold_px)
+            inl, cost = _msac(Rr, tr, x1, x2, K, threshold_px)
+            key = (cost, -inl.sum()) if select == "msac" else (-inl.sum(), cost)
+            if best is None or key < best[3]:
+                best = (Rr, tr, inl, key)
+        R, t, inl, _ = best
         if inl.sum() < 8:
             raise VoError(f"only {int(inl.sum())} inliers after the robust refinement")
         R, t = refine_sampson(R, t, x1[inl], x2[inl], K)
