@@ -1,5 +1,6 @@
 """Render speed: seconds per stereo frame at 640x480 for 1, 16 and 64 samples, and the
-overhead of the CLI (process wall time / the render time Cycles itself reports).
+overhead of the CLI (process wall time / the render time Cycles itself reports), and the
+render process's peak memory (resident set size).
 
     .venv/bin/python bench/bench_render.py [--scene scenes/paper_room.ses] [--frames 2]
                                            [--samples 1 16 64] [--scale 1.0]
@@ -31,15 +32,21 @@ def run(scene: Path, samples: int, frames: int, scale: float, out: Path) -> dict
     cmd = [sys.executable, "-m", "blender_sesgen", "render", str(scene), "--out", str(out), "--samples", str(samples),
            "--no-denoise", "--frames", f"0:{frames}", "--resolution-scale", str(scale), "--force"]
     t0 = time.perf_counter()
-    r = subprocess.run(cmd, cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO)), capture_output=True, text=True)
+    with tempfile.TemporaryFile("w+") as so, tempfile.TemporaryFile("w+") as se:
+        proc = subprocess.Popen(cmd, cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO)), stdout=so, stderr=se, text=True)
+        _, status, usage = os.wait4(proc.pid, 0)  # this child's own peak memory
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        so.seek(0), se.seek(0)
+        stdout, stderr = so.read(), se.read()
     wall = time.perf_counter() - t0
-    if r.returncode != 0:
-        raise SystemExit(f"render failed ({r.returncode}): {r.stderr}")
-    rows = [(float(a), float(b)) for a, b in LINE.findall(r.stdout)]
+    if proc.returncode != 0:
+        raise SystemExit(f"render failed ({proc.returncode}): {stderr}")
+    rows = [(float(a), float(b)) for a, b in LINE.findall(stdout)]
     frame_wall = sum(a for a, _ in rows)
     cycles = sum(b for _, b in rows)
     return {"samples": samples, "s_per_frame": frame_wall / len(rows), "cycles_s": cycles,
-            "process_s": wall, "overhead": wall / cycles - 1.0, "frame_overhead": frame_wall / cycles - 1.0}
+            "process_s": wall, "overhead": wall / cycles - 1.0, "frame_overhead": frame_wall / cycles - 1.0,
+            "peak_rss_mib": usage.ru_maxrss / 1024.0}
 
 
 def main() -> int:
@@ -51,12 +58,12 @@ def main() -> int:
     a = p.parse_args()
     print(f"# render benchmark: {Path(a.scene).name}, {a.frames} stereo frames per setting, scale {a.scale}, "
           f"{os.cpu_count()} CPUs, {platform.processor() or platform.machine()}")
-    print(f"{'samples':>8} {'s/stereo frame':>15} {'process s':>10} {'cycles s':>9} {'overhead':>9} {'per-frame ovh':>14}")
+    print(f"{'samples':>8} {'s/stereo frame':>15} {'process s':>10} {'cycles s':>9} {'overhead':>9} {'per-frame ovh':>14} {'peak RSS MiB':>13}")
     with tempfile.TemporaryDirectory() as tmp:
         for s in a.samples:
             r = run(Path(a.scene), s, a.frames, a.scale, Path(tmp) / f"s{s}")
             print(f"{s:8d} {r['s_per_frame']:15.2f} {r['process_s']:10.1f} {r['cycles_s']:9.1f} "
-                  f"{r['overhead']:9.1%} {r['frame_overhead']:14.1%}", flush=True)
+                  f"{r['overhead']:9.1%} {r['frame_overhead']:14.1%} {r['peak_rss_mib']:13.0f}", flush=True)
     print("# overhead = process wall time / Cycles render time - 1 (Python start, import bpy, build, EXR writing);")
     print("# per-frame ovh = the same within the frame loop only (what grows with the sequence length).")
     return 0
