@@ -1,4 +1,4 @@
-"""Dataset exports of a render folder: KITTI odometry, KITTI stereo/flow, TUM RGB-D, PNG.
+"""Dataset exports of a render folder: KITTI odometry, KITTI stereo/flow, TUM RGB-D, EuRoC, PNG.
 
 Each target is a function ``export_X(seq, out, opts) -> None`` registered in
 :data:`EXPORTERS` (name -> "module:function", imported when used). Adding a target is one
@@ -35,6 +35,9 @@ EXPORTERS: dict[str, tuple[str | Callable, str]] = {
                      "KITTI 2015 layout: image_2/3 *_10/_11.png, disp_occ_0/disp_noc_0 PNG16, flow_occ/flow_noc"),
     "tum": ("vo_reference.products.exports:export_tum",
             "TUM RGB-D: rgb/ + depth/ (16-bit, 5000 per metre), rgb.txt, depth.txt, groundtruth.txt"),
+    "euroc": ("vo_reference.products.exports:export_euroc",
+              "EuRoC MAV/ASL: mav0/cam0 (+cam1) data/<t_ns>.png grey, data.csv, sensor.yaml; "
+              "state_groundtruth_estimate0/data.csv (left camera = body)"),
     "png": ("vo_reference.products.exports:export_png",
             "per view: noisy 8-bit RGB, ids PNG16 + colour palette, disparity PNG16 (x256)"),
     "bayer": ("vo_reference.products.bayer_export:export_bayer",
@@ -257,3 +260,91 @@ def export_png(seq, out: Path, opts: ExportOptions) -> None:
                 if stereo:
                     write_disparity_png16(out / view / "disparity" / name, sequence_disparity(seq, k, view))
                 bar.update()
+
+
+# --- EuRoC MAV / ASL --------------------------------------------------------------------
+
+EUROC_GT_HEADER = ("#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q_RS_x [], q_RS_y [], "
+                   "q_RS_z [], v_RS_R_x [m s^-1], v_RS_R_y [m s^-1], v_RS_R_z [m s^-1], "
+                   "b_w_RS_S_x [rad s^-1], b_w_RS_S_y [rad s^-1], b_w_RS_S_z [rad s^-1], "
+                   "b_a_RS_S_x [m s^-2], b_a_RS_S_y [m s^-2], b_a_RS_S_z [m s^-2]")
+
+
+def _yaml_matrix(T: np.ndarray) -> str:
+    rows = [", ".join(f"{x:.17g}" for x in r) for r in T]
+    return "  cols: 4\n  rows: 4\n  data: [" + ",\n         ".join(rows) + "]\n"
+
+
+def _euroc_rate_hz(seq) -> float:
+    m = seq.manifest
+    fps = m.get("fps") or (m.get("render") or {}).get("fps")
+    if fps:
+        return float(fps)
+    dt = np.diff(seq.timestamps_s)
+    return float(1.0 / np.median(dt)) if dt.size and np.median(dt) > 0 else 0.0
+
+
+def euroc_sensor_yaml(seq, cam: int) -> str:
+    """EuRoC ``camN/sensor.yaml``: body = left camera, so T_BS = I (cam0), trans(B,0,0) (cam1)."""
+    K = seq.K
+    W, H = seq.resolution
+    T_BS = np.eye(4)
+    T_BS[0, 3] = seq.baseline_m if cam == 1 else 0.0
+    return ("# General sensor definitions.\n"
+            "sensor_type: camera\n"
+            f"comment: sesgen render, {'left' if cam == 0 else 'right'} camera (body frame = left camera)\n\n"
+            "# Sensor extrinsics wrt. the body-frame.\n"
+            "T_BS:\n" + _yaml_matrix(T_BS) + "\n"
+            "# Camera specific definitions.\n"
+            f"rate_hz: {_euroc_rate_hz(seq):.9g}\n"
+            f"resolution: [{int(W)}, {int(H)}]\n"
+            "camera_model: pinhole\n"
+            f"intrinsics: [{K[0, 0]:.17g}, {K[1, 1]:.17g}, {K[0, 2]:.17g}, {K[1, 2]:.17g}] #fu, fv, cu, cv\n"
+            "distortion_model: radial-tangential\n"
+            "distortion_coefficients: [0.0, 0.0, 0.0, 0.0]\n")
+
+
+def euroc_groundtruth_csv(T_world_body: np.ndarray, t_ns: np.ndarray) -> str:
+    """EuRoC ``state_groundtruth_estimate0/data.csv``: position, quaternion (w first),
+    velocity by central differences of the positions (one-sided at the ends), biases 0."""
+    from ..lie import R_to_quat_xyzw
+    T = np.asarray(T_world_body, dtype=float)
+    p = T[:, :3, 3]
+    q = R_to_quat_xyzw(T[:, :3, :3])
+    q = np.where(q[:, 3:4] < 0, -q, q)  # w >= 0
+    t = np.asarray(t_ns, dtype=np.int64)
+    v = np.gradient(p, t * 1e-9, axis=0) if len(p) > 1 else np.zeros_like(p)
+    lines = [EUROC_GT_HEADER]
+    for ts, pp, qq, vv in zip(t, p, q, v):
+        vals = (*pp, qq[3], qq[0], qq[1], qq[2], *vv, *(0.0,) * 6)
+        lines.append(",".join([str(int(ts))] + [f"{x:.17g}" for x in vals]))
+    return "\n".join(lines) + "\n"
+
+
+def export_euroc(seq, out: Path, opts: ExportOptions) -> None:
+    frames = list(opts.frames)
+    ts = seq.timestamps_s[frames]
+    t_ns = np.rint(ts * 1e9).astype(np.int64)
+    if np.any(t_ns < 0):
+        raise VoError("euroc: timestamps must be >= 0 to name the files in ns")
+    if len(set(t_ns.tolist())) != len(t_ns):
+        raise VoError("timestamps are not distinct at 1 ns: cannot name EuRoC files")
+    cams = [("cam0", "left")] + ([("cam1", "right")] if "right" in seq.views and seq.baseline_m > 0 else [])
+    mav = out / "mav0"
+    rows = {cam: ["#timestamp [ns],filename"] for cam, _ in cams}
+    with Progress(len(frames) * len(cams), "euroc", enabled=opts.progress) as bar:
+        for k, tn in zip(frames, t_ns):
+            name = f"{int(tn)}.png"
+            for cam, view in cams:
+                write_png_rgb(mav / cam / "data" / name, image_gray(seq, k, view, opts))
+                rows[cam].append(f"{int(tn)},{name}")
+                bar.update()
+    for i, (cam, _) in enumerate(cams):
+        write_text_atomic(mav / cam / "data.csv", "\n".join(rows[cam]) + "\n")
+        write_text_atomic(mav / cam / "sensor.yaml", euroc_sensor_yaml(seq, i))
+    gt = mav / "state_groundtruth_estimate0"
+    write_text_atomic(gt / "data.csv", euroc_groundtruth_csv(seq.T_world_cam("left")[frames], t_ns))
+    write_text_atomic(gt / "sensor.yaml",
+                      "# General sensor definitions.\nsensor_type: visual-inertial\n"
+                      "comment: sesgen ground truth; body frame = left camera (cam0), R = the SES world\n\n"
+                      "# Sensor extrinsics wrt. the body-frame.\nT_BS:\n" + _yaml_matrix(np.eye(4)))
