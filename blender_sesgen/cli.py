@@ -11,7 +11,7 @@ import importlib
 import os
 import sys
 
-from .errors import SesgenError
+from .errors import ScriptError, SesgenError
 
 # command -> (module relative to this package, one-line help)
 COMMANDS = {
@@ -45,7 +45,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(module.run(args) or 0)
     except SesgenError as e:
-        print(str(e) if str(e).startswith(tuple("/.<")) or ": error:" in str(e) else f"error: {e}", file=sys.stderr)
+        print(str(e) if isinstance(e, ScriptError) else f"error: {e}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)

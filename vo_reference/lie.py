@@ -28,9 +28,11 @@ def so3_log(R: np.ndarray) -> np.ndarray:
 
 
 def rotation_angle(R: np.ndarray) -> np.ndarray:
-    """Angle (rad) of rotation matrices (..., 3, 3), clipped as evo does."""
-    tr = np.trace(R, axis1=-2, axis2=-1)
-    return np.arccos(np.clip((tr - 1.0) / 2.0, -1.0, 1.0))
+    """Angle (rad) of rotation matrices (..., 3, 3): |rotation vector|, via quaternions as
+    evo does (accurate for small angles, where arccos of the trace is not)."""
+    from scipy.spatial.transform import Rotation
+    R = np.asarray(R, dtype=float)
+    return Rotation.from_matrix(R.reshape(-1, 3, 3)).magnitude().reshape(R.shape[:-2])
 
 
 def se3(R: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -80,8 +82,13 @@ def se3_log(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def relative(T_world_a: np.ndarray, T_world_b: np.ndarray) -> np.ndarray:
-    """T_a_b = inv(T_world_a) @ T_world_b (broadcasts over stacks)."""
-    return se3_inverse(T_world_a) @ T_world_b
+    """T_a_b = inv(T_world_a) @ T_world_b (broadcasts over stacks; exact rigid inverse)."""
+    R_a_T = np.swapaxes(T_world_a[..., :3, :3], -1, -2)
+    out = np.zeros(np.broadcast_shapes(np.shape(T_world_a), np.shape(T_world_b)))
+    out[..., :3, :3] = R_a_T @ T_world_b[..., :3, :3]
+    out[..., :3, 3] = np.einsum("...ij,...j->...i", R_a_T, T_world_b[..., :3, 3] - T_world_a[..., :3, 3])
+    out[..., 3, 3] = 1.0
+    return out
 
 
 def quat_xyzw_to_R(q: np.ndarray) -> np.ndarray:

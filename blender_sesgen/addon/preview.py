@@ -23,10 +23,6 @@ from ..exr import read_exr
 KINDS = ("disparity", "segmentation", "depth", "rgb")
 
 
-depth_m = contract.depth_m
-disparity_px = contract.disparity_px
-
-
 def _rgba(rgb8: np.ndarray) -> np.ndarray:
     """(H, W, 3) uint8 display colours -> (H, W, 4) float32 RGBA in 0..1."""
     rgb = np.asarray(rgb8, dtype=np.float32) / 255.0
@@ -67,13 +63,13 @@ def preview_rgba(out_dir, frame: int, view: str, kind: str) -> tuple[np.ndarray,
         ids = np.rint(c[ch["object_index"]]).astype(np.int64)
         present = sorted(int(i) for i in np.unique(ids) if i > 0)
         return _rgba(id_colours(ids)), f"segmentation, frame {frame}, {view}: ids {present}"
-    z = depth_m(c[ch["depth"]])
+    z = contract.depth_m(c[ch["depth"]])
     valid = np.isfinite(z)
     if kind == "depth":
         rgb, _ = _ramp(1.0 / np.where(valid, z, 1.0), valid)
         return _rgba(rgb), f"inverse depth, frame {frame}, {view}"
     if m["baseline"] <= 0:
         raise SesgenError("a monocular render has no disparity (baseline 0): preview depth instead")
-    d = disparity_px(z, m["K"][0][0], m["baseline"])
+    d = contract.disparity_px(z, m["K"][0][0], m["baseline"])
     rgb, top = _ramp(d, valid)
     return _rgba(rgb), f"disparity, frame {frame}, {view}: 0..{top:.2f} px"

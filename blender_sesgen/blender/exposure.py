@@ -40,8 +40,8 @@ def measure_exposure(bscene, camera, frame: int) -> float:
         r.resolution_percentage, c.samples, c.use_denoising, c.film_exposure = saved
         if os.path.exists(path):
             os.remove(path)
-    rgb = [ch[k] for k in sorted(ch) if k.endswith("Combined.R") or k.endswith("Combined.G") or k.endswith("Combined.B")]
-    lum = 0.2126 * rgb[2] + 0.7152 * rgb[1] + 0.0722 * rgb[0]  # sorted: B, G, R
+    r, g, b = (next(v for k, v in ch.items() if k.endswith(f"Combined.{c}")) for c in "RGB")
+    lum = 0.2126 * r + 0.7152 * g + 0.0722 * b
     p90 = float(np.percentile(lum, 90))
     if not np.isfinite(p90) or p90 <= 1e-6:
         return 1.0  # nothing lit in view: leave the exposure alone

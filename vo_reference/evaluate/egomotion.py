@@ -23,7 +23,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..errors import VoError
-from ._poses import as_poses, relative
+from ..lie import relative
+from ._poses import as_poses
 
 COLUMNS = ("U", "V", "W", "alpha_deg", "beta_deg", "gamma_deg")
 PARAMETRISATIONS = ("twist", "rotvec")

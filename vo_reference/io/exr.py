@@ -54,16 +54,7 @@ def write_exr_parts(path, parts: dict[str, dict[str, np.ndarray]], *, compressio
         header = {"compression": comp, "type": OpenEXR.scanlineimage}
         oparts.append(OpenEXR.Part(header, {n: OpenEXR.Channel(np.ascontiguousarray(a)) for n, a in chans.items()},
                                    name=pname))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.part{os.getpid()}{path.suffix}")
-    try:
-        with OpenEXR.File(oparts) as f:
-            f.write(str(tmp))
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    return path
+    return _write_atomic(path, OpenEXR.File(oparts))
 
 
 def write_exr_single(path, channels: dict[str, np.ndarray]) -> Path:
@@ -71,10 +62,15 @@ def write_exr_single(path, channels: dict[str, np.ndarray]) -> Path:
     import OpenEXR
     path = Path(path)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    return _write_atomic(path, OpenEXR.File(header, {n: np.ascontiguousarray(a) for n, a in channels.items()}))
+
+
+def _write_atomic(path: Path, exr_file) -> Path:
+    """Write an ``OpenEXR.File`` under a temporary name, then rename it into place."""
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.stem}.part{os.getpid()}{path.suffix}")
     try:
-        with OpenEXR.File(header, {n: np.ascontiguousarray(a) for n, a in channels.items()}) as f:
+        with exr_file as f:
             f.write(str(tmp))
         os.replace(tmp, path)
     finally:

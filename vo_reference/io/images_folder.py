@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import VoError
 from .files import read_image
-from .sequence import check_frame_view
+from .sequence import ImagesOnly, check_frame_view
 from .trajectory import read_kitti
 
 IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".bmp", ".pgm", ".ppm", ".tif", ".tiff")
@@ -48,7 +48,7 @@ def read_robotcar_timestamps(path) -> dict[int, float]:
     return out
 
 
-class ImageFolderSequence:
+class ImageFolderSequence(ImagesOnly):
     """Monocular image sequence from a folder; see the module docstring."""
 
     views = ("left",)
@@ -131,14 +131,6 @@ class ImageFolderSequence:
         if img.ndim == 2 and not self.bayer:
             return img
         return rgb8_to_gray8(self.image_rgb(k, view))
-
-    def depth(self, k: int, view: str = "left") -> None:
-        check_frame_view(self, k, view)
-        return None
-
-    def ids(self, k: int, view: str = "left") -> None:
-        check_frame_view(self, k, view)
-        return None
 
     def T_world_cam(self, view: str = "left") -> np.ndarray | None:
         if view not in self.views:

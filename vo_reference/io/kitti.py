@@ -21,7 +21,7 @@ import numpy as np
 from ..errors import VoError
 from .color import rgb8_to_gray8
 from .files import read_image
-from .sequence import check_frame_view
+from .sequence import ImagesOnly, check_frame_view
 from .trajectory import read_kitti
 
 # (left folder, right folder, left P, right P)
@@ -72,7 +72,7 @@ def _list_images(folder: Path) -> list[Path]:
     return sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_EXTS and not p.name.startswith("."))
 
 
-class KittiSequence:
+class KittiSequence(ImagesOnly):
     """A KITTI odometry folder (real data; no depth or ids ground truth)."""
 
     def __init__(self, root):
@@ -154,14 +154,6 @@ class KittiSequence:
         if img.ndim == 2:
             return img
         return rgb8_to_gray8(self.image_rgb(k, view))
-
-    def depth(self, k: int, view: str = "left") -> None:
-        check_frame_view(self, k, view)
-        return None
-
-    def ids(self, k: int, view: str = "left") -> None:
-        check_frame_view(self, k, view)
-        return None
 
     def T_world_cam(self, view: str = "left") -> np.ndarray | None:
         if view not in self.views:

@@ -66,6 +66,18 @@ def check_frame_view(seq, k: int, view: str) -> None:
         raise VoError(f"frame {k} out of range (0..{seq.num_frames - 1})")
 
 
+class ImagesOnly:
+    """Mixin for real-data sequences: no dense ground truth (depth, ids) per frame."""
+
+    def depth(self, k: int, view: str = "left") -> None:
+        check_frame_view(self, k, view)
+        return None
+
+    def ids(self, k: int, view: str = "left") -> None:
+        check_frame_view(self, k, view)
+        return None
+
+
 def open_sequence(path) -> Sequence:
     """Open a render folder (has ``manifest.json``) or a KITTI odometry folder (has
     ``calib.txt`` and image_0/image_1, image_2/image_3 or image_l/image_r), by content."""
