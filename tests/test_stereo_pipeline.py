@@ -32,6 +32,16 @@ def test_sad_tracking_finds_integer_shifts():
     assert ok.all() and np.all(d == 7)
 
 
+def test_sad_disparity_rejects_points_that_round_outside_the_image():
+    # sub-pixel tracks may sit within half a pixel of the border and round outside it
+    rng = np.random.default_rng(1)
+    img = rng.integers(0, 255, (40, 60)).astype(np.uint8)
+    right = np.roll(img, -3, axis=1)
+    pts = np.array([[59.6, 20.0], [30.0, 39.7], [-0.6, 10.0], [30.0, 20.0]])
+    d, ok = sad_disparity(img, right, pts, block=5, d_max=10)
+    assert ok.tolist() == [False, False, False, True] and d[3] == 3
+
+
 def test_sad_disparity_matches_ground_truth_to_a_pixel(seq):
     from vo_reference.stereo.keypoints import shi_tomasi
     left, right, depth = seq.image_gray(0), seq.image_gray(0, "right"), seq.depth(0)

@@ -115,9 +115,12 @@ def sad_disparity(left: np.ndarray, right: np.ndarray, pts: np.ndarray, block: i
     n = p.shape[0]
     if n == 0:
         return np.zeros(0, np.int64), np.zeros(0, bool)
+    H, W = np.shape(left)
+    inside = (p[:, 0] >= 0) & (p[:, 0] < W) & (p[:, 1] >= 0) & (p[:, 1] < H)   # rounded sub-pixel points may leave
+    p = np.stack([np.clip(p[:, 0], 0, W - 1), np.clip(p[:, 1], 0, H - 1)], axis=1)
     cost = _row_sad(left, right, p, block, d_max, -1)                # (N, D)
     d = np.argmin(cost, axis=1)
-    valid = d < d_max
+    valid = (d < d_max) & inside
     if uniqueness > 0:
         best = cost[np.arange(n), d]
         D = cost.shape[1]
