@@ -168,6 +168,26 @@ def test_street_is_a_long_forward_drive():
     assert all(o.texture is not None for o in scene.objects)
 
 
+def test_street_kitti_is_every_fourth_frame_of_street_with_kittis_rig():
+    street, kitti = parse_file(SCENES_DIR / "street.ses"), parse_file(SCENES_DIR / "street_kitti.ses")
+    assert (kitti.rig.width, kitti.rig.height, kitti.rig.focal_px, kitti.rig.baseline) == (1226, 370, 707, 0.54)
+    assert kitti.frames == 51 and [o.id for o in kitti.objects] == [o.id for o in street.objects]
+    T_s, T_k = street.timeline.left(), kitti.timeline.left()
+    # same drive: the street's EGO rows are rounded to 1 mm / 0.001 deg, so poses agree to ~1 cm over 200 steps
+    assert np.abs(T_k[:, :3, 3] - T_s[0:201:4, :3, 3]).max() < 0.02
+    steps = np.linalg.norm(np.diff(T_k[:, :3, 3], axis=0), axis=1)
+    assert 55 < steps.sum() < 70 and steps.min() > 0.8
+
+
+def test_generated_scenes_are_in_sync_with_their_generator():
+    import subprocess
+    import sys
+    gen = SCENES_DIR / "generators" / "street.py"
+    for args, name in (([], "street.ses"), (["--kitti"], "street_kitti.ses")):
+        out = subprocess.run([sys.executable, str(gen), *args], capture_output=True, text=True, check=True).stdout
+        assert out == (SCENES_DIR / name).read_text(), f"{name} differs from `generators/street.py {' '.join(args)}`"
+
+
 def test_minimal_is_tiny():
     scene = parse_file(SCENES_DIR / "minimal.ses")
     assert scene.frames == 3 and len(scene.objects) <= 6
