@@ -78,6 +78,18 @@ def test_colour_pair_uses_p2_p3(tmp_path):
     assert np.array_equal(seq.image_gray(1), cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY))
 
 
+def test_development_kit_layout_finds_its_poses(tmp_path):
+    # dataset/sequences/07/{image_0,image_1,calib.txt} with dataset/poses/07.txt
+    root = _kitti_folder(tmp_path / "dataset" / "sequences" / "07", prefixes=True)
+    (tmp_path / "dataset" / "poses").mkdir()
+    (root / "poses.txt").rename(tmp_path / "dataset" / "poses" / "07.txt")
+    seq = open_sequence(root)
+    assert seq.poses_path == tmp_path / "dataset" / "poses" / "07.txt"
+    assert np.allclose(seq.T_world_cam("left")[2][:3, 3], [0, 0, 3.0])
+    other = _kitti_folder(tmp_path / "elsewhere" / "07", prefixes=True, poses=False)  # not under sequences/
+    assert KittiSequence(other).T_world_cam() is None
+
+
 def test_without_poses_and_times(tmp_path):
     seq = KittiSequence(_kitti_folder(tmp_path / "s", prefixes=False, poses=False, times=False))
     assert seq.T_world_cam() is None

@@ -6,7 +6,8 @@ Layout (any one image folder pair; the first present wins)::
     image_2/ image_3/   colour left/right (cameras P2, P3)
     image_l/ image_r/   grey left/right, calibration lines P0, P1
     calib.txt           'P0: 12 numbers' lines, or bare lines in the order P0, P1, P2, P3
-    poses.txt           optional; KITTI 3x4 poses of the left (cam0) camera, row-major
+    poses.txt           optional; KITTI 3x4 poses of the left (cam0) camera, row-major; else the
+                        development kit's layout: dataset/poses/NN.txt for dataset/sequences/NN/
     times.txt           optional; seconds per frame (default 0.1 s steps, KITTI's 10 Hz)
 
 K comes from the left camera's projection matrix; the baseline from the pair:
@@ -72,6 +73,15 @@ def _list_images(folder: Path) -> list[Path]:
     return sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_EXTS and not p.name.startswith("."))
 
 
+def poses_file(root: Path) -> Path | None:
+    """``root/poses.txt``, else the odometry kit's ``dataset/poses/NN.txt`` for ``dataset/sequences/NN``."""
+    own = root / "poses.txt"
+    if own.is_file():
+        return own
+    kit = root.resolve().parent.parent / "poses" / f"{root.resolve().name}.txt"
+    return kit if root.resolve().parent.name == "sequences" and kit.is_file() else None
+
+
 class KittiSequence(ImagesOnly):
     """A KITTI odometry folder (real data; no depth or ids ground truth)."""
 
@@ -110,10 +120,11 @@ class KittiSequence(ImagesOnly):
         self.resolution = (int(first.shape[1]), int(first.shape[0]))
         self._colour = first.ndim == 3
         self._poses = None
-        if (root / "poses.txt").is_file():
-            traj = read_kitti(root / "poses.txt")
+        self.poses_path = poses_file(root)
+        if self.poses_path is not None:
+            traj = read_kitti(self.poses_path)
             if len(traj) != self.num_frames:
-                raise VoError(f"{root / 'poses.txt'}: {len(traj)} poses for {self.num_frames} frames")
+                raise VoError(f"{self.poses_path}: {len(traj)} poses for {self.num_frames} frames")
             # poses.txt holds cam0 poses; the left camera of this pair sits at -t_left in cam0
             T_cam0_left = np.eye(4)
             T_cam0_left[:3, 3] = -self._t_left

@@ -93,12 +93,15 @@ def run_stereo_vo(seq, method: str = "accurate", *, gt_depth: bool = False, gt_f
             if gt_depth or gt_flow:
                 gt = GroundTruthStep(np.asarray(seq.depth(k, "left")), K, B, T_rel)
         t0 = time.perf_counter()
-        if method == "paper":
-            res = paper_step(left0, right0, left1, K, B, params, gt, gt_depth, gt_flow)
-        elif method == "opencv-baseline":
-            res = baseline_step(left0, right0, left1, K, B)
-        else:
-            res = accurate_step(left0, right0, left1, right1, K, B, params, gt, gt_depth, gt_flow, tracks)
+        try:
+            if method == "paper":
+                res = paper_step(left0, right0, left1, K, B, params, gt, gt_depth, gt_flow)
+            elif method == "opencv-baseline":
+                res = baseline_step(left0, right0, left1, K, B)
+            else:
+                res = accurate_step(left0, right0, left1, right1, K, B, params, gt, gt_depth, gt_flow, tracks)
+        except VoError as e:
+            raise VoError(f"{method}, frame {k} -> {k + 1}: {e}") from None
         dt = time.perf_counter() - t0
         steps.append(res.T_k_k1)
         n_pts.append(res.n_points)
