@@ -68,3 +68,44 @@ def test_run_writes_the_report(render_dir, tmp_path):
     assert acc["U"] < 5e-4 and acc["alpha_deg"] < 0.01
     for m in ("paper", "accurate"):
         assert (rep / m / "est.txt").is_file() and (rep / m / "trajectories.png").is_file()
+
+
+def test_run_on_a_kitti_folder_writes_beside_not_into_it(render_dir, tmp_path, monkeypatch, capsys):
+    # a KITTI odometry folder made from the synthetic render (exact images, calibration and poses)
+    import cv2
+    from vo_reference.io.sequence import open_sequence
+    from vo_reference.io.trajectory import Trajectory, write_kitti
+    root, T = render_dir
+    seq = open_sequence(root)
+    kitti = tmp_path / "dataset" / "sequences" / "05"
+    for view, folder in (("left", "image_0"), ("right", "image_1")):
+        (kitti / folder).mkdir(parents=True)
+        for k in range(seq.num_frames):
+            cv2.imwrite(str(kitti / folder / f"{k:06d}.png"), seq.image_gray(k, view))
+    K = seq.K
+    P0 = np.hstack([K, np.zeros((3, 1))])
+    P1 = np.hstack([K, [[-K[0, 0] * seq.baseline_m], [0], [0]]])
+    (kitti / "calib.txt").write_text("".join(f"P{i}: " + " ".join(f"{x:.12e}" for x in P.ravel()) + "\n"
+                                             for i, P in enumerate((P0, P1))))
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    assert main(["run", str(kitti), "--methods", "accurate", "--quiet", "--no-plots"]) == 2   # no poses yet
+    assert "no ground-truth poses" in capsys.readouterr().err
+    (tmp_path / "dataset" / "poses").mkdir()
+    write_kitti(tmp_path / "dataset" / "poses" / "05.txt", Trajectory(np.linalg.inv(T[0]) @ T, np.arange(len(T)) * 0.1))
+    assert main(["run", str(kitti), "--methods", "accurate", "--quiet", "--no-plots"]) == 0
+    data = json.loads((work / "05_report" / "report.json").read_text())
+    assert data["methods"]["accurate"]["egomotion_rmse"]["U"] < 5e-4
+    assert not (kitti / "report").exists()
+
+
+@pytest.mark.data
+def test_run_on_the_real_kitti_excerpt(shared_data, tmp_path):
+    kitti = shared_data / "kitti" / "sequence_1"
+    if not kitti.is_dir():
+        pytest.skip(f"{kitti} not found")
+    assert main(["run", str(kitti), "--report", str(tmp_path / "r"), "--methods", "accurate",
+                 "--frames", "0:11", "--quiet", "--no-plots"]) == 0
+    acc = json.loads((tmp_path / "r" / "report.json").read_text())["methods"]["accurate"]
+    assert acc["end_point_drift"] / acc["path_length"] < 0.02 and acc["path_length"] > 10

@@ -18,7 +18,7 @@ COMMANDS = {
     "evaluate": (".evaluate.cli", "evaluate an estimated trajectory against ground truth (APE, RPE, KITTI)"),
     "evaluate-disparity": (".evaluate.disparity_cli", "evaluate an estimated disparity map (EPE, bad-N, D1)"),
     "stereo-vo": (".stereo.cli", "run the reference stereo VO (SESGen paper / accurate) on a render or KITTI folder"),
-    "run": (".stereo.run_cli", "one-shot: stereo VO (both methods) + evaluation + plots on a render folder"),
+    "run": (".stereo.run_cli", "one-shot: stereo VO (both methods) + evaluation + plots on a render or KITTI folder with ground truth"),
     "mono-vo": (".mono.cli", "run the classic monocular VO pipeline (8-point RANSAC, E, PnP)"),
 }
 

@@ -1,7 +1,9 @@
-"""``python -m vo_reference run RENDER_DIR``: the one-shot path — stereo VO with both methods,
+"""``python -m vo_reference run INPUT``: the one-shot path — stereo VO with both methods,
 evaluation (APE/RPE, the SESGen paper's per-frame egomotion table), plots, into a report folder.
 
-Report folder (default ``RENDER_DIR/report``): ``summary.md`` (the paper-style RMSE table
+INPUT is a render folder, or any other sequence with ground-truth poses (a KITTI odometry
+folder with its poses). Report folder (default ``INPUT/report`` for a render; ``NAME_report`` in
+the working directory for other inputs, so a dataset folder is never written to): ``summary.md`` (the paper-style RMSE table
 with the paper's Table 1 values beside ours, then per method the evaluation), ``report.json``,
 per method ``<method>/`` with ``est.txt`` (KITTI poses), ``est_tum.txt``, ``metrics.json``,
 ``summary.md`` and PNG plots.
@@ -23,8 +25,10 @@ NAMES = ("U", "V", "W", "α (deg)", "β (deg)", "γ (deg)")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("render_dir", metavar="RENDER_DIR", help="a sesgen render folder (manifest.json, EXRs, poses)")
-    p.add_argument("--report", metavar="DIR", help="report folder (default: RENDER_DIR/report)")
+    p.add_argument("input", metavar="INPUT", help="a sesgen render folder (manifest.json), or a KITTI odometry "
+                                                  "folder with ground-truth poses")
+    p.add_argument("--report", metavar="DIR", help="report folder (default: INPUT/report for a render folder, "
+                                                   "else ./NAME_report)")
     p.add_argument("--methods", default="paper,accurate", help="comma-separated methods (default: paper,accurate)")
     p.add_argument("--gt-depth", action="store_true", help="run the methods with ground-truth depth")
     p.add_argument("--gt-flow", action="store_true", help="run the methods with ground-truth correspondences")
@@ -34,6 +38,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "first pose, so APE is the drift; se3 fitted to a short, nearly straight path is ill-posed)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--quiet", action="store_true", help="no per-frame progress lines")
+
+
+def default_report_dir(root: Path) -> Path:
+    """``RENDER/report`` for a render (our own output folder), else ``./NAME_report``."""
+    folder = root.parent if root.is_file() else root
+    if (folder / "manifest.json").is_file():
+        return folder / "report"
+    return Path.cwd() / f"{folder.resolve().name}_report"
 
 
 def rmse_table_markdown(rows: dict[str, dict]) -> str:
@@ -52,25 +64,27 @@ def run(args: argparse.Namespace) -> int:
     from .cli import progress_printer
     from .pipeline import METHODS, parse_frames, run_stereo_vo
 
-    root = Path(args.render_dir)
-    if not (root / "manifest.json").is_file() and not (root.name == "manifest.json" and root.is_file()):
-        raise VoError(f"{root}: not a render folder (no manifest.json)")
+    root = Path(args.input)
     seq = open_sequence(root)
     T_gt = seq.T_world_cam("left")
     if T_gt is None:
-        raise VoError(f"{root}: the render has no ground-truth poses")
+        raise VoError(f"{root}: no ground-truth poses to evaluate against (a KITTI folder needs poses.txt; "
+                      "use `stereo-vo` for an estimate alone)")
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     for m in methods:
         if m not in METHODS:
             raise VoError(f"unknown method {m!r} (choose from {', '.join(METHODS)})")
     frames = parse_frames(args.frames, seq.num_frames)
-    out = Path(args.report) if args.report else root / "report"
-    out.mkdir(parents=True, exist_ok=True)
+    out = Path(args.report) if args.report else default_report_dir(root)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise VoError(f"cannot create the report folder {out} ({e.strerror}); choose one with --report DIR") from None
     gt = Trajectory(T_gt[frames[0]:frames[1] + 1], np.asarray(seq.timestamps_s)[frames[0]:frames[1] + 1])
     variant = "".join([" +GT depth" if args.gt_depth else "", " +GT flow" if args.gt_flow else ""])
 
     rmse_rows: dict[str, dict] = {"SESGen paper, Table 1 (OpenGL units, 40 frames)": dict(PAPER_TABLE1_RMSE)}
-    report: dict = {"render": str(root), "frames": list(frames), "gt_depth": args.gt_depth, "gt_flow": args.gt_flow,
+    report: dict = {"input": str(root), "frames": list(frames), "gt_depth": args.gt_depth, "gt_flow": args.gt_flow,
                     "paper_table1_rmse": PAPER_TABLE1_RMSE, "methods": {}}
     sections = []
     for m in methods:
@@ -83,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
         write_tum(mdir / "est_tum.txt", res.trajectory)
         ev = evaluate_trajectory(gt, res.trajectory, align=args.align, egomotion=True, by_index=True)
         files = write_report(mdir, ev, title=f"Stereo VO ({m}{variant}) on {root.name}",
-                             inputs={"render": root, "est": mdir / "est.txt"}, plots=not args.no_plots,
+                             inputs={"ground truth": root, "est": mdir / "est.txt"}, plots=not args.no_plots,
                              extra={"fps": res.fps, "n_points_min": int(res.n_points.min()),
                                     "n_points_mean": float(res.n_points.mean())})
         rmse = dict(zip(COLS, ev.egomotion.rmse.tolist()))
@@ -101,7 +115,7 @@ def run(args: argparse.Namespace) -> int:
         if not args.no_plots:
             sections += [f"![{m} trajectory]({m}/trajectories.png) ![{m} egomotion]({m}/egomotion.png)", ""]
     lines = [f"# Stereo VO report: {root.name}", "",
-             f"Render `{root}`, frames {frames[0]}..{frames[1]}, left camera; K f = {seq.K[0, 0]:g} px, "
+             f"Sequence `{root}`, frames {frames[0]}..{frames[1]}, left camera; K f = {seq.K[0, 0]:g} px, "
              f"baseline {seq.baseline_m:g}, {seq.resolution[0]}x{seq.resolution[1]}.", "",
              "## Per-frame egomotion RMSE (the SESGen paper's Table 1 measure)", "",
              "RMSE over frames of the estimated minus true frame-to-frame motion (U V W: scene units per frame; "
