@@ -68,6 +68,16 @@ def test_run_writes_the_report(render_dir, tmp_path):
     assert acc["U"] < 5e-4 and acc["alpha_deg"] < 0.01
     for m in ("paper", "accurate"):
         assert (rep / m / "est.txt").is_file() and (rep / m / "trajectories.png").is_file()
+    # scale/shape numbers: Sim3 RMSE as evo computes it from the written estimate, step ratio ~ 1
+    from evo.core.trajectory import PosePath3D
+    _, T = render_dir
+    est = PosePath3D(poses_se3=list(read_kitti(rep / "accurate" / "est.txt").T_world_cam))
+    est.align(PosePath3D(poses_se3=list(T)), correct_scale=True)
+    evo_rmse = np.sqrt(np.mean(np.sum((est.positions_xyz - T[:, :3, 3]) ** 2, axis=1)))
+    a = data["methods"]["accurate"]
+    assert a["sim3_position_rmse"] == pytest.approx(evo_rmse, rel=1e-6, abs=1e-9)
+    assert abs(a["step_length_ratio"] - 1) < 0.01 and a["end_point_drift_pct"] < 1
+    assert "Sim3-aligned position RMSE" in summary
 
 
 def test_run_on_a_kitti_folder_writes_beside_not_into_it(render_dir, tmp_path, monkeypatch, capsys):

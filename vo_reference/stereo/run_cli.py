@@ -48,6 +48,25 @@ def default_report_dir(root: Path) -> Path:
     return Path.cwd() / f"{folder.resolve().name}_report"
 
 
+def shape_errors(gt, est) -> dict:
+    """End-point drift, Sim3-aligned position RMSE and mean step-length ratio (est / gt): the
+    three numbers that separate scale from shape errors (docs/stereo-vo.md)."""
+    from ..evaluate.align import align
+    L = max(gt.path_length(), 1e-12)
+    drift = float(np.linalg.norm(est.positions[-1] - gt.positions[-1]))
+    out = {"path_length": gt.path_length(), "end_point_drift": drift, "end_point_drift_pct": 100 * drift / L}
+    if len(gt) >= 3:
+        sim3, _ = align(est, gt, "sim3")
+        rmse = float(np.sqrt(np.mean(np.sum((sim3.positions - gt.positions) ** 2, axis=1))))
+        out.update(sim3_position_rmse=rmse, sim3_position_rmse_pct=100 * rmse / L)
+    steps_gt = np.linalg.norm(np.diff(gt.positions, axis=0), axis=1)
+    moving = steps_gt > 1e-9
+    if moving.any():
+        steps_est = np.linalg.norm(np.diff(est.positions, axis=0), axis=1)
+        out["step_length_ratio"] = float(np.mean(steps_est[moving] / steps_gt[moving]))
+    return out
+
+
 def rmse_table_markdown(rows: dict[str, dict]) -> str:
     """Markdown table: one row per source, RMSE of U V W α β γ."""
     lines = ["| | " + " | ".join(NAMES) + " |", "|---|" + "---|" * 6]
@@ -102,16 +121,21 @@ def run(args: argparse.Namespace) -> int:
                                     "n_points_mean": float(res.n_points.mean())})
         rmse = dict(zip(COLS, ev.egomotion.rmse.tolist()))
         rmse_rows[f"{m}{variant} (ours)"] = rmse
-        end_drift = float(np.linalg.norm(res.trajectory.positions[-1] - gt.positions[-1]))
+        shape = shape_errors(gt, res.trajectory)
         report["methods"][m] = {"egomotion_rmse": rmse, "ape_trans_rmse": ev.ape.trans.rmse,
                                 "ape_rot_rmse_deg": ev.ape.rot_deg.rmse, "rpe_trans_rmse": ev.rpe.trans.rmse,
-                                "rpe_rot_rmse_deg": ev.rpe.rot_deg.rmse, "end_point_drift": end_drift,
-                                "path_length": gt.path_length(), "fps": res.fps,
+                                "rpe_rot_rmse_deg": ev.rpe.rot_deg.rmse, **shape, "fps": res.fps,
                                 "report": {k: str(v) for k, v in files.items()}}
         print("\n".join(summary_lines(ev)))
+        line = (f"End-point drift {shape['end_point_drift']:.4f} ({shape['end_point_drift_pct']:.2f} % of the "
+                f"{shape['path_length']:.3f} path)")
+        if "sim3_position_rmse" in shape:
+            line += f"; Sim3-aligned position RMSE {shape['sim3_position_rmse']:.4f} ({shape['sim3_position_rmse_pct']:.3f} %)"
+        if "step_length_ratio" in shape:
+            line += f"; step length est/gt {shape['step_length_ratio']:.4f}"
+        print(line)
         sections += [f"## {m}{variant}", "", "```", *summary_lines(ev), "```", "",
-                     f"End-point drift {end_drift:.4f} ({100 * end_drift / max(gt.path_length(), 1e-12):.2f} % of the "
-                     f"{gt.path_length():.3f} path); {res.fps:.1f} frames/s; details: [{m}/summary.md]({m}/summary.md)", ""]
+                     f"{line}; {res.fps:.1f} frames/s; details: [{m}/summary.md]({m}/summary.md)", ""]
         if not args.no_plots:
             sections += [f"![{m} trajectory]({m}/trajectories.png) ![{m} egomotion]({m}/egomotion.png)", ""]
     lines = [f"# Stereo VO report: {root.name}", "",
