@@ -113,3 +113,38 @@ def test_parse_frames():
         parse_frames("5:6", 10)
     with pytest.raises(VoError):
         parse_frames("x", 10)
+
+
+@pytest.mark.parametrize("method", ["accurate", "paper", "opencv-baseline"])
+def test_a_blank_frame_keeps_the_previous_motion_and_is_reported(method):
+    frames, T = S.sequence(S.smooth_twists(6))
+    blank = {**frames[3], "left": np.full_like(frames[3]["left"], 128), "right": np.full_like(frames[3]["right"], 128)}
+    frames = frames[:3] + [blank] + frames[4:]
+    res = run_stereo_vo(S.ArraySequence(frames, T), method)
+    # the paper's SAD tracker has no check against a featureless target, so only the step out
+    # of the blank frame (no keypoints) fails there
+    assert [k for k, _ in res.failed] == ([3] if method == "paper" else [2, 3]) and all(w for _, w in res.failed)
+    np.testing.assert_array_equal(res.twists[3], res.twists[2])     # constant velocity
+    good = [0, 1, 4, 5]
+    err = np.abs(res.twists[good] - res.gt_twists[good]).max()
+    assert err < (0.05 if method == "paper" else 5e-3)
+    assert len(res.trajectory) == 7
+
+
+def test_a_sequence_where_no_step_works_is_an_error():
+    frames, T = S.sequence(S.smooth_twists(2))
+    blank = [{**f, "left": np.full_like(f["left"], 128), "right": np.full_like(f["right"], 128)} for f in frames]
+    with pytest.raises(VoError, match="no frame step could be estimated"):
+        run_stereo_vo(S.ArraySequence(blank, T), "accurate")
+
+
+def test_progress_and_summary_name_the_failed_steps():
+    import io
+    from vo_reference.stereo.cli import failed_summary, progress_printer
+    frames, T = S.sequence(S.smooth_twists(3))
+    frames[2] = {**frames[2], "left": np.full_like(frames[2]["left"], 128), "right": np.full_like(frames[2]["right"], 128)}
+    out = io.StringIO()
+    res = run_stereo_vo(S.ArraySequence(frames, T), "accurate", progress=progress_printer("accurate", out))
+    lines = out.getvalue().splitlines()
+    assert len(lines) == 3 and "FAILED" in lines[1] and "FAILED" in lines[2] and "FAILED" not in lines[0]
+    assert failed_summary(res.failed).startswith("warning: 2 step(s)") and "1->2, 2->3" in failed_summary(res.failed)

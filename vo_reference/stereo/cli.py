@@ -54,10 +54,21 @@ def make_params(method: str, args: argparse.Namespace):
     return p
 
 
+def failed_summary(failed: list) -> str:
+    """One line naming the steps that kept the previous motion (constant velocity)."""
+    steps = ", ".join(f"{k}->{k + 1}" for k, _ in failed[:10]) + (" ..." if len(failed) > 10 else "")
+    return f"warning: {len(failed)} step(s) could not be estimated and kept the previous motion: {steps}"
+
+
 def progress_printer(method: str, stream=None):
     stream = stream or sys.stdout
 
     def show(k: int, last: int, res, dt: float) -> None:
+        if res.failure:
+            stream.write(f"[{method}] frame {k:4d}->{k + 1:<4d} of {last}: FAILED ({res.failure}); "
+                         f"keeps the previous motion\n")
+            stream.flush()
+            return
         X = res.twist
         stream.write(f"[{method}] frame {k:4d}->{k + 1:<4d} of {last}: {res.n_points:4d} pts  "
                      f"U V W = {X[0]:+.4f} {X[1]:+.4f} {X[2]:+.4f}  "
@@ -85,4 +96,6 @@ def run(args: argparse.Namespace) -> int:
         write_kitti(out, res.trajectory)
     print(f"{args.method}: {len(res.trajectory)} poses (frames {frames[0]}..{frames[1]}) -> {out} "
           f"({args.out_format}); {res.fps:.1f} frames/s")
+    if res.failed:
+        print(failed_summary(res.failed), file=sys.stderr)
     return 0

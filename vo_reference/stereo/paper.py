@@ -62,6 +62,7 @@ class StepResult:
     pts0: np.ndarray = field(repr=False, default_factory=lambda: np.zeros((0, 2)))  # keypoints at k
     pts1: np.ndarray = field(repr=False, default_factory=lambda: np.zeros((0, 2)))  # matches at k+1
     depth: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
+    failure: str = ""                   # why the step failed (the pipeline then keeps the previous motion)
 
 
 def paper_step(left0: np.ndarray, right0: np.ndarray, left1: np.ndarray, K: np.ndarray, baseline_m: float,

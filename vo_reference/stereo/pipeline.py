@@ -3,6 +3,10 @@
 Frame-to-frame motions T_k_k1 are composed into poses T(k+1) = T(k) T_k_k1 starting at the
 ground-truth pose of the first frame when the sequence has one (so estimate and ground truth
 share a world frame), else at the identity.
+
+A step that cannot be estimated (too few points, e.g. a blank or blurred frame) keeps the
+previous step's motion (constant velocity; identity for the first) and is listed in
+``VoResult.failed`` — as the monocular pipeline does; the run fails only when no step succeeds.
 """
 from __future__ import annotations
 
@@ -19,7 +23,7 @@ from .accurate import AccurateParams, StereoTracks, accurate_step
 from .groundtruth import GroundTruthStep
 from .motion_field import T_to_twist, compose
 from .baseline import baseline_step
-from .paper import PaperParams, paper_step
+from .paper import PaperParams, StepResult, paper_step
 
 METHODS = ("paper", "accurate", "opencv-baseline")
 
@@ -34,6 +38,7 @@ class VoResult:
     n_points: np.ndarray                    # (N-1,) keypoints used per step
     seconds: np.ndarray                     # (N-1,) wall time per step (image reading excluded)
     options: dict = field(default_factory=dict)
+    failed: list = field(default_factory=list)  # (k, reason) of steps k -> k+1 that kept the previous motion
 
     @property
     def fps(self) -> float:
@@ -82,7 +87,7 @@ def run_stereo_vo(seq, method: str = "accurate", *, gt_depth: bool = False, gt_f
         params = PaperParams() if method == "paper" else AccurateParams()
     tracks = StereoTracks(params) if method == "accurate" else None
 
-    steps, n_pts, secs, gt_tw = [], [], [], []
+    steps, n_pts, secs, gt_tw, failed = [], [], [], [], []
     left0, right0 = seq.image_gray(first, "left"), seq.image_gray(first, "right")
     for k in range(first, last):
         left1, right1 = seq.image_gray(k + 1, "left"), seq.image_gray(k + 1, "right")
@@ -100,8 +105,10 @@ def run_stereo_vo(seq, method: str = "accurate", *, gt_depth: bool = False, gt_f
                 res = baseline_step(left0, right0, left1, K, B)
             else:
                 res = accurate_step(left0, right0, left1, right1, K, B, params, gt, gt_depth, gt_flow, tracks)
-        except VoError as e:
-            raise VoError(f"{method}, frame {k} -> {k + 1}: {e}") from None
+        except VoError as e:                # constant velocity; tracks restart from fresh corners
+            T_prev = steps[-1] if steps else np.eye(4)
+            res = StepResult(T_to_twist(T_prev), T_prev, 0, failure=str(e))
+            failed.append((k, str(e)))
         dt = time.perf_counter() - t0
         steps.append(res.T_k_k1)
         n_pts.append(res.n_points)
@@ -110,6 +117,9 @@ def run_stereo_vo(seq, method: str = "accurate", *, gt_depth: bool = False, gt_f
             progress(k, last, res, dt)
         left0, right0 = left1, right1
 
+    if len(failed) == len(steps):
+        k, why = failed[0]
+        raise VoError(f"{method}: no frame step could be estimated (frame {k} -> {k + 1}: {why})")
     T0 = T_gt[first] if T_gt is not None else np.eye(4)
     poses = compose(T0, steps)
     ts = np.asarray(seq.timestamps_s, dtype=float)[first:last + 1]
@@ -117,4 +127,4 @@ def run_stereo_vo(seq, method: str = "accurate", *, gt_depth: bool = False, gt_f
                     np.stack([T_to_twist(T) for T in steps]),
                     np.stack(gt_tw) if gt_tw else None,
                     np.array(n_pts), np.array(secs),
-                    {"gt_depth": gt_depth, "gt_flow": gt_flow})
+                    {"gt_depth": gt_depth, "gt_flow": gt_flow}, failed)

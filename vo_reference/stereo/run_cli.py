@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
     from ..evaluate.trajectory_eval import evaluate_trajectory, summary_lines
     from ..io.sequence import open_sequence
     from ..io.trajectory import Trajectory, write_kitti, write_tum
-    from .cli import progress_printer
+    from .cli import failed_summary, progress_printer
     from .pipeline import METHODS, parse_frames, run_stereo_vo
 
     root = Path(args.input)
@@ -125,6 +125,7 @@ def run(args: argparse.Namespace) -> int:
         report["methods"][m] = {"egomotion_rmse": rmse, "ape_trans_rmse": ev.ape.trans.rmse,
                                 "ape_rot_rmse_deg": ev.ape.rot_deg.rmse, "rpe_trans_rmse": ev.rpe.trans.rmse,
                                 "rpe_rot_rmse_deg": ev.rpe.rot_deg.rmse, **shape, "fps": res.fps,
+                                "failed_steps": [[k, why] for k, why in res.failed],
                                 "report": {k: str(v) for k, v in files.items()}}
         print("\n".join(summary_lines(ev)))
         line = (f"End-point drift {shape['end_point_drift']:.4f} ({shape['end_point_drift_pct']:.2f} % of the "
@@ -136,6 +137,9 @@ def run(args: argparse.Namespace) -> int:
         print(line)
         sections += [f"## {m}{variant}", "", "```", *summary_lines(ev), "```", "",
                      f"{line}; {res.fps:.1f} frames/s; details: [{m}/summary.md]({m}/summary.md)", ""]
+        if res.failed:
+            print(failed_summary(res.failed))
+            sections += [f"**{failed_summary(res.failed)}**", ""]
         if not args.no_plots:
             sections += [f"![{m} trajectory]({m}/trajectories.png) ![{m} egomotion]({m}/egomotion.png)", ""]
     lines = [f"# Stereo VO report: {root.name}", "",
