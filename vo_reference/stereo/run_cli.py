@@ -2,11 +2,11 @@
 evaluation (APE/RPE, the SESGen paper's per-frame egomotion table), plots, into a report folder.
 
 INPUT is a render folder, or any other sequence with ground-truth poses (a KITTI odometry
-folder with its poses). Report folder (default ``INPUT/report`` for a render; ``NAME_report`` in
-the working directory for other inputs, so a dataset folder is never written to): ``summary.md`` (the paper-style RMSE table
-with the paper's Table 1 values beside ours, then per method the evaluation), ``report.json``,
-per method ``<method>/`` with ``est.txt`` (KITTI poses), ``est_tum.txt``, ``metrics.json``,
-``summary.md`` and PNG plots.
+folder with its poses). Report folder: ``INPUT/report`` for a render, ``./NAME_report`` for
+other inputs (a dataset folder is never written to), or ``--report DIR``. It holds
+``summary.md`` (the paper-style RMSE table with the paper's Table 1 values beside ours, then
+per method the evaluation), ``report.json``, and per method ``<method>/`` with ``est.txt``
+(KITTI poses), ``est_tum.txt``, ``metrics.json``, ``summary.md`` and PNG plots.
 """
 from __future__ import annotations
 
