@@ -113,6 +113,8 @@ def test_parse_frames():
         parse_frames("5:6", 10)
     with pytest.raises(VoError):
         parse_frames("x", 10)
+    with pytest.raises(VoError, match="the sequence has 1 frame.*at least 2"):
+        parse_frames(None, 1)
 
 
 @pytest.mark.parametrize("method", ["accurate", "paper", "opencv-baseline"])

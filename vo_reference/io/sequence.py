@@ -58,6 +58,30 @@ class Sequence(Protocol):
         ...
 
 
+def frame_range(spec: str | None, n: int, min_frames: int = 1) -> range:
+    """``--frames``: 'A:B' (Python slice: B exclusive, either may be empty or negative) or a
+    single index 'A' -> the range of frames of a sequence of ``n``; at least ``min_frames``."""
+    if spec is None or spec.strip() in ("", ":"):
+        r = range(n)
+    else:
+        try:
+            if ":" in spec:
+                a, b = spec.split(":", 1)
+                r = range(n)[slice(int(a) if a.strip() else None, int(b) if b.strip() else None)]
+            else:
+                a = int(spec)
+                if not 0 <= a < n:
+                    raise VoError(f"--frames {spec}: frame out of range 0..{n - 1}")
+                r = range(a, a + 1)
+        except ValueError:
+            raise VoError(f"--frames {spec!r}: expected A:B (integers)") from None
+    if len(r) < max(min_frames, 1):
+        what = f"--frames {spec} selects {len(r)}" if spec and spec.strip() not in ("", ":") else f"the sequence has {n}"
+        need = "at least 2 (for motion)" if min_frames >= 2 else "at least 1"
+        raise VoError(f"{what} frame(s); this needs {need}")
+    return r
+
+
 def check_frame_view(seq, k: int, view: str) -> None:
     """Raise VoError for a frame index or view the sequence does not have."""
     if view not in seq.views:

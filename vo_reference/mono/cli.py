@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import VoError
+from ..io.sequence import frame_range
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -51,19 +52,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="OpenCV's robust estimator: usac = USAC_ACCURATE (default), ransac = classic RANSAC")
     p.add_argument("--plot", metavar="DIR", help="write plots and a per-frame table here")
     p.add_argument("-q", "--quiet", action="store_true", help="no per-frame progress")
-
-
-def _frames(spec, n):
-    if not spec:
-        return range(n)
-    a, _, b = spec.partition(":")
-    try:
-        r = range(n)[slice(int(a) if a else None, int(b) if b else None)]
-    except ValueError:
-        raise VoError(f"--frames {spec!r}: expected A:B") from None
-    if len(r) < 2:
-        raise VoError(f"--frames {spec}: needs at least 2 frames")
-    return r
 
 
 def open_input(args):
@@ -117,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
             raise VoError(f"--mask-rect {r!r}: expected X0,Y0,X1,Y1") from None
         rects.append((x0, y0, x1, y1))
     mask = build_mask(W, H, bottom=args.mask_bottom, rects=rects, file=args.mask, maps=maps)
-    frames = _frames(args.frames, seq.num_frames)
+    frames = frame_range(args.frames, seq.num_frames, min_frames=2)
     idx = list(frames)
     gt = seq.T_world_cam("left")
     gt = None if gt is None else gt[idx]

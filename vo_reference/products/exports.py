@@ -22,6 +22,7 @@ import numpy as np
 from ..errors import VoError
 from ..io.color import rgb8_to_gray8
 from ..io.files import write_png16, write_png_rgb, write_text_atomic
+from ..io.sequence import frame_range
 from ..lie import se3_inverse
 from .disparity import sequence_disparity, write_disparity_png16
 from .noise import add_gaussian_noise
@@ -77,23 +78,8 @@ def get_exporter(name: str) -> Callable:
 
 
 def parse_frames(spec: str | None, n: int) -> range:
-    """'A:B' (B exclusive; either may be empty) or 'A' -> range within 0..n-1."""
-    if spec is None or spec.strip() in ("", ":"):
-        return range(n)
-    try:
-        if ":" in spec:
-            a, b = spec.split(":", 1)
-            r = range(n)[slice(int(a) if a.strip() else None, int(b) if b.strip() else None)]
-        else:
-            a = int(spec)
-            if not 0 <= a < n:
-                raise VoError(f"--frames {spec}: frame out of range 0..{n - 1}")
-            r = range(a, a + 1)
-    except ValueError:
-        raise VoError(f"--frames {spec!r}: expected A:B (integers)") from None
-    if len(r) == 0:
-        raise VoError(f"--frames {spec}: no frames selected (sequence has {n})")
-    return r
+    """'A:B' (B exclusive; either may be empty) or 'A' -> range within 0..n-1 (:func:`frame_range`)."""
+    return frame_range(spec, n)
 
 
 def export(render_dir, target: str, out, *, frames: str | range | None = None,

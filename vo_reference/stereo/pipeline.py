@@ -17,6 +17,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from ..errors import VoError
+from ..io.sequence import frame_range
 from ..io.trajectory import Trajectory
 from ..lie import relative
 from .accurate import AccurateParams, StereoTracks, accurate_step
@@ -46,24 +47,9 @@ class VoResult:
 
 
 def parse_frames(spec: Optional[str], num_frames: int) -> tuple[int, int]:
-    """``A:B`` (Python-style, B exclusive, either may be empty) -> inclusive (first, last)."""
-    if not spec:
-        a, b = 0, num_frames
-    else:
-        try:
-            sa, sb = spec.split(":")
-            a = int(sa) if sa.strip() else 0
-            b = int(sb) if sb.strip() else num_frames
-        except ValueError:
-            raise VoError(f"--frames expects A:B (e.g. 0:20), got {spec!r}") from None
-        if a < 0:
-            a += num_frames
-        if b < 0:
-            b += num_frames
-        b = min(b, num_frames)
-    if not 0 <= a < b or b - a < 2:
-        raise VoError(f"frame range {spec!r} selects fewer than 2 of {num_frames} frames")
-    return a, b - 1
+    """``A:B`` (Python-style, B exclusive, either may be empty) -> inclusive (first, last), >= 2 frames."""
+    r = frame_range(spec, num_frames, min_frames=2)
+    return r.start, r.stop - 1
 
 
 def run_stereo_vo(seq, method: str = "accurate", *, gt_depth: bool = False, gt_flow: bool = False,

@@ -94,6 +94,8 @@ def run(args: argparse.Namespace) -> int:
         if m not in METHODS:
             raise VoError(f"unknown method {m!r} (choose from {', '.join(METHODS)})")
     frames = parse_frames(args.frames, seq.num_frames)
+    if "right" not in seq.views or seq.baseline_m <= 0:     # before any output is written
+        raise VoError(f"{root}: stereo VO needs a stereo sequence (left and right views, baseline > 0)")
     out = Path(args.report) if args.report else default_report_dir(root)
     try:
         out.mkdir(parents=True, exist_ok=True)
