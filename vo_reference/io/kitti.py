@@ -75,11 +75,11 @@ def _list_images(folder: Path) -> list[Path]:
 
 def poses_file(root: Path) -> Path | None:
     """``root/poses.txt``, else the odometry kit's ``dataset/poses/NN.txt`` for ``dataset/sequences/NN``."""
-    own = root / "poses.txt"
-    if own.is_file():
-        return own
-    kit = root.resolve().parent.parent / "poses" / f"{root.resolve().name}.txt"
-    return kit if root.resolve().parent.name == "sequences" and kit.is_file() else None
+    if (root / "poses.txt").is_file():
+        return root / "poses.txt"
+    seq = root.resolve()
+    kit = seq.parent.parent / "poses" / f"{seq.name}.txt"
+    return kit if seq.parent.name == "sequences" and kit.is_file() else None
 
 
 class KittiSequence(ImagesOnly):

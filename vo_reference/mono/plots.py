@@ -6,14 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..evaluate.plots import _plt, _save
+
 COLOURS = {"ground truth": "tab:green", "ours": "tab:red", "OpenCV": "tab:blue"}
-
-
-def _plt():
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
 
 
 def plot_paths(paths: dict[str, np.ndarray], path, title: str = "") -> Path:
@@ -36,12 +31,8 @@ def plot_paths(paths: dict[str, np.ndarray], path, title: str = "") -> Path:
     axs[0].legend(loc="best")
     if title:
         fig.suptitle(title)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, dpi=110)
 
 
 def plot_frame_series(series: dict[str, np.ndarray], path, title: str = "") -> Path:
@@ -57,9 +48,5 @@ def plot_frame_series(series: dict[str, np.ndarray], path, title: str = "") -> P
     axs[-1, 0].set_xlabel("frame")
     if title:
         fig.suptitle(title)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, dpi=110)

@@ -52,14 +52,19 @@ def parse_frames(spec: Optional[str], num_frames: int) -> tuple[int, int]:
     return r.start, r.stop - 1
 
 
+def check_stereo(seq) -> None:
+    """VoError unless ``seq`` is a stereo sequence (left and right views, baseline > 0)."""
+    if "right" not in seq.views or seq.baseline_m <= 0:
+        raise VoError("stereo VO needs a stereo sequence (left and right views, baseline > 0)")
+
+
 def run_stereo_vo(seq, method: str = "accurate", *, gt_depth: bool = False, gt_flow: bool = False,
                   frames: Optional[tuple[int, int]] = None, params=None,
                   progress: Optional[Callable[[int, int, object, float], None]] = None) -> VoResult:
     """Estimate the left camera's trajectory of ``seq`` with ``method`` ('paper' or 'accurate')."""
     if method not in METHODS:
         raise VoError(f"unknown method {method!r} (choose {' or '.join(METHODS)})")
-    if "right" not in seq.views or seq.baseline_m <= 0:
-        raise VoError("stereo VO needs a stereo sequence (left and right views, baseline > 0)")
+    check_stereo(seq)
     first, last = frames if frames is not None else (0, seq.num_frames - 1)
     if not (0 <= first < last < seq.num_frames):
         raise VoError(f"frame range {first}..{last} outside 0..{seq.num_frames - 1}")

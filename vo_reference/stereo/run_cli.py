@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
     from ..io.sequence import open_sequence
     from ..io.trajectory import Trajectory, write_kitti, write_tum
     from .cli import failed_summary, progress_printer
-    from .pipeline import METHODS, parse_frames, run_stereo_vo
+    from .pipeline import METHODS, check_stereo, parse_frames, run_stereo_vo
 
     root = Path(args.input)
     seq = open_sequence(root)
@@ -94,8 +94,7 @@ def run(args: argparse.Namespace) -> int:
         if m not in METHODS:
             raise VoError(f"unknown method {m!r} (choose from {', '.join(METHODS)})")
     frames = parse_frames(args.frames, seq.num_frames)
-    if "right" not in seq.views or seq.baseline_m <= 0:     # before any output is written
-        raise VoError(f"{root}: stereo VO needs a stereo sequence (left and right views, baseline > 0)")
+    check_stereo(seq)                                       # before any output is written
     out = Path(args.report) if args.report else default_report_dir(root)
     try:
         out.mkdir(parents=True, exist_ok=True)
