@@ -145,6 +145,34 @@ def camera_matrix_world(T_world_cam_cv_ses: np.ndarray) -> np.ndarray:
     return cv_to_blender_camera(ses_to_blender_world(T_world_cam_cv_ses))
 
 
+def interpolate_pose(T_world_a: np.ndarray, T_world_b: np.ndarray, s: float) -> np.ndarray:
+    """The pose a fraction ``s`` of the way from ``T_world_a`` to ``T_world_b`` as keyframes
+    are interpolated: the position moves on the straight line between them, the orientation
+    turns at constant angular velocity about one axis (slerp),
+    R = R_a @ exp(s * log(R_a^T R_b)), t = (1 - s) t_a + s t_b.
+
+    s = 0 gives T_a, s = 1 gives T_b (to rounding). The rotation from a to b must be < 180 deg.
+    """
+    T_a, T_b = np.asarray(T_world_a, dtype=float), np.asarray(T_world_b, dtype=float)
+    w, _ = se3_log(relative_motion(T_a, T_b))
+    R = T_a[:3, :3] @ se3_exp(float(s) * w, (0.0, 0.0, 0.0))[:3, :3]
+    return _homogeneous(R, (1.0 - float(s)) * T_a[:3, 3] + float(s) * T_b[:3, 3])
+
+
+def interpolate_twist(T_world_a: np.ndarray, T_world_b: np.ndarray, s: float) -> np.ndarray:
+    """The pose a fraction ``s`` of the way from ``T_world_a`` to ``T_world_b`` along the
+    constant body twist that joins them (the SE(3) geodesic, how EGO moves the rig within a
+    frame step): T_a @ exp(s * log(inv(T_a) @ T_b)). The rotation must be < 180 deg."""
+    w, v = se3_log(relative_motion(T_world_a, T_world_b))
+    return np.asarray(T_world_a, dtype=float) @ se3_exp(float(s) * w, float(s) * v)
+
+
+def rotation_angle_deg(T_a_b: np.ndarray) -> float:
+    """Angle of the rotation part of a transform, in degrees (0..180)."""
+    R = np.asarray(T_a_b, dtype=float)[:3, :3]
+    return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0))))
+
+
 def ego_from_poses(T_world_a: np.ndarray, T_world_b: np.ndarray) -> tuple[float, ...]:
     """(U, V, W, alpha, beta, gamma) of the constant body twist that takes pose a to pose b.
 
