@@ -186,9 +186,25 @@ def object_table(scene: Scene) -> list[dict]:
                 tex = scene.material(o.material).texture
             except KeyError:
                 tex = None
-        out.append({"id": int(o.id), "name": o.name, "shape": o.shape,
-                    "texture": texture_label(tex), "material": o.material})
+        entry = {"id": int(o.id), "name": o.name, "shape": o.shape,
+                 "texture": texture_label(tex), "material": o.material}
+        entry.update(object_motion_entry(scene, o.id))
+        out.append(entry)
     return out
+
+
+OBJECT_POSES_CONVENTION = ("T_world_obj: the object frame (origin at the object's position, axes turned by its "
+                           "rotation; a QUAD's is its vertex centroid with the world axes) in the SES world (Y up); "
+                           "a point fixed on the object is at T_world_obj[k] @ X_obj at frame k")
+
+
+def object_motion_entry(scene: Scene, obj_id: int) -> dict:
+    """The manifest keys of one object's motion: ``moving`` (every object) and, for a
+    moving one, ``motion`` (keys | twist | trajectory) and ``T_world_obj`` (one 4x4 per frame)."""
+    m = scene.motion_of(obj_id)
+    if m is None:
+        return {"moving": False}
+    return {"moving": True, "motion": m.kind, "T_world_obj": [np.asarray(T, dtype=float).tolist() for T in m.T_world_obj]}
 
 
 def view_poses(scene: Scene) -> dict[str, np.ndarray]:
@@ -225,6 +241,7 @@ def build_manifest(scene: Scene, scene_sha256: str, settings: EffectiveSettings,
         "segmentation": {"kind": "object_index", "background": 0, "channel": None},
         "channels": {},
         "objects": object_table(scene),
+        "object_poses_convention": OBJECT_POSES_CONVENTION,
         "poses_convention": "T_world_cam: OpenCV camera (x right, y down, z forward) in the SES world (Y up)",
         "poses": {v: [np.asarray(T, dtype=float).tolist() for T in poses[v]] for v in views},
         "trajectories": trajectory_relpaths(views),

@@ -88,6 +88,7 @@ class RenderSequence:
         self.near = float(m.get("near", 0.0))
         self.far = float(m.get("far", np.inf))
         self.objects = list(m.get("objects") or [])
+        self._object_poses = _object_poses(self.objects, self.num_frames, where)
         noise = m.get("noise")
         self.noise = (float(noise["sigma"]), int(noise.get("seed", 0))) if isinstance(noise, dict) else None
 
@@ -202,9 +203,38 @@ class RenderSequence:
             raise VoError(f"view {view!r} not in this sequence (views: {', '.join(self.views)})")
         return self._poses[view].copy()
 
+    @property
+    def moving_ids(self) -> tuple[int, ...]:
+        """Ids of the objects that move (manifest ``objects[i].moving``); () for a static scene
+        or a render written before moving objects existed."""
+        return tuple(sorted(self._object_poses))
+
+    def T_world_obj(self, obj_id: int) -> np.ndarray | None:
+        """(N, 4, 4) per-frame pose of a moving object's frame in the world (manifest
+        ``objects[i].T_world_obj``), or None for an object that does not move."""
+        T = self._object_poses.get(int(obj_id))
+        return None if T is None else T.copy()
+
     def __repr__(self) -> str:
         W, H = self.resolution
         return f"RenderSequence({str(self.root)!r}, {self.num_frames} frames, {W}x{H}, views={self.views})"
+
+
+def _object_poses(objects: list, n: int, where) -> dict[int, np.ndarray]:
+    """{id: (N, 4, 4)} of the objects marked ``moving`` (older manifests have none)."""
+    out = {}
+    for o in objects:
+        if not isinstance(o, dict) or not o.get("moving"):
+            continue
+        try:
+            obj_id = int(o["id"])
+            T = np.array(o["T_world_obj"], dtype=float)
+        except (KeyError, TypeError, ValueError):
+            raise VoError(f"{where}: moving object {o.get('id')!r} has no usable T_world_obj") from None
+        if T.shape != (n, 4, 4) or not np.all(np.isfinite(T)):
+            raise VoError(f"{where}: objects[id={obj_id}].T_world_obj has shape {T.shape}, expected ({n}, 4, 4)")
+        out[obj_id] = T
+    return out
 
 
 def _timestamps(m: dict, n: int, where) -> np.ndarray:
