@@ -127,3 +127,24 @@ def is_moving(T_frames: np.ndarray) -> np.ndarray:
     """(frames - 1,) bool: whether the pose changes from frame k to k+1 (exactly)."""
     T = np.asarray(T_frames, dtype=float)
     return np.array([not np.array_equal(T[k], T[k + 1]) for k in range(len(T) - 1)], dtype=bool)
+
+
+KEYS_PER_FRAME = 8  # keys per frame interval of a moving object in Blender (for motion blur)
+SHUTTER_MARGIN = 0.5  # frames keyed before frame 0 and after the last (a shutter open around them)
+
+
+def key_times(frames: int, keys_per_frame: int = KEYS_PER_FRAME, margin: float = SHUTTER_MARGIN) -> np.ndarray:
+    """Instants (in frames) at which a moving object is keyed in Blender: every frame, and
+    ``keys_per_frame - 1`` evenly spaced instants between frames, from ``-margin`` to
+    ``frames - 1 + margin`` — so that Cycles' motion blur, which evaluates the scene at
+    sub-frame times around each frame, sees the object move (linear interpolation between
+    keys 1/8 frame apart; exact at the keys)."""
+    n = int(round((frames - 1 + 2 * margin) * keys_per_frame))
+    t = -margin + np.arange(n + 1) / keys_per_frame
+    t = np.round(t * keys_per_frame) / keys_per_frame  # integers exactly
+    return t
+
+
+def poses_at(T_frames: np.ndarray, times, kind: str = "keys") -> np.ndarray:
+    """(len(times), 4, 4) :func:`pose_at` for each instant; exact frame poses at integers."""
+    return np.stack([pose_at(T_frames, float(t), kind) for t in times])

@@ -29,10 +29,10 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from .. import poses
+from .. import dynamics, poses
 from ..errors import SesgenError
 from ..model import Cuboid, Cylinder, Material, Mesh, Quad, Scene, SceneObject, Sphere, TextureRef
-from . import compat, lighting, rig, textures
+from . import compat, lighting, object_motion, rig, textures
 
 SCENE_NAME = "SESGen"
 TAG = "sesgen"
@@ -59,6 +59,7 @@ class BuiltScene:
     objects: dict = field(default_factory=dict)   # id -> [bpy objects]
     cameras: dict = field(default_factory=dict)   # view -> camera object
     segments: dict = field(default_factory=dict)  # cylinder id -> segment count
+    movers: dict = field(default_factory=dict)    # moving object id -> its keyed empty
 
 
 def clear_previous() -> None:
@@ -94,12 +95,23 @@ def segments_for(radius: float, min_distance: float, focal_px: float,
     return int(min(max(n, 8), MAX_SEGMENTS))
 
 
-def _min_camera_distance(scene: Scene, centre, bounding_radius: float) -> float:
+def _camera_centre_distances(scene: Scene, obj: SceneObject, centre) -> np.ndarray:
+    """Distances from every camera of every frame to the object's centre at that frame
+    (a moving object's centre moves with its object frame)."""
     cams = [scene.timeline.left()[:, :3, 3]]
     if scene.rig.stereo:
         cams.append(scene.timeline.right(scene.rig.baseline)[:, :3, 3])
-    P = np.concatenate(cams)
-    d = float(np.min(np.linalg.norm(P - np.asarray(centre, dtype=float), axis=1))) - bounding_radius
+    motion = scene.motion_of(obj.id)
+    if motion is None:
+        C = np.asarray(centre, dtype=float)[None]
+    else:  # the centre in the object frame, carried by T_world_obj(k)
+        c_obj = poses.invert(dynamics.rest_pose(obj)) @ np.append(np.asarray(centre, dtype=float), 1.0)
+        C = (motion.poses() @ c_obj)[:, :3]
+    return np.concatenate([np.linalg.norm(P - C, axis=1) for P in cams])
+
+
+def _min_camera_distance(scene: Scene, obj: SceneObject, centre, bounding_radius: float) -> float:
+    d = float(np.min(_camera_centre_distances(scene, obj, centre))) - bounding_radius
     return max(d, scene.rig.near)
 
 
@@ -233,13 +245,10 @@ def build_sphere(s: Sphere, collection, material):
     return obj
 
 
-def _cameras_inside(scene: Scene, centre, radius: float) -> tuple[bool, float]:
+def _cameras_inside(scene: Scene, obj: SceneObject, centre, radius: float) -> tuple[bool, float]:
     """Whether any camera of the sequence is inside the sphere, and the closest any camera
     gets to its surface (from either side)."""
-    cams = [scene.timeline.left()[:, :3, 3]]
-    if scene.rig.stereo:
-        cams.append(scene.timeline.right(scene.rig.baseline)[:, :3, 3])
-    dist = np.linalg.norm(np.concatenate(cams) - np.asarray(centre, dtype=float), axis=1)
+    dist = _camera_centre_distances(scene, obj, centre)
     return bool(np.any(dist < radius)), max(float(np.min(np.abs(dist - radius))), scene.rig.near)
 
 
@@ -366,7 +375,7 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -
         elif isinstance(o, Cuboid):
             objs = [build_cuboid(o, coll)]
         elif isinstance(o, Sphere):
-            inside, d_surface = _cameras_inside(scene, o.position, o.radius)
+            inside, d_surface = _cameras_inside(scene, o, o.position, o.radius)
             if inside:
                 n = min(segments_for(o.radius, d_surface, focal), MAX_SPHERE_SEGMENTS)
                 built.segments[o.id] = n
@@ -376,7 +385,7 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -
                 objs = [build_sphere(o, coll, mats.get(o))]
         elif isinstance(o, Cylinder):
             bound = math.hypot(o.radius, o.height / 2.0)
-            n = segments_for(o.radius, _min_camera_distance(scene, o.position, bound), focal)
+            n = segments_for(o.radius, _min_camera_distance(scene, o, o.position, bound), focal)
             built.segments[o.id] = n
             objs = [build_cylinder(o, coll, n)]
         elif isinstance(o, Mesh):
@@ -390,6 +399,9 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -
             if b.type == "MESH" and not isinstance(o, (Sphere, Mesh)):
                 b.data.materials.append(mats.get(o))
         built.objects[o.id] = objs
+        motion = scene.motion_of(o.id)
+        if motion is not None:
+            built.movers[o.id] = object_motion.attach_motion(o, motion, objs, coll, tag)
 
     for i, light in enumerate(lights):
         lo = lighting.add_light(bscene, coll, light, f"sesgen_light_{i}")
