@@ -101,24 +101,31 @@ def warp_depth(depth_src: np.ndarray, K: np.ndarray, T_tgt_src: np.ndarray,
         zt_map = np.asarray(depth_tgt, dtype=np.float64)
         if zt_map.shape != (H, W):
             raise VoError(f"target depth is {zt_map.shape}, source {(H, W)}")
-        with np.errstate(divide="ignore"):
-            inv = np.where(np.isfinite(zt_map) & (zt_map > 0), 1.0 / zt_map, 0.0)
-        ui, vi = u[inside], v[inside]
-        # 2x2 cell around p'; in the half-pixel border the cell's plane is extrapolated
-        # (linear in inverse depth, so still exact for a plane)
-        x0 = np.clip(np.floor(ui), 0, max(W - 2, 0)).astype(np.intp)
-        y0 = np.clip(np.floor(vi), 0, max(H - 2, 0)).astype(np.intp)
-        x1 = np.minimum(x0 + 1, W - 1)
-        y1 = np.minimum(y0 + 1, H - 1)
-        ax = ui - x0
-        ay = vi - y0
-        inv_p = ((1 - ax) * (1 - ay) * inv[y0, x0] + ax * (1 - ay) * inv[y0, x1]
-                 + (1 - ax) * ay * inv[y1, x0] + ax * ay * inv[y1, x1])
-        # hidden  <=>  z_point > z_surface·(1+rtol)  <=>  inv_surface·z_point > 1 + rtol
-        h = inv_p * zt[inside] > 1.0 + rtol
-        hidden[inside] = h
+        hidden[inside] = hidden_behind(zt_map, u[inside], v[inside], zt[inside], rtol)
     return Warp(u=u, v=v, z=np.where(front, zt, np.nan), valid=valid, out_of_image=out, hidden=hidden,
                 X_src=Xs, X_tgt=Xt)
+
+
+def hidden_behind(depth_map: np.ndarray, u: np.ndarray, v: np.ndarray, z: np.ndarray,
+                  rtol: float = 1e-3) -> np.ndarray:
+    """bool: points at pixels (u, v) (inside the image) with planar depth ``z`` lie behind
+    the surface of ``depth_map`` there by more than ``rtol`` (relative). The surface's
+    depth is bilinear in inverse depth over the 2x2 cell around (u, v) (exact for a plane;
+    in the half-pixel image border the cell's plane is extrapolated)."""
+    zt_map = np.asarray(depth_map, dtype=np.float64)
+    H, W = zt_map.shape
+    with np.errstate(divide="ignore"):
+        inv = np.where(np.isfinite(zt_map) & (zt_map > 0), 1.0 / zt_map, 0.0)
+    x0 = np.clip(np.floor(u), 0, max(W - 2, 0)).astype(np.intp)
+    y0 = np.clip(np.floor(v), 0, max(H - 2, 0)).astype(np.intp)
+    x1 = np.minimum(x0 + 1, W - 1)
+    y1 = np.minimum(y0 + 1, H - 1)
+    ax = u - x0
+    ay = v - y0
+    inv_p = ((1 - ax) * (1 - ay) * inv[y0, x0] + ax * (1 - ay) * inv[y0, x1]
+             + (1 - ax) * ay * inv[y1, x0] + ax * ay * inv[y1, x1])
+    # hidden  <=>  z_point > z_surface·(1+rtol)  <=>  inv_surface·z_point > 1 + rtol
+    return inv_p * z > 1.0 + rtol
 
 
 @dataclass(frozen=True)

@@ -44,6 +44,7 @@ class SceneFlow:
     out_of_image: np.ndarray  # bool: valid and outside the target image (or behind the camera)
     dynamic: np.ndarray       # bool: valid and on an object that moves between the two frames
     ids: np.ndarray | None    # int32 source id map (None if the sequence has none)
+    X_tgt: np.ndarray | None = None  # float64 (H, W, 3) the moved point in the target camera (NaN: not valid)
 
     @property
     def noc(self) -> np.ndarray:
@@ -100,9 +101,10 @@ def scene_flow_from_depth(depth_src, K, T_world_src, T_world_tgt, *, ids_src=Non
         sf[on] = X @ D[:3, :3].T + D[:3, 3] - X
         dynamic |= on
     sf[~w.valid] = np.nan
+    X_tgt = np.where(w.valid[..., None], w.X_tgt, np.nan)
     return SceneFlow(flow=flow.astype(np.float32), scene_flow=sf.astype(np.float32),
                      depth_tgt=w.z.astype(np.float32), valid=w.valid, occluded=w.valid & w.occluded,
-                     out_of_image=w.out_of_image, dynamic=dynamic, ids=ids)
+                     out_of_image=w.out_of_image, dynamic=dynamic, ids=ids, X_tgt=X_tgt)
 
 
 def sequence_scene_flow(seq, k_src: int, k_tgt: int, view: str = "left", rtol: float = 1e-3) -> SceneFlow:
