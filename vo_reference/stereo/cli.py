@@ -21,6 +21,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="use the render's depth at each keypoint instead of stereo matching (render folders only)")
     p.add_argument("--gt-flow", action="store_true",
                    help="use each keypoint's exact position in the next frame (from depth + K + poses) instead of tracking")
+    p.add_argument("--mask-dynamic-gt", action="store_true",
+                   help="drop keypoints on objects that move (the render's ground-truth motion mask)")
     p.add_argument("--out", required=True, metavar="EST.txt", help="estimated trajectory (left camera poses)")
     p.add_argument("--out-format", default="kitti", choices=("kitti", "tum"),
                    help="trajectory format: kitti (12 numbers per line, default) or tum (with timestamps)")
@@ -85,7 +87,8 @@ def run(args: argparse.Namespace) -> int:
 
     seq = open_sequence(args.input)
     frames = parse_frames(args.frames, seq.num_frames)
-    res = run_stereo_vo(seq, args.method, gt_depth=args.gt_depth, gt_flow=args.gt_flow, frames=frames,
+    res = run_stereo_vo(seq, args.method, gt_depth=args.gt_depth, gt_flow=args.gt_flow,
+                        mask_dynamic_gt=args.mask_dynamic_gt, frames=frames,
                         params=make_params(args.method, args),
                         progress=None if args.quiet else progress_printer(args.method))
     out = Path(args.out)

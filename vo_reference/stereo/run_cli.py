@@ -7,6 +7,12 @@ other inputs (a dataset folder is never written to), or ``--report DIR``. It hol
 ``summary.md`` (the paper-style RMSE table with the paper's Table 1 values beside ours, then
 per method the evaluation), ``report.json``, and per method ``<method>/`` with ``est.txt``
 (KITTI poses), ``est_tum.txt``, ``metrics.json``, ``summary.md`` and PNG plots.
+
+A render with moving objects: the report gives the share of the image on objects that
+move (per step: mean and max) and runs every method both without and with the
+ground-truth motion mask (``--mask-dynamic-gt`` makes the masked run the main one), side by
+side: the error each way and the share of the points each method kept that lie on moving
+objects.
 """
 from __future__ import annotations
 
@@ -32,6 +38,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--methods", default="paper,accurate", help="comma-separated methods (default: paper,accurate)")
     p.add_argument("--gt-depth", action="store_true", help="run the methods with ground-truth depth")
     p.add_argument("--gt-flow", action="store_true", help="run the methods with ground-truth correspondences")
+    p.add_argument("--mask-dynamic-gt", action="store_true",
+                   help="run the methods with the ground-truth motion mask (keypoints on moving objects dropped); "
+                        "with moving objects the report compares both ways anyway")
     p.add_argument("--frames", metavar="A:B", help="frame range, half-open like Python (default: all)")
     p.add_argument("--align", default="origin", choices=["none", "origin", "se3", "sim3"],
                    help="trajectory alignment for APE (default origin: the VO starts at the ground-truth "
@@ -65,6 +74,40 @@ def shape_errors(gt, est) -> dict:
         steps_est = np.linalg.norm(np.diff(est.positions, axis=0), axis=1)
         out["step_length_ratio"] = float(np.mean(steps_est[moving] / steps_gt[moving]))
     return out
+
+
+def dynamic_summary(res) -> dict | None:
+    """Share of the image on moving objects (mean/max over steps) and of the kept points on them."""
+    if res.dynamic_share is None:
+        return None
+    return {"image_share_mean": float(np.mean(res.dynamic_share)), "image_share_max": float(np.max(res.dynamic_share)),
+            "points_on_movers_mean": float(np.mean(res.dynamic_points)),
+            "points_on_movers_max": float(np.max(res.dynamic_points))}
+
+
+def error_summary(ev, shape: dict, res) -> dict:
+    """The numbers the with/without-mask comparison shows."""
+    return {"ape_trans_rmse": ev.ape.trans.rmse, "ape_rot_rmse_deg": ev.ape.rot_deg.rmse,
+            "rpe_trans_rmse": ev.rpe.trans.rmse, "rpe_rot_rmse_deg": ev.rpe.rot_deg.rmse,
+            "egomotion_rmse": dict(zip(COLS, ev.egomotion.rmse.tolist())),
+            "end_point_drift": shape["end_point_drift"], "dynamic": dynamic_summary(res),
+            "failed_steps": len(res.failed)}
+
+
+def mask_comparison_markdown(rows: dict[str, dict[str, dict]]) -> str:
+    """Per method: error without and with the ground-truth motion mask."""
+    lines = ["| method | motion mask | APE trans RMSE | RPE trans RMSE | RPE rot RMSE (deg) | W RMSE | β RMSE (deg) "
+             "| kept points on movers (mean / max) |", "|---|---|---|---|---|---|---|---|"]
+    for m, by in rows.items():
+        for label in ("without", "with"):
+            e = by[label]
+            d = e["dynamic"] or {}
+            lines.append(f"| {m} | {label} | {e['ape_trans_rmse']:.5f} | {e['rpe_trans_rmse']:.5f} | "
+                         f"{e['rpe_rot_rmse_deg']:.4f} | {e['egomotion_rmse']['W']:.5f} | "
+                         f"{e['egomotion_rmse']['beta_deg']:.4f} | "
+                         f"{100 * d.get('points_on_movers_mean', float('nan')):.1f} % / "
+                         f"{100 * d.get('points_on_movers_max', float('nan')):.1f} % |")
+    return "\n".join(lines) + "\n"
 
 
 def rmse_table_markdown(rows: dict[str, dict]) -> str:
@@ -101,15 +144,19 @@ def run(args: argparse.Namespace) -> int:
     except OSError as e:
         raise VoError(f"cannot create the report folder {out} ({e.strerror}); choose one with --report DIR") from None
     gt = Trajectory(T_gt[frames[0]:frames[1] + 1], np.asarray(seq.timestamps_s)[frames[0]:frames[1] + 1])
-    variant = "".join([" +GT depth" if args.gt_depth else "", " +GT flow" if args.gt_flow else ""])
+    variant = "".join([" +GT depth" if args.gt_depth else "", " +GT flow" if args.gt_flow else "",
+                       " +GT motion mask" if args.mask_dynamic_gt else ""])
+    dynamic = bool(getattr(seq, "moving_ids", ()))
 
     rmse_rows: dict[str, dict] = {"SESGen paper, Table 1 (OpenGL units, 40 frames)": dict(PAPER_TABLE1_RMSE)}
     report: dict = {"input": str(root), "frames": list(frames), "gt_depth": args.gt_depth, "gt_flow": args.gt_flow,
-                    "paper_table1_rmse": PAPER_TABLE1_RMSE, "methods": {}}
+                    "mask_dynamic_gt": args.mask_dynamic_gt, "paper_table1_rmse": PAPER_TABLE1_RMSE, "methods": {}}
     sections = []
+    mask_rows: dict[str, dict[str, dict]] = {}
     for m in methods:
         print(f"== {m}{variant}: frames {frames[0]}..{frames[1]} of {root}")
-        res = run_stereo_vo(seq, m, gt_depth=args.gt_depth, gt_flow=args.gt_flow, frames=frames,
+        res = run_stereo_vo(seq, m, gt_depth=args.gt_depth, gt_flow=args.gt_flow,
+                            mask_dynamic_gt=args.mask_dynamic_gt, frames=frames,
                             progress=None if args.quiet else progress_printer(m))
         mdir = out / m
         mdir.mkdir(parents=True, exist_ok=True)
@@ -127,7 +174,17 @@ def run(args: argparse.Namespace) -> int:
                                 "ape_rot_rmse_deg": ev.ape.rot_deg.rmse, "rpe_trans_rmse": ev.rpe.trans.rmse,
                                 "rpe_rot_rmse_deg": ev.rpe.rot_deg.rmse, **shape, "fps": res.fps,
                                 "failed_steps": [[k, why] for k, why in res.failed],
+                                "dynamic": dynamic_summary(res),
                                 "report": {k: str(v) for k, v in files.items()}}
+        if dynamic:  # the same method the other way round: without / with the ground-truth motion mask
+            print(f"== {m}: {'without' if args.mask_dynamic_gt else 'with'} the ground-truth motion mask")
+            other = run_stereo_vo(seq, m, gt_depth=args.gt_depth, gt_flow=args.gt_flow,
+                                  mask_dynamic_gt=not args.mask_dynamic_gt, frames=frames, progress=None)
+            ev_other = evaluate_trajectory(gt, other.trajectory, align=args.align, egomotion=True, by_index=True)
+            this = error_summary(ev, shape, res)
+            that = error_summary(ev_other, shape_errors(gt, other.trajectory), other)
+            mask_rows[m] = {"with": this, "without": that} if args.mask_dynamic_gt else {"without": this, "with": that}
+            report["methods"][m]["motion_mask_comparison"] = mask_rows[m]
         print("\n".join(summary_lines(ev)))
         line = (f"End-point drift {shape['end_point_drift']:.4f} ({shape['end_point_drift_pct']:.2f} % of the "
                 f"{shape['path_length']:.3f} path)")
@@ -143,13 +200,24 @@ def run(args: argparse.Namespace) -> int:
             sections += [f"**{failed_summary(res.failed)}**", ""]
         if not args.no_plots:
             sections += [f"![{m} trajectory]({m}/trajectories.png) ![{m} egomotion]({m}/egomotion.png)", ""]
+    dyn_lines = []
+    if mask_rows:
+        d = next(iter(mask_rows.values()))["without"]["dynamic"] or {}
+        report["dynamic_image_share"] = {"mean": d.get("image_share_mean"), "max": d.get("image_share_max")}
+        dyn_lines = ["## Moving objects", "",
+                     f"Share of the image on objects that move in a step: mean "
+                     f"{100 * d.get('image_share_mean', float('nan')):.1f} %, max "
+                     f"{100 * d.get('image_share_max', float('nan')):.1f} %. Each method without and with the "
+                     "ground-truth motion mask (keypoints on moving objects dropped before estimation); the last "
+                     "column is the share of the points a method kept (its inliers) that lie on moving objects.", "",
+                     mask_comparison_markdown(mask_rows)]
     lines = [f"# Stereo VO report: {root.name}", "",
              f"Sequence `{root}`, frames {frames[0]}..{frames[1]}, left camera; K f = {seq.K[0, 0]:g} px, "
              f"baseline {seq.baseline_m:g}, {seq.resolution[0]}x{seq.resolution[1]}.", "",
              "## Per-frame egomotion RMSE (the SESGen paper's Table 1 measure)", "",
              "RMSE over frames of the estimated minus true frame-to-frame motion (U V W: scene units per frame; "
              "α β γ: degrees per frame), ours beside the values the paper reports for its own scene.", "",
-             rmse_table_markdown(rmse_rows), *sections]
+             rmse_table_markdown(rmse_rows), *dyn_lines, *sections]
     (out / "summary.md").write_text("\n".join(lines), encoding="utf-8")
     write_json(out / "report.json", report)
     print(f"report: {out / 'summary.md'}")
