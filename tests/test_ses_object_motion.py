@@ -202,3 +202,11 @@ def test_move_of_a_faulty_object_reports_only_the_object():
     with pytest.raises(ScriptError) as info:
         parse_string(STILL + "CUBOID id 1 position 0 0 0 dim 1 -1 1\nMOVE id 1 twist 0 0 1 0 0 0\n")
     assert [e.line for e in info.value.errors] == [2]
+
+
+def test_check_summary_names_the_movers():
+    from blender_sesgen.check import summary
+    s = parse_string(STILL + BOX + BALL + "MOVE id 2 twist 0.5 0 0 0 0 0\n")
+    line = next(ln for ln in summary(s).splitlines() if ln.startswith("moving"))
+    assert line.split(None, 1)[1] == "2 (twist, 5)"
+    assert "none (static scene)" in summary(parse_string(BOX))
