@@ -1,7 +1,7 @@
 """Writes scenes/street_kitti_traffic.ses: street_kitti.ses's street and KITTI drive with traffic.
 
 The street of ``street.py --kitti`` (KITTI odometry's rig: 1226x370 px, f = 707 px, baseline
-0.54 m, 10 frames/s, 50 steps of ~1.2 m) gets a cross street ~40 m ahead, and moves:
+0.54 m, 50 steps of ~1.2 m at KITTI's 10 frames/s) gets a cross street ~40 m ahead, and moves:
 
 - cars (a low-poly car mesh, ``scenes/traffic/car.obj``) driving along the street's curve in
   both directions — oncoming in the left lane, one turning out of the cross street into
@@ -196,7 +196,7 @@ def main(assets: Path = ASSETS) -> None:
     h_cross = (cross_b - cross_a) / np.linalg.norm(cross_b - cross_a)
     r_cross = np.cross(h_cross, UP)
 
-    traffic = ["", "TIMING rate 10", "",
+    traffic = ["",
                "// traffic: cars (scenes/traffic/car.obj) replay TUM trajectories or drive at constant speed; "
                "people walk"]
     next_id = FIRST_ID
