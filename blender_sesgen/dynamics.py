@@ -1,7 +1,7 @@
 """Moving objects: each object's frame, and its pose at every frame or instant (pure, no bpy).
 
 An object's own frame (its *object frame*) is where its ``position x y z [rx ry rz]``
-puts it: origin at ``position``, axes turned by the XYZ Euler rule (``poses.object_pose``);
+puts it: origin at ``position``, axes turned by the XYZ Euler rule (``contract.frames.object_pose``);
 a QUAD's object frame is the centroid of its vertices with the world's axes, a MESH's is
 its ``position``/rotation (its ``scale`` acts inside the object frame). A point fixed on
 the object has constant coordinates X_obj in that frame, so at frame k it is at
@@ -11,7 +11,7 @@ Three ways to move (``MOVE`` in docs/ses-language.md), all from the object's res
 T_world_obj(0) (the pose its own statement gives):
 
 - **keyframes** (frame f, pose): between two keyframes the position moves on the straight
-  line and the orientation turns about one axis at a constant rate (``poses.interpolate_pose``,
+  line and the orientation turns about one axis at a constant rate (``contract.se3.interpolate_pose``,
   as animation keyframes are interpolated); before the first it rests, after the last it holds;
 - **twists** (first, last, U V W alpha beta gamma): from frame ``first`` to ``last`` every
   frame step is the constant body twist [omega, v] in the object's own frame,
@@ -21,8 +21,8 @@ T_world_obj(0) (the pose its own statement gives):
 
 Between two frames (motion blur, sub-frame keys) an object moves by the same rule
 (:func:`pose_at`): a twisting object along the constant body twist from its pose at k to
-its pose at k+1 (``poses.interpolate_twist``), a keyframed or trajectory-replaying object
-by ``poses.interpolate_pose`` between them — exact for twists and keyframes (both rules
+its pose at k+1 (``contract.se3.interpolate_twist``), a keyframed or trajectory-replaying object
+by ``contract.se3.interpolate_pose`` between them — exact for twists and keyframes (both rules
 subdivide into themselves), the definition for trajectories.
 """
 from __future__ import annotations
@@ -31,16 +31,18 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from . import poses
+from .contract.frames import object_pose
+from .contract.motion import ego_step
+from .contract.se3 import interpolate_pose, interpolate_twist, invert, relative, rotation_angle_rad
 from .model import Placed, Quad, SceneObject
 
 
 def rest_pose(obj: SceneObject) -> np.ndarray:
     """T_world_obj of an object as its statement places it (frame 0 of a moving object)."""
     if isinstance(obj, Quad):
-        return poses.object_pose(np.mean(np.asarray(obj.vertices, dtype=float), axis=0))
+        return object_pose(np.mean(np.asarray(obj.vertices, dtype=float), axis=0))
     if isinstance(obj, Placed):
-        return poses.object_pose(obj.position, obj.rotation_deg)
+        return object_pose(obj.position, obj.rotation_deg)
     raise TypeError(f"no object frame for {type(obj).__name__}")
 
 
@@ -56,7 +58,7 @@ def keyed_poses(T_rest: np.ndarray, keys: Sequence[tuple[int, np.ndarray]], fram
         f0, T0 = knots[j]
         if j + 1 < len(knots):
             f1, T1 = knots[j + 1]
-            out[k] = T0 if k == f0 else poses.interpolate_pose(T0, T1, (k - f0) / (f1 - f0))
+            out[k] = T0 if k == f0 else interpolate_pose(T0, T1, (k - f0) / (f1 - f0))
         else:
             out[k] = T0
     return out
@@ -69,7 +71,7 @@ def twist_poses(T_rest: np.ndarray, twists: Iterable[Sequence[float]], frames: i
     step = {}
     for seg in twists:
         first, last = int(seg[0]), int(seg[1])
-        T_step = poses.ego_step(*seg[2:8])
+        T_step = ego_step(*seg[2:8])
         for k in range(first, min(last, frames - 1)):
             step[k] = T_step
     out = np.empty((frames, 4, 4))
@@ -84,7 +86,7 @@ def trajectory_poses(T_rest: np.ndarray, T_file: np.ndarray, first: int, frames:
     pose, T(first + j) = T_rest @ inv(P(0)) @ P(j); rest before ``first``, the last pose held
     after the file ends; poses beyond the sequence are not used."""
     T_file = np.asarray(T_file, dtype=float)
-    T_rest_file0 = np.asarray(T_rest, dtype=float) @ poses.invert(T_file[0])
+    T_rest_file0 = np.asarray(T_rest, dtype=float) @ invert(T_file[0])
     out = np.empty((frames, 4, 4))
     for k in range(frames):
         j = min(max(k - first, 0), len(T_file) - 1)
@@ -97,7 +99,7 @@ def largest_step_rotation_deg(T_frames: np.ndarray) -> tuple[float, int]:
     T = np.asarray(T_frames, dtype=float)
     best, at = 0.0, 0
     for k in range(len(T) - 1):
-        a = poses.rotation_angle_deg(poses.relative_motion(T[k], T[k + 1]))
+        a = float(np.degrees(rotation_angle_rad(relative(T[k], T[k + 1])[:3, :3])))
         if a > best:
             best, at = a, k
     return best, at
@@ -119,7 +121,7 @@ def pose_at(T_frames: np.ndarray, t: float, kind: str = "keys") -> np.ndarray:
         return T[k].copy()
     if s == 1.0:
         return T[k + 1].copy()
-    interp = poses.interpolate_twist if kind == "twist" else poses.interpolate_pose
+    interp = interpolate_twist if kind == "twist" else interpolate_pose
     return interp(T[k], T[k + 1], s)
 
 

@@ -1,5 +1,5 @@
 """A small analytic scene with moving objects, ray-cast exactly (tests/raycast.py), written
-as a render folder without Blender (vo_reference.io.synthetic).
+as a render folder without Blender (tests/synthetic_render.py).
 
 Ground (id 1) and back wall (id 2) are static; a rotated cuboid (id 3) drives and turns, a
 sphere (id 4) moves and spins, passing in front of the cuboid; the stereo rig moves too.
@@ -95,7 +95,7 @@ def truth(scene: DynamicScene, k: int, view: str = "left"):
 
 def write(root, scene: DynamicScene, moving: bool = True):
     """The render folder of the scene (rgb: a fixed random texture; it is not used here)."""
-    from vo_reference.io.synthetic import write_render
+    from synthetic_render import write_render
     rng = np.random.default_rng(5)
     frames = []
     for k in range(len(scene.T_left)):

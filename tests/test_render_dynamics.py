@@ -149,8 +149,7 @@ def test_motion_blur_smears_a_moving_object(tmp_path):
     moves 0.5 m per frame sideways before a still camera, so blur widens it along x."""
     import bpy
     from blender_sesgen.blender import render as brender
-    from blender_sesgen.pipeline import RenderJob
-    from blender_sesgen.contract import RenderOptions
+    from blender_sesgen.pipeline import RenderJob, RenderOptions
     script = tmp_path / "blur.ses"
     script.write_text("CAMERA resolution 64 32 focal 60\nSTART position 0 0 5\nFRAMES 3\n"
                       "WORLD colour 0 0 0 strength 0\nMATERIAL name glow emission 1 1 1 emission_strength 5\n"

@@ -18,7 +18,8 @@ from __future__ import annotations
 import numpy as np
 from mathutils import Matrix
 
-from .. import dynamics, poses
+from .. import dynamics
+from ..contract.frames import ses_to_blender_world
 from ..model import ObjectMotion, SceneObject
 from . import rig
 
@@ -26,13 +27,13 @@ from . import rig
 def attach_motion(obj: SceneObject, motion: ObjectMotion, blender_objects: list, collection, tag) -> object:
     """Parent ``blender_objects`` (built at the object's rest pose) to a new keyed empty."""
     import bpy
-    T_rest_blender = poses.ses_to_blender_world(dynamics.rest_pose(obj))
+    T_rest_blender = ses_to_blender_world(dynamics.rest_pose(obj))
     empty = tag(bpy.data.objects.new(f"sesgen_motion_{obj.name}", None))
     empty.empty_display_type = "ARROWS"
     collection.objects.link(empty)
     T = motion.poses()
     times = dynamics.key_times(len(T))
-    mats = [poses.ses_to_blender_world(P) for P in dynamics.poses_at(T, times, motion.kind)]
+    mats = [ses_to_blender_world(P) for P in dynamics.poses_at(T, times, motion.kind)]
     rig.key_matrices(empty, [rig.blender_frame(0) + t for t in times], mats, "LINEAR")
     tag(empty.animation_data.action)
     inv_rest = np.linalg.inv(T_rest_blender)

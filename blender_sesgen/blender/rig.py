@@ -1,7 +1,7 @@
 """The stereo rig: one Blender camera per view, keyed at every frame (CONSTANT interpolation).
 
-Each camera gets the exact intrinsics of ``CAMERA`` (``intrinsics.blender_camera_settings``)
-and, at frame k, ``matrix_world = poses.camera_matrix_world(T_world_cam[k])`` with
+Each camera gets the exact intrinsics of ``CAMERA`` (``contract.camera.blender_camera_settings``)
+and, at frame k, ``matrix_world = contract.frames.camera_matrix_world(T_world_cam[k])`` with
 T_world_cam the manifest pose of its view (OpenCV camera, SES world). Blender frame k+FRAME0
 is sequence frame k (FRAME0 = 0: Blender frames start at 0 here, like the file names).
 """
@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 from mathutils import Matrix
 
-from .. import poses
-from ..intrinsics import blender_camera_settings
+from ..contract.camera import blender_camera_settings
+from ..contract.frames import camera_matrix_world
 from . import compat
 
 FRAME0 = 0  # Blender frame number of sequence frame 0
@@ -55,7 +55,7 @@ def key_poses(obj, T_world_cam: np.ndarray) -> None:
     object's matrix_world is camera_matrix_world(T_world_cam[k])."""
     T_world_cam = np.asarray(T_world_cam, dtype=float)
     key_matrices(obj, [blender_frame(k) for k in range(len(T_world_cam))],
-                 [poses.camera_matrix_world(T) for T in T_world_cam], "CONSTANT")
+                 [camera_matrix_world(T) for T in T_world_cam], "CONSTANT")
 
 
 def key_matrices(obj, times, matrices, interpolation: str = "CONSTANT") -> None:

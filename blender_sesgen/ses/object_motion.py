@@ -3,7 +3,7 @@
 ``MOVE id N frame F position x y z [rx ry rz]`` (a keyframe), ``MOVE id N twist U V W alpha
 beta gamma [from A] [to B]`` (a constant per-frame twist in the object's own frame) or
 ``MOVE id N file PATH format tum|kitti [from A]`` (a recorded trajectory). The poses come
-from blender_sesgen.dynamics (which uses blender_sesgen.poses); this module checks the
+from blender_sesgen.dynamics (which uses the contract's pose maths); this module checks the
 statements: the id names an object, an object moves one way only, frame numbers lie in
 the sequence, keyframes and twist segments come in increasing frame order without
 overlaps, and no step turns by 180 degrees or more (the twist between two poses would be
@@ -15,7 +15,9 @@ from typing import Optional
 
 import numpy as np
 
-from .. import dynamics, model, poses
+from .. import dynamics, model
+from ..contract.frames import object_pose
+from ..contract.se3 import relative, rotation_angle_rad
 from .checks import Checks, vec
 from .statements import ParsedStatement
 from .trajectory_files import TrajectoryFileError, read_trajectory
@@ -141,8 +143,8 @@ def _keys(obj, stmts, T_rest, frames, check):
             continue
         seen[f] = stmt.token.line
         p = vec(stmt, "position")
-        T = poses.object_pose(p[:3], p[3:] or (0.0, 0.0, 0.0))
-        angle = poses.rotation_angle_deg(poses.relative_motion(T_prev, T))
+        T = object_pose(p[:3], p[3:] or (0.0, 0.0, 0.0))
+        angle = float(np.degrees(rotation_angle_rad(relative(T_prev, T)[:3, :3])))
         if angle > MAX_STEP_DEG:
             check.err(stmt.tags["position"].tag, f"object {obj.id} turns by {angle:.1f} degrees between frames "
                                                  f"{f_prev} and {f}: add a keyframe in between (each below "

@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-from blender_sesgen import poses  # noqa: E402
+from blender_sesgen.contract.frames import start_pose  # noqa: E402
+from blender_sesgen.contract.motion import ego_from_poses, integrate_ego  # noqa: E402
 
 STEPS = 300
 HALF_WIDTH = 7.0          # facades this far left/right of the path (m)
@@ -74,9 +75,9 @@ def drive(kitti: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(EGO rows, T_world_left of the 300-step drive); with ``kitti`` the rows are those of
     every KITTI_STRIDE-th frame (the poses T stay those of the full drive)."""
     rows = ego_rows()
-    T = poses.integrate_ego(poses.start_pose((0.0, EYE_HEIGHT, 0.0)), rows)
+    T = integrate_ego(start_pose((0.0, EYE_HEIGHT, 0.0)), rows)
     if kitti:  # one step per KITTI_STRIDE frames of the same drive (exactly the same poses)
-        rows = np.array([poses.ego_from_poses(T[k], T[k + KITTI_STRIDE])
+        rows = np.array([ego_from_poses(T[k], T[k + KITTI_STRIDE])
                          for k in range(0, KITTI_STRIDE * KITTI_STEPS, KITTI_STRIDE)])
     return rows, T
 

@@ -27,7 +27,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parents[1]))
 import street  # noqa: E402
-from blender_sesgen.contract import format_tum  # noqa: E402
+from blender_sesgen.contract.trajectory_files import format_tum  # noqa: E402
 
 ASSETS = HERE.parent / "traffic"          # scenes/traffic: meshes and trajectories (--assets DIR: elsewhere)
 RATE = 10.0                               # KITTI: 10 frames per second
@@ -205,8 +205,8 @@ def main(assets: Path = ASSETS) -> None:
     ] + [("lead_turning_in", turning_in(axis, s_cross, 9.0, 6.0, wait=TURN_WAIT), 1, (0.2, 0.6, 0.3))]
     for name, P, tex, col in cars:
         tum = assets / f"{name}.tum"
-        tum.write_text(format_tum(np.arange(FRAMES) / RATE, P).replace(
-            "(T_world_cam: OpenCV camera, SES world)", "(T_world_obj of a car: x right, y up, z forward; SES world)"))
+        tum.write_text(format_tum(np.arange(FRAMES) / RATE, P,
+                                  comment="T_world_obj of a car: x right, y up, z forward; SES world"))
         p0, y0 = P[0][:3, 3], yaw_deg(P[0][:3, 2])
         traffic.append(f"MESH id {next_id} name {name} file traffic/car.obj texture {tex} colour {fmt(*col)} "
                        f"position {fmt(*p0)} 0 {y0:.4f} 0")

@@ -32,9 +32,11 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import atomic
+from blender_sesgen.contract.se3 import invert
+
 from ..errors import VoError
-from ..io.files import read_image, write_bytes_atomic, write_image_atomic
-from ..lie import se3_inverse
+from ..io.files import read_image, write_image_atomic
 
 FLO_MAGIC = 202021.25
 FLO_UNKNOWN = 1e10
@@ -148,13 +150,13 @@ def object_transforms(T_world_src, T_world_tgt, object_poses: dict | None) -> di
     out = {}
     if not object_poses:
         return out
-    T_tgt_world = se3_inverse(np.asarray(T_world_tgt, float))
+    T_tgt_world = invert(np.asarray(T_world_tgt, float))
     T_world_src = np.asarray(T_world_src, float)
     for obj_id, (T_obj_src, T_obj_tgt) in object_poses.items():
         T_obj_src, T_obj_tgt = np.asarray(T_obj_src, float), np.asarray(T_obj_tgt, float)
         if np.array_equal(T_obj_src, T_obj_tgt):
             continue
-        out[int(obj_id)] = T_tgt_world @ (T_obj_tgt @ se3_inverse(T_obj_src)) @ T_world_src
+        out[int(obj_id)] = T_tgt_world @ (T_obj_tgt @ invert(T_obj_src)) @ T_world_src
     return out
 
 
@@ -163,7 +165,7 @@ def flow_from_depth(depth_src, K, T_world_src, T_world_tgt, depth_tgt=None, rtol
     """Flow from a source frame to a target frame of the same camera. With ``ids_src`` and
     ``object_poses`` {id: (T_world_obj at source, at target)} the pixels of moving objects
     move with them; without, the scene is static."""
-    T_tgt_src = se3_inverse(np.asarray(T_world_tgt, float)) @ np.asarray(T_world_src, float)
+    T_tgt_src = invert(np.asarray(T_world_tgt, float)) @ np.asarray(T_world_src, float)
     w = warp_depth(depth_src, K, T_tgt_src, depth_tgt, rtol, ids_src,
                    object_transforms(T_world_src, T_world_tgt, object_poses))
     H, W = w.u.shape
@@ -245,7 +247,7 @@ def write_flo(path, flow: np.ndarray) -> Path:
     H, W = f.shape[:2]
     f = np.where(np.isfinite(f), f, np.float32(FLO_UNKNOWN)).astype("<f4")
     data = np.array([FLO_MAGIC], "<f4").tobytes() + np.array([W, H], "<i4").tobytes() + f.tobytes()
-    return write_bytes_atomic(path, data)
+    return atomic.write_bytes(path, data)
 
 
 def read_flo(path) -> np.ndarray:

@@ -31,9 +31,10 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import atomic
+
 from ..errors import VoError
 from ..io.files import write_png16, write_png_rgb
-from ..io.files import write_text_atomic
 from .disparity import disparity_from_depth, write_disparity_png16
 from .exports import ExportOptions, _calib_text, image_rgb
 from .flow import hidden_behind, sequence_stereo_occlusion, write_kitti_flow_png
@@ -99,6 +100,6 @@ def export_kitti_sceneflow(seq, out: Path, opts: ExportOptions) -> None:
             write_png16(out / "instance_map" / n10, np.clip(ids, 0, 65535).astype(np.uint16))
             write_png_rgb(out / "motion_mask" / n10, np.where(sf.dynamic, 255, 0).astype(np.uint8))
             bar.update()
-    write_text_atomic(out / "calib.txt", _calib_text(seq))
-    write_text_atomic(out / "pairs.txt", "# pair source_frame_10 source_frame_11\n"
+    atomic.write_text(out / "calib.txt", _calib_text(seq))
+    atomic.write_text(out / "pairs.txt", "# pair source_frame_10 source_frame_11\n"
                       + "".join(f"{i:06d} {k} {k + 1}\n" for i, k in enumerate(pairs)))

@@ -28,8 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from blender_sesgen.contract.se3 import invert
+
 from ..errors import VoError
-from ..lie import se3_inverse
 from .flow import object_transforms, sequence_object_poses, warp_depth
 
 
@@ -69,8 +70,8 @@ def object_motion_in_camera(T_world_cam: np.ndarray, T_world_obj_src: np.ndarray
     """D = T_world_cam⁻¹ · T_world_obj_tgt · T_world_obj_src⁻¹ · T_world_cam: how a point
     fixed on the object moves, in the coordinates of the (source) camera."""
     T_wc = np.asarray(T_world_cam, float)
-    M = np.asarray(T_world_obj_tgt, float) @ se3_inverse(np.asarray(T_world_obj_src, float))
-    return se3_inverse(T_wc) @ M @ T_wc
+    M = np.asarray(T_world_obj_tgt, float) @ invert(np.asarray(T_world_obj_src, float))
+    return invert(T_wc) @ M @ T_wc
 
 
 def scene_flow_from_depth(depth_src, K, T_world_src, T_world_tgt, *, ids_src=None,
@@ -82,7 +83,7 @@ def scene_flow_from_depth(depth_src, K, T_world_src, T_world_tgt, *, ids_src=Non
     movers = object_transforms(T_ws, T_wt, object_poses)
     if movers and ids_src is None:
         raise VoError("moving objects need the source id map to find their pixels")
-    T_tgt_src = se3_inverse(T_wt) @ T_ws
+    T_tgt_src = invert(T_wt) @ T_ws
     w = warp_depth(z_src, K, T_tgt_src, depth_tgt, rtol, ids_src, movers)
     H, W = z_src.shape
     uu, vv = np.meshgrid(np.arange(W, dtype=np.float64), np.arange(H, dtype=np.float64))

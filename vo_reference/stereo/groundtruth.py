@@ -19,7 +19,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..lie import se3_inverse
+from blender_sesgen.contract.camera import backproject, project
+from blender_sesgen.contract.se3 import invert
+
 
 MASK_MARGIN_PX = 1  # --mask-dynamic-gt also drops keypoints within 1 px of a moving object
 
@@ -45,20 +47,6 @@ def depth_at(depth_m: np.ndarray, pts: np.ndarray, smooth_tol: float | None = 0.
     z = np.where(np.isfinite(z) & (z > 0), z, np.nan)
     out[ok] = z
     return out
-
-
-def backproject(pts: np.ndarray, Z: np.ndarray, K: np.ndarray) -> np.ndarray:
-    """3-D points (N, 3) in the camera frame of pixels (x, y) at planar depth Z."""
-    p = np.asarray(pts, dtype=float)
-    X = (p[:, 0] - K[0, 2]) / K[0, 0] * Z
-    Y = (p[:, 1] - K[1, 2]) / K[1, 1] * Z
-    return np.stack([X, Y, np.asarray(Z, dtype=float)], axis=1)
-
-
-def project(P_cam: np.ndarray, K: np.ndarray) -> np.ndarray:
-    """Pixels (N, 2) of camera-frame points (N, 3)."""
-    z = P_cam[:, 2]
-    return np.stack([K[0, 0] * P_cam[:, 0] / z + K[0, 2], K[1, 1] * P_cam[:, 1] / z + K[1, 2]], axis=1)
 
 
 @dataclass
@@ -108,7 +96,7 @@ class GroundTruthStep:
         NaN where the keypoint has no usable depth or lands behind the camera.
         """
         Z = self.depth(pts)
-        P0 = backproject(pts, Z, self.K)
+        P0 = backproject(self.K, pts, Z)
         if self.point_motion and self.ids_m is not None:   # points on movers move with them
             p = np.rint(np.asarray(pts, dtype=float)).astype(np.int64).reshape(-1, 2)
             H, W = self.ids_m.shape
@@ -118,9 +106,9 @@ class GroundTruthStep:
             for obj_id, D in self.point_motion.items():
                 on = ids == obj_id
                 P0[on] = P0[on] @ D[:3, :3].T + D[:3, 3]
-        T_k1_k = se3_inverse(self.T_k_k1)
+        T_k1_k = invert(self.T_k_k1)
         P1 = P0 @ T_k1_k[:3, :3].T + T_k1_k[:3, 3]
         P1[P1[:, 2] <= 0] = np.nan
-        left = project(P1, self.K)
-        right = project(P1 - np.array([self.baseline_m, 0.0, 0.0]), self.K)
+        left = project(self.K, P1)
+        right = project(self.K, P1 - np.array([self.baseline_m, 0.0, 0.0]))
         return left, right
