@@ -11,33 +11,16 @@ from __future__ import annotations
 
 import argparse
 import json
-import struct
 import sys
-import zlib
 from pathlib import Path
 
 import numpy as np
 
 from . import contract
 from .exr import read_exr
+from .png import write_png  # noqa: F401 (also the public name here)
 
 GAP = 4  # pixels between panels
-
-
-def write_png(path, rgb: np.ndarray) -> None:
-    """Write an (H, W, 3) uint8 image as an 8-bit RGB PNG (stdlib zlib only)."""
-    rgb = np.ascontiguousarray(rgb, dtype=np.uint8)
-    H, W, _ = rgb.shape
-    raw = np.concatenate([np.zeros((H, 1), dtype=np.uint8), rgb.reshape(H, W * 3)], axis=1).tobytes()
-
-    def chunk(kind: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
-
-    png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", W, H, 8, 2, 0, 0, 0))
-           + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b""))
-    tmp = Path(str(path) + ".tmp")
-    tmp.write_bytes(png)
-    tmp.replace(path)
 
 
 def linear_to_srgb8(rgb: np.ndarray) -> np.ndarray:
