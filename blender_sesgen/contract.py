@@ -70,6 +70,10 @@ class RenderOptions:
     position_pass: bool = False
     threads: int = 0                     # 0 = Cycles' automatic thread count
     verbose: bool = False                # let Blender print its render log
+    rate_hz: Optional[float] = None      # TIMING overrides (None = the script's value)
+    exposure_s: Optional[float] = None
+    readout_s: Optional[float] = None
+    motion_blur: Optional[bool] = None
 
 
 @dataclass(frozen=True)
@@ -200,7 +204,7 @@ def view_poses(scene: Scene) -> dict[str, np.ndarray]:
 
 
 def build_manifest(scene: Scene, scene_sha256: str, settings: EffectiveSettings,
-                   generator: dict, fps: float = DEFAULT_FPS) -> dict:
+                   generator: dict, fps: float = DEFAULT_FPS, start_s: float = 0.0) -> dict:
     """The full manifest with no frame complete yet."""
     rig = scene.rig
     views = list(rig.views)
@@ -219,7 +223,7 @@ def build_manifest(scene: Scene, scene_sha256: str, settings: EffectiveSettings,
         "far": float(rig.far),
         "frames": N,
         "fps": float(fps),
-        "timestamps": [k / fps for k in range(N)],
+        "timestamps": [start_s + k / fps for k in range(N)],
         "views": views,
         "depth": {"kind": "planar_z", "background": DEPTH_BACKGROUND, "channel": None},
         "segmentation": {"kind": "object_index", "background": 0, "channel": None},

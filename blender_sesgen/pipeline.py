@@ -74,6 +74,10 @@ class RenderJob:
         self.built = None                          # blender.builder.BuiltScene after build()
         self.exposure: Optional[float] = None      # film exposure, set by build()
         self.timings: list[FrameResult] = []
+        from .sensor.render_plan import SensorPlan, TimingOverrides
+        self.sensor = SensorPlan.create(scene, settings, TimingOverrides(
+            options.rate_hz, options.exposure_s, options.readout_s, options.motion_blur))
+        self._sensor_state = None                  # the Blender side of the sensor path, set by build()
 
     # --- preparation (pure, writes nothing) -------------------------------------------
 
@@ -111,7 +115,10 @@ class RenderJob:
             raise SesgenError(f"--frames {start}:{stop} selects no frame of a {N}-frame sequence (frames 0..{N - 1})")
         frames = list(range(start, stop))
         previous = _check_out_dir(Path(out_dir), contract.sha256_text(text), settings, force)
-        return cls(scene, text, Path(out_dir), options, settings, frames, previous, resume, force)
+        job = cls(scene, text, Path(out_dir), options, settings, frames, previous, resume, force)
+        from .sensor.outputs import check_resumable
+        check_resumable(job.sensor, previous, frames, resume, force)
+        return job
 
     # --- writing the folder ------------------------------------------------------------
 
@@ -129,7 +136,8 @@ class RenderJob:
         _remove_stale_temporaries(out)
         contract.atomic_write_text(out / contract.SCENE_COPY, self.scene_text)
         m = contract.build_manifest(self.scene, contract.sha256_text(self.scene_text), self.settings,
-                                    contract.generator_info(_blender_version()))
+                                    contract.generator_info(_blender_version()),
+                                    fps=self.sensor.rate_hz, start_s=self.sensor.frame_times_s(1)[0])
         from .blender.compat import exr_channel_names
         ch = exr_channel_names()
         m["channels"] = {k: ch[k] for k in ("rgb", "depth", "object_index")}
@@ -144,6 +152,8 @@ class RenderJob:
             m["render"]["exposure_rule"] = ("auto: default lighting, 90th-percentile luminance of frame 0 = 0.6"
                                             if not self.scene.lights else "1 (the script's own lights)")
         m["segmentation"]["channel"] = ch["object_index"]
+        from .sensor import outputs as sensor_outputs
+        sensor_outputs.begin(self.sensor, m, out, self._previous)
         if self._previous is not None and _same_settings(self._previous, self.settings):
             prev_done = self._previous.get("frames_complete", [])
             redo = set() if self.resume else set(self.frames)
@@ -170,6 +180,9 @@ class RenderJob:
                          threads=self.options.threads, normal_pass=self.options.normal_pass,
                          position_pass=self.options.position_pass)
         self._set_exposure()
+        if self.sensor.changes_rendering:
+            from .blender.sensor_render import SensorSession
+            self._sensor_state = SensorSession(self)
 
     def _set_exposure(self) -> None:
         """Default lighting only: one film exposure for the whole sequence (blender/exposure.py),
@@ -204,7 +217,9 @@ class RenderJob:
         from .blender import render, rig
         res = FrameResult(frame=k, wall_s=0.0, cycles_s=0.0)
         t0 = time.perf_counter()
-        for vi, view in enumerate(self.scene.rig.views):
+        from .sensor import outputs as sensor_outputs
+        exposure_s, gain = sensor_outputs.exposure_for(self.sensor, self.manifest, k)
+        for vi, view in enumerate(self.scene.rig.views if self._sensor_state is None else ()):
             final = self.out_dir / contract.exr_relpath(view, k)
             tmp = final.with_name(f".{final.name}.tmp-{os.getpid()}.exr")
             st = render.render_view(self.built.scene, self.built.cameras[view], rig.blender_frame(k),
@@ -218,6 +233,15 @@ class RenderJob:
                 res.cycles_s = None
             elif res.cycles_s is not None:
                 res.cycles_s += st["cycles_s"]
+        if self._sensor_state is not None:
+            res.views, res.cycles_s = self._sensor_state.render_frame(k, exposure_s)
+        if self.sensor.writes_sensor_images:
+            writer = None
+            if self.sensor.sensor.jpeg_quality:
+                from .blender.sensor import save_jpeg
+                writer = save_jpeg
+            sensor_outputs.write_sensor_images(self.sensor, self.manifest, self.out_dir, k, exposure_s, gain,
+                                               jpeg_writer=writer)
         res.wall_s = time.perf_counter() - t0
         self.manifest["frames_complete"][k] = True
         contract.atomic_write_json(self.out_dir / contract.MANIFEST, self.manifest)
