@@ -8,8 +8,9 @@ Measured facts this relies on (bpy 5.0.1, docs/rendering.md):
   on the frame, and interpolates between them (translation linearly, rotation by slerp);
   the camera is keyed exactly at those instants (LINEAR F-curves).
 - A rolling shutter (``rolling_shutter_type`` TOP) gives image row r (0 = top) the time
-  (r + 0.5) / H of the shutter, and each row integrates over a ``rolling_shutter_duration``
-  fraction of it.
+  (r + 1) / H of the shutter (the integer row, no spread within a row), and each row
+  integrates over a ``rolling_shutter_duration`` fraction of it; the camera is keyed with poses
+  half a line early (:func:`rolling_shift_frames`) so that rows sit symmetrically about the stamp.
 - A custom camera's shader gets the raster position in [0, 1] (x from the left, y from
   the bottom) and returns a direction in a frame with x right, y up, z forward; its Depth
   pass is the distance along the ray (not planar z), which the sensor path converts.
@@ -37,6 +38,14 @@ def motion_instants(frame: int, shutter_frames: float, steps: int = MOTION_STEPS
     n = (2 << (steps - 1)) + 1
     rel = np.array([np.float32(2.0 * i / (n - 1) - 1.0) for i in range(n)], dtype=np.float32)
     return (np.float32(frame) + rel * np.float32(shutter_frames) * np.float32(0.5)).astype(np.float64)
+
+
+def rolling_shift_frames(readout_s: float, height: int, rate_hz: float) -> float:
+    """Cycles reads image row r (0 = top) at (r + 1) / H of its rolling shutter (measured:
+    the integer pixel row sets the time), half a line later than the symmetric convention
+    t_k + (r + 0.5 - H/2) R / H. Keying the camera with the poses of half a line earlier
+    restores the convention (in Blender frames: -R / (2 H) * rate)."""
+    return -0.5 * float(readout_s) / float(height) * float(rate_hz)
 
 
 def key_camera_instants(obj, frame_times: np.ndarray, T_world_cam_cv: np.ndarray) -> None:

@@ -26,17 +26,20 @@ class SensorSession:
                 sensor.apply_lens(cam.data, self.plan.lens, self.plan.width, self.plan.height)
             self._ray_z = self.plan.lens.pixel_rays(self.plan.width, self.plan.height)[..., 2].astype(np.float32)
 
-    def _key(self, k: int, shutters: list[float]) -> None:
+    def _key(self, k: int, shutters: list[float], shift_frames: float) -> None:
+        """Key the cameras at the instants Cycles samples for frame k, with the poses of
+        those instants shifted by ``shift_frames`` (the rolling shutter's half line)."""
         bframe = rig.blender_frame(k)
         times = np.concatenate([[float(bframe)]] + [sensor.motion_instants(bframe, s) for s in shutters if s > 0])
         for view, cam in self.cameras.items():
-            sensor.key_camera_instants(cam, times, self.plan.camera_poses(view, times, rig.FRAME0))
+            sensor.key_camera_instants(cam, times, self.plan.camera_poses(view, times + shift_frames, rig.FRAME0))
 
     def render_frame(self, k: int, exposure_s: float) -> tuple[dict, float | None]:
         plan, job = self.plan, self.job
         shutter, duration = plan.shutter(exposure_s)
         gt_shutter = plan.shutter(0.0)[0] if plan.rolling_shutter else 0.0
-        self._key(k, [shutter, gt_shutter])
+        sub = sensor.rolling_shift_frames(plan.timing.readout_s, plan.height, plan.rate_hz) if plan.rolling_shutter else 0.0
+        self._key(k, [shutter, gt_shutter], sub)
         stats, cycles_s = {}, 0.0
         names = job.manifest["channels"]
         beauty_names = [n for n in read_names(names) if n]
