@@ -179,7 +179,5 @@ def write_exr(path, channels: dict) -> None:
         offsets.append(pos)
         pos += len(c)
     blob = (struct.pack("<ii", MAGIC, 2) + header + struct.pack(f"<{len(offsets)}Q", *offsets) + b"".join(chunks))
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp-write.exr")
-    tmp.write_bytes(blob)
-    tmp.replace(path)
+    from .contract import atomic
+    atomic.write_bytes(Path(path), blob)

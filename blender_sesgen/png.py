@@ -29,8 +29,6 @@ def encode_png(image: np.ndarray, level: int = 6) -> bytes:
 
 
 def write_png(path, image: np.ndarray) -> None:
-    """Write ``image`` (see :func:`encode_png`) to ``path`` through a temporary file."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_bytes(encode_png(image))
-    tmp.replace(path)
+    """Write ``image`` (see :func:`encode_png`) to ``path`` atomically."""
+    from .contract import atomic
+    atomic.write_bytes(Path(path), encode_png(image))

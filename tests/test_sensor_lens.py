@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from blender_sesgen.sensor import timing
-from blender_sesgen.sensor.lens import (Lens, fold_problem, opencv_calibration_yaml, robotcar_lut_bytes,
+from blender_sesgen.contract import timing
+from blender_sesgen.contract.lens import (Lens, fold_problem, opencv_calibration_yaml, robotcar_lut_bytes,
                                         undistortion_maps)
 
 cv2 = pytest.importorskip("cv2")
@@ -71,7 +71,7 @@ def test_undistortion_maps_equal_opencv_maps():
 
 
 def test_lut_has_the_robotcar_layout(tmp_path):
-    from vo_reference.mono.undistort import read_lut
+    from vo_reference.camera.undistort import read_lut
     lens = Lens.from_K("brown", EUROC_BROWN, K)
     mx, my = undistortion_maps(lens, W, H)
     p = tmp_path / "lut.bin"

@@ -5,24 +5,24 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from blender_sesgen import poses
+from blender_sesgen.contract import frames, motion, se3
 from blender_sesgen.sensor import imu
-from blender_sesgen.sensor.rig_motion import RigMotion
+from blender_sesgen.contract.rig_motion import RigMotion
 from vo_reference.evaluate.allan import allan_deviation, fit_noise_densities
 
 RATE = 20.0
 
 
 def _ego_poses(steps, start=((0.3, 1.2, 2.0), (5.0, -10.0, 3.0))):
-    return poses.integrate_ego(poses.start_pose(*start), steps)
+    return motion.integrate_ego(frames.start_pose(*start), steps)
 
 
 def _keyframes(n=12, seed=3):
     rng = np.random.default_rng(seed)
-    T = [poses.start_pose((0, 1.5, 3), (0, 0, 0))]
+    T = [frames.start_pose((0, 1.5, 3), (0, 0, 0))]
     for _ in range(n - 1):
         step = np.concatenate([rng.normal(0, 0.05, 3), rng.normal(0, 6.0, 3)])
-        T.append(T[-1] @ poses.ego_step(*step))
+        T.append(T[-1] @ motion.ego_step(*step))
     return np.array(T)
 
 
@@ -31,7 +31,7 @@ def test_ego_twist_is_the_exact_ego_motion():
     T = _ego_poses(steps)
     m = RigMotion(T, RATE, 1.5, "ego_twist")
     assert np.allclose(m.T_world_cam(1.5 + np.arange(3) / RATE), T, atol=1e-12)
-    half = T[0] @ poses.ego_step(*(np.array(steps[0]) * 0.5))     # constant twist: half the step
+    half = T[0] @ motion.ego_step(*(np.array(steps[0]) * 0.5))     # constant twist: half the step
     assert np.allclose(m.T_world_cam(1.5 + 0.5 / RATE)[0], half, atol=1e-12)
     kin = m.kinematics(1.5 + 0.3 / RATE)
     assert np.allclose(kin.omega_body[0], np.radians(steps[0][3:]) * RATE)
@@ -69,7 +69,7 @@ def test_spline_interpolates_keyframes_and_is_c2():
 
 
 def test_accelerometer_at_rest_reads_gravity_up():
-    T = poses.start_pose((0, 1, 0), (0, 0, 0))[None]
+    T = frames.start_pose((0, 1, 0), (0, 0, 0))[None]
     m = RigMotion(np.repeat(T, 3, axis=0), RATE, 0.0, "ego_twist")
     s = imu.ideal_stream(m, np.array([0.0, 0.01]), imu.ImuParams())
     # the camera's y axis points down (OpenCV) = world -Y: up is -y in the body frame
@@ -91,7 +91,7 @@ def _integrate(stream, T0, v0, g=9.81):
             return vc, Rc @ f[j] + gw
 
         def rot(Rc, wj, dt):
-            return Rc @ poses.se3_exp(wj * dt, np.zeros(3))[:3, :3]
+            return Rc @ se3.se3_exp(wj * dt, np.zeros(3))[:3, :3]
         # rotation: Magnus/RK-style midpoint estimates
         R_mid = rot(R, (5 * w[i] + 8 * w[i + 1] - w[i + 2]) / 24.0, h)
         R_end = rot(R, (w[i] + 4 * w[i + 1] + w[i + 2]) / 6.0, h)
@@ -110,14 +110,14 @@ def test_integrating_the_ideal_stream_recovers_ten_seconds_of_ego_motion():
     step = (0.03, -0.01, 0.12, 1.5, 4.0, -2.0)                   # units/frame, deg/frame
     T = _ego_poses([step] * 200)                                  # 10 s at 20 Hz
     m = RigMotion(T, RATE, 0.0, "ego_twist")
-    params = imu.ImuParams(T_cam_imu=tuple(map(tuple, poses.object_pose((0.05, -0.03, 0.02), (10, -20, 30)))))
+    params = imu.ImuParams(T_cam_imu=tuple(map(tuple, frames.object_pose((0.05, -0.03, 0.02), (10, -20, 30)))))
     stamps = imu.sample_times(0.0, 10.0, params)
     stream = imu.ideal_stream(m, stamps, params)
     T_wi, v_wi, _, _ = imu.imu_state(m, stamps[:1], params)
     track = _integrate(stream, T_wi[0], v_wi[0])
     T_true, _, _, _ = imu.imu_state(m, np.array([x[0] for x in track]), params)
     err = np.linalg.norm(np.array([x[2] for x in track]) - T_true[:, :3, 3], axis=1)
-    rot_err = max(np.linalg.norm(poses.se3_log(np.block([[R.T @ Tt[:3, :3], np.zeros((3, 1))],
+    rot_err = max(np.linalg.norm(se3.se3_log(np.block([[R.T @ Tt[:3, :3], np.zeros((3, 1))],
                                                           [np.zeros((1, 3)), np.ones((1, 1))]]))[0])
                   for (_, R, _), Tt in zip(track, T_true))
     assert stamps[-1] == pytest.approx(10.0) and len(stamps) == 2001

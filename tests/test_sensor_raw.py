@@ -57,7 +57,7 @@ def test_fixed_pattern_noise_is_fixed_and_temporal_noise_is_not():
 
 @pytest.mark.parametrize("pattern", raw.PATTERNS)
 def test_mosaic_matches_the_vo_reference_mosaic_and_opencv_demosaic(pattern):
-    from vo_reference.mono.bayer import demosaic, mosaic
+    from vo_reference.camera.bayer import demosaic, mosaic
     rgb = np.random.default_rng(2).integers(0, 256, (40, 48, 3)).astype(np.uint8)
     m = raw.mosaic(rgb, pattern)
     assert np.array_equal(m, mosaic(rgb, pattern))
@@ -80,7 +80,7 @@ def test_malvar_demosaic_beats_bilinear_on_a_smooth_image():
 
 def test_response_and_quantisation():
     x = np.linspace(0, 1, 1001)
-    from vo_reference.io.color import linear_to_srgb
+    from blender_sesgen.contract.colour import linear_to_srgb
     assert np.abs(raw.response(x, "srgb") - linear_to_srgb(x)).max() < 1e-6
     assert np.allclose(raw.response(x, "gamma", 2.0), np.sqrt(x))
     for bits in (8, 10, 12):

@@ -21,9 +21,9 @@ from render_support import read_exr, run_render  # noqa: E402
 from sensor_scenes import checkerboard_lines, grey, inner_corners, project_rows, refine_corners  # noqa: E402
 
 from blender_sesgen import poses  # noqa: E402
-from blender_sesgen.sensor.lens import Lens  # noqa: E402
-from blender_sesgen.sensor.rig_motion import RigMotion  # noqa: E402
-from blender_sesgen.sensor.timing import row_time_s  # noqa: E402
+from blender_sesgen.contract.lens import Lens  # noqa: E402
+from blender_sesgen.contract.rig_motion import RigMotion  # noqa: E402
+from blender_sesgen.contract.timing import row_time_s  # noqa: E402
 
 pytestmark = pytest.mark.render
 pytest.importorskip("bpy")
@@ -83,7 +83,7 @@ def test_rolling_shutter_corners_land_where_the_row_poses_project_them(tmp_path)
 def _pose_lines(T_world_cam: np.ndarray) -> list[str]:
     out = []
     for T in T_world_cam:
-        rx, ry, rz = poses.R_to_euler_xyz_deg(T[:3, :3] @ np.diag([1.0, -1.0, -1.0]))
+        rx, ry, rz = se3.R_to_euler_xyz_deg(T[:3, :3] @ np.diag([1.0, -1.0, -1.0]))
         out.append("POSE " + " ".join(f"{v:.17g}" for v in (*T[:3, 3], rx, ry, rz)))
     return out
 
@@ -151,7 +151,7 @@ def test_distorted_render_matches_the_lens_model(tmp_path, lens_line):
 
 
 def test_lookup_table_undistorts_to_the_pinhole_render(tmp_path):
-    from vo_reference.mono.undistort import read_lut, remap
+    from vo_reference.camera.undistort import read_lut, remap
     still = ["EGO 0 0 0 0 0 0"]
     # emissive surfaces only: the renders' sole noise is the pixel filter's, so the comparison
     # measures the lens and the table, not path-tracing noise

@@ -25,7 +25,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from .. import poses
+from ..contract.frames import camera_matrix_world
 from ..errors import SesgenError
 from . import compat
 
@@ -57,7 +57,7 @@ def key_camera_instants(obj, frame_times: np.ndarray, T_world_cam_cv: np.ndarray
     frame_times, T_world_cam_cv = frame_times[keep], T_world_cam_cv[keep]
     locs, quats = [], []
     for T in T_world_cam_cv:
-        loc, rot, _ = Matrix(poses.camera_matrix_world(T).tolist()).decompose()
+        loc, rot, _ = Matrix(camera_matrix_world(T).tolist()).decompose()
         q = tuple(rot)
         if quats and np.dot(q, quats[-1]) < 0:
             q = tuple(-x for x in q)
@@ -165,11 +165,9 @@ shader sesgen_lens(float fx = 1.0, float fy = 1.0, float cx = 0.0, float cy = 0.
 
 def _ensure_oslquery() -> None:
     """The bpy wheel keeps Blender's bundled modules (oslquery) out of sys.path."""
-    try:
-        import oslquery  # noqa: F401
+    import importlib.util
+    if importlib.util.find_spec("oslquery") is not None:   # Blender's own Python has it
         return
-    except ImportError:
-        pass
     base = os.path.join(bpy.utils.resource_path("LOCAL"), "python", "lib")
     d = os.path.join(base, f"python{sys.version_info[0]}.{sys.version_info[1]}", "site-packages")
     if os.path.isdir(d) and d not in sys.path:
@@ -178,7 +176,7 @@ def _ensure_oslquery() -> None:
 
 def apply_lens(cam_data, lens, width: int, height: int) -> None:
     """Make ``cam_data`` a Cycles custom camera that renders through ``lens``
-    (a ``sensor.lens.Lens`` on the render's K)."""
+    (a ``contract.lens.Lens`` on the render's K)."""
     if "CUSTOM" not in [e.identifier for e in bpy.types.Camera.bl_rna.properties["type"].enum_items]:
         raise SesgenError(f"LENS distortion needs Cycles' custom cameras (Blender 4.5 or newer); this is "
                           f"Blender {compat.version_string()}")

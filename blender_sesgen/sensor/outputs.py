@@ -36,34 +36,42 @@ def check_resumable(plan: SensorPlan, previous: Optional[dict], frames: list[int
                           f"0..{frames[0] - 1}, and frame(s) {missing[:5]} are not rendered: render from frame 0")
 
 
-def begin(plan: SensorPlan, m: dict, out: Path, previous: Optional[dict]) -> None:
-    """Add the sensor entries to a new manifest ``m`` and write the files written once."""
+def prepare_manifest(plan: SensorPlan, m, kept: Optional[dict]) -> None:
+    """Finish a new manifest ``m`` (a ``contract.manifest.Manifest`` holding the plan's
+    entries in ``extra``): the EXR layout of the sensor path, and the per-frame exposure
+    state of frames kept from ``kept`` (the previous manifest when resuming)."""
     if not plan.active:
         return
-    from ..contract import atomic_write_bytes
-    n = m["frames"]
-    m.update(plan.manifest_entries(n))
     if plan.changes_rendering:
-        m["render"]["exr"]["layout"] = EXR_LAYOUT
-    prev = (previous or {}).get("sensor") or {}
-    if "sensor" in m and previous is not None and previous.get("scene_sha256") == m["scene_sha256"]:
+        m.render.setdefault("exr", {})["layout"] = EXR_LAYOUT
+    prev = (kept or {}).get("sensor") or {}
+    if "sensor" in m.extra and prev:
         for key in ("exposure_s", "gain", "metered"):
             old = prev.get(key) or []
-            m["sensor"][key] = [old[j] if j < len(old) else None for j in range(n)]
-    for rel, data in plan.static_files(n).items():
+            m.extra["sensor"][key] = [old[j] if j < len(old) else None for j in range(m.frames)]
+
+
+def write_static_files(plan: SensorPlan, out: Path, n_frames: int) -> None:
+    """The files written once per render (lens calibration and table, IMU streams) and the
+    sensor image folders."""
+    if not plan.active:
+        return
+    from ..contract import atomic
+    for rel, data in plan.static_files(n_frames).items():
         path = Path(out) / rel
         path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write_bytes(path, data)
+        atomic.write_bytes(path, data)
     for kind in plan.sensor_kinds():
         for view in plan.views:
             (Path(out) / "sensor" / view / kind).mkdir(parents=True, exist_ok=True)
 
 
-def exposure_for(plan: SensorPlan, m: Optional[dict], k: int) -> tuple[float, float]:
-    """(exposure_s, gain) of frame k: nominal, or auto-exposure from frames 0..k-1."""
+def exposure_for(plan: SensorPlan, extra: Optional[dict], k: int) -> tuple[float, float]:
+    """(exposure_s, gain) of frame k: nominal, or auto-exposure from frames 0..k-1
+    (``extra``: the manifest's extra entries, where the sensor's per-frame state lives)."""
     if plan.autoexposure is None:
         return plan.exposures([])[0]
-    metered = ((m or {}).get("sensor") or {}).get("metered") or []
+    metered = ((extra or {}).get("sensor") or {}).get("metered") or []
     have = [metered[j] if j < len(metered) else None for j in range(k)]
     if any(v is None for v in have):
         raise SesgenError(f"AUTOEXPOSURE: frames before {k} have no recorded brightness; render from frame 0")
@@ -82,10 +90,10 @@ def _rays(plan: SensorPlan) -> np.ndarray:
 _CACHE: dict = {}
 
 
-def write_sensor_images(plan: SensorPlan, m: dict, out: Path, k: int, exposure_s: float, gain: float,
+def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: float, gain: float,
                         jpeg_writer: Optional[Callable] = None) -> None:
     """Run the camera chain on frame k's EXRs and write raw / RGB / JPEG images; record the
-    exposure, gain and metered brightness of the frame in the manifest ``m``."""
+    exposure, gain and metered brightness of the frame in the manifest ``m`` (a Manifest)."""
     from ..exr import read_exr
     from . import pipeline
     from .autoexposure import meter
@@ -95,10 +103,10 @@ def write_sensor_images(plan: SensorPlan, m: dict, out: Path, k: int, exposure_s
         _CACHE[key] = _rays(plan)
         _CACHE[(id(plan), "fpn")] = {}
     rays, fpn = _CACHE[key], _CACHE[(id(plan), "fpn")]
-    rgb_names = m["channels"]["rgb"][:3]
+    rgb_names = m.channels["rgb"][:3]
     metered = None
     for vi, view in enumerate(plan.views):
-        ch = read_exr(Path(out) / m["files"][view][k])
+        ch = read_exr(Path(out) / m.files[view][k])
         lin = np.stack([ch[n] for n in rgb_names], axis=-1).astype(np.float64)
         if vi == 0:
             metered = meter(lin)
@@ -109,5 +117,5 @@ def write_sensor_images(plan: SensorPlan, m: dict, out: Path, k: int, exposure_s
         write_png(Path(out) / plan.sensor_relpath("rgb", view, k), f.rgb8)
         if plan.sensor.jpeg_quality and jpeg_writer is not None:
             jpeg_writer(str(Path(out) / plan.sensor_relpath("jpeg", view, k)), f.rgb8, plan.sensor.jpeg_quality)
-    s = m["sensor"]
+    s = m.extra["sensor"]
     s["exposure_s"][k], s["gain"][k], s["metered"][k] = float(exposure_s), float(gain), metered

@@ -150,8 +150,9 @@ def response(x: np.ndarray, kind: str = "srgb", gamma: float = 2.2) -> np.ndarra
         return x
     if kind == "gamma":
         return x ** (1.0 / float(gamma))
-    if kind == "srgb":   # IEC 61966-2-1
-        return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+    if kind == "srgb":   # IEC 61966-2-1, the contract's one definition
+        from ..contract.colour import linear_to_srgb
+        return linear_to_srgb(x).astype(np.float64)
     raise ValueError(f"unknown response {kind!r} (linear, srgb, gamma)")
 
 

@@ -17,10 +17,11 @@ import numpy as np
 
 from .. import model
 from . import imu as imu_mod
-from . import timing as timing_mod
+from ..contract import timing as timing_mod
+from ..contract.timing import DEFAULT_FPS
 from .autoexposure import exposure_schedule
-from .lens import Lens, opencv_calibration_yaml, robotcar_lut_bytes, undistortion_maps
-from .rig_motion import RigMotion
+from ..contract.lens import Lens, opencv_calibration_yaml, robotcar_lut_bytes, undistortion_maps
+from ..contract.rig_motion import RigMotion
 
 SENSOR_DIR = "sensor"
 LENS_DIR = "lens"
@@ -83,7 +84,7 @@ class SensorPlan:
         lens = None
         if scene.lens is not None and scene.lens.distorted:
             lens = Lens.from_K(scene.lens.model, scene.lens.coeffs, K)
-        rate = t.rate_hz if t else model.Timing.rate_hz
+        rate = t.rate_hz if t else DEFAULT_FPS
         start = t.start_s if t else 0.0
         motion = RigMotion.for_motion_kind(scene.timeline.left(), rate, start, scene.motion.kind)
         return cls(t, scene.lens, lens, scene.sensor, scene.autoexposure, scene.imu, motion, settings.width,
@@ -92,7 +93,7 @@ class SensorPlan:
     # --- what to render ------------------------------------------------------------------
     @property
     def rate_hz(self) -> float:
-        return self.timing.rate_hz if self.timing else model.Timing.rate_hz
+        return self.timing.rate_hz if self.timing else DEFAULT_FPS
 
     @property
     def motion_blur(self) -> bool:
@@ -121,7 +122,7 @@ class SensorPlan:
                 or self.imu is not None)
 
     def frame_times_s(self, n: int) -> np.ndarray:
-        return timing_mod.frame_times_s(n, self.rate_hz, self.timing.start_s if self.timing else 0.0)
+        return timing_mod.frame_timestamps(n, self.rate_hz, self.timing.start_s if self.timing else 0.0)
 
     def nominal_exposure_s(self) -> float:
         return self.timing.exposure_s if self.timing else 0.0

@@ -10,8 +10,8 @@ from __future__ import annotations
 from typing import Optional
 
 from .. import model
-from ..sensor.lens import Lens as LensModel
-from ..sensor.lens import fold_problem
+from ..contract.lens import Lens as LensModel
+from ..contract.lens import fold_problem
 from .checks import Checks, scalar, vec
 from .environment import _seed
 from .statements import ParsedStatement

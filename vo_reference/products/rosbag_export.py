@@ -35,12 +35,12 @@ def _typestore():
 
 
 def _quat_xyzw(R: np.ndarray) -> np.ndarray:
-    from ..lie import R_to_quat_xyzw
-    return R_to_quat_xyzw(np.asarray(R)[None])[0]
+    from blender_sesgen.contract.se3 import R_to_quat_xyzw
+    return R_to_quat_xyzw(np.asarray(R))
 
 
 def export_rosbag(seq, out: Path, opts) -> None:
-    from blender_sesgen.sensor.timing import to_ns
+    from blender_sesgen.contract.timing import to_ns
     from .exports import image_gray, image_rgb
     extra = dict(opts.extra)
     encoding = extra.pop("encoding", "mono8")
@@ -129,7 +129,7 @@ def _groundtruth(seq, frames, t_ns, imu_entry, T_cam_imu):
     if imu_entry:
         g = seq.imu_groundtruth()
         lo, hi = int(t_ns[0]), int(t_ns[-1])
-        from blender_sesgen.sensor.timing import to_ns
+        from blender_sesgen.contract.timing import to_ns
         for tn, p, q in zip(to_ns(g["t_s"]), g["p"], g["q_wxyz"]):
             if lo <= tn <= hi:
                 w_, x, y, z = q

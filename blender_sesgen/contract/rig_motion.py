@@ -25,15 +25,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..poses import se3_exp, se3_log, skew
+from .timing import row_offsets_s
+from .se3 import R_to_quat_xyzw, invert, se3_exp, se3_log, skew
 
 KINDS = ("static", "ego_twist", "c2_spline")
 
 
 def _quat_from_R(R: np.ndarray) -> np.ndarray:
     """(w, x, y, z) of a rotation matrix, w >= 0 (Shepperd)."""
-    from ..contract import R_to_quaternion_xyzw
-    x, y, z, w = R_to_quaternion_xyzw(R)
+    x, y, z, w = R_to_quat_xyzw(R)
     return np.array([w, x, y, z])
 
 
@@ -108,7 +108,7 @@ class RigMotion:
         self.T, self.rate_hz, self.start_s, self.kind = T, float(rate_hz), float(start_s), kind
         self.n = len(T)
         if kind == "ego_twist":
-            self._twists = np.array([np.concatenate(se3_log(np.linalg.inv(T[k]) @ T[k + 1]))
+            self._twists = np.array([np.concatenate(se3_log(invert(T[k]) @ T[k + 1]))
                                      for k in range(self.n - 1)])     # (omega, v) per frame step
         elif kind == "c2_spline":
             q = np.array([_quat_from_R(Tk[:3, :3]) for Tk in T])
@@ -194,5 +194,4 @@ class RigMotion:
 
     def T_world_cam_rows(self, t_frame_s: float, height: int, readout_s: float) -> np.ndarray:
         """(H, 4, 4) pose of every image row of a rolling-shutter frame (row 0 = top)."""
-        from .timing import row_offsets_s
         return self.T_world_cam(t_frame_s + row_offsets_s(height, readout_s))
