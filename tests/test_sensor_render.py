@@ -20,7 +20,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from render_support import read_exr, run_render  # noqa: E402
 from sensor_scenes import checkerboard_lines, grey, inner_corners, project_rows, refine_corners  # noqa: E402
 
-from blender_sesgen import poses  # noqa: E402
+from blender_sesgen.contract import se3  # noqa: E402
 from blender_sesgen.contract.lens import Lens  # noqa: E402
 from blender_sesgen.contract.rig_motion import RigMotion  # noqa: E402
 from blender_sesgen.contract.timing import row_time_s  # noqa: E402
