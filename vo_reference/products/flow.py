@@ -64,11 +64,13 @@ class Warp:
 
 
 def warp_depth(depth_src: np.ndarray, K: np.ndarray, T_tgt_src: np.ndarray,
-               depth_tgt: np.ndarray | None = None, rtol: float = 1e-3,
+               depth_tgt: np.ndarray | None = None, rtol: float = 1e-3, lens=None,
                ids_src: np.ndarray | None = None, T_tgt_src_by_id: dict | None = None) -> Warp:
     """Project every source pixel into the target view and test its visibility there
-    (``depth_tgt`` None: only the out-of-image test). ``T_tgt_src_by_id`` {id: 4x4} moves
-    the pixels of those ids (``ids_src``) with their own transform instead of ``T_tgt_src``."""
+    (``depth_tgt`` None: only the out-of-image test). ``lens`` (``contract.lens.Lens``): the
+    images are distorted; pixels back-project along the lens's rays and project through it.
+    ``T_tgt_src_by_id`` {id: 4x4} moves the pixels of those ids (``ids_src``) with their own
+    transform instead of ``T_tgt_src`` (moving objects)."""
     z_src = np.asarray(depth_src, dtype=np.float64)
     H, W = z_src.shape
     K = np.asarray(K, dtype=np.float64)
@@ -77,9 +79,13 @@ def warp_depth(depth_src: np.ndarray, K: np.ndarray, T_tgt_src: np.ndarray,
     uu, vv = np.meshgrid(np.arange(W, dtype=np.float64), np.arange(H, dtype=np.float64))
     zs = np.where(valid, z_src, 0.0)
     # back-project: X = Z·K⁻¹(u, v, 1) (general K, skew included)
-    Kinv = np.linalg.inv(K)
-    pix = np.stack([uu, vv, np.ones_like(uu)], axis=-1)
-    Xs = (pix @ Kinv.T) * zs[..., None]
+    if lens is None:
+        Kinv = np.linalg.inv(K)
+        pix = np.stack([uu, vv, np.ones_like(uu)], axis=-1)
+        Xs = (pix @ Kinv.T) * zs[..., None]
+    else:   # planar depth along the lens's ray of each (distorted) pixel
+        rays = lens.pixel_rays(W, H)
+        Xs = rays / rays[..., 2:3] * zs[..., None]
     Xt = Xs @ T[:3, :3].T + T[:3, 3]
     if T_tgt_src_by_id and ids_src is not None:
         ids = np.asarray(ids_src)
@@ -93,9 +99,14 @@ def warp_depth(depth_src: np.ndarray, K: np.ndarray, T_tgt_src: np.ndarray,
     zt = Xt[..., 2]
     front = valid & (zt > 1e-12)
     with np.errstate(divide="ignore", invalid="ignore"):
-        proj = Xt @ K.T
-        u = np.where(front, proj[..., 0] / proj[..., 2], np.nan)
-        v = np.where(front, proj[..., 1] / proj[..., 2], np.nan)
+        if lens is None:
+            proj = Xt @ K.T
+            u = np.where(front, proj[..., 0] / proj[..., 2], np.nan)
+            v = np.where(front, proj[..., 1] / proj[..., 2], np.nan)
+        else:
+            px = lens.project(np.where(front[..., None], Xt, np.array([0.0, 0.0, 1.0])))
+            u = np.where(front, px[..., 0], np.nan)
+            v = np.where(front, px[..., 1], np.nan)
     inside = front & (u >= -0.5) & (u < W - 0.5) & (v >= -0.5) & (v < H - 0.5)
     out = valid & ~inside
     hidden = np.zeros_like(valid)
@@ -161,13 +172,14 @@ def object_transforms(T_world_src, T_world_tgt, object_poses: dict | None) -> di
 
 
 def flow_from_depth(depth_src, K, T_world_src, T_world_tgt, depth_tgt=None, rtol: float = 1e-3,
-                    ids_src=None, object_poses: dict | None = None) -> Flow:
-    """Flow from a source frame to a target frame of the same camera. With ``ids_src`` and
-    ``object_poses`` {id: (T_world_obj at source, at target)} the pixels of moving objects
-    move with them; without, the scene is static."""
+                    lens=None, ids_src=None, object_poses: dict | None = None) -> Flow:
+    """Flow from a source frame to a target frame of the same camera; ``lens``: of a
+    distorted render (flow between distorted images). With ``ids_src`` and ``object_poses``
+    {id: (T_world_obj at source, at target)} the pixels of moving objects move with them;
+    without, the scene is static."""
     T_tgt_src = invert(np.asarray(T_world_tgt, float)) @ np.asarray(T_world_src, float)
-    w = warp_depth(depth_src, K, T_tgt_src, depth_tgt, rtol, ids_src,
-                   object_transforms(T_world_src, T_world_tgt, object_poses))
+    w = warp_depth(depth_src, K, T_tgt_src, depth_tgt, rtol, lens, ids_src=ids_src,
+                   T_tgt_src_by_id=object_transforms(T_world_src, T_world_tgt, object_poses))
     H, W = w.u.shape
     uu, vv = np.meshgrid(np.arange(W, dtype=np.float64), np.arange(H, dtype=np.float64))
     f = np.stack([w.u - uu, w.v - vv], axis=-1)
@@ -197,7 +209,8 @@ def sequence_flow(seq, k_src: int, k_tgt: int, view: str = "left", rtol: float =
     ids = seq.ids(k_src, view) if objs else None
     if objs and ids is None:
         raise VoError(f"{seq!r} has moving objects but no id maps: cannot tell their pixels apart")
-    return flow_from_depth(z_src, seq.K, T[k_src], T[k_tgt], seq.depth(k_tgt, view), rtol, ids, objs)
+    return flow_from_depth(z_src, seq.K, T[k_src], T[k_tgt], seq.depth(k_tgt, view), rtol,
+                           lens=getattr(seq, "lens", None), ids_src=ids, object_poses=objs)
 
 
 def forward_flow(seq, k: int, view: str = "left") -> Flow:

@@ -75,16 +75,18 @@ def object_motion_in_camera(T_world_cam: np.ndarray, T_world_obj_src: np.ndarray
 
 
 def scene_flow_from_depth(depth_src, K, T_world_src, T_world_tgt, *, ids_src=None,
-                          object_poses: dict | None = None, depth_tgt=None, rtol: float = 1e-3) -> SceneFlow:
+                          object_poses: dict | None = None, depth_tgt=None, rtol: float = 1e-3,
+                          lens=None) -> SceneFlow:
     """Scene flow, optical flow, occlusion and the motion mask from a source frame to a
-    target frame (``object_poses`` {id: (T_world_obj at source, at target)})."""
+    target frame (``object_poses`` {id: (T_world_obj at source, at target)}; ``lens``: of a
+    distorted render)."""
     z_src = np.asarray(depth_src)
     T_ws, T_wt = np.asarray(T_world_src, float), np.asarray(T_world_tgt, float)
     movers = object_transforms(T_ws, T_wt, object_poses)
     if movers and ids_src is None:
         raise VoError("moving objects need the source id map to find their pixels")
     T_tgt_src = invert(T_wt) @ T_ws
-    w = warp_depth(z_src, K, T_tgt_src, depth_tgt, rtol, ids_src, movers)
+    w = warp_depth(z_src, K, T_tgt_src, depth_tgt, rtol, lens, ids_src=ids_src, T_tgt_src_by_id=movers)
     H, W = z_src.shape
     uu, vv = np.meshgrid(np.arange(W, dtype=np.float64), np.arange(H, dtype=np.float64))
     flow = np.stack([w.u - uu, w.v - vv], axis=-1)
@@ -118,7 +120,7 @@ def sequence_scene_flow(seq, k_src: int, k_tgt: int, view: str = "left", rtol: f
     objs = sequence_object_poses(seq, k_src, k_tgt)
     ids = seq.ids(k_src, view)
     return scene_flow_from_depth(z_src, seq.K, T[k_src], T[k_tgt], ids_src=ids, object_poses=objs,
-                                 depth_tgt=seq.depth(k_tgt, view), rtol=rtol)
+                                 depth_tgt=seq.depth(k_tgt, view), rtol=rtol, lens=getattr(seq, "lens", None))
 
 
 def moving_object_ids(seq) -> tuple[int, ...]:
