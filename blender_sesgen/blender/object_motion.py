@@ -21,7 +21,7 @@ from mathutils import Matrix
 from .. import dynamics
 from ..contract.frames import ses_to_blender_world
 from ..model import ObjectMotion, SceneObject
-from . import rig
+from . import compat, rig
 
 
 def attach_motion(obj: SceneObject, motion: ObjectMotion, blender_objects: list, collection, tag) -> object:
@@ -43,3 +43,23 @@ def attach_motion(obj: SceneObject, motion: ObjectMotion, blender_objects: list,
         b.matrix_parent_inverse = Matrix.Identity(4)
         b.matrix_basis = Matrix(local.tolist())
     return empty
+
+
+def key_instants(built, scene, frame_times, shift_frames: float = 0.0, motion_steps: int | None = None) -> None:
+    """Re-key every moving object's empty exactly at Blender frame times ``frame_times``
+    (the instants Cycles samples for one frame's shutter) with its poses at
+    ``frame_times + shift_frames`` (a rolling shutter's half line), LINEAR; and let Cycles
+    sample the movers' objects at as many instants as the camera (``motion_steps``)."""
+    times = np.unique(np.asarray(frame_times, dtype=float))
+    for obj_id, empty in built.movers.items():
+        motion = scene.motion_of(obj_id)
+        T = motion.poses()
+        seq_t = times + float(shift_frames) - rig.blender_frame(0)
+        mats = [ses_to_blender_world(P) for P in dynamics.poses_at(T, seq_t, motion.kind)]
+        for fc in compat.object_fcurves(empty):
+            fc.keyframe_points.clear()
+        rig.key_matrices(empty, list(times), mats, "LINEAR")
+        if motion_steps is not None:
+            for b in built.objects[obj_id]:
+                b.cycles.use_motion_blur = True
+                b.cycles.motion_steps = int(motion_steps)
