@@ -63,6 +63,7 @@ def _movers(scene):
 
 def test_traffic_moves_with_kittis_rig(scene):
     assert scene.frames == 51 and scene.rig.width == 1226 and scene.rig.focal_px == 707
+    assert scene.timing is not None and scene.timing.rate_hz == 10   # KITTI's frame rate
     kinds = sorted(m.kind for m in scene.object_motions)
     assert kinds.count("trajectory") == 4 and kinds.count("twist") >= 8
     names = [n for n, _, _ in _movers(scene)]

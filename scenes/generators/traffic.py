@@ -196,7 +196,7 @@ def main(assets: Path = ASSETS) -> None:
     h_cross = (cross_b - cross_a) / np.linalg.norm(cross_b - cross_a)
     r_cross = np.cross(h_cross, UP)
 
-    traffic = ["",
+    traffic = ["", "TIMING rate 10", "",
                "// traffic: cars (scenes/traffic/car.obj) replay TUM trajectories or drive at constant speed; "
                "people walk"]
     next_id = FIRST_ID
