@@ -21,14 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import atomic
+
 from ..errors import VoError
-
-# The SESGen paper, Sec. 5: RMSE of the estimated motion components over its sequence
-# (distances in OpenGL units, angles in degrees).
-PAPER_TABLE1_RMSE = {"U": 0.0049, "V": 0.0101, "W": 0.0062, "alpha_deg": 0.101, "beta_deg": 0.091, "gamma_deg": 0.057}
-COLS = ("U", "V", "W", "alpha_deg", "beta_deg", "gamma_deg")
-NAMES = ("U", "V", "W", "α (deg)", "β (deg)", "γ (deg)")
-
+from .report import RunReport, error_summary, shape_errors, shape_line
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("input", metavar="INPUT", help="a sesgen render folder (manifest.json), or a KITTI odometry "
@@ -55,67 +51,6 @@ def default_report_dir(root: Path) -> Path:
     if (folder / "manifest.json").is_file():
         return folder / "report"
     return Path.cwd() / f"{folder.resolve().name}_report"
-
-
-def shape_errors(gt, est) -> dict:
-    """End-point drift, Sim3-aligned position RMSE and mean step-length ratio (est / gt): the
-    three numbers that separate scale from shape errors (docs/stereo-vo.md)."""
-    from ..evaluate.align import align
-    L = max(gt.path_length(), 1e-12)
-    drift = float(np.linalg.norm(est.positions[-1] - gt.positions[-1]))
-    out = {"path_length": gt.path_length(), "end_point_drift": drift, "end_point_drift_pct": 100 * drift / L}
-    if len(gt) >= 3:
-        sim3, _ = align(est, gt, "sim3")
-        rmse = float(np.sqrt(np.mean(np.sum((sim3.positions - gt.positions) ** 2, axis=1))))
-        out.update(sim3_position_rmse=rmse, sim3_position_rmse_pct=100 * rmse / L)
-    steps_gt = np.linalg.norm(np.diff(gt.positions, axis=0), axis=1)
-    moving = steps_gt > 1e-9
-    if moving.any():
-        steps_est = np.linalg.norm(np.diff(est.positions, axis=0), axis=1)
-        out["step_length_ratio"] = float(np.mean(steps_est[moving] / steps_gt[moving]))
-    return out
-
-
-def dynamic_summary(res) -> dict | None:
-    """Share of the image on moving objects (mean/max over steps) and of the kept points on them."""
-    if res.dynamic_share is None:
-        return None
-    return {"image_share_mean": float(np.mean(res.dynamic_share)), "image_share_max": float(np.max(res.dynamic_share)),
-            "points_on_movers_mean": float(np.mean(res.dynamic_points)),
-            "points_on_movers_max": float(np.max(res.dynamic_points))}
-
-
-def error_summary(ev, shape: dict, res) -> dict:
-    """The numbers the with/without-mask comparison shows."""
-    return {"ape_trans_rmse": ev.ape.trans.rmse, "ape_rot_rmse_deg": ev.ape.rot_deg.rmse,
-            "rpe_trans_rmse": ev.rpe.trans.rmse, "rpe_rot_rmse_deg": ev.rpe.rot_deg.rmse,
-            "egomotion_rmse": dict(zip(COLS, ev.egomotion.rmse.tolist())),
-            "end_point_drift": shape["end_point_drift"], "dynamic": dynamic_summary(res),
-            "failed_steps": len(res.failed)}
-
-
-def mask_comparison_markdown(rows: dict[str, dict[str, dict]]) -> str:
-    """Per method: error without and with the ground-truth motion mask."""
-    lines = ["| method | motion mask | APE trans RMSE | RPE trans RMSE | RPE rot RMSE (deg) | W RMSE | β RMSE (deg) "
-             "| kept points on movers (mean / max) |", "|---|---|---|---|---|---|---|---|"]
-    for m, by in rows.items():
-        for label in ("without", "with"):
-            e = by[label]
-            d = e["dynamic"] or {}
-            lines.append(f"| {m} | {label} | {e['ape_trans_rmse']:.5f} | {e['rpe_trans_rmse']:.5f} | "
-                         f"{e['rpe_rot_rmse_deg']:.4f} | {e['egomotion_rmse']['W']:.5f} | "
-                         f"{e['egomotion_rmse']['beta_deg']:.4f} | "
-                         f"{100 * d.get('points_on_movers_mean', float('nan')):.1f} % / "
-                         f"{100 * d.get('points_on_movers_max', float('nan')):.1f} % |")
-    return "\n".join(lines) + "\n"
-
-
-def rmse_table_markdown(rows: dict[str, dict]) -> str:
-    """Markdown table: one row per source, RMSE of U V W α β γ."""
-    lines = ["| | " + " | ".join(NAMES) + " |", "|---|" + "---|" * 6]
-    for name, r in rows.items():
-        lines.append(f"| {name} | " + " | ".join(f"{r[c]:.5f}" if r.get(c) is not None else "–" for c in COLS) + " |")
-    return "\n".join(lines) + "\n"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -148,11 +83,9 @@ def run(args: argparse.Namespace) -> int:
                        " +GT motion mask" if args.mask_dynamic_gt else ""])
     dynamic = bool(getattr(seq, "moving_ids", ()))
 
-    rmse_rows: dict[str, dict] = {"SESGen paper, Table 1 (OpenGL units, 40 frames)": dict(PAPER_TABLE1_RMSE)}
-    report: dict = {"input": str(root), "frames": list(frames), "gt_depth": args.gt_depth, "gt_flow": args.gt_flow,
-                    "mask_dynamic_gt": args.mask_dynamic_gt, "paper_table1_rmse": PAPER_TABLE1_RMSE, "methods": {}}
-    sections = []
-    mask_rows: dict[str, dict[str, dict]] = {}
+    report = RunReport(root=root, frames=frames, K=seq.K, baseline_m=seq.baseline_m, resolution=seq.resolution,
+                       gt_depth=args.gt_depth, gt_flow=args.gt_flow, mask_dynamic_gt=args.mask_dynamic_gt,
+                       plots=not args.no_plots)
     for m in methods:
         print(f"== {m}{variant}: frames {frames[0]}..{frames[1]} of {root}")
         res = run_stereo_vo(seq, m, gt_depth=args.gt_depth, gt_flow=args.gt_flow,
@@ -167,58 +100,23 @@ def run(args: argparse.Namespace) -> int:
                              inputs={"ground truth": root, "est": mdir / "est.txt"}, plots=not args.no_plots,
                              extra={"fps": res.fps, "n_points_min": int(res.n_points.min()),
                                     "n_points_mean": float(res.n_points.mean())})
-        rmse = dict(zip(COLS, ev.egomotion.rmse.tolist()))
-        rmse_rows[f"{m}{variant} (ours)"] = rmse
         shape = shape_errors(gt, res.trajectory)
-        report["methods"][m] = {"egomotion_rmse": rmse, "ape_trans_rmse": ev.ape.trans.rmse,
-                                "ape_rot_rmse_deg": ev.ape.rot_deg.rmse, "rpe_trans_rmse": ev.rpe.trans.rmse,
-                                "rpe_rot_rmse_deg": ev.rpe.rot_deg.rmse, **shape, "fps": res.fps,
-                                "failed_steps": [[k, why] for k, why in res.failed],
-                                "dynamic": dynamic_summary(res),
-                                "report": {k: str(v) for k, v in files.items()}}
+        summary = summary_lines(ev)
+        failed = failed_summary(res.failed) if res.failed else None
+        print("\n".join(summary))
+        print(shape_line(shape))
+        if failed:
+            print(failed)
+        report.add_method(m, f"{m}{variant}", ev, shape, res, summary, files, failed)
         if dynamic:  # the same method the other way round: without / with the ground-truth motion mask
             print(f"== {m}: {'without' if args.mask_dynamic_gt else 'with'} the ground-truth motion mask")
             other = run_stereo_vo(seq, m, gt_depth=args.gt_depth, gt_flow=args.gt_flow,
-                                  mask_dynamic_gt=not args.mask_dynamic_gt, frames=frames, progress=None)
+                                  mask_dynamic_gt=not args.mask_dynamic_gt, frames=frames)
             ev_other = evaluate_trajectory(gt, other.trajectory, align=args.align, egomotion=True, by_index=True)
             this = error_summary(ev, shape, res)
             that = error_summary(ev_other, shape_errors(gt, other.trajectory), other)
-            mask_rows[m] = {"with": this, "without": that} if args.mask_dynamic_gt else {"without": this, "with": that}
-            report["methods"][m]["motion_mask_comparison"] = mask_rows[m]
-        print("\n".join(summary_lines(ev)))
-        line = (f"End-point drift {shape['end_point_drift']:.4f} ({shape['end_point_drift_pct']:.2f} % of the "
-                f"{shape['path_length']:.3f} path)")
-        if "sim3_position_rmse" in shape:
-            line += f"; Sim3-aligned position RMSE {shape['sim3_position_rmse']:.4f} ({shape['sim3_position_rmse_pct']:.3f} %)"
-        if "step_length_ratio" in shape:
-            line += f"; step length est/gt {shape['step_length_ratio']:.4f}"
-        print(line)
-        sections += [f"## {m}{variant}", "", "```", *summary_lines(ev), "```", "",
-                     f"{line}; {res.fps:.1f} frames/s; details: [{m}/summary.md]({m}/summary.md)", ""]
-        if res.failed:
-            print(failed_summary(res.failed))
-            sections += [f"**{failed_summary(res.failed)}**", ""]
-        if not args.no_plots:
-            sections += [f"![{m} trajectory]({m}/trajectories.png) ![{m} egomotion]({m}/egomotion.png)", ""]
-    dyn_lines = []
-    if mask_rows:
-        d = next(iter(mask_rows.values()))["without"]["dynamic"] or {}
-        report["dynamic_image_share"] = {"mean": d.get("image_share_mean"), "max": d.get("image_share_max")}
-        dyn_lines = ["## Moving objects", "",
-                     f"Share of the image on objects that move in a step: mean "
-                     f"{100 * d.get('image_share_mean', float('nan')):.1f} %, max "
-                     f"{100 * d.get('image_share_max', float('nan')):.1f} %. Each method without and with the "
-                     "ground-truth motion mask (keypoints on moving objects dropped before estimation); the last "
-                     "column is the share of the points a method kept (its inliers) that lie on moving objects.", "",
-                     mask_comparison_markdown(mask_rows)]
-    lines = [f"# Stereo VO report: {root.name}", "",
-             f"Sequence `{root}`, frames {frames[0]}..{frames[1]}, left camera; K f = {seq.K[0, 0]:g} px, "
-             f"baseline {seq.baseline_m:g}, {seq.resolution[0]}x{seq.resolution[1]}.", "",
-             "## Per-frame egomotion RMSE (the SESGen paper's Table 1 measure)", "",
-             "RMSE over frames of the estimated minus true frame-to-frame motion (U V W: scene units per frame; "
-             "α β γ: degrees per frame), ours beside the values the paper reports for its own scene.", "",
-             rmse_table_markdown(rmse_rows), *dyn_lines, *sections]
-    (out / "summary.md").write_text("\n".join(lines), encoding="utf-8")
-    write_json(out / "report.json", report)
+            report.add_mask_comparison(m, *((that, this) if args.mask_dynamic_gt else (this, that)))
+    atomic.write_text(out / "summary.md", report.markdown())
+    write_json(out / "report.json", report.as_json())
     print(f"report: {out / 'summary.md'}")
     return 0
