@@ -125,12 +125,6 @@ def pose_at(T_frames: np.ndarray, t: float, kind: str = "keys") -> np.ndarray:
     return interp(T[k], T[k + 1], s)
 
 
-def is_moving(T_frames: np.ndarray) -> np.ndarray:
-    """(frames - 1,) bool: whether the pose changes from frame k to k+1 (exactly)."""
-    T = np.asarray(T_frames, dtype=float)
-    return np.array([not np.array_equal(T[k], T[k + 1]) for k in range(len(T) - 1)], dtype=bool)
-
-
 KEYS_PER_FRAME = 8  # keys per frame interval of a moving object in Blender (for motion blur)
 SHUTTER_MARGIN = 0.5  # frames keyed before frame 0 and after the last (a shutter open around them)
 
