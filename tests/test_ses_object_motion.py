@@ -210,3 +210,14 @@ def test_check_summary_names_the_movers():
     line = next(ln for ln in summary(s).splitlines() if ln.startswith("moving"))
     assert line.split(None, 1)[1] == "2 (twist, 5)"
     assert "none (static scene)" in summary(parse_string(BOX))
+
+
+def test_blender_key_instants_hold_every_frame_exactly():
+    t = dynamics.key_times(11)
+    assert t[0] == -0.5 and t[-1] == 10.5 and np.allclose(np.diff(t), 1 / dynamics.KEYS_PER_FRAME)
+    assert set(range(11)) <= set(t.tolist())
+    s = parse_string(STILL + BOX + "MOVE id 1 twist 0.5 0 0.1 3 20 -5\n")
+    T = s.motion_of(1).poses()
+    P = dynamics.poses_at(T, t, "twist")
+    for k in range(11):
+        np.testing.assert_array_equal(P[t.tolist().index(float(k))], T[k])
