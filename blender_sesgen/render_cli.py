@@ -10,7 +10,9 @@ import importlib.util
 import sys
 import time
 
+from .contract.cli import EXIT_FAILURE, EXIT_INTERRUPTED
 from .errors import SesgenError
+from .interrupt import deferred_interrupts
 from .plan import RenderOptions
 
 
@@ -68,14 +70,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"sesgen render: {args.scene} -> {args.out}: {len(todo)} of {len(job.frames)} frames to render, "
               f"{len(views)} view(s), {s.width}x{s.height}, {s.samples} samples"
               f"{' + denoise' if s.denoise else ''}, seed {s.seed}, {s.device.value.upper()}", flush=True)
-    try:
-        job.build()
-    except SesgenError:
-        raise
-    except Exception as e:  # noqa: BLE001 - a Blender failure while building
-        print(f"error: building the Blender scene failed: {e}", file=sys.stderr)
-        return 1
-
     def progress(i, n, r, elapsed):
         if args.quiet:
             return
@@ -84,13 +78,28 @@ def run(args: argparse.Namespace) -> int:
         print(f"frame {r.frame:6d}  [{i}/{n}]  {r.wall_s:.2f} s{cyc}  elapsed {_fmt(elapsed)}  ETA {_fmt(eta)}",
               flush=True)
 
-    try:
-        results = job.run(progress)
-    except SesgenError:
-        raise
-    except Exception as e:  # noqa: BLE001 - Cycles/IO failure: the folder stays consistent
-        print(f"error: render failed: {e}", file=sys.stderr)
-        return 1
+    with deferred_interrupts() as stop:
+        try:
+            job.build()                    # takes the folder's lock first
+        except SesgenError:
+            job.close()
+            raise
+        except Exception as e:  # noqa: BLE001 - a Blender failure while building
+            job.close()
+            print(f"error: building the Blender scene failed: {e}", file=sys.stderr)
+            return EXIT_FAILURE
+        try:
+            results = job.run(progress, stop=lambda: stop.requested)
+        except SesgenError:
+            raise
+        except KeyboardInterrupt:
+            done = len(job.timings)
+            print(f"interrupted{f' ({stop.signal_name})' if stop.signal_name else ''} after {done} frame(s): "
+                  f"{args.out} is consistent; render again with --resume to continue", file=sys.stderr)
+            return EXIT_INTERRUPTED
+        except Exception as e:  # noqa: BLE001 - Cycles/IO failure (a full disk...): the folder stays consistent
+            print(f"error: render failed: {e}", file=sys.stderr)
+            return EXIT_FAILURE
     if args.contact_sheet:
         from .contact_sheet import write_contact_sheet
         from pathlib import Path

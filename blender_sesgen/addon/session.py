@@ -189,8 +189,12 @@ class RenderSession:
         def make_session():
             job.build()
             return job.session
-        build(context, values, make_session, job.scene)
-        job.begin()
+        try:
+            build(context, values, make_session, job.scene)
+            job.begin()
+        except BaseException:
+            job.close()                      # the folder's lock
+            raise
         s.todo = job.pending_frames()
         cls.active = s
         set_status(values, s.describe(), 0.0)
@@ -231,6 +235,9 @@ class RenderSession:
         return msg
 
     def close(self, msg: Optional[str] = None) -> str:
+        """End the render (done, cancelled or failed): the folder's lock released, its
+        completion log taken into the manifest."""
+        self.job.close()
         if RenderSession.active is self:
             RenderSession.active = None
         if msg is None:
