@@ -77,9 +77,9 @@ def _cli(*args) -> int:
     return cli_main(["export", *map(str, args), "-q"])
 
 
-def test_kitti_odometry_layout(render, tmp_path):
+def test_kitti_folder_layout(render, tmp_path):
     out = tmp_path / "kitti"
-    assert _cli(render, out, "--to", "kitti-odometry", "--noise", "0") == 0
+    assert _cli(render, out, "--to", "kitti-folder", "--noise", "0") == 0
     seq = RenderSequence(render)
     for d, ch in (("image_0", 2), ("image_1", 2), ("image_2", 3), ("image_3", 3)):
         files = sorted((out / d).glob("*.png"))
@@ -103,7 +103,7 @@ def test_evo_reads_kitti_and_tum_poses(render, tmp_path):
     if not (EVO_BIN / "evo_traj").exists():
         pytest.skip("evo not installed in this environment")
     kitti, tum = tmp_path / "k", tmp_path / "t"
-    export(render, "kitti-odometry", kitti, progress=False)
+    export(render, "kitti-folder", kitti, progress=False)
     export(render, "tum", tum, progress=False)
     env = dict(os.environ, HOME=str(tmp_path))  # evo writes its settings under $HOME
     for fmt, path in (("kitti", kitti / "poses.txt"), ("tum", tum / "groundtruth.txt")):
@@ -187,7 +187,7 @@ def test_frame_range_keeps_each_frames_noise(render, tmp_path):
     part = export(render, "png", tmp_path / "part", frames="2:4", progress=False)
     assert sorted(p.name for p in (part / "left/rgb").iterdir()) == ["000000.png", "000001.png"]
     assert (part / "left/rgb/000000.png").read_bytes() == (full / "left/rgb/000002.png").read_bytes()
-    k = export(render, "kitti-odometry", tmp_path / "k", frames="1:", progress=False)
+    k = export(render, "kitti-folder", tmp_path / "k", frames="1:", progress=False)
     T = np.array([[float(x) for x in l.split()] for l in (k / "poses.txt").read_text().splitlines()])
     assert T.shape == (3, 12) and np.allclose(T[0], np.eye(4)[:3].ravel())
 
@@ -241,7 +241,9 @@ def test_progress_bar_is_one_updating_line(render, tmp_path):
 def test_mono_render_exports(tmp_path):
     from vo_reference.io.synthetic import plane_scene
     root = plane_scene(tmp_path / "mono", stereo=False, frames=2)
-    out = export(root, "kitti-odometry", tmp_path / "k", progress=False)
+    out = export(root, "kitti-folder", tmp_path / "k", progress=False)
+    assert (out / "image_0/000001.png").is_file() and not (out / "image_1").exists()
+    out = export(root, "kitti-odometry", tmp_path / "kd", progress=False)
     assert (out / "image_0/000001.png").is_file() and not (out / "image_1").exists()
     export(root, "png", tmp_path / "p", progress=False)
     assert not (tmp_path / "p/left/disparity").exists()

@@ -5,6 +5,8 @@ A reader (or a crashed export) never sees a half-written file under the final na
 from __future__ import annotations
 
 import os
+import shutil
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +31,32 @@ def write_bytes_atomic(path, data: bytes) -> Path:
         if tmp.exists():
             tmp.unlink()
     return path
+
+
+@contextmanager
+def staged_folder(final):
+    """Build a folder under a temporary sibling name (``.NAME.partPID``) and put it in place
+    of ``final`` only when the ``with`` block succeeds; on an error (or Ctrl-C) the partial
+    folder is removed and ``final`` is left as it was. An existing ``final`` is replaced
+    (moved aside, then deleted) -- the caller decides whether it may be."""
+    final = Path(final)
+    final.parent.mkdir(parents=True, exist_ok=True)
+    tmp = final.with_name(f".{final.name}.part{os.getpid()}")
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    tmp.mkdir()
+    try:
+        yield tmp
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    old = None
+    if final.exists():
+        old = final.with_name(f".{final.name}.old{os.getpid()}")
+        os.replace(final, old)
+    os.replace(tmp, final)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
 
 
 def write_text_atomic(path, text: str) -> Path:
