@@ -30,6 +30,11 @@ import numpy as np
 from . import __version__
 from .model import Scene, TextureRef
 
+# The folder contract/ beside this module holds the new homes of the conventions (issue #12:
+# contract/progress.py so far); until this module moves into it, let the import system find
+# them as ``blender_sesgen.contract.<name>``.
+__path__ = [os.path.join(os.path.dirname(os.path.abspath(__file__)), "contract")]
+
 FORMAT = "sesgen-render/1"
 DEPTH_BACKGROUND = 1e10
 

@@ -11,6 +11,7 @@ import sys
 import time
 
 from .contract import RenderOptions
+from .contract.progress import Progress, add_progress_argument, progress_mode
 from .errors import SesgenError
 
 
@@ -32,7 +33,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--position-pass", action="store_true", help="also write the Position pass")
     p.add_argument("--contact-sheet", nargs="?", const="contact_sheet.png", metavar="PNG",
                    help="after rendering, write a contact sheet (RGB, disparity, segmentation) into DIR")
-    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    add_progress_argument(p, ("--quiet",))
     p.add_argument("--verbose", action="store_true", help="show Blender's own render log")
 
 
@@ -77,16 +78,16 @@ def run(args: argparse.Namespace) -> int:
         print(f"error: building the Blender scene failed: {e}", file=sys.stderr)
         return 1
 
+    bar = Progress(len(todo), "render", mode=progress_mode(args), unit="frame")
+
     def progress(i, n, r, elapsed):
-        if args.quiet:
-            return
-        eta = elapsed / i * (n - i)
         cyc = f", cycles {r.cycles_s:.2f} s" if r.cycles_s is not None else ""
-        print(f"frame {r.frame:6d}  [{i}/{n}]  {r.wall_s:.2f} s{cyc}  elapsed {_fmt(elapsed)}  ETA {_fmt(eta)}",
-              flush=True)
+        bar.update(detail=f"frame {r.frame} {r.wall_s:.2f} s{cyc}", frame=r.frame, wall_s=r.wall_s,
+                   cycles_s=r.cycles_s)
 
     try:
-        results = job.run(progress)
+        with bar:
+            results = job.run(progress)
     except SesgenError:
         raise
     except Exception as e:  # noqa: BLE001 - Cycles/IO failure: the folder stays consistent

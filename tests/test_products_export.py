@@ -230,12 +230,22 @@ def test_registry_accepts_a_new_target(render, tmp_path):
         del EXPORTERS["fake-test"]
 
 
-def test_progress_bar_is_one_updating_line(render, tmp_path):
+def test_progress_in_a_pipe_is_plain_lines_and_json_parses(render, tmp_path):
+    """stderr is a pipe here: whole lines with ETA, never a carriage return; json: one object a line."""
     r = subprocess.run([sys.executable, "-m", "vo_reference", "export", str(render), str(tmp_path / "o"),
                         "--to", "png"], capture_output=True, timeout=120)
     err = r.stderr.decode()
     assert r.returncode == 0, err
-    assert err.count("\n") == 1 and err.endswith("\n") and err.count("\r") >= 2 and "8/8" in err
+    assert "\r" not in err and err.endswith("\n")
+    lines = err.splitlines()
+    assert lines[-1].startswith("export png: 8/8 (100%)") and all(l.startswith("export png: ") for l in lines)
+    r = subprocess.run([sys.executable, "-m", "vo_reference", "export", str(render), str(tmp_path / "j"),
+                        "--to", "kitti-folder", "--progress", "json"], capture_output=True, timeout=120)
+    assert r.returncode == 0, r.stderr.decode()
+    events = [json.loads(line) for line in r.stderr.decode().splitlines()]
+    assert [e["event"] for e in events] == ["start"] + ["progress"] * 4 + ["end"]
+    assert events[-1]["status"] == "ok" and events[-2]["done"] == events[-2]["total"] == 4
+    assert "exported" in r.stdout.decode()
 
 
 def test_mono_render_exports(tmp_path):

@@ -29,7 +29,8 @@ from ..io.files import write_png16, write_png_rgb, write_text_atomic
 from ..io.sequence import frame_range
 from .disparity import sequence_disparity, write_disparity_png16
 from .noise import add_gaussian_noise
-from .progress import Progress
+from blender_sesgen.contract.progress import MODES as PROGRESS_MODES
+from blender_sesgen.contract.progress import Progress
 
 # target name -> ("module:function", one-line help)
 EXPORTERS: dict[str, tuple[str | Callable, str]] = {
@@ -68,9 +69,10 @@ VIEW_INDEX = {"left": 0, "right": 1}
 class ExportOptions:
     frames: range                          # source frame indices to export
     noise: tuple[float, int] | None = None  # (sigma in 8-bit grey levels, seed) or None
-    progress: bool = True
+    progress: str = "auto"                 # progress mode (blender_sesgen.contract.progress.MODES)
     extra: dict = field(default_factory=dict)  # target-specific KEY=VALUE options (--opt)
     sequence: str | None = None            # the render's slot in a multi-sequence dataset tree (--sequence)
+    progress_callback: Callable | None = None  # receives every progress event (a dict)
 
 
 def register_exporter(name: str, fn: Callable | str, help_text: str = "") -> None:
@@ -99,12 +101,14 @@ def parse_frames(spec: str | None, n: int) -> range:
 
 
 def export(render_dir, target: str, out, *, frames: str | range | None = None,
-           noise="manifest", progress: bool = True, extra: dict | None = None,
-           sequence: str | None = None) -> Path:
+           noise="manifest", progress: bool | str = "auto", extra: dict | None = None,
+           sequence: str | None = None, progress_callback: Callable | None = None) -> Path:
     """Export a render folder. ``noise``: 'manifest' (the script's NOISE, if any), None
     (clean) or (sigma, seed); ``sequence``: the slot in a dataset tree, for the targets that
-    have one (kitti-odometry, tartanair, vkitti2, sceneflow). Returns the folder that holds
-    the export (``out``, or the sequence's folder inside it) with its ``export.json``."""
+    have one (kitti-odometry, tartanair, vkitti2, sceneflow); ``progress``: a mode of
+    :mod:`blender_sesgen.contract.progress` (True = 'auto', False = 'off') and
+    ``progress_callback(event)`` a hook for every progress event. Returns the folder that
+    holds the export (``out``, or the sequence's folder inside it) with its ``export.json``."""
     from ..io.render import RenderSequence
     render_dir, out = Path(render_dir), Path(out)
     seq = RenderSequence(render_dir)
@@ -122,8 +126,12 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
     nz = seq.noise if noise == "manifest" else noise
     if nz is not None and float(nz[0]) <= 0:
         nz = None
+    mode = ("auto" if progress else "off") if isinstance(progress, bool) else str(progress)
+    if mode not in PROGRESS_MODES:
+        raise VoError(f"progress {progress!r}: expected one of {', '.join(PROGRESS_MODES)}")
     opts = ExportOptions(frames=rng, noise=None if nz is None else (float(nz[0]), int(nz[1])),
-                         progress=progress, extra=dict(extra or {}), sequence=sequence)
+                         progress=mode, extra=dict(extra or {}), sequence=sequence,
+                         progress_callback=progress_callback)
     out.mkdir(parents=True, exist_ok=True)
     where = Path(fn(seq, out, opts) or out)
     info = {"target": target, "source": str(render_dir.resolve()), "source_frames": list(rng),
@@ -175,9 +183,9 @@ def sequence_folder(out: Path, sequence: str | None, default: str | None = None,
     return folder
 
 
-def progress_bar(opts: ExportOptions, total: int, label: str):
+def progress_bar(opts: ExportOptions, total: int, label: str) -> Progress:
     """The progress reporter of one export (a context manager with ``update()``)."""
-    return Progress(total, label, enabled=opts.progress)
+    return Progress(total, f"export {label}", mode=opts.progress, callback=opts.progress_callback)
 
 
 def kitti_projections(K: np.ndarray, baseline_m: float) -> dict[str, np.ndarray]:
