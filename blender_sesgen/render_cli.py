@@ -6,7 +6,6 @@ output: nothing is created or touched); 1 render failure.
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import sys
 import time
 
@@ -42,14 +41,8 @@ def _fmt(seconds: float) -> str:
     return f"{s // 3600:d}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60:02d}:{s % 60:02d}"
 
 
-def _have_bpy() -> bool:
-    try:
-        return importlib.util.find_spec("bpy") is not None
-    except ImportError:
-        return False
-
-
 def run(args: argparse.Namespace) -> int:
+    from .api import frame_progress, have_bpy
     from .pipeline import RenderJob, parse_frames
     t_start = time.perf_counter()
     options = RenderOptions(
@@ -60,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
         verbose=args.verbose,
     )
     job = RenderJob.prepare(args.scene, args.out, options, resume=args.resume, force=args.force)  # SesgenError -> 2
-    if not _have_bpy():
+    if not have_bpy():
         raise SesgenError("rendering needs Blender's Python module 'bpy': pip install 'blender-sesgen[render]' "
                           "(Python 3.11), or run inside Blender: blender -b -P render.py -- SCENE.ses --out DIR")
     todo = job.pending_frames()
@@ -78,16 +71,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"error: building the Blender scene failed: {e}", file=sys.stderr)
         return 1
 
-    bar = Progress(len(todo), "render", mode=progress_mode(args), unit="frame")
-
-    def progress(i, n, r, elapsed):
-        cyc = f", cycles {r.cycles_s:.2f} s" if r.cycles_s is not None else ""
-        bar.update(detail=f"frame {r.frame} {r.wall_s:.2f} s{cyc}", frame=r.frame, wall_s=r.wall_s,
-                   cycles_s=r.cycles_s)
-
     try:
-        with bar:
-            results = job.run(progress)
+        with Progress(len(todo), "render", mode=progress_mode(args), unit="frame") as bar:
+            results = job.run(frame_progress(bar))
     except SesgenError:
         raise
     except Exception as e:  # noqa: BLE001 - Cycles/IO failure: the folder stays consistent

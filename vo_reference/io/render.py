@@ -26,6 +26,8 @@ from .color import linear_to_srgb8, rgb8_to_gray8
 from .exr import find_pass, read_exr_channels
 from .sequence import check_frame_view
 
+__all__ = ["RenderSequence", "read_manifest", "FORMAT"]
+
 FORMAT = "sesgen-render/1"
 REQUIRED_KEYS = ("format", "resolution", "K", "baseline", "frames", "views", "poses", "files")
 

@@ -25,6 +25,8 @@ import numpy as np
 
 from ..errors import VoError
 
+__all__ = ["Sequence", "open_sequence", "frame_range", "check_frame_view", "ImagesOnly"]
+
 
 @runtime_checkable
 class Sequence(Protocol):

@@ -23,6 +23,9 @@ import numpy as np
 from ..errors import VoError
 from ..lie import R_to_quat_xyzw, quat_xyzw_to_R
 
+__all__ = ["Trajectory", "read_tum", "read_kitti", "read_euroc", "write_tum", "write_kitti", "write_euroc",
+           "read_render_poses", "read_trajectory", "guess_format"]
+
 
 @dataclass(frozen=True)
 class Trajectory:

@@ -23,6 +23,8 @@ from ..errors import VoError
 from ..lie import se3_inverse
 from .flow import sequence_flow, warp_depth
 
+__all__ = ["DenseFlow", "dense_flow", "flow_at_infinity", "disparity_change"]
+
 
 @dataclass(frozen=True)
 class DenseFlow:

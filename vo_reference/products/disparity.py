@@ -20,6 +20,10 @@ from ..errors import VoError
 from ..io.files import read_image, write_bytes_atomic, write_image_atomic, write_png16
 from ..io.pfm import read_pfm, write_pfm
 
+__all__ = ["disparity_from_depth", "sequence_disparity", "disparity_to_png16", "png16_to_disparity",
+           "write_disparity_png16", "read_disparity_png16", "write_disparity", "read_disparity", "disparity_color",
+           "write_disparity_color"]
+
 
 def disparity_from_depth(depth: np.ndarray, fx: float, baseline_m: float) -> np.ndarray:
     """float32 d = fx·B/Z; NaN where Z is not finite and positive."""

@@ -32,6 +32,9 @@ from .noise import add_gaussian_noise
 from blender_sesgen.contract.progress import MODES as PROGRESS_MODES
 from blender_sesgen.contract.progress import Progress
 
+__all__ = ["EXPORTERS", "ExportOptions", "export", "register_exporter", "get_exporter", "parse_frames",
+           "sequence_folder", "check_replaceable", "progress_bar", "image_rgb", "image_gray"]
+
 # target name -> ("module:function", one-line help)
 EXPORTERS: dict[str, tuple[str | Callable, str]] = {
     "kitti-odometry": ("vo_reference.products.kitti_odometry:export_kitti_odometry",

@@ -32,6 +32,8 @@ from ..lie import se3_inverse
 from .exports import (ExportOptions, calib_text, check_replaceable, image_gray, image_rgb, kitti_pose_lines,
                       progress_bar)
 
+__all__ = ["export_kitti_odometry", "export_kitti_folder", "sequence_name"]
+
 DEFAULT_SEQUENCE = "00"
 
 

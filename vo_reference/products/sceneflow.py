@@ -34,6 +34,8 @@ from .dense_gt import dense_flow, disparity_change
 from .disparity import sequence_disparity
 from .exports import ExportOptions, image_rgb, progress_bar, sequence_folder
 
+__all__ = ["export_sceneflow", "flow_pfm_array"]
+
 DEFAULT_SEQUENCE = "TRAIN/A/0000"
 KINDS = ("frames_cleanpass", "disparity", "optical_flow", "disparity_change")
 VIEW_LETTER = {"left": "L", "right": "R"}

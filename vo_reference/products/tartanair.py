@@ -48,6 +48,8 @@ from ..io.files import staged_folder, write_bytes_atomic, write_png_rgb, write_t
 from .dense_gt import dense_flow
 from .exports import ExportOptions, image_rgb, progress_bar, sequence_folder
 
+__all__ = ["export_tartanair", "ned_poses", "pose_lines", "flow_mask", "R_CV_NED", "R_NED_SES"]
+
 R_CV_NED = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])   # v_cv = R_CV_NED @ v_ned
 R_NED_SES = np.array([[0.0, 0.0, -1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])  # world: north = -Z, east = X, down = -Y
 MASK_VALID, MASK_HIDDEN, MASK_OUT_OF_VIEW = 0, 1, 100

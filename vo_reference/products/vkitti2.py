@@ -54,6 +54,8 @@ from ..lie import se3_inverse
 from .dense_gt import dense_flow
 from .exports import ExportOptions, image_rgb, progress_bar, sequence_folder
 
+__all__ = ["export_vkitti2", "CATEGORIES", "CATEGORY_OF_CLASS", "encode_flow", "depth_to_cm16", "class_image"]
+
 # vKITTI 2's categories and colours (its colors.txt), in its order
 CATEGORIES = {
     "Terrain": (210, 0, 200), "Sky": (90, 200, 255), "Tree": (0, 199, 0), "Vegetation": (90, 240, 0),
