@@ -1,13 +1,12 @@
 """The stable Python API of blender_sesgen (docs/api.md): what user scripts may import.
 
 Everything named in ``__all__`` keeps its name and meaning across releases; the modules
-behind it (the parser, the pipeline, the Blender layer) are internal and may move::
+behind it (the parser, the pipeline, the Blender layer) are internal and may move:
 
-    from blender_sesgen import api as sg
-
-    scene = sg.parse_file("scenes/minimal.ses")          # ScriptError: file:line:col: error: ...
-    print(sg.summary(scene))
-    results = sg.render(scene, "out/room", sg.RenderOptions(samples=4), progress=print)
+>>> from blender_sesgen import api as sg
+>>> scene = sg.parse_file("scenes/minimal.ses")          # ScriptError: file:line:col: error: ...
+>>> print(sg.summary(scene))
+>>> results = sg.render(scene, "out/room", sg.RenderOptions(samples=4), progress=print)
 
 Only :func:`render` needs Blender's Python module ``bpy``; the rest is pure (numpy).
 """
