@@ -20,11 +20,11 @@ from typing import Callable, Optional, Sequence
 import numpy as np
 
 from .check import summary
-from .contract import RenderOptions
 from .contract.progress import Progress
 from .errors import ScriptError, SesgenError
-from .model import (Cuboid, Cylinder, Fog, Light, Material, Mesh, Motion, Noise, Quad, RenderSettings, Rig, Scene,
-                    Sphere, TextureRef, Timeline, World, mat4)
+from .model import (Cuboid, Cylinder, Fog, Light, Material, Mesh, Motion, Noise, Quad, Rig, Scene, Sphere,
+                    TextureRef, Timeline, World, mat4)
+from .pipeline import RenderOptions
 from .ses import parse_file, parse_string
 
 __all__ = [
@@ -32,7 +32,7 @@ __all__ = [
     "parse_file", "parse_string", "summary", "ScriptError", "SesgenError",
     # the scene model
     "Scene", "Rig", "Quad", "Cuboid", "Sphere", "Cylinder", "Mesh", "Material", "TextureRef", "Light", "World",
-    "Fog", "Noise", "RenderSettings", "Motion", "Timeline", "builtin_texture", "ego_timeline", "pose_timeline",
+    "Fog", "Noise", "Motion", "Timeline", "builtin_texture", "ego_timeline", "pose_timeline",
     # rendering
     "RenderOptions", "render", "frame_progress",
 ]
@@ -61,7 +61,8 @@ def ego_timeline(start_position: Sequence[float], start_rotation_deg: Sequence[f
     """The timeline of ``START position x y z rx ry rz`` followed by one ``EGO U V W alpha
     beta gamma`` per step (units per frame, degrees per frame, camera frame): the same
     poses as the script statements (docs/ses-language.md)."""
-    from .poses import integrate_ego, start_pose
+    from .contract.frames import start_pose
+    from .contract.motion import integrate_ego
     return pose_timeline(integrate_ego(start_pose(start_position, start_rotation_deg), [tuple(s) for s in steps]))
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vo_reference.io.synthetic import write_render
+from synthetic_render import write_render
 
 W, H, F, B = 48, 32, 36.0, 0.3
 K = np.array([[F, 0.0, W / 2 - 0.5], [0.0, F, H / 2 - 0.5], [0.0, 0.0, 1.0]])

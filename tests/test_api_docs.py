@@ -24,7 +24,7 @@ HAVE_BPY = importlib.util.find_spec("bpy") is not None
 SYNTHETIC_RENDER = textwrap.dedent("""
     import numpy as np
     import raycast
-    from vo_reference.io.synthetic import write_render
+    from synthetic_render import write_render
 
     def _cells(X):
         c = np.floor(X * 4.0).astype(np.int64)
@@ -82,7 +82,8 @@ def test_the_doc_has_the_sections_the_api_promises():
                         "Derive ground-truth products, export a dataset layout", "Run visual odometry", "Evaluate"]
 
 
-@pytest.mark.parametrize("module", ["blender_sesgen.api", "vo_reference.api", "blender_sesgen.contract.progress"])
+@pytest.mark.parametrize("module", ["blender_sesgen.api", "blender_sesgen.pipeline", "vo_reference.api",
+                                    "blender_sesgen.contract.progress"])
 def test_every_public_name_exists_and_is_documented(module):
     mod = importlib.import_module(module)
     table = DOC.read_text(encoding="utf-8").split("## What is public", 1)[1]

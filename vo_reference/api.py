@@ -14,12 +14,14 @@ Errors are :class:`VoError` (one line, the command-line tools exit 2 on them).
 """
 from __future__ import annotations
 
+from blender_sesgen.contract.timing import frame_range
+
 from .errors import VoError
 from .evaluate import (ape, disparity_metrics, evaluate_trajectory, kitti_metric, rpe,
                        summary_lines)
 from .io.kitti import KittiSequence
 from .io.render import RenderSequence
-from .io.sequence import Sequence, frame_range, open_sequence
+from .io.sequence import Sequence, open_sequence
 from .io.trajectory import Trajectory, read_trajectory, write_kitti, write_tum
 from .products.dense_gt import DenseFlow, dense_flow, disparity_change
 from .products.disparity import (disparity_from_depth, read_disparity, sequence_disparity as disparity,

@@ -19,8 +19,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from blender_sesgen.contract.se3 import invert
+
 from ..errors import VoError
-from ..lie import se3_inverse
 from .flow import sequence_flow, warp_depth
 
 __all__ = ["DenseFlow", "dense_flow", "flow_at_infinity", "disparity_change"]
@@ -64,7 +65,7 @@ def dense_flow(seq, k_src: int, k_tgt: int, view: str = "left", rtol: float = 1e
         raise VoError(f"{seq!r} has no pose ground truth: cannot derive optical flow")
     fl = sequence_flow(seq, k_src, k_tgt, view, rtol)
     H, W = fl.valid.shape
-    R = (se3_inverse(T[k_tgt]) @ T[k_src])[:3, :3]
+    R = (invert(T[k_tgt]) @ T[k_src])[:3, :3]
     f_inf, front = flow_at_infinity(seq.K, R, H, W)
     bg = ~fl.valid
     flow = np.where(bg[..., None], f_inf, fl.flow).astype(np.float32)
@@ -93,7 +94,7 @@ def disparity_change(seq, k_src: int, k_tgt: int, view: str = "left") -> np.ndar
     z_src = seq.depth(k_src, view)
     if T is None or z_src is None:
         raise VoError(f"{seq!r} has no depth/pose ground truth: cannot derive the disparity change")
-    w = warp_depth(z_src, seq.K, se3_inverse(T[k_tgt]) @ T[k_src])
+    w = warp_depth(z_src, seq.K, invert(T[k_tgt]) @ T[k_src])
     fB = float(seq.K[0, 0]) * float(seq.baseline_m)
     out = np.zeros(z_src.shape, dtype=np.float64)
     ok = w.valid & np.isfinite(w.z)

@@ -26,11 +26,13 @@ import os
 import re
 from pathlib import Path
 
+from blender_sesgen.contract import atomic
+from blender_sesgen.contract.se3 import invert
+from blender_sesgen.contract.trajectory_files import format_kitti, format_times
+
 from ..errors import VoError
-from ..io.files import staged_folder, write_png_rgb, write_text_atomic
-from ..lie import se3_inverse
-from .exports import (ExportOptions, calib_text, check_replaceable, image_gray, image_rgb, kitti_pose_lines,
-                      progress_bar)
+from ..io.files import write_png_rgb
+from .exports import ExportOptions, calib_text, check_replaceable, image_gray, image_rgb, progress_bar
 
 __all__ = ["export_kitti_odometry", "export_kitti_folder", "sequence_name"]
 
@@ -60,15 +62,15 @@ def write_sequence_folder(seq, folder: Path, opts: ExportOptions, label: str) ->
                 write_png_rgb(folder / "image_1" / name, image_gray(seq, k, "right", opts))
                 write_png_rgb(folder / "image_3" / name, image_rgb(seq, k, "right", opts))
             bar.update()
-    write_text_atomic(folder / "calib.txt", calib_text(seq))
+    atomic.write_text(folder / "calib.txt", calib_text(seq))
     t = seq.timestamps_s[frames] - seq.timestamps_s[frames[0]]
-    write_text_atomic(folder / "times.txt", "".join(f"{x:.6e}\n" for x in t))
+    atomic.write_text(folder / "times.txt", format_times(t))
     return frames
 
 
 def relative_poses_text(seq, frames: list[int]) -> str:
     T = seq.T_world_cam("left")[frames]
-    return kitti_pose_lines(se3_inverse(T[0]) @ T)
+    return format_kitti(invert(T[0]) @ T)
 
 
 def export_kitti_odometry(seq, out: Path, opts: ExportOptions) -> Path:
@@ -77,11 +79,11 @@ def export_kitti_odometry(seq, out: Path, opts: ExportOptions) -> Path:
     final = dataset / "sequences" / nn
     check_replaceable(final)
     poses = dataset / "poses" / f"{nn}.txt"
-    staged_poses = poses.with_name(f".{poses.name}.part{os.getpid()}")
+    staged_poses = atomic.temp_path(poses)
     try:
-        with staged_folder(final) as tmp:
+        with atomic.replacing_folder(final) as tmp:
             frames = write_sequence_folder(seq, tmp, opts, f"kitti-odometry {nn}")
-            write_text_atomic(staged_poses, relative_poses_text(seq, frames))
+            atomic.write_text(staged_poses, relative_poses_text(seq, frames))
         os.replace(staged_poses, poses)
     finally:
         if staged_poses.exists():
@@ -95,4 +97,4 @@ export_kitti_odometry.takes_sequence = True
 def export_kitti_folder(seq, out: Path, opts: ExportOptions) -> None:
     """One folder: image_0..3/, calib.txt, times.txt and poses.txt side by side."""
     frames = write_sequence_folder(seq, Path(out), opts, "kitti-folder")
-    write_text_atomic(Path(out) / "poses.txt", relative_poses_text(seq, frames))
+    atomic.write_text(Path(out) / "poses.txt", relative_poses_text(seq, frames))

@@ -27,8 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import atomic
+
 from ..errors import VoError
-from ..io.files import staged_folder, write_png_rgb, write_text_atomic
+from ..io.files import write_png_rgb
 from ..io.pfm import write_pfm
 from .dense_gt import dense_flow, disparity_change
 from .disparity import sequence_disparity
@@ -60,7 +62,7 @@ def export_sceneflow(seq, out: Path, opts: ExportOptions) -> Path:
     ours = (main / "export.json").is_file()
     slots = {kind: sequence_folder(Path(out) / kind, rel, check=not ours) for kind in KINDS}
     with ExitStack() as stack:
-        d = {kind: stack.enter_context(staged_folder(slots[kind])) for kind in KINDS}
+        d = {kind: stack.enter_context(atomic.replacing_folder(slots[kind])) for kind in KINDS}
         with progress_bar(opts, len(frames) * 2, "sceneflow") as bar:
             for i, k in enumerate(frames):
                 for view, L in VIEW_LETTER.items():
@@ -78,7 +80,7 @@ def export_sceneflow(seq, out: Path, opts: ExportOptions) -> Path:
                                   disparity_change(seq, k, frames[j], view))
                     bar.update()
         K = seq.K
-        write_text_atomic(d["frames_cleanpass"] / "camera.txt", "# fx fy cx cy baseline_m (pixels, metres)\n"
+        atomic.write_text(d["frames_cleanpass"] / "camera.txt", "# fx fy cx cy baseline_m (pixels, metres)\n"
                           f"{K[0, 0]:.9g} {K[1, 1]:.9g} {K[0, 2]:.9g} {K[1, 2]:.9g} {seq.baseline_m:.9g}\n")
     return main
 

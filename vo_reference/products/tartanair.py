@@ -43,8 +43,10 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import atomic
+
 from ..errors import VoError
-from ..io.files import staged_folder, write_bytes_atomic, write_png_rgb, write_text_atomic
+from ..io.files import write_png_rgb
 from .dense_gt import dense_flow
 from .exports import ExportOptions, image_rgb, progress_bar, sequence_folder
 
@@ -67,7 +69,7 @@ def ned_poses(T_world_cam: np.ndarray) -> np.ndarray:
 
 def pose_lines(T_ned: np.ndarray) -> str:
     """'tx ty tz qx qy qz qw' per pose, quaternion scalar last with qw >= 0."""
-    from ..lie import R_to_quat_xyzw
+    from blender_sesgen.contract.se3 import R_to_quat_xyzw
     T = np.asarray(T_ned, dtype=float)
     q = R_to_quat_xyzw(T[:, :3, :3])
     q = np.where(q[:, 3:4] < 0, -q, q)
@@ -86,7 +88,7 @@ def _npy(path: Path, a: np.ndarray) -> None:
     import io
     buf = io.BytesIO()
     np.save(buf, a)
-    write_bytes_atomic(path, buf.getvalue())
+    atomic.write_bytes(path, buf.getvalue())
 
 
 def _options(opts: ExportOptions) -> float:
@@ -119,7 +121,7 @@ def export_tartanair(seq, out: Path, opts: ExportOptions) -> Path:
     views = [v for v in ("left", "right") if v in seq.views]
     frames = list(opts.frames)
     final = sequence_folder(out, opts.sequence)
-    with staged_folder(final) as root:
+    with atomic.replacing_folder(final) as root:
         steps = len(frames) * len(views) + max(len(frames) - 1, 0)
         with progress_bar(opts, steps, "tartanair") as bar:
             for i, k in enumerate(frames):
@@ -140,9 +142,9 @@ def export_tartanair(seq, out: Path, opts: ExportOptions) -> Path:
                     _npy(root / "flow" / f"{name}_mask.npy", flow_mask(f))
                     bar.update()
         for v in views:
-            write_text_atomic(root / f"pose_{v}.txt", pose_lines(ned_poses(seq.T_world_cam(v)[frames])))
+            atomic.write_text(root / f"pose_{v}.txt", pose_lines(ned_poses(seq.T_world_cam(v)[frames])))
         K = seq.K
-        write_text_atomic(root / "camera.txt", "# fx fy cx cy baseline_m (pixels, metres)\n"
+        atomic.write_text(root / "camera.txt", "# fx fy cx cy baseline_m (pixels, metres)\n"
                           f"{K[0, 0]:.9g} {K[1, 1]:.9g} {K[0, 2]:.9g} {K[1, 2]:.9g} {seq.baseline_m:.9g}\n")
     return final
 

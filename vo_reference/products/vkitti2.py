@@ -48,9 +48,11 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import atomic
+from blender_sesgen.contract.se3 import invert
+
 from ..errors import VoError
-from ..io.files import staged_folder, write_image_atomic, write_text_atomic
-from ..lie import se3_inverse
+from ..io.files import write_image_atomic
 from .dense_gt import dense_flow
 from .exports import ExportOptions, image_rgb, progress_bar, sequence_folder
 
@@ -159,7 +161,7 @@ def pose_rows(seq, frames: list[int], cams: list[tuple[int, str]]) -> list[str]:
     objs = object_poses(seq)
     for i, k in enumerate(frames):
         for c, view in cams:
-            T_cam_world = se3_inverse(seq.T_world_cam(view)[k])
+            T_cam_world = invert(seq.T_world_cam(view)[k])
             for obj, T in objs:
                 T_w = F_VK_SES @ T[k] @ F_VK_SES          # object axes turned like the world
                 T_c = T_cam_world @ T[k] @ F_VK_SES
@@ -190,7 +192,7 @@ def export_vkitti2(seq, out: Path, opts: ExportOptions) -> Path:
     frames = list(opts.frames)
     objects = [o for o in (getattr(seq, "objects", []) or []) if isinstance(o, dict)]
     final = sequence_folder(out, opts.sequence)
-    with staged_folder(final) as root:
+    with atomic.replacing_folder(final) as root:
         fr = root / "frames"
         with progress_bar(opts, len(frames) * len(cams), "vkitti2") as bar:
             for i, k in enumerate(frames):
@@ -221,12 +223,12 @@ def export_vkitti2(seq, out: Path, opts: ExportOptions) -> Path:
         for i, k in enumerate(frames):
             for c, view in cams:
                 intr.append(_row([i, c, K[0, 0], K[1, 1], K[0, 2], K[1, 2]]))
-                T_cam_world = se3_inverse(F_VK_SES @ seq.T_world_cam(view)[k])
+                T_cam_world = invert(F_VK_SES @ seq.T_world_cam(view)[k])
                 extr.append(_row([i, c, *T_cam_world.ravel()]))
-        write_text_atomic(root / "intrinsic.txt", "\n".join(intr) + "\n")
-        write_text_atomic(root / "extrinsic.txt", "\n".join(extr) + "\n")
-        write_text_atomic(root / "pose.txt", "\n".join(pose_rows(seq, frames, cams)) + "\n")
-        write_text_atomic(root / "colors.txt", "Category r g b\n" + "".join(
+        atomic.write_text(root / "intrinsic.txt", "\n".join(intr) + "\n")
+        atomic.write_text(root / "extrinsic.txt", "\n".join(extr) + "\n")
+        atomic.write_text(root / "pose.txt", "\n".join(pose_rows(seq, frames, cams)) + "\n")
+        atomic.write_text(root / "colors.txt", "Category r g b\n" + "".join(
             f"{n} {r} {g} {b}\n" for n, (r, g, b) in CATEGORIES.items()))
     return final
 
