@@ -6,9 +6,8 @@ packages are exactly the distributions that the wheel's base and ``[vo]`` requir
 resolve to (read from pyproject.toml and, recursively, from each distribution's metadata,
 as pip resolves them), taken from this environment -- bpy is not among them. pip's own
 ``check`` confirms the requirements are met; then the installed ``vo-reference`` script runs
-the VO workflow on a render folder. The import graph is checked too: vo_reference imports
-nothing of blender_sesgen but ``blender_sesgen.contract``, whose own modules use numpy and
-the standard library only.
+the VO workflow on a render folder, and importing all of vo_reference there loads nothing of
+blender_sesgen beyond its contract (the source-level import graph is tests/test_architecture.py).
 """
 from __future__ import annotations
 
@@ -60,28 +59,6 @@ def test_the_vo_extra_is_complete_and_has_no_blender():
     project = tomllib.loads((REPO / "pyproject.toml").read_text(encoding="utf-8"))["project"]
     assert project["scripts"]["vo-reference"] == "vo_reference.cli:main"
     assert project["optional-dependencies"]["render"] == ["bpy==5.0.1"]
-
-
-def _imports(path: Path) -> set[str]:
-    tree = ast.parse(path.read_text(encoding="utf-8"))
-    out = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            out |= {a.name for a in node.names}
-        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-            out.add(node.module)
-    return out
-
-
-def test_import_graph_vo_reference_needs_only_the_contract():
-    for path in sorted((REPO / "vo_reference").rglob("*.py")):
-        for mod in _imports(path):
-            if mod.split(".")[0] == "blender_sesgen":
-                assert mod == "blender_sesgen.contract" or mod.startswith("blender_sesgen.contract."), (path, mod)
-    stdlib = set(sys.stdlib_module_names)
-    for path in sorted((REPO / "blender_sesgen" / "contract").rglob("*.py")):
-        for mod in _imports(path):
-            assert mod.split(".")[0] in stdlib | {"numpy", "__future__"}, (path, mod)
 
 
 @pytest.fixture(scope="module")
@@ -161,12 +138,13 @@ def test_vo_reference_command_works_without_blender(vo_venv, tmp_path):
     # the renderer says what it needs instead of failing obscurely
     r = _run(vo_venv, vo_venv / "bin" / "sesgen", "render", REPO / "scenes" / "minimal.ses", "--out", tmp_path / "r")
     assert r.returncode == 2 and "needs Blender's Python module 'bpy'" in r.stderr
-    # importing all of vo_reference loads nothing of blender_sesgen beyond what its contract needs
+    # importing all of vo_reference loads nothing of blender_sesgen but its contract
     probe = ("import importlib, pkgutil, sys, vo_reference\n"
-             "import blender_sesgen.contract.progress\n"
-             "before = {m for m in sys.modules if m.startswith('blender_sesgen')}\n"
              "for i in pkgutil.walk_packages(vo_reference.__path__, 'vo_reference.'):\n"
              "    if not i.name.endswith('__main__'): importlib.import_module(i.name)\n"
-             "print(sorted({m for m in sys.modules if m.startswith('blender_sesgen')} - before))\n")
+             "print(sorted(m for m in sys.modules if m.startswith('blender_sesgen')))\n")
     r = _run(vo_venv, py, "-c", probe)
-    assert r.returncode == 0 and r.stdout.strip() == "[]", r.stdout + r.stderr
+    loaded = ast.literal_eval(r.stdout.strip()) if r.returncode == 0 else None
+    assert loaded and "blender_sesgen.contract.progress" in loaded, r.stdout + r.stderr
+    assert all(m in ("blender_sesgen", "blender_sesgen.contract") or m.startswith("blender_sesgen.contract.")
+               for m in loaded), loaded
