@@ -30,6 +30,8 @@ from .color import rgb8_to_gray8
 from .exr import find_pass, read_exr_channels
 from .base import check_frame_view
 
+__all__ = ["RenderSequence", "read_manifest"]
+
 # pass name candidates (Blender 5.0 first, then 4.x names)
 PASS_COMBINED = ("Combined",)
 PASS_DEPTH = ("Depth",)
