@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -38,8 +39,10 @@ class SensorSession:
         for view, cam in self.cameras.items():
             sensor.key_camera_instants(cam, times, self.sensor.camera_poses(view, times + shift_frames, rig.FRAME0))
 
-    def render_frame(self, k: int, exposure_s: float, paths: dict[str, Path]) -> dict[str, dict]:
-        """Every view of frame k into ``paths[view]``; {view: render stats}."""
+    def render_frame(self, k: int, exposure_s: float, paths: dict[str, Path],
+                     stop: Callable[[], bool] = lambda: False) -> dict[str, dict]:
+        """Every view of frame k into ``paths[view]``; {view: render stats}. ``stop()`` is
+        asked before each view (KeyboardInterrupt when it says yes)."""
         s = self.sensor
         shutter, duration = s.shutter(exposure_s)
         gt_shutter = s.shutter(0.0)[0] if s.rolling_shutter else 0.0
@@ -50,6 +53,8 @@ class SensorSession:
         quiet = not self.plan.options.verbose
         stats = {}
         for vi, view in enumerate(self.plan.views):
+            if stop():
+                raise KeyboardInterrupt
             final = Path(paths[view])
             tmp, tmp_gt = temp_path(final.with_name("beauty-" + final.name)), temp_path(final.with_name("gt-" + final.name))
             seed = render_seed(self.plan.settings.seed, k, vi)
