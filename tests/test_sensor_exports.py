@@ -166,3 +166,22 @@ def test_flow_of_a_distorted_render_follows_the_lens(render):
     _, same_pinhole = agreement(flow_from_depth(z0, seq.K, T[0], T[1], z1))
     assert n > 0.5 * H * W and same > 0.97, same
     assert same >= same_pinhole
+
+
+def test_resumed_render_continues_the_same_auto_exposure(render, tmp_path):
+    """Frames 0:2, then --resume: the same sensor images and exposure schedule as one run;
+    starting after frame 0 with auto-exposure is refused before anything is written."""
+    script = render.root.parent / "s.ses"
+    out = tmp_path / "resumed"
+    assert run_render(script, "--out", out, "--samples", "2", "--frames", "0:2", "--quiet").returncode == 0
+    assert run_render(script, "--out", out, "--samples", "2", "--resume", "--quiet").returncode == 0
+    from vo_reference.io.render import RenderSequence
+    again = RenderSequence(out)
+    assert again.manifest["sensor"]["exposure_s"] == render.manifest["sensor"]["exposure_s"]
+    for kind in ("raw", "rgb"):
+        for view in ("left", "right"):
+            for rel in render.manifest["sensor"]["files"][kind][view]:
+                assert (out / rel).read_bytes() == (render.root / rel).read_bytes(), rel
+    late = tmp_path / "late"
+    r = run_render(script, "--out", late, "--samples", "2", "--frames", "1:3", "--quiet")
+    assert r.returncode == 2 and "AUTOEXPOSURE" in r.stderr and not late.exists()

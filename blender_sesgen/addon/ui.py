@@ -97,4 +97,22 @@ class SESGEN_PT_preview(_SidebarPanel, bpy.types.Panel):
         layout.operator("sesgen.preview", icon="IMAGE_DATA")
 
 
-CLASSES = (SESGEN_PT_main, SESGEN_PT_render, SESGEN_PT_preview)
+class SESGEN_PT_export(_SidebarPanel, bpy.types.Panel):
+    bl_label = "Export Dataset"
+    bl_parent_id = "SESGEN_PT_main"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        s = context.scene.sesgen
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        layout.prop(s, "export_target")
+        layout.prop(s, "export_dir")
+        layout.prop(s, "export_sequence")
+        layout.prop(s, "vo_command")
+        layout.label(text="Frames: the Render panel's range; source: its Output folder")
+        layout.operator("sesgen.export", icon="EXPORT")
+
+
+CLASSES = (SESGEN_PT_main, SESGEN_PT_render, SESGEN_PT_preview, SESGEN_PT_export)

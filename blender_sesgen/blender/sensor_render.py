@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -41,8 +42,10 @@ class SensorSession:
         # moving objects at the same instants, so the shutter sees them move along their own motion
         object_motion.key_instants(self.built, self.plan.scene, times, shift_frames, sensor.MOTION_STEPS)
 
-    def render_frame(self, k: int, exposure_s: float, paths: dict[str, Path]) -> dict[str, dict]:
-        """Every view of frame k into ``paths[view]``; {view: render stats}."""
+    def render_frame(self, k: int, exposure_s: float, paths: dict[str, Path],
+                     stop: Callable[[], bool] = lambda: False) -> dict[str, dict]:
+        """Every view of frame k into ``paths[view]``; {view: render stats}. ``stop()`` is
+        asked before each view (KeyboardInterrupt when it says yes)."""
         s = self.sensor
         shutter, duration = s.shutter(exposure_s)
         gt_shutter = s.shutter(0.0)[0] if s.rolling_shutter else 0.0
@@ -53,6 +56,8 @@ class SensorSession:
         quiet = not self.plan.options.verbose
         stats = {}
         for vi, view in enumerate(self.plan.views):
+            if stop():
+                raise KeyboardInterrupt
             final = Path(paths[view])
             tmp, tmp_gt = temp_path(final.with_name("beauty-" + final.name)), temp_path(final.with_name("gt-" + final.name))
             seed = render_seed(self.plan.settings.seed, k, vi)

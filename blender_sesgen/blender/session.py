@@ -8,7 +8,7 @@ for them (channel names, exposure, Blender's version).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
+from typing import Callable, Optional
 
 from ..contract.manifest import render_seed
 from ..plan import Device, RenderPlan
@@ -71,14 +71,18 @@ class BlenderSession:
         from .sensor import save_jpeg
         return save_jpeg
 
-    def render_frame(self, k: int, paths: dict[str, Path], exposure_s: Optional[float] = None) -> dict[str, dict]:
+    def render_frame(self, k: int, paths: dict[str, Path], stop: Callable[[], bool] = lambda: False,
+                     exposure_s: Optional[float] = None) -> dict[str, dict]:
         """Render frame ``k`` of each view into ``paths[view]``; {view: render stats}.
+        ``stop()`` is asked before each view (KeyboardInterrupt when it says yes);
         ``exposure_s``: the frame's exposure time on the sensor path (auto-exposure)."""
         if self.sensor is not None:
             return self.sensor.render_frame(k, self.plan.sensor.nominal_exposure_s() if exposure_s is None
-                                            else exposure_s, paths)
+                                            else exposure_s, paths, stop)
         stats = {}
         for vi, view in enumerate(self.plan.views):
+            if stop():
+                raise KeyboardInterrupt
             stats[view] = render.render_view(self.built.scene, self.built.cameras[view], rig.blender_frame(k),
                                              render_seed(self.plan.settings.seed, k, vi), str(paths[view]),
                                              quiet=not self.plan.options.verbose)

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import SesgenError
 from ..png import write_png
-from .render_plan import SensorPlan
+from .render_plan import SENSOR_DIR, SensorPlan
 
 EXR_LAYOUT = "single part holding every pass (beauty of the sensor render, ground truth of the sharp render)"
 
@@ -36,19 +36,41 @@ def check_resumable(plan: SensorPlan, previous: Optional[dict], frames: list[int
                           f"0..{frames[0] - 1}, and frame(s) {missing[:5]} are not rendered: render from frame 0")
 
 
-def prepare_manifest(plan: SensorPlan, m, kept: Optional[dict]) -> None:
+STATE_KEYS = ("exposure_s", "gain", "metered")
+
+
+def state_relpath(k: int) -> str:
+    """The per-frame sensor state (exposure, gain, metered brightness), written with the frame
+    so that a render stopped at any point resumes the same auto-exposure schedule."""
+    return f"{SENSOR_DIR}/state/{k:06d}.json"
+
+
+def prepare_manifest(plan: SensorPlan, m, kept: Optional[dict], out: Optional[Path] = None) -> None:
     """Finish a new manifest ``m`` (a ``contract.manifest.Manifest`` holding the plan's
     entries in ``extra``): the EXR layout of the sensor path, and the per-frame exposure
-    state of frames kept from ``kept`` (the previous manifest when resuming)."""
+    state of frames kept from ``kept`` (the previous manifest when resuming) and from the
+    per-frame state files in ``out``."""
     if not plan.active:
         return
     if plan.changes_rendering:
         m.render.setdefault("exr", {})["layout"] = EXR_LAYOUT
-    prev = (kept or {}).get("sensor") or {}
-    if "sensor" in m.extra and prev:
-        for key in ("exposure_s", "gain", "metered"):
-            old = prev.get(key) or []
-            m.extra["sensor"][key] = [old[j] if j < len(old) else None for j in range(m.frames)]
+    if "sensor" not in m.extra or kept is None:
+        return
+    prev = kept.get("sensor") or {}
+    for key in STATE_KEYS:
+        old = prev.get(key) or []
+        m.extra["sensor"][key] = [old[j] if j < len(old) else None for j in range(m.frames)]
+    if out is not None:
+        import json
+        for k in range(m.frames):
+            p = Path(out) / state_relpath(k)
+            if p.is_file():
+                try:
+                    st = json.loads(p.read_text(encoding="utf-8"))
+                    for key in STATE_KEYS:
+                        m.extra["sensor"][key][k] = st[key]
+                except (OSError, ValueError, KeyError):
+                    pass
 
 
 def write_static_files(plan: SensorPlan, out: Path, n_frames: int) -> None:
@@ -63,7 +85,9 @@ def write_static_files(plan: SensorPlan, out: Path, n_frames: int) -> None:
         atomic.write_bytes(path, data)
     for kind in plan.sensor_kinds():
         for view in plan.views:
-            (Path(out) / "sensor" / view / kind).mkdir(parents=True, exist_ok=True)
+            (Path(out) / SENSOR_DIR / view / kind).mkdir(parents=True, exist_ok=True)
+    if plan.sensor is not None:
+        (Path(out) / SENSOR_DIR / "state").mkdir(parents=True, exist_ok=True)
 
 
 def exposure_for(plan: SensorPlan, extra: Optional[dict], k: int) -> tuple[float, float]:
@@ -91,9 +115,10 @@ _CACHE: dict = {}
 
 
 def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: float, gain: float,
-                        jpeg_writer: Optional[Callable] = None) -> None:
-    """Run the camera chain on frame k's EXRs and write raw / RGB / JPEG images; record the
-    exposure, gain and metered brightness of the frame in the manifest ``m`` (a Manifest)."""
+                        exrs: dict, jpeg_writer: Optional[Callable] = None) -> None:
+    """Run the camera chain on frame k's EXRs (``exrs[view]``: their paths) and write raw /
+    RGB / JPEG images; record the exposure, gain and metered brightness of the frame in the
+    manifest ``m`` (a Manifest) and in the frame's state file."""
     from ..exr import read_exr
     from . import pipeline
     from .autoexposure import meter
@@ -106,7 +131,7 @@ def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: floa
     rgb_names = m.channels["rgb"][:3]
     metered = None
     for vi, view in enumerate(plan.views):
-        ch = read_exr(Path(out) / m.files[view][k])
+        ch = read_exr(exrs[view])
         lin = np.stack([ch[n] for n in rgb_names], axis=-1).astype(np.float64)
         if vi == 0:
             metered = meter(lin)
@@ -119,3 +144,5 @@ def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: floa
             jpeg_writer(str(Path(out) / plan.sensor_relpath("jpeg", view, k)), f.rgb8, plan.sensor.jpeg_quality)
     s = m.extra["sensor"]
     s["exposure_s"][k], s["gain"][k], s["metered"][k] = float(exposure_s), float(gain), metered
+    from ..contract import atomic
+    atomic.write_json(Path(out) / state_relpath(k), {key: s[key][k] for key in STATE_KEYS})
