@@ -92,6 +92,20 @@ def test_flow_scene_flow_and_disparity_change_match_the_oracle(scene, seq, k, kt
     assert np.median(np.linalg.norm(static.flow[sf.dynamic] - sf.flow[sf.dynamic], axis=1)) > 2.0
 
 
+@pytest.mark.parametrize("k, kt", [(0, 1), (2, 1)], ids=["fw01", "bw21"])
+def test_dense_layouts_move_the_movers_too(scene, seq, k, kt):
+    """The dense products of the TartanAir / vKITTI 2 / SceneFlow exports (flow for every
+    pixel, disparity change) agree with the oracle on the movers."""
+    from vo_reference.products.dense_gt import dense_flow, disparity_change
+    flow, _, z_t, _, hit, _, _, _, _ = _oracle(scene, k, kt)
+    fl = dense_flow(seq, k, kt)
+    assert np.abs(fl.flow[hit] - flow[hit]).max() <= 1e-4
+    fB = ds.K[0, 0] * ds.BASELINE
+    dd = disparity_change(seq, k, kt)
+    front = hit & (z_t > 0)
+    assert np.abs(dd[front] - (fB / z_t[front] - fB / seq.depth(k)[front])).max() <= 1e-4
+
+
 @pytest.mark.parametrize("k, kt", [(0, 1), (1, 0), (1, 2)], ids=["fw01", "bw10", "fw12"])
 def test_occlusion_accounts_for_moving_objects(scene, seq, k, kt):
     sf = sequence_scene_flow(seq, k, kt)
