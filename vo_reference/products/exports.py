@@ -57,8 +57,6 @@ EXPORTERS: dict[str, tuple[str | Callable, str]] = {
               "state_groundtruth_estimate0/data.csv (left camera = body)"),
     "png": ("vo_reference.products.exports:export_png",
             "per view: noisy 8-bit RGB, ids PNG16 + colour palette, disparity PNG16 (x256)"),
-    "rosbag": ("vo_reference.products.rosbag_export:export_rosbag",
-               "ROS 2 bag (mcap): cam0/cam1 Image + CameraInfo, imu0 Imu, tf + PoseStamped ground truth"),
     "bayer": ("vo_reference.products.bayer_export:export_bayer",
               "GBRG Bayer mosaics + distorted images + undistortion LUT (RobotCar-like)"),
     "tartanair": ("vo_reference.products.tartanair:export_tartanair",
@@ -70,6 +68,8 @@ EXPORTERS: dict[str, tuple[str | Callable, str]] = {
     "sceneflow": ("vo_reference.products.sceneflow:export_sceneflow",
                   "SceneFlow / FlyingThings3D: frames_cleanpass, disparity (PFM, both views), "
                   "optical_flow and disparity_change into_future/into_past (--sequence TRAIN/A/0000)"),
+    "rosbag": ("vo_reference.products.rosbag_export:export_rosbag",
+               "ROS 2 bag (mcap): cam0/cam1 Image + CameraInfo, imu0 Imu, tf + PoseStamped ground truth"),
 }
 
 COLOUR, GREY = 0, 1

@@ -36,9 +36,8 @@ from blender_sesgen.contract import atomic
 from ..errors import VoError
 from ..io.files import write_png16, write_png_rgb
 from .disparity import disparity_from_depth, write_disparity_png16
-from .exports import ExportOptions, _calib_text, image_rgb
+from .exports import ExportOptions, calib_text, image_rgb, progress_bar
 from .flow import hidden_behind, sequence_stereo_occlusion, write_kitti_flow_png
-from .progress import Progress
 from .scene_flow import SceneFlow, moving_object_ids, sequence_scene_flow
 
 MAX_OBJ_MAP = 255
@@ -78,7 +77,7 @@ def export_kitti_sceneflow(seq, out: Path, opts: ExportOptions) -> None:
     K, B = np.asarray(seq.K, float), float(seq.baseline_m)
     fx = K[0, 0]
     movers = moving_object_ids(seq)
-    with Progress(len(pairs), "kitti-sceneflow", enabled=opts.progress) as bar:
+    with progress_bar(opts, len(pairs), "kitti-sceneflow") as bar:
         for i, k in enumerate(pairs):
             n10, n11 = f"{i:06d}_10.png", f"{i:06d}_11.png"
             for view, folder in (("left", "image_2"), ("right", "image_3")):
@@ -100,6 +99,6 @@ def export_kitti_sceneflow(seq, out: Path, opts: ExportOptions) -> None:
             write_png16(out / "instance_map" / n10, np.clip(ids, 0, 65535).astype(np.uint16))
             write_png_rgb(out / "motion_mask" / n10, np.where(sf.dynamic, 255, 0).astype(np.uint8))
             bar.update()
-    atomic.write_text(out / "calib.txt", _calib_text(seq))
+    atomic.write_text(out / "calib.txt", calib_text(seq))
     atomic.write_text(out / "pairs.txt", "# pair source_frame_10 source_frame_11\n"
                       + "".join(f"{i:06d} {k} {k + 1}\n" for i, k in enumerate(pairs)))
