@@ -27,6 +27,7 @@ from blender_sesgen.contract.timing import frame_range
 from blender_sesgen.contract.progress import MODES as PROGRESS_MODES
 from blender_sesgen.contract.progress import Progress
 from blender_sesgen.contract.trajectory_files import format_euroc
+from blender_sesgen.contract.se3 import invert
 
 from ..errors import VoError, as_vo_error
 from ..io.color import rgb8_to_gray8
@@ -50,11 +51,9 @@ EXPORTERS: dict[str, tuple[str | Callable, str]] = {
             "TUM RGB-D: rgb/ + depth/ (16-bit, 5000 per metre), rgb.txt, depth.txt, groundtruth.txt"),
     "euroc": ("vo_reference.products.exports:export_euroc",
               "EuRoC MAV/ASL: mav0/cam0 (+cam1) data/<t_ns>.png grey, data.csv, sensor.yaml; "
-              "state_groundtruth_estimate0/data.csv (left camera = body)"),
+              "state_groundtruth_estimate0/data.csv (body = left camera, or the IMU + imu0/ with an IMU)"),
     "png": ("vo_reference.products.exports:export_png",
             "per view: noisy 8-bit RGB, ids PNG16 + colour palette, disparity PNG16 (x256)"),
-    "rosbag": ("vo_reference.products.rosbag_export:export_rosbag",
-               "ROS 2 bag (mcap): cam0/cam1 Image + CameraInfo, imu0 Imu, tf + PoseStamped ground truth"),
     "bayer": ("vo_reference.products.bayer_export:export_bayer",
               "GBRG Bayer mosaics + distorted images + undistortion LUT (RobotCar-like)"),
     "tartanair": ("vo_reference.products.tartanair:export_tartanair",
@@ -66,6 +65,8 @@ EXPORTERS: dict[str, tuple[str | Callable, str]] = {
     "sceneflow": ("vo_reference.products.sceneflow:export_sceneflow",
                   "SceneFlow / FlyingThings3D: frames_cleanpass, disparity (PFM, both views), "
                   "optical_flow and disparity_change into_future/into_past (--sequence TRAIN/A/0000)"),
+    "rosbag": ("vo_reference.products.rosbag_export:export_rosbag",
+               "ROS 2 bag (mcap): cam0/cam1 Image + CameraInfo, imu0 Imu, tf + PoseStamped ground truth"),
 }
 
 COLOUR, GREY = 0, 1
