@@ -23,11 +23,11 @@ from typing import Callable
 import numpy as np
 
 from blender_sesgen.contract import atomic
-from blender_sesgen.contract.se3 import invert
 from blender_sesgen.contract.timing import frame_range
 from blender_sesgen.contract.progress import MODES as PROGRESS_MODES
 from blender_sesgen.contract.progress import Progress
-from blender_sesgen.contract.trajectory_files import format_euroc, format_kitti, format_times
+from blender_sesgen.contract.trajectory_files import format_euroc
+from blender_sesgen.contract.se3 import invert
 
 from ..errors import VoError, as_vo_error
 from ..io.color import rgb8_to_gray8
@@ -54,7 +54,7 @@ EXPORTERS: dict[str, tuple[str | Callable, str]] = {
             "TUM RGB-D: rgb/ + depth/ (16-bit, 5000 per metre), rgb.txt, depth.txt, groundtruth.txt"),
     "euroc": ("vo_reference.products.exports:export_euroc",
               "EuRoC MAV/ASL: mav0/cam0 (+cam1) data/<t_ns>.png grey, data.csv, sensor.yaml; "
-              "state_groundtruth_estimate0/data.csv (left camera = body)"),
+              "state_groundtruth_estimate0/data.csv (body = left camera, or the IMU + imu0/ with an IMU)"),
     "png": ("vo_reference.products.exports:export_png",
             "per view: noisy 8-bit RGB, ids PNG16 + colour palette, disparity PNG16 (x256)"),
     "bayer": ("vo_reference.products.bayer_export:export_bayer",
