@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from blender_sesgen import model
+from blender_sesgen.contract import cfa
 from blender_sesgen.png import encode_png
 from blender_sesgen.sensor import autoexposure, optics, pipeline, raw
 
@@ -55,11 +56,11 @@ def test_fixed_pattern_noise_is_fixed_and_temporal_noise_is_not():
     assert np.std(f0.astype(float)) / np.mean(f0) == pytest.approx(0.02, rel=0.1)
 
 
-@pytest.mark.parametrize("pattern", raw.PATTERNS)
+@pytest.mark.parametrize("pattern", cfa.PATTERNS)
 def test_mosaic_matches_the_vo_reference_mosaic_and_opencv_demosaic(pattern):
     from vo_reference.camera.bayer import demosaic, mosaic
     rgb = np.random.default_rng(2).integers(0, 256, (40, 48, 3)).astype(np.uint8)
-    m = raw.mosaic(rgb, pattern)
+    m = cfa.mosaic(rgb, pattern)
     assert np.array_equal(m, mosaic(rgb, pattern))
     ours = raw.demosaic_bilinear(m.astype(float), pattern)
     ref = demosaic(m, pattern).astype(float)
@@ -71,8 +72,8 @@ def test_malvar_demosaic_beats_bilinear_on_a_smooth_image():
     v, u = np.mgrid[0:64, 0:80] / 3.0
     detail = 0.5 + 0.2 * np.sin(u + v) + 0.15 * np.cos(0.7 * u - 1.3 * v)
     rgb = detail[..., None] * np.array([0.9, 0.7, 0.4]) + np.array([0.02, 0.05, 0.1])
-    for p in raw.PATTERNS:
-        m = raw.mosaic(rgb, p)
+    for p in cfa.PATTERNS:
+        m = cfa.mosaic(rgb, p)
         err_b = np.abs(raw.demosaic_bilinear(m, p) - rgb)[4:-4, 4:-4].mean()
         err_m = np.abs(raw.demosaic_mhc(m, p) - rgb)[4:-4, 4:-4].mean()
         assert err_m < 0.8 * err_b, (p, err_m, err_b)

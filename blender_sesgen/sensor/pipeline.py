@@ -11,6 +11,7 @@ from typing import Optional
 
 import numpy as np
 
+from ..contract import cfa
 from . import optics, raw
 
 
@@ -49,7 +50,7 @@ def process(linear_rgb: np.ndarray, *, sensor, lens=None, rays=None, cx: float =
     ratio = exposure_s / nominal_exposure_s if nominal_exposure_s > 0 else 1.0
     signal = np.clip(img, 0.0, None) * (sensor.full_well_e / sensor.saturation * ratio)
     if sensor.cfa:
-        signal = raw.mosaic(signal, sensor.cfa)
+        signal = cfa.mosaic(signal, sensor.cfa)
     key = (view_index, signal.shape)
     cache = fpn_cache if fpn_cache is not None else {}
     if key not in cache:

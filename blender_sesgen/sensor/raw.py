@@ -18,30 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-PATTERNS = ("rggb", "bggr", "grbg", "gbrg")   # top-left 2x2 cell read row by row
-_CH = {"r": 0, "g": 1, "b": 2}
-
-
-def check_pattern(pattern: str) -> str:
-    p = str(pattern).lower()
-    if p not in PATTERNS:
-        raise ValueError(f"unknown CFA pattern {pattern!r} ({', '.join(PATTERNS)})")
-    return p
-
-
-def cfa_channels(pattern: str, height: int, width: int) -> np.ndarray:
-    """(H, W) int: the colour (0 R, 1 G, 2 B) each pixel of the mosaic samples."""
-    p = check_pattern(pattern)
-    cell = np.array([[_CH[p[0]], _CH[p[1]]], [_CH[p[2]], _CH[p[3]]]])
-    return np.tile(cell, ((height + 1) // 2, (width + 1) // 2))[:height, :width]
-
-
-def mosaic(rgb: np.ndarray, pattern: str) -> np.ndarray:
-    """(H, W, 3) -> (H, W): at each pixel the channel the CFA passes."""
-    H, W = rgb.shape[:2]
-    ch = cfa_channels(pattern, H, W)
-    return np.take_along_axis(rgb, ch[..., None], axis=2)[..., 0]
-
+from ..contract.cfa import cfa_channels
 
 def fixed_pattern(shape, prnu: float, dsnu_e: float, seed: int, view_index: int):
     """Per-camera PRNU (relative gain - 1) and DSNU (e-) maps of the given shape."""
