@@ -47,6 +47,9 @@ EXPORTERS: dict[str, tuple[str | Callable, str]] = {
                      "one KITTI sequence folder: image_0..3/, calib.txt, times.txt, poses.txt"),
     "kitti-stereo": ("vo_reference.products.exports:export_kitti_stereo",
                      "KITTI 2015 layout: image_2/3 *_10/_11.png, disp_occ_0/disp_noc_0 PNG16, flow_occ/flow_noc"),
+    "kitti-sceneflow": ("vo_reference.products.kitti_sceneflow:export_kitti_sceneflow",
+                        "KITTI scene flow 2015: image_2/3 *_10/_11, disp_occ/noc_0/1, flow_occ/noc, obj_map, "
+                        "+ instance_map, motion_mask (moving objects exact)"),
     "tum": ("vo_reference.products.exports:export_tum",
             "TUM RGB-D: rgb/ + depth/ (16-bit, 5000 per metre), rgb.txt, depth.txt, groundtruth.txt"),
     "euroc": ("vo_reference.products.exports:export_euroc",

@@ -11,7 +11,11 @@ Per stereo frame pair k -> k+1:
 3. **Sub-pixel tracking**: pyramidal LK left k -> left k+1 with a forward–backward check,
    then the same 1-D stereo refinement at k+1 (seeded with the disparity at k).
 4. **Robust estimation**: RANSAC PnP (OpenCV P3P) on the 3-D points of frame k against their
-   left positions at k+1.
+   left positions at k+1. A moving object can hold RANSAC's largest consistent set (close,
+   well textured, many stereo matches); so RANSAC runs again on the outliers, and if they
+   hold a second rigid motion the camera's is the one closer to the previous step's motion
+   (constant velocity), or on the first step the one whose inliers spread over more of the
+   image (:func:`_background_motion`).
 5. **Non-linear refinement of the exact rigid motion**: Gauss–Newton on SE(3) minimising the
    reprojection error of the frame-k points in the *left and right* images at k+1 (Huber
    weights, inliers re-selected), so no first-order motion model is involved.
@@ -56,6 +60,9 @@ class AccurateParams:
     huber_px: float = 0.5        # Huber threshold of the refinement, px
     inlier_px: float = 1.0       # final inlier threshold, px
     gn_iterations: int = 10
+    second_motion: bool = True     # look for a second rigid motion among RANSAC's outliers (moving objects)
+    second_motion_min: int = 8     # ... with at least this many inliers, moving the points apart by
+    second_motion_px: float = 3.0  # ... more than this (median, px); then the camera's is told apart
     carry_tracks: bool = True      # carry inlier keypoints to the next step (else fresh corners each step)
     retrack_fraction: float = 0.7  # detect new corners when fewer carried keypoints survive
 
@@ -74,6 +81,7 @@ class StereoTracks:
         self.left: np.ndarray | None = None
         self.pts = np.zeros((0, 2))
         self.pr = np.zeros((0, 2))
+        self.last_T_k_k1: np.ndarray | None = None   # the previous step's motion (a prediction of this one)
 
     def carried(self, left0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Left/right positions (N, 2) in ``left0`` carried from the previous step, if it ended there."""
@@ -212,8 +220,12 @@ def _residuals(P0, obs_left, obs_right, K, baseline_m, T_k1_k):
 
 
 def estimate_motion(P0: np.ndarray, obs_left: np.ndarray, obs_right: np.ndarray | None, K: np.ndarray,
-                    baseline_m: float, params: AccurateParams | None = None, robust: bool = True) -> tuple[np.ndarray, np.ndarray]:
-    """T_k_k1 from frame-k 3-D points and their left (and right) pixels at k+1; returns (T_k_k1, inliers)."""
+                    baseline_m: float, params: AccurateParams | None = None, robust: bool = True,
+                    prior_T_k_k1: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """T_k_k1 from frame-k 3-D points and their left (and right) pixels at k+1; returns (T_k_k1, inliers).
+
+    ``prior_T_k_k1``: the previous step's motion (constant-velocity prediction), used to
+    tell the camera's motion from a moving object's (:func:`_background_motion`)."""
     p = params or AccurateParams()
     n = P0.shape[0]
     if n < 4:
@@ -221,15 +233,12 @@ def estimate_motion(P0: np.ndarray, obs_left: np.ndarray, obs_right: np.ndarray 
     T = np.eye(4)
     inl = np.ones(n, bool)
     if robust:
-        ok, rvec, tvec, idx = cv2.solvePnPRansac(P0.astype(np.float64), obs_left.astype(np.float64), K, None,
-                                                 iterationsCount=p.ransac_iterations,
-                                                 reprojectionError=p.ransac_px, confidence=0.999,
-                                                 flags=cv2.SOLVEPNP_P3P)
-        if ok and idx is not None and len(idx) >= 4:
-            R, _ = cv2.Rodrigues(rvec)
-            T = se3(R, tvec.reshape(3))
-            inl = np.zeros(n, bool)
-            inl[idx.reshape(-1)] = True
+        found = _ransac_pnp(P0, obs_left, K, p)
+        if found is not None:
+            T, inl = found
+            if p.second_motion:
+                prior = None if prior_T_k_k1 is None else invert(prior_T_k_k1)
+                T, inl = _background_motion(P0, obs_left, K, p, T, inl, prior)
     obs_r = obs_right
     for _ in range(2 if robust else 1):
         T = refine_pose(P0[inl], obs_left[inl], None if obs_r is None else obs_r[inl], K, baseline_m, T,
@@ -239,6 +248,66 @@ def estimate_motion(P0: np.ndarray, obs_left: np.ndarray, obs_right: np.ndarray 
             if inl.sum() < 4:
                 raise VoError("too few inliers after refinement")
     return invert(T), inl
+
+
+def _ransac_pnp(P0: np.ndarray, obs: np.ndarray, K: np.ndarray, p: AccurateParams):
+    """(T_k1_k, inliers) of OpenCV's P3P RANSAC, or None when it finds no motion."""
+    ok, rvec, tvec, idx = cv2.solvePnPRansac(P0.astype(np.float64), obs.astype(np.float64), K, None,
+                                             iterationsCount=p.ransac_iterations,
+                                             reprojectionError=p.ransac_px, confidence=0.999,
+                                             flags=cv2.SOLVEPNP_P3P)
+    if not ok or idx is None or len(idx) < 4:
+        return None
+    R, _ = cv2.Rodrigues(rvec)
+    inl = np.zeros(P0.shape[0], bool)
+    inl[idx.reshape(-1)] = True
+    return se3(R, tvec.reshape(3)), inl
+
+
+def coverage(pts: np.ndarray, box: tuple[float, float, float, float], cells: int = 8) -> int:
+    """How many cells of a ``cells`` x ``cells`` grid over ``box`` (x0, y0, x1, y1) hold a point."""
+    x0, y0, x1, y1 = box
+    gx = np.clip(((pts[:, 0] - x0) / max(x1 - x0, 1e-9) * cells).astype(int), 0, cells - 1)
+    gy = np.clip(((pts[:, 1] - y0) / max(y1 - y0, 1e-9) * cells).astype(int), 0, cells - 1)
+    return int(np.unique(gy * cells + gx).size)
+
+
+def _predict(T_k1_k: np.ndarray, P0: np.ndarray, K: np.ndarray) -> np.ndarray:
+    P1 = P0 @ T_k1_k[:3, :3].T + T_k1_k[:3, 3]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.stack([K[0, 0] * P1[:, 0] / P1[:, 2] + K[0, 2], K[1, 1] * P1[:, 1] / P1[:, 2] + K[1, 2]], axis=1)
+
+
+def _background_motion(P0, obs, K, p: AccurateParams, T, inl, prior_T_k1_k=None):
+    """Moving objects: RANSAC's largest consistent set can be a close, well-textured moving
+    object rather than the static background. When the outliers hold a second rigid motion
+    (at least ``second_motion_min`` points, and it puts the points of both sets more than
+    ``second_motion_px`` away from where the first does), the camera's motion is the one closer to the
+    constant-velocity prediction ``prior_T_k1_k`` (median distance, over all points, between
+    where each motion and the prediction put them); without a prediction (the first step),
+    the one whose inliers spread over more of the image (cells of an 8x8 grid over all
+    points): the background surrounds objects, an object covers one region."""
+    out = np.flatnonzero(~inl)
+    if out.size < max(p.second_motion_min, int(0.2 * inl.size)):
+        return T, inl
+    second = _ransac_pnp(P0[out], obs[out], K, p)
+    if second is None or second[1].sum() < p.second_motion_min:
+        return T, inl
+    inl2 = np.zeros_like(inl)
+    inl2[out[second[1]]] = True
+    both = inl | inl2
+    apart = np.nanmedian(np.linalg.norm(_predict(T, P0[both], K) - _predict(second[0], P0[both], K), axis=1))
+    if not apart > p.second_motion_px:   # the same motion, split by noise: not a moving object
+        return T, inl
+    if prior_T_k1_k is not None:
+        pred = _predict(prior_T_k1_k, P0, K)
+        d1 = np.nanmedian(np.linalg.norm(_predict(T, P0, K) - pred, axis=1))
+        d2 = np.nanmedian(np.linalg.norm(_predict(second[0], P0, K) - pred, axis=1))
+        return (second[0], inl2) if d2 < d1 else (T, inl)
+    box = (*obs.min(axis=0), *obs.max(axis=0))
+    if coverage(obs[inl2], box) > coverage(obs[inl], box):
+        return second[0], inl2
+    return T, inl
 
 
 def _detect(left0: np.ndarray, right0: np.ndarray, have: np.ndarray, p: AccurateParams) -> tuple[np.ndarray, np.ndarray]:
@@ -263,7 +332,7 @@ def _detect(left0: np.ndarray, right0: np.ndarray, have: np.ndarray, p: Accurate
 
 def accurate_step(left0, right0, left1, right1, K: np.ndarray, baseline_m: float,
                   params: AccurateParams | None = None, gt=None, gt_depth: bool = False, gt_flow: bool = False,
-                  tracks: StereoTracks | None = None) -> StepResult:
+                  tracks: StereoTracks | None = None, mask_dynamic: bool = False) -> StepResult:
     """Accurate estimate of the step k -> k+1 from the stereo pairs at k and k+1.
 
     ``tracks``: state of a running sequence; keypoints that ended the previous step in
@@ -273,11 +342,13 @@ def accurate_step(left0, right0, left1, right1, K: np.ndarray, baseline_m: float
     refinement then uses the left image at k+1 only unless ``gt_flow`` also gives the exact
     right positions. ``gt_flow``: exact left/right positions at k+1 from the ground truth.
     With either switch corners are detected afresh at integer pixels every step (where the
-    depth pass is exact).
+    depth pass is exact). ``mask_dynamic``: keypoints on objects that move from k to k+1
+    (the ground-truth motion mask, ``gt.static``) are dropped before estimation; without
+    it moving points are left to RANSAC and the inlier re-selection to reject.
     """
     p = params or AccurateParams()
-    if (gt_depth or gt_flow) and gt is None:
-        raise VoError("--gt-depth/--gt-flow need ground truth (a render folder with depth and poses)")
+    if (gt_depth or gt_flow or mask_dynamic) and gt is None:
+        raise VoError("--gt-depth/--gt-flow/--mask-dynamic-gt need ground truth (a render folder with depth and poses)")
     trk = tracks or StereoTracks(p)
     f = K[0, 0]
     if gt_depth or gt_flow:
@@ -299,6 +370,9 @@ def accurate_step(left0, right0, left1, right1, K: np.ndarray, baseline_m: float
                 pts, pr = np.concatenate([pts, pn]), np.concatenate([pr, prn])
         disp = pts[:, 0] - pr[:, 0]
         P0 = triangulate(pts, pr, K, baseline_m)
+    if mask_dynamic:
+        keep = gt.static(pts)
+        pts, P0, disp = pts[keep], P0[keep], disp[keep]
     r1_all = None
     if gt_flow:
         l1, r1 = gt.correspondences(pts)
@@ -315,7 +389,9 @@ def accurate_step(left0, right0, left1, right1, K: np.ndarray, baseline_m: float
             r1_all = r1
             if not p.use_right:
                 r1 = None
-    T_k_k1, inl = estimate_motion(P0, l1, r1, K, baseline_m, p, robust=not (gt_depth and gt_flow))
+    T_k_k1, inl = estimate_motion(P0, l1, r1, K, baseline_m, p, robust=not (gt_depth and gt_flow),
+                                  prior_T_k_k1=trk.last_T_k_k1)
+    trk.last_T_k_k1 = T_k_k1
     if r1_all is not None and not gt_flow:
         keep = inl & np.all(np.isfinite(r1_all), axis=1)
         trk.keep(left1, l1[keep], r1_all[keep])
