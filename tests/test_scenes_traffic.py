@@ -109,7 +109,8 @@ def test_traffic_is_in_view(scene):
         Xc = np.einsum("kji,kj->ki", T[:, :3, :3], c - T[:, :3, 3])      # R^T (c - t)
         with np.errstate(divide="ignore", invalid="ignore"):
             u = K[0, 0] * Xc[:, 0] / Xc[:, 2] + K[0, 2]
-        seen[name] = (Xc[:, 2] > 1) & (Xc[:, 2] < 80) & (u >= 0) & (u < W)
+            v = K[1, 1] * Xc[:, 1] / Xc[:, 2] + K[1, 2]
+        seen[name] = (Xc[:, 2] > 1) & (Xc[:, 2] < 80) & (u >= 0) & (u < W) & (v >= 0) & (v < H)
         seen[name + ":u"] = u
     per_frame = sum(v.astype(int) for k, v in seen.items() if not k.endswith(":u"))
     assert per_frame.min() >= 3, per_frame
