@@ -234,7 +234,10 @@ def test_build_creates_the_model_objects_rig_and_path(addon_zip, tmp_path, scrip
             T_ses[:3, 3] = C_BLENDER_SES.T @ T[:3, 3]
             np.testing.assert_allclose(T_ses, T_expected[k], atol=TOL, err_msg=f"{view} frame {k}")
 
-    (path,) = [o for o in objs if o["type"] == "CURVE"]
+    (path,) = [o for o in objs if o["type"] == "CURVE" and o["name"] == "SESGen camera path"]
+    object_paths = sorted(o["name"] for o in objs if o["type"] == "CURVE" and o is not path)
+    assert object_paths == sorted(f"SESGen path: {m.name}" for m in model.objects if m.id in model.moving_ids), \
+        "one drawn path per moving object, none for static ones"
     assert path["hide_render"] and path["pass_index"] == 0
     np.testing.assert_allclose(to_ses(path["curve_points"]), model.timeline.left()[:, :3, 3], atol=TOL)
 
