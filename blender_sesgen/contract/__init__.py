@@ -15,5 +15,6 @@ numpy + the standard library only, so it imports inside Blender's own Python and
 - ``manifest``: the render folder layout and the manifest's writer and reader
 - ``trajectory_files``: TUM, KITTI and EuRoC text, the EGO table
 - ``atomic``: atomic (and durable) writes
+- ``inputs``: reading a user's input file (regular files only, bounded size)
 - ``errors``: :class:`ContractError`
 """

@@ -9,7 +9,8 @@ NOISE/RENDER in ``environment``; all report through one ``checks.Checks``.
 All errors of a script are collected (file:line:col); if there is any, the first in
 source order is raised as ScriptError and the whole list rides along as its ``errors``
 attribute. A script with errors yields no Scene. The only files read are the script
-itself and the TRAJECTORY file it names; texture and mesh files are only checked to exist.
+itself, the TRAJECTORY file it names and the references inside MESH models (``mesh_files``:
+they must stay inside the model's folder); texture and mesh files are checked to exist.
 """
 from __future__ import annotations
 
@@ -25,6 +26,7 @@ from .geometry import quad_problem
 from .grammar import OBJECT_KEYWORDS, SINGLETON_KEYWORDS
 from .lexer import decode, tokenize
 from .materials import materials, texture
+from .mesh_files import reference_problems
 from .motion import rig_motion
 from .statements import ParsedStatement, TagValue, did_you_mean, read_statement
 
@@ -164,6 +166,11 @@ class _Objects:
         if path.suffix.lower() not in MESH_SUFFIXES:
             self.check.err(tok, f"MESH 'file' '{tok.text}' has an unsupported format "
                                 f"(use {', '.join(MESH_SUFFIXES)})")
+            return None
+        problems = reference_problems(path, allow_external="allow_external" in stmt.tags)
+        for problem in problems:
+            self.check.err(tok, f"MESH 'file' '{tok.text}': {problem}")
+        if problems:
             return None
         return model.Mesh(path=str(path), source=tok.text, scale=scale * 3 if len(scale) == 1 else scale,
                           **self._placement(stmt), **common)
