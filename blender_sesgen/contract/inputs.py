@@ -20,6 +20,7 @@ from .errors import ContractError
 
 MiB = 1 << 20
 TEXT_LIMIT = 256 * MiB   # a trajectory, manifest or calibration file of ours is far smaller
+BINARY_LIMIT = 4096 * MiB  # a float image read whole (PFM, .flo): 16384 x 16384 x 4 channels of float32
 
 
 def _kind(mode: int) -> str:

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Sequence
@@ -32,6 +33,7 @@ import numpy as np
 from .atomic import write_json
 from .depth import DEPTH_BACKGROUND
 from .errors import ContractError
+from .inputs import read_text
 
 FORMAT = "sesgen-render/1"
 MANIFEST = "manifest.json"
@@ -241,16 +243,45 @@ class Manifest:
 
 
 def load_json(path: Path) -> dict:
-    """A JSON file as a dict; ContractError (naming the file) when missing or not JSON."""
+    """A JSON file as a dict; ContractError (naming the file) when missing, not a regular
+    file, not JSON, or holding NaN / Infinity / numbers beyond a double (not JSON either:
+    Python's json module would read them as non-finite floats)."""
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise ContractError("no manifest.json (not a render folder)" if path.name == MANIFEST else "no such file",
                             str(path.parent if path.name == MANIFEST else path))
+    text = read_text(path, what="JSON file")
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError) as e:
-        raise ContractError(f"not valid JSON ({e})", str(path)) from None
+        data = json.loads(text, parse_constant=_not_json, parse_float=_finite_float)
+    except _NonFinite as e:
+        raise ContractError(f"{e.args[0]} is not a JSON number", str(path), _line_of_constant(text, e.args[0])) \
+            from None
+    except (ValueError, RecursionError) as e:
+        raise ContractError(f"not valid JSON ({e})", str(path), getattr(e, "lineno", None)) from None
     return data
+
+
+class _NonFinite(ValueError):
+    pass
+
+
+def _not_json(name: str):
+    raise _NonFinite(name)
+
+
+def _finite_float(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise _NonFinite(text)
+    return value
+
+
+def _line_of_constant(text: str, constant: str):
+    """The line of the first bare (not quoted) ``constant`` in JSON ``text``."""
+    for m in re.finditer(r'"(?:[^"\\]|\\.)*"|' + re.escape(constant), text):
+        if not m.group(0).startswith('"'):
+            return text.count("\n", 0, m.start()) + 1
+    return None
 
 
 def completed_in_logs(root) -> dict[int, dict]:

@@ -13,6 +13,7 @@ skipped; every value must be a finite decimal number.
 from __future__ import annotations
 
 import math
+import re
 from typing import Optional, Sequence
 
 import numpy as np
@@ -37,7 +38,7 @@ def parse_table(text: str, ncols: Sequence[int], source: str = "<text>",
     ``nan``/``inf`` are numbers, so a row of them is an error, never a skipped line.
     """
     rows, lines = [], []
-    for lineno, raw in enumerate(text.split("\n"), 1):
+    for lineno, raw in enumerate(re.split(r"\r\n|\r|\n", text), 1):
         s = raw.strip()
         if not s or s.startswith("#"):
             continue

@@ -8,8 +8,10 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract.inputs import check_regular
 
-from ..errors import VoError
+from ..errors import VoError, as_vo_error
+from .native import captured_stderr, first_complaint
 
 
 def write_image_atomic(path, image: np.ndarray, params: list[int] | None = None) -> Path:
@@ -42,12 +44,26 @@ def write_png16(path, values: np.ndarray) -> Path:
 
 
 def read_image(path, flags: int | None = None) -> np.ndarray:
-    """cv2.imread with a clear error when the file is missing or unreadable."""
+    """cv2.imread with a clear error when the file is missing, not a regular file, or
+    unreadable (what libpng and friends print about it goes into the message)."""
     import cv2
     path = Path(path)
-    if not path.is_file():
-        raise VoError(f"{path}: no such image file")
-    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED if flags is None else flags)
+    with as_vo_error():
+        check_regular(path, "image file")
+    with captured_stderr() as complaints:
+        img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED if flags is None else flags)
     if img is None:
-        raise VoError(f"{path}: not a readable image (corrupt or unknown format)")
+        why = first_complaint(complaints, path)
+        raise VoError(f"{path}: not a readable image (corrupt or unknown format{': ' + why if why else ''})")
     return img
+
+
+def load_npy(path) -> np.ndarray:
+    """A ``.npy`` array (no pickles), VoError when it is not a readable one."""
+    path = Path(path)
+    with as_vo_error():
+        check_regular(path, ".npy file")
+    try:
+        return np.load(path, allow_pickle=False)
+    except (OSError, ValueError, EOFError, TypeError, MemoryError) as e:
+        raise VoError(f"{path}: not a readable .npy array ({type(e).__name__}: {e})") from None

@@ -38,7 +38,7 @@ PASS_INDEX = ("Object Index", "IndexOB")
 def read_manifest(root) -> Manifest:
     """The validated manifest of a render folder (completion logs merged); VoError on any defect."""
     root = Path(root)
-    if not (root / MANIFEST).is_file():
+    if not (root / MANIFEST).exists():
         raise VoError(f"{root}: no manifest.json (not a render folder)")
     with as_vo_error():
         return Manifest.read(root)

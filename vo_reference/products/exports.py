@@ -5,8 +5,9 @@ Each target is a function ``export_X(seq, out, opts) -> None`` registered in
 line there, or :func:`register_exporter` at run time. Layouts: docs/output-format.md.
 
 Common rules: frames are renumbered from 0 in the order of ``opts.frames`` (the source
-frame of each output frame is recorded in ``export.json``); every file is written
-atomically; 8-bit images carry the noise of ``opts.noise`` (sigma, seed), drawn per source
+frame of each output frame is recorded in ``export.json``); the export is written into a
+temporary folder beside OUT and renamed onto it at the end (a failure leaves nothing; an
+earlier export in OUT is replaced whole; a non-empty OUT that is not an export is refused); 8-bit images carry the noise of ``opts.noise`` (sigma, seed), drawn per source
 frame, view and kind so that a frame's noise does not depend on the exported range.
 """
 from __future__ import annotations
@@ -26,6 +27,7 @@ from blender_sesgen.contract.trajectory_files import format_euroc, format_kitti,
 from ..errors import VoError, as_vo_error
 from ..io.color import rgb8_to_gray8
 from ..io.files import write_png16, write_png_rgb
+from ..io.sequence import require_complete
 from .disparity import sequence_disparity, write_disparity_png16
 from .noise import add_gaussian_noise
 from .progress import Progress
@@ -96,23 +98,31 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
     if out.resolve() == render_dir.resolve() or (render_dir / "exr").resolve() in (out.resolve(), *out.resolve().parents):
         raise VoError(f"{out}: refusing to export into the render folder itself (choose another OUT)")
     rng = frames if isinstance(frames, range) else parse_frames(frames, seq.num_frames)
-    missing = [k for k in rng if not seq.frame_complete(k)]
-    if missing:
-        shown = ", ".join(map(str, missing[:10])) + (" ..." if len(missing) > 10 else "")
-        raise VoError(f"{render_dir}: {len(missing)} frame(s) not rendered completely ({shown}); "
-                      "finish the render (--resume) or choose --frames")
+    require_complete(seq, rng)
     nz = seq.noise if noise == "manifest" else noise
     if nz is not None and float(nz[0]) <= 0:
         nz = None
     opts = ExportOptions(frames=rng, noise=None if nz is None else (float(nz[0]), int(nz[1])),
                          progress=progress, extra=dict(extra or {}))
-    out.mkdir(parents=True, exist_ok=True)
-    fn(seq, out, opts)
+    check_replaceable(out)
     info = {"target": target, "source": str(render_dir.resolve()), "source_frames": list(rng),
             "noise": None if opts.noise is None else {"sigma": opts.noise[0], "seed": opts.noise[1]},
             "format": seq.manifest.get("format"), "scene_sha256": seq.manifest.get("scene_sha256")}
-    atomic.write_json(out / "export.json", info)
+    # written beside OUT and renamed onto it at the end: a failure (or Ctrl-C) leaves no partial export
+    with atomic.replacing_folder(out) as staging:
+        fn(seq, staging, opts)
+        atomic.write_json(staging / "export.json", info)
     return out
+
+
+def check_replaceable(folder: Path) -> None:
+    """A folder an export may replace: absent, empty, or written by an export (it has
+    ``export.json``). Anything else -- real data, say -- is never replaced."""
+    folder = Path(folder)
+    if folder.exists() and (not folder.is_dir()
+                            or (any(folder.iterdir()) and not (folder / "export.json").is_file())):
+        raise VoError(f"{folder}: exists and is not an export of ours (no export.json); "
+                      "choose another OUT (or empty this one)")
 
 
 # --- images with noise ------------------------------------------------------------------

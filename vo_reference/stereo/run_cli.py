@@ -43,7 +43,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def default_report_dir(root: Path) -> Path:
     """``RENDER/report`` for a render (our own output folder), else ``./NAME_report``."""
     folder = root.parent if root.is_file() else root
-    if (folder / "manifest.json").is_file():
+    if (folder / "manifest.json").exists():
         return folder / "report"
     return Path.cwd() / f"{folder.resolve().name}_report"
 
