@@ -31,6 +31,7 @@ from typing import Sequence
 import numpy as np
 
 from .atomic import write_json
+from .camera import K_problem
 from .depth import DEPTH_BACKGROUND
 from .errors import ContractError
 from .inputs import read_text
@@ -46,6 +47,7 @@ VIEWS = ("left", "right")
 POSES_CONVENTION = "T_world_cam: OpenCV camera (x right, y down, z forward) in the SES world (Y up)"
 SEED_RULE = "cycles seed = (seed * 1000003 + 2 * frame + view_index) mod (2^31 - 1)"
 LIMIT = 1e9  # no coordinate, focal length or size of ours is larger: beyond it a value is corrupt
+POSE_TOLERANCE = 1e-6  # max |R^T R - I| of a pose in a manifest (written from float64 products)
 
 
 def render_seed(seed: int, frame: int, view_index: int) -> int:
@@ -162,6 +164,7 @@ class Manifest:
         missing = [k for k in ("resolution", "K", "baseline", "frames", "views", "poses", "files") if k not in m]
         if missing:
             raise ContractError(f"missing key(s) {', '.join(missing)}", source)
+        _check_types(m, source)
         try:
             W, H = (int(v) for v in m["resolution"])
             K = np.array(m["K"], dtype=float).reshape(3, 3)
@@ -173,9 +176,8 @@ class Manifest:
             raise ContractError(f"bad resolution/K/baseline/frames/views/near/far ({e})", source) from None
         if not (0 < W <= 65536 and 0 < H <= 65536) or n < 1:
             raise ContractError(f"resolution {W}x{H} / {n} frames is not a render", source)
-        if not np.all(np.isfinite(K)) or not (0 < K[0, 0] < LIMIT and 0 < K[1, 1] < LIMIT) \
-                or np.any(np.abs(K[:2, 2]) > LIMIT) or np.any(K[2] != (0.0, 0.0, 1.0)):
-            raise ContractError(f"K is not a camera matrix: {K.tolist()}", source)
+        if K_problem(K, LIMIT):
+            raise ContractError(f"K is not a camera matrix ({K_problem(K, LIMIT)}): {K.tolist()}", source)
         if not (math.isfinite(baseline) and 0.0 <= baseline < LIMIT) or not (0 < near < far):
             raise ContractError(f"baseline {baseline} / near {near} / far {far} out of range", source)
         if not views or views[0] != "left" or not set(views) <= set(VIEWS) or len(set(views)) != len(views):
@@ -190,8 +192,15 @@ class Manifest:
                 raise ContractError(f"no usable poses for view {v!r}", source) from None
             if T.shape != (n, 4, 4):
                 raise ContractError(f"poses[{v!r}] has shape {T.shape}, expected ({n}, 4, 4)", source)
-            if not np.all(np.isfinite(T)) or np.abs(T[:, :3, 3]).max() > LIMIT:
+            if not np.all(np.isfinite(T)) or np.abs(T).max() > LIMIT:
                 raise ContractError(f"poses[{v!r}] holds non-finite or absurdly large values", source)
+            R = T[:, :3, :3]
+            err = np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3)).max(axis=(1, 2))
+            bad = np.flatnonzero(~(err <= POSE_TOLERANCE) | (np.linalg.det(R) < 0)
+                                 | np.any(T[:, 3] != (0.0, 0.0, 0.0, 1.0), axis=1))
+            if bad.size:
+                raise ContractError(f"poses[{v!r}][{bad[0]}] is not a rigid transform (rotation and 0 0 0 1 row)",
+                                    source)
             poses[v] = T
         files = {}
         for v in views:
@@ -240,6 +249,62 @@ class Manifest:
         if done:
             m = m.with_complete([c or k in done for k, c in enumerate(m.frames_complete)])
         return m
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _numbers_only(v) -> bool:
+    """True when ``v`` is a number or (nested) lists of numbers: no strings, booleans or nulls
+    that ``float()`` / ``np.array(dtype=float)`` would quietly convert."""
+    if isinstance(v, list):
+        return all(_numbers_only(x) for x in v)
+    return _is_number(v)
+
+
+def _check_types(m: dict, source: str) -> None:
+    """The JSON types of every key a reader relies on, so that a malformed manifest fails here
+    naming the key, never deep inside a reader (ranges of K, poses, ... are checked after)."""
+    def bad(key: str, want: str):
+        raise ContractError(f"'{key}' must be {want}, got {json.dumps(m.get(key))[:80]}", source)
+
+    for key in ("resolution", "K", "baseline", "near", "far", "timestamps", "fps"):
+        if m.get(key) is not None and not _numbers_only(m[key]):
+            bad(key, "numbers")
+    if not (isinstance(m["resolution"], list) and len(m["resolution"]) == 2
+            and all(isinstance(v, int) and not isinstance(v, bool) for v in m["resolution"])):
+        bad("resolution", "[W, H] in whole pixels")
+    if not isinstance(m["frames"], int) or isinstance(m["frames"], bool):
+        bad("frames", "a whole number")
+    if m.get("fps") is not None and not (_is_number(m["fps"]) and 0 < m["fps"] <= LIMIT):
+        bad("fps", f"a number in (0, {LIMIT:g}]")
+    for key in ("generator", "render", "channels", "depth", "segmentation", "poses", "files", "noise"):
+        if m.get(key) is not None and not isinstance(m[key], dict):
+            bad(key, "an object")
+    if not isinstance(m["views"], list) or not all(isinstance(v, str) for v in m["views"]):
+        bad("views", "a list of names")
+    if not all(_numbers_only(p) for p in (m["poses"] or {}).values()):
+        bad("poses", "numbers")
+    if m.get("objects") is not None and not (isinstance(m["objects"], list)
+                                             and all(isinstance(o, dict) for o in m["objects"])):
+        bad("objects", "a list of objects")
+    complete = m.get("frames_complete")
+    if complete is not None and not (isinstance(complete, list) and all(isinstance(c, bool) for c in complete)):
+        bad("frames_complete", "a list of true/false")
+    depth, seg, channels = m.get("depth") or {}, m.get("segmentation") or {}, m.get("channels") or {}
+    if "background" in depth and not (_is_number(depth["background"]) and depth["background"] > 0):
+        bad("depth", "an object whose background is a positive number")
+    for key, d in (("depth", depth), ("segmentation", seg)):
+        if d.get("channel") is not None and not isinstance(d["channel"], str):
+            bad(key, "an object whose channel is a name")
+    if not all(isinstance(c, str) or (isinstance(c, list) and all(isinstance(x, str) for x in c))
+               for c in channels.values()):
+        bad("channels", "channel names")
+    noise = m.get("noise")
+    if noise is not None and not (_is_number(noise.get("sigma")) and noise["sigma"] >= 0
+                                  and isinstance(noise.get("seed", 0), int)):
+        bad("noise", "{\"sigma\": >= 0, \"seed\": integer}")
 
 
 def load_json(path: Path) -> dict:

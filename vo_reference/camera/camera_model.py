@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract.camera import K_problem
 from blender_sesgen.contract.inputs import read_text
 from blender_sesgen.contract.manifest import LIMIT
 from blender_sesgen.contract.trajectory_files import parse_table
@@ -44,8 +45,9 @@ def read_camera_model(path) -> CameraModel:
         raise VoError(f"{path}: expected 'fx fy cx cy' then four rows of G_camera_image (4 numbers each)")
     vals = rows.tolist()
     fx, fy, cx, cy = vals[0]
-    if not (0 < fx < LIMIT and 0 < fy < LIMIT) or max(abs(cx), abs(cy)) > LIMIT:
-        raise VoError(f"{path}: focal lengths must be positive (and principal point finite), got {vals[0]}")
+    problem = K_problem(np.array([[fx, 0, cx], [0, fy, cy], [0, 0, 1.0]]), LIMIT)
+    if problem:
+        raise VoError(f"{path}: {problem}")
     return CameraModel(path.stem, fx, fy, cx, cy, np.array(vals[1:5]))
 
 

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract.camera import K_problem
 from blender_sesgen.contract.inputs import read_text
 from blender_sesgen.contract.manifest import LIMIT
 
@@ -47,8 +48,8 @@ def looks_like_kitti(root) -> bool:
 def read_kitti_calib(path) -> dict[str, np.ndarray]:
     """``calib.txt`` -> {'P0': (3, 4), 'P1': ..., 'Tr': ...}. Lines are ``NAME: 12 numbers``
     or bare 12-number lines, named P0, P1, P2, P3, Tr in order. Every number must be finite
-    (an error names its line) and each ``Pn`` a projection matrix K [R | t] whose K is a
-    camera matrix (fx, fy > 0, last row 0 0 1)."""
+    (an error names its line) and each ``Pn`` a rectified projection matrix K [I | t] whose
+    K is a camera matrix (``contract.camera.K_problem``)."""
     path = Path(path)
     if not path.exists():
         raise VoError(f"{path}: no such calibration file")
@@ -73,22 +74,15 @@ def read_kitti_calib(path) -> dict[str, np.ndarray]:
             if not all(math.isfinite(v) and abs(v) < LIMIT for v in vals):
                 raise VoError(f"{path}:{lineno}: {name}: numbers must be finite (and below {LIMIT:g})")
             P = np.array(vals).reshape(3, 4)
-            if name.startswith("P") and not _is_projection(P):
-                raise VoError(f"{path}:{lineno}: {name} is not a camera projection matrix "
-                              "(fx, fy > 0, P[2] = 0 0 1 t)")
+            if name.startswith("P") and K_problem(P[:, :3], LIMIT):
+                raise VoError(f"{path}:{lineno}: {name} is not a camera projection matrix K [I | t] "
+                              f"({K_problem(P[:, :3], LIMIT)})")
             out[name] = P
         elif ":" not in s:
             raise VoError(f"{path}:{lineno}: expected 12 numbers, got {len(vals)}")
     if "P0" not in out and "P2" not in out:
         raise VoError(f"{path}: no P0 (or P2) projection matrix")
     return out
-
-
-def _is_projection(P: np.ndarray) -> bool:
-    """K [I | t] with K upper triangular, fx, fy > 0 and K[2] = (0, 0, 1), as KITTI writes them."""
-    K = P[:, :3]
-    return bool(K[0, 0] > 0 and K[1, 1] > 0 and K[1, 0] == 0 and K[2, 0] == 0 and K[2, 1] == 0
-                and abs(K[2, 2] - 1.0) < 1e-6)
 
 
 def _list_images(folder: Path) -> list[Path]:

@@ -18,10 +18,12 @@ from blender_sesgen.contract import atomic
 from blender_sesgen.contract.errors import ContractError
 from blender_sesgen.contract.inputs import read_text
 from blender_sesgen.contract.manifest import MANIFEST, Manifest
-from blender_sesgen.contract.trajectory_files import (format_euroc, format_kitti, format_tum, parse_euroc,
-                                                      parse_kitti, parse_times, parse_tum)
+from blender_sesgen.contract.trajectory_files import (check_rotations, format_euroc, format_kitti, format_tum,
+                                                      parse_euroc, parse_kitti, parse_times, parse_tum)
 
 from ..errors import VoError, as_vo_error
+
+ROTATION_TOLERANCE = 1e-3  # max |R^T R - I| of a KITTI row: files hold 6+ digits; beyond, it is not a pose
 
 
 @dataclass(frozen=True)
@@ -70,8 +72,11 @@ def read_tum(path) -> Trajectory:
 
 
 def read_kitti(path, times_path=None) -> Trajectory:
+    """A KITTI poses file (its 3x3 parts must be rotations to ``ROTATION_TOLERANCE``; they
+    are used as written), optionally with its ``times.txt``."""
     with as_vo_error():
-        T, _ = parse_kitti(_text(path), str(path))
+        T, lines = parse_kitti(_text(path), str(path))
+        check_rotations(T[:, :3, :3], lines, str(path), ROTATION_TOLERANCE)
     if times_path is not None:
         ts = read_times(times_path)
         if len(ts) != len(T):
