@@ -161,7 +161,7 @@ def test_symlink_pointing_out_of_the_folder_is_an_escape(layout):
 def test_missing_or_special_references_are_errors_even_when_allowed(layout):
     models = layout / "scene" / "models"
     (models / "m.gltf").write_text(_gltf(["nothing.bin"]))
-    assert "no such buffer file" in _error(layout, "m.gltf", " allow_external").message
+    assert "cannot read the buffer file (no such file)" in _error(layout, "m.gltf", " allow_external").message
     (models / "n.gltf").write_text(_gltf(["/dev/zero"]))
     assert "character device" in _error(layout, "n.gltf", " allow_external").message
     (models / "bad.gltf").write_text("{not json")
@@ -191,7 +191,7 @@ def test_mtl_texture_maps_are_checked_after_their_options(layout):
     assert "lies outside" in _error(layout, "m.obj").message
     assert _parse(layout, "m.obj", " allow_external").objects
     mtl.write_text("newmtl a\nmap_Kd tex/missing.png\n")
-    assert "no such texture map file" in _error(layout, "m.obj", " allow_external").message
+    assert "cannot read the texture map file (no such file)" in _error(layout, "m.obj", " allow_external").message
 
 
 def test_models_without_references_and_the_repo_assets_still_parse(layout):

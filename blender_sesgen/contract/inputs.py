@@ -36,7 +36,7 @@ def check_regular(path, what: str = "file") -> int:
     try:
         st = os.stat(path)
     except FileNotFoundError:
-        raise ContractError(f"no such {what}", str(path)) from None
+        raise ContractError(f"cannot read the {what} (no such file)", str(path)) from None
     except (OSError, ValueError) as e:
         raise ContractError(f"cannot read the {what} ({getattr(e, 'strerror', None) or e})", str(path)) from None
     if not stat.S_ISREG(st.st_mode):
