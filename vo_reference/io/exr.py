@@ -27,6 +27,8 @@ def read_exr_channels(path) -> dict[str, np.ndarray]:
     """
     import OpenEXR
     path = Path(path)
+    if not path.exists():
+        raise VoError(f"{path}: no such EXR file")
     with as_vo_error():
         check_regular(path, "EXR file")
     channels: dict[str, np.ndarray] = {}
