@@ -27,9 +27,10 @@ from typing import Callable
 import numpy as np
 
 from blender_sesgen.contract.errors import ContractError
+from blender_sesgen.errors import SesgenError
 from vo_reference.errors import VoError
 
-USER_ERRORS = (VoError, ContractError)
+USER_ERRORS = (VoError, ContractError, SesgenError)
 INTERESTING = ["nan", "-nan", "inf", "-inf", "1e308", "-1e308", "1e999", "0", "-0", "1e-320", "1e9", "1e10",
                "99999999999999999999", "", "x", "\u0661", "\u00a0", ",", "#", "1,2", "0x10", "1_0", "+", "-",
                ".", "e5", "-1", "2147483648", "\x00"]
@@ -344,6 +345,28 @@ def _consume_flow_png(path: Path, folder: Path) -> None:
     assert flow.shape[:2] == valid.shape
 
 
+def _texture_setup(kind: str):
+    def setup(folder: Path) -> Path:
+        import cv2
+        img = (np.random.default_rng(0).random((24, 32, 3)) * 255).astype(np.uint8)
+        if kind == "exr":
+            from vo_reference.io.exr import write_exr_parts
+            path = write_exr_parts(folder / "tex.exr", {"RGB": {c: img[..., i].astype(np.float32) / 255
+                                                                for i, c in enumerate("BGR")}})
+        else:
+            path = folder / f"tex.{kind}"
+            path.write_bytes(cv2.imencode(f".{kind}", img)[1].tobytes())
+        _put(folder / "s.ses", f"QUAD id 1 vertices 0 0 0 1 0 0 1 1 0 0 1 0 texture {path.name}\n")
+        return path
+    return setup
+
+
+def _consume_texture(path: Path, folder: Path) -> None:
+    """``check`` on a script whose texture is the mutant (a ScriptError is the user error)."""
+    from blender_sesgen.ses import parse_file
+    parse_file(folder / "s.ses")
+
+
 TARGETS = {t.name: t for t in (
     Target("tum", True, _setup_tum, _consume_evaluate),
     Target("kitti-poses", True, _setup_kitti_poses, _consume_evaluate),
@@ -355,6 +378,9 @@ TARGETS = {t.name: t for t in (
     Target("png16-disparity", False, _setup_png16, _consume_disparity),
     Target("kitti-flow-png", False, _setup_flow_png, _consume_flow_png),
     Target("exr", False, _setup_exr, _consume_exr),
+    Target("texture-png", False, _texture_setup("png"), _consume_texture),
+    Target("texture-jpeg", False, _texture_setup("jpg"), _consume_texture),
+    Target("texture-exr", False, _texture_setup("exr"), _consume_texture),
 )}
 
 

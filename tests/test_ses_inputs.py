@@ -20,6 +20,7 @@ import pytest
 
 from blender_sesgen.errors import ScriptError, SesgenError
 from blender_sesgen.ses import parse_file
+from image_files import png_bytes
 
 REPO = Path(__file__).resolve().parents[1]
 QUAD = "QUAD id 1 vertices 0 0 0 1 0 0 1 1 0 0 1 0\n"
@@ -104,7 +105,7 @@ def layout(tmp_path):
     models = tmp_path / "scene" / "models"
     (models / "tex").mkdir(parents=True)
     (models / "data.bin").write_bytes(b"\0" * 4)
-    (models / "tex" / "wood.png").write_bytes(b"png")
+    (models / "tex" / "wood.png").write_bytes(png_bytes())
     return tmp_path
 
 
@@ -187,9 +188,12 @@ def test_mtl_texture_maps_are_checked_after_their_options(layout):
     mtl.write_text("newmtl a\nmap_Kd -s 1 1 1 -clamp on ../../secret.txt\n")
     e = _error(layout, "m.obj")
     assert "my lib.mtl:2: texture map '../../secret.txt' lies outside" in e.message
-    mtl.write_text(f"newmtl a\nmap_Kd {layout / 'secret.txt'}\n")
+    (layout / "outside.png").write_bytes(png_bytes())
+    mtl.write_text(f"newmtl a\nmap_Kd {layout / 'outside.png'}\n")
     assert "lies outside" in _error(layout, "m.obj").message
     assert _parse(layout, "m.obj", " allow_external").objects
+    mtl.write_text(f"newmtl a\nmap_Kd {layout / 'secret.txt'}\n")  # allowed, but not an image
+    assert "is not a usable image" in _error(layout, "m.obj", " allow_external").message
     mtl.write_text("newmtl a\nmap_Kd tex/missing.png\n")
     assert "cannot read the texture map file (no such file)" in _error(layout, "m.obj", " allow_external").message
 

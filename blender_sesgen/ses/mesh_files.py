@@ -7,8 +7,9 @@ downloaded from elsewhere could thus read any file of this machine into a render
 must resolve (symlinks followed) to a regular file inside the model's own folder (its
 subfolders included); a reference that leaves it or an absolute path is an error unless the
 MESH statement carries ``allow_external``. A referenced file that does not exist (or is a
-FIFO or a device) is an error either way: the importer would fail, fall back to a file
-named relative to the working folder, or render a placeholder. ``data:`` URIs are
+FIFO or a device), or an image that does not decode (``image_check``), is an error either
+way: the importer would fail, fall back to a file named relative to the working folder,
+or render a placeholder. ``data:`` URIs are
 embedded data and always fine.
 
 :func:`reference_problems` returns the problems (messages) of one model file; PLY and STL
@@ -29,6 +30,7 @@ from urllib.parse import unquote
 
 from ..contract.errors import ContractError
 from ..contract.inputs import MiB, check_regular, is_inside, read_bytes
+from ..image_check import ImageFileError, check_image
 
 MAX_MODEL_TEXT = 256 * MiB    # an OBJ, MTL or glTF JSON larger than this is refused
 # MTL statements whose image Blender's OBJ importer loads (keywords are case-sensitive there)
@@ -193,4 +195,9 @@ def _problem(ref: Reference, folder: Path, allow_external: bool) -> Optional[str
         check_regular(path, f"{ref.what} file")
     except ContractError as e:
         return f"{where}: {ref.what} '{shown}': {e.detail}"
+    if ref.what in ("image", "texture map"):
+        try:
+            check_image(path)
+        except ImageFileError as e:
+            return f"{where}: {ref.what} '{shown}' is not a usable image: {e}"
     return None
