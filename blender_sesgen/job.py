@@ -16,7 +16,6 @@ with results identical to an uninterrupted run.
 """
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -101,7 +100,8 @@ class RenderJob:
 
     # --- doing it -----------------------------------------------------------------------
     def build(self) -> None:
-        """Build the scene in Blender (a dedicated scene 'SESGen'; rebuilding replaces)."""
+        """Build the scene in Blender (a dedicated scene 'SESGen'; rebuilding replaces).
+        Writes nothing into the output folder."""
         from .blender.session import BlenderSession
         kept = self.folder.resumable(self.plan)
         self.session = BlenderSession(self.plan, known_exposure=(kept or {}).get("render", {}).get("exposure"))
@@ -112,41 +112,63 @@ class RenderJob:
                                   blender_version=self.session.blender_version)
 
     def begin(self) -> None:
-        """Write the folder's skeleton (scene.ses, poses/, the manifest); once."""
+        """Lock the folder and write its skeleton (the manifest first, scene.ses, poses/); once."""
         if self.folder.manifest is None:
             if self.session is None:
                 self.build()
             self.folder.begin(self.plan, self.new_manifest(), self.resume, self.force)
 
-    def render_frame(self, k: int) -> FrameResult:
-        """Render every view of frame ``k``; EXRs written atomically, then the manifest."""
+    def render_frame(self, k: int, stop: Callable[[], bool] = lambda: False) -> FrameResult:
+        """Render every view of frame ``k`` into temporary files, check them, move them into
+        place, record the frame complete. ``stop()`` is asked between views: when it says
+        yes the frame is dropped and KeyboardInterrupt raised (the folder stays resumable)."""
         if self.session is None:
             self.build()
         self.begin()
-        finals = {v: self.folder.exr_path(v, k) for v in self.plan.views}
-        temps = {v: temp_path(p) for v, p in finals.items()}
+        temps = {v: temp_path(self.folder.exr_path(v, k)) for v in self.plan.views}
         t0 = time.perf_counter()
-        stats = self.session.render_frame(k, temps)
-        for v, tmp in temps.items():
-            if not tmp.is_file():
-                raise RuntimeError(f"Blender wrote no file for frame {k}, view {v}")
-            os.replace(tmp, finals[v])
+        try:
+            stats = self.session.render_frame(k, temps, stop)
+            for v, tmp in temps.items():
+                if not tmp.is_file():
+                    raise RuntimeError(f"Blender wrote no file for frame {k}, view {v}")
+            self.folder.commit_frame(k, temps, self._required_channels())
+        finally:
+            for tmp in temps.values():
+                tmp.unlink(missing_ok=True)
         cyc = [st["cycles_s"] for st in stats.values()]
         res = FrameResult(frame=k, wall_s=time.perf_counter() - t0,
                           cycles_s=None if any(c is None for c in cyc) else sum(cyc), views=stats)
-        self.folder.mark_complete(k)
         self.timings.append(res)
         return res
 
-    def run(self, progress: Optional[Callable[[int, int, FrameResult, float], None]] = None) -> list[FrameResult]:
-        """Render every pending frame; ``progress(i, n, result, elapsed_s)`` after each."""
+    def _required_channels(self) -> tuple[str, ...]:
+        names = []
+        for v in self.folder.manifest.channels.values():
+            names += [v] if isinstance(v, str) else list(v)
+        return tuple(names)
+
+    def run(self, progress: Optional[Callable[[int, int, FrameResult, float], None]] = None,
+            stop: Callable[[], bool] = lambda: False) -> list[FrameResult]:
+        """Render every pending frame; ``progress(i, n, result, elapsed_s)`` after each;
+        ``stop()`` asked between views (KeyboardInterrupt, the folder resumable). The lock is
+        released and the completion log taken into the manifest however it ends."""
         todo = self.pending_frames()
-        self.begin()
-        t0 = time.perf_counter()
         out = []
-        for i, k in enumerate(todo):
-            r = self.render_frame(k)
-            out.append(r)
-            if progress:
-                progress(i + 1, len(todo), r, time.perf_counter() - t0)
+        try:
+            self.begin()
+            t0 = time.perf_counter()
+            for i, k in enumerate(todo):
+                if stop():
+                    raise KeyboardInterrupt
+                r = self.render_frame(k, stop)
+                out.append(r)
+                if progress:
+                    progress(i + 1, len(todo), r, time.perf_counter() - t0)
+        finally:
+            self.close()
         return out
+
+    def close(self) -> None:
+        """Release the folder: the completion log into the manifest, the lock dropped."""
+        self.folder.release()

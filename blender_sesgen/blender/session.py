@@ -8,7 +8,7 @@ for them (channel names, exposure, Blender's version).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
+from typing import Callable, Optional
 
 from ..contract.manifest import render_seed
 from ..plan import Device, RenderPlan
@@ -61,10 +61,13 @@ class BlenderSession:
         return {"exr_layout": self.channels["layout"], "exposure": self.exposure,
                 "exposure_rule": EXPOSURE_RULE_LIGHTS if self.plan.scene.lights else EXPOSURE_RULE_AUTO}
 
-    def render_frame(self, k: int, paths: dict[str, Path]) -> dict[str, dict]:
-        """Render frame ``k`` of each view into ``paths[view]``; {view: render stats}."""
+    def render_frame(self, k: int, paths: dict[str, Path], stop: Callable[[], bool] = lambda: False) -> dict[str, dict]:
+        """Render frame ``k`` of each view into ``paths[view]``; {view: render stats}.
+        ``stop()`` is asked before each view (KeyboardInterrupt when it says yes)."""
         stats = {}
         for vi, view in enumerate(self.plan.views):
+            if stop():
+                raise KeyboardInterrupt
             stats[view] = render.render_view(self.built.scene, self.built.cameras[view], rig.blender_frame(k),
                                              render_seed(self.plan.settings.seed, k, vi), str(paths[view]),
                                              quiet=not self.plan.options.verbose)

@@ -23,6 +23,9 @@ from blender_sesgen.contract.trajectory_files import (check_rotations, format_eu
 
 from ..errors import VoError, as_vo_error
 
+__all__ = ["Trajectory", "read_tum", "read_kitti", "read_euroc", "write_tum", "write_kitti", "write_euroc",
+           "read_render_poses", "read_trajectory", "guess_format", "read_times"]
+
 ROTATION_TOLERANCE = 1e-3  # max |R^T R - I| of a KITTI row: files hold 6+ digits; beyond, it is not a pose
 
 
