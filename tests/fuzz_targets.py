@@ -276,8 +276,27 @@ def _consume_manifest(path: Path, folder: Path) -> None:
     vo("evaluate", "--gt", root, "--est", folder / "est.tum", "--align", "sim3", "--egomotion")
     out = folder / "export"
     shutil.rmtree(out, ignore_errors=True)
-    vo("export", root, out, "--to", "kitti-odometry", "-q")
+    vo("export", root, out, "--to", "kitti-folder", "-q")
     vo("stereo-vo", root, "--out", folder / "e.txt", "--quiet", "--method", "paper")
+
+
+def _setup_done_log(folder: Path) -> Path:
+    """A render whose frames are recorded complete in a completion log, not the manifest."""
+    from blender_sesgen.contract.manifest import MANIFEST, STATE_DIR
+    root = _render(folder)
+    m = json.loads((root / MANIFEST).read_text())
+    m["frames_complete"] = [False] * len(m["frames_complete"])
+    (root / MANIFEST).write_text(json.dumps(m))
+    lines = [json.dumps({"frame": k, "files": {f"exr/{v}/{k:06d}.exr": "0" * 64 for v in ("left", "right")}})
+             for k in range(len(m["frames_complete"]))]
+    return _put(root / STATE_DIR / "done-host-1.jsonl", "\n".join(lines) + "\n")
+
+
+def _consume_done_log(path: Path, folder: Path) -> None:
+    root = folder / "render"
+    vo("stereo-vo", root, "--out", folder / "e.txt", "--quiet", "--gt-depth", "--method", "paper")
+    out = folder / "export"
+    vo("export", root, out, "--to", "png", "-q")
 
 
 def _setup_exr(folder: Path) -> Path:
@@ -295,7 +314,7 @@ def _consume_exr(path: Path, folder: Path) -> None:
 def _kitti_folder(folder: Path) -> Path:
     root = _render(folder)
     out = folder / "kitti"
-    if vo("export", root, out, "--to", "kitti-odometry", "-q") != 0:
+    if vo("export", root, out, "--to", "kitti-folder", "-q") != 0:
         raise RuntimeError("could not build the KITTI fixture")
     return out
 
@@ -378,6 +397,7 @@ TARGETS = {t.name: t for t in (
     Target("png16-disparity", False, _setup_png16, _consume_disparity),
     Target("kitti-flow-png", False, _setup_flow_png, _consume_flow_png),
     Target("exr", False, _setup_exr, _consume_exr),
+    Target("done-log", True, _setup_done_log, _consume_done_log),
     Target("texture-png", False, _texture_setup("png"), _consume_texture),
     Target("texture-jpeg", False, _texture_setup("jpg"), _consume_texture),
     Target("texture-exr", False, _texture_setup("exr"), _consume_texture),

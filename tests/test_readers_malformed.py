@@ -227,7 +227,7 @@ def test_export_refuses_to_replace_a_folder_that_is_not_an_export(render, tmp_pa
 @pytest.fixture
 def kitti(render, tmp_path) -> Path:
     out = tmp_path / "kitti"
-    assert main(["export", str(render), str(out), "--to", "kitti-odometry", "-q"]) == 0
+    assert main(["export", str(render), str(out), "--to", "kitti-folder", "-q"]) == 0
     return out
 
 

@@ -283,7 +283,7 @@ def _check_types(m: dict, source: str) -> None:
         bad("frames", "a whole number")
     if m.get("fps") is not None and not (_is_number(m["fps"]) and 0 < m["fps"] <= LIMIT):
         bad("fps", f"a number in (0, {LIMIT:g}]")
-    for key in ("generator", "render", "channels", "depth", "segmentation", "poses", "files", "noise"):
+    for key in ("generator", "render", "channels", "depth", "segmentation", "poses", "files", "noise", "checksums"):
         if m.get(key) is not None and not isinstance(m[key], dict):
             bad(key, "an object")
     if not isinstance(m["views"], list) or not all(isinstance(v, str) for v in m["views"]):
@@ -305,6 +305,8 @@ def _check_types(m: dict, source: str) -> None:
     if not all(isinstance(c, str) or (isinstance(c, list) and all(isinstance(x, str) for x in c))
                for c in channels.values()):
         bad("channels", "channel names")
+    if not all(isinstance(v, str) for v in (m.get("checksums") or {}).values()):
+        bad("checksums", "an object of SHA-256 strings")
     noise = m.get("noise")
     if noise is not None and not (_is_number(noise.get("sigma")) and noise["sigma"] >= 0
                                   and isinstance(noise.get("seed", 0), int)):
@@ -363,14 +365,17 @@ def completed_in_logs(root) -> dict[int, dict]:
     if not state.is_dir():
         return out
     for log in sorted(state.glob(DONE_LOG_GLOB)):
-        try:
-            text = log.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError):
-            continue
+        try:  # a regular file of bounded size (a FIFO here must not block a reader)
+            text = read_text(log, what="completion log", strict=False)
+        except ContractError:
+            continue  # unreadable: its frames count as not complete (they are rendered again)
         for line in text.split("\n"):
             try:
                 rec = json.loads(line)
-                out[int(rec["frame"])] = dict(rec.get("files") or {})
-            except (ValueError, KeyError, TypeError):
+            except ValueError:
                 continue
+            frame, files = (rec.get("frame"), rec.get("files") or {}) if isinstance(rec, dict) else (None, None)
+            if isinstance(frame, int) and not isinstance(frame, bool) and frame >= 0 and isinstance(files, dict) \
+                    and all(isinstance(k, str) and isinstance(v, str) for k, v in files.items()):
+                out[frame] = dict(files)
     return out

@@ -49,7 +49,7 @@ def default_report_dir(root: Path) -> Path:
 def run(args: argparse.Namespace) -> int:
     from ..evaluate.report import write_json, write_report
     from ..evaluate.trajectory_eval import evaluate_trajectory, summary_lines
-    from ..io.sequence import open_sequence
+    from ..io.sequence import open_sequence, require_complete
     from ..io.trajectory import Trajectory, write_kitti, write_tum
     from .cli import failed_summary, vo_progress
     from .pipeline import METHODS, check_stereo, parse_frames, run_stereo_vo
@@ -66,6 +66,7 @@ def run(args: argparse.Namespace) -> int:
             raise VoError(f"unknown method {m!r} (choose from {', '.join(METHODS)})")
     frames = parse_frames(args.frames, seq.num_frames)
     check_stereo(seq)                                       # before any output is written
+    require_complete(seq, range(frames[0], frames[1] + 1))
     out = Path(args.report) if args.report else default_report_dir(root)
     try:
         out.mkdir(parents=True, exist_ok=True)
