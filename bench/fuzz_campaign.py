@@ -20,7 +20,6 @@ import json
 import multiprocessing as mp
 import os
 import random
-import re
 import sys
 import tempfile
 import time

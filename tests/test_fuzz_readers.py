@@ -81,6 +81,25 @@ def test_every_seed_is_read_without_error(fixtures):
         assert ft.run_mutant(target, folder, path, seed, []) == "ok", name
 
 
+# --- the pure EXR reader (verify, contact sheet, add-on preview) --------------------------------
+
+@_settings(150)
+@given(mutations=ops)
+def test_fuzz_pure_exr_reader(fixtures, mutations):
+    """``blender_sesgen.exr`` (numpy + zlib, no OpenEXR) on a mutated render EXR: channels
+    or ExrError; a block never inflates beyond its size, a header never loops."""
+    from blender_sesgen.exr import ExrError, check_complete, decode
+    folder, path, seed = fixtures("exr")
+    data = ft.mutate(seed, mutations)
+    try:
+        check_complete(data, "x.exr", ("ViewLayer.Depth.Z",))
+        channels = decode(data, "x.exr")
+    except ExrError as e:
+        assert "\n" not in str(e)
+    else:
+        assert channels and all(a.ndim == 2 for a in channels.values())
+
+
 # --- the SES front end: line numbers and columns whatever the characters ----------------------
 
 SCENE = "CAMERA resolution 64 48 focal 60\nQUAD id 1 vertices 0 0 0 1 0 0 1 1 0 0 1 0\nSPHERE id 2 position 0 1 -3 dim 1\n"

@@ -23,6 +23,7 @@ import numpy as np
 
 from blender_sesgen.contract.colour import linear_to_srgb8
 from blender_sesgen.contract.depth import depth_from_pass
+from blender_sesgen.contract.inputs import read_bytes
 from blender_sesgen.contract.manifest import MANIFEST, Manifest
 
 from ..errors import VoError, as_vo_error
@@ -116,10 +117,8 @@ class RenderSequence:
         want = (self.info.extra.get("checksums") or {}).get(rel)
         if want is None:
             raise VoError(f"{path}: no checksum recorded for it (rendered before checksums existed?)")
-        try:
-            got = hashlib.sha256(path.read_bytes()).hexdigest()
-        except OSError as e:
-            raise VoError(f"{path}: cannot read ({e.strerror})") from None
+        with as_vo_error():  # a regular file only (a FIFO must not block the reader)
+            got = hashlib.sha256(read_bytes(path, 16 << 30, "EXR file")).hexdigest()
         if got != want:
             raise VoError(f"{path}: differs from the file the renderer wrote (SHA-256 mismatch); "
                           "run `python -m blender_sesgen verify` on the folder and re-render with --resume")
