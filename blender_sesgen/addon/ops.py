@@ -149,6 +149,15 @@ class SESGEN_OT_open_output(bpy.types.Operator):
         return bpy.ops.wm.path_open(filepath=props.abspath(context.scene.sesgen.output_dir))
 
 
+class SESGEN_OT_verify(_WhenIdle, bpy.types.Operator):
+    """Check every file of the output folder against its manifest (missing, truncated, changed, undecodable); bad frames are rendered again by Render with Resume"""
+    bl_idname = "sesgen.verify"
+    bl_label = "Verify Output"
+
+    def execute(self, context):
+        return _run(self, context, session.verify)
+
+
 class SESGEN_OT_preview(bpy.types.Operator):
     """Show one rendered frame's ground truth (disparity, segmentation, depth) or RGB in an image editor"""
     bl_idname = "sesgen.preview"
@@ -244,4 +253,4 @@ def menu_import(self, context):
 
 
 CLASSES = (SESGEN_OT_check, SESGEN_OT_build, SESGEN_OT_render, SESGEN_OT_open_output,
-           SESGEN_OT_preview, SESGEN_OT_export, SESGEN_OT_import)
+           SESGEN_OT_preview, SESGEN_OT_export, SESGEN_OT_import, SESGEN_OT_verify)

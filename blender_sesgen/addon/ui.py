@@ -99,7 +99,9 @@ class SESGEN_PT_render(_SidebarPanel, bpy.types.Panel):
         row = layout.row()
         row.scale_y = 1.4
         row.operator("sesgen.render", icon="RENDER_ANIMATION")
-        layout.operator("sesgen.open_output", icon="FILE_FOLDER")
+        row = layout.row(align=True)
+        row.operator("sesgen.open_output", icon="FILE_FOLDER")
+        row.operator("sesgen.verify", icon="CHECKMARK")
 
 
 class SESGEN_PT_preview(_SettingsSubpanel, bpy.types.Panel):
