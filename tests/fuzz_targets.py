@@ -280,6 +280,30 @@ def _consume_manifest(path: Path, folder: Path) -> None:
     vo("stereo-vo", root, "--out", folder / "e.txt", "--quiet", "--method", "paper")
 
 
+def _setup_manifest_sensor(folder: Path) -> Path:
+    """A render whose manifest carries the sensor statements' sections (rig motion, rolling
+    shutter timing, a Brown-Conrady lens), so that mutants reach those readers."""
+    from blender_sesgen.contract.manifest import MANIFEST
+    root = _render(folder)
+    m = json.loads((root / MANIFEST).read_text())
+    m["rig_motion"] = {"interpolation": "c2_spline", "rate_hz": 1.0, "start_s": 0.0}
+    m["timing"] = {"rate_hz": 1.0, "start_s": 0.0, "exposure_s": 0.01, "readout_s": 0.02}
+    m["lens"] = {"model": "brown", "coeffs": [-0.1, 0.02, 0.001, -0.001, 0.0]}
+    return _put(root / MANIFEST, json.dumps(m, indent=1))
+
+
+def _consume_manifest_sensor(path: Path, folder: Path) -> None:
+    """The readers of those sections (API: there is no command for them)."""
+    from vo_reference.io.render import RenderSequence
+    seq = RenderSequence(path.parent)
+    rows = seq.T_world_cam_rows(1)
+    assert rows.shape == (seq.resolution[1], 4, 4)
+    seq.T_world_cam_at([0.25, 1.5])
+    lens = seq.lens
+    if lens is not None:
+        lens.project(np.array([[0.1, -0.2, 2.0], [0.0, 0.0, 1.0]]))
+
+
 def _setup_done_log(folder: Path) -> Path:
     """A render whose frames are recorded complete in a completion log, not the manifest."""
     from blender_sesgen.contract.manifest import MANIFEST, STATE_DIR
@@ -398,6 +422,7 @@ TARGETS = {t.name: t for t in (
     Target("kitti-flow-png", False, _setup_flow_png, _consume_flow_png),
     Target("exr", False, _setup_exr, _consume_exr),
     Target("done-log", True, _setup_done_log, _consume_done_log),
+    Target("manifest-sensor", True, _setup_manifest_sensor, _consume_manifest_sensor, json_doc=True),
     Target("texture-png", False, _texture_setup("png"), _consume_texture),
     Target("texture-jpeg", False, _texture_setup("jpg"), _consume_texture),
     Target("texture-exr", False, _texture_setup("exr"), _consume_texture),

@@ -37,7 +37,7 @@ ops = st.lists(op, min_size=1, max_size=4)
 # examples per target: cheap readers get more
 EXAMPLES = {"tum": 60, "kitti-poses": 40, "euroc": 40, "pfm": 60, "png16-disparity": 40, "kitti-flow-png": 40,
             "manifest": 25, "exr": 20, "kitti-calib": 8, "kitti-folder-poses": 6,
-            "done-log": 10, "texture-png": 60, "texture-jpeg": 60, "texture-exr": 40}
+            "done-log": 10, "manifest-sensor": 40, "texture-png": 60, "texture-jpeg": 60, "texture-exr": 40}
 
 
 def _settings(n: int):

@@ -294,3 +294,27 @@ def test_real_command_line_one_line_exit_2(copy, tmp_path):
     assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
     assert "corrupt or truncated EXR" in p.stderr and p.stdout == ""
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("key, value, message", [
+    ("lens", {"model": "brown"}, "'lens.coeffs' must be 5 numbers"),
+    ("lens", {"model": "fisheye9", "coeffs": [0]}, "'lens.model' must be one of"),
+    ("lens", {"model": "pinhole", "files": {"undistort_lut": "/etc/passwd"}}, "'lens.files' must be paths inside"),
+    ("sensor", {"files": {"rgb": {"left": ["../../../etc/passwd"] * 4, "right": ["x.png"] * 4}}},
+     "'sensor.files' must be"),
+    ("sensor", {"files": {"raw": {"left": ["a.png"]}}}, "'sensor.files' must be"),
+    ("imu", {"files": {"noisy": "/dev/zero", "ideal": "i.csv", "groundtruth": "g.csv"}}, "'imu.files' must be"),
+    ("rig_motion", {"interpolation": "cubic"}, "'rig_motion.interpolation' must be one of"),
+    ("rig_motion", {"rate_hz": 0}, "'rate_hz' must be a number"),
+    ("timing", {"readout_s": -1}, "'readout_s' must be a number"),
+    ("timing", "fast", "'timing' must be an object"),
+])
+def test_sensor_sections_of_a_manifest_are_checked(copy, tmp_path, capfd, key, value, message):
+    """The sensor statements' manifest sections (lens, sensor images, IMU, rig motion, timing):
+    a bad value or a path leaving the folder is refused when the manifest is read."""
+    root = copy()
+    m = json.loads((root / "manifest.json").read_text())
+    m[key] = value
+    (root / "manifest.json").write_text(json.dumps(m))
+    line = fails(capfd, "stereo-vo", root, "--out", tmp_path / "e.txt", "--quiet")
+    assert line.startswith(f"error: {root / 'manifest.json'}: ") and message in line, line

@@ -35,6 +35,7 @@ from .camera import K_problem
 from .depth import DEPTH_BACKGROUND
 from .errors import ContractError
 from .inputs import read_text
+from .manifest_schema import check_types
 
 FORMAT = "sesgen-render/1"
 MANIFEST = "manifest.json"
@@ -47,6 +48,7 @@ VIEWS = ("left", "right")
 POSES_CONVENTION = "T_world_cam: OpenCV camera (x right, y down, z forward) in the SES world (Y up)"
 SEED_RULE = "cycles seed = (seed * 1000003 + 2 * frame + view_index) mod (2^31 - 1)"
 LIMIT = 1e9  # no coordinate, focal length or size of ours is larger: beyond it a value is corrupt
+TIME_LIMIT_S = 1e12  # seconds: a Unix time (1.7e9) fits, 1e308 does not
 POSE_TOLERANCE = 1e-6  # max |R^T R - I| of a pose in a manifest (written from float64 products)
 
 
@@ -164,7 +166,7 @@ class Manifest:
         missing = [k for k in ("resolution", "K", "baseline", "frames", "views", "poses", "files") if k not in m]
         if missing:
             raise ContractError(f"missing key(s) {', '.join(missing)}", source)
-        _check_types(m, source)
+        check_types(m, source, LIMIT)
         try:
             W, H = (int(v) for v in m["resolution"])
             K = np.array(m["K"], dtype=float).reshape(3, 3)
@@ -221,8 +223,9 @@ class Manifest:
                 t = np.arange(n, dtype=float)
         except (TypeError, ValueError):
             raise ContractError("timestamps must be numbers", source) from None
-        if t.shape != (n,) or not np.all(np.isfinite(t)):
-            raise ContractError(f"timestamps must be {n} finite numbers", source)
+        if t.shape != (n,) or not np.all(np.isfinite(t)) or np.abs(t).max() > TIME_LIMIT_S \
+                or np.any(np.diff(t) <= 0):
+            raise ContractError(f"timestamps must be {n} increasing numbers within {TIME_LIMIT_S:g} s", source)
         complete = m.get("frames_complete", [True] * n)
         if not isinstance(complete, list) or len(complete) != n:
             raise ContractError(f"frames_complete must list {n} booleans", source)
@@ -253,64 +256,6 @@ class Manifest:
                 sums.update(files)
             m.extra["checksums"] = sums
         return m
-
-
-def _is_number(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-
-
-def _numbers_only(v) -> bool:
-    """True when ``v`` is a number or (nested) lists of numbers: no strings, booleans or nulls
-    that ``float()`` / ``np.array(dtype=float)`` would quietly convert."""
-    if isinstance(v, list):
-        return all(_numbers_only(x) for x in v)
-    return _is_number(v)
-
-
-def _check_types(m: dict, source: str) -> None:
-    """The JSON types of every key a reader relies on, so that a malformed manifest fails here
-    naming the key, never deep inside a reader (ranges of K, poses, ... are checked after)."""
-    def bad(key: str, want: str):
-        raise ContractError(f"'{key}' must be {want}, got {json.dumps(m.get(key))[:80]}", source)
-
-    for key in ("resolution", "K", "baseline", "near", "far", "timestamps", "fps"):
-        if m.get(key) is not None and not _numbers_only(m[key]):
-            bad(key, "numbers")
-    if not (isinstance(m["resolution"], list) and len(m["resolution"]) == 2
-            and all(isinstance(v, int) and not isinstance(v, bool) for v in m["resolution"])):
-        bad("resolution", "[W, H] in whole pixels")
-    if not isinstance(m["frames"], int) or isinstance(m["frames"], bool):
-        bad("frames", "a whole number")
-    if m.get("fps") is not None and not (_is_number(m["fps"]) and 0 < m["fps"] <= LIMIT):
-        bad("fps", f"a number in (0, {LIMIT:g}]")
-    for key in ("generator", "render", "channels", "depth", "segmentation", "poses", "files", "noise", "checksums"):
-        if m.get(key) is not None and not isinstance(m[key], dict):
-            bad(key, "an object")
-    if not isinstance(m["views"], list) or not all(isinstance(v, str) for v in m["views"]):
-        bad("views", "a list of names")
-    if not all(_numbers_only(p) for p in (m["poses"] or {}).values()):
-        bad("poses", "numbers")
-    if m.get("objects") is not None and not (isinstance(m["objects"], list)
-                                             and all(isinstance(o, dict) for o in m["objects"])):
-        bad("objects", "a list of objects")
-    complete = m.get("frames_complete")
-    if complete is not None and not (isinstance(complete, list) and all(isinstance(c, bool) for c in complete)):
-        bad("frames_complete", "a list of true/false")
-    depth, seg, channels = m.get("depth") or {}, m.get("segmentation") or {}, m.get("channels") or {}
-    if "background" in depth and not (_is_number(depth["background"]) and depth["background"] > 0):
-        bad("depth", "an object whose background is a positive number")
-    for key, d in (("depth", depth), ("segmentation", seg)):
-        if d.get("channel") is not None and not isinstance(d["channel"], str):
-            bad(key, "an object whose channel is a name")
-    if not all(isinstance(c, str) or (isinstance(c, list) and all(isinstance(x, str) for x in c))
-               for c in channels.values()):
-        bad("channels", "channel names")
-    if not all(isinstance(v, str) for v in (m.get("checksums") or {}).values()):
-        bad("checksums", "an object of SHA-256 strings")
-    noise = m.get("noise")
-    if noise is not None and not (_is_number(noise.get("sigma")) and noise["sigma"] >= 0
-                                  and isinstance(noise.get("seed", 0), int)):
-        bad("noise", "{\"sigma\": >= 0, \"seed\": integer}")
 
 
 def load_json(path: Path) -> dict:

@@ -23,7 +23,7 @@ import numpy as np
 
 from blender_sesgen.contract.colour import linear_to_srgb8
 from blender_sesgen.contract.depth import depth_from_pass
-from blender_sesgen.contract.inputs import read_bytes
+from blender_sesgen.contract.inputs import read_bytes, read_text
 from blender_sesgen.contract.manifest import MANIFEST, Manifest
 
 from ..errors import VoError, as_vo_error
@@ -280,9 +280,11 @@ def _read_csv(path) -> np.ndarray:
     """A numeric CSV with '#' header lines (EuRoC style), first column integer ns kept exact."""
     from pathlib import Path as _P
     p = _P(path)
-    if not p.is_file():
+    if not p.exists():
         raise VoError(f"{p}: no such file")
-    rows = [ln.split(",") for ln in p.read_text(encoding="utf-8").splitlines() if ln.strip() and not ln.startswith("#")]
+    with as_vo_error():
+        text = read_text(p, what="CSV file", strict=False)
+    rows = [ln.split(",") for ln in text.splitlines() if ln.strip() and not ln.startswith("#")]
     try:
         return np.array([[int(r[0])] + [float(v) for v in r[1:]] for r in rows], dtype=np.float64).reshape(len(rows), -1)
     except (ValueError, IndexError):
