@@ -204,3 +204,17 @@ def test_models_without_references_and_the_repo_assets_still_parse(layout):
     assert _parse(layout, "plain.obj").objects
     from blender_sesgen.ses import parse_file as pf
     assert pf(REPO / "scenes" / "extensions.ses").objects
+
+
+def test_check_reports_lexical_errors_at_file_line_col(tmp_path):
+    """A form feed and U+2028 in comments keep the line numbers; a no-break space and an
+    Arabic-Indic digit are errors at their column; the command prints one line each."""
+    script = tmp_path / "s.ses"
+    script.write_text("// header \f with a form feed\n// and \u2028 a line separator\n"
+                      f"{QUAD.strip()}\nSPHERE id 2\u00a0position 0 1 -3 dim 1\nEGO 0 0 \u0661 0 0 0\n",
+                      encoding="utf-8")
+    p = check_cli(script)
+    assert p.returncode == 2 and "Traceback" not in p.stderr
+    assert p.stderr.splitlines() == [
+        f"{script}:4:12: error: U+00A0 NO-BREAK SPACE is not allowed here: only spaces and tabs separate tokens",
+        f"{script}:5:9: error: non-ASCII digit U+0661 ARABIC-INDIC DIGIT ONE: write numbers with the digits 0-9"]
