@@ -23,7 +23,7 @@ import numpy as np
 from . import __version__
 from .contract.camera import scaled_K, scaled_size
 from .contract.errors import ContractError
-from .contract.manifest import SEED_RULE, Manifest, exr_relpath
+from .contract.manifest import SEED_RULE, Manifest, exr_relpath, object_motion_fields
 from .contract.timing import FrameSelection, frame_timestamps
 from .errors import SesgenError
 from .model import Mesh, Scene, TextureRef
@@ -267,7 +267,8 @@ def texture_label(tex: Optional[TextureRef]) -> Optional[str]:
 
 
 def object_table(scene: Scene) -> list[dict]:
-    """The manifest's ``objects``: id, name, shape, texture and material of every object."""
+    """The manifest's ``objects``: id, name, shape, texture and material of every object, and
+    whether it moves (with its per-frame poses if it does)."""
     out = []
     for o in scene.objects:
         tex = o.texture
@@ -276,8 +277,10 @@ def object_table(scene: Scene) -> list[dict]:
                 tex = scene.material(o.material).texture
             except KeyError:
                 tex = None
+        motion = scene.motion_of(o.id)
         out.append({"id": int(o.id), "name": o.name, "shape": o.shape,
-                    "texture": texture_label(tex), "material": o.material})
+                    "texture": texture_label(tex), "material": o.material,
+                    **(object_motion_fields(motion.kind, motion.poses()) if motion else object_motion_fields())})
     return out
 
 

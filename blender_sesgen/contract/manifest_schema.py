@@ -57,6 +57,9 @@ def check_types(m: dict, source: str, limit: float) -> None:
     if m.get("objects") is not None and not (isinstance(m["objects"], list)
                                              and all(isinstance(o, dict) for o in m["objects"])):
         bad("objects", "a list of objects")
+    for o in m.get("objects") or []:
+        if o.get("moving") and not (isinstance(o.get("id"), int) and _numbers_only(o.get("T_world_obj"))):
+            bad("objects", "objects whose moving ones have an integer id and T_world_obj numbers")
     complete = m.get("frames_complete")
     if complete is not None and not (isinstance(complete, list) and all(isinstance(c, bool) for c in complete)):
         bad("frames_complete", "a list of true/false")

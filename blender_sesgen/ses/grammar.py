@@ -73,6 +73,15 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
     Statement("START", _tags(POSITION_REQUIRED)),
     Statement("EGO", positional=6, positional_usage="EGO U V W alpha beta gamma"),
     Statement("POSE", positional=6, positional_usage="POSE x y z rx ry rz"),
+    Statement("FRAMES", positional=1, positional_usage="FRAMES N"),
+    Statement("MOVE", _tags(Tag("id", "int", required=True, usage="id N"),
+                            Tag("frame", "int", usage="frame F"),
+                            POSITION,
+                            _num("twist", (6,), usage="twist U V W alpha beta gamma"),
+                            Tag("from", "int", usage="from F"),
+                            Tag("to", "int", usage="to F"),
+                            Tag("file", "text", usage="file PATH"),
+                            Tag("format", "choice", usage="format tum|kitti", choices=("tum", "kitti")))),
     Statement("TRAJECTORY", _tags(Tag("file", "text", required=True, usage="file PATH"),
                                   Tag("format", "choice", required=True, usage="format tum|kitti",
                                       choices=("tum", "kitti")))),
@@ -131,6 +140,6 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
 )}
 
 OBJECT_KEYWORDS = ("QUAD", "CUBOID", "SPHERE", "CYLINDER", "MESH")
-SINGLETON_KEYWORDS = ("CAMERA", "START", "TRAJECTORY", "WORLD", "FOG", "NOISE", "RENDER",
+SINGLETON_KEYWORDS = ("CAMERA", "START", "FRAMES", "TRAJECTORY", "WORLD", "FOG", "NOISE", "RENDER",
                       "TIMING", "LENS", "SENSOR", "AUTOEXPOSURE", "IMU")
 TAG_SYNONYMS = {"color": "colour"}

@@ -71,6 +71,7 @@ class RenderSequence:
         self.depth_background = m.depth_background
         self.near, self.far = m.near, m.far
         self.objects = m.objects
+        self._object_poses = m.object_poses
         noise = m.extra.get("noise")
         self.noise = (float(noise["sigma"]), int(noise.get("seed", 0))) if isinstance(noise, dict) else None
         self._poses = m.poses
@@ -270,6 +271,18 @@ class RenderSequence:
         if view not in self.views:
             raise VoError(f"view {view!r} not in this sequence (views: {', '.join(self.views)})")
         return self._poses[view].copy()
+
+    @property
+    def moving_ids(self) -> tuple[int, ...]:
+        """Ids of the objects that move (manifest ``objects[i].moving``); () for a static scene
+        or a render written before moving objects existed."""
+        return tuple(sorted(self._object_poses))
+
+    def T_world_obj(self, obj_id: int) -> np.ndarray | None:
+        """(N, 4, 4) per-frame pose of a moving object's frame in the world (manifest
+        ``objects[i].T_world_obj``), or None for an object that does not move."""
+        T = self._object_poses.get(int(obj_id))
+        return None if T is None else T.copy()
 
     def __repr__(self) -> str:
         W, H = self.resolution
