@@ -318,3 +318,22 @@ def test_sensor_sections_of_a_manifest_are_checked(copy, tmp_path, capfd, key, v
     (root / "manifest.json").write_text(json.dumps(m))
     line = fails(capfd, "stereo-vo", root, "--out", tmp_path / "e.txt", "--quiet")
     assert line.startswith(f"error: {root / 'manifest.json'}: ") and message in line, line
+
+
+@pytest.mark.parametrize("T", ["huge", "strings", "short"])
+def test_moving_object_poses_are_checked(copy, tmp_path, capfd, T):
+    root = copy()
+    m = json.loads((root / "manifest.json").read_text())
+    n = m["frames"]
+    poses = [np.eye(4).tolist() for _ in range(n)]
+    if T == "huge":
+        poses[1][0][0] = 1e300
+    elif T == "strings":
+        poses[1][0][0] = "1"
+    else:
+        poses = poses[:-1]
+    m["objects"] = [{"id": 7, "name": "car", "shape": "CUBOID", "moving": True, "motion": "keys", "T_world_obj": poses}]
+    (root / "manifest.json").write_text(json.dumps(m))
+    capfd.readouterr()
+    line = fails(capfd, "stereo-vo", root, "--out", tmp_path / "e.txt", "--quiet")
+    assert line.startswith(f"error: {root / 'manifest.json'}: ") and ("objects" in line or "T_world_obj" in line), line
