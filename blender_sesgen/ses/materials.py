@@ -1,8 +1,10 @@
 """Surface appearance: the ``texture`` / ``texture_scale`` tags -> TextureRef, and MATERIAL
 statements -> named :class:`blender_sesgen.model.Material` (names unique).
 
-A texture is a built-in (number or name, see blender_sesgen.textures) or an existing image
-file relative to the script; the file is only checked to exist, never read.
+A texture is a built-in (number or name, see blender_sesgen.textures) or an image file
+relative to the script; image files (textures and PBR maps) are checked to be images
+(``blender_sesgen.image_check``: decoded or walked, so a corrupt or truncated file is an
+error here, not a magenta surface in the render).
 """
 from __future__ import annotations
 
@@ -10,6 +12,7 @@ import os
 from typing import Optional
 
 from .. import model
+from ..image_check import ImageFileError, check_image
 from ..textures import BUILTIN_TEXTURES, NAME_TO_NUMBER
 from .checks import Checks, scalar, vec
 from .lexer import Token
@@ -52,11 +55,23 @@ def texture(stmt: ParsedStatement, check: Checks) -> Optional[model.TextureRef]:
                                f"{os.path.join(check.base_dir, text)}){hint}")
     if path is None:
         return None
-    if path.suffix.lower() not in IMAGE_SUFFIXES:
-        check.err(tok, f"{stmt.keyword} 'texture' file '{text}' is not an image "
-                       f"({', '.join(IMAGE_SUFFIXES)})")
+    if not image_file_ok(stmt, "texture", path, check):
         return None
     return model.TextureRef(kind="image", name=path.stem, path=str(path), source=text, scale=scale)
+
+
+def image_file_ok(stmt: ParsedStatement, tag: str, path, check: Checks, suffixes=IMAGE_SUFFIXES) -> bool:
+    """The file of ``tag`` has an image suffix and decodes as an image (else an error)."""
+    tok = stmt.tags[tag].tokens[0]
+    if path.suffix.lower() not in suffixes:
+        check.err(tok, f"{stmt.keyword} '{tag}' file '{tok.text}' is not an image ({', '.join(suffixes)})")
+        return False
+    try:
+        check_image(path)
+    except ImageFileError as e:
+        check.err(tok, f"{stmt.keyword} '{tag}' file '{tok.text}' is not a usable image: {e}")
+        return False
+    return True
 
 
 def materials(statements: list[ParsedStatement], check: Checks) -> dict[str, model.Material]:

@@ -10,8 +10,9 @@ textures live in ``materials``, START/EGO/POSE/TRAJECTORY/FRAMES in ``motion``, 
 All errors of a script are collected (file:line:col); if there is any, the first in
 source order is raised as ScriptError and the whole list rides along as its ``errors``
 attribute. A script with errors yields no Scene. The only files read are the script
-itself and the TRAJECTORY (and MOVE) files it names; texture and mesh files are only checked
-to exist.
+itself, the TRAJECTORY (and MOVE) files it names, the image files it names (decoded:
+``blender_sesgen.image_check``) and the references inside MESH models (``mesh_files``: they
+must stay inside the model's folder); mesh geometry is read by Blender at render time.
 """
 from __future__ import annotations
 
@@ -28,6 +29,7 @@ from .geometry import quad_problem
 from .grammar import OBJECT_KEYWORDS, SINGLETON_KEYWORDS
 from .lexer import decode, tokenize
 from .materials import materials, texture
+from .mesh_files import reference_problems
 from .motion import rig_motion
 from .object_motion import object_motions
 from .statements import ParsedStatement, TagValue, did_you_mean, read_statement
@@ -176,6 +178,11 @@ class _Objects:
         if path.suffix.lower() not in MESH_SUFFIXES:
             self.check.err(tok, f"MESH 'file' '{tok.text}' has an unsupported format "
                                 f"(use {', '.join(MESH_SUFFIXES)})")
+            return None
+        problems = reference_problems(path, allow_external="allow_external" in stmt.tags)
+        for problem in problems:
+            self.check.err(tok, f"MESH 'file' '{tok.text}': {problem}")
+        if problems:
             return None
         return model.Mesh(path=str(path), source=tok.text, scale=scale * 3 if len(scale) == 1 else scale,
                           **self._placement(stmt), **common)

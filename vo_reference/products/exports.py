@@ -9,9 +9,12 @@ slot from ``opts.sequence`` (``--sequence``) and returns the sequence's folder, 
 ``export.json`` then goes (otherwise it goes into ``out``).
 
 Common rules: frames are renumbered from 0 in the order of ``opts.frames`` (the source
-frame of each output frame is recorded in ``export.json``); every file is written
-atomically; 8-bit images carry the noise of ``opts.noise`` (sigma, seed), drawn per source
-frame, view and kind so that a frame's noise does not depend on the exported range.
+frame of each output frame is recorded in ``export.json``); an export is built in a
+temporary folder beside its final place (OUT, or the sequence's slot in a tree) and renamed
+into place at the end: a failure leaves nothing, an earlier export is replaced whole, a
+non-empty folder that is not an export of ours is refused; 8-bit images carry the noise of
+``opts.noise`` (sigma, seed), drawn per source frame, view and kind so that a frame's noise
+does not depend on the exported range.
 """
 from __future__ import annotations
 
@@ -29,6 +32,7 @@ from blender_sesgen.contract.progress import Progress
 
 from ..errors import VoError, as_vo_error
 from ..io.color import rgb8_to_gray8
+from ..io.sequence import require_complete
 from .noise import add_gaussian_noise
 
 __all__ = ["EXPORTERS", "ExportOptions", "export", "register_exporter", "get_exporter", "parse_frames",
@@ -126,11 +130,7 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
     if out.resolve() == render_dir.resolve() or (render_dir / "exr").resolve() in (out.resolve(), *out.resolve().parents):
         raise VoError(f"{out}: refusing to export into the render folder itself (choose another OUT)")
     rng = frames if isinstance(frames, range) else parse_frames(frames, seq.num_frames)
-    missing = [k for k in rng if not seq.frame_complete(k)]
-    if missing:
-        shown = ", ".join(map(str, missing[:10])) + (" ..." if len(missing) > 10 else "")
-        raise VoError(f"{render_dir}: {len(missing)} frame(s) not rendered completely ({shown}); "
-                      "finish the render (--resume) or choose --frames")
+    require_complete(seq, rng)
     nz = seq.noise if noise == "manifest" else noise
     if nz is not None and float(nz[0]) <= 0:
         nz = None
@@ -140,14 +140,22 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
     opts = ExportOptions(frames=rng, noise=None if nz is None else (float(nz[0]), int(nz[1])),
                          progress=mode, extra=dict(extra or {}), sequence=sequence,
                          progress_callback=progress_callback)
-    out.mkdir(parents=True, exist_ok=True)
-    where = Path(fn(seq, out, opts) or out)
     info = {"target": target, "source": str(render_dir.resolve()), "source_frames": list(rng),
             "sequence": sequence,
             "noise": None if opts.noise is None else {"sigma": opts.noise[0], "seed": opts.noise[1]},
             "format": seq.manifest.get("format"), "scene_sha256": seq.manifest.get("scene_sha256")}
-    atomic.write_json(where / "export.json", info)
-    return where
+    if getattr(fn, "takes_sequence", False):  # a dataset tree: the target stages its own slot
+        out.mkdir(parents=True, exist_ok=True)
+        where = Path(fn(seq, out, opts) or out)
+        atomic.write_json(where / "export.json", info)
+        return where
+    # one folder: written beside OUT and renamed onto it at the end, so a failure (or Ctrl-C)
+    # leaves no partial export and an earlier export stays until the new one replaces it
+    check_replaceable(out)
+    with atomic.replacing_folder(out) as staging:
+        fn(seq, staging, opts)
+        atomic.write_json(staging / "export.json", info)
+    return out
 
 
 # --- images with noise ------------------------------------------------------------------

@@ -33,9 +33,10 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract.inputs import BINARY_LIMIT, read_bytes
 from blender_sesgen.contract.se3 import invert
 
-from ..errors import VoError
+from ..errors import VoError, as_vo_error
 from ..io.files import read_image, write_image_atomic
 
 FLO_MAGIC = 202021.25
@@ -266,14 +267,17 @@ def write_flo(path, flow: np.ndarray) -> Path:
 def read_flo(path) -> np.ndarray:
     """(H, W, 2) float32, NaN where unknown (|value| > 1e9)."""
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise VoError(f"{path}: no such .flo file")
-    raw = path.read_bytes()
+    with as_vo_error():
+        raw = read_bytes(path, BINARY_LIMIT, ".flo file")
     if len(raw) < 12 or np.frombuffer(raw[:4], "<f4")[0] != np.float32(FLO_MAGIC):
         raise VoError(f"{path}: not a Middlebury .flo file (bad magic)")
     W, H = (int(x) for x in np.frombuffer(raw[4:12], "<i4"))
+    if not (0 < W <= 65536 and 0 < H <= 65536):
+        raise VoError(f"{path}: .flo size {W}x{H} is not an image size")
     if len(raw) < 12 + 8 * W * H:
-        raise VoError(f"{path}: .flo data truncated")
+        raise VoError(f"{path}: .flo data has {len(raw) - 12} bytes, {W}x{H} needs {8 * W * H} (truncated?)")
     f = np.frombuffer(raw, "<f4", count=2 * W * H, offset=12).reshape(H, W, 2).astype(np.float32)
     f[np.abs(f) > 1e9] = np.nan
     return f

@@ -88,12 +88,13 @@ def vo_progress(method: str, frames: tuple[int, int], mode: str = "auto", stream
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..io.sequence import open_sequence
+    from ..io.sequence import open_sequence, require_complete
     from ..io.trajectory import write_kitti, write_tum
     from .pipeline import parse_frames, run_stereo_vo
 
     seq = open_sequence(args.input)
     frames = parse_frames(args.frames, seq.num_frames)
+    require_complete(seq, range(frames[0], frames[1] + 1))  # refused before anything starts
     bar, show = vo_progress(args.method, frames, progress_mode(args))
     with bar:
         res = run_stereo_vo(seq, args.method, gt_depth=args.gt_depth, gt_flow=args.gt_flow,

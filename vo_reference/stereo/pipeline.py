@@ -27,6 +27,7 @@ from blender_sesgen.contract.se3 import relative
 from blender_sesgen.contract.timing import frame_range
 
 from ..errors import VoError, as_vo_error
+from ..io.sequence import require_complete
 from ..io.trajectory import Trajectory
 from .accurate import AccurateParams, StereoTracks, accurate_step
 from .groundtruth import GroundTruthStep
@@ -114,6 +115,7 @@ def run_stereo_vo(seq, method: str = "accurate", *, gt_depth: bool = False, gt_f
     first, last = frames if frames is not None else (0, seq.num_frames - 1)
     if not (0 <= first < last < seq.num_frames):
         raise VoError(f"frame range {first}..{last} outside 0..{seq.num_frames - 1}")
+    require_complete(seq, range(first, last + 1))
     T_gt = seq.T_world_cam("left")
     if (gt_depth or gt_flow):
         if T_gt is None or seq.depth(first, "left") is None:

@@ -50,7 +50,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def default_report_dir(root: Path) -> Path:
     """``RENDER/report`` for a render (our own output folder), else ``./NAME_report``."""
     folder = root.parent if root.is_file() else root
-    if (folder / "manifest.json").is_file():
+    if (folder / "manifest.json").exists():
         return folder / "report"
     return Path.cwd() / f"{folder.resolve().name}_report"
 
@@ -58,7 +58,7 @@ def default_report_dir(root: Path) -> Path:
 def run(args: argparse.Namespace) -> int:
     from ..evaluate.report import write_json, write_report
     from ..evaluate.trajectory_eval import evaluate_trajectory, summary_lines
-    from ..io.sequence import open_sequence
+    from ..io.sequence import open_sequence, require_complete
     from ..io.trajectory import Trajectory, write_kitti, write_tum
     from .cli import failed_summary, vo_progress
     from .pipeline import METHODS, check_stereo, parse_frames, run_stereo_vo
@@ -75,6 +75,7 @@ def run(args: argparse.Namespace) -> int:
             raise VoError(f"unknown method {m!r} (choose from {', '.join(METHODS)})")
     frames = parse_frames(args.frames, seq.num_frames)
     check_stereo(seq)                                       # before any output is written
+    require_complete(seq, range(frames[0], frames[1] + 1))
     out = Path(args.report) if args.report else default_report_dir(root)
     try:
         out.mkdir(parents=True, exist_ok=True)
