@@ -207,6 +207,25 @@ class OutputFolder:
                 "host": socket.gethostname(), "pid": os.getpid(), "frames": [first, last],
                 "started": time.time(), "scene_sha256": plan.scene_sha256, "settings": _settings_key(plan.settings)})
 
+    def drop_lock_of(self, host: str, pid: int) -> bool:
+        """Remove the lock of writer ``pid`` on ``host``, known to be dead (a farm task saw its
+        render process killed, or lost the worker that ran it), so that a retry on another
+        host need not wait ``STALE_LOCK_S``; its completion log stays and is taken into the
+        manifest by the next writer. True if there was such a lock."""
+        if not self.state.is_dir():
+            return False
+        path = self.state / f"lock-{_safe(host)}-{int(pid)}.json"
+        with self._mutex():
+            existed = path.is_file()
+            path.unlink(missing_ok=True)
+        return existed
+
+    def consolidate(self) -> None:
+        """Take every completion log into manifest.json and remove the logs (what a render
+        does when it ends; a farm does it once all chunks of a folder have ended, since a
+        killed chunk leaves its log). Refused while a render writes into the folder."""
+        self.mark_incomplete(())
+
     def release(self) -> None:
         """Take the completion log into the manifest and drop the lock (end of a render,
         also after an error or an interrupt)."""
