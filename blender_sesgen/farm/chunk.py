@@ -96,9 +96,16 @@ def _drop_lock(out: str, host: str, pid: int) -> None:
         print(f"sesgen farm: could not remove the lock of killed render {pid}: {e}", file=sys.stderr)
 
 
-def task(argv: list[str], key: str, out: str, inbox=None) -> dict:
+def task(argv: list[str], key: str, out: str, inbox=None, scene: Optional[str] = None) -> dict:
     """The Ray task: :func:`run_chunk` reporting to the driver's inbox actor (one message
-    per event, fire and forget)."""
+    per event, fire and forget). A node that cannot see the scene or ROOT (not on a shared
+    filesystem) answers as a user error, without starting Blender."""
+    unseen = [p for p in (scene, str(Path(out).parent)) if p and not os.path.exists(p)]
+    if unseen:
+        return {"key": key, "rc": 2, "host": socket.gethostname(), "pid": 0, "frames_done": 0, "wall_s": 0.0,
+                "cancelled": False,
+                "tail": [f"error: node {socket.gethostname()} cannot see {unseen[0]}: ROOT and the scripts must be "
+                         "on a filesystem every node mounts at the same path"]}
     report = None
     if inbox is not None:
         def report(msg: dict) -> None:

@@ -9,8 +9,11 @@ a folder holding something else: if every scene that failed failed for such a re
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
+import signal
 import sys
+import threading
 from pathlib import Path
 
 from ..contract.cli import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, EXIT_USER_ERROR
@@ -165,11 +168,27 @@ def run(args: argparse.Namespace) -> int:
         farm = Farm(cluster, scenes, chunk=args.chunk, retries=args.retries, cpus_per_task=cpt,
                     gpus_per_task=args.gpus_per_task, threads=threads, forwarded=forwarded_argv(args),
                     progress_mode=progress_mode(args))
-        result = farm.run()
+        with _sigterm_as_interrupt():
+            result = farm.run()
     finally:
         cluster.stop()
     write_render_index(root, result.states)
     return report(root, result, quiet)
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt():
+    """SIGTERM stops the farm like Ctrl-C: every render stops between views (main thread)."""
+    def handler(signum, frame):
+        raise KeyboardInterrupt
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    saved = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, saved)
 
 
 def auto_cpus_per_task(cpus: float, n_chunks: int) -> float:

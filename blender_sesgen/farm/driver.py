@@ -169,7 +169,7 @@ class Farm:
         opts = {"num_cpus": self.cpus, "max_retries": 0}
         if self.gpus > 0:
             opts["num_gpus"] = self.gpus
-        ref = self._remote.options(**opts).remote(argv, c.task_id, str(c.scene.out), self.inbox)
+        ref = self._remote.options(**opts).remote(argv, c.task_id, str(c.scene.out), self.inbox, str(c.scene.script))
         self.running[ref] = c
         self.live_ids.add(c.task_id)
 

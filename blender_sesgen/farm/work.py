@@ -145,9 +145,12 @@ _ERROR = re.compile(r"(^|:\s)error:\s")
 
 def error_line(lines: Sequence[str]) -> Optional[str]:
     """The line that says what went wrong: the last ``error:`` line (``file:line:col: error:
-    ...`` or ``error: ...``), else the last line of a traceback, else None."""
+    ...`` or ``error: ...``), else the last line of a Python traceback, else None (a render
+    killed by a signal says nothing)."""
     text = [ln.rstrip() for ln in lines if ln.strip()]
     for ln in reversed(text):
         if _ERROR.search(ln):
             return ln
-    return text[-1] if text else None
+    if any(ln.startswith("Traceback (most recent call last)") for ln in text):
+        return text[-1]
+    return None
