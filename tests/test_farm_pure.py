@@ -289,7 +289,7 @@ def _scenes(tmp_path, *specs):
 
 
 def _farm(ray, scenes, retries=2, chunk=2):
-    cluster = SimpleNamespace(ray=ray, totals=lambda: (2.0, 0.0))
+    cluster = SimpleNamespace(ray=ray, totals=lambda: (2.0, 0.0), here=lambda: None)
     return Farm(cluster, scenes, chunk=chunk, retries=retries, cpus_per_task=1, gpus_per_task=0, threads=1,
                 forwarded=["--samples", "2"], progress_mode="off")
 

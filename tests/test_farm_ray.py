@@ -152,6 +152,11 @@ def test_chunks_of_two_frames_equal_single_machine_renders(scenes, cluster):
     index = json.loads((root / "dataset.json").read_text())
     assert [s["name"] for s in index["sequences"]] == ["alpha", "beta"]
     assert all(s["complete"] and s["frames"] == 5 and s["render"]["samples"] == 2 for s in index["sequences"])
+    # again: nothing to render, every folder verified complete
+    again = farm(refs["alpha"][0], refs["beta"][0], "--out", root, "--address", cluster, "--chunk", "2", *RENDER)
+    assert again.returncode == 0 and "0 frame(s) rendered" in again.stdout, again.stderr
+    for name, (_, ref) in refs.items():
+        assert exr_bytes(root / name) == exr_bytes(ref)
 
 
 def _writers(out: Path) -> dict[int, int]:

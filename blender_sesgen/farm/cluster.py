@@ -25,6 +25,7 @@ from ..errors import SesgenError
 
 LOCAL_OBJECT_STORE_BYTES = 128 * 1024 * 1024
 PROBE_TIMEOUT_S = 120.0
+CONNECT_TIMEOUT_S = 10.0
 
 
 def import_ray():
@@ -60,6 +61,21 @@ def _probe(probe_path: str, token: str, paths: list) -> dict:
             "version": blender_sesgen.__version__, "python": sys.version.split()[0]}
 
 
+def _check_reachable(address: str, timeout_s: float = CONNECT_TIMEOUT_S) -> None:
+    """HOST:PORT must accept a connection (Ray itself would retry for many minutes)."""
+    if address == "auto" or "://" in address:
+        return
+    host, sep, port = address.rpartition(":")
+    if not sep or not port.isdigit() or not host:
+        raise SesgenError(f"--address {address}: expected auto or HOST:PORT (the head's address, "
+                          "as `ray start --head` prints it)")
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=timeout_s).close()
+    except OSError as e:
+        raise SesgenError(f"--address {address}: no Ray head answers there ({e.strerror or e}); "
+                          "start one with `ray start --head`") from None
+
+
 class Cluster:
     """A connection to Ray for one farm run (see the module docstring)."""
 
@@ -78,6 +94,7 @@ class Cluster:
                      logging_level=logging.ERROR, object_store_memory=LOCAL_OBJECT_STORE_BYTES)
             self.started_local = True
             return self
+        _check_reachable(self.address)
         pythonpath = os.pathsep.join([str(package_root())] + [p for p in os.environ.get("PYTHONPATH", "").split(
             os.pathsep) if p])
         self.runtime_env = {"env_vars": {"PYTHONPATH": pythonpath}}
@@ -118,6 +135,11 @@ class Cluster:
         where = "local Ray" if self.started_local else f"Ray cluster {self.address}"
         return (f"{where}: {len(self.alive_nodes())} node(s), {cpus:g} CPU(s)"
                 + (f", {gpus:g} GPU(s)" if gpus else ""))
+
+    def here(self):
+        """A scheduling strategy that keeps an actor on this driver's node (if it can)."""
+        from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
+        return NodeAffinitySchedulingStrategy(node_id=self.ray.get_runtime_context().get_node_id(), soft=True)
 
     # --- the shared filesystem ------------------------------------------------------------
     def check_shared(self, root: Path, scripts: Sequence[Path]) -> None:

@@ -107,7 +107,7 @@ class Farm:
     # --- the run ------------------------------------------------------------------------
     def run(self) -> FarmResult:
         t0 = time.monotonic()
-        self.inbox = _make_inbox(self.ray)
+        self.inbox = _make_inbox(self.ray, self.cluster.here())
         for st in self.states:
             if st.scene.error:
                 st.failed, st.user_error = st.scene.error, True
@@ -320,7 +320,9 @@ class Farm:
                 pass
 
 
-def _make_inbox(ray):
+def _make_inbox(ray, strategy=None):
+    """The actor that collects the tasks' progress messages, on the driver's node (a worker
+    node lost must not take the farm's progress with it)."""
     @ray.remote(num_cpus=0)
     class Inbox:
         """Where tasks drop their progress messages; the driver takes them in batches."""
@@ -335,7 +337,7 @@ def _make_inbox(ray):
             out, self.messages = self.messages, []
             return out
 
-    return Inbox.remote()
+    return (Inbox.options(scheduling_strategy=strategy) if strategy is not None else Inbox).remote()
 
 
 def _last_line(e: BaseException) -> str:
