@@ -12,7 +12,7 @@ Two kinds, one format (docs/farm.md):
 Seeds and splits are functions of the base seed only: sequence ``i`` gets the seed drawn
 from ``SeedSequence([seed, i])`` (so ``--count 20`` begins with the sequences of
 ``--count 10``, and neighbouring base seeds share nothing; see :func:`sequence_seeds`), and the split is a seeded
-permutation cut at exact counts (largest remainders of ``count * fraction``).
+permutation cut at exact counts (:func:`split_counts`).
 """
 from __future__ import annotations
 
@@ -32,7 +32,8 @@ _SPLIT_STREAM = 0x5E5_5B17          # a fixed second word: the split's random st
 SEQUENCE_SEEDS = 10_000_000         # sequence seeds lie in 0..9999999: a generator may derive seed * 100 + k
 SEED_RULE = ("sequence i: SeedSequence([seed, i]).generate_state(1, uint64)[0] mod 10000000 "
              "(a repeat of an earlier one draws again with [seed, i, 1], [seed, i, 2], ...)")
-SPLIT_RULE = ("counts: largest remainders of count * fraction; membership: "
+SPLIT_RULE = ("counts: largest remainders of count * fraction, then one for every split with a fraction > 0 "
+              "left empty (taken from the largest); membership: "
               "default_rng(SeedSequence([seed, 0x5E55B17])).permutation(count) cut at the counts "
               "(train, val, test)")
 
@@ -57,13 +58,19 @@ def sequence_seeds(seed: int, count: int) -> list[int]:
 
 def split_counts(count: int, fractions: Sequence[float] = DEFAULT_FRACTIONS) -> tuple[int, int, int]:
     """Sequences per split: ``count * fraction`` rounded by largest remainders (ties go to
-    the earlier split), so the counts always add up to ``count``."""
+    the earlier split), so the counts add up to ``count``; then every split with a fraction
+    above zero that got none takes one from the largest split, as long as there are enough
+    sequences (10 -> 8/1/1, 5 -> 3/1/1, 3 -> 1/1/1, 2 -> 1/1/0)."""
     f = np.asarray(fractions, dtype=float)
     f = f / f.sum()
     exact = count * f
     n = np.floor(exact).astype(int)
     for j in sorted(range(3), key=lambda j: (-(exact[j] - n[j]), j))[:count - int(n.sum())]:
         n[j] += 1
+    for j in range(3):
+        big = int(np.argmax(n))
+        if f[j] > 0 and n[j] == 0 and n[big] > 1:
+            n[j], n[big] = 1, n[big] - 1
     return int(n[0]), int(n[1]), int(n[2])
 
 

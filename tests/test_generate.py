@@ -38,9 +38,13 @@ def test_sequence_seeds_are_deterministic_distinct_and_grow_by_appending():
 def test_split_counts_follow_the_fractions_and_add_up():
     assert split_counts(10) == (8, 1, 1)
     assert split_counts(100, (0.7, 0.2, 0.1)) == (70, 20, 10)
-    assert split_counts(5) == (4, 1, 0)                 # remainders 0.5/0.5: the earlier split first
+    assert split_counts(10, (0.75, 0.25, 0.0)) == (8, 2, 0)   # remainders .5/.5: the earlier split first
+    # a small set still gets a sequence in every split with a fraction above zero
+    assert [split_counts(n) for n in (1, 2, 3, 5)] == [(1, 0, 0), (1, 1, 0), (1, 1, 1), (3, 1, 1)]
+    assert split_counts(4, (1, 0, 0)) == (4, 0, 0)
     for n in range(1, 40):
-        assert sum(split_counts(n, (0.6, 0.25, 0.15))) == n
+        c = split_counts(n, (0.6, 0.25, 0.15))
+        assert sum(c) == n and (n < 3 or min(c) >= 1)
 
 
 def test_splits_are_a_seeded_permutation():
