@@ -23,11 +23,10 @@ from typing import Callable
 import numpy as np
 
 from blender_sesgen.contract import atomic
-from blender_sesgen.contract.se3 import invert
 from blender_sesgen.contract.timing import frame_range
 from blender_sesgen.contract.progress import MODES as PROGRESS_MODES
 from blender_sesgen.contract.progress import Progress
-from blender_sesgen.contract.trajectory_files import format_euroc, format_kitti, format_times
+from blender_sesgen.contract.trajectory_files import format_euroc
 
 from ..errors import VoError, as_vo_error
 from ..io.color import rgb8_to_gray8
