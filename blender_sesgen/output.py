@@ -164,13 +164,7 @@ class OutputFolder:
         render process killed, or lost the worker that ran it), so that a retry on another
         host need not wait ``STALE_LOCK_S``; its completion log stays and is taken into the
         manifest by the next writer. True if there was such a lock."""
-        if not self.state.is_dir():
-            return False
-        path = self.state / f"lock-{_safe(host)}-{int(pid)}.json"
-        with self._mutex():
-            existed = path.is_file()
-            path.unlink(missing_ok=True)
-        return existed
+        return self.locks.drop_dead(host, pid)
 
     def consolidate(self) -> None:
         """Take every completion log into manifest.json and remove the logs (what a render
