@@ -15,7 +15,6 @@ import time
 from pathlib import Path
 from types import SimpleNamespace
 
-import pytest
 
 from blender_sesgen.farm import chunk as chunk_mod
 from blender_sesgen.farm import cli as farm_cli
@@ -72,7 +71,8 @@ def test_scripts_come_from_files_and_folders_once(tmp_path):
     # a folder written by generate: its index's order, and each script's split and seed
     (tmp_path / "d" / "dataset.json").write_text(json.dumps({
         "format": "sesgen-dataset/1", "kind": "scripts", "generator": {"name": "g"},
-        "sequences": [{"script": "b.ses", "split": "val", "seed": 5}, {"script": "a.ses", "split": "train", "seed": 6}]}))
+        "sequences": [{"script": "b.ses", "split": "val", "seed": 5},
+                      {"script": "a.ses", "split": "train", "seed": 6}]}))
     found = find_scripts([str(tmp_path / "d")])
     assert [(p.name, m.get("split"), m.get("seed")) for p, m in found] == [("b.ses", "val", 5), ("a.ses", "train", 6)]
     assert found[0][1]["generator"] == {"name": "g"}

@@ -96,9 +96,10 @@ def _drop_lock(out: str, host: str, pid: int) -> None:
         print(f"sesgen farm: could not remove the lock of killed render {pid}: {e}", file=sys.stderr)
 
 
-def task(argv: list[str], key: str, out: str, inbox=None, scene: Optional[str] = None) -> dict:
-    """The Ray task: :func:`run_chunk` reporting to the driver's inbox actor (one message
-    per event, fire and forget). A node that cannot see the scene or ROOT (not on a shared
+def task(args: list[str], key: str, out: str, inbox=None, scene: Optional[str] = None) -> dict:
+    """The Ray task: the render command ``args`` (``work.render_args``) run by this node's
+    Python through :mod:`.child`, reporting to the driver's inbox actor (one message per
+    event, fire and forget). A node that cannot see the scene or ROOT (not on a shared
     filesystem) answers as a user error, without starting Blender."""
     unseen = [p for p in (scene, str(Path(out).parent)) if p and not os.path.exists(p)]
     if unseen:
@@ -110,7 +111,7 @@ def task(argv: list[str], key: str, out: str, inbox=None, scene: Optional[str] =
     if inbox is not None:
         def report(msg: dict) -> None:
             inbox.put.remote(msg)
-    return run_chunk(argv, key, out, report)
+    return run_chunk([sys.executable, "-m", "blender_sesgen.farm.child", *args], key, out, report)
 
 
 def verify_task(out: str) -> dict:

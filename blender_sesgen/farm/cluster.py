@@ -90,8 +90,8 @@ class Cluster:
         ray = self.ray
         if self.address is None:
             os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
-            ray.init(address="local", num_cpus=self.num_cpus or local_cpus(), include_dashboard=False, log_to_driver=False,
-                     logging_level=logging.ERROR, object_store_memory=LOCAL_OBJECT_STORE_BYTES)
+            ray.init(address="local", num_cpus=self.num_cpus or local_cpus(), include_dashboard=False,
+                     log_to_driver=False, logging_level=logging.ERROR, object_store_memory=LOCAL_OBJECT_STORE_BYTES)
             self.started_local = True
             return self
         _check_reachable(self.address)

@@ -15,7 +15,6 @@ tasks, verification of every finished folder, and the summary.
 """
 from __future__ import annotations
 
-import sys
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -24,7 +23,7 @@ from typing import Optional, Sequence
 from ..contract.progress import Progress
 from .chunk import INTERRUPT_GRACE_S, task as chunk_task, verify_task
 from .cluster import Cluster
-from .work import FarmScene, Outcome, describe_exit, error_line, frame_ranges, outcome_of, render_argv
+from .work import FarmScene, Outcome, describe_exit, error_line, frame_ranges, outcome_of, render_args
 
 WAIT_S = 0.5
 RESOURCES_EVERY_S = 5.0
@@ -82,13 +81,13 @@ class Farm:
 
     def __init__(self, cluster: Cluster, scenes: Sequence[FarmScene], *, chunk: int, retries: int,
                  cpus_per_task: float, gpus_per_task: float, threads: int, forwarded: Sequence[str],
-                 progress_mode: str = "auto", python: str = sys.executable, stream=None):
+                 progress_mode: str = "auto", stream=None):
         self.cluster, self.ray = cluster, cluster.ray
         self.states = [SceneState(s) for s in scenes]
         self.chunk, self.retries = int(chunk), int(retries)
         self.cpus, self.gpus, self.threads = float(cpus_per_task), float(gpus_per_task), int(threads)
         self.forwarded = list(forwarded)
-        self.progress_mode, self.python, self.stream = progress_mode, python, stream
+        self.progress_mode, self.stream = progress_mode, stream
         self.queue: deque[Chunk] = deque()
         self.running: dict = {}            # ObjectRef -> Chunk
         self.verifying: dict = {}          # ObjectRef -> SceneState
@@ -165,11 +164,11 @@ class Farm:
     def _submit(self, c: Chunk) -> None:
         self._serial += 1
         c.serial = self._serial
-        argv = render_argv(self.python, c.scene, c.a, c.b, self.threads, self.forwarded)
+        args = render_args(c.scene, c.a, c.b, self.threads, self.forwarded)
         opts = {"num_cpus": self.cpus, "max_retries": 0}
         if self.gpus > 0:
             opts["num_gpus"] = self.gpus
-        ref = self._remote.options(**opts).remote(argv, c.task_id, str(c.scene.out), self.inbox, str(c.scene.script))
+        ref = self._remote.options(**opts).remote(args, c.task_id, str(c.scene.out), self.inbox, str(c.scene.script))
         self.running[ref] = c
         self.live_ids.add(c.task_id)
 

@@ -104,10 +104,11 @@ def frame_ranges(frames: Iterable[int], size: int) -> list[tuple[int, int]]:
     return out
 
 
-def render_argv(python: str, scene: FarmScene, a: int, b: int, threads: int, forwarded: Sequence[str]) -> list[str]:
-    """The render command of frames ``a:b`` of ``scene`` (run through :mod:`.child`)."""
-    return [python, "-m", "blender_sesgen.farm.child", "render", str(scene.script), "--out", str(scene.out),
-            "--frames", f"{a}:{b}", "--resume", "--progress", "json", "--threads", str(int(threads)), *forwarded]
+def render_args(scene: FarmScene, a: int, b: int, threads: int, forwarded: Sequence[str]) -> list[str]:
+    """The render command's arguments for frames ``a:b`` of ``scene`` (the task runs them as
+    ``python -m blender_sesgen.farm.child render ...`` with its own node's Python)."""
+    return ["render", str(scene.script), "--out", str(scene.out), "--frames", f"{a}:{b}", "--resume",
+            "--progress", "json", "--threads", str(int(threads)), *forwarded]
 
 
 class Outcome(enum.Enum):
