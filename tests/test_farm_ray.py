@@ -208,6 +208,30 @@ def test_a_killed_render_and_a_killed_worker_are_retried_and_the_output_is_ident
         assert_same_as_single(root, name, ref)
 
 
+def test_a_cancelled_task_stops_its_render_between_views(scenes, cluster):
+    """Ctrl-C on the farm cancels its tasks; each sends SIGINT to its render, which a Ray
+    worker's children would never receive (the worker blocks it) without farm.child."""
+    from blender_sesgen.farm import chunk
+    tmp, refs = scenes
+    script = tmp / "scripts" / "long.ses"
+    script.write_text(SCENE.format(floor=4, x=0.1) + "EGO 0.02 0 0.1 0 1 0\n" * 20)
+    out = tmp / "cancelled" / "long"
+    args = ["render", str(script), "--out", str(out), "--frames", "0:25", "--resume", "--progress", "json",
+            "--threads", "1", "--samples", "16"]
+    ref = ray.remote(chunk.task).options(num_cpus=1, max_retries=0).remote(args, "long[0:25]#1", str(out), None,
+                                                                          str(script))
+    t0 = time.time()
+    while not any(_writers(out).values()) and time.time() - t0 < 300:
+        time.sleep(0.05)
+    ray.cancel(ref)
+    t1 = time.time()
+    res = ray.get(ref, timeout=120)
+    assert res["cancelled"] and res["rc"] == 130 and time.time() - t1 < 60, res
+    assert not list((out / ".sesgen").glob("lock-*")), "the stopped render left its lock"
+    done = json.loads((out / "manifest.json").read_text())["frames_complete"]
+    assert 1 <= sum(done) < 25
+
+
 def test_a_local_farm_renders_a_generated_folder_reports_a_bad_script_and_leaves_no_ray(tmp_path):
     gen = tmp_path / "gen"
     r = subprocess.run([sys.executable, "-m", "blender_sesgen", "generate", "street", "--count", "2", "--seed", "3",

@@ -6,6 +6,10 @@ die with it: an orphaned render would keep its lock on the frames and render the
 beside the retried task. On Linux the kernel sends SIGKILL when the parent goes
 (``PR_SET_PDEATHSIG``); elsewhere a thread polls the parent once a second. A render killed
 that way leaves a folder that ``--resume`` completes (every frame is written atomically).
+
+It also gives the render back its Ctrl-C: a Ray worker blocks SIGINT, and a child inherits
+the blocked signal, so a cancelled task's SIGINT would never arrive; here SIGINT and SIGTERM
+are unblocked and back to Python's defaults, and the render stops between views as usual.
 """
 from __future__ import annotations
 
@@ -46,9 +50,18 @@ def bind_to_parent(parent_pid: int) -> str:
     return how
 
 
+def restore_interrupts() -> None:
+    """SIGINT and SIGTERM unblocked, with Python's default handling (see the module docstring)."""
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
 def main(argv=None) -> int:
     parent = os.environ.get(PARENT_ENV)
     bind_to_parent(int(parent) if parent else os.getppid())
+    restore_interrupts()
     from ..cli import main as cli_main
     return cli_main(sys.argv[1:] if argv is None else argv)
 

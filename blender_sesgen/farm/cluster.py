@@ -50,7 +50,7 @@ def package_root() -> Path:
 
 def _probe(probe_path: str, token: str, paths: list) -> dict:
     """Run on one node: what it sees of the farm's files and of blender_sesgen."""
-    import blender_sesgen
+    from .. import __version__ as version   # the node's own blender_sesgen (this module is imported there)
     seen = ""
     try:
         seen = Path(probe_path).read_text(encoding="utf-8")
@@ -58,7 +58,7 @@ def _probe(probe_path: str, token: str, paths: list) -> dict:
         pass
     return {"host": socket.gethostname(), "root_ok": seen == token,
             "missing": [p for p in paths if not os.path.isfile(p)],
-            "version": blender_sesgen.__version__, "python": sys.version.split()[0]}
+            "version": version, "python": sys.version.split()[0]}
 
 
 def _check_reachable(address: str, timeout_s: float = CONNECT_TIMEOUT_S) -> None:
