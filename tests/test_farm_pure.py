@@ -106,6 +106,29 @@ def test_every_render_option_is_a_farm_option_and_reaches_the_render_unchanged()
     assert (opts.samples, opts.denoise, opts.seed, opts.resolution_scale, opts.normal_pass) == (3, False, 9, 0.25, True)
 
 
+def test_scenes_are_prepared_before_ray_with_each_user_error_on_its_scene(tmp_path):
+    good = tmp_path / "good.ses"
+    good.write_text((REPO / "scenes" / "minimal.ses").read_text())
+    bad = tmp_path / "bad.ses"
+    bad.write_text("CAMERA resolution 64 48 focal 40\nSTART position 0 1 3\nFOG start 10\n"
+                   "CUBOID id 1 position 0 0 0 dim 1 1 1\n")
+    taken = tmp_path / "sub" / "good.ses"        # same name: ROOT/good-2, which holds another scene
+    taken.parent.mkdir()
+    taken.write_text(good.read_text() + "// changed\n")
+    (tmp_path / "R" / "good-2").mkdir(parents=True)
+    (tmp_path / "R" / "good-2" / "manifest.json").write_text(json.dumps(
+        {"format": "sesgen-render/1", "scene_sha256": "0" * 64, "scene_source": "other.ses"}))
+    p = argparse.ArgumentParser()
+    farm_cli.add_arguments(p)
+    args = p.parse_args([str(good), str(bad), str(taken), "--out", str(tmp_path / "R"), "--samples", "2"])
+    root, scenes = farm_cli.prepare(args)
+    assert root == tmp_path / "R" and [s.name for s in scenes] == ["good", "bad", "good-2"]
+    ok, b, t = scenes
+    assert ok.error is None and ok.pending == [0, 1, 2] and ok.plan.settings.samples == 2
+    assert b.error == f"{bad}:3:1: error: FOG needs the tag 'end' (end e)"
+    assert "holds the output of a different scene" in t.error and f"farm: remove {root / 'good-2'}" in t.error
+
+
 def test_cpus_per_task_share_the_machine():
     assert farm_cli.auto_cpus_per_task(2, 10) == 1          # more chunks than CPUs: one CPU each
     assert farm_cli.auto_cpus_per_task(16, 3) == 5          # few chunks: no CPU left idle (3 x 5 of 16)

@@ -113,6 +113,8 @@ def prepare(args: argparse.Namespace) -> tuple[Path, list]:
             sc.error = str(e)
         except SesgenError as e:
             sc.error = f"{script}: error: {e}" if not str(e).startswith(str(script)) else str(e)
+            if "--force" in sc.error:   # render's advice; a farm has no --force (chunks would undo each other)
+                sc.error += f" (farm: remove {sc.out} or render into another --out)"
         scenes.append(sc)
     return root, scenes
 
