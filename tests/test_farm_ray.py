@@ -216,13 +216,15 @@ def test_a_cancelled_task_stops_its_render_between_views(scenes, cluster):
     script = tmp / "scripts" / "long.ses"
     script.write_text(SCENE.format(floor=4, x=0.1) + "EGO 0.02 0 0.1 0 1 0\n" * 20)
     out = tmp / "cancelled" / "long"
+    out.parent.mkdir()      # ROOT exists (the farm makes it before the tasks start)
     args = ["render", str(script), "--out", str(out), "--frames", "0:25", "--resume", "--progress", "json",
             "--threads", "1", "--samples", "16"]
     ref = ray.remote(chunk.task).options(num_cpus=1, max_retries=0).remote(args, "long[0:25]#1", str(out), None,
                                                                           str(script))
     t0 = time.time()
     while not any(_writers(out).values()) and time.time() - t0 < 300:
-        time.sleep(0.05)
+        ready, _ = ray.wait([ref], timeout=0.05)
+        assert not ready, ray.get(ref)
     ray.cancel(ref)
     t1 = time.time()
     res = ray.get(ref, timeout=120)
