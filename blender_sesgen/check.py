@@ -40,6 +40,11 @@ def _pose_text(T: np.ndarray) -> str:
     return f"position {x:.4g} {y:.4g} {z:.4g}  rotation {rx + 0.0:.4g} {ry + 0.0:.4g} {rz + 0.0:.4g} deg"
 
 
+def _travel(T: np.ndarray) -> float:
+    """Distance an object frame's origin travels over the sequence."""
+    return float(np.linalg.norm(np.diff(T[:, :3, 3], axis=0), axis=1).sum()) if len(T) > 1 else 0.0
+
+
 def summary(scene: Scene) -> str:
     """A human-readable summary of a parsed scene (what `check` prints)."""
     rig = scene.rig
@@ -60,6 +65,8 @@ def summary(scene: Scene) -> str:
         f"motion    {scene.motion.kind}, {scene.frames} frames, path length {path_length:.4g}",
         f"start     {_pose_text(T[0])}",
         f"end       {_pose_text(T[-1])}",
+        "moving    " + (", ".join(f"{m.id} ({m.kind}, {_travel(m.poses()):.4g})" for m in scene.object_motions)
+                         or "none (static scene)"),
         "lights    " + (", ".join(light.kind for light in scene.lights) or "default lighting"),
         "world     " + (scene.world.kind if scene.world else "default"),
     ]
@@ -73,4 +80,30 @@ def summary(scene: Scene) -> str:
     r = scene.render
     extras.append(f"render {r.samples} samples, denoise {'on' if r.denoise else 'off'}, seed {r.seed}")
     lines.append("extras    " + "; ".join(extras))
+    sensors = _sensor_text(scene)
+    if sensors:
+        lines.append("sensors   " + sensors)
     return "\n".join(lines)
+
+
+def _sensor_text(scene: Scene) -> str:
+    """One line on the sensor statements (empty when there are none)."""
+    parts = []
+    t = scene.timing
+    if t is not None:
+        parts.append(f"{t.rate_hz:g} Hz" + (f", exposure {t.exposure_s * 1e3:g} ms" if t.exposure_s else "")
+                     + (" (blur off)" if t.exposure_s and not t.blur else "")
+                     + (f", rolling shutter {t.readout_s * 1e3:g} ms" if t.readout_s else ""))
+    if scene.lens is not None:
+        ln = scene.lens
+        parts.append(f"lens {ln.model}" + (f" {' '.join(f'{c:g}' for c in ln.coeffs)}" if ln.coeffs else "")
+                     + (f" f/{ln.f_number:g}" if ln.f_number else ""))
+    if scene.sensor is not None:
+        s = scene.sensor
+        parts.append(f"sensor {s.bits}-bit" + (f" {s.cfa.upper()}" if s.cfa else "") + f" seed {s.seed}"
+                     + (f" jpeg {s.jpeg_quality}" if s.jpeg_quality else ""))
+    if scene.autoexposure is not None:
+        parts.append(f"auto-exposure speed {scene.autoexposure.speed:g}/s")
+    if scene.imu is not None:
+        parts.append(f"IMU {scene.imu.rate_hz:g} Hz")
+    return "; ".join(parts)

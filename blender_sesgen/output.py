@@ -116,6 +116,10 @@ class OutputFolder:
             raise SesgenError(f"--out {out}: exists and is not a folder")
         if not out.exists():
             return
+        if self.state.is_dir():  # a render writing here now is the first thing to say
+            with self.locks.mutex():
+                self.locks.refuse_conflicts((min(plan.frames), max(plan.frames)), plan.scene_sha256,
+                                            self.settings_key(plan.settings), out)
         try:
             previous = self.previous()
         except ContractError as e:

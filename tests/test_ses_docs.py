@@ -20,8 +20,10 @@ def test_examples_parse(tmp_path):
     assert complete.frames == 3 and len(complete.objects) == 3
     (tmp_path / "models").mkdir()
     (tmp_path / "models" / "chair.obj").write_text("v 0 0 0\n")
-    extensions = parse_string(BLOCKS[1], base_dir=str(tmp_path))
+    extensions = parse_string(next(b for b in BLOCKS if "// extensions in use" in b), base_dir=str(tmp_path))
     assert extensions.world.kind == "sky" and extensions.fog and extensions.noise and extensions.render.denoise
+    moving = parse_string(next(b for b in BLOCKS if "MOVE" in b))
+    assert moving.frames == 20 and moving.moving_ids == (2, 3)
 
 
 def test_every_keyword_and_tag_is_documented():

@@ -23,6 +23,7 @@ TARGETS = (
     ("kitti-odometry", "KITTI odometry", "The development kit's tree: dataset/sequences/NN + dataset/poses/NN.txt"),
     ("kitti-folder", "KITTI folder", "One KITTI sequence folder with poses.txt"),
     ("kitti-stereo", "KITTI stereo 2015", "image_2/3, disp_occ_0/disp_noc_0, flow_occ/flow_noc"),
+    ("kitti-sceneflow", "KITTI scene flow 2015", "image_2/3 _10/_11, disp_occ_0/1, flow_occ, obj_map, instance and motion masks"),
     ("tum", "TUM RGB-D", "rgb/, depth/ (5000 per metre), groundtruth.txt"),
     ("euroc", "EuRoC (ASL)", "mav0/cam0, cam1, state_groundtruth_estimate0"),
     ("png", "PNG", "Noisy RGB, ids, disparity per view"),
@@ -30,6 +31,7 @@ TARGETS = (
     ("tartanair", "TartanAir", "image/depth/seg per view, flow + mask, NED poses"),
     ("vkitti2", "Virtual KITTI 2", "frames/rgb, depth, class/instance segmentation, flow; intrinsic/extrinsic/pose.txt"),
     ("sceneflow", "SceneFlow", "FlyingThings3D tree: PFM disparity, flow, disparity change"),
+    ("rosbag", "ROS 2 bag", "mcap: cam0/cam1 Image + CameraInfo, imu0 Imu, tf + PoseStamped ground truth"),
 )
 TAKES_SEQUENCE = {"kitti-odometry", "tartanair", "vkitti2", "sceneflow"}
 NOT_FOUND = ("exporting needs the vo_reference tools outside Blender: pip install 'blender-sesgen[vo]' "

@@ -2,8 +2,9 @@
 
 The one place that puts a whole :class:`~blender_sesgen.model.Scene` into Blender: shapes
 (``shapes.build_shape``) with their materials (``materials``), lights and world
-(``lighting``), the keyed cameras (``rig``), all tagged (``datablocks``) in the dedicated
-scene ``SCENE_NAME``. Object ``pass_index`` = script ``id``.
+(``lighting``), the keyed cameras (``rig``), the moving objects' keyed empties
+(``object_motion``), all tagged (``datablocks``) in the dedicated scene ``SCENE_NAME``.
+Object ``pass_index`` = script ``id``.
 """
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from dataclasses import dataclass, field
 import bpy
 
 from ..model import Scene
-from . import lighting, rig
+from . import lighting, object_motion, rig
 from .datablocks import SCENE_NAME, TAG, clear_previous, tag
 from .materials import MaterialFactory
 from .runtime import activate
@@ -27,6 +28,7 @@ class BuiltScene:
     objects: dict = field(default_factory=dict)   # id -> [bpy objects]
     cameras: dict = field(default_factory=dict)   # view -> camera object
     segments: dict = field(default_factory=dict)  # tessellated shape id -> segment count
+    movers: dict = field(default_factory=dict)    # moving object id -> its keyed empty (object_motion)
 
 
 def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -> BuiltScene:
@@ -52,6 +54,9 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -
             b.pass_index = int(o.id)
             b["sesgen_id"] = int(o.id)
         built.objects[o.id] = objs
+        motion = scene.motion_of(o.id)
+        if motion is not None:  # a moving object hangs from an empty keyed with its motion
+            built.movers[o.id] = object_motion.attach_motion(o, motion, objs, coll, tag)
 
     for i, light in enumerate(lights):
         lo = lighting.add_light(bscene, coll, light, f"sesgen_light_{i}")

@@ -35,6 +35,10 @@ class BlenderSession:
                          threads=plan.options.threads, normal_pass=plan.options.normal_pass,
                          position_pass=plan.options.position_pass)
         self.exposure = self._exposure(known_exposure)
+        self.sensor = None          # the sensor path (motion blur, rolling shutter, lens), if any
+        if plan.sensor.changes_rendering:
+            from .sensor_render import SensorSession
+            self.sensor = SensorSession(plan, self.built)
 
     def _exposure(self, known: Optional[float]) -> float:
         """Default lighting only: one film exposure for the whole sequence (blender/exposure.py)."""
@@ -61,9 +65,20 @@ class BlenderSession:
         return {"exr_layout": self.channels["layout"], "exposure": self.exposure,
                 "exposure_rule": EXPOSURE_RULE_LIGHTS if self.plan.scene.lights else EXPOSURE_RULE_AUTO}
 
-    def render_frame(self, k: int, paths: dict[str, Path], stop: Callable[[], bool] = lambda: False) -> dict[str, dict]:
+    @property
+    def jpeg_writer(self):
+        """Writes the sensor's JPEG images (Blender's image writer)."""
+        from .sensor import save_jpeg
+        return save_jpeg
+
+    def render_frame(self, k: int, paths: dict[str, Path], stop: Callable[[], bool] = lambda: False,
+                     exposure_s: Optional[float] = None) -> dict[str, dict]:
         """Render frame ``k`` of each view into ``paths[view]``; {view: render stats}.
-        ``stop()`` is asked before each view (KeyboardInterrupt when it says yes)."""
+        ``stop()`` is asked before each view (KeyboardInterrupt when it says yes);
+        ``exposure_s``: the frame's exposure time on the sensor path (auto-exposure)."""
+        if self.sensor is not None:
+            return self.sensor.render_frame(k, self.plan.sensor.nominal_exposure_s() if exposure_s is None
+                                            else exposure_s, paths, stop)
         stats = {}
         for vi, view in enumerate(self.plan.views):
             if stop():

@@ -42,6 +42,10 @@ STATE_DIR = ".sesgen"
 DONE_LOG_GLOB = "done-*.jsonl"
 VIEWS = ("left", "right")
 POSES_CONVENTION = "T_world_cam: OpenCV camera (x right, y down, z forward) in the SES world (Y up)"
+OBJECT_POSES_CONVENTION = ("T_world_obj: the object frame (origin at the object's position, axes turned by its "
+                           "rotation; a QUAD's is its vertex centroid with the world axes) in the SES world (Y up); "
+                           "a point fixed on the object is at T_world_obj[k] @ X_obj at frame k")
+OBJECT_MOTIONS = ("keys", "twist", "trajectory")
 SEED_RULE = "cycles seed = (seed * 1000003 + 2 * frame + view_index) mod (2^31 - 1)"
 LIMIT = 1e9  # no coordinate, focal length or size of ours is larger: beyond it a value is corrupt
 
@@ -50,6 +54,15 @@ def render_seed(seed: int, frame: int, view_index: int) -> int:
     """Cycles seed of one (frame, view) (``SEED_RULE``): deterministic, different for every
     frame and view (a fixed noise pattern shared by both views would look like texture)."""
     return (int(seed) * 1_000_003 + 2 * int(frame) + int(view_index)) % (2**31 - 1)
+
+
+def object_motion_fields(motion: str | None = None, T_world_obj=None) -> dict:
+    """The keys an ``objects`` entry carries about motion (their one writer): ``moving``
+    for every object and, for a moving one, ``motion`` (keys | twist | trajectory) and
+    ``T_world_obj`` (one 4x4 per frame; :data:`OBJECT_POSES_CONVENTION`)."""
+    if motion is None:
+        return {"moving": False}
+    return {"moving": True, "motion": motion, "T_world_obj": np.asarray(T_world_obj, dtype=float).tolist()}
 
 
 def exr_relpath(view: str, frame: int) -> str:
@@ -67,7 +80,8 @@ def trajectory_relpaths(views: Sequence[str]) -> dict:
 # the keys every manifest holds, in the order they are written
 _KEYS = ("format", "generator", "scene", "scene_source", "scene_sha256", "resolution", "K", "baseline", "near",
          "far", "frames", "fps", "timestamps", "views", "depth", "segmentation", "channels", "objects",
-         "poses_convention", "poses", "trajectories", "files", "frames_complete", "render")
+         "object_poses_convention", "poses_convention", "poses", "trajectories", "files", "frames_complete",
+         "render")
 
 
 @dataclass
@@ -76,6 +90,8 @@ class Manifest:
 
     Arrays are numpy (``K`` (3, 3), ``poses[view]`` (N, 4, 4), ``timestamps_s`` (N,)); keys this
     class does not model (``noise``, ``fog`` and those of later versions) stay in ``extra``.
+    ``object_poses`` {id: (N, 4, 4)} holds the moving objects' ``T_world_obj`` (validated from
+    ``objects``; empty for a static scene or a render made before moving objects existed).
     """
     resolution: tuple[int, int]
     K: np.ndarray
@@ -97,10 +113,13 @@ class Manifest:
     scene_sha256: str = ""
     generator: dict = field(default_factory=dict)
     extra: dict = field(default_factory=dict)
+    object_poses: dict = field(default_factory=dict)
 
     def __post_init__(self):
         if not self.frames_complete:
             self.frames_complete = [False] * self.frames
+        if not self.object_poses:
+            self.object_poses = object_poses(self.objects, self.frames)
 
     @property
     def frames(self) -> int:
@@ -131,6 +150,7 @@ class Manifest:
             "segmentation": self.segmentation,
             "channels": self.channels,
             "objects": self.objects,
+            "object_poses_convention": OBJECT_POSES_CONVENTION,
             "poses_convention": POSES_CONVENTION,
             "poses": {v: np.asarray(self.poses[v], dtype=float).tolist() for v in self.views},
             "trajectories": trajectory_relpaths(self.views),
@@ -220,11 +240,13 @@ class Manifest:
             raise ContractError(f"depth kind {depth.get('kind')!r} not supported (planar_z)", source)
         depth = {"kind": "planar_z", "background": DEPTH_BACKGROUND, "channel": None, **depth}
         extra = {k: v for k, v in m.items() if k not in _KEYS}
+        objects = list(m.get("objects") or [])
+        moving = object_poses(objects, n, source)
         return cls(resolution=(W, H), K=K, baseline=baseline, views=views, poses=poses, files=files,
                    timestamps_s=t, fps=float(fps) if fps else float("nan"), near=near, far=far,
                    frames_complete=[bool(x) for x in complete], depth=depth,
                    segmentation=m.get("segmentation") or {"kind": "object_index", "background": 0, "channel": None},
-                   channels=m.get("channels") or {}, objects=list(m.get("objects") or []),
+                   channels=m.get("channels") or {}, objects=objects, object_poses=moving,
                    render=m.get("render") or {}, scene_source=str(m.get("scene_source", "")),
                    scene_sha256=str(m.get("scene_sha256", "")), generator=m.get("generator") or {}, extra=extra)
 
@@ -242,6 +264,27 @@ class Manifest:
                 sums.update(files)
             m.extra["checksums"] = sums
         return m
+
+
+def object_poses(objects: list, n: int, source: str = MANIFEST) -> dict[int, np.ndarray]:
+    """{id: (n, 4, 4) T_world_obj} of the ``objects`` entries marked ``moving`` (validated:
+    ContractError naming ``source`` for a moving object without n finite rigid poses)."""
+    out = {}
+    for o in objects:
+        if not isinstance(o, dict) or not o.get("moving"):
+            continue
+        try:
+            obj_id = int(o["id"])
+            T = np.array(o["T_world_obj"], dtype=float)
+        except (KeyError, TypeError, ValueError):
+            raise ContractError(f"moving object {o.get('id')!r} has no usable T_world_obj", source) from None
+        if T.shape != (n, 4, 4):
+            raise ContractError(f"objects[id={obj_id}].T_world_obj has shape {T.shape}, expected ({n}, 4, 4)", source)
+        if not np.all(np.isfinite(T)) or np.abs(T[:, :3, 3]).max() > LIMIT \
+                or np.abs(np.einsum("nji,njk->nik", T[:, :3, :3], T[:, :3, :3]) - np.eye(3)).max() > 1e-6:
+            raise ContractError(f"objects[id={obj_id}].T_world_obj holds non-rigid or non-finite poses", source)
+        out[obj_id] = T
+    return out
 
 
 def load_json(path: Path) -> dict:

@@ -3,13 +3,15 @@
 Owns the whole-script flow (lex, read statements, one-per-script singletons, at least one
 object), the object statements (QUAD, CUBOID, SPHERE, CYLINDER, MESH: ids and names
 unique, materials defined), the CAMERA rig, and the assembly of the Scene. Materials and
-textures live in ``materials``, START/EGO/POSE/TRAJECTORY in ``motion``, LIGHT/WORLD/FOG/
-NOISE/RENDER in ``environment``; all report through one ``checks.Checks``.
+textures live in ``materials``, START/EGO/POSE/TRAJECTORY/FRAMES in ``motion``, MOVE in
+``object_motion``, LIGHT/WORLD/FOG/NOISE/RENDER in ``environment``; all report through one
+``checks.Checks``.
 
 All errors of a script are collected (file:line:col); if there is any, the first in
 source order is raised as ScriptError and the whole list rides along as its ``errors``
 attribute. A script with errors yields no Scene. The only files read are the script
-itself and the TRAJECTORY file it names; texture and mesh files are only checked to exist.
+itself and the TRAJECTORY (and MOVE) files it names; texture and mesh files are only checked
+to exist.
 """
 from __future__ import annotations
 
@@ -19,6 +21,7 @@ from typing import Optional
 from .. import model
 from ..contract.camera import default_principal_point
 from . import environment
+from .sensor import sensor_models
 from .checks import Checks, scalar, vec
 from .diagnostics import Diagnostics
 from .geometry import quad_problem
@@ -26,6 +29,7 @@ from .grammar import OBJECT_KEYWORDS, SINGLETON_KEYWORDS
 from .lexer import decode, tokenize
 from .materials import materials, texture
 from .motion import rig_motion
+from .object_motion import object_motions
 from .statements import ParsedStatement, TagValue, did_you_mean, read_statement
 
 MAX_ID = 32767                 # Blender's object-index pass clamps above this
@@ -73,15 +77,21 @@ def _build(source: str, statements: list[ParsedStatement], attempted_objects: bo
                                 "CYLINDER or MESH")
     rig = _rig(seen.get("CAMERA"), check)
     moving = rig_motion(statements, seen.get("START"), check)
+    attempted_ids = frozenset(int(s.tags["id"].values[0]) for s in statements
+                              if s.keyword in OBJECT_KEYWORDS and "id" in s.tags)
+    motions = object_motions([s for s in statements if s.keyword == "MOVE"], objects,
+                             len(moving.timeline.T_world_left), check, attempted_ids)
     lights = tuple(light for light in (environment.light(s, check) for s in statements if s.keyword == "LIGHT")
                    if light)
     scene_kwargs = dict(
         world=environment.world(seen.get("WORLD"), check), fog=environment.fog(seen.get("FOG"), check),
-        noise=environment.noise(seen.get("NOISE"), check), render=environment.render(seen.get("RENDER"), check))
+        noise=environment.noise(seen.get("NOISE"), check), render=environment.render(seen.get("RENDER"), check),
+        **sensor_models(seen, rig, check))
     if check.diags:
         return None
     return model.Scene(source=source, objects=tuple(objects), rig=rig, **moving._asdict(),
-                       materials=tuple(named_materials.values()), lights=lights, **scene_kwargs)
+                       materials=tuple(named_materials.values()), lights=lights, object_motions=motions,
+                       **scene_kwargs)
 
 
 class _Objects:

@@ -99,6 +99,32 @@ def fmt(*values) -> str:
 KITTI_STRIDE, KITTI_STEPS = 4, 50
 
 
+def street_axis(T: np.ndarray) -> tuple[list, list]:
+    """Street axis samples (points on the ground, unit headings): every 10 frames of the
+    drive ``T``, plus 60 m beyond both ends along the end headings."""
+    pts, heads = [], []
+    for k in range(0, len(T), 10):
+        fwd = T[k][:3, 2] * [1, 0, 1]
+        pts.append(T[k][:3, 3] * [1, 0, 1])
+        heads.append(fwd / np.linalg.norm(fwd))
+    for i in range(1, 7):
+        pts.insert(0, pts[0] - 10.0 * heads[0]); heads.insert(0, heads[0])
+        pts.append(pts[-1] + 10.0 * heads[-1]); heads.append(heads[-1])
+    return pts, heads
+
+
+def drive(kitti: bool = False, v: Variation = Variation()) -> tuple[np.ndarray, np.ndarray]:
+    """(EGO rows, T_world_left of the drive: street.ses's 300 steps, or the variation's);
+    with ``kitti`` the rows are those of every KITTI_STRIDE-th frame (the poses T stay those
+    of the full drive)."""
+    rows = ego_rows(v)
+    T = integrate_ego(start_pose((0.0, EYE_HEIGHT, 0.0)), rows)
+    if kitti:  # one step per KITTI_STRIDE frames of the same drive (exactly the same poses)
+        rows = np.array([ego_from_poses(T[k], T[k + KITTI_STRIDE])
+                         for k in range(0, KITTI_STRIDE * KITTI_STEPS, KITTI_STRIDE)])
+    return rows, T
+
+
 def generate(seed: int = 0, kitti: bool = False, steps: int = STEPS) -> str:
     """The script of the street for ``seed`` (see the module docstring): seed 0 gives
     scenes/street.ses (scenes/street_kitti.ses with ``kitti``)."""
@@ -108,28 +134,16 @@ def generate(seed: int = 0, kitti: bool = False, steps: int = STEPS) -> str:
         raise ValueError(f"kitti needs a drive of at least {KITTI_STRIDE * KITTI_STEPS} steps, got {steps}")
     if steps < 1:
         raise ValueError(f"steps must be >= 1, got {steps}")
-    return "\n".join(lines(kitti, Variation.of(int(seed), int(steps)), int(seed))) + "\n"
+    return "\n".join(street_lines(kitti, v=Variation.of(int(seed), int(steps)), seed=int(seed))) + "\n"
 
 
-def main(kitti: bool = False) -> None:
-    print(generate(0, kitti), end="")
-
-
-def lines(kitti: bool, v: Variation, seed: int = 0) -> list[str]:
-    rows = ego_rows(v)
-    T = integrate_ego(start_pose((0.0, EYE_HEIGHT, 0.0)), rows)
-    if kitti:  # one step per KITTI_STRIDE frames of the same drive (exactly the same poses)
-        rows = np.array([ego_from_poses(T[k], T[k + KITTI_STRIDE])
-                         for k in range(0, KITTI_STRIDE * KITTI_STEPS, KITTI_STRIDE)])
-    # street axis samples: every 10 frames, plus 60 m beyond both ends along the end headings
-    pts, heads = [], []
-    for k in range(0, v.steps + 1, 10):
-        fwd = T[k][:3, 2] * [1, 0, 1]
-        pts.append(T[k][:3, 3] * [1, 0, 1])
-        heads.append(fwd / np.linalg.norm(fwd))
-    for i in range(1, 7):
-        pts.insert(0, pts[0] - 10.0 * heads[0]); heads.insert(0, heads[0])
-        pts.append(pts[-1] + 10.0 * heads[-1]); heads.append(heads[-1])
+def street_lines(kitti: bool = False, crossing: tuple[int, int] | None = None, v: Variation = Variation(),
+                 seed: int = 0) -> list[str]:
+    """The script's lines. ``crossing`` (i0, i1): no facades along axis segments i0..i1-1 on
+    either side, where a cross street (gravel, 40 m each way) meets this one. ``v``: what
+    the seed ``seed`` varies (the default: street.ses)."""
+    rows, T = drive(kitti, v)
+    pts, heads = street_axis(T)
     up = np.array([0.0, 1.0, 0.0])
     if kitti:
         head = ["// street_kitti.ses - street.ses's street and drive with KITTI odometry's rig and speed:",
@@ -159,6 +173,8 @@ def lines(kitti: bool, v: Variation, seed: int = 0) -> list[str]:
             h = float(rng.uniform(7, 14))
             tex = v.facades[(i * 3 + (side == "right") * 5) % len(v.facades)]
             col = rng.uniform(0.7, 1.0, 3)
+            if crossing is not None and crossing[0] <= i < crossing[1]:
+                continue  # the cross street's mouth (the random draws above keep the rest unchanged)
             top_p, top_q = p + h * up, q + h * up
             out.append(f"QUAD id {next_id} texture {tex} colour {fmt(*col)} vertices {fmt(*p, *q, *top_q, *top_p)}")
             next_id += 1
@@ -169,6 +185,8 @@ def lines(kitti: bool, v: Variation, seed: int = 0) -> list[str]:
     next_id = 1000
     out += ["", "// street furniture: poles with lamps, parked boxes, a few bollards"]
     for i in range(1, len(pts) - 1):
+        if crossing is not None and crossing[0] - 1 <= i <= crossing[1]:
+            continue  # keep the cross street's mouth clear
         r = np.cross(heads[i], up)
         yaw = float(np.degrees(np.arctan2(-heads[i][0], -heads[i][2])))  # local z along the street
         for sgn in (-1, 1):
@@ -183,6 +201,9 @@ def lines(kitti: bool, v: Variation, seed: int = 0) -> list[str]:
                 out.append(f"CUBOID id {next_id} texture {int(rng.choice([4, 9, 12]))} colour {fmt(*rng.uniform(0.5, 1, 3))} "
                            f"position {fmt(*(car + size[1] / 2 * up))} 0 {yaw:.1f} 0 dim {fmt(*size)}")
                 next_id += 1
+    if crossing is not None:
+        out += ["", "// the cross street: a gravel road and facades along it, 40 m each way"]
+        out += cross_street_lines(pts, heads, crossing, 900)
     out += ["", "// the drive: EGO U V W alpha beta gamma (camera frame: x right, y down, z forward; degrees)"]
     out += [f"EGO {' '.join(f'{x:.6f}' for x in row)}" if kitti else f"EGO {fmt(*row)}" for row in rows]
     return out
@@ -203,6 +224,34 @@ def sun_and_sky(v: Variation) -> list[str]:
     if v.fog is not None:
         out.append(f"FOG start {fmt(v.fog[0])} end {fmt(v.fog[1])} colour 0.75 0.77 0.8")
     return out
+
+
+
+def cross_street_lines(pts, heads, crossing: tuple[int, int], first_id: int, length: float = 40.0) -> list[str]:
+    """A straight cross street through axis segments crossing[0]..crossing[1] (its width is
+    theirs), perpendicular to the street there: road quads each side and its facades."""
+    up = np.array([0.0, 1.0, 0.0])
+    a, b = pts[crossing[0]], pts[crossing[1]]
+    fwd = (b - a) / np.linalg.norm(b - a)
+    r = np.cross(fwd, up)
+    out, i = [], first_id
+    for sgn in (-1, 1):
+        near_a, near_b = a + sgn * HALF_WIDTH * r, b + sgn * HALF_WIDTH * r
+        far_a, far_b = near_a + sgn * length * r, near_b + sgn * length * r
+        quad = (near_a, near_b, far_b, far_a) if sgn > 0 else (near_b, near_a, far_a, far_b)
+        out.append(f"QUAD id {i} texture 10 colour 0.75 0.75 0.75 vertices {fmt(*np.concatenate(quad))}")
+        for edge, tex in ((near_a, 7), (near_b, 5)):
+            top = 10.0 * up
+            far = edge + sgn * length * r
+            out.append(f"QUAD id {i + 1} texture {tex} colour 0.9 0.85 0.8 vertices "
+                       f"{fmt(*edge, *far, *(far + top), *(edge + top))}")
+            i += 1
+        i += 1
+    return out
+
+
+def main(kitti: bool = False) -> None:
+    print(generate(0, kitti), end="")
 
 
 if __name__ == "__main__":

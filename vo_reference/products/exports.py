@@ -26,12 +26,9 @@ from blender_sesgen.contract import atomic
 from blender_sesgen.contract.timing import frame_range
 from blender_sesgen.contract.progress import MODES as PROGRESS_MODES
 from blender_sesgen.contract.progress import Progress
-from blender_sesgen.contract.trajectory_files import format_euroc
 
 from ..errors import VoError, as_vo_error
 from ..io.color import rgb8_to_gray8
-from ..io.files import write_png16, write_png_rgb
-from .disparity import sequence_disparity, write_disparity_png16
 from .noise import add_gaussian_noise
 
 __all__ = ["EXPORTERS", "ExportOptions", "export", "register_exporter", "get_exporter", "parse_frames",
@@ -44,14 +41,17 @@ EXPORTERS: dict[str, tuple[str | Callable, str]] = {
                        "dataset/poses/NN.txt (--sequence NN, default 00)"),
     "kitti-folder": ("vo_reference.products.kitti_odometry:export_kitti_folder",
                      "one KITTI sequence folder: image_0..3/, calib.txt, times.txt, poses.txt"),
-    "kitti-stereo": ("vo_reference.products.exports:export_kitti_stereo",
+    "kitti-stereo": ("vo_reference.products.kitti_stereo:export_kitti_stereo",
                      "KITTI 2015 layout: image_2/3 *_10/_11.png, disp_occ_0/disp_noc_0 PNG16, flow_occ/flow_noc"),
-    "tum": ("vo_reference.products.exports:export_tum",
+    "kitti-sceneflow": ("vo_reference.products.kitti_sceneflow:export_kitti_sceneflow",
+                        "KITTI scene flow 2015: image_2/3 *_10/_11, disp_occ/noc_0/1, flow_occ/noc, obj_map, "
+                        "+ instance_map, motion_mask (moving objects exact)"),
+    "tum": ("vo_reference.products.tum:export_tum",
             "TUM RGB-D: rgb/ + depth/ (16-bit, 5000 per metre), rgb.txt, depth.txt, groundtruth.txt"),
-    "euroc": ("vo_reference.products.exports:export_euroc",
+    "euroc": ("vo_reference.products.euroc:export_euroc",
               "EuRoC MAV/ASL: mav0/cam0 (+cam1) data/<t_ns>.png grey, data.csv, sensor.yaml; "
-              "state_groundtruth_estimate0/data.csv (left camera = body)"),
-    "png": ("vo_reference.products.exports:export_png",
+              "state_groundtruth_estimate0/data.csv (body = left camera, or the IMU + imu0/ with an IMU)"),
+    "png": ("vo_reference.products.png_layout:export_png",
             "per view: noisy 8-bit RGB, ids PNG16 + colour palette, disparity PNG16 (x256)"),
     "bayer": ("vo_reference.products.bayer_export:export_bayer",
               "GBRG Bayer mosaics + distorted images + undistortion LUT (RobotCar-like)"),
@@ -64,6 +64,8 @@ EXPORTERS: dict[str, tuple[str | Callable, str]] = {
     "sceneflow": ("vo_reference.products.sceneflow:export_sceneflow",
                   "SceneFlow / FlyingThings3D: frames_cleanpass, disparity (PFM, both views), "
                   "optical_flow and disparity_change into_future/into_past (--sequence TRAIN/A/0000)"),
+    "rosbag": ("vo_reference.products.rosbag_export:export_rosbag",
+               "ROS 2 bag (mcap): cam0/cam1 Image + CameraInfo, imu0 Imu, tf + PoseStamped ground truth"),
 }
 
 COLOUR, GREY = 0, 1
@@ -207,150 +209,3 @@ def calib_text(seq) -> str:
     lines = [f"{n}: " + " ".join(f"{x:.12e}" for x in P[n].ravel()) for n in ("P0", "P1", "P2", "P3")]
     lines.append("Tr: " + " ".join(f"{x:.12e}" for x in np.eye(4)[:3].ravel()))  # no lidar: identity
     return "\n".join(lines) + "\n"
-
-
-# --- targets ----------------------------------------------------------------------------
-
-def export_kitti_stereo(seq, out: Path, opts: ExportOptions) -> None:
-    from .flow import sequence_flow, sequence_stereo_occlusion, write_kitti_flow_png
-    if "right" not in seq.views or seq.baseline_m <= 0:
-        raise VoError("kitti-stereo needs a stereo render (views left and right)")
-    frames = list(opts.frames)
-    with progress_bar(opts, len(frames), "kitti-stereo") as bar:
-        for i, k in enumerate(frames):
-            n10 = f"{i:06d}_10.png"
-            write_png_rgb(out / "image_2" / n10, image_rgb(seq, k, "left", opts))
-            write_png_rgb(out / "image_3" / n10, image_rgb(seq, k, "right", opts))
-            d = sequence_disparity(seq, k, "left")
-            write_disparity_png16(out / "disp_occ_0" / n10, d)
-            d_noc = np.where(sequence_stereo_occlusion(seq, k, "left"), np.nan, d)
-            write_disparity_png16(out / "disp_noc_0" / n10, d_noc)
-            if k + 1 < seq.num_frames and seq.frame_complete(k + 1):
-                n11 = f"{i:06d}_11.png"
-                write_png_rgb(out / "image_2" / n11, image_rgb(seq, k + 1, "left", opts))
-                write_png_rgb(out / "image_3" / n11, image_rgb(seq, k + 1, "right", opts))
-                fl = sequence_flow(seq, k, k + 1, "left")
-                write_kitti_flow_png(out / "flow_occ" / n10, fl.flow, fl.valid)
-                write_kitti_flow_png(out / "flow_noc" / n10, fl.flow, fl.noc)
-            bar.update()
-    atomic.write_text(out / "calib.txt", calib_text(seq))
-
-
-TUM_DEPTH_SCALE = 5000.0  # 16-bit value per metre (TUM RGB-D)
-
-
-def depth_to_tum_png16(depth: np.ndarray) -> np.ndarray:
-    """uint16 round(z·5000); 0 = no depth (inf, or beyond 65535/5000 = 13.1 m)."""
-    z = np.asarray(depth, dtype=np.float64)
-    v = np.rint(np.where(np.isfinite(z), z, 0.0) * TUM_DEPTH_SCALE)
-    v[(v > 65535) | (v < 0) | ~np.isfinite(z)] = 0
-    return v.astype(np.uint16)
-
-
-def export_tum(seq, out: Path, opts: ExportOptions) -> None:
-    from ..io.trajectory import Trajectory, write_tum
-    frames = list(opts.frames)
-    ts = seq.timestamps_s[frames]
-    names = [f"{t:.6f}" for t in ts]
-    if len(set(names)) != len(names):
-        raise VoError("timestamps are not distinct at 1 µs: cannot name TUM files")
-    rgb_lines = ["# color images", f"# file: '{out.name}'", "# timestamp filename"]
-    depth_lines = ["# depth maps", f"# file: '{out.name}'", "# timestamp filename"]
-    assoc = []
-    with progress_bar(opts, len(frames), "tum") as bar:
-        for k, name in zip(frames, names):
-            write_png_rgb(out / "rgb" / f"{name}.png", image_rgb(seq, k, "left", opts))
-            write_png16(out / "depth" / f"{name}.png", depth_to_tum_png16(seq.depth(k, "left")))
-            rgb_lines.append(f"{name} rgb/{name}.png")
-            depth_lines.append(f"{name} depth/{name}.png")
-            assoc.append(f"{name} rgb/{name}.png {name} depth/{name}.png")
-            bar.update()
-    atomic.write_text(out / "rgb.txt", "\n".join(rgb_lines) + "\n")
-    atomic.write_text(out / "depth.txt", "\n".join(depth_lines) + "\n")
-    atomic.write_text(out / "associations.txt", "\n".join(assoc) + "\n")
-    write_tum(out / "groundtruth.txt", Trajectory(seq.T_world_cam("left")[frames], ts))
-    K = seq.K
-    atomic.write_text(out / "camera.txt", "# fx fy cx cy (pixels, OpenCV convention); depth scale 5000 per metre\n"
-                      f"{K[0, 0]:.9g} {K[1, 1]:.9g} {K[0, 2]:.9g} {K[1, 2]:.9g}\n")
-
-
-def export_png(seq, out: Path, opts: ExportOptions) -> None:
-    from .segmentation import write_ids_colour, write_ids_png16
-    frames = list(opts.frames)
-    stereo = "right" in seq.views and seq.baseline_m > 0
-    with progress_bar(opts, len(frames) * len(seq.views), "png") as bar:
-        for i, k in enumerate(frames):
-            name = f"{i:06d}.png"
-            for view in seq.views:
-                write_png_rgb(out / view / "rgb" / name, image_rgb(seq, k, view, opts))
-                ids = seq.ids(k, view)
-                write_ids_png16(out / view / "ids" / name, ids)
-                write_ids_colour(out / view / "ids_colour" / name, ids)
-                if stereo:
-                    write_disparity_png16(out / view / "disparity" / name, sequence_disparity(seq, k, view))
-                bar.update()
-
-
-# --- EuRoC MAV / ASL --------------------------------------------------------------------
-
-def _yaml_matrix(T: np.ndarray) -> str:
-    rows = [", ".join(f"{x:.17g}" for x in r) for r in T]
-    return "  cols: 4\n  rows: 4\n  data: [" + ",\n         ".join(rows) + "]\n"
-
-
-def _euroc_rate_hz(seq) -> float:
-    m = seq.manifest
-    fps = m.get("fps") or (m.get("render") or {}).get("fps")
-    if fps:
-        return float(fps)
-    dt = np.diff(seq.timestamps_s)
-    return float(1.0 / np.median(dt)) if dt.size and np.median(dt) > 0 else 0.0
-
-
-def euroc_sensor_yaml(seq, cam: int) -> str:
-    """EuRoC ``camN/sensor.yaml``: body = left camera, so T_BS = I (cam0), trans(B,0,0) (cam1)."""
-    K = seq.K
-    W, H = seq.resolution
-    T_BS = np.eye(4)
-    T_BS[0, 3] = seq.baseline_m if cam == 1 else 0.0
-    return ("# General sensor definitions.\n"
-            "sensor_type: camera\n"
-            f"comment: sesgen render, {'left' if cam == 0 else 'right'} camera (body frame = left camera)\n\n"
-            "# Sensor extrinsics wrt. the body-frame.\n"
-            "T_BS:\n" + _yaml_matrix(T_BS) + "\n"
-            "# Camera specific definitions.\n"
-            f"rate_hz: {_euroc_rate_hz(seq):.9g}\n"
-            f"resolution: [{int(W)}, {int(H)}]\n"
-            "camera_model: pinhole\n"
-            f"intrinsics: [{K[0, 0]:.17g}, {K[1, 1]:.17g}, {K[0, 2]:.17g}, {K[1, 2]:.17g}] #fu, fv, cu, cv\n"
-            "distortion_model: radial-tangential\n"
-            "distortion_coefficients: [0.0, 0.0, 0.0, 0.0]\n")
-
-
-def export_euroc(seq, out: Path, opts: ExportOptions) -> None:
-    frames = list(opts.frames)
-    ts = seq.timestamps_s[frames]
-    t_ns = np.rint(ts * 1e9).astype(np.int64)
-    if np.any(t_ns < 0):
-        raise VoError("euroc: timestamps must be >= 0 to name the files in ns")
-    if len(set(t_ns.tolist())) != len(t_ns):
-        raise VoError("timestamps are not distinct at 1 ns: cannot name EuRoC files")
-    cams = [("cam0", "left")] + ([("cam1", "right")] if "right" in seq.views and seq.baseline_m > 0 else [])
-    mav = out / "mav0"
-    rows = {cam: ["#timestamp [ns],filename"] for cam, _ in cams}
-    with progress_bar(opts, len(frames) * len(cams), "euroc") as bar:
-        for k, tn in zip(frames, t_ns):
-            name = f"{int(tn)}.png"
-            for cam, view in cams:
-                write_png_rgb(mav / cam / "data" / name, image_gray(seq, k, view, opts))
-                rows[cam].append(f"{int(tn)},{name}")
-                bar.update()
-    for i, (cam, _) in enumerate(cams):
-        atomic.write_text(mav / cam / "data.csv", "\n".join(rows[cam]) + "\n")
-        atomic.write_text(mav / cam / "sensor.yaml", euroc_sensor_yaml(seq, i))
-    gt = mav / "state_groundtruth_estimate0"
-    atomic.write_text(gt / "data.csv", format_euroc(t_ns, seq.T_world_cam("left")[frames]))
-    atomic.write_text(gt / "sensor.yaml",
-                      "# General sensor definitions.\nsensor_type: visual-inertial\n"
-                      "comment: sesgen ground truth; body frame = left camera (cam0), R = the SES world\n\n"
-                      "# Sensor extrinsics wrt. the body-frame.\nT_BS:\n" + _yaml_matrix(np.eye(4)))
