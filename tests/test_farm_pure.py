@@ -94,7 +94,7 @@ def test_every_render_option_is_a_farm_option_and_reaches_the_render_unchanged()
     own = {a.dest for a in rp._actions if a.option_strings} - farm_cli.CONTROLLED
     assert passed_on == own and {"samples", "denoise", "seed", "resolution_scale", "device"} <= passed_on
     argv = ["--samples", "3", "--no-denoise", "--seed", "9", "--resolution-scale", "0.25", "--normal-pass",
-            "--device", "gpu"]
+            "--device", "gpu", "--rate", "20", "--motion-blur"]
     args = _farm_args(*argv)
     fwd = farm_cli.forwarded_argv(args)
     direct = rp.parse_args(["s.ses", "--out", "o", *argv])
@@ -103,7 +103,9 @@ def test_every_render_option_is_a_farm_option_and_reaches_the_render_unchanged()
     assert farm_cli.forwarded_argv(_farm_args()) == []         # defaults are the render's own
     assert farm_cli.forwarded_argv(_farm_args("--denoise")) == ["--denoise"]
     opts = farm_cli.render_options(args)
-    assert (opts.samples, opts.denoise, opts.seed, opts.resolution_scale, opts.normal_pass) == (3, False, 9, 0.25, True)
+    assert opts == render_cli.render_options(direct)      # what every chunk's render makes of them
+    assert (opts.samples, opts.denoise, opts.seed, opts.resolution_scale, opts.normal_pass, opts.rate_hz,
+            opts.motion_blur) == (3, False, 9, 0.25, True, 20.0, True)
 
 
 def test_scenes_are_prepared_before_ray_with_each_user_error_on_its_scene(tmp_path):

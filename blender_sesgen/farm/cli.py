@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import dataclasses
 import signal
 import sys
 import threading
@@ -84,11 +83,12 @@ def forwarded_argv(args: argparse.Namespace) -> list[str]:
 
 
 def render_options(args: argparse.Namespace):
-    """The RenderOptions every chunk renders with (what `render` builds from the same flags)."""
-    from ..plan import RenderOptions
-    kw = {f.name: getattr(args, f.name) for f in dataclasses.fields(RenderOptions)
-          if f.name not in ("frames", "threads", "verbose") and hasattr(args, f.name)}
-    return RenderOptions(**kw)
+    """The RenderOptions every chunk renders with: the render command's own reading of the
+    options the farm passes on (``render_cli.render_options``)."""
+    from .. import render_cli
+    p = argparse.ArgumentParser(add_help=False)
+    render_cli.add_arguments(p)
+    return render_cli.render_options(p.parse_args(["SCENE", "--out", "OUT", *forwarded_argv(args)]))
 
 
 def prepare(args: argparse.Namespace) -> tuple[Path, list]:
