@@ -15,6 +15,8 @@ import time
 from pathlib import Path
 from types import SimpleNamespace
 
+import pytest
+
 
 from blender_sesgen.farm import chunk as chunk_mod
 from blender_sesgen.farm import cli as farm_cli
@@ -381,3 +383,37 @@ def test_frames_the_verification_finds_missing_are_rendered_again(tmp_path):
     assert res.states[0].complete and len(checks) == 2
     assert ray.submitted == [("a", "0:2"), ("a", "2:4"), ("a", "4:5"), ("a", "3:4")]
     assert farm.bar.done == farm.bar.total == 5
+
+
+def test_the_shared_filesystem_check_names_the_node_that_cannot_see_root(tmp_path):
+    pytest.importorskip("ray")
+    from blender_sesgen.errors import SesgenError
+    from blender_sesgen.farm import cluster as cluster_mod
+
+    class ProbeRay:
+        """Two nodes; the second one mounts nothing of ours (it probes other paths)."""
+        def nodes(self):
+            return [{"NodeID": "a" * 56, "Alive": True, "NodeManagerAddress": "10.0.0.1"},
+                    {"NodeID": "b" * 56, "Alive": True, "NodeManagerAddress": "10.0.0.2"}]
+
+        def remote(self, fn):
+            def call(strategy, probe, token, paths):
+                if strategy.node_id.startswith("b"):
+                    probe, paths = probe + ".elsewhere", [p + ".elsewhere" for p in paths]
+                return fn(probe, token, paths)
+            return SimpleNamespace(options=lambda scheduling_strategy, **_: SimpleNamespace(
+                remote=lambda *a: call(scheduling_strategy, *a)))
+
+        def get(self, value, timeout=None):
+            return value
+
+    script = tmp_path / "s.ses"
+    script.write_text("x")
+    c = cluster_mod.Cluster.__new__(cluster_mod.Cluster)
+    c.ray = ProbeRay()
+    root = tmp_path / "R"
+    with pytest.raises(SesgenError) as e:
+        c.check_shared(root, [script])
+    msg = str(e.value)
+    assert "node 10.0.0.2" in msg and f"cannot see {root}" in msg and "cannot see 1 script(s)" in msg
+    assert "10.0.0.1" not in msg and list(root.iterdir()) == []      # the probe file is gone
