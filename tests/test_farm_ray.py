@@ -114,7 +114,7 @@ def exr_bytes(out: Path) -> dict[str, bytes]:
     return {p.relative_to(out).as_posix(): p.read_bytes() for p in sorted(out.glob("exr/*/*.exr"))}
 
 
-TIMING_FIELDS = ()   # the manifest holds no timing field today: it must equal the single render's
+TIMING_FIELDS = ()   # the manifest holds no wall-clock field today: it must equal the single render's
 
 
 def manifest(out: Path) -> dict:
