@@ -103,6 +103,18 @@ class FolderLocks:
         if self.path is not None:
             os.utime(self.path)
 
+    def drop_dead(self, host: str, pid: int) -> bool:
+        """Remove the lock of writer ``pid`` on ``host``, known to be dead by the caller (a
+        render farm whose task saw the render killed or lost its worker), at once instead of
+        after ``STALE_LOCK_S``. True if there was one."""
+        if not self.state.is_dir():
+            return False
+        path = self.state / f"lock-{_safe(host)}-{int(pid)}.json"
+        with self.mutex():
+            existed = path.is_file()
+            path.unlink(missing_ok=True)
+        return existed
+
     def drop(self) -> None:
         if self.path is not None:
             self.path.unlink(missing_ok=True)
