@@ -24,6 +24,7 @@ from typing import Callable, Optional
 
 from .contract.atomic import temp_path
 from .contract.manifest import Manifest
+from .finisher import Finisher
 from .output import OutputFolder
 from .plan import RenderOptions, RenderPlan
 
@@ -104,7 +105,8 @@ class RenderJob:
         """Build the scene in Blender (a dedicated scene 'SESGen'; rebuilding replaces)."""
         from .blender.session import BlenderSession
         kept = self.folder.resumable(self.plan)
-        self.session = BlenderSession(self.plan, known_exposure=(kept or {}).get("render", {}).get("exposure"))
+        self.session = BlenderSession(self.plan, known_exposure=(kept or {}).get("render", {}).get("exposure"),
+                                      fast=self.plan.options.fast_pipeline)
 
     def new_manifest(self) -> Manifest:
         """This job's manifest with no frame complete (needs the built session)."""
@@ -120,6 +122,13 @@ class RenderJob:
 
     def render_frame(self, k: int) -> FrameResult:
         """Render every view of frame ``k``; EXRs written atomically, then the manifest."""
+        res, finish = self._render(k)
+        finish()
+        return res
+
+    def _render(self, k: int) -> tuple[FrameResult, Callable[[], None]]:
+        """Render frame ``k`` into temporary files; returns its result and the step that
+        puts the files in place and marks the frame complete (no Blender in it)."""
         if self.session is None:
             self.build()
         self.begin()
@@ -127,26 +136,32 @@ class RenderJob:
         temps = {v: temp_path(p) for v, p in finals.items()}
         t0 = time.perf_counter()
         stats = self.session.render_frame(k, temps)
-        for v, tmp in temps.items():
-            if not tmp.is_file():
-                raise RuntimeError(f"Blender wrote no file for frame {k}, view {v}")
-            os.replace(tmp, finals[v])
         cyc = [st["cycles_s"] for st in stats.values()]
         res = FrameResult(frame=k, wall_s=time.perf_counter() - t0,
                           cycles_s=None if any(c is None for c in cyc) else sum(cyc), views=stats)
-        self.folder.mark_complete(k)
         self.timings.append(res)
-        return res
+
+        def finish() -> None:
+            for v, tmp in temps.items():
+                if not tmp.is_file():
+                    raise RuntimeError(f"Blender wrote no file for frame {k}, view {v}")
+                os.replace(tmp, finals[v])
+            self.folder.mark_complete(k)
+        return res, finish
 
     def run(self, progress: Optional[Callable[[int, int, FrameResult, float], None]] = None) -> list[FrameResult]:
-        """Render every pending frame; ``progress(i, n, result, elapsed_s)`` after each."""
+        """Render every pending frame; ``progress(i, n, result, elapsed_s)`` after each.
+        Each frame is finished (files renamed, marked complete) in the background while the
+        next one renders (``finisher``); all are complete when this returns."""
         todo = self.pending_frames()
         self.begin()
         t0 = time.perf_counter()
         out = []
-        for i, k in enumerate(todo):
-            r = self.render_frame(k)
-            out.append(r)
-            if progress:
-                progress(i + 1, len(todo), r, time.perf_counter() - t0)
+        with Finisher() as finisher:
+            for i, k in enumerate(todo):
+                r, finish = self._render(k)
+                finisher.submit(finish)
+                out.append(r)
+                if progress:
+                    progress(i + 1, len(todo), r, time.perf_counter() - t0)
         return out

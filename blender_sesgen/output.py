@@ -50,6 +50,7 @@ class OutputFolder:
             return False
         r = manifest.get("render", {})
         return (r.get("samples") == settings.samples and r.get("denoise") == settings.denoise
+                and r.get("sampling") == settings.preset.pixel_settings()
                 and r.get("seed") == settings.seed
                 and float(r.get("resolution_scale", 1.0)) == settings.resolution_scale
                 and list(r.get("passes", [])) == list(settings.passes)
@@ -93,7 +94,8 @@ class OutputFolder:
         if not self.same_settings(previous, plan.settings) and any(previous.get("frames_complete", [])) and not force:
             r = previous.get("render", {})
             raise SesgenError(f"--out {out}: holds frames rendered with other settings "
-                              f"(samples {r.get('samples')}, denoise {r.get('denoise')}, seed {r.get('seed')}, "
+                              f"(quality {r.get('quality')}, samples {r.get('samples')}, denoise {r.get('denoise')}, "
+                              f"seed {r.get('seed')}, "
                               f"resolution {previous.get('resolution')}); use --force to re-render")
 
     def pending(self, plan: RenderPlan, resume: bool) -> list[int]:

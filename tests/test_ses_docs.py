@@ -22,6 +22,7 @@ def test_examples_parse(tmp_path):
     (tmp_path / "models" / "chair.obj").write_text("v 0 0 0\n")
     extensions = parse_string(BLOCKS[1], base_dir=str(tmp_path))
     assert extensions.world.kind == "sky" and extensions.fog and extensions.noise and extensions.render.denoise
+    assert extensions.render.quality == "final"
 
 
 def test_every_keyword_and_tag_is_documented():

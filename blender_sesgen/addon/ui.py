@@ -59,8 +59,9 @@ class SESGEN_PT_render(_SidebarPanel, bpy.types.Panel):
         sub.active = s.use_frame_range
         sub.prop(s, "frame_first")
         sub.prop(s, "frame_last")
+        layout.prop(s, "quality")
         col = layout.column(heading="Sampling")
-        col.prop(s, "override_render", text="Override Script")
+        col.prop(s, "override_render", text="Override")
         sub = col.column(align=True)
         sub.active = s.override_render
         sub.prop(s, "samples")

@@ -6,12 +6,16 @@ the beauty pass is anti-aliased. Output: multilayer OpenEXR, float32, ZIP (lossl
 """
 from __future__ import annotations
 
+import os
 import re
 import time
+from pathlib import Path
+from typing import Optional
 
 import bpy
 
 from ..errors import SesgenError
+from ..presets import Preset
 from . import compat
 from .runtime import activate, quiet_stdout
 
@@ -26,7 +30,8 @@ def gpu_devices(kinds=("OPTIX", "CUDA", "HIP", "METAL", "ONEAPI")) -> tuple[str,
             prefs.compute_device_type = kind
         except TypeError:
             continue
-        prefs.get_devices()
+        with quiet_stdout():  # Cycles logs every backend it cannot load
+            prefs.get_devices()
         devs = [d for d in prefs.devices if d.type == kind]
         if devs:
             return kind, [d.name for d in devs]
@@ -44,23 +49,40 @@ def enable_gpu() -> str:
     return f"{backend}: {', '.join(names)}"
 
 
-def configure(bscene, *, samples: int, denoise: bool, gpu: bool = False, threads: int = 0,
+_GUIDES = {"none": "RGB", "albedo": "RGB_ALBEDO", "albedo_normal": "RGB_ALBEDO_NORMAL"}
+_PREFILTERS = {"none": "NONE", "fast": "FAST", "accurate": "ACCURATE"}
+
+
+def configure(bscene, preset: Preset, *, gpu: bool = False, threads: int = 0,
               normal_pass: bool = False, position_pass: bool = False) -> None:
+    """Cycles as ``preset`` says (presets.py), the passes, multilayer EXR output."""
     r = bscene.render
     r.engine = "CYCLES"
     c = bscene.cycles
     c.device = "GPU" if gpu else "CPU"
-    c.samples = int(samples)
-    c.use_adaptive_sampling = False
-    c.use_denoising = bool(denoise)
-    if denoise:
+    c.samples = int(preset.samples)
+    c.use_adaptive_sampling = preset.adaptive
+    c.adaptive_threshold = float(preset.adaptive_threshold)
+    c.adaptive_min_samples = int(preset.adaptive_min_samples)
+    c.use_denoising = bool(preset.denoise)
+    if preset.denoise:
         c.denoiser = "OPENIMAGEDENOISE"
+        c.denoising_input_passes = _GUIDES[preset.denoise_guides]
+        c.denoising_prefilter = _PREFILTERS[preset.denoise_prefilter]
+        if hasattr(c, "denoising_use_gpu"):  # on a CPU render, do not probe for GPUs to denoise on
+            c.denoising_use_gpu = bool(gpu)
     c.use_animated_seed = False
-    c.sample_clamp_indirect = 10.0
-    # enough bounces for indirect light in a closed room, fewer than Cycles' 12 (speed)
-    c.max_bounces, c.diffuse_bounces, c.glossy_bounces = 6, 3, 3
-    c.transmission_bounces, c.volume_bounces, c.transparent_max_bounces = 6, 0, 8
-    c.caustics_reflective = c.caustics_refractive = False
+    c.sample_clamp_direct = float(preset.clamp_direct)
+    c.sample_clamp_indirect = float(preset.clamp_indirect)
+    c.max_bounces, c.diffuse_bounces, c.glossy_bounces = preset.max_bounces, preset.diffuse_bounces, preset.glossy_bounces
+    c.transmission_bounces, c.volume_bounces = preset.transmission_bounces, preset.volume_bounces
+    c.transparent_max_bounces = preset.transparent_bounces
+    c.caustics_reflective = c.caustics_refractive = bool(preset.caustics)
+    c.use_light_tree = bool(preset.light_tree)
+    if hasattr(c, "use_guiding"):  # CPU path guiding (Cycles ignores it on a GPU)
+        c.use_guiding = bool(preset.path_guiding)
+    c.pixel_filter_type = "BLACKMAN_HARRIS"
+    c.filter_width = 1.5
     r.use_motion_blur = False
     r.film_transparent = False
     r.use_persistent_data = False
@@ -98,16 +120,9 @@ class _Stats:
             self.last = 3600 * int(m.group(1) or 0) + 60 * int(m.group(2)) + float(m.group(3))
 
 
-def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: bool = True) -> dict:
-    """Render ``camera`` at Blender frame ``frame`` into the multilayer EXR ``filepath``.
-
-    Returns {"wall_s": seconds around the render call, "cycles_s": Cycles' own render time}.
-    """
-    activate(bscene)
-    bscene.camera = camera
-    bscene.cycles.seed = int(seed)
-    bscene.frame_set(int(frame))
-    bscene.render.filepath = filepath
+def _render(bscene, quiet: bool) -> tuple[float, Optional[float]]:
+    """One render of the scene's camera at its current frame, its file(s) written; (wall s,
+    Cycles' own time)."""
     stats = _Stats()
     bpy.app.handlers.render_stats.append(stats)
     t0 = time.perf_counter()
@@ -120,5 +135,86 @@ def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: boo
         bpy.app.handlers.render_stats.remove(stats)
     wall = time.perf_counter() - t0
     if "FINISHED" not in result:
-        raise RuntimeError(f"Cycles render did not finish ({result}) for frame {frame}")
-    return {"wall_s": wall, "cycles_s": stats.last}
+        raise RuntimeError(f"Cycles render did not finish ({result}) for frame {bscene.frame_current}")
+    return wall, stats.last
+
+
+def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: bool = True) -> dict:
+    """Render ``camera`` at Blender frame ``frame`` into the multilayer EXR ``filepath``.
+
+    Returns {"wall_s": seconds around the render call, "cycles_s": Cycles' own render time}.
+    """
+    activate(bscene)
+    set_multiview(bscene, False)
+    bscene.camera = camera
+    bscene.cycles.seed = int(seed)
+    bscene.frame_set(int(frame))
+    bscene.render.filepath = filepath
+    wall, cycles = _render(bscene, quiet)
+    return {"wall_s": wall, "cycles_s": cycles}
+
+
+# --- both views in one render (multiview) -----------------------------------------------
+# Blender renders the views of a multiview scene in one render: the scene is synchronised
+# once and each view only re-syncs its camera. With views_format MULTIVIEW each view takes
+# the camera named like the active one with the view's suffix (SESGen_left -> SESGen_right),
+# so the views use exactly the cameras a per-view render uses; every view shares one Cycles
+# seed, which is why only a beauty pass that uses no random numbers may go this way
+# (presets.Preset.deterministic_rgb). Files: Blender inserts the view's file suffix before
+# the path's last dot.
+
+def can_render_multiview(cameras: dict) -> bool:
+    """The cameras are named for the suffix lookup (``SESGen_<view>``)."""
+    return len(cameras) > 1 and all(cam.name.endswith(f"_{v}") and cam.name[:-len(v) - 1] ==
+                                    cameras["left"].name[:-len("left") - 1] for v, cam in cameras.items())
+
+
+def set_multiview(bscene, on: bool, views=("left", "right")) -> None:
+    r = bscene.render
+    if not on:
+        if r.use_multiview:
+            r.use_multiview = False
+        return
+    r.use_multiview = True
+    r.views_format = "MULTIVIEW"
+    for v in r.views:
+        v.use = v.name in views
+    for name in views:
+        rv = r.views.get(name) or r.views.new(name)
+        rv.use = True
+        rv.camera_suffix = f"_{name}"
+        rv.file_suffix = f"_{name}"
+    r.image_settings.views_format = "INDIVIDUAL"
+
+
+def multiview_paths(base: Path, views) -> dict:
+    """Where Blender writes each view of a multiview render to ``base`` (suffix before the
+    name's last dot)."""
+    stem, dot, ext = base.name.rpartition(".")
+    return {v: base.with_name(f"{stem}_{v}.{ext}" if dot and stem else f"{base.name}_{v}") for v in views}
+
+
+def render_views(bscene, cameras: dict, frame: int, seed: int, paths: dict, quiet: bool = True) -> dict:
+    """Every view of ``cameras`` at ``frame`` in one multiview render, view v into
+    ``paths[v]``; {view: stats} (the render's wall and Cycles time split evenly)."""
+    views = tuple(cameras)
+    activate(bscene)
+    set_multiview(bscene, True, views)
+    bscene.camera = cameras[views[0]]
+    bscene.cycles.seed = int(seed)
+    bscene.frame_set(int(frame))
+    first = Path(paths[views[0]])                  # e.g. exr/left/.000003.tmp-PID.exr
+    base = first.with_name(first.name.removesuffix(".exr"))  # Blender writes .000003_<view>.tmp-PID
+    written = multiview_paths(base, views)
+    bscene.render.filepath = str(base)
+    try:
+        wall, cycles = _render(bscene, quiet)
+        for v in views:
+            os.replace(written[v], paths[v])
+    finally:
+        for p in written.values():
+            if p.exists():
+                p.unlink()
+    n = len(views)
+    return {v: {"wall_s": wall / n, "cycles_s": None if cycles is None else cycles / n, "shared_render": True}
+            for v in views}

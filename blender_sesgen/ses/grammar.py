@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from ..presets import QUALITIES
+
 
 @dataclass(frozen=True)
 class Tag:
@@ -98,7 +100,8 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
     Statement("FOG", _tags(_num("start", (1,), True, "start s"), _num("end", (1,), True, "end e"),
                            _num("colour", (3,), usage="colour r g b"))),
     Statement("NOISE", _tags(_num("sigma", (1,), True, "sigma s"), Tag("seed", "int", usage="seed n"))),
-    Statement("RENDER", _tags(Tag("samples", "int", required=True, usage="samples N"),
+    Statement("RENDER", _tags(Tag("quality", "choice", usage="quality gt|draft|final|reference", choices=QUALITIES),
+                              Tag("samples", "int", usage="samples N"),
                               Tag("denoise", "choice", usage="denoise on|off", choices=("on", "off")),
                               Tag("seed", "int", usage="seed n"))),
 )}
