@@ -34,6 +34,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="scale the image size and K (e.g. 0.5 for a quick look)")
     p.add_argument("--device", choices=("cpu", "gpu"), default="cpu", help="Cycles device (default cpu)")
     p.add_argument("--threads", type=int, default=0, metavar="N", help="CPU threads (0 = automatic)")
+    p.add_argument("--plain-pipeline", action="store_true",
+                   help="render each view in a fresh Cycles session, without persistent data or multiview "
+                        "(slower, the same pixels: to check the fast path)")
     p.add_argument("--normal-pass", action="store_true", help="also write the Normal pass")
     p.add_argument("--position-pass", action="store_true", help="also write the Position pass")
     p.add_argument("--contact-sheet", nargs="?", const="contact_sheet.png", metavar="PNG",
@@ -61,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
         quality=args.quality, samples=args.samples, denoise=args.denoise, seed=args.seed, device=args.device,
         resolution_scale=args.resolution_scale, frames=args.frames,
         normal_pass=args.normal_pass, position_pass=args.position_pass, threads=args.threads,
-        verbose=args.verbose,
+        verbose=args.verbose, fast_pipeline=not args.plain_pipeline,
     )
     job = RenderJob.prepare(args.scene, args.out, options, resume=args.resume, force=args.force)  # SesgenError -> 2
     if not _have_bpy():

@@ -115,7 +115,10 @@ class _Stats:
         self.last = None
 
     def __call__(self, text, *args):
-        m = _TIME_RE.search(str(text))
+        text = str(text)
+        if "Time:" not in text:  # called for every status line: keep it cheap
+            return
+        m = _TIME_RE.search(text)
         if m:
             self.last = 3600 * int(m.group(1) or 0) + 60 * int(m.group(2)) + float(m.group(3))
 
@@ -139,16 +142,36 @@ def _render(bscene, quiet: bool) -> tuple[float, Optional[float]]:
     return wall, stats.last
 
 
-def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: bool = True) -> dict:
+def _set(owner, name: str, value) -> None:
+    """Assign only a changed value: every RNA write triggers Blender's update machinery
+    (a new camera even rebuilds the dependency graph's relations)."""
+    if getattr(owner, name) != value:
+        setattr(owner, name, value)
+
+
+def _prepare(bscene, camera, frame: int, seed: int, fast: bool) -> None:
+    """Camera, seed and frame of the next render. ``fast``: set the frame without
+    evaluating the scene for it (the render evaluates its own dependency graph at the
+    scene's frame; frame_set would evaluate the view layer's too)."""
+    activate(bscene)
+    if fast:
+        _set(bscene, "camera", camera)
+        _set(bscene.cycles, "seed", int(seed))
+        _set(bscene, "frame_current", int(frame))
+    else:
+        bscene.camera = camera
+        bscene.cycles.seed = int(seed)
+        bscene.frame_set(int(frame))
+
+
+def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: bool = True,
+                fast: bool = False) -> dict:
     """Render ``camera`` at Blender frame ``frame`` into the multilayer EXR ``filepath``.
 
     Returns {"wall_s": seconds around the render call, "cycles_s": Cycles' own render time}.
     """
-    activate(bscene)
     set_multiview(bscene, False)
-    bscene.camera = camera
-    bscene.cycles.seed = int(seed)
-    bscene.frame_set(int(frame))
+    _prepare(bscene, camera, frame, seed, fast)
     bscene.render.filepath = filepath
     wall, cycles = _render(bscene, quiet)
     return {"wall_s": wall, "cycles_s": cycles}
@@ -172,9 +195,11 @@ def can_render_multiview(cameras: dict) -> bool:
 def set_multiview(bscene, on: bool, views=("left", "right")) -> None:
     r = bscene.render
     if not on:
-        if r.use_multiview:
-            r.use_multiview = False
+        _set(r, "use_multiview", False)
         return
+    if r.use_multiview and r.views_format == "MULTIVIEW" and r.image_settings.views_format == "INDIVIDUAL" \
+            and [v.name for v in r.views if v.use] == list(views):
+        return  # set up by the previous frame
     r.use_multiview = True
     r.views_format = "MULTIVIEW"
     for v in r.views:
@@ -198,11 +223,8 @@ def render_views(bscene, cameras: dict, frame: int, seed: int, paths: dict, quie
     """Every view of ``cameras`` at ``frame`` in one multiview render, view v into
     ``paths[v]``; {view: stats} (the render's wall and Cycles time split evenly)."""
     views = tuple(cameras)
-    activate(bscene)
     set_multiview(bscene, True, views)
-    bscene.camera = cameras[views[0]]
-    bscene.cycles.seed = int(seed)
-    bscene.frame_set(int(frame))
+    _prepare(bscene, cameras[views[0]], frame, seed, fast=True)
     first = Path(paths[views[0]])                  # e.g. exr/left/.000003.tmp-PID.exr
     base = first.with_name(first.name.removesuffix(".exr"))  # Blender writes .000003_<view>.tmp-PID
     written = multiview_paths(base, views)

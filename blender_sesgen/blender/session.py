@@ -86,12 +86,13 @@ class BlenderSession:
         """Render frame ``k`` of each view into ``paths[view]``; {view: render stats}."""
         quiet = not self.plan.options.verbose
         bframe = rig.blender_frame(k)
-        if self.multiview:
-            return render.render_views(self.built.scene, self.built.cameras, bframe,
-                                       render_seed(self.plan.settings.seed, k, 0), paths, quiet=quiet)
+        seed = self.plan.settings.seed
+        if self.multiview:  # the RGB uses no random numbers: one seed for the sequence
+            return render.render_views(self.built.scene, self.built.cameras, bframe, render_seed(seed, 0, 0),
+                                       paths, quiet=quiet)
         stats = {}
         for vi, view in enumerate(self.plan.views):
             stats[view] = render.render_view(self.built.scene, self.built.cameras[view], bframe,
-                                             render_seed(self.plan.settings.seed, k, vi), str(paths[view]),
-                                             quiet=quiet)
+                                             render_seed(seed, k, vi), str(paths[view]), quiet=quiet,
+                                             fast=self.persistent)
         return stats
