@@ -120,9 +120,8 @@ class Bench:
             if self.views == tuple(self.plan.views):
                 stats = s.render_frame(k, paths)
             else:  # one view: the session's per-view path
-                stats = {v: brender.render_view(s.built.scene, s.built.cameras[v], rig.blender_frame(k),
-                                                render_seed(self.plan.settings.seed, k, vi), str(paths[v]))
-                         for vi, v in enumerate(self.views)}
+                stats = brender.render_views(s.built.scene, s.built.cameras, self.views, rig.blender_frame(k),
+                                             render_seed(self.plan.settings.seed, k, 0), paths)
             walls.append(time.perf_counter() - t0)
             cpus.append(cpu_s() - c0)
             cyc = [st["cycles_s"] for st in stats.values()]

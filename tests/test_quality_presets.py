@@ -173,8 +173,8 @@ def test_fast_pipeline_gives_the_plain_pixels(tmp_path, quality, options):
     """Persistent data (+ multiview for gt) vs a fresh render per view: every channel equal."""
     mf, fast = _render(tmp_path, "fast", quality=quality, **options)
     mp, plain = _render(tmp_path, "plain", quality=quality, fast_pipeline=False, **options)
-    assert mf["render"]["pipeline"] == {"persistent_data": True, "multiview": quality == "gt"}
-    assert mp["render"]["pipeline"] == {"persistent_data": False, "multiview": False}
+    assert mf["render"]["pipeline"] == {"persistent_data": True, "views_per_render": 2 if quality == "gt" else 1}
+    assert mp["render"]["pipeline"] == {"persistent_data": False, "views_per_render": 1}
     for key in plain:
         assert fast[key].keys() == plain[key].keys()
         for name in plain[key]:

@@ -177,39 +177,43 @@ def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: boo
     return {"wall_s": wall, "cycles_s": cycles}
 
 
-# --- both views in one render (multiview) -----------------------------------------------
-# Blender renders the views of a multiview scene in one render: the scene is synchronised
-# once and each view only re-syncs its camera. With views_format MULTIVIEW each view takes
-# the camera named like the active one with the view's suffix (SESGen_left -> SESGen_right),
-# so the views use exactly the cameras a per-view render uses; every view shares one Cycles
-# seed, which is why only a beauty pass that uses no random numbers may go this way
-# (presets.Preset.deterministic_rgb). Files: Blender inserts the view's file suffix before
-# the path's last dot.
+# --- the fast path: one camera for Blender, views chosen per render ---------------------
+# Switching ``scene.camera`` rebuilds Blender's dependency-graph relations, and Cycles then
+# synchronises the whole scene again and rebuilds its BVH (measured: 11 s per view for a
+# street of a few hundred assets, ~all of a ground-truth frame's time). So the fast path
+# never switches it: the scene renders in multiview mode (views_format MULTIVIEW) with the
+# left camera active, and each enabled view takes the camera named like the active one
+# with the view's suffix (SESGen_left -> SESGen_right), i.e. exactly the camera a per-view
+# render uses. A render enables the views it draws: one view (with that view's own seed),
+# or both at once when the beauty pass uses no random numbers
+# (``presets.Preset.deterministic_rgb``: the views of one render share a seed). The scene
+# is then synchronised once for the sequence (``use_persistent_data``); per frame only the
+# cameras move. Files: Blender inserts the view's suffix before the path's last dot.
 
 def can_render_multiview(cameras: dict) -> bool:
-    """The cameras are named for the suffix lookup (``SESGen_<view>``)."""
-    return len(cameras) > 1 and all(cam.name.endswith(f"_{v}") and cam.name[:-len(v) - 1] ==
-                                    cameras["left"].name[:-len("left") - 1] for v, cam in cameras.items())
+    """The cameras are named for the suffix lookup (``<name>_<view>``, one name)."""
+    stems = {cam.name[:-len(v) - 1] for v, cam in cameras.items() if cam.name.endswith(f"_{v}")}
+    return len(stems) == 1 and len(cameras) == sum(cam.name.endswith(f"_{v}") for v, cam in cameras.items())
 
 
 def set_multiview(bscene, on: bool, views=("left", "right")) -> None:
+    """Multiview rendering of exactly ``views`` (each view's camera and file suffix
+    ``_<view>``), or off."""
     r = bscene.render
     if not on:
         _set(r, "use_multiview", False)
         return
-    if r.use_multiview and r.views_format == "MULTIVIEW" and r.image_settings.views_format == "INDIVIDUAL" \
-            and [v.name for v in r.views if v.use] == list(views):
-        return  # set up by the previous frame
-    r.use_multiview = True
-    r.views_format = "MULTIVIEW"
-    for v in r.views:
-        v.use = v.name in views
+    _set(r, "use_multiview", True)
+    _set(r, "views_format", "MULTIVIEW")
+    _set(r.image_settings, "views_format", "INDIVIDUAL")
     for name in views:
-        rv = r.views.get(name) or r.views.new(name)
-        rv.use = True
-        rv.camera_suffix = f"_{name}"
-        rv.file_suffix = f"_{name}"
-    r.image_settings.views_format = "INDIVIDUAL"
+        if r.views.get(name) is None:
+            r.views.new(name)
+    for rv in r.views:
+        _set(rv, "use", rv.name in views)
+        if rv.name in views:
+            _set(rv, "camera_suffix", f"_{rv.name}")
+            _set(rv, "file_suffix", f"_{rv.name}")
 
 
 def multiview_paths(base: Path, views) -> dict:
@@ -219,12 +223,13 @@ def multiview_paths(base: Path, views) -> dict:
     return {v: base.with_name(f"{stem}_{v}.{ext}" if dot and stem else f"{base.name}_{v}") for v in views}
 
 
-def render_views(bscene, cameras: dict, frame: int, seed: int, paths: dict, quiet: bool = True) -> dict:
-    """Every view of ``cameras`` at ``frame`` in one multiview render, view v into
-    ``paths[v]``; {view: stats} (the render's wall and Cycles time split evenly)."""
-    views = tuple(cameras)
+def render_views(bscene, cameras: dict, views, frame: int, seed: int, paths: dict, quiet: bool = True) -> dict:
+    """``views`` (a subset of ``cameras``) at ``frame`` in one multiview render with Cycles
+    seed ``seed``, view v into ``paths[v]``; {view: stats} (the render's wall and Cycles
+    time split evenly between its views)."""
+    views = tuple(views)
     set_multiview(bscene, True, views)
-    _prepare(bscene, cameras[views[0]], frame, seed, fast=True)
+    _prepare(bscene, cameras["left"], frame, seed, fast=True)
     first = Path(paths[views[0]])                  # e.g. exr/left/.000003.tmp-PID.exr
     base = first.with_name(first.name.removesuffix(".exr"))  # Blender writes .000003_<view>.tmp-PID
     written = multiview_paths(base, views)
@@ -238,5 +243,5 @@ def render_views(bscene, cameras: dict, frame: int, seed: int, paths: dict, quie
             if p.exists():
                 p.unlink()
     n = len(views)
-    return {v: {"wall_s": wall / n, "cycles_s": None if cycles is None else cycles / n, "shared_render": True}
+    return {v: {"wall_s": wall / n, "cycles_s": None if cycles is None else cycles / n, "views_per_render": n}
             for v in views}

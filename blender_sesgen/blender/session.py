@@ -6,12 +6,12 @@ quality preset says (``render``, ``presets``) and fixes the film exposure;
 nothing of output folders or manifests beyond what it reports for them (channel names,
 exposure, Blender's version, how it renders).
 
-Speed: the Cycles session persists from frame to frame (``use_persistent_data``: a static
-scene is synchronised, its shaders compiled and its BVH built once, not per view), and
-when the beauty pass uses no random numbers (the ``gt`` preset) both views are rendered
-in one multiview render. Both give the same pixels as a fresh render per view
-(tests/test_quality_presets.py, bench/identical_renders.py); ``fast=False`` renders the
-plain way.
+Speed (``fast``): the Cycles session persists from frame to frame and the active camera
+never changes (``render.render_views``), so a static scene is synchronised, its shaders
+compiled and its BVH built once per sequence, not once per view; when the beauty pass uses
+no random numbers (the ``gt`` preset) both views are rendered in one multiview render. The
+pixels are those of a fresh render per view (tests/test_quality_presets.py,
+bench/identical_renders.py); ``fast=False`` renders that plain way.
 """
 from __future__ import annotations
 
@@ -49,9 +49,9 @@ class BlenderSession:
         exposure.set_exposure(self.built.scene, self.exposure)
         if self.flat:
             shading.apply_flat_shading(self.built, plan.scene, builder.tag)
-        self.persistent = bool(fast)
-        self.built.scene.render.use_persistent_data = self.persistent
-        self.multiview = bool(fast and s.preset.deterministic_rgb and render.can_render_multiview(self.built.cameras))
+        self.fast = bool(fast and render.can_render_multiview(self.built.cameras))
+        self.built.scene.render.use_persistent_data = self.fast
+        self.views_per_render = len(plan.views) if self.fast and s.preset.deterministic_rgb else 1
 
     def _exposure(self, known: Optional[float]) -> float:
         """Default lighting only: one film exposure for the whole sequence (blender/exposure.py),
@@ -77,7 +77,7 @@ class BlenderSession:
         rule = EXPOSURE_RULE_FLAT if self.flat else EXPOSURE_RULE_LIGHTS if self.plan.scene.lights \
             else EXPOSURE_RULE_AUTO
         extra = {"exr_layout": self.channels["layout"], "exposure": self.exposure, "exposure_rule": rule,
-                 "pipeline": {"persistent_data": self.persistent, "multiview": self.multiview}}
+                 "pipeline": {"persistent_data": self.fast, "views_per_render": self.views_per_render}}
         if self.gpu:
             extra["gpu"] = self.gpu
         return extra
@@ -87,12 +87,15 @@ class BlenderSession:
         quiet = not self.plan.options.verbose
         bframe = rig.blender_frame(k)
         seed = self.plan.settings.seed
-        if self.multiview:  # the RGB uses no random numbers: one seed for the sequence
-            return render.render_views(self.built.scene, self.built.cameras, bframe, render_seed(seed, 0, 0),
-                                       paths, quiet=quiet)
+        scene, cameras, views = self.built.scene, self.built.cameras, self.plan.views
+        if self.views_per_render > 1:  # the RGB uses no random numbers: one seed for the sequence
+            return render.render_views(scene, cameras, views, bframe, render_seed(seed, 0, 0), paths, quiet)
         stats = {}
-        for vi, view in enumerate(self.plan.views):
-            stats[view] = render.render_view(self.built.scene, self.built.cameras[view], bframe,
-                                             render_seed(seed, k, vi), str(paths[view]), quiet=quiet,
-                                             fast=self.persistent)
+        for vi, view in enumerate(views):
+            if self.fast:
+                stats.update(render.render_views(scene, cameras, (view,), bframe, render_seed(seed, k, vi),
+                                                 paths, quiet))
+            else:
+                stats[view] = render.render_view(scene, cameras[view], bframe, render_seed(seed, k, vi),
+                                                 str(paths[view]), quiet=quiet)
         return stats
