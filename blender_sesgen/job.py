@@ -16,7 +16,6 @@ with results identical to an uninterrupted run.
 """
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -102,7 +101,8 @@ class RenderJob:
 
     # --- doing it -----------------------------------------------------------------------
     def build(self) -> None:
-        """Build the scene in Blender (a dedicated scene 'SESGen'; rebuilding replaces)."""
+        """Build the scene in Blender (a dedicated scene 'SESGen'; rebuilding replaces).
+        Writes nothing into the output folder."""
         from .blender.session import BlenderSession
         kept = self.folder.resumable(self.plan)
         self.session = BlenderSession(self.plan, known_exposure=(kept or {}).get("render", {}).get("exposure"),
@@ -114,54 +114,82 @@ class RenderJob:
                                   blender_version=self.session.blender_version)
 
     def begin(self) -> None:
-        """Write the folder's skeleton (scene.ses, poses/, the manifest); once."""
+        """Lock the folder and write its skeleton (the manifest first, scene.ses, poses/); once."""
         if self.folder.manifest is None:
             if self.session is None:
                 self.build()
             self.folder.begin(self.plan, self.new_manifest(), self.resume, self.force)
 
-    def render_frame(self, k: int) -> FrameResult:
-        """Render every view of frame ``k``; EXRs written atomically, then the manifest."""
-        res, finish = self._render(k)
+    def render_frame(self, k: int, stop: Callable[[], bool] = lambda: False) -> FrameResult:
+        """Render every view of frame ``k`` into temporary files, check them, move them into
+        place, record the frame complete. ``stop()`` is asked between views: when it says
+        yes the frame is dropped and KeyboardInterrupt raised (the folder stays resumable)."""
+        res, finish = self._render(k, stop)
         finish()
         return res
 
-    def _render(self, k: int) -> tuple[FrameResult, Callable[[], None]]:
+    def _render(self, k: int, stop: Callable[[], bool]) -> tuple[FrameResult, Callable[[], None]]:
         """Render frame ``k`` into temporary files; returns its result and the step that
-        puts the files in place and marks the frame complete (no Blender in it)."""
+        checks them, moves them into place and records the frame complete (no Blender in
+        it: ``run`` lets a background thread do it while the next frame renders)."""
         if self.session is None:
             self.build()
         self.begin()
-        finals = {v: self.folder.exr_path(v, k) for v in self.plan.views}
-        temps = {v: temp_path(p) for v, p in finals.items()}
+        temps = {v: temp_path(self.folder.exr_path(v, k)) for v in self.plan.views}
         t0 = time.perf_counter()
-        stats = self.session.render_frame(k, temps)
+        try:
+            stats = self.session.render_frame(k, temps, stop)
+        except BaseException:
+            for tmp in temps.values():
+                tmp.unlink(missing_ok=True)
+            raise
         cyc = [st["cycles_s"] for st in stats.values()]
         res = FrameResult(frame=k, wall_s=time.perf_counter() - t0,
                           cycles_s=None if any(c is None for c in cyc) else sum(cyc), views=stats)
         self.timings.append(res)
 
         def finish() -> None:
-            for v, tmp in temps.items():
-                if not tmp.is_file():
-                    raise RuntimeError(f"Blender wrote no file for frame {k}, view {v}")
-                os.replace(tmp, finals[v])
-            self.folder.mark_complete(k)
+            try:
+                for v, tmp in temps.items():
+                    if not tmp.is_file():
+                        raise RuntimeError(f"Blender wrote no file for frame {k}, view {v}")
+                self.folder.commit_frame(k, temps, self._required_channels())
+            finally:
+                for tmp in temps.values():
+                    tmp.unlink(missing_ok=True)
         return res, finish
 
-    def run(self, progress: Optional[Callable[[int, int, FrameResult, float], None]] = None) -> list[FrameResult]:
-        """Render every pending frame; ``progress(i, n, result, elapsed_s)`` after each.
-        Each frame is finished (files renamed, marked complete) in the background while the
-        next one renders (``finisher``); all are complete when this returns."""
+    def _required_channels(self) -> tuple[str, ...]:
+        names = []
+        for v in self.folder.manifest.channels.values():
+            names += [v] if isinstance(v, str) else list(v)
+        return tuple(names)
+
+    def run(self, progress: Optional[Callable[[int, int, FrameResult, float], None]] = None,
+            stop: Callable[[], bool] = lambda: False) -> list[FrameResult]:
+        """Render every pending frame; ``progress(i, n, result, elapsed_s)`` after each;
+        ``stop()`` asked between views (KeyboardInterrupt, the folder resumable). Each frame
+        is checked, moved into place and recorded complete in the background while the next
+        one renders (``finisher``); all of them are, and the lock is released and the
+        completion log taken into the manifest, however it ends."""
         todo = self.pending_frames()
-        self.begin()
-        t0 = time.perf_counter()
         out = []
-        with Finisher() as finisher:
-            for i, k in enumerate(todo):
-                r, finish = self._render(k)
-                finisher.submit(finish)
-                out.append(r)
-                if progress:
-                    progress(i + 1, len(todo), r, time.perf_counter() - t0)
+        try:
+            self.begin()
+            t0 = time.perf_counter()
+            with Finisher() as finisher:
+                for i, k in enumerate(todo):
+                    if stop():
+                        raise KeyboardInterrupt
+                    r, finish = self._render(k, stop)
+                    finisher.submit(finish)
+                    out.append(r)
+                    if progress:
+                        progress(i + 1, len(todo), r, time.perf_counter() - t0)
+        finally:
+            self.close()
         return out
+
+    def close(self) -> None:
+        """Release the folder: the completion log into the manifest, the lock dropped."""
+        self.folder.release()

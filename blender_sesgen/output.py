@@ -1,27 +1,59 @@
 """A render's output folder: what it holds, whether a plan may write into it, and every
 write into it (pure: numpy + stdlib; the files' layout is ``contract.manifest``'s).
 
-The folder owns the one comparison of settings (:meth:`OutputFolder.same_settings`): a
-folder holding frames of the same scene rendered with the same pixel-affecting settings
-can be resumed; anything else is refused unless the user forces it. Every file is written
-under a temporary name and renamed (``contract.atomic``), so stopping at any point leaves a
-folder that ``--resume`` completes with results identical to an uninterrupted run.
+Rules that keep a folder's data safe:
+
+- **The one comparison of settings** (:meth:`OutputFolder.same_settings`): frames of the
+  same scene rendered with the same pixel-affecting settings can be resumed; anything else
+  is refused unless the user forces it.
+- **A lock per frame range** (``.sesgen/lock-*.json``, created under a short ``flock`` on
+  ``.sesgen/mutex``): a second render of overlapping frames, or of another scene or
+  settings, is refused with the holder's host and pid; disjoint chunks of the same plan
+  (a render farm) may write concurrently. A lock whose process is gone (same host) or
+  that has not been refreshed for ``STALE_LOCK_S`` (another host) is taken over.
+- **Crash-consistent start**: the manifest is written first, so a folder holding anything
+  of ours is a render that ``--resume`` continues.
+- **Verified writes**: an EXR is written under a temporary name, checked (every chunk inside
+  the file, the required channels present) before it replaces the previous file, its
+  SHA-256 recorded; a short write (a full disk) is an error and the old file stays. Its
+  wall-clock header fields (date, render times) are removed: the same seed gives
+  byte-identical files.
+- **O(1) completion**: each completed frame is one line appended to this writer's log
+  ``.sesgen/done-<host>-<pid>.jsonl``; the manifest takes the logs in when the render ends
+  (readers merge them meanwhile), written durably (fsync of the file and its folder).
 """
 from __future__ import annotations
 
+import contextlib
+import hashlib
+import json
+import os
 import re
+import socket
+import time
 from pathlib import Path
 from typing import Optional
 
 from .contract import atomic
 from .contract.errors import ContractError
-from .contract.manifest import (EXR_DIR, FORMAT, MANIFEST, POSES_DIR, SCENE_COPY, Manifest, exr_relpath,
-                                load_json, trajectory_relpaths)
+from .contract.manifest import (DONE_LOG_GLOB, EXR_DIR, FORMAT, MANIFEST, POSES_DIR, SCENE_COPY, STATE_DIR,
+                                Manifest, completed_in_logs, exr_relpath, load_json, trajectory_relpaths)
 from .contract.trajectory_files import format_ego_table, format_kitti, format_tum
 from .errors import SesgenError
+from .exr import ExrError, check_complete, decode, read_layout, strip_volatile_attributes
 from .plan import RenderPlan, RenderSettings
 
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - Windows: the lock files still guard, without the mutex
+    fcntl = None
+
 _OWN_EXR = re.compile(r"^\d{6}\.exr$")
+STALE_LOCK_S = 900.0  # a lock of another host not refreshed for this long is taken over
+
+
+class RenderWriteError(RuntimeError):
+    """A file could not be written completely (a full disk, a failing device): exit 1."""
 
 
 class OutputFolder:
@@ -29,9 +61,16 @@ class OutputFolder:
 
     def __init__(self, root):
         self.root = Path(root)
+        self.state = self.root / STATE_DIR
         self._previous: Optional[dict] = None
         self._loaded = False
+        self._kept: Optional[dict] = None
+        self._kept_for: Optional[RenderPlan] = None
         self.manifest: Optional[Manifest] = None    # this render's manifest, once begun
+        self.checksums: dict[str, str] = {}
+        self._lock_path: Optional[Path] = None
+        self._log = None
+        self._writer = f"{_safe(socket.gethostname())}-{os.getpid()}"
 
     # --- what is there ------------------------------------------------------------------
     def previous(self) -> Optional[dict]:
@@ -58,11 +97,21 @@ class OutputFolder:
 
     def resumable(self, plan: RenderPlan) -> Optional[dict]:
         """The previous manifest if its frames may be kept for ``plan`` (same scene and
-        settings), else None."""
-        prev = self.previous()
-        if prev and prev.get("scene_sha256") == plan.scene_sha256 and self.same_settings(prev, plan.settings):
-            return prev
-        return None
+        settings), else None. Decided once per plan."""
+        if self._kept_for is not plan:
+            prev = self.previous()
+            same = prev and prev.get("scene_sha256") == plan.scene_sha256 and self.same_settings(prev, plan.settings)
+            self._kept, self._kept_for = (prev if same else None), plan
+        return self._kept
+
+    def _completed(self, kept: dict) -> list[bool]:
+        """Completion of a kept manifest with the logs merged (frames whose files exist)."""
+        n = int(kept.get("frames", 0))
+        done = list(kept.get("frames_complete", [])) + [False] * n
+        for k in completed_in_logs(self.root):
+            if 0 <= k < n:
+                done[k] = True
+        return done[:n]
 
     def check(self, plan: RenderPlan, force: bool) -> None:
         """Refuse a folder that is not ours or holds another scene's output (unless ``force``).
@@ -81,7 +130,7 @@ class OutputFolder:
                     from None
             return
         if previous is None:
-            if any(out.iterdir()) and not force:
+            if any(p.name != STATE_DIR for p in out.iterdir()) and not force:
                 raise SesgenError(f"--out {out}: folder is not empty and holds no render (no manifest.json); "
                                   "use --force to write into it anyway")
             return
@@ -91,7 +140,7 @@ class OutputFolder:
         if previous.get("scene_sha256") != plan.scene_sha256 and not force:
             raise SesgenError(f"--out {out}: holds the output of a different scene ({previous.get('scene_source')}); "
                               "use --force to replace it")
-        if not self.same_settings(previous, plan.settings) and any(previous.get("frames_complete", [])) and not force:
+        if not self.same_settings(previous, plan.settings) and any(self._completed(previous)) and not force:
             r = previous.get("render", {})
             raise SesgenError(f"--out {out}: holds frames rendered with other settings "
                               f"(quality {r.get('quality')}, samples {r.get('samples')}, denoise {r.get('denoise')}, "
@@ -103,41 +152,173 @@ class OutputFolder:
         if self.manifest is not None:
             done = self.manifest.frames_complete
         elif resume and self.resumable(plan) is not None:
-            done = self.previous().get("frames_complete", [])
+            done = self._completed(self.resumable(plan))
         else:
             return list(plan.frames)
         return [k for k in plan.frames if not (k < len(done) and done[k])]
 
+    # --- the lock -------------------------------------------------------------------------
+    @contextlib.contextmanager
+    def _mutex(self):
+        self.state.mkdir(parents=True, exist_ok=True)
+        with open(self.state / "mutex", "a+") as f:
+            if fcntl is not None:
+                fcntl.flock(f.fileno(), fcntl.LOCK_EX)
+            try:
+                yield
+            finally:
+                if fcntl is not None:
+                    fcntl.flock(f.fileno(), fcntl.LOCK_UN)
+
+    def _live_locks(self) -> list[dict]:
+        """Locks of running writers; the stale ones are removed (taken over)."""
+        live = []
+        for path in sorted(self.state.glob("lock-*.json")):
+            try:
+                info = json.loads(path.read_text(encoding="utf-8"))
+                host, pid = str(info["host"]), int(info["pid"])
+            except (OSError, ValueError, KeyError, TypeError):
+                info, host, pid = None, "", -1
+            if info is None or _stale(host, pid, path):
+                path.unlink(missing_ok=True)
+                continue
+            info["path"] = path
+            live.append(info)
+        return live
+
+    def acquire(self, plan: RenderPlan) -> None:
+        """Take this render's lock (see the module docstring); SesgenError if a live writer
+        holds overlapping frames, or renders another scene or other settings here."""
+        if self._lock_path is not None:
+            return
+        first, last = min(plan.frames), max(plan.frames)
+        with self._mutex():
+            for other in self._live_locks():
+                same_plan = other.get("scene_sha256") == plan.scene_sha256 and \
+                    other.get("settings") == _settings_key(plan.settings)
+                overlap = not (last < other["frames"][0] or first > other["frames"][1])
+                if overlap or not same_plan:
+                    since = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(other.get("started", 0)))
+                    raise SesgenError(
+                        f"--out {self.root}: being rendered by pid {other['pid']} on {other['host']} "
+                        f"(frames {other['frames'][0]}..{other['frames'][1]}, since {since}"
+                        f"{'' if same_plan else ', another scene or other settings'}); "
+                        "wait for it to finish, or render into another folder")
+            self._lock_path = self.state / f"lock-{self._writer}.json"
+            atomic.write_json(self._lock_path, {
+                "host": socket.gethostname(), "pid": os.getpid(), "frames": [first, last],
+                "started": time.time(), "scene_sha256": plan.scene_sha256, "settings": _settings_key(plan.settings)})
+
+    def release(self) -> None:
+        """Take the completion log into the manifest and drop the lock (end of a render,
+        also after an error or an interrupt)."""
+        if self._log is not None:
+            self._log.close()
+            self._log = None
+        if self._lock_path is None:
+            return
+        try:
+            if self.manifest is not None:
+                with self._mutex():
+                    self._merge_logs()
+        finally:
+            self._lock_path.unlink(missing_ok=True)
+            self._lock_path = None
+
     # --- writing ------------------------------------------------------------------------
     def begin(self, plan: RenderPlan, manifest: Manifest, resume: bool, force: bool) -> None:
-        """Create the folder, scene.ses, poses/ and the manifest (keeping the completion
-        state of frames already rendered with the same scene and settings)."""
+        """Lock, then write the manifest first (keeping the completion of frames already
+        rendered with the same scene and settings), scene.ses and poses/."""
+        self.acquire(plan)
         out = self.root
-        prev = self.previous()
-        if prev is not None and force and prev.get("scene_sha256") != plan.scene_sha256:
-            self._remove_own_outputs()
+        with self._mutex():
+            self._loaded, self._kept_for = False, None  # another chunk may have begun since check()
+            prev = self.previous()
+            if prev is not None and force and prev.get("scene_sha256") != plan.scene_sha256:
+                self._remove_own_outputs()
+            kept = self.resumable(plan)
+            if kept is not None:
+                prev_done = self._completed(kept)
+                self.checksums = dict(kept.get("checksums") or {})
+                for files in completed_in_logs(out).values():
+                    self.checksums.update(files)
+                redo = set() if resume else set(plan.frames)
+                manifest = manifest.with_complete(
+                    [bool(prev_done[k] and k not in redo and self._files_exist(manifest, k))
+                     for k in range(manifest.frames)])
+            self.manifest = manifest
+            self._write_manifest(dead_logs_only=True)
+        atomic.write_text(out / SCENE_COPY, plan.scene_text, durable=True)
         for view in plan.views:
             (out / EXR_DIR / view).mkdir(parents=True, exist_ok=True)
         self._remove_stale_temporaries()
-        atomic.write_text(out / SCENE_COPY, plan.scene_text, durable=True)
-        kept = self.resumable(plan)
-        if kept is not None:
-            prev_done = kept.get("frames_complete", [])
-            redo = set() if resume else set(plan.frames)
-            manifest = manifest.with_complete(
-                [bool(k < len(prev_done) and prev_done[k] and k not in redo and self._files_exist(manifest, k))
-                 for k in range(manifest.frames)])
         self._write_pose_files(plan, manifest)
-        self.manifest = manifest
-        manifest.write(out)
 
     def exr_path(self, view: str, k: int) -> Path:
         return self.root / exr_relpath(view, k)
 
-    def mark_complete(self, k: int) -> None:
-        """Record frame ``k`` complete (its files are in place)."""
+    def commit_frame(self, k: int, written: dict[str, Path], required_channels: tuple) -> None:
+        """Check each view's freshly written EXR (``written[view]``, a temporary file), strip
+        its wall-clock header fields, move it into place and record frame ``k`` complete;
+        RenderWriteError (the previous files kept) if a file is short or lacks a channel."""
+        sums = {}
+        for view, tmp in written.items():
+            rel = exr_relpath(view, k)
+            try:
+                buf = Path(tmp).read_bytes()
+                layout = check_complete(buf, rel, required_channels, read_layout(buf, rel))
+                buf = strip_volatile_attributes(buf, layout)
+                with open(tmp, "wb") as f:
+                    f.write(buf)
+            except (OSError, ExrError) as e:
+                for t in written.values():
+                    Path(t).unlink(missing_ok=True)
+                raise RenderWriteError(f"frame {k} ({view}): the EXR was not written completely ({e}); "
+                                       "is the disk full? The previous files were kept") from None
+            sums[rel] = hashlib.sha256(buf).hexdigest()
+        for view, tmp in written.items():
+            os.replace(tmp, self.root / exr_relpath(view, k))
         self.manifest.frames_complete[k] = True
+        self.checksums.update(sums)
+        self._append_log({"frame": int(k), "files": sums})
+
+    def _append_log(self, record: dict) -> None:
+        if self._log is None:
+            self._log = open(self.state / f"done-{self._writer}.jsonl", "a", encoding="utf-8")
+        # flushed, not fsync'd: a killed process loses nothing (the page cache survives it);
+        # after a power cut a frame whose line was lost is rendered again, and one whose
+        # EXR was lost is caught by its checksum (`verify`)
+        self._log.write(json.dumps(record) + "\n")
+        self._log.flush()
+        if self._lock_path is not None:  # refresh: a live lock
+            os.utime(self._lock_path)
+
+    def _merge_logs(self) -> None:
+        """Under the mutex: what the manifest on disk holds now (other chunks may have merged
+        theirs) and the logs' completions, into the manifest; own and dead logs removed."""
+        try:
+            on_disk = load_json(self.root / MANIFEST)
+            done = on_disk.get("frames_complete") or []
+            if on_disk.get("scene_sha256") == self.manifest.scene_sha256 and len(done) == self.manifest.frames:
+                self.manifest.frames_complete = [a or bool(b) for a, b in zip(self.manifest.frames_complete, done)]
+                self.checksums = {**dict(on_disk.get("checksums") or {}), **self.checksums}
+        except ContractError:
+            pass
+        for k, files in completed_in_logs(self.root).items():
+            if 0 <= k < self.manifest.frames:
+                self.manifest.frames_complete[k] = True
+                self.checksums.update(files)
+        self._write_manifest(dead_logs_only=False)
+
+    def _write_manifest(self, dead_logs_only: bool) -> None:
+        if self.checksums:
+            self.manifest.extra["checksums"] = dict(sorted(self.checksums.items()))
         self.manifest.write(self.root)
+        live = {p.stem.replace("lock-", "", 1) for p in self.state.glob("lock-*.json")}
+        for log in self.state.glob(DONE_LOG_GLOB):
+            writer = log.stem.replace("done-", "", 1)
+            if writer not in live or (not dead_logs_only and writer == self._writer):
+                log.unlink(missing_ok=True)
 
     def _files_exist(self, m: Manifest, k: int) -> bool:
         return all((self.root / m.files[v][k]).is_file() for v in m.views)
@@ -150,6 +331,55 @@ class OutputFolder:
                               format_tum(manifest.timestamps_s, T, "T_world_cam: OpenCV camera, SES world"))
             atomic.write_text(self.root / rel["kitti"][view], format_kitti(T))
         atomic.write_text(self.root / rel["ego"], format_ego_table(plan.scene.timeline.ego_table()))
+
+    # --- checking ---------------------------------------------------------------------------
+    def verify(self, full: bool = True, progress=None) -> list[tuple[int, str]]:
+        """(frame, what is wrong) for every frame recorded complete whose files are missing,
+        truncated, lack a channel the manifest names, differ from their recorded SHA-256, or
+        (``full``) hold pixel data that does not decode. ``progress(i, n)`` after each frame."""
+        m = Manifest.read(self.root)
+        sums = dict(m.extra.get("checksums") or {})
+        required = []
+        for v in m.channels.values():
+            required += [v] if isinstance(v, str) else list(v)
+        done = [k for k in range(m.frames) if m.frames_complete[k]]
+        bad = []
+        for i, k in enumerate(done):
+            for view in m.views:
+                rel = m.files[view][k]
+                try:
+                    buf = (self.root / rel).read_bytes()
+                    check_complete(buf, rel, tuple(required))
+                    if rel in sums and hashlib.sha256(buf).hexdigest() != sums[rel]:
+                        raise ExrError(f"{rel}: its SHA-256 differs from the one recorded when it was written")
+                    if full:
+                        decode(buf, rel)
+                except FileNotFoundError:
+                    bad.append((k, f"{rel}: missing"))
+                    break
+                except (OSError, ExrError) as e:
+                    bad.append((k, str(e)))
+                    break
+            if progress:
+                progress(i + 1, len(done))
+        return bad
+
+    def mark_incomplete(self, frames) -> None:
+        """Record ``frames`` as not rendered (``--resume`` renders them again); refused while
+        a render writes into the folder."""
+        with self._mutex():
+            live = self._live_locks()
+            if live:
+                raise SesgenError(f"--out {self.root}: being rendered by pid {live[0]['pid']} on {live[0]['host']}; "
+                                  "verify again when it has finished")
+            self.manifest = Manifest.read(self.root)
+            self.checksums = dict(self.manifest.extra.get("checksums") or {})
+            for k in frames:
+                self.manifest.frames_complete[k] = False
+                for view in self.manifest.views:
+                    self.checksums.pop(self.manifest.files[view][k], None)
+            self.manifest.extra["checksums"] = self.checksums
+            self._write_manifest(dead_logs_only=False)
 
     def _remove_own_outputs(self) -> None:
         """Delete the files a previous render wrote (our own names only; nothing else)."""
@@ -164,13 +394,48 @@ class OutputFolder:
             for f in pd.iterdir():
                 if f.name.endswith((".tum.txt", ".kitti.txt")) or f.name == "ego.txt":
                     f.unlink()
+        for log in self.state.glob(DONE_LOG_GLOB):
+            log.unlink()
         (self.root / MANIFEST).unlink(missing_ok=True)
-        self._previous, self._loaded = None, True
+        self._previous, self._loaded, self._kept_for = None, True, None
 
     def _remove_stale_temporaries(self) -> None:
-        for view in ("left", "right"):
-            d = self.root / EXR_DIR / view
-            if d.is_dir():
-                for f in d.iterdir():
-                    if atomic.is_temp_name(f.name) or (f.name.startswith(".") and ".exr.tmp-" in f.name):
-                        f.unlink()
+        """Temporary files of interrupted writers (never those of a live one: its pid is in the name)."""
+        live = {int(p.stem.rsplit("-", 1)[-1]) for p in self.state.glob("lock-*.json") if p.stem[-1].isdigit()}
+        folders = [self.root / EXR_DIR / v for v in ("left", "right")] + [self.root, self.root / POSES_DIR, self.state]
+        for d in folders:
+            if not d.is_dir():
+                continue
+            for f in d.iterdir():
+                m = re.search(r"\.tmp-(\d+)", f.name)
+                if f.is_file() and m and atomic.is_temp_name(f.name) and int(m.group(1)) not in live:
+                    f.unlink(missing_ok=True)
+
+
+def _safe(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.]", "_", text) or "host"
+
+
+def _settings_key(settings: RenderSettings) -> str:
+    return json.dumps({"samples": settings.samples, "denoise": settings.denoise, "seed": settings.seed,
+                       "scale": settings.resolution_scale, "passes": list(settings.passes),
+                       "size": [settings.width, settings.height]}, sort_keys=True)
+
+
+def _stale(host: str, pid: int, path: Path) -> bool:
+    """A lock whose writer is gone: this host and no such process, or not refreshed for
+    STALE_LOCK_S (another host)."""
+    if host == socket.gethostname():
+        if pid == os.getpid():
+            return False
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return True
+        except PermissionError:
+            return False
+        return False
+    try:
+        return time.time() - path.stat().st_mtime > STALE_LOCK_S
+    except OSError:
+        return True

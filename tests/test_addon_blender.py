@@ -24,6 +24,7 @@ from blender_sesgen.contract import manifest as contract
 from blender_sesgen.plan import RenderPlan
 from blender_sesgen.addon import package
 from blender_sesgen.ses import parse_file
+from raycast import euler_xyz_deg as R_xyz_deg  # the SES rule R = Rz @ Ry @ Rx, written independently
 
 pytestmark = [pytest.mark.render,
               pytest.mark.skipif(importlib.util.find_spec("bpy") is None, reason="needs the bpy wheel")]
@@ -79,15 +80,6 @@ def to_ses(P_blender) -> np.ndarray:
     return np.asarray(P_blender, dtype=float) @ C_BLENDER_SES  # row vectors: C^T p
 
 
-def R_xyz_deg(rx, ry, rz) -> np.ndarray:
-    """R = Rz @ Ry @ Rx (SES rule: X then Y then Z about the world axes)."""
-    a, b, c = np.radians([rx, ry, rz])
-    Rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
-    Ry = np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
-    Rz = np.array([[np.cos(c), -np.sin(c), 0], [np.sin(c), np.cos(c), 0], [0, 0, 1]])
-    return Rz @ Ry @ Rx
-
-
 # --- install, register, unregister -----------------------------------------------------
 
 def test_blender_validates_the_zip(addon_zip):
@@ -102,8 +94,8 @@ def test_blender_validates_the_zip(addon_zip):
 def test_zip_installs_enables_and_disables_cleanly(addon_zip, tmp_path):
     res = run_child("""
         import addon_utils
-        OPS = ["check", "build", "render", "open_output", "preview", "import_ses"]
-        PANELS = ["SESGEN_PT_main", "SESGEN_PT_render", "SESGEN_PT_preview"]
+        OPS = ["check", "build", "render", "open_output", "preview", "export", "import_ses"]
+        PANELS = ["SESGEN_PT_main", "SESGEN_PT_render", "SESGEN_PT_preview", "SESGEN_PT_export"]
         def menu_funcs():
             return [getattr(f, "__module__", "") for f in getattr(bpy.types.TOPBAR_MT_file_import.draw, "_draw_funcs", [])]
         def state():
@@ -352,6 +344,41 @@ def test_render_operator_writes_the_output_contract_and_preview(addon_zip, tmp_p
     d_max = m["K"][0][0] * m["baseline"] / z_right[z_right < 1e9].min()
     assert f"0..{d_max:.2f} px" in pv["disparity"]["text"]
     assert "not rendered" in pv["not_rendered"]["error"]
+
+
+def test_export_operator_writes_a_dataset_layout_through_vo_reference(addon_zip, tmp_path):
+    """Render two frames, then Export Dataset: the add-on runs vo-reference (here this test's
+    Python, which has vo_reference) and reports its result; a missing tool is a clear error."""
+    out, ds = tmp_path / "out", tmp_path / "dataset"
+    res = run_child(f"""
+        S().script_path = {str(REPO / 'scenes' / 'minimal.ses')!r}
+        s = S()
+        s.output_dir = {str(out)!r}
+        s.use_frame_range, s.frame_first, s.frame_last = True, 0, 1
+        s.override_render, s.samples = True, 1
+        s.resolution_scale = 0.5
+        RESULT["render"] = call(bpy.ops.sesgen.render)
+        s = S()
+        s.export_target, s.export_dir, s.export_sequence = "tartanair", {str(ds)!r}, "room/Easy/P000"
+        s.vo_command = {f"{sys.executable} -m vo_reference"!r}
+        RESULT["export"] = call(bpy.ops.sesgen.export)
+        RESULT["status"], RESULT["progress"] = S().status, S().progress
+        S().export_target, S().export_sequence = "kitti-odometry", "05"
+        RESULT["kitti"] = call(bpy.ops.sesgen.export)
+        S().vo_command = {str(tmp_path / "no-such-tool")!r}
+        RESULT["missing"] = call(bpy.ops.sesgen.export)
+        S().vo_command, S().export_target = {f"{sys.executable} -m vo_reference"!r}, "tum"
+        RESULT["no_slot"] = call(bpy.ops.sesgen.export)
+    """, addon_zip, tmp_path)
+    assert res["render"]["error"] is None
+    assert res["export"] == {"result": ["FINISHED"], "error": None}
+    assert res["status"].startswith("exported") and res["progress"] == 1.0
+    seq = ds / "room/Easy/P000"
+    assert sorted(p.name for p in (seq / "image_left").iterdir()) == ["000000_left.png", "000001_left.png"]
+    assert (seq / "flow/000000_000001_flow.npy").is_file() and len((seq / "pose_left.txt").read_text().splitlines()) == 2
+    assert res["kitti"]["error"] is None and (ds / "dataset/poses/05.txt").is_file()
+    assert res["missing"]["result"] is None and "pip install 'blender-sesgen[vo]'" in res["missing"]["error"]
+    assert res["no_slot"]["result"] is None and "no sequence slot" in res["no_slot"]["error"]
 
 
 def test_cancel_leaves_a_resumable_folder_and_resume_completes_it(addon_zip, tmp_path):

@@ -23,23 +23,33 @@ def _fail(op, context, values, e: Exception):
     return {"CANCELLED"}
 
 
+def _run(op, context, action) -> set:
+    """``action(values) -> message`` on a settings snapshot; the message is reported, a
+    SesgenError reported as an error and shown in the panel."""
+    values = session.read_settings(context)
+    try:
+        msg = action(values)
+    except SesgenError as e:
+        return _fail(op, context, values, e)
+    op.report({"INFO"}, msg)
+    return {"FINISHED"}
+
+
+def _check(context, values) -> str:
+    path = session.script_path(values)
+    state.forget(path)
+    msg = "Script OK: " + "; ".join(state.summary_lines(state.parse_script(path))[:2])
+    session.set_status(values, msg, context=context)
+    return msg
+
+
 class SESGEN_OT_check(bpy.types.Operator):
     """Parse the script again and report its summary or its errors"""
     bl_idname = "sesgen.check"
     bl_label = "Check Script"
 
     def execute(self, context):
-        values = session.read_settings(context)
-        try:
-            path = session.script_path(values)
-            state.forget(path)
-            scene = state.parse_script(path)
-        except SesgenError as e:
-            return _fail(self, context, values, e)
-        msg = "Script OK: " + "; ".join(state.summary_lines(scene)[:2])
-        self.report({"INFO"}, msg)
-        session.set_status(values, msg, context=context)
-        return {"FINISHED"}
+        return _run(self, context, lambda values: _check(context, values))
 
 
 class SESGEN_OT_build(bpy.types.Operator):
@@ -53,13 +63,7 @@ class SESGEN_OT_build(bpy.types.Operator):
         return session.RenderSession.active is None and context.scene is not None
 
     def execute(self, context):
-        values = session.read_settings(context)
-        try:
-            msg = session.build_scene(context, values)
-        except SesgenError as e:
-            return _fail(self, context, values, e)
-        self.report({"INFO"}, msg)
-        return {"FINISHED"}
+        return _run(self, context, lambda values: session.build_scene(context, values))
 
 
 class SESGEN_OT_render(bpy.types.Operator):
@@ -75,13 +79,7 @@ class SESGEN_OT_render(bpy.types.Operator):
         return session.RenderSession.active is None and context.scene is not None
 
     def execute(self, context):  # headless: every frame, synchronously
-        values = session.read_settings(context)
-        try:
-            msg = session.render_all(context, values)
-        except SesgenError as e:
-            return _fail(self, context, values, e)
-        self.report({"INFO"}, msg)
-        return {"FINISHED"}
+        return _run(self, context, lambda values: session.render_all(context, values))
 
     def invoke(self, context, event):  # interactive: one frame per timer tick
         values = session.read_settings(context)
@@ -157,13 +155,78 @@ class SESGEN_OT_preview(bpy.types.Operator):
     bl_label = "Preview Ground Truth"
 
     def execute(self, context):
+        return _run(self, context, lambda values: f"preview: {session.preview(context, values)[1]} "
+                                                  f"(image '{session.PREVIEW_IMAGE}')")
+
+
+class SESGEN_OT_export(bpy.types.Operator):
+    """Export the rendered frames of the output folder to a dataset layout (runs vo_reference; Esc cancels)"""
+    bl_idname = "sesgen.export"
+    bl_label = "Export Dataset"
+
+    _timer = None
+    _proc = None
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None and session.RenderSession.active is None
+
+    def execute(self, context):  # headless: runs to the end
         values = session.read_settings(context)
         try:
-            _img, text = session.preview(context, values)
+            proc = session.start_export(values)
+            proc.wait()
+            msg = session.finish_export(values, proc, context)
         except SesgenError as e:
             return _fail(self, context, values, e)
-        self.report({"INFO"}, f"preview: {text} (image '{session.PREVIEW_IMAGE}')")
+        self.report({"INFO"}, msg)
         return {"FINISHED"}
+
+    def invoke(self, context, event):  # interactive: the progress bar follows the tool's JSON events
+        values = session.read_settings(context)
+        try:
+            self._proc = session.start_export(values)
+        except SesgenError as e:
+            return _fail(self, context, values, e)
+        self._values = values
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.1, window=context.window)
+        wm.modal_handler_add(self)
+        session.set_status(values, f"exporting to {values['export_target']}...", 0.0, context=context)
+        return {"RUNNING_MODAL"}
+
+    def _stop_timer(self, context):
+        if self._timer is not None:
+            context.window_manager.event_timer_remove(self._timer)
+            self._timer = None
+
+    def modal(self, context, event):
+        p, values = self._proc, self._values
+        if event.type == "ESC" and event.value == "PRESS":
+            p.cancel()
+            self._stop_timer(context)
+            session.set_status(values, "export cancelled (nothing half-written is left)", context=context)
+            self.report({"WARNING"}, "export cancelled")
+            return {"CANCELLED"}
+        if event.type != "TIMER" or event.timer is not self._timer:
+            return {"PASS_THROUGH"}
+        p.poll()
+        if not p.finished:
+            session.set_status(values, f"exporting to {values['export_target']}: {p.done}/{p.total} (Esc to cancel)",
+                               p.fraction, context=context)
+            return {"RUNNING_MODAL"}
+        self._stop_timer(context)
+        try:
+            msg = session.finish_export(values, p, context)
+        except SesgenError as e:
+            return _fail(self, context, values, e)
+        self.report({"INFO"}, msg)
+        return {"FINISHED"}
+
+    def cancel(self, context):
+        if self._proc is not None and not self._proc.finished:
+            self._proc.cancel()
+        self._stop_timer(context)
 
 
 class SESGEN_OT_import(bpy.types.Operator, ImportHelper):
@@ -181,13 +244,7 @@ class SESGEN_OT_import(bpy.types.Operator, ImportHelper):
 
     def execute(self, context):
         context.scene.sesgen.script_path = self.filepath
-        values = session.read_settings(context)
-        try:
-            msg = session.build_scene(context, values)
-        except SesgenError as e:
-            return _fail(self, context, values, e)
-        self.report({"INFO"}, msg)
-        return {"FINISHED"}
+        return _run(self, context, lambda values: session.build_scene(context, values))
 
 
 def menu_import(self, context):
@@ -195,4 +252,4 @@ def menu_import(self, context):
 
 
 CLASSES = (SESGEN_OT_check, SESGEN_OT_build, SESGEN_OT_render, SESGEN_OT_open_output,
-           SESGEN_OT_preview, SESGEN_OT_import)
+           SESGEN_OT_preview, SESGEN_OT_export, SESGEN_OT_import)

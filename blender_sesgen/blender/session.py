@@ -16,7 +16,7 @@ bench/identical_renders.py); ``fast=False`` renders that plain way.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
+from typing import Callable, Optional
 
 from ..contract.manifest import render_seed
 from ..plan import Device, RenderPlan
@@ -82,16 +82,21 @@ class BlenderSession:
             extra["gpu"] = self.gpu
         return extra
 
-    def render_frame(self, k: int, paths: dict[str, Path]) -> dict[str, dict]:
-        """Render frame ``k`` of each view into ``paths[view]``; {view: render stats}."""
+    def render_frame(self, k: int, paths: dict[str, Path], stop: Callable[[], bool] = lambda: False) -> dict[str, dict]:
+        """Render frame ``k`` of each view into ``paths[view]``; {view: render stats}.
+        ``stop()`` is asked before each render (KeyboardInterrupt when it says yes)."""
         quiet = not self.plan.options.verbose
         bframe = rig.blender_frame(k)
         seed = self.plan.settings.seed
         scene, cameras, views = self.built.scene, self.built.cameras, self.plan.views
+        if stop():
+            raise KeyboardInterrupt
         if self.views_per_render > 1:  # the RGB uses no random numbers: one seed for the sequence
             return render.render_views(scene, cameras, views, bframe, render_seed(seed, 0, 0), paths, quiet)
         stats = {}
         for vi, view in enumerate(views):
+            if vi and stop():
+                raise KeyboardInterrupt
             if self.fast:
                 stats.update(render.render_views(scene, cameras, (view,), bframe, render_seed(seed, k, vi),
                                                  paths, quiet))

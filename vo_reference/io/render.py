@@ -15,6 +15,7 @@ hits nothing: the reader returns +inf there, never a finite depth.
 """
 from __future__ import annotations
 
+import hashlib
 from collections import OrderedDict
 from pathlib import Path
 
@@ -28,6 +29,8 @@ from ..errors import VoError, as_vo_error
 from .color import rgb8_to_gray8
 from .exr import find_pass, read_exr_channels
 from .base import check_frame_view
+
+__all__ = ["RenderSequence", "read_manifest"]
 
 # pass name candidates (Blender 5.0 first, then 4.x names)
 PASS_COMBINED = ("Combined",)
@@ -52,8 +55,11 @@ class RenderSequence:
     :meth:`exr_path`.
     """
 
-    def __init__(self, root, cache_frames: int = 4):
+    def __init__(self, root, cache_frames: int = 4, verify: bool = False):
+        """``verify``: check every EXR read against the SHA-256 the renderer recorded for it
+        (VoError on a mismatch: the file changed or was damaged after it was written)."""
         self.root = Path(root)
+        self.verify = bool(verify)
         self.info = m = read_manifest(self.root)
         self.manifest = m.to_json()
         self.resolution = m.resolution
@@ -92,6 +98,8 @@ class RenderSequence:
             self._cache.move_to_end(key)
             return self._cache[key]
         path = self.exr_path(k, view)
+        if self.verify:
+            self._check_sha256(path)
         ch = read_exr_channels(path)
         W, H = self.resolution
         shape = next(iter(ch.values())).shape
@@ -102,6 +110,19 @@ class RenderSequence:
         while len(self._cache) > self._cache_frames:
             self._cache.popitem(last=False)
         return ch
+
+    def _check_sha256(self, path: Path) -> None:
+        rel = path.relative_to(self.root).as_posix()
+        want = (self.info.extra.get("checksums") or {}).get(rel)
+        if want is None:
+            raise VoError(f"{path}: no checksum recorded for it (rendered before checksums existed?)")
+        try:
+            got = hashlib.sha256(path.read_bytes()).hexdigest()
+        except OSError as e:
+            raise VoError(f"{path}: cannot read ({e.strerror})") from None
+        if got != want:
+            raise VoError(f"{path}: differs from the file the renderer wrote (SHA-256 mismatch); "
+                          "run `python -m blender_sesgen verify` on the folder and re-render with --resume")
 
     def _pass(self, k, view, names, comps, what, key=None):
         ch = self._channels(k, view)
