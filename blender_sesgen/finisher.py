@@ -4,8 +4,9 @@ Once Blender has written a frame's EXRs under their temporary names, what is lef
 checking the files, renaming them into place, recording the frame complete — needs no
 Blender. :class:`Finisher` runs those steps in one background thread, in submission order,
 while the next frame renders (Cycles releases the GIL while it renders). At most one frame
-waits to be finished, so memory does not grow; a failure is raised in the rendering thread
-at the next :meth:`Finisher.submit` or at :meth:`Finisher.close`. Leaving the ``with`` block
+is being finished and one waits (``submit`` blocks beyond that), so temporary files and
+memory do not pile up; after a failure no further task runs, and the failure is raised in
+the rendering thread at the next :meth:`Finisher.submit` or at :meth:`Finisher.close`. Leaving the ``with`` block
 (normally, on an error or on Ctrl-C) waits for the submitted frames, so the folder is
 consistent: a frame is complete only once its files are in place.
 """
