@@ -23,7 +23,6 @@ from typing import Callable, Optional
 
 from .contract.atomic import temp_path
 from .contract.manifest import Manifest
-from .finisher import Finisher
 from .output import OutputFolder
 from .plan import RenderOptions, RenderPlan
 
@@ -123,15 +122,11 @@ class RenderJob:
     def render_frame(self, k: int, stop: Callable[[], bool] = lambda: False) -> FrameResult:
         """Render every view of frame ``k`` into temporary files, check them, move them into
         place, record the frame complete. ``stop()`` is asked between views: when it says
-        yes the frame is dropped and KeyboardInterrupt raised (the folder stays resumable)."""
-        res, finish = self._render(k, stop)
-        finish()
-        return res
+        yes the frame is dropped and KeyboardInterrupt raised (the folder stays resumable).
 
-    def _render(self, k: int, stop: Callable[[], bool]) -> tuple[FrameResult, Callable[[], None]]:
-        """Render frame ``k`` into temporary files; returns its result and the step that
-        checks them, moves them into place and records the frame complete (no Blender in
-        it: ``run`` lets a background thread do it while the next frame renders)."""
+        All of it runs in the calling thread: a Python thread doing the checks while Blender
+        renders the next frame crashed Blender (2 of 7 runs of 1000 frames segfaulted,
+        bench/bench_memory.py; bpy is not thread-safe even towards threads that never call it)."""
         if self.session is None:
             self.build()
         self.begin()
@@ -139,25 +134,18 @@ class RenderJob:
         t0 = time.perf_counter()
         try:
             stats = self.session.render_frame(k, temps, stop)
-        except BaseException:
+            for v, tmp in temps.items():
+                if not tmp.is_file():
+                    raise RuntimeError(f"Blender wrote no file for frame {k}, view {v}")
+            self.folder.commit_frame(k, temps, self._required_channels())
+        finally:
             for tmp in temps.values():
                 tmp.unlink(missing_ok=True)
-            raise
         cyc = [st["cycles_s"] for st in stats.values()]
         res = FrameResult(frame=k, wall_s=time.perf_counter() - t0,
                           cycles_s=None if any(c is None for c in cyc) else sum(cyc), views=stats)
         self.timings.append(res)
-
-        def finish() -> None:
-            try:
-                for v, tmp in temps.items():
-                    if not tmp.is_file():
-                        raise RuntimeError(f"Blender wrote no file for frame {k}, view {v}")
-                self.folder.commit_frame(k, temps, self._required_channels())
-            finally:
-                for tmp in temps.values():
-                    tmp.unlink(missing_ok=True)
-        return res, finish
+        return res
 
     def _required_channels(self) -> tuple[str, ...]:
         names = []
@@ -168,24 +156,20 @@ class RenderJob:
     def run(self, progress: Optional[Callable[[int, int, FrameResult, float], None]] = None,
             stop: Callable[[], bool] = lambda: False) -> list[FrameResult]:
         """Render every pending frame; ``progress(i, n, result, elapsed_s)`` after each;
-        ``stop()`` asked between views (KeyboardInterrupt, the folder resumable). Each frame
-        is checked, moved into place and recorded complete in the background while the next
-        one renders (``finisher``); all of them are, and the lock is released and the
-        completion log taken into the manifest, however it ends."""
+        ``stop()`` asked between views (KeyboardInterrupt, the folder resumable). The lock is
+        released and the completion log taken into the manifest however it ends."""
         todo = self.pending_frames()
         out = []
         try:
             self.begin()
             t0 = time.perf_counter()
-            with Finisher() as finisher:
-                for i, k in enumerate(todo):
-                    if stop():
-                        raise KeyboardInterrupt
-                    r, finish = self._render(k, stop)
-                    finisher.submit(finish)
-                    out.append(r)
-                    if progress:
-                        progress(i + 1, len(todo), r, time.perf_counter() - t0)
+            for i, k in enumerate(todo):
+                if stop():
+                    raise KeyboardInterrupt
+                r = self.render_frame(k, stop)
+                out.append(r)
+                if progress:
+                    progress(i + 1, len(todo), r, time.perf_counter() - t0)
         finally:
             self.close()
         return out
