@@ -7,6 +7,10 @@ add-on's preview work inside Blender's own Python, which has no OpenEXR module. 
 readers (vo_reference, the tests) use the OpenEXR package.
 
     channels = read_exr("exr/left/000000.exr")   # {"ViewLayer.Depth.Z": (H, W) float32, ...}
+    write_exr("out.exr", channels)               # single part, float32, ZIP (lossless)
+
+:func:`write_exr` is what the sensor path uses to put a motion-blurred beauty pass and the
+sharp ground-truth passes of a separate render into one file.
 """
 from __future__ import annotations
 
@@ -215,3 +219,50 @@ def strip_volatile_attributes(buf: bytes, layout: ExrLayout | None = None, volat
         pos += 8 * len(offsets)
     out += buf[pos:]
     return bytes(out)
+
+
+def _header_attr(name: str, typ: str, value: bytes) -> bytes:
+    return name.encode() + b"\0" + typ.encode() + b"\0" + struct.pack("<i", len(value)) + value
+
+
+def _zip_block(raw: bytes) -> bytes:
+    """OpenEXR's ZIP coding of one block: bytes split even/odd, delta-coded, deflated
+    (stored raw when that is not smaller)."""
+    a = np.frombuffer(raw, dtype=np.uint8)
+    t = np.concatenate([a[0::2], a[1::2]])
+    d = t.astype(np.int16)
+    d[1:] = (t[1:].astype(np.int16) - t[:-1].astype(np.int16) + 128 + 256) & 0xFF
+    packed = zlib.compress(d.astype(np.uint8).tobytes(), 6)
+    return packed if len(packed) < len(raw) else raw
+
+
+def write_exr(path, channels: dict) -> None:
+    """Write {name: (H, W) array} as a single-part scanline EXR, float32, ZIP (lossless),
+    through a temporary file. Channels are stored in name order, as the format requires."""
+    names = sorted(channels)
+    arrays = [np.ascontiguousarray(channels[n], dtype="<f4") for n in names]
+    H, W = arrays[0].shape
+    if any(a.shape != (H, W) for a in arrays):
+        raise ExrError("write_exr: every channel needs the same (H, W) shape")
+    chlist = b"".join(n.encode() + b"\0" + struct.pack("<iB3xii", 2, 0, 1, 1) for n in names) + b"\0"
+    box = struct.pack("<4i", 0, 0, W - 1, H - 1)
+    header = (_header_attr("channels", "chlist", chlist) + _header_attr("compression", "compression", bytes([3]))
+              + _header_attr("dataWindow", "box2i", box) + _header_attr("displayWindow", "box2i", box)
+              + _header_attr("lineOrder", "lineOrder", bytes([0]))
+              + _header_attr("pixelAspectRatio", "float", struct.pack("<f", 1.0))
+              + _header_attr("screenWindowCenter", "v2f", struct.pack("<2f", 0.0, 0.0))
+              + _header_attr("screenWindowWidth", "float", struct.pack("<f", 1.0)) + b"\0")
+    lines = _LINES_PER_BLOCK[3]
+    stacked = np.stack(arrays, axis=1)            # (H, C, W): per scanline, channel after channel
+    chunks = []
+    for y in range(0, H, lines):
+        data = _zip_block(stacked[y:y + lines].tobytes())
+        chunks.append(struct.pack("<ii", y, len(data)) + data)
+    start = 8 + len(header) + 8 * len(chunks)
+    offsets, pos = [], start
+    for c in chunks:
+        offsets.append(pos)
+        pos += len(c)
+    blob = (struct.pack("<ii", MAGIC, 2) + header + struct.pack(f"<{len(offsets)}Q", *offsets) + b"".join(chunks))
+    from .contract import atomic
+    atomic.write_bytes(Path(path), blob)

@@ -63,6 +63,8 @@ class RenderJob:
     def of(cls, plan: RenderPlan, out_dir, *, resume: bool = False, force: bool = False) -> "RenderJob":
         folder = OutputFolder(out_dir)
         folder.check(plan, force)
+        from .sensor.outputs import check_resumable
+        check_resumable(plan.sensor, folder.previous(), list(plan.frames), resume, force)
         return cls(plan, folder, resume=resume, force=force)
 
     # --- what the job is ----------------------------------------------------------------
@@ -109,8 +111,11 @@ class RenderJob:
 
     def new_manifest(self) -> Manifest:
         """This job's manifest with no frame complete (needs the built session)."""
-        return self.plan.manifest(channels=self.session.channels, render_extra=self.session.manifest_extra(),
-                                  blender_version=self.session.blender_version)
+        m = self.plan.manifest(channels=self.session.channels, render_extra=self.session.manifest_extra(),
+                               blender_version=self.session.blender_version)
+        from .sensor.outputs import prepare_manifest
+        prepare_manifest(self.plan.sensor, m, self.folder.resumable(self.plan), self.out_dir)
+        return m
 
     def begin(self) -> None:
         """Lock the folder and write its skeleton (the manifest first, scene.ses, poses/); once."""
@@ -118,6 +123,8 @@ class RenderJob:
             if self.session is None:
                 self.build()
             self.folder.begin(self.plan, self.new_manifest(), self.resume, self.force)
+            from .sensor.outputs import write_static_files
+            write_static_files(self.plan.sensor, self.out_dir, self.plan.scene.frames)
 
     def render_frame(self, k: int, stop: Callable[[], bool] = lambda: False) -> FrameResult:
         """Render every view of frame ``k`` into temporary files, check them, move them into
@@ -132,11 +139,16 @@ class RenderJob:
         self.begin()
         temps = {v: temp_path(self.folder.exr_path(v, k)) for v in self.plan.views}
         t0 = time.perf_counter()
+        from .sensor import outputs as sensor_outputs
+        exposure_s, gain = sensor_outputs.exposure_for(self.plan.sensor, self.manifest.extra, k)
         try:
-            stats = self.session.render_frame(k, temps, stop)
+            stats = self.session.render_frame(k, temps, stop, exposure_s=exposure_s)
             for v, tmp in temps.items():
                 if not tmp.is_file():
                     raise RuntimeError(f"Blender wrote no file for frame {k}, view {v}")
+            if self.plan.sensor.writes_sensor_images:   # from the checked-in-a-moment EXRs
+                sensor_outputs.write_sensor_images(self.plan.sensor, self.manifest, self.out_dir, k, exposure_s,
+                                                   gain, temps, jpeg_writer=self.session.jpeg_writer)
             self.folder.commit_frame(k, temps, self._required_channels())
         finally:
             for tmp in temps.values():

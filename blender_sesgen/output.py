@@ -6,11 +6,9 @@ Rules that keep a folder's data safe:
 - **The one comparison of settings** (:meth:`OutputFolder.same_settings`): frames of the
   same scene rendered with the same pixel-affecting settings can be resumed; anything else
   is refused unless the user forces it.
-- **A lock per frame range** (``.sesgen/lock-*.json``, created under a short ``flock`` on
-  ``.sesgen/mutex``): a second render of overlapping frames, or of another scene or
-  settings, is refused with the holder's host and pid; disjoint chunks of the same plan
-  (a render farm) may write concurrently. A lock whose process is gone (same host) or
-  that has not been refreshed for ``STALE_LOCK_S`` (another host) is taken over.
+- **A lock per frame range** (``locks``): a second render of overlapping frames, or of
+  another scene or settings, is refused with the holder's host and pid; disjoint chunks of
+  the same plan (a render farm) may write concurrently; stale locks are taken over.
 - **Crash-consistent start**: the manifest is written first, so a folder holding anything
   of ours is a render that ``--resume`` continues.
 - **Verified writes**: an EXR is written under a temporary name, checked (every chunk inside
@@ -24,13 +22,10 @@ Rules that keep a folder's data safe:
 """
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import json
 import os
 import re
-import socket
-import time
 from pathlib import Path
 from typing import Optional
 
@@ -41,15 +36,10 @@ from .contract.manifest import (DONE_LOG_GLOB, EXR_DIR, FORMAT, MANIFEST, POSES_
 from .contract.trajectory_files import format_ego_table, format_kitti, format_tum
 from .errors import SesgenError
 from .exr import ExrError, check_complete, decode, read_layout, strip_volatile_attributes
+from .locks import FolderLocks
 from .plan import RenderPlan, RenderSettings
 
-try:
-    import fcntl
-except ImportError:  # pragma: no cover - Windows: the lock files still guard, without the mutex
-    fcntl = None
-
 _OWN_EXR = re.compile(r"^\d{6}\.exr$")
-STALE_LOCK_S = 900.0  # a lock of another host not refreshed for this long is taken over
 
 
 class RenderWriteError(RuntimeError):
@@ -68,9 +58,8 @@ class OutputFolder:
         self._kept_for: Optional[RenderPlan] = None
         self.manifest: Optional[Manifest] = None    # this render's manifest, once begun
         self.checksums: dict[str, str] = {}
-        self._lock_path: Optional[Path] = None
+        self.locks = FolderLocks(self.state)
         self._log = None
-        self._writer = f"{_safe(socket.gethostname())}-{os.getpid()}"
 
     # --- what is there ------------------------------------------------------------------
     def previous(self) -> Optional[dict]:
@@ -94,6 +83,13 @@ class OutputFolder:
                 and float(r.get("resolution_scale", 1.0)) == settings.resolution_scale
                 and list(r.get("passes", [])) == list(settings.passes)
                 and manifest.get("resolution") == [settings.width, settings.height])
+
+    @staticmethod
+    def settings_key(settings: RenderSettings) -> str:
+        """The pixel-affecting settings as one string (what the locks compare)."""
+        return json.dumps({"samples": settings.samples, "denoise": settings.denoise, "seed": settings.seed,
+                           "scale": settings.resolution_scale, "passes": list(settings.passes),
+                           "size": [settings.width, settings.height]}, sort_keys=True)
 
     def resumable(self, plan: RenderPlan) -> Optional[dict]:
         """The previous manifest if its frames may be kept for ``plan`` (same scene and
@@ -158,56 +154,12 @@ class OutputFolder:
         return [k for k in plan.frames if not (k < len(done) and done[k])]
 
     # --- the lock -------------------------------------------------------------------------
-    @contextlib.contextmanager
-    def _mutex(self):
-        self.state.mkdir(parents=True, exist_ok=True)
-        with open(self.state / "mutex", "a+") as f:
-            if fcntl is not None:
-                fcntl.flock(f.fileno(), fcntl.LOCK_EX)
-            try:
-                yield
-            finally:
-                if fcntl is not None:
-                    fcntl.flock(f.fileno(), fcntl.LOCK_UN)
-
-    def _live_locks(self) -> list[dict]:
-        """Locks of running writers; the stale ones are removed (taken over)."""
-        live = []
-        for path in sorted(self.state.glob("lock-*.json")):
-            try:
-                info = json.loads(path.read_text(encoding="utf-8"))
-                host, pid = str(info["host"]), int(info["pid"])
-            except (OSError, ValueError, KeyError, TypeError):
-                info, host, pid = None, "", -1
-            if info is None or _stale(host, pid, path):
-                path.unlink(missing_ok=True)
-                continue
-            info["path"] = path
-            live.append(info)
-        return live
-
     def acquire(self, plan: RenderPlan) -> None:
-        """Take this render's lock (see the module docstring); SesgenError if a live writer
-        holds overlapping frames, or renders another scene or other settings here."""
-        if self._lock_path is not None:
-            return
-        first, last = min(plan.frames), max(plan.frames)
-        with self._mutex():
-            for other in self._live_locks():
-                same_plan = other.get("scene_sha256") == plan.scene_sha256 and \
-                    other.get("settings") == _settings_key(plan.settings)
-                overlap = not (last < other["frames"][0] or first > other["frames"][1])
-                if overlap or not same_plan:
-                    since = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(other.get("started", 0)))
-                    raise SesgenError(
-                        f"--out {self.root}: being rendered by pid {other['pid']} on {other['host']} "
-                        f"(frames {other['frames'][0]}..{other['frames'][1]}, since {since}"
-                        f"{'' if same_plan else ', another scene or other settings'}); "
-                        "wait for it to finish, or render into another folder")
-            self._lock_path = self.state / f"lock-{self._writer}.json"
-            atomic.write_json(self._lock_path, {
-                "host": socket.gethostname(), "pid": os.getpid(), "frames": [first, last],
-                "started": time.time(), "scene_sha256": plan.scene_sha256, "settings": _settings_key(plan.settings)})
+        """Take this render's lock (see ``locks``): SesgenError if a live writer holds
+        overlapping frames, or renders another scene or other settings here."""
+        if self.locks.path is None:
+            self.locks.take((min(plan.frames), max(plan.frames)), plan.scene_sha256,
+                            self.settings_key(plan.settings), self.root)
 
     def release(self) -> None:
         """Take the completion log into the manifest and drop the lock (end of a render,
@@ -215,15 +167,14 @@ class OutputFolder:
         if self._log is not None:
             self._log.close()
             self._log = None
-        if self._lock_path is None:
+        if self.locks.path is None:
             return
         try:
             if self.manifest is not None:
-                with self._mutex():
+                with self.locks.mutex():
                     self._merge_logs()
         finally:
-            self._lock_path.unlink(missing_ok=True)
-            self._lock_path = None
+            self.locks.drop()
 
     # --- writing ------------------------------------------------------------------------
     def begin(self, plan: RenderPlan, manifest: Manifest, resume: bool, force: bool) -> None:
@@ -231,7 +182,7 @@ class OutputFolder:
         rendered with the same scene and settings), scene.ses and poses/."""
         self.acquire(plan)
         out = self.root
-        with self._mutex():
+        with self.locks.mutex():
             self._loaded, self._kept_for = False, None  # another chunk may have begun since check()
             prev = self.previous()
             if prev is not None and force and prev.get("scene_sha256") != plan.scene_sha256:
@@ -284,14 +235,13 @@ class OutputFolder:
 
     def _append_log(self, record: dict) -> None:
         if self._log is None:
-            self._log = open(self.state / f"done-{self._writer}.jsonl", "a", encoding="utf-8")
+            self._log = open(self.state / f"done-{self.locks.writer}.jsonl", "a", encoding="utf-8")
         # flushed, not fsync'd: a killed process loses nothing (the page cache survives it);
         # after a power cut a frame whose line was lost is rendered again, and one whose
         # EXR was lost is caught by its checksum (`verify`)
         self._log.write(json.dumps(record) + "\n")
         self._log.flush()
-        if self._lock_path is not None:  # refresh: a live lock
-            os.utime(self._lock_path)
+        self.locks.touch()
 
     def _merge_logs(self) -> None:
         """Under the mutex: what the manifest on disk holds now (other chunks may have merged
@@ -314,10 +264,10 @@ class OutputFolder:
         if self.checksums:
             self.manifest.extra["checksums"] = dict(sorted(self.checksums.items()))
         self.manifest.write(self.root)
-        live = {p.stem.replace("lock-", "", 1) for p in self.state.glob("lock-*.json")}
+        live = self.locks.live_writers()
         for log in self.state.glob(DONE_LOG_GLOB):
             writer = log.stem.replace("done-", "", 1)
-            if writer not in live or (not dead_logs_only and writer == self._writer):
+            if writer not in live or (not dead_logs_only and writer == self.locks.writer):
                 log.unlink(missing_ok=True)
 
     def _files_exist(self, m: Manifest, k: int) -> bool:
@@ -367,8 +317,8 @@ class OutputFolder:
     def mark_incomplete(self, frames) -> None:
         """Record ``frames`` as not rendered (``--resume`` renders them again); refused while
         a render writes into the folder."""
-        with self._mutex():
-            live = self._live_locks()
+        with self.locks.mutex():
+            live = self.locks.live()
             if live:
                 raise SesgenError(f"--out {self.root}: being rendered by pid {live[0]['pid']} on {live[0]['host']}; "
                                   "verify again when it has finished")
@@ -401,7 +351,7 @@ class OutputFolder:
 
     def _remove_stale_temporaries(self) -> None:
         """Temporary files of interrupted writers (never those of a live one: its pid is in the name)."""
-        live = {int(p.stem.rsplit("-", 1)[-1]) for p in self.state.glob("lock-*.json") if p.stem[-1].isdigit()}
+        live = self.locks.live_pids()
         folders = [self.root / EXR_DIR / v for v in ("left", "right")] + [self.root, self.root / POSES_DIR, self.state]
         for d in folders:
             if not d.is_dir():
@@ -410,32 +360,3 @@ class OutputFolder:
                 m = re.search(r"\.tmp-(\d+)", f.name)
                 if f.is_file() and m and atomic.is_temp_name(f.name) and int(m.group(1)) not in live:
                     f.unlink(missing_ok=True)
-
-
-def _safe(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.]", "_", text) or "host"
-
-
-def _settings_key(settings: RenderSettings) -> str:
-    return json.dumps({"samples": settings.samples, "denoise": settings.denoise, "seed": settings.seed,
-                       "scale": settings.resolution_scale, "passes": list(settings.passes),
-                       "size": [settings.width, settings.height]}, sort_keys=True)
-
-
-def _stale(host: str, pid: int, path: Path) -> bool:
-    """A lock whose writer is gone: this host and no such process, or not refreshed for
-    STALE_LOCK_S (another host)."""
-    if host == socket.gethostname():
-        if pid == os.getpid():
-            return False
-        try:
-            os.kill(pid, 0)
-        except ProcessLookupError:
-            return True
-        except PermissionError:
-            return False
-        return False
-    try:
-        return time.time() - path.stat().st_mtime > STALE_LOCK_S
-    except OSError:
-        return True

@@ -43,6 +43,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--position-pass", action="store_true", help="also write the Position pass")
     p.add_argument("--contact-sheet", nargs="?", const="contact_sheet.png", metavar="PNG",
                    help="after rendering, write a contact sheet (RGB, disparity, segmentation) into DIR")
+    p.add_argument("--rate", type=float, metavar="HZ", help="frame rate (overrides TIMING rate; default 25)")
+    p.add_argument("--exposure", type=float, metavar="S", help="exposure time in seconds (overrides TIMING exposure)")
+    p.add_argument("--readout", type=float, metavar="S",
+                   help="rolling-shutter readout time, top to bottom (overrides TIMING readout; 0 = global shutter)")
+    p.add_argument("--motion-blur", action=argparse.BooleanOptionalAction, default=None,
+                   help="motion blur over the exposure (overrides TIMING blur)")
     add_progress_argument(p, ("--quiet",))
     p.add_argument("--verbose", action="store_true", help="show Blender's own render log")
 
@@ -60,7 +66,8 @@ def run(args: argparse.Namespace) -> int:
         quality=args.quality, samples=args.samples, denoise=args.denoise, seed=args.seed, device=args.device,
         resolution_scale=args.resolution_scale, frames=args.frames,
         normal_pass=args.normal_pass, position_pass=args.position_pass, threads=args.threads,
-        verbose=args.verbose, fast_pipeline=not args.plain_pipeline,
+        verbose=args.verbose, rate_hz=args.rate, exposure_s=args.exposure, readout_s=args.readout,
+        motion_blur=args.motion_blur, fast_pipeline=not args.plain_pipeline,
     )
     job = RenderJob.prepare(args.scene, args.out, options, resume=args.resume, force=args.force)  # SesgenError -> 2
     if not have_bpy():

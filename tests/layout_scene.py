@@ -3,6 +3,8 @@ and a box face ray-cast in closed form, sky above the wall, seen by a level rig 
 along −Z of the SES world (Y up), drives forward and turns right a little each frame."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from synthetic_render import write_render
@@ -40,6 +42,21 @@ def rig_poses(n: int) -> np.ndarray:
         T[k, :3, 3] = pos
         pos = pos + STEP_M * (R @ np.array([0.0, 0.0, 1.0]))
     return T
+
+
+def view_pose(n: int, k: int, view: str) -> np.ndarray:
+    """T_world_cam of ``view`` at frame k of the n-frame rig (right = left moved B along its x)."""
+    T = rig_poses(n)[k].copy()
+    if view == "right":
+        T[:3, 3] += T[:3, :3] @ np.array([B, 0, 0])
+    return T
+
+
+def export_layout(render, out, target: str, *extra: str) -> Path:
+    """``vo-reference export RENDER OUT --to TARGET`` without noise; asserts it succeeded."""
+    from vo_reference.cli import main
+    assert main(["export", str(render), str(out), "--to", target, "--noise", "0", "-q", *extra]) == 0
+    return Path(out)
 
 
 def raycast(T_world_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -94,7 +94,7 @@ def test_blender_validates_the_zip(addon_zip):
 def test_zip_installs_enables_and_disables_cleanly(addon_zip, tmp_path):
     res = run_child("""
         import addon_utils
-        OPS = ["check", "build", "render", "open_output", "preview", "export", "import_ses"]
+        OPS = ["check", "build", "render", "open_output", "preview", "export", "import_ses", "verify"]
         PANELS = ["SESGEN_PT_main", "SESGEN_PT_render", "SESGEN_PT_preview", "SESGEN_PT_export"]
         def menu_funcs():
             return [getattr(f, "__module__", "") for f in getattr(bpy.types.TOPBAR_MT_file_import.draw, "_draw_funcs", [])]
@@ -237,6 +237,34 @@ def test_build_creates_the_model_objects_rig_and_path(addon_zip, tmp_path, scrip
     (path,) = [o for o in objs if o["type"] == "CURVE"]
     assert path["hide_render"] and path["pass_index"] == 0
     np.testing.assert_allclose(to_ses(path["curve_points"]), model.timeline.left()[:, :3, 3], atol=TOL)
+
+
+# --- Verify: the output folder against its manifest ---------------------------------------------
+
+def test_verify_operator_names_a_damaged_frame_and_resume_renders_it_again(addon_zip, tmp_path):
+    out = tmp_path / "out"
+    res = run_child(f"""
+        import pathlib
+        S().script_path = {str(REPO / 'scenes' / 'minimal.ses')!r}
+        s = S()
+        s.output_dir = {str(out)!r}
+        s.override_render, s.samples = True, 1
+        s.resolution_scale = 0.5
+        RESULT["render"] = call(bpy.ops.sesgen.render)
+        RESULT["clean"] = (call(bpy.ops.sesgen.verify), S().status)
+        f = pathlib.Path({str(out)!r}) / "exr" / "left" / "000001.exr"
+        f.write_bytes(f.read_bytes()[:2000])
+        RESULT["damaged"] = (call(bpy.ops.sesgen.verify), S().status)
+        S().resume = True
+        RESULT["resumed"] = (call(bpy.ops.sesgen.render), S().status)
+        RESULT["again"] = (call(bpy.ops.sesgen.verify), S().status)
+    """, addon_zip, tmp_path)
+    assert res["render"]["error"] is None
+    assert res["clean"][0]["error"] is None and res["clean"][1].startswith("verified")
+    assert res["damaged"][0]["error"] is None and "1 bad frame(s) (1:" in res["damaged"][1]
+    assert "truncated" in res["damaged"][1]
+    assert res["resumed"][0]["error"] is None and res["resumed"][1].startswith("rendered 1 frame(s)")
+    assert res["again"][1].startswith("verified")
 
 
 # --- Render (the execute path: every frame synchronously, through RenderJob) -----------------

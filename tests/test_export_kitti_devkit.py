@@ -21,8 +21,8 @@ N = 4
 
 
 @pytest.fixture(scope="module")
-def render(tmp_path_factory):
-    return write_layout_render(tmp_path_factory.mktemp("kd") / "r", n=N)
+def render(layout_render):
+    return layout_render
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,7 @@ from vo_reference.cli import main as cli_main
 from vo_reference.io.render import RenderSequence
 
 from format_readers import read_pfm
-from layout_scene import B, H, K, W, raycast, rig_poses, write_layout_render
+from layout_scene import B, H, K, W, export_layout, raycast, view_pose
 
 cv2 = pytest.importorskip("cv2")
 pytest.importorskip("OpenEXR")
@@ -18,22 +18,14 @@ SEQ = "TRAIN/A/0000"
 
 
 @pytest.fixture(scope="module")
-def render(tmp_path_factory):
-    return write_layout_render(tmp_path_factory.mktemp("sf") / "r", n=N)
+def render(layout_render):
+    return layout_render
 
 
 @pytest.fixture(scope="module")
 def exported(render, tmp_path_factory):
     out = tmp_path_factory.mktemp("sf_out") / "FlyingThings3D"
-    assert cli_main(["export", str(render), str(out), "--to", "sceneflow", "--noise", "0", "-q"]) == 0
-    return out
-
-
-def _pose(k, view):
-    T = rig_poses(N)[k].copy()
-    if view == "right":
-        T[:3, 3] += T[:3, :3] @ np.array([B, 0, 0])
-    return T
+    return export_layout(render, out, "sceneflow")
 
 
 def test_tree_and_names(exported, render):
@@ -55,8 +47,8 @@ def test_tree_and_names(exported, render):
 
 def test_disparity_both_views(exported):
     for k in range(N):
-        zl, _ = raycast(_pose(k, "left"))
-        zr, _ = raycast(_pose(k, "right"))
+        zl, _ = raycast(view_pose(N, k, "left"))
+        zr, _ = raycast(view_pose(N, k, "right"))
         dl = read_pfm(exported / "disparity" / SEQ / "left" / f"{k:04d}.pfm")
         dr = read_pfm(exported / "disparity" / SEQ / "right" / f"{k:04d}.pfm")
         for d, z in ((dl, zl), (dr, zr)):
@@ -73,7 +65,7 @@ def test_flow_and_disparity_change_into_future_and_past(exported):
     r = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], -1)
     for view, L in (("left", "L"), ("right", "R")):
         for k, kt, when, word in ((0, 1, "into_future", "Future"), (2, 1, "into_past", "Past")):
-            Ts, Tt = _pose(k, view), _pose(kt, view)
+            Ts, Tt = view_pose(N, k, view), view_pose(N, kt, view)
             z, _ = raycast(Ts)
             fin = np.isfinite(z)
             Xt = np.where(fin[..., None], (Ts[:3, 3] + (r * np.where(fin, z, 0)[..., None]) @ Ts[:3, :3].T - Tt[:3, 3]) @ Tt[:3, :3],

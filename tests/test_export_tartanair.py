@@ -12,7 +12,7 @@ from vo_reference.cli import main as cli_main
 from vo_reference.io.render import RenderSequence
 
 from format_readers import read_tartanair_poses, tartanair_files
-from layout_scene import B, H, K, OBJECTS, STEP_M, W, YAW_DEG, raycast, rig_poses, write_layout_render
+from layout_scene import B, H, K, OBJECTS, STEP_M, W, YAW_DEG, export_layout, raycast, rig_poses, write_layout_render
 
 cv2 = pytest.importorskip("cv2")
 pytest.importorskip("OpenEXR")
@@ -20,15 +20,14 @@ N = 4
 
 
 @pytest.fixture(scope="module")
-def render(tmp_path_factory):
-    return write_layout_render(tmp_path_factory.mktemp("ta") / "r", n=N)
+def render(layout_render):
+    return layout_render
 
 
 @pytest.fixture(scope="module")
 def exported(render, tmp_path_factory):
     out = tmp_path_factory.mktemp("ta_out") / "P000"
-    assert cli_main(["export", str(render), str(out), "--to", "tartanair", "--noise", "0", "-q"]) == 0
-    return out
+    return export_layout(render, out, "tartanair")
 
 
 def test_file_names_and_types(render, exported):

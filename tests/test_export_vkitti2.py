@@ -9,7 +9,7 @@ from vo_reference.cli import main as cli_main
 from vo_reference.io.render import RenderSequence
 
 from format_readers import read_vkitti_colors, read_vkitti_depth_m, read_vkitti_png_flow, read_vkitti_table
-from layout_scene import B, H, K, OBJECTS, W, raycast, rig_poses, write_layout_render
+from layout_scene import B, H, K, OBJECTS, W, export_layout, raycast, view_pose, write_layout_render
 
 cv2 = pytest.importorskip("cv2")
 pytest.importorskip("OpenEXR")
@@ -33,15 +33,7 @@ def render(tmp_path_factory):
 @pytest.fixture(scope="module")
 def exported(render, tmp_path_factory):
     out = tmp_path_factory.mktemp("vk_out") / "Scene01" / "clone"
-    assert cli_main(["export", str(render), str(out), "--to", "vkitti2", "--noise", "0", "-q"]) == 0
-    return out
-
-
-def _view_pose(k, view):
-    T = rig_poses(N)[k].copy()
-    if view == "right":
-        T[:3, 3] += T[:3, :3] @ np.array([B, 0, 0])
-    return T
+    return export_layout(render, out, "vkitti2")
 
 
 def test_layout_names_and_images(render, exported):
@@ -61,7 +53,7 @@ def test_layout_names_and_images(render, exported):
 
 def test_depth_centimetres(exported):
     for k, view, c in ((0, "left", 0), (3, "right", 1)):
-        z, _ = raycast(_view_pose(k, view))
+        z, _ = raycast(view_pose(N, k, view))
         d = read_vkitti_depth_m(exported / f"frames/depth/Camera_{c}/depth_{k:05d}.png")
         sky = ~np.isfinite(z)
         assert np.abs(d[~sky] - z[~sky]).max() <= 0.005 + 1e-9 and np.all(d[sky] == 655.35)
@@ -70,7 +62,7 @@ def test_depth_centimetres(exported):
 def test_class_and_instance_segmentation(exported):
     colours = read_vkitti_colors(exported / "colors.txt")
     assert len(colours) == 15 and colours[(90, 200, 255)] == "Sky"
-    _, ids = raycast(_view_pose(1, "left"))
+    _, ids = raycast(view_pose(N, 1, "left"))
     cls = cv2.imread(str(exported / "frames/classSegmentation/Camera_0/classgt_00001.png"))[..., ::-1]
     names = np.array([[colours[tuple(int(x) for x in px)] for px in row] for row in cls])
     expected = {0: "Sky", 1: "Road", 2: "Building", 3: "Undefined"}     # floor: road, wall: building, box: none
@@ -81,7 +73,7 @@ def test_class_and_instance_segmentation(exported):
 
 
 def _expected_flow(k_src, k_tgt, view):
-    Ts, Tt = _view_pose(k_src, view), _view_pose(k_tgt, view)
+    Ts, Tt = view_pose(N, k_src, view), view_pose(N, k_tgt, view)
     z, _ = raycast(Ts)
     u, v = np.meshgrid(np.arange(W, dtype=float), np.arange(H, dtype=float))
     r = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], -1)
@@ -112,7 +104,7 @@ def test_intrinsic_extrinsic_and_pose_tables(exported, render):
     assert hdr[:3] == ["frame", "cameraID", "r1,1"] and hdr[-4:] == ["0", "0", "0", "1"] and extr.shape == (2 * N, 18)
     for (i, c), row in zip(extr[:, :2].astype(int), extr):
         w2c = row[2:].reshape(4, 4)
-        T = _view_pose(i, "right" if c else "left")
+        T = view_pose(N, i, "right" if c else "left")
         assert np.allclose(np.linalg.inv(w2c), FLIP @ T, atol=1e-7)       # world -> camera, y-down world
     # the baseline from the two extrinsics, as vKITTI users compute it
     c0, c1 = np.linalg.inv(extr[0, 2:].reshape(4, 4)), np.linalg.inv(extr[1, 2:].reshape(4, 4))
@@ -125,7 +117,7 @@ def test_intrinsic_extrinsic_and_pose_tables(exported, render):
     # a yaw of +30 deg about up is -30 deg about vKITTI's y (down)
     assert np.allclose(pose[:, 10], -np.radians(30.0)) and np.allclose(pose[:, 11:13], 0)
     for row in pose:
-        T_cam_obj = np.linalg.inv(_view_pose(int(row[0]), "right" if row[1] else "left")) @ np.array(
+        T_cam_obj = np.linalg.inv(view_pose(N, int(row[0]), "right" if row[1] else "left")) @ np.array(
             [[np.cos(np.radians(30)), 0, np.sin(np.radians(30)), 0], [0, 1, 0, 0.5],
              [-np.sin(np.radians(30)), 0, np.cos(np.radians(30)), -3.0], [0, 0, 0, 1]]) @ FLIP
         x, y, z = T_cam_obj[:3, 3]

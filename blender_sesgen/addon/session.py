@@ -268,6 +268,27 @@ def render_all(context, values: dict) -> str:
 PREVIEW_IMAGE = "SESGen preview"
 
 
+def verify(values: dict) -> str:
+    """Check every file of the output folder against its manifest (as ``python -m
+    blender_sesgen verify``); bad frames are recorded as not rendered, so that Render with
+    Resume renders them again. One line to report."""
+    from ..contract.manifest import MANIFEST
+    from ..output import OutputFolder
+    out = props.abspath(values["output_dir"])
+    if not out or not os.path.isfile(os.path.join(out, MANIFEST)):
+        raise SesgenError("no render in the output folder to verify")
+    folder = OutputFolder(out)
+    bad = folder.verify(full=True)
+    if not bad:
+        msg = "verified: every frame recorded complete is intact"
+    else:
+        folder.mark_incomplete(sorted({k for k, _ in bad}))
+        frames = ", ".join(str(k) for k, _ in bad[:8]) + (" ..." if len(bad) > 8 else "")
+        msg = f"{len(bad)} bad frame(s) ({frames}: {bad[0][1]}); Render with Resume renders them again"
+    set_status(values, msg)
+    return msg
+
+
 def preview(context, values: dict):
     """Make the image data-block 'SESGen preview' for the chosen frame/view/kind."""
     from .preview import preview_rgba

@@ -49,7 +49,12 @@ class BlenderSession:
         exposure.set_exposure(self.built.scene, self.exposure)
         if self.flat:
             shading.apply_flat_shading(self.built, plan.scene, builder.tag)
-        self.fast = bool(fast and render.can_render_multiview(self.built.cameras))
+        self.sensor = None          # the sensor path (motion blur, rolling shutter, lens), if any
+        if plan.sensor.changes_rendering:
+            from .sensor_render import SensorSession
+            self.sensor = SensorSession(plan, self.built)
+        # the sensor path re-keys the cameras and renders twice per view: it renders the plain way
+        self.fast = bool(fast and self.sensor is None and render.can_render_multiview(self.built.cameras))
         self.built.scene.render.use_persistent_data = self.fast
         self.views_per_render = len(plan.views) if self.fast and s.preset.deterministic_rgb else 1
 
@@ -82,9 +87,20 @@ class BlenderSession:
             extra["gpu"] = self.gpu
         return extra
 
-    def render_frame(self, k: int, paths: dict[str, Path], stop: Callable[[], bool] = lambda: False) -> dict[str, dict]:
+    @property
+    def jpeg_writer(self):
+        """Writes the sensor's JPEG images (Blender's image writer)."""
+        from .sensor import save_jpeg
+        return save_jpeg
+
+    def render_frame(self, k: int, paths: dict[str, Path], stop: Callable[[], bool] = lambda: False,
+                     exposure_s: Optional[float] = None) -> dict[str, dict]:
         """Render frame ``k`` of each view into ``paths[view]``; {view: render stats}.
-        ``stop()`` is asked before each render (KeyboardInterrupt when it says yes)."""
+        ``stop()`` is asked before each render (KeyboardInterrupt when it says yes);
+        ``exposure_s``: the frame's exposure time on the sensor path (auto-exposure)."""
+        if self.sensor is not None:
+            return self.sensor.render_frame(k, self.plan.sensor.nominal_exposure_s() if exposure_s is None
+                                            else exposure_s, paths, stop)
         quiet = not self.plan.options.verbose
         bframe = rig.blender_frame(k)
         seed = self.plan.settings.seed

@@ -100,6 +100,32 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
     Statement("FOG", _tags(_num("start", (1,), True, "start s"), _num("end", (1,), True, "end e"),
                            _num("colour", (3,), usage="colour r g b"))),
     Statement("NOISE", _tags(_num("sigma", (1,), True, "sigma s"), Tag("seed", "int", usage="seed n"))),
+    Statement("TIMING", _tags(_num("rate", usage="rate HZ"), _num("start", usage="start S"),
+                              _num("exposure", usage="exposure S"), _num("readout", usage="readout S"),
+                              Tag("blur", "choice", usage="blur on|off", choices=("on", "off")))),
+    Statement("LENS", _tags(_num("brown", (4, 5), usage="brown k1 k2 p1 p2 [k3]"),
+                            _num("fisheye", (4,), usage="fisheye k1 k2 k3 k4"),
+                            _num("fnumber", usage="fnumber N"), _num("defocus", usage="defocus PX"),
+                            _num("vignetting", usage="vignetting V"), _num("chromatic", usage="chromatic PX"))),
+    Statement("SENSOR", _tags(_num("fullwell", usage="fullwell E"), _num("readnoise", usage="readnoise E"),
+                              _num("dark", usage="dark E_PER_S"), _num("prnu", usage="prnu F"),
+                              _num("dsnu", usage="dsnu E"), _num("rownoise", usage="rownoise E"),
+                              Tag("cfa", "choice", usage="cfa rggb|bggr|grbg|gbrg",
+                                  choices=("rggb", "bggr", "grbg", "gbrg")),
+                              Tag("bits", "int", usage="bits N"), _num("gain", usage="gain G"),
+                              _num("black", usage="black DN"), _num("saturation", usage="saturation L"),
+                              Tag("response", "choice", usage="response srgb|linear|gamma",
+                                  choices=("srgb", "linear", "gamma")),
+                              _num("gamma", usage="gamma G"), _num("pixel", usage="pixel UM"),
+                              _num("fill", usage="fill F"), _num("olpf", usage="olpf PX"),
+                              Tag("jpeg", "int", usage="jpeg QUALITY"), Tag("seed", "int", usage="seed n"))),
+    Statement("AUTOEXPOSURE", _tags(_num("target", usage="target T"), _num("speed", usage="speed PER_S"),
+                                    _num("max_exposure", usage="max_exposure S"), _num("max_gain", usage="max_gain G"),
+                                    _num("min_exposure", usage="min_exposure S"))),
+    Statement("IMU", _tags(_num("rate", usage="rate HZ"), _num("gyro_noise", usage="gyro_noise D"),
+                           _num("gyro_walk", usage="gyro_walk D"), _num("accel_noise", usage="accel_noise D"),
+                           _num("accel_walk", usage="accel_walk D"), POSITION, _num("offset", usage="offset S"),
+                           _num("gravity", usage="gravity G"), Tag("seed", "int", usage="seed n"))),
     Statement("RENDER", _tags(Tag("quality", "choice", usage="quality gt|draft|final|reference", choices=QUALITIES),
                               Tag("samples", "int", usage="samples N"),
                               Tag("denoise", "choice", usage="denoise on|off", choices=("on", "off")),
@@ -107,5 +133,6 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
 )}
 
 OBJECT_KEYWORDS = ("QUAD", "CUBOID", "SPHERE", "CYLINDER", "MESH")
-SINGLETON_KEYWORDS = ("CAMERA", "START", "TRAJECTORY", "WORLD", "FOG", "NOISE", "RENDER")
+SINGLETON_KEYWORDS = ("CAMERA", "START", "TRAJECTORY", "WORLD", "FOG", "NOISE", "RENDER",
+                      "TIMING", "LENS", "SENSOR", "AUTOEXPOSURE", "IMU")
 TAG_SYNONYMS = {"color": "colour"}

@@ -19,6 +19,7 @@ from typing import Optional
 from .. import model
 from ..contract.camera import default_principal_point
 from . import environment
+from .sensor import sensor_models
 from .checks import Checks, scalar, vec
 from .diagnostics import Diagnostics
 from .geometry import quad_problem
@@ -77,7 +78,8 @@ def _build(source: str, statements: list[ParsedStatement], attempted_objects: bo
                    if light)
     scene_kwargs = dict(
         world=environment.world(seen.get("WORLD"), check), fog=environment.fog(seen.get("FOG"), check),
-        noise=environment.noise(seen.get("NOISE"), check), render=environment.render(seen.get("RENDER"), check))
+        noise=environment.noise(seen.get("NOISE"), check), render=environment.render(seen.get("RENDER"), check),
+        **sensor_models(seen, rig, check))
     if check.diags:
         return None
     return model.Scene(source=source, objects=tuple(objects), rig=rig, **moving._asdict(),

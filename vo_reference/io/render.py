@@ -150,8 +150,109 @@ class RenderSequence:
         return None if found is None else self._channels(k, view)[found[0]].astype(np.float32)
 
     def image_rgb(self, k: int, view: str = "left") -> np.ndarray:
-        """uint8 (H, W, 3) sRGB-encoded (IEC 61966-2-1 transfer function, clipped)."""
+        """uint8 (H, W, 3): the camera's image — the sensor's demosaiced RGB where the render
+        has a SENSOR (noise, CFA, response curve), else the EXR beauty sRGB-encoded (IEC
+        61966-2-1 transfer function, clipped)."""
+        rel = self.sensor_file("rgb", k, view)
+        if rel is not None:
+            from .files import read_image
+            import cv2
+            return cv2.cvtColor(read_image(self.root / rel, cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
         return linear_to_srgb8(self.rgb_linear(k, view))
+
+    # --- the camera and IMU as sensors (docs/output-format.md) -----------------------------
+    def sensor_file(self, kind: str, k: int, view: str = "left"):
+        """Relative path of a sensor image (kind raw | rgb | jpeg) or None when not rendered."""
+        files = ((self.manifest.get("sensor") or {}).get("files") or {}).get(kind)
+        if not files:
+            return None
+        check_frame_view(self, k, view)
+        return files[view][int(k)]
+
+    def raw_dn(self, k: int, view: str = "left") -> np.ndarray | None:
+        """uint16 raw sensor values (CFA mosaic or RGB), 0 .. 2^bits - 1; None without a SENSOR."""
+        rel = self.sensor_file("raw", k, view)
+        if rel is None:
+            return None
+        from .files import read_image
+        return read_image(self.root / rel)
+
+    @property
+    def lens(self):
+        """The lens (``blender_sesgen.contract.lens.Lens``) of a distorted render, else None."""
+        entry = self.manifest.get("lens") or {}
+        if entry.get("model") in (None, "pinhole"):
+            return None
+        from blender_sesgen.contract.lens import Lens
+        return Lens.from_K(entry["model"], entry["coeffs"], self.K)
+
+    def undistortion_maps(self):
+        """(map_x, map_y) of the render's lookup table (pinhole K <- distorted image), or None."""
+        files = ((self.manifest.get("lens") or {}).get("files") or {})
+        if not files.get("undistort_lut"):
+            return None
+        from ..camera.undistort import read_lut
+        return read_lut(self.root / files["undistort_lut"], *self.resolution)
+
+    def rig_motion(self):
+        """The rig's continuous motion (``blender_sesgen.contract.rig_motion.RigMotion``)."""
+        from blender_sesgen.contract.rig_motion import RigMotion
+        rm = self.manifest.get("rig_motion") or {}
+        rate = float(rm.get("rate_hz") or self.manifest.get("fps") or 25.0)
+        start = float(rm.get("start_s", self.timestamps_s[0] if len(self.timestamps_s) else 0.0))
+        return RigMotion(self._poses["left"], rate, start, rm.get("interpolation", "c2_spline"))
+
+    def _view_offset(self, T: np.ndarray, view: str) -> np.ndarray:
+        if view == "right":
+            T = T.copy()
+            T[..., :3, 3] += self.baseline_m * T[..., :3, 0]
+        return T
+
+    def T_world_cam_at(self, t_s, view: str = "left") -> np.ndarray:
+        """(n, 4, 4) camera poses at any times (seconds; the rig's motion between frames)."""
+        if view not in self.views:
+            raise VoError(f"view {view!r} not in this sequence (views: {', '.join(self.views)})")
+        return self._view_offset(self.rig_motion().T_world_cam(np.atleast_1d(t_s)), view)
+
+    @property
+    def readout_s(self) -> float:
+        return float((self.manifest.get("timing") or {}).get("readout_s") or 0.0)
+
+    def row_times_s(self, k: int) -> np.ndarray:
+        """(H,) capture time of every image row of frame k (all equal for a global shutter)."""
+        from blender_sesgen.contract.timing import row_offsets_s
+        return self.timestamps_s[int(k)] + row_offsets_s(self.resolution[1], self.readout_s)
+
+    def T_world_cam_rows(self, k: int, view: str = "left") -> np.ndarray:
+        """(H, 4, 4) pose of every image row of frame k (a rolling shutter's per-row poses)."""
+        check_frame_view(self, k, view)
+        return self.T_world_cam_at(self.row_times_s(k), view)
+
+    def T_world_cam_row(self, k: int, row: float, view: str = "left") -> np.ndarray:
+        """(4, 4) pose of (fractional) image row ``row`` of frame k."""
+        from blender_sesgen.contract.timing import row_time_s
+        return self.T_world_cam_at(row_time_s(self.timestamps_s[int(k)], row, self.resolution[1], self.readout_s),
+                                   view)[0]
+
+    def imu(self, kind: str = "noisy") -> dict | None:
+        """The IMU stream (kind noisy | ideal) as {t_s, gyro (n,3) rad/s, accel (n,3) m/s^2}, or
+        None without an IMU; ``imu_groundtruth()`` gives the body states."""
+        entry = self.manifest.get("imu")
+        if not entry:
+            return None
+        if kind not in entry["files"]:
+            raise VoError(f"IMU stream {kind!r} not in this render (noisy, ideal)")
+        a = _read_csv(self.root / entry["files"][kind])
+        return {"t_s": a[:, 0] * 1e-9, "gyro": a[:, 1:4], "accel": a[:, 4:7]}
+
+    def imu_groundtruth(self) -> dict | None:
+        """EuRoC-style body (IMU) states at the IMU's instants: t_s, p, q_wxyz, v, gyro/accel bias."""
+        entry = self.manifest.get("imu")
+        if not entry:
+            return None
+        a = _read_csv(self.root / entry["files"]["groundtruth"])
+        return {"t_s": a[:, 0] * 1e-9, "p": a[:, 1:4], "q_wxyz": a[:, 4:8], "v": a[:, 8:11],
+                "gyro_bias": a[:, 11:14], "accel_bias": a[:, 14:17]}
 
     def image_gray(self, k: int, view: str = "left") -> np.ndarray:
         return rgb8_to_gray8(self.image_rgb(k, view))
@@ -174,3 +275,16 @@ class RenderSequence:
     def __repr__(self) -> str:
         W, H = self.resolution
         return f"RenderSequence({str(self.root)!r}, {self.num_frames} frames, {W}x{H}, views={self.views})"
+
+
+def _read_csv(path) -> np.ndarray:
+    """A numeric CSV with '#' header lines (EuRoC style), first column integer ns kept exact."""
+    from pathlib import Path as _P
+    p = _P(path)
+    if not p.is_file():
+        raise VoError(f"{p}: no such file")
+    rows = [ln.split(",") for ln in p.read_text(encoding="utf-8").splitlines() if ln.strip() and not ln.startswith("#")]
+    try:
+        return np.array([[int(r[0])] + [float(v) for v in r[1:]] for r in rows], dtype=np.float64).reshape(len(rows), -1)
+    except (ValueError, IndexError):
+        raise VoError(f"{p}: not a numeric CSV") from None

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -95,6 +94,8 @@ def run(args: argparse.Namespace) -> int:
     elif args.dist:
         from ..camera.undistort import lut_from_distortion, parse_distortion
         maps = lut_from_distortion(seq.K, parse_distortion(args.dist), W, H)
+    elif getattr(seq, "undistortion_maps", None) is not None and seq.undistortion_maps() is not None:
+        maps = seq.undistortion_maps()          # a render through a distorting LENS: its own table
     if args.bayer:
         from ..camera.bayer import check_pattern
         check_pattern(args.bayer)
