@@ -142,11 +142,16 @@ class RenderJob:
         self.begin()
         temps = {v: temp_path(self.folder.exr_path(v, k)) for v in self.plan.views}
         t0 = time.perf_counter()
+        from .sensor import outputs as sensor_outputs
+        exposure_s, gain = sensor_outputs.exposure_for(self.plan.sensor, self.manifest.extra, k)
         try:
-            stats = self.session.render_frame(k, temps, stop)
+            stats = self.session.render_frame(k, temps, stop, exposure_s=exposure_s)
             for v, tmp in temps.items():
                 if not tmp.is_file():
                     raise RuntimeError(f"Blender wrote no file for frame {k}, view {v}")
+            if self.plan.sensor.writes_sensor_images:   # from the checked-in-a-moment EXRs
+                sensor_outputs.write_sensor_images(self.plan.sensor, self.manifest, self.out_dir, k, exposure_s,
+                                                   gain, temps, jpeg_writer=self.session.jpeg_writer)
         except BaseException:
             for tmp in temps.values():
                 tmp.unlink(missing_ok=True)
