@@ -46,6 +46,29 @@ class RenderWriteError(RuntimeError):
     """A file could not be written completely (a full disk, a failing device): exit 1."""
 
 
+def seal_frame(k: int, written: dict[str, Path], required_channels: tuple) -> dict[str, str]:
+    """Check each view's freshly written EXR (``written[view]``, a temporary file) and strip
+    its wall-clock header fields (the file rewritten); {relative path: sha256}.
+    RenderWriteError (every temporary file removed) if a file is short or lacks a channel.
+    Touches nothing but those files, so it may run in another process (``sealer``)."""
+    sums = {}
+    for view, tmp in written.items():
+        rel = exr_relpath(view, k)
+        try:
+            buf = Path(tmp).read_bytes()
+            layout = check_complete(buf, rel, required_channels, read_layout(buf, rel))
+            buf = strip_volatile_attributes(buf, layout)
+            with open(tmp, "wb") as f:
+                f.write(buf)
+        except (OSError, ExrError) as e:
+            for t in written.values():
+                Path(t).unlink(missing_ok=True)
+            raise RenderWriteError(f"frame {k} ({view}): the EXR was not written completely ({e}); "
+                                   "is the disk full? The previous files were kept") from None
+        sums[rel] = hashlib.sha256(buf).hexdigest()
+    return sums
+
+
 class OutputFolder:
     """The folder ``root`` as seen by one render (see the module docstring)."""
 
@@ -78,6 +101,7 @@ class OutputFolder:
             return False
         r = manifest.get("render", {})
         return (r.get("samples") == settings.samples and r.get("denoise") == settings.denoise
+                and r.get("sampling") == settings.preset.pixel_settings()
                 and r.get("seed") == settings.seed
                 and float(r.get("resolution_scale", 1.0)) == settings.resolution_scale
                 and list(r.get("passes", [])) == list(settings.passes)
@@ -142,7 +166,8 @@ class OutputFolder:
         if not self.same_settings(previous, plan.settings) and any(self._completed(previous)) and not force:
             r = previous.get("render", {})
             raise SesgenError(f"--out {out}: holds frames rendered with other settings "
-                              f"(samples {r.get('samples')}, denoise {r.get('denoise')}, seed {r.get('seed')}, "
+                              f"(quality {r.get('quality')}, samples {r.get('samples')}, denoise {r.get('denoise')}, "
+                              f"seed {r.get('seed')}, "
                               f"resolution {previous.get('resolution')}); use --force to re-render")
 
     def pending(self, plan: RenderPlan, resume: bool) -> list[int]:
@@ -227,21 +252,10 @@ class OutputFolder:
         """Check each view's freshly written EXR (``written[view]``, a temporary file), strip
         its wall-clock header fields, move it into place and record frame ``k`` complete;
         RenderWriteError (the previous files kept) if a file is short or lacks a channel."""
-        sums = {}
-        for view, tmp in written.items():
-            rel = exr_relpath(view, k)
-            try:
-                buf = Path(tmp).read_bytes()
-                layout = check_complete(buf, rel, required_channels, read_layout(buf, rel))
-                buf = strip_volatile_attributes(buf, layout)
-                with open(tmp, "wb") as f:
-                    f.write(buf)
-            except (OSError, ExrError) as e:
-                for t in written.values():
-                    Path(t).unlink(missing_ok=True)
-                raise RenderWriteError(f"frame {k} ({view}): the EXR was not written completely ({e}); "
-                                       "is the disk full? The previous files were kept") from None
-            sums[rel] = hashlib.sha256(buf).hexdigest()
+        self.commit_sealed(k, written, seal_frame(k, written, required_channels))
+
+    def commit_sealed(self, k: int, written: dict[str, Path], sums: dict[str, str]) -> None:
+        """Move frame ``k``'s sealed files (:func:`seal_frame`) into place and record it complete."""
         for view, tmp in written.items():
             os.replace(tmp, self.root / exr_relpath(view, k))
         self.manifest.frames_complete[k] = True
