@@ -24,7 +24,9 @@ Configurations: the presets (``blender_sesgen.presets``); ``blender``: a new Ble
 scene's Cycles settings (4096 samples, adaptive threshold 0.01, OpenImageDenoise, 12
 bounces, indirect clamp 10, caustics); ``blenderproc``: BlenderProc 2's defaults
 (``DefaultConfig``: at most 1024 samples, adaptive threshold 0.01, Intel OpenImageDenoise,
-3 bounces: diffuse 3, glossy 0, transmission 0, transparent 8) with all CPU threads.
+3 bounces: diffuse 3, glossy 0, transmission 0, transparent 8) with all CPU threads;
+``today``: the renderer's settings before the presets (16 samples, no denoiser, 6/3/3/6
+bounces, indirect clamp 10, no caustics).
 """
 from __future__ import annotations
 
@@ -59,6 +61,8 @@ OTHERS = {
     "blenderproc": Preset("custom", samples=1024, adaptive_threshold=0.01, denoise=True, max_bounces=3,
                           diffuse_bounces=3, glossy_bounces=0, transmission_bounces=0, volume_bounces=0,
                           transparent_bounces=8, clamp_indirect=10.0, caustics=True, light_tree=True),
+    # the renderer before the presets: 16 samples, no denoiser, 6/3/3/6 bounces, indirect clamp 10
+    "today": Preset("custom", samples=16),
 }
 
 
