@@ -111,6 +111,18 @@ class Mesh(Placed):
     scale: Vec3 = (1.0, 1.0, 1.0)
 
 
+@dataclass(frozen=True, kw_only=True)
+class Asset(Placed):
+    """``ASSET kind id N position ... [size sx sy sz] [seed n] [bend deg]``: a procedural
+    asset (blender_sesgen.assets), its mesh a pure function of (kind, size, seed, bend).
+    ``size`` is always explicit here (the kind's seeded default when the script gives none)."""
+    shape: ClassVar[str] = "asset"
+    kind: str
+    size: Vec3
+    seed: int
+    bend: float = 0.0
+
+
 # --- environment ------------------------------------------------------------------------
 
 @dataclass(frozen=True, kw_only=True)

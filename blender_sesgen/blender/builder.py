@@ -31,7 +31,8 @@ from mathutils import Matrix
 
 from .. import poses
 from ..errors import SesgenError
-from ..model import Cuboid, Cylinder, Material, Mesh, Quad, Scene, SceneObject, Sphere, TextureRef
+from ..model import Asset, Cuboid, Cylinder, Material, Mesh, Quad, Scene, SceneObject, Sphere, TextureRef
+from . import assets as asset_builder
 from . import compat, lighting, rig, textures
 
 SCENE_NAME = "SESGen"
@@ -124,6 +125,26 @@ class MaterialFactory:
         key = (tex, colour, mat_model, spherical)
         if key not in self.cache:
             self.cache[key] = self._make(f"sesgen_{obj.name}", colour, tex, mat_model, spherical)
+        return self.cache[key]
+
+    def surface(self, obj: Asset, surface, index: int):
+        """The material of an asset's surface ``index``: its library material (or the script's
+        MATERIAL of that name); the main surface (0) takes the object's material, texture
+        and colour tags."""
+        name, colour, tex = surface.material, tuple(surface.colour), None
+        if index == 0:
+            name = obj.material or name
+            colour = tuple(np.multiply(colour, obj.colour))
+            tex = obj.texture
+        try:
+            m = self.scene.material(name)
+        except KeyError:
+            m = asset_builder.stand_in(name)
+        tex = tex if tex is not None else m.texture
+        colour = tuple(float(c) for c in np.multiply(colour, m.colour))
+        key = (tex, colour, m, False)
+        if key not in self.cache:
+            self.cache[key] = self._make(f"sesgen_{name}", colour, tex, m)
         return self.cache[key]
 
     def _make(self, name: str, colour, tex: Optional[TextureRef], m: Optional[Material], spherical: bool = False):
@@ -379,6 +400,8 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -
             n = segments_for(o.radius, _min_camera_distance(scene, o.position, bound), focal)
             built.segments[o.id] = n
             objs = [build_cylinder(o, coll, n)]
+        elif isinstance(o, Asset):
+            objs = [asset_builder.build_asset(o, coll, lambda s, i, o=o: mats.surface(o, s, i), tag)]
         elif isinstance(o, Mesh):
             custom = o.texture is not None or o.material is not None or tuple(o.colour) != (1.0, 1.0, 1.0)
             objs = build_mesh(o, coll, mats.get(o) if custom else None)
@@ -387,7 +410,7 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -
         for b in objs:
             b.pass_index = int(o.id)
             b["sesgen_id"] = int(o.id)
-            if b.type == "MESH" and not isinstance(o, (Sphere, Mesh)):
+            if b.type == "MESH" and not isinstance(o, (Sphere, Mesh, Asset)):
                 b.data.materials.append(mats.get(o))
         built.objects[o.id] = objs
 

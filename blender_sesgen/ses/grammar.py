@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from ..assets import KINDS as ASSET_KINDS
+
 
 @dataclass(frozen=True)
 class Tag:
@@ -63,6 +65,11 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
                                 _num("dim", (2,), True, "dim r h"))),
     Statement("MESH", _tags(*COMMON_OBJECT_TAGS, Tag("file", "text", required=True, usage="file PATH"),
                             POSITION, _num("scale", (1, 3), usage="scale s | scale sx sy sz"))),
+    Statement("ASSET", _tags(*COMMON_OBJECT_TAGS, POSITION_REQUIRED,
+                             *(Tag(kind, "flag", usage=kind) for kind in ASSET_KINDS),
+                             _num("size", (3,), usage="size sx sy sz"),
+                             Tag("seed", "int", usage="seed n"),
+                             _num("bend", usage="bend deg"))),
     Statement("CAMERA", _tags(_num("resolution", (2,), True, "resolution W H"),
                               _num("focal", (1,), True, "focal F"),
                               _num("principal", (2,), usage="principal cx cy"),
@@ -103,6 +110,6 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
                               Tag("seed", "int", usage="seed n"))),
 )}
 
-OBJECT_KEYWORDS = ("QUAD", "CUBOID", "SPHERE", "CYLINDER", "MESH")
+OBJECT_KEYWORDS = ("QUAD", "CUBOID", "SPHERE", "CYLINDER", "MESH", "ASSET")
 SINGLETON_KEYWORDS = ("CAMERA", "START", "TRAJECTORY", "WORLD", "FOG", "NOISE", "RENDER")
 TAG_SYNONYMS = {"color": "colour"}

@@ -16,7 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Optional
 
-from .. import model
+from .. import assets, model
 from ..intrinsics import default_principal_point
 from . import environment
 from .checks import Checks, scalar, vec
@@ -31,6 +31,8 @@ from .statements import ParsedStatement, TagValue, did_you_mean, read_statement
 MAX_ID = 32767                 # Blender's object-index pass clamps above this
 MAX_RESOLUTION = 16384
 MESH_SUFFIXES = (".obj", ".ply", ".stl", ".gltf", ".glb")
+MAX_SEED = 2**31 - 1
+MAX_BEND_DEG = 90.0
 
 
 def parse_bytes(data: bytes, source: str = "<string>", base_dir: Optional[str] = None) -> model.Scene:
@@ -68,7 +70,7 @@ def _build(source: str, statements: list[ParsedStatement], attempted_objects: bo
     objects = _Objects(check, named_materials).build([s for s in statements if s.keyword in OBJECT_KEYWORDS])
     if not attempted_objects:
         check.diags.error(1, 1, "the script defines no objects: add at least one QUAD, CUBOID, SPHERE, "
-                                "CYLINDER or MESH")
+                                "CYLINDER, MESH or ASSET")
     rig = _rig(seen.get("CAMERA"), check)
     moving = rig_motion(statements, seen.get("START"), check)
     lights = tuple(light for light in (environment.light(s, check) for s in statements if s.keyword == "LIGHT")
@@ -83,7 +85,7 @@ def _build(source: str, statements: list[ParsedStatement], attempted_objects: bo
 
 
 class _Objects:
-    """QUAD, CUBOID, SPHERE, CYLINDER and MESH statements -> SceneObjects (faulty ones left out)."""
+    """QUAD, CUBOID, SPHERE, CYLINDER, MESH and ASSET statements -> SceneObjects (faulty ones left out)."""
 
     def __init__(self, check: Checks, defined: dict[str, model.Material]):
         self.check, self.defined = check, defined
@@ -167,6 +169,29 @@ class _Objects:
             return None
         return model.Mesh(path=str(path), source=tok.text, scale=scale * 3 if len(scale) == 1 else scale,
                           **self._placement(stmt), **common)
+
+
+    def _asset(self, stmt, common):
+        kinds = [k for k in assets.KINDS if k in stmt.tags]
+        if len(kinds) != 1:
+            at = stmt.tags[kinds[1]].tag if len(kinds) > 1 else stmt.token
+            self.check.err(at, f"ASSET needs exactly one kind ({', '.join(assets.KINDS)})")
+            return None
+        kind = assets.KINDS[kinds[0]]
+        self.check.positive(stmt, "size")
+        seed = int(scalar(stmt, "seed", common["id"]))
+        if "seed" in stmt.tags and not 0 <= seed <= MAX_SEED:
+            self.check.err(stmt.tags["seed"].tokens[0], f"ASSET 'seed' must lie in 0..{MAX_SEED}, got {seed}")
+        bend = float(scalar(stmt, "bend", 0.0))
+        if "bend" in stmt.tags:
+            tok = stmt.tags["bend"].tokens[0]
+            if not kind.strip:
+                self.check.err(stmt.tags["bend"].tag, f"ASSET {kind.name} takes no 'bend' (only "
+                               f"{', '.join(k for k, v in assets.KINDS.items() if v.strip)} do)")
+            elif abs(bend) > MAX_BEND_DEG:
+                self.check.err(tok, f"ASSET 'bend' must lie in -{MAX_BEND_DEG:g}..{MAX_BEND_DEG:g} degrees, got {tok.text}")
+        size = vec(stmt, "size") or assets.default_size(kind.name, seed)
+        return model.Asset(kind=kind.name, size=size, seed=seed, bend=bend, **self._placement(stmt), **common)
 
 
 def _rig(stmt: Optional[ParsedStatement], check: Checks) -> model.Rig:
