@@ -113,14 +113,16 @@ class Mesh(Placed):
 
 @dataclass(frozen=True, kw_only=True)
 class Asset(Placed):
-    """``ASSET kind id N position ... [size sx sy sz] [seed n] [bend deg]``: a procedural
-    asset (blender_sesgen.assets), its mesh a pure function of (kind, size, seed, bend).
-    ``size`` is always explicit here (the kind's seeded default when the script gives none)."""
+    """``ASSET kind id N position ... [size sx sy sz] [seed n] [bend deg ...] [offset o]``: a
+    procedural asset (blender_sesgen.assets), its mesh a pure function of (kind, size, seed,
+    bend, offset). ``size`` is always explicit here (the kind's seeded default when the
+    script gives none); ``bend`` and ``offset`` only matter for strips."""
     shape: ClassVar[str] = "asset"
     kind: str
     size: Vec3
     seed: int
-    bend: float = 0.0
+    bend: tuple[float, ...] = (0.0,)
+    offset: float = 0.0
 
 
 # --- environment ------------------------------------------------------------------------

@@ -7,9 +7,9 @@ bend always give the same mesh (bit for bit), so a script fully determines its g
 
 Frame conventions (docs/ses-language.md, *Assets*): the origin is the middle of the
 asset's footprint on the ground (y = 0); ``size`` = (x, y, z) extents; its front faces
-+z. Strips (road, kerb, sidewalk, verge) start at the origin and run along -z for their
-length, curving by ``bend`` degrees (positive = to the left, i.e. counter-clockwise
-seen from above), so that consecutive strips join exactly.
++z. Strips (road, kerb, sidewalk, verge) follow a centreline that starts at the origin,
+runs along -z and turns by ``bend`` degrees per equal piece (positive = left), lying
+``offset`` to its right (see ``street``), so the strips of one street fit exactly.
 """
 from __future__ import annotations
 
@@ -37,7 +37,7 @@ class Kind:
 
 
 def _kinds() -> dict[str, Kind]:
-    from . import building, street, vegetation, vehicle
+    from . import building, indoor, industrial, nature, street, vegetation, vehicle
     table = [
         Kind("building", "outdoor", "building",
              "block with real window/door openings, frames, sills, balconies, cornice, flat or gable roof",
@@ -81,6 +81,70 @@ def _kinds() -> dict[str, Kind]:
         Kind("bench", "street", "static", "park bench: metal frame, wooden slats",
              ((1.6, 2.0), (0.8, 0.9), (0.55, 0.65)), "width, height, depth", street.bench),
     ]
+    table += [
+        Kind("table", "indoor", "furniture", "table: top on four legs with an apron",
+             ((0.8, 1.8), (0.72, 0.76), (0.7, 1.0)), "width, height, depth", indoor.table),
+        Kind("desk", "indoor", "furniture", "office desk: top, side panel, drawer block, modesty panel",
+             ((1.2, 1.8), (0.72, 0.76), (0.7, 0.85)), "width, height, depth", indoor.desk),
+        Kind("chair", "indoor", "furniture", "four-legged chair or office chair (five-star base)",
+             ((0.42, 0.5), (0.85, 1.0), (0.45, 0.52)), "width, height, depth (seat faces +z)", indoor.chair),
+        Kind("shelf", "indoor", "furniture", "bookcase open towards +z, filled with books, boxes, stacks",
+             ((0.8, 1.2), (1.8, 2.2), (0.3, 0.38)), "width, height, depth", indoor.shelf),
+        Kind("cabinet", "indoor", "furniture", "cabinet with doors or drawers and handles",
+             ((0.8, 1.2), (0.75, 1.2), (0.4, 0.5)), "width, height, depth", indoor.cabinet),
+        Kind("sofa", "indoor", "furniture", "sofa: soft arms, back and cushions on wooden feet",
+             ((1.6, 2.4), (0.8, 0.9), (0.85, 0.95)), "width, height, depth (seat faces +z)", indoor.sofa),
+        Kind("door", "indoor", "door", "door leaf in a frame with architraves and handles",
+             ((0.8, 1.0), (2.0, 2.1), (0.12, 0.2)), "opening width, opening height, wall thickness", indoor.door),
+        Kind("picture", "indoor", "picture", "framed print facing +z, its back at z = 0",
+             ((0.4, 1.0), (1.5, 1.7), (0.02, 0.04)), "width, height of its centre, depth", indoor.picture),
+        Kind("ceiling_light", "indoor", "lamp", "light panel (emissive light_panel diffuser facing down), "
+             "flush or on wires; top at y = 0", ((0.6, 1.2), (0.05, 0.8), (0.2, 0.6)),
+             "width, hanging length (< 0.1: flush), depth", indoor.ceiling_light),
+        Kind("window_frame", "indoor", "window", "open window frame with bars and a sill board, for a wall "
+             "opening (room side +z)", ((1.0, 2.0), (1.2, 1.6), (0.2, 0.35)),
+             "opening width, opening height, wall thickness", indoor.window_frame),
+        Kind("plant", "indoor", "vegetation", "pot plant: pot, soil, stems with leaves",
+             ((0.4, 0.8), (0.6, 1.4), (0.4, 0.8)), "width, height, depth", indoor.plant, closed=False),
+        Kind("monitor", "indoor", "furniture", "computer monitor on a stand, screen facing +z",
+             ((0.5, 0.65), (0.45, 0.55), (0.18, 0.22)), "width, height, depth", indoor.monitor),
+        Kind("rug", "indoor", "floor", "rug with a border", ((1.4, 3.0), (0.006, 0.012), (1.0, 2.2)),
+             "width, thickness, depth", indoor.rug),
+        Kind("column", "industrial", "building", "steel H column on a base plate (stripes) or concrete column",
+             ((0.3, 0.45), (6, 12), (0.3, 0.45)), "width, height, depth", industrial.column),
+        Kind("girder", "industrial", "building", "I-beam along x with stiffeners; origin mid bottom flange",
+             ((8, 20), (0.5, 0.9), (0.25, 0.35)), "length, depth, flange width", industrial.girder),
+        Kind("rack", "industrial", "furniture", "pallet rack with beam levels, pallets and cardboard loads",
+             ((5, 11), (4, 7), (1.0, 1.2)), "length, height, depth", industrial.rack),
+        Kind("machine", "industrial", "static", "industrial machine: housing, panels, control cabinet, duct",
+             ((2.5, 5), (1.8, 3.2), (1.5, 3)), "width, height, depth", industrial.machine),
+        Kind("tank", "industrial", "static", "vertical tank on legs with a domed top and a ladder",
+             ((1.5, 3), (3, 6), (1.5, 3)), "diameter, height, diameter", industrial.tank),
+        Kind("crate", "industrial", "static", "wooden crate with battens", ((0.8, 1.6), (0.6, 1.2), (0.8, 1.4)),
+             "width, height, depth", industrial.crate),
+        Kind("pallet", "industrial", "static", "wooden pallet", ((1.2, 1.2), (0.14, 0.14), (0.8, 1.0)),
+             "width, height, depth", industrial.pallet),
+        Kind("barrel", "industrial", "static", "steel drum with rolling hoops", ((0.58, 0.6), (0.85, 0.9), (0.58, 0.6)),
+             "diameter, height, diameter", industrial.barrel),
+        Kind("stairs", "industrial", "building", "steel stair rising towards -z with handrails",
+             ((0.9, 1.4), (2.5, 4.5), (3, 6)), "width, rise, run", industrial.stairs),
+        Kind("railing", "industrial", "fence", "guard railing along x with a kick plate",
+             ((3, 10), (1.0, 1.1), (0.05, 0.05)), "length, height, thickness", industrial.railing),
+        Kind("pipe", "industrial", "static", "pipe run along x with flanges and supports",
+             ((6, 20), (1.5, 4), (0.15, 0.4)), "length, axis height, diameter", industrial.pipe),
+        Kind("terrain", "nature", "terrain", "rolling ground (0.5 m grid) with a trail along z, grass, litter",
+             ((60, 120), (2, 6), (100, 200)), "width, relief amplitude, depth", nature.terrain, closed=False),
+        Kind("rock", "nature", "terrain", "boulder: displaced icosphere, moss on top",
+             ((0.4, 2.5), (0.3, 1.5), (0.4, 2.5)), "width, height, depth", nature.rock),
+        Kind("log", "nature", "vegetation", "fallen log along x with branch stubs",
+             ((3, 8), (0.25, 0.6), (0.25, 0.6)), "length, diameter, diameter", nature.log),
+        Kind("stump", "nature", "vegetation", "tree stump with root flares", ((0.4, 0.8), (0.3, 0.8), (0.4, 0.8)),
+             "width, height, depth", nature.stump),
+        Kind("fern", "nature", "vegetation", "arching fronds of leaflets", ((0.6, 1.4), (0.3, 0.7), (0.6, 1.4)),
+             "width, height, depth", nature.fern, closed=False),
+        Kind("grass_tuft", "nature", "terrain", "clump of grass blades", ((0.3, 0.8), (0.2, 0.5), (0.3, 0.8)),
+             "width, height, depth", nature.grass_tuft, closed=False),
+    ]
     return {k.name: k for k in table}
 
 
@@ -93,9 +157,10 @@ def default_size(kind: str, seed: int) -> Vec3:
     return tuple(round(float(rng.uniform(lo, hi)), 3) for lo, hi in KINDS[kind].size_ranges)
 
 
-def generate(kind: str, size, seed: int, bend: float = 0.0) -> MeshData:
+def generate(kind: str, size, seed: int, bend=(0.0,), offset: float = 0.0) -> MeshData:
     """The mesh of one asset (asset frame, SES axes, metres)."""
     k = KINDS[kind]
     if k.strip:
-        return k.generator(tuple(map(float, size)), int(seed), float(bend))
+        return k.generator(tuple(map(float, size)), int(seed), tuple(map(float, np.atleast_1d(bend))),
+                           float(offset))
     return k.generator(tuple(map(float, size)), int(seed))

@@ -12,22 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import palette
 from .mesh import MeshBuilder, MeshData, pose
-
-FACADE_COLOURS = (  # pale plaster tones (linear-ish albedo multipliers)
-    (0.92, 0.90, 0.84), (0.88, 0.84, 0.74), (0.93, 0.88, 0.72), (0.86, 0.80, 0.76),
-    (0.80, 0.81, 0.80), (0.90, 0.86, 0.80), (0.85, 0.76, 0.64), (0.75, 0.78, 0.80),
-    (0.95, 0.94, 0.92), (0.82, 0.85, 0.78))
-BRICK_COLOURS = ((0.62, 0.34, 0.26), (0.55, 0.36, 0.30), (0.70, 0.50, 0.40), (0.50, 0.42, 0.38))
-FRAME_COLOURS = ((0.95, 0.95, 0.95), (0.93, 0.93, 0.93), (0.25, 0.26, 0.28), (0.45, 0.30, 0.20),
-                 (0.55, 0.56, 0.58))
-DOOR_COLOURS = ((0.35, 0.22, 0.14), (0.20, 0.22, 0.25), (0.55, 0.38, 0.22), (0.60, 0.60, 0.62),
-                (0.15, 0.25, 0.20))
-ROOF_COLOURS = ((0.45, 0.20, 0.14), (0.30, 0.28, 0.28), (0.52, 0.27, 0.18), (0.22, 0.22, 0.24))
-INTERIOR_COLOURS = ((0.55, 0.50, 0.42), (0.40, 0.38, 0.36), (0.60, 0.58, 0.55), (0.35, 0.30, 0.26))
-CURTAIN_COLOURS = ((0.85, 0.83, 0.78), (0.70, 0.66, 0.58), (0.55, 0.20, 0.18), (0.30, 0.35, 0.45),
-                   (0.90, 0.90, 0.88))
-
+from .palette import pick
 
 @dataclass
 class Opening:
@@ -83,19 +70,16 @@ def generate(size, seed: int) -> MeshData:
     W, H, D = (float(s) for s in size)
     b = MeshBuilder()
     brick = rng.random() < 0.25
-    wall = b.surface("brick", BRICK_COLOURS[rng.integers(len(BRICK_COLOURS))]) if brick else \
-        b.surface("plaster", FACADE_COLOURS[rng.integers(len(FACADE_COLOURS))])
-    base = b.surface("concrete", np.array([0.62, 0.60, 0.57]) * rng.uniform(0.8, 1.1))
-    trim = b.surface("plaster", (0.93, 0.92, 0.89)) if brick or rng.random() < 0.5 else wall
-    frame = b.surface("metal_painted", FRAME_COLOURS[rng.integers(len(FRAME_COLOURS))])
+    wall = b.surface("brick", pick(rng, palette.BRICK)) if brick else b.surface("plaster", pick(rng, palette.PLASTER))
+    base = b.surface("concrete", pick(rng, palette.STONE))
+    trim = b.surface("plaster", (0.70, 0.69, 0.66)) if brick or rng.random() < 0.5 else wall
+    frame = b.surface("metal_painted", pick(rng, palette.FRAME))
     glass = b.surface("glass_window")
-    sill = b.surface("concrete", (0.75, 0.74, 0.72))
-    door = b.surface("wood_planks", DOOR_COLOURS[rng.integers(len(DOOR_COLOURS))])
-    interior = b.surface("plaster", INTERIOR_COLOURS[rng.integers(len(INTERIOR_COLOURS))])
-    curtain = b.surface("fabric", CURTAIN_COLOURS[rng.integers(len(CURTAIN_COLOURS))])
-    rail = b.surface("metal_painted", (0.2, 0.21, 0.22) if rng.random() < 0.6 else (0.85, 0.85, 0.85))
-    roof_s = b.surface("roof_tiles", ROOF_COLOURS[rng.integers(len(ROOF_COLOURS))])
-    pipe = b.surface("metal_brushed", (0.6, 0.6, 0.6))
+    sill = b.surface("concrete", (0.45, 0.44, 0.42))
+    door = b.surface("wood_planks", pick(rng, palette.DOOR))
+    rail = b.surface("metal_painted", (0.05, 0.05, 0.05) if rng.random() < 0.6 else (0.70, 0.70, 0.70))
+    roof_s = b.surface("roof_tiles", pick(rng, palette.ROOF))
+    pipe = b.surface("metal_brushed")
 
     pitched = rng.random() < 0.45 and W <= 24
     roof_h = min(0.55 * D * np.tan(np.radians(rng.uniform(28, 42))), 0.6 * H) if pitched else 0.0
@@ -203,12 +187,12 @@ def generate(size, seed: int) -> MeshData:
     shell.poly(bottom_pts[::-1], base)
     b.add(np.array(shell.V), shell.tris, shell.surf, closed=True)
 
-    # --- details: frames, sills, interiors, door furniture ---------------------------
+    # --- details: frames, sills, door furniture ---------------------------
     for (origin, e_u, n, L), ops in zip(sides, openings):
         R = np.column_stack([e_u, [0, 1.0, 0], n])   # facade frame: u, v, out
         T_side = pose(R, origin)
         for o in ops:
-            _opening_details(b, rng, o, T_side, frame, sill, door, interior, curtain, mullion, transom, wall_h)
+            _opening_details(b, o, T_side, frame, sill, mullion, transom)
     # --- bands: base course, string course over the ground floor, cornice ------------------
     proj = rng.uniform(0.15, 0.35)
     _band(b, W, D, wall_h - cornice_h, wall_h + (0.0 if pitched else 0.25), proj, trim)
@@ -253,8 +237,7 @@ def _perimeter_points(shell: _Shell, y: float) -> list:
     return pts
 
 
-def _opening_details(b, rng, o: Opening, T_side, frame, sill, door, interior, curtain, mullion, transom,
-                     wall_top):
+def _opening_details(b, o: Opening, T_side, frame, sill, mullion, transom):
     w, h, r = o.u1 - o.u0, o.v1 - o.v0, o.recess
     fw, fd = 0.06, 0.07          # frame profile width and depth
     z_front = -r + fd            # frame runs from the glass plane (-r) outwards by fd (facade frame: +w out)
@@ -274,16 +257,6 @@ def _opening_details(b, rng, o: Opening, T_side, frame, sill, door, interior, cu
             b.box(lo, hi, frame, T=T_side)
         if o.kind != "shop":   # the sill below the opening
             b.box((u0 - 0.05, v0 - 0.05, -0.02), (u1 + 0.05, v0, 0.06), sill, T=T_side)
-        # interior behind the glass: a room box open towards the glass, and maybe a curtain
-        depth = rng.uniform(1.5, 3.0)
-        room_lo = (u0 - 0.5, max(v0 - 1.0, 0.05) if o.kind != "shop" else v0, -r - depth)
-        room_hi = (u1 + 0.5, min(v1 + 0.35, wall_top - 0.05), -r - 0.005)
-        b.box(room_lo, room_hi, interior, T=T_side, skip=("+z",))
-        if rng.random() < 0.55:
-            cw = w * rng.uniform(0.25, 0.7)
-            left = rng.random() < 0.5
-            cu0, cu1 = (u0, u0 + cw) if left else (u1 - cw, u1)
-            b.box((cu0, v0 + 0.02, -r - 0.12), (cu1, v1, -r - 0.1), curtain, T=T_side)
     else:  # door: a frame, a handle, a step
         u0, u1, v0, v1 = o.u0, o.u1, o.v0, o.v1
         for lo, hi in [((u0, v1 - 0.08, -r), (u1, v1, -r + 0.08)), ((u0, v0, -r), (u0 + 0.08, v1, -r + 0.08)),

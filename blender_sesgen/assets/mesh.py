@@ -26,9 +26,9 @@ Vec3 = tuple[float, float, float]
 @dataclass(frozen=True)
 class Surface:
     """One material slot of an asset: a material name (of the built-in library unless the
-    script defines a MATERIAL of that name) and a colour that multiplies it."""
+    script defines a MATERIAL of that name) and optionally the colour it takes."""
     material: str
-    colour: Vec3 = (1.0, 1.0, 1.0)
+    colour: Optional[Vec3] = None   # linear albedo replacing the material's own; None = its own
 
 
 @dataclass
@@ -164,8 +164,8 @@ class MeshBuilder:
         self._surfaces: dict[Surface, int] = {}
         self._count = 0
 
-    def surface(self, material: str, colour: Sequence[float] = (1.0, 1.0, 1.0)) -> int:
-        s = Surface(material, tuple(round(float(c), 4) for c in colour))
+    def surface(self, material: str, colour: Optional[Sequence[float]] = None) -> int:
+        s = Surface(material, None if colour is None else tuple(round(float(c), 4) for c in colour))
         if s not in self._surfaces:
             self._surfaces[s] = len(self._surfaces)
         return self._surfaces[s]
@@ -382,24 +382,3 @@ class MeshBuilder:
             s = np.concatenate([fs, fs])
         self.add(G.reshape(-1, 3), tris, s, smooth=smooth, facing=facing)
 
-
-def components(faces: np.ndarray) -> np.ndarray:
-    """Connected-component label of each triangle (triangles sharing a vertex are connected)."""
-    f = np.asarray(faces, dtype=np.int64)
-    n = int(f.max()) + 1 if len(f) else 0
-    parent = np.arange(n)
-
-    def find(i):
-        root = i
-        while parent[root] != root:
-            root = parent[root]
-        while parent[i] != root:
-            parent[i], i = root, parent[i]
-        return root
-
-    for a, b, c in f:
-        ra, rb, rc = find(a), find(b), find(c)
-        parent[rb] = ra
-        parent[find(rc)] = ra
-    roots = np.array([find(i) for i in range(n)])
-    return roots[f[:, 0]]

@@ -1,11 +1,15 @@
 """Street strips (road, kerb, sidewalk, verge) along an arc, and street furniture
 (pole, street light, traffic sign plate, traffic light, bin, bollard).
 
-Strips: ``size`` = (width, height, length). The strip starts at the origin heading along
--z and curves by ``bend`` degrees over its length (positive = left, counter-clockwise
-seen from above); a point at arc length s and lateral offset o (positive = right) is
-c(s) + o n(s), so strips laid end to end (each placed at the previous one's end pose)
-and side by side (their offsets) join exactly. Each strip is a closed slab.
+Strips: ``size`` = (width, height, length). A strip's centreline starts at the origin
+heading along -z; its length is cut into as many equal pieces as ``bend`` has values,
+piece i turning by bend[i] degrees at constant curvature (positive = left, counter-
+clockwise seen from above): a tangent-continuous chain of arcs. The strip itself lies
+``offset`` to the right of that centreline (negative: to the left); a point at arc length
+s and lateral position o is c(s) + o n(s). Strips with the same position, rotation,
+length and bend but different offsets (road, kerbs, sidewalks, verges of one street)
+therefore fit side by side exactly. Each strip is a closed slab. The road side of a kerb
+or sidewalk is the side nearer the centreline.
 - road: asphalt, top at y = 0 with a 2 % camber (centre highest), lane markings as their
   own faces of the top (dashed centre line, optional edge lines), height = slab depth;
 - kerb: a kerb stone (concrete), road side at o = -width/2, top at y = height;
@@ -16,38 +20,73 @@ from __future__ import annotations
 
 import numpy as np
 
-from .mesh import MeshBuilder, MeshData, pose, rot_x, rot_y
+from . import palette
+from .mesh import MeshBuilder, MeshData, pose, rot_x
+from .palette import pick, scaled
+
+ASPHALT = (0.085, 0.085, 0.082)
+GRASS = (0.06, 0.10, 0.03)
 
 
-def arc_frame(s, length: float, bend_deg: float):
-    """Centre points c(s) (n, 3) and right normals n(s) (n, 3) of the strip's arc."""
-    s = np.asarray(s, float)
-    theta = np.radians(bend_deg)
-    a = theta * s / length
-    if abs(theta) < 1e-9:
-        c = np.stack([np.zeros_like(s), np.zeros_like(s), -s], axis=1)
-    else:
-        R = length / theta
-        c = np.stack([-R * (1 - np.cos(a)), np.zeros_like(s), -R * np.sin(a)], axis=1)
-    n = np.stack([np.cos(a), np.zeros_like(a), -np.sin(a)], axis=1)
-    return c, n
+def _pieces(length: float, bends):
+    """Start arc length, start point (x, z), start heading (rad) and turn (rad) of each of
+    the equal pieces of a strip whose piece i turns by bends[i] degrees."""
+    bends = np.atleast_1d(np.asarray(bends, float))
+    n = len(bends)
+    ell = length / n
+    out, p, h = [], np.zeros(2), 0.0
+    for i, bd in enumerate(bends):
+        th = np.radians(bd)
+        out.append((i * ell, p.copy(), h, th))
+        if abs(th) < 1e-12:
+            p = p + ell * np.array([-np.sin(h), -np.cos(h)])
+        else:
+            R = ell / th   # centre of curvature to the left of the heading
+            p = p + R * np.array([-(np.cos(h) - np.cos(h + th)), -(np.sin(h + th) - np.sin(h))])
+        h += th
+    return out, ell
 
 
-def end_pose(length: float, bend_deg: float) -> tuple[np.ndarray, float]:
-    """(end point, heading change in degrees) of a strip: the next strip's position and
-    the yaw to add to its rotation."""
-    c, _ = arc_frame([length], length, bend_deg)
-    return c[0], bend_deg
+def arc_frame(s, length: float, bends):
+    """Centre points c(s) (n, 3), right normals n(s) (n, 3) and headings (rad, left
+    positive) of a strip of ``length`` whose equal pieces turn by ``bends`` (degrees)."""
+    s = np.atleast_1d(np.asarray(s, float))
+    pieces, ell = _pieces(length, bends)
+    c = np.zeros((len(s), 3))
+    head = np.zeros(len(s))
+    idx = np.clip((s / ell).astype(int), 0, len(pieces) - 1)
+    for i, (s0, p0, h0, th) in enumerate(pieces):
+        m = idx == i
+        u = s[m] - s0
+        if abs(th) < 1e-12:
+            c[m, 0], c[m, 2], head[m] = p0[0] - u * np.sin(h0), p0[1] - u * np.cos(h0), h0
+        else:
+            R = ell / th
+            a = h0 + th * u / ell
+            c[m, 0] = p0[0] - R * (np.cos(h0) - np.cos(a))
+            c[m, 2] = p0[1] - R * (np.sin(a) - np.sin(h0))
+            head[m] = a
+    n = np.stack([np.cos(head), np.zeros_like(head), -np.sin(head)], axis=1)
+    return c, n, head
 
 
-def _stations(length: float, bend_deg: float, extra=(), max_step=1.0) -> np.ndarray:
-    theta = abs(np.radians(bend_deg))
+def end_pose(length: float, bends) -> tuple[np.ndarray, float]:
+    """(end point, heading change in degrees) of a strip."""
+    c, _, h = arc_frame([length], length, bends)
+    return c[0], float(np.degrees(h[0]))
+
+
+def _stations(length: float, bends, extra=(), max_step=1.0) -> np.ndarray:
+    bends = np.atleast_1d(np.asarray(bends, float))
+    ell = length / len(bends)
+    theta = float(np.max(np.abs(np.radians(bends))))
     step = max_step
-    if theta > 1e-9:   # chord sagitta <= 2 mm
-        step = min(step, np.sqrt(8 * (length / theta) * 0.002))
+    if theta > 1e-9:   # chord sagitta <= 2 mm on the sharpest piece
+        step = min(step, np.sqrt(8 * (ell / theta) * 0.002))
     n = max(int(np.ceil(length / step)), 1)
     s = set(np.linspace(0.0, length, n + 1).round(6))
     s |= {round(float(x), 6) for x in extra if 0 < x < length}
+    s |= {round(ell * i, 6) for i in range(1, len(bends))}
     return np.array(sorted(s))
 
 
@@ -55,7 +94,7 @@ def _slab(b: MeshBuilder, s, offsets, top_y, bottom_y, length, bend, cell_surf, 
     """A closed slab: a top grid (stations s x lateral offsets, heights top_y (len(s), len(o))),
     vertical sides at the first and last offset, flat bottom, end faces; cells' surfaces
     ``cell_surf`` (len(s)-1, len(o)-1)."""
-    c, n = arc_frame(s, length, bend)
+    c, n, _ = arc_frame(s, length, bend)
     o = np.asarray(offsets, float)
     S, O = len(s), len(o)
     top = c[:, None, :] + o[None, :, None] * n[:, None, :]
@@ -86,14 +125,14 @@ def _slab(b: MeshBuilder, s, offsets, top_y, bottom_y, length, bend, cell_surf, 
     b.add(V, tris, surfs, closed=True)
 
 
-def road(size, seed: int, bend: float) -> MeshData:
+def road(size, seed: int, bend, offset: float = 0.0) -> MeshData:
     rng = np.random.default_rng(seed)
     W, depth, L = (float(x) for x in size)
     b = MeshBuilder()
-    asphalt = b.surface("asphalt", np.array([1.0, 1.0, 1.0]) * rng.uniform(0.85, 1.1))
-    paint = b.surface("lane_marking", (0.92, 0.92, 0.9))
-    patch = b.surface("asphalt", np.array([1.0, 1.0, 1.0]) * rng.uniform(0.6, 0.75))
-    iron = b.surface("metal_rusty", (0.35, 0.33, 0.3))
+    asphalt = b.surface("asphalt", scaled(ASPHALT, float(rng.choice([0.9, 1.0, 1.1]))))
+    paint = b.surface("lane_marking")
+    patch = b.surface("asphalt", scaled(ASPHALT, float(rng.choice([0.7, 0.8]))))
+    iron = b.surface("metal_rusty", (0.12, 0.11, 0.10))
     style = int(rng.choice([0, 1, 2], p=[0.3, 0.45, 0.25])) if W >= 5.0 else 0
     line_w = 0.12
     offs = {-W / 2, W / 2, 0.0}
@@ -135,63 +174,69 @@ def road(size, seed: int, bend: float) -> MeshData:
             if style == 2 and W / 2 - 0.25 < abs(oj) < W / 2 - 0.25 + line_w:
                 cells[i, j] = paint
     camber = -0.02 * (W / 2) * (offs / (W / 2)) ** 2
-    _slab(b, s, offs, np.tile(camber, (len(s), 1)), -depth, L, bend, cells, asphalt)
+    _slab(b, s, offs + offset, np.tile(camber, (len(s), 1)), -depth, L, bend, cells, asphalt)
     return b.build()
 
 
-def kerb(size, seed: int, bend: float) -> MeshData:
+def _road_side(offs, tops, offset: float):
+    """Cross-section built with its road side at -x; mirrored when the strip lies left of
+    the centreline (offset < 0), so the road side always faces the centreline."""
+    if offset >= 0:
+        return offs + offset, tops
+    return -offs[::-1] + offset, tops[:, ::-1]
+
+
+def kerb(size, seed: int, bend, offset: float = 0.0) -> MeshData:
     W, h, L = (float(x) for x in size)
     rng = np.random.default_rng(seed)
     b = MeshBuilder()
-    stone = b.surface("concrete", np.array([0.78, 0.77, 0.74]) * rng.uniform(0.9, 1.05))
+    stone = b.surface("concrete", scaled((0.42, 0.41, 0.39), float(rng.choice([0.9, 1.0, 1.1]))))
     ch = min(0.03, W / 4)
     offs = np.array([-W / 2, -W / 2 + ch, W / 2])
     s = _stations(L, bend, np.arange(1.0, L, 1.0))   # one stone per metre
-    tops = np.tile([h - ch, h, h], (len(s), 1))
+    offs, tops = _road_side(offs, np.tile([h - ch, h, h], (len(s), 1)), offset)
     cells = np.full((len(s) - 1, 2), stone)
     _slab(b, s, offs, tops, -0.25, L, bend, cells, stone)
     return b.build()
 
 
-def sidewalk(size, seed: int, bend: float) -> MeshData:
+def sidewalk(size, seed: int, bend, offset: float = 0.0) -> MeshData:
     W, h, L = (float(x) for x in size)
     rng = np.random.default_rng(seed)
     b = MeshBuilder()
-    base = np.array([0.72, 0.70, 0.67]) * rng.uniform(0.85, 1.05)
-    if rng.random() < 0.3:
-        base = base * np.array([1.05, 0.85, 0.8])      # reddish pavers
-    tones = [b.surface("concrete", np.clip(base * f, 0, 1)) for f in (0.86, 0.93, 1.0, 1.06)]
+    base = pick(rng, palette.PAVING)
+    tones = [b.surface("concrete", scaled(base, f)) for f in (0.86, 0.93, 1.0, 1.07)]
     slab = rng.choice([0.3, 0.4, 0.5])
     n_o = max(int(round(W / slab)), 1)
     offs = np.linspace(-W / 2, W / 2, n_o + 1)
     s = _stations(L, bend, np.arange(slab, L, slab), max_step=slab)
     cells = rng.choice(tones, size=(len(s) - 1, n_o), p=[0.2, 0.3, 0.3, 0.2])
-    # a very slight cross fall towards the road (-x side) for drainage
-    tops = np.tile(h - 0.02 * (W / 2 - offs) / max(W, 1e-6), (len(s), 1))
+    # a slight cross fall (1 %) towards the road side
+    offs, tops = _road_side(offs, np.tile(h - 0.01 * (W / 2 - offs), (len(s), 1)), offset)
+    if offset < 0:
+        cells = cells[:, ::-1]
     _slab(b, s, offs, tops, -0.25, L, bend, cells, tones[1])
     return b.build()
 
 
-def verge(size, seed: int, bend: float) -> MeshData:
+def verge(size, seed: int, bend, offset: float = 0.0) -> MeshData:
     W, h, L = (float(x) for x in size)
     rng = np.random.default_rng(seed)
     b = MeshBuilder()
-    grass = [b.surface("grass", np.array([1.0, 1.0, 1.0]) * f) for f in (0.85, 1.0, 1.1)]
+    grass = [b.surface("grass", scaled(GRASS, f)) for f in (0.85, 1.0, 1.15)]
     soil = b.surface("soil")
     step = 0.5
     offs = np.linspace(-W / 2, W / 2, max(int(np.ceil(W / step)), 1) + 1)
     s = _stations(L, bend, (), max_step=step)
     # gentle relief that vanishes at the strip's edges (so neighbours join at height h)
     ph = rng.uniform(0, 2 * np.pi, 4)
-    c, n = arc_frame(s, L, bend)
     edge = np.clip(np.minimum(offs + W / 2, W / 2 - offs) / 0.6, 0, 1)
     sx = s[:, None]
     relief = 0.04 * (np.sin(sx * 0.9 + ph[0]) * np.sin(offs[None, :] * 1.3 + ph[1]) +
                      0.5 * np.sin(sx * 2.3 + ph[2] + offs[None, :] * 0.7)) * edge[None, :]
     cells = rng.choice(grass, size=(len(s) - 1, len(offs) - 1))
-    worn = rng.random(cells.shape) < 0.04
-    cells[worn] = soil
-    _slab(b, s, offs, h + relief, -0.25, L, bend, cells, soil)
+    cells[rng.random(cells.shape) < 0.04] = soil
+    _slab(b, s, offs + offset, h + relief, -0.25, L, bend, cells, soil)
     return b.build()
 
 
@@ -202,7 +247,7 @@ def pole(size, seed: int) -> MeshData:
     rng = np.random.default_rng(seed)
     d, H, _ = (float(x) for x in size)
     b = MeshBuilder()
-    metal = b.surface("metal_painted", (0.55, 0.56, 0.57) if rng.random() < 0.7 else (0.2, 0.3, 0.22))
+    metal = b.surface("metal_painted", pick(rng, palette.METAL_PAINT))
     b.cylinder(d / 2, -0.05, H, 12, metal)
     b.cylinder(d / 2 + 0.004, H - 0.01, H + 0.02, 12, metal)    # cap
     return b.build()
@@ -214,8 +259,8 @@ def streetlight(size, seed: int) -> MeshData:
     rng = np.random.default_rng(seed)
     reach, H, dia = (float(x) for x in size)
     b = MeshBuilder()
-    metal = b.surface("metal_painted", (0.4, 0.42, 0.44) if rng.random() < 0.6 else (0.15, 0.2, 0.18))
-    lamp_glass = b.surface("glass_window", (0.8, 0.8, 0.75))
+    metal = b.surface("metal_painted", pick(rng, palette.METAL_PAINT))
+    lamp_glass = b.surface("plastic", (0.7, 0.7, 0.66))
     b.frustum(dia / 2, dia / 4, -0.05, H - 0.3, 14, metal)
     b.frustum(dia / 2 + 0.03, dia / 2 + 0.02, 0.0, 0.6, 14, metal)          # base sleeve
     # arm: a quarter circle then straight, from the mast top towards -x
@@ -239,11 +284,11 @@ def sign(size, seed: int) -> MeshData:
     rng = np.random.default_rng(seed)
     Wd, yc, th = (float(x) for x in size)
     b = MeshBuilder()
-    white = b.surface("metal_painted", (0.9, 0.9, 0.88))
-    red = b.surface("metal_painted", (0.65, 0.05, 0.05))
-    blue = b.surface("metal_painted", (0.05, 0.18, 0.5))
-    back = b.surface("metal_brushed", (0.6, 0.6, 0.6))
-    dark = b.surface("metal_painted", (0.05, 0.05, 0.05))
+    white = b.surface("metal_painted", (0.75, 0.75, 0.73))
+    red = b.surface("metal_painted", (0.45, 0.02, 0.02))
+    blue = b.surface("metal_painted", (0.02, 0.08, 0.35))
+    back = b.surface("metal_brushed")
+    dark = b.surface("metal_painted", (0.03, 0.03, 0.03))
     kind = int(rng.integers(4))
     r = Wd / 2
     if kind == 0:     # triangle (warning), apex up
@@ -290,9 +335,9 @@ def traffic_light(size, seed: int) -> MeshData:
     rng = np.random.default_rng(seed)
     w, H, dia = (float(x) for x in size)
     b = MeshBuilder()
-    body = b.surface("metal_painted", (0.08, 0.08, 0.08) if rng.random() < 0.5 else (0.55, 0.56, 0.57))
-    post = b.surface("metal_painted", (0.5, 0.52, 0.54))
-    lens = [b.surface("glass_window", c) for c in ((0.7, 0.08, 0.05), (0.7, 0.5, 0.05), (0.05, 0.5, 0.2))]
+    body = b.surface("metal_painted", (0.03, 0.03, 0.03) if rng.random() < 0.5 else (0.30, 0.31, 0.32))
+    post = b.surface("metal_painted", (0.30, 0.31, 0.32))
+    lens = [b.surface("plastic", c) for c in ((0.3, 0.02, 0.01), (0.3, 0.18, 0.01), (0.01, 0.18, 0.06))]
     hh = w * 2.8
     b.cylinder(dia / 2, -0.05, H - hh, 12, post)
     b.box((-w / 2, H - hh, -0.12), (w / 2, H, 0.1), body)
@@ -308,10 +353,9 @@ def bin_(size, seed: int) -> MeshData:
     rng = np.random.default_rng(seed)
     W, H, D = (float(x) for x in size)
     b = MeshBuilder()
-    colours = ((0.1, 0.1, 0.1), (0.1, 0.25, 0.12), (0.12, 0.2, 0.45), (0.45, 0.3, 0.1), (0.5, 0.05, 0.05))
-    col = colours[rng.integers(len(colours))]
+    col = pick(rng, palette.PLASTIC_BIN)
     shell = b.surface("plastic", col)
-    lid = b.surface("plastic", np.array(col) * 0.8)
+    lid = b.surface("plastic", scaled(col, 0.8))
     rubber = b.surface("rubber")
     if rng.random() < 0.7:
         b.prism([(-W / 2 + 0.03, -D / 2 + 0.03), (W / 2 - 0.03, -D / 2 + 0.03), (W / 2, D / 2), (-W / 2, D / 2)],
@@ -321,7 +365,7 @@ def bin_(size, seed: int) -> MeshData:
             b.cylinder(0.1, -0.025, 0.025, 16, rubber, T=pose(np.array([[0, 1, 0], [-1, 0, 0], [0, 0, 1]]),
                                                            (sx * (W / 2 - 0.08), 0.1, -D / 2 + 0.05)))
     else:
-        metal = b.surface("metal_painted", (0.3, 0.32, 0.3))
+        metal = b.surface("metal_painted", pick(rng, palette.METAL_PAINT))
         b.cylinder(0.04, -0.05, H, 10, metal)
         b.frustum(W / 2, W / 2 * 1.05, H * 0.45, H * 0.95, 20, shell, T=pose(None, (0, 0, D / 2 + 0.02)))
     return b.build()
@@ -331,8 +375,8 @@ def bollard(size, seed: int) -> MeshData:
     rng = np.random.default_rng(seed)
     d, H, _ = (float(x) for x in size)
     b = MeshBuilder()
-    metal = b.surface("metal_painted", (0.25, 0.25, 0.25) if rng.random() < 0.6 else (0.75, 0.75, 0.73))
-    band = b.surface("metal_painted", (0.85, 0.85, 0.85))
+    metal = b.surface("metal_painted", pick(rng, palette.METAL_PAINT))
+    band = b.surface("metal_painted", (0.75, 0.75, 0.73))
     b.cylinder(d / 2, -0.05, H - 0.1, 16, metal)
     b.cylinder(d / 2 + 0.003, H * 0.7, H * 0.78, 16, band)
     b.revolve([(0, H - 0.1), (d / 2, H - 0.1), (d / 2 * 0.8, H - 0.04), (0, H)], 16, metal)
@@ -343,8 +387,8 @@ def bench(size, seed: int) -> MeshData:
     rng = np.random.default_rng(seed)
     W, H, D = (float(x) for x in size)
     b = MeshBuilder()
-    wood = b.surface("wood_planks", (0.55, 0.4, 0.25) * np.array(rng.uniform(0.8, 1.1)))
-    metal = b.surface("metal_painted", (0.15, 0.16, 0.15))
+    wood = b.surface("wood_planks", pick(rng, palette.WOOD))
+    metal = b.surface("metal_painted", (0.05, 0.05, 0.05))
     seat_y = 0.45
     for sx in (-1, 1):
         x = sx * (W / 2 - 0.15)

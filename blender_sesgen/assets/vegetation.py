@@ -8,13 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import palette
 from .mesh import MeshBuilder, MeshData
-
-LEAF_GREENS = ((0.16, 0.30, 0.07), (0.20, 0.34, 0.08), (0.13, 0.24, 0.06), (0.24, 0.36, 0.10),
-               (0.18, 0.26, 0.09), (0.27, 0.33, 0.09))
-NEEDLE_GREENS = ((0.06, 0.14, 0.06), (0.08, 0.17, 0.07), (0.05, 0.11, 0.05), (0.09, 0.16, 0.08))
-BARK_TONES = ((0.42, 0.38, 0.33), (0.35, 0.30, 0.25), (0.50, 0.47, 0.42), (0.28, 0.24, 0.20))
-
+from .palette import pick, scaled
 
 def _unit(v):
     return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-12)
@@ -98,10 +94,10 @@ def tree(size, seed: int) -> MeshData:
     rng = np.random.default_rng(seed)
     Wc, H, Dc = (float(s) for s in size)
     b = MeshBuilder()
-    bark = b.surface("bark", BARK_TONES[rng.integers(len(BARK_TONES))])
-    base_green = np.array(LEAF_GREENS[rng.integers(len(LEAF_GREENS))])
-    greens = [b.surface("leaves", np.clip(base_green * f, 0, 1)) for f in
-              (rng.uniform(0.75, 0.9), 1.0, rng.uniform(1.1, 1.3), rng.uniform(0.9, 1.05) * np.array([1.15, 1.0, 0.8]))]
+    bark = b.surface("bark", pick(rng, palette.BARK))
+    base_green = pick(rng, palette.LEAVES)
+    greens = [b.surface("leaves", scaled(base_green, f)) for f in (0.8, 1.0, 1.2)]
+    greens.append(b.surface("leaves", scaled((base_green[0] * 1.4, base_green[1], base_green[2] * 0.8), 1.1)))
     clear = H * rng.uniform(0.25, 0.4)
     crown_c = (0.0, clear + (H - clear) * 0.5, 0.0)
     crown_r = (Wc / 2, (H - clear) / 2, Dc / 2)
@@ -146,9 +142,9 @@ def conifer(size, seed: int) -> MeshData:
     rng = np.random.default_rng(seed)
     Wc, H, Dc = (float(s) for s in size)
     b = MeshBuilder()
-    bark = b.surface("bark", BARK_TONES[rng.integers(len(BARK_TONES))] * np.array([0.8, 0.75, 0.7]))
-    base_green = np.array(NEEDLE_GREENS[rng.integers(len(NEEDLE_GREENS))])
-    greens = [b.surface("leaves", np.clip(base_green * f, 0, 1)) for f in (0.8, 1.0, 1.2)]
+    bark = b.surface("bark", scaled(pick(rng, palette.BARK), 0.8))
+    base_green = pick(rng, palette.NEEDLES)
+    greens = [b.surface("leaves", scaled(base_green, f)) for f in (0.8, 1.0, 1.2)]
     clear = H * rng.uniform(0.05, 0.2)
     r0 = float(np.clip(0.015 * H, 0.06, 0.35))
     b.frustum(r0, 0.01, -0.1, H, 9, bark)
@@ -190,9 +186,9 @@ def bush(size, seed: int) -> MeshData:
     rng = np.random.default_rng(seed)
     Wc, H, Dc = (float(s) for s in size)
     b = MeshBuilder()
-    bark = b.surface("bark", BARK_TONES[rng.integers(len(BARK_TONES))])
-    base_green = np.array(LEAF_GREENS[rng.integers(len(LEAF_GREENS))])
-    greens = [b.surface("leaves", np.clip(base_green * f, 0, 1)) for f in (0.7, 0.85, 1.0, 1.2)]
+    bark = b.surface("bark", pick(rng, palette.BARK))
+    base_green = pick(rng, palette.LEAVES)
+    greens = [b.surface("leaves", scaled(base_green, f)) for f in (0.7, 0.85, 1.0, 1.2)]
     c = np.array([0.0, H / 2, 0.0])
     r = np.array([Wc / 2, H / 2, Dc / 2])
     for k in range(int(rng.integers(5, 10))):
@@ -214,9 +210,9 @@ def hedge(size, seed: int) -> MeshData:
     rng = np.random.default_rng(seed)
     W, H, D = (float(s) for s in size)
     b = MeshBuilder()
-    base_green = np.array(LEAF_GREENS[rng.integers(len(LEAF_GREENS))]) * 0.8
-    core = b.surface("leaves", base_green * 0.45)
-    greens = [b.surface("leaves", np.clip(base_green * f, 0, 1)) for f in (0.7, 0.85, 1.0, 1.2)]
+    base_green = pick(rng, palette.LEAVES)
+    core = b.surface("leaves", scaled(base_green, 0.4))
+    greens = [b.surface("leaves", scaled(base_green, f)) for f in (0.7, 0.85, 1.0, 1.2)]
     b.box((-W / 2 + 0.08, 0.0, -D / 2 + 0.08), (W / 2 - 0.08, H - 0.08, D / 2 - 0.08), core)
     area = np.array([W * H, W * H, D * H, D * H, W * D])
     n_tot = int(700 * area.sum())

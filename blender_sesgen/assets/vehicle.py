@@ -1,7 +1,6 @@
 """Cars: a lofted body (plan-view rounded ends, wheel arches cut into the sills, bonnet,
 windscreen, roof, rear window and boot or hatch), glass where the windows are, pillars in
-paint, tyres with rims and hubs in the arches, lamps, number plates, grille, mirrors and a
-dark cabin behind the glass.
+paint, tyres with rims and hubs in the arches, lamps, number plates, grille and mirrors.
 
 Asset frame: ``size`` = (width x, height y, length z), ground at y = 0, nose towards +z.
 """
@@ -9,13 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import palette
 from .mesh import MeshBuilder, MeshData, pose, rot_x, rot_z
-
-PAINT = (  # colour, weight: the usual mix of a European street
-    ((0.85, 0.85, 0.85), 5), ((0.02, 0.02, 0.02), 5), ((0.45, 0.46, 0.48), 5), ((0.2, 0.2, 0.21), 4),
-    ((0.05, 0.08, 0.2), 2), ((0.4, 0.03, 0.03), 2), ((0.12, 0.18, 0.12), 1), ((0.55, 0.5, 0.42), 1),
-    ((0.6, 0.62, 0.66), 3), ((0.08, 0.2, 0.35), 1))
-
+from .palette import pick
 
 def _smoothstep(x):
     x = np.clip(x, 0.0, 1.0)
@@ -26,17 +21,14 @@ def generate(size, seed: int) -> MeshData:
     rng = np.random.default_rng(seed)
     W, H, L = (float(s) for s in size)
     b = MeshBuilder()
-    weights = np.array([w for _, w in PAINT], float)
-    colour = PAINT[rng.choice(len(PAINT), p=weights / weights.sum())][0]
-    paint = b.surface("car_paint", colour)
-    glass = b.surface("glass_window", (0.35, 0.38, 0.4))
-    trim = b.surface("plastic", (0.06, 0.06, 0.06))
+    paint = b.surface("car_paint", pick(rng, palette.CAR_PAINT))
+    glass = b.surface("glass_window")
+    trim = b.surface("plastic", (0.03, 0.03, 0.03))
     tyre = b.surface("rubber")
-    rim = b.surface("metal_brushed", (0.75, 0.75, 0.75) if rng.random() < 0.7 else (0.2, 0.2, 0.2))
-    head = b.surface("chrome", (0.9, 0.9, 0.9))
-    tail = b.surface("plastic", (0.5, 0.02, 0.02))
-    plate = b.surface("plastic", (0.9, 0.9, 0.88))
-    cabin = b.surface("fabric", (0.05, 0.05, 0.05))
+    rim = b.surface("metal_brushed", None if rng.random() < 0.7 else (0.08, 0.08, 0.08))
+    head = b.surface("chrome")
+    tail = b.surface("plastic", (0.35, 0.01, 0.01))
+    plate = b.surface("plastic", (0.75, 0.75, 0.72))
 
     style = rng.choice(["hatch", "sedan", "estate"], p=[0.45, 0.3, 0.25])
     rw = float(np.clip(0.1 * L * rng.uniform(0.68, 0.76), 0.29, 0.36))      # wheel radius
@@ -153,11 +145,6 @@ def generate(size, seed: int) -> MeshData:
         x_in = sx * (half_w(z_ws - 0.1) - 0.02)
         x0, x1 = sorted((x_in, x_in + sx * 0.2))
         b.box((x0, belt_y + 0.03, z_ws - 0.22), (x1, belt_y + 0.15, z_ws - 0.12), paint)
-    # cabin: seats and dashboard, dark, behind the glass
-    cw = W / 2 - tumble - 0.12
-    b.box((-cw, clear + 0.2, z_ws - 0.45), (cw, belt_y + 0.05, z_ws - 0.05), cabin)
-    for zc in (z_b - 0.35, z_rr + 0.45):
-        b.box((-cw, clear + 0.25, zc - 0.3), (cw, belt_y + 0.15, zc + 0.3), cabin)
     # wheels: tyre (revolved, rounded shoulders), rim disc, hub
     tw = 0.2 + 0.02 * rng.random()
     prof = [(0, -tw / 2), (rw * 0.62, -tw / 2), (rw * 0.9, -tw / 2 + 0.005), (rw - 0.012, -tw / 2 + 0.025),

@@ -8,34 +8,31 @@ import numpy as np
 from mathutils import Matrix
 
 from .. import assets, poses
-from .. import textures as builtin_textures
 from ..errors import SesgenError
-from ..model import Asset, Material, TextureRef
+from ..model import Asset, Material
 
-# A plain stand-in per library material name, used only where the material library has no
-# material of that name in this build (the library resolves names first).
+# A plain stand-in per library material name (linear albedo, roughness, metallic), used
+# only where this build's material library lacks the name.
 _STAND_IN = {
-    "asphalt": ((0.16, 0.16, 0.16), 0.9, "concrete"), "lane_marking": ((0.85, 0.85, 0.82), 0.7, None),
-    "concrete": ((0.6, 0.59, 0.56), 0.85, "concrete"), "brick": ((0.6, 0.35, 0.27), 0.85, "bricks"),
-    "plaster": ((0.85, 0.83, 0.78), 0.85, "concrete"), "roof_tiles": ((0.45, 0.22, 0.15), 0.7, None),
-    "wood_planks": ((0.5, 0.35, 0.2), 0.6, "wood"), "metal_painted": ((0.6, 0.6, 0.6), 0.4, None),
-    "metal_brushed": ((0.7, 0.7, 0.7), 0.3, None), "metal_rusty": ((0.45, 0.3, 0.2), 0.8, None),
-    "glass_window": ((0.05, 0.06, 0.07), 0.05, None), "grass": ((0.25, 0.4, 0.12), 0.9, "blotches"),
-    "leaves": ((0.22, 0.38, 0.1), 0.7, None), "bark": ((0.3, 0.24, 0.18), 0.9, "granite"),
-    "soil": ((0.32, 0.25, 0.18), 0.95, "blotches"), "gravel": ((0.5, 0.48, 0.45), 0.9, "gravel"),
-    "ceramic_tiles": ((0.8, 0.8, 0.78), 0.3, "tiles"), "fabric": ((0.5, 0.5, 0.5), 0.95, None),
-    "plastic": ((0.5, 0.5, 0.5), 0.4, None), "rubber": ((0.05, 0.05, 0.05), 0.8, None),
-    "chrome": ((0.9, 0.9, 0.9), 0.05, None), "car_paint": ((0.6, 0.6, 0.6), 0.2, None),
+    "asphalt": ((0.085, 0.085, 0.082), 0.88, 0.0), "lane_marking": ((0.72, 0.72, 0.7), 0.55, 0.0),
+    "concrete": ((0.38, 0.37, 0.35), 0.85, 0.0), "brick": ((0.3, 0.11, 0.06), 0.85, 0.0),
+    "plaster": ((0.62, 0.58, 0.52), 0.8, 0.0), "roof_tiles": ((0.28, 0.085, 0.045), 0.75, 0.0),
+    "wood_planks": ((0.33, 0.19, 0.09), 0.45, 0.0), "ceramic_tiles": ((0.62, 0.62, 0.6), 0.12, 0.0),
+    "fabric": ((0.18, 0.2, 0.26), 0.9, 0.0), "plastic": ((0.55, 0.55, 0.55), 0.35, 0.0),
+    "rubber": ((0.035, 0.035, 0.035), 0.85, 0.0), "metal_painted": ((0.12, 0.22, 0.16), 0.4, 0.0),
+    "metal_brushed": ((0.58, 0.58, 0.58), 0.3, 1.0), "metal_rusty": ((0.3, 0.3, 0.29), 0.5, 1.0),
+    "chrome": ((0.55, 0.56, 0.55), 0.05, 1.0), "car_paint": ((0.05, 0.09, 0.2), 0.35, 0.5),
+    "glass_window": ((0.035, 0.038, 0.04), 0.03, 0.0), "grass": ((0.06, 0.1, 0.03), 0.9, 0.0),
+    "leaves": ((0.05, 0.09, 0.025), 0.6, 0.0), "bark": ((0.13, 0.1, 0.08), 0.9, 0.0),
+    "soil": ((0.14, 0.1, 0.07), 0.95, 0.0), "gravel": ((0.3, 0.28, 0.25), 0.85, 0.0),
 }
 
 
-def stand_in(name: str) -> Material:
-    colour, rough, tex = _STAND_IN.get(name, ((0.6, 0.6, 0.6), 0.6, None))
-    ref = None
-    if tex is not None:
-        ref = TextureRef(kind="builtin", name=tex, number=builtin_textures.NAME_TO_NUMBER[tex], scale=0.5)
-    return Material(name=name, colour=colour, roughness=rough, texture=ref,
-                    metallic=1.0 if name in ("chrome", "metal_brushed") else 0.0)
+def library_or_stand_in(name: str) -> Material:
+    """The library material ``name`` with its defaults (a plain stand-in where the library
+    of this build has no such entry)."""
+    colour, rough, metallic = _STAND_IN.get(name, ((0.5, 0.5, 0.5), 0.6, 0.0))
+    return Material(name=name, colour=colour, roughness=rough, metallic=metallic)
 
 
 def mesh_from_triangles(name: str, vertices: np.ndarray, faces: np.ndarray, tag):
@@ -59,7 +56,7 @@ def mesh_from_triangles(name: str, vertices: np.ndarray, faces: np.ndarray, tag)
 def build_asset(o: Asset, collection, surface_material, tag) -> object:
     """One Blender object for the ASSET ``o``; ``surface_material(surface, index)`` gives the
     Blender material of each surface (index 0 is the main one)."""
-    data = assets.generate(o.kind, o.size, o.seed, o.bend)
+    data = assets.generate(o.kind, o.size, o.seed, o.bend, o.offset)
     me = mesh_from_triangles(o.name, data.vertices, data.faces, tag)
     for i, s in enumerate(data.surfaces):
         me.materials.append(surface_material(s, i))

@@ -20,6 +20,7 @@ Object ``pass_index`` = script ``id``.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from dataclasses import dataclass, field
@@ -128,20 +129,21 @@ class MaterialFactory:
         return self.cache[key]
 
     def surface(self, obj: Asset, surface, index: int):
-        """The material of an asset's surface ``index``: its library material (or the script's
-        MATERIAL of that name); the main surface (0) takes the object's material, texture
-        and colour tags."""
-        name, colour, tex = surface.material, tuple(surface.colour), None
+        """The material of an asset's surface ``index``: the script's MATERIAL of that name,
+        else the library material (the surface's colour, if it has one, replacing the
+        library's); the main surface (0) takes the object's material, texture and colour."""
+        name, tex, tint = surface.material, None, (1.0, 1.0, 1.0)
         if index == 0:
             name = obj.material or name
-            colour = tuple(np.multiply(colour, obj.colour))
-            tex = obj.texture
+            tint, tex = obj.colour, obj.texture
         try:
             m = self.scene.material(name)
         except KeyError:
-            m = asset_builder.stand_in(name)
+            m = asset_builder.library_or_stand_in(name)
+            if surface.colour is not None and not (index == 0 and obj.material):
+                m = dataclasses.replace(m, colour=tuple(surface.colour))
         tex = tex if tex is not None else m.texture
-        colour = tuple(float(c) for c in np.multiply(colour, m.colour))
+        colour = tuple(float(c) for c in np.multiply(tint, m.colour))
         key = (tex, colour, m, False)
         if key not in self.cache:
             self.cache[key] = self._make(f"sesgen_{name}", colour, tex, m)

@@ -38,6 +38,9 @@ def _tags(*tags: Tag) -> dict[str, Tag]:
     return {t.name: t for t in tags}
 
 
+MAX_BENDS = 64  # pieces of a strip asset's centreline
+
+
 def _num(name, counts=(1,), required=False, usage=""):
     return Tag(name, "numbers", counts, required, usage or f"{name} v")
 
@@ -69,7 +72,8 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
                              *(Tag(kind, "flag", usage=kind) for kind in ASSET_KINDS),
                              _num("size", (3,), usage="size sx sy sz"),
                              Tag("seed", "int", usage="seed n"),
-                             _num("bend", usage="bend deg"))),
+                             _num("bend", tuple(range(1, MAX_BENDS + 1)), usage="bend deg [deg ...]"),
+                             _num("offset", usage="offset o"))),
     Statement("CAMERA", _tags(_num("resolution", (2,), True, "resolution W H"),
                               _num("focal", (1,), True, "focal F"),
                               _num("principal", (2,), usage="principal cx cy"),

@@ -182,16 +182,19 @@ class _Objects:
         seed = int(scalar(stmt, "seed", common["id"]))
         if "seed" in stmt.tags and not 0 <= seed <= MAX_SEED:
             self.check.err(stmt.tags["seed"].tokens[0], f"ASSET 'seed' must lie in 0..{MAX_SEED}, got {seed}")
-        bend = float(scalar(stmt, "bend", 0.0))
+        bend = vec(stmt, "bend", (0.0,))
+        strips = ", ".join(k for k, v in assets.KINDS.items() if v.strip)
+        for tag in ("bend", "offset"):
+            if tag in stmt.tags and not kind.strip:
+                self.check.err(stmt.tags[tag].tag, f"ASSET {kind.name} takes no '{tag}' (only {strips} do)")
         if "bend" in stmt.tags:
-            tok = stmt.tags["bend"].tokens[0]
-            if not kind.strip:
-                self.check.err(stmt.tags["bend"].tag, f"ASSET {kind.name} takes no 'bend' (only "
-                               f"{', '.join(k for k, v in assets.KINDS.items() if v.strip)} do)")
-            elif abs(bend) > MAX_BEND_DEG:
-                self.check.err(tok, f"ASSET 'bend' must lie in -{MAX_BEND_DEG:g}..{MAX_BEND_DEG:g} degrees, got {tok.text}")
+            for value, tok in zip(bend, stmt.tags["bend"].tokens):
+                if abs(value) > MAX_BEND_DEG:
+                    self.check.err(tok, f"ASSET 'bend' must lie in -{MAX_BEND_DEG:g}..{MAX_BEND_DEG:g} degrees "
+                                        f"per piece, got {tok.text}")
         size = vec(stmt, "size") or assets.default_size(kind.name, seed)
-        return model.Asset(kind=kind.name, size=size, seed=seed, bend=bend, **self._placement(stmt), **common)
+        return model.Asset(kind=kind.name, size=size, seed=seed, bend=bend,
+                           offset=float(scalar(stmt, "offset", 0.0)), **self._placement(stmt), **common)
 
 
 def _rig(stmt: Optional[ParsedStatement], check: Checks) -> model.Rig:
