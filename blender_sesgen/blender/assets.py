@@ -53,16 +53,22 @@ def mesh_from_triangles(name: str, vertices: np.ndarray, faces: np.ndarray, tag)
     return me
 
 
-def build_asset(o: Asset, collection, surface_material, tag) -> object:
+def build_asset(o: Asset, collection, surface_material, tag, meshes: dict) -> object:
     """One Blender object for the ASSET ``o``; ``surface_material(surface, index)`` gives the
-    Blender material of each surface (index 0 is the main one)."""
-    data = assets.generate(o.kind, o.size, o.seed, o.bend, o.offset)
-    me = mesh_from_triangles(o.name, data.vertices, data.faces, tag)
-    for i, s in enumerate(data.surfaces):
-        me.materials.append(surface_material(s, i))
-    me.polygons.foreach_set("material_index", data.face_surface.astype(np.int32))
-    me.polygons.foreach_set("use_smooth", data.smooth.astype(bool))
-    me.update()
+    Blender material of each surface (index 0 is the main one). Assets with the same kind,
+    size, seed, bend, offset and materials share one mesh (``meshes`` caches them per build):
+    a forest of a dozen tree variants costs a dozen meshes, and Cycles instances them."""
+    key = (o.kind, tuple(o.size), o.seed, tuple(o.bend), o.offset, o.material, tuple(o.colour), o.texture)
+    me = meshes.get(key)
+    if me is None:
+        data = assets.generate(o.kind, o.size, o.seed, o.bend, o.offset)
+        me = mesh_from_triangles(f"{o.kind}_{o.seed}", data.vertices, data.faces, tag)
+        for i, s in enumerate(data.surfaces):
+            me.materials.append(surface_material(s, i))
+        me.polygons.foreach_set("material_index", data.face_surface.astype(np.int32))
+        me.polygons.foreach_set("use_smooth", data.smooth.astype(bool))
+        me.update()
+        meshes[key] = me
     obj = tag(bpy.data.objects.new(o.name, me))
     collection.objects.link(obj)
     obj.matrix_world = Matrix(poses.ses_to_blender_world(poses.object_pose(o.position, o.rotation_deg)).tolist())

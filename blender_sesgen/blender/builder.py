@@ -383,6 +383,7 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -
     mats = MaterialFactory(scene, ambient)
     focal = max(float(K[0][0]), scene.rig.focal_px)
 
+    asset_meshes: dict = {}
     for o in scene.objects:
         if isinstance(o, Quad):
             objs = [build_quad(o, coll)]
@@ -403,7 +404,7 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -
             built.segments[o.id] = n
             objs = [build_cylinder(o, coll, n)]
         elif isinstance(o, Asset):
-            objs = [asset_builder.build_asset(o, coll, lambda s, i, o=o: mats.surface(o, s, i), tag)]
+            objs = [asset_builder.build_asset(o, coll, lambda s, i, o=o: mats.surface(o, s, i), tag, asset_meshes)]
         elif isinstance(o, Mesh):
             custom = o.texture is not None or o.material is not None or tuple(o.colour) != (1.0, 1.0, 1.0)
             objs = build_mesh(o, coll, mats.get(o) if custom else None)

@@ -20,7 +20,9 @@ from blender_sesgen.assets.street import arc_frame  # noqa: E402,F401  (re-expor
 
 def num(v: float, nd: int = 3) -> str:
     """A number with at most ``nd`` decimals, no trailing zeros, never '-0'."""
-    s = f"{float(v):.{nd}f}".rstrip("0").rstrip(".")
+    s = f"{float(v):.{nd}f}"
+    if "." in s:
+        s = s.rstrip("0").rstrip(".")
     return "0" if s in ("-0", "") else s
 
 
@@ -70,3 +72,16 @@ def smooth_noise(rng, n: int, scale: float, cycles=(1.3, 2.9, 6.1)) -> np.ndarra
     for c in cycles:
         out += np.sin(2 * np.pi * c * rng.uniform(0.7, 1.3) * t + rng.uniform(0, 2 * np.pi)) / np.sqrt(len(cycles))
     return scale * out * np.sqrt(2)
+
+
+def sun_travel(elevation_deg: float, azimuth_deg: float) -> np.ndarray:
+    """The way sunlight travels (``LIGHT sun direction``) for a sun at this elevation and
+    azimuth (azimuth from -z towards +x, as ``WORLD sky``'s)."""
+    el, az = np.radians(elevation_deg), np.radians(azimuth_deg)
+    return -np.array([np.cos(el) * np.sin(az), np.sin(el), -np.cos(el) * np.cos(az)])
+
+
+def sky_and_sun(elevation_deg: float, azimuth_deg: float, sky_strength: float, sun_strength: float) -> list[str]:
+    """A physical sky and a sun lamp in the same direction."""
+    return [f"WORLD sky strength {num(sky_strength)} elevation {num(elevation_deg)} azimuth {num(azimuth_deg)}",
+            f"LIGHT sun direction {nums(sun_travel(elevation_deg, azimuth_deg))} strength {num(sun_strength)}"]
