@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from blender_sesgen import contract
+from blender_sesgen.contract import manifest as contract
+from blender_sesgen.plan import RenderPlan
 from blender_sesgen.addon import package
 from blender_sesgen.ses import parse_file
 
@@ -228,7 +229,7 @@ def test_build_creates_the_model_objects_rig_and_path(addon_zip, tmp_path, scrip
             assert len(local) >= 16
 
     cams = {o["name"]: o for o in objs if o["type"] == "CAMERA"}
-    expected = contract.view_poses(model)
+    expected = RenderPlan.from_scene(model).view_poses
     assert sorted(cams) == sorted(f"SESGen_{v}" for v in expected)
     for view, T_expected in expected.items():
         cam = cams[f"SESGen_{view}"]

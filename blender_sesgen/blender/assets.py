@@ -7,7 +7,8 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from .. import assets, poses
+from .. import assets
+from ..contract.frames import object_pose, ses_to_blender_world
 from ..errors import SesgenError
 from ..model import Asset, Material
 
@@ -71,5 +72,5 @@ def build_asset(o: Asset, collection, surface_material, tag, meshes: dict) -> ob
         meshes[key] = me
     obj = tag(bpy.data.objects.new(o.name, me))
     collection.objects.link(obj)
-    obj.matrix_world = Matrix(poses.ses_to_blender_world(poses.object_pose(o.position, o.rotation_deg)).tolist())
+    obj.matrix_world = Matrix(ses_to_blender_world(object_pose(o.position, o.rotation_deg)).tolist())
     return obj

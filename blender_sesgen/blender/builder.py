@@ -4,8 +4,8 @@ Everything is built into a dedicated Blender scene (``SCENE_NAME``) so that the 
 scenes are never touched; every data-block created here carries the custom property
 ``sesgen`` and a rebuild removes all of them first (rebuilding replaces, never duplicates).
 
-Geometry, all in scene units, placed with ``poses.object_pose`` and re-expressed in
-Blender's Z-up world with ``poses.ses_to_blender_world``:
+Geometry, all in scene units, placed with ``contract.frames.object_pose`` and re-expressed in
+Blender's Z-up world with ``contract.frames.ses_to_blender_world``:
 - QUAD: one planar face through its 4 vertices (UVs (0,0) (1,0) (1,1) (0,1));
 - CUBOID: a box of the exact edge lengths;
 - SPHERE: a one-point point cloud (Cycles intersects it as an exact sphere: silhouette
@@ -30,11 +30,12 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from .. import poses
+from ..contract.frames import R_BLENDER_SES, object_pose, ses_to_blender_world
 from ..errors import SesgenError
 from ..model import Asset, Cuboid, Cylinder, Material, Mesh, Quad, Scene, SceneObject, Sphere, TextureRef
 from . import assets as asset_builder
 from . import compat, lighting, rig, textures
+from .runtime import activate, quiet_stdout
 
 SCENE_NAME = "SESGen"
 TAG = "sesgen"
@@ -210,14 +211,14 @@ def _mesh_object(name: str, verts, faces, uvs, collection, smooth_faces=()):
 
 
 def _set_world_matrix(obj, T_world_obj_ses: np.ndarray) -> None:
-    obj.matrix_world = Matrix(poses.ses_to_blender_world(T_world_obj_ses).tolist())
+    obj.matrix_world = Matrix(ses_to_blender_world(T_world_obj_ses).tolist())
 
 
 def build_quad(q: Quad, collection):
     V = np.asarray(q.vertices, dtype=float)
     c = V.mean(axis=0)
     obj = _mesh_object(q.name, V - c, [(0, 1, 2, 3)], [(0, 0), (1, 0), (1, 1), (0, 1)], collection)
-    _set_world_matrix(obj, poses.object_pose(c))
+    _set_world_matrix(obj, object_pose(c))
     return obj
 
 
@@ -228,7 +229,7 @@ def build_cuboid(b: Cuboid, collection):
     faces = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
     uvs = [(0, 0), (1, 0), (1, 1), (0, 1)] * 6
     obj = _mesh_object(b.name, verts, faces, uvs, collection)
-    _set_world_matrix(obj, poses.object_pose(b.position, b.rotation_deg))
+    _set_world_matrix(obj, object_pose(b.position, b.rotation_deg))
     return obj
 
 
@@ -252,7 +253,7 @@ def build_sphere(s: Sphere, collection, material):
     collection.objects.link(obj)
     mod = obj.modifiers.new("sesgen_sphere", "NODES")
     mod.node_group = _sphere_node_group(s.radius, material)
-    _set_world_matrix(obj, poses.object_pose(s.position, s.rotation_deg))
+    _set_world_matrix(obj, object_pose(s.position, s.rotation_deg))
     return obj
 
 
@@ -281,7 +282,7 @@ def build_sphere_mesh(s: Sphere, collection, n: int):
     faces += [(idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1)) for i in range(n_lat - 2) for j in range(n)]
     faces += [(south, idx(n_lat - 2, j + 1), idx(n_lat - 2, j)) for j in range(n)]
     obj = _mesh_object(s.name, verts, faces, None, collection, smooth_faces=range(len(faces)))
-    _set_world_matrix(obj, poses.object_pose(s.position, s.rotation_deg))
+    _set_world_matrix(obj, object_pose(s.position, s.rotation_deg))
     return obj
 
 
@@ -302,7 +303,7 @@ def build_cylinder(c: Cylinder, collection, n: int):
     uvs += [(0.5 + 0.5 * np.cos(a), 0.5 + 0.5 * np.sin(a)) for a in ang]
     uvs += [(0.5 + 0.5 * np.cos(a), 0.5 - 0.5 * np.sin(a)) for a in ang[::-1]]
     obj = _mesh_object(c.name, verts, faces, uvs, collection, smooth_faces=range(n))
-    _set_world_matrix(obj, poses.object_pose(c.position, c.rotation_deg))
+    _set_world_matrix(obj, object_pose(c.position, c.rotation_deg))
     return obj
 
 
@@ -323,7 +324,6 @@ def build_mesh(m: Mesh, collection, material) -> list:
     if not os.path.isfile(m.path):
         raise SesgenError(f"MESH {m.name}: file not found: {m.path}")
     before = set(bpy.data.objects)
-    from .render import quiet_stdout
     try:
         with quiet_stdout():
             result = _IMPORTERS[ext](m.path)
@@ -335,9 +335,9 @@ def build_mesh(m: Mesh, collection, material) -> list:
     # glTF is Y up by definition and its importer turns it Z up: undo that (back to file axes)
     C = np.eye(4)
     if ext in (".gltf", ".glb"):
-        C[:3, :3] = poses.R_BLENDER_SES.T
+        C[:3, :3] = R_BLENDER_SES.T
     S = np.diag([*m.scale, 1.0])
-    place = poses.ses_to_blender_world(poses.object_pose(m.position, m.rotation_deg)) @ S @ C
+    place = ses_to_blender_world(object_pose(m.position, m.rotation_deg)) @ S @ C
     kept = []
     for o in new:
         for coll in list(o.users_collection):
@@ -437,12 +437,3 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -
     activate(bscene)
     bscene.frame_set(rig.blender_frame(0))
     return built
-
-
-def activate(bscene) -> None:
-    """Make ``bscene`` the scene of the window(s): Blender evaluates animation (and the
-    render operator picks its frame) from the context scene, even in background mode."""
-    wm = bpy.context.window_manager
-    for w in (wm.windows if wm is not None else []):
-        if w.scene != bscene:
-            w.scene = bscene

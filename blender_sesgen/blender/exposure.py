@@ -14,7 +14,6 @@ from __future__ import annotations
 import os
 import tempfile
 
-import bpy
 import numpy as np
 
 TARGET = 0.6            # linear luminance of the 90th percentile pixel (sRGB ~200: highlights keep texture)

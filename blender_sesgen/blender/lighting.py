@@ -17,9 +17,9 @@ import math
 
 import bpy
 import numpy as np
-from mathutils import Matrix, Vector
+from mathutils import Vector
 
-from .. import poses
+from ..contract.frames import R_BLENDER_SES
 from ..model import Fog, Light, Scene, World
 from . import compat
 
@@ -36,7 +36,7 @@ SKY_EXPOSURE = 50.0
 
 
 def ses_vec_to_blender(v) -> Vector:
-    return Vector(tuple(poses.R_BLENDER_SES @ np.asarray(v, dtype=float)))
+    return Vector(tuple(R_BLENDER_SES @ np.asarray(v, dtype=float)))
 
 
 def _direction_from_angles(elevation_deg: float, azimuth_deg: float) -> np.ndarray:

@@ -14,7 +14,7 @@ REPO = Path(__file__).resolve().parents[2]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
-from blender_sesgen import poses  # noqa: E402
+from blender_sesgen.contract.se3 import R_to_euler_xyz_deg, euler_xyz_deg_to_R  # noqa: E402
 from blender_sesgen.assets.street import arc_frame  # noqa: E402,F401  (re-exported)
 
 
@@ -59,9 +59,9 @@ def camera_pose_line(position, yaw_deg: float, pitch_deg: float = 0.0, roll_deg:
     """``POSE x y z rx ry rz`` of a camera at ``position`` heading ``yaw_deg`` (left
     positive, 0 = looking along -z), pitched up by ``pitch_deg`` about its own x axis and
     rolled by ``roll_deg`` about its own optical axis."""
-    R_body = (poses.euler_xyz_deg_to_R(0, yaw_deg, 0) @ poses.euler_xyz_deg_to_R(pitch_deg, 0, 0)
-              @ poses.euler_xyz_deg_to_R(0, 0, -roll_deg))
-    rx, ry, rz = poses.R_to_euler_xyz_deg(R_body)
+    R_body = (euler_xyz_deg_to_R(0, yaw_deg, 0) @ euler_xyz_deg_to_R(pitch_deg, 0, 0)
+              @ euler_xyz_deg_to_R(0, 0, -roll_deg))
+    rx, ry, rz = R_to_euler_xyz_deg(R_body)
     return f"POSE {nums(position, 4)} {nums((rx, ry, rz), 4)}"
 
 

@@ -9,8 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract.timing import frame_range
+
 from ..errors import VoError
-from ..io.sequence import frame_range
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -87,14 +88,13 @@ def run(args: argparse.Namespace) -> int:
     if args.lut and args.dist:
         raise VoError("give either --lut or --dist, not both")
     if args.lut:
-        from .undistort import read_lut
+        from ..camera.undistort import read_lut
         maps = read_lut(args.lut, W, H)
     elif args.dist:
-        from ..products.bayer_export import parse_distortion
-        from .undistort import lut_from_distortion
+        from ..camera.undistort import lut_from_distortion, parse_distortion
         maps = lut_from_distortion(seq.K, parse_distortion(args.dist), W, H)
     if args.bayer:
-        from .bayer import check_pattern
+        from ..camera.bayer import check_pattern
         check_pattern(args.bayer)
     prep = Preparation(bayer=args.bayer, maps=maps, blur_sigma=args.blur, equalize=args.equalize)
     rects = []

@@ -26,7 +26,6 @@ x₂ = R x₁ + t. Returned E matrices have unit Frobenius norm.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from itertools import combinations_with_replacement
 
 import numpy as np
 

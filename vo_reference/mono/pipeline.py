@@ -14,8 +14,9 @@ from typing import Callable
 
 import numpy as np
 
+from blender_sesgen.contract.se3 import se3
+
 from ..errors import VoError
-from ..lie import se3
 from .features import CORNER_MIN_DISTANCE, CORNER_QUALITY, LK_LEVELS, LK_WINDOW, correspondences
 from .relative_pose import estimate_relative_pose
 

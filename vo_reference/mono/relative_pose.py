@@ -24,10 +24,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.spatial.transform import Rotation
+
+from blender_sesgen.contract.se3 import skew, so3_exp
 
 from ..errors import VoError
-from ..lie import skew
 from .essential import camera_motion, choose_pose, essential_from_fundamental
 from .five_point import ransac_essential
 from .fundamental import ransac_fundamental
@@ -89,7 +89,7 @@ def refine_sampson(R: np.ndarray, t: np.ndarray, x1: np.ndarray, x2: np.ndarray,
 
     def model(p):
         tp = t + B @ p[3:]
-        return Rotation.from_rotvec(p[:3]).as_matrix() @ R, tp / np.linalg.norm(tp)
+        return so3_exp(p[:3]) @ R, tp / np.linalg.norm(tp)
 
     def fun(p):
         return _sampson_residuals(*model(p), h1, h2, Kinv)

@@ -26,9 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import atomic
+from blender_sesgen.contract.se3 import invert
+
 from ..errors import VoError
-from ..io.files import read_image, write_bytes_atomic, write_image_atomic
-from ..lie import se3_inverse
+from ..io.files import read_image, write_image_atomic
 
 FLO_MAGIC = 202021.25
 FLO_UNKNOWN = 1e10
@@ -116,7 +118,7 @@ class Flow:
 
 def flow_from_depth(depth_src, K, T_world_src, T_world_tgt, depth_tgt=None, rtol: float = 1e-3) -> Flow:
     """Flow from a source frame to a target frame of the same camera (static scene)."""
-    T_tgt_src = se3_inverse(np.asarray(T_world_tgt, float)) @ np.asarray(T_world_src, float)
+    T_tgt_src = invert(np.asarray(T_world_tgt, float)) @ np.asarray(T_world_src, float)
     w = warp_depth(depth_src, K, T_tgt_src, depth_tgt, rtol)
     H, W = w.u.shape
     uu, vv = np.meshgrid(np.arange(W, dtype=np.float64), np.arange(H, dtype=np.float64))
@@ -182,7 +184,7 @@ def write_flo(path, flow: np.ndarray) -> Path:
     H, W = f.shape[:2]
     f = np.where(np.isfinite(f), f, np.float32(FLO_UNKNOWN)).astype("<f4")
     data = np.array([FLO_MAGIC], "<f4").tobytes() + np.array([W, H], "<i4").tobytes() + f.tobytes()
-    return write_bytes_atomic(path, data)
+    return atomic.write_bytes(path, data)
 
 
 def read_flo(path) -> np.ndarray:
