@@ -81,7 +81,6 @@ def sun_travel(elevation_deg: float, azimuth_deg: float) -> np.ndarray:
     return -np.array([np.cos(el) * np.sin(az), np.sin(el), -np.cos(el) * np.cos(az)])
 
 
-def sky_and_sun(elevation_deg: float, azimuth_deg: float, sky_strength: float, sun_strength: float) -> list[str]:
-    """A physical sky and a sun lamp in the same direction."""
-    return [f"WORLD sky strength {num(sky_strength)} elevation {num(elevation_deg)} azimuth {num(azimuth_deg)}",
-            f"LIGHT sun direction {nums(sun_travel(elevation_deg, azimuth_deg))} strength {num(sun_strength)}"]
+def sky_and_sun(elevation_deg: float, azimuth_deg: float, sky_strength: float = 1.0) -> list[str]:
+    """A physical sky with its sun (the renderer adds the sun as a calibrated lamp)."""
+    return [f"WORLD sky strength {num(sky_strength)} elevation {num(elevation_deg)} azimuth {num(azimuth_deg)}"]
