@@ -20,7 +20,7 @@ def test_examples_parse(tmp_path):
     assert complete.frames == 3 and len(complete.objects) == 3
     (tmp_path / "models").mkdir()
     (tmp_path / "models" / "chair.obj").write_text("v 0 0 0\n")
-    extensions = parse_string(BLOCKS[1], base_dir=str(tmp_path))
+    extensions = parse_string(next(b for b in BLOCKS if "NOISE" in b), base_dir=str(tmp_path))
     assert extensions.world.kind == "sky" and extensions.fog and extensions.noise and extensions.render.denoise
 
 
@@ -42,3 +42,16 @@ def test_documented_ego_signs():
     T = s.timeline.left()
     assert T[1][1, 2] > 0                                # optical axis gains world +Y: up
     assert np.isclose(T[3][1, 2], 0, atol=1e-12) and T[3][0, 2] > 0  # level again, turned to +X: right
+
+
+def test_asset_kinds_table_is_the_registry():
+    from blender_sesgen import assets
+    assert assets.kinds_markdown() in DOC
+
+
+def test_asset_example_parses():
+    block = next(b for b in BLOCKS if "ASSET road" in b)
+    scene = parse_string(block)
+    kinds = [o.kind for o in scene.objects]
+    assert kinds == ["road", "kerb", "sidewalk", "building", "car", "tree", "streetlight"]
+    assert scene.objects[0].bend == (0.0, 6.0) and scene.objects[2].offset == 5.4

@@ -106,6 +106,22 @@ CASES = {
     "negative noise": (OBJ + "NOISE sigma -1\n", 2, "-1", r"'sigma' must be zero or positive"),
     "render zero samples": (OBJ + "RENDER samples 0\n", 2, "0\n", r"'samples' must lie in 1\.\.1000000"),
     "render denoise value": (OBJ + "RENDER samples 4 denoise maybe\n", 2, "maybe", r"must be one of on, off"),
+    "asset without kind": (OBJ + "ASSET id 2 position 0 0 0\n", 2, None, r"ASSET needs exactly one kind \(building, car"),
+    "asset with two kinds": (OBJ + "ASSET car id 2 tree position 0 0 0\n", 2, "tree", r"ASSET needs exactly one kind"),
+    "asset kind misspelt": (OBJ + "ASSET buiding id 2 position 0 0 0\n", 2, "buiding",
+                            r"ASSET has no tag 'buiding'; did you mean 'building'\?"),
+    "bend on a building": (OBJ + "ASSET building id 2 position 0 0 0 bend 5\n", 2, "bend",
+                           r"ASSET building takes no 'bend' \(only road, kerb, sidewalk, verge do\)"),
+    "offset on a car": (OBJ + "ASSET car id 2 position 0 0 0 offset 5\n", 2, "offset", r"ASSET car takes no 'offset'"),
+    "bend piece too sharp": (OBJ + "ASSET road id 2 position 0 0 0 bend 0 95 3\n", 2, "95",
+                             r"'bend' must lie in -90\.\.90 degrees per piece, got 95"),
+    "asset size not positive": (OBJ + "ASSET car id 2 position 0 0 0 size 1.8 0 4\n", 2, "0 4",
+                                r"ASSET 'size' must be positive, got 0"),
+    "asset seed out of range": (OBJ + "ASSET car id 2 seed -3 position 0 0 0\n", 2, "-3",
+                                r"ASSET 'seed' must lie in 0\.\.2147483647"),
+    "asset seed not an integer": (OBJ + "ASSET car id 2 seed 1.5 position 0 0 0\n", 2, "1.5",
+                                  r"ASSET 'seed' must be an integer"),
+    "asset without position": (OBJ + "ASSET car id 2\n", 2, None, r"ASSET needs the tag 'position'"),
 }
 
 

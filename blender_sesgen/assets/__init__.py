@@ -32,8 +32,9 @@ class Kind:
     size_ranges: tuple             # ((lo, hi) for x, y, z): a seeded default size
     size_meaning: str              # what x, y, z mean for this kind
     generator: Callable            # (size, seed) or (size, seed, bend) -> MeshData
-    strip: bool = False            # takes ``bend``
+    strip: bool = False            # takes ``bend`` and ``offset``
     closed: bool = True            # every part is a closed surface (tests check)
+    overhang: float = 0.5          # how far parts may reach beyond ``size`` (balconies, arms, branches), m
 
 
 def _kinds() -> dict[str, Kind]:
@@ -41,16 +42,16 @@ def _kinds() -> dict[str, Kind]:
     table = [
         Kind("building", "outdoor", "building",
              "block with real window/door openings, frames, sills, balconies, cornice, flat or gable roof",
-             ((12, 26), (9, 20), (9, 16)), "width, height (to the ridge), depth", building.generate),
-        Kind("car", "street", "car", "hatchback, saloon or estate: lofted body, glass, wheels, lamps, plates, cabin",
+             ((12, 26), (9, 20), (9, 16)), "width, height (to the ridge), depth", building.generate, overhang=3.0),
+        Kind("car", "street", "car", "hatchback, saloon or estate: lofted body, glass, wheels in arches, lamps, plates, mirrors",
              ((1.72, 1.85), (1.42, 1.55), (3.9, 4.8)), "width, height, length (nose towards +z)",
              vehicle.generate),
         Kind("tree", "nature", "vegetation", "broadleaf tree: trunk, three levels of branches, ~20-60k leaves",
              ((3.5, 8), (5, 14), (3.5, 8)), "crown width, total height, crown depth", vegetation.tree,
-             closed=False),
+             closed=False, overhang=2.0),
         Kind("conifer", "nature", "vegetation", "spruce-like conifer: whorls of drooping branches with needle sprays",
              ((2.5, 5), (6, 18), (2.5, 5)), "crown width, total height, crown depth", vegetation.conifer,
-             closed=False),
+             closed=False, overhang=0.7),
         Kind("bush", "nature", "vegetation", "shrub: stems and dense leaf clusters in an ellipsoid",
              ((0.8, 2.2), (0.6, 1.8), (0.8, 2.2)), "width, height, depth", vegetation.bush, closed=False),
         Kind("hedge", "nature", "vegetation", "clipped hedge: leafy core box wrapped in leaves",
@@ -69,44 +70,44 @@ def _kinds() -> dict[str, Kind]:
         Kind("pole", "street", "pole", "round post with a cap (for signs)",
              ((0.06, 0.09), (2.4, 3.2), (0.06, 0.09)), "diameter, height, diameter", street.pole),
         Kind("streetlight", "street", "pole", "tapered mast, curved arm reaching towards -x, luminaire",
-             ((1.0, 2.0), (6, 9), (0.16, 0.22)), "arm reach, mast height, base diameter", street.streetlight),
+             ((1.0, 2.0), (6, 9), (0.16, 0.22)), "arm reach, mast height, base diameter", street.streetlight, overhang=2.7),
         Kind("sign", "street", "traffic sign", "sign plate facing +z (triangle, disc or rectangle) with clamps",
              ((0.6, 0.9), (2.2, 2.8), (0.02, 0.03)), "plate width, height of its centre, thickness", street.sign),
         Kind("traffic_light", "street", "traffic light", "post with a three-lamp head facing +z",
              ((0.3, 0.35), (3.2, 4.0), (0.1, 0.14)), "head width, height, post diameter", street.traffic_light),
         Kind("bin", "street", "static", "wheelie bin or litter bin on a post",
-             ((0.55, 0.7), (0.95, 1.1), (0.6, 0.75)), "width, height, depth", street.bin_),
+             ((0.55, 0.7), (0.95, 1.1), (0.6, 0.75)), "width, height, depth", street.bin_, overhang=0.8),
         Kind("bollard", "street", "pole", "bollard with a reflective band and a domed cap",
              ((0.1, 0.16), (0.8, 1.0), (0.1, 0.16)), "diameter, height, diameter", street.bollard),
         Kind("bench", "street", "static", "park bench: metal frame, wooden slats",
              ((1.6, 2.0), (0.8, 0.9), (0.55, 0.65)), "width, height, depth", street.bench),
     ]
     table += [
-        Kind("table", "indoor", "furniture", "table: top on four legs with an apron",
+        Kind("table", "indoor", "table", "table: top on four legs with an apron",
              ((0.8, 1.8), (0.72, 0.76), (0.7, 1.0)), "width, height, depth", indoor.table),
-        Kind("desk", "indoor", "furniture", "office desk: top, side panel, drawer block, modesty panel",
+        Kind("desk", "indoor", "table", "office desk: top, side panel, drawer block, modesty panel",
              ((1.2, 1.8), (0.72, 0.76), (0.7, 0.85)), "width, height, depth", indoor.desk),
-        Kind("chair", "indoor", "furniture", "four-legged chair or office chair (five-star base)",
+        Kind("chair", "indoor", "chair", "four-legged chair or office chair (five-star base)",
              ((0.42, 0.5), (0.85, 1.0), (0.45, 0.52)), "width, height, depth (seat faces +z)", indoor.chair),
-        Kind("shelf", "indoor", "furniture", "bookcase open towards +z, filled with books, boxes, stacks",
+        Kind("shelf", "indoor", "shelf", "bookcase open towards +z, filled with books, boxes, stacks",
              ((0.8, 1.2), (1.8, 2.2), (0.3, 0.38)), "width, height, depth", indoor.shelf),
-        Kind("cabinet", "indoor", "furniture", "cabinet with doors or drawers and handles",
+        Kind("cabinet", "indoor", "cabinet", "cabinet with doors or drawers and handles",
              ((0.8, 1.2), (0.75, 1.2), (0.4, 0.5)), "width, height, depth", indoor.cabinet),
-        Kind("sofa", "indoor", "furniture", "sofa: soft arms, back and cushions on wooden feet",
+        Kind("sofa", "indoor", "sofa", "sofa: soft arms, back and cushions on wooden feet",
              ((1.6, 2.4), (0.8, 0.9), (0.85, 0.95)), "width, height, depth (seat faces +z)", indoor.sofa),
         Kind("door", "indoor", "door", "door leaf in a frame with architraves and handles",
              ((0.8, 1.0), (2.0, 2.1), (0.12, 0.2)), "opening width, opening height, wall thickness", indoor.door),
         Kind("picture", "indoor", "picture", "framed print facing +z, its back at z = 0",
-             ((0.4, 1.0), (1.5, 1.7), (0.02, 0.04)), "width, height of its centre, depth", indoor.picture),
+             ((0.4, 1.0), (1.5, 1.7), (0.02, 0.04)), "width, height of its centre, depth", indoor.picture, overhang=0.6),
         Kind("ceiling_light", "indoor", "lamp", "light panel (emissive light_panel diffuser facing down), "
              "flush or on wires; top at y = 0", ((0.6, 1.2), (0.05, 0.8), (0.2, 0.6)),
-             "width, hanging length (< 0.1: flush), depth", indoor.ceiling_light),
+             "width, hanging length (< 0.1: flush), depth", indoor.ceiling_light, overhang=0.8),
         Kind("window_frame", "indoor", "window", "open window frame with bars and a sill board, for a wall "
              "opening (room side +z)", ((1.0, 2.0), (1.2, 1.6), (0.2, 0.35)),
              "opening width, opening height, wall thickness", indoor.window_frame),
         Kind("plant", "indoor", "vegetation", "pot plant: pot, soil, stems with leaves",
-             ((0.4, 0.8), (0.6, 1.4), (0.4, 0.8)), "width, height, depth", indoor.plant, closed=False),
-        Kind("monitor", "indoor", "furniture", "computer monitor on a stand, screen facing +z",
+             ((0.4, 0.8), (0.6, 1.4), (0.4, 0.8)), "width, height, depth", indoor.plant, closed=False, overhang=0.6),
+        Kind("monitor", "indoor", "screen", "computer monitor on a stand, screen facing +z",
              ((0.5, 0.65), (0.45, 0.55), (0.18, 0.22)), "width, height, depth", indoor.monitor),
         Kind("rug", "indoor", "floor", "rug with a border", ((1.4, 3.0), (0.006, 0.012), (1.0, 2.2)),
              "width, thickness, depth", indoor.rug),
@@ -114,10 +115,10 @@ def _kinds() -> dict[str, Kind]:
              ((0.3, 0.45), (6, 12), (0.3, 0.45)), "width, height, depth", industrial.column),
         Kind("girder", "industrial", "building", "I-beam along x with stiffeners; origin mid bottom flange",
              ((8, 20), (0.5, 0.9), (0.25, 0.35)), "length, depth, flange width", industrial.girder),
-        Kind("rack", "industrial", "furniture", "pallet rack with beam levels, pallets and cardboard loads",
+        Kind("rack", "industrial", "shelf", "pallet rack with beam levels, pallets and cardboard loads",
              ((5, 11), (4, 7), (1.0, 1.2)), "length, height, depth", industrial.rack),
         Kind("machine", "industrial", "static", "industrial machine: housing, panels, control cabinet, duct",
-             ((2.5, 5), (1.8, 3.2), (1.5, 3)), "width, height, depth", industrial.machine),
+             ((2.5, 5), (1.8, 3.2), (1.5, 3)), "width, height, depth", industrial.machine, overhang=1.2),
         Kind("tank", "industrial", "static", "vertical tank on legs with a domed top and a ladder",
              ((1.5, 3), (3, 6), (1.5, 3)), "diameter, height, diameter", industrial.tank),
         Kind("crate", "industrial", "static", "wooden crate with battens", ((0.8, 1.6), (0.6, 1.2), (0.8, 1.4)),
@@ -126,8 +127,8 @@ def _kinds() -> dict[str, Kind]:
              "width, height, depth", industrial.pallet),
         Kind("barrel", "industrial", "static", "steel drum with rolling hoops", ((0.58, 0.6), (0.85, 0.9), (0.58, 0.6)),
              "diameter, height, diameter", industrial.barrel),
-        Kind("stairs", "industrial", "building", "steel stair rising towards -z with handrails",
-             ((0.9, 1.4), (2.5, 4.5), (3, 6)), "width, rise, run", industrial.stairs),
+        Kind("stairs", "industrial", "stairs", "steel stair rising towards -z with handrails",
+             ((0.9, 1.4), (2.5, 4.5), (3, 6)), "width, rise, run", industrial.stairs, overhang=1.1),
         Kind("railing", "industrial", "fence", "guard railing along x with a kick plate",
              ((3, 10), (1.0, 1.1), (0.05, 0.05)), "length, height, thickness", industrial.railing),
         Kind("pipe", "industrial", "static", "pipe run along x with flanges and supports",
@@ -137,9 +138,9 @@ def _kinds() -> dict[str, Kind]:
         Kind("rock", "nature", "terrain", "boulder: displaced icosphere, moss on top",
              ((0.4, 2.5), (0.3, 1.5), (0.4, 2.5)), "width, height, depth", nature.rock),
         Kind("log", "nature", "vegetation", "fallen log along x with branch stubs",
-             ((3, 8), (0.25, 0.6), (0.25, 0.6)), "length, diameter, diameter", nature.log),
+             ((3, 8), (0.25, 0.6), (0.25, 0.6)), "length, diameter, diameter", nature.log, overhang=1.0),
         Kind("stump", "nature", "vegetation", "tree stump with root flares", ((0.4, 0.8), (0.3, 0.8), (0.4, 0.8)),
-             "width, height, depth", nature.stump),
+             "width, height, depth", nature.stump, overhang=0.7),
         Kind("fern", "nature", "vegetation", "arching fronds of leaflets", ((0.6, 1.4), (0.3, 0.7), (0.6, 1.4)),
              "width, height, depth", nature.fern, closed=False),
         Kind("grass_tuft", "nature", "terrain", "clump of grass blades", ((0.3, 0.8), (0.2, 0.5), (0.3, 0.8)),
@@ -164,3 +165,13 @@ def generate(kind: str, size, seed: int, bend=(0.0,), offset: float = 0.0) -> Me
         return k.generator(tuple(map(float, size)), int(seed), tuple(map(float, np.atleast_1d(bend))),
                            float(offset))
     return k.generator(tuple(map(float, size)), int(seed))
+
+
+def kinds_markdown() -> str:
+    """The table of kinds in docs/ses-language.md (a test keeps the two equal)."""
+    rows = ["| kind | class | `size` (x, y, z) | default size range | what it is |", "|---|---|---|---|---|"]
+    for k in KINDS.values():
+        ranges = " × ".join(f"{lo:g}–{hi:g}" if lo != hi else f"{lo:g}" for lo, hi in k.size_ranges)
+        name = f"`{k.name}`" + (" (strip)" if k.strip else "")
+        rows.append(f"| {name} | {k.semantic_class} | {k.size_meaning} | {ranges} | {k.summary} |")
+    return "\n".join(rows) + "\n"

@@ -310,8 +310,9 @@ def ceiling_light(size, seed: int) -> MeshData:
     rng = np.random.default_rng(seed)
     W, Hh, D = (float(x) for x in size)
     b = MeshBuilder()
-    housing = b.surface("metal_painted", (0.7, 0.7, 0.7))
+    housing = b.surface("metal_painted", pick(rng, ((0.7, 0.7, 0.7), (0.05, 0.05, 0.05), (0.4, 0.41, 0.42))))
     diffuser = b.surface("light_panel")
+    louvres = int(rng.integers(0, 4))
     hang = Hh > 0.1
     if hang:   # suspended: two wires
         for sx in (-1, 1):
@@ -320,6 +321,9 @@ def ceiling_light(size, seed: int) -> MeshData:
     y1 = -Hh + 0.05 if hang else 0.0
     b.box((-W / 2, y1 - 0.05, -D / 2), (W / 2, y1, D / 2), housing)
     b.box((-W / 2 + 0.02, y1 - 0.052, -D / 2 + 0.02), (W / 2 - 0.02, y1 - 0.049, D / 2 - 0.02), diffuser)
+    for k in range(1, louvres + 1):   # cross bars under the diffuser
+        x = -W / 2 + W * k / (louvres + 1)
+        b.box((x - 0.01, y1 - 0.07, -D / 2 + 0.02), (x + 0.01, y1 - 0.052, D / 2 - 0.02), housing)
     return b.build()
 
 

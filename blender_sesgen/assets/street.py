@@ -225,7 +225,7 @@ def verge(size, seed: int, bend, offset: float = 0.0) -> MeshData:
     b = MeshBuilder()
     grass = [b.surface("grass", scaled(GRASS, f)) for f in (0.85, 1.0, 1.15)]
     soil = b.surface("soil")
-    step = 0.5
+    step = 0.5 if W < 8 else 1.0
     offs = np.linspace(-W / 2, W / 2, max(int(np.ceil(W / step)), 1) + 1)
     s = _stations(L, bend, (), max_step=step)
     # gentle relief that vanishes at the strip's edges (so neighbours join at height h)

@@ -180,8 +180,10 @@ class _Objects:
         kind = assets.KINDS[kinds[0]]
         self.check.positive(stmt, "size")
         seed = int(scalar(stmt, "seed", common["id"]))
-        if "seed" in stmt.tags and not 0 <= seed <= MAX_SEED:
-            self.check.err(stmt.tags["seed"].tokens[0], f"ASSET 'seed' must lie in 0..{MAX_SEED}, got {seed}")
+        if not 0 <= seed <= MAX_SEED:
+            if "seed" in stmt.tags:
+                self.check.err(stmt.tags["seed"].tokens[0], f"ASSET 'seed' must lie in 0..{MAX_SEED}, got {seed}")
+            return None  # (a bad id used as the seed is reported as a bad id)
         bend = vec(stmt, "bend", (0.0,))
         strips = ", ".join(k for k, v in assets.KINDS.items() if v.strip)
         for tag in ("bend", "offset"):

@@ -53,7 +53,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: float = 1.2, sun_elevatio
     bends = np.round(bends, 3)
     street_pos = np.array([0.0, 0.0, behind])
     street_yaw = 0.0
-    half_road = round(float(rng.uniform(5.2, 5.8)), 2)       # two lanes and a parking lane each side
+    half_road = round(float(rng.uniform(5.6, 6.0)), 2)       # two lanes and a parking lane each side
     kerb_w, kerb_h = 0.2, 0.13
     lawn_w = round(float(rng.uniform(1.8, 3.0)), 2)          # tree lawn, right side
     walk_r = round(float(rng.uniform(2.2, 3.0)), 2)
@@ -181,13 +181,13 @@ def generate(seed: int = 0, frames: int = 101, step_m: float = 1.2, sun_elevatio
                          (round(float(rng.uniform(0.6, 0.8)), 2), round(height, 2), 0.025),
                          seed=int(rng.integers(1e6))))
 
-    # --- parked cars along both kerbs ---------------------------------------------------
+    # --- parked cars along both kerbs (none beside the start: the rig needs a clear view) --
     out += ["", "// parked cars along the kerbs (right side facing the drive)"]
     for side in (1, -1):
-        s = float(rng.uniform(5, 15))
+        s = behind + float(rng.uniform(12, 20)) if side > 0 else float(rng.uniform(5, 15))
         while s < L - 8:
             if rng.random() < (0.5 if side > 0 else 0.3):
-                p, h = place(s, side * (half_road - 1.1 + rng.uniform(-0.1, 0.05)))
+                p, h = place(s, side * (half_road - 1.0 + rng.uniform(-0.05, 0.05)))
                 out.append(asset("car", ids("car"), p, (h + 180 if side > 0 else h) + rng.uniform(-2, 2),
                                  seed=int(rng.integers(1e6))))
                 s += float(rng.uniform(5.2, 6.5))
@@ -198,7 +198,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: float = 1.2, sun_elevatio
     k = np.arange(frames)
     speed = step_m * (1 + 0.06 * smooth_noise(rng, frames, 1.0, (0.7, 1.6)))
     s_cam = behind + np.concatenate([[0.0], np.cumsum(speed[:-1])])
-    lane = 1.85 + 0.12 * smooth_noise(rng, frames, 1.0, (0.8, 1.7, 3.1))
+    lane = 1.8 + 0.12 * smooth_noise(rng, frames, 1.0, (0.8, 1.7, 3.1))
     c, n, h = _centre(street_pos, street_yaw, s_cam, L, bends)
     pos = c + lane[:, None] * n + [0.0, CAMERA_HEIGHT, 0.0]
     pos[:, 1] += 0.01 * smooth_noise(rng, frames, 1.0, (9.0, 17.0))            # suspension

@@ -1,0 +1,171 @@
+"""How much do the scene library's renders look like real camera images? Side by side.
+
+Renders frames of scenes/city_kitti.ses (KITTI's rig) and scenes/hall.ses (EuRoC's rig)
+at their full resolution and default quality, and prints, in one run, the same image
+statistics (vo_reference.evaluate.image_stats) for them and for the real sequences in
+../shared/data: the KITTI odometry excerpt (kitti/sequence_1) and the EuRoC V1_01 excerpt
+(euroc/mav0), plus the OpenCV baseline stereo VO's end-point drift where ground truth
+exists (KITTI and our renders; the EuRoC excerpt carries none), and the seconds per
+stereo frame of each render.
+
+    python bench/realism.py [--frames 21] [--out out/realism] [--scenes city,hall] [--no-render]
+
+EuRoC frames are raw (radial-tangential distortion); single-image statistics and KLT use
+them as they are, SGBM uses pairs rectified with OpenCV from the two sensor.yaml files.
+Targets (issue 17): spectrum slope within 0.2 of the real one (the scene alone within
+0.4), gradient median and 90th percentile within 25 %, clipped pixels no more than the
+real share + 2 %. Indicators only: never reach them by blurring or lowering resolution.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+from vo_reference.evaluate.image_stats import ImageStats, sequence_stats  # noqa: E402
+from vo_reference.io.sequence import open_sequence  # noqa: E402
+
+DATA = Path(os.environ.get("SESGEN_SHARED_DATA", REPO.parent / "shared" / "data"))
+SCENES = {"city": ("scenes/city_kitti.ses", "kitti"), "hall": ("scenes/hall.ses", "euroc")}
+ROWS = (("power-spectrum slope", "slope", "{:.2f}"), ("gradient median (Sobel)", "grad_median", "{:.1f}"),
+        ("gradient 90th percentile", "grad_p90", "{:.1f}"), ("Shi–Tomasi corners (cap 2000)", "corners", "{:.0f}"),
+        ("KLT forward–backward error median (px)", "klt_fb_median", "{:.3f}"),
+        ("SGBM valid fraction", "sgbm_valid", "{:.3f}"), ("pixels at 0 or 255", "clipped", "{:.1%}"))
+
+
+# --- real data ----------------------------------------------------------------------------
+
+def kitti_frames(n: int):
+    seq = open_sequence(DATA / "kitti" / "sequence_1")
+    n = min(n, seq.num_frames)
+    return seq, [seq.image_gray(k) for k in range(n)], [seq.image_gray(k, "right") for k in range(n)]
+
+
+def _yaml_numbers(text: str, key: str) -> np.ndarray:
+    m = re.search(key + r":.*?\[([^\]]*)\]", text, re.S)
+    return np.array([float(x) for x in m.group(1).replace("\n", " ").split(",")])
+
+
+def euroc_frames(n: int):
+    """Raw left frames and rectified (left, right) pairs of the EuRoC excerpt."""
+    root = DATA / "euroc" / "mav0"
+    cams = []
+    for c in ("cam0", "cam1"):
+        text = (root / c / "sensor.yaml").read_text()
+        fu, fv, cu, cv = _yaml_numbers(text, "intrinsics")
+        cams.append({"K": np.array([[fu, 0, cu], [0, fv, cv], [0, 0, 1.0]]),
+                     "dist": _yaml_numbers(text, "distortion_coefficients"),
+                     "T_BS": _yaml_numbers(text, "T_BS").reshape(4, 4),
+                     "files": sorted((root / c / "data").glob("*.png"))})
+    size = (752, 480)
+    T_c1_c0 = np.linalg.inv(cams[1]["T_BS"]) @ cams[0]["T_BS"]
+    R1, R2, P1, P2, *_ = cv2.stereoRectify(cams[0]["K"], cams[0]["dist"], cams[1]["K"], cams[1]["dist"], size,
+                                           T_c1_c0[:3, :3], T_c1_c0[:3, 3], alpha=0)
+    maps = [cv2.initUndistortRectifyMap(c["K"], c["dist"], R, P, size, cv2.CV_32FC1)
+            for c, R, P in ((cams[0], R1, P1), (cams[1], R2, P2))]
+    n = min(n, len(cams[0]["files"]))
+    raw = [cv2.imread(str(f), cv2.IMREAD_GRAYSCALE) for f in cams[0]["files"][:n]]
+    right = [cv2.imread(str(f), cv2.IMREAD_GRAYSCALE) for f in cams[1]["files"][:n]]
+    rect_l = [cv2.remap(a, *maps[0], cv2.INTER_LINEAR) for a in raw]
+    rect_r = [cv2.remap(b, *maps[1], cv2.INTER_LINEAR) for b in right]
+    return raw, rect_l, rect_r
+
+
+# --- renders ------------------------------------------------------------------------------
+
+def render(scene: str, out: Path, frames: int) -> float:
+    """Render frames 0..frames-1 (resuming what is there); seconds per stereo frame of the
+    frames rendered in this run (nan if all were there already)."""
+    cmd = [sys.executable, "-m", "blender_sesgen", "render", scene, "--out", str(out), "--frames", f"0:{frames}",
+           "--resume"]
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO)), capture_output=True, text=True)
+    if proc.returncode != 0:
+        sys.exit(f"render of {scene} failed:\n{proc.stderr[-2000:]}")
+    done = re.findall(r"frame\s+\d+\s+\[\d+/\d+\]\s+([\d.]+) s", proc.stdout + proc.stderr)
+    secs = [float(x) for x in done]
+    print(f"  {scene}: {len(secs)} stereo frames rendered in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
+    return float(np.mean(secs)) if secs else float("nan")
+
+
+def render_frames(out: Path, frames: int):
+    seq = open_sequence(out)
+    n = min(frames, seq.num_frames)
+    return seq, [seq.image_gray(k) for k in range(n)], [seq.image_gray(k, "right") for k in range(n)]
+
+
+def vo_drift_pct(seq, frames: int) -> float:
+    """End-point drift (% of the path) of the OpenCV baseline stereo VO over the frames."""
+    from vo_reference.io.trajectory import Trajectory
+    from vo_reference.stereo.pipeline import run_stereo_vo
+    from vo_reference.stereo.run_cli import shape_errors
+    last = min(frames, seq.num_frames) - 1
+    res = run_stereo_vo(seq, "opencv-baseline", frames=(0, last))
+    T = seq.T_world_cam("left")[: last + 1]
+    gt = Trajectory(T, np.asarray(seq.timestamps_s, float)[: last + 1])
+    return shape_errors(gt, res.trajectory)["end_point_drift_pct"]
+
+
+# --- the table ----------------------------------------------------------------------------
+
+def table(real_name: str, real: ImageStats, real_drift: float, ours_name: str, ours: ImageStats, ours_drift: float,
+          sec_per_frame: float) -> str:
+    lines = [f"| statistic | {real_name} | {ours_name} | ratio / gap |", "|---|---|---|---|"]
+    for label, key, f in ROWS:
+        a, b = getattr(real, key), getattr(ours, key)
+        if key == "slope":
+            gap = f"{b - a:+.2f}"
+        elif key == "clipped":
+            gap = f"{100 * (b - a):+.1f} pt"
+        else:
+            gap = f"{b / a:.2f}" if a else "–"
+        lines.append(f"| {label} | {f.format(a)} | {f.format(b)} | {gap} |")
+    fmt = lambda d: "–" if not np.isfinite(d) else f"{d:.2f} %"  # noqa: E731
+    lines.append(f"| OpenCV baseline stereo VO end-point drift | {fmt(real_drift)} | {fmt(ours_drift)} | |")
+    lines.append(f"| frames | {real.frames} | {ours.frames} | |")
+    if np.isfinite(sec_per_frame):
+        lines.append(f"| seconds per stereo frame (this machine) | | {sec_per_frame:.1f} | |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", type=int, default=21, help="frames of each sequence (default 21)")
+    ap.add_argument("--out", default="out/realism", help="render folders go here (reused with --resume)")
+    ap.add_argument("--scenes", default="city,hall", help="comma-separated: city, hall")
+    ap.add_argument("--no-render", action="store_true", help="use what is already rendered in --out")
+    a = ap.parse_args(argv)
+    if not DATA.is_dir():
+        print(f"real data not found at {DATA} (set SESGEN_SHARED_DATA)", file=sys.stderr)
+        return 2
+    for name in a.scenes.split(","):
+        script, real = SCENES[name]
+        out = REPO / a.out / name
+        secs = float("nan") if a.no_render else render(script, out, a.frames)
+        seq, L, R = render_frames(out, a.frames)
+        ours = sequence_stats(L, R)
+        ours_drift = vo_drift_pct(seq, a.frames)
+        if real == "kitti":
+            kseq, KL, KR = kitti_frames(a.frames)
+            ref, ref_drift, ref_name = sequence_stats(KL, KR), vo_drift_pct(kseq, a.frames), "real KITTI (sequence_1)"
+        else:
+            raw, RL, RR = euroc_frames(a.frames)
+            ref = sequence_stats(raw)
+            ref.sgbm_valid = sequence_stats(RL, RR).sgbm_valid
+            ref_drift, ref_name = float("nan"), "real EuRoC (V1_01 excerpt)"
+        print(f"\n### {script} vs {ref_name}, first {a.frames} frames\n")
+        print(table(ref_name, ref, ref_drift, Path(script).name, ours, ours_drift, secs))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
