@@ -61,7 +61,38 @@ def desk(size, seed: int) -> MeshData:
         b.box((W / 2 - dw + 0.01, y0, D / 2 - 0.02), (W / 2 - 0.01, y1, D / 2 - 0.005), body)
         b.box((W / 2 - dw / 2 - 0.06, y1 - 0.06, D / 2 - 0.005), (W / 2 - dw / 2 + 0.06, y1 - 0.045, D / 2 + 0.02), handle)
     b.box((-W / 2 + 0.025, 0.25, -D / 2 + 0.02), (W / 2 - dw, H - t - 0.05, -D / 2 + 0.04), body)  # modesty panel
+    _desk_clutter(b, rng, W, H, D)
     return b.build()
+
+
+def _desk_clutter(b, rng, W, H, D):
+    """What lies on a desk in use: keyboard and mouse, papers, a mug, books, a pen pot."""
+    dark = b.surface("plastic", (0.03, 0.03, 0.03) if rng.random() < 0.7 else (0.6, 0.6, 0.58))
+    paper = b.surface("plastic", (0.78, 0.78, 0.75))
+    books = [b.surface("fabric", c) for c in BOOK_COLOURS]
+    cup = b.surface("plastic", pick(rng, ((0.7, 0.7, 0.68), (0.3, 0.02, 0.02), (0.02, 0.05, 0.2), (0.05, 0.05, 0.05))))
+    kx = rng.uniform(-0.15, 0.1)
+    b.box((kx - 0.22, H, 0.02), (kx + 0.22, H + 0.025, 0.17), dark)                   # keyboard
+    for i in range(5):                                                               # key rows
+        z = 0.035 + i * 0.026
+        b.box((kx - 0.2, H + 0.025, z), (kx + 0.2, H + 0.03, z + 0.018), dark)
+    b.box((kx + 0.3, H, 0.06), (kx + 0.36, H + 0.03, 0.16), dark)                     # mouse
+    for _ in range(int(rng.integers(1, 5))):                                         # papers
+        a = rng.uniform(-40, 40)
+        c, sn = np.cos(np.radians(a)), np.sin(np.radians(a))
+        T = pose(np.array([[c, 0, sn], [0, 1, 0], [-sn, 0, c]]), (rng.uniform(-W / 2 + 0.3, W / 2 - 0.3), H,
+                                                                   rng.uniform(-0.05, D / 2 - 0.2)))
+        b.box((-0.105, 0.0, -0.148), (0.105, 0.002 + 0.001 * rng.random(), 0.148), paper, T=T)
+    if rng.random() < 0.8:                                                           # a mug
+        mx, mz = rng.uniform(-W / 2 + 0.1, W / 2 - 0.1), rng.uniform(0.05, D / 2 - 0.1)
+        b.revolve([(0, 0), (0.04, 0), (0.042, 0.095), (0.0, 0.095)], 14, cup, T=pose(None, (mx, H, mz)))
+    y = H
+    bx, bz = rng.choice([-1, 1]) * (W / 2 - 0.2), -D / 2 + 0.2
+    for _ in range(int(rng.integers(0, 5))):                                         # a stack of books
+        th = rng.uniform(0.02, 0.05)
+        w, d = rng.uniform(0.15, 0.24), rng.uniform(0.2, 0.3)
+        b.box((bx - w / 2, y, bz - d / 2), (bx + w / 2, y + th, bz + d / 2), books[rng.integers(len(books))])
+        y += th
 
 
 def chair(size, seed: int) -> MeshData:

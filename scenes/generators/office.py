@@ -146,12 +146,22 @@ def generate(seed: int = 0, frames: int = 240) -> str:
         pz = np.convolve(np.pad(pz, k, mode="edge"), np.ones(2 * k + 1) / (2 * k + 1), "valid")
     py = 1.45 + 0.04 * smooth_noise(rng, n, 1.0, (0.6, 1.4)) + 0.008 * np.sin(2 * np.pi * 1.8 * tt)
     P = np.stack([px, py, pz], axis=1)
-    v = np.gradient(P, tt, axis=0)
-    heading = np.unwrap(np.radians(np.degrees(np.arctan2(-v[:, 0], -v[:, 2]))))
-    yaw = np.degrees(heading) + 35 * smooth_noise(rng, n, 1.0, (0.5, 1.1))   # looks aside at shelves/desks
-    pitch = -12 + 8 * smooth_noise(rng, n, 1.0, (0.4, 0.9)) + 0.4 * smooth_noise(rng, n, 1.0, (6.0, 11.0))
+    # where the camera looks: points of interest handed over smoothly (desks, shelves,
+    # windows, the sofa corner), as a person filming the room would
+    looks = np.array([(0.0, 0.8, -0.2), (3.2, 1.1, 0.5), (1.0, 0.8, 0.8), (3.2, 1.0, -2.0), (0.0, 1.5, -4.5),
+                      (-1.0, 0.8, -1.0), (-3.0, 0.6, 2.0)])
+    lu = np.linspace(0, 1, len(looks))
+    target = np.stack([np.interp(s, lu, looks[:, i]) for i in range(3)], axis=1)
+    for _ in range(2):
+        target = np.stack([np.convolve(np.pad(target[:, i], 2 * k, mode="edge"), np.ones(4 * k + 1) / (4 * k + 1),
+                                       "valid") for i in range(3)], axis=1)
+    view = target - P
+    yaw = np.degrees(np.arctan2(-view[:, 0], -view[:, 2]))
+    yaw = np.degrees(np.unwrap(np.radians(yaw)))
+    pitch = np.degrees(np.arctan2(view[:, 1], np.hypot(view[:, 0], view[:, 2])))
+    yaw = yaw + 4 * smooth_noise(rng, n, 1.0, (0.5, 1.1)) + 0.3 * smooth_noise(rng, n, 1.0, (6.0, 9.0, 14.0))
+    pitch = pitch + 3 * smooth_noise(rng, n, 1.0, (0.4, 0.9)) + 0.3 * smooth_noise(rng, n, 1.0, (6.0, 11.0))
     roll = 2.0 * smooth_noise(rng, n, 1.0, (0.5, 1.2)) + 0.4 * smooth_noise(rng, n, 1.0, (7.0, 13.0))
-    yaw = yaw + 0.3 * smooth_noise(rng, n, 1.0, (6.0, 9.0, 14.0))                 # hand shake
     out += ["", f"// the walk: {n} poses of the left camera at {num(RATE_HZ, 0)} Hz"]
     out += [camera_pose_line(P[i], yaw[i], pitch[i], roll[i]) for i in range(n)]
     return "\n".join(out) + "\n"
