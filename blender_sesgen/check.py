@@ -60,8 +60,8 @@ def summary(scene: Scene) -> str:
         f"motion    {scene.motion.kind}, {scene.frames} frames, path length {path_length:.4g}",
         f"start     {_pose_text(T[0])}",
         f"end       {_pose_text(T[-1])}",
-        f"lights    " + (", ".join(light.kind for light in scene.lights) or "default lighting"),
-        f"world     " + (scene.world.kind if scene.world else "default"),
+        "lights    " + (", ".join(light.kind for light in scene.lights) or "default lighting"),
+        "world     " + (scene.world.kind if scene.world else "default"),
     ]
     extras = []
     if scene.materials:

@@ -31,6 +31,8 @@ class OutputFolder:
         self.root = Path(root)
         self._previous: Optional[dict] = None
         self._loaded = False
+        self._kept: Optional[dict] = None
+        self._kept_for: Optional[RenderPlan] = None
         self.manifest: Optional[Manifest] = None    # this render's manifest, once begun
 
     # --- what is there ------------------------------------------------------------------
@@ -57,11 +59,12 @@ class OutputFolder:
 
     def resumable(self, plan: RenderPlan) -> Optional[dict]:
         """The previous manifest if its frames may be kept for ``plan`` (same scene and
-        settings), else None."""
-        prev = self.previous()
-        if prev and prev.get("scene_sha256") == plan.scene_sha256 and self.same_settings(prev, plan.settings):
-            return prev
-        return None
+        settings), else None. Decided once per plan."""
+        if self._kept_for is not plan:
+            prev = self.previous()
+            same = prev and prev.get("scene_sha256") == plan.scene_sha256 and self.same_settings(prev, plan.settings)
+            self._kept, self._kept_for = (prev if same else None), plan
+        return self._kept
 
     def check(self, plan: RenderPlan, force: bool) -> None:
         """Refuse a folder that is not ours or holds another scene's output (unless ``force``).
@@ -163,7 +166,7 @@ class OutputFolder:
                 if f.name.endswith((".tum.txt", ".kitti.txt")) or f.name == "ego.txt":
                     f.unlink()
         (self.root / MANIFEST).unlink(missing_ok=True)
-        self._previous, self._loaded = None, True
+        self._previous, self._loaded, self._kept_for = None, True, None
 
     def _remove_stale_temporaries(self) -> None:
         for view in ("left", "right"):

@@ -24,7 +24,7 @@ from ..job import RenderJob
 from ..plan import RenderPlan
 from . import props
 
-SCENE_NAME = "SESGen"          # blender.builder.SCENE_NAME (not imported: keeps bpy modules lazy)
+SCENE_NAME = "SESGen"          # blender.datablocks.SCENE_NAME (not imported: keeps bpy modules lazy)
 PATH_TAG = "sesgen_camera_path"
 PATH_NAME = "SESGen camera path"
 

@@ -30,11 +30,6 @@ from .trajectory import read_kitti
 IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".bmp", ".pgm", ".ppm", ".tif", ".tiff")
 
 
-def looks_like_image_folder(root) -> bool:
-    root = Path(root)
-    return root.is_dir() and any(p.suffix.lower() in IMAGE_EXTS for p in root.iterdir())
-
-
 def read_robotcar_timestamps(path) -> dict[int, float]:
     """'<microseconds> <chunk>' lines -> {microseconds: seconds}."""
     out = {}

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import atomic
 from blender_sesgen.contract.timing import frame_range
 
 from ..errors import VoError
@@ -272,5 +273,5 @@ def write_plots(out: Path, res, gt, errs, summary) -> None:
     for i, r in enumerate(recs):
         rows.append(f"{r.k},{r.status},{r.n_matches},{r.n_inliers},{r.n_inliers_cv},{r.step_m:.6f},"
                     + ",".join(f"{errs[k][i]:.6f}" for k in errs))
-    (out / "frames.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
-    (out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
+    atomic.write_text(out / "frames.csv", "\n".join(rows) + "\n")
+    atomic.write_text(out / "summary.json", json.dumps(summary, indent=1) + "\n")

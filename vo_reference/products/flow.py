@@ -225,19 +225,3 @@ def read_kitti_flow_png(path) -> tuple[np.ndarray, np.ndarray]:
     f = ((rgb[..., :2] - 32768.0) / 64.0).astype(np.float32)
     f[~valid] = np.nan
     return f, valid
-
-
-def flow_color(flow: np.ndarray, max_flow: float | None = None) -> np.ndarray:
-    """uint8 RGB visualisation: hue = direction, saturation = magnitude; black = invalid."""
-    import cv2
-    f = np.asarray(flow, dtype=np.float32)
-    ok = np.all(np.isfinite(f), axis=-1)
-    mag = np.hypot(f[..., 0], f[..., 1])
-    if max_flow is None:
-        max_flow = float(np.percentile(mag[ok], 99)) if ok.any() else 1.0
-    ang = np.arctan2(-f[..., 1], -f[..., 0]) / np.pi  # -1..1
-    hsv = np.zeros(f.shape[:2] + (3,), np.uint8)
-    hsv[..., 0] = np.where(ok, ((ang + 1) * 90) % 180, 0).astype(np.uint8)
-    hsv[..., 1] = np.where(ok, np.clip(mag / max(max_flow, 1e-6) * 255, 0, 255), 0).astype(np.uint8)
-    hsv[..., 2] = np.where(ok, 255, 0).astype(np.uint8)
-    return cv2.cvtColor(hsv, cv2.COLOR_HSV2RGB)
