@@ -29,6 +29,7 @@ from .errors import SesgenError
 from .model import Mesh, Scene
 
 _OWN_EXR = re.compile(r"^(\d{6}\.exr|\.\d{6}\.exr\.tmp-\d+|\.\d{6}\.exr\.tmp-\d+\.exr)$")
+_OWN_PNG = re.compile(r"^(\d{6}\.png|\.\d{6}\.png\.tmp-\d+\.png)$")
 
 
 def parse_frames(text: str, n_frames: Optional[int] = None) -> tuple[int, int]:
@@ -126,6 +127,7 @@ class RenderJob:
             self._previous = None
         for view in self.scene.rig.views:
             (out / contract.EXR_DIR / view).mkdir(parents=True, exist_ok=True)
+            (out / contract.DISPLAY_DIR / view).mkdir(parents=True, exist_ok=True)
         _remove_stale_temporaries(out)
         contract.atomic_write_text(out / contract.SCENE_COPY, self.scene_text)
         m = contract.build_manifest(self.scene, contract.sha256_text(self.scene_text), self.settings,
@@ -141,8 +143,9 @@ class RenderJob:
         m["render"]["exr"]["layout"] = ch.get("layout", m["render"]["exr"]["layout"])
         if self.exposure is not None:
             m["render"]["exposure"] = self.exposure
-            m["render"]["exposure_rule"] = ("auto: default lighting, 90th-percentile luminance of frame 0 = 0.6"
-                                            if not self.scene.lights else "1 (the script's own lights)")
+            m["render"]["exposure_rule"] = (f"auto: 90th-percentile luminance of frame 0 = {exposure_target()}"
+                                            if self.auto_exposure else
+                                            f"fixed: {self.scene.look.exposure_ev:g} EV (factor 2^EV)")
         m["segmentation"]["channel"] = ch["object_index"]
         if self._previous is not None and _same_settings(self._previous, self.settings):
             prev_done = self._previous.get("frames_complete", [])
@@ -154,7 +157,8 @@ class RenderJob:
         contract.atomic_write_json(out / contract.MANIFEST, m)
 
     def _files_exist(self, m: dict, k: int) -> bool:
-        return all((self.out_dir / m["files"][v][k]).is_file() for v in m["views"])
+        return all((self.out_dir / m["files"][v][k]).is_file() and (self.out_dir / m["display"]["files"][v][k]).is_file()
+                   for v in m["views"])
 
     # --- Blender -----------------------------------------------------------------------
 
@@ -168,14 +172,25 @@ class RenderJob:
             render.enable_gpu()
         render.configure(self.built.scene, samples=s.samples, denoise=s.denoise, device=self.options.device,
                          threads=self.options.threads, normal_pass=self.options.normal_pass,
-                         position_pass=self.options.position_pass)
+                         position_pass=self.options.position_pass,
+                         view_transform=contract.VIEW_TRANSFORMS[self.scene.look.view])
         self._set_exposure()
 
+    @property
+    def auto_exposure(self) -> bool:
+        """LOOK exposure auto, or no LOOK exposure and no emitting LIGHT (portals emit nothing)."""
+        look = self.scene.look
+        if look.auto_exposure is not None:
+            return look.auto_exposure
+        return not any(light.kind != "portal" for light in self.scene.lights)
+
     def _set_exposure(self) -> None:
-        """Default lighting only: one film exposure for the whole sequence (blender/exposure.py),
-        taken from the manifest being resumed so that resumed frames match."""
-        if self.scene.lights:
-            self.exposure = 1.0
+        """One film exposure for the whole sequence: automatic (blender/exposure.py; taken from
+        the manifest being resumed so that resumed frames match) or the LOOK's fixed EV."""
+        if not self.auto_exposure:
+            self.exposure = float(2.0 ** self.scene.look.exposure_ev)
+            from .blender import exposure
+            exposure.set_exposure(self.built.scene, self.exposure)
             return
         from .blender import exposure, rig
         prev = (self._previous or {}).get("render", {}).get("exposure")
@@ -207,11 +222,14 @@ class RenderJob:
         for vi, view in enumerate(self.scene.rig.views):
             final = self.out_dir / contract.exr_relpath(view, k)
             tmp = final.with_name(f".{final.name}.tmp-{os.getpid()}.exr")
+            display = self.out_dir / contract.display_relpath(view, k)
+            display_tmp = display.with_name(f".{display.name}.tmp-{os.getpid()}.png")
             st = render.render_view(self.built.scene, self.built.cameras[view], rig.blender_frame(k),
                                     contract.render_seed(self.settings.seed, k, vi), str(tmp),
-                                    quiet=not self.options.verbose)
-            if not tmp.is_file():
+                                    quiet=not self.options.verbose, display_path=str(display_tmp))
+            if not tmp.is_file() or not display_tmp.is_file():
                 raise RuntimeError(f"Blender wrote no file for frame {k}, view {view}")
+            os.replace(display_tmp, display)
             os.replace(tmp, final)
             res.views[view] = st
             if st["cycles_s"] is None:
@@ -241,6 +259,11 @@ class RenderJob:
 
 
 # --- helpers ----------------------------------------------------------------------------
+
+def exposure_target() -> float:
+    from .lighting_data import EXPOSURE_TARGET
+    return EXPOSURE_TARGET
+
 
 def _blender_version() -> Optional[str]:
     try:
@@ -316,11 +339,12 @@ def _check_out_dir(out: Path, scene_sha: str, settings: contract.EffectiveSettin
 def _remove_own_outputs(out: Path) -> None:
     """Delete the files a previous render wrote (our own names only; nothing else)."""
     for view in ("left", "right"):
-        d = out / contract.EXR_DIR / view
-        if d.is_dir():
-            for f in d.iterdir():
-                if _OWN_EXR.match(f.name):
-                    f.unlink()
+        for folder, own in ((contract.EXR_DIR, _OWN_EXR), (contract.DISPLAY_DIR, _OWN_PNG)):
+            d = out / folder / view
+            if d.is_dir():
+                for f in d.iterdir():
+                    if own.match(f.name):
+                        f.unlink()
     pd = out / contract.POSES_DIR
     if pd.is_dir():
         for f in pd.iterdir():
@@ -331,8 +355,9 @@ def _remove_own_outputs(out: Path) -> None:
 
 def _remove_stale_temporaries(out: Path) -> None:
     for view in ("left", "right"):
-        d = out / contract.EXR_DIR / view
-        if d.is_dir():
-            for f in d.iterdir():
-                if f.name.startswith(".") and ".exr.tmp-" in f.name:
-                    f.unlink()
+        for folder in (contract.EXR_DIR, contract.DISPLAY_DIR):
+            d = out / folder / view
+            if d.is_dir():
+                for f in d.iterdir():
+                    if f.name.startswith(".") and (".exr.tmp-" in f.name or ".png.tmp-" in f.name):
+                        f.unlink()

@@ -32,7 +32,7 @@ from mathutils import Matrix
 from .. import poses
 from ..errors import SesgenError
 from ..model import Cuboid, Cylinder, Material, Mesh, Quad, Scene, SceneObject, Sphere, TextureRef
-from . import compat, lighting, rig, textures
+from . import compat, library, lighting, rig, textures
 
 SCENE_NAME = "SESGen"
 TAG = "sesgen"
@@ -106,9 +106,8 @@ def _min_camera_distance(scene: Scene, centre, bounding_radius: float) -> float:
 # --- materials --------------------------------------------------------------------------
 
 class MaterialFactory:
-    def __init__(self, scene: Scene, ambient: float):
+    def __init__(self, scene: Scene):
         self.scene = scene
-        self.ambient = ambient
         self.cache: dict = {}
 
     def get(self, obj: SceneObject):
@@ -132,6 +131,20 @@ class MaterialFactory:
         nt.nodes.clear()
         out = nt.nodes.new("ShaderNodeOutputMaterial")
         out.target = "ALL"
+        if m is not None and m.library is not None:
+            shader = library.build_shader(nt, m, colour)
+            if self.scene.fog is not None:
+                shader = lighting.fog_mix(nt, shader, self.scene.fog)
+            nt.links.new(shader, out.inputs["Surface"])
+            return mat
+        if m is not None and m.maps is not None:
+            bsdf = library.build_image_maps(nt, m.maps, colour, m.roughness, tag)
+            bsdf.inputs["Metallic"].default_value = m.metallic
+            shader = bsdf.outputs["BSDF"]
+            if self.scene.fog is not None:
+                shader = lighting.fog_mix(nt, shader, self.scene.fog)
+            nt.links.new(shader, out.inputs["Surface"])
+            return mat
         bsdf = nt.nodes.new("ShaderNodeBsdfPrincipled")
         if tex is not None:
             tex_col = textures.texture_colour(nt, tex, spherical)
@@ -152,14 +165,6 @@ class MaterialFactory:
         if m is not None and m.emission_strength > 0:
             emission.default_value = (*m.emission, 1.0)
             bsdf.inputs["Emission Strength"].default_value = m.emission_strength
-        elif self.ambient > 0:  # OpenGL-like ambient term of the default lighting
-            if base is not None:
-                nt.links.new(base, emission)
-            else:
-                emission.default_value = (*colour, 1.0)
-            bsdf.inputs["Emission Strength"].default_value = self.ambient
-            if hasattr(mat, "cycles") and hasattr(mat.cycles, "emission_sampling"):
-                mat.cycles.emission_sampling = "NONE"  # ambient, not a light to sample
         shader = bsdf.outputs["BSDF"]
         if self.scene.fog is not None:
             shader = lighting.fog_mix(nt, shader, self.scene.fog)
@@ -355,9 +360,7 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -
     bscene.collection.children.link(coll)
     built = BuiltScene(scene=bscene, collection=coll)
 
-    lights = list(scene.lights) or lighting.default_lights(scene)
-    ambient = lighting.DEFAULT_AMBIENT if not scene.lights else 0.0
-    mats = MaterialFactory(scene, ambient)
+    mats = MaterialFactory(scene)
     focal = max(float(K[0][0]), scene.rig.focal_px)
 
     for o in scene.objects:
@@ -384,18 +387,23 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -
             objs = build_mesh(o, coll, mats.get(o) if custom else None)
         else:
             raise SesgenError(f"unsupported object shape '{o.shape}'")
+        material_seed = 0
+        if o.material:
+            lib = scene.material(o.material).library
+            material_seed = lib.seed if lib is not None else 0
         for b in objs:
             b.pass_index = int(o.id)
             b["sesgen_id"] = int(o.id)
+            library.object_properties(b, material_seed, o.id)
             if b.type == "MESH" and not isinstance(o, (Sphere, Mesh)):
                 b.data.materials.append(mats.get(o))
         built.objects[o.id] = objs
 
-    for i, light in enumerate(lights):
+    for i, light in enumerate(lighting.scene_lights(scene, bscene)):
         lo = lighting.add_light(bscene, coll, light, f"sesgen_light_{i}")
         tag(lo)
         tag(lo.data)
-    tag(lighting.build_world(bscene, scene.world, scene.fog, "sesgen_world"))
+    tag(lighting.build_world(bscene, lighting.effective_world(scene), scene.fog, "sesgen_world", tag))
 
     N = scene.frames
     for view, T in view_poses.items():

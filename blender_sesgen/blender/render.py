@@ -47,7 +47,7 @@ def enable_gpu() -> str:
 
 
 def configure(bscene, *, samples: int, denoise: bool, device: str, threads: int = 0,
-              normal_pass: bool = False, position_pass: bool = False) -> None:
+              normal_pass: bool = False, position_pass: bool = False, view_transform: str = "AgX") -> None:
     r = bscene.render
     r.engine = "CYCLES"
     c = bscene.cycles
@@ -57,6 +57,8 @@ def configure(bscene, *, samples: int, denoise: bool, device: str, threads: int 
     c.use_denoising = bool(denoise)
     if denoise:
         c.denoiser = "OPENIMAGEDENOISE"
+        c.denoising_input_passes = "RGB_ALBEDO_NORMAL"   # guided by albedo and normal
+        c.denoising_prefilter = "ACCURATE"
     c.use_animated_seed = False
     c.sample_clamp_indirect = 10.0
     # enough bounces for indirect light in a closed room, fewer than Cycles' 12 (speed)
@@ -74,7 +76,8 @@ def configure(bscene, *, samples: int, denoise: bool, device: str, threads: int 
     r.use_compositing = False
     r.use_sequencer = False
     r.dither_intensity = 0.0
-    bscene.view_settings.view_transform = "Standard"
+    bscene.display_settings.display_device = "sRGB"
+    bscene.view_settings.view_transform = view_transform
     bscene.view_settings.look = "None"
     bscene.view_settings.exposure = 0.0
     bscene.view_settings.gamma = 1.0
@@ -123,8 +126,11 @@ def quiet_stdout(enabled: bool = True):
         os.close(devnull)
 
 
-def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: bool = True) -> dict:
-    """Render ``camera`` at Blender frame ``frame`` into the multilayer EXR ``filepath``.
+def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: bool = True,
+                display_path: str | None = None) -> dict:
+    """Render ``camera`` at Blender frame ``frame`` into the multilayer EXR ``filepath``
+    (scene-linear) and, with ``display_path``, the display-referred 8-bit PNG (the same
+    render through the scene's view transform).
 
     Returns {"wall_s": seconds around the render call, "cycles_s": Cycles' own render time}.
     """
@@ -147,4 +153,16 @@ def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: boo
     wall = time.perf_counter() - t0
     if "FINISHED" not in result:
         raise RuntimeError(f"Cycles render did not finish ({result}) for frame {frame}")
+    if display_path is not None:
+        save_display(bscene, display_path)
     return {"wall_s": wall, "cycles_s": stats.last}
+
+
+def save_display(bscene, path: str) -> None:
+    """The last render result as an 8-bit sRGB PNG through the scene's view transform."""
+    ims = bscene.render.image_settings
+    try:
+        compat.set_png(ims)
+        bpy.data.images["Render Result"].save_render(filepath=path, scene=bscene)
+    finally:
+        compat.set_multilayer_exr(ims)

@@ -48,6 +48,7 @@ COMMON_OBJECT_TAGS = (
     _num("texture_scale", usage="texture_scale s"),
     _num("colour", (3,), usage="colour r g b"),
     Tag("material", "text", usage="material M"),
+    Tag("class", "text", usage="class NAME"),
 )
 POSITION = _num("position", (3, 6), usage="position x y z [rx ry rz]")
 POSITION_REQUIRED = Tag("position", "numbers", (3, 6), True, POSITION.usage)
@@ -76,16 +77,21 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
                                   Tag("format", "choice", required=True, usage="format tum|kitti",
                                       choices=("tum", "kitti")))),
     Statement("LIGHT", _tags(Tag("sun", "flag", usage="sun"), Tag("point", "flag", usage="point"),
-                             Tag("area", "flag", usage="area"),
+                             Tag("spot", "flag", usage="spot"), Tag("area", "flag", usage="area"),
+                             Tag("portal", "flag", usage="portal"),
                              _num("colour", (3,), usage="colour r g b"),
                              _num("strength", usage="strength s"),
                              _num("position", (3,), usage="position x y z"),
                              _num("direction", (3,), usage="direction dx dy dz"),
-                             _num("size", usage="size s"))),
+                             _num("size", (1, 2), usage="size s | size sx sy"),
+                             _num("angle", usage="angle deg"),
+                             _num("blend", usage="blend b"))),
     Statement("WORLD", _tags(_num("colour", (3,), usage="colour r g b"), Tag("sky", "flag", usage="sky"),
+                             Tag("hdri", "text", usage="hdri NAME|FILE"),
                              _num("strength", usage="strength s"),
                              _num("elevation", usage="elevation deg"),
-                             _num("azimuth", usage="azimuth deg"))),
+                             _num("azimuth", usage="azimuth deg"),
+                             _num("rotation", usage="rotation deg"))),
     Statement("MATERIAL", _tags(Tag("name", "text", required=True, usage="name N"),
                                 _num("colour", (3,), usage="colour r g b"),
                                 Tag("texture", "text", usage="texture T"),
@@ -94,15 +100,27 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
                                 _num("metallic", usage="metallic m"),
                                 _num("specular", usage="specular s"),
                                 _num("emission", (3,), usage="emission r g b"),
-                                _num("emission_strength", usage="emission_strength s"))),
+                                _num("emission_strength", usage="emission_strength s"),
+                                Tag("library", "text", usage="library L"),
+                                _num("wear", usage="wear w"),
+                                _num("bump", usage="bump b"),
+                                _num("variation", usage="variation v"),
+                                Tag("seed", "int", usage="seed n"),
+                                Tag("albedo_map", "text", usage="albedo_map FILE"),
+                                Tag("normal_map", "text", usage="normal_map FILE"),
+                                Tag("roughness_map", "text", usage="roughness_map FILE"),
+                                _num("map_size", usage="map_size s"))),
     Statement("FOG", _tags(_num("start", (1,), True, "start s"), _num("end", (1,), True, "end e"),
                            _num("colour", (3,), usage="colour r g b"))),
     Statement("NOISE", _tags(_num("sigma", (1,), True, "sigma s"), Tag("seed", "int", usage="seed n"))),
+    Statement("LOOK", _tags(Tag("view", "choice", usage="view agx|filmic|standard",
+                                choices=("agx", "filmic", "standard")),
+                            Tag("exposure", "text", usage="exposure auto|EV"))),
     Statement("RENDER", _tags(Tag("samples", "int", required=True, usage="samples N"),
                               Tag("denoise", "choice", usage="denoise on|off", choices=("on", "off")),
                               Tag("seed", "int", usage="seed n"))),
 )}
 
 OBJECT_KEYWORDS = ("QUAD", "CUBOID", "SPHERE", "CYLINDER", "MESH")
-SINGLETON_KEYWORDS = ("CAMERA", "START", "TRAJECTORY", "WORLD", "FOG", "NOISE", "RENDER")
+SINGLETON_KEYWORDS = ("CAMERA", "START", "TRAJECTORY", "WORLD", "FOG", "NOISE", "LOOK", "RENDER")
 TAG_SYNONYMS = {"color": "colour"}

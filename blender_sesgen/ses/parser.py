@@ -13,6 +13,7 @@ itself and the TRAJECTORY file it names; texture and mesh files are only checked
 """
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Optional
 
@@ -24,7 +25,9 @@ from .diagnostics import Diagnostics
 from .geometry import quad_problem
 from .grammar import OBJECT_KEYWORDS, SINGLETON_KEYWORDS
 from .lexer import decode, tokenize
-from .materials import materials, texture
+from .materials import library_material, materials, texture
+from .. import material_library
+from ..contract import semantics
 from .motion import rig_motion
 from .statements import ParsedStatement, TagValue, did_you_mean, read_statement
 
@@ -66,6 +69,10 @@ def _build(source: str, statements: list[ParsedStatement], attempted_objects: bo
 
     named_materials = materials([s for s in statements if s.keyword == "MATERIAL"], check)
     objects = _Objects(check, named_materials).build([s for s in statements if s.keyword in OBJECT_KEYWORDS])
+    for o in objects:  # library materials named directly by objects
+        if o.material is not None and o.material not in named_materials:
+            named_materials[o.material] = library_material(o.material)
+    objects = [_with_class(o, named_materials) for o in objects]
     if not attempted_objects:
         check.diags.error(1, 1, "the script defines no objects: add at least one QUAD, CUBOID, SPHERE, "
                                 "CYLINDER or MESH")
@@ -75,11 +82,20 @@ def _build(source: str, statements: list[ParsedStatement], attempted_objects: bo
                    if light)
     scene_kwargs = dict(
         world=environment.world(seen.get("WORLD"), check), fog=environment.fog(seen.get("FOG"), check),
-        noise=environment.noise(seen.get("NOISE"), check), render=environment.render(seen.get("RENDER"), check))
+        noise=environment.noise(seen.get("NOISE"), check), look=environment.look(seen.get("LOOK"), check),
+        render=environment.render(seen.get("RENDER"), check))
     if check.diags:
         return None
     return model.Scene(source=source, objects=tuple(objects), rig=rig, **moving._asdict(),
                        materials=tuple(named_materials.values()), lights=lights, **scene_kwargs)
+
+
+def _with_class(o: model.SceneObject, materials: dict[str, model.Material]) -> model.SceneObject:
+    """The object with its semantic class resolved: its ``class``, else its library
+    material's, else ``static`` (contract.semantics)."""
+    m = materials.get(o.material) if o.material else None
+    from_material = material_library.entry(m.library.name).semantic_class if m and m.library else None
+    return dataclasses.replace(o, semantic_class=semantics.object_class(o.semantic_class, from_material))
 
 
 class _Objects:
@@ -115,17 +131,33 @@ class _Objects:
                 names[name] = stmt
             check.unit_range(stmt, "colour")
             material = stmt.get("material")
-            if material is not None and material not in defined:
+            if material is not None and material not in defined and not material_library.is_library_name(material):
                 tok = stmt.tags["material"].tokens[0]
-                known = f" (defined: {', '.join(defined)})" if defined else " (no MATERIAL is defined)"
-                check.err(tok, f"{stmt.keyword} 'material' '{material}' is not defined{known}"
-                               f"{did_you_mean(material, defined) if defined else ''}")
+                known = f"defined: {', '.join(defined)}; " if defined else "no MATERIAL is defined; "
+                candidates = [*defined, *material_library.LIBRARY]
+                check.err(tok, f"{stmt.keyword} 'material' '{material}' is not defined and is not a library "
+                               f"material{did_you_mean(material, candidates)} "
+                               f"({known}library: {', '.join(material_library.LIBRARY)})")
             common = dict(id=obj_id, name=name, colour=vec(stmt, "colour", (1.0, 1.0, 1.0)),
-                          texture=texture(stmt, check), material=material, line=stmt.token.line)
+                          texture=texture(stmt, check), material=material,
+                          semantic_class=self._class(stmt), line=stmt.token.line)
             obj = getattr(self, f"_{shape}")(stmt, common)
             if obj is not None and len(check.diags.items) == before:
                 objects.append(obj)
         return objects
+
+    def _class(self, stmt: ParsedStatement) -> Optional[str]:
+        tv = stmt.tags.get("class")
+        if tv is None:
+            return None
+        label = semantics.lookup(str(tv.values[0]))
+        if label is None:
+            names = [lab.name for lab in semantics.LABELS]
+            self.check.err(tv.tokens[0], f"{stmt.keyword} 'class' '{tv.values[0]}' is not a known class"
+                                         f"{did_you_mean(semantics.canonical(str(tv.values[0])), names)} "
+                                         f"(classes: {', '.join(names)}; see docs/ses-language.md)")
+            return None
+        return label.name
 
     @staticmethod
     def _placement(stmt: ParsedStatement) -> dict:

@@ -27,8 +27,8 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from . import __version__
-from .model import Scene, TextureRef
+from .. import __version__
+from ..model import Scene, TextureRef
 
 FORMAT = "sesgen-render/1"
 DEPTH_BACKGROUND = 1e10
@@ -49,6 +49,8 @@ MANIFEST = "manifest.json"
 SCENE_COPY = "scene.ses"
 POSES_DIR = "poses"
 EXR_DIR = "exr"
+DISPLAY_DIR = "rgb"           # display-referred 8-bit PNGs (the LOOK's view transform)
+VIEW_TRANSFORMS = {"agx": "AgX", "filmic": "Filmic", "standard": "Standard"}
 
 
 # --- render options ---------------------------------------------------------------------
@@ -99,7 +101,7 @@ def effective_settings(scene: Scene, options: RenderOptions) -> EffectiveSetting
     rig = scene.rig
     s = float(options.resolution_scale)
     if not (s > 0.0 and np.isfinite(s)):
-        from .errors import SesgenError
+        from ..errors import SesgenError
         raise SesgenError(f"--resolution-scale must be a positive number, got {options.resolution_scale}")
     W, H = max(1, int(round(rig.width * s))), max(1, int(round(rig.height * s)))
     K = scaled_K(rig.K(), rig.width, rig.height, W, H)
@@ -148,6 +150,10 @@ def exr_relpath(view: str, frame: int) -> str:
     return f"{EXR_DIR}/{view}/{frame:06d}.exr"
 
 
+def display_relpath(view: str, frame: int) -> str:
+    return f"{DISPLAY_DIR}/{view}/{frame:06d}.png"
+
+
 def trajectory_relpaths(views: Sequence[str]) -> dict:
     return {
         "tum": {v: f"{POSES_DIR}/{v}.tum.txt" for v in views},
@@ -178,6 +184,9 @@ def texture_label(tex: Optional[TextureRef]) -> Optional[str]:
 
 
 def object_table(scene: Scene) -> list[dict]:
+    """One row per object: id, name, shape, texture, material, semantic ``class`` and its
+    Cityscapes ``label_id`` (contract.semantics)."""
+    from .semantics import BY_NAME, canonical
     out = []
     for o in scene.objects:
         tex = o.texture
@@ -186,8 +195,10 @@ def object_table(scene: Scene) -> list[dict]:
                 tex = scene.material(o.material).texture
             except KeyError:
                 tex = None
+        cls = canonical(o.semantic_class)
         out.append({"id": int(o.id), "name": o.name, "shape": o.shape,
-                    "texture": texture_label(tex), "material": o.material})
+                    "texture": texture_label(tex), "material": o.material,
+                    "class": cls, "label_id": BY_NAME[cls].id})
     return out
 
 
@@ -229,6 +240,11 @@ def build_manifest(scene: Scene, scene_sha256: str, settings: EffectiveSettings,
         "poses": {v: [np.asarray(T, dtype=float).tolist() for T in poses[v]] for v in views},
         "trajectories": trajectory_relpaths(views),
         "files": {v: [exr_relpath(v, k) for k in range(N)] for v in views},
+        "display": {
+            "kind": "display-referred sRGB, 8-bit PNG (the EXR's Combined pass through the view transform)",
+            "view_transform": VIEW_TRANSFORMS[scene.look.view],
+            "files": {v: [display_relpath(v, k) for k in range(N)] for v in views},
+        },
         "frames_complete": [False] * N,
         "render": {
             "engine": settings.engine,
