@@ -119,6 +119,7 @@ class Quad(SceneObject):
 class Cuboid(Placed):
     shape: ClassVar[str] = "cuboid"
     size: Vec3  # full edge lengths along the object's local x, y, z
+    bevel: float = 0.0  # radius of the rounded edges (real geometry; 0 = sharp)
 
 
 @dataclass(frozen=True, kw_only=True)

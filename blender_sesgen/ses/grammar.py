@@ -57,7 +57,7 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
     Statement("QUAD", _tags(*COMMON_OBJECT_TAGS,
                             _num("vertices", (12,), True, "vertices x1 y1 z1 x2 y2 z2 x3 y3 z3 x4 y4 z4"))),
     Statement("CUBOID", _tags(*COMMON_OBJECT_TAGS, POSITION_REQUIRED,
-                              _num("dim", (3,), True, "dim sx sy sz"))),
+                              _num("dim", (3,), True, "dim sx sy sz"), _num("bevel", usage="bevel r"))),
     Statement("SPHERE", _tags(*COMMON_OBJECT_TAGS, POSITION_REQUIRED,
                               _num("dim", (1,), True, "dim r"))),
     Statement("CYLINDER", _tags(*COMMON_OBJECT_TAGS, POSITION_REQUIRED,

@@ -175,7 +175,12 @@ class _Objects:
 
     def _cuboid(self, stmt, common):
         self.check.positive(stmt, "dim")
-        return model.Cuboid(size=vec(stmt, "dim"), **self._placement(stmt), **common)
+        self.check.positive(stmt, "bevel", allow_zero=True)
+        size, bevel = vec(stmt, "dim"), float(scalar(stmt, "bevel", 0.0))
+        if bevel > min(size) / 2 and "bevel" in stmt.tags:
+            self.check.err(stmt.tags["bevel"].tokens[0], f"CUBOID 'bevel' ({bevel:g}) must be at most half the "
+                                                         f"smallest edge ({min(size) / 2:g})")
+        return model.Cuboid(size=size, bevel=bevel, **self._placement(stmt), **common)
 
     def _sphere(self, stmt, common):
         self.check.positive(stmt, "dim")

@@ -42,8 +42,8 @@ def lane_marking(ctx: Ctx) -> Surface:
     g, p, C = ctx.g, ctx.p, ctx.colour
     tone, dome = _aggregate(ctx)
     # paint worn off in patches: coverage falls with wear
-    worn = g.noise(p, 1 / 0.25, detail=6.0, roughness=0.6)
-    cover = g.remap(worn, 0.25 + 0.35 * ctx.wear, 0.32 + 0.35 * ctx.wear, smooth=True)
+    worn = g.noise(p, 1 / 0.12, detail=6.0, roughness=0.6)
+    cover = g.remap(worn, 0.18 + 0.3 * ctx.wear, 0.3 + 0.3 * ctx.wear, 0.35, 1.0, smooth=True)  # thinned, not gone
     dirt = g.remap(g.noise(p, 1 / 0.8, detail=3.0), 0.3, 0.7, 0.82, 1.05)
     paint = g.cmul(C, g.mul(dirt, g.lerp(0.92, 1.04, tone)))
     road = g.cmul((0.085, 0.085, 0.082), tone)
@@ -72,11 +72,11 @@ def brick(ctx: Ctx) -> Surface:
     length = ctx.entry.scale_m                     # 24 cm bricks, 1 cm mortar, 7.1 cm courses
     rand, mortar = g.bricks(ctx.uv, length + 0.01, 0.081, 0.01, smooth=0.15)
     r2 = g.white(g.add(rand, 0.37))
-    value = g.remap(rand, 0.0, 1.0, 0.62, 1.35)
-    burnt = g.math("GREATER_THAN", r2, 0.9)        # a few dark over-fired bricks
-    value = g.lerp(value, 0.45, burnt)
-    face = g.remap(g.noise(ctx.p, 1 / 0.03, detail=3.0), 0.3, 0.7, 0.9, 1.08)
-    tint = g.hsv(g.cmul(C, g.mul(value, face)), g.madd(r2, 0.04, 0.48), g.madd(rand, 0.3, 0.85), 1.0)
+    value = g.remap(rand, 0.0, 1.0, 0.72, 1.22)
+    burnt = g.math("GREATER_THAN", r2, 0.92)       # a few dark over-fired bricks
+    value = g.lerp(value, 0.55, burnt)
+    face = g.remap(g.noise(ctx.p, 1 / 0.03, detail=3.0), 0.3, 0.7, 0.92, 1.06)
+    tint = g.hsv(g.cmul(C, g.mul(value, face)), g.madd(r2, 0.02, 0.49), g.madd(rand, 0.15, 0.85), 1.0)
     mortar_col = g.cmul((0.42, 0.40, 0.37), g.remap(g.noise(ctx.p, 1 / 0.05, detail=2.0), 0.3, 0.7, 0.85, 1.1))
     col = g.cmix(tint, mortar_col, mortar)
     rough = g.lerp(ctx.roughness, 0.95, mortar)

@@ -16,8 +16,9 @@ def wood_planks(ctx: Ctx) -> Surface:
                                           "Scale": 9.0, "Distortion": 5.0, "Detail": 3.0},
                     wave_type="BANDS", bands_direction="Y", wave_profile="SIN").outputs["Factor"]
     figure = g.remap(figure, 0.0, 1.0, 0.9, 1.06)
-    value = g.remap(rand, 0.0, 1.0, 0.72, 1.28)
-    plank = g.hsv(g.cmul(C, g.mul(g.mul(value, grain), figure)), g.madd(g.white(rand), 0.05, 0.475), 1.0, 1.0)
+    value = g.remap(rand, 0.0, 1.0, 0.8, 1.2)
+    plank = g.hsv(g.cmul(C, g.mul(g.mul(value, grain), figure)), g.madd(g.white(rand), 0.03, 0.485),
+                  g.madd(rand, 0.15, 0.85), 1.0)
     col = g.cmix(plank, (0.02, 0.015, 0.01), gap)
     rough = g.lerp(g.remap(g.noise(ctx.p, 1 / 0.4, detail=2.0), 0.3, 0.7, ctx.roughness - 0.08,
                            ctx.roughness + 0.08), 0.9, gap)
@@ -54,8 +55,8 @@ def fabric(ctx: Ctx) -> Surface:
         return g.math("SINE", g.mul(a, 6.2832 / pitch))
     weave = g.mul(threads(u), threads(v))
     folds = g.remap(g.noise(ctx.p, 1 / 0.25, detail=3.0), 0.3, 0.7, 0.88, 1.1)
-    slub = g.remap(g.noise(g.comb(g.mul(u, 60.0), g.mul(v, 2.0), 0.0), 1.0, detail=2.0), 0.3, 0.7, 0.95, 1.05)
-    col = g.cmul(C, g.mul(g.mul(folds, slub), g.madd(weave, 0.04, 1.0)))
+    slub = g.remap(g.noise(g.comb(g.mul(u, 30.0), g.mul(v, 3.0), 0.0), 1.0, detail=2.0), 0.3, 0.7, 0.98, 1.02)
+    col = g.cmul(C, g.mul(g.mul(folds, slub), g.madd(weave, 0.015, 1.0)))
     height = g.mul(weave, 0.0003)
     return Surface(col, ctx.roughness, height,
                    extra={"Sheen Weight": 0.6, "Sheen Roughness": 0.45, "Sheen Tint": (1.0, 1.0, 1.0)})

@@ -37,10 +37,11 @@ def metal_brushed(ctx: Ctx) -> Surface:
 def metal_rusty(ctx: Ctx) -> Surface:
     g, C = ctx.g, ctx.colour
     n = g.noise(ctx.p, 1 / 0.35, detail=8.0, roughness=0.6)
-    rust = g.remap(n, 0.62 - 0.3 * ctx.wear, 0.68 - 0.3 * ctx.wear, smooth=True)
+    rust = g.remap(n, 0.56 - 0.3 * ctx.wear, 0.7 - 0.3 * ctx.wear, smooth=True)
     rust_tone = g.ramp(g.noise(ctx.p, 1 / 0.03, detail=4.0),
-                       [(0.3, (0.07, 0.03, 0.015)), (0.55, (0.22, 0.08, 0.03)), (0.75, (0.33, 0.13, 0.04))])
-    base = g.cmul(C, g.remap(g.noise(ctx.p, 1 / 0.3, detail=2.0), 0.3, 0.7, 0.9, 1.08))
+                       [(0.3, (0.05, 0.025, 0.012)), (0.55, (0.13, 0.055, 0.025)), (0.75, (0.2, 0.085, 0.035))])
+    stain = g.remap(n, 0.4 - 0.3 * ctx.wear, 0.6 - 0.3 * ctx.wear, 1.0, 0.7)   # rust-stained halo
+    base = g.cmul(C, g.mul(stain, g.remap(g.noise(ctx.p, 1 / 0.3, detail=2.0), 0.3, 0.7, 0.9, 1.08)))
     col = g.cmix(base, rust_tone, rust)
     metallic = g.lerp(ctx.metallic, 0.0, rust)
     rough = g.lerp(ctx.roughness, 0.92, rust)

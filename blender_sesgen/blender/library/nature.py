@@ -27,8 +27,8 @@ def leaves(ctx: Ctx) -> Surface:
     r_small = g.sep(small.outputs["Color"])[1]
     value = g.mul(g.remap(r_big, 0.0, 1.0, 0.65, 1.45), g.remap(r_small, 0.0, 1.0, 0.85, 1.15))
     col = g.cmul(C, value)
-    yellow = g.mul(g.math("GREATER_THAN", r_small, 0.92 - 0.2 * ctx.wear), 1.0)
-    col = g.cmix(col, g.cmul((0.20, 0.16, 0.04), value), yellow)
+    yellow = g.math("GREATER_THAN", r_small, 0.97 - 0.2 * ctx.wear)
+    col = g.cmix(col, g.cmul((0.13, 0.12, 0.045), value), g.mul(yellow, 0.7))
     gaps = g.remap(g.voronoi(p, 1 / size, feature="DISTANCE_TO_EDGE").outputs["Distance"], 0.0, 0.08, 1.0, 0.0)
     col = g.cmix(col, g.cmul(C, 0.25), g.mul(gaps, 0.8))   # the dark depth between clusters
     dome = g.remap(big.outputs["Distance"], 0.0, 0.6, 1.0, 0.0)
@@ -50,7 +50,7 @@ def bark(ctx: Ctx) -> Surface:
     lichen = g.mul(g.remap(g.noise(p, 1 / 0.12, detail=5.0), 0.6 - 0.15 * ctx.wear, 0.68 - 0.15 * ctx.wear,
                            smooth=True), ridge)
     col = g.cmix(col, (0.26, 0.28, 0.21), g.mul(lichen, 0.85))
-    height = g.add(g.mul(ridge, 1.2 * ctx.entry.bump_m), g.mul(g.noise(p, 1 / 0.004, detail=2.0), 0.0008))
+    height = g.add(g.mul(ridge, ctx.entry.bump_m), g.mul(g.noise(p, 1 / 0.004, detail=2.0), 0.0008))
     return Surface(col, ctx.roughness, height, grime=0.0)
 
 
