@@ -148,6 +148,30 @@ class Mesh(Placed):
     scale: Vec3 = (1.0, 1.0, 1.0)
 
 
+@dataclass(frozen=True, kw_only=True)
+class BlendImport:
+    """``BLEND file PATH id N ...``: the mesh objects of a .blend file (a whole environment).
+
+    Objects keep their place in the file's Blender (Z-up) world, moved as a whole by
+    ``position``/``rotation_deg`` and scaled by ``scale`` (SES axes). Each gets an id: its
+    custom property ``sesgen_id`` when it has one, else ``first_id``, ``first_id`` + 1, ...
+    in the order of their names (skipping ids in use), and a class: its ``sesgen_class``
+    property, else ``semantic_class``. ``collection``: only that collection's objects.
+    ``lights``: keep the file's lamps. The ids are assigned when the file is loaded (the
+    manifest lists them); no script stored in the file ever runs.
+    """
+    path: str
+    source: str
+    first_id: int
+    collection: Optional[str] = None
+    position: Vec3 = (0.0, 0.0, 0.0)
+    rotation_deg: Vec3 = (0.0, 0.0, 0.0)
+    scale: Vec3 = (1.0, 1.0, 1.0)
+    semantic_class: str = "static"
+    lights: bool = True
+    line: int = 0
+
+
 # --- environment ------------------------------------------------------------------------
 
 @dataclass(frozen=True, kw_only=True)
@@ -299,6 +323,7 @@ class Timeline:
 class Scene:
     source: str                           # the script's path as given ("<string>" if none)
     objects: tuple[SceneObject, ...]
+    imports: tuple[BlendImport, ...] = ()  # BLEND statements
     rig: Rig = field(default_factory=Rig)
     start_position: Vec3 = (0.0, 0.0, 0.0)
     start_rotation_deg: Vec3 = (0.0, 0.0, 0.0)
@@ -333,7 +358,7 @@ def _jsonable(value):
         if isinstance(value, SceneObject):
             out["shape"] = value.shape
         for f in dataclasses.fields(value):
-            if f.name == "line":
+            if f.name == "line" or (f.name == "imports" and not value.imports):
                 continue
             out[f.name] = _jsonable(getattr(value, f.name))
         return out

@@ -147,6 +147,8 @@ class RenderJob:
                                             if self.auto_exposure else
                                             f"fixed: {self.scene.look.exposure_ev:g} EV (factor 2^EV)")
         m["segmentation"]["channel"] = ch["object_index"]
+        if self.built is not None and self.built.imported:   # BLEND objects: ids given when loaded
+            m["objects"] = m["objects"] + list(self.built.imported)
         if self._previous is not None and _same_settings(self._previous, self.settings):
             prev_done = self._previous.get("frames_complete", [])
             redo = set() if self.resume else set(self.frames)

@@ -32,7 +32,7 @@ from mathutils import Matrix
 from .. import poses, shapes
 from ..errors import SesgenError
 from ..model import Cuboid, Cylinder, Material, Mesh, Quad, Scene, SceneObject, Sphere, TextureRef
-from . import compat, library, lighting, rig, textures
+from . import blend_import, compat, library, lighting, rig, textures
 
 SCENE_NAME = "SESGen"
 TAG = "sesgen"
@@ -58,6 +58,7 @@ class BuiltScene:
     collection: object
     objects: dict = field(default_factory=dict)   # id -> [bpy objects]
     cameras: dict = field(default_factory=dict)   # view -> camera object
+    imported: list = field(default_factory=list)  # manifest rows of BLEND objects
     segments: dict = field(default_factory=dict)  # cylinder id -> segment count
 
 
@@ -416,11 +417,22 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -
                 b.data.materials.append(mats.get(o))
         built.objects[o.id] = objs
 
-    for i, light in enumerate(lighting.scene_lights(scene, bscene)):
+    used_ids = {o.id for o in scene.objects}
+    file_lamps = False
+    for imp in scene.imports:
+        rows, lamps = blend_import.load_blend(imp, bscene, coll, used_ids, tag)
+        file_lamps = file_lamps or bool(lamps)
+        built.imported += rows
+        for row in rows:
+            b = next(o for o in coll.objects if o.get("sesgen_id") == row["id"] and o.type != "LIGHT")
+            library.object_properties(b, 0, row["id"])
+            built.objects[row["id"]] = [b]
+
+    for i, light in enumerate(lighting.scene_lights(scene, bscene, file_lamps)):
         lo = lighting.add_light(bscene, coll, light, f"sesgen_light_{i}")
         tag(lo)
         tag(lo.data)
-    tag(lighting.build_world(bscene, lighting.effective_world(scene), scene.fog, "sesgen_world", tag))
+    tag(lighting.build_world(bscene, lighting.effective_world(scene, file_lamps), scene.fog, "sesgen_world", tag))
 
     N = scene.frames
     for view, T in view_poses.items():

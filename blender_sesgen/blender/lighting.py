@@ -80,26 +80,27 @@ def add_light(bscene, collection, light: Light, name: str):
     return obj
 
 
-def scene_lights(scene: Scene, bscene) -> list[Light]:
+def scene_lights(scene: Scene, bscene, file_lamps: bool = False) -> list[Light]:
     """Every lamp the scene gets: the script's LIGHTs, the sky's sun, or the default lighting
-    (after the objects are built: the enclosure test casts rays against them)."""
+    (after the objects are built: the enclosure test casts rays against them). A BLEND
+    file's own lamps (``file_lamps``) count as the script's lights."""
     lights = list(scene.lights)
-    world = effective_world(scene)
+    world = effective_world(scene, file_lamps)
     if world.kind == "sky" and _sky_without_disc():
         sun = lighting_data.sky_sun_light(world)
         if sun is not None:
             lights.append(sun)
-    if not scene.lights and scene.world is None:
+    if not scene.lights and not file_lamps and scene.world is None:
         lights += _enclosure_lights(scene, bscene)
     return lights
 
 
-def effective_world(scene: Scene) -> World:
+def effective_world(scene: Scene, file_lamps: bool = False) -> World:
     """The script's WORLD; without one, the default sky (no LIGHT either) or, for a script
-    with its own LIGHTs, the soft uniform ``LIGHTS_ONLY_WORLD`` it always had."""
+    with its own LIGHTs (or a BLEND file's lamps), the soft uniform ``LIGHTS_ONLY_WORLD``."""
     if scene.world is not None:
         return scene.world
-    return lighting_data.DEFAULT_SKY if not scene.lights else lighting_data.LIGHTS_ONLY_WORLD
+    return lighting_data.LIGHTS_ONLY_WORLD if scene.lights or file_lamps else lighting_data.DEFAULT_SKY
 
 
 def _start_position(scene: Scene) -> np.ndarray:

@@ -49,7 +49,7 @@ def parse_text(text: str, source: str = "<string>", base_dir: Optional[str] = No
     lines = tokenize(text, diags)
     statements = [s for s in (read_statement(tokens, diags) for tokens in lines) if s is not None]
     check = Checks(Path(base_dir) if base_dir is not None else Path.cwd(), diags)
-    attempted_objects = any(t[0].kind == "word" and t[0].text.upper() in OBJECT_KEYWORDS for t in lines)
+    attempted_objects = any(t[0].kind == "word" and t[0].text.upper() in (*OBJECT_KEYWORDS, "BLEND") for t in lines)
     scene = _build(source, statements, attempted_objects, check)
     diags.raise_if_any()
     return scene
@@ -73,9 +73,10 @@ def _build(source: str, statements: list[ParsedStatement], attempted_objects: bo
         if o.material is not None and o.material not in named_materials:
             named_materials[o.material] = library_material(o.material)
     objects = [_with_class(o, named_materials) for o in objects]
+    imports = [b for b in (_blend(s, check, {o.id: o for o in objects}) for s in statements if s.keyword == "BLEND") if b]
     if not attempted_objects:
         check.diags.error(1, 1, "the script defines no objects: add at least one QUAD, CUBOID, SPHERE, "
-                                "CYLINDER or MESH")
+                                "CYLINDER, MESH or BLEND")
     rig = _rig(seen.get("CAMERA"), check)
     moving = rig_motion(statements, seen.get("START"), check)
     lights = tuple(light for light in (environment.light(s, check) for s in statements if s.keyword == "LIGHT")
@@ -86,8 +87,46 @@ def _build(source: str, statements: list[ParsedStatement], attempted_objects: bo
         render=environment.render(seen.get("RENDER"), check))
     if check.diags:
         return None
-    return model.Scene(source=source, objects=tuple(objects), rig=rig, **moving._asdict(),
+    return model.Scene(source=source, objects=tuple(objects), imports=tuple(imports), rig=rig, **moving._asdict(),
                        materials=tuple(named_materials.values()), lights=lights, **scene_kwargs)
+
+
+BLEND_MAGICS = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")   # plain, gzip, zstd
+
+
+def _blend(stmt: ParsedStatement, check: Checks, objects: dict) -> Optional[model.BlendImport]:
+    """A BLEND statement (None and an error if it is wrong). The file is checked to be a
+    .blend by its signature; its objects and their ids are only known when it is loaded."""
+    before = len(check.diags.items)
+    id_tv = stmt.tags["id"]
+    first = int(id_tv.values[0])
+    if not 1 <= first <= MAX_ID:
+        check.err(id_tv.tokens[0], f"BLEND 'id' (the first id of its objects) must lie in 1..{MAX_ID}, "
+                                   f"got {id_tv.tokens[0].text}")
+    check.positive(stmt, "scale")
+    tok = stmt.tags["file"].tokens[0]
+    path = check.existing_file(stmt, "file")
+    if path is not None:
+        if path.suffix.lower() != ".blend":
+            check.err(tok, f"BLEND 'file' '{tok.text}' is not a .blend file")
+        else:
+            try:
+                with open(path, "rb") as f:
+                    head = f.read(7)
+            except OSError as e:
+                head = b""
+                check.err(tok, f"BLEND 'file' '{tok.text}' cannot be read ({e.strerror})")
+            if head and not head.startswith(BLEND_MAGICS):
+                check.err(tok, f"BLEND 'file' '{tok.text}' is not a Blender file (no BLENDER signature)")
+    cls = _Objects(check, {})._class(stmt) if "class" in stmt.tags else semantics.DEFAULT_OBJECT_CLASS
+    if len(check.diags.items) != before or path is None:
+        return None
+    scale = vec(stmt, "scale", (1.0,))
+    placement = vec(stmt, "position", (0.0, 0.0, 0.0))
+    return model.BlendImport(path=str(path), source=tok.text, first_id=first, collection=stmt.get("collection"),
+                             position=placement[:3], rotation_deg=placement[3:] or (0.0, 0.0, 0.0),
+                             scale=scale * 3 if len(scale) == 1 else scale, semantic_class=cls or "static",
+                             lights=stmt.get("lights", "on") == "on", line=stmt.token.line)
 
 
 def _with_class(o: model.SceneObject, materials: dict[str, model.Material]) -> model.SceneObject:
