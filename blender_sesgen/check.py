@@ -12,9 +12,9 @@ from collections import Counter
 import numpy as np
 
 from .errors import ScriptError
-from .intrinsics import field_of_view_deg
+from .contract.camera import field_of_view_deg
+from .contract.frames import start_rotation_deg
 from .model import Scene
-from .poses import R_to_euler_xyz_deg
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -34,8 +34,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _pose_text(T: np.ndarray) -> str:
-    """Position and the START-convention Euler angles: R_world_cam = R(rx, ry, rz) @ diag(1,-1,-1)."""
-    rx, ry, rz = R_to_euler_xyz_deg(T[:3, :3] @ np.diag([1.0, -1.0, -1.0]))
+    """Position and the START-statement Euler angles of a camera pose."""
+    rx, ry, rz = start_rotation_deg(T)
     x, y, z = T[:3, 3] + 0.0  # + 0.0: no "-0" in the output
     return f"position {x:.4g} {y:.4g} {z:.4g}  rotation {rx + 0.0:.4g} {ry + 0.0:.4g} {rz + 0.0:.4g} deg"
 
@@ -60,8 +60,8 @@ def summary(scene: Scene) -> str:
         f"motion    {scene.motion.kind}, {scene.frames} frames, path length {path_length:.4g}",
         f"start     {_pose_text(T[0])}",
         f"end       {_pose_text(T[-1])}",
-        f"lights    " + (", ".join(light.kind for light in scene.lights) or "default lighting"),
-        f"world     " + (scene.world.kind if scene.world else "default"),
+        "lights    " + (", ".join(light.kind for light in scene.lights) or "default lighting"),
+        "world     " + (scene.world.kind if scene.world else "default"),
     ]
     extras = []
     if scene.materials:

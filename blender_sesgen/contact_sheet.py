@@ -10,7 +10,6 @@ its 99th percentile over the sheet; background black. Segmentation: a fixed colo
 from __future__ import annotations
 
 import argparse
-import json
 import struct
 import sys
 import zlib
@@ -18,7 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import contract
+from .contract import atomic
+from .contract.colour import linear_to_srgb8
+from .contract.depth import depth_from_pass, disparity_from_depth
+from .contract.manifest import Manifest
 from .exr import read_exr
 
 GAP = 4  # pixels between panels
@@ -35,15 +37,7 @@ def write_png(path, rgb: np.ndarray) -> None:
 
     png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", W, H, 8, 2, 0, 0, 0))
            + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b""))
-    tmp = Path(str(path) + ".tmp")
-    tmp.write_bytes(png)
-    tmp.replace(path)
-
-
-def linear_to_srgb8(rgb: np.ndarray) -> np.ndarray:
-    x = np.clip(np.nan_to_num(rgb), 0.0, 1.0)
-    s = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
-    return (s * 255 + 0.5).astype(np.uint8)
+    atomic.write_bytes(path, png)
 
 
 # a perceptually ordered ramp (dark blue -> cyan -> yellow -> dark red), like 'turbo'
@@ -70,18 +64,18 @@ def id_colours(ids: np.ndarray) -> np.ndarray:
     return (rgb * 255 + 0.5).astype(np.uint8)
 
 
-def _panels(out: Path, m: dict, k: int) -> list[np.ndarray]:
-    left = read_exr(out / m["files"]["left"][k])
-    ch = m["channels"]
+def _panels(out: Path, m: Manifest, k: int) -> list[np.ndarray]:
+    left = read_exr(out / m.files["left"][k])
+    ch = m.channels
     rgb_l = np.stack([left[c] for c in ch["rgb"][:3]], -1)
-    Z = contract.depth_m(left[ch["depth"]])
+    Z = depth_from_pass(left[ch["depth"]], m.depth_background)
     valid = np.isfinite(Z)
     ids = np.rint(left[ch["object_index"]]).astype(np.int64)
     panels = [linear_to_srgb8(rgb_l)]
-    if "right" in m["views"]:
-        right = read_exr(out / m["files"]["right"][k])
+    if "right" in m.views:
+        right = read_exr(out / m.files["right"][k])
         panels.append(linear_to_srgb8(np.stack([right[c] for c in ch["rgb"][:3]], -1)))
-        disp = np.where(valid, contract.disparity_px(Z, m["K"][0][0], m["baseline"]), np.nan)
+        disp = disparity_from_depth(Z, m.K[0, 0], m.baseline)
     else:  # monocular: show inverse depth instead
         disp = np.where(valid, 1.0 / np.where(valid, Z, 1.0), np.nan)
     panels.append(disp)  # colour-mapped later, with one scale for the sheet
@@ -92,15 +86,15 @@ def _panels(out: Path, m: dict, k: int) -> list[np.ndarray]:
 def write_contact_sheet(out_dir, png_path=None, n_frames: int = 4) -> Path:
     """Write the contact sheet of the render in ``out_dir``; returns the PNG path."""
     out = Path(out_dir)
-    m = json.loads((out / "manifest.json").read_text())
-    done = [k for k, d in enumerate(m["frames_complete"]) if d]
+    m = Manifest.read(out)
+    done = [k for k, d in enumerate(m.frames_complete) if d]
     if not done:
         raise ValueError(f"{out}: no complete frame to show")
     pick = sorted({done[int(round(i))] for i in np.linspace(0, len(done) - 1, min(n_frames, len(done)))})
     rows = [_panels(out, m, k) for k in pick]
     disp_all = np.concatenate([r[-2][np.isfinite(r[-2])] for r in rows] or [np.array([1.0])])
     scale = float(np.percentile(disp_all, 99)) if disp_all.size else 1.0
-    W, H = m["resolution"]
+    W, H = m.resolution
     sheet_rows = []
     for r in rows:
         d = r[-2]
@@ -129,7 +123,7 @@ def main(argv=None) -> int:
     a = p.parse_args(argv)
     try:
         png = write_contact_sheet(a.out, a.png, a.frames)
-    except (OSError, ValueError, KeyError) as e:
+    except (OSError, ValueError, KeyError) as e:  # ContractError is a ValueError
         print(f"error: {e}", file=sys.stderr)
         return 2
     print(png)

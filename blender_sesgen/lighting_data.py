@@ -51,6 +51,9 @@ DEFAULT_FILL_IRRADIANCE = 1.5    # W/m^2 at half the scene's extent (enclosed sc
 ENCLOSED_HIT_FRACTION = 0.9      # a scene whose START sees geometry in >= 90 % of directions is enclosed
 
 
+# LOOK view -> Blender's view transform of the display-referred PNGs
+VIEW_TRANSFORMS = {"agx": "AgX", "filmic": "Filmic", "standard": "Standard"}
+
 # automatic exposure: the linear luminance the 90th-percentile pixel of a preview of frame 0
 # is brought to (blender/exposure.py)
 EXPOSURE_TARGET = 0.6

@@ -13,6 +13,10 @@ from typing import ClassVar, Literal, Optional
 
 import numpy as np
 
+from .contract.camera import K_matrix
+from .contract.frames import right_from_left
+from .contract.motion import ego_table
+
 Vec3 = tuple[float, float, float]
 Mat4 = tuple[tuple[float, float, float, float], ...]  # 4 rows of 4, row-major
 
@@ -274,7 +278,7 @@ class Rig:
         return ("left", "right") if self.stereo else ("left",)
 
     def K(self) -> np.ndarray:
-        return np.array([[self.focal_px, 0.0, self.cx], [0.0, self.focal_px, self.cy], [0.0, 0.0, 1.0]])
+        return K_matrix(self.focal_px, self.cx, self.cy)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -306,15 +310,11 @@ class Timeline:
 
     def right(self, baseline: float) -> np.ndarray:
         """(N, 4, 4) right-camera poses: T_world_left @ trans(B, 0, 0)."""
-        T = self.left().copy()
-        T[:, :3, 3] += baseline * T[:, :3, 0]
-        return T
+        return right_from_left(self.left(), baseline)
 
     def ego_table(self) -> np.ndarray:
         """(N-1, 6) per-step (U, V, W, alpha, beta, gamma), deg, recovered from the poses."""
-        from .poses import ego_from_poses
-        T = self.left()
-        return np.array([ego_from_poses(T[k], T[k + 1]) for k in range(len(T) - 1)]).reshape(-1, 6)
+        return ego_table(self.left())
 
 
 # --- the scene --------------------------------------------------------------------------

@@ -10,8 +10,8 @@ import importlib.util
 import sys
 import time
 
-from .contract import RenderOptions
 from .errors import SesgenError
+from .plan import RenderOptions
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -49,12 +49,11 @@ def _have_bpy() -> bool:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .pipeline import RenderJob, parse_frames
+    from .job import RenderJob
     t_start = time.perf_counter()
     options = RenderOptions(
         samples=args.samples, denoise=args.denoise, seed=args.seed, device=args.device,
-        resolution_scale=args.resolution_scale,
-        frames=parse_frames(args.frames) if args.frames else None,
+        resolution_scale=args.resolution_scale, frames=args.frames,
         normal_pass=args.normal_pass, position_pass=args.position_pass, threads=args.threads,
         verbose=args.verbose,
     )
@@ -68,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         print(f"sesgen render: {args.scene} -> {args.out}: {len(todo)} of {len(job.frames)} frames to render, "
               f"{len(views)} view(s), {s.width}x{s.height}, {s.samples} samples"
-              f"{' + denoise' if s.denoise else ''}, seed {s.seed}, {s.device}", flush=True)
+              f"{' + denoise' if s.denoise else ''}, seed {s.seed}, {s.device.value.upper()}", flush=True)
     try:
         job.build()
     except SesgenError:

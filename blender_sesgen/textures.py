@@ -24,7 +24,3 @@ BUILTIN_TEXTURES: dict[int, tuple[str, str]] = {
 }
 
 NAME_TO_NUMBER: dict[str, int] = {name: number for number, (name, _) in BUILTIN_TEXTURES.items()}
-
-
-def builtin_name(number: int) -> str:
-    return BUILTIN_TEXTURES[number][0]

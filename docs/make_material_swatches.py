@@ -18,12 +18,11 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from blender_sesgen import poses  # noqa: E402
 from blender_sesgen.contact_sheet import write_png  # noqa: E402
-from blender_sesgen.contract import RenderOptions  # noqa: E402
+from blender_sesgen.contract.frames import start_pose  # noqa: E402
 from blender_sesgen.material_library import LIBRARY  # noqa: E402
 from blender_sesgen.model import Look, Quad, Rig, Scene, Sphere, Timeline, World, mat4  # noqa: E402
-from blender_sesgen.pipeline import RenderJob  # noqa: E402
+from blender_sesgen.pipeline import RenderJob, RenderOptions  # noqa: E402
 from blender_sesgen.ses.materials import library_material  # noqa: E402
 
 
@@ -38,7 +37,7 @@ def swatch(name: str, tmp: Path, size: int, samples: int) -> np.ndarray:
         world=World(kind="sky", strength=1.0, sun_elevation_deg=45.0, sun_azimuth_deg=-145.0),
         look=Look(auto_exposure=False, exposure_ev=0.0),
         rig=Rig(width=size, height=size, focal_px=size * 1.5 / 1.2, cx=(size - 1) / 2, cy=(size - 1) / 2, baseline=0.0),
-        timeline=Timeline(T_world_left=(mat4(poses.start_pose((0, 1.0, 1.5))),)),
+        timeline=Timeline(T_world_left=(mat4(start_pose((0, 1.0, 1.5))),)),
     )
     out = tmp / name
     job = RenderJob.from_scene(scene, out, RenderOptions(samples=samples, denoise=True))

@@ -14,12 +14,13 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from blender_sesgen import poses  # noqa: E402
-from blender_sesgen.contact_sheet import linear_to_srgb8, write_png  # noqa: E402
-from blender_sesgen.contract import RenderOptions  # noqa: E402
+from blender_sesgen.contract.frames import start_pose  # noqa: E402
+from blender_sesgen.contact_sheet import write_png  # noqa: E402
+from blender_sesgen.contract.colour import linear_to_srgb8  # noqa: E402
 from blender_sesgen.exr import read_exr  # noqa: E402
 from blender_sesgen.model import Quad, Rig, Scene, Sphere, TextureRef, Timeline, mat4  # noqa: E402
-from blender_sesgen.pipeline import RenderJob  # noqa: E402
+from blender_sesgen.job import RenderJob  # noqa: E402
+from blender_sesgen.plan import RenderOptions  # noqa: E402
 from blender_sesgen.textures import BUILTIN_TEXTURES  # noqa: E402
 
 SIZE = 192
@@ -32,7 +33,7 @@ def swatch(number: int, name: str, tmp: Path) -> np.ndarray:
         objects=(Quad(id=1, name="quad", texture=tex, vertices=((-0.6, 0.4, 0), (0.6, 0.4, 0), (0.6, 1.6, 0), (-0.6, 1.6, 0))),
                  Sphere(id=2, name="ball", texture=tex, position=(0.3, 0.7, 0.3), radius=0.25)),
         rig=Rig(width=SIZE, height=SIZE, focal_px=SIZE * 1.5 / 1.2, cx=(SIZE - 1) / 2, cy=(SIZE - 1) / 2, baseline=0.0),
-        timeline=Timeline(T_world_left=(mat4(poses.start_pose((0, 1.0, 1.5))),)),
+        timeline=Timeline(T_world_left=(mat4(start_pose((0, 1.0, 1.5))),)),
     )
     out = tmp / name
     job = RenderJob.from_scene(scene, out, RenderOptions(samples=32, denoise=False))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from vo_reference.lie import se3_exp
+from blender_sesgen.contract.se3 import se3_exp
 
 F, W, H, B = 300.0, 320, 240, 0.12
 K = np.array([[F, 0, (W - 1) / 2], [0, F, (H - 1) / 2], [0, 0, 1.0]])

@@ -20,9 +20,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from blender_sesgen import contract
+from blender_sesgen.contract import manifest as contract
+from blender_sesgen.plan import RenderPlan
 from blender_sesgen.addon import package
 from blender_sesgen.ses import parse_file
+from raycast import euler_xyz_deg as R_xyz_deg  # the SES rule R = Rz @ Ry @ Rx, written independently
 
 pytestmark = [pytest.mark.render,
               pytest.mark.skipif(importlib.util.find_spec("bpy") is None, reason="needs the bpy wheel")]
@@ -76,15 +78,6 @@ def run_child(body: str, zip_path: Path, tmp: Path) -> dict:
 
 def to_ses(P_blender) -> np.ndarray:
     return np.asarray(P_blender, dtype=float) @ C_BLENDER_SES  # row vectors: C^T p
-
-
-def R_xyz_deg(rx, ry, rz) -> np.ndarray:
-    """R = Rz @ Ry @ Rx (SES rule: X then Y then Z about the world axes)."""
-    a, b, c = np.radians([rx, ry, rz])
-    Rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
-    Ry = np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
-    Rz = np.array([[np.cos(c), -np.sin(c), 0], [np.sin(c), np.cos(c), 0], [0, 0, 1]])
-    return Rz @ Ry @ Rx
 
 
 # --- install, register, unregister -----------------------------------------------------
@@ -228,7 +221,7 @@ def test_build_creates_the_model_objects_rig_and_path(addon_zip, tmp_path, scrip
             assert len(local) >= 16
 
     cams = {o["name"]: o for o in objs if o["type"] == "CAMERA"}
-    expected = contract.view_poses(model)
+    expected = RenderPlan.from_scene(model).view_poses
     assert sorted(cams) == sorted(f"SESGen_{v}" for v in expected)
     for view, T_expected in expected.items():
         cam = cams[f"SESGen_{view}"]

@@ -14,7 +14,6 @@ import numpy as np
 import pytest
 
 import blender_sesgen
-from blender_sesgen import contract
 from blender_sesgen.addon import package, preview, state
 
 REPO = Path(__file__).resolve().parents[1]
@@ -112,7 +111,7 @@ def test_script_info_error_names_line_and_column(tmp_path):
 
 def test_disparity_is_fB_over_Z_and_zero_on_background():
     z = np.array([[2.0, 4.0], [1e10, 0.5]], dtype=np.float32)
-    d = contract.disparity_px(z, 400.0, 0.1)
+    d = preview.disparity_px(z, 400.0, 0.1)
     np.testing.assert_allclose(d, [[20.0, 10.0], [0.0, 80.0]], rtol=1e-6)
 
 

@@ -186,15 +186,16 @@ def test_disparity_metrics_hand_computed():
 # --- render manifests and the one-call pipeline ---------------------------------------------
 
 def write_manifest(folder, T_left, fps=None, timestamps=None):
-    folder.mkdir(parents=True, exist_ok=True)
-    m = {"format": "sesgen-render/1",
-         "poses": {"left": np.asarray(T_left).tolist(),
-                   "right": [(np.asarray(T) @ _pose([0, 0, 0], [0.12, 0, 0])).tolist() for T in T_left]}}
-    if fps:
-        m["fps"] = fps
-    if timestamps is not None:
-        m["timestamps"] = list(timestamps)
-    (folder / "manifest.json").write_text(json.dumps(m))
+    """A render manifest (the contract's writer) with these left poses and a 0.12 baseline."""
+    from blender_sesgen.contract.manifest import Manifest
+    T_left = np.asarray(T_left)
+    n = len(T_left)
+    ts = np.arange(n) / (fps or 1.0) if timestamps is None else np.asarray(timestamps, dtype=float)
+    Manifest(resolution=(64, 48), K=np.array([[50.0, 0, 31.5], [0, 50, 23.5], [0, 0, 1]]), baseline=0.12,
+             views=("left", "right"),
+             poses={"left": T_left, "right": np.array([T @ _pose([0, 0, 0], [0.12, 0, 0]) for T in T_left])},
+             files={v: [f"exr/{v}/{k:06d}.exr" for k in range(n)] for v in ("left", "right")},
+             timestamps_s=ts, fps=fps or 1.0).write(folder)
     return folder
 
 

@@ -4,7 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from blender_sesgen import intrinsics
+from blender_sesgen.contract.camera import (K_from_blender, K_matrix, blender_camera_settings, default_principal_point,
+                                            field_of_view_deg)
 
 rng = np.random.default_rng(1)
 CASES = [(int(w), int(h), float(f), float(cx), float(cy))
@@ -15,8 +16,8 @@ CASES = [(w, h, f, cx * w, cy * h) for w, h, f, cx, cy in CASES] + [(640, 480, 3
 
 @pytest.mark.parametrize("w,h,f,cx,cy", CASES)
 def test_round_trip(w, h, f, cx, cy):
-    settings = intrinsics.blender_camera_settings(w, h, f, cx, cy, near=0.1, far=100.0)
-    np.testing.assert_allclose(intrinsics.K_from_blender(settings), intrinsics.K_matrix(f, cx, cy), rtol=1e-12)
+    settings = blender_camera_settings(w, h, f, cx, cy, near=0.1, far=100.0)
+    np.testing.assert_allclose(K_from_blender(settings), K_matrix(f, cx, cy), rtol=1e-12)
     assert settings.sensor_fit == "HORIZONTAL" and (settings.resolution_x, settings.resolution_y) == (w, h)
 
 
@@ -35,8 +36,8 @@ def _blender_project(settings, P_blender_cam):
 
 @pytest.mark.parametrize("w,h,f,cx,cy", CASES[:10] + CASES[-1:])
 def test_pixel_centre_convention(w, h, f, cx, cy):
-    settings = intrinsics.blender_camera_settings(w, h, f, cx, cy, near=0.1, far=100.0)
-    K = intrinsics.K_matrix(f, cx, cy)
+    settings = blender_camera_settings(w, h, f, cx, cy, near=0.1, far=100.0)
+    K = K_matrix(f, cx, cy)
     for P_cv in rng.uniform([-2, -2, 1], [2, 2, 10], size=(5, 3)):
         p = K @ P_cv
         P_blender = P_cv * [1, -1, -1]  # OpenCV camera -> Blender camera axes
@@ -44,11 +45,11 @@ def test_pixel_centre_convention(w, h, f, cx, cy):
 
 
 def test_default_principal_point_is_the_image_centre():
-    assert intrinsics.default_principal_point(640, 480) == (319.5, 239.5)
-    settings = intrinsics.blender_camera_settings(640, 480, 389.0, 319.5, 239.5, 0.1, 100)
+    assert default_principal_point(640, 480) == (319.5, 239.5)
+    settings = blender_camera_settings(640, 480, 389.0, 319.5, 239.5, 0.1, 100)
     assert settings.shift_x == 0.0 and settings.shift_y == 0.0  # centred: no lens shift
 
 
 def test_field_of_view():
-    fov_h, fov_v = intrinsics.field_of_view_deg(640, 480, 320.0)
+    fov_h, fov_v = field_of_view_deg(640, 480, 320.0)
     assert np.isclose(fov_h, 90.0) and np.isclose(fov_v, 2 * np.degrees(np.arctan(0.75)))

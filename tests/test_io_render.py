@@ -10,7 +10,7 @@ from vo_reference.errors import VoError
 from vo_reference.io.exr import read_exr_channels, write_exr_parts
 from vo_reference.io.render import RenderSequence
 from vo_reference.io.sequence import Sequence, open_sequence
-from vo_reference.io.synthetic import plane_scene, write_render
+from synthetic_render import plane_scene, write_render
 
 pytest.importorskip("OpenEXR")
 

@@ -6,7 +6,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from vo_reference.errors import VoError
-from vo_reference.lie import skew
+from blender_sesgen.contract.se3 import skew
 from vo_reference.mono.five_point import (constraint_matrix, essential_residuals, five_point,
                                           five_point_batch, ransac_essential)
 from vo_reference.mono.fundamental import sampson_distance

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from vo_reference.lie import skew
+from blender_sesgen.contract.se3 import skew
 from vo_reference.mono.essential import (choose_pose, essential_from_fundamental,
                                          pose_candidates)
 from vo_reference.mono.fundamental import (eight_point, ransac_fundamental,

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from vo_reference.errors import VoError
-from vo_reference.mono.bayer import PATTERNS, demosaic, mosaic, opencv_code
-from vo_reference.mono.camera_model import read_camera_model, write_camera_model
+from vo_reference.camera.bayer import PATTERNS, demosaic, mosaic, opencv_code
+from vo_reference.camera.camera_model import read_camera_model, write_camera_model
 from vo_reference.mono.prepare import Preparation, build_mask
-from vo_reference.mono.undistort import (distort_image, distort_normalised, distortion_maps,
+from vo_reference.camera.undistort import (distort_image, distort_normalised, distortion_maps,
                                          lut_from_distortion, read_lut, remap,
                                          undistort_normalised, write_lut)
 

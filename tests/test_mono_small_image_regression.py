@@ -93,9 +93,7 @@ def counts_and_cost(R, C, x1, x2):
 def pipeline_pose(x1, x2, priors=(), **override):
     """The pipeline's two-view call (MonoVoConfig defaults), optionally overriding settings."""
     cfg = MonoVoConfig(**override)
-    return estimate_relative_pose(x1, x2, K, cfg.threshold_px, cfg.confidence, cfg.max_iterations,
-                                  cfg.seed, cfg.refine, priors=priors, triangulate=False,
-                                  solver=cfg.solver, select=cfg.score)
+    return estimate_relative_pose(x1, x2, K, cfg.two_view(), priors=priors, triangulate=False)
 
 
 @pytest.fixture(scope="module")

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from vo_reference.io.render import RenderSequence
-from vo_reference.io.synthetic import write_render
+from synthetic_render import write_render
 from vo_reference.io.trajectory import read_euroc
 from vo_reference.products.exports import export
 

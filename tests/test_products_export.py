@@ -16,7 +16,7 @@ from vo_reference.cli import main as cli_main
 from vo_reference.errors import VoError
 from vo_reference.io.kitti import KittiSequence
 from vo_reference.io.render import RenderSequence
-from vo_reference.io.synthetic import write_render
+from synthetic_render import write_render
 from vo_reference.products.disparity import disparity_to_png16
 from vo_reference.products.exports import EXPORTERS, export, parse_frames, register_exporter
 from vo_reference.products.flow import read_kitti_flow_png, stereo_occlusion
@@ -239,7 +239,7 @@ def test_progress_bar_is_one_updating_line(render, tmp_path):
 
 
 def test_mono_render_exports(tmp_path):
-    from vo_reference.io.synthetic import plane_scene
+    from synthetic_render import plane_scene
     root = plane_scene(tmp_path / "mono", stereo=False, frames=2)
     out = export(root, "kitti-odometry", tmp_path / "k", progress=False)
     assert (out / "image_0/000001.png").is_file() and not (out / "image_1").exists()

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from blender_sesgen.contract import RenderOptions
+from blender_sesgen.pipeline import RenderOptions
 from render_support import load_manifest, read_exr, run_render
 
 pytestmark = pytest.mark.render

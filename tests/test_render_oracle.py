@@ -105,7 +105,7 @@ def test_stereo_consistency(oracle_render):
 
 
 def test_manifest_poses_are_the_ego_integration(oracle_render):
-    from blender_sesgen.poses import integrate_ego
+    from blender_sesgen.contract.motion import integrate_ego
     _, m = oracle_render
     (pos, rot) = ORACLE_START
     R0 = raycast.euler_xyz_deg(*rot) @ np.diag([1.0, -1.0, -1.0])  # START: looks along -Z, Y up
@@ -126,13 +126,13 @@ def test_manifest_poses_are_the_ego_integration(oracle_render):
 
 def test_blender_cameras_sit_at_the_manifest_poses(tmp_path):
     """In-process: build the scene and read each camera's world matrix at every frame."""
-    from blender_sesgen import contract, poses
-    from blender_sesgen.pipeline import RenderJob
+    from blender_sesgen.contract.frames import blender_to_cv_camera, blender_to_ses_world
+    from blender_sesgen.job import RenderJob
     script = tmp_path / "oracle.ses"
     script.write_text(oracle_script())
     job = RenderJob.prepare(script, tmp_path / "out")
     job.build()
-    m = contract.build_manifest(job.scene, "", job.settings, {})
+    m = job.new_manifest().to_json()
     bscene = job.built.scene
     depsgraph = bscene.view_layers[0].depsgraph
     worst = 0.0
@@ -140,11 +140,11 @@ def test_blender_cameras_sit_at_the_manifest_poses(tmp_path):
         bscene.frame_set(k)
         for view in m["views"]:
             cam = job.built.cameras[view].evaluated_get(depsgraph)
-            T_cv = poses.blender_to_cv_camera(poses.blender_to_ses_world(np.array(cam.matrix_world)))
+            T_cv = blender_to_cv_camera(blender_to_ses_world(np.array(cam.matrix_world)))
             worst = max(worst, np.abs(T_cv - np.array(m["poses"][view][k])).max())
     assert worst <= 1e-6, worst
     # intrinsics: Blender's camera reproduces the manifest K
-    from blender_sesgen.intrinsics import BlenderCameraSettings, K_from_blender
+    from blender_sesgen.contract.camera import BlenderCameraSettings, K_from_blender
     cd = job.built.cameras["left"].data
     r = bscene.render
     K = K_from_blender(BlenderCameraSettings(cd.lens, cd.sensor_width, cd.sensor_fit, cd.shift_x, cd.shift_y,

@@ -24,10 +24,10 @@ SIZE, F, Z, SHIFT = 64, 64.0, 1.5, 4
 
 @pytest.fixture(scope="module")
 def swatches(tmp_path_factory):
-    from blender_sesgen import poses
-    from blender_sesgen.contract import RenderOptions
+    from blender_sesgen.contract.frames import start_pose
+    from blender_sesgen.plan import RenderOptions
     from blender_sesgen.model import Quad, Rig, Scene, TextureRef, Timeline, mat4
-    from blender_sesgen.pipeline import RenderJob
+    from blender_sesgen.job import RenderJob
     from blender_sesgen.textures import BUILTIN_TEXTURES
     base = tmp_path_factory.mktemp("tex")
     out = {}
@@ -38,7 +38,7 @@ def swatches(tmp_path_factory):
             objects=(Quad(id=1, name="q", texture=TextureRef(kind="builtin", name=name, number=number),
                           vertices=((-2, -1, -Z), (2, -1, -Z), (2, 3, -Z), (-2, 3, -Z))),),
             rig=Rig(width=SIZE, height=SIZE, focal_px=F, cx=(SIZE - 1) / 2, cy=(SIZE - 1) / 2, baseline=B),
-            timeline=Timeline(T_world_left=(mat4(poses.start_pose((0.0, 1.0, 0.0))),)),
+            timeline=Timeline(T_world_left=(mat4(start_pose((0.0, 1.0, 0.0))),)),
         )
         job = RenderJob.from_scene(scene, base / name, RenderOptions(samples=16))
         job.build()

@@ -8,7 +8,8 @@ import re
 import pytest
 
 from blender_sesgen import material_library, model
-from blender_sesgen.contract import object_table, semantics
+from blender_sesgen.contract import semantics
+from blender_sesgen.plan import object_table
 from blender_sesgen.errors import ScriptError
 from blender_sesgen.lighting_data import BUILTIN_HDRIS
 from blender_sesgen.ses import parse_string

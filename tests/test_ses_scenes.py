@@ -6,7 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from blender_sesgen import model, poses
+from blender_sesgen import model
+from blender_sesgen.contract.frames import object_pose, right_from_left
 from blender_sesgen.ses import parse_file
 
 SCENES_DIR = Path(__file__).resolve().parents[1] / "scenes"
@@ -38,7 +39,7 @@ def _hit_quad(o, d, obj):
 
 
 def _local(o, d, obj):
-    T = poses.object_pose(obj.position, obj.rotation_deg)
+    T = object_pose(obj.position, obj.rotation_deg)
     return T[:3, :3].T @ (o - T[:3, 3]), T[:3, :3].T @ d
 
 
@@ -141,7 +142,7 @@ def test_paper_room_camera_sees_textured_surfaces_at_1_to_5_m(paper):
     lo = np.min([np.min(q.vertices, axis=0) for q in room], axis=0)
     hi = np.max([np.max(q.vertices, axis=0) for q in room], axis=0)
     for k, T_left in enumerate(paper.timeline.left()):
-        for T in (T_left, poses.right_from_left(T_left, paper.rig.baseline)):
+        for T in (T_left, right_from_left(T_left, paper.rig.baseline)):
             o = T[:3, 3]
             assert np.all(o > lo + 0.5) and np.all(o < hi - 0.5), f"frame {k}: camera leaves the room"
             for u, v in pixels:

@@ -1,4 +1,4 @@
-"""``stereo-vo`` and ``run`` on a render folder written without Blender (io.synthetic)."""
+"""``stereo-vo`` and ``run`` on a render folder written without Blender (tests/synthetic_render.py)."""
 from __future__ import annotations
 
 import json
@@ -14,7 +14,7 @@ import stereo_synth as S
 
 @pytest.fixture(scope="module")
 def render_dir(tmp_path_factory):
-    from vo_reference.io.synthetic import write_render
+    from synthetic_render import write_render
     frames, T = S.sequence(S.smooth_twists(4), seed=2)
     fr = []
     for f in frames:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from vo_reference.errors import VoError
-from vo_reference.lie import se3_exp, se3_inverse
+from blender_sesgen.contract.se3 import invert as se3_inverse, se3_exp
 from vo_reference.stereo.accurate import estimate_motion
 from vo_reference.stereo.motion_field import (T_to_twist, motion_field, motion_field_coefficients,
                                               normal_equations, solve_egomotion, twist_to_T)

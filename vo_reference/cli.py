@@ -1,17 +1,19 @@
-"""``python -m vo_reference``: export, VO, evaluation.
+"""``python -m vo_reference`` / ``vo-reference``: export, VO, evaluation.
 
-Each subcommand lives in its own module exposing ``add_arguments(parser)`` and
-``run(args) -> int``, imported only when needed. :class:`VoError` -> one line, exit 2.
+Each subcommand lives in its own module (``add_arguments(parser)``, ``run(args) -> int``),
+imported only when its command runs; exit codes as ``blender_sesgen.contract.cli`` says
+(:class:`VoError` -> one line, exit 2).
 """
 from __future__ import annotations
 
-import argparse
-import importlib
-import os
 import sys
+
+from blender_sesgen.contract.cli import dispatch
 
 from .errors import VoError
 
+PROG = "python -m vo_reference"
+DESCRIPTION = "Reference visual odometry, ground-truth products and evaluation for sesgen renders and real datasets."
 # command -> (module relative to this package, one-line help)
 COMMANDS = {
     "export": (".products.export_cli", "export a render folder to KITTI / TUM / PNG dataset layouts"),
@@ -23,38 +25,9 @@ COMMANDS = {
 }
 
 
-def build_parser(commands=None) -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="python -m vo_reference",
-        description="Reference visual odometry, ground-truth products and evaluation for sesgen renders and real datasets.",
-    )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for name, (module, help_text) in (commands or COMMANDS).items():
-        p = sub.add_parser(name, help=help_text, description=help_text)
-        try:
-            importlib.import_module(module, __package__).add_arguments(p)
-        except ModuleNotFoundError as e:  # a command whose module is not there yet
-            if not (e.name or "").startswith(__package__):
-                raise
-    return parser
-
-
 def main(argv: list[str] | None = None) -> int:
-    argv = sys.argv[1:] if argv is None else argv
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    module = importlib.import_module(COMMANDS[args.command][0], __package__)
-    try:
-        return int(module.run(args) or 0)
-    except VoError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
-        return 130
-    except BrokenPipeError:  # output piped into a reader that stopped early (e.g. `| head`)
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 141
+    return dispatch(argv, prog=PROG, description=DESCRIPTION, commands=COMMANDS, package=__package__,
+                    user_errors=(VoError,))
 
 
 if __name__ == "__main__":

@@ -23,23 +23,33 @@ def _fail(op, context, values, e: Exception):
     return {"CANCELLED"}
 
 
+def _run(op, context, action) -> set:
+    """``action(values) -> message`` on a settings snapshot; the message is reported, a
+    SesgenError reported as an error and shown in the panel."""
+    values = session.read_settings(context)
+    try:
+        msg = action(values)
+    except SesgenError as e:
+        return _fail(op, context, values, e)
+    op.report({"INFO"}, msg)
+    return {"FINISHED"}
+
+
+def _check(context, values) -> str:
+    path = session.script_path(values)
+    state.forget(path)
+    msg = "Script OK: " + "; ".join(state.summary_lines(state.parse_script(path))[:2])
+    session.set_status(values, msg, context=context)
+    return msg
+
+
 class SESGEN_OT_check(bpy.types.Operator):
     """Parse the script again and report its summary or its errors"""
     bl_idname = "sesgen.check"
     bl_label = "Check Script"
 
     def execute(self, context):
-        values = session.read_settings(context)
-        try:
-            path = session.script_path(values)
-            state.forget(path)
-            scene = state.parse_script(path)
-        except SesgenError as e:
-            return _fail(self, context, values, e)
-        msg = "Script OK: " + "; ".join(state.summary_lines(scene)[:2])
-        self.report({"INFO"}, msg)
-        session.set_status(values, msg, context=context)
-        return {"FINISHED"}
+        return _run(self, context, lambda values: _check(context, values))
 
 
 class SESGEN_OT_build(bpy.types.Operator):
@@ -53,13 +63,7 @@ class SESGEN_OT_build(bpy.types.Operator):
         return session.RenderSession.active is None and context.scene is not None
 
     def execute(self, context):
-        values = session.read_settings(context)
-        try:
-            msg = session.build_scene(context, values)
-        except SesgenError as e:
-            return _fail(self, context, values, e)
-        self.report({"INFO"}, msg)
-        return {"FINISHED"}
+        return _run(self, context, lambda values: session.build_scene(context, values))
 
 
 class SESGEN_OT_render(bpy.types.Operator):
@@ -75,13 +79,7 @@ class SESGEN_OT_render(bpy.types.Operator):
         return session.RenderSession.active is None and context.scene is not None
 
     def execute(self, context):  # headless: every frame, synchronously
-        values = session.read_settings(context)
-        try:
-            msg = session.render_all(context, values)
-        except SesgenError as e:
-            return _fail(self, context, values, e)
-        self.report({"INFO"}, msg)
-        return {"FINISHED"}
+        return _run(self, context, lambda values: session.render_all(context, values))
 
     def invoke(self, context, event):  # interactive: one frame per timer tick
         values = session.read_settings(context)
@@ -157,13 +155,8 @@ class SESGEN_OT_preview(bpy.types.Operator):
     bl_label = "Preview Ground Truth"
 
     def execute(self, context):
-        values = session.read_settings(context)
-        try:
-            _img, text = session.preview(context, values)
-        except SesgenError as e:
-            return _fail(self, context, values, e)
-        self.report({"INFO"}, f"preview: {text} (image '{session.PREVIEW_IMAGE}')")
-        return {"FINISHED"}
+        return _run(self, context, lambda values: f"preview: {session.preview(context, values)[1]} "
+                                                  f"(image '{session.PREVIEW_IMAGE}')")
 
 
 class SESGEN_OT_import(bpy.types.Operator, ImportHelper):
@@ -181,13 +174,7 @@ class SESGEN_OT_import(bpy.types.Operator, ImportHelper):
 
     def execute(self, context):
         context.scene.sesgen.script_path = self.filepath
-        values = session.read_settings(context)
-        try:
-            msg = session.build_scene(context, values)
-        except SesgenError as e:
-            return _fail(self, context, values, e)
-        self.report({"INFO"}, msg)
-        return {"FINISHED"}
+        return _run(self, context, lambda values: session.build_scene(context, values))
 
 
 def menu_import(self, context):

@@ -15,8 +15,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import contract
-from ..contact_sheet import colormap, id_colours, linear_to_srgb8
+from ..contact_sheet import colormap, id_colours
+from ..contract.colour import linear_to_srgb8
+from ..contract.depth import depth_from_pass, disparity_from_depth
+from ..contract.errors import ContractError
+from ..contract.manifest import MANIFEST, Manifest
 from ..errors import SesgenError
 from ..exr import read_exr
 
@@ -36,26 +39,34 @@ def _ramp(values: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, float]:
     return rgb, top
 
 
+def disparity_px(depth_pass: np.ndarray, focal_px: float, baseline: float) -> np.ndarray:
+    """Disparity to show: fx * B / Z, 0 (black) where nothing was hit."""
+    return np.nan_to_num(disparity_from_depth(depth_from_pass(depth_pass), focal_px, baseline), nan=0.0)
+
+
 def preview_rgba(out_dir, frame: int, view: str, kind: str) -> tuple[np.ndarray, str]:
     """(RGBA image, one-line description) of ``kind`` for ``frame``/``view`` of a render."""
     out_dir = Path(out_dir)
-    m = contract.load_manifest(out_dir)
-    if m is None:
+    if not (out_dir / MANIFEST).is_file():
         raise SesgenError(f"{out_dir}: no render here (no manifest.json)")
+    try:
+        m = Manifest.read(out_dir)
+    except ContractError as e:
+        raise SesgenError(str(e)) from None
     if kind not in KINDS:
         raise SesgenError(f"preview kind must be one of {', '.join(KINDS)}, got '{kind}'")
-    if view not in m["views"]:
-        raise SesgenError(f"this render has no '{view}' view (views: {', '.join(m['views'])})")
-    if not (0 <= frame < m["frames"]):
-        raise SesgenError(f"frame {frame} is outside 0..{m['frames'] - 1}")
-    if not m["frames_complete"][frame]:
+    if view not in m.views:
+        raise SesgenError(f"this render has no '{view}' view (views: {', '.join(m.views)})")
+    if not (0 <= frame < m.frames):
+        raise SesgenError(f"frame {frame} is outside 0..{m.frames - 1}")
+    if not m.frames_complete[frame]:
         raise SesgenError(f"frame {frame} is not rendered yet: render it first")
-    path = out_dir / m["files"][view][frame]
+    path = out_dir / m.files[view][frame]
     try:
         c = read_exr(path)
     except (OSError, ValueError) as e:
         raise SesgenError(f"cannot read {path}: {e}") from None
-    ch = m["channels"]
+    ch = m.channels
     if kind == "rgb":
         rgb = np.stack([c[n] for n in ch["rgb"][:3]], axis=-1)
         return _rgba(linear_to_srgb8(rgb)), f"RGB, frame {frame}, {view}"
@@ -63,13 +74,13 @@ def preview_rgba(out_dir, frame: int, view: str, kind: str) -> tuple[np.ndarray,
         ids = np.rint(c[ch["object_index"]]).astype(np.int64)
         present = sorted(int(i) for i in np.unique(ids) if i > 0)
         return _rgba(id_colours(ids)), f"segmentation, frame {frame}, {view}: ids {present}"
-    z = contract.depth_m(c[ch["depth"]])
+    z = depth_from_pass(c[ch["depth"]], m.depth_background)
     valid = np.isfinite(z)
     if kind == "depth":
         rgb, _ = _ramp(1.0 / np.where(valid, z, 1.0), valid)
         return _rgba(rgb), f"inverse depth, frame {frame}, {view}"
-    if m["baseline"] <= 0:
+    if m.baseline <= 0:
         raise SesgenError("a monocular render has no disparity (baseline 0): preview depth instead")
-    d = contract.disparity_px(z, m["K"][0][0], m["baseline"])
+    d = disparity_px(c[ch["depth"]], m.K[0, 0], m.baseline)
     rgb, top = _ramp(d, valid)
     return _rgba(rgb), f"disparity, frame {frame}, {view}: 0..{top:.2f} px"

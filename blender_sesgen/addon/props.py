@@ -64,7 +64,8 @@ def abspath(path: str) -> str:
 
 def render_options(values: dict):
     """RenderOptions from a settings snapshot (None = the script's value)."""
-    from ..contract import RenderOptions
+    from ..contract.timing import FrameSelection
+    from ..plan import RenderOptions
     o = values["override_render"]
     return RenderOptions(
         samples=values["samples"] if o else None,
@@ -72,5 +73,5 @@ def render_options(values: dict):
         seed=values["seed"] if o else None,
         device=values["device"],
         resolution_scale=float(values["resolution_scale"]),
-        frames=(values["frame_first"], values["frame_last"] + 1) if values["use_frame_range"] else None,
+        frames=FrameSelection.of(values["frame_first"], values["frame_last"] + 1) if values["use_frame_range"] else None,
     )

@@ -1,8 +1,10 @@
 """What the operators do, as plain functions over a settings snapshot (bpy, no UI).
 
-Everything goes through :class:`blender_sesgen.pipeline.RenderJob`, the code path of the
-command line: ``prepare`` (parse + validate, writes nothing), ``build`` (the builder makes
-the dedicated scene 'SESGen'), ``render_frame`` (one frame, atomically, then the manifest).
+Everything goes through the code path of the command line: a
+:class:`~blender_sesgen.plan.RenderPlan` (parse + validate, writes nothing), a
+:class:`~blender_sesgen.blender.session.BlenderSession` (the builder makes the dedicated
+scene 'SESGen') and, to render, :class:`~blender_sesgen.job.RenderJob` (``render_frame``:
+one frame, atomically, then the manifest).
 This module only adds what the UI needs around it: leaving the SESGen scene before the
 builder replaces it, a curve showing the camera path, copying the settings onto the new
 scene, and status/progress for the panel.
@@ -10,21 +12,19 @@ scene, and status/progress for the panel.
 from __future__ import annotations
 
 import os
-import tempfile
 import time
-import uuid
-from pathlib import Path
-from typing import Optional
+from typing import Callable, Optional
 
 import bpy
 import numpy as np
 
-from .. import poses
+from ..contract.frames import camera_matrix_world
 from ..errors import SesgenError
-from ..pipeline import RenderJob
+from ..job import RenderJob
+from ..plan import RenderPlan
 from . import props
 
-SCENE_NAME = "SESGen"          # blender.builder.SCENE_NAME (not imported: keeps bpy modules lazy)
+SCENE_NAME = "SESGen"          # blender.datablocks.SCENE_NAME (not imported: keeps bpy modules lazy)
 PATH_TAG = "sesgen_camera_path"
 PATH_NAME = "SESGen camera path"
 
@@ -73,12 +73,6 @@ def script_path(values: dict) -> str:
     return path
 
 
-def prepare_build_job(values: dict) -> RenderJob:
-    """A job for building only: parsed and validated, its output folder never touched."""
-    nowhere = Path(tempfile.gettempdir()) / f"sesgen-build-only-{uuid.uuid4().hex}"
-    return RenderJob.prepare(script_path(values), nowhere, props.render_options(values))
-
-
 def prepare_render_job(values: dict) -> RenderJob:
     out = props.abspath(values["output_dir"])
     if not out:
@@ -106,7 +100,7 @@ def _remove_camera_path() -> None:
 
 def add_camera_path(built, scene) -> object:
     """A poly curve through the left camera's positions (not rendered)."""
-    P = np.array([poses.camera_matrix_world(T)[:3, 3] for T in scene.timeline.left()], dtype=float)
+    P = np.array([camera_matrix_world(T)[:3, 3] for T in scene.timeline.left()], dtype=float)
     cu = bpy.data.curves.new(PATH_NAME, "CURVE")
     cu[PATH_TAG] = 1
     cu.dimensions = "3D"
@@ -131,8 +125,9 @@ def _tag_camera_actions(built) -> None:
             ad.action["sesgen"] = 1
 
 
-def build(context, values: dict, job: RenderJob):
-    """``job.build()`` plus the camera path; the windows showing SESGen keep showing it."""
+def build(context, values: dict, make_session: Callable, scene):
+    """``make_session()`` (it builds the scene) plus the camera path of ``scene``; the windows
+    showing SESGen keep showing it. Returns the session."""
     wm = context.window_manager
     windows = list(getattr(wm, "windows", ()))
     showing = [w for w in windows if w.scene.name == SCENE_NAME]
@@ -143,23 +138,24 @@ def build(context, values: dict, job: RenderJob):
         for w in showing:
             w.scene = fallback
     _remove_camera_path()
-    job.build()
-    built = job.built
+    session = make_session()
+    built = session.built
     _tag_camera_actions(built)
-    add_camera_path(built, job.scene)
+    add_camera_path(built, scene)
     values = dict(values)
     props.restore(built.scene.sesgen, values)
     for w in showing:
         w.scene = built.scene
-    return built
+    return session
 
 
 def build_scene(context, values: dict) -> str:
-    """The Build Scene button: returns a one-line report."""
-    job = prepare_build_job(values)
-    built = build(context, values, job)
+    """The Build Scene button (no output folder involved): returns a one-line report."""
+    from ..blender.session import BlenderSession
+    plan = RenderPlan.from_file(script_path(values), props.render_options(values))
+    built = build(context, values, lambda: BlenderSession(plan), plan.scene).built
     n = sum(len(v) for v in built.objects.values())
-    msg = (f"built {n} objects, {len(built.cameras)} camera(s) keyed over {job.scene.frames} frames "
+    msg = (f"built {n} objects, {len(built.cameras)} camera(s) keyed over {plan.scene.frames} frames "
            f"in scene '{built.scene.name}'")
     set_status(values, msg)
     return msg
@@ -189,7 +185,11 @@ class RenderSession:
             raise SesgenError("a render is already running")
         job = prepare_render_job(values)
         s = cls(values, job)
-        build(context, values, job)
+
+        def make_session():
+            job.build()
+            return job.session
+        build(context, values, make_session, job.scene)
         job.begin()
         s.todo = job.pending_frames()
         cls.active = s

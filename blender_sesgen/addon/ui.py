@@ -6,6 +6,16 @@ import bpy
 from . import props, session, state
 
 
+
+def _toggled(layout, settings, heading: str, toggle: str, text: str, names) -> None:
+    """A column: a checkbox, then the properties it switches on (greyed out while off)."""
+    col = layout.column(heading=heading)
+    col.prop(settings, toggle, text=text)
+    sub = col.column(align=True)
+    sub.active = getattr(settings, toggle)
+    for name in names:
+        sub.prop(settings, name)
+
 class _SidebarPanel:
     bl_space_type = "VIEW_3D"
     bl_region_type = "UI"
@@ -53,19 +63,8 @@ class SESGEN_PT_render(_SidebarPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         layout.use_property_decorate = False
-        col = layout.column(heading="Frames")
-        col.prop(s, "use_frame_range", text="Range")
-        sub = col.column(align=True)
-        sub.active = s.use_frame_range
-        sub.prop(s, "frame_first")
-        sub.prop(s, "frame_last")
-        col = layout.column(heading="Sampling")
-        col.prop(s, "override_render", text="Override Script")
-        sub = col.column(align=True)
-        sub.active = s.override_render
-        sub.prop(s, "samples")
-        sub.prop(s, "denoise")
-        sub.prop(s, "seed")
+        _toggled(layout, s, "Frames", "use_frame_range", "Range", ("frame_first", "frame_last"))
+        _toggled(layout, s, "Sampling", "override_render", "Override Script", ("samples", "denoise", "seed"))
         layout.prop(s, "resolution_scale")
         layout.prop(s, "device")
         layout.prop(s, "output_dir")

@@ -6,7 +6,7 @@ meshes, materials, images, node groups) are appended, never text blocks, and any
 block that arrives anyway is removed: no script stored in the file runs.
 
 Placement: objects keep their place in the file's Blender (Z-up) world, moved as a whole
-by the statement's pose (SES world, through ``poses.ses_to_blender_world``) and scale.
+by the statement's pose (SES world, through ``contract.frames.ses_to_blender_world``) and scale.
 Ids: an object's custom property ``sesgen_id`` (1..32767), else the next free id from the
 statement's ``id`` in the order of the objects' names; class: ``sesgen_class``, else the
 statement's ``class``. Every object's row goes into the manifest's object table.
@@ -18,7 +18,7 @@ from mathutils import Matrix
 
 import bpy
 
-from .. import poses
+from ..contract.frames import blender_to_ses_world, object_pose, ses_to_blender_world
 from ..contract import semantics
 from ..errors import SesgenError
 from ..model import BlendImport
@@ -118,5 +118,5 @@ def _placement(imp: BlendImport) -> np.ndarray:
     """Blender-world 4x4 moving the file's objects by the statement's SES pose and scale:
     C T S C^-1, C the SES -> Blender axis change (identity for the default pose)."""
     S = np.diag([*imp.scale, 1.0])
-    T = poses.object_pose(imp.position, imp.rotation_deg) @ S
-    return poses.ses_to_blender_world(T) @ poses.blender_to_ses_world(np.eye(4))
+    T = object_pose(imp.position, imp.rotation_deg) @ S
+    return ses_to_blender_world(T) @ blender_to_ses_world(np.eye(4))

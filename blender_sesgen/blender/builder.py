@@ -1,54 +1,22 @@
-"""The scene model -> Blender objects (the one place that maps the model onto Blender).
+"""The scene model -> a Blender scene: objects, lights, world and the stereo rig (bpy).
 
-Everything is built into a dedicated Blender scene (``SCENE_NAME``) so that the user's own
-scenes are never touched; every data-block created here carries the custom property
-``sesgen`` and a rebuild removes all of them first (rebuilding replaces, never duplicates).
-
-Geometry, all in scene units, placed with ``poses.object_pose`` and re-expressed in
-Blender's Z-up world with ``poses.ses_to_blender_world``:
-- QUAD: one planar face through its 4 vertices (UVs (0,0) (1,0) (1,1) (0,1));
-- CUBOID: a box of the exact edge lengths;
-- SPHERE: a one-point point cloud (Cycles intersects it as an exact sphere: silhouette
-  and depth are those of the ideal sphere, no tessellation at all) — but Cycles never hits
-  a point from inside, so a sphere that a camera enters (a dome, a spherical room) is a
-  smooth UV-sphere mesh with the cylinder's silhouette and depth tolerances instead;
-- CYLINDER: a closed prism whose segment count keeps the silhouette within
-  ``SILHOUETTE_TOLERANCE_PX`` of the ideal cylinder from the closest camera position and
-  the depth of its side within ``DEPTH_TOLERANCE_REL`` (relative) of the ideal surface;
-- MESH: imported OBJ/PLY/STL/glTF, file coordinates taken as SES-local (Y up).
-Object ``pass_index`` = script ``id``.
+The one place that puts a whole :class:`~blender_sesgen.model.Scene` into Blender: shapes
+(``shapes.build_shape``) with their materials (``materials``, ``library``), the objects of
+BLEND files (``blend_import``), lights and world (``lighting``), the keyed cameras (``rig``), all tagged (``datablocks``) in the dedicated
+scene ``SCENE_NAME``. Object ``pass_index`` = script ``id``.
 """
 from __future__ import annotations
 
-import math
-import os
 from dataclasses import dataclass, field
-from typing import Optional
 
 import bpy
-import numpy as np
-from mathutils import Matrix
 
-from .. import poses, shapes
-from ..errors import SesgenError
-from ..model import Cuboid, Cylinder, Material, Mesh, Quad, Scene, SceneObject, Sphere, TextureRef
-from . import blend_import, compat, library, lighting, rig, textures
-
-SCENE_NAME = "SESGen"
-TAG = "sesgen"
-SILHOUETTE_TOLERANCE_PX = 0.25
-DEPTH_TOLERANCE_REL = 2e-5  # the prism's radial error r(1 - cos(pi/n)) / closest distance
-MAX_SEGMENTS = 4096
-MAX_SPHERE_SEGMENTS = 1024  # a UV sphere of 1024 x 512 faces
-DEFAULT_ROUGHNESS = 0.6
-# ID collections that may hold data-blocks we created (tagged with TAG)
-_ID_COLLECTIONS = ("objects", "meshes", "materials", "lights", "cameras", "worlds", "node_groups",
-                   "images", "actions", "collections", "pointclouds")
-
-
-def tag(idblock):
-    idblock[TAG] = 1
-    return idblock
+from ..model import Scene
+from . import blend_import, library, lighting, rig
+from .datablocks import SCENE_NAME, TAG, clear_previous, tag
+from .materials import MaterialFactory
+from .runtime import activate
+from .shapes import ShapeContext, build_shape
 
 
 @dataclass
@@ -58,305 +26,9 @@ class BuiltScene:
     collection: object
     objects: dict = field(default_factory=dict)   # id -> [bpy objects]
     cameras: dict = field(default_factory=dict)   # view -> camera object
+    segments: dict = field(default_factory=dict)  # tessellated shape id -> segment count
     imported: list = field(default_factory=list)  # manifest rows of BLEND objects
-    segments: dict = field(default_factory=dict)  # cylinder id -> segment count
 
-
-def clear_previous() -> None:
-    """Remove the SESGen scene and every data-block this module created before."""
-    old = bpy.data.scenes.get(SCENE_NAME)
-    if old is not None:
-        others = [s for s in bpy.data.scenes if s != old] or [bpy.data.scenes.new("Scene")]
-        wm = bpy.context.window_manager
-        for w in (wm.windows if wm is not None else []):
-            if w.scene == old:
-                w.scene = others[0]
-        bpy.data.scenes.remove(old)
-    for coll_name in _ID_COLLECTIONS:
-        coll = getattr(bpy.data, coll_name, None)
-        if coll is None:
-            continue
-        for idb in [i for i in coll if i.get(TAG)]:
-            coll.remove(idb)
-
-
-def segments_for(radius: float, min_distance: float, focal_px: float,
-                 tolerance_px: float = SILHOUETTE_TOLERANCE_PX,
-                 depth_tolerance_rel: float = DEPTH_TOLERANCE_REL) -> int:
-    """Sides of a regular polygon inscribed in a circle of ``radius`` whose radial error
-    r(1 - cos(pi/n)), seen from ``min_distance`` with ``focal_px``, is at most ``tolerance_px``
-    and at most ``depth_tolerance_rel`` of ``min_distance`` (so ground-truth depth on the
-    curved side is that of the ideal cylinder to that relative error)."""
-    d = max(min_distance, 1e-9)
-    max_err = min(tolerance_px * d / focal_px, depth_tolerance_rel * d)
-    if max_err >= radius:
-        return 8
-    n = math.ceil(math.pi / math.acos(1.0 - max_err / radius))
-    return int(min(max(n, 8), MAX_SEGMENTS))
-
-
-def _min_camera_distance(scene: Scene, centre, bounding_radius: float) -> float:
-    cams = [scene.timeline.left()[:, :3, 3]]
-    if scene.rig.stereo:
-        cams.append(scene.timeline.right(scene.rig.baseline)[:, :3, 3])
-    P = np.concatenate(cams)
-    d = float(np.min(np.linalg.norm(P - np.asarray(centre, dtype=float), axis=1))) - bounding_radius
-    return max(d, scene.rig.near)
-
-
-# --- materials --------------------------------------------------------------------------
-
-class MaterialFactory:
-    def __init__(self, scene: Scene):
-        self.scene = scene
-        self.cache: dict = {}
-
-    def get(self, obj: SceneObject):
-        mat_model: Optional[Material] = None
-        if obj.material:
-            try:
-                mat_model = self.scene.material(obj.material)
-            except KeyError:
-                raise SesgenError(f"object {obj.name}: unknown material '{obj.material}'") from None
-        tex = obj.texture if obj.texture is not None else (mat_model.texture if mat_model else None)
-        colour = tuple(np.multiply(obj.colour, mat_model.colour if mat_model else (1.0, 1.0, 1.0)))
-        spherical = isinstance(obj, Sphere) and tex is not None and tex.kind == "image"
-        key = (tex, colour, mat_model, spherical)
-        if key not in self.cache:
-            self.cache[key] = self._make(f"sesgen_{obj.name}", colour, tex, mat_model, spherical)
-        return self.cache[key]
-
-    def _make(self, name: str, colour, tex: Optional[TextureRef], m: Optional[Material], spherical: bool = False):
-        mat = tag(bpy.data.materials.new(name))
-        nt = compat.node_tree(mat)
-        nt.nodes.clear()
-        out = nt.nodes.new("ShaderNodeOutputMaterial")
-        out.target = "ALL"
-        if m is not None and m.library is not None:
-            shader = library.build_shader(nt, m, colour)
-            if self.scene.fog is not None:
-                shader = lighting.fog_mix(nt, shader, self.scene.fog)
-            nt.links.new(shader, out.inputs["Surface"])
-            return mat
-        if m is not None and m.maps is not None:
-            bsdf = library.build_image_maps(nt, m.maps, colour, m.roughness, tag)
-            bsdf.inputs["Metallic"].default_value = m.metallic
-            shader = bsdf.outputs["BSDF"]
-            if self.scene.fog is not None:
-                shader = lighting.fog_mix(nt, shader, self.scene.fog)
-            nt.links.new(shader, out.inputs["Surface"])
-            return mat
-        bsdf = nt.nodes.new("ShaderNodeBsdfPrincipled")
-        if tex is not None:
-            tex_col = textures.texture_colour(nt, tex, spherical)
-            mul = nt.nodes.new("ShaderNodeMix")
-            mul.data_type, mul.blend_type = "RGBA", "MULTIPLY"
-            mul.inputs[0].default_value = 1.0
-            nt.links.new(tex_col, mul.inputs[6])
-            mul.inputs[7].default_value = (*colour, 1.0)
-            base = mul.outputs[2]
-            nt.links.new(base, bsdf.inputs["Base Color"])
-        else:
-            base = None
-            bsdf.inputs["Base Color"].default_value = (*colour, 1.0)
-        bsdf.inputs["Roughness"].default_value = m.roughness if m else DEFAULT_ROUGHNESS
-        bsdf.inputs["Metallic"].default_value = m.metallic if m else 0.0
-        compat.principled_input(bsdf, "Specular IOR Level").default_value = m.specular if m else 0.5
-        emission = compat.principled_input(bsdf, "Emission Color")
-        if m is not None and m.emission_strength > 0:
-            emission.default_value = (*m.emission, 1.0)
-            bsdf.inputs["Emission Strength"].default_value = m.emission_strength
-        shader = bsdf.outputs["BSDF"]
-        if self.scene.fog is not None:
-            shader = lighting.fog_mix(nt, shader, self.scene.fog)
-        nt.links.new(shader, out.inputs["Surface"])
-        return mat
-
-
-# --- geometry ---------------------------------------------------------------------------
-
-def _mesh_object(name: str, verts, faces, uvs, collection, smooth_faces=()):
-    me = tag(bpy.data.meshes.new(name))
-    me.from_pydata([tuple(map(float, v)) for v in verts], [], [tuple(f) for f in faces])
-    if uvs is not None:
-        layer = me.uv_layers.new(name="UVMap")
-        layer.data.foreach_set("uv", np.asarray(uvs, dtype=np.float32).reshape(-1))
-    if smooth_faces:
-        flags = np.zeros(len(me.polygons), dtype=bool)
-        flags[list(smooth_faces)] = True
-        me.polygons.foreach_set("use_smooth", flags)
-    me.validate()
-    me.update()
-    obj = tag(bpy.data.objects.new(name, me))
-    collection.objects.link(obj)
-    return obj
-
-
-def _set_world_matrix(obj, T_world_obj_ses: np.ndarray) -> None:
-    obj.matrix_world = Matrix(poses.ses_to_blender_world(T_world_obj_ses).tolist())
-
-
-def build_quad(q: Quad, collection):
-    V = np.asarray(q.vertices, dtype=float)
-    c = V.mean(axis=0)
-    obj = _mesh_object(q.name, V - c, [(0, 1, 2, 3)], [(0, 0), (1, 0), (1, 1), (0, 1)], collection)
-    _set_world_matrix(obj, poses.object_pose(c))
-    return obj
-
-
-def build_rounded_cuboid(b: Cuboid, collection, quarter_segments: int):
-    """A CUBOID with ``bevel``: the rounded box of ``shapes.rounded_box`` (real geometry),
-    smooth-shaded with its exact surface normals."""
-    V, faces, N = shapes.rounded_box(b.size, b.bevel, quarter_segments)
-    obj = _mesh_object(b.name, V, faces, None, collection, smooth_faces=range(len(faces)))
-    obj.data.normals_split_custom_set_from_vertices([tuple(map(float, n)) for n in N])
-    _set_world_matrix(obj, poses.object_pose(b.position, b.rotation_deg))
-    return obj
-
-
-def build_cuboid(b: Cuboid, collection):
-    sx, sy, sz = (s / 2.0 for s in b.size)
-    verts = [(x, y, z) for x in (-sx, sx) for y in (-sy, sy) for z in (-sz, sz)]
-    # vertex index = 4*ix + 2*iy + iz; faces with outward normals
-    faces = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
-    uvs = [(0, 0), (1, 0), (1, 1), (0, 1)] * 6
-    obj = _mesh_object(b.name, verts, faces, uvs, collection)
-    _set_world_matrix(obj, poses.object_pose(b.position, b.rotation_deg))
-    return obj
-
-
-def _sphere_node_group(radius: float, material):
-    ng = tag(bpy.data.node_groups.new("sesgen_sphere", "GeometryNodeTree"))
-    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    out = ng.nodes.new("NodeGroupOutput")
-    pts = ng.nodes.new("GeometryNodePoints")
-    pts.inputs["Count"].default_value = 1
-    pts.inputs["Radius"].default_value = float(radius)
-    sm = ng.nodes.new("GeometryNodeSetMaterial")
-    sm.inputs["Material"].default_value = material
-    ng.links.new(pts.outputs["Geometry"], sm.inputs["Geometry"])
-    ng.links.new(sm.outputs["Geometry"], out.inputs[0])
-    return ng
-
-
-def build_sphere(s: Sphere, collection, material):
-    me = tag(bpy.data.meshes.new(s.name))
-    obj = tag(bpy.data.objects.new(s.name, me))
-    collection.objects.link(obj)
-    mod = obj.modifiers.new("sesgen_sphere", "NODES")
-    mod.node_group = _sphere_node_group(s.radius, material)
-    _set_world_matrix(obj, poses.object_pose(s.position, s.rotation_deg))
-    return obj
-
-
-def _cameras_inside(scene: Scene, centre, radius: float) -> tuple[bool, float]:
-    """Whether any camera of the sequence is inside the sphere, and the closest any camera
-    gets to its surface (from either side)."""
-    cams = [scene.timeline.left()[:, :3, 3]]
-    if scene.rig.stereo:
-        cams.append(scene.timeline.right(scene.rig.baseline)[:, :3, 3])
-    dist = np.linalg.norm(np.concatenate(cams) - np.asarray(centre, dtype=float), axis=1)
-    return bool(np.any(dist < radius)), max(float(np.min(np.abs(dist - radius))), scene.rig.near)
-
-
-def build_sphere_mesh(s: Sphere, collection, n: int):
-    """A smooth UV sphere with ``n`` segments around and n/2 from pole to pole (vertices on
-    the ideal sphere); its texture coordinates come from the shader, as for point spheres."""
-    n_lat = max(n // 2, 4)
-    lat = np.pi * np.arange(1, n_lat) / n_lat                  # rings between the poles
-    lon = 2 * np.pi * np.arange(n) / n
-    ring = np.stack([np.outer(np.sin(lat), np.cos(lon)), np.repeat(np.cos(lat)[:, None], n, 1),
-                     -np.outer(np.sin(lat), np.sin(lon))], axis=-1).reshape(-1, 3)
-    verts = np.concatenate([[(0, 1, 0)], ring, [(0, -1, 0)]]) * s.radius
-    south = len(verts) - 1
-    idx = lambda i, j: 1 + i * n + j % n  # noqa: E731 - ring i, meridian j
-    faces = [(0, idx(0, j), idx(0, j + 1)) for j in range(n)]
-    faces += [(idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1)) for i in range(n_lat - 2) for j in range(n)]
-    faces += [(south, idx(n_lat - 2, j + 1), idx(n_lat - 2, j)) for j in range(n)]
-    obj = _mesh_object(s.name, verts, faces, None, collection, smooth_faces=range(len(faces)))
-    _set_world_matrix(obj, poses.object_pose(s.position, s.rotation_deg))
-    return obj
-
-
-def build_cylinder(c: Cylinder, collection, n: int):
-    r, h2 = c.radius, c.height / 2.0
-    ang = 2 * np.pi * np.arange(n) / n
-    ring = np.stack([r * np.cos(ang), np.zeros(n), -r * np.sin(ang)], axis=1)  # CCW seen from +Y
-    bottom, top = ring + (0, -h2, 0), ring + (0, h2, 0)
-    verts = np.concatenate([bottom, top])
-    sides = [(i, (i + 1) % n, n + (i + 1) % n, n + i) for i in range(n)]
-    cap_top = tuple(range(n, 2 * n))
-    cap_bottom = tuple(reversed(range(n)))
-    faces = sides + [cap_top, cap_bottom]
-    uvs = []
-    for i in range(n):
-        u0, u1 = i / n, (i + 1) / n
-        uvs += [(u0, 0), (u1, 0), (u1, 1), (u0, 1)]
-    uvs += [(0.5 + 0.5 * np.cos(a), 0.5 + 0.5 * np.sin(a)) for a in ang]
-    uvs += [(0.5 + 0.5 * np.cos(a), 0.5 - 0.5 * np.sin(a)) for a in ang[::-1]]
-    obj = _mesh_object(c.name, verts, faces, uvs, collection, smooth_faces=range(n))
-    _set_world_matrix(obj, poses.object_pose(c.position, c.rotation_deg))
-    return obj
-
-
-_IMPORTERS = {
-    ".obj": lambda p: bpy.ops.wm.obj_import(filepath=p, forward_axis="Y", up_axis="Z"),
-    ".ply": lambda p: bpy.ops.wm.ply_import(filepath=p, forward_axis="Y", up_axis="Z"),
-    ".stl": lambda p: bpy.ops.wm.stl_import(filepath=p, forward_axis="Y", up_axis="Z"),
-    ".gltf": lambda p: bpy.ops.import_scene.gltf(filepath=p),
-    ".glb": lambda p: bpy.ops.import_scene.gltf(filepath=p),
-}
-
-
-def build_mesh(m: Mesh, collection, material) -> list:
-    """Import a mesh file; its coordinates are SES-local (Y up), scaled then placed."""
-    ext = os.path.splitext(m.path)[1].lower()
-    if ext not in _IMPORTERS:
-        raise SesgenError(f"MESH {m.name}: unsupported file type '{ext}' (OBJ, PLY, STL, glTF)")
-    if not os.path.isfile(m.path):
-        raise SesgenError(f"MESH {m.name}: file not found: {m.path}")
-    before = set(bpy.data.objects)
-    from .render import quiet_stdout
-    try:
-        with quiet_stdout():
-            result = _IMPORTERS[ext](m.path)
-    except Exception as e:  # importer errors are bad input
-        raise SesgenError(f"MESH {m.name}: cannot import {m.source}: {e}") from None
-    if "FINISHED" not in result:
-        raise SesgenError(f"MESH {m.name}: cannot import {m.source}")
-    new = [o for o in bpy.data.objects if o not in before]
-    # glTF is Y up by definition and its importer turns it Z up: undo that (back to file axes)
-    C = np.eye(4)
-    if ext in (".gltf", ".glb"):
-        C[:3, :3] = poses.R_BLENDER_SES.T
-    S = np.diag([*m.scale, 1.0])
-    place = poses.ses_to_blender_world(poses.object_pose(m.position, m.rotation_deg)) @ S @ C
-    kept = []
-    for o in new:
-        for coll in list(o.users_collection):
-            coll.objects.unlink(o)
-        if o.type != "MESH":
-            bpy.data.objects.remove(o)
-            continue
-        tag(o)
-        if o.data is not None:
-            tag(o.data)
-        kept.append((o, np.array(o.matrix_world)))
-    for i, (o, W) in enumerate(kept):  # named after the script, not the file
-        o.name = m.name if len(kept) == 1 else f"{m.name}_{i}"
-        o.data.name = o.name
-        o.parent = None
-        collection.objects.link(o)
-        o.matrix_world = Matrix((place @ W).tolist())
-        if material is not None:
-            o.data.materials.clear()
-            o.data.materials.append(material)
-    if not kept:
-        raise SesgenError(f"MESH {m.name}: {m.source} holds no mesh")
-    return [o for o, _ in kept]
-
-
-# --- the whole scene --------------------------------------------------------------------
 
 def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -> BuiltScene:
     """Build ``scene`` into a fresh Blender scene named SCENE_NAME (replacing any previous).
@@ -371,50 +43,16 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -
     bscene.collection.children.link(coll)
     built = BuiltScene(scene=bscene, collection=coll)
 
-    mats = MaterialFactory(scene)
-    focal = max(float(K[0][0]), scene.rig.focal_px)
-
+    ctx = ShapeContext(scene, coll, MaterialFactory(scene), max(float(K[0][0]), scene.rig.focal_px),
+                       built.segments)
     for o in scene.objects:
-        if isinstance(o, Quad):
-            objs = [build_quad(o, coll)]
-        elif isinstance(o, Cuboid) and o.bevel > 0:
-            bound = float(np.linalg.norm(o.size)) / 2.0
-            n = segments_for(o.bevel, _min_camera_distance(scene, o.position, bound), focal)
-            # per quarter arc, even; sqrt 2 finer than a cylinder's step: a corner cell's
-            # diagonal then deviates no more than a cylinder's side
-            built.segments[o.id] = 2 * math.ceil(math.sqrt(2) * n / 8)
-            objs = [build_rounded_cuboid(o, coll, built.segments[o.id])]
-        elif isinstance(o, Cuboid):
-            objs = [build_cuboid(o, coll)]
-        elif isinstance(o, Sphere):
-            inside, d_surface = _cameras_inside(scene, o.position, o.radius)
-            if inside:
-                n = min(segments_for(o.radius, d_surface, focal), MAX_SPHERE_SEGMENTS)
-                built.segments[o.id] = n
-                objs = [build_sphere_mesh(o, coll, n)]
-                objs[0].data.materials.append(mats.get(o))
-            else:
-                objs = [build_sphere(o, coll, mats.get(o))]
-        elif isinstance(o, Cylinder):
-            bound = math.hypot(o.radius, o.height / 2.0)
-            n = segments_for(o.radius, _min_camera_distance(scene, o.position, bound), focal)
-            built.segments[o.id] = n
-            objs = [build_cylinder(o, coll, n)]
-        elif isinstance(o, Mesh):
-            custom = o.texture is not None or o.material is not None or tuple(o.colour) != (1.0, 1.0, 1.0)
-            objs = build_mesh(o, coll, mats.get(o) if custom else None)
-        else:
-            raise SesgenError(f"unsupported object shape '{o.shape}'")
-        material_seed = 0
-        if o.material:
-            lib = scene.material(o.material).library
-            material_seed = lib.seed if lib is not None else 0
+        objs = build_shape(o, ctx)
+        material = scene.material(o.material) if o.material else None
+        seed = material.library.seed if material is not None and material.library is not None else 0
         for b in objs:
             b.pass_index = int(o.id)
             b["sesgen_id"] = int(o.id)
-            library.object_properties(b, material_seed, o.id)
-            if b.type == "MESH" and not isinstance(o, (Sphere, Mesh)):
-                b.data.materials.append(mats.get(o))
+            library.object_properties(b, seed, o.id)   # the library materials' per-object variation
         built.objects[o.id] = objs
 
     used_ids = {o.id for o in scene.objects}
@@ -428,6 +66,7 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -
             library.object_properties(b, 0, row["id"])
             built.objects[row["id"]] = [b]
 
+    # lights after the objects: the default lighting's enclosure test casts rays at them
     for i, light in enumerate(lighting.scene_lights(scene, bscene, file_lamps)):
         lo = lighting.add_light(bscene, coll, light, f"sesgen_light_{i}")
         tag(lo)
@@ -448,12 +87,3 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -
     activate(bscene)
     bscene.frame_set(rig.blender_frame(0))
     return built
-
-
-def activate(bscene) -> None:
-    """Make ``bscene`` the scene of the window(s): Blender evaluates animation (and the
-    render operator picks its frame) from the context scene, even in background mode."""
-    wm = bpy.context.window_manager
-    for w in (wm.windows if wm is not None else []):
-        if w.scene != bscene:
-            w.scene = bscene

@@ -37,6 +37,7 @@ def set_multilayer_exr(image_settings, codec: str = "ZIP", bits: str = "32") -> 
 
 
 def set_png(image_settings, bits: str = "8") -> None:
+    """8-bit RGB PNG (the display-referred image)."""
     if hasattr(image_settings, "media_type"):
         image_settings.media_type = "IMAGE"
     image_settings.file_format = "PNG"

@@ -15,7 +15,6 @@ from __future__ import annotations
 import os
 import tempfile
 
-import bpy
 import numpy as np
 
 from ..lighting_data import EXPOSURE_TARGET as TARGET

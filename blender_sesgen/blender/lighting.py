@@ -28,14 +28,15 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from .. import lighting_data, poses
+from .. import lighting_data
+from ..contract.frames import R_BLENDER_SES
 from ..errors import SesgenError
 from ..model import Fog, Light, Scene, World
 from . import compat
 
 
 def ses_vec_to_blender(v) -> Vector:
-    return Vector(tuple(poses.R_BLENDER_SES @ np.asarray(v, dtype=float)))
+    return Vector(tuple(R_BLENDER_SES @ np.asarray(v, dtype=float)))
 
 
 def _aim(obj, travel_dir_ses) -> None:

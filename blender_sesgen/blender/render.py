@@ -6,16 +6,14 @@ the beauty pass is anti-aliased. Output: multilayer OpenEXR, float32, ZIP (lossl
 """
 from __future__ import annotations
 
-import contextlib
-import os
 import re
-import sys
 import time
 
 import bpy
 
 from ..errors import SesgenError
 from . import compat
+from .runtime import activate, quiet_stdout
 
 _TIME_RE = re.compile(r"Time:\s*(?:(\d+):)?(\d+):(\d+(?:\.\d+)?)")
 
@@ -46,12 +44,14 @@ def enable_gpu() -> str:
     return f"{backend}: {', '.join(names)}"
 
 
-def configure(bscene, *, samples: int, denoise: bool, device: str, threads: int = 0,
+def configure(bscene, *, samples: int, denoise: bool, gpu: bool = False, threads: int = 0,
               normal_pass: bool = False, position_pass: bool = False, view_transform: str = "AgX") -> None:
+    """Cycles, passes and colour management. ``view_transform`` shapes the display-referred
+    PNG only (the EXR is scene-linear whatever it is)."""
     r = bscene.render
     r.engine = "CYCLES"
     c = bscene.cycles
-    c.device = "GPU" if device.lower() == "gpu" else "CPU"
+    c.device = "GPU" if gpu else "CPU"
     c.samples = int(samples)
     c.use_adaptive_sampling = False
     c.use_denoising = bool(denoise)
@@ -103,29 +103,6 @@ class _Stats:
             self.last = 3600 * int(m.group(1) or 0) + 60 * int(m.group(2)) + float(m.group(3))
 
 
-@contextlib.contextmanager
-def quiet_stdout(enabled: bool = True):
-    """Silence Blender's per-tile log lines (C-level stdout) while rendering."""
-    if not enabled:
-        yield
-        return
-    try:
-        fd = sys.stdout.fileno()
-    except (AttributeError, OSError, ValueError):
-        yield
-        return
-    sys.stdout.flush()
-    saved = os.dup(fd)
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    try:
-        os.dup2(devnull, fd)
-        yield
-    finally:
-        os.dup2(saved, fd)
-        os.close(saved)
-        os.close(devnull)
-
-
 def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: bool = True,
                 display_path: str | None = None) -> dict:
     """Render ``camera`` at Blender frame ``frame`` into the multilayer EXR ``filepath``
@@ -134,7 +111,6 @@ def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: boo
 
     Returns {"wall_s": seconds around the render call, "cycles_s": Cycles' own render time}.
     """
-    from .builder import activate
     activate(bscene)
     bscene.camera = camera
     bscene.cycles.seed = int(seed)
@@ -159,7 +135,8 @@ def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: boo
 
 
 def save_display(bscene, path: str) -> None:
-    """The last render result as an 8-bit sRGB PNG through the scene's view transform."""
+    """The last render result as an 8-bit sRGB PNG through the scene's view transform
+    (``Image.save_render`` applies the scene's colour management to non-float formats)."""
     ims = bscene.render.image_settings
     try:
         compat.set_png(ims)

@@ -1,7 +1,7 @@
 """The stereo rig: one Blender camera per view, keyed at every frame (CONSTANT interpolation).
 
-Each camera gets the exact intrinsics of ``CAMERA`` (``intrinsics.blender_camera_settings``)
-and, at frame k, ``matrix_world = poses.camera_matrix_world(T_world_cam[k])`` with
+Each camera gets the exact intrinsics of ``CAMERA`` (``contract.camera.blender_camera_settings``)
+and, at frame k, ``matrix_world = contract.frames.camera_matrix_world(T_world_cam[k])`` with
 T_world_cam the manifest pose of its view (OpenCV camera, SES world). Blender frame k+FRAME0
 is sequence frame k (FRAME0 = 0: Blender frames start at 0 here, like the file names).
 """
@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 from mathutils import Matrix
 
-from .. import poses
-from ..intrinsics import blender_camera_settings
+from ..contract.camera import blender_camera_settings
+from ..contract.frames import camera_matrix_world
 from . import compat
 
 FRAME0 = 0  # Blender frame number of sequence frame 0
@@ -57,7 +57,7 @@ def key_poses(obj, T_world_cam: np.ndarray) -> None:
     N = len(T_world_cam)
     locs, quats = [], []
     for T in T_world_cam:
-        M = Matrix(poses.camera_matrix_world(T).tolist())
+        M = Matrix(camera_matrix_world(T).tolist())
         loc, rot, _ = M.decompose()
         locs.append(tuple(loc))
         quats.append(tuple(rot))

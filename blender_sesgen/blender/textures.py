@@ -146,19 +146,30 @@ def _voronoi(n: _Nodes, p):
     return n.mix(tone, border, 1.0, "MULTIPLY")
 
 
-def _bricks(n: _Nodes, p):
-    b = n.new("ShaderNodeTexBrick", offset=0.5, offset_frequency=2, squash=1.0, squash_frequency=2)
+def _brick_node(n: _Nodes, p, *, rows_offset: float, every: int, colours, mortar, scale: float,
+                mortar_size: float, row_height: float):
+    """Blender's brick texture on the planar mapping: ``colours`` (two RGB), ``mortar`` RGB,
+    every ``every``-th row offset by ``rows_offset``; bricks 0.5 wide, no bias."""
+    b = n.new("ShaderNodeTexBrick", offset=rows_offset, offset_frequency=every, squash=1.0, squash_frequency=every)
     n.link(n.planar(p), b.inputs["Vector"])
-    b.inputs["Color1"].default_value = (0.55, 0.18, 0.10, 1)
-    b.inputs["Color2"].default_value = (0.85, 0.45, 0.30, 1)
-    b.inputs["Mortar"].default_value = (0.9, 0.9, 0.85, 1)
-    b.inputs["Scale"].default_value = 2.0
-    b.inputs["Mortar Size"].default_value = 0.03
-    b.inputs["Bias"].default_value = 0.0
-    b.inputs["Brick Width"].default_value = 0.5
-    b.inputs["Row Height"].default_value = 0.25
-    grain = n.ramp(n.noise(p, 30.0, detail=2.0).outputs["Fac"], [(0.3, GREY(0.55)), (0.7, GREY(1.0))])
-    return n.mix(b.outputs["Color"], grain, 1.0, "MULTIPLY")
+    for socket, value in (("Color1", (*colours[0], 1)), ("Color2", (*colours[1], 1)), ("Mortar", (*mortar, 1)),
+                          ("Scale", scale), ("Mortar Size", mortar_size), ("Bias", 0.0), ("Brick Width", 0.5),
+                          ("Row Height", row_height)):
+        b.inputs[socket].default_value = value
+    return b
+
+
+def _brick_pattern(n: _Nodes, p, overlay: tuple, **bricks):
+    """Bricks (``_brick_node``) multiplied by a grey noise overlay (scale, detail, ramp stops)."""
+    b = _brick_node(n, p, **bricks)
+    scale, detail, stops = overlay
+    return n.mix(b.outputs["Color"], n.ramp(n.noise(p, scale, detail=detail).outputs["Fac"], stops), 1.0, "MULTIPLY")
+
+
+def _bricks(n: _Nodes, p):
+    return _brick_pattern(n, p, (30.0, 2.0, [(0.3, GREY(0.55)), (0.7, GREY(1.0))]), rows_offset=0.5, every=2,
+                          colours=((0.55, 0.18, 0.10), (0.85, 0.45, 0.30)), mortar=(0.9, 0.9, 0.85), scale=2.0,
+                          mortar_size=0.03, row_height=0.25)
 
 
 def _checker(n: _Nodes, p):
@@ -172,23 +183,18 @@ def _checker(n: _Nodes, p):
 
 
 def _marble(n: _Nodes, p):
-    w = n.new("ShaderNodeTexWave", wave_type="BANDS", bands_direction="DIAGONAL", wave_profile="SIN")
+    w = n.new("ShaderNodeTexWave", wave_type="BANDS", bands_direction="DIAGONAL", wave_profile="SIN",
+              in_Scale=1.5, in_Distortion=12.0, in_Detail=6.0, in_Detail_Scale=2.0)
     n.link(p, w.inputs["Vector"])
-    w.inputs["Scale"].default_value = 1.5
-    w.inputs["Distortion"].default_value = 12.0
-    w.inputs["Detail"].default_value = 6.0
-    w.inputs["Detail Scale"].default_value = 2.0
     veins = n.ramp(w.outputs["Fac"], [(0.0, (0.25, 0.25, 0.3)), (0.15, (0.93, 0.92, 0.9)), (1.0, (0.75, 0.74, 0.72))])
     fine = n.ramp(n.noise(p, 40.0, detail=2.0).outputs["Fac"], [(0.3, GREY(0.7)), (0.7, GREY(1.0))])
     return n.mix(veins, fine, 1.0, "MULTIPLY")
 
 
 def _wood(n: _Nodes, p):
-    w = n.new("ShaderNodeTexWave", wave_type="RINGS", rings_direction="Y", wave_profile="SAW")
+    w = n.new("ShaderNodeTexWave", wave_type="RINGS", rings_direction="Y", wave_profile="SAW",
+              in_Scale=3.0, in_Distortion=4.0, in_Detail=3.0)
     n.link(p, w.inputs["Vector"])
-    w.inputs["Scale"].default_value = 3.0
-    w.inputs["Distortion"].default_value = 4.0
-    w.inputs["Detail"].default_value = 3.0
     rings = n.ramp(w.outputs["Fac"], [(0.0, (0.75, 0.5, 0.28)), (0.8, (0.45, 0.25, 0.1)), (1.0, (0.2, 0.1, 0.04))])
     st = n.new("ShaderNodeVectorMath", operation="MULTIPLY")
     n.link(p, st.inputs[0])
@@ -205,17 +211,9 @@ def _granite(n: _Nodes, p):
 
 
 def _tiles(n: _Nodes, p):
-    b = n.new("ShaderNodeTexBrick", offset=0.0, offset_frequency=1, squash=1.0, squash_frequency=1)
-    n.link(n.planar(p), b.inputs["Vector"])
-    b.inputs["Color1"].default_value = (0.2, 0.35, 0.55, 1)
-    b.inputs["Color2"].default_value = (0.9, 0.88, 0.8, 1)
-    b.inputs["Mortar"].default_value = (0.08, 0.08, 0.08, 1)
-    b.inputs["Scale"].default_value = 3.0
-    b.inputs["Mortar Size"].default_value = 0.04
-    b.inputs["Brick Width"].default_value = 0.5
-    b.inputs["Row Height"].default_value = 0.5
-    stain = n.ramp(n.noise(p, 15.0, detail=4.0).outputs["Fac"], [(0.3, GREY(0.6)), (0.7, GREY(1.0))])
-    return n.mix(b.outputs["Color"], stain, 1.0, "MULTIPLY")
+    return _brick_pattern(n, p, (15.0, 4.0, [(0.3, GREY(0.6)), (0.7, GREY(1.0))]), rows_offset=0.0, every=1,
+                          colours=((0.2, 0.35, 0.55), (0.9, 0.88, 0.8)), mortar=(0.08, 0.08, 0.08), scale=3.0,
+                          mortar_size=0.04, row_height=0.5)
 
 
 def _blotches(n: _Nodes, p):

@@ -1,7 +1,7 @@
 """How the rig moves: START, EGO, POSE and TRAJECTORY statements -> the start pose, the
 :class:`blender_sesgen.model.Motion` as written and the per-frame Timeline.
 
-The poses come from blender_sesgen.poses. The motion is described one way only (EGO, POSE
+The poses come from the contract's frames and motion modules. The motion is described one way only (EGO, POSE
 or TRAJECTORY, not mixed); START sets frame 0 for EGO and TRAJECTORY and is refused with
 POSE, whose first line is frame 0. A TRAJECTORY file is read here and replayed relative
 to START.
@@ -12,7 +12,10 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
-from .. import model, poses
+from .. import model
+from ..contract.frames import start_pose
+from ..contract.motion import integrate_ego
+from ..contract.se3 import invert
 from .checks import Checks, vec
 from .statements import ParsedStatement
 from .trajectory_files import TrajectoryFileError, read_trajectory
@@ -52,19 +55,19 @@ def _motion(statements, start, start_position, start_rotation, check: Checks) ->
                                       f"{other_stmt.token.line}): describe the motion one way only")
                 break
         first.setdefault(stmt.keyword, stmt)
-    T_start = poses.start_pose(start_position, start_rotation)
+    T_start = start_pose(start_position, start_rotation)
     if not first:
         return model.Motion(), [T_start]
     keyword = min(first, key=lambda k: first[k].token.line)
     if keyword == "EGO":
         ego = tuple(s.numbers for s in statements if s.keyword == "EGO")
-        return model.Motion(kind="ego", ego=ego), list(poses.integrate_ego(T_start, ego))
+        return model.Motion(kind="ego", ego=ego), list(integrate_ego(T_start, ego))
     if keyword == "POSE":
         if start is not None:
             check.err(start.token, "START cannot be used with POSE: the first POSE line is frame 0")
         keyframes = tuple(s.numbers for s in statements if s.keyword == "POSE")
         return (model.Motion(kind="pose", keyframes=keyframes),
-                [poses.start_pose(k[:3], k[3:]) for k in keyframes])
+                [start_pose(k[:3], k[3:]) for k in keyframes])
     return _trajectory(first["TRAJECTORY"], T_start, check)
 
 
@@ -82,5 +85,5 @@ def _trajectory(stmt: ParsedStatement, T_start: np.ndarray, check: Checks) -> tu
         check.err(tok, f"TRAJECTORY file '{tok.text}' {e}")
         return motion, [T_start]
     # replayed relative to START: T_world_cam(k) = T_start . inv(T_file(0)) . T_file(k)
-    T_start_file0 = T_start @ poses.invert(T_file[0])
+    T_start_file0 = T_start @ invert(T_file[0])
     return motion, [T_start_file0 @ T for T in T_file]

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Optional
 
 from .. import model
-from ..intrinsics import default_principal_point
+from ..contract.camera import default_principal_point
 from . import environment
 from .checks import Checks, scalar, vec
 from .diagnostics import Diagnostics

@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-from blender_sesgen import poses  # noqa: E402
+from blender_sesgen.contract.frames import start_pose  # noqa: E402
+from blender_sesgen.contract.motion import ego_from_poses, integrate_ego  # noqa: E402
 
 STEPS = 300
 HALF_WIDTH = 7.0          # facades this far left/right of the path (m)
@@ -58,9 +59,9 @@ KITTI_STRIDE, KITTI_STEPS = 4, 50
 
 def main(kitti: bool = False) -> None:
     rows = ego_rows()
-    T = poses.integrate_ego(poses.start_pose((0.0, EYE_HEIGHT, 0.0)), rows)
+    T = integrate_ego(start_pose((0.0, EYE_HEIGHT, 0.0)), rows)
     if kitti:  # one step per KITTI_STRIDE frames of the same drive (exactly the same poses)
-        rows = np.array([poses.ego_from_poses(T[k], T[k + KITTI_STRIDE])
+        rows = np.array([ego_from_poses(T[k], T[k + KITTI_STRIDE])
                          for k in range(0, KITTI_STRIDE * KITTI_STEPS, KITTI_STRIDE)])
     # street axis samples: every 10 frames, plus 60 m beyond both ends along the end headings
     pts, heads = [], []

@@ -19,7 +19,7 @@ from .egomotion import EgomotionTable, egomotion, egomotion_table
 from .kitti import KittiResult, kitti_metric, trajectory_distances
 from .rpe import RPEResult, rpe, rpe_pairs
 from .stats import ErrorStats
-from .trajectory_eval import TrajectoryEvaluation, evaluate_trajectory, summary_lines
+from .trajectory_eval import EvaluationOptions, TrajectoryEvaluation, evaluate_trajectory, summary_lines
 
 __all__ = [
     "ALIGN_METHODS", "Alignment", "align", "apply_alignment", "umeyama",
@@ -28,5 +28,5 @@ __all__ = [
     "EgomotionTable", "egomotion", "egomotion_table",
     "KittiResult", "kitti_metric", "trajectory_distances",
     "RPEResult", "rpe", "rpe_pairs", "ErrorStats",
-    "TrajectoryEvaluation", "evaluate_trajectory", "summary_lines",
+    "EvaluationOptions", "TrajectoryEvaluation", "evaluate_trajectory", "summary_lines",
 ]

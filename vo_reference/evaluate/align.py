@@ -14,9 +14,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from blender_sesgen.contract.se3 import invert
+
 from ..errors import VoError
 from ..io.trajectory import Trajectory
-from ..lie import se3_inverse
 
 METHODS = ("none", "origin", "se3", "sim3", "scale")
 
@@ -90,7 +91,7 @@ def align(est: Trajectory, gt: Trajectory, method: str = "se3", n: int = -1) -> 
         a = Alignment("none", np.eye(3), np.zeros(3), 1.0, 0)
         return est, a
     if method == "origin":
-        T = gt.T_world_cam[0] @ se3_inverse(est.T_world_cam[0])
+        T = gt.T_world_cam[0] @ invert(est.T_world_cam[0])
         a = Alignment("origin", T[:3, :3].copy(), T[:3, 3].copy(), 1.0, 1)
         return apply_alignment(est, a), a
     k = len(est) if n is None or n < 0 else int(n)

@@ -10,7 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..lie import rotation_angle
+from blender_sesgen.contract.se3 import rotation_angle_rad
+
 from ._poses import check_pair
 from .stats import ErrorStats
 
@@ -31,5 +32,5 @@ def ape(gt, est) -> APEResult:
     Q, P = check_pair(gt, est)
     e_t = np.linalg.norm(P[:, :3, 3] - Q[:, :3, 3], axis=1)
     R_err = np.swapaxes(P[:, :3, :3], 1, 2) @ Q[:, :3, :3]
-    e_r = np.degrees(rotation_angle(R_err))
+    e_r = np.degrees(rotation_angle_rad(R_err))
     return APEResult(e_t, e_r, ErrorStats.of(e_t), ErrorStats.of(e_r))

@@ -40,7 +40,7 @@ def _fmt_of(path: str, fmt: str) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from .report import write_json, write_report
-    from .trajectory_eval import evaluate_trajectory, summary_lines
+    from .trajectory_eval import EvaluationOptions, evaluate_trajectory, summary_lines
 
     fmt_gt, fmt_est = _fmt_of(args.gt, args.format), _fmt_of(args.est, args.format)
     gt = read_trajectory(args.gt, fmt_gt, view=args.view)
@@ -51,9 +51,10 @@ def run(args: argparse.Namespace) -> int:
                       "KITTI files have no timestamps, so they must have one pose per frame")
     if args.delta_unit == "f" and args.delta != int(args.delta):
         raise VoError(f"--delta in frames must be an integer, got {args.delta}")
-    ev = evaluate_trajectory(gt, est, align=args.align, n_align=args.n_align, delta=args.delta,
-                             delta_unit=args.delta_unit, all_pairs=args.all_pairs, kitti=args.kitti,
-                             egomotion=args.egomotion, max_diff_s=args.max_diff, by_index=by_index)
+    options = EvaluationOptions(align=args.align, n_align=args.n_align, delta=args.delta, delta_unit=args.delta_unit,
+                                all_pairs=args.all_pairs, kitti=args.kitti, egomotion=args.egomotion,
+                                max_diff_s=args.max_diff, by_index=by_index)
+    ev = evaluate_trajectory(gt, est, options)
     print(f"gt:  {args.gt} ({fmt_gt}, {len(gt)} poses)")
     print(f"est: {args.est} ({fmt_est}, {len(est)} poses)")
     print("\n".join(summary_lines(ev)))

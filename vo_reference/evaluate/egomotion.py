@@ -20,10 +20,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+from blender_sesgen.contract.motion import ego_between
+from blender_sesgen.contract.se3 import relative, so3_log
 
 from ..errors import VoError
-from ..lie import relative
 from ._poses import as_poses
 
 COLUMNS = ("U", "V", "W", "alpha_deg", "beta_deg", "gamma_deg")
@@ -37,26 +38,10 @@ def egomotion(T_world_cam, param: str = "twist") -> np.ndarray:
     T = as_poses(T_world_cam)
     if T.shape[0] < 2:
         raise VoError("the egomotion table needs at least 2 poses")
-    rel = relative(T[:-1], T[1:])
-    w = Rotation.from_matrix(rel[:, :3, :3]).as_rotvec()
-    t = rel[:, :3, 3]
     if param == "twist":
-        t = np.einsum("nij,nj->ni", _left_jacobian_inverse(w), t)
-    return np.column_stack([t, np.degrees(w)])
-
-
-def _left_jacobian_inverse(w: np.ndarray) -> np.ndarray:
-    """V⁻¹(ω) (N, 3, 3): v = V⁻¹ t for T = exp([ω, v]), V = I + B W + C W² (W = [ω]×)."""
-    theta = np.linalg.norm(w, axis=1)
-    W = np.zeros((w.shape[0], 3, 3))
-    W[:, 0, 1], W[:, 0, 2], W[:, 1, 2] = -w[:, 2], w[:, 1], -w[:, 0]
-    W = W - np.swapaxes(W, 1, 2)
-    small = theta < 1e-6
-    th = np.where(small, 1.0, theta)
-    # V^-1 = I − W/2 + (1/θ²)(1 − θ sinθ / (2(1 − cosθ))) W²; series 1/12 + θ²/720 near 0
-    coef = np.where(small, 1.0 / 12.0 + theta**2 / 720.0,
-                    (1.0 - th * np.sin(th) / (2.0 * (1.0 - np.cos(th)))) / th**2)
-    return np.eye(3) - 0.5 * W + coef[:, None, None] * (W @ W)
+        return ego_between(T[:-1], T[1:])
+    rel = relative(T[:-1], T[1:])
+    return np.column_stack([rel[:, :3, 3], np.degrees(so3_log(rel[:, :3, :3]))])
 
 
 @dataclass(frozen=True)

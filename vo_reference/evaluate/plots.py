@@ -14,19 +14,20 @@ from ..io.trajectory import Trajectory
 AXES = "xyz"
 
 
-def _plt():
+def pyplot():
+    """matplotlib.pyplot on the non-interactive Agg backend (matplotlib is imported on first use)."""
     import matplotlib
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
     return plt
 
 
-def _save(fig, path, dpi: int = 120) -> Path:
+def save_figure(fig, path, dpi: int = 120) -> Path:
     """Write ``fig`` as PNG (creating the folder) and close it; shared by the mono plots."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=dpi, bbox_inches="tight")
-    _plt().close(fig)
+    pyplot().close(fig)
     return path
 
 
@@ -41,7 +42,7 @@ def view_axes(positions: np.ndarray) -> tuple[tuple[int, int], tuple[int, int]]:
 def plot_trajectories(gt: Trajectory, est: Trajectory, path, title: str = "",
                       labels=("ground truth", "estimate")) -> Path:
     """Ground truth vs estimate, top view and side view side by side (cf. SESGen paper, Fig. 8)."""
-    plt = _plt()
+    plt = pyplot()
     g, e = gt.positions, est.positions
     top, side = view_axes(g)
     fig, axs = plt.subplots(1, 2, figsize=(12, 5.5))
@@ -58,12 +59,12 @@ def plot_trajectories(gt: Trajectory, est: Trajectory, path, title: str = "",
     axs[0].legend(loc="best")
     if title:
         fig.suptitle(title)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_errors(errors: dict, path, x=None, xlabel: str = "frame", title: str = "") -> Path:
     """One panel per named error series, e.g. ``{"APE translation (m)": e_t, "APE rotation (deg)": e_r}``."""
-    plt = _plt()
+    plt = pyplot()
     fig, axs = plt.subplots(len(errors), 1, figsize=(10, 2.6 * len(errors)), sharex=True, squeeze=False)
     for ax, (name, e) in zip(axs[:, 0], errors.items()):
         e = np.asarray(e, dtype=float)
@@ -77,12 +78,12 @@ def plot_errors(errors: dict, path, x=None, xlabel: str = "frame", title: str = 
     axs[-1, 0].set_xlabel(xlabel)
     if title:
         fig.suptitle(title)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_kitti_errors(kitti, path, title: str = "") -> Path:
     """The devkit's four curves: t_err and r_err vs segment length and vs speed."""
-    plt = _plt()
+    plt = pyplot()
     fig, axs = plt.subplots(2, 2, figsize=(11, 7.5))
     for col, (curve, key, xlabel) in enumerate(((kitti.by_length, "length_m", "path length (m)"),
                                                (kitti.by_speed, "speed_mps", "speed (km/h)"))):
@@ -97,12 +98,12 @@ def plot_kitti_errors(kitti, path, title: str = "") -> Path:
             ax.grid(True, alpha=0.3)
     fig.suptitle(title or f"KITTI odometry: t_err {kitti.t_err_pct:.4f} %, "
                           f"r_err {kitti.r_err_deg_per_100m:.4f} deg/100 m")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_egomotion(table, path, title: str = "") -> Path:
     """Per-frame egomotion components, ground truth vs estimate (six panels)."""
-    plt = _plt()
+    plt = pyplot()
     names = ("U", "V", "W", "α (deg)", "β (deg)", "γ (deg)")
     fig, axs = plt.subplots(3, 2, figsize=(11, 8), sharex=True)
     for c, ax in enumerate(axs.T.ravel()):
@@ -115,7 +116,7 @@ def plot_egomotion(table, path, title: str = "") -> Path:
     for ax in axs[-1]:
         ax.set_xlabel("frame k (motion k → k+1)")
     fig.suptitle(title or f"egomotion per frame ({table.param})")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_disparity_error(gt_px: np.ndarray, est_px: np.ndarray, path, max_err_px: float = 5.0,
@@ -124,7 +125,7 @@ def plot_disparity_error(gt_px: np.ndarray, est_px: np.ndarray, path, max_err_px
     no estimate; a missing estimate where the ground truth exists shows as the maximum error)."""
     import matplotlib
     from .disparity import disparity_error_map
-    plt = _plt()
+    plt = pyplot()
     gt = np.asarray(gt_px, dtype=float)
     est = np.asarray(est_px, dtype=float)
     err = disparity_error_map(gt, est)
@@ -143,7 +144,7 @@ def plot_disparity_error(gt_px: np.ndarray, est_px: np.ndarray, path, max_err_px
         fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04)
     if title:
         fig.suptitle(title)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_evaluation(ev, out_dir, title: str = "") -> dict:

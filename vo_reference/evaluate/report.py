@@ -6,17 +6,14 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import atomic
+
 from .trajectory_eval import TrajectoryEvaluation, summary_lines
 
 
 def write_json(path, data: dict) -> Path:
     """JSON with numpy scalars/arrays turned into plain numbers/lists; written atomically."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_text(json.dumps(data, indent=2, default=_plain) + "\n", encoding="utf-8")
-    tmp.replace(path)
-    return path
+    return atomic.write_text(path, json.dumps(data, indent=2, default=_plain) + "\n")
 
 
 def _plain(x):
@@ -58,5 +55,5 @@ def write_report(out_dir, ev: TrajectoryEvaluation, title: str = "Trajectory eva
             lines.append(f"![{name}]({Path(p).name})")
     lines += ["", "Definitions: docs/evaluation.md (APE/RPE as evo, KITTI as the devkit)."]
     files["summary"] = out / "summary.md"
-    files["summary"].write_text("\n".join(lines) + "\n", encoding="utf-8")
+    atomic.write_text(files["summary"], "\n".join(lines) + "\n")
     return files

@@ -16,8 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from blender_sesgen.contract.se3 import relative, rotation_angle_rad
+
 from ..errors import VoError
-from ..lie import relative, rotation_angle
 from ._poses import check_pair
 from .stats import ErrorStats
 
@@ -107,6 +108,6 @@ def rpe(gt, est, delta: float = 1, delta_unit: str = "f", all_pairs: bool = Fals
     i, j = pairs[:, 0], pairs[:, 1]
     E = relative(relative(Q[i], Q[j]), relative(P[i], P[j]))
     e_t = np.linalg.norm(E[:, :3, 3], axis=1)
-    e_r = np.degrees(rotation_angle(E[:, :3, :3]))
+    e_r = np.degrees(rotation_angle_rad(E[:, :3, :3]))
     return RPEResult(pairs, e_t, e_r, ErrorStats.of(e_t), ErrorStats.of(e_r),
                      float(delta), delta_unit, bool(all_pairs))

@@ -1,10 +1,8 @@
 """One call for the whole trajectory evaluation: associate → align → APE, RPE, KITTI, egomotion."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Optional
-
-import numpy as np
 
 from ..errors import VoError
 from ..io.trajectory import Trajectory
@@ -58,46 +56,66 @@ class TrajectoryEvaluation:
         return m
 
 
-def evaluate_trajectory(gt: Trajectory, est: Trajectory, align: str = "se3", n_align: int = -1,
-                        delta: float = 1, delta_unit: str = "f", all_pairs: bool = False,
-                        kitti: bool = False, egomotion: bool = False, max_diff_s: float = 0.01,
-                        offset_s: float = 0.0, kitti_frame_period_s: float = 0.1,
-                        ego_param: str = "twist", by_index: bool = False) -> TrajectoryEvaluation:
-    """Evaluate ``est`` against ``gt``.
+@dataclass(frozen=True)
+class EvaluationOptions:
+    """How :func:`evaluate_trajectory` pairs, aligns and measures (defaults as evo's).
 
-    Poses are associated by timestamp (``max_diff_s``, as evo) unless both already pair up
-    one-to-one (same timestamps) or ``by_index`` (pose k with pose k; needs equal lengths —
-    for files without timestamps such as KITTI's); ``est`` is aligned (``align``: none|origin|se3|sim3|scale, on the first
-    ``n_align`` poses, -1 = all); APE and RPE use the aligned estimate (as evo); the KITTI
-    metric (``kitti=True``) uses the *unaligned* associated estimate (as the devkit, which needs
-    a common first frame) unless ``align`` is ``sim3``/``scale``, where the scale is applied;
-    the egomotion table (``egomotion=True``) uses the aligned estimate.
+    Poses are associated by timestamp (``max_diff_s`` after shifting the estimate by
+    ``offset_s``, as evo) unless both already pair up one-to-one (same timestamps) or
+    ``by_index`` (pose k with pose k; needs equal lengths — for files without timestamps such
+    as KITTI's). ``align``: none|origin|se3|sim3|scale, on the first ``n_align`` poses (-1 =
+    all). RPE: pairs ``delta`` apart in ``delta_unit`` (f frames, m metres), consecutive or
+    ``all_pairs``. ``kitti``: the KITTI devkit metric (``kitti_frame_period_s`` between
+    frames). ``egomotion``: the SESGen paper's per-frame table (``ego_param``: twist|rotvec).
     """
+    align: str = "se3"
+    n_align: int = -1
+    delta: float = 1
+    delta_unit: str = "f"
+    all_pairs: bool = False
+    kitti: bool = False
+    egomotion: bool = False
+    max_diff_s: float = 0.01
+    offset_s: float = 0.0
+    kitti_frame_period_s: float = 0.1
+    ego_param: str = "twist"
+    by_index: bool = False
+
+
+def evaluate_trajectory(gt: Trajectory, est: Trajectory, options: Optional[EvaluationOptions] = None,
+                        **overrides) -> TrajectoryEvaluation:
+    """Evaluate ``est`` against ``gt`` with ``options`` (fields may also be given as keywords).
+
+    APE and RPE use the aligned estimate (as evo); the KITTI metric uses the *unaligned*
+    associated estimate (as the devkit, which needs a common first frame) unless ``align`` is
+    ``sim3``/``scale``, where the scale is applied; the egomotion table uses the aligned one.
+    """
+    o = replace(options or EvaluationOptions(), **overrides)
     n_gt, n_est = len(gt), len(est)
-    if by_index:
+    if o.by_index:
         if n_gt != n_est:
             raise VoError(f"cannot pair poses by index: ground truth has {n_gt} poses, estimate {n_est} "
                           "(give timestamps, e.g. TUM format)")
         est = Trajectory(est.T_world_cam, gt.timestamps_s)
     elif needs_association(gt, est):
-        gt, est = associate(gt, est, max_diff_s, offset_s)
+        gt, est = associate(gt, est, o.max_diff_s, o.offset_s)
     if len(gt) < 2:
         raise VoError(f"only {len(gt)} associated pose(s): nothing to evaluate")
-    est_aligned, alignment = align_trajectory(est, gt, align, n_align)
+    est_aligned, alignment = align_trajectory(est, gt, o.align, o.n_align)
     k = None
-    if kitti:
+    if o.kitti:
         est_k = est
         if alignment.method in ("sim3", "scale"):
             T = est.T_world_cam.copy()
             T[:, :3, 3] *= alignment.scale
             est_k = Trajectory(T, est.timestamps_s)
-        k = kitti_metric(gt, est_k, frame_period_s=kitti_frame_period_s)
+        k = kitti_metric(gt, est_k, frame_period_s=o.kitti_frame_period_s)
     return TrajectoryEvaluation(
         gt=gt, est=est, est_aligned=est_aligned, alignment=alignment,
         ape=ape(gt, est_aligned),
-        rpe=rpe(gt, est_aligned, delta, delta_unit, all_pairs),
+        rpe=rpe(gt, est_aligned, o.delta, o.delta_unit, o.all_pairs),
         kitti=k,
-        egomotion=egomotion_table(gt, est_aligned, ego_param) if egomotion else None,
+        egomotion=egomotion_table(gt, est_aligned, o.ego_param) if o.egomotion else None,
         n_gt_input=n_gt, n_est_input=n_est)
 
 

@@ -7,10 +7,11 @@ Blender 4.x writes a single part holding every pass (index pass named ``IndexOB`
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
+
+from blender_sesgen.contract import atomic
 
 from ..errors import VoError
 
@@ -67,15 +68,8 @@ def write_exr_single(path, channels: dict[str, np.ndarray]) -> Path:
 
 def _write_atomic(path: Path, exr_file) -> Path:
     """Write an ``OpenEXR.File`` under a temporary name, then rename it into place."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.part{os.getpid()}{path.suffix}")
-    try:
-        with exr_file as f:
-            f.write(str(tmp))
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    with atomic.replacing(path) as tmp, exr_file as f:
+        f.write(str(tmp))
     return path
 
 

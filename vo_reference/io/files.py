@@ -1,38 +1,15 @@
-"""Atomic file writing: write to a temporary name in the same folder, then rename.
-
-A reader (or a crashed export) never sees a half-written file under the final name.
+"""Image files: read with a clear error, written atomically (``blender_sesgen.contract.atomic``:
+a reader, or a crashed export, never sees a half-written file under the final name).
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import atomic
+
 from ..errors import VoError
-
-
-def _tmp_for(path: Path) -> Path:
-    # keep the extension last: OpenCV and OpenEXR pick the codec from it
-    return path.with_name(f".{path.stem}.part{os.getpid()}{path.suffix}")
-
-
-def write_bytes_atomic(path, data: bytes) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = _tmp_for(path)
-    try:
-        with open(tmp, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    return path
-
-
-def write_text_atomic(path, text: str) -> Path:
-    return write_bytes_atomic(path, text.encode("utf-8"))
 
 
 def write_image_atomic(path, image: np.ndarray, params: list[int] | None = None) -> Path:
@@ -45,7 +22,7 @@ def write_image_atomic(path, image: np.ndarray, params: list[int] | None = None)
     ok, buf = cv2.imencode(path.suffix, np.ascontiguousarray(image), params or [])
     if not ok:
         raise VoError(f"{path}: OpenCV could not encode a {image.dtype} {image.shape} image as {path.suffix}")
-    return write_bytes_atomic(path, buf.tobytes())
+    return atomic.write_bytes(path, buf.tobytes())
 
 
 def write_png_rgb(path, rgb: np.ndarray) -> Path:

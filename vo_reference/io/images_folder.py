@@ -24,15 +24,10 @@ import numpy as np
 
 from ..errors import VoError
 from .files import read_image
-from .sequence import ImagesOnly, check_frame_view
+from .base import ImagesOnly, check_frame_view
 from .trajectory import read_kitti
 
 IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".bmp", ".pgm", ".ppm", ".tif", ".tiff")
-
-
-def looks_like_image_folder(root) -> bool:
-    root = Path(root)
-    return root.is_dir() and any(p.suffix.lower() in IMAGE_EXTS for p in root.iterdir())
 
 
 def read_robotcar_timestamps(path) -> dict[int, float]:
@@ -64,7 +59,7 @@ class ImageFolderSequence(ImagesOnly):
         self.num_frames = len(self._files)
         self.bayer = None
         if bayer:
-            from ..mono.bayer import check_pattern
+            from ..camera.bayer import check_pattern
             self.bayer = check_pattern(bayer)
         first = read_image(self._files[0])
         self.resolution = (int(first.shape[1]), int(first.shape[0]))
@@ -73,7 +68,7 @@ class ImageFolderSequence(ImagesOnly):
             model = root / "model.txt"
         self.model = None
         if model is not None:
-            from ..mono.camera_model import read_camera_model
+            from ..camera.camera_model import read_camera_model
             self.model = read_camera_model(model)
             K = self.model.K if K is None else K
         self.K = None if K is None else np.asarray(K, dtype=float)
@@ -121,7 +116,7 @@ class ImageFolderSequence(ImagesOnly):
     def image_rgb(self, k: int, view: str = "left") -> np.ndarray:
         img = self.raw(k, view)
         if self.bayer:
-            from ..mono.bayer import demosaic
+            from ..camera.bayer import demosaic
             return demosaic(img, self.bayer)
         return np.repeat(img[:, :, None], 3, axis=2) if img.ndim == 2 else img
 

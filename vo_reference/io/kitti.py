@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import VoError
 from .color import rgb8_to_gray8
 from .files import read_image
-from .sequence import ImagesOnly, check_frame_view
+from .base import ImagesOnly, check_frame_view
 from .trajectory import read_kitti
 
 # (left folder, right folder, left P, right P)

@@ -7,8 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import atomic
+
 from ..errors import VoError
-from .files import write_bytes_atomic
 
 
 def write_pfm(path, image: np.ndarray) -> Path:
@@ -22,7 +23,7 @@ def write_pfm(path, image: np.ndarray) -> Path:
     H, W = a.shape[:2]
     header = kind + b"\n" + f"{W} {H}\n-1.0\n".encode("ascii")
     data = np.ascontiguousarray(np.flipud(a)).astype("<f4").tobytes()
-    return write_bytes_atomic(path, header + data)
+    return atomic.write_bytes(path, header + data)
 
 
 def read_pfm(path) -> np.ndarray:

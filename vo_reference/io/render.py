@@ -15,20 +15,20 @@ hits nothing: the reader returns +inf there, never a finite depth.
 """
 from __future__ import annotations
 
-import json
 from collections import OrderedDict
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import VoError
-from .color import linear_to_srgb8, rgb8_to_gray8
+from blender_sesgen.contract.colour import linear_to_srgb8
+from blender_sesgen.contract.depth import depth_from_pass
+from blender_sesgen.contract.manifest import MANIFEST, Manifest
+
+from ..errors import VoError, as_vo_error
+from .color import rgb8_to_gray8
+from .base import check_frame_view
 from .exr import find_pass, read_exr_channels
 from .files import read_image
-from .sequence import check_frame_view
-
-FORMAT = "sesgen-render/1"
-REQUIRED_KEYS = ("format", "resolution", "K", "baseline", "frames", "views", "poses", "files")
 
 # pass name candidates (Blender 5.0 first, then 4.x names)
 PASS_COMBINED = ("Combined",)
@@ -36,25 +36,13 @@ PASS_DEPTH = ("Depth",)
 PASS_INDEX = ("Object Index", "IndexOB")
 
 
-def read_manifest(root) -> dict:
-    """Load and check ``manifest.json`` of a render folder; VoError on any defect."""
+def read_manifest(root) -> Manifest:
+    """The validated manifest of a render folder (completion logs merged); VoError on any defect."""
     root = Path(root)
-    path = root / "manifest.json"
-    if not path.is_file():
+    if not (root / MANIFEST).is_file():
         raise VoError(f"{root}: no manifest.json (not a render folder)")
-    try:
-        m = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise VoError(f"{path}: not valid JSON ({e})") from None
-    if not isinstance(m, dict):
-        raise VoError(f"{path}: expected a JSON object")
-    fmt = m.get("format")
-    if fmt != FORMAT:
-        raise VoError(f"{path}: format {fmt!r} is not supported (this reader reads {FORMAT!r})")
-    missing = [k for k in REQUIRED_KEYS if k not in m]
-    if missing:
-        raise VoError(f"{path}: missing key(s) {', '.join(missing)}")
-    return m
+    with as_vo_error():
+        return Manifest.read(root)
 
 
 class RenderSequence:
@@ -67,47 +55,21 @@ class RenderSequence:
 
     def __init__(self, root, cache_frames: int = 4):
         self.root = Path(root)
-        self.manifest = m = read_manifest(self.root)
-        where = self.root / "manifest.json"
-        try:
-            W, H = (int(v) for v in m["resolution"])
-            self.K = np.array(m["K"], dtype=float).reshape(3, 3)
-            self.baseline_m = float(m["baseline"])
-            self.num_frames = int(m["frames"])
-            self.views = tuple(str(v) for v in m["views"])
-        except (TypeError, ValueError) as e:
-            raise VoError(f"{where}: bad resolution/K/baseline/frames/views ({e})") from None
-        self.resolution = (W, H)
-        if not self.views or self.views[0] != "left" or not set(self.views) <= {"left", "right"}:
-            raise VoError(f"{where}: views must be ['left'] or ['left', 'right'], got {list(self.views)}")
-        if "right" not in self.views:
-            self.baseline_m = 0.0
-        depth = m.get("depth") or {}
-        if depth.get("kind", "planar_z") != "planar_z":
-            raise VoError(f"{where}: depth kind {depth.get('kind')!r} not supported (planar_z)")
-        self.depth_background = float(depth.get("background", 1e10))
-        self.near = float(m.get("near", 0.0))
-        self.far = float(m.get("far", np.inf))
-        self.objects = list(m.get("objects") or [])
-        noise = m.get("noise")
+        self.info = m = read_manifest(self.root)
+        self.manifest = m.to_json()
+        self.resolution = m.resolution
+        self.K = m.K
+        self.baseline_m = m.baseline
+        self.num_frames = m.frames
+        self.views = m.views
+        self.depth_background = m.depth_background
+        self.near, self.far = m.near, m.far
+        self.objects = m.objects
+        noise = m.extra.get("noise")
         self.noise = (float(noise["sigma"]), int(noise.get("seed", 0))) if isinstance(noise, dict) else None
-
-        self._poses: dict[str, np.ndarray] = {}
-        for v in self.views:
-            try:
-                T = np.array(m["poses"][v], dtype=float)
-            except (KeyError, TypeError, ValueError):
-                raise VoError(f"{where}: no usable poses for view {v!r}") from None
-            if T.shape != (self.num_frames, 4, 4):
-                raise VoError(f"{where}: poses[{v!r}] has shape {T.shape}, expected ({self.num_frames}, 4, 4)")
-            self._poses[v] = T
-        self._files: dict[str, list] = {}
-        for v in self.views:
-            files = (m["files"] or {}).get(v)
-            if not isinstance(files, list) or len(files) != self.num_frames:
-                raise VoError(f"{where}: files[{v!r}] must list {self.num_frames} paths")
-            self._files[v] = files
-        self.timestamps_s = _timestamps(m, self.num_frames, where)
+        self._poses = m.poses
+        self._files = m.files
+        self.timestamps_s = m.timestamps_s
         self._cache: OrderedDict = OrderedDict()
         self._cache_frames = max(1, int(cache_frames))
 
@@ -120,22 +82,10 @@ class RenderSequence:
         return self.root / rel
 
     def frame_complete(self, k: int) -> bool:
-        """True when frame k is recorded complete and its EXR files exist for every view.
-
-        The manifest's per-frame state is ``frames_complete`` (list of bools; a dict
-        view -> list is accepted too); without it, existence of the listed files decides."""
-        if not 0 <= int(k) < self.num_frames:
+        """True when frame k is recorded complete and its EXR files exist for every view."""
+        if not 0 <= int(k) < self.num_frames or not self.info.frames_complete[int(k)]:
             return False
-        state = self.manifest.get("frames_complete", self.manifest.get("complete"))
-        for v in self.views:
-            rel = self._files[v][int(k)]
-            if not rel or not (self.root / rel).is_file():
-                return False
-            if isinstance(state, dict) and v in state and not state[v][int(k)]:
-                return False
-        if isinstance(state, list) and len(state) == self.num_frames and not state[int(k)]:
-            return False
-        return True
+        return all((self.root / self._files[v][int(k)]).is_file() for v in self.views)
 
     def _channels(self, k: int, view: str) -> dict:
         key = (int(k), view)
@@ -157,7 +107,7 @@ class RenderSequence:
     def _pass(self, k, view, names, comps, what, key=None):
         ch = self._channels(k, view)
         found = None
-        named = (self.manifest.get("channels") or {}).get(key) if key else None
+        named = self.info.channels.get(key) if key else None
         if named:  # the manifest names the channels: use them exactly
             named = [named] if isinstance(named, str) else list(named)[:len(comps)]
             found = named if all(n in ch for n in named) else None
@@ -209,9 +159,7 @@ class RenderSequence:
     def depth(self, k: int, view: str = "left") -> np.ndarray:
         """float32 (H, W) planar z in metres, +inf where nothing was hit."""
         (z,) = self._pass(k, view, PASS_DEPTH, ("Z",), "Depth", "depth")
-        z = z.astype(np.float32, copy=True)
-        z[~np.isfinite(z) | (z >= 0.999 * self.depth_background) | (z <= 0.0)] = np.inf
-        return z
+        return depth_from_pass(z, self.depth_background)
 
     def ids(self, k: int, view: str = "left") -> np.ndarray:
         """int32 (H, W) object ids (the script's ``id``), 0 = background."""
@@ -226,18 +174,3 @@ class RenderSequence:
     def __repr__(self) -> str:
         W, H = self.resolution
         return f"RenderSequence({str(self.root)!r}, {self.num_frames} frames, {W}x{H}, views={self.views})"
-
-
-def _timestamps(m: dict, n: int, where) -> np.ndarray:
-    """Per-frame times: ``timestamps`` (s) if given, else frame / ``fps`` (top level or in
-    ``render``), else the frame index (1 s per frame)."""
-    ts = m.get("timestamps")
-    if ts is not None:
-        t = np.asarray(ts, dtype=float)
-        if t.shape != (n,):
-            raise VoError(f"{where}: timestamps has {t.size} values for {n} frames")
-        return t
-    fps = m.get("fps") or (m.get("render") or {}).get("fps")
-    if fps:
-        return np.arange(n, dtype=float) / float(fps)
-    return np.arange(n, dtype=float)

@@ -9,8 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import atomic
+from blender_sesgen.contract.timing import frame_range
+
 from ..errors import VoError
-from ..io.sequence import frame_range
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -87,14 +89,13 @@ def run(args: argparse.Namespace) -> int:
     if args.lut and args.dist:
         raise VoError("give either --lut or --dist, not both")
     if args.lut:
-        from .undistort import read_lut
+        from ..camera.undistort import read_lut
         maps = read_lut(args.lut, W, H)
     elif args.dist:
-        from ..products.bayer_export import parse_distortion
-        from .undistort import lut_from_distortion
+        from ..camera.undistort import lut_from_distortion, parse_distortion
         maps = lut_from_distortion(seq.K, parse_distortion(args.dist), W, H)
     if args.bayer:
-        from .bayer import check_pattern
+        from ..camera.bayer import check_pattern
         check_pattern(args.bayer)
     prep = Preparation(bayer=args.bayer, maps=maps, blur_sigma=args.blur, equalize=args.equalize)
     rects = []
@@ -272,5 +273,5 @@ def write_plots(out: Path, res, gt, errs, summary) -> None:
     for i, r in enumerate(recs):
         rows.append(f"{r.k},{r.status},{r.n_matches},{r.n_inliers},{r.n_inliers_cv},{r.step_m:.6f},"
                     + ",".join(f"{errs[k][i]:.6f}" for k in errs))
-    (out / "frames.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
-    (out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
+    atomic.write_text(out / "frames.csv", "\n".join(rows) + "\n")
+    atomic.write_text(out / "summary.json", json.dumps(summary, indent=1) + "\n")

@@ -13,7 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..lie import se3
+from blender_sesgen.contract.se3 import se3
+
 from .triangulation import projection_matrix, triangulate_linear
 
 W = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])

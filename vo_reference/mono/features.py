@@ -4,7 +4,7 @@ Every method returns :class:`Matches` sorted by error (best first), cut to the b
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -114,23 +114,36 @@ def track_lk(img1: np.ndarray, img2: np.ndarray, x1: np.ndarray, win: int = LK_W
     return Matches(np.asarray(x1, float)[ok], x2[ok], fb[ok])
 
 
-def correspondences(img1: np.ndarray, img2: np.ndarray, method: str = "klt",
-                    mask: np.ndarray | None = None, best_n: int | None = 1000,
-                    n_features: int = 3000, ratio: float = 0.75,
-                    fb_threshold_px: float = 1.0, lk_window: int = LK_WINDOW,
-                    lk_levels: int = LK_LEVELS, corner_quality: float = CORNER_QUALITY,
-                    corner_min_distance: int = CORNER_MIN_DISTANCE) -> Matches:
-    """Matches from frame 1 to frame 2 by ``method`` (klt, orb, sift), both ends inside the
-    mask, sorted by error and cut to the best ``best_n``. The ``lk_*`` and ``corner_*``
-    settings apply to ``klt``."""
-    if method == "klt":
-        x1 = detect_corners(img1, mask, n_features, corner_min_distance, corner_quality)
-        m = track_lk(img1, img2, x1, lk_window, lk_levels, fb_threshold_px)
-    elif method in ("orb", "sift"):
-        m = match_descriptors(img1, img2, method, mask, n_features, ratio)
+@dataclass(frozen=True)
+class MatchParams:
+    """How :func:`correspondences` matches: ``method`` (klt, orb, sift), ``n_features``
+    detected per frame, the best ``best_n`` kept; ``ratio`` (Lowe's test, orb/sift); for klt
+    the LK window and pyramid levels, the forward-backward threshold and the Shi-Tomasi
+    quality and minimum distance."""
+    method: str = "klt"
+    best_n: int | None = 1000
+    n_features: int = 3000
+    ratio: float = 0.75
+    fb_threshold_px: float = 1.0
+    lk_window: int = LK_WINDOW
+    lk_levels: int = LK_LEVELS
+    corner_quality: float = CORNER_QUALITY
+    corner_min_distance: int = CORNER_MIN_DISTANCE
+
+
+def correspondences(img1: np.ndarray, img2: np.ndarray, params: MatchParams | None = None,
+                    mask: np.ndarray | None = None, **overrides) -> Matches:
+    """Matches from frame 1 to frame 2 (``params``; fields may also be given as keywords),
+    both ends inside the mask, sorted by error and cut to the best ``best_n``."""
+    p = replace(params or MatchParams(), **overrides)
+    if p.method == "klt":
+        x1 = detect_corners(img1, mask, p.n_features, p.corner_min_distance, p.corner_quality)
+        m = track_lk(img1, img2, x1, p.lk_window, p.lk_levels, p.fb_threshold_px)
+    elif p.method in ("orb", "sift"):
+        m = match_descriptors(img1, img2, p.method, mask, p.n_features, p.ratio)
     else:
-        raise VoError(f"unknown feature method {method!r} ({', '.join(METHODS)})")
+        raise VoError(f"unknown feature method {p.method!r} ({', '.join(METHODS)})")
     keep = _inside(mask, m.x1) & _inside(mask, m.x2)
     h, w = img2.shape[:2]
     keep &= (m.x2[:, 0] >= 0) & (m.x2[:, 0] <= w - 1) & (m.x2[:, 1] >= 0) & (m.x2[:, 1] <= h - 1)
-    return Matches(m.x1[keep], m.x2[keep], m.error[keep]).best(best_n)
+    return Matches(m.x1[keep], m.x2[keep], m.error[keep]).best(p.best_n)

@@ -26,12 +26,11 @@ x₂ = R x₁ + t. Returned E matrices have unit Frobenius norm.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from itertools import combinations_with_replacement
 
 import numpy as np
 
 from ..errors import VoError
-from .fundamental import ransac_iterations, sampson_distance
+from .fundamental import SampleBudget, sampson_distance
 
 # monomials x^a y^b z^c as exponent triples: the ten cubics first, then the basis B
 CUBICS = [(3, 0, 0), (2, 1, 0), (2, 0, 1), (1, 2, 0), (1, 1, 1), (1, 0, 2), (0, 3, 0), (0, 2, 1),
@@ -303,16 +302,9 @@ def ransac_essential(x1: np.ndarray, x2: np.ndarray, K: np.ndarray, threshold_px
     q1 = x1 @ Kinv[:2, :2].T + Kinv[:2, 2]
     q2 = x2 @ Kinv[:2, :2].T + Kinv[:2, 2]
     by_cost = score == "msac"
-    rng = np.random.default_rng(seed)
+    budget = SampleBudget(np.random.default_rng(seed), n, 5, confidence, min_iterations, max_iterations, batch)
     best = None                                   # (E, inliers, count, cost)
-    needed, drawn = float(max_iterations), 0
-
-    def target():
-        return min(max(needed, min_iterations), max_iterations)
-    while drawn < target():
-        b = int(min(batch, max(1, target() - drawn)))
-        idx = np.argpartition(rng.random((b, n)), 5, axis=1)[:, :5]
-        drawn += b
+    for idx in budget.batches():
         E, valid = five_point_batch(q1[idx], q2[idx])
         E = E[valid]
         if not len(E):
@@ -322,7 +314,7 @@ def ransac_essential(x1: np.ndarray, x2: np.ndarray, K: np.ndarray, threshold_px
         if best is None or _better(count[j], cost[j], best[2], best[3], by_cost):
             best = _refit(E[j], inl[j], int(count[j]), float(cost[j]), q1, q2, Kinv, x1, x2,
                           threshold_px, rounds=4, by_cost=by_cost)
-            needed = ransac_iterations(best[2] / n, confidence, sample_size=5)
+            budget.update(best[2])
     if best is None or best[2] < 5:
         raise VoError(f"the 5-point RANSAC found no essential matrix with 5 inliers among {n} matches")
     E, inl, count, cost = best
@@ -332,4 +324,4 @@ def ransac_essential(x1: np.ndarray, x2: np.ndarray, K: np.ndarray, threshold_px
         if E2 is E:
             break
         E, inl, count, cost = E2, inl2, count2, cost2
-    return EssentialRansacResult(E, _to_F(E, Kinv), inl, drawn)
+    return EssentialRansacResult(E, _to_F(E, Kinv), inl, budget.drawn)

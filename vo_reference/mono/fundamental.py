@@ -99,6 +99,33 @@ def ransac_iterations(inlier_ratio: float, confidence: float, sample_size: int =
     return float(np.log(1.0 - confidence) / np.log1p(-p_good))
 
 
+class SampleBudget:
+    """RANSAC's adaptive sampling: random minimal samples of ``sample_size`` of ``n`` matches,
+    drawn ``batch`` at a time, until the count :func:`ransac_iterations` gives for the best
+    inlier count so far (:meth:`update`) is reached, within [``min_iterations``,
+    ``max_iterations``]. ``drawn`` counts the samples drawn."""
+
+    def __init__(self, rng, n: int, sample_size: int, confidence: float, min_iterations: int,
+                 max_iterations: int, batch: int):
+        self.rng, self.n, self.k, self.confidence = rng, n, sample_size, confidence
+        self.min_iterations, self.max_iterations, self.batch = min_iterations, max_iterations, batch
+        self.needed, self.drawn = float(max_iterations), 0
+
+    def _target(self) -> float:
+        return min(max(self.needed, self.min_iterations), self.max_iterations)
+
+    def batches(self):
+        """Index arrays (b, sample_size) of the samples, batch by batch."""
+        while self.drawn < self._target():
+            b = int(min(self.batch, max(1, self._target() - self.drawn)))
+            idx = np.argpartition(self.rng.random((b, self.n)), self.k, axis=1)[:, :self.k]
+            self.drawn += b
+            yield idx
+
+    def update(self, best_inliers: int) -> None:
+        self.needed = ransac_iterations(best_inliers / self.n, self.confidence, sample_size=self.k)
+
+
 def calibrated_fundamental(F: np.ndarray, K: np.ndarray) -> np.ndarray:
     """Project F (..., 3, 3) onto the fundamental matrices of a calibrated pair with
     intrinsics K: E = KᵀFK with singular values forced to (1, 1, 0), F = K⁻ᵀ E K⁻¹."""
@@ -171,16 +198,9 @@ def ransac_fundamental(x1: np.ndarray, x2: np.ndarray, threshold_px: float = 1.0
     n = len(x1)
     if n < 8 or x2.shape != x1.shape:
         raise VoError(f"RANSAC needs at least 8 correspondences, got {n}")
-    rng = np.random.default_rng(seed)
+    budget = SampleBudget(np.random.default_rng(seed), n, 8, confidence, min_iterations, max_iterations, batch)
     best_count, best_cost, best_F = -1, np.inf, None
-    needed, drawn = float(max_iterations), 0
-
-    def target():
-        return min(max(needed, min_iterations), max_iterations)
-    while drawn < target():
-        b = int(min(batch, max(1, target() - drawn)))
-        idx = np.argpartition(rng.random((b, n)), 8, axis=1)[:, :8]
-        drawn += b
+    for idx in budget.batches():
         with np.errstate(all="ignore"):
             F = eight_point(x1[idx], x2[idx])
         ok = np.all(np.isfinite(F), axis=(1, 2))
@@ -197,7 +217,7 @@ def ransac_fundamental(x1: np.ndarray, x2: np.ndarray, threshold_px: float = 1.0
         if best_F is None or _better(count[j], cost[j], best_count, best_cost, by_cost):
             best_count, best_cost, best_F = _local_optimisation(F[j], int(count[j]), float(cost[j]),
                                                                 x1, x2, threshold_px, K, by_cost=by_cost)
-            needed = ransac_iterations(best_count / n, confidence)
+            budget.update(best_count)
     if best_F is None or best_count < 8:
         raise VoError(f"RANSAC found no fundamental matrix with 8 inliers among {n} matches")
     F, inliers = best_F, sampson_distance(best_F, x1, x2) < threshold_px
@@ -212,4 +232,4 @@ def ransac_fundamental(x1: np.ndarray, x2: np.ndarray, threshold_px: float = 1.0
         if np.array_equal(inl_new, inliers):
             break
         inliers = inl_new
-    return RansacResult(F, inliers, drawn)
+    return RansacResult(F, inliers, budget.drawn)

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..lie import rotation_angle, se3_inverse
+from blender_sesgen.contract.se3 import invert, rotation_angle_rad
+
 
 
 def rotation_difference_deg(T_a: np.ndarray, T_b: np.ndarray) -> float:
-    return float(np.degrees(rotation_angle(T_a[:3, :3].T @ T_b[:3, :3])))
+    return float(np.degrees(rotation_angle_rad(T_a[:3, :3].T @ T_b[:3, :3])))
 
 
 def direction_difference_deg(T_a: np.ndarray, T_b: np.ndarray) -> float:
@@ -23,7 +24,7 @@ def direction_difference_deg(T_a: np.ndarray, T_b: np.ndarray) -> float:
 def gt_motions(T_world_cam: np.ndarray) -> np.ndarray:
     """(N−1, 4, 4) ground-truth camera motions T_c(k−1)_c(k)."""
     T = np.asarray(T_world_cam, dtype=float)
-    return se3_inverse(T[:-1]) @ T[1:]
+    return invert(T[:-1]) @ T[1:]
 
 
 def per_frame_errors(records, T_gt: np.ndarray | None) -> dict[str, np.ndarray]:

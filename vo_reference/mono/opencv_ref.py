@@ -8,7 +8,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import VoError
-from .essential import camera_motion
 from .relative_pose import RelativePose
 
 

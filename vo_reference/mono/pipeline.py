@@ -14,10 +14,11 @@ from typing import Callable
 
 import numpy as np
 
+from blender_sesgen.contract.se3 import se3
+
 from ..errors import VoError
-from ..lie import se3
-from .features import CORNER_MIN_DISTANCE, CORNER_QUALITY, LK_LEVELS, LK_WINDOW, correspondences
-from .relative_pose import estimate_relative_pose
+from .features import CORNER_MIN_DISTANCE, CORNER_QUALITY, LK_LEVELS, LK_WINDOW, MatchParams, correspondences
+from .relative_pose import TwoViewParams, estimate_relative_pose
 
 
 @dataclass
@@ -41,6 +42,16 @@ class MonoVoConfig:
     min_flow_px: float = 0.5       # median flow below this: no motion estimated (static)
     compare_opencv: bool = False
     opencv_method: str = "usac"    # usac (USAC_ACCURATE) | ransac (classic RANSAC)
+
+    def matching(self) -> MatchParams:
+        return MatchParams(method=self.features, best_n=self.best_n, n_features=self.n_features, ratio=self.ratio,
+                           fb_threshold_px=self.fb_threshold_px, lk_window=self.lk_window, lk_levels=self.lk_levels,
+                           corner_quality=self.corner_quality, corner_min_distance=self.corner_min_distance)
+
+    def two_view(self) -> TwoViewParams:
+        return TwoViewParams(threshold_px=self.threshold_px, confidence=self.confidence,
+                             max_iterations=self.max_iterations, seed=self.seed, refine=self.refine,
+                             solver=self.solver, select=self.score)
 
 
 @dataclass
@@ -91,13 +102,12 @@ def run_mono_vo(gray_of: Callable[[int], np.ndarray], num_frames: int, K: np.nda
     records = [FrameRecord(0, status="first")]
     prev_img = gray_of(0)
     last_rel, last_rel_cv = np.eye(4), np.eye(4)
+    matching, two_view = cfg.matching(), cfg.two_view()
     for k in range(1, num_frames):
         t_start = time.perf_counter()
         img = gray_of(k)
         rec = FrameRecord(k)
-        m = correspondences(prev_img, img, cfg.features, mask, cfg.best_n, cfg.n_features,
-                            cfg.ratio, cfg.fb_threshold_px, cfg.lk_window, cfg.lk_levels,
-                            cfg.corner_quality, cfg.corner_min_distance)
+        m = correspondences(prev_img, img, matching, mask)
         rec.n_matches = len(m)
         rel = rel_cv = None
         if len(m) >= 8 and np.median(np.linalg.norm(m.x2 - m.x1, axis=1)) < cfg.min_flow_px:
@@ -106,11 +116,8 @@ def run_mono_vo(gray_of: Callable[[int], np.ndarray], num_frames: int, K: np.nda
             rec.status, rec.message = "failed", f"{len(m)} matches"
         else:
             try:
-                rel = estimate_relative_pose(m.x1, m.x2, K, cfg.threshold_px, cfg.confidence,
-                                             cfg.max_iterations, cfg.seed, cfg.refine,
-                                             priors=(last_rel, FORWARD),
-                                             triangulate=getattr(scale, "needs_points", False),
-                                             solver=cfg.solver, select=cfg.score)
+                rel = estimate_relative_pose(m.x1, m.x2, K, two_view, priors=(last_rel, FORWARD),
+                                             triangulate=getattr(scale, "needs_points", False))
                 rec.T_rel, rec.n_inliers = rel.T_c1_c2, rel.n_inliers
             except VoError as e:
                 rec.status, rec.message = "failed", str(e)

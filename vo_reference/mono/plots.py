@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..evaluate.plots import _plt, _save
+from ..evaluate.plots import pyplot, save_figure
 
 COLOURS = {"ground truth": "tab:green", "ours": "tab:red", "OpenCV": "tab:blue"}
 
@@ -14,7 +14,7 @@ COLOURS = {"ground truth": "tab:green", "ours": "tab:red", "OpenCV": "tab:blue"}
 def plot_paths(paths: dict[str, np.ndarray], path, title: str = "") -> Path:
     """Positions (N, 3) per name; top view x–z and side view z–y (the ground plane of a
     forward-looking OpenCV camera's world is x–z)."""
-    plt = _plt()
+    plt = pyplot()
     fig, axs = plt.subplots(1, 2, figsize=(12, 5.5))
     for name, P in paths.items():
         P = np.asarray(P)
@@ -32,12 +32,12 @@ def plot_paths(paths: dict[str, np.ndarray], path, title: str = "") -> Path:
     if title:
         fig.suptitle(title)
     fig.tight_layout()
-    return _save(fig, path, dpi=110)
+    return save_figure(fig, path, dpi=110)
 
 
 def plot_frame_series(series: dict[str, np.ndarray], path, title: str = "") -> Path:
     """One panel per named per-frame series (frames 1..N−1), skipping all-nan ones."""
-    plt = _plt()
+    plt = pyplot()
     series = {k: np.asarray(v, float) for k, v in series.items() if np.isfinite(np.asarray(v, float)).any()}
     n = max(1, len(series))
     fig, axs = plt.subplots(n, 1, figsize=(10, 2.2 * n), sharex=True, squeeze=False)
@@ -49,4 +49,4 @@ def plot_frame_series(series: dict[str, np.ndarray], path, title: str = "") -> P
     if title:
         fig.suptitle(title)
     fig.tight_layout()
-    return _save(fig, path, dpi=110)
+    return save_figure(fig, path, dpi=110)

@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.spatial.transform import Rotation
+
+from blender_sesgen.contract.se3 import R_to_quat_xyzw, quat_xyzw_to_R
 
 from ..errors import VoError
 
@@ -55,11 +56,11 @@ def nonlinear_pnp(X: np.ndarray, x: np.ndarray, K: np.ndarray, R0: np.ndarray, t
     X = np.asarray(X, dtype=float)
     x = np.asarray(x, dtype=float)
     C0 = -R0.T @ t0
-    q0 = Rotation.from_matrix(R0).as_quat()       # x, y, z, w
+    q0 = R_to_quat_xyzw(R0)       # x, y, z, w
 
     def fun(p):
         q, C = p[:4], p[4:]
-        R = Rotation.from_quat(q / np.linalg.norm(q)).as_matrix()
+        R = quat_xyzw_to_R(q)
         h = (X - C) @ R.T @ K.T
         r = (h[:, :2] / h[:, 2:3] - x).ravel()
         return np.append(r, q @ q - 1.0)
@@ -67,5 +68,5 @@ def nonlinear_pnp(X: np.ndarray, x: np.ndarray, K: np.ndarray, R0: np.ndarray, t
     res = least_squares(fun, np.concatenate([q0, C0]), method="trf", loss=loss,
                         f_scale=f_scale, max_nfev=max_nfev, xtol=1e-12, ftol=1e-12)
     q, C = res.x[:4], res.x[4:]
-    R = Rotation.from_quat(q / np.linalg.norm(q)).as_matrix()
+    R = quat_xyzw_to_R(q)
     return R, -R @ C

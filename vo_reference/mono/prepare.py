@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import VoError
-from .bayer import demosaic
+from ..camera.bayer import demosaic
 
 
 @dataclass
@@ -27,7 +27,7 @@ class Preparation:
         if self.bayer:
             img = demosaic(img, self.bayer)
         if self.maps is not None:
-            from .undistort import remap
+            from ..camera.undistort import remap
             img = remap(img, *self.maps)
         return img
 

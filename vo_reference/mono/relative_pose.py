@@ -20,14 +20,14 @@ Refinements (``refine``):
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.spatial.transform import Rotation
+
+from blender_sesgen.contract.se3 import skew, so3_exp
 
 from ..errors import VoError
-from ..lie import skew
 from .essential import camera_motion, choose_pose, essential_from_fundamental
 from .five_point import ransac_essential
 from .fundamental import ransac_fundamental
@@ -89,7 +89,7 @@ def refine_sampson(R: np.ndarray, t: np.ndarray, x1: np.ndarray, x2: np.ndarray,
 
     def model(p):
         tp = t + B @ p[3:]
-        return Rotation.from_rotvec(p[:3]).as_matrix() @ R, tp / np.linalg.norm(tp)
+        return so3_exp(p[:3]) @ R, tp / np.linalg.norm(tp)
 
     def fun(p):
         return _sampson_residuals(*model(p), h1, h2, Kinv)
@@ -135,38 +135,53 @@ def _point_transform(T_c1_c2: np.ndarray) -> tuple[np.ndarray, np.ndarray] | Non
     return R, -R @ C / n
 
 
-def estimate_relative_pose(x1: np.ndarray, x2: np.ndarray, K: np.ndarray, threshold_px: float = 1.0,
-                           confidence: float = 0.999, max_iterations: int = 5000,
-                           seed: int | None = 0, refine: str = "sampson", rounds: int = 2,
-                           priors: tuple = (), triangulate: bool = True, solver: str = "5pt", select: str = "msac") -> RelativePose:
+@dataclass(frozen=True)
+class TwoViewParams:
+    """How :func:`estimate_relative_pose` estimates: our RANSAC (``solver``: ``5pt``
+    calibrated 5-point or ``8pt`` 8-point F; ``select``: ``msac`` or ``count`` scoring, with
+    ``threshold_px`` Sampson distance, ``confidence``, ``max_iterations``, ``seed``) and the
+    refinement (``refine``: ``sampson``, ``pnp`` with ``rounds`` of triangulation/PnP, or ``none``)."""
+    threshold_px: float = 1.0
+    confidence: float = 0.999
+    max_iterations: int = 5000
+    seed: int | None = 0
+    refine: str = "sampson"
+    rounds: int = 2
+    solver: str = "5pt"
+    select: str = "msac"
+
+    def __post_init__(self):
+        for value, allowed, what in ((self.refine, REFINEMENTS, "refinement"), (self.select, SCORES, "score"),
+                                     (self.solver, SOLVERS, "solver")):
+            if value not in allowed:
+                raise VoError(f"unknown {what} {value!r} ({', '.join(allowed)})")
+
+
+def estimate_relative_pose(x1: np.ndarray, x2: np.ndarray, K: np.ndarray, params: TwoViewParams | None = None, *,
+                           priors: tuple = (), triangulate: bool = True, **overrides) -> RelativePose:
     """Relative pose of frame 2 to frame 1 from pixel matches (N, 2) (unit translation).
 
-    With ``refine='sampson'``, the RANSAC pose and each motion in ``priors`` (camera motions
-    T_c1_c2, e.g. the previous frame's: a constant-velocity hypothesis) are refined with a
-    robust Sampson fit over all matches (bounded arctan loss; Cauchy with ``select='count'``),
-    and the one with the lowest MSAC cost Σ min(d², τ²) wins (``select='count'``: the most
-    inliers); ``select`` also sets the RANSAC score.
-    That guards against the rotation/translation ambiguity of forward motion, where a noisy
-    8-point sample can lead RANSAC into a false optimum with sideways translation.
-    ``triangulate=False`` keeps the linear triangulation in ``X_c1`` (the non-linear one
-    is only needed when the points set the scale). ``solver``: ``5pt`` (calibrated 5-point
-    RANSAC) or ``8pt`` (8-point F RANSAC).
+    ``params`` (fields may also be given as keywords) say how. With ``refine='sampson'``, the
+    RANSAC pose and each motion in ``priors`` (camera motions T_c1_c2, e.g. the previous
+    frame's: a constant-velocity hypothesis) are refined with a robust Sampson fit over all
+    matches (bounded arctan loss; Cauchy with ``select='count'``), and the one with the lowest
+    MSAC cost Σ min(d², τ²) wins (``select='count'``: the most inliers); ``select`` also sets
+    the RANSAC score. That guards against the rotation/translation ambiguity of forward
+    motion, where a noisy 8-point sample can lead RANSAC into a false optimum with sideways
+    translation. ``triangulate=False`` keeps the linear triangulation in ``X_c1`` (the
+    non-linear one is only needed when the points set the scale).
     """
-    if refine not in REFINEMENTS:
-        raise VoError(f"unknown refinement {refine!r} ({', '.join(REFINEMENTS)})")
-    if select not in SCORES:
-        raise VoError(f"unknown score {select!r} ({', '.join(SCORES)})")
-    if solver not in SOLVERS:
-        raise VoError(f"unknown solver {solver!r} ({', '.join(SOLVERS)})")
+    p = replace(params or TwoViewParams(), **overrides)
+    threshold_px, refine, select, solver = p.threshold_px, p.refine, p.select, p.solver
     x1 = np.asarray(x1, dtype=float)
     x2 = np.asarray(x2, dtype=float)
     K = np.asarray(K, dtype=float)
     if solver == "5pt":
-        r = ransac_essential(x1, x2, K, threshold_px, confidence, max_iterations, seed,
+        r = ransac_essential(x1, x2, K, threshold_px, p.confidence, p.max_iterations, p.seed,
                              score="msac" if select == "msac" else "count")
         E = r.E
     else:
-        r = ransac_fundamental(x1, x2, threshold_px, confidence, max_iterations, seed)
+        r = ransac_fundamental(x1, x2, threshold_px, p.confidence, p.max_iterations, p.seed)
         E = essential_from_fundamental(r.F, K)
     idx = np.flatnonzero(r.inliers)
     choice = choose_pose(E, K, x1[idx], x2[idx])
@@ -199,7 +214,7 @@ def estimate_relative_pose(x1: np.ndarray, x2: np.ndarray, K: np.ndarray, thresh
         X = choice.X[front]
         if refine == "pnp":
             a, b = x1[idx[front]], x2[idx[front]]
-            for _ in range(rounds):
+            for _ in range(p.rounds):
                 X = triangulate_nonlinear(P1, projection_matrix(K, R, t), a, b, X)
                 R, t = nonlinear_pnp(X, b, K, R, t)
             scale = np.linalg.norm(t)

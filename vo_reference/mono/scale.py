@@ -18,6 +18,8 @@ from typing import Callable
 
 import numpy as np
 
+from blender_sesgen.contract.depth import depth_from_disparity
+
 from ..errors import VoError
 
 SOURCES = ("gt", "speed", "stereo", "depth", "none")
@@ -97,4 +99,4 @@ class StereoScale:
         x2, _, ok = lk_track(self.left_of(k - 1), self.right_of(k - 1), x1, win=21, levels=4)
         d = x1[:, 0] - x2[:, 0]
         ok &= (np.abs(x1[:, 1] - x2[:, 1]) < self.max_dy) & (d > self.min_d)
-        return _median_ratio(self.fx * self.B / d[ok], rel.X_c1[ok, 2])
+        return _median_ratio(depth_from_disparity(d[ok], self.fx, self.B), rel.X_c1[ok, 2])

@@ -25,23 +25,13 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import atomic
+
 from ..errors import VoError
-from ..io.files import write_image_atomic, write_text_atomic
-from ..mono.bayer import check_pattern, mosaic
-from ..mono.camera_model import write_camera_model
-from ..mono.undistort import distortion_maps, lut_from_distortion, remap, write_lut
-
-
-def parse_distortion(text: str | None) -> np.ndarray | None:
-    if text is None or not str(text).strip():
-        return None
-    try:
-        d = np.array([float(v) for v in str(text).replace(",", " ").split()])
-    except ValueError:
-        raise VoError(f"dist={text!r}: expected k1,k2,p1,p2[,k3]") from None
-    if d.size not in (4, 5):
-        raise VoError(f"dist={text!r}: expected 4 or 5 coefficients (k1,k2,p1,p2[,k3])")
-    return d
+from ..io.files import write_image_atomic
+from ..camera.bayer import check_pattern, mosaic
+from ..camera.camera_model import write_camera_model
+from ..camera.undistort import distortion_maps, lut_from_distortion, parse_distortion, remap, write_lut
 
 
 def timestamp_names(timestamps_s: np.ndarray) -> list[str]:
@@ -72,11 +62,11 @@ def write_bayer_frames(frames_rgb, timestamps_s, T_world_cam, K, out, pattern: s
                 write_lut(out / "model_distortion_lut.bin", *lut_from_distortion(K, dist, w, h))
             rgb = remap(rgb, *maps)
         write_image_atomic(out / f"{name}.png", mosaic(rgb, pattern))
-    write_text_atomic(out / "stereo.timestamps", "".join(f"{n} 1\n" for n in names))
+    atomic.write_text(out / "stereo.timestamps", "".join(f"{n} 1\n" for n in names))
     write_camera_model(out / "model.txt", K)
     if T_world_cam is not None:
         T = np.asarray(T_world_cam)
-        write_text_atomic(out / "poses.txt", "".join(" ".join(f"{v:.9e}" for v in P[:3].ravel()) + "\n" for P in T))
+        atomic.write_text(out / "poses.txt", "".join(" ".join(f"{v:.9e}" for v in P[:3].ravel()) + "\n" for P in T))
     return out
 
 
@@ -97,4 +87,4 @@ def export_bayer(seq, out: Path, opts) -> None:
                        None if T is None else T[frames], seq.K, out, pattern, dist)
     info = {"pattern": pattern, "view": view, "distortion": None if dist is None else dist.tolist(),
             "source_frames": frames, "K": np.asarray(seq.K).tolist()}
-    write_text_atomic(Path(out) / "bayer.json", json.dumps(info, indent=1) + "\n")
+    atomic.write_text(Path(out) / "bayer.json", json.dumps(info, indent=1) + "\n")

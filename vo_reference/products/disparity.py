@@ -16,18 +16,12 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import atomic
+from blender_sesgen.contract.depth import disparity_from_depth
+
 from ..errors import VoError
-from ..io.files import read_image, write_bytes_atomic, write_image_atomic, write_png16
+from ..io.files import read_image, write_image_atomic, write_png16
 from ..io.pfm import read_pfm, write_pfm
-
-
-def disparity_from_depth(depth: np.ndarray, fx: float, baseline_m: float) -> np.ndarray:
-    """float32 d = fx·B/Z; NaN where Z is not finite and positive."""
-    z = np.asarray(depth, dtype=np.float64)
-    valid = np.isfinite(z) & (z > 0)
-    d = np.full(z.shape, np.nan, dtype=np.float32)
-    d[valid] = (float(fx) * float(baseline_m)) / z[valid]
-    return d
 
 
 def sequence_disparity(seq, k: int, view: str = "left") -> np.ndarray:
@@ -85,7 +79,7 @@ def write_disparity(path, d: np.ndarray) -> Path:
         import io
         buf = io.BytesIO()
         np.save(buf, d)
-        return write_bytes_atomic(path, buf.getvalue())
+        return atomic.write_bytes(path, buf.getvalue())
     if ext == ".png":
         return write_disparity_png16(path, d)
     raise VoError(f"{path}: unknown disparity format {ext!r} (.pfm, .exr, .npy, .png)")

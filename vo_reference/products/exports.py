@@ -12,18 +12,20 @@ frame, view and kind so that a frame's noise does not depend on the exported ran
 from __future__ import annotations
 
 import importlib
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-from ..errors import VoError
+from blender_sesgen.contract import atomic
+from blender_sesgen.contract.se3 import invert
+from blender_sesgen.contract.timing import frame_range
+from blender_sesgen.contract.trajectory_files import format_euroc, format_kitti, format_times
+
+from ..errors import VoError, as_vo_error
 from ..io.color import rgb8_to_gray8
-from ..io.files import write_png16, write_png_rgb, write_text_atomic
-from ..io.sequence import frame_range
-from ..lie import se3_inverse
+from ..io.files import write_png16, write_png_rgb
 from .disparity import sequence_disparity, write_disparity_png16
 from .noise import add_gaussian_noise
 from .progress import Progress
@@ -81,8 +83,9 @@ def get_exporter(name: str) -> Callable:
 
 
 def parse_frames(spec: str | None, n: int) -> range:
-    """'A:B' (B exclusive; either may be empty) or 'A' -> range within 0..n-1 (:func:`frame_range`)."""
-    return frame_range(spec, n)
+    """The source frames ``--frames`` selects (``contract.timing``)."""
+    with as_vo_error():
+        return frame_range(spec, n)
 
 
 def export(render_dir, target: str, out, *, frames: str | range | None = None,
@@ -111,7 +114,7 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
     info = {"target": target, "source": str(render_dir.resolve()), "source_frames": list(rng),
             "noise": None if opts.noise is None else {"sigma": opts.noise[0], "seed": opts.noise[1]},
             "format": seq.manifest.get("format"), "scene_sha256": seq.manifest.get("scene_sha256")}
-    write_text_atomic(out / "export.json", json.dumps(info, indent=1) + "\n")
+    atomic.write_json(out / "export.json", info)
     return out
 
 
@@ -146,10 +149,6 @@ def _calib_text(seq) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _kitti_pose_lines(T: np.ndarray) -> str:
-    return "\n".join(" ".join(f"{x:.12e}" for x in t[:3].ravel()) for t in T) + "\n"
-
-
 # --- targets ----------------------------------------------------------------------------
 
 def export_kitti_odometry(seq, out: Path, opts: ExportOptions) -> None:
@@ -164,11 +163,11 @@ def export_kitti_odometry(seq, out: Path, opts: ExportOptions) -> None:
                 write_png_rgb(out / "image_1" / name, image_gray(seq, k, "right", opts))
                 write_png_rgb(out / "image_3" / name, image_rgb(seq, k, "right", opts))
             bar.update()
-    write_text_atomic(out / "calib.txt", _calib_text(seq))
+    atomic.write_text(out / "calib.txt", _calib_text(seq))
     T = seq.T_world_cam("left")[frames]
-    write_text_atomic(out / "poses.txt", _kitti_pose_lines(se3_inverse(T[0]) @ T))
+    atomic.write_text(out / "poses.txt", format_kitti(invert(T[0]) @ T))
     t = seq.timestamps_s[frames] - seq.timestamps_s[frames[0]]
-    write_text_atomic(out / "times.txt", "".join(f"{x:.6e}\n" for x in t))
+    atomic.write_text(out / "times.txt", format_times(t))
 
 
 def export_kitti_stereo(seq, out: Path, opts: ExportOptions) -> None:
@@ -193,7 +192,7 @@ def export_kitti_stereo(seq, out: Path, opts: ExportOptions) -> None:
                 write_kitti_flow_png(out / "flow_occ" / n10, fl.flow, fl.valid)
                 write_kitti_flow_png(out / "flow_noc" / n10, fl.flow, fl.noc)
             bar.update()
-    write_text_atomic(out / "calib.txt", _calib_text(seq))
+    atomic.write_text(out / "calib.txt", _calib_text(seq))
 
 
 TUM_DEPTH_SCALE = 5000.0  # 16-bit value per metre (TUM RGB-D)
@@ -225,12 +224,12 @@ def export_tum(seq, out: Path, opts: ExportOptions) -> None:
             depth_lines.append(f"{name} depth/{name}.png")
             assoc.append(f"{name} rgb/{name}.png {name} depth/{name}.png")
             bar.update()
-    write_text_atomic(out / "rgb.txt", "\n".join(rgb_lines) + "\n")
-    write_text_atomic(out / "depth.txt", "\n".join(depth_lines) + "\n")
-    write_text_atomic(out / "associations.txt", "\n".join(assoc) + "\n")
+    atomic.write_text(out / "rgb.txt", "\n".join(rgb_lines) + "\n")
+    atomic.write_text(out / "depth.txt", "\n".join(depth_lines) + "\n")
+    atomic.write_text(out / "associations.txt", "\n".join(assoc) + "\n")
     write_tum(out / "groundtruth.txt", Trajectory(seq.T_world_cam("left")[frames], ts))
     K = seq.K
-    write_text_atomic(out / "camera.txt", "# fx fy cx cy (pixels, OpenCV convention); depth scale 5000 per metre\n"
+    atomic.write_text(out / "camera.txt", "# fx fy cx cy (pixels, OpenCV convention); depth scale 5000 per metre\n"
                       f"{K[0, 0]:.9g} {K[1, 1]:.9g} {K[0, 2]:.9g} {K[1, 2]:.9g}\n")
 
 
@@ -252,12 +251,6 @@ def export_png(seq, out: Path, opts: ExportOptions) -> None:
 
 
 # --- EuRoC MAV / ASL --------------------------------------------------------------------
-
-EUROC_GT_HEADER = ("#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q_RS_x [], q_RS_y [], "
-                   "q_RS_z [], v_RS_R_x [m s^-1], v_RS_R_y [m s^-1], v_RS_R_z [m s^-1], "
-                   "b_w_RS_S_x [rad s^-1], b_w_RS_S_y [rad s^-1], b_w_RS_S_z [rad s^-1], "
-                   "b_a_RS_S_x [m s^-2], b_a_RS_S_y [m s^-2], b_a_RS_S_z [m s^-2]")
-
 
 def _yaml_matrix(T: np.ndarray) -> str:
     rows = [", ".join(f"{x:.17g}" for x in r) for r in T]
@@ -293,23 +286,6 @@ def euroc_sensor_yaml(seq, cam: int) -> str:
             "distortion_coefficients: [0.0, 0.0, 0.0, 0.0]\n")
 
 
-def euroc_groundtruth_csv(T_world_body: np.ndarray, t_ns: np.ndarray) -> str:
-    """EuRoC ``state_groundtruth_estimate0/data.csv``: position, quaternion (w first),
-    velocity by central differences of the positions (one-sided at the ends), biases 0."""
-    from ..lie import R_to_quat_xyzw
-    T = np.asarray(T_world_body, dtype=float)
-    p = T[:, :3, 3]
-    q = R_to_quat_xyzw(T[:, :3, :3])
-    q = np.where(q[:, 3:4] < 0, -q, q)  # w >= 0
-    t = np.asarray(t_ns, dtype=np.int64)
-    v = np.gradient(p, t * 1e-9, axis=0) if len(p) > 1 else np.zeros_like(p)
-    lines = [EUROC_GT_HEADER]
-    for ts, pp, qq, vv in zip(t, p, q, v):
-        vals = (*pp, qq[3], qq[0], qq[1], qq[2], *vv, *(0.0,) * 6)
-        lines.append(",".join([str(int(ts))] + [f"{x:.17g}" for x in vals]))
-    return "\n".join(lines) + "\n"
-
-
 def export_euroc(seq, out: Path, opts: ExportOptions) -> None:
     frames = list(opts.frames)
     ts = seq.timestamps_s[frames]
@@ -329,11 +305,11 @@ def export_euroc(seq, out: Path, opts: ExportOptions) -> None:
                 rows[cam].append(f"{int(tn)},{name}")
                 bar.update()
     for i, (cam, _) in enumerate(cams):
-        write_text_atomic(mav / cam / "data.csv", "\n".join(rows[cam]) + "\n")
-        write_text_atomic(mav / cam / "sensor.yaml", euroc_sensor_yaml(seq, i))
+        atomic.write_text(mav / cam / "data.csv", "\n".join(rows[cam]) + "\n")
+        atomic.write_text(mav / cam / "sensor.yaml", euroc_sensor_yaml(seq, i))
     gt = mav / "state_groundtruth_estimate0"
-    write_text_atomic(gt / "data.csv", euroc_groundtruth_csv(seq.T_world_cam("left")[frames], t_ns))
-    write_text_atomic(gt / "sensor.yaml",
+    atomic.write_text(gt / "data.csv", format_euroc(t_ns, seq.T_world_cam("left")[frames]))
+    atomic.write_text(gt / "sensor.yaml",
                       "# General sensor definitions.\nsensor_type: visual-inertial\n"
                       "comment: sesgen ground truth; body frame = left camera (cam0), R = the SES world\n\n"
                       "# Sensor extrinsics wrt. the body-frame.\nT_BS:\n" + _yaml_matrix(np.eye(4)))

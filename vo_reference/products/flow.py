@@ -26,9 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import atomic
+from blender_sesgen.contract.se3 import invert
+
 from ..errors import VoError
-from ..io.files import read_image, write_bytes_atomic, write_image_atomic
-from ..lie import se3_inverse
+from ..io.files import read_image, write_image_atomic
 
 FLO_MAGIC = 202021.25
 FLO_UNKNOWN = 1e10
@@ -116,7 +118,7 @@ class Flow:
 
 def flow_from_depth(depth_src, K, T_world_src, T_world_tgt, depth_tgt=None, rtol: float = 1e-3) -> Flow:
     """Flow from a source frame to a target frame of the same camera (static scene)."""
-    T_tgt_src = se3_inverse(np.asarray(T_world_tgt, float)) @ np.asarray(T_world_src, float)
+    T_tgt_src = invert(np.asarray(T_world_tgt, float)) @ np.asarray(T_world_src, float)
     w = warp_depth(depth_src, K, T_tgt_src, depth_tgt, rtol)
     H, W = w.u.shape
     uu, vv = np.meshgrid(np.arange(W, dtype=np.float64), np.arange(H, dtype=np.float64))
@@ -182,7 +184,7 @@ def write_flo(path, flow: np.ndarray) -> Path:
     H, W = f.shape[:2]
     f = np.where(np.isfinite(f), f, np.float32(FLO_UNKNOWN)).astype("<f4")
     data = np.array([FLO_MAGIC], "<f4").tobytes() + np.array([W, H], "<i4").tobytes() + f.tobytes()
-    return write_bytes_atomic(path, data)
+    return atomic.write_bytes(path, data)
 
 
 def read_flo(path) -> np.ndarray:
@@ -223,19 +225,3 @@ def read_kitti_flow_png(path) -> tuple[np.ndarray, np.ndarray]:
     f = ((rgb[..., :2] - 32768.0) / 64.0).astype(np.float32)
     f[~valid] = np.nan
     return f, valid
-
-
-def flow_color(flow: np.ndarray, max_flow: float | None = None) -> np.ndarray:
-    """uint8 RGB visualisation: hue = direction, saturation = magnitude; black = invalid."""
-    import cv2
-    f = np.asarray(flow, dtype=np.float32)
-    ok = np.all(np.isfinite(f), axis=-1)
-    mag = np.hypot(f[..., 0], f[..., 1])
-    if max_flow is None:
-        max_flow = float(np.percentile(mag[ok], 99)) if ok.any() else 1.0
-    ang = np.arctan2(-f[..., 1], -f[..., 0]) / np.pi  # -1..1
-    hsv = np.zeros(f.shape[:2] + (3,), np.uint8)
-    hsv[..., 0] = np.where(ok, ((ang + 1) * 90) % 180, 0).astype(np.uint8)
-    hsv[..., 1] = np.where(ok, np.clip(mag / max(max_flow, 1e-6) * 255, 0, 255), 0).astype(np.uint8)
-    hsv[..., 2] = np.where(ok, 255, 0).astype(np.uint8)
-    return cv2.cvtColor(hsv, cv2.COLOR_HSV2RGB)

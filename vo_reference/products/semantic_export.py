@@ -27,10 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
-from blender_sesgen.contract import semantics
+from blender_sesgen.contract import atomic, semantics
 
 from ..errors import VoError
-from ..io.files import write_png16, write_png_rgb, write_text_atomic
+from ..io.files import write_png16, write_png_rgb
 from .progress import Progress
 
 STEREO_FOLDERS = {"left": ("leftImg8bit", "gtFine"), "right": ("rightImg8bit", "gtFineRight")}
@@ -125,4 +125,4 @@ def export_cityscapes(seq, out: Path, opts) -> None:
                 write_png16(gt / f"{stem}_gtFine_instanceIds.png", maps.instance_ids(ids))
                 write_png16(gt / f"{stem}_gtFine_objectIds.png", ids.astype(np.uint16))
                 bar.update()
-    write_text_atomic(out / "classes.json", json.dumps(maps.table(), indent=1) + "\n")
+    atomic.write_text(out / "classes.json", json.dumps(maps.table(), indent=1) + "\n")

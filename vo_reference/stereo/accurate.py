@@ -26,10 +26,12 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from blender_sesgen.contract.camera import backproject
+from blender_sesgen.contract.depth import depth_from_disparity, disparity_from_depth
+from blender_sesgen.contract.se3 import invert, se3, se3_exp
+
 from ..errors import VoError
-from ..lie import se3, se3_exp, se3_inverse
 from .blockmatch import sad_disparity
-from .groundtruth import backproject
 from .keypoints import shi_tomasi
 from .motion_field import T_to_twist, solve_small
 from .paper import StepResult
@@ -137,9 +139,7 @@ def stereo_match(left: np.ndarray, right: np.ndarray, pts: np.ndarray, params: A
 
 def triangulate(pl: np.ndarray, pr: np.ndarray, K: np.ndarray, baseline_m: float) -> np.ndarray:
     """3-D points (N, 3) in the left camera from rectified left/right pixels (x from both, y from left)."""
-    d = pl[:, 0] - pr[:, 0]
-    Z = K[0, 0] * baseline_m / d
-    return backproject(pl, Z, K)
+    return backproject(K, pl, depth_from_disparity(pl[:, 0] - pr[:, 0], K[0, 0], baseline_m))
 
 
 def _project_jac(P: np.ndarray, K: np.ndarray):
@@ -238,7 +238,7 @@ def estimate_motion(P0: np.ndarray, obs_left: np.ndarray, obs_right: np.ndarray 
             inl = _residuals(P0, obs_left, obs_r, K, baseline_m, T) < p.inlier_px
             if inl.sum() < 4:
                 raise VoError("too few inliers after refinement")
-    return se3_inverse(T), inl
+    return invert(T), inl
 
 
 def _detect(left0: np.ndarray, right0: np.ndarray, have: np.ndarray, p: AccurateParams) -> tuple[np.ndarray, np.ndarray]:
@@ -286,8 +286,8 @@ def accurate_step(left0, right0, left1, right1, K: np.ndarray, baseline_m: float
         Z = gt.depth(pts)
         ok = np.isfinite(Z)
         pts, Z = pts[ok], Z[ok]
-        P0 = backproject(pts, Z, K)
-        disp = f * baseline_m / Z
+        P0 = backproject(K, pts, Z)
+        disp = disparity_from_depth(Z, f, baseline_m, np.float64)
     else:
         if gt_flow:
             pr, ok = stereo_match(left0, right0, pts, p)

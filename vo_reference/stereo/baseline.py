@@ -9,8 +9,11 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from blender_sesgen.contract.camera import backproject
+from blender_sesgen.contract.depth import depth_from_disparity
+from blender_sesgen.contract.se3 import invert, se3
+
 from ..errors import VoError
-from ..lie import se3, se3_inverse
 from .motion_field import T_to_twist
 from .paper import StepResult
 
@@ -38,8 +41,8 @@ def baseline_step(left0, right0, left1, K: np.ndarray, baseline_m: float, num_di
     d = disp[yi, xi]
     ok &= d > 1.0
     p0, p1, d = p0[ok], p1.reshape(-1, 2)[ok], d[ok]
-    Z = K[0, 0] * baseline_m / d
-    P = np.stack([(p0[:, 0] - K[0, 2]) / K[0, 0] * Z, (p0[:, 1] - K[1, 2]) / K[1, 1] * Z, Z], axis=1)
+    Z = depth_from_disparity(d, K[0, 0], baseline_m)
+    P = backproject(K, p0, Z)
     if len(P) < 6:
         raise VoError("too few tracked points")
     okr, rvec, tvec, inl = cv2.solvePnPRansac(P, p1, K, None, iterationsCount=200, reprojectionError=1.0,
@@ -49,5 +52,5 @@ def baseline_step(left0, right0, left1, K: np.ndarray, baseline_m: float, num_di
     inl = inl.ravel()
     rvec, tvec = cv2.solvePnPRefineLM(P[inl], p1[inl], K, None, rvec, tvec)
     T_k1_k = se3(cv2.Rodrigues(rvec)[0], tvec.ravel())
-    T = se3_inverse(T_k1_k)
+    T = invert(T_k1_k)
     return StepResult(T_to_twist(T), T, int(len(inl)), p0[inl], p1[inl], Z[inl])

@@ -12,7 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..lie import se3_inverse
+from blender_sesgen.contract.camera import backproject, project
+from blender_sesgen.contract.se3 import invert
+
 
 
 def depth_at(depth_m: np.ndarray, pts: np.ndarray, smooth_tol: float | None = 0.02) -> np.ndarray:
@@ -38,20 +40,6 @@ def depth_at(depth_m: np.ndarray, pts: np.ndarray, smooth_tol: float | None = 0.
     return out
 
 
-def backproject(pts: np.ndarray, Z: np.ndarray, K: np.ndarray) -> np.ndarray:
-    """3-D points (N, 3) in the camera frame of pixels (x, y) at planar depth Z."""
-    p = np.asarray(pts, dtype=float)
-    X = (p[:, 0] - K[0, 2]) / K[0, 0] * Z
-    Y = (p[:, 1] - K[1, 2]) / K[1, 1] * Z
-    return np.stack([X, Y, np.asarray(Z, dtype=float)], axis=1)
-
-
-def project(P_cam: np.ndarray, K: np.ndarray) -> np.ndarray:
-    """Pixels (N, 2) of camera-frame points (N, 3)."""
-    z = P_cam[:, 2]
-    return np.stack([K[0, 0] * P_cam[:, 0] / z + K[0, 2], K[1, 1] * P_cam[:, 1] / z + K[1, 2]], axis=1)
-
-
 @dataclass
 class GroundTruthStep:
     """Ground truth of one frame step k -> k+1 of a rectified rig."""
@@ -70,10 +58,10 @@ class GroundTruthStep:
         NaN where the keypoint has no usable depth or lands behind the camera.
         """
         Z = self.depth(pts)
-        P0 = backproject(pts, Z, self.K)
-        T_k1_k = se3_inverse(self.T_k_k1)
+        P0 = backproject(self.K, pts, Z)
+        T_k1_k = invert(self.T_k_k1)
         P1 = P0 @ T_k1_k[:3, :3].T + T_k1_k[:3, 3]
         P1[P1[:, 2] <= 0] = np.nan
-        left = project(P1, self.K)
-        right = project(P1 - np.array([self.baseline_m, 0.0, 0.0]), self.K)
+        left = project(self.K, P1)
+        right = project(self.K, P1 - np.array([self.baseline_m, 0.0, 0.0]))
         return left, right

@@ -22,8 +22,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from blender_sesgen.contract.se3 import se3_exp, se3_log
+
 from ..errors import VoError
-from ..lie import se3_exp, se3_log
 
 
 def motion_field_coefficients(x: np.ndarray, y: np.ndarray, Z: np.ndarray, f: float) -> tuple[np.ndarray, np.ndarray]:

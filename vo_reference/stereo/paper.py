@@ -33,6 +33,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from blender_sesgen.contract.depth import depth_from_disparity, disparity_from_depth
+
 from ..errors import VoError
 from .blockmatch import sad_disparity, sad_track
 from .keypoints import shi_tomasi
@@ -84,13 +86,13 @@ def paper_step(left0: np.ndarray, right0: np.ndarray, left1: np.ndarray, K: np.n
     if gt_depth:
         Z = gt.depth(pts)
         ok = np.isfinite(Z)
-        disp = np.where(ok, f * baseline_m / np.where(ok, Z, 1.0), 0.0)
+        disp = np.nan_to_num(disparity_from_depth(Z, f, baseline_m, np.float64), nan=0.0)
         ok &= disp >= p.d_min
     else:
         d, ok = sad_disparity(left0, right0, pts, p.block, p.d_max, p.lr_tolerance)
         ok &= d >= max(p.d_min, 1)
         disp = d.astype(float)
-        Z = np.where(ok, f * baseline_m / np.maximum(disp, 1e-12), np.nan)
+        Z = np.where(ok, depth_from_disparity(disp, f, baseline_m), np.nan)
     idx = np.flatnonzero(ok)
     idx = idx[np.argsort(-disp[idx], kind="stable")][:p.n_keep]   # prefer small depth
     pts, Z = pts[idx], Z[idx]

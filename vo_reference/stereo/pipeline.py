@@ -16,10 +16,11 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from ..errors import VoError
-from ..io.sequence import frame_range
+from blender_sesgen.contract.se3 import relative
+from blender_sesgen.contract.timing import frame_range
+
+from ..errors import VoError, as_vo_error
 from ..io.trajectory import Trajectory
-from ..lie import relative
 from .accurate import AccurateParams, StereoTracks, accurate_step
 from .groundtruth import GroundTruthStep
 from .motion_field import T_to_twist, compose
@@ -48,7 +49,8 @@ class VoResult:
 
 def parse_frames(spec: Optional[str], num_frames: int) -> tuple[int, int]:
     """``A:B`` (Python-style, B exclusive, either may be empty) -> inclusive (first, last), >= 2 frames."""
-    r = frame_range(spec, num_frames, min_frames=2)
+    with as_vo_error():
+        r = frame_range(spec, num_frames, min_frames=2)
     return r.start, r.stop - 1
 
 

@@ -17,6 +17,19 @@ import numpy as np
 from ..errors import VoError
 
 
+def parse_distortion(text: str | None) -> np.ndarray | None:
+    """``k1,k2,p1,p2[,k3]`` (commas or spaces) -> coefficients, None for nothing."""
+    if text is None or not str(text).strip():
+        return None
+    try:
+        d = np.array([float(v) for v in str(text).replace(",", " ").split()])
+    except ValueError:
+        raise VoError(f"dist={text!r}: expected k1,k2,p1,p2[,k3]") from None
+    if d.size not in (4, 5):
+        raise VoError(f"dist={text!r}: expected 4 or 5 coefficients (k1,k2,p1,p2[,k3])")
+    return d
+
+
 def read_lut(path, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
     """(map_x, map_y) float32 (H, W) from a RobotCar LUT file for a W x H image."""
     path = Path(path)
@@ -100,11 +113,6 @@ def distortion_maps(K: np.ndarray, dist, width: int, height: int) -> tuple[np.nd
     sample — used to synthesise distorted images from ideal (pinhole) renders."""
     u = _to_px(K, undistort_normalised(_to_norm(K, _pixel_grid(width, height)), dist))
     return u[..., 0].astype(np.float32), u[..., 1].astype(np.float32)
-
-
-def undistort_with_coefficients(image: np.ndarray, K: np.ndarray, dist) -> np.ndarray:
-    h, w = image.shape[:2]
-    return remap(image, *lut_from_distortion(K, dist, w, h))
 
 
 def distort_image(image: np.ndarray, K: np.ndarray, dist) -> np.ndarray:

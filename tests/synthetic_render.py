@@ -1,31 +1,30 @@
-"""Write render folders in the ``sesgen-render/1`` layout without Blender.
+"""Test fixture: render folders in the ``sesgen-render/1`` layout, written without Blender.
 
-For tests and examples: the EXRs are multi-part, one part per pass, with the channel
-names Blender 5.0 writes (``ViewLayer.Combined.R/G/B/A``, ``ViewLayer.Depth.Z``,
-``ViewLayer.Object Index.X``), background depth 1e10, and a manifest with the keys of the
-render contract. Pass arrays of your own, or use :func:`plane_scene` for a textured plane
-whose depth is known in closed form.
+The EXRs are multi-part, one part per pass, with the channel names Blender 5.0 writes
+(``ViewLayer.Combined.R/G/B/A``, ``ViewLayer.Depth.Z``, ``ViewLayer.Object Index.X``),
+background depth 1e10, and the manifest is the contract's own (``Manifest.write``). Pass
+arrays of your own, or use :func:`plane_scene` for a textured plane whose depth is known in
+closed form.
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Sequence as Seq
 
 import numpy as np
 
-from .exr import write_exr_parts
-from .files import write_text_atomic
+from vo_reference.io.exr import write_exr_parts
 
-BACKGROUND_DEPTH = 1e10
+from blender_sesgen.contract.depth import depth_to_pass
+from blender_sesgen.contract.frames import right_from_left
+from blender_sesgen.contract.manifest import Manifest, exr_relpath
 
 
 def exr_parts(rgb_linear: np.ndarray, depth: np.ndarray, ids: np.ndarray | None,
               alpha: np.ndarray | None = None, layer: str = "ViewLayer") -> dict:
     """The parts of one Blender 5.0 multilayer EXR (depth +inf -> 1e10)."""
     H, W = depth.shape
-    z = np.asarray(depth, dtype=np.float32).copy()
-    z[~np.isfinite(z)] = BACKGROUND_DEPTH
+    z = depth_to_pass(depth)
     rgb = np.asarray(rgb_linear, dtype=np.float32)
     a = np.ones((H, W), np.float32) if alpha is None else np.asarray(alpha, np.float32)
     parts = {
@@ -50,46 +49,36 @@ def write_render(root, *, K: np.ndarray, baseline_m: float, T_world_left: np.nda
     """
     root = Path(root)
     T_left = np.asarray(T_world_left, dtype=float)
-    views = [v for v in ("left", "right") if v in frames[0]]
+    views = tuple(v for v in ("left", "right") if v in frames[0])
     H, W = frames[0]["left"][1].shape
-    T_left_right = np.eye(4)
-    T_left_right[0, 3] = baseline_m
     poses = {"left": T_left}
     if "right" in views:
-        poses["right"] = T_left @ T_left_right
-    files: dict[str, list[str]] = {v: [] for v in views}
+        poses["right"] = right_from_left(T_left, baseline_m)
+    n = len(frames)
     for k, fr in enumerate(frames):
         for v in views:
             rgb, depth, ids = fr[v]
             parts = exr_parts(rgb, depth, ids)
-            parts = {n: c for n, c in parts.items() if n.split(".", 1)[1] not in drop_passes}
-            rel = f"exr/{v}/{k:06d}.exr"
-            write_exr_parts(root / rel, parts)
-            files[v].append(rel)
-    manifest = {
-        "format": "sesgen-render/1",
-        "resolution": [int(W), int(H)],
-        "K": np.asarray(K, dtype=float).tolist(),
-        "baseline": float(baseline_m),
-        "near": 0.05,
-        "far": 1000.0,
-        "frames": len(frames),
-        "views": views,
-        "depth": {"kind": "planar_z", "background": BACKGROUND_DEPTH},
-        "objects": objects if objects is not None else [],
-        "poses": {v: poses[v].tolist() for v in views},
-        "files": files,
-        "frames_complete": [True] * len(frames),
-        "channels": {"rgb": [f"ViewLayer.Combined.{c}" for c in "RGBA"], "depth": "ViewLayer.Depth.Z",
-                     "object_index": "ViewLayer.Object Index.X"},
-        "render": {"engine": "synthetic", "samples": 0, "denoise": False, "seed": 0},
-        "generator": {"vo_reference.io.synthetic": "1"},
-        "scene_sha256": "0" * 64,
-    }
+            parts = {name: c for name, c in parts.items() if name.split(".", 1)[1] not in drop_passes}
+            write_exr_parts(root / exr_relpath(v, k), parts)
+    extra = dict(extra or {})
+    timestamps = extra.pop("timestamps", None)
+    if timestamps is not None and "fps" not in extra and n > 1:
+        extra["fps"] = 1.0 / float(np.median(np.diff(timestamps)))
+    fps = float(extra.pop("fps", 1.0))
+    timestamps = np.asarray(np.arange(n) / fps if timestamps is None else timestamps, dtype=float)
     if noise is not None:
-        manifest["noise"] = {"sigma": float(noise[0]), "seed": int(noise[1])}
-    manifest.update(extra or {})
-    write_text_atomic(root / "manifest.json", json.dumps(manifest, indent=1))
+        extra["noise"] = {"sigma": float(noise[0]), "seed": int(noise[1])}
+    Manifest(resolution=(int(W), int(H)), K=np.asarray(K, dtype=float), baseline=float(baseline_m), views=views,
+             poses=poses, files={v: [exr_relpath(v, k) for k in range(n)] for v in views},
+             timestamps_s=timestamps, fps=fps, frames_complete=[True] * n,
+             depth={"kind": "planar_z", "background": 1e10, "channel": "ViewLayer.Depth.Z"},
+             segmentation={"kind": "object_index", "background": 0, "channel": "ViewLayer.Object Index.X"},
+             channels={"rgb": [f"ViewLayer.Combined.{c}" for c in "RGBA"], "depth": "ViewLayer.Depth.Z",
+                       "object_index": "ViewLayer.Object Index.X"},
+             objects=objects if objects is not None else [],
+             render={"engine": "synthetic", "samples": 0, "denoise": False, "seed": 0},
+             generator={"tests/synthetic_render.py": "1"}, scene_sha256="0" * 64, extra=extra).write(root)
     return root
 
 

@@ -1,0 +1,54 @@
+"""The command-line contract both packages keep: subcommands in modules of their own, and
+the exit codes.
+
+Exit codes: 0 done; 2 a user error (bad input or arguments: one line on stderr, no
+traceback, nothing written); 1 a failure of the work itself; 130 interrupted (Ctrl-C);
+141 the reader of our output went away (``| head``).
+
+Each subcommand is a module with ``add_arguments(parser)`` and ``run(args) -> int``,
+imported only when its command runs (bpy, OpenCV and friends are heavy).
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import sys
+from typing import Callable, Optional, Sequence
+
+from .errors import ContractError
+
+EXIT_OK, EXIT_FAILURE, EXIT_USER_ERROR, EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 0, 1, 2, 130, 141
+
+
+def build_parser(prog: str, description: str, commands: dict, package: str) -> argparse.ArgumentParser:
+    """``commands``: {name: (module relative to ``package``, one-line help)}."""
+    parser = argparse.ArgumentParser(prog=prog, description=description)
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for name, (module, help_text) in commands.items():
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        importlib.import_module(module, package).add_arguments(p)
+    return parser
+
+
+def dispatch(argv: Optional[Sequence[str]], *, prog: str, description: str, commands: dict, package: str,
+             user_errors: tuple = (), describe: Callable[[BaseException], str] = lambda e: f"error: {e}") -> int:
+    """Parse ``argv``, run the chosen command, map failures to the exit codes above.
+
+    ``user_errors``: the package's own user-error exceptions (ContractError is always one);
+    ``describe`` turns one into its line on stderr.
+    """
+    parser = build_parser(prog, description, commands, package)
+    args = parser.parse_args(sys.argv[1:] if argv is None else list(argv))
+    module = importlib.import_module(commands[args.command][0], package)
+    try:
+        return int(module.run(args) or EXIT_OK)
+    except (ContractError, *user_errors) as e:
+        print(describe(e), file=sys.stderr)
+        return EXIT_USER_ERROR
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except BrokenPipeError:  # output piped into a reader that stopped early (e.g. `| head`)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE

@@ -1,0 +1,282 @@
+"""The render folder contract ``sesgen-render/1``: its layout, and the manifest's one writer
+and one validating reader (:class:`Manifest`).
+
+::
+
+    OUT/manifest.json          everything a reader needs (this module)
+    OUT/scene.ses              the script as rendered
+    OUT/poses/<view>.tum.txt   TUM trajectories, one per view (contract.trajectory_files)
+    OUT/poses/<view>.kitti.txt KITTI trajectories
+    OUT/poses/ego.txt          the per-step EGO table
+    OUT/exr/<view>/NNNNNN.exr  one multilayer EXR per frame and view (float32, ZIP, scene-linear)
+    OUT/rgb/<view>/NNNNNN.png  the display-referred 8-bit sRGB image (manifest ``display``)
+    OUT/.sesgen/               the render's own state (locks, completion logs): not data
+
+Poses are ``T_world_cam``: OpenCV camera (x right, y down, z forward) in the SES world (Y up).
+Depth and disparity conventions: contract.depth. Timestamps: contract.timing.
+
+Frame completion is recorded in two places that readers merge: ``frames_complete`` in the
+manifest (the state when it was last written) and append-only completion logs
+``.sesgen/done-*.jsonl`` (one JSON object per completed frame, written by a running render
+so that marking a frame complete costs O(1), whatever the sequence length).
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from .atomic import write_json
+from .depth import DEPTH_BACKGROUND
+from .errors import ContractError
+
+FORMAT = "sesgen-render/1"
+MANIFEST = "manifest.json"
+SCENE_COPY = "scene.ses"
+POSES_DIR = "poses"
+EXR_DIR = "exr"
+DISPLAY_DIR = "rgb"           # the display-referred 8-bit PNGs (the view transform's image)
+STATE_DIR = ".sesgen"
+DONE_LOG_GLOB = "done-*.jsonl"
+VIEWS = ("left", "right")
+POSES_CONVENTION = "T_world_cam: OpenCV camera (x right, y down, z forward) in the SES world (Y up)"
+SEED_RULE = "cycles seed = (seed * 1000003 + 2 * frame + view_index) mod (2^31 - 1)"
+LIMIT = 1e9  # no coordinate, focal length or size of ours is larger: beyond it a value is corrupt
+
+
+def render_seed(seed: int, frame: int, view_index: int) -> int:
+    """Cycles seed of one (frame, view) (``SEED_RULE``): deterministic, different for every
+    frame and view (a fixed noise pattern shared by both views would look like texture)."""
+    return (int(seed) * 1_000_003 + 2 * int(frame) + int(view_index)) % (2**31 - 1)
+
+
+def exr_relpath(view: str, frame: int) -> str:
+    return f"{EXR_DIR}/{view}/{frame:06d}.exr"
+
+
+def display_relpath(view: str, frame: int) -> str:
+    return f"{DISPLAY_DIR}/{view}/{frame:06d}.png"
+
+
+def trajectory_relpaths(views: Sequence[str]) -> dict:
+    return {
+        "tum": {v: f"{POSES_DIR}/{v}.tum.txt" for v in views},
+        "kitti": {v: f"{POSES_DIR}/{v}.kitti.txt" for v in views},
+        "ego": f"{POSES_DIR}/ego.txt",
+    }
+
+
+# the keys every manifest holds, in the order they are written
+_KEYS = ("format", "generator", "scene", "scene_source", "scene_sha256", "resolution", "K", "baseline", "near",
+         "far", "frames", "fps", "timestamps", "views", "depth", "segmentation", "channels", "objects",
+         "poses_convention", "poses", "trajectories", "files", "frames_complete", "render")
+
+
+@dataclass
+class Manifest:
+    """A render folder's manifest, validated: what the renderer writes and every reader reads.
+
+    Arrays are numpy (``K`` (3, 3), ``poses[view]`` (N, 4, 4), ``timestamps_s`` (N,)); keys this
+    class does not model (``noise``, ``fog`` and those of later versions) stay in ``extra``.
+    """
+    resolution: tuple[int, int]
+    K: np.ndarray
+    baseline: float
+    views: tuple[str, ...]
+    poses: dict
+    files: dict
+    timestamps_s: np.ndarray
+    fps: float
+    near: float = 0.05
+    far: float = 1000.0
+    frames_complete: list = field(default_factory=list)
+    depth: dict = field(default_factory=lambda: {"kind": "planar_z", "background": DEPTH_BACKGROUND, "channel": None})
+    segmentation: dict = field(default_factory=lambda: {"kind": "object_index", "background": 0, "channel": None})
+    channels: dict = field(default_factory=dict)
+    objects: list = field(default_factory=list)
+    render: dict = field(default_factory=dict)
+    scene_source: str = ""
+    scene_sha256: str = ""
+    generator: dict = field(default_factory=dict)
+    extra: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        if not self.frames_complete:
+            self.frames_complete = [False] * self.frames
+
+    @property
+    def frames(self) -> int:
+        return len(self.timestamps_s)
+
+    @property
+    def depth_background(self) -> float:
+        return float(self.depth.get("background", DEPTH_BACKGROUND))
+
+    # --- writing ------------------------------------------------------------------------
+    def to_json(self) -> dict:
+        m = {
+            "format": FORMAT,
+            "generator": self.generator,
+            "scene": SCENE_COPY,
+            "scene_source": self.scene_source,
+            "scene_sha256": self.scene_sha256,
+            "resolution": [int(self.resolution[0]), int(self.resolution[1])],
+            "K": [[float(x) for x in row] for row in np.asarray(self.K, dtype=float)],
+            "baseline": float(self.baseline),
+            "near": float(self.near),
+            "far": float(self.far),
+            "frames": self.frames,
+            "fps": float(self.fps),
+            "timestamps": [float(t) for t in self.timestamps_s],
+            "views": list(self.views),
+            "depth": self.depth,
+            "segmentation": self.segmentation,
+            "channels": self.channels,
+            "objects": self.objects,
+            "poses_convention": POSES_CONVENTION,
+            "poses": {v: np.asarray(self.poses[v], dtype=float).tolist() for v in self.views},
+            "trajectories": trajectory_relpaths(self.views),
+            "files": {v: list(self.files[v]) for v in self.views},
+            "frames_complete": [bool(x) for x in self.frames_complete],
+            "render": self.render,
+        }
+        m.update(self.extra)
+        return m
+
+    def write(self, root, durable: bool = True) -> Path:
+        """Write ``root/manifest.json`` atomically (NaN or infinities are refused)."""
+        return write_json(Path(root) / MANIFEST, self.to_json(), durable)
+
+    def with_complete(self, complete: Sequence[bool]) -> "Manifest":
+        return replace(self, frames_complete=[bool(x) for x in complete])
+
+    # --- reading ------------------------------------------------------------------------
+    @classmethod
+    def from_json(cls, m, source: str = MANIFEST) -> "Manifest":
+        """Validate a manifest dict; :class:`ContractError` naming ``source`` on any defect."""
+        if not isinstance(m, dict):
+            raise ContractError("expected a JSON object", source)
+        fmt = m.get("format")
+        if fmt != FORMAT:
+            raise ContractError(f"format {fmt!r} is not supported (this reader reads {FORMAT!r})", source)
+        missing = [k for k in ("resolution", "K", "baseline", "frames", "views", "poses", "files") if k not in m]
+        if missing:
+            raise ContractError(f"missing key(s) {', '.join(missing)}", source)
+        try:
+            W, H = (int(v) for v in m["resolution"])
+            K = np.array(m["K"], dtype=float).reshape(3, 3)
+            baseline = float(m["baseline"])
+            n = int(m["frames"])
+            views = tuple(str(v) for v in m["views"])
+            near, far = float(m.get("near", 0.05)), float(m.get("far", 1000.0))
+        except (TypeError, ValueError) as e:
+            raise ContractError(f"bad resolution/K/baseline/frames/views/near/far ({e})", source) from None
+        if not (0 < W <= 65536 and 0 < H <= 65536) or n < 1:
+            raise ContractError(f"resolution {W}x{H} / {n} frames is not a render", source)
+        if not np.all(np.isfinite(K)) or not (0 < K[0, 0] < LIMIT and 0 < K[1, 1] < LIMIT) \
+                or np.any(np.abs(K[:2, 2]) > LIMIT) or np.any(K[2] != (0.0, 0.0, 1.0)):
+            raise ContractError(f"K is not a camera matrix: {K.tolist()}", source)
+        if not (math.isfinite(baseline) and 0.0 <= baseline < LIMIT) or not (0 < near < far):
+            raise ContractError(f"baseline {baseline} / near {near} / far {far} out of range", source)
+        if not views or views[0] != "left" or not set(views) <= set(VIEWS) or len(set(views)) != len(views):
+            raise ContractError(f"views must be ['left'] or ['left', 'right'], got {list(views)}", source)
+        if "right" not in views:
+            baseline = 0.0
+        poses = {}
+        for v in views:
+            try:
+                T = np.array(m["poses"][v], dtype=float)
+            except (KeyError, TypeError, ValueError):
+                raise ContractError(f"no usable poses for view {v!r}", source) from None
+            if T.shape != (n, 4, 4):
+                raise ContractError(f"poses[{v!r}] has shape {T.shape}, expected ({n}, 4, 4)", source)
+            if not np.all(np.isfinite(T)) or np.abs(T[:, :3, 3]).max() > LIMIT:
+                raise ContractError(f"poses[{v!r}] holds non-finite or absurdly large values", source)
+            poses[v] = T
+        files = {}
+        for v in views:
+            f = (m["files"] or {}).get(v) if isinstance(m["files"], dict) else None
+            if not isinstance(f, list) or len(f) != n or not all(isinstance(x, str) for x in f):
+                raise ContractError(f"files[{v!r}] must list {n} paths", source)
+            if any(Path(x).is_absolute() or ".." in Path(x).parts for x in f):
+                raise ContractError(f"files[{v!r}] must be paths inside the render folder", source)
+            files[v] = f
+        fps = m.get("fps") or (m.get("render") or {}).get("fps")
+        ts = m.get("timestamps")
+        try:
+            if ts is not None:
+                t = np.asarray(ts, dtype=float)
+            elif fps:
+                t = np.arange(n, dtype=float) / float(fps)
+            else:
+                t = np.arange(n, dtype=float)
+        except (TypeError, ValueError):
+            raise ContractError("timestamps must be numbers", source) from None
+        if t.shape != (n,) or not np.all(np.isfinite(t)):
+            raise ContractError(f"timestamps must be {n} finite numbers", source)
+        complete = m.get("frames_complete", [True] * n)
+        if not isinstance(complete, list) or len(complete) != n:
+            raise ContractError(f"frames_complete must list {n} booleans", source)
+        depth = m.get("depth") or {}
+        if depth.get("kind", "planar_z") != "planar_z":
+            raise ContractError(f"depth kind {depth.get('kind')!r} not supported (planar_z)", source)
+        depth = {"kind": "planar_z", "background": DEPTH_BACKGROUND, "channel": None, **depth}
+        extra = {k: v for k, v in m.items() if k not in _KEYS}
+        return cls(resolution=(W, H), K=K, baseline=baseline, views=views, poses=poses, files=files,
+                   timestamps_s=t, fps=float(fps) if fps else float("nan"), near=near, far=far,
+                   frames_complete=[bool(x) for x in complete], depth=depth,
+                   segmentation=m.get("segmentation") or {"kind": "object_index", "background": 0, "channel": None},
+                   channels=m.get("channels") or {}, objects=list(m.get("objects") or []),
+                   render=m.get("render") or {}, scene_source=str(m.get("scene_source", "")),
+                   scene_sha256=str(m.get("scene_sha256", "")), generator=m.get("generator") or {}, extra=extra)
+
+    @classmethod
+    def read(cls, root) -> "Manifest":
+        """``root/manifest.json`` validated, with the completion logs of a running or
+        interrupted render merged into ``frames_complete``."""
+        root = Path(root)
+        m = cls.from_json(load_json(root / MANIFEST), str(root / MANIFEST))
+        done = completed_in_logs(root)
+        if done:
+            m = m.with_complete([c or k in done for k, c in enumerate(m.frames_complete)])
+        return m
+
+
+def load_json(path: Path) -> dict:
+    """A JSON file as a dict; ContractError (naming the file) when missing or not JSON."""
+    path = Path(path)
+    if not path.is_file():
+        raise ContractError("no manifest.json (not a render folder)" if path.name == MANIFEST else "no such file",
+                            str(path.parent if path.name == MANIFEST else path))
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as e:
+        raise ContractError(f"not valid JSON ({e})", str(path)) from None
+    return data
+
+
+def completed_in_logs(root) -> dict[int, dict]:
+    """{frame: {relpath: sha256}} of the frames the completion logs of ``root`` record.
+
+    A torn last line (a crash while appending) is ignored: that frame is simply not complete.
+    """
+    out: dict[int, dict] = {}
+    state = Path(root) / STATE_DIR
+    if not state.is_dir():
+        return out
+    for log in sorted(state.glob(DONE_LOG_GLOB)):
+        try:
+            text = log.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError):
+            continue
+        for line in text.split("\n"):
+            try:
+                rec = json.loads(line)
+                out[int(rec["frame"])] = dict(rec.get("files") or {})
+            except (ValueError, KeyError, TypeError):
+                continue
+    return out

@@ -1,0 +1,159 @@
+"""A render job: a plan, rendered by a Blender session into an output folder.
+
+    job = RenderJob.prepare("scene.ses", "out/", RenderOptions(samples=16), resume=True)
+    job.build()                      # the Blender scene (bpy)
+    for k in job.pending_frames():   # the add-on: one frame per timer tick
+        job.render_frame(k)          # all views of frame k, atomically, then the manifest
+
+``prepare`` parses and validates everything (:class:`~blender_sesgen.plan.RenderPlan`) and
+checks the output folder (:class:`~blender_sesgen.output.OutputFolder`), and writes nothing:
+a bad script, bad options or a folder holding another scene's output raise
+:class:`SesgenError` before any file exists. ``begin()`` (called by ``render_frame`` if
+needed) writes the folder's skeleton; each EXR (and its display-referred PNG) is written
+under a temporary name and renamed, then the frame is marked complete. The Cycles seed of each frame and view depends
+only on the seed, the frame and the view, so ``--resume`` completes an interrupted folder
+with results identical to an uninterrupted run.
+"""
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Optional
+
+from .contract.atomic import temp_path
+from .contract.manifest import Manifest
+from .output import OutputFolder
+from .plan import RenderOptions, RenderPlan
+
+
+@dataclass
+class FrameResult:
+    frame: int
+    wall_s: float
+    cycles_s: Optional[float]
+    views: dict = field(default_factory=dict)
+
+
+class RenderJob:
+    """One render of one plan into one output folder (see the module docstring)."""
+
+    def __init__(self, plan: RenderPlan, folder: OutputFolder, *, resume: bool = False, force: bool = False):
+        self.plan = plan
+        self.folder = folder
+        self.resume = resume
+        self.force = force
+        self.session = None                        # blender.session.BlenderSession after build()
+        self.timings: list[FrameResult] = []
+
+    @classmethod
+    def prepare(cls, scene_path, out_dir, options: RenderOptions = RenderOptions(), *,
+                resume: bool = False, force: bool = False) -> "RenderJob":
+        """Parse and validate ``scene_path`` and check ``out_dir``. Writes nothing."""
+        return cls.of(RenderPlan.from_file(scene_path, options), out_dir, resume=resume, force=force)
+
+    @classmethod
+    def from_scene(cls, scene, out_dir, options: RenderOptions = RenderOptions(), *,
+                   scene_text: Optional[str] = None, resume: bool = False, force: bool = False) -> "RenderJob":
+        """Like :meth:`prepare` for a Scene built in Python (``scene_text`` = its script, if any)."""
+        plan = RenderPlan.from_scene(scene, options, scene_text=scene_text)
+        return cls.of(plan, out_dir, resume=resume, force=force)
+
+    @classmethod
+    def of(cls, plan: RenderPlan, out_dir, *, resume: bool = False, force: bool = False) -> "RenderJob":
+        folder = OutputFolder(out_dir)
+        folder.check(plan, force)
+        return cls(plan, folder, resume=resume, force=force)
+
+    # --- what the job is ----------------------------------------------------------------
+    @property
+    def scene(self):
+        return self.plan.scene
+
+    @property
+    def settings(self):
+        return self.plan.settings
+
+    @property
+    def frames(self) -> list[int]:
+        return list(self.plan.frames)
+
+    @property
+    def out_dir(self) -> Path:
+        return self.folder.root
+
+    @property
+    def built(self):
+        return None if self.session is None else self.session.built
+
+    @property
+    def exposure(self) -> Optional[float]:
+        return None if self.session is None else self.session.exposure
+
+    @property
+    def manifest(self) -> Optional[Manifest]:
+        return self.folder.manifest
+
+    def pending_frames(self) -> list[int]:
+        """Requested frames not complete yet (all requested ones unless resuming)."""
+        return self.folder.pending(self.plan, self.resume)
+
+    # --- doing it -----------------------------------------------------------------------
+    def build(self) -> None:
+        """Build the scene in Blender (a dedicated scene 'SESGen'; rebuilding replaces)."""
+        from .blender.session import BlenderSession
+        kept = self.folder.resumable(self.plan)
+        self.session = BlenderSession(self.plan, known_exposure=(kept or {}).get("render", {}).get("exposure"))
+
+    def new_manifest(self) -> Manifest:
+        """This job's manifest with no frame complete (needs the built session: it knows the
+        ids it gave the objects of BLEND files)."""
+        m = self.plan.manifest(channels=self.session.channels, render_extra=self.session.manifest_extra(),
+                               blender_version=self.session.blender_version)
+        m.objects = m.objects + self.session.imported_objects
+        return m
+
+    def begin(self) -> None:
+        """Write the folder's skeleton (scene.ses, poses/, the manifest); once."""
+        if self.folder.manifest is None:
+            if self.session is None:
+                self.build()
+            self.folder.begin(self.plan, self.new_manifest(), self.resume, self.force)
+
+    def render_frame(self, k: int) -> FrameResult:
+        """Render every view of frame ``k``; EXRs written atomically, then the manifest."""
+        if self.session is None:
+            self.build()
+        self.begin()
+        finals = {v: self.folder.exr_path(v, k) for v in self.plan.views}
+        temps = {v: temp_path(p) for v, p in finals.items()}
+        shown = {v: self.folder.display_path(v, k) for v in self.plan.views}
+        shown_temps = {v: temp_path(p) for v, p in shown.items()}
+        t0 = time.perf_counter()
+        stats = self.session.render_frame(k, temps, shown_temps)
+        for v, tmp in temps.items():
+            if not tmp.is_file() or not shown_temps[v].is_file():
+                raise RuntimeError(f"Blender wrote no file for frame {k}, view {v}")
+        for v in self.plan.views:   # the display image first: an EXR in place means a whole frame
+            os.replace(shown_temps[v], shown[v])
+            os.replace(temps[v], finals[v])
+        cyc = [st["cycles_s"] for st in stats.values()]
+        res = FrameResult(frame=k, wall_s=time.perf_counter() - t0,
+                          cycles_s=None if any(c is None for c in cyc) else sum(cyc), views=stats)
+        self.folder.mark_complete(k)
+        self.timings.append(res)
+        return res
+
+    def run(self, progress: Optional[Callable[[int, int, FrameResult, float], None]] = None) -> list[FrameResult]:
+        """Render every pending frame; ``progress(i, n, result, elapsed_s)`` after each."""
+        todo = self.pending_frames()
+        self.begin()
+        t0 = time.perf_counter()
+        out = []
+        for i, k in enumerate(todo):
+            r = self.render_frame(k)
+            out.append(r)
+            if progress:
+                progress(i + 1, len(todo), r, time.perf_counter() - t0)
+        return out

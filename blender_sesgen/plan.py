@@ -1,0 +1,300 @@
+"""What to render, decided and validated once (pure: no bpy, writes nothing).
+
+A :class:`RenderPlan` holds the parsed scene, its script text and hash, the effective
+:class:`RenderSettings` (script values overridden by :class:`RenderOptions`), the frames
+asked for and the per-view camera poses. Everything a user can get wrong is checked here,
+before any file exists: the script, the options, and the limits Blender would otherwise
+apply silently (image sizes, ids, files that must exist).
+"""
+from __future__ import annotations
+
+import enum
+import hashlib
+import json
+import os
+import platform
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from . import __version__
+from .contract.camera import scaled_K, scaled_size
+from .contract.errors import ContractError
+from .contract import semantics
+from .contract.manifest import SEED_RULE, Manifest, display_relpath, exr_relpath
+from .contract.timing import DEFAULT_FPS, FrameSelection, frame_timestamps
+from .errors import SesgenError
+from .lighting_data import VIEW_TRANSFORMS
+from .model import Mesh, Scene, TextureRef
+
+MAX_IMAGE_SIDE = 16384   # the script's own limit, applied to scaled sizes too
+MIN_IMAGE_SIDE = 4       # Blender renders nothing smaller (its resolution's hard minimum)
+MAX_ID = 32767           # Blender's object-index pass clamps larger values
+
+
+class Device(enum.Enum):
+    """Where Cycles renders. Parsed once from the user's text."""
+    CPU = "cpu"
+    GPU = "gpu"
+
+    @classmethod
+    def parse(cls, value) -> "Device":
+        if isinstance(value, Device):
+            return value
+        try:
+            return cls(str(value).lower())
+        except ValueError:
+            raise SesgenError(f"--device must be cpu or gpu, got '{value}'") from None
+
+
+@dataclass(frozen=True)
+class RenderOptions:
+    """Settings of one render (CLI flags / add-on properties). ``None`` = the script's value.
+
+    ``frames``: a :class:`FrameSelection` (or its text, e.g. ``"0:10"``); ``None`` = all frames.
+    ``resolution_scale`` scales the image size and K (square pixels kept).
+    """
+    samples: Optional[int] = None
+    denoise: Optional[bool] = None
+    seed: Optional[int] = None
+    device: Device = Device.CPU
+    resolution_scale: float = 1.0
+    frames: Optional[FrameSelection] = None
+    normal_pass: bool = False
+    position_pass: bool = False
+    threads: int = 0                     # 0 = Cycles' automatic thread count
+    verbose: bool = False                # let Blender print its render log
+
+    def __post_init__(self):
+        object.__setattr__(self, "device", Device.parse(self.device))
+        if isinstance(self.frames, str):
+            try:
+                object.__setattr__(self, "frames", FrameSelection.parse(self.frames))
+            except ContractError as e:
+                raise SesgenError(str(e)) from None
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    """The settings actually used: what the manifest records and resume compares."""
+    engine: str
+    device: Device
+    samples: int
+    denoise: bool
+    seed: int
+    resolution_scale: float
+    passes: tuple[str, ...]
+    width: int
+    height: int
+    K: tuple[tuple[float, float, float], ...]
+
+    @classmethod
+    def of(cls, scene: Scene, options: RenderOptions) -> "RenderSettings":
+        rig = scene.rig
+        s = float(options.resolution_scale)
+        if not (s > 0.0 and np.isfinite(s)):
+            raise SesgenError(f"--resolution-scale must be a positive number, got {options.resolution_scale}")
+        W, H = scaled_size(rig.width, rig.height, s)
+        if not (MIN_IMAGE_SIDE <= W <= MAX_IMAGE_SIDE and MIN_IMAGE_SIDE <= H <= MAX_IMAGE_SIDE):
+            raise SesgenError(f"--resolution-scale {options.resolution_scale:g} gives {W}x{H} px: each side must be "
+                              f"{MIN_IMAGE_SIDE}..{MAX_IMAGE_SIDE} px")
+        K = scaled_K(rig.K(), rig.width, rig.height, W, H)
+        passes = ["combined", "depth", "object_index"]
+        if options.normal_pass:
+            passes.append("normal")
+        if options.position_pass:
+            passes.append("position")
+        settings = cls(
+            engine="CYCLES",
+            device=options.device,
+            samples=int(options.samples if options.samples is not None else scene.render.samples),
+            denoise=bool(options.denoise if options.denoise is not None else scene.render.denoise),
+            seed=int(options.seed if options.seed is not None else scene.render.seed),
+            resolution_scale=s,
+            passes=tuple(passes),
+            width=W,
+            height=H,
+            K=tuple(tuple(float(x) for x in row) for row in K),
+        )
+        if settings.samples < 1:
+            raise SesgenError(f"samples must be >= 1, got {settings.samples}")
+        return settings
+
+    def manifest_block(self) -> dict:
+        """The manifest's ``render`` entry (extended by the session with what it measured)."""
+        return {
+            "engine": self.engine,
+            "device": self.device.value.upper(),
+            "samples": self.samples,
+            "denoise": self.denoise,
+            "seed": self.seed,
+            "seed_rule": SEED_RULE,
+            "resolution_scale": self.resolution_scale,
+            "passes": list(self.passes),
+            "exr": {"codec": "ZIP", "bits": 32, "layout": "multilayer, one part per pass"},
+        }
+
+
+@dataclass(frozen=True)
+class RenderPlan:
+    """One scene, its settings and the frames to render: validated once, immutable."""
+    scene: Scene
+    scene_text: str
+    options: RenderOptions
+    settings: RenderSettings
+    frames: tuple[int, ...]
+    scene_sha256: str = field(default="")
+
+    @classmethod
+    def from_file(cls, scene_path, options: RenderOptions = RenderOptions()) -> "RenderPlan":
+        """Parse and validate ``scene_path`` with ``options`` (SesgenError/ScriptError)."""
+        path = Path(scene_path)
+        if not path.is_file():
+            raise SesgenError(f"{scene_path}: no such script")
+        try:
+            data = path.read_bytes()
+        except OSError as e:
+            raise SesgenError(f"{scene_path}: cannot read: {e.strerror}") from None
+        from .ses import parse_bytes
+        scene = parse_bytes(data, source=str(scene_path), base_dir=str(path.resolve().parent))
+        return cls.from_scene(scene, options, scene_text=data.decode("utf-8", errors="replace"))
+
+    @classmethod
+    def from_scene(cls, scene: Scene, options: RenderOptions = RenderOptions(), *,
+                   scene_text: Optional[str] = None) -> "RenderPlan":
+        """A plan for a Scene built in Python (``scene_text``: its script, if it has one)."""
+        text = scene_text if scene_text is not None else scene_text_for(scene)
+        validate_scene(scene)
+        settings = RenderSettings.of(scene, options)
+        N = scene.frames
+        try:
+            frames = tuple((options.frames or FrameSelection()).resolve(N))
+        except ContractError as e:
+            raise SesgenError(str(e)) from None
+        return cls(scene, text, options, settings, frames, sha256_text(text))
+
+    @cached_property
+    def view_poses(self) -> dict[str, np.ndarray]:
+        """``{view: (N, 4, 4) T_world_cam}`` (OpenCV camera, SES world)."""
+        poses = {"left": self.scene.timeline.left()}
+        if self.scene.rig.stereo:
+            poses["right"] = self.scene.timeline.right(self.scene.rig.baseline)
+        return poses
+
+    @property
+    def views(self) -> tuple[str, ...]:
+        return self.scene.rig.views
+
+    def manifest(self, *, channels: dict, render_extra: dict, blender_version: Optional[str],
+                 fps: float = DEFAULT_FPS) -> Manifest:
+        """The manifest of this plan with no frame complete yet; ``channels``: the EXR channel
+        names of each product (the session knows them), ``render_extra``: what the session
+        adds to the ``render`` entry (exposure, EXR layout)."""
+        scene, s = self.scene, self.settings
+        N = scene.frames
+        render = self.settings.manifest_block()
+        render["exr"]["layout"] = render_extra.pop("exr_layout", render["exr"]["layout"])
+        render.update(render_extra)
+        extra = {}
+        if scene.noise is not None:
+            extra["noise"] = {"sigma": float(scene.noise.sigma), "seed": int(scene.noise.seed)}
+        if scene.fog is not None:
+            extra["fog"] = {"start": scene.fog.start, "end": scene.fog.end, "colour": list(scene.fog.colour),
+                            "applies_to": "rgb only"}
+        extra["display"] = {
+            "kind": "display-referred sRGB, 8-bit PNG (the Combined pass through the view transform)",
+            "view_transform": VIEW_TRANSFORMS[scene.look.view],
+            "files": {v: [display_relpath(v, k) for k in range(N)] for v in self.views}}
+        product_channels = {k: channels[k] for k in ("rgb", "depth", "object_index")}
+        for p in ("normal", "position"):
+            if p in s.passes:
+                product_channels[p] = channels[p]
+        return Manifest(
+            resolution=(s.width, s.height),
+            K=np.array(s.K),
+            baseline=float(scene.rig.baseline),
+            views=self.views,
+            poses=self.view_poses,
+            files={v: [exr_relpath(v, k) for k in range(N)] for v in self.views},
+            timestamps_s=frame_timestamps(N, fps),
+            fps=float(fps),
+            near=float(scene.rig.near),
+            far=float(scene.rig.far),
+            frames_complete=[False] * N,
+            depth={"kind": "planar_z", "background": 1e10, "channel": channels["depth"]},
+            segmentation={"kind": "object_index", "background": 0, "channel": channels["object_index"]},
+            channels=product_channels,
+            objects=object_table(scene),
+            render=render,
+            scene_source=scene.source,
+            scene_sha256=self.scene_sha256,
+            generator={"name": "blender-sesgen", "version": __version__, "blender": blender_version,
+                       "python": platform.python_version()},
+            extra=extra,
+        )
+
+
+# --- helpers ----------------------------------------------------------------------------
+
+def sha256_text(text: str) -> str:
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def scene_text_for(scene: Scene) -> str:
+    """Stand-in for the script text of a Scene built in Python (no .ses file): its JSON."""
+    return "// scene built in Python; its model as JSON:\n// " + json.dumps(scene.to_json(), sort_keys=True) + "\n"
+
+
+def texture_label(tex: Optional[TextureRef]) -> Optional[str]:
+    if tex is None:
+        return None
+    if tex.kind == "builtin":
+        return tex.name
+    return tex.source or tex.path
+
+
+def object_table(scene: Scene) -> list[dict]:
+    """The manifest's ``objects``: id, name, shape, texture, material, semantic ``class`` and
+    its Cityscapes ``label_id`` (contract.semantics) of every object of the script (a BLEND
+    file's objects are added by the job, which learns their ids when loading them)."""
+    out = []
+    for o in scene.objects:
+        tex = o.texture
+        if tex is None and o.material:
+            try:
+                tex = scene.material(o.material).texture
+            except KeyError:
+                tex = None
+        label = semantics.BY_NAME[semantics.canonical(o.semantic_class)]
+        out.append({"id": int(o.id), "name": o.name, "shape": o.shape,
+                    "texture": texture_label(tex), "material": o.material,
+                    "class": label.name, "label_id": label.id})
+    return out
+
+
+def validate_scene(scene: Scene) -> None:
+    """What the parser cannot know for a Scene built in Python: ids, references, files."""
+    if scene.frames < 1:
+        raise SesgenError("the scene has no frames (no START/motion?)")
+    ids = [o.id for o in scene.objects]
+    for o in scene.objects:
+        if not (1 <= o.id <= MAX_ID):
+            raise SesgenError(f"object {o.name}: id {o.id} outside 1..{MAX_ID}")
+        if o.material:
+            try:
+                scene.material(o.material)
+            except KeyError:
+                raise SesgenError(f"object {o.name}: unknown material '{o.material}'") from None
+        tex = o.texture
+        if tex is not None and tex.kind == "image" and not (tex.path and os.path.isfile(tex.path)):
+            raise SesgenError(f"object {o.name}: texture file not found: {tex.source or tex.path}")
+        if isinstance(o, Mesh) and not os.path.isfile(o.path):
+            raise SesgenError(f"object {o.name}: mesh file not found: {o.source}")
+    for m in scene.materials:
+        if m.texture is not None and m.texture.kind == "image" and not (m.texture.path and os.path.isfile(m.texture.path)):
+            raise SesgenError(f"material {m.name}: texture file not found: {m.texture.source or m.texture.path}")
+    if len(set(ids)) != len(ids):
+        raise SesgenError("object ids must be unique")

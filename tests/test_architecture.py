@@ -1,0 +1,237 @@
+"""The architecture, checked from the source: the import graph of both packages (imports
+inside functions included) has no cycle at module or package level, bpy stays in the bpy
+layer, the contract stays numpy-only, and the two packages meet only at the contract.
+
+Then at run time: every pure module imports in a fresh interpreter where bpy is blocked;
+a module that needs an optional dependency this machine lacks is reported as such, not as
+a breach of the boundary.
+"""
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+import textwrap
+from collections import defaultdict
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+PACKAGES = ("blender_sesgen", "vo_reference")
+BPY = {"bpy", "bmesh", "mathutils", "bpy_extras", "addon_utils"}
+BPY_LAYER = ("blender_sesgen.blender", "blender_sesgen.addon")
+# add-on modules that are pure on purpose (the panel's state, the preview maths, the zip builder)
+PURE_ADDON = {"blender_sesgen.addon.state", "blender_sesgen.addon.preview", "blender_sesgen.addon.package"}
+CONTRACT = "blender_sesgen.contract"
+OPTIONAL = {"cv2", "scipy", "OpenEXR", "matplotlib", "yaml", "evo", "rosbags", "ray", "pykitti"}
+
+
+def module_name(path: Path) -> str:
+    rel = path.relative_to(REPO).with_suffix("")
+    parts = rel.parts[:-1] if rel.name == "__init__" else rel.parts
+    return ".".join(parts)
+
+
+def all_modules() -> dict[str, Path]:
+    return {module_name(p): p for pkg in PACKAGES for p in sorted((REPO / pkg).rglob("*.py"))
+            if "__pycache__" not in p.parts}
+
+
+def imports_of(name: str, path: Path) -> set[str]:
+    """Absolute names of everything ``name`` imports, anywhere in the file."""
+    is_pkg = path.name == "__init__.py"
+    base = name.split(".") if is_pkg else name.split(".")[:-1]
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            out.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                anchor = base[:len(base) - node.level + 1]
+                mod = ".".join(anchor + ([node.module] if node.module else []))
+            else:
+                mod = node.module
+            if not (name + ".").startswith(mod + "."):  # an ancestor package is imported anyway
+                out.add(mod)
+            out.update(f"{mod}.{a.name}" for a in node.names)  # `from pkg import module`
+    return out
+
+
+@pytest.fixture(scope="module")
+def graph() -> dict[str, set[str]]:
+    mods = all_modules()
+    g = {}
+    for name, path in mods.items():
+        g[name] = {i for i in imports_of(name, path) if i in mods and i != name}
+    return g
+
+
+@pytest.fixture(scope="module")
+def raw_imports() -> dict[str, set[str]]:
+    return {name: imports_of(name, path) for name, path in all_modules().items()}
+
+
+def cycles(g: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components with more than one node (Tarjan)."""
+    index, low, stack, on, out = {}, {}, [], set(), []
+    counter = [0]
+
+    def visit(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in g.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    sys.setrecursionlimit(10000)
+    for v in sorted(g):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def package_of(module: str) -> str:
+    """The subpackage a module belongs to: blender_sesgen.ses, vo_reference.io, ..."""
+    parts = module.split(".")
+    return ".".join(parts[:2]) if len(parts) > 1 else parts[0]
+
+
+def test_no_import_cycle_between_modules(graph):
+    assert cycles(graph) == []
+
+
+def test_no_import_cycle_between_packages(graph):
+    pg = defaultdict(set)
+    for a, targets in graph.items():
+        for b in targets:
+            pa, pb = package_of(a), package_of(b)
+            # a package's own __init__ importing its modules is inside the package
+            if pa != pb and pa not in PACKAGES and pb not in PACKAGES:
+                pg[pa].add(pb)
+    assert cycles(pg) == []
+
+
+def test_the_cycle_finder_finds_cycles():
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+def test_bpy_only_in_the_bpy_layer(raw_imports):
+    offenders = [f"{m} imports {sorted(i.split('.')[0] for i in imps if i.split('.')[0] in BPY)}"
+                 for m, imps in raw_imports.items()
+                 if any(i.split(".")[0] in BPY for i in imps)
+                 and not (m.startswith(BPY_LAYER) and m not in PURE_ADDON)]
+    assert not offenders
+
+
+def test_the_contract_needs_numpy_and_the_standard_library_only(raw_imports):
+    allowed = set(sys.stdlib_module_names) | {"numpy", "__future__"}
+    offenders = []
+    for m, imps in raw_imports.items():
+        if m == CONTRACT or m.startswith(CONTRACT + "."):
+            bad = {i for i in imps if i.split(".")[0] not in allowed and not i.startswith(CONTRACT)}
+            if bad:
+                offenders.append(f"{m}: {sorted(bad)}")
+    assert not offenders
+
+
+def test_blender_sesgen_needs_blender_numpy_and_the_standard_library_only(raw_imports):
+    allowed = set(sys.stdlib_module_names) | BPY | {"numpy", "__future__", "blender_sesgen"}
+    offenders = [f"{m}: {sorted(bad)}" for m, imps in raw_imports.items() if m.startswith("blender_sesgen")
+                 for bad in [{i for i in imps if i.split(".")[0] not in allowed}] if bad]
+    assert not offenders
+
+
+def test_the_packages_meet_only_at_the_contract(raw_imports):
+    offenders = []
+    for m, imps in raw_imports.items():
+        if m.startswith("vo_reference"):
+            offenders += [f"{m} -> {i}" for i in imps if i.startswith("blender_sesgen")
+                          and i != "blender_sesgen" and not i.startswith(CONTRACT)]
+        else:
+            offenders += [f"{m} -> {i}" for i in imps if i.startswith("vo_reference")]
+    assert not offenders
+
+
+# --- at run time ------------------------------------------------------------------------
+
+PROBE = textwrap.dedent("""
+    import importlib, json, sys
+
+    BLOCKED = set(sys.argv[1].split(","))
+    OPTIONAL = set(sys.argv[2].split(","))
+
+    class Block:
+        def find_spec(self, name, path=None, target=None):
+            if name.split(".")[0] in BLOCKED:
+                raise ImportError(f"{name} is blocked by the boundary test", name=name)
+            return None
+
+    sys.meta_path.insert(0, Block())
+    report = {"breach": [], "optional_missing": []}
+    for name in sys.argv[3:]:
+        try:
+            importlib.import_module(name)
+        except ImportError as e:
+            root = (e.name or "").split(".")[0]
+            kind = "optional_missing" if root in OPTIONAL and root not in BLOCKED else "breach"
+            report[kind].append(f"{name}: {e}")
+        except Exception as e:
+            report["breach"].append(f"{name}: {type(e).__name__}: {e}")
+    leaked = sorted(m for m in sys.modules if m.split(".")[0] in BLOCKED)
+    if leaked:
+        report["breach"].append(f"blocked modules in sys.modules: {leaked}")
+    print(json.dumps(report))
+""")
+
+
+def probe(modules, blocked=BPY):
+    r = subprocess.run([sys.executable, "-c", PROBE, ",".join(sorted(blocked)), ",".join(sorted(OPTIONAL)), *modules],
+                       cwd=REPO, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    import json
+    return json.loads(r.stdout)
+
+
+def pure_modules() -> list[str]:
+    return [m for m in all_modules() if not (m.startswith(BPY_LAYER) and m not in PURE_ADDON)
+            and not m.endswith("__main__")]
+
+
+def test_every_pure_module_imports_without_bpy():
+    report = probe(pure_modules())
+    assert report["breach"] == []
+    if report["optional_missing"]:  # not a breach: this machine lacks an optional extra
+        print("optional dependencies missing here:", *report["optional_missing"], sep="\n  ")
+
+
+def test_the_contract_imports_with_nothing_but_numpy():
+    contract = [m for m in all_modules() if m.startswith(CONTRACT)]
+    report = probe(contract, blocked=BPY | OPTIONAL | {"vo_reference"})
+    assert report == {"breach": [], "optional_missing": []}
+
+
+def test_a_missing_optional_dependency_is_not_a_breach():
+    report = probe(["vo_reference.io.color", "vo_reference.products.flow"], blocked=BPY | {"cv2"})
+    # cv2 is imported lazily in io.color (a function-level import): the module imports
+    assert report["breach"] == []
+
+
+def test_the_blocker_really_blocks():
+    report = probe(["bpy"])
+    assert report["breach"] and "blocked" in report["breach"][0]
