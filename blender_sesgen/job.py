@@ -9,8 +9,8 @@
 checks the output folder (:class:`~blender_sesgen.output.OutputFolder`), and writes nothing:
 a bad script, bad options or a folder holding another scene's output raise
 :class:`SesgenError` before any file exists. ``begin()`` (called by ``render_frame`` if
-needed) writes the folder's skeleton; each EXR is written under a temporary name and
-renamed, then the frame is marked complete. The Cycles seed of each frame and view depends
+needed) writes the folder's skeleton; each EXR (and its display-referred PNG) is written
+under a temporary name and renamed, then the frame is marked complete. The Cycles seed of each frame and view depends
 only on the seed, the frame and the view, so ``--resume`` completes an interrupted folder
 with results identical to an uninterrupted run.
 """
@@ -107,9 +107,12 @@ class RenderJob:
         self.session = BlenderSession(self.plan, known_exposure=(kept or {}).get("render", {}).get("exposure"))
 
     def new_manifest(self) -> Manifest:
-        """This job's manifest with no frame complete (needs the built session)."""
-        return self.plan.manifest(channels=self.session.channels, render_extra=self.session.manifest_extra(),
-                                  blender_version=self.session.blender_version)
+        """This job's manifest with no frame complete (needs the built session: it knows the
+        ids it gave the objects of BLEND files)."""
+        m = self.plan.manifest(channels=self.session.channels, render_extra=self.session.manifest_extra(),
+                               blender_version=self.session.blender_version)
+        m.objects = m.objects + self.session.imported_objects
+        return m
 
     def begin(self) -> None:
         """Write the folder's skeleton (scene.ses, poses/, the manifest); once."""
@@ -125,12 +128,16 @@ class RenderJob:
         self.begin()
         finals = {v: self.folder.exr_path(v, k) for v in self.plan.views}
         temps = {v: temp_path(p) for v, p in finals.items()}
+        shown = {v: self.folder.display_path(v, k) for v in self.plan.views}
+        shown_temps = {v: temp_path(p) for v, p in shown.items()}
         t0 = time.perf_counter()
-        stats = self.session.render_frame(k, temps)
+        stats = self.session.render_frame(k, temps, shown_temps)
         for v, tmp in temps.items():
-            if not tmp.is_file():
+            if not tmp.is_file() or not shown_temps[v].is_file():
                 raise RuntimeError(f"Blender wrote no file for frame {k}, view {v}")
-            os.replace(tmp, finals[v])
+        for v in self.plan.views:   # the display image first: an EXR in place means a whole frame
+            os.replace(shown_temps[v], shown[v])
+            os.replace(temps[v], finals[v])
         cyc = [st["cycles_s"] for st in stats.values()]
         res = FrameResult(frame=k, wall_s=time.perf_counter() - t0,
                           cycles_s=None if any(c is None for c in cyc) else sum(cyc), views=stats)

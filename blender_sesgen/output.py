@@ -15,13 +15,14 @@ from typing import Optional
 
 from .contract import atomic
 from .contract.errors import ContractError
-from .contract.manifest import (EXR_DIR, FORMAT, MANIFEST, POSES_DIR, SCENE_COPY, Manifest, exr_relpath,
+from .contract.manifest import (DISPLAY_DIR, display_relpath, EXR_DIR, FORMAT, MANIFEST, POSES_DIR, SCENE_COPY, Manifest, exr_relpath,
                                 load_json, trajectory_relpaths)
 from .contract.trajectory_files import format_ego_table, format_kitti, format_tum
 from .errors import SesgenError
 from .plan import RenderPlan, RenderSettings
 
 _OWN_EXR = re.compile(r"^\d{6}\.exr$")
+_OWN_PNG = re.compile(r"^\d{6}\.png$")
 
 
 class OutputFolder:
@@ -119,6 +120,7 @@ class OutputFolder:
             self._remove_own_outputs()
         for view in plan.views:
             (out / EXR_DIR / view).mkdir(parents=True, exist_ok=True)
+            (out / DISPLAY_DIR / view).mkdir(parents=True, exist_ok=True)
         self._remove_stale_temporaries()
         atomic.write_text(out / SCENE_COPY, plan.scene_text, durable=True)
         kept = self.resumable(plan)
@@ -135,13 +137,18 @@ class OutputFolder:
     def exr_path(self, view: str, k: int) -> Path:
         return self.root / exr_relpath(view, k)
 
+    def display_path(self, view: str, k: int) -> Path:
+        return self.root / display_relpath(view, k)
+
     def mark_complete(self, k: int) -> None:
         """Record frame ``k`` complete (its files are in place)."""
         self.manifest.frames_complete[k] = True
         self.manifest.write(self.root)
 
     def _files_exist(self, m: Manifest, k: int) -> bool:
-        return all((self.root / m.files[v][k]).is_file() for v in m.views)
+        display = (m.extra.get("display") or {}).get("files") or {}
+        return all((self.root / m.files[v][k]).is_file() and
+                   (v not in display or (self.root / display[v][k]).is_file()) for v in m.views)
 
     def _write_pose_files(self, plan: RenderPlan, manifest: Manifest) -> None:
         (self.root / POSES_DIR).mkdir(parents=True, exist_ok=True)
@@ -155,11 +162,12 @@ class OutputFolder:
     def _remove_own_outputs(self) -> None:
         """Delete the files a previous render wrote (our own names only; nothing else)."""
         for view in ("left", "right"):
-            d = self.root / EXR_DIR / view
-            if d.is_dir():
-                for f in d.iterdir():
-                    if _OWN_EXR.match(f.name) or atomic.is_temp_name(f.name):
-                        f.unlink()
+            for folder, own in ((EXR_DIR, _OWN_EXR), (DISPLAY_DIR, _OWN_PNG)):
+                d = self.root / folder / view
+                if d.is_dir():
+                    for f in d.iterdir():
+                        if own.match(f.name) or atomic.is_temp_name(f.name):
+                            f.unlink()
         pd = self.root / POSES_DIR
         if pd.is_dir():
             for f in pd.iterdir():
@@ -170,8 +178,9 @@ class OutputFolder:
 
     def _remove_stale_temporaries(self) -> None:
         for view in ("left", "right"):
-            d = self.root / EXR_DIR / view
-            if d.is_dir():
-                for f in d.iterdir():
-                    if atomic.is_temp_name(f.name) or (f.name.startswith(".") and ".exr.tmp-" in f.name):
-                        f.unlink()
+            for folder in (EXR_DIR, DISPLAY_DIR):
+                d = self.root / folder / view
+                if d.is_dir():
+                    for f in d.iterdir():
+                        if atomic.is_temp_name(f.name) or (f.name.startswith(".") and ".exr.tmp-" in f.name):
+                            f.unlink()

@@ -23,9 +23,11 @@ import numpy as np
 from . import __version__
 from .contract.camera import scaled_K, scaled_size
 from .contract.errors import ContractError
-from .contract.manifest import SEED_RULE, Manifest, exr_relpath
+from .contract import semantics
+from .contract.manifest import SEED_RULE, Manifest, display_relpath, exr_relpath
 from .contract.timing import DEFAULT_FPS, FrameSelection, frame_timestamps
 from .errors import SesgenError
+from .lighting_data import VIEW_TRANSFORMS
 from .model import Mesh, Scene, TextureRef
 
 MAX_IMAGE_SIDE = 16384   # the script's own limit, applied to scaled sizes too
@@ -202,6 +204,10 @@ class RenderPlan:
         if scene.fog is not None:
             extra["fog"] = {"start": scene.fog.start, "end": scene.fog.end, "colour": list(scene.fog.colour),
                             "applies_to": "rgb only"}
+        extra["display"] = {
+            "kind": "display-referred sRGB, 8-bit PNG (the Combined pass through the view transform)",
+            "view_transform": VIEW_TRANSFORMS[scene.look.view],
+            "files": {v: [display_relpath(v, k) for k in range(N)] for v in self.views}}
         product_channels = {k: channels[k] for k in ("rgb", "depth", "object_index")}
         for p in ("normal", "position"):
             if p in s.passes:
@@ -251,7 +257,9 @@ def texture_label(tex: Optional[TextureRef]) -> Optional[str]:
 
 
 def object_table(scene: Scene) -> list[dict]:
-    """The manifest's ``objects``: id, name, shape, texture and material of every object."""
+    """The manifest's ``objects``: id, name, shape, texture, material, semantic ``class`` and
+    its Cityscapes ``label_id`` (contract.semantics) of every object of the script (a BLEND
+    file's objects are added by the job, which learns their ids when loading them)."""
     out = []
     for o in scene.objects:
         tex = o.texture
@@ -260,8 +268,10 @@ def object_table(scene: Scene) -> list[dict]:
                 tex = scene.material(o.material).texture
             except KeyError:
                 tex = None
+        label = semantics.BY_NAME[semantics.canonical(o.semantic_class)]
         out.append({"id": int(o.id), "name": o.name, "shape": o.shape,
-                    "texture": texture_label(tex), "material": o.material})
+                    "texture": texture_label(tex), "material": o.material,
+                    "class": label.name, "label_id": label.id})
     return out
 
 

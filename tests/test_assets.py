@@ -176,3 +176,14 @@ def test_terrain_mesh_follows_its_height_function_and_the_trail_is_soil():
 def test_every_kind_has_a_known_class_and_documented_sizes():
     for kind, k in assets.KINDS.items():
         assert k.semantic_class and k.summary and k.size_meaning and len(k.size_ranges) == 3, kind
+
+
+def test_surfaces_name_library_or_asset_materials_and_kinds_known_classes():
+    from blender_sesgen.contract.semantics import lookup
+    from blender_sesgen.material_library import LIBRARY
+    for kind, k in assets.KINDS.items():
+        assert lookup(k.semantic_class) is not None, (kind, k.semantic_class)
+        d = _mesh(kind, 0)
+        for s in d.surfaces:
+            assert s.material in LIBRARY or s.material in assets.ASSET_MATERIALS, (kind, s.material)
+            assert s.colour is None or all(0.0 <= c <= 0.86 for c in s.colour), (kind, s)   # linear albedos

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from blender_sesgen.pipeline import RenderOptions
 from render_support import load_manifest, read_exr, run_render
 
 pytestmark = pytest.mark.render
@@ -39,4 +40,50 @@ def test_sky_strength_1_is_well_exposed(tmp_path, elevation, low, high):
 
 def test_a_script_without_lights_is_lit_not_black(tmp_path):
     rgb = _mean_linear_rgb(tmp_path, LOOK_DOWN + GROUND)
+    assert 0.15 < rgb.mean() < 1.5, rgb
+
+
+def test_sky_sun_lamp_delivers_the_sky_models_own_sun(tmp_path):
+    """WORLD sky renders the sky without its sun disc plus a lamp (lighting_data's measured
+    table): a white ground lit that way matches the same ground under the sky model's own
+    disc (disc back on, lamp removed), per channel, at two elevations and azimuths."""
+    import bpy
+    from blender_sesgen.blender import render
+    from blender_sesgen.pipeline import RenderJob
+    for elevation, azimuth in ((35, 20), (12, -120)):
+        script = tmp_path / f"sky{elevation}.ses"
+        script.write_text(LOOK_DOWN + f"WORLD sky strength 1 elevation {elevation} azimuth {azimuth}\n"
+                          "LOOK exposure 0\n" + GROUND +
+                          "CUBOID id 2 position 0 0.5 -1.5 dim 0.6 1 0.6\n")   # casts a shadow
+        job = RenderJob.prepare(script, tmp_path / f"out{elevation}", RenderOptions(samples=64))
+        job.build()
+        bscene = job.built.scene
+        means = []
+        for disc in (False, True):
+            if disc:
+                sky = next(n for n in bscene.world.node_tree.nodes if n.bl_idname == "ShaderNodeTexSky")
+                sky.sun_disc = True
+                for o in [o for o in bscene.objects if o.type == "LIGHT"]:
+                    bpy.data.objects.remove(o)
+            path = tmp_path / f"e{elevation}{disc}.exr"
+            render.render_view(bscene, job.built.cameras["left"], 1, 0, str(path))
+            ch = read_exr(path)
+            means.append(np.stack([ch[f"ViewLayer.Combined.{c}"] for c in "RGB"], -1).reshape(-1, 3).mean(0))
+        lamp, sky_disc = means
+        np.testing.assert_allclose(lamp, sky_disc, rtol=0.04, err_msg=f"elevation {elevation}")
+
+
+def test_closed_room_gets_a_ceiling_light(tmp_path):
+    room = ("CAMERA resolution 32 24 focal 20 baseline 0\nSTART position 0 1.5 1\n"
+            "CUBOID id 1 position 0 -0.05 0 dim 6 0.1 6\nCUBOID id 2 position 0 3.05 0 dim 6 0.1 6\n"
+            "CUBOID id 3 position -3.05 1.5 0 dim 0.1 3 6\nCUBOID id 4 position 3.05 1.5 0 dim 0.1 3 6\n"
+            "CUBOID id 5 position 0 1.5 -3.05 dim 6 3 0.1\nCUBOID id 6 position 0 1.5 3.05 dim 6 3 0.1\n")
+    from blender_sesgen.pipeline import RenderJob
+    (tmp_path / "room.ses").write_text(room)
+    job = RenderJob.prepare(tmp_path / "room.ses", tmp_path / "o")
+    job.build()
+    lamps = [o for o in job.built.scene.objects if o.type == "LIGHT"]
+    area = [o for o in lamps if o.data.type == "AREA"]
+    assert len(area) == 1 and abs(area[0].location.z - 2.95) < 1e-6   # just under the ceiling
+    rgb = _mean_linear_rgb(tmp_path, room)
     assert 0.15 < rgb.mean() < 1.5, rgb

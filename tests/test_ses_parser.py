@@ -13,6 +13,7 @@ from blender_sesgen import model
 from blender_sesgen.errors import ScriptError
 from blender_sesgen.ses import parse_file, parse_string
 from blender_sesgen.textures import BUILTIN_TEXTURES
+from image_files import jpeg_bytes, png_bytes
 
 GOLDEN = Path(__file__).resolve().parent / "golden"
 OBJ = "CUBOID id 1 position 0 0 0 dim 1 1 1\n"
@@ -54,7 +55,7 @@ def test_golden_object_types_and_lines():
 # --- lexical rules ---------------------------------------------------------------------
 
 def test_comments_strings_case_and_numbers(tmp_path):
-    (tmp_path / "my tex.png").write_bytes(b"\x89PNG")
+    (tmp_path / "my tex.png").write_bytes(png_bytes())
     text = ("\ufeff// whole-line comment\r\n"
             "\tsPhErE  ID 3\tTEXTURE \"my tex.png\" // trailing comment with \"quotes\"\r\n"
             "   POSITION +1.5e0 -2.5E-1 .5 dIm 5.  \r\n")
@@ -71,7 +72,7 @@ def test_comments_strings_case_and_numbers(tmp_path):
 
 def test_string_may_hold_comment_marker(tmp_path):
     (tmp_path / "a" / "b").mkdir(parents=True)
-    (tmp_path / "a" / "b" / "t.png").write_bytes(b"")
+    (tmp_path / "a" / "b" / "t.png").write_bytes(png_bytes())
     s = parse_string(OBJ + 'SPHERE id 2 position 0 0 0 dim 1 texture "a//b/t.png"\n', base_dir=str(tmp_path))
     assert s.objects[1].texture.source == "a//b/t.png"
 
@@ -96,7 +97,7 @@ def test_texture_zero_is_plain_colour():
 
 def test_image_texture_relative_to_script(tmp_path):
     (tmp_path / "tex").mkdir()
-    (tmp_path / "tex" / "wall.jpg").write_bytes(b"")
+    (tmp_path / "tex" / "wall.jpg").write_bytes(jpeg_bytes())
     (tmp_path / "scene.ses").write_text("QUAD id 1 texture tex/wall.jpg vertices 0 0 0 1 0 0 1 1 0 0 1 0\n")
     tex = parse_file(tmp_path / "scene.ses").objects[0].texture
     assert (tex.kind, tex.name, tex.path, tex.source) == ("image", "wall", str(tmp_path / "tex" / "wall.jpg"),
@@ -177,7 +178,7 @@ def test_trajectory_kitti(tmp_path):
 
 
 def test_only_named_files_are_read(tmp_path, monkeypatch):
-    (tmp_path / "t.png").write_bytes(b"")
+    (tmp_path / "t.png").write_bytes(png_bytes())
     (tmp_path / "m.obj").write_text("v 0 0 0\n")
     (tmp_path / "p.txt").write_text("0 0 0 0 0 0 0 1\n")
     script = tmp_path / "s.ses"
@@ -187,7 +188,8 @@ def test_only_named_files_are_read(tmp_path, monkeypatch):
     real_open = builtins.open
     monkeypatch.setattr(builtins, "open", lambda f, *a, **k: opened.append(str(f)) or real_open(f, *a, **k))
     parse_file(script)
-    assert opened == [str(script), str(tmp_path / "p.txt")]
+    # image files are decoded (a corrupt image is a parse error); meshes only checked to exist
+    assert opened == [str(script), str(tmp_path / "t.png"), str(tmp_path / "p.txt")]
 
 
 def test_python_in_a_script_is_never_run(tmp_path):

@@ -18,6 +18,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..model import Material
 from .mesh import MeshData, Surface  # noqa: F401  (re-exported)
 
 Vec3 = tuple[float, float, float]
@@ -150,6 +151,13 @@ def _kinds() -> dict[str, Kind]:
 
 
 KINDS: dict[str, Kind] = _kinds()
+
+# Materials some assets need that the library has not (a script's MATERIAL of the same
+# name replaces them): the diffuser of ceiling_light, which glows.
+ASSET_MATERIALS: dict[str, Material] = {
+    "light_panel": Material(name="light_panel", colour=(0.85, 0.85, 0.83), roughness=0.3,
+                            emission=(1.0, 0.97, 0.92), emission_strength=15.0),
+}
 
 
 def default_size(kind: str, seed: int) -> Vec3:

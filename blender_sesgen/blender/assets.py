@@ -9,35 +9,22 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from .. import assets
+from .. import assets, material_library
+from ..ses.materials import library_material
 from ..contract.frames import object_pose, ses_to_blender_world
 from ..errors import SesgenError
 from ..model import Asset, Material
 from .datablocks import tag
 from .shapes import ShapeContext, build_shape
 
-# A plain stand-in per library material name (linear albedo, roughness, metallic), used
-# only where this build's material library lacks the name.
-_STAND_IN = {
-    "asphalt": ((0.085, 0.085, 0.082), 0.88, 0.0), "lane_marking": ((0.72, 0.72, 0.7), 0.55, 0.0),
-    "concrete": ((0.38, 0.37, 0.35), 0.85, 0.0), "brick": ((0.3, 0.11, 0.06), 0.85, 0.0),
-    "plaster": ((0.62, 0.58, 0.52), 0.8, 0.0), "roof_tiles": ((0.28, 0.085, 0.045), 0.75, 0.0),
-    "wood_planks": ((0.33, 0.19, 0.09), 0.45, 0.0), "ceramic_tiles": ((0.62, 0.62, 0.6), 0.12, 0.0),
-    "fabric": ((0.18, 0.2, 0.26), 0.9, 0.0), "plastic": ((0.55, 0.55, 0.55), 0.35, 0.0),
-    "rubber": ((0.035, 0.035, 0.035), 0.85, 0.0), "metal_painted": ((0.12, 0.22, 0.16), 0.4, 0.0),
-    "metal_brushed": ((0.58, 0.58, 0.58), 0.3, 1.0), "metal_rusty": ((0.3, 0.3, 0.29), 0.5, 1.0),
-    "chrome": ((0.55, 0.56, 0.55), 0.05, 1.0), "car_paint": ((0.05, 0.09, 0.2), 0.35, 0.5),
-    "glass_window": ((0.035, 0.038, 0.04), 0.03, 0.0), "grass": ((0.06, 0.1, 0.03), 0.9, 0.0),
-    "leaves": ((0.05, 0.09, 0.025), 0.6, 0.0), "bark": ((0.13, 0.1, 0.08), 0.9, 0.0),
-    "soil": ((0.14, 0.1, 0.07), 0.95, 0.0), "gravel": ((0.3, 0.28, 0.25), 0.85, 0.0),
-}
-
-
 def library_or_stand_in(name: str) -> Material:
-    """The library material ``name`` with its defaults (a plain stand-in where the library
-    of this build has no such entry)."""
-    colour, rough, metallic = _STAND_IN.get(name, ((0.5, 0.5, 0.5), 0.6, 0.0))
-    return Material(name=name, colour=colour, roughness=rough, metallic=metallic)
+    """The library material ``name`` with its defaults, or the asset-only material of that
+    name (``assets.ASSET_MATERIALS``)."""
+    if name in assets.ASSET_MATERIALS:
+        return assets.ASSET_MATERIALS[name]
+    if not material_library.is_library_name(name):
+        raise SesgenError(f"asset surface material '{name}' is neither a library material nor an asset material")
+    return library_material(name)
 
 
 def mesh_from_triangles(name: str, vertices: np.ndarray, faces: np.ndarray, tag=tag):

@@ -45,7 +45,9 @@ def enable_gpu() -> str:
 
 
 def configure(bscene, *, samples: int, denoise: bool, gpu: bool = False, threads: int = 0,
-              normal_pass: bool = False, position_pass: bool = False) -> None:
+              normal_pass: bool = False, position_pass: bool = False, view_transform: str = "AgX") -> None:
+    """Cycles, passes and colour management. ``view_transform`` shapes the display-referred
+    PNG only (the EXR is scene-linear whatever it is)."""
     r = bscene.render
     r.engine = "CYCLES"
     c = bscene.cycles
@@ -55,6 +57,8 @@ def configure(bscene, *, samples: int, denoise: bool, gpu: bool = False, threads
     c.use_denoising = bool(denoise)
     if denoise:
         c.denoiser = "OPENIMAGEDENOISE"
+        c.denoising_input_passes = "RGB_ALBEDO_NORMAL"   # guided by albedo and normal
+        c.denoising_prefilter = "ACCURATE"
     c.use_animated_seed = False
     c.sample_clamp_indirect = 10.0
     # enough bounces for indirect light in a closed room, fewer than Cycles' 12 (speed)
@@ -72,7 +76,8 @@ def configure(bscene, *, samples: int, denoise: bool, gpu: bool = False, threads
     r.use_compositing = False
     r.use_sequencer = False
     r.dither_intensity = 0.0
-    bscene.view_settings.view_transform = "Standard"
+    bscene.display_settings.display_device = "sRGB"
+    bscene.view_settings.view_transform = view_transform
     bscene.view_settings.look = "None"
     bscene.view_settings.exposure = 0.0
     bscene.view_settings.gamma = 1.0
@@ -98,8 +103,11 @@ class _Stats:
             self.last = 3600 * int(m.group(1) or 0) + 60 * int(m.group(2)) + float(m.group(3))
 
 
-def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: bool = True) -> dict:
-    """Render ``camera`` at Blender frame ``frame`` into the multilayer EXR ``filepath``.
+def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: bool = True,
+                display_path: str | None = None) -> dict:
+    """Render ``camera`` at Blender frame ``frame`` into the multilayer EXR ``filepath``
+    (scene-linear) and, with ``display_path``, the display-referred 8-bit PNG (the same
+    render through the scene's view transform).
 
     Returns {"wall_s": seconds around the render call, "cycles_s": Cycles' own render time}.
     """
@@ -121,4 +129,17 @@ def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: boo
     wall = time.perf_counter() - t0
     if "FINISHED" not in result:
         raise RuntimeError(f"Cycles render did not finish ({result}) for frame {frame}")
+    if display_path is not None:
+        save_display(bscene, display_path)
     return {"wall_s": wall, "cycles_s": stats.last}
+
+
+def save_display(bscene, path: str) -> None:
+    """The last render result as an 8-bit sRGB PNG through the scene's view transform
+    (``Image.save_render`` applies the scene's colour management to non-float formats)."""
+    ims = bscene.render.image_settings
+    try:
+        compat.set_png(ims)
+        bpy.data.images["Render Result"].save_render(filepath=path, scene=bscene)
+    finally:
+        compat.set_multilayer_exr(ims)

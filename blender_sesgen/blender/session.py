@@ -1,8 +1,8 @@
 """A plan's scene built in Blender and ready to render frames: the bpy side of a render job.
 
 ``BlenderSession(plan)`` builds the scene (``builder``), configures Cycles (``render``) and
-fixes the film exposure; ``render_frame(k, paths)`` renders every view of frame k into the
-given EXR paths. It knows nothing of output folders or manifests beyond what it reports
+fixes the film exposure; ``render_frame(k, paths, display_paths)`` renders every view of
+frame k into the given EXR (and display PNG) paths. It knows nothing of output folders or manifests beyond what it reports
 for them (channel names, exposure, Blender's version).
 """
 from __future__ import annotations
@@ -11,11 +11,11 @@ from pathlib import Path
 from typing import Optional
 
 from ..contract.manifest import render_seed
+from ..lighting_data import EXPOSURE_TARGET, VIEW_TRANSFORMS
 from ..plan import Device, RenderPlan
 from . import builder, compat, exposure, render, rig
 
-EXPOSURE_RULE_AUTO = "auto: default lighting, 90th-percentile luminance of frame 0 = 0.6"
-EXPOSURE_RULE_LIGHTS = "1 (the script's own lights)"
+EXPOSURE_RULE_AUTO = f"auto: 90th-percentile luminance of frame 0 = {EXPOSURE_TARGET}"
 
 
 class BlenderSession:
@@ -33,13 +33,23 @@ class BlenderSession:
             render.enable_gpu()
         render.configure(self.built.scene, samples=s.samples, denoise=s.denoise, gpu=gpu,
                          threads=plan.options.threads, normal_pass=plan.options.normal_pass,
-                         position_pass=plan.options.position_pass)
+                         position_pass=plan.options.position_pass,
+                         view_transform=VIEW_TRANSFORMS[plan.scene.look.view])
         self.exposure = self._exposure(known_exposure)
 
+    @property
+    def auto_exposure(self) -> bool:
+        """``LOOK exposure auto``, or no LOOK exposure and no emitting LIGHT (portals emit nothing)."""
+        look = self.plan.scene.look
+        if look.auto_exposure is not None:
+            return look.auto_exposure
+        return not any(light.kind != "portal" for light in self.plan.scene.lights)
+
     def _exposure(self, known: Optional[float]) -> float:
-        """Default lighting only: one film exposure for the whole sequence (blender/exposure.py)."""
-        if self.plan.scene.lights:
-            value = 1.0
+        """One film exposure for the whole sequence: automatic (blender/exposure.py; the value
+        of frames already rendered when resuming) or the LOOK's fixed 2^EV."""
+        if not self.auto_exposure:
+            value = float(2.0 ** self.plan.scene.look.exposure_ev)
         elif known is not None:
             value = float(known)
         else:
@@ -58,14 +68,23 @@ class BlenderSession:
 
     def manifest_extra(self) -> dict:
         """What this session adds to the manifest's ``render`` entry."""
-        return {"exr_layout": self.channels["layout"], "exposure": self.exposure,
-                "exposure_rule": EXPOSURE_RULE_LIGHTS if self.plan.scene.lights else EXPOSURE_RULE_AUTO}
+        rule = EXPOSURE_RULE_AUTO if self.auto_exposure else \
+            f"fixed: {self.plan.scene.look.exposure_ev:g} EV (factor 2^EV)"
+        return {"exr_layout": self.channels["layout"], "exposure": self.exposure, "exposure_rule": rule}
 
-    def render_frame(self, k: int, paths: dict[str, Path]) -> dict[str, dict]:
-        """Render frame ``k`` of each view into ``paths[view]``; {view: render stats}."""
+    @property
+    def imported_objects(self) -> list[dict]:
+        """Manifest rows of the objects BLEND files brought (their ids are given when loaded)."""
+        return list(self.built.imported)
+
+    def render_frame(self, k: int, paths: dict[str, Path],
+                     display_paths: Optional[dict[str, Path]] = None) -> dict[str, dict]:
+        """Render frame ``k`` of each view into ``paths[view]`` (EXR) and, with
+        ``display_paths``, ``display_paths[view]`` (the display-referred PNG); {view: stats}."""
         stats = {}
         for vi, view in enumerate(self.plan.views):
             stats[view] = render.render_view(self.built.scene, self.built.cameras[view], rig.blender_frame(k),
                                              render_seed(self.plan.settings.seed, k, vi), str(paths[view]),
-                                             quiet=not self.plan.options.verbose)
+                                             quiet=not self.plan.options.verbose,
+                                             display_path=str(display_paths[view]) if display_paths else None)
         return stats

@@ -26,8 +26,9 @@ from blender_sesgen.contract.manifest import MANIFEST, Manifest
 
 from ..errors import VoError, as_vo_error
 from .color import rgb8_to_gray8
-from .exr import find_pass, read_exr_channels
 from .base import check_frame_view
+from .exr import find_pass, read_exr_channels
+from .files import read_image
 
 # pass name candidates (Blender 5.0 first, then 4.x names)
 PASS_COMBINED = ("Combined",)
@@ -128,9 +129,29 @@ class RenderSequence:
         found = find_pass(self._channels(k, view), PASS_COMBINED, ("A",))
         return None if found is None else self._channels(k, view)[found[0]].astype(np.float32)
 
+    def display_path(self, k: int, view: str = "left") -> Path | None:
+        """The display-referred 8-bit PNG of frame k (manifest ``display.files``), or None
+        when the render has none (renders made before it existed)."""
+        check_frame_view(self, k, view)
+        files = ((self.manifest.get("display") or {}).get("files") or {}).get(view)
+        if not isinstance(files, list) or len(files) != self.num_frames or not files[int(k)]:
+            return None
+        path = self.root / files[int(k)]
+        return path if path.is_file() else None
+
     def image_rgb(self, k: int, view: str = "left") -> np.ndarray:
-        """uint8 (H, W, 3) sRGB-encoded (IEC 61966-2-1 transfer function, clipped)."""
-        return linear_to_srgb8(self.rgb_linear(k, view))
+        """uint8 (H, W, 3) sRGB: the display-referred image Blender wrote through the view
+        transform (manifest ``display``), else the Combined pass encoded with the sRGB
+        transfer function (IEC 61966-2-1, clipped)."""
+        path = self.display_path(k, view)
+        if path is None:
+            return linear_to_srgb8(self.rgb_linear(k, view))
+        import cv2
+        img = read_image(path, cv2.IMREAD_COLOR)
+        W, H = self.resolution
+        if img.shape[:2] != (H, W):
+            raise VoError(f"{path}: image is {img.shape[1]}x{img.shape[0]}, manifest says {W}x{H}")
+        return np.ascontiguousarray(img[..., ::-1])
 
     def image_gray(self, k: int, view: str = "left") -> np.ndarray:
         return rgb8_to_gray8(self.image_rgb(k, view))

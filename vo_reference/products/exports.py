@@ -45,6 +45,9 @@ EXPORTERS: dict[str, tuple[str | Callable, str]] = {
             "per view: noisy 8-bit RGB, ids PNG16 + colour palette, disparity PNG16 (x256)"),
     "bayer": ("vo_reference.products.bayer_export:export_bayer",
               "GBRG Bayer mosaics + distorted images + undistortion LUT (RobotCar-like)"),
+    "cityscapes": ("vo_reference.products.semantic_export:export_cityscapes",
+                   "Cityscapes layout: leftImg8bit/ + gtFine/ labelIds, color, instanceIds (+ object ids), "
+                   "classes.json; right view in rightImg8bit/ + gtFineRight/"),
 }
 
 COLOUR, GREY = 0, 1
