@@ -2,7 +2,7 @@
 
 Renders frames of scenes/city_kitti.ses (KITTI's rig) and scenes/hall.ses (EuRoC's rig)
 at their full resolution and default quality, and prints, in one run, the same image
-statistics (vo_reference.evaluate.image_stats) for them and for the real sequences in
+statistics (vo_reference.realism) for them and for the real sequences in
 ../shared/data: the KITTI odometry excerpt (kitti/sequence_1) and the EuRoC V1_01 excerpt
 (euroc/mav0), plus the OpenCV baseline stereo VO's end-point drift where ground truth
 exists (KITTI and our renders; the EuRoC excerpt carries none), and the seconds per
@@ -31,11 +31,12 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
-from vo_reference.evaluate.image_stats import ImageStats, sequence_stats  # noqa: E402
+from vo_reference.realism import ImageStats, sequence_stats  # noqa: E402
 from vo_reference.io.sequence import open_sequence  # noqa: E402
 
 DATA = Path(os.environ.get("SESGEN_SHARED_DATA", REPO.parent / "shared" / "data"))
-SCENES = {"city": ("scenes/city_kitti.ses", "kitti"), "hall": ("scenes/hall.ses", "euroc")}
+SCENES = {"city": ("scenes/city_kitti.ses", "kitti"), "hall": ("scenes/hall.ses", "euroc"),
+          "office": ("scenes/office.ses", None), "forest": ("scenes/forest.ses", None)}
 ROWS = (("power-spectrum slope", "slope", "{:.2f}"), ("gradient median (Sobel)", "grad_median", "{:.1f}"),
         ("gradient 90th percentile", "grad_p90", "{:.1f}"), ("Shi–Tomasi corners (cap 2000)", "corners", "{:.0f}"),
         ("KLT forward–backward error median (px)", "klt_fb_median", "{:.3f}"),
@@ -141,7 +142,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=21, help="frames of each sequence (default 21)")
     ap.add_argument("--out", default="out/realism", help="render folders go here (reused with --resume)")
-    ap.add_argument("--scenes", default="city,hall", help="comma-separated: city, hall")
+    ap.add_argument("--scenes", default="city,hall", help="comma-separated: city, hall (with real references), "
+                    "office, forest (statistics and timing only)")
     ap.add_argument("--no-render", action="store_true", help="use what is already rendered in --out")
     a = ap.parse_args(argv)
     if not DATA.is_dir():
@@ -154,6 +156,10 @@ def main(argv=None) -> int:
         seq, L, R = render_frames(out, a.frames)
         ours = sequence_stats(L, R)
         ours_drift = vo_drift_pct(seq, a.frames)
+        if real is None:
+            print(f"\n### {script}, first {a.frames} frames (no real reference)\n")
+            print(table("–", ours, float("nan"), Path(script).name, ours, ours_drift, secs))
+            continue
         if real == "kitti":
             kseq, KL, KR = kitti_frames(a.frames)
             ref, ref_drift, ref_name = sequence_stats(KL, KR), vo_drift_pct(kseq, a.frames), "real KITTI (sequence_1)"

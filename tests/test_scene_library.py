@@ -67,7 +67,7 @@ def test_city_kitti_is_kittis_rig_and_drive(scenes):
     T_road = object_pose(road.position, road.rotation_deg)
     c = c @ T_road[:3, :3].T + T_road[:3, 3]
     n = n @ T_road[:3, :3].T
-    idx = np.argmin(np.linalg.norm(T[:, None, [0, 2]] - c[None, :, [0, 2]], axis=2), axis=1)
+    idx = np.argmin(np.linalg.norm(T[:, :3, 3][:, None, [0, 2]] - c[None, :, [0, 2]], axis=2), axis=1)
     lateral = np.einsum("ij,ij->i", (T[:, :3, 3] - c[idx])[:, [0, 2]], n[idx][:, [0, 2]])
     assert np.all((lateral > 1.0) & (lateral < 2.8)), lateral
     cam_heading = np.degrees(np.arctan2(-T[:, 0, 2], -T[:, 2, 2]))
@@ -82,7 +82,7 @@ def test_office_is_a_handheld_tum_like_walk(scenes):
     assert (s.rig.width, s.rig.height, s.rig.focal_px) == (640, 480, 525)
     T = s.timeline.left()
     speed = np.linalg.norm(np.diff(T[:, :3, 3], axis=0), axis=1) * 30.0
-    assert 0.2 < np.median(speed) < 0.7 and speed.max() < 1.2           # walking pace at 30 Hz
+    assert 0.2 < np.median(speed) < 0.6 and speed.max() < 1.0           # TUM hand-held pace (0.2-0.4 m/s)
     from blender_sesgen.contract.se3 import relative, rotation_angle_rad
     rates = np.degrees([float(rotation_angle_rad(relative(T[k], T[k + 1])[:3, :3])) for k in range(len(T) - 1)]) * 30
     assert 5 < np.median(rates) < 60 and rates.max() < 120              # hand-held turning rates (deg/s)
@@ -162,7 +162,7 @@ def _solid_scene(scene) -> mesh_raycast.TriangleScene:
     return ts
 
 
-@pytest.mark.parametrize("name,min_hit", [("city_kitti", 0.5), ("office", 0.97), ("forest", 0.4), ("hall", 0.97)])
+@pytest.mark.parametrize("name,min_hit", [("city_kitti", 0.5), ("office", 0.9), ("forest", 0.4), ("hall", 0.9)])
 def test_cameras_see_surfaces_at_every_frame(scenes, name, min_hit):
     """At every frame both cameras' rays through a 7 x 5 grid of pixels hit the scene's
     solid surfaces within 300 m for at least ``min_hit`` of the grid (outdoors the upper

@@ -161,6 +161,20 @@ def machine(size, seed: int) -> MeshData:
             b.cylinder(0.02, 0.0, 0.02, 10, red if (i + j) % 3 == 0 else green,
                        T=pose(np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0]]), (cx0 + 0.1 + i * 0.08, 1.2 + j * 0.1, D / 2 - 0.05)))
     b.cylinder(0.18, -W / 2 + 0.05, -W / 2 - 0.4, 16, paint, T=pose(rot_z(90), (0, 0.5, -D / 4)))
+    # louvred vents on the housing's side, a warning plate, pipes down to the floor
+    vx0 = -W / 2 + 0.05 + hw * 0.15
+    for k in range(int(rng.integers(6, 14))):
+        y = 0.4 + k * 0.06
+        if y > top - 0.2:
+            break
+        b.box((vx0, y, D / 2 - 0.05), (vx0 + min(0.6, hw * 0.3), y + 0.025, D / 2 - 0.02), dark)
+    warn = b.surface("metal_painted", (0.55, 0.42, 0.02))
+    b.box((wx + 0.35, top - 0.3, D / 2 - 0.05), (wx + 0.55, top - 0.12, D / 2 - 0.035), warn)
+    rust = b.surface("metal_rusty")
+    for k in range(int(rng.integers(1, 4))):
+        px = -W / 2 + 0.2 + rng.uniform(0, hw - 0.3)
+        b.tube([(px, 0.15, -D / 2 + 0.1 + 0.25 * k), (px, top * 0.6, -D / 2 + 0.1 + 0.25 * k),
+                (px + 0.3, top * 0.6 + 0.3, -D / 2 + 0.1 + 0.25 * k)], 0.04, 8, rust)
     if rng.random() < 0.7:   # duct up from the housing
         b.tube([(-W / 2 + hw * 0.3, H * 0.6, -D / 4), (-W / 2 + hw * 0.3, H + 0.6, -D / 4), (-W / 2 + hw * 0.3 + 0.5, H + 1.0, -D / 4)],
                0.12, 12, steel)

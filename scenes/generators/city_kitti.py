@@ -53,13 +53,14 @@ def generate(seed: int = 0, frames: int = 101, step_m: float = 1.2, sun_elevatio
     bends = np.round(bends, 3)
     street_pos = np.array([0.0, 0.0, behind])
     street_yaw = 0.0
-    half_road = round(float(rng.uniform(5.6, 6.0)), 2)       # two lanes and a parking lane each side
+    half_road = round(float(rng.uniform(4.7, 5.0)), 2)       # two lanes, cars parked at the edges
     kerb_w, kerb_h = 0.2, 0.13
     lawn_w = round(float(rng.uniform(1.8, 3.0)), 2)          # tree lawn, right side
     walk_r = round(float(rng.uniform(2.2, 3.0)), 2)
     walk_l = round(float(rng.uniform(2.0, 3.0)), 2)
     yard = 60.0
-    ids = Ids({"street": 1, "building": 100, "car": 400, "tree": 600, "veg": 900, "furniture": 1200})
+    ids = Ids({"street": 1, "building": 100, "car": 400, "tree": 600, "veg": 900, "furniture": 1200,
+               "grass": 2000})
 
     out = ["// city_kitti.ses - an urban street seen by the KITTI odometry rig (1226x370, f 707 px,",
            "// baseline 0.54 m), ~1.2 m per frame, lane keeping along gentle curves.",
@@ -181,13 +182,28 @@ def generate(seed: int = 0, frames: int = 101, step_m: float = 1.2, sun_elevatio
                          (round(float(rng.uniform(0.6, 0.8)), 2), round(height, 2), 0.025),
                          seed=int(rng.integers(1e6))))
 
+    # --- grass (real blades) on the tree lawn and the first metres of the yards and fields --
+    out += ["", "// grass: patches of blades on the lawns near the road (a few variants, instanced)"]
+    tufts = [int(rng.integers(1e6)) for _ in range(6)]
+    patch = 2.5
+    bands = [(lawn[0] + 0.1, lawn[1] - 0.1), (right_edge + 0.2, right_edge + 9.0), (left_edge - 9.0, left_edge - 0.2)]
+    for o0, o1 in bands:
+        n_o = max(int(round((o1 - o0) / patch)), 1)
+        for s_ in np.arange(patch / 2, L - patch / 2, patch):
+            for j in range(n_o):
+                off = o0 + (j + 0.5) * (o1 - o0) / n_o
+                p, h = place(s_ + rng.uniform(-0.3, 0.3), off + rng.uniform(-0.2, 0.2))
+                out.append(asset("grass_tuft", ids("grass"), p + np.array([0.0, kerb_h - 0.02, 0.0]),
+                                 float(rng.choice([0, 90, 180, 270])), (patch * 1.15, 0.16, patch * 1.15),
+                                 seed=tufts[rng.integers(len(tufts))]))
+
     # --- parked cars along both kerbs (none beside the start: the rig needs a clear view) --
     out += ["", "// parked cars along the kerbs (right side facing the drive)"]
     for side in (1, -1):
         s = behind + float(rng.uniform(12, 20)) if side > 0 else float(rng.uniform(5, 15))
         while s < L - 8:
             if rng.random() < (0.5 if side > 0 else 0.3):
-                p, h = place(s, side * (half_road - 1.0 + rng.uniform(-0.05, 0.05)))
+                p, h = place(s, side * (half_road - 0.95 + rng.uniform(-0.05, 0.05)))
                 out.append(asset("car", ids("car"), p, (h + 180 if side > 0 else h) + rng.uniform(-2, 2),
                                  seed=int(rng.integers(1e6))))
                 s += float(rng.uniform(5.2, 6.5))
@@ -198,7 +214,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: float = 1.2, sun_elevatio
     k = np.arange(frames)
     speed = step_m * (1 + 0.06 * smooth_noise(rng, frames, 1.0, (0.7, 1.6)))
     s_cam = behind + np.concatenate([[0.0], np.cumsum(speed[:-1])])
-    lane = 1.8 + 0.12 * smooth_noise(rng, frames, 1.0, (0.8, 1.7, 3.1))
+    lane = 1.7 + 0.1 * smooth_noise(rng, frames, 1.0, (0.8, 1.7, 3.1))
     c, n, h = _centre(street_pos, street_yaw, s_cam, L, bends)
     pos = c + lane[:, None] * n + [0.0, CAMERA_HEIGHT, 0.0]
     pos[:, 1] += 0.01 * smooth_noise(rng, frames, 1.0, (9.0, 17.0))            # suspension

@@ -26,7 +26,7 @@ RATE_HZ = 10.0
 
 def generate(seed: int = 0, frames: int = 150, speed: float = 1.4) -> str:
     rng = np.random.default_rng(seed)
-    size = (70.0, 3.0, 140.0)
+    size = (110.0, 3.0, 140.0)
     tseed = seed * 31 + 3
     ids = Ids({"ground": 1, "tree": 100, "under": 2000, "rock": 4000})
     H = lambda x, z: float(terrain_height(size, tseed, x, z))   # noqa: E731

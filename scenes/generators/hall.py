@@ -7,7 +7,7 @@ pipe runs, crates, pallets and barrels, a steel stair and railings. The rig is t
 MAV's VI-sensor (752 x 480 px, focal and principal point of cam0, baseline from the two
 cameras' T_BS in ``../shared/data/euroc/mav0/cam0|cam1/sensor.yaml``, read by
 :func:`euroc_rig`; undistorted pinhole); it flies at 20 Hz like EuRoC's Machine Hall
-runs: 0.3-1 m/s at 1-3 m height, yawing to look around, rolling and pitching a few
+runs: ~0.6 m/s (at most ~1.5) at 1-2.5 m height, yawing to look around, rolling and pitching a few
 degrees with its accelerations.
 
     python scenes/generators/hall.py [--seed N] [--frames N] > scenes/hall.ses
@@ -76,9 +76,9 @@ def generate(seed: int = 0, frames: int = 200, width: float = 30.0, depth: float
             "MATERIAL name floor_paint library lane_marking colour 0.55 0.45 0.03",
             "MATERIAL name door_paint library metal_painted colour 0.35 0.3 0.05", "",
             "// the shell: floor, plinth walls, cladding between strip windows, roof"]
-    out.append(f"CUBOID id {ids('shell')} name floor material hall_floor "
+    out.append(f"CUBOID id {ids('shell')} name floor material hall_floor class floor "
                f"position 0 -0.1 0 dim {nums((W + 2 * t, 0.2, D + 2 * t))}")
-    out.append(f"CUBOID id {ids('shell')} name roof material roof_steel "
+    out.append(f"CUBOID id {ids('shell')} name roof material roof_steel class ceiling "
                f"position 0 {num(H + 0.15)} 0 dim {nums((W + 2 * t, 0.3, D + 2 * t))}")
     wall_mat = "brick" if rng.random() < 0.5 else "concrete"
     win_y0, win_y1 = 5.0, 7.2
@@ -91,7 +91,7 @@ def generate(seed: int = 0, frames: int = 200, width: float = 30.0, depth: float
             cu = 0.5 * (u0 + u1)
             pos = (c[0] + cu, 0.5 * (y0 + y1), c[2]) if ax else (c[0], 0.5 * (y0 + y1), c[2] + cu)
             dim = (u1 - u0 + (2 * t if ax else 0), y1 - y0, t) if ax else (t, y1 - y0, u1 - u0)
-            return f"CUBOID id {ids('shell')} material {mat} position {nums(pos)} dim {nums(dim)}"
+            return f"CUBOID id {ids('shell')} material {mat} class wall position {nums(pos)} dim {nums(dim)}"
         L2 = length / 2
         out.append(box(-L2, L2, 0, plinth, wall_mat))
         out.append(box(-L2, L2, plinth, win_y0, "cladding"))
@@ -110,7 +110,7 @@ def generate(seed: int = 0, frames: int = 200, width: float = 30.0, depth: float
             out.append(asset("window_frame", ids("window"), pos, yaw, (round(b_ - a, 3), win_y1 - win_y0, t),
                              seed=int(rng.integers(1e6))))
         if name == "south":  # a big loading door (closed, steel) in the plinth
-            out.append(f"CUBOID id {ids('shell')} name loading_door material door_paint "
+            out.append(f"CUBOID id {ids('shell')} name loading_door material door_paint class door "
                        f"position {nums((rng.uniform(-W / 4, W / 4), 2.4, D / 2 - 0.02))} dim 4.5 4.8 0.1")
 
     out += ["", "// structure: columns along the long walls, roof girders across, lamps under them"]
@@ -129,7 +129,7 @@ def generate(seed: int = 0, frames: int = 200, width: float = 30.0, depth: float
 
     out += ["", "// floor markings: aisle lines 12 cm wide"]
     for x in (-W / 2 + 6.5, W / 2 - 6.5):
-        out.append(f"CUBOID id {ids('shell')} material floor_paint "
+        out.append(f"CUBOID id {ids('shell')} material floor_paint class floor "
                    f"position {nums((x, 0.002, 0))} dim {nums((0.12, 0.004, D - 4))}")
 
     out += ["", "// machines and tanks along the walls, racks at the north end, pipes, clutter"]
@@ -154,20 +154,21 @@ def generate(seed: int = 0, frames: int = 200, width: float = 30.0, depth: float
                          seed=int(rng.integers(1e6))))
     out.append(asset("stairs", ids("structure"), (W / 2 - 3.0, 0, -D / 2 + 11), 0.0, (1.2, 3.5, 4.5), seed=5))
     out.append(asset("railing", ids("structure"), (-W / 2 + 6.5, 0, 6), 90.0, (8, 1.05, 0.05), seed=6))
-    for _ in range(14):
-        kind = rng.choice(["crate", "pallet", "barrel"], p=[0.45, 0.3, 0.25])
-        x = float(rng.choice([-1, 1])) * rng.uniform(7.5, W / 2 - 5)
-        z = rng.uniform(-D / 2 + 10, D / 2 - 3)
-        out.append(asset(str(kind), ids("clutter"), (x, 0, z), rng.uniform(0, 360), seed=int(rng.integers(1e6))))
-
+    for _ in range(7):           # clutter in groups: stacked crates, pallets with loads, barrels
+        gx = float(rng.choice([-1, 1])) * rng.uniform(6.0, W / 2 - 4.5)
+        gz = rng.uniform(-D / 2 + 10, D / 2 - 3)
+        for _ in range(int(rng.integers(2, 6))):
+            kind = str(rng.choice(["crate", "pallet", "barrel"], p=[0.45, 0.3, 0.25]))
+            x, z = gx + rng.uniform(-1.5, 1.5), gz + rng.uniform(-1.5, 1.5)
+            out.append(asset(kind, ids("clutter"), (x, 0, z), rng.uniform(0, 360), seed=int(rng.integers(1e6))))
     # --- the flight ------------------------------------------------------------------------
     n = frames
     tt = np.arange(n) / RATE_HZ
     s = np.linspace(0, 1, n)
     # a loop through the open middle of the hall: forward along -z, a turn, drifting sideways
-    path_x = 3.5 * np.sin(2 * np.pi * (0.55 * s + rng.uniform(0, 0.2))) + 0.6 * smooth_noise(rng, n, 1.0, (1.2, 2.5))
-    path_z = D / 2 - 8 - (D - 22) * (0.5 - 0.5 * np.cos(np.pi * s))
-    path_y = 1.6 + 0.7 * np.sin(2 * np.pi * (0.8 * s + rng.uniform(0, 1))) + 0.2 * smooth_noise(rng, n, 1.0, (2.0, 4.1))
+    path_x = 1.5 * np.sin(2 * np.pi * (0.5 * s + rng.uniform(0, 0.2))) + 0.3 * smooth_noise(rng, n, 1.0, (1.2, 2.5))
+    path_z = D / 2 - 12 - 6.0 * (0.5 - 0.5 * np.cos(np.pi * s))
+    path_y = 1.6 + 0.5 * np.sin(2 * np.pi * (0.6 * s + rng.uniform(0, 1))) + 0.15 * smooth_noise(rng, n, 1.0, (2.0, 4.1))
     P = np.stack([path_x, path_y, path_z], axis=1)
     vel = np.gradient(P, tt, axis=0)
     acc = np.gradient(vel, tt, axis=0)

@@ -5,7 +5,7 @@ windows (open frames: daylight and the view out come in), a door, ceiling light 
 (with area lights), desks with monitors and office chairs, bookcases full of books,
 cabinets, a sofa on a rug, pot plants, pictures; outside, a lawn, trees and a building
 across. The camera is TUM's (640 x 480, f = 525 px) made stereo (baseline 0.1 m) and
-moves like a hand-held one at 30 Hz: walking pace through the aisles (~0.3-0.5 m/s),
+moves like a hand-held one at 30 Hz: slowly along the aisle (~0.4 m/s, 12 s),
 panning and tilting to look at the shelves, desks and windows, with hand shake.
 
     python scenes/generators/office.py [--seed N] [--frames N] > scenes/office.ses
@@ -24,7 +24,7 @@ from sesgen_layout import Ids, asset, camera_pose_line, num, nums, sky_and_sun, 
 RATE_HZ = 30.0
 
 
-def generate(seed: int = 0, frames: int = 240) -> str:
+def generate(seed: int = 0, frames: int = 360) -> str:
     rng = np.random.default_rng(seed)
     W, H, D, t = 7.0, 2.9, 9.0, 0.2
     ids = Ids({"shell": 1, "opening": 100, "light": 200, "furniture": 300, "decor": 700, "outside": 900})
@@ -136,7 +136,7 @@ def generate(seed: int = 0, frames: int = 240) -> str:
     tt = np.arange(n) / RATE_HZ
     s = np.linspace(0, 1, n)
     # through the aisle between the desks and the shelves, then turning towards the windows
-    way = np.array([(0.9, 3.2), (2.75, 2.2), (2.75, -0.2), (2.6, -2.7), (0.6, -3.2), (-1.2, -3.0), (-2.6, -2.2)])
+    way = np.array([(2.75, 1.3), (2.75, -0.9), (1.8, -2.6), (0.8, -2.9)])
     u = np.linspace(0, 1, len(way))
     px = np.interp(s, u, way[:, 0])
     pz = np.interp(s, u, way[:, 1])
@@ -148,8 +148,7 @@ def generate(seed: int = 0, frames: int = 240) -> str:
     P = np.stack([px, py, pz], axis=1)
     # where the camera looks: points of interest handed over smoothly (desks, shelves,
     # windows, the sofa corner), as a person filming the room would
-    looks = np.array([(0.0, 0.8, -0.2), (3.2, 1.1, 0.5), (1.0, 0.8, 0.8), (3.2, 1.0, -2.0), (0.0, 1.5, -4.5),
-                      (-1.0, 0.8, -1.0), (-3.0, 0.6, 2.0)])
+    looks = np.array([(0.0, 0.8, 0.2), (0.3, 0.8, -1.2), (1.0, 1.5, -4.5), (-2.5, 0.9, -2.0), (-0.5, 0.8, 0.8)])
     lu = np.linspace(0, 1, len(looks))
     target = np.stack([np.interp(s, lu, looks[:, i]) for i in range(3)], axis=1)
     for _ in range(2):
@@ -170,7 +169,7 @@ def generate(seed: int = 0, frames: int = 240) -> str:
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--frames", type=int, default=240)
+    ap.add_argument("--frames", type=int, default=360)
     a = ap.parse_args(argv)
     sys.stdout.write(generate(a.seed, frames=a.frames))
 
