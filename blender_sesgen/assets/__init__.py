@@ -80,6 +80,8 @@ def _kinds() -> dict[str, Kind]:
              ((0.55, 0.7), (0.95, 1.1), (0.6, 0.75)), "width, height, depth", street.bin_, overhang=0.8),
         Kind("bollard", "street", "pole", "bollard with a reflective band and a domed cap",
              ((0.1, 0.16), (0.8, 1.0), (0.1, 0.16)), "diameter, height, diameter", street.bollard),
+        Kind("fence", "street", "fence", "garden fence along x: wooden pickets, steel bars or a low wall, posts",
+             ((3, 12), (0.8, 1.3), (0.1, 0.3)), "length, height, thickness", street.fence),
         Kind("bench", "street", "static", "park bench: metal frame, wooden slats",
              ((1.6, 2.0), (0.8, 0.9), (0.55, 0.65)), "width, height, depth", street.bench),
     ]

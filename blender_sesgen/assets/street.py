@@ -402,3 +402,45 @@ def bench(size, seed: int) -> MeshData:
         y = seat_y + 0.15 + i * 0.18
         b.box((-W / 2, y, -D / 2 + 0.05), (W / 2, y + 0.12, -D / 2 + 0.09), wood, T=None)
     return b.build()
+
+
+def fence(size, seed: int) -> MeshData:
+    """A garden fence along x: wooden pickets on two rails, or steel bars between a top and
+    a bottom rail, or a low wall with a coping; posts every ~2 m. size = (length, height,
+    thickness)."""
+    rng = np.random.default_rng(seed)
+    L, H, T = (float(x) for x in size)
+    b = MeshBuilder()
+    style = int(rng.integers(3))
+    n_posts = max(int(round(L / 2.0)), 1)
+    xs = np.linspace(-L / 2, L / 2, n_posts + 1)
+    if style == 0:      # wooden pickets
+        wood = b.surface("wood_planks", pick(rng, palette.WOOD))
+        for x in xs:
+            b.box((x - 0.045, -0.05, -0.045), (x + 0.045, H + 0.05, 0.045), wood)
+        for y in (0.2 * H, 0.75 * H):
+            b.box((-L / 2, y, -T / 2 + 0.02), (L / 2, y + 0.07, -T / 2 + 0.045), wood)
+        gap = rng.uniform(0.03, 0.07)
+        w = rng.uniform(0.07, 0.1)
+        x = -L / 2
+        while x + w <= L / 2:
+            top = H - 0.03 * rng.random()
+            b.box((x, 0.03, -T / 2 + 0.045), (x + w, top, -T / 2 + 0.065), wood)
+            x += w + gap
+    elif style == 1:    # steel bars
+        steel = b.surface("metal_painted", pick(rng, palette.METAL_PAINT))
+        for x in xs:
+            b.box((x - 0.03, -0.05, -0.03), (x + 0.03, H + 0.03, 0.03), steel)
+        for y in (0.08, H - 0.06):
+            b.box((-L / 2, y, -0.02), (L / 2, y + 0.04, 0.02), steel)
+        n = int(L / 0.12)
+        for k in range(n):
+            x = -L / 2 + (k + 0.5) * L / n
+            b.box((x - 0.008, 0.08, -0.008), (x + 0.008, H - 0.02, 0.008), steel)
+    else:               # a low wall with a coping stone
+        wall = b.surface("brick", pick(rng, palette.BRICK)) if rng.random() < 0.5 else \
+            b.surface("plaster", pick(rng, palette.PLASTER))
+        cap = b.surface("concrete", (0.45, 0.44, 0.42))
+        b.box((-L / 2, -0.05, -T / 2), (L / 2, H - 0.06, T / 2), wall)
+        b.box((-L / 2 - 0.02, H - 0.06, -T / 2 - 0.03), (L / 2 + 0.02, H, T / 2 + 0.03), cap)
+    return b.build()

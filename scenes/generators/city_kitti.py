@@ -125,18 +125,20 @@ def generate(seed: int = 0, frames: int = 101, step_m: float = 1.2, sun_elevatio
             yaw = h - 90 if side > 0 else h + 90
             out.append(asset("building", ids("building"), p, yaw, (round(W, 2), round(H, 2), round(D, 2)),
                              seed=int(rng.integers(1e6))))
-            # front yard: a hedge along the sidewalk or a couple of bushes
-            if setback > 3.0 and rng.random() < 0.6:
-                hp, hh = place(centre_s, side * (edge + 0.6))
-                out.append(asset("hedge", ids("veg"), hp, hh, (round(W * rng.uniform(0.5, 0.9), 2),
-                                 round(float(rng.uniform(0.8, 1.5)), 2), 0.7), seed=int(rng.integers(1e6))))
-            elif setback > 2.5:
-                for _ in range(int(rng.integers(1, 3))):
-                    bp, _ = place(centre_s + rng.uniform(-W / 2, W / 2), side * (edge + rng.uniform(1.0, setback - 0.8)))
-                    out.append(asset("bush", ids("veg"), bp, rng.uniform(0, 360), seed=int(rng.integers(1e6))))
-            if rng.random() < 0.3:
-                bp, bh = place(centre_s + rng.uniform(-W / 3, W / 3), side * (edge + 0.5))
-                out.append(asset("bin", ids("furniture"), bp, bh + (90 if side > 0 else -90),
+            # front yard: a hedge or a fence along the sidewalk (length along the street), bushes
+            r = rng.random()
+            if setback > 2.6 and r < 0.75:
+                kind = "hedge" if r < 0.45 else "fence"
+                hp, hh = place(centre_s, side * (edge + (0.6 if kind == "hedge" else 0.25)))
+                size = ((round(W * rng.uniform(0.6, 0.95), 2), round(float(rng.uniform(0.8, 1.5)), 2), 0.7)
+                        if kind == "hedge" else (round(W * rng.uniform(0.7, 1.0), 2), round(float(rng.uniform(0.8, 1.2)), 2), 0.2))
+                out.append(asset(kind, ids("veg"), hp, hh + 90, size, seed=int(rng.integers(1e6))))
+            for _ in range(int(rng.integers(0, 4)) if setback > 2.5 else 0):
+                bp, _ = place(centre_s + rng.uniform(-W / 2, W / 2), side * (edge + rng.uniform(1.2, setback - 0.8)))
+                out.append(asset("bush", ids("veg"), bp, rng.uniform(0, 360), seed=int(rng.integers(1e6))))
+            if rng.random() < 0.35:     # a bin facing the street
+                bp, bh = place(centre_s + rng.uniform(-W / 3, W / 3), side * (edge + 0.9))
+                out.append(asset("bin", ids("furniture"), bp, bh - 90 if side > 0 else bh + 90,
                                  seed=int(rng.integers(1e6))))
             # a second row behind (seen through the gaps), simpler and taller
             if rng.random() < 0.7:
