@@ -20,10 +20,10 @@ from typing import Optional
 
 import numpy as np
 
-from . import __version__
+from . import __version__, assets
+from .contract import semantics
 from .contract.camera import scaled_K, scaled_size
 from .contract.errors import ContractError
-from .contract import semantics
 from .contract.manifest import SEED_RULE, Manifest, display_relpath, exr_relpath
 from .contract.timing import DEFAULT_FPS, FrameSelection, frame_timestamps
 from .errors import SesgenError
@@ -269,9 +269,14 @@ def object_table(scene: Scene) -> list[dict]:
             except KeyError:
                 tex = None
         label = semantics.BY_NAME[semantics.canonical(o.semantic_class)]
-        out.append({"id": int(o.id), "name": o.name, "shape": o.shape,
-                    "texture": texture_label(tex), "material": o.material,
-                    "class": label.name, "label_id": label.id})
+        row = {"id": int(o.id), "name": o.name, "shape": o.shape,
+               "texture": texture_label(tex), "material": o.material,
+               "class": label.name, "label_id": label.id}
+        if o.shape == "asset":   # what regenerates its mesh: blender_sesgen.assets.generate(...)
+            row.update(kind=o.kind, seed=int(o.seed), size=[float(x) for x in o.size])
+            if assets.KINDS[o.kind].strip:
+                row.update(bend=[float(x) for x in o.bend], offset=float(o.offset))
+        out.append(row)
     return out
 
 

@@ -182,3 +182,14 @@ def test_cameras_see_surfaces_at_every_frame(scenes, name, min_hit):
             hit = t < 300
             assert hit.mean() >= min_hit, (name, k, hit.mean())
             assert hit[lower].all(), (name, k)
+
+
+def test_manifest_rows_of_assets_say_how_to_regenerate_them():
+    from blender_sesgen.plan import object_table
+    from blender_sesgen.ses import parse_string
+    s = parse_string("ASSET car id 3 seed 5 position 0 0 0\nASSET road id 4 position 0 0 0 size 7 0.3 20 bend 3 -2 "
+                     "offset 0.5 class sidewalk\n")
+    car, road = object_table(s)
+    assert (car["shape"], car["kind"], car["seed"], car["class"]) == ("asset", "car", 5, "car")
+    assert car["size"] == list(s.objects[0].size) and "bend" not in car
+    assert (road["kind"], road["bend"], road["offset"], road["class"]) == ("road", [3.0, -2.0], 0.5, "sidewalk")

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import palette
-from .mesh import MeshBuilder, MeshData, pose
+from .mesh import MeshBuilder, MeshData
 from .palette import pick, scaled
 from .vegetation import _unit, add_leaves
 
