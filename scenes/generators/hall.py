@@ -15,6 +15,7 @@ degrees with its accelerations.
 from __future__ import annotations
 
 import argparse
+import os
 import re
 import sys
 from pathlib import Path
@@ -38,10 +39,13 @@ def _sensor(path: Path) -> dict:
     return {"T_BS": T, "intrinsics": intr, "resolution": res}
 
 
-def euroc_rig(root: Path = REPO.parent / "shared" / "data" / "euroc" / "mav0") -> dict:
+def euroc_rig(root: Path = None) -> dict:
     """cam0's resolution, fu and principal point and the stereo baseline |t_cam1 - t_cam0|
-    (both T_BS translations in the body frame) from the EuRoC sensor files; the stored
-    defaults (the same numbers) when they are not on this machine."""
+    (both T_BS translations in the body frame) from the EuRoC sensor files (``root``, default
+    ``$SESGEN_SHARED_DATA/euroc/mav0`` or ``../shared/data/euroc/mav0``); the stored defaults
+    (the same numbers) when they are not on this machine."""
+    if root is None:
+        root = Path(os.environ.get("SESGEN_SHARED_DATA", REPO.parent / "shared" / "data")) / "euroc" / "mav0"
     try:
         c0, c1 = _sensor(root / "cam0" / "sensor.yaml"), _sensor(root / "cam1" / "sensor.yaml")
     except (OSError, AttributeError):
