@@ -437,3 +437,56 @@ def rug(size, seed: int) -> MeshData:
     b.box((-W / 2, 0, -D / 2), (W / 2, h, D / 2), border)
     b.box((-W / 2 + 0.1, h, -D / 2 + 0.1), (W / 2 - 0.1, h + 0.001, D / 2 - 0.1), field)
     return b.build()
+
+
+def radiator(size, seed: int) -> MeshData:
+    """A panel radiator on two brackets, its back at z = 0 (hang it on a wall), fins on top,
+    a valve. size = (width, height of its top, depth)."""
+    rng = np.random.default_rng(seed)
+    W, H, D = (float(x) for x in size)
+    b = MeshBuilder()
+    paint = b.surface("metal_painted", pick(rng, ((0.72, 0.72, 0.70), (0.65, 0.65, 0.62), (0.35, 0.36, 0.37))))
+    chrome = b.surface("chrome")
+    h = min(rng.uniform(0.4, 0.6), H - 0.12)
+    y0 = H - h
+    n = int(W / 0.05)
+    for k in range(n):                      # vertical convector channels
+        x = -W / 2 + (k + 0.5) * W / n
+        b.box((x - 0.022, y0, 0.03), (x + 0.022, H, D), paint)
+    b.box((-W / 2, y0 + 0.01, 0.03), (W / 2, H - 0.01, D - 0.02), paint)
+    for sx in (-1, 1):
+        b.box((sx * (W / 2 - 0.15) - 0.02, y0 + 0.1, 0.0), (sx * (W / 2 - 0.15) + 0.02, y0 + 0.14, 0.03), paint)
+    vx = (W / 2 - 0.05) * (1 if rng.random() < 0.5 else -1)
+    b.cylinder(0.015, y0 - 0.12, y0, 8, chrome, T=pose(None, (vx, 0, D / 2)))
+    b.cylinder(0.025, y0 - 0.17, y0 - 0.12, 10, chrome, T=pose(None, (vx, 0, D / 2)))
+    return b.build()
+
+
+def whiteboard(size, seed: int) -> MeshData:
+    """A whiteboard on a wall (back at z = 0, facing +z) with an aluminium frame, a marker
+    tray and some writing (dark strokes of boxes). size = (width, height of its centre, depth)."""
+    rng = np.random.default_rng(seed)
+    W, yc, D = (float(x) for x in size)
+    Hb = W * 0.6
+    b = MeshBuilder()
+    board = b.surface("plastic", (0.8, 0.8, 0.78))
+    frame = b.surface("metal_brushed")
+    ink = [b.surface("plastic", c) for c in ((0.02, 0.02, 0.03), (0.02, 0.05, 0.3), (0.35, 0.02, 0.02))]
+    y0, y1 = yc - Hb / 2, yc + Hb / 2
+    b.box((-W / 2, y0, 0), (W / 2, y1, D * 0.6), board)
+    for lo, hi in [((-W / 2, y0, 0), (W / 2, y0 + 0.02, D)), ((-W / 2, y1 - 0.02, 0), (W / 2, y1, D)),
+                   ((-W / 2, y0, 0), (-W / 2 + 0.02, y1, D)), ((W / 2 - 0.02, y0, 0), (W / 2, y1, D))]:
+        b.box(lo, hi, frame)
+    b.box((-W / 3, y0 - 0.03, 0), (W / 3, y0, 0.07), frame)
+    for _ in range(int(rng.integers(4, 12))):             # lines of writing
+        x0 = rng.uniform(-W / 2 + 0.1, W / 4)
+        yl = rng.uniform(y0 + 0.1, y1 - 0.1)
+        s = ink[int(rng.integers(3))]
+        x = x0
+        for _ in range(int(rng.integers(3, 9))):
+            w = rng.uniform(0.03, 0.12)
+            if x + w > W / 2 - 0.05:
+                break
+            b.box((x, yl, D * 0.6), (x + w, yl + rng.uniform(0.01, 0.03), D * 0.6 + 0.001), s)
+            x += w + rng.uniform(0.02, 0.05)
+    return b.build()

@@ -74,6 +74,8 @@ def generate(seed: int = 0, frames: int = 360) -> str:
     for x in xs:
         out.append(asset("window_frame", ids("opening"), (x, sill, -D / 2 - t / 2), 0.0,
                          (round(win_w, 3), top - sill, t), seed=int(rng.integers(1e6))))
+        out.append(asset("radiator", ids("decor"), (x, 0, -D / 2), 0.0, (round(win_w * 0.8, 2), 0.75, 0.1),
+                         seed=int(rng.integers(1e6))))
     out.append(wall(-W / 2 - t, W / 2 + t, 0, H + 0.2, "south"))
     out.append(wall(-D / 2, D / 2, 0, H + 0.2, "east"))
     door_z, door_w, door_h = float(rng.uniform(1.5, 3.0)), 0.9, 2.05
@@ -119,10 +121,12 @@ def generate(seed: int = 0, frames: int = 360) -> str:
     out.append(asset("table", ids("furniture"), (-W / 2 + 1.7, 0, D / 2 - 2.0), 90.0, (1.0, 0.45, 0.6), seed=int(rng.integers(1e6))))
     for p in ((-W / 2 + 0.4, 0, -D / 2 + 0.5), (W / 2 - 0.45, 0, D / 2 - 0.6), (0.9, 0, D / 2 - 0.4)):
         out.append(asset("plant", ids("decor"), p, rng.uniform(0, 360), seed=int(rng.integers(1e6))))
-    for (x, z, yaw) in ((-1.0, D / 2, 180.0), (1.5, D / 2, 180.0), (-W / 2, -2.0, 90.0), (-W / 2, 0.8, 90.0)):
+    for (x, z, yaw) in ((-1.0, D / 2, 180.0), (-W / 2, -2.0, 90.0), (-W / 2, 0.8, 90.0)):
         out.append(asset("picture", ids("decor"), (x, 0, z), yaw,
                          (round(float(rng.uniform(0.5, 1.0)), 2), round(float(rng.uniform(1.5, 1.7)), 2), 0.03),
                          seed=int(rng.integers(1e6))))
+
+    out.append(asset("whiteboard", ids("decor"), (1.8, 0, D / 2), 180.0, (1.8, 1.45, 0.03), seed=int(rng.integers(1e6))))
 
     out += ["", "// outside the windows: lawn, trees, a building across"]
     out.append(f"QUAD id {ids('outside')} material grass vertices -60 -0.3 -5  60 -0.3 -5  60 -0.3 -80  -60 -0.3 -80")
