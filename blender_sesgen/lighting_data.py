@@ -53,6 +53,11 @@ ENCLOSED_HIT_FRACTION = 0.9      # a scene whose START sees geometry in >= 90 % 
 
 # LOOK view -> Blender's view transform of the display-referred PNGs
 VIEW_TRANSFORMS = {"agx": "AgX", "filmic": "Filmic", "standard": "Standard"}
+# LOOK look (AgX only) -> Blender's look; "base" is AgX itself
+AGX_LOOKS = {"base": "None", "punchy": "AgX - Punchy", "very_low_contrast": "AgX - Very Low Contrast",
+             "low_contrast": "AgX - Low Contrast", "medium_low_contrast": "AgX - Medium Low Contrast",
+             "medium_high_contrast": "AgX - Medium High Contrast", "high_contrast": "AgX - High Contrast",
+             "very_high_contrast": "AgX - Very High Contrast"}
 
 # automatic exposure: the linear luminance the 90th-percentile pixel of a preview of frame 0
 # is brought to (blender/exposure.py)

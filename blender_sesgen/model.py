@@ -239,10 +239,12 @@ class Noise:
 
 @dataclass(frozen=True, kw_only=True)
 class Look:
-    """``LOOK [view agx|filmic|standard] [exposure auto|EV]``: how the display-referred image
-    is made. ``auto_exposure`` None = the default rule (automatic for a script without
-    emitting LIGHTs, else ``exposure_ev`` 0); the EXR stays scene-linear either way."""
+    """``LOOK [view agx|filmic|standard] [look NAME] [exposure auto|EV]``: how the
+    display-referred image is made. ``look``: AgX's contrast looks (lighting_data.AGX_LOOKS);
+    ``auto_exposure`` None = the default rule (automatic for a script without emitting
+    LIGHTs, else ``exposure_ev`` 0); the EXR stays scene-linear either way."""
     view: Literal["agx", "filmic", "standard"] = "agx"
+    look: str = "base"
     auto_exposure: Optional[bool] = None
     exposure_ev: float = 0.0
 

@@ -27,7 +27,7 @@ from .contract import semantics
 from .contract.manifest import SEED_RULE, Manifest, display_relpath, exr_relpath
 from .contract.timing import DEFAULT_FPS, FrameSelection, frame_timestamps
 from .errors import SesgenError
-from .lighting_data import VIEW_TRANSFORMS
+from .lighting_data import AGX_LOOKS, VIEW_TRANSFORMS
 from .model import Mesh, Scene, TextureRef
 
 MAX_IMAGE_SIDE = 16384   # the script's own limit, applied to scaled sizes too
@@ -207,6 +207,7 @@ class RenderPlan:
         extra["display"] = {
             "kind": "display-referred sRGB, 8-bit PNG (the Combined pass through the view transform)",
             "view_transform": VIEW_TRANSFORMS[scene.look.view],
+            "look": AGX_LOOKS[scene.look.look],
             "files": {v: [display_relpath(v, k) for k in range(N)] for v in self.views}}
         product_channels = {k: channels[k] for k in ("rgb", "depth", "object_index")}
         for p in ("normal", "position"):

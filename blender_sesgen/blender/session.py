@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Optional
 
 from ..contract.manifest import render_seed
-from ..lighting_data import EXPOSURE_TARGET, VIEW_TRANSFORMS
+from ..lighting_data import AGX_LOOKS, EXPOSURE_TARGET, VIEW_TRANSFORMS
 from ..plan import Device, RenderPlan
 from . import builder, compat, exposure, render, rig
 
@@ -34,7 +34,8 @@ class BlenderSession:
         render.configure(self.built.scene, samples=s.samples, denoise=s.denoise, gpu=gpu,
                          threads=plan.options.threads, normal_pass=plan.options.normal_pass,
                          position_pass=plan.options.position_pass,
-                         view_transform=VIEW_TRANSFORMS[plan.scene.look.view])
+                         view_transform=VIEW_TRANSFORMS[plan.scene.look.view],
+                         look=AGX_LOOKS[plan.scene.look.look])
         self.exposure = self._exposure(known_exposure)
 
     @property
