@@ -104,7 +104,8 @@ def test_spot_area_and_portal_lamps_are_built_as_written(tmp_path):
              for o in job.built.scene.objects if o.type == "LIGHT"}
     assert set(lamps) == {"SPOT", "AREA", "AREA_portal"}   # no default lights: the script has its own
     spot = lamps["SPOT"]
-    assert math.isclose(spot.data.spot_size, math.radians(60)) and math.isclose(spot.data.spot_blend, 0.3)
+    assert math.isclose(spot.data.spot_size, math.radians(60), rel_tol=1e-6)   # float32
+    assert math.isclose(spot.data.spot_blend, 0.3, rel_tol=1e-6)
     # a lamp emits along its -Z: SES -Y (down) is Blender -Z
     down = spot.matrix_world.to_3x3() @ __import__("mathutils").Vector((0, 0, -1))
     assert down.z < -0.999

@@ -148,7 +148,7 @@ def test_hdri_rotation_turns_the_world_like_the_sun_azimuth(tmp_path):
 
 def test_display_images_are_the_view_transform_and_what_vo_reads(tmp_path):
     cv2 = pytest.importorskip("cv2")
-    from vo_reference.io.color import linear_to_srgb8
+    from blender_sesgen.contract.colour import linear_to_srgb8
     from vo_reference.io.render import RenderSequence
     script = tmp_path / "s.ses"
     script.write_text("CAMERA resolution 64 48 focal 50 baseline 0.1\nSTART position 0 1.5 3 -15 0 0\n"
