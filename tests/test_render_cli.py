@@ -51,8 +51,9 @@ def test_output_contract(tmp_path):
     script = small_script(tmp_path, extra="NOISE sigma 2.5 seed 7\n")
     r = run_render(script, "--out", out, "--samples", "1")
     assert r.returncode == 0, r.stderr
-    # one progress line per frame, with elapsed time and ETA
-    assert len(re.findall(r"^frame .*elapsed \d\d:\d\d\s+ETA \d\d:\d\d$", r.stdout, re.M)) == 3, r.stdout
+    # stderr is a pipe: one plain progress line per frame (each is a third of the work), with ETA
+    lines = re.findall(r"^render: (\d)/3 \(\d+%\) [\d.:]+(?: s)?(, ETA [\d.:]+(?: s)?)?  frame \d .*$", r.stderr, re.M)
+    assert [n for n, _ in lines] == ["1", "2", "3"] and lines[0][1] and "\r" not in r.stderr, r.stderr
     m = load_manifest(out)
     for key in ("format", "resolution", "K", "baseline", "near", "far", "frames", "views", "depth", "objects",
                 "poses", "files", "render", "generator", "scene_sha256", "timestamps", "frames_complete"):
