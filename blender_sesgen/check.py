@@ -73,4 +73,30 @@ def summary(scene: Scene) -> str:
     r = scene.render
     extras.append(f"render {r.samples} samples, denoise {'on' if r.denoise else 'off'}, seed {r.seed}")
     lines.append("extras    " + "; ".join(extras))
+    sensors = _sensor_text(scene)
+    if sensors:
+        lines.append("sensors   " + sensors)
     return "\n".join(lines)
+
+
+def _sensor_text(scene: Scene) -> str:
+    """One line on the sensor statements (empty when there are none)."""
+    parts = []
+    t = scene.timing
+    if t is not None:
+        parts.append(f"{t.rate_hz:g} Hz" + (f", exposure {t.exposure_s * 1e3:g} ms" if t.exposure_s else "")
+                     + (" (blur off)" if t.exposure_s and not t.blur else "")
+                     + (f", rolling shutter {t.readout_s * 1e3:g} ms" if t.readout_s else ""))
+    if scene.lens is not None:
+        ln = scene.lens
+        parts.append(f"lens {ln.model}" + (f" {' '.join(f'{c:g}' for c in ln.coeffs)}" if ln.coeffs else "")
+                     + (f" f/{ln.f_number:g}" if ln.f_number else ""))
+    if scene.sensor is not None:
+        s = scene.sensor
+        parts.append(f"sensor {s.bits}-bit" + (f" {s.cfa.upper()}" if s.cfa else "") + f" seed {s.seed}"
+                     + (f" jpeg {s.jpeg_quality}" if s.jpeg_quality else ""))
+    if scene.autoexposure is not None:
+        parts.append(f"auto-exposure speed {scene.autoexposure.speed:g}/s")
+    if scene.imu is not None:
+        parts.append(f"IMU {scene.imu.rate_hz:g} Hz")
+    return "; ".join(parts)

@@ -17,6 +17,7 @@ DESCRIPTION = "Synthetic stereo egomotion sequences with exact ground truth, ren
 COMMANDS = {
     "check": (".check", "validate a script and print a summary of its scene, rig and motion"),
     "render": (".render_cli", "render a script to a stereo multilayer-EXR sequence with ground truth"),
+    "verify": (".verify_cli", "check every file of a render against its manifest; bad frames are re-rendered by --resume"),
 }
 
 

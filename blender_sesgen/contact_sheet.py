@@ -10,9 +10,7 @@ its 99th percentile over the sheet; background black. Segmentation: a fixed colo
 from __future__ import annotations
 
 import argparse
-import struct
 import sys
-import zlib
 from pathlib import Path
 
 import numpy as np
@@ -22,22 +20,14 @@ from .contract.colour import linear_to_srgb8
 from .contract.depth import depth_from_pass, disparity_from_depth
 from .contract.manifest import Manifest
 from .exr import read_exr
+from .png import encode_png
 
 GAP = 4  # pixels between panels
 
 
 def write_png(path, rgb: np.ndarray) -> None:
-    """Write an (H, W, 3) uint8 image as an 8-bit RGB PNG (stdlib zlib only)."""
-    rgb = np.ascontiguousarray(rgb, dtype=np.uint8)
-    H, W, _ = rgb.shape
-    raw = np.concatenate([np.zeros((H, 1), dtype=np.uint8), rgb.reshape(H, W * 3)], axis=1).tobytes()
-
-    def chunk(kind: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
-
-    png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", W, H, 8, 2, 0, 0, 0))
-           + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b""))
-    atomic.write_bytes(path, png)
+    """Write an (H, W, 3) uint8 image as an 8-bit RGB PNG (stdlib zlib only), atomically."""
+    atomic.write_bytes(path, encode_png(np.ascontiguousarray(rgb, dtype=np.uint8)))
 
 
 # a perceptually ordered ramp (dark blue -> cyan -> yellow -> dark red), like 'turbo'

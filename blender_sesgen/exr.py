@@ -7,11 +7,17 @@ add-on's preview work inside Blender's own Python, which has no OpenEXR module. 
 readers (vo_reference, the tests) use the OpenEXR package.
 
     channels = read_exr("exr/left/000000.exr")   # {"ViewLayer.Depth.Z": (H, W) float32, ...}
+    write_exr("out.exr", channels)               # single part, float32, ZIP (lossless)
+
+:func:`write_exr` is what the sensor path uses to put a motion-blurred beauty pass and the
+sharp ground-truth passes of a separate render into one file.
 """
 from __future__ import annotations
 
+import re
 import struct
 import zlib
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +37,9 @@ def _cstr(buf: bytes, pos: int) -> tuple[str, int]:
 
 
 def _read_header(buf: bytes, pos: int) -> tuple[dict, int]:
-    header = {}
+    """(attributes decoded by type, position after the header's null byte); the raw
+    attributes, (name, type, value bytes), are kept under the key ``None``."""
+    header = {None: []}
     while buf[pos] != 0:
         name, pos = _cstr(buf, pos)
         typ, pos = _cstr(buf, pos)
@@ -39,6 +47,7 @@ def _read_header(buf: bytes, pos: int) -> tuple[dict, int]:
         pos += 4
         value = buf[pos:pos + size]
         pos += size
+        header[None].append((name, typ, value))
         if typ == "chlist":
             chans, p = [], 0
             while value[p] != 0:
@@ -74,41 +83,88 @@ def _unzip(data: bytes, expected: int) -> bytes:
     return out.tobytes()
 
 
-def read_exr(path) -> dict[str, np.ndarray]:
-    """All channels of all parts: {channel name: (H, W) array} (row 0 = top)."""
-    buf = Path(path).read_bytes()
-    if len(buf) < 8 or struct.unpack_from("<i", buf, 0)[0] != MAGIC:
-        raise ExrError(f"{path}: not an OpenEXR file")
-    (version,) = struct.unpack_from("<i", buf, 4)
-    if version & 0x200 or version & 0x800:
-        raise ExrError(f"{path}: tiled or deep EXR not supported")
-    multipart = bool(version & 0x1000)
-    pos = 8
-    headers = []
-    if multipart:
-        while buf[pos] != 0:
+@dataclass(frozen=True)
+class ExrLayout:
+    """What an EXR's headers and chunk tables promise: every part's channels and size, and
+    where each chunk lies in the file."""
+    multipart: bool
+    parts: tuple          # ((header, W, H, y0, lines_per_block, offsets), ...)
+    headers_end: int      # where the chunk offset tables start
+
+    @property
+    def channels(self) -> list[str]:
+        return [name for h, *_ in self.parts for name, *_ in h["channels"]]
+
+
+def read_layout(buf: bytes, path="<exr>") -> ExrLayout:
+    """Parse the headers and chunk offset tables (no pixel data); ExrError if malformed."""
+    try:
+        if len(buf) < 8 or struct.unpack_from("<i", buf, 0)[0] != MAGIC:
+            raise ExrError(f"{path}: not an OpenEXR file")
+        (version,) = struct.unpack_from("<i", buf, 4)
+        if version & 0x200 or version & 0x800:
+            raise ExrError(f"{path}: tiled or deep EXR not supported")
+        multipart = bool(version & 0x1000)
+        pos = 8
+        headers = []
+        if multipart:
+            while buf[pos] != 0:
+                h, pos = _read_header(buf, pos)
+                headers.append(h)
+            pos += 1
+        else:
             h, pos = _read_header(buf, pos)
             headers.append(h)
-        pos += 1
-    else:
-        h, pos = _read_header(buf, pos)
-        headers.append(h)
-    layouts = []
-    for h in headers:
-        comp = h.get("compression", 0)
-        if comp not in _LINES_PER_BLOCK:
-            raise ExrError(f"{path}: compression {comp} not supported (NONE, ZIPS, ZIP only)")
-        x0, y0, x1, y1 = h["dataWindow"]
-        W, H = x1 - x0 + 1, y1 - y0 + 1
-        lpb = _LINES_PER_BLOCK[comp]
-        n_chunks = h.get("chunkCount", -(-H // lpb))
-        layouts.append((h, W, H, y0, lpb, n_chunks))
-    offsets = []
-    for *_, n_chunks in layouts:
-        offsets.append(struct.unpack_from(f"<{n_chunks}Q", buf, pos))
-        pos += 8 * n_chunks
+        headers_end = pos
+        parts = []
+        for h in headers:
+            comp = h.get("compression", 0)
+            if comp not in _LINES_PER_BLOCK:
+                raise ExrError(f"{path}: compression {comp} not supported (NONE, ZIPS, ZIP only)")
+            x0, y0, x1, y1 = h["dataWindow"]
+            W, H = x1 - x0 + 1, y1 - y0 + 1
+            lpb = _LINES_PER_BLOCK[comp]
+            n_chunks = h.get("chunkCount", -(-H // lpb))
+            offsets = struct.unpack_from(f"<{n_chunks}Q", buf, pos)
+            pos += 8 * n_chunks
+            parts.append((h, W, H, y0, lpb, offsets))
+    except (struct.error, IndexError, KeyError, ValueError) as e:
+        if isinstance(e, ExrError):
+            raise
+        raise ExrError(f"{path}: corrupt EXR header ({type(e).__name__})") from None
+    return ExrLayout(multipart, tuple(parts), headers_end)
+
+
+def check_complete(buf: bytes, path="<exr>", required: tuple = (), layout: ExrLayout | None = None) -> ExrLayout:
+    """The layout of an EXR whose every chunk lies whole inside the file and which holds the
+    ``required`` channels: a truncated or short-written file fails (ExrError), without
+    decoding pixels. ``layout``: the file's, if already read."""
+    layout = layout or read_layout(buf, path)
+    for h, W, H, y0, lpb, offsets in layout.parts:
+        for off in offsets:
+            p = off + (4 if layout.multipart else 0)
+            if off < 8 or p + 8 > len(buf):
+                raise ExrError(f"{path}: truncated (a chunk lies beyond the end of the file)")
+            _y, size = struct.unpack_from("<ii", buf, p)
+            if size < 0 or p + 8 + size > len(buf):
+                raise ExrError(f"{path}: truncated (a chunk lies beyond the end of the file)")
+    missing = [c for c in required if c not in layout.channels]
+    if missing:
+        raise ExrError(f"{path}: missing channel(s) {', '.join(missing)}")
+    return layout
+
+
+def read_exr(path) -> dict[str, np.ndarray]:
+    """All channels of all parts: {channel name: (H, W) array} (row 0 = top)."""
+    return decode(Path(path).read_bytes(), path)
+
+
+def decode(buf: bytes, path="<exr>") -> dict[str, np.ndarray]:
+    """:func:`read_exr` of the bytes of a file."""
+    layout = check_complete(buf, path)
+    multipart = layout.multipart
     out: dict[str, np.ndarray] = {}
-    for part, ((h, W, H, y0, lpb, _), offs) in enumerate(zip(layouts, offsets)):
+    for h, W, H, y0, lpb, offs in layout.parts:
         chans = h["channels"]
         if any(xs != 1 or ys != 1 for _, _, xs, ys in chans):
             raise ExrError(f"{path}: subsampled channels not supported")
@@ -119,7 +175,12 @@ def read_exr(path) -> dict[str, np.ndarray]:
             y, size = struct.unpack_from("<ii", buf, p)
             data = buf[p + 8:p + 8 + size]
             n_lines = min(lpb, y0 + H - y)
-            block = _unzip(data, row_bytes * n_lines) if h.get("compression", 0) else data
+            try:
+                block = _unzip(data, row_bytes * n_lines) if h.get("compression", 0) else data
+            except zlib.error:
+                raise ExrError(f"{path}: corrupt pixel data (zlib)") from None
+            if len(block) < row_bytes * n_lines or not 0 <= y - y0 < H:
+                raise ExrError(f"{path}: corrupt pixel data (short block)")
             q = 0
             for line in range(n_lines):
                 r = y - y0 + line
@@ -130,3 +191,78 @@ def read_exr(path) -> dict[str, np.ndarray]:
         for name, a in arrays.items():
             out[name] = a.astype(a.dtype.newbyteorder("="))
     return out
+
+
+# --- stripping volatile header attributes ---------------------------------------------------
+
+# wall-clock and machine fields Blender and Cycles write into every header: without them
+# the same render gives byte-identical files
+VOLATILE_ATTRIBUTES = re.compile(r"^(Date|RenderTime|Memory|Hostname|.*\.(render_time|synchronization_time|total_time))$")
+
+
+def strip_volatile_attributes(buf: bytes, layout: ExrLayout | None = None, volatile=VOLATILE_ATTRIBUTES) -> bytes:
+    """The same EXR without the header attributes whose names match ``volatile`` (chunk
+    offsets moved accordingly; pixel data untouched). ``layout``: the file's, if already read."""
+    layout = layout or read_layout(buf)
+    old_end = pos = layout.headers_end
+    out = bytearray(buf[:8])
+    for h, *_ in layout.parts:
+        for name, typ, value in h[None]:
+            if not volatile.match(name):
+                out += name.encode("latin-1") + b"\0" + typ.encode("latin-1") + b"\0" + struct.pack("<i", len(value)) + value
+        out += b"\0"
+    if layout.multipart:
+        out += b"\0"
+    delta = len(out) - old_end
+    for _h, _W, _H, _y0, _lpb, offsets in layout.parts:
+        out += struct.pack(f"<{len(offsets)}Q", *(o + delta for o in offsets))
+        pos += 8 * len(offsets)
+    out += buf[pos:]
+    return bytes(out)
+
+
+def _header_attr(name: str, typ: str, value: bytes) -> bytes:
+    return name.encode() + b"\0" + typ.encode() + b"\0" + struct.pack("<i", len(value)) + value
+
+
+def _zip_block(raw: bytes) -> bytes:
+    """OpenEXR's ZIP coding of one block: bytes split even/odd, delta-coded, deflated
+    (stored raw when that is not smaller)."""
+    a = np.frombuffer(raw, dtype=np.uint8)
+    t = np.concatenate([a[0::2], a[1::2]])
+    d = t.astype(np.int16)
+    d[1:] = (t[1:].astype(np.int16) - t[:-1].astype(np.int16) + 128 + 256) & 0xFF
+    packed = zlib.compress(d.astype(np.uint8).tobytes(), 6)
+    return packed if len(packed) < len(raw) else raw
+
+
+def write_exr(path, channels: dict) -> None:
+    """Write {name: (H, W) array} as a single-part scanline EXR, float32, ZIP (lossless),
+    through a temporary file. Channels are stored in name order, as the format requires."""
+    names = sorted(channels)
+    arrays = [np.ascontiguousarray(channels[n], dtype="<f4") for n in names]
+    H, W = arrays[0].shape
+    if any(a.shape != (H, W) for a in arrays):
+        raise ExrError("write_exr: every channel needs the same (H, W) shape")
+    chlist = b"".join(n.encode() + b"\0" + struct.pack("<iB3xii", 2, 0, 1, 1) for n in names) + b"\0"
+    box = struct.pack("<4i", 0, 0, W - 1, H - 1)
+    header = (_header_attr("channels", "chlist", chlist) + _header_attr("compression", "compression", bytes([3]))
+              + _header_attr("dataWindow", "box2i", box) + _header_attr("displayWindow", "box2i", box)
+              + _header_attr("lineOrder", "lineOrder", bytes([0]))
+              + _header_attr("pixelAspectRatio", "float", struct.pack("<f", 1.0))
+              + _header_attr("screenWindowCenter", "v2f", struct.pack("<2f", 0.0, 0.0))
+              + _header_attr("screenWindowWidth", "float", struct.pack("<f", 1.0)) + b"\0")
+    lines = _LINES_PER_BLOCK[3]
+    stacked = np.stack(arrays, axis=1)            # (H, C, W): per scanline, channel after channel
+    chunks = []
+    for y in range(0, H, lines):
+        data = _zip_block(stacked[y:y + lines].tobytes())
+        chunks.append(struct.pack("<ii", y, len(data)) + data)
+    start = 8 + len(header) + 8 * len(chunks)
+    offsets, pos = [], start
+    for c in chunks:
+        offsets.append(pos)
+        pos += len(c)
+    blob = (struct.pack("<ii", MAGIC, 2) + header + struct.pack(f"<{len(offsets)}Q", *offsets) + b"".join(chunks))
+    from .contract import atomic
+    atomic.write_bytes(Path(path), blob)

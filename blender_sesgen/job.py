@@ -9,14 +9,13 @@
 checks the output folder (:class:`~blender_sesgen.output.OutputFolder`), and writes nothing:
 a bad script, bad options or a folder holding another scene's output raise
 :class:`SesgenError` before any file exists. ``begin()`` (called by ``render_frame`` if
-needed) writes the folder's skeleton; each EXR (and its display-referred PNG) is written
-under a temporary name and renamed, then the frame is marked complete. The Cycles seed of each frame and view depends
+needed) writes the folder's skeleton; each EXR is written under a temporary name and
+renamed, then the frame is marked complete. The Cycles seed of each frame and view depends
 only on the seed, the frame and the view, so ``--resume`` completes an interrupted folder
 with results identical to an uninterrupted run.
 """
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -64,6 +63,8 @@ class RenderJob:
     def of(cls, plan: RenderPlan, out_dir, *, resume: bool = False, force: bool = False) -> "RenderJob":
         folder = OutputFolder(out_dir)
         folder.check(plan, force)
+        from .sensor.outputs import check_resumable
+        check_resumable(plan.sensor, folder.previous(), list(plan.frames), resume, force)
         return cls(plan, folder, resume=resume, force=force)
 
     # --- what the job is ----------------------------------------------------------------
@@ -101,59 +102,88 @@ class RenderJob:
 
     # --- doing it -----------------------------------------------------------------------
     def build(self) -> None:
-        """Build the scene in Blender (a dedicated scene 'SESGen'; rebuilding replaces)."""
+        """Build the scene in Blender (a dedicated scene 'SESGen'; rebuilding replaces).
+        Writes nothing into the output folder."""
         from .blender.session import BlenderSession
         kept = self.folder.resumable(self.plan)
         self.session = BlenderSession(self.plan, known_exposure=(kept or {}).get("render", {}).get("exposure"))
 
     def new_manifest(self) -> Manifest:
-        """This job's manifest with no frame complete (needs the built session: it knows the
-        ids it gave the objects of BLEND files)."""
+        """This job's manifest with no frame complete (needs the built session)."""
         m = self.plan.manifest(channels=self.session.channels, render_extra=self.session.manifest_extra(),
                                blender_version=self.session.blender_version)
-        m.objects = m.objects + self.session.imported_objects
+        m.objects = m.objects + self.session.imported_objects   # BLEND files: ids given when loaded
+        from .sensor.outputs import prepare_manifest
+        prepare_manifest(self.plan.sensor, m, self.folder.resumable(self.plan), self.out_dir)
         return m
 
     def begin(self) -> None:
-        """Write the folder's skeleton (scene.ses, poses/, the manifest); once."""
+        """Lock the folder and write its skeleton (the manifest first, scene.ses, poses/); once."""
         if self.folder.manifest is None:
             if self.session is None:
                 self.build()
             self.folder.begin(self.plan, self.new_manifest(), self.resume, self.force)
+            from .sensor.outputs import write_static_files
+            write_static_files(self.plan.sensor, self.out_dir, self.plan.scene.frames)
 
-    def render_frame(self, k: int) -> FrameResult:
-        """Render every view of frame ``k``; EXRs written atomically, then the manifest."""
+    def render_frame(self, k: int, stop: Callable[[], bool] = lambda: False) -> FrameResult:
+        """Render every view of frame ``k`` into temporary files, check them, move them into
+        place, record the frame complete. ``stop()`` is asked between views: when it says
+        yes the frame is dropped and KeyboardInterrupt raised (the folder stays resumable)."""
         if self.session is None:
             self.build()
         self.begin()
-        finals = {v: self.folder.exr_path(v, k) for v in self.plan.views}
-        temps = {v: temp_path(p) for v, p in finals.items()}
-        shown = {v: self.folder.display_path(v, k) for v in self.plan.views}
-        shown_temps = {v: temp_path(p) for v, p in shown.items()}
+        temps = {v: temp_path(self.folder.exr_path(v, k)) for v in self.plan.views}
+        shown = {v: temp_path(self.folder.display_path(v, k)) for v in self.plan.views} \
+            if self.plan.writes_display else None
         t0 = time.perf_counter()
-        stats = self.session.render_frame(k, temps, shown_temps)
-        for v, tmp in temps.items():
-            if not tmp.is_file() or not shown_temps[v].is_file():
-                raise RuntimeError(f"Blender wrote no file for frame {k}, view {v}")
-        for v in self.plan.views:   # the display image first: an EXR in place means a whole frame
-            os.replace(shown_temps[v], shown[v])
-            os.replace(temps[v], finals[v])
+        from .sensor import outputs as sensor_outputs
+        exposure_s, gain = sensor_outputs.exposure_for(self.plan.sensor, self.manifest.extra, k)
+        try:
+            stats = self.session.render_frame(k, temps, stop, exposure_s=exposure_s, display_paths=shown)
+            for v, tmp in temps.items():
+                if not tmp.is_file() or (shown and not shown[v].is_file()):
+                    raise RuntimeError(f"Blender wrote no file for frame {k}, view {v}")
+            if self.plan.sensor.writes_sensor_images:   # from the checked-in-a-moment EXRs
+                sensor_outputs.write_sensor_images(self.plan.sensor, self.manifest, self.out_dir, k, exposure_s,
+                                                   gain, temps, jpeg_writer=self.session.jpeg_writer)
+            self.folder.commit_frame(k, temps, self._required_channels(), display=shown)
+        finally:
+            for tmp in [*temps.values(), *(shown or {}).values()]:
+                tmp.unlink(missing_ok=True)
         cyc = [st["cycles_s"] for st in stats.values()]
         res = FrameResult(frame=k, wall_s=time.perf_counter() - t0,
                           cycles_s=None if any(c is None for c in cyc) else sum(cyc), views=stats)
-        self.folder.mark_complete(k)
         self.timings.append(res)
         return res
 
-    def run(self, progress: Optional[Callable[[int, int, FrameResult, float], None]] = None) -> list[FrameResult]:
-        """Render every pending frame; ``progress(i, n, result, elapsed_s)`` after each."""
+    def _required_channels(self) -> tuple[str, ...]:
+        names = []
+        for v in self.folder.manifest.channels.values():
+            names += [v] if isinstance(v, str) else list(v)
+        return tuple(names)
+
+    def run(self, progress: Optional[Callable[[int, int, FrameResult, float], None]] = None,
+            stop: Callable[[], bool] = lambda: False) -> list[FrameResult]:
+        """Render every pending frame; ``progress(i, n, result, elapsed_s)`` after each;
+        ``stop()`` asked between views (KeyboardInterrupt, the folder resumable). The lock is
+        released and the completion log taken into the manifest however it ends."""
         todo = self.pending_frames()
-        self.begin()
-        t0 = time.perf_counter()
         out = []
-        for i, k in enumerate(todo):
-            r = self.render_frame(k)
-            out.append(r)
-            if progress:
-                progress(i + 1, len(todo), r, time.perf_counter() - t0)
+        try:
+            self.begin()
+            t0 = time.perf_counter()
+            for i, k in enumerate(todo):
+                if stop():
+                    raise KeyboardInterrupt
+                r = self.render_frame(k, stop)
+                out.append(r)
+                if progress:
+                    progress(i + 1, len(todo), r, time.perf_counter() - t0)
+        finally:
+            self.close()
         return out
+
+    def close(self) -> None:
+        """Release the folder: the completion log into the manifest, the lock dropped."""
+        self.folder.release()

@@ -45,7 +45,7 @@ SKY_SUN_IRRADIANCE: tuple[tuple[float, tuple[float, float, float]], ...] = (
 )
 
 # the default lighting of a script with neither LIGHT nor WORLD: a clear-sky day
-DEFAULT_SKY = World(kind="sky", strength=1.0, sun_elevation_deg=50.0, sun_azimuth_deg=30.0)
+DEFAULT_SKY = World(kind="sky", strength=1.0, sun_elevation_deg=50.0, sun_azimuth_deg=210.0)  # behind the camera
 LIGHTS_ONLY_WORLD = World(kind="colour", colour=(0.55, 0.6, 0.7), strength=0.35)  # LIGHTs, no WORLD
 DEFAULT_FILL_IRRADIANCE = 1.5    # W/m^2 at half the scene's extent (enclosed scenes' ceiling light)
 ENCLOSED_HIT_FRACTION = 0.9      # a scene whose START sees geometry in >= 90 % of directions is enclosed
@@ -53,6 +53,11 @@ ENCLOSED_HIT_FRACTION = 0.9      # a scene whose START sees geometry in >= 90 % 
 
 # LOOK view -> Blender's view transform of the display-referred PNGs
 VIEW_TRANSFORMS = {"agx": "AgX", "filmic": "Filmic", "standard": "Standard"}
+# LOOK look (AgX only) -> Blender's look; "base" is AgX itself
+AGX_LOOKS = {"base": "None", "punchy": "AgX - Punchy", "very_low_contrast": "AgX - Very Low Contrast",
+             "low_contrast": "AgX - Low Contrast", "medium_low_contrast": "AgX - Medium Low Contrast",
+             "medium_high_contrast": "AgX - Medium High Contrast", "high_contrast": "AgX - High Contrast",
+             "very_high_contrast": "AgX - Very High Contrast"}
 
 # automatic exposure: the linear luminance the 90th-percentile pixel of a preview of frame 0
 # is brought to (blender/exposure.py)

@@ -253,10 +253,12 @@ class Noise:
 
 @dataclass(frozen=True, kw_only=True)
 class Look:
-    """``LOOK [view agx|filmic|standard] [exposure auto|EV]``: how the display-referred image
-    is made. ``auto_exposure`` None = the default rule (automatic for a script without
-    emitting LIGHTs, else ``exposure_ev`` 0); the EXR stays scene-linear either way."""
+    """``LOOK [view agx|filmic|standard] [look NAME] [exposure auto|EV]``: how the
+    display-referred image is made. ``look``: AgX's contrast looks (lighting_data.AGX_LOOKS);
+    ``auto_exposure`` None = the default rule (automatic for a script without emitting
+    LIGHTs, else ``exposure_ev`` 0); the EXR stays scene-linear either way."""
     view: Literal["agx", "filmic", "standard"] = "agx"
+    look: str = "base"
     auto_exposure: Optional[bool] = None
     exposure_ev: float = 0.0
 
@@ -267,6 +269,106 @@ class RenderSettings:
     samples: int = 16
     denoise: bool = False
     seed: int = 0
+
+
+# --- the camera and IMU as sensors (all optional; absent = off) ---------------------------
+
+@dataclass(frozen=True, kw_only=True)
+class Timing:
+    """``TIMING rate HZ [start S] [exposure S] [readout S] [blur on|off]``.
+
+    Frame k is stamped at the middle of its exposure, ``start_s + k / rate_hz``. ``exposure_s``
+    0 = instantaneous (no motion blur); ``readout_s`` 0 = global shutter, else rows are read
+    top to bottom over that time (rolling shutter)."""
+    rate_hz: float = 25.0
+    start_s: float = 0.0
+    exposure_s: float = 0.0
+    readout_s: float = 0.0
+    blur: bool = True          # motion blur over the exposure (when exposure_s > 0)
+
+    @property
+    def motion_blur(self) -> bool:
+        return self.blur and self.exposure_s > 0.0
+
+    @property
+    def rolling_shutter(self) -> bool:
+        return self.readout_s > 0.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class Lens:
+    """``LENS [brown k1 k2 p1 p2 [k3] | fisheye k1 k2 k3 k4] [fnumber N] [defocus px]
+    [vignetting v] [chromatic px]``: distortion (geometric, rendered) and optics (applied to
+    the sensor images only; ``fnumber`` 0 = no diffraction)."""
+    model: Literal["pinhole", "brown", "kannala_brandt"] = "pinhole"
+    coeffs: tuple[float, ...] = ()
+    f_number: float = 0.0          # 0: no diffraction blur
+    defocus_px: float = 0.0        # diameter of the defocus blur disc (pixels)
+    vignetting: float = 0.0        # 1 = the natural cos^4 law; 0 = none
+    chromatic_px: float = 0.0      # lateral chromatic aberration at the image corner (pixels)
+
+    @property
+    def distorted(self) -> bool:
+        return self.model == "kannala_brandt" or (self.model == "brown" and any(self.coeffs))
+
+    @property
+    def optics(self) -> bool:
+        return bool(self.f_number or self.defocus_px or self.vignetting or self.chromatic_px)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Sensor:
+    """``SENSOR ...``: the raw image sensor (images written beside the EXRs; EXR and ground
+    truth stay clean). Electrons = full_well * L / saturation * (exposure / nominal exposure)."""
+    full_well_e: float = 10000.0
+    read_noise_e: float = 0.0
+    dark_current_e_s: float = 0.0
+    prnu: float = 0.0              # pixel response non-uniformity (fraction, std)
+    dsnu_e: float = 0.0            # dark signal non-uniformity (electrons, std)
+    row_noise_e: float = 0.0       # per-row temporal offset (electrons, std)
+    cfa: Optional[Literal["rggb", "bggr", "grbg", "gbrg"]] = None   # None: a colour sensor without mosaic
+    bits: int = 8
+    gain: float = 1.0              # analog gain at the nominal exposure
+    black_level_dn: float = 0.0
+    saturation: float = 1.0        # linear render value that fills the full well at the nominal exposure
+    response: Literal["linear", "srgb", "gamma"] = "srgb"
+    gamma: float = 2.2
+    pixel_um: float = 3.0          # pixel pitch (diffraction MTF)
+    fill_factor: float = 1.0       # pixel aperture (fraction of the pitch)
+    olpf_px: float = 0.0           # optical low-pass filter spot separation (pixels)
+    jpeg_quality: int = 0          # 0: no JPEG
+    seed: int = 0
+
+
+@dataclass(frozen=True, kw_only=True)
+class AutoExposure:
+    """``AUTOEXPOSURE [target T] [speed S] [max_exposure S] [max_gain G]``: exposure control
+    with one frame of latency; ``speed`` in 1/s (the fraction of the log-exposure error
+    corrected over dt is 1 - exp(-speed dt))."""
+    target: float = 0.18           # mean normalised signal (0..1 of full scale) to aim for
+    speed: float = 3.0
+    max_exposure_s: float = 0.0    # 0: the frame period minus the readout
+    max_gain: float = 8.0
+    min_exposure_s: float = 1e-5
+
+
+@dataclass(frozen=True, kw_only=True)
+class Imu:
+    """``IMU ...``: accelerometer + gyroscope on the rig (see blender_sesgen.sensor.imu)."""
+    rate_hz: float = 200.0
+    gyro_noise: float = 1.6968e-04      # rad/s/sqrt(Hz)        (EuRoC ADIS16448)
+    gyro_walk: float = 1.9393e-05       # rad/s^2/sqrt(Hz)
+    accel_noise: float = 2.0e-3         # m/s^2/sqrt(Hz)
+    accel_walk: float = 3.0e-3          # m/s^3/sqrt(Hz)
+    position: Vec3 = (0.0, 0.0, 0.0)    # IMU origin in the left camera frame (OpenCV axes)
+    rotation_deg: Vec3 = (0.0, 0.0, 0.0)  # XYZ Euler angles of R_cam_imu
+    time_offset_s: float = 0.0          # IMU stamp = camera time + offset (Kalibr's timeshift_cam_imu)
+    gravity: float = 9.81
+    seed: int = 0
+
+    def T_cam_imu(self) -> np.ndarray:
+        from .contract.frames import object_pose
+        return object_pose(self.position, self.rotation_deg)
 
 
 # --- rig and motion ---------------------------------------------------------------------
@@ -350,6 +452,11 @@ class Scene:
     noise: Optional[Noise] = None
     look: Look = field(default_factory=Look)
     render: RenderSettings = field(default_factory=RenderSettings)
+    timing: Optional[Timing] = None       # None: 25 Hz, instantaneous global shutter
+    lens: Optional[Lens] = None
+    sensor: Optional[Sensor] = None
+    autoexposure: Optional[AutoExposure] = None
+    imu: Optional[Imu] = None
 
     @property
     def frames(self) -> int:
@@ -366,6 +473,9 @@ class Scene:
         return _jsonable(self)
 
 
+SENSOR_FIELDS = ("timing", "lens", "sensor", "autoexposure", "imu")
+
+
 def _jsonable(value):
     if dataclasses.is_dataclass(value):
         out = {}
@@ -374,6 +484,8 @@ def _jsonable(value):
         for f in dataclasses.fields(value):
             if f.name == "line" or (f.name == "imports" and not value.imports):
                 continue
+            if isinstance(value, Scene) and f.name in SENSOR_FIELDS and getattr(value, f.name) is None:
+                continue  # sensor statements absent: the JSON of a SESGen script is unchanged
             out[f.name] = _jsonable(getattr(value, f.name))
         return out
     if isinstance(value, (tuple, list)):

@@ -1,28 +1,52 @@
 """A render's output folder: what it holds, whether a plan may write into it, and every
 write into it (pure: numpy + stdlib; the files' layout is ``contract.manifest``'s).
 
-The folder owns the one comparison of settings (:meth:`OutputFolder.same_settings`): a
-folder holding frames of the same scene rendered with the same pixel-affecting settings
-can be resumed; anything else is refused unless the user forces it. Every file is written
-under a temporary name and renamed (``contract.atomic``), so stopping at any point leaves a
-folder that ``--resume`` completes with results identical to an uninterrupted run.
+Rules that keep a folder's data safe:
+
+- **The one comparison of settings** (:meth:`OutputFolder.same_settings`): frames of the
+  same scene rendered with the same pixel-affecting settings can be resumed; anything else
+  is refused unless the user forces it.
+- **A lock per frame range** (``locks``): a second render of overlapping frames, or of
+  another scene or settings, is refused with the holder's host and pid; disjoint chunks of
+  the same plan (a render farm) may write concurrently; stale locks are taken over.
+- **Crash-consistent start**: the manifest is written first, so a folder holding anything
+  of ours is a render that ``--resume`` continues.
+- **Verified writes**: an EXR is written under a temporary name, checked (every chunk inside
+  the file, the required channels present) before it replaces the previous file, its
+  SHA-256 recorded; a short write (a full disk) is an error and the old file stays. Its
+  wall-clock header fields (date, render times) are removed: the same seed gives
+  byte-identical files.
+- **O(1) completion**: each completed frame is one line appended to this writer's log
+  ``.sesgen/done-<host>-<pid>.jsonl``; the manifest takes the logs in when the render ends
+  (readers merge them meanwhile), written durably (fsync of the file and its folder).
 """
 from __future__ import annotations
 
+import hashlib
+import json
+import os
 import re
 from pathlib import Path
 from typing import Optional
 
 from .contract import atomic
 from .contract.errors import ContractError
-from .contract.manifest import (DISPLAY_DIR, display_relpath, EXR_DIR, FORMAT, MANIFEST, POSES_DIR, SCENE_COPY, Manifest, exr_relpath,
-                                load_json, trajectory_relpaths)
+from .contract.manifest import (DISPLAY_DIR, DONE_LOG_GLOB, EXR_DIR, FORMAT, MANIFEST, POSES_DIR, SCENE_COPY, STATE_DIR,
+                                Manifest, completed_in_logs, display_relpath, exr_relpath, load_json,
+                                trajectory_relpaths)
 from .contract.trajectory_files import format_ego_table, format_kitti, format_tum
 from .errors import SesgenError
+from .image_check import ImageFileError, check_image
+from .exr import ExrError, check_complete, decode, read_layout, strip_volatile_attributes
+from .locks import FolderLocks
 from .plan import RenderPlan, RenderSettings
 
 _OWN_EXR = re.compile(r"^\d{6}\.exr$")
 _OWN_PNG = re.compile(r"^\d{6}\.png$")
+
+
+class RenderWriteError(RuntimeError):
+    """A file could not be written completely (a full disk, a failing device): exit 1."""
 
 
 class OutputFolder:
@@ -30,11 +54,15 @@ class OutputFolder:
 
     def __init__(self, root):
         self.root = Path(root)
+        self.state = self.root / STATE_DIR
         self._previous: Optional[dict] = None
         self._loaded = False
         self._kept: Optional[dict] = None
         self._kept_for: Optional[RenderPlan] = None
         self.manifest: Optional[Manifest] = None    # this render's manifest, once begun
+        self.checksums: dict[str, str] = {}
+        self.locks = FolderLocks(self.state)
+        self._log = None
 
     # --- what is there ------------------------------------------------------------------
     def previous(self) -> Optional[dict]:
@@ -58,6 +86,13 @@ class OutputFolder:
                 and list(r.get("passes", [])) == list(settings.passes)
                 and manifest.get("resolution") == [settings.width, settings.height])
 
+    @staticmethod
+    def settings_key(settings: RenderSettings) -> str:
+        """The pixel-affecting settings as one string (what the locks compare)."""
+        return json.dumps({"samples": settings.samples, "denoise": settings.denoise, "seed": settings.seed,
+                           "scale": settings.resolution_scale, "passes": list(settings.passes),
+                           "size": [settings.width, settings.height]}, sort_keys=True)
+
     def resumable(self, plan: RenderPlan) -> Optional[dict]:
         """The previous manifest if its frames may be kept for ``plan`` (same scene and
         settings), else None. Decided once per plan."""
@@ -66,6 +101,15 @@ class OutputFolder:
             same = prev and prev.get("scene_sha256") == plan.scene_sha256 and self.same_settings(prev, plan.settings)
             self._kept, self._kept_for = (prev if same else None), plan
         return self._kept
+
+    def _completed(self, kept: dict) -> list[bool]:
+        """Completion of a kept manifest with the logs merged (frames whose files exist)."""
+        n = int(kept.get("frames", 0))
+        done = list(kept.get("frames_complete", [])) + [False] * n
+        for k in completed_in_logs(self.root):
+            if 0 <= k < n:
+                done[k] = True
+        return done[:n]
 
     def check(self, plan: RenderPlan, force: bool) -> None:
         """Refuse a folder that is not ours or holds another scene's output (unless ``force``).
@@ -84,7 +128,7 @@ class OutputFolder:
                     from None
             return
         if previous is None:
-            if any(out.iterdir()) and not force:
+            if any(p.name != STATE_DIR for p in out.iterdir()) and not force:
                 raise SesgenError(f"--out {out}: folder is not empty and holds no render (no manifest.json); "
                                   "use --force to write into it anyway")
             return
@@ -94,7 +138,7 @@ class OutputFolder:
         if previous.get("scene_sha256") != plan.scene_sha256 and not force:
             raise SesgenError(f"--out {out}: holds the output of a different scene ({previous.get('scene_source')}); "
                               "use --force to replace it")
-        if not self.same_settings(previous, plan.settings) and any(previous.get("frames_complete", [])) and not force:
+        if not self.same_settings(previous, plan.settings) and any(self._completed(previous)) and not force:
             r = previous.get("render", {})
             raise SesgenError(f"--out {out}: holds frames rendered with other settings "
                               f"(samples {r.get('samples')}, denoise {r.get('denoise')}, seed {r.get('seed')}, "
@@ -105,34 +149,64 @@ class OutputFolder:
         if self.manifest is not None:
             done = self.manifest.frames_complete
         elif resume and self.resumable(plan) is not None:
-            done = self.previous().get("frames_complete", [])
+            done = self._completed(self.resumable(plan))
         else:
             return list(plan.frames)
         return [k for k in plan.frames if not (k < len(done) and done[k])]
 
+    # --- the lock -------------------------------------------------------------------------
+    def acquire(self, plan: RenderPlan) -> None:
+        """Take this render's lock (see ``locks``): SesgenError if a live writer holds
+        overlapping frames, or renders another scene or other settings here."""
+        if self.locks.path is None:
+            self.locks.take((min(plan.frames), max(plan.frames)), plan.scene_sha256,
+                            self.settings_key(plan.settings), self.root)
+
+    def release(self) -> None:
+        """Take the completion log into the manifest and drop the lock (end of a render,
+        also after an error or an interrupt)."""
+        if self._log is not None:
+            self._log.close()
+            self._log = None
+        if self.locks.path is None:
+            return
+        try:
+            if self.manifest is not None:
+                with self.locks.mutex():
+                    self._merge_logs()
+        finally:
+            self.locks.drop()
+
     # --- writing ------------------------------------------------------------------------
     def begin(self, plan: RenderPlan, manifest: Manifest, resume: bool, force: bool) -> None:
-        """Create the folder, scene.ses, poses/ and the manifest (keeping the completion
-        state of frames already rendered with the same scene and settings)."""
+        """Lock, then write the manifest first (keeping the completion of frames already
+        rendered with the same scene and settings), scene.ses and poses/."""
+        self.acquire(plan)
         out = self.root
-        prev = self.previous()
-        if prev is not None and force and prev.get("scene_sha256") != plan.scene_sha256:
-            self._remove_own_outputs()
+        with self.locks.mutex():
+            self._loaded, self._kept_for = False, None  # another chunk may have begun since check()
+            prev = self.previous()
+            if prev is not None and force and prev.get("scene_sha256") != plan.scene_sha256:
+                self._remove_own_outputs()
+            kept = self.resumable(plan)
+            if kept is not None:
+                prev_done = self._completed(kept)
+                self.checksums = dict(kept.get("checksums") or {})
+                for files in completed_in_logs(out).values():
+                    self.checksums.update(files)
+                redo = set() if resume else set(plan.frames)
+                manifest = manifest.with_complete(
+                    [bool(prev_done[k] and k not in redo and self._files_exist(manifest, k))
+                     for k in range(manifest.frames)])
+            self.manifest = manifest
+            self._write_manifest(dead_logs_only=True)
+        atomic.write_text(out / SCENE_COPY, plan.scene_text, durable=True)
         for view in plan.views:
             (out / EXR_DIR / view).mkdir(parents=True, exist_ok=True)
-            (out / DISPLAY_DIR / view).mkdir(parents=True, exist_ok=True)
+            if plan.writes_display:
+                (out / DISPLAY_DIR / view).mkdir(parents=True, exist_ok=True)
         self._remove_stale_temporaries()
-        atomic.write_text(out / SCENE_COPY, plan.scene_text, durable=True)
-        kept = self.resumable(plan)
-        if kept is not None:
-            prev_done = kept.get("frames_complete", [])
-            redo = set() if resume else set(plan.frames)
-            manifest = manifest.with_complete(
-                [bool(k < len(prev_done) and prev_done[k] and k not in redo and self._files_exist(manifest, k))
-                 for k in range(manifest.frames)])
         self._write_pose_files(plan, manifest)
-        self.manifest = manifest
-        manifest.write(out)
 
     def exr_path(self, view: str, k: int) -> Path:
         return self.root / exr_relpath(view, k)
@@ -140,10 +214,83 @@ class OutputFolder:
     def display_path(self, view: str, k: int) -> Path:
         return self.root / display_relpath(view, k)
 
-    def mark_complete(self, k: int) -> None:
-        """Record frame ``k`` complete (its files are in place)."""
+    def commit_frame(self, k: int, written: dict[str, Path], required_channels: tuple,
+                     display: Optional[dict[str, Path]] = None) -> None:
+        """Check each view's freshly written EXR (``written[view]``, a temporary file), strip
+        its wall-clock header fields, move it into place and record frame ``k`` complete;
+        RenderWriteError (the previous files kept) if a file is short or lacks a channel.
+        ``display[view]``: the display-referred PNG (a temporary file), decoded to check it,
+        moved into place before the EXRs (an EXR in place means a whole frame)."""
+        sums = {}
+        for view, tmp in (display or {}).items():
+            rel = display_relpath(view, k)
+            try:
+                buf = Path(tmp).read_bytes()
+                check_image(tmp)
+            except (OSError, ImageFileError) as e:
+                for t in [*written.values(), *display.values()]:
+                    Path(t).unlink(missing_ok=True)
+                raise RenderWriteError(f"frame {k} ({view}): the display PNG was not written completely ({e}); "
+                                       "is the disk full? The previous files were kept") from None
+            sums[rel] = hashlib.sha256(buf).hexdigest()
+        for view, tmp in written.items():
+            rel = exr_relpath(view, k)
+            try:
+                buf = Path(tmp).read_bytes()
+                layout = check_complete(buf, rel, required_channels, read_layout(buf, rel))
+                buf = strip_volatile_attributes(buf, layout)
+                with open(tmp, "wb") as f:
+                    f.write(buf)
+            except (OSError, ExrError) as e:
+                for t in written.values():
+                    Path(t).unlink(missing_ok=True)
+                raise RenderWriteError(f"frame {k} ({view}): the EXR was not written completely ({e}); "
+                                       "is the disk full? The previous files were kept") from None
+            sums[rel] = hashlib.sha256(buf).hexdigest()
+        for view, tmp in (display or {}).items():
+            os.replace(tmp, self.root / display_relpath(view, k))
+        for view, tmp in written.items():
+            os.replace(tmp, self.root / exr_relpath(view, k))
         self.manifest.frames_complete[k] = True
+        self.checksums.update(sums)
+        self._append_log({"frame": int(k), "files": sums})
+
+    def _append_log(self, record: dict) -> None:
+        if self._log is None:
+            self._log = open(self.state / f"done-{self.locks.writer}.jsonl", "a", encoding="utf-8")
+        # flushed, not fsync'd: a killed process loses nothing (the page cache survives it);
+        # after a power cut a frame whose line was lost is rendered again, and one whose
+        # EXR was lost is caught by its checksum (`verify`)
+        self._log.write(json.dumps(record) + "\n")
+        self._log.flush()
+        self.locks.touch()
+
+    def _merge_logs(self) -> None:
+        """Under the mutex: what the manifest on disk holds now (other chunks may have merged
+        theirs) and the logs' completions, into the manifest; own and dead logs removed."""
+        try:
+            on_disk = load_json(self.root / MANIFEST)
+            done = on_disk.get("frames_complete") or []
+            if on_disk.get("scene_sha256") == self.manifest.scene_sha256 and len(done) == self.manifest.frames:
+                self.manifest.frames_complete = [a or bool(b) for a, b in zip(self.manifest.frames_complete, done)]
+                self.checksums = {**dict(on_disk.get("checksums") or {}), **self.checksums}
+        except ContractError:
+            pass
+        for k, files in completed_in_logs(self.root).items():
+            if 0 <= k < self.manifest.frames:
+                self.manifest.frames_complete[k] = True
+                self.checksums.update(files)
+        self._write_manifest(dead_logs_only=False)
+
+    def _write_manifest(self, dead_logs_only: bool) -> None:
+        if self.checksums:
+            self.manifest.extra["checksums"] = dict(sorted(self.checksums.items()))
         self.manifest.write(self.root)
+        live = self.locks.live_writers()
+        for log in self.state.glob(DONE_LOG_GLOB):
+            writer = log.stem.replace("done-", "", 1)
+            if writer not in live or (not dead_logs_only and writer == self.locks.writer):
+                log.unlink(missing_ok=True)
 
     def _files_exist(self, m: Manifest, k: int) -> bool:
         display = (m.extra.get("display") or {}).get("files") or {}
@@ -159,6 +306,55 @@ class OutputFolder:
             atomic.write_text(self.root / rel["kitti"][view], format_kitti(T))
         atomic.write_text(self.root / rel["ego"], format_ego_table(plan.scene.timeline.ego_table()))
 
+    # --- checking ---------------------------------------------------------------------------
+    def verify(self, full: bool = True, progress=None) -> list[tuple[int, str]]:
+        """(frame, what is wrong) for every frame recorded complete whose files are missing,
+        truncated, lack a channel the manifest names, differ from their recorded SHA-256, or
+        (``full``) hold pixel data that does not decode. ``progress(i, n)`` after each frame."""
+        m = Manifest.read(self.root)
+        sums = dict(m.extra.get("checksums") or {})
+        required = []
+        for v in m.channels.values():
+            required += [v] if isinstance(v, str) else list(v)
+        done = [k for k in range(m.frames) if m.frames_complete[k]]
+        bad = []
+        for i, k in enumerate(done):
+            for view in m.views:
+                rel = m.files[view][k]
+                try:
+                    buf = (self.root / rel).read_bytes()
+                    check_complete(buf, rel, tuple(required))
+                    if rel in sums and hashlib.sha256(buf).hexdigest() != sums[rel]:
+                        raise ExrError(f"{rel}: its SHA-256 differs from the one recorded when it was written")
+                    if full:
+                        decode(buf, rel)
+                except FileNotFoundError:
+                    bad.append((k, f"{rel}: missing"))
+                    break
+                except (OSError, ExrError) as e:
+                    bad.append((k, str(e)))
+                    break
+            if progress:
+                progress(i + 1, len(done))
+        return bad
+
+    def mark_incomplete(self, frames) -> None:
+        """Record ``frames`` as not rendered (``--resume`` renders them again); refused while
+        a render writes into the folder."""
+        with self.locks.mutex():
+            live = self.locks.live()
+            if live:
+                raise SesgenError(f"--out {self.root}: being rendered by pid {live[0]['pid']} on {live[0]['host']}; "
+                                  "verify again when it has finished")
+            self.manifest = Manifest.read(self.root)
+            self.checksums = dict(self.manifest.extra.get("checksums") or {})
+            for k in frames:
+                self.manifest.frames_complete[k] = False
+                for view in self.manifest.views:
+                    self.checksums.pop(self.manifest.files[view][k], None)
+            self.manifest.extra["checksums"] = self.checksums
+            self._write_manifest(dead_logs_only=False)
+
     def _remove_own_outputs(self) -> None:
         """Delete the files a previous render wrote (our own names only; nothing else)."""
         for view in ("left", "right"):
@@ -173,14 +369,20 @@ class OutputFolder:
             for f in pd.iterdir():
                 if f.name.endswith((".tum.txt", ".kitti.txt")) or f.name == "ego.txt":
                     f.unlink()
+        for log in self.state.glob(DONE_LOG_GLOB):
+            log.unlink()
         (self.root / MANIFEST).unlink(missing_ok=True)
         self._previous, self._loaded, self._kept_for = None, True, None
 
     def _remove_stale_temporaries(self) -> None:
-        for view in ("left", "right"):
-            for folder in (EXR_DIR, DISPLAY_DIR):
-                d = self.root / folder / view
-                if d.is_dir():
-                    for f in d.iterdir():
-                        if atomic.is_temp_name(f.name) or (f.name.startswith(".") and ".exr.tmp-" in f.name):
-                            f.unlink()
+        """Temporary files of interrupted writers (never those of a live one: its pid is in the name)."""
+        live = self.locks.live_pids()
+        folders = [self.root / d / v for d in (EXR_DIR, DISPLAY_DIR) for v in ("left", "right")]
+        folders += [self.root, self.root / POSES_DIR, self.state]
+        for d in folders:
+            if not d.is_dir():
+                continue
+            for f in d.iterdir():
+                m = re.search(r"\.tmp-(\d+)", f.name)
+                if f.is_file() and m and atomic.is_temp_name(f.name) and int(m.group(1)) not in live:
+                    f.unlink(missing_ok=True)

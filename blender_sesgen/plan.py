@@ -25,9 +25,9 @@ from .contract import semantics
 from .contract.camera import scaled_K, scaled_size
 from .contract.errors import ContractError
 from .contract.manifest import SEED_RULE, Manifest, display_relpath, exr_relpath
-from .contract.timing import DEFAULT_FPS, FrameSelection, frame_timestamps
+from .contract.timing import FrameSelection, frame_timestamps
 from .errors import SesgenError
-from .lighting_data import VIEW_TRANSFORMS
+from .lighting_data import AGX_LOOKS, VIEW_TRANSFORMS
 from .model import Mesh, Scene, TextureRef
 
 MAX_IMAGE_SIDE = 16384   # the script's own limit, applied to scaled sizes too
@@ -67,6 +67,10 @@ class RenderOptions:
     position_pass: bool = False
     threads: int = 0                     # 0 = Cycles' automatic thread count
     verbose: bool = False                # let Blender print its render log
+    rate_hz: Optional[float] = None      # TIMING overrides (None = the script's value)
+    exposure_s: Optional[float] = None
+    readout_s: Optional[float] = None
+    motion_blur: Optional[bool] = None
 
     def __post_init__(self):
         object.__setattr__(self, "device", Device.parse(self.device))
@@ -174,7 +178,23 @@ class RenderPlan:
             frames = tuple((options.frames or FrameSelection()).resolve(N))
         except ContractError as e:
             raise SesgenError(str(e)) from None
-        return cls(scene, text, options, settings, frames, sha256_text(text))
+        plan = cls(scene, text, options, settings, frames, sha256_text(text))
+        plan.sensor  # validates the timing overrides (SesgenError) before anything is written
+        return plan
+
+    @cached_property
+    def sensor(self):
+        """The sensor statements' plan (``sensor.render_plan.SensorPlan``; inactive without them)."""
+        from .sensor.render_plan import SensorPlan, TimingOverrides
+        o = self.options
+        return SensorPlan.create(self.scene, self.settings,
+                                 TimingOverrides(o.rate_hz, o.exposure_s, o.readout_s, o.motion_blur))
+
+    @property
+    def writes_display(self) -> bool:
+        """Whether Blender writes the display-referred PNGs (``rgb/``): on the plain render
+        path; the sensor path (motion blur, rolling shutter, lens) makes its own images."""
+        return not self.sensor.changes_rendering
 
     @cached_property
     def view_poses(self) -> dict[str, np.ndarray]:
@@ -189,12 +209,13 @@ class RenderPlan:
         return self.scene.rig.views
 
     def manifest(self, *, channels: dict, render_extra: dict, blender_version: Optional[str],
-                 fps: float = DEFAULT_FPS) -> Manifest:
+                 fps: Optional[float] = None) -> Manifest:
         """The manifest of this plan with no frame complete yet; ``channels``: the EXR channel
         names of each product (the session knows them), ``render_extra``: what the session
         adds to the ``render`` entry (exposure, EXR layout)."""
         scene, s = self.scene, self.settings
         N = scene.frames
+        fps = self.sensor.rate_hz if fps is None else fps
         render = self.settings.manifest_block()
         render["exr"]["layout"] = render_extra.pop("exr_layout", render["exr"]["layout"])
         render.update(render_extra)
@@ -204,10 +225,13 @@ class RenderPlan:
         if scene.fog is not None:
             extra["fog"] = {"start": scene.fog.start, "end": scene.fog.end, "colour": list(scene.fog.colour),
                             "applies_to": "rgb only"}
-        extra["display"] = {
-            "kind": "display-referred sRGB, 8-bit PNG (the Combined pass through the view transform)",
-            "view_transform": VIEW_TRANSFORMS[scene.look.view],
-            "files": {v: [display_relpath(v, k) for k in range(N)] for v in self.views}}
+        extra.update(self.sensor.manifest_entries(N))
+        if self.writes_display:
+            extra["display"] = {
+                "kind": "display-referred sRGB, 8-bit PNG (the Combined pass through the view transform)",
+                "view_transform": VIEW_TRANSFORMS[scene.look.view],
+                "look": AGX_LOOKS[scene.look.look],
+                "files": {v: [display_relpath(v, k) for k in range(N)] for v in self.views}}
         product_channels = {k: channels[k] for k in ("rgb", "depth", "object_index")}
         for p in ("normal", "position"):
             if p in s.passes:
@@ -219,7 +243,7 @@ class RenderPlan:
             views=self.views,
             poses=self.view_poses,
             files={v: [exr_relpath(v, k) for k in range(N)] for v in self.views},
-            timestamps_s=frame_timestamps(N, fps),
+            timestamps_s=frame_timestamps(N, fps, self.sensor.frame_times_s(1)[0]),
             fps=float(fps),
             near=float(scene.rig.near),
             far=float(scene.rig.far),

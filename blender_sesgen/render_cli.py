@@ -6,11 +6,13 @@ output: nothing is created or touched); 1 render failure.
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import sys
 import time
 
+from .contract.cli import EXIT_FAILURE, EXIT_INTERRUPTED
+from .contract.progress import Progress, add_progress_argument, progress_mode
 from .errors import SesgenError
+from .interrupt import deferred_interrupts
 from .plan import RenderOptions
 
 
@@ -32,7 +34,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--position-pass", action="store_true", help="also write the Position pass")
     p.add_argument("--contact-sheet", nargs="?", const="contact_sheet.png", metavar="PNG",
                    help="after rendering, write a contact sheet (RGB, disparity, segmentation) into DIR")
-    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.add_argument("--rate", type=float, metavar="HZ", help="frame rate (overrides TIMING rate; default 25)")
+    p.add_argument("--exposure", type=float, metavar="S", help="exposure time in seconds (overrides TIMING exposure)")
+    p.add_argument("--readout", type=float, metavar="S",
+                   help="rolling-shutter readout time, top to bottom (overrides TIMING readout; 0 = global shutter)")
+    p.add_argument("--motion-blur", action=argparse.BooleanOptionalAction, default=None,
+                   help="motion blur over the exposure (overrides TIMING blur)")
+    add_progress_argument(p, ("--quiet",))
     p.add_argument("--verbose", action="store_true", help="show Blender's own render log")
 
 
@@ -41,24 +49,19 @@ def _fmt(seconds: float) -> str:
     return f"{s // 3600:d}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60:02d}:{s % 60:02d}"
 
 
-def _have_bpy() -> bool:
-    try:
-        return importlib.util.find_spec("bpy") is not None
-    except ImportError:
-        return False
-
-
 def run(args: argparse.Namespace) -> int:
+    from .api import frame_progress, have_bpy
     from .job import RenderJob
     t_start = time.perf_counter()
     options = RenderOptions(
         samples=args.samples, denoise=args.denoise, seed=args.seed, device=args.device,
         resolution_scale=args.resolution_scale, frames=args.frames,
         normal_pass=args.normal_pass, position_pass=args.position_pass, threads=args.threads,
-        verbose=args.verbose,
+        verbose=args.verbose, rate_hz=args.rate, exposure_s=args.exposure, readout_s=args.readout,
+        motion_blur=args.motion_blur,
     )
     job = RenderJob.prepare(args.scene, args.out, options, resume=args.resume, force=args.force)  # SesgenError -> 2
-    if not _have_bpy():
+    if not have_bpy():
         raise SesgenError("rendering needs Blender's Python module 'bpy': pip install 'blender-sesgen[render]' "
                           "(Python 3.11), or run inside Blender: blender -b -P render.py -- SCENE.ses --out DIR")
     todo = job.pending_frames()
@@ -68,29 +71,26 @@ def run(args: argparse.Namespace) -> int:
         print(f"sesgen render: {args.scene} -> {args.out}: {len(todo)} of {len(job.frames)} frames to render, "
               f"{len(views)} view(s), {s.width}x{s.height}, {s.samples} samples"
               f"{' + denoise' if s.denoise else ''}, seed {s.seed}, {s.device.value.upper()}", flush=True)
-    try:
-        job.build()
-    except SesgenError:
-        raise
-    except Exception as e:  # noqa: BLE001 - a Blender failure while building
-        print(f"error: building the Blender scene failed: {e}", file=sys.stderr)
-        return 1
-
-    def progress(i, n, r, elapsed):
-        if args.quiet:
-            return
-        eta = elapsed / i * (n - i)
-        cyc = f", cycles {r.cycles_s:.2f} s" if r.cycles_s is not None else ""
-        print(f"frame {r.frame:6d}  [{i}/{n}]  {r.wall_s:.2f} s{cyc}  elapsed {_fmt(elapsed)}  ETA {_fmt(eta)}",
-              flush=True)
-
-    try:
-        results = job.run(progress)
-    except SesgenError:
-        raise
-    except Exception as e:  # noqa: BLE001 - Cycles/IO failure: the folder stays consistent
-        print(f"error: render failed: {e}", file=sys.stderr)
-        return 1
+    with deferred_interrupts() as stop:
+        try:
+            job.build()
+        except SesgenError:
+            raise
+        except Exception as e:  # noqa: BLE001 - a Blender failure while building
+            print(f"error: building the Blender scene failed: {e}", file=sys.stderr)
+            return EXIT_FAILURE
+        try:
+            with Progress(len(todo), "render", mode=progress_mode(args), unit="frame") as bar:
+                results = job.run(frame_progress(bar), stop=lambda: stop.requested)
+        except SesgenError:
+            raise
+        except KeyboardInterrupt:
+            print(f"interrupted{f' ({stop.signal_name})' if stop.signal_name else ''} after {len(job.timings)} "
+                  f"frame(s): {args.out} is consistent; render again with --resume to continue", file=sys.stderr)
+            return EXIT_INTERRUPTED
+        except Exception as e:  # noqa: BLE001 - Cycles/IO failure (a full disk...): the folder stays consistent
+            print(f"error: render failed: {e}", file=sys.stderr)
+            return EXIT_FAILURE
     if args.contact_sheet:
         from .contact_sheet import write_contact_sheet
         from pathlib import Path

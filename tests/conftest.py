@@ -21,6 +21,16 @@ def shared_data() -> Path:
     return SHARED_DATA
 
 
+@pytest.fixture(scope="module")
+def layout_render(request, tmp_path_factory) -> Path:
+    """A render folder of tests/layout_scene.py (written without Blender) with the test
+    module's ``N`` frames (default 4); the export-layout tests read it back."""
+    pytest.importorskip("cv2")
+    pytest.importorskip("OpenEXR")
+    from layout_scene import write_layout_render
+    return write_layout_render(tmp_path_factory.mktemp("layout") / "r", n=getattr(request.module, "N", 4))
+
+
 @pytest.fixture(scope="session")
 def repo() -> Path:
     return REPO

@@ -1,7 +1,6 @@
 """Helpers of the render tests: the oracle scene, EXR reading (OpenEXR), CLI runs."""
 from __future__ import annotations
 
-import json
 import os
 import re
 import subprocess
@@ -81,7 +80,9 @@ def depth_and_ids(exr: dict, manifest: dict):
 
 
 def load_manifest(out: Path) -> dict:
-    return json.loads((Path(out) / "manifest.json").read_text())
+    """The manifest as a reader sees it: completion logs of a running render merged in."""
+    from blender_sesgen.contract.manifest import Manifest
+    return Manifest.read(out).to_json()
 
 
 def render_cmd(*args) -> list[str]:

@@ -94,8 +94,8 @@ def test_blender_validates_the_zip(addon_zip):
 def test_zip_installs_enables_and_disables_cleanly(addon_zip, tmp_path):
     res = run_child("""
         import addon_utils
-        OPS = ["check", "build", "render", "open_output", "preview", "import_ses"]
-        PANELS = ["SESGEN_PT_main", "SESGEN_PT_render", "SESGEN_PT_preview"]
+        OPS = ["check", "build", "render", "open_output", "preview", "export", "import_ses", "verify"]
+        PANELS = ["SESGEN_PT_main", "SESGEN_PT_render", "SESGEN_PT_preview", "SESGEN_PT_export"]
         def menu_funcs():
             return [getattr(f, "__module__", "") for f in getattr(bpy.types.TOPBAR_MT_file_import.draw, "_draw_funcs", [])]
         def state():
@@ -239,6 +239,34 @@ def test_build_creates_the_model_objects_rig_and_path(addon_zip, tmp_path, scrip
     np.testing.assert_allclose(to_ses(path["curve_points"]), model.timeline.left()[:, :3, 3], atol=TOL)
 
 
+# --- Verify: the output folder against its manifest ---------------------------------------------
+
+def test_verify_operator_names_a_damaged_frame_and_resume_renders_it_again(addon_zip, tmp_path):
+    out = tmp_path / "out"
+    res = run_child(f"""
+        import pathlib
+        S().script_path = {str(REPO / 'scenes' / 'minimal.ses')!r}
+        s = S()
+        s.output_dir = {str(out)!r}
+        s.override_render, s.samples = True, 1
+        s.resolution_scale = 0.5
+        RESULT["render"] = call(bpy.ops.sesgen.render)
+        RESULT["clean"] = (call(bpy.ops.sesgen.verify), S().status)
+        f = pathlib.Path({str(out)!r}) / "exr" / "left" / "000001.exr"
+        f.write_bytes(f.read_bytes()[:2000])
+        RESULT["damaged"] = (call(bpy.ops.sesgen.verify), S().status)
+        S().resume = True
+        RESULT["resumed"] = (call(bpy.ops.sesgen.render), S().status)
+        RESULT["again"] = (call(bpy.ops.sesgen.verify), S().status)
+    """, addon_zip, tmp_path)
+    assert res["render"]["error"] is None
+    assert res["clean"][0]["error"] is None and res["clean"][1].startswith("verified")
+    assert res["damaged"][0]["error"] is None and "1 bad frame(s) (1:" in res["damaged"][1]
+    assert "truncated" in res["damaged"][1]
+    assert res["resumed"][0]["error"] is None and res["resumed"][1].startswith("rendered 1 frame(s)")
+    assert res["again"][1].startswith("verified")
+
+
 # --- Render (the execute path: every frame synchronously, through RenderJob) -----------------
 
 def test_render_operator_writes_the_output_contract_and_preview(addon_zip, tmp_path):
@@ -344,6 +372,41 @@ def test_render_operator_writes_the_output_contract_and_preview(addon_zip, tmp_p
     d_max = m["K"][0][0] * m["baseline"] / z_right[z_right < 1e9].min()
     assert f"0..{d_max:.2f} px" in pv["disparity"]["text"]
     assert "not rendered" in pv["not_rendered"]["error"]
+
+
+def test_export_operator_writes_a_dataset_layout_through_vo_reference(addon_zip, tmp_path):
+    """Render two frames, then Export Dataset: the add-on runs vo-reference (here this test's
+    Python, which has vo_reference) and reports its result; a missing tool is a clear error."""
+    out, ds = tmp_path / "out", tmp_path / "dataset"
+    res = run_child(f"""
+        S().script_path = {str(REPO / 'scenes' / 'minimal.ses')!r}
+        s = S()
+        s.output_dir = {str(out)!r}
+        s.use_frame_range, s.frame_first, s.frame_last = True, 0, 1
+        s.override_render, s.samples = True, 1
+        s.resolution_scale = 0.5
+        RESULT["render"] = call(bpy.ops.sesgen.render)
+        s = S()
+        s.export_target, s.export_dir, s.export_sequence = "tartanair", {str(ds)!r}, "room/Easy/P000"
+        s.vo_command = {f"{sys.executable} -m vo_reference"!r}
+        RESULT["export"] = call(bpy.ops.sesgen.export)
+        RESULT["status"], RESULT["progress"] = S().status, S().progress
+        S().export_target, S().export_sequence = "kitti-odometry", "05"
+        RESULT["kitti"] = call(bpy.ops.sesgen.export)
+        S().vo_command = {str(tmp_path / "no-such-tool")!r}
+        RESULT["missing"] = call(bpy.ops.sesgen.export)
+        S().vo_command, S().export_target = {f"{sys.executable} -m vo_reference"!r}, "tum"
+        RESULT["no_slot"] = call(bpy.ops.sesgen.export)
+    """, addon_zip, tmp_path)
+    assert res["render"]["error"] is None
+    assert res["export"] == {"result": ["FINISHED"], "error": None}
+    assert res["status"].startswith("exported") and res["progress"] == 1.0
+    seq = ds / "room/Easy/P000"
+    assert sorted(p.name for p in (seq / "image_left").iterdir()) == ["000000_left.png", "000001_left.png"]
+    assert (seq / "flow/000000_000001_flow.npy").is_file() and len((seq / "pose_left.txt").read_text().splitlines()) == 2
+    assert res["kitti"]["error"] is None and (ds / "dataset/poses/05.txt").is_file()
+    assert res["missing"]["result"] is None and "pip install 'blender-sesgen[vo]'" in res["missing"]["error"]
+    assert res["no_slot"]["result"] is None and "no sequence slot" in res["no_slot"]["error"]
 
 
 def test_cancel_leaves_a_resumable_folder_and_resume_completes_it(addon_zip, tmp_path):

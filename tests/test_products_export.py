@@ -77,9 +77,9 @@ def _cli(*args) -> int:
     return cli_main(["export", *map(str, args), "-q"])
 
 
-def test_kitti_odometry_layout(render, tmp_path):
+def test_kitti_folder_layout(render, tmp_path):
     out = tmp_path / "kitti"
-    assert _cli(render, out, "--to", "kitti-odometry", "--noise", "0") == 0
+    assert _cli(render, out, "--to", "kitti-folder", "--noise", "0") == 0
     seq = RenderSequence(render)
     for d, ch in (("image_0", 2), ("image_1", 2), ("image_2", 3), ("image_3", 3)):
         files = sorted((out / d).glob("*.png"))
@@ -103,7 +103,7 @@ def test_evo_reads_kitti_and_tum_poses(render, tmp_path):
     if not (EVO_BIN / "evo_traj").exists():
         pytest.skip("evo not installed in this environment")
     kitti, tum = tmp_path / "k", tmp_path / "t"
-    export(render, "kitti-odometry", kitti, progress=False)
+    export(render, "kitti-folder", kitti, progress=False)
     export(render, "tum", tum, progress=False)
     env = dict(os.environ, HOME=str(tmp_path))  # evo writes its settings under $HOME
     for fmt, path in (("kitti", kitti / "poses.txt"), ("tum", tum / "groundtruth.txt")):
@@ -187,7 +187,7 @@ def test_frame_range_keeps_each_frames_noise(render, tmp_path):
     part = export(render, "png", tmp_path / "part", frames="2:4", progress=False)
     assert sorted(p.name for p in (part / "left/rgb").iterdir()) == ["000000.png", "000001.png"]
     assert (part / "left/rgb/000000.png").read_bytes() == (full / "left/rgb/000002.png").read_bytes()
-    k = export(render, "kitti-odometry", tmp_path / "k", frames="1:", progress=False)
+    k = export(render, "kitti-folder", tmp_path / "k", frames="1:", progress=False)
     T = np.array([[float(x) for x in l.split()] for l in (k / "poses.txt").read_text().splitlines()])
     assert T.shape == (3, 12) and np.allclose(T[0], np.eye(4)[:3].ravel())
 
@@ -230,18 +230,30 @@ def test_registry_accepts_a_new_target(render, tmp_path):
         del EXPORTERS["fake-test"]
 
 
-def test_progress_bar_is_one_updating_line(render, tmp_path):
+def test_progress_in_a_pipe_is_plain_lines_and_json_parses(render, tmp_path):
+    """stderr is a pipe here: whole lines with ETA, never a carriage return; json: one object a line."""
     r = subprocess.run([sys.executable, "-m", "vo_reference", "export", str(render), str(tmp_path / "o"),
                         "--to", "png"], capture_output=True, timeout=120)
     err = r.stderr.decode()
     assert r.returncode == 0, err
-    assert err.count("\n") == 1 and err.endswith("\n") and err.count("\r") >= 2 and "8/8" in err
+    assert "\r" not in err and err.endswith("\n")
+    lines = err.splitlines()
+    assert lines[-1].startswith("export png: 8/8 (100%)") and all(l.startswith("export png: ") for l in lines)
+    r = subprocess.run([sys.executable, "-m", "vo_reference", "export", str(render), str(tmp_path / "j"),
+                        "--to", "kitti-folder", "--progress", "json"], capture_output=True, timeout=120)
+    assert r.returncode == 0, r.stderr.decode()
+    events = [json.loads(line) for line in r.stderr.decode().splitlines()]
+    assert [e["event"] for e in events] == ["start"] + ["progress"] * 4 + ["end"]
+    assert events[-1]["status"] == "ok" and events[-2]["done"] == events[-2]["total"] == 4
+    assert "exported" in r.stdout.decode()
 
 
 def test_mono_render_exports(tmp_path):
     from synthetic_render import plane_scene
     root = plane_scene(tmp_path / "mono", stereo=False, frames=2)
-    out = export(root, "kitti-odometry", tmp_path / "k", progress=False)
+    out = export(root, "kitti-folder", tmp_path / "k", progress=False)
+    assert (out / "image_0/000001.png").is_file() and not (out / "image_1").exists()
+    out = export(root, "kitti-odometry", tmp_path / "kd", progress=False)
     assert (out / "image_0/000001.png").is_file() and not (out / "image_1").exists()
     export(root, "png", tmp_path / "p", progress=False)
     assert not (tmp_path / "p/left/disparity").exists()

@@ -51,8 +51,9 @@ def test_output_contract(tmp_path):
     script = small_script(tmp_path, extra="NOISE sigma 2.5 seed 7\n")
     r = run_render(script, "--out", out, "--samples", "1")
     assert r.returncode == 0, r.stderr
-    # one progress line per frame, with elapsed time and ETA
-    assert len(re.findall(r"^frame .*elapsed \d\d:\d\d\s+ETA \d\d:\d\d$", r.stdout, re.M)) == 3, r.stdout
+    # stderr is a pipe: one plain progress line per frame (each is a third of the work), with ETA
+    lines = re.findall(r"^render: (\d)/3 \(\d+%\) [\d.:]+(?: s)?(, ETA [\d.:]+(?: s)?)?  frame \d .*$", r.stderr, re.M)
+    assert [n for n, _ in lines] == ["1", "2", "3"] and lines[0][1] and "\r" not in r.stderr, r.stderr
     m = load_manifest(out)
     for key in ("format", "resolution", "K", "baseline", "near", "far", "frames", "views", "depth", "objects",
                 "poses", "files", "render", "generator", "scene_sha256", "timestamps", "frames_complete"):
@@ -63,7 +64,7 @@ def test_output_contract(tmp_path):
     np.testing.assert_allclose(m["K"], [[70, 0, 47.5], [0, 70, 35.5], [0, 0, 1]])
     assert [o["id"] for o in m["objects"]] == [1, 2, 3, 4]
     assert m["objects"][3] == {"id": 4, "name": m["objects"][3]["name"], "shape": "sphere", "texture": "voronoi",
-                               "material": None}
+                               "material": None, "class": "static", "label_id": 4}
     assert m["frames_complete"] == [True] * 3
     assert m["noise"] == {"sigma": 2.5, "seed": 7}
     assert m["render"]["samples"] == 1 and m["render"]["engine"] == "CYCLES"

@@ -87,3 +87,33 @@ def test_closed_room_gets_a_ceiling_light(tmp_path):
     assert len(area) == 1 and abs(area[0].location.z - 2.95) < 1e-6   # just under the ceiling
     rgb = _mean_linear_rgb(tmp_path, room)
     assert 0.15 < rgb.mean() < 1.5, rgb
+
+
+def test_spot_area_and_portal_lamps_are_built_as_written(tmp_path):
+    import math
+    from blender_sesgen.pipeline import RenderJob
+    (tmp_path / "l.ses").write_text(
+        "CUBOID id 1 position 0 0 -3 dim 1 1 1\n"
+        "LIGHT spot position 0 3 0 direction 0 -1 0 angle 60 blend 0.3 strength 800 size 0.1\n"
+        "LIGHT area position 1 2.9 0 direction 0 -1 0 size 1 0.5 strength 200\n"
+        "LIGHT portal position 0 1.5 -3 direction 0 0 1 size 1.2 1.5\n"
+        "WORLD hdri courtyard strength 0.5 rotation 20\n")
+    job = RenderJob.prepare(tmp_path / "l.ses", tmp_path / "o")
+    job.build()
+    lamps = {o.data.type + ("_portal" if o.data.type == "AREA" and o.data.cycles.is_portal else ""): o
+             for o in job.built.scene.objects if o.type == "LIGHT"}
+    assert set(lamps) == {"SPOT", "AREA", "AREA_portal"}   # no default lights: the script has its own
+    spot = lamps["SPOT"]
+    assert math.isclose(spot.data.spot_size, math.radians(60), rel_tol=1e-6)   # float32
+    assert math.isclose(spot.data.spot_blend, 0.3, rel_tol=1e-6)
+    # a lamp emits along its -Z: SES -Y (down) is Blender -Z
+    down = spot.matrix_world.to_3x3() @ __import__("mathutils").Vector((0, 0, -1))
+    assert down.z < -0.999
+    area = lamps["AREA"].data
+    assert area.shape == "RECTANGLE" and (area.size, area.size_y) == (1.0, 0.5)
+    portal = lamps["AREA_portal"]
+    into_room = portal.matrix_world.to_3x3() @ __import__("mathutils").Vector((0, 0, -1))
+    assert into_room.y < -0.999          # SES +Z is Blender -Y
+    env = next(n for n in job.built.scene.world.node_tree.nodes if n.bl_idname == "ShaderNodeTexEnvironment")
+    assert env.image.filepath.endswith("courtyard.exr") and env.image.size[0] == 1024
+    assert not (tmp_path / "o").exists()

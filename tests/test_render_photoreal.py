@@ -148,7 +148,7 @@ def test_hdri_rotation_turns_the_world_like_the_sun_azimuth(tmp_path):
 
 def test_display_images_are_the_view_transform_and_what_vo_reads(tmp_path):
     cv2 = pytest.importorskip("cv2")
-    from vo_reference.io.color import linear_to_srgb8
+    from blender_sesgen.contract.colour import linear_to_srgb8
     from vo_reference.io.render import RenderSequence
     script = tmp_path / "s.ses"
     script.write_text("CAMERA resolution 64 48 focal 50 baseline 0.1\nSTART position 0 1.5 3 -15 0 0\n"
@@ -239,3 +239,24 @@ def test_bevelled_cuboid_is_real_geometry(tmp_path):
             # and the rounding is visible: a sharp box would have claimed other pixels
             _, id_sharp, _ = raycast.render_truth(sharp, m["K"], T, W, H)
             assert (id_sharp != id_true).sum() > 20
+
+
+@pytest.mark.parametrize("line, marker, message", [
+    ("QUAD id 2 material asfalt vertices -1 0 -1 1 0 -1 1 0 1 -1 0 1", "asfalt", "is not defined and is not a library"),
+    ("WORLD hdri citty", "citty", "neither a built-in HDRI"),
+    ("WORLD hdri notes.hdr", "notes.hdr", "not a usable image"),
+    ("SPHERE id 2 texture cut.png position 0 0 -3 dim 1", "cut.png", "not a usable image"),
+    ("CUBOID id 2 class tree position 0 0 -3 dim 1 1 1", "tree", "not a known class"),
+])
+def test_bad_input_is_a_located_error_and_nothing_is_written(tmp_path, line, marker, message):
+    from image_files import png_bytes
+    (tmp_path / "notes.hdr").write_text("#?RADIANCE\nthis is not an image\n")
+    (tmp_path / "cut.png").write_bytes(png_bytes(16, 16)[:-30])
+    script = tmp_path / "bad.ses"
+    script.write_text("CUBOID id 1 position 0 0 -5 dim 1 1 1\n" + line + "\n")
+    r = run_render(script, "--out", tmp_path / "out", "--quiet")
+    col = line.index(marker) + 1
+    assert r.returncode == 2, r.stderr
+    assert f"bad.ses:2:{col}: error:" in r.stderr and message in r.stderr, r.stderr
+    assert "Traceback" not in r.stderr
+    assert not (tmp_path / "out").exists()

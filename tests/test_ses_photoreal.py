@@ -214,6 +214,10 @@ def test_look():
     assert parse_string(OBJ + "LOOK view standard exposure -1.5\n").look == \
         model.Look(view="standard", auto_exposure=False, exposure_ev=-1.5)
     assert parse_string(OBJ + "LOOK exposure AUTO\n").look.auto_exposure is True
+    assert parse_string(OBJ + "LOOK look medium_high_contrast\n").look.look == "medium_high_contrast"
+    text = OBJ + "LOOK view standard look punchy\n"
+    err = error_of(text)
+    assert "needs 'view agx'" in err.message and at(err, 2, text, "punchy")
     text = OBJ + "LOOK exposure bright\n"
     err = error_of(text)
     assert "'exposure' must be 'auto' or a number" in err.message and at(err, 2, text, "bright")

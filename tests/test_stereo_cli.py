@@ -32,7 +32,8 @@ def test_stereo_vo_cli_gt_depth_and_flow_recovers_the_poses(render_dir, tmp_path
     root, T = render_dir
     out = tmp_path / "est.txt"
     assert main(["stereo-vo", str(root), "--method", "accurate", "--gt-depth", "--gt-flow", "--out", str(out)]) == 0
-    assert "frame    0->1" in capsys.readouterr().out          # per-frame progress
+    err = capsys.readouterr().err
+    assert "frame    0->1" in err and "\r" not in err             # per-step progress, plain lines
     est = read_kitti(out)
     np.testing.assert_allclose(est.T_world_cam, T, atol=1e-5)
 

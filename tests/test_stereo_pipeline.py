@@ -142,11 +142,16 @@ def test_a_sequence_where_no_step_works_is_an_error():
 
 def test_progress_and_summary_name_the_failed_steps():
     import io
-    from vo_reference.stereo.cli import failed_summary, progress_printer
+    from vo_reference.stereo.cli import failed_summary, vo_progress
     frames, T = S.sequence(S.smooth_twists(3))
     frames[2] = {**frames[2], "left": np.full_like(frames[2]["left"], 128), "right": np.full_like(frames[2]["right"], 128)}
     out = io.StringIO()
-    res = run_stereo_vo(S.ArraySequence(frames, T), "accurate", progress=progress_printer("accurate", out))
+    bar, show = vo_progress("accurate", (0, 3), "plain", stream=out)
+    with bar:
+        res = run_stereo_vo(S.ArraySequence(frames, T), "accurate", progress=show)
     lines = out.getvalue().splitlines()
-    assert len(lines) == 3 and "FAILED" in lines[1] and "FAILED" in lines[2] and "FAILED" not in lines[0]
+    # a plain line per step (a third of the work each), and a note for each failed step
+    assert [l.split(":")[0] for l in lines] == ["stereo-vo accurate", "[accurate] frame 1->2", "stereo-vo accurate",
+                                                 "[accurate] frame 2->3", "stereo-vo accurate"], lines
+    assert "FAILED" in lines[1] and "FAILED" in lines[3] and "FAILED" not in lines[0]
     assert failed_summary(res.failed).startswith("warning: 2 step(s)") and "1->2, 2->3" in failed_summary(res.failed)

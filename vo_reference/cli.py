@@ -16,7 +16,8 @@ PROG = "python -m vo_reference"
 DESCRIPTION = "Reference visual odometry, ground-truth products and evaluation for sesgen renders and real datasets."
 # command -> (module relative to this package, one-line help)
 COMMANDS = {
-    "export": (".products.export_cli", "export a render folder to KITTI / TUM / PNG dataset layouts"),
+    "export": (".products.export_cli", "export a render folder to dataset layouts (KITTI, TUM, EuRoC, TartanAir, "
+                                     "Virtual KITTI 2, SceneFlow, PNG, Bayer)"),
     "evaluate": (".evaluate.cli", "evaluate an estimated trajectory against ground truth (APE, RPE, KITTI)"),
     "evaluate-disparity": (".evaluate.disparity_cli", "evaluate an estimated disparity map (EPE, bad-N, D1)"),
     "stereo-vo": (".stereo.cli", "run the reference stereo VO (SESGen paper / accurate) on a render or KITTI folder"),

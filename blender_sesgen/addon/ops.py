@@ -43,6 +43,14 @@ def _check(context, values) -> str:
     return msg
 
 
+class _WhenIdle:
+    """Operators that change the scene or the output folder: not while a render runs."""
+
+    @classmethod
+    def poll(cls, context):
+        return session.RenderSession.active is None and context.scene is not None
+
+
 class SESGEN_OT_check(bpy.types.Operator):
     """Parse the script again and report its summary or its errors"""
     bl_idname = "sesgen.check"
@@ -52,31 +60,23 @@ class SESGEN_OT_check(bpy.types.Operator):
         return _run(self, context, lambda values: _check(context, values))
 
 
-class SESGEN_OT_build(bpy.types.Operator):
+class SESGEN_OT_build(_WhenIdle, bpy.types.Operator):
     """Build the script's scene (objects, stereo rig with keyframes, camera path) in the scene 'SESGen'; rebuilding replaces it"""
     bl_idname = "sesgen.build"
     bl_label = "Build Scene"
     bl_options = {"REGISTER", "UNDO"}
 
-    @classmethod
-    def poll(cls, context):
-        return session.RenderSession.active is None and context.scene is not None
-
     def execute(self, context):
         return _run(self, context, lambda values: session.build_scene(context, values))
 
 
-class SESGEN_OT_render(bpy.types.Operator):
+class SESGEN_OT_render(_WhenIdle, bpy.types.Operator):
     """Render the sequence into the output folder (ESC cancels; the folder stays resumable)"""
     bl_idname = "sesgen.render"
     bl_label = "Render Sequence"
 
     _timer = None
     _session = None
-
-    @classmethod
-    def poll(cls, context):
-        return session.RenderSession.active is None and context.scene is not None
 
     def execute(self, context):  # headless: every frame, synchronously
         return _run(self, context, lambda values: session.render_all(context, values))
@@ -149,6 +149,15 @@ class SESGEN_OT_open_output(bpy.types.Operator):
         return bpy.ops.wm.path_open(filepath=props.abspath(context.scene.sesgen.output_dir))
 
 
+class SESGEN_OT_verify(_WhenIdle, bpy.types.Operator):
+    """Check every file of the output folder against its manifest (missing, truncated, changed, undecodable); bad frames are rendered again by Render with Resume"""
+    bl_idname = "sesgen.verify"
+    bl_label = "Verify Output"
+
+    def execute(self, context):
+        return _run(self, context, session.verify)
+
+
 class SESGEN_OT_preview(bpy.types.Operator):
     """Show one rendered frame's ground truth (disparity, segmentation, depth) or RGB in an image editor"""
     bl_idname = "sesgen.preview"
@@ -159,7 +168,73 @@ class SESGEN_OT_preview(bpy.types.Operator):
                                                   f"(image '{session.PREVIEW_IMAGE}')")
 
 
-class SESGEN_OT_import(bpy.types.Operator, ImportHelper):
+class SESGEN_OT_export(_WhenIdle, bpy.types.Operator):
+    """Export the rendered frames of the output folder to a dataset layout (runs vo_reference; Esc cancels)"""
+    bl_idname = "sesgen.export"
+    bl_label = "Export Dataset"
+
+    _timer = None
+    _proc = None
+
+    def execute(self, context):  # headless: runs to the end
+        values = session.read_settings(context)
+        try:
+            proc = session.start_export(values)
+            proc.wait()
+            msg = session.finish_export(values, proc, context)
+        except SesgenError as e:
+            return _fail(self, context, values, e)
+        self.report({"INFO"}, msg)
+        return {"FINISHED"}
+
+    def invoke(self, context, event):  # interactive: the progress bar follows the tool's JSON events
+        values = session.read_settings(context)
+        try:
+            self._proc = session.start_export(values)
+        except SesgenError as e:
+            return _fail(self, context, values, e)
+        self._values = values
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.1, window=context.window)
+        wm.modal_handler_add(self)
+        session.set_status(values, f"exporting to {values['export_target']}...", 0.0, context=context)
+        return {"RUNNING_MODAL"}
+
+    def _stop_timer(self, context):
+        if self._timer is not None:
+            context.window_manager.event_timer_remove(self._timer)
+            self._timer = None
+
+    def modal(self, context, event):
+        p, values = self._proc, self._values
+        if event.type == "ESC" and event.value == "PRESS":
+            p.cancel()
+            self._stop_timer(context)
+            session.set_status(values, "export cancelled (nothing half-written is left)", context=context)
+            self.report({"WARNING"}, "export cancelled")
+            return {"CANCELLED"}
+        if event.type != "TIMER" or event.timer is not self._timer:
+            return {"PASS_THROUGH"}
+        p.poll()
+        if not p.finished:
+            session.set_status(values, f"exporting to {values['export_target']}: {p.done}/{p.total} (Esc to cancel)",
+                               p.fraction, context=context)
+            return {"RUNNING_MODAL"}
+        self._stop_timer(context)
+        try:
+            msg = session.finish_export(values, p, context)
+        except SesgenError as e:
+            return _fail(self, context, values, e)
+        self.report({"INFO"}, msg)
+        return {"FINISHED"}
+
+    def cancel(self, context):
+        if self._proc is not None and not self._proc.finished:
+            self._proc.cancel()
+        self._stop_timer(context)
+
+
+class SESGEN_OT_import(_WhenIdle, bpy.types.Operator, ImportHelper):
     """Import an SES scene script: set it in the SESGen panel and build its scene"""
     bl_idname = "sesgen.import_ses"
     bl_label = "Import SES Script"
@@ -167,10 +242,6 @@ class SESGEN_OT_import(bpy.types.Operator, ImportHelper):
 
     filename_ext = ".ses"
     filter_glob: StringProperty(default="*.ses", options={"HIDDEN"})
-
-    @classmethod
-    def poll(cls, context):
-        return session.RenderSession.active is None and context.scene is not None
 
     def execute(self, context):
         context.scene.sesgen.script_path = self.filepath
@@ -182,4 +253,4 @@ def menu_import(self, context):
 
 
 CLASSES = (SESGEN_OT_check, SESGEN_OT_build, SESGEN_OT_render, SESGEN_OT_open_output,
-           SESGEN_OT_preview, SESGEN_OT_import)
+           SESGEN_OT_preview, SESGEN_OT_export, SESGEN_OT_import, SESGEN_OT_verify)

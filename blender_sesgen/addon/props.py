@@ -4,6 +4,7 @@ from __future__ import annotations
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
+from .export_job import TARGETS
 from .preview import KINDS
 
 
@@ -39,6 +40,17 @@ class SESGEN_PG_settings(bpy.types.PropertyGroup):
     preview_view: EnumProperty(name="View", items=(("left", "Left", ""), ("right", "Right", "")), default="left")
     preview_kind: EnumProperty(name="Show", default="disparity",
                                items=tuple((k, k.capitalize(), f"Preview the {k} of a rendered frame") for k in KINDS))
+    # export (vo_reference, run as a child process)
+    export_target: EnumProperty(name="Layout", items=TARGETS, default="kitti-odometry",
+                                description="The dataset layout to export the rendered frames to")
+    export_dir: StringProperty(name="Export To", subtype="DIR_PATH", default="",
+                               description="Folder of the exported dataset (several renders can share one tree)")
+    export_sequence: StringProperty(name="Sequence", default="",
+                                    description="The render's slot in the dataset tree: KITTI NN, SceneFlow "
+                                                "TRAIN/A/0000, a TartanAir/vKITTI 2 sub-folder (empty: the default)")
+    vo_command: StringProperty(name="VO Command", default="",
+                               description="How to run vo_reference (a Python with pip install 'blender-sesgen[vo]'), "
+                                           "e.g. /path/venv/bin/vo-reference; empty: vo-reference on PATH")
     # state shown in the panel
     status: StringProperty(name="Status", default="")
     progress: FloatProperty(name="Progress", min=0.0, max=1.0, default=0.0, subtype="FACTOR")

@@ -189,8 +189,12 @@ class RenderSession:
         def make_session():
             job.build()
             return job.session
-        build(context, values, make_session, job.scene)
-        job.begin()
+        try:
+            build(context, values, make_session, job.scene)
+            job.begin()
+        except BaseException:
+            job.close()                      # the folder's lock
+            raise
         s.todo = job.pending_frames()
         cls.active = s
         set_status(values, s.describe(), 0.0)
@@ -231,6 +235,9 @@ class RenderSession:
         return msg
 
     def close(self, msg: Optional[str] = None) -> str:
+        """End the render (done, cancelled or failed): the folder's lock released, its
+        completion log taken into the manifest."""
+        self.job.close()
         if RenderSession.active is self:
             RenderSession.active = None
         if msg is None:
@@ -259,6 +266,27 @@ def render_all(context, values: dict) -> str:
 # --- preview ----------------------------------------------------------------------------
 
 PREVIEW_IMAGE = "SESGen preview"
+
+
+def verify(values: dict) -> str:
+    """Check every file of the output folder against its manifest (as ``python -m
+    blender_sesgen verify``); bad frames are recorded as not rendered, so that Render with
+    Resume renders them again. One line to report."""
+    from ..contract.manifest import MANIFEST
+    from ..output import OutputFolder
+    out = props.abspath(values["output_dir"])
+    if not out or not os.path.isfile(os.path.join(out, MANIFEST)):
+        raise SesgenError("no render in the output folder to verify")
+    folder = OutputFolder(out)
+    bad = folder.verify(full=True)
+    if not bad:
+        msg = "verified: every frame recorded complete is intact"
+    else:
+        folder.mark_incomplete(sorted({k for k, _ in bad}))
+        frames = ", ".join(str(k) for k, _ in bad[:8]) + (" ..." if len(bad) > 8 else "")
+        msg = f"{len(bad)} bad frame(s) ({frames}: {bad[0][1]}); Render with Resume renders them again"
+    set_status(values, msg)
+    return msg
 
 
 def preview(context, values: dict):
@@ -304,3 +332,29 @@ def show_image(context, img) -> None:
     area = max(new[0].screen.areas, key=lambda a: a.width * a.height)
     area.type = "IMAGE_EDITOR"
     area.spaces.active.image = img
+
+
+# --- export (vo_reference as a child process) ----------------------------------------------
+
+def start_export(values: dict):
+    """Start ``vo-reference export`` on the output folder (export_job.ExportProcess)."""
+    from . import export_job
+    render_dir = props.abspath(values["output_dir"])
+    if render_dir and not os.path.isfile(os.path.join(render_dir, "manifest.json")):
+        raise SesgenError(f"{render_dir}: no render here yet (render first, or choose the render's output folder)")
+    frames = f"{values['frame_first']}:{values['frame_last'] + 1}" if values["use_frame_range"] else ""
+    cmd = export_job.export_command(export_job.vo_command(values["vo_command"]), render_dir,
+                                    props.abspath(values["export_dir"]), values["export_target"],
+                                    values["export_sequence"], frames)
+    return export_job.ExportProcess(cmd)
+
+
+def finish_export(values: dict, proc, context=None) -> str:
+    """The status line of a finished export; ExportError with the tool's message if it failed."""
+    from . import export_job
+    proc.poll()
+    if proc.returncode != 0:
+        raise export_job.ExportError(proc.error)
+    msg = proc.summary or f"exported to {values['export_target']}"
+    set_status(values, msg, 1.0, context=context)
+    return msg

@@ -6,7 +6,6 @@ import bpy
 from . import props, session, state
 
 
-
 def _toggled(layout, settings, heading: str, toggle: str, text: str, names) -> None:
     """A column: a checkbox, then the properties it switches on (greyed out while off)."""
     col = layout.column(heading=heading)
@@ -16,10 +15,32 @@ def _toggled(layout, settings, heading: str, toggle: str, text: str, names) -> N
     for name in names:
         sub.prop(settings, name)
 
+
 class _SidebarPanel:
     bl_space_type = "VIEW_3D"
     bl_region_type = "UI"
     bl_category = "SESGen"
+
+
+class _SettingsSubpanel(_SidebarPanel):
+    """A closed sub-panel of the main one (its ``draw`` from :func:`_settings_draw`)."""
+    bl_parent_id = "SESGEN_PT_main"
+    bl_options = {"DEFAULT_CLOSED"}
+
+
+def _settings_draw(names: tuple, operator: str, icon: str, note: str = ""):
+    """A panel's draw: its settings, an optional note, the button of its operator."""
+    def draw(self, context):
+        s = context.scene.sesgen
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        for name in names:
+            layout.prop(s, name)
+        if note:
+            layout.label(text=note)
+        layout.operator(operator, icon=icon)
+    return draw
 
 
 class SESGEN_PT_main(_SidebarPanel, bpy.types.Panel):
@@ -78,23 +99,20 @@ class SESGEN_PT_render(_SidebarPanel, bpy.types.Panel):
         row = layout.row()
         row.scale_y = 1.4
         row.operator("sesgen.render", icon="RENDER_ANIMATION")
-        layout.operator("sesgen.open_output", icon="FILE_FOLDER")
+        row = layout.row(align=True)
+        row.operator("sesgen.open_output", icon="FILE_FOLDER")
+        row.operator("sesgen.verify", icon="CHECKMARK")
 
 
-class SESGEN_PT_preview(_SidebarPanel, bpy.types.Panel):
+class SESGEN_PT_preview(_SettingsSubpanel, bpy.types.Panel):
     bl_label = "Ground-Truth Preview"
-    bl_parent_id = "SESGEN_PT_main"
-    bl_options = {"DEFAULT_CLOSED"}
-
-    def draw(self, context):
-        s = context.scene.sesgen
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
-        layout.prop(s, "preview_kind")
-        layout.prop(s, "preview_frame")
-        layout.prop(s, "preview_view")
-        layout.operator("sesgen.preview", icon="IMAGE_DATA")
+    draw = _settings_draw(("preview_kind", "preview_frame", "preview_view"), "sesgen.preview", "IMAGE_DATA")
 
 
-CLASSES = (SESGEN_PT_main, SESGEN_PT_render, SESGEN_PT_preview)
+class SESGEN_PT_export(_SettingsSubpanel, bpy.types.Panel):
+    bl_label = "Export Dataset"
+    draw = _settings_draw(("export_target", "export_dir", "export_sequence", "vo_command"), "sesgen.export", "EXPORT",
+                          "Frames: the Render panel's range; source: its Output folder")
+
+
+CLASSES = (SESGEN_PT_main, SESGEN_PT_render, SESGEN_PT_preview, SESGEN_PT_export)

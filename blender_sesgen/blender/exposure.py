@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+from pathlib import Path
 
 import numpy as np
 
@@ -23,16 +24,36 @@ PREVIEW_WIDTH = 96      # px; the preview keeps the aspect ratio
 PREVIEW_SAMPLES = 8
 
 
+PREVIEW_PREFIX = "sesgen-exposure-"
+
+
+def remove_stale_previews(folder=None) -> None:
+    """Delete preview files of processes that no longer run (a killed render's leftovers)."""
+    folder = Path(folder or tempfile.gettempdir())
+    for f in folder.glob(f"{PREVIEW_PREFIX}*-*.exr"):
+        try:
+            pid = int(f.name[len(PREVIEW_PREFIX):].split("-", 1)[0])
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            f.unlink(missing_ok=True)
+        except (ValueError, PermissionError, OSError):
+            continue
+
+
 def measure_exposure(bscene, camera, frame: int) -> float:
-    """The film exposure that brings the preview's 90th-percentile luminance to TARGET."""
+    """The film exposure that brings the preview's 90th-percentile luminance to TARGET.
+
+    The preview goes to the system's temporary folder under a name with this process's pid,
+    so that a later render removes it if this one is killed (``remove_stale_previews``)."""
     from ..exr import read_exr
     from .render import render_view
 
+    remove_stale_previews()
     r, c = bscene.render, bscene.cycles
     saved = (r.resolution_percentage, c.samples, c.use_denoising, c.film_exposure)
     pct = max(1, min(100, int(100 * PREVIEW_WIDTH / max(r.resolution_x, 1))))
     r.resolution_percentage, c.samples, c.use_denoising, c.film_exposure = pct, PREVIEW_SAMPLES, False, 1.0
-    fd, path = tempfile.mkstemp(suffix=".exr", prefix="sesgen-exposure-")
+    fd, path = tempfile.mkstemp(suffix=".exr", prefix=f"{PREVIEW_PREFIX}{os.getpid()}-")
     os.close(fd)
     try:
         render_view(bscene, camera, frame, seed=0, filepath=path)

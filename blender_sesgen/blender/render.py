@@ -45,7 +45,8 @@ def enable_gpu() -> str:
 
 
 def configure(bscene, *, samples: int, denoise: bool, gpu: bool = False, threads: int = 0,
-              normal_pass: bool = False, position_pass: bool = False, view_transform: str = "AgX") -> None:
+              normal_pass: bool = False, position_pass: bool = False, view_transform: str = "AgX",
+              look: str = "None") -> None:
     """Cycles, passes and colour management. ``view_transform`` shapes the display-referred
     PNG only (the EXR is scene-linear whatever it is)."""
     r = bscene.render
@@ -78,7 +79,7 @@ def configure(bscene, *, samples: int, denoise: bool, gpu: bool = False, threads
     r.dither_intensity = 0.0
     bscene.display_settings.display_device = "sRGB"
     bscene.view_settings.view_transform = view_transform
-    bscene.view_settings.look = "None"
+    bscene.view_settings.look = look
     bscene.view_settings.exposure = 0.0
     bscene.view_settings.gamma = 1.0
     vl = bscene.view_layers[0]

@@ -1,17 +1,17 @@
 """A plan's scene built in Blender and ready to render frames: the bpy side of a render job.
 
 ``BlenderSession(plan)`` builds the scene (``builder``), configures Cycles (``render``) and
-fixes the film exposure; ``render_frame(k, paths, display_paths)`` renders every view of
-frame k into the given EXR (and display PNG) paths. It knows nothing of output folders or manifests beyond what it reports
+fixes the film exposure; ``render_frame(k, paths)`` renders every view of frame k into the
+given EXR paths (and the display-referred PNGs). It knows nothing of output folders or manifests beyond what it reports
 for them (channel names, exposure, Blender's version).
 """
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
+from typing import Callable, Optional
 
 from ..contract.manifest import render_seed
-from ..lighting_data import EXPOSURE_TARGET, VIEW_TRANSFORMS
+from ..lighting_data import AGX_LOOKS, EXPOSURE_TARGET, VIEW_TRANSFORMS
 from ..plan import Device, RenderPlan
 from . import builder, compat, exposure, render, rig
 
@@ -34,8 +34,13 @@ class BlenderSession:
         render.configure(self.built.scene, samples=s.samples, denoise=s.denoise, gpu=gpu,
                          threads=plan.options.threads, normal_pass=plan.options.normal_pass,
                          position_pass=plan.options.position_pass,
-                         view_transform=VIEW_TRANSFORMS[plan.scene.look.view])
+                         view_transform=VIEW_TRANSFORMS[plan.scene.look.view],
+                         look=AGX_LOOKS[plan.scene.look.look])
         self.exposure = self._exposure(known_exposure)
+        self.sensor = None          # the sensor path (motion blur, rolling shutter, lens), if any
+        if plan.sensor.changes_rendering:
+            from .sensor_render import SensorSession
+            self.sensor = SensorSession(plan, self.built)
 
     @property
     def auto_exposure(self) -> bool:
@@ -77,12 +82,26 @@ class BlenderSession:
         """Manifest rows of the objects BLEND files brought (their ids are given when loaded)."""
         return list(self.built.imported)
 
-    def render_frame(self, k: int, paths: dict[str, Path],
+    @property
+    def jpeg_writer(self):
+        """Writes the sensor's JPEG images (Blender's image writer)."""
+        from .sensor import save_jpeg
+        return save_jpeg
+
+    def render_frame(self, k: int, paths: dict[str, Path], stop: Callable[[], bool] = lambda: False,
+                     exposure_s: Optional[float] = None,
                      display_paths: Optional[dict[str, Path]] = None) -> dict[str, dict]:
-        """Render frame ``k`` of each view into ``paths[view]`` (EXR) and, with
-        ``display_paths``, ``display_paths[view]`` (the display-referred PNG); {view: stats}."""
+        """Render frame ``k`` of each view into ``paths[view]``; {view: render stats}.
+        ``stop()`` is asked before each view (KeyboardInterrupt when it says yes);
+        ``exposure_s``: the frame's exposure time on the sensor path (auto-exposure);
+        ``display_paths[view]``: where the display-referred PNG goes (plain path only)."""
+        if self.sensor is not None:
+            return self.sensor.render_frame(k, self.plan.sensor.nominal_exposure_s() if exposure_s is None
+                                            else exposure_s, paths, stop)
         stats = {}
         for vi, view in enumerate(self.plan.views):
+            if stop():
+                raise KeyboardInterrupt
             stats[view] = render.render_view(self.built.scene, self.built.cameras[view], rig.blender_frame(k),
                                              render_seed(self.plan.settings.seed, k, vi), str(paths[view]),
                                              quiet=not self.plan.options.verbose,

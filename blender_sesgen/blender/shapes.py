@@ -216,6 +216,7 @@ def build_mesh(m: Mesh, collection, material) -> list:
     if not os.path.isfile(m.path):
         raise SesgenError(f"MESH {m.name}: file not found: {m.path}")
     before = set(bpy.data.objects)
+    owned_before = {name: set(getattr(bpy.data, name)) for name in ("materials", "images", "node_groups")}
     try:
         with quiet_stdout():
             result = _IMPORTERS[ext](m.path)
@@ -224,6 +225,9 @@ def build_mesh(m: Mesh, collection, material) -> list:
     if "FINISHED" not in result:
         raise SesgenError(f"MESH {m.name}: cannot import {m.source}")
     new = [o for o in bpy.data.objects if o not in before]
+    for name, old in owned_before.items():   # the file's own materials and textures: ours to remove on rebuild
+        for idb in set(getattr(bpy.data, name)) - old:
+            tag(idb)
     # glTF is Y up by definition and its importer turns it Z up: undo that (back to file axes)
     C = np.eye(4)
     if ext in (".gltf", ".glb"):

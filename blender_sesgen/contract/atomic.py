@@ -11,6 +11,7 @@ import json
 import math
 import os
 import re
+import shutil
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
@@ -63,6 +64,33 @@ def replacing(path, durable: bool = False) -> Iterator[Path]:
     finally:
         if tmp.exists():
             tmp.unlink()
+
+
+@contextmanager
+def replacing_folder(path) -> Iterator[Path]:
+    """``with replacing_folder(final) as tmp: fill tmp`` -> the folder ``tmp`` (``.NAME.tmp-PID``
+    beside ``final``) takes the place of ``final`` if the block succeeds; if it raises (or is
+    interrupted) the partial folder is removed and ``final`` stays as it was. An existing
+    ``final`` is moved aside (``.NAME.tmp-PID.old``), then deleted: a reader sees the old
+    folder or the new one, never a mix (for an instant, neither). The caller decides whether
+    ``final`` may be replaced."""
+    final = Path(path)
+    final.parent.mkdir(parents=True, exist_ok=True)
+    tmp = temp_path(final)
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    tmp.mkdir()
+    try:
+        yield tmp
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    old = tmp.with_name(tmp.name + ".old")
+    if final.exists():
+        os.replace(final, old)
+    os.replace(tmp, final)
+    if old.exists():
+        shutil.rmtree(old, ignore_errors=True)
 
 
 def write_bytes(path, data: bytes, durable: bool = False) -> Path:

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 SENSOR_WIDTH_MM = 36.0
+MIN_LENS_MM = 1.0   # Blender's shortest lens
 
 
 def K_matrix(focal_px: float, cx: float, cy: float) -> np.ndarray:
@@ -90,7 +91,13 @@ class BlenderCameraSettings:
 def blender_camera_settings(width: int, height: int, focal_px: float, cx: float, cy: float,
                             near: float, far: float,
                             sensor_width_mm: float = SENSOR_WIDTH_MM) -> BlenderCameraSettings:
-    """Blender camera data settings that reproduce K = [[f,0,cx],[0,f,cy],[0,0,1]] exactly."""
+    """Blender camera data settings that reproduce K = [[f,0,cx],[0,f,cy],[0,0,1]] exactly.
+
+    Blender clamps the lens to at least ``MIN_LENS_MM``: a focal length that would need a
+    shorter lens on this sensor gets a wider sensor instead (same K, since only their
+    ratio matters)."""
+    if focal_px * sensor_width_mm / width < MIN_LENS_MM:
+        sensor_width_mm = MIN_LENS_MM * 1.001 * width / focal_px
     return BlenderCameraSettings(
         lens_mm=focal_px * sensor_width_mm / width,
         sensor_width_mm=sensor_width_mm,

@@ -243,6 +243,10 @@ class Manifest:
         done = completed_in_logs(root)
         if done:
             m = m.with_complete([c or k in done for k, c in enumerate(m.frames_complete)])
+            sums = dict(m.extra.get("checksums") or {})
+            for files in done.values():
+                sums.update(files)
+            m.extra["checksums"] = sums
         return m
 
 

@@ -1,7 +1,11 @@
 """Time and frame selection: timestamps of frames, and the one ``--frames`` syntax.
 
-Frame k is stamped ``t_k = t_0 + k / fps`` seconds (the middle of its exposure once a
-sensor model sets an exposure time). ``--frames`` everywhere (render, export, VO) is a
+Frame k is stamped ``t_k = t_0 + k / fps`` seconds, the **middle of its exposure**.
+Global shutter: every row integrates light over ``[t_k - e/2, t_k + e/2]`` (e = exposure).
+Rolling shutter with readout time ``R`` (top to bottom): row r (0 = top) is read at
+``t_k + (r + 0.5 - H/2) * R / H`` (its exposure is centred there), so the middle of the
+readout is the frame stamp and consecutive rows are ``R / H`` apart (docs/rendering.md
+measures that the renders follow it). EuRoC and ROS carry integer nanoseconds: :func:`to_ns`. ``--frames`` everywhere (render, export, VO) is a
 Python slice of the frame indices: ``A:B`` (B exclusive), ``A:``, ``:B``, negative indices
 counting from the end; a single ``K`` selects frame K alone.
 """
@@ -65,3 +69,42 @@ class FrameSelection:
 def frame_range(spec: Optional[str], n: int, min_frames: int = 1) -> range:
     """Shorthand: ``FrameSelection.parse(spec).resolve(n, min_frames)``."""
     return FrameSelection.parse(spec).resolve(n, min_frames)
+
+
+# --- exposure and rolling-shutter rows ---------------------------------------------------
+
+def row_offsets_s(height: int, readout_s: float) -> np.ndarray:
+    """(H,) capture time of each row relative to the frame stamp (0 for a global shutter)."""
+    r = np.arange(int(height), dtype=float)
+    return (r + 0.5 - height / 2.0) * float(readout_s) / float(height)
+
+
+def row_time_s(t_frame_s: float, row, height: int, readout_s: float):
+    """Capture time of (possibly fractional) image row(s) ``row`` of a frame stamped t_frame_s.
+
+    A fractional row y (pixel centres at integers) is read at t + (y + 0.5 - H/2) R / H."""
+    y = np.asarray(row, dtype=float)
+    return float(t_frame_s) + (y + 0.5 - height / 2.0) * float(readout_s) / float(height)
+
+
+def frame_window_s(t_frame_s: float, exposure_s: float, readout_s: float) -> tuple[float, float]:
+    """First and last instant any row of the frame integrates light."""
+    half = (float(exposure_s) + float(readout_s)) / 2.0
+    return float(t_frame_s) - half, float(t_frame_s) + half
+
+
+def cycles_shutter(exposure_s: float, readout_s: float, rate_hz: float) -> tuple[float, float]:
+    """(shutter length in frames, rolling-shutter duration) for Cycles.
+
+    Cycles' shutter (``render.motion_blur_shutter``, centred on the frame) spans the whole
+    frame window ``e + R``; with a rolling shutter its ``rolling_shutter_duration`` is the
+    fraction of that window one row integrates, ``e / (e + R)`` (0 = instantaneous rows)."""
+    total = float(exposure_s) + float(readout_s)
+    shutter = total * float(rate_hz)
+    duration = float(exposure_s) / total if total > 0 and readout_s > 0 else 1.0
+    return shutter, duration
+
+
+def to_ns(t_s) -> np.ndarray:
+    """Seconds -> integer nanoseconds (nearest), int64."""
+    return np.rint(np.asarray(t_s, dtype=np.float64) * 1e9).astype(np.int64)

@@ -128,20 +128,23 @@ def look(stmt: Optional[ParsedStatement], check: Checks) -> model.Look:
     if stmt is None:
         return model.Look()
     view = str(stmt.get("view", "agx"))
+    look_name = str(stmt.get("look", "base"))
+    if look_name != "base" and view != "agx":
+        check.err(stmt.tags["look"].tokens[0], f"LOOK 'look' {look_name} is one of AgX's looks: it needs 'view agx'")
     tv = stmt.tags.get("exposure")
     if tv is None:
-        return model.Look(view=view)
+        return model.Look(view=view, look=look_name)
     tok = tv.tokens[0]
     if tok.kind == "word" and tok.lower == "auto":
-        return model.Look(view=view, auto_exposure=True)
+        return model.Look(view=view, look=look_name, auto_exposure=True)
     try:
         ev = float(tok.text) if tok.kind == "number" else None
     except ValueError:
         ev = None
     if ev is None or not -20.0 <= ev <= 20.0:
         check.err(tok, f"LOOK 'exposure' must be 'auto' or a number of stops in -20..20, got '{tok.shown()}'")
-        return model.Look(view=view)
-    return model.Look(view=view, auto_exposure=False, exposure_ev=ev)
+        return model.Look(view=view, look=look_name)
+    return model.Look(view=view, look=look_name, auto_exposure=False, exposure_ev=ev)
 
 
 def render(stmt: Optional[ParsedStatement], check: Checks) -> model.RenderSettings:

@@ -20,6 +20,7 @@ from typing import Optional
 from .. import assets, model
 from ..contract.camera import default_principal_point
 from . import environment
+from .sensor import sensor_models
 from .checks import Checks, scalar, vec
 from .diagnostics import Diagnostics
 from .geometry import quad_problem
@@ -33,6 +34,8 @@ from .statements import ParsedStatement, TagValue, did_you_mean, read_statement
 
 MAX_ID = 32767                 # Blender's object-index pass clamps above this
 MAX_RESOLUTION = 16384
+MIN_RESOLUTION = 4      # Blender renders nothing smaller
+MIN_NEAR = 1e-6         # Blender's nearest clip distance
 MESH_SUFFIXES = (".obj", ".ply", ".stl", ".gltf", ".glb")
 MAX_SEED = 2**31 - 1
 MAX_BEND_DEG = 90.0
@@ -86,7 +89,7 @@ def _build(source: str, statements: list[ParsedStatement], attempted_objects: bo
     scene_kwargs = dict(
         world=environment.world(seen.get("WORLD"), check), fog=environment.fog(seen.get("FOG"), check),
         noise=environment.noise(seen.get("NOISE"), check), look=environment.look(seen.get("LOOK"), check),
-        render=environment.render(seen.get("RENDER"), check))
+        render=environment.render(seen.get("RENDER"), check), **sensor_models(seen, rig, check))
     if check.diags:
         return None
     return model.Scene(source=source, objects=tuple(objects), imports=tuple(imports), rig=rig, **moving._asdict(),
@@ -284,8 +287,9 @@ def _rig(stmt: Optional[ParsedStatement], check: Checks) -> model.Rig:
         return model.Rig()
     res = stmt.tags["resolution"]
     for value, tok in zip(res.values, res.tokens):
-        if not float(value).is_integer() or not 1 <= value <= MAX_RESOLUTION:
-            check.err(tok, f"CAMERA 'resolution' must be whole numbers in 1..{MAX_RESOLUTION}, got {tok.text}")
+        if not float(value).is_integer() or not MIN_RESOLUTION <= value <= MAX_RESOLUTION:
+            check.err(tok, f"CAMERA 'resolution' must be whole numbers in {MIN_RESOLUTION}..{MAX_RESOLUTION}, "
+                           f"got {tok.text}")
     check.positive(stmt, "focal")
     check.positive(stmt, "baseline", allow_zero=True)
     check.positive(stmt, "near")
@@ -294,6 +298,9 @@ def _rig(stmt: Optional[ParsedStatement], check: Checks) -> model.Rig:
     cx, cy = vec(stmt, "principal", default_principal_point(width, height))
     near = float(scalar(stmt, "near", model.Rig.near))
     far = float(scalar(stmt, "far", model.Rig.far))
+    if 0 < near < MIN_NEAR:
+        check.err(stmt.tags["near"].tokens[0], f"CAMERA 'near' must be at least {MIN_NEAR:g} (Blender clips "
+                                               f"nearer), got {stmt.tags['near'].tokens[0].text}")
     if near >= far:
         tv = stmt.tags.get("far") or stmt.tags["near"]
         check.err(tv.tokens[0], f"CAMERA 'near' ({near:g}) must be less than 'far' ({far:g})")

@@ -9,17 +9,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import VoError
+from blender_sesgen.contract import cfa
+from blender_sesgen.contract.cfa import PATTERNS  # noqa: F401 - re-exported for callers
 
-PATTERNS = ("gbrg", "grbg", "rggb", "bggr")
-_CHANNEL = {"r": 0, "g": 1, "b": 2}
-
+from ..errors import VoError, as_vo_error
 
 def check_pattern(pattern: str) -> str:
-    p = str(pattern).lower()
-    if p not in PATTERNS:
-        raise VoError(f"unknown Bayer pattern {pattern!r} (use one of {', '.join(PATTERNS)})")
-    return p
+    """The pattern (``contract.cfa``) in lower case; VoError for anything else."""
+    with as_vo_error():
+        return cfa.check_pattern(pattern)
 
 
 def opencv_code(pattern: str, method: str = "bilinear") -> int:
@@ -48,11 +46,5 @@ def demosaic(raw: np.ndarray, pattern: str = "gbrg", method: str = "bilinear") -
 
 def mosaic(rgb: np.ndarray, pattern: str = "gbrg") -> np.ndarray:
     """(H, W, 3) RGB -> (H, W) mosaic keeping, at each pixel, the channel the pattern samples."""
-    p = check_pattern(pattern)
-    rgb = np.asarray(rgb)
-    if rgb.ndim != 3 or rgb.shape[2] < 3:
-        raise VoError(f"mosaic expects an (H, W, 3) RGB image, got {rgb.shape}")
-    out = np.empty(rgb.shape[:2], dtype=rgb.dtype)
-    for k, (dy, dx) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):
-        out[dy::2, dx::2] = rgb[dy::2, dx::2, _CHANNEL[p[k]]]
-    return out
+    with as_vo_error():
+        return cfa.mosaic(rgb, pattern)

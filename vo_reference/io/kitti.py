@@ -25,6 +25,8 @@ from .files import read_image
 from .base import ImagesOnly, check_frame_view
 from .trajectory import read_kitti
 
+__all__ = ["KittiSequence", "read_kitti_calib", "looks_like_kitti", "poses_file"]
+
 # (left folder, right folder, left P, right P)
 FOLDER_PAIRS = (
     ("image_0", "image_1", "P0", "P1"),

@@ -15,6 +15,7 @@ hits nothing: the reader returns +inf there, never a finite depth.
 """
 from __future__ import annotations
 
+import hashlib
 from collections import OrderedDict
 from pathlib import Path
 
@@ -29,6 +30,8 @@ from .color import rgb8_to_gray8
 from .base import check_frame_view
 from .exr import find_pass, read_exr_channels
 from .files import read_image
+
+__all__ = ["RenderSequence", "read_manifest"]
 
 # pass name candidates (Blender 5.0 first, then 4.x names)
 PASS_COMBINED = ("Combined",)
@@ -53,8 +56,11 @@ class RenderSequence:
     :meth:`exr_path`.
     """
 
-    def __init__(self, root, cache_frames: int = 4):
+    def __init__(self, root, cache_frames: int = 4, verify: bool = False):
+        """``verify``: check every EXR read against the SHA-256 the renderer recorded for it
+        (VoError on a mismatch: the file changed or was damaged after it was written)."""
         self.root = Path(root)
+        self.verify = bool(verify)
         self.info = m = read_manifest(self.root)
         self.manifest = m.to_json()
         self.resolution = m.resolution
@@ -93,6 +99,8 @@ class RenderSequence:
             self._cache.move_to_end(key)
             return self._cache[key]
         path = self.exr_path(k, view)
+        if self.verify:
+            self._check_sha256(path)
         ch = read_exr_channels(path)
         W, H = self.resolution
         shape = next(iter(ch.values())).shape
@@ -103,6 +111,19 @@ class RenderSequence:
         while len(self._cache) > self._cache_frames:
             self._cache.popitem(last=False)
         return ch
+
+    def _check_sha256(self, path: Path) -> None:
+        rel = path.relative_to(self.root).as_posix()
+        want = (self.info.extra.get("checksums") or {}).get(rel)
+        if want is None:
+            raise VoError(f"{path}: no checksum recorded for it (rendered before checksums existed?)")
+        try:
+            got = hashlib.sha256(path.read_bytes()).hexdigest()
+        except OSError as e:
+            raise VoError(f"{path}: cannot read ({e.strerror})") from None
+        if got != want:
+            raise VoError(f"{path}: differs from the file the renderer wrote (SHA-256 mismatch); "
+                          "run `python -m blender_sesgen verify` on the folder and re-render with --resume")
 
     def _pass(self, k, view, names, comps, what, key=None):
         ch = self._channels(k, view)
@@ -140,18 +161,116 @@ class RenderSequence:
         return path if path.is_file() else None
 
     def image_rgb(self, k: int, view: str = "left") -> np.ndarray:
-        """uint8 (H, W, 3) sRGB: the display-referred image Blender wrote through the view
-        transform (manifest ``display``), else the Combined pass encoded with the sRGB
-        transfer function (IEC 61966-2-1, clipped)."""
+        """uint8 (H, W, 3): the camera's image — the sensor's demosaiced RGB where the render
+        has a SENSOR (noise, CFA, response curve); else the display-referred image Blender
+        wrote through the view transform (manifest ``display``); else (older renders) the
+        EXR beauty sRGB-encoded (IEC 61966-2-1 transfer function, clipped)."""
+        import cv2
+        rel = self.sensor_file("rgb", k, view)
+        if rel is not None:
+            return cv2.cvtColor(read_image(self.root / rel, cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
         path = self.display_path(k, view)
         if path is None:
             return linear_to_srgb8(self.rgb_linear(k, view))
-        import cv2
         img = read_image(path, cv2.IMREAD_COLOR)
         W, H = self.resolution
         if img.shape[:2] != (H, W):
             raise VoError(f"{path}: image is {img.shape[1]}x{img.shape[0]}, manifest says {W}x{H}")
         return np.ascontiguousarray(img[..., ::-1])
+
+    # --- the camera and IMU as sensors (docs/output-format.md) -----------------------------
+    def sensor_file(self, kind: str, k: int, view: str = "left"):
+        """Relative path of a sensor image (kind raw | rgb | jpeg) or None when not rendered."""
+        files = ((self.manifest.get("sensor") or {}).get("files") or {}).get(kind)
+        if not files:
+            return None
+        check_frame_view(self, k, view)
+        return files[view][int(k)]
+
+    def raw_dn(self, k: int, view: str = "left") -> np.ndarray | None:
+        """uint16 raw sensor values (CFA mosaic or RGB), 0 .. 2^bits - 1; None without a SENSOR."""
+        rel = self.sensor_file("raw", k, view)
+        if rel is None:
+            return None
+        from .files import read_image
+        return read_image(self.root / rel)
+
+    @property
+    def lens(self):
+        """The lens (``blender_sesgen.contract.lens.Lens``) of a distorted render, else None."""
+        entry = self.manifest.get("lens") or {}
+        if entry.get("model") in (None, "pinhole"):
+            return None
+        from blender_sesgen.contract.lens import Lens
+        return Lens.from_K(entry["model"], entry["coeffs"], self.K)
+
+    def undistortion_maps(self):
+        """(map_x, map_y) of the render's lookup table (pinhole K <- distorted image), or None."""
+        files = ((self.manifest.get("lens") or {}).get("files") or {})
+        if not files.get("undistort_lut"):
+            return None
+        from ..camera.undistort import read_lut
+        return read_lut(self.root / files["undistort_lut"], *self.resolution)
+
+    def rig_motion(self):
+        """The rig's continuous motion (``blender_sesgen.contract.rig_motion.RigMotion``)."""
+        from blender_sesgen.contract.rig_motion import RigMotion
+        rm = self.manifest.get("rig_motion") or {}
+        rate = float(rm.get("rate_hz") or self.manifest.get("fps") or 25.0)
+        start = float(rm.get("start_s", self.timestamps_s[0] if len(self.timestamps_s) else 0.0))
+        return RigMotion(self._poses["left"], rate, start, rm.get("interpolation", "c2_spline"))
+
+    def _view_offset(self, T: np.ndarray, view: str) -> np.ndarray:
+        if view == "right":
+            T = T.copy()
+            T[..., :3, 3] += self.baseline_m * T[..., :3, 0]
+        return T
+
+    def T_world_cam_at(self, t_s, view: str = "left") -> np.ndarray:
+        """(n, 4, 4) camera poses at any times (seconds; the rig's motion between frames)."""
+        if view not in self.views:
+            raise VoError(f"view {view!r} not in this sequence (views: {', '.join(self.views)})")
+        return self._view_offset(self.rig_motion().T_world_cam(np.atleast_1d(t_s)), view)
+
+    @property
+    def readout_s(self) -> float:
+        return float((self.manifest.get("timing") or {}).get("readout_s") or 0.0)
+
+    def row_times_s(self, k: int) -> np.ndarray:
+        """(H,) capture time of every image row of frame k (all equal for a global shutter)."""
+        from blender_sesgen.contract.timing import row_offsets_s
+        return self.timestamps_s[int(k)] + row_offsets_s(self.resolution[1], self.readout_s)
+
+    def T_world_cam_rows(self, k: int, view: str = "left") -> np.ndarray:
+        """(H, 4, 4) pose of every image row of frame k (a rolling shutter's per-row poses)."""
+        check_frame_view(self, k, view)
+        return self.T_world_cam_at(self.row_times_s(k), view)
+
+    def T_world_cam_row(self, k: int, row: float, view: str = "left") -> np.ndarray:
+        """(4, 4) pose of (fractional) image row ``row`` of frame k."""
+        from blender_sesgen.contract.timing import row_time_s
+        return self.T_world_cam_at(row_time_s(self.timestamps_s[int(k)], row, self.resolution[1], self.readout_s),
+                                   view)[0]
+
+    def imu(self, kind: str = "noisy") -> dict | None:
+        """The IMU stream (kind noisy | ideal) as {t_s, gyro (n,3) rad/s, accel (n,3) m/s^2}, or
+        None without an IMU; ``imu_groundtruth()`` gives the body states."""
+        entry = self.manifest.get("imu")
+        if not entry:
+            return None
+        if kind not in entry["files"]:
+            raise VoError(f"IMU stream {kind!r} not in this render (noisy, ideal)")
+        a = _read_csv(self.root / entry["files"][kind])
+        return {"t_s": a[:, 0] * 1e-9, "gyro": a[:, 1:4], "accel": a[:, 4:7]}
+
+    def imu_groundtruth(self) -> dict | None:
+        """EuRoC-style body (IMU) states at the IMU's instants: t_s, p, q_wxyz, v, gyro/accel bias."""
+        entry = self.manifest.get("imu")
+        if not entry:
+            return None
+        a = _read_csv(self.root / entry["files"]["groundtruth"])
+        return {"t_s": a[:, 0] * 1e-9, "p": a[:, 1:4], "q_wxyz": a[:, 4:8], "v": a[:, 8:11],
+                "gyro_bias": a[:, 11:14], "accel_bias": a[:, 14:17]}
 
     def image_gray(self, k: int, view: str = "left") -> np.ndarray:
         return rgb8_to_gray8(self.image_rgb(k, view))
@@ -174,3 +293,16 @@ class RenderSequence:
     def __repr__(self) -> str:
         W, H = self.resolution
         return f"RenderSequence({str(self.root)!r}, {self.num_frames} frames, {W}x{H}, views={self.views})"
+
+
+def _read_csv(path) -> np.ndarray:
+    """A numeric CSV with '#' header lines (EuRoC style), first column integer ns kept exact."""
+    from pathlib import Path as _P
+    p = _P(path)
+    if not p.is_file():
+        raise VoError(f"{p}: no such file")
+    rows = [ln.split(",") for ln in p.read_text(encoding="utf-8").splitlines() if ln.strip() and not ln.startswith("#")]
+    try:
+        return np.array([[int(r[0])] + [float(v) for v in r[1:]] for r in rows], dtype=np.float64).reshape(len(rows), -1)
+    except (ValueError, IndexError):
+        raise VoError(f"{p}: not a numeric CSV") from None

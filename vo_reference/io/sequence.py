@@ -9,6 +9,8 @@ from pathlib import Path
 from ..errors import VoError
 from .base import Sequence
 
+__all__ = ["Sequence", "open_sequence"]
+
 
 def open_sequence(path) -> Sequence:
     """Open a render folder (has ``manifest.json``) or a KITTI odometry folder (has

@@ -22,6 +22,9 @@ from blender_sesgen.contract.trajectory_files import (format_euroc, format_kitti
 
 from ..errors import VoError, as_vo_error
 
+__all__ = ["Trajectory", "read_tum", "read_kitti", "read_euroc", "write_tum", "write_kitti", "write_euroc",
+           "read_render_poses", "read_trajectory", "guess_format"]
+
 
 @dataclass(frozen=True)
 class Trajectory:

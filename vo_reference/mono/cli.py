@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract.progress import Progress, add_progress_argument, progress_mode
 from blender_sesgen.contract.timing import frame_range
 
 from ..errors import VoError
@@ -53,7 +53,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--opencv-method", choices=("usac", "ransac"), default="usac",
                    help="OpenCV's robust estimator: usac = USAC_ACCURATE (default), ransac = classic RANSAC")
     p.add_argument("--plot", metavar="DIR", help="write plots and a per-frame table here")
-    p.add_argument("-q", "--quiet", action="store_true", help="no per-frame progress")
+    add_progress_argument(p)
 
 
 def open_input(args):
@@ -94,6 +94,8 @@ def run(args: argparse.Namespace) -> int:
     elif args.dist:
         from ..camera.undistort import lut_from_distortion, parse_distortion
         maps = lut_from_distortion(seq.K, parse_distortion(args.dist), W, H)
+    elif getattr(seq, "undistortion_maps", None) is not None and seq.undistortion_maps() is not None:
+        maps = seq.undistortion_maps()          # a render through a distorting LENS: its own table
     if args.bayer:
         from ..camera.bayer import check_pattern
         check_pattern(args.bayer)
@@ -147,19 +149,20 @@ def run(args: argparse.Namespace) -> int:
                        opencv_method=args.opencv_method)
     n = len(idx)
 
+    bar = Progress(n - 1, "mono-vo", mode=progress_mode(args), unit="step")
+
     def progress(rec):
-        if args.quiet:
-            return
         line = (f"frame {rec.k:4d}/{n - 1}: {rec.n_matches:4d} matches, {rec.n_inliers:4d} inliers "
                 f"({100 * rec.inlier_ratio:5.1f} %), step {rec.step_m:.3f}")
         if args.compare_opencv:
             line += f", OpenCV {rec.n_inliers_cv} inliers"
         if rec.status != "ok":
-            line += f"  [{rec.status}: {rec.message}]"
-        print(line, file=sys.stderr, flush=True)
+            bar.note(f"{line}  [{rec.status}: {rec.message}]")
+        bar.update(detail=line, frame=rec.k, matches=rec.n_matches, inliers=rec.n_inliers, status=rec.status)
 
-    res = run_mono_vo(gray, n, seq.K, scale, cfg, mask=mask,
-                      T_world_first=None if gt is None else gt[0], progress=progress)
+    with bar:
+        res = run_mono_vo(gray, n, seq.K, scale, cfg, mask=mask,
+                          T_world_first=None if gt is None else gt[0], progress=progress)
 
     writer = write_tum if args.out_format == "tum" else write_kitti
     out = Path(args.out)

@@ -23,6 +23,10 @@ from ..errors import VoError
 from ..io.files import read_image, write_image_atomic, write_png16
 from ..io.pfm import read_pfm, write_pfm
 
+__all__ = ["disparity_from_depth", "sequence_disparity", "disparity_to_png16", "png16_to_disparity",
+           "write_disparity_png16", "read_disparity_png16", "write_disparity", "read_disparity", "disparity_color",
+           "write_disparity_color"]
+
 
 def sequence_disparity(seq, k: int, view: str = "left") -> np.ndarray:
     """Disparity of frame k in ``view`` of a stereo sequence with depth ground truth."""

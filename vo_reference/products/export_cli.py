@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import argparse
 
+from blender_sesgen.contract.progress import add_progress_argument, progress_mode
+
 from ..errors import VoError
 from .exports import EXPORTERS, export
 
@@ -23,9 +25,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="noise seed (default: the manifest's, else 0)")
     parser.add_argument("--frames", default=None, metavar="A:B",
                         help="source frames A..B-1 (either may be empty); output is renumbered from 0")
+    parser.add_argument("--sequence", default=None, metavar="NAME",
+                        help="the render's slot in a dataset tree of several sequences: kitti-odometry "
+                             "NN (default 00), sceneflow SPLIT/LETTER/NNNN (default TRAIN/A/0000), "
+                             "tartanair / vkitti2 a sub-folder of OUT (default: OUT itself); other "
+                             "sequences in OUT are left alone")
     parser.add_argument("--opt", action="append", default=[], metavar="KEY=VALUE",
                         help="target-specific option (repeatable)")
-    parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    add_progress_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -46,6 +53,6 @@ def run(args: argparse.Namespace) -> int:
             raise VoError(f"--noise {sigma}: sigma must be >= 0")
         noise = (sigma, seed) if sigma > 0 else None
     out = export(args.render_dir, args.target, args.out, frames=args.frames, noise=noise,
-                 progress=not args.quiet, extra=extra)
+                 progress=progress_mode(args), extra=extra, sequence=args.sequence)
     print(f"exported {args.render_dir} -> {out} ({args.target})")
     return 0

@@ -56,9 +56,10 @@ class Warp:
 
 
 def warp_depth(depth_src: np.ndarray, K: np.ndarray, T_tgt_src: np.ndarray,
-               depth_tgt: np.ndarray | None = None, rtol: float = 1e-3) -> Warp:
+               depth_tgt: np.ndarray | None = None, rtol: float = 1e-3, lens=None) -> Warp:
     """Project every source pixel into the target view and test its visibility there
-    (``depth_tgt`` None: only the out-of-image test)."""
+    (``depth_tgt`` None: only the out-of-image test). ``lens`` (``contract.lens.Lens``): the
+    images are distorted; pixels back-project along the lens's rays and project through it."""
     z_src = np.asarray(depth_src, dtype=np.float64)
     H, W = z_src.shape
     K = np.asarray(K, dtype=np.float64)
@@ -67,16 +68,25 @@ def warp_depth(depth_src: np.ndarray, K: np.ndarray, T_tgt_src: np.ndarray,
     uu, vv = np.meshgrid(np.arange(W, dtype=np.float64), np.arange(H, dtype=np.float64))
     zs = np.where(valid, z_src, 0.0)
     # back-project: X = Z·K⁻¹(u, v, 1) (general K, skew included)
-    Kinv = np.linalg.inv(K)
-    pix = np.stack([uu, vv, np.ones_like(uu)], axis=-1)
-    Xs = (pix @ Kinv.T) * zs[..., None]
+    if lens is None:
+        Kinv = np.linalg.inv(K)
+        pix = np.stack([uu, vv, np.ones_like(uu)], axis=-1)
+        Xs = (pix @ Kinv.T) * zs[..., None]
+    else:   # planar depth along the lens's ray of each (distorted) pixel
+        rays = lens.pixel_rays(W, H)
+        Xs = rays / rays[..., 2:3] * zs[..., None]
     Xt = Xs @ T[:3, :3].T + T[:3, 3]
     zt = Xt[..., 2]
     front = valid & (zt > 1e-12)
     with np.errstate(divide="ignore", invalid="ignore"):
-        proj = Xt @ K.T
-        u = np.where(front, proj[..., 0] / proj[..., 2], np.nan)
-        v = np.where(front, proj[..., 1] / proj[..., 2], np.nan)
+        if lens is None:
+            proj = Xt @ K.T
+            u = np.where(front, proj[..., 0] / proj[..., 2], np.nan)
+            v = np.where(front, proj[..., 1] / proj[..., 2], np.nan)
+        else:
+            px = lens.project(np.where(front[..., None], Xt, np.array([0.0, 0.0, 1.0])))
+            u = np.where(front, px[..., 0], np.nan)
+            v = np.where(front, px[..., 1], np.nan)
     inside = front & (u >= -0.5) & (u < W - 0.5) & (v >= -0.5) & (v < H - 0.5)
     out = valid & ~inside
     hidden = np.zeros_like(valid)
@@ -116,10 +126,12 @@ class Flow:
         return self.valid & ~self.occluded
 
 
-def flow_from_depth(depth_src, K, T_world_src, T_world_tgt, depth_tgt=None, rtol: float = 1e-3) -> Flow:
-    """Flow from a source frame to a target frame of the same camera (static scene)."""
+def flow_from_depth(depth_src, K, T_world_src, T_world_tgt, depth_tgt=None, rtol: float = 1e-3,
+                    lens=None) -> Flow:
+    """Flow from a source frame to a target frame of the same camera (static scene);
+    ``lens``: of a distorted render (flow between distorted images)."""
     T_tgt_src = invert(np.asarray(T_world_tgt, float)) @ np.asarray(T_world_src, float)
-    w = warp_depth(depth_src, K, T_tgt_src, depth_tgt, rtol)
+    w = warp_depth(depth_src, K, T_tgt_src, depth_tgt, rtol, lens)
     H, W = w.u.shape
     uu, vv = np.meshgrid(np.arange(W, dtype=np.float64), np.arange(H, dtype=np.float64))
     f = np.stack([w.u - uu, w.v - vv], axis=-1)
@@ -134,7 +146,8 @@ def sequence_flow(seq, k_src: int, k_tgt: int, view: str = "left", rtol: float =
     z_src = seq.depth(k_src, view)
     if T is None or z_src is None:
         raise VoError(f"{seq!r} has no depth/pose ground truth: cannot derive optical flow")
-    return flow_from_depth(z_src, seq.K, T[k_src], T[k_tgt], seq.depth(k_tgt, view), rtol)
+    return flow_from_depth(z_src, seq.K, T[k_src], T[k_tgt], seq.depth(k_tgt, view), rtol,
+                           lens=getattr(seq, "lens", None))
 
 
 def forward_flow(seq, k: int, view: str = "left") -> Flow:

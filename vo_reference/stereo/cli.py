@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract.progress import Progress, add_progress_argument, progress_mode
+
 from ..errors import VoError
 
 METHOD_CHOICES = ("paper", "accurate", "opencv-baseline")
@@ -28,7 +30,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--search", type=int, metavar="R", help="paper method: tracking search range +-R px (default 16)")
     p.add_argument("--block", type=int, metavar="M", help="paper method: SAD block size M (odd, default 9)")
     p.add_argument("--d-max", type=int, metavar="D", help="disparity search range in px (paper 64, accurate 128)")
-    p.add_argument("--quiet", action="store_true", help="no per-frame progress lines")
+    add_progress_argument(p, ("--quiet", "-q"))
 
 
 def make_params(method: str, args: argparse.Namespace):
@@ -60,22 +62,27 @@ def failed_summary(failed: list) -> str:
     return f"warning: {len(failed)} step(s) could not be estimated and kept the previous motion: {steps}"
 
 
-def progress_printer(method: str, stream=None):
-    stream = stream or sys.stdout
+def step_detail(k: int, res) -> str:
+    """The per-step line of the stereo VO: points, motion U V W (units/frame), angles (deg), time."""
+    X = res.twist
+    return (f"frame {k:4d}->{k + 1:<4d} {res.n_points:4d} pts  U V W = {X[0]:+.4f} {X[1]:+.4f} {X[2]:+.4f}  "
+            f"a b g = {np.degrees(X[3]):+.3f} {np.degrees(X[4]):+.3f} {np.degrees(X[5]):+.3f} deg")
+
+
+def vo_progress(method: str, frames: tuple[int, int], mode: str = "auto", stream=None, callback=None):
+    """(reporter, step callback for :func:`run_stereo_vo`): one progress unit per frame step;
+    a failed step is a note (kept in every mode)."""
+    bar = Progress(frames[1] - frames[0], f"stereo-vo {method}", mode=mode, stream=stream, callback=callback,
+                   unit="step")
 
     def show(k: int, last: int, res, dt: float) -> None:
         if res.failure:
-            stream.write(f"[{method}] frame {k:4d}->{k + 1:<4d} of {last}: FAILED ({res.failure}); "
-                         f"keeps the previous motion\n")
-            stream.flush()
+            bar.note(f"[{method}] frame {k}->{k + 1}: FAILED ({res.failure}); keeps the previous motion")
+            bar.update(frame=k, failure=res.failure)
             return
-        X = res.twist
-        stream.write(f"[{method}] frame {k:4d}->{k + 1:<4d} of {last}: {res.n_points:4d} pts  "
-                     f"U V W = {X[0]:+.4f} {X[1]:+.4f} {X[2]:+.4f}  "
-                     f"a b g = {np.degrees(X[3]):+.3f} {np.degrees(X[4]):+.3f} {np.degrees(X[5]):+.3f} deg  "
-                     f"{1000 * dt:6.1f} ms\n")
-        stream.flush()
-    return show
+        bar.update(detail=f"{step_detail(k, res)}  {1000 * dt:6.1f} ms", frame=k, n_points=int(res.n_points),
+                   twist=[float(x) for x in res.twist], seconds=dt)
+    return bar, show
 
 
 def run(args: argparse.Namespace) -> int:
@@ -85,9 +92,10 @@ def run(args: argparse.Namespace) -> int:
 
     seq = open_sequence(args.input)
     frames = parse_frames(args.frames, seq.num_frames)
-    res = run_stereo_vo(seq, args.method, gt_depth=args.gt_depth, gt_flow=args.gt_flow, frames=frames,
-                        params=make_params(args.method, args),
-                        progress=None if args.quiet else progress_printer(args.method))
+    bar, show = vo_progress(args.method, frames, progress_mode(args))
+    with bar:
+        res = run_stereo_vo(seq, args.method, gt_depth=args.gt_depth, gt_flow=args.gt_flow, frames=frames,
+                            params=make_params(args.method, args), progress=show)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     if args.out_format == "tum":

@@ -27,6 +27,8 @@ from .motion_field import T_to_twist, compose
 from .baseline import baseline_step
 from .paper import PaperParams, StepResult, paper_step
 
+__all__ = ["METHODS", "VoResult", "run_stereo_vo", "parse_frames", "check_stereo"]
+
 METHODS = ("paper", "accurate", "opencv-baseline")
 
 

@@ -16,9 +16,11 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract.progress import add_progress_argument, progress_mode
 
 from ..errors import VoError
 from .report import RunReport, shape_errors, shape_line
+
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("input", metavar="INPUT", help="a sesgen render folder (manifest.json), or a KITTI odometry "
@@ -33,7 +35,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="trajectory alignment for APE (default origin: the VO starts at the ground-truth "
                         "first pose, so APE is the drift; se3 fitted to a short, nearly straight path is ill-posed)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
-    p.add_argument("--quiet", action="store_true", help="no per-frame progress lines")
+    add_progress_argument(p, ("--quiet", "-q"))
 
 
 def default_report_dir(root: Path) -> Path:
@@ -49,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
     from ..evaluate.trajectory_eval import evaluate_trajectory, summary_lines
     from ..io.sequence import open_sequence
     from ..io.trajectory import Trajectory, write_kitti, write_tum
-    from .cli import failed_summary, progress_printer
+    from .cli import failed_summary, vo_progress
     from .pipeline import METHODS, check_stereo, parse_frames, run_stereo_vo
 
     root = Path(args.input)
@@ -76,8 +78,9 @@ def run(args: argparse.Namespace) -> int:
                        gt_depth=args.gt_depth, gt_flow=args.gt_flow, plots=not args.no_plots)
     for m in methods:
         print(f"== {m}{variant}: frames {frames[0]}..{frames[1]} of {root}")
-        res = run_stereo_vo(seq, m, gt_depth=args.gt_depth, gt_flow=args.gt_flow, frames=frames,
-                            progress=None if args.quiet else progress_printer(m))
+        bar, show = vo_progress(m, frames, progress_mode(args))
+        with bar:
+            res = run_stereo_vo(seq, m, gt_depth=args.gt_depth, gt_flow=args.gt_flow, frames=frames, progress=show)
         mdir = out / m
         mdir.mkdir(parents=True, exist_ok=True)
         write_kitti(mdir / "est.txt", res.trajectory)

@@ -1,0 +1,110 @@
+"""The stable Python API of blender_sesgen (docs/api.md): what user scripts may import.
+
+Everything named in ``__all__`` keeps its name and meaning across releases; the modules
+behind it (the parser, the pipeline, the Blender layer) are internal and may move:
+
+>>> from blender_sesgen import api as sg
+>>> scene = sg.parse_file("scenes/minimal.ses")          # ScriptError: file:line:col: error: ...
+>>> print(sg.summary(scene))
+>>> results = sg.render(scene, "out/room", sg.RenderOptions(samples=4), progress=print)
+
+Only :func:`render` needs Blender's Python module ``bpy``; the rest is pure (numpy).
+"""
+from __future__ import annotations
+
+import importlib.util
+import os
+from pathlib import Path
+from typing import Callable, Optional, Sequence
+
+import numpy as np
+
+from .check import summary
+from .contract.progress import Progress
+from .errors import ScriptError, SesgenError
+from .model import (Cuboid, Cylinder, Fog, Light, Material, Mesh, Motion, Noise, Quad, Rig, Scene, Sphere,
+                    TextureRef, Timeline, World, mat4)
+from .pipeline import RenderOptions
+from .ses import parse_file, parse_string
+
+__all__ = [
+    # scripts
+    "parse_file", "parse_string", "summary", "ScriptError", "SesgenError",
+    # the scene model
+    "Scene", "Rig", "Quad", "Cuboid", "Sphere", "Cylinder", "Mesh", "Material", "TextureRef", "Light", "World",
+    "Fog", "Noise", "Motion", "Timeline", "builtin_texture", "ego_timeline", "pose_timeline",
+    # rendering
+    "RenderOptions", "render", "frame_progress",
+]
+
+
+def builtin_texture(name: "str | int", scale: float = 1.0) -> TextureRef:
+    """One of the 12 numbered procedural textures (docs/rendering.md), by name or number."""
+    from .textures import BUILTIN_TEXTURES, NAME_TO_NUMBER
+    number = NAME_TO_NUMBER.get(name) if isinstance(name, str) else int(name)
+    if number not in BUILTIN_TEXTURES:
+        raise SesgenError(f"unknown built-in texture {name!r} (one of: {', '.join(NAME_TO_NUMBER)})")
+    return TextureRef(kind="builtin", name=BUILTIN_TEXTURES[number][0], number=number, scale=float(scale))
+
+
+def pose_timeline(T_world_left: np.ndarray) -> Timeline:
+    """A :class:`Timeline` from (N, 4, 4) left-camera poses ``T_world_cam`` (SES world,
+    OpenCV camera: x right, y down, z forward)."""
+    T = np.asarray(T_world_left, dtype=float)
+    if T.ndim != 3 or T.shape[1:] != (4, 4) or len(T) == 0:
+        raise SesgenError(f"T_world_left must be (N, 4, 4) poses, got shape {T.shape}")
+    return Timeline(T_world_left=tuple(mat4(t) for t in T))
+
+
+def ego_timeline(start_position: Sequence[float], start_rotation_deg: Sequence[float] = (0.0, 0.0, 0.0),
+                 steps: Sequence[Sequence[float]] = ()) -> Timeline:
+    """The timeline of ``START position x y z rx ry rz`` followed by one ``EGO U V W alpha
+    beta gamma`` per step (units per frame, degrees per frame, camera frame): the same
+    poses as the script statements (docs/ses-language.md)."""
+    from .contract.frames import start_pose
+    from .contract.motion import integrate_ego
+    return pose_timeline(integrate_ego(start_pose(start_position, start_rotation_deg), [tuple(s) for s in steps]))
+
+
+def frame_progress(bar: Progress) -> Callable:
+    """Adapter from the pipeline's per-frame hook ``(i, n, FrameResult, elapsed_s)`` to a
+    :class:`~blender_sesgen.contract.progress.Progress` (fields ``frame``, ``wall_s``, ``cycles_s``)."""
+    def hook(i, n, r, elapsed_s):
+        cyc = f", cycles {r.cycles_s:.2f} s" if r.cycles_s is not None else ""
+        bar.update(detail=f"frame {r.frame} {r.wall_s:.2f} s{cyc}", frame=r.frame, wall_s=r.wall_s,
+                   cycles_s=r.cycles_s)
+    return hook
+
+
+def render(scene: "Scene | str | os.PathLike", out: "str | os.PathLike", options: Optional[RenderOptions] = None, *,
+           resume: bool = False, force: bool = False, progress: Optional[Callable[[dict], None]] = None,
+           progress_mode: str = "off") -> list:
+    """Render a script (path) or a :class:`Scene` built in Python into ``out`` (the
+    ``sesgen-render/1`` folder of docs/output-format.md) and return one ``FrameResult``
+    (``frame``, ``wall_s``, ``cycles_s``) per rendered frame.
+
+    ``progress(event)`` receives the reporter's events (dicts: ``start``, one ``progress``
+    per frame with ``done``, ``total``, ``eta_s``, ``frame``..., ``end``), the same objects
+    ``--progress json`` prints; ``progress_mode`` also prints them ('plain', 'bar', 'json').
+    Bad input raises :class:`SesgenError` before anything is written; needs ``bpy``."""
+    from .pipeline import RenderJob
+    options = options if options is not None else RenderOptions()
+    if isinstance(scene, Scene):
+        job = RenderJob.from_scene(scene, out, options, resume=resume, force=force)
+    else:
+        job = RenderJob.prepare(Path(scene), out, options, resume=resume, force=force)
+    if not have_bpy():
+        raise SesgenError("rendering needs Blender's Python module 'bpy': pip install 'blender-sesgen[render]' "
+                          "(Python 3.11), or run inside Blender: blender -b -P render.py -- SCENE.ses --out DIR")
+    todo = job.pending_frames()
+    job.build()
+    with Progress(len(todo), "render", mode=progress_mode, callback=progress) as bar:
+        return job.run(frame_progress(bar))
+
+
+def have_bpy() -> bool:
+    """True when Blender's Python module can be imported here."""
+    try:
+        return importlib.util.find_spec("bpy") is not None
+    except ImportError:
+        return False

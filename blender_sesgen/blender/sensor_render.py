@@ -1,0 +1,81 @@
+"""Rendering one frame through the sensor path: the beauty render with Cycles' shutter
+(motion blur, rolling shutter) and lens, the sharp ground-truth render, and one EXR holding
+the beauty of the first and the ground truth of the second (planar depth restored for a
+distorting lens)."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from ..contract.atomic import temp_path
+from ..contract.depth import BACKGROUND_THRESHOLD
+from ..contract.manifest import render_seed
+from ..exr import read_exr, write_exr
+from . import compat, render, rig, sensor
+
+
+class SensorSession:
+    """The Blender side of a plan's sensor path (cameras re-keyed per frame, lens applied)."""
+
+    def __init__(self, plan, built):
+        self.plan = plan
+        self.sensor = plan.sensor
+        self.scene = built.scene
+        self.cameras = built.cameras
+        s = self.sensor
+        if s.lens is not None:
+            for cam in self.cameras.values():
+                sensor.apply_lens(cam.data, s.lens, s.width, s.height)
+            self._ray_z = s.lens.pixel_rays(s.width, s.height)[..., 2].astype(np.float32)
+
+    def _key(self, k: int, shutters: list[float], shift_frames: float) -> None:
+        """Key the cameras at the instants Cycles samples for frame k, with the poses of
+        those instants shifted by ``shift_frames`` (the rolling shutter's half line)."""
+        bframe = rig.blender_frame(k)
+        times = np.concatenate([[float(bframe)]] + [sensor.motion_instants(bframe, s) for s in shutters if s > 0])
+        for view, cam in self.cameras.items():
+            sensor.key_camera_instants(cam, times, self.sensor.camera_poses(view, times + shift_frames, rig.FRAME0))
+
+    def render_frame(self, k: int, exposure_s: float, paths: dict[str, Path],
+                     stop: Callable[[], bool] = lambda: False) -> dict[str, dict]:
+        """Every view of frame k into ``paths[view]``; {view: render stats}. ``stop()`` is
+        asked before each view (KeyboardInterrupt when it says yes)."""
+        s = self.sensor
+        shutter, duration = s.shutter(exposure_s)
+        gt_shutter = s.shutter(0.0)[0] if s.rolling_shutter else 0.0
+        shift = sensor.rolling_shift_frames(s.timing.readout_s, s.height, s.rate_hz) if s.rolling_shutter else 0.0
+        self._key(k, [shutter, gt_shutter], shift)
+        names = compat.exr_channel_names()
+        beauty = set(names["rgb"])
+        quiet = not self.plan.options.verbose
+        stats = {}
+        for vi, view in enumerate(self.plan.views):
+            if stop():
+                raise KeyboardInterrupt
+            final = Path(paths[view])
+            tmp, tmp_gt = temp_path(final.with_name("beauty-" + final.name)), temp_path(final.with_name("gt-" + final.name))
+            seed = render_seed(self.plan.settings.seed, k, vi)
+            sensor.set_shutter(self.scene, shutter, s.rolling_shutter, duration)
+            st = render.render_view(self.scene, self.cameras[view], rig.blender_frame(k), seed, str(tmp), quiet=quiet)
+            channels = read_exr(tmp)
+            if s.shutter_effects:
+                with sensor.ground_truth_settings(self.scene, gt_shutter, s.rolling_shutter):
+                    st_gt = render.render_view(self.scene, self.cameras[view], rig.blender_frame(k), seed,
+                                               str(tmp_gt), quiet=quiet)
+                for n, a in read_exr(tmp_gt).items():
+                    if n not in beauty and ".Noisy Image." not in n:
+                        channels[n] = a
+                os.remove(tmp_gt)
+                if st_gt["cycles_s"] is not None and st["cycles_s"] is not None:
+                    st["cycles_s"] += st_gt["cycles_s"]
+            if s.lens is not None:   # a custom camera's Depth pass is the distance along the ray
+                z = channels[names["depth"]]
+                channels[names["depth"]] = np.where(z >= BACKGROUND_THRESHOLD, z, z * self._ray_z)
+            write_exr(final, channels)
+            os.remove(tmp)
+            stats[view] = st
+        sensor.set_shutter(self.scene, 0.0, False, 0.0)
+        return stats

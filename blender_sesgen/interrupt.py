@@ -1,0 +1,42 @@
+"""Ctrl-C that works while Cycles renders (pure: signal + stdlib).
+
+Cycles runs the render in C and only calls back into Python now and then; a KeyboardInterrupt
+raised in such a callback is printed and swallowed by Blender, and the render carries on.
+So, for the length of a render, SIGINT (and SIGTERM) only *record* the request; the render
+loop asks :attr:`StopRequest.requested` between views and stops cleanly there: the frame in
+progress is dropped (its temporary files removed), every completed frame stays, the folder
+is resumable, and the command exits 130.
+"""
+from __future__ import annotations
+
+import contextlib
+import signal
+import threading
+
+
+class StopRequest:
+    def __init__(self):
+        self.requested = False
+        self.signal_name = ""
+
+    def __call__(self, signum, frame):
+        if self.requested and signum == signal.SIGINT:  # a second Ctrl-C: stop at once
+            raise KeyboardInterrupt
+        self.requested = True
+        self.signal_name = signal.Signals(signum).name
+
+
+@contextlib.contextmanager
+def deferred_interrupts():
+    """Within the block, SIGINT/SIGTERM set ``StopRequest.requested`` instead of raising
+    (main thread only; elsewhere nothing changes and ``requested`` stays False)."""
+    stop = StopRequest()
+    if threading.current_thread() is not threading.main_thread():
+        yield stop
+        return
+    saved = {s: signal.signal(s, stop) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield stop
+    finally:
+        for s, handler in saved.items():
+            signal.signal(s, handler)

@@ -1,0 +1,127 @@
+"""Who is writing into a render folder: one lock file per running render and its frames.
+
+``.sesgen/lock-<host>-<pid>.json`` holds the writer's host, pid, frame range, start time,
+scene hash and settings; it is created (and every check of the others is made) under a
+short ``flock`` on ``.sesgen/mutex``, so two renders starting together cannot both pass. A
+lock is stale, and taken over, when its process is gone (same host) or when its file has not
+been touched for ``STALE_LOCK_S`` (another host: each completed frame touches it).
+"""
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import re
+import socket
+import time
+from pathlib import Path
+from typing import Optional
+
+from .contract import atomic
+
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - Windows: the lock files still guard, without the mutex
+    fcntl = None
+
+STALE_LOCK_S = 900.0  # a lock of another host not refreshed for this long is taken over
+
+
+class FolderLocks:
+    """The locks of one state folder (``OUT/.sesgen``)."""
+
+    def __init__(self, state: Path):
+        self.state = Path(state)
+        self.writer = f"{_safe(socket.gethostname())}-{os.getpid()}"
+        self.path: Optional[Path] = None            # our own lock, while held
+
+    @contextlib.contextmanager
+    def mutex(self):
+        """Exclusive for the length of the block, across processes (and hosts, where the
+        shared filesystem supports flock)."""
+        self.state.mkdir(parents=True, exist_ok=True)
+        with open(self.state / "mutex", "a+") as f:
+            if fcntl is not None:
+                fcntl.flock(f.fileno(), fcntl.LOCK_EX)
+            try:
+                yield
+            finally:
+                if fcntl is not None:
+                    fcntl.flock(f.fileno(), fcntl.LOCK_UN)
+
+    def live(self) -> list[dict]:
+        """Locks of running writers (call under :meth:`mutex`); stale ones are removed."""
+        live = []
+        for path in sorted(self.state.glob("lock-*.json")):
+            try:
+                info = json.loads(path.read_text(encoding="utf-8"))
+                host, pid = str(info["host"]), int(info["pid"])
+            except (OSError, ValueError, KeyError, TypeError):
+                info, host, pid = None, "", -1
+            if info is None or _stale(host, pid, path):
+                path.unlink(missing_ok=True)
+                continue
+            info["path"] = path
+            live.append(info)
+        return live
+
+    def live_writers(self) -> set[str]:
+        """Writer names (``host-pid``) of the lock files present."""
+        return {p.stem.replace("lock-", "", 1) for p in self.state.glob("lock-*.json")}
+
+    def live_pids(self) -> set[int]:
+        return {int(w.rsplit("-", 1)[-1]) for w in self.live_writers() if w.rsplit("-", 1)[-1].isdigit()}
+
+    def take(self, frames: tuple[int, int], scene_sha256: str, settings_key: str, where) -> None:
+        """Our lock on frames ``first..last``; SesgenError if a live writer holds overlapping
+        frames or renders another scene or other settings here."""
+        from .errors import SesgenError
+        first, last = frames
+        with self.mutex():
+            for other in self.live():
+                same_plan = other.get("scene_sha256") == scene_sha256 and other.get("settings") == settings_key
+                overlap = not (last < other["frames"][0] or first > other["frames"][1])
+                if overlap or not same_plan:
+                    since = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(other.get("started", 0)))
+                    raise SesgenError(
+                        f"--out {where}: being rendered by pid {other['pid']} on {other['host']} "
+                        f"(frames {other['frames'][0]}..{other['frames'][1]}, since {since}"
+                        f"{'' if same_plan else ', another scene or other settings'}); "
+                        "wait for it to finish, or render into another folder")
+            self.path = self.state / f"lock-{self.writer}.json"
+            atomic.write_json(self.path, {"host": socket.gethostname(), "pid": os.getpid(), "frames": [first, last],
+                                          "started": time.time(), "scene_sha256": scene_sha256,
+                                          "settings": settings_key})
+
+    def touch(self) -> None:
+        """Show that the holder is alive (other hosts judge staleness by the file's time)."""
+        if self.path is not None:
+            os.utime(self.path)
+
+    def drop(self) -> None:
+        if self.path is not None:
+            self.path.unlink(missing_ok=True)
+            self.path = None
+
+
+def _safe(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.]", "_", text) or "host"
+
+
+def _stale(host: str, pid: int, path: Path) -> bool:
+    """A lock whose writer is gone: this host and no such process, or not refreshed for
+    STALE_LOCK_S (another host)."""
+    if host == socket.gethostname():
+        if pid == os.getpid():
+            return False
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return True
+        except PermissionError:
+            return False
+        return False
+    try:
+        return time.time() - path.stat().st_mtime > STALE_LOCK_S
+    except OSError:
+        return True

@@ -1,0 +1,50 @@
+"""Auto-exposure that adapts over time like a camera's (one frame of latency).
+
+The metered brightness of frame j is the mean Rec. 709 luminance m_j of its linear render
+(independent of the exposure: the render is radiance). The exposure product E = t * g
+(exposure time times analog gain) that would bring the normalised signal
+``m * E / (t_nom * saturation)`` to ``target`` is ``E*_j = target * saturation * t_nom / m_j``.
+Frame k uses
+``log E_k = log E_{k-1} + (1 - exp(-speed / rate)) (log E*_{k-1} - log E_{k-1})``,
+from ``E_0 = t_nom * g_nom``; E is split into the longest exposure time allowed
+(``min(max_exposure, 1 / rate - readout)``, at least ``min_exposure``) and a gain in
+[1, max_gain] for the rest; the E actually used feeds the next step. A drive into a dark
+area therefore darkens the image first and recovers at the configured speed.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+LUMA = np.array([0.2126, 0.7152, 0.0722])
+
+
+def meter(linear_rgb: np.ndarray) -> float:
+    """Mean linear luminance of a frame (its metered brightness)."""
+    return float(np.mean(np.asarray(linear_rgb, dtype=np.float64)[..., :3] @ LUMA))
+
+
+def split_exposure(E: float, nominal_gain: float, t_min: float, t_max: float, max_gain: float) -> tuple[float, float]:
+    t = float(np.clip(E / nominal_gain, t_min, t_max))
+    g = float(np.clip(E / t, 1.0, max_gain))
+    return t, g
+
+
+def exposure_schedule(metered: list[float], *, nominal_exposure_s: float, nominal_gain: float, rate_hz: float,
+                      readout_s: float, target: float, speed: float, saturation: float, max_exposure_s: float,
+                      max_gain: float, min_exposure_s: float) -> list[tuple[float, float]]:
+    """(exposure_s, gain) of frames 0..len(metered): frame k depends on metered[:k]."""
+    t_max = 1.0 / rate_hz - readout_s
+    if max_exposure_s > 0:
+        t_max = min(t_max, max_exposure_s)
+    t_max = max(t_max, min_exposure_s)
+    alpha = 1.0 - np.exp(-float(speed) / float(rate_hz))
+    t, g = split_exposure(nominal_exposure_s * nominal_gain, nominal_gain, min_exposure_s, t_max, max_gain)
+    out = [(t, g)]
+    for m in metered:
+        E = t * g
+        if m > 0 and np.isfinite(m):
+            E_star = target * saturation * nominal_exposure_s / m
+            E = float(np.exp(np.log(E) + alpha * (np.log(E_star) - np.log(E))))
+        t, g = split_exposure(E, nominal_gain, min_exposure_s, t_max, max_gain)
+        out.append((t, g))
+    return out

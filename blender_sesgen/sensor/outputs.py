@@ -1,0 +1,148 @@
+"""The sensor path's share of a render folder (pure): manifest entries and the files
+written once at the start, the per-frame exposure (auto-exposure state lives in the
+manifest, so --resume continues it), and the sensor images of each frame."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Callable, Optional
+
+import numpy as np
+
+from ..errors import SesgenError
+from ..png import write_png
+from .render_plan import SENSOR_DIR, SensorPlan
+
+EXR_LAYOUT = "single part holding every pass (beauty of the sensor render, ground truth of the sharp render)"
+
+
+def check_resumable(plan: SensorPlan, previous: Optional[dict], frames: list[int], resume: bool, force: bool) -> None:
+    """Before anything is written: auto-exposure needs the brightness of every earlier
+    frame; a folder rendered with other timing (command-line overrides) is refused."""
+    prev_timing = (previous or {}).get("timing")
+    new_timing = plan.manifest_entries(1).get("timing")
+    if previous is not None and not force and any(previous.get("frames_complete", [])):
+        keys = ("rate_hz", "start_s", "exposure_s", "readout_s", "motion_blur")
+        old = {k: (prev_timing or {}).get(k) for k in keys} if prev_timing else None
+        new = {k: (new_timing or {}).get(k) for k in keys} if new_timing else None
+        if old != new:
+            raise SesgenError(f"the output folder holds frames rendered with other timing ({old}); "
+                              "use --force to re-render")
+    if plan.autoexposure is None or not frames or frames[0] == 0:
+        return
+    metered = ((previous or {}).get("sensor") or {}).get("metered") or []
+    missing = [j for j in range(frames[0]) if j >= len(metered) or metered[j] is None]
+    if missing:
+        raise SesgenError(f"AUTOEXPOSURE: frame {frames[0]}'s exposure depends on the brightness of frames "
+                          f"0..{frames[0] - 1}, and frame(s) {missing[:5]} are not rendered: render from frame 0")
+
+
+STATE_KEYS = ("exposure_s", "gain", "metered")
+
+
+def state_relpath(k: int) -> str:
+    """The per-frame sensor state (exposure, gain, metered brightness), written with the frame
+    so that a render stopped at any point resumes the same auto-exposure schedule."""
+    return f"{SENSOR_DIR}/state/{k:06d}.json"
+
+
+def prepare_manifest(plan: SensorPlan, m, kept: Optional[dict], out: Optional[Path] = None) -> None:
+    """Finish a new manifest ``m`` (a ``contract.manifest.Manifest`` holding the plan's
+    entries in ``extra``): the EXR layout of the sensor path, and the per-frame exposure
+    state of frames kept from ``kept`` (the previous manifest when resuming) and from the
+    per-frame state files in ``out``."""
+    if not plan.active:
+        return
+    if plan.changes_rendering:
+        m.render.setdefault("exr", {})["layout"] = EXR_LAYOUT
+    if "sensor" not in m.extra or kept is None:
+        return
+    prev = kept.get("sensor") or {}
+    for key in STATE_KEYS:
+        old = prev.get(key) or []
+        m.extra["sensor"][key] = [old[j] if j < len(old) else None for j in range(m.frames)]
+    if out is not None:
+        import json
+        for k in range(m.frames):
+            p = Path(out) / state_relpath(k)
+            if p.is_file():
+                try:
+                    st = json.loads(p.read_text(encoding="utf-8"))
+                    for key in STATE_KEYS:
+                        m.extra["sensor"][key][k] = st[key]
+                except (OSError, ValueError, KeyError):
+                    pass
+
+
+def write_static_files(plan: SensorPlan, out: Path, n_frames: int) -> None:
+    """The files written once per render (lens calibration and table, IMU streams) and the
+    sensor image folders."""
+    if not plan.active:
+        return
+    from ..contract import atomic
+    for rel, data in plan.static_files(n_frames).items():
+        path = Path(out) / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic.write_bytes(path, data)
+    for kind in plan.sensor_kinds():
+        for view in plan.views:
+            (Path(out) / SENSOR_DIR / view / kind).mkdir(parents=True, exist_ok=True)
+    if plan.sensor is not None:
+        (Path(out) / SENSOR_DIR / "state").mkdir(parents=True, exist_ok=True)
+
+
+def exposure_for(plan: SensorPlan, extra: Optional[dict], k: int) -> tuple[float, float]:
+    """(exposure_s, gain) of frame k: nominal, or auto-exposure from frames 0..k-1
+    (``extra``: the manifest's extra entries, where the sensor's per-frame state lives)."""
+    if plan.autoexposure is None:
+        return plan.exposures([])[0]
+    metered = ((extra or {}).get("sensor") or {}).get("metered") or []
+    have = [metered[j] if j < len(metered) else None for j in range(k)]
+    if any(v is None for v in have):
+        raise SesgenError(f"AUTOEXPOSURE: frames before {k} have no recorded brightness; render from frame 0")
+    return plan.exposures(have)[k]
+
+
+def _rays(plan: SensorPlan) -> np.ndarray:
+    if plan.lens is not None:
+        return plan.lens.pixel_rays(plan.width, plan.height)
+    K = plan.K
+    v, u = np.mgrid[0:plan.height, 0:plan.width].astype(float)
+    r = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=-1)
+    return r / np.linalg.norm(r, axis=-1, keepdims=True)
+
+
+_CACHE: dict = {}
+
+
+def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: float, gain: float,
+                        exrs: dict, jpeg_writer: Optional[Callable] = None) -> None:
+    """Run the camera chain on frame k's EXRs (``exrs[view]``: their paths) and write raw /
+    RGB / JPEG images; record the exposure, gain and metered brightness of the frame in the
+    manifest ``m`` (a Manifest) and in the frame's state file."""
+    from ..exr import read_exr
+    from . import pipeline
+    from .autoexposure import meter
+    key = (id(plan), "rays")
+    if key not in _CACHE:
+        _CACHE.clear()
+        _CACHE[key] = _rays(plan)
+        _CACHE[(id(plan), "fpn")] = {}
+    rays, fpn = _CACHE[key], _CACHE[(id(plan), "fpn")]
+    rgb_names = m.channels["rgb"][:3]
+    metered = None
+    for vi, view in enumerate(plan.views):
+        ch = read_exr(exrs[view])
+        lin = np.stack([ch[n] for n in rgb_names], axis=-1).astype(np.float64)
+        if vi == 0:
+            metered = meter(lin)
+        f = pipeline.process(lin, sensor=plan.sensor, lens=plan.lens_spec, rays=rays, cx=plan.K[0, 2],
+                             cy=plan.K[1, 2], exposure_s=exposure_s, nominal_exposure_s=plan.nominal_exposure_s(),
+                             gain=gain, frame=k, view_index=vi, fpn_cache=fpn)
+        write_png(Path(out) / plan.sensor_relpath("raw", view, k), f.raw_dn)
+        write_png(Path(out) / plan.sensor_relpath("rgb", view, k), f.rgb8)
+        if plan.sensor.jpeg_quality and jpeg_writer is not None:
+            jpeg_writer(str(Path(out) / plan.sensor_relpath("jpeg", view, k)), f.rgb8, plan.sensor.jpeg_quality)
+    s = m.extra["sensor"]
+    s["exposure_s"][k], s["gain"][k], s["metered"][k] = float(exposure_s), float(gain), metered
+    from ..contract import atomic
+    atomic.write_json(Path(out) / state_relpath(k), {key: s[key][k] for key in STATE_KEYS})

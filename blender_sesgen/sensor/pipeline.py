@@ -1,0 +1,70 @@
+"""The per-frame camera chain: linear render -> optics -> electrons -> noise -> CFA ->
+quantised raw -> demosaic -> response -> 8-bit RGB (numpy only; runs at render time).
+
+The EXR beauty and every ground-truth pass stay clean: this chain only writes the sensor
+images (docs/output-format.md, "Sensor images").
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from ..contract import cfa
+from . import optics, raw
+
+
+@dataclass(frozen=True)
+class SensorFrame:
+    raw_dn: np.ndarray            # (H, W) mosaic or (H, W, 3), uint16, values 0 .. 2^bits - 1
+    rgb8: np.ndarray              # (H, W, 3) uint8 after demosaic and response
+    exposure_s: float
+    gain: float
+
+
+def optical_image(linear_rgb: np.ndarray, lens, sensor, rays: Optional[np.ndarray], cx: float, cy: float) -> np.ndarray:
+    """Lens MTF, chromatic aberration and vignetting on the linear render."""
+    img = np.asarray(linear_rgb, dtype=np.float64)[..., :3]
+    if lens is None and sensor is None:
+        return img
+    f_number = lens.f_number if lens else 0.0
+    defocus = lens.defocus_px if lens else 0.0
+    fill = sensor.fill_factor if sensor else 0.0
+    olpf = sensor.olpf_px if sensor else 0.0
+    if f_number or defocus or fill or olpf:
+        img = optics.apply_mtf(img, pixel_um=sensor.pixel_um if sensor else 3.0, f_number=f_number,
+                               defocus_px=defocus, fill_factor=fill, olpf_px=olpf)
+    if lens is not None and lens.chromatic_px:
+        img = optics.chromatic_aberration(img, cx, cy, lens.chromatic_px)
+    if lens is not None and lens.vignetting and rays is not None:
+        img = img * optics.vignetting(rays, lens.vignetting)[..., None]
+    return img
+
+
+def process(linear_rgb: np.ndarray, *, sensor, lens=None, rays=None, cx: float = 0.0, cy: float = 0.0,
+            exposure_s: float, nominal_exposure_s: float, gain: float, frame: int, view_index: int,
+            fpn_cache: Optional[dict] = None) -> SensorFrame:
+    """One view of one frame through the whole chain (see the module docstring)."""
+    img = optical_image(linear_rgb, lens, sensor, rays, cx, cy)
+    ratio = exposure_s / nominal_exposure_s if nominal_exposure_s > 0 else 1.0
+    signal = np.clip(img, 0.0, None) * (sensor.full_well_e / sensor.saturation * ratio)
+    if sensor.cfa:
+        signal = cfa.mosaic(signal, sensor.cfa)
+    key = (view_index, signal.shape)
+    cache = fpn_cache if fpn_cache is not None else {}
+    if key not in cache:
+        cache[key] = raw.fixed_pattern(signal.shape, sensor.prnu, sensor.dsnu_e, sensor.seed, view_index)
+    prnu_map, dsnu_map = cache[key]
+    rng = np.random.default_rng([int(sensor.seed), int(frame), int(view_index), 0x5E5])
+    dn = raw.capture(signal, full_well_e=sensor.full_well_e, read_noise_e=sensor.read_noise_e,
+                     dark_current_e_s=sensor.dark_current_e_s, row_noise_e=sensor.row_noise_e,
+                     exposure_s=exposure_s, bits=sensor.bits, gain=gain, black_level_dn=sensor.black_level_dn,
+                     prnu_map=prnu_map if sensor.prnu else None, dsnu_map=dsnu_map if sensor.dsnu_e else None,
+                     rng=rng)
+    full = 2 ** sensor.bits - 1
+    x = (dn.astype(np.float64) - sensor.black_level_dn) / (full - sensor.black_level_dn)
+    if sensor.cfa:
+        x = raw.demosaic_mhc(x, sensor.cfa)
+    rgb8 = raw.quantise(raw.response(x, sensor.response, sensor.gamma), 8)
+    return SensorFrame(dn, rgb8, float(exposure_s), float(gain))

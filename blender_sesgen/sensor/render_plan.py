@@ -1,0 +1,247 @@
+"""What the sensor statements ask of a render, decided once and without Blender (pure).
+
+``SensorPlan.create(scene, settings, overrides)`` gives: the effective timing (script and
+command-line overrides), the rig's continuous motion, the lens on the render's K, which
+renders a frame needs (a motion-blurred / rolling-shutter / distorted beauty render, a
+sharp ground-truth render), the camera instants Cycles samples, the files written once
+(lens calibration and lookup table, IMU streams) and the manifest entries. With no sensor
+statement and no override the plan is inactive and the render path is the plain one.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from .. import model
+from . import imu as imu_mod
+from ..contract import timing as timing_mod
+from ..contract.timing import DEFAULT_FPS
+from .autoexposure import exposure_schedule
+from ..contract.lens import Lens, opencv_calibration_yaml, robotcar_lut_bytes, undistortion_maps
+from ..contract.rig_motion import RigMotion
+
+SENSOR_DIR = "sensor"
+LENS_DIR = "lens"
+IMU_DIR = "imu"
+GROUND_TRUTH_RULE = {
+    "global": "sharp, at the frame stamp (the middle of the exposure)",
+    "rolling": "sharp, each row at its own capture time (timing.row_offsets_s after the frame stamp); "
+               "poses[view][k] is the pose at the frame stamp (the middle row), per-row poses from rig_motion",
+}
+
+
+@dataclass(frozen=True)
+class TimingOverrides:
+    """Command-line overrides of TIMING (None = the script's value)."""
+    rate_hz: Optional[float] = None
+    exposure_s: Optional[float] = None
+    readout_s: Optional[float] = None
+    motion_blur: Optional[bool] = None
+
+
+def effective_timing(scene: model.Scene, o: TimingOverrides) -> Optional[model.Timing]:
+    from ..errors import SesgenError
+    t = scene.timing
+    if t is None and all(v is None for v in dataclasses.astuple(o)):
+        return None
+    t = t or model.Timing()
+    t = model.Timing(rate_hz=o.rate_hz if o.rate_hz is not None else t.rate_hz, start_s=t.start_s,
+                     exposure_s=o.exposure_s if o.exposure_s is not None else t.exposure_s,
+                     readout_s=o.readout_s if o.readout_s is not None else t.readout_s,
+                     blur=o.motion_blur if o.motion_blur is not None else t.blur)
+    if not (t.rate_hz > 0 and np.isfinite(t.rate_hz)):
+        raise SesgenError(f"--rate must be a positive number, got {t.rate_hz}")
+    for name, v in (("exposure", t.exposure_s), ("readout", t.readout_s)):
+        if not (v >= 0 and np.isfinite(v)):
+            raise SesgenError(f"--{name} must be zero or positive, got {v}")
+        if v > 1.0 / t.rate_hz * (1 + 1e-9):
+            raise SesgenError(f"--{name} {v:g} s is longer than the frame period 1/{t.rate_hz:g} s")
+    return t
+
+
+@dataclass
+class SensorPlan:
+    timing: Optional[model.Timing]
+    lens_spec: Optional[model.Lens]
+    lens: Optional[Lens]                 # distortion on the render's K (None: pinhole)
+    sensor: Optional[model.Sensor]
+    autoexposure: Optional[model.AutoExposure]
+    imu: Optional[model.Imu]
+    motion: RigMotion
+    width: int
+    height: int
+    K: np.ndarray
+    views: tuple[str, ...]
+    baseline: float
+
+    @classmethod
+    def create(cls, scene: model.Scene, settings, overrides: TimingOverrides = TimingOverrides()) -> "SensorPlan":
+        t = effective_timing(scene, overrides)
+        K = np.array(settings.K, dtype=float)
+        lens = None
+        if scene.lens is not None and scene.lens.distorted:
+            lens = Lens.from_K(scene.lens.model, scene.lens.coeffs, K)
+        rate = t.rate_hz if t else DEFAULT_FPS
+        start = t.start_s if t else 0.0
+        motion = RigMotion.for_motion_kind(scene.timeline.left(), rate, start, scene.motion.kind)
+        return cls(t, scene.lens, lens, scene.sensor, scene.autoexposure, scene.imu, motion, settings.width,
+                   settings.height, K, tuple(scene.rig.views), float(scene.rig.baseline))
+
+    # --- what to render ------------------------------------------------------------------
+    @property
+    def rate_hz(self) -> float:
+        return self.timing.rate_hz if self.timing else DEFAULT_FPS
+
+    @property
+    def motion_blur(self) -> bool:
+        return bool(self.timing and self.timing.motion_blur)
+
+    @property
+    def rolling_shutter(self) -> bool:
+        return bool(self.timing and self.timing.rolling_shutter)
+
+    @property
+    def shutter_effects(self) -> bool:
+        return self.motion_blur or self.rolling_shutter
+
+    @property
+    def changes_rendering(self) -> bool:
+        """False: the frame renders exactly as without any sensor statement."""
+        return self.shutter_effects or self.lens is not None
+
+    @property
+    def writes_sensor_images(self) -> bool:
+        return self.sensor is not None
+
+    @property
+    def active(self) -> bool:
+        return (self.timing is not None or self.lens_spec is not None or self.sensor is not None
+                or self.imu is not None)
+
+    def frame_times_s(self, n: int) -> np.ndarray:
+        return timing_mod.frame_timestamps(n, self.rate_hz, self.timing.start_s if self.timing else 0.0)
+
+    def nominal_exposure_s(self) -> float:
+        return self.timing.exposure_s if self.timing else 0.0
+
+    def shutter(self, exposure_s: float) -> tuple[float, float]:
+        """(Cycles shutter in frames, rolling duration) of a frame exposed for ``exposure_s``."""
+        e = exposure_s if self.motion_blur else 0.0
+        r = self.timing.readout_s if self.rolling_shutter else 0.0
+        return timing_mod.cycles_shutter(e, r, self.rate_hz)
+
+    def exposures(self, metered: list) -> list[tuple[float, float]]:
+        """(exposure_s, gain) for frames 0..len(metered) (auto-exposure or the nominal values)."""
+        gain = self.sensor.gain if self.sensor else 1.0
+        if self.autoexposure is None:
+            return [(self.nominal_exposure_s(), gain)] * (len(metered) + 1)
+        a = self.autoexposure
+        return exposure_schedule(metered, nominal_exposure_s=self.nominal_exposure_s(), nominal_gain=gain,
+                                 rate_hz=self.rate_hz, readout_s=self.timing.readout_s, target=a.target,
+                                 speed=a.speed, saturation=self.sensor.saturation, max_exposure_s=a.max_exposure_s,
+                                 max_gain=a.max_gain, min_exposure_s=a.min_exposure_s)
+
+    def camera_poses(self, view: str, blender_frames: np.ndarray, frame0: int = 0) -> np.ndarray:
+        """T_world_cam (OpenCV, SES world) of ``view`` at (fractional) Blender frames."""
+        t = (self.timing.start_s if self.timing else 0.0) + (np.asarray(blender_frames) - frame0) / self.rate_hz
+        T = self.motion.T_world_cam(t)
+        if view == "right":
+            T = T.copy()
+            T[:, :3, 3] += self.baseline * T[:, :3, 0]
+        return T
+
+    # --- files and manifest ------------------------------------------------------------------
+    def sensor_relpath(self, kind: str, view: str, k: int) -> str:
+        ext = "jpg" if kind == "jpeg" else "png"
+        return f"{SENSOR_DIR}/{view}/{kind}/{k:06d}.{ext}"
+
+    def sensor_kinds(self) -> list[str]:
+        if self.sensor is None:
+            return []
+        return ["raw", "rgb"] + (["jpeg"] if self.sensor.jpeg_quality else [])
+
+    def static_files(self, n_frames: int) -> dict[str, bytes]:
+        """Files written once per render: lens calibration + lookup table, IMU streams."""
+        files: dict[str, bytes] = {}
+        if self.lens is not None:
+            for view in self.views:
+                files[f"{LENS_DIR}/{view}.yaml"] = opencv_calibration_yaml(self.lens, self.width, self.height,
+                                                                            view).encode()
+            files[f"{LENS_DIR}/undistort_lut.bin"] = robotcar_lut_bytes(*undistortion_maps(self.lens, self.width,
+                                                                                           self.height))
+        if self.imu is not None:
+            files.update(self._imu_files(n_frames))
+        return files
+
+    def imu_params(self) -> imu_mod.ImuParams:
+        i = self.imu
+        return imu_mod.ImuParams(rate_hz=i.rate_hz, gyro_noise=i.gyro_noise, gyro_walk=i.gyro_walk,
+                                 accel_noise=i.accel_noise, accel_walk=i.accel_walk,
+                                 T_cam_imu=tuple(map(tuple, i.T_cam_imu())), time_offset_s=i.time_offset_s,
+                                 gravity=i.gravity, seed=i.seed)
+
+    def _imu_files(self, n_frames: int) -> dict[str, bytes]:
+        from .imu_files import groundtruth_csv, imu_sensor_yaml
+        p = self.imu_params()
+        t = self.frame_times_s(n_frames)
+        stamps = imu_mod.sample_times(t[0], t[-1], p)
+        ideal = imu_mod.ideal_stream(self.motion, stamps, p)
+        noisy = imu_mod.add_noise(ideal, p)
+        T_wi, v_wi, _, _ = imu_mod.imu_state(self.motion, stamps - p.time_offset_s, p)
+        return {f"{IMU_DIR}/data.csv": imu_mod.csv_text(noisy).encode(),
+                f"{IMU_DIR}/data_ideal.csv": imu_mod.csv_text(ideal).encode(),
+                f"{IMU_DIR}/groundtruth.csv": groundtruth_csv(stamps - p.time_offset_s, T_wi, v_wi,
+                                                              noisy.gyro_bias, noisy.accel_bias).encode(),
+                f"{IMU_DIR}/sensor.yaml": imu_sensor_yaml(p).encode()}
+
+    def manifest_entries(self, n_frames: int) -> dict:
+        """Manifest keys of the sensor statements (none for an inactive plan)."""
+        if not self.active:
+            return {}
+        m: dict = {"rig_motion": {"interpolation": self.motion.kind, "rate_hz": self.rate_hz,
+                                  "start_s": self.motion.start_s,
+                                  "rule": "docs/rendering.md#rig-motion-between-frames"}}
+        t = self.timing or model.Timing()
+        m["timing"] = {
+            "rate_hz": t.rate_hz, "start_s": t.start_s, "exposure_s": t.exposure_s, "readout_s": t.readout_s,
+            "motion_blur": self.motion_blur, "rolling_shutter": self.rolling_shutter,
+            "stamp": "middle of the exposure",
+            "row_time": "t_row(r) = t_k + (r + 0.5 - H/2) * readout_s / H (r = 0 at the top)",
+            "row_offsets_s": timing_mod.row_offsets_s(self.height, t.readout_s).tolist() if self.rolling_shutter else None,
+            "ground_truth": GROUND_TRUTH_RULE["rolling" if self.rolling_shutter else "global"],
+        }
+        if self.lens_spec is not None:
+            ls = self.lens_spec
+            entry = {"model": ls.model, "coeffs": list(ls.coeffs), "f_number": ls.f_number,
+                     "defocus_px": ls.defocus_px, "vignetting": ls.vignetting, "chromatic_px": ls.chromatic_px,
+                     "optics_apply_to": "sensor images only"}
+            if self.lens is not None:
+                entry.update(self.lens.to_json())
+                entry["files"] = {"opencv": {v: f"{LENS_DIR}/{v}.yaml" for v in self.views},
+                                  "undistort_lut": f"{LENS_DIR}/undistort_lut.bin",
+                                  "lut_layout": "RobotCar: float64, all W*H u then all W*H v, row-major; "
+                                                "undistorted (pinhole K) pixel -> distorted pixel to sample"}
+                entry["ground_truth"] = "depth (planar z), ids and flow at the distorted image's pixel centres"
+            m["lens"] = entry
+        if self.sensor is not None:
+            s = dataclasses.asdict(self.sensor)
+            s["files"] = {kind: {v: [self.sensor_relpath(kind, v, k) for k in range(n_frames)] for v in self.views}
+                          for kind in self.sensor_kinds()}
+            s["raw_layout"] = ("PNG16, values 0..2^bits-1 (not scaled), CFA mosaic" if self.sensor.cfa
+                               else "PNG16 RGB, values 0..2^bits-1 (not scaled)")
+            s["exposure_s"] = [None] * n_frames
+            s["gain"] = [None] * n_frames
+            s["metered"] = [None] * n_frames
+            if self.autoexposure is not None:
+                s["autoexposure"] = dataclasses.asdict(self.autoexposure)
+            m["sensor"] = s
+        if self.imu is not None:
+            entry = self.imu_params().to_json()
+            entry["files"] = {"noisy": f"{IMU_DIR}/data.csv", "ideal": f"{IMU_DIR}/data_ideal.csv",
+                              "groundtruth": f"{IMU_DIR}/groundtruth.csv", "yaml": f"{IMU_DIR}/sensor.yaml"}
+            entry["frame"] = "IMU = body; T_world_imu = T_world_cam(left) @ T_cam_imu"
+            m["imu"] = entry
+        return m

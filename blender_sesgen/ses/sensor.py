@@ -1,0 +1,155 @@
+"""The camera and IMU as sensors: TIMING, LENS, SENSOR, AUTOEXPOSURE and IMU statements ->
+their :mod:`blender_sesgen.model` values, with their value checks (all optional; an absent
+statement leaves its effect off).
+
+Checks that need the rig (the lens folding check needs the image size and K) run in
+:func:`sensor_models` after CAMERA is known.
+"""
+from __future__ import annotations
+
+from typing import Optional
+
+from .. import model
+from ..contract.lens import Lens as LensModel
+from ..contract.lens import fold_problem
+from .checks import Checks, scalar, vec
+from .environment import _seed
+from .statements import ParsedStatement
+
+MAX_RATE_HZ = 100_000.0
+
+
+def _nonneg(stmt, check, *names):
+    for n in names:
+        check.positive(stmt, n, allow_zero=True)
+
+
+def timing(stmt: Optional[ParsedStatement], check: Checks) -> Optional[model.Timing]:
+    if stmt is None:
+        return None
+    check.positive(stmt, "rate")
+    _nonneg(stmt, check, "exposure", "readout")
+    rate = float(scalar(stmt, "rate", model.Timing.rate_hz))
+    if rate > MAX_RATE_HZ:
+        check.err(stmt.tags["rate"].tokens[0], f"TIMING 'rate' must be at most {MAX_RATE_HZ:g} Hz, got {rate:g}")
+    exposure = float(scalar(stmt, "exposure", 0.0))
+    readout = float(scalar(stmt, "readout", 0.0))
+    if rate > 0:
+        period = 1.0 / rate
+        for name, value in (("exposure", exposure), ("readout", readout)):
+            if value > period * (1 + 1e-9):
+                check.err(stmt.tags[name].tokens[0], f"TIMING '{name}' ({value:g} s) is longer than the frame "
+                                                     f"period (1 / rate = {period:g} s)")
+    return model.Timing(rate_hz=rate, start_s=float(scalar(stmt, "start", 0.0)), exposure_s=exposure,
+                        readout_s=readout, blur=stmt.get("blur", "on") == "on")
+
+
+def lens(stmt: Optional[ParsedStatement], check: Checks) -> Optional[model.Lens]:
+    if stmt is None:
+        return None
+    if "brown" in stmt.tags and "fisheye" in stmt.tags:
+        check.err(stmt.tags["fisheye"].tag, "LENS takes one distortion model: 'brown' or 'fisheye', not both")
+    _nonneg(stmt, check, "fnumber", "defocus", "vignetting")
+    f_number = float(scalar(stmt, "fnumber", 0.0))
+    if 0 < f_number < 0.5:
+        check.err(stmt.tags["fnumber"].tokens[0], f"LENS 'fnumber' must be at least 0.5 (or 0 = no diffraction), "
+                                                  f"got {f_number:g}")
+    m, coeffs = "pinhole", ()
+    if "brown" in stmt.tags:
+        m, coeffs = "brown", tuple(vec(stmt, "brown")) + ((0.0,) if len(stmt.tags["brown"].values) == 4 else ())
+    elif "fisheye" in stmt.tags:
+        m, coeffs = "kannala_brandt", tuple(vec(stmt, "fisheye"))
+    return model.Lens(model=m, coeffs=coeffs, f_number=f_number, defocus_px=float(scalar(stmt, "defocus", 0.0)),
+                      vignetting=float(scalar(stmt, "vignetting", 0.0)),
+                      chromatic_px=float(scalar(stmt, "chromatic", 0.0)))
+
+
+def sensor(stmt: Optional[ParsedStatement], check: Checks) -> Optional[model.Sensor]:
+    if stmt is None:
+        return None
+    for n in ("fullwell", "saturation", "pixel", "gain", "gamma"):
+        check.positive(stmt, n)
+    _nonneg(stmt, check, "readnoise", "dark", "prnu", "dsnu", "rownoise", "black", "fill", "olpf")
+    bits = stmt.tags.get("bits")
+    if bits is not None and not 8 <= bits.values[0] <= 16:
+        check.err(bits.tokens[0], f"SENSOR 'bits' must lie in 8..16, got {bits.tokens[0].text}")
+    jpeg = stmt.tags.get("jpeg")
+    if jpeg is not None and not 1 <= jpeg.values[0] <= 100:
+        check.err(jpeg.tokens[0], f"SENSOR 'jpeg' quality must lie in 1..100, got {jpeg.tokens[0].text}")
+    nbits = int(bits.values[0]) if bits is not None else model.Sensor.bits
+    black = float(scalar(stmt, "black", 0.0))
+    if black >= 2 ** nbits - 1:
+        check.err(stmt.tags["black"].tokens[0], f"SENSOR 'black' ({black:g} DN) must be below the white level "
+                                                f"{2 ** nbits - 1} of {nbits} bits")
+    if "gamma" in stmt.tags and stmt.get("response", "gamma") != "gamma":
+        check.err(stmt.tags["gamma"].tag, "SENSOR 'gamma' needs 'response gamma'")
+    d = model.Sensor
+    return model.Sensor(
+        full_well_e=float(scalar(stmt, "fullwell", d.full_well_e)), read_noise_e=float(scalar(stmt, "readnoise", 0.0)),
+        dark_current_e_s=float(scalar(stmt, "dark", 0.0)), prnu=float(scalar(stmt, "prnu", 0.0)),
+        dsnu_e=float(scalar(stmt, "dsnu", 0.0)), row_noise_e=float(scalar(stmt, "rownoise", 0.0)),
+        cfa=stmt.get("cfa"), bits=nbits, gain=float(scalar(stmt, "gain", 1.0)), black_level_dn=black,
+        saturation=float(scalar(stmt, "saturation", 1.0)),
+        response=stmt.get("response", "gamma" if "gamma" in stmt.tags else "srgb"),
+        gamma=float(scalar(stmt, "gamma", d.gamma)), pixel_um=float(scalar(stmt, "pixel", d.pixel_um)),
+        fill_factor=float(scalar(stmt, "fill", 0.0)), olpf_px=float(scalar(stmt, "olpf", 0.0)),
+        jpeg_quality=int(scalar(stmt, "jpeg", 0)), seed=_seed(stmt, check))
+
+
+def autoexposure(stmt: Optional[ParsedStatement], check: Checks) -> Optional[model.AutoExposure]:
+    if stmt is None:
+        return None
+    for n in ("target", "speed", "max_gain", "min_exposure"):
+        check.positive(stmt, n)
+    check.positive(stmt, "max_exposure", allow_zero=True)
+    target = float(scalar(stmt, "target", model.AutoExposure.target))
+    if target >= 1.0:
+        check.err(stmt.tags["target"].tokens[0], f"AUTOEXPOSURE 'target' is a fraction of full scale (< 1), got {target:g}")
+    max_gain = float(scalar(stmt, "max_gain", model.AutoExposure.max_gain))
+    if 0 < max_gain < 1:
+        check.err(stmt.tags["max_gain"].tokens[0], f"AUTOEXPOSURE 'max_gain' must be at least 1, got {max_gain:g}")
+    d = model.AutoExposure
+    return model.AutoExposure(target=target, speed=float(scalar(stmt, "speed", d.speed)),
+                              max_exposure_s=float(scalar(stmt, "max_exposure", 0.0)), max_gain=max_gain,
+                              min_exposure_s=float(scalar(stmt, "min_exposure", d.min_exposure_s)))
+
+
+def imu(stmt: Optional[ParsedStatement], check: Checks) -> Optional[model.Imu]:
+    if stmt is None:
+        return None
+    check.positive(stmt, "rate")
+    check.positive(stmt, "gravity", allow_zero=True)
+    _nonneg(stmt, check, "gyro_noise", "gyro_walk", "accel_noise", "accel_walk")
+    rate = float(scalar(stmt, "rate", model.Imu.rate_hz))
+    if rate > MAX_RATE_HZ:
+        check.err(stmt.tags["rate"].tokens[0], f"IMU 'rate' must be at most {MAX_RATE_HZ:g} Hz, got {rate:g}")
+    pos = vec(stmt, "position", (0.0, 0.0, 0.0))
+    d = model.Imu
+    return model.Imu(rate_hz=rate, gyro_noise=float(scalar(stmt, "gyro_noise", d.gyro_noise)),
+                     gyro_walk=float(scalar(stmt, "gyro_walk", d.gyro_walk)),
+                     accel_noise=float(scalar(stmt, "accel_noise", d.accel_noise)),
+                     accel_walk=float(scalar(stmt, "accel_walk", d.accel_walk)),
+                     position=tuple(pos[:3]), rotation_deg=tuple(pos[3:]) or (0.0, 0.0, 0.0),
+                     time_offset_s=float(scalar(stmt, "offset", 0.0)),
+                     gravity=float(scalar(stmt, "gravity", d.gravity)), seed=_seed(stmt, check))
+
+
+def sensor_models(seen: dict[str, ParsedStatement], rig: model.Rig, check: Checks) -> dict:
+    """The Scene fields of the five sensor statements, with the checks across statements."""
+    out = dict(timing=timing(seen.get("TIMING"), check), lens=lens(seen.get("LENS"), check),
+               sensor=sensor(seen.get("SENSOR"), check), autoexposure=autoexposure(seen.get("AUTOEXPOSURE"), check),
+               imu=imu(seen.get("IMU"), check))
+    lens_m, lens_stmt = out["lens"], seen.get("LENS")
+    if lens_m is not None and lens_m.model != "pinhole":
+        tag = lens_stmt.tags["brown" if lens_m.model == "brown" else "fisheye"]
+        problem = fold_problem(LensModel.from_K(lens_m.model, lens_m.coeffs, rig.K()), rig.width, rig.height)
+        if problem:
+            check.err(tag.tag, f"LENS {tag.tag.text}: {problem}")
+    ae = seen.get("AUTOEXPOSURE")
+    if ae is not None:
+        t = out["timing"]
+        if seen.get("SENSOR") is None:
+            check.err(ae.token, "AUTOEXPOSURE needs a SENSOR statement (it drives the sensor's exposure and gain)")
+        if t is None or t.exposure_s <= 0:
+            check.err(ae.token, "AUTOEXPOSURE needs TIMING with an exposure > 0 (its starting exposure time)")
+    return out

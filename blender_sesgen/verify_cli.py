@@ -1,0 +1,43 @@
+"""``python -m blender_sesgen verify OUT``: check every file of a render against its manifest.
+
+Every frame recorded complete is checked: its EXRs exist, lie whole in their files, hold the
+channels the manifest names, match the SHA-256 recorded when they were written, and (unless
+``--quick``) decode. Bad frames are named and recorded as not rendered, so that
+``render --resume`` renders them again (``--dry-run`` only names them). Exit 0 when every
+frame is good, 1 when bad frames were found, 2 on bad input.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from .contract.cli import EXIT_FAILURE, EXIT_OK
+from .errors import SesgenError
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("out", metavar="OUT", help="a render folder (with manifest.json)")
+    p.add_argument("--quick", action="store_true", help="check structure and checksums, do not decode pixels")
+    p.add_argument("--dry-run", action="store_true", help="name the bad frames, change nothing")
+    p.add_argument("--quiet", action="store_true", help="print only the bad frames")
+
+
+def run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from .contract.manifest import MANIFEST
+    from .output import OutputFolder
+    folder = OutputFolder(args.out)
+    if not (Path(args.out) / MANIFEST).is_file():
+        raise SesgenError(f"{args.out}: no render here (no manifest.json)")
+    bad = folder.verify(full=not args.quick)
+    for k, why in bad:
+        print(f"frame {k}: {why}")
+    if bad and not args.dry_run:
+        folder.mark_incomplete(sorted({k for k, _ in bad}))
+    if not args.quiet or bad:
+        state = ("all frames recorded complete are good" if not bad else
+                 f"{len(bad)} bad frame(s)" + ("" if args.dry_run else
+                                               "; recorded as not rendered: render again with --resume"))
+        print(f"verify {args.out}: {state}", file=sys.stderr if bad else sys.stdout)
+    return EXIT_FAILURE if bad else EXIT_OK

@@ -1,0 +1,104 @@
+"""Readers of the dataset layouts written from each format's own documentation, not from our
+writers (they import nothing of vo_reference): the oracles of the layout round-trip tests.
+
+- PFM: the format's definition (Paul Debevec's page, as Middlebury and SceneFlow use it):
+  a text header "PF" (3 channels) or "Pf" (1), "width height", a scale whose sign gives the
+  byte order (negative = little-endian), then float32 rows from the bottom row up.
+- TartanAir: tartanair_tools' README and data_type.md: np.load for depth, segmentation, flow
+  and mask; pose files 'tx ty tz qx qy qz qw' per line in the NED frame; file names
+  000000_left.png, 000000_left_depth.npy, 000000_left_seg.npy, 000000_000001_flow.npy.
+- Virtual KITTI 2: the README of vkitti_2.0.3 (Naver Labs Europe): depth PNG uint16 in cm;
+  flow PNG decoded as in its read_vkitti_png_flow snippet; text files with a header line
+  and 'frame cameraID ...' rows; extrinsic = the 4x4 world-to-camera matrix.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+
+def read_pfm(path) -> np.ndarray:
+    """(H, W) or (H, W, 3) float32, row 0 = top of the image."""
+    with open(path, "rb") as f:
+        kind = f.readline().strip()
+        dims = f.readline()
+        while dims.strip().startswith(b"#"):
+            dims = f.readline()
+        w, h = (int(x) for x in dims.split())
+        scale = float(f.readline().strip())
+        data = np.fromfile(f, dtype="<f4" if scale < 0 else ">f4")
+    channels = {b"PF": 3, b"Pf": 1}[kind]
+    a = data[: w * h * channels].reshape(h, w, channels) if channels == 3 else data[: w * h].reshape(h, w)
+    return np.flipud(a).astype(np.float32)
+
+
+def quat_xyzw_to_matrix(q) -> np.ndarray:
+    """Rotation matrix of a unit quaternion (x, y, z, w), the textbook formula."""
+    x, y, z, w = np.asarray(q, dtype=float) / np.linalg.norm(q)
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def read_tartanair_poses(path) -> np.ndarray:
+    """(N, 4, 4) camera-to-world poses from a TartanAir pose file."""
+    rows = np.loadtxt(path, ndmin=2)
+    assert rows.shape[1] == 7, rows.shape
+    T = np.tile(np.eye(4), (len(rows), 1, 1))
+    for i, r in enumerate(rows):
+        T[i, :3, :3] = quat_xyzw_to_matrix(r[3:7])
+        T[i, :3, 3] = r[:3]
+    return T
+
+
+def tartanair_files(root, kind: str) -> list[Path]:
+    """Sorted files of one TartanAir folder: image_left, depth_left, seg_left, flow, mask, ..."""
+    patterns = {"image_left": ("image_left", r"\d{6}_left\.png"), "image_right": ("image_right", r"\d{6}_right\.png"),
+                "depth_left": ("depth_left", r"\d{6}_left_depth\.npy"),
+                "depth_right": ("depth_right", r"\d{6}_right_depth\.npy"),
+                "seg_left": ("seg_left", r"\d{6}_left_seg\.npy"), "seg_right": ("seg_right", r"\d{6}_right_seg\.npy"),
+                "flow": ("flow", r"\d{6}_\d{6}_flow\.npy"), "mask": ("flow", r"\d{6}_\d{6}_mask\.npy")}
+    folder, pat = patterns[kind]
+    return sorted(p for p in (Path(root) / folder).iterdir() if re.fullmatch(pat, p.name))
+
+
+def read_vkitti_png_flow(path) -> tuple[np.ndarray, np.ndarray]:
+    """(flow (H, W, 2) float32, invalid (H, W) bool), as vKITTI 2's README decodes it."""
+    import cv2
+    bgr = cv2.imread(str(path), cv2.IMREAD_ANYCOLOR | cv2.IMREAD_ANYDEPTH)
+    h, w, c = bgr.shape
+    assert bgr.dtype == np.uint16 and c == 3
+    invalid = bgr[..., 0] == 0                                  # b == 0: invalid flow
+    out = 2.0 / (2 ** 16 - 1.0) * bgr[..., 2:0:-1].astype("f4") - 1   # g, r = flow_y, flow_x normalised
+    out[..., 0] *= w - 1
+    out[..., 1] *= h - 1
+    return out, invalid
+
+
+def read_vkitti_depth_m(path) -> np.ndarray:
+    import cv2
+    d = cv2.imread(str(path), cv2.IMREAD_ANYCOLOR | cv2.IMREAD_ANYDEPTH)
+    assert d.dtype == np.uint16 and d.ndim == 2
+    return d.astype(np.float64) / 100.0
+
+
+def read_vkitti_table(path) -> tuple[list[str], np.ndarray]:
+    """(header names, rows) of intrinsic.txt / extrinsic.txt / pose.txt."""
+    lines = Path(path).read_text().splitlines()
+    header = lines[0].split()
+    rows = np.array([[float(x) for x in line.split()] for line in lines[1:] if line.strip()]).reshape(-1, len(header))
+    return header, rows
+
+
+def read_vkitti_colors(path) -> dict[tuple[int, int, int], str]:
+    lines = Path(path).read_text().splitlines()
+    assert lines[0].split() == ["Category", "r", "g", "b"]
+    out = {}
+    for line in lines[1:]:
+        name, r, g, b = line.split()
+        out[(int(r), int(g), int(b))] = name
+    return out

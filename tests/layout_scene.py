@@ -1,0 +1,101 @@
+"""A small render folder with exact depth, for the dataset-layout tests: a floor, a back wall
+and a box face ray-cast in closed form, sky above the wall, seen by a level rig that looks
+along −Z of the SES world (Y up), drives forward and turns right a little each frame."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from synthetic_render import write_render
+
+W, H, F, B = 48, 32, 36.0, 0.3
+K = np.array([[F, 0.0, W / 2 - 0.5], [0.0, F, H / 2 - 0.5], [0.0, 0.0, 1.0]])
+# (normal, offset d of n·X = d, bounds (lo, hi) of X, id): floor y = 0, wall z = -8, box face z = -3
+PLANES = (
+    (np.array([0.0, 1.0, 0.0]), 0.0, ((-6, -1, -8), (6, 1, 4)), 1),
+    (np.array([0.0, 0.0, 1.0]), -8.0, ((-6, 0, -9), (6, 2.6, -7)), 2),
+    (np.array([0.0, 0.0, 1.0]), -3.0, ((-0.6, 0, -4), (0.6, 1.0, -2)), 3),
+)
+OBJECTS = [
+    {"id": 1, "name": "floor", "shape": "QUAD", "class": "road"},
+    {"id": 2, "name": "wall", "shape": "QUAD", "class": "building"},
+    {"id": 3, "name": "box", "shape": "CUBOID"},   # no class
+]
+YAW_DEG, STEP_M = 2.0, 0.15
+
+
+def rot_y(deg: float) -> np.ndarray:
+    a = np.radians(deg)
+    return np.array([[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]])
+
+
+def rig_poses(n: int) -> np.ndarray:
+    """T_world_cam of the left camera: OpenCV camera, level, looking along −Z; turning right
+    (towards +X) by YAW_DEG and moving STEP_M forward per frame."""
+    T = np.tile(np.eye(4), (n, 1, 1))
+    level = np.diag([1.0, -1.0, -1.0])             # camera x = X, y (down) = -Y, z (forward) = -Z
+    pos = np.array([0.0, 1.2, 1.0])
+    for k in range(n):
+        R = rot_y(-YAW_DEG * k) @ level              # yaw right: forward turns from -Z towards +X
+        T[k, :3, :3] = R
+        T[k, :3, 3] = pos
+        pos = pos + STEP_M * (R @ np.array([0.0, 0.0, 1.0]))
+    return T
+
+
+def view_pose(n: int, k: int, view: str) -> np.ndarray:
+    """T_world_cam of ``view`` at frame k of the n-frame rig (right = left moved B along its x)."""
+    T = rig_poses(n)[k].copy()
+    if view == "right":
+        T[:3, 3] += T[:3, :3] @ np.array([B, 0, 0])
+    return T
+
+
+def export_layout(render, out, target: str, *extra: str) -> Path:
+    """``vo-reference export RENDER OUT --to TARGET`` without noise; asserts it succeeded."""
+    from vo_reference.cli import main
+    assert main(["export", str(render), str(out), "--to", target, "--noise", "0", "-q", *extra]) == 0
+    return Path(out)
+
+
+def raycast(T_world_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(planar depth float32 with +inf for sky, ids int32) of one camera."""
+    u, v = np.meshgrid(np.arange(W, dtype=float), np.arange(H, dtype=float))
+    rays = np.stack([(u - K[0, 2]) / F, (v - K[1, 2]) / F, np.ones_like(u)], -1) @ T_world_cam[:3, :3].T
+    C = T_world_cam[:3, 3]
+    z = np.full((H, W), np.inf)
+    ids = np.zeros((H, W), np.int32)
+    for n, d, (lo, hi), oid in PLANES:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (d - n @ C) / (rays @ n)
+        X = C + t[..., None] * rays
+        hit = (t > 0) & np.all((X >= np.array(lo) - 1e-9) & (X <= np.array(hi) + 1e-9), axis=-1) & (t < z)
+        z[hit], ids[hit] = t[hit], oid
+    return z.astype(np.float32), ids
+
+
+def texture(T_world_cam: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Linear RGB that is a smooth function of the world point (sky: a flat blue)."""
+    u, v = np.meshgrid(np.arange(W, dtype=float), np.arange(H, dtype=float))
+    zz = np.where(np.isfinite(z), z, 0.0)
+    Xc = np.stack([(u - K[0, 2]) / F * zz, (v - K[1, 2]) / F * zz, zz], -1)
+    X = Xc @ T_world_cam[:3, :3].T + T_world_cam[:3, 3]
+    rgb = 0.45 + 0.4 * np.stack([np.sin(3.1 * X[..., 0]), np.sin(2.3 * X[..., 1] + 1), np.sin(1.7 * X[..., 2])], -1)
+    rgb[~np.isfinite(z)] = (0.2, 0.4, 0.8)
+    return rgb.astype(np.float32)
+
+
+def write_layout_render(root, n: int = 4, stereo: bool = True, objects=None, noise=None):
+    T = rig_poses(n)
+    frames = []
+    for k in range(n):
+        fr = {}
+        for view, dx in (("left", 0.0), ("right", B))[: 2 if stereo else 1]:
+            Tv = T[k].copy()
+            Tv[:3, 3] += Tv[:3, :3] @ np.array([dx, 0.0, 0.0])
+            z, ids = raycast(Tv)
+            fr[view] = (texture(Tv, z), z, ids)
+        frames.append(fr)
+    return write_render(root, K=K, baseline_m=B if stereo else 0.0, T_world_left=T, frames=frames,
+                        noise=noise, objects=OBJECTS if objects is None else objects, extra={"fps": 10})
