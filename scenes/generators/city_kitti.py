@@ -107,19 +107,22 @@ def generate(seed: int = 0, frames: int = 101, step_m: float = 1.2, sun_elevatio
         s = float(rng.uniform(2, 10))
         edge = right_edge if side > 0 else -left_edge
         while s < L - 12:
-            if rng.random() < 0.28:       # a green block: trees in a lawn
+            if rng.random() < 0.4:        # a green block: trees and bushes in a lawn
                 length = float(rng.uniform(25, 45))
-                for t in np.arange(s + 4, s + length - 4, rng.uniform(7, 12)):
+                for t in np.arange(s + 3, s + length - 3, rng.uniform(4, 8)):
                     depth = edge + rng.uniform(3, 18)
                     p, _ = place(t + rng.uniform(-2, 2), side * depth)
                     kind = "conifer" if rng.random() < 0.25 else "tree"
                     out.append(asset(kind, ids("tree"), p, rng.uniform(0, 360), seed=int(rng.integers(1e6))))
+                    if rng.random() < 0.5:
+                        bp, _ = place(t + rng.uniform(-3, 3), side * (edge + rng.uniform(2, 12)))
+                        out.append(asset("bush", ids("veg"), bp, rng.uniform(0, 360), seed=int(rng.integers(1e6))))
                 s += length
                 continue
             W = float(rng.uniform(11, 24))
             D = float(rng.uniform(9, 15))
             H = float(rng.choice([rng.uniform(8, 12), rng.uniform(12, 19)], p=[0.55, 0.45]))
-            setback = float(rng.uniform(2.0, 7.0))
+            setback = float(rng.uniform(4.0, 12.0))
             centre_s = s + W / 2
             p, h = place(centre_s, side * (edge + setback + D / 2))
             yaw = h - 90 if side > 0 else h + 90
@@ -161,6 +164,13 @@ def generate(seed: int = 0, frames: int = 101, step_m: float = 1.2, sun_elevatio
                          (round(float(rng.uniform(3.0, 5.5)), 2), round(float(rng.uniform(6, 11)), 2),
                           round(float(rng.uniform(3.0, 5.5)), 2)), seed=int(rng.integers(1e6))))
         s += float(rng.uniform(8, 13))
+    s = float(rng.uniform(3, 8))
+    while s < L - 5:                       # young trees along the left sidewalk's outer edge
+        p, _ = place(s, left_edge - 1.2)
+        out.append(asset("tree", ids("tree"), p + np.array([0.0, kerb_h, 0.0]), rng.uniform(0, 360),
+                         (round(float(rng.uniform(2.5, 4.0)), 2), round(float(rng.uniform(5, 8)), 2),
+                          round(float(rng.uniform(2.5, 4.0)), 2)), seed=int(rng.integers(1e6))))
+        s += float(rng.uniform(9, 15))
     for side in (1, -1):
         s = float(rng.uniform(5, 25)) + (0 if side > 0 else 14)
         kerb_out = r_kerb + kerb_w / 2
@@ -188,7 +198,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: float = 1.2, sun_elevatio
     out += ["", "// grass: patches of blades on the lawns near the road (a few variants, instanced)"]
     tufts = [int(rng.integers(1e6)) for _ in range(6)]
     patch = 2.5
-    bands = [(lawn[0] + 0.1, lawn[1] - 0.1), (right_edge + 0.2, right_edge + 9.0), (left_edge - 9.0, left_edge - 0.2)]
+    bands = [(lawn[0] + 0.1, lawn[1] - 0.1), (right_edge + 0.2, right_edge + 14.0), (left_edge - 14.0, left_edge - 0.2)]
     for o0, o1 in bands:
         n_o = max(int(round((o1 - o0) / patch)), 1)
         for s_ in np.arange(patch / 2, L - patch / 2, patch):
