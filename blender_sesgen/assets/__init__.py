@@ -141,8 +141,10 @@ def _kinds() -> dict[str, Kind]:
              ((3, 10), (1.0, 1.1), (0.05, 0.05)), "length, height, thickness", industrial.railing),
         Kind("pipe", "industrial", "static", "pipe run along x with flanges and supports",
              ((6, 20), (1.5, 4), (0.15, 0.4)), "length, axis height, diameter", industrial.pipe),
-        Kind("terrain", "nature", "terrain", "rolling ground (0.5 m grid) with a trail along z, grass, litter",
-             ((60, 120), (2, 6), (100, 200)), "width, relief amplitude, depth", nature.terrain, closed=False),
+        Kind("terrain", "nature", "terrain", "rolling ground (0.5 m grid following the trail's meander along z): "
+             "bare trail, grassy margins, leaf-litter floor",
+             ((60, 120), (2, 6), (100, 200)), "width, relief amplitude, depth", nature.terrain, closed=False,
+             overhang=18.0),
         Kind("rock", "nature", "terrain", "boulder: displaced icosphere, moss on top",
              ((0.4, 2.5), (0.3, 1.5), (0.4, 2.5)), "width, height, depth", nature.rock),
         Kind("log", "nature", "vegetation", "fallen log along x with branch stubs",

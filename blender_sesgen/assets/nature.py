@@ -3,7 +3,7 @@ ferns and grass tufts.
 
 ``terrain``: size = (width x, relief amplitude y, depth z), origin at the middle of the
 ground; a heightfield on a 0.5 m grid, a trail running along z (meandering with the seed)
-worn into it as bare soil, the rest grass and leaf litter in patches. Scene generators
+worn into it as bare soil with grassy margins, the rest a leaf-litter forest floor. Scene generators
 place things on it with :func:`terrain_height` and follow the trail with :func:`trail_x`
 (the same functions the mesh is built from).
 """
@@ -62,34 +62,34 @@ def terrain_height(size, seed: int, x, z) -> np.ndarray:
 
 
 def terrain(size, seed: int) -> MeshData:
-    rng = np.random.default_rng(seed)
+    """The terrain's grid follows the trail: x = trail_x(z) + u, u in [-W/2, W/2] on a 0.5 m
+    grid with lines on the trail's edges, so the bare trail, its worn grassy margins and the
+    leaf-litter floor meet along smooth curves (the terrain's side edges follow the trail's
+    meander too)."""
     W, A, D = (float(x) for x in size)
     b = MeshBuilder()
-    soil = b.surface("soil")
-    grass = [b.surface("grass", scaled((0.06, 0.1, 0.03), f)) for f in (0.8, 1.0, 1.2)]
-    litter = [b.surface("soil", c) for c in ((0.16, 0.11, 0.06), (0.20, 0.14, 0.07), (0.12, 0.09, 0.05))]
-    step = 0.5
-    xs = np.linspace(-W / 2, W / 2, int(np.ceil(W / step)) + 1)
-    zs = np.linspace(D / 2, -D / 2, int(np.ceil(D / step)) + 1)     # rows along -z
-    X, Z = np.meshgrid(xs, zs)
+    trail = b.surface("soil", (0.16, 0.12, 0.08))
+    margin = b.surface("grass", (0.05, 0.08, 0.025))
+    floor = b.surface("soil", (0.085, 0.065, 0.04))
+    edge = TRAIL_HALF_WIDTH + 0.5
+    us = np.concatenate([np.arange(-W / 2, -edge, 0.5), [-edge, -TRAIL_HALF_WIDTH, 0.0, TRAIL_HALF_WIDTH],
+                         np.arange(edge, W / 2 + 1e-9, 0.5)])
+    zs = np.linspace(D / 2, -D / 2, int(np.ceil(D / 0.5)) + 1)     # rows along -z
+    U, Z = np.meshgrid(us, zs)
+    X = trail_x((W, A, D), seed, Z) + U
     Y = terrain_height((W, A, D), seed, X, Z)
     top = np.stack([X, Y, Z], axis=-1)
-    xm, zm = 0.5 * (X[1:, 1:] + X[:-1, :-1]), 0.5 * (Z[1:, 1:] + Z[:-1, :-1])
-    on_trail = np.abs(xm - trail_x((W, A, D), seed, zm)) < TRAIL_HALF_WIDTH
-    patch = _raw_height((W, 1.0, D), seed + 5, xm * 3.1, zm * 2.7)
-    cells = np.where(patch > 0.05, np.array(litter)[rng.integers(3, size=xm.shape)],
-                     np.array(grass)[rng.integers(3, size=xm.shape)])
-    cells[on_trail] = soil
-    b.sheet(top, soil, cell_surf=cells)
+    um = 0.5 * (U[1:, 1:] + U[:-1, :-1])
+    cells = np.where(np.abs(um) < TRAIL_HALF_WIDTH, trail, np.where(np.abs(um) < edge, margin, floor))
+    b.sheet(top, floor, cell_surf=cells)
     # skirt: the four sides down to a flat bottom (a closed slab)
     y_bot = float(Y.min()) - 0.5
-    rows, cols = top.shape[:2]
-    edges = [top[0, :], top[:, -1], top[-1, ::-1], top[::-1, 0]]
-    for e in edges:
+    for e in (top[0, :], top[:, -1], top[-1, ::-1], top[::-1, 0]):
         for i in range(len(e) - 1):
             p, q = e[i], e[i + 1]
-            b.quad(p, (p[0], y_bot, p[2]), (q[0], y_bot, q[2]), q, soil)
-    b.quad((-W / 2, y_bot, D / 2), (-W / 2, y_bot, -D / 2), (W / 2, y_bot, -D / 2), (W / 2, y_bot, D / 2), soil)
+            b.quad(p, (p[0], y_bot, p[2]), (q[0], y_bot, q[2]), q, floor)
+    corners = [top[-1, 0], top[0, 0], top[0, -1], top[-1, -1]]
+    b.quad(*[(c[0], y_bot, c[2]) for c in corners], floor)
     return b.build()
 
 

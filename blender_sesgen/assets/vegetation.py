@@ -90,7 +90,8 @@ def _tube_sides(radius: float) -> int:
 
 
 def tree(size, seed: int) -> MeshData:
-    """A broadleaf tree: trunk, 3 levels of branches, leaf clusters on the outer twigs."""
+    """A broadleaf tree: trunk, 3 levels of branches, leaf clusters along the outer twigs
+    (~40-100 thousand leaves)."""
     rng = np.random.default_rng(seed)
     Wc, H, Dc = (float(s) for s in size)
     b = MeshBuilder()
@@ -116,19 +117,20 @@ def tree(size, seed: int) -> MeshData:
     for pts, rad, level in sk.paths:
         n = _tube_sides(float(rad[0]))
         b.tube(pts, rad, n, bark, smooth=True)
-        if level >= 2:
+        if level >= 1:   # twigs on the outer parts of the main branches and everything finer
             seg_len = np.linalg.norm(np.diff(pts, axis=0), axis=1)
             tot = seg_len.sum()
-            m = max(int(tot / 0.09), 2)
-            t = np.sort(rng.uniform(0.35, 1.0, m))
+            t0 = 0.3 if level >= 2 else 0.6
+            m = max(int(tot * (1 - t0) / 0.05), 2)
+            t = np.sort(rng.uniform(t0, 1.0, m))
             cum = np.concatenate([[0], np.cumsum(seg_len)]) / tot
             q = np.stack([np.interp(t, cum, pts[:, i]) for i in range(3)], axis=1)
             leaf_pts.append(q)
             leaf_out.append(q - np.asarray(crown_c))
     P = np.concatenate(leaf_pts)
     O = np.concatenate(leaf_out)
-    reps = int(rng.integers(5, 8))     # a cluster of leaves around each twig point
-    jitter = rng.normal(size=(len(P) * reps, 3)) * 0.07
+    reps = int(rng.integers(6, 9))     # a cluster of leaves around each twig point
+    jitter = rng.normal(size=(len(P) * reps, 3)) * 0.09
     pts = np.repeat(P, reps, axis=0) + jitter
     out = np.repeat(O, reps, axis=0) + jitter * 4
     ls = rng.uniform(0.09, 0.15) * rng.uniform(0.8, 1.2, len(pts))

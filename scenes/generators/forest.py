@@ -62,10 +62,10 @@ def generate(seed: int = 0, frames: int = 150, speed: float = 1.4) -> str:
     bushes = [int(rng.integers(1e6)) for _ in range(6)]
     ferns = [int(rng.integers(1e6)) for _ in range(5)]
     tufts = [int(rng.integers(1e6)) for _ in range(5)]
-    for _ in range(int(2.2 * (z_hi - z_lo))):
+    for _ in range(int(4.0 * (z_hi - z_lo))):
         pz = rng.uniform(z_lo, z_hi)
         xt = float(trail_x(size, tseed, pz))
-        d = rng.choice([-1, 1]) * (1.4 + rng.exponential(5.0))
+        d = rng.choice([-1, 1]) * (1.35 + rng.exponential(6.0))
         px = float(np.clip(xt + d, -size[0] / 2 + 1, size[0] / 2 - 1))
         r = rng.random()
         y = H(px, pz)
