@@ -59,6 +59,8 @@ def surface_material(factory, obj: Asset, surface, index: int):
         m = library_or_stand_in(name)
         if surface.colour is not None and not (index == 0 and obj.material):
             m = dataclasses.replace(m, colour=tuple(surface.colour))
+    if tex is not None and m.library is not None:
+        m = dataclasses.replace(m, library=None)      # a texture tag: the plain textured material
     tex = tex if tex is not None else m.texture
     colour = tuple(float(c) for c in np.multiply(tint, m.colour))
     key = (tex, colour, m, False)
