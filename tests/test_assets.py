@@ -159,8 +159,19 @@ def test_kerbs_and_sidewalks_face_the_road_on_both_sides():
 def test_terrain_mesh_follows_its_height_function_and_the_trail_is_soil():
     size, seed = (40.0, 3.0, 60.0), 5
     d = assets.generate("terrain", size, seed)
-    top = d.vertices[d.vertices[:, 1] > d.vertices[:, 1].min() + 0.1]
+    ground = [i for i, s in enumerate(d.surfaces) if s.material != "leaves"]
+    gv = d.vertices[np.unique(d.faces[np.isin(d.face_surface, ground)])]
+    top = gv[gv[:, 1] > d.vertices[:, 1].min() + 0.1]
     np.testing.assert_allclose(top[:, 1], terrain_height(size, seed, top[:, 0], top[:, 2]), atol=1e-9)
+    # fallen leaves lie on the ground mesh: each leaf's base 4 +- 1 mm above it (cast straight down)
+    import mesh_raycast
+    bases = d.vertices[np.unique(d.faces[~np.isin(d.face_surface, ground)][:, 0])]
+    assert len(bases) > 1000
+    sample = bases[np.random.default_rng(0).choice(len(bases), 300, replace=False)]
+    ts = mesh_raycast.TriangleScene()
+    ts.add(1, d.vertices, d.faces[np.isin(d.face_surface, ground)])
+    t, _ = ts.cast(sample + [0.0, 10.0, 0.0], np.tile([0.0, -1.0, 0.0], (len(sample), 1)))
+    np.testing.assert_allclose(t - 10.0, 0.004, atol=0.001)
     z = np.linspace(-25, 25, 11)
     xt = trail_x(size, seed, z)
     h = terrain_height(size, seed, xt, z)

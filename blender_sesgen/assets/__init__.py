@@ -147,6 +147,8 @@ def _kinds() -> dict[str, Kind]:
              overhang=18.0),
         Kind("rock", "nature", "terrain", "boulder: displaced icosphere, moss on top",
              ((0.4, 2.5), (0.3, 1.5), (0.4, 2.5)), "width, height, depth", nature.rock),
+        Kind("litter", "nature", "terrain", "fallen leaves and twigs lying on the ground over a patch",
+             ((2, 4), (0.05, 0.05), (2, 4)), "width, -, depth", nature.litter, closed=False),
         Kind("log", "nature", "vegetation", "fallen log along x with branch stubs",
              ((3, 8), (0.25, 0.6), (0.25, 0.6)), "length, diameter, diameter", nature.log, overhang=1.0),
         Kind("stump", "nature", "vegetation", "tree stump with root flares", ((0.4, 0.8), (0.3, 0.8), (0.4, 0.8)),

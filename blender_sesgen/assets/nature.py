@@ -17,7 +17,8 @@ from .palette import pick, scaled
 from .vegetation import _unit, add_leaves
 
 TRAIL_HALF_WIDTH = 0.8
-ROCK = ((0.22, 0.21, 0.20), (0.28, 0.27, 0.25), (0.18, 0.18, 0.17), (0.30, 0.28, 0.24))
+ROCK = ((0.12, 0.115, 0.11), (0.16, 0.15, 0.14), (0.10, 0.10, 0.095), (0.18, 0.16, 0.13))
+LITTER = ((0.20, 0.11, 0.04), (0.14, 0.08, 0.035), (0.25, 0.16, 0.05), (0.10, 0.07, 0.04), (0.18, 0.15, 0.06))
 
 
 def _waves(seed: int, n: int, wl_min: float, wl_max: float):
@@ -82,6 +83,15 @@ def terrain(size, seed: int) -> MeshData:
     um = 0.5 * (U[1:, 1:] + U[:-1, :-1])
     cells = np.where(np.abs(um) < TRAIL_HALF_WIDTH, trail, np.where(np.abs(um) < edge, margin, floor))
     b.sheet(top, floor, cell_surf=cells)
+    # fallen leaves lying on the floor near the trail (and a few on it), on the exact surface
+    rng = np.random.default_rng([seed, 99])
+    n = int(60 * 2 * 11.0 * D)
+    u = rng.uniform(-12.0, 12.0, n)
+    keep = (np.abs(u) > TRAIL_HALF_WIDTH - 0.2) | (rng.random(n) < 0.1)
+    u, z = u[keep], rng.uniform(-D / 2, D / 2, keep.sum())
+    x = trail_x((W, A, D), seed, z) + u
+    _fallen_leaves(b, rng, np.column_stack([x, _surface_height(top, us, zs, u, z) + 0.004, z]),
+                   [b.surface("leaves", c) for c in LITTER])
     # skirt: the four sides down to a flat bottom (a closed slab)
     y_bot = float(Y.min()) - 0.5
     for e in (top[0, :], top[:, -1], top[-1, ::-1], top[::-1, 0]):
@@ -93,22 +103,73 @@ def terrain(size, seed: int) -> MeshData:
     return b.build()
 
 
+def _surface_height(top, us, zs, u, z):
+    """Height of the terrain mesh (its triangles, split as ``MeshBuilder.sheet`` splits a
+    cell) at grid coordinates (u, z)."""
+    i = np.clip(np.searchsorted(-zs, -z) - 1, 0, len(zs) - 2)          # zs decrease
+    j = np.clip(np.searchsorted(us, u) - 1, 0, len(us) - 2)
+    fz = (zs[i] - z) / (zs[i] - zs[i + 1])
+    fu = (u - us[j]) / (us[j + 1] - us[j])
+    y00, y01, y10, y11 = top[i, j, 1], top[i, j + 1, 1], top[i + 1, j, 1], top[i + 1, j + 1, 1]
+    # a cell is split along its (i, j)-(i+1, j+1) diagonal
+    lower = fu >= fz
+    return np.where(lower, y00 + fu * (y01 - y00) + fz * (y11 - y01), y00 + fz * (y10 - y00) + fu * (y11 - y10))
+
+
+def _fallen_leaves(b, rng, P, surfs) -> None:
+    """Flat leaves lying at points P (n, 3): tips a little up or down, a slight curl."""
+    n = len(P)
+    a = rng.uniform(0, 2 * np.pi, n)
+    d = _unit(np.column_stack([np.cos(a), rng.normal(0, 0.08, n), np.sin(a)]))
+    side = _unit(np.cross(d, [0, 1, 0]) + rng.normal(size=(n, 3)) * [0, 0.15, 0])
+    ls = rng.uniform(0.05, 0.1, n)[:, None]
+    curl = 0.1 * ls * np.array([0, 1, 0])
+    V = np.stack([P, P + 0.42 * ls * d - 0.3 * ls * side + curl, P + ls * d, P + 0.42 * ls * d + 0.3 * ls * side + curl],
+                 axis=1).reshape(-1, 3)
+    idx = (np.arange(n) * 4)[:, None]
+    F = np.concatenate([idx + [0, 1, 2], idx + [0, 2, 3]])
+    sf = np.asarray(surfs)[rng.integers(len(surfs), size=n)]
+    b.add(V, F, np.concatenate([sf, sf]))
+
+
 def rock(size, seed: int) -> MeshData:
-    """A boulder: a subdivided icosahedron displaced by seeded noise, flattened below."""
+    """A boulder: a subdivided icosahedron displaced by seeded noise at several scales
+    (rounded mass, facets, cracks' roughness), flattened below, moss on its top faces."""
     rng = np.random.default_rng(seed)
     W, H, D = (float(x) for x in size)
     b = MeshBuilder()
     stone = b.surface("concrete", pick(rng, ROCK))
-    moss = b.surface("grass", (0.05, 0.08, 0.03))
-    V, F = _icosphere(3)
-    n = rng.normal(size=(8, 3))
-    disp = 1.0 + 0.12 * np.sum(np.sin(V @ n.T * 2.5 + rng.uniform(0, 6.3, 8)), axis=1) / 3
+    moss = b.surface("grass", (0.04, 0.06, 0.02))
+    V, F = _icosphere(4)
+    disp = np.ones(len(V))
+    for n_waves, freq, amp in ((8, 2.5, 0.12), (12, 6.0, 0.05), (16, 14.0, 0.02)):
+        n = rng.normal(size=(n_waves, 3))
+        disp += amp * np.sum(np.sin(V @ n.T * freq + rng.uniform(0, 6.3, n_waves)), axis=1) / np.sqrt(n_waves)
     V = V * disp[:, None] * np.array([W / 2, H, D / 2])
     V[:, 1] = np.maximum(V[:, 1], -0.15 * H)
     V[:, 1] += 0.1 * H
     up = _face_up(V, F)
-    s = np.where(up > 0.75, moss, stone)
-    b.add(V, F, s, smooth=True, closed=True)
+    s = np.where(up > 0.7 + 0.2 * rng.random(len(F)), moss, stone)
+    b.add(V, F, s, smooth=False, closed=True)
+    return b.build()
+
+
+def litter(size, seed: int) -> MeshData:
+    """Fallen leaves and twigs lying on the ground over a patch (size = width, -, depth):
+    flat leaves of browns and yellows, slightly tilted, a few twigs."""
+    rng = np.random.default_rng(seed)
+    W, H, D = (float(x) for x in size)
+    b = MeshBuilder()
+    browns = [b.surface("leaves", c) for c in LITTER]
+    bark = b.surface("bark", pick(rng, palette.BARK))
+    n = int(180 * W * D) + 20
+    P = np.column_stack([rng.uniform(-W / 2, W / 2, n), rng.uniform(0.005, 0.03, n), rng.uniform(-D / 2, D / 2, n)])
+    _fallen_leaves(b, rng, P, browns)
+    for _ in range(int(rng.integers(2, 6))):
+        p0 = np.array([rng.uniform(-W / 2, W / 2), 0.02, rng.uniform(-D / 2, D / 2)])
+        d = _unit(rng.normal(size=3) * [1, 0.05, 1])
+        L = rng.uniform(0.2, 0.6)
+        b.tube([p0, p0 + d * L / 2 + [0, 0.01, 0], p0 + d * L], 0.008, 4, bark)
     return b.build()
 
 
