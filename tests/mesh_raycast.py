@@ -31,7 +31,7 @@ def rays_hit_triangles(o: np.ndarray, d: np.ndarray, tris: np.ndarray, chunk: in
             q = np.cross(tv, E1[None, :, :])
             v = np.einsum("nj,nkj->nk", d, q) * inv
             t = np.einsum("nkj,kj->nk", q, E2) * inv
-        ok = (np.abs(det) > 1e-15) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-9)
+            ok = (np.abs(det) > 1e-15) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-9)
         t = np.where(ok, t, np.inf)
         k = np.argmin(t, axis=1)
         tk = t[np.arange(n), k]
