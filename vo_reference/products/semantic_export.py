@@ -31,7 +31,6 @@ from blender_sesgen.contract import atomic, semantics
 
 from ..errors import VoError
 from ..io.files import write_png16, write_png_rgb
-from .progress import Progress
 
 STEREO_FOLDERS = {"left": ("leftImg8bit", "gtFine"), "right": ("rightImg8bit", "gtFineRight")}
 
@@ -104,14 +103,14 @@ class SemanticMaps:
 
 
 def export_cityscapes(seq, out: Path, opts) -> None:
-    from .exports import image_rgb
+    from .exports import image_rgb, progress_bar
     city = str(opts.extra.get("city", "sesgen"))
     if not city or any(c in city for c in "/\\_") or city.startswith("."):
         raise VoError(f"--opt city={city!r}: a plain name without '/', '\\\\' or '_' is needed")
     maps = SemanticMaps(seq)
     views = [v for v in ("left", "right") if v in seq.views]
     frames = list(opts.frames)
-    with Progress(len(frames) * len(views), "cityscapes", enabled=opts.progress) as bar:
+    with progress_bar(opts, len(frames) * len(views), "cityscapes") as bar:
         for i, k in enumerate(frames):
             stem = f"{city}_000000_{i:06d}"
             for view in views:
