@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "needs Python 3.11 (the bpy 5.0.1 wheel): make PYTHON=/path/to/python3.11 ...")'
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e '.[render,vo,test]'
+	$(PY) -m pip install -q -e '.[render,vo,farm,test]'
 	touch $(STAMP)
 
 setup: $(STAMP)

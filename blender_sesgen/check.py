@@ -40,6 +40,11 @@ def _pose_text(T: np.ndarray) -> str:
     return f"position {x:.4g} {y:.4g} {z:.4g}  rotation {rx + 0.0:.4g} {ry + 0.0:.4g} {rz + 0.0:.4g} deg"
 
 
+def _travel(T: np.ndarray) -> float:
+    """Distance an object frame's origin travels over the sequence."""
+    return float(np.linalg.norm(np.diff(T[:, :3, 3], axis=0), axis=1).sum()) if len(T) > 1 else 0.0
+
+
 def summary(scene: Scene) -> str:
     """A human-readable summary of a parsed scene (what `check` prints)."""
     rig = scene.rig
@@ -60,6 +65,8 @@ def summary(scene: Scene) -> str:
         f"motion    {scene.motion.kind}, {scene.frames} frames, path length {path_length:.4g}",
         f"start     {_pose_text(T[0])}",
         f"end       {_pose_text(T[-1])}",
+        "moving    " + (", ".join(f"{m.id} ({m.kind}, {_travel(m.poses()):.4g})" for m in scene.object_motions)
+                         or "none (static scene)"),
         "lights    " + (", ".join(light.kind for light in scene.lights) or "default lighting"),
         "world     " + (scene.world.kind if scene.world else "default"),
     ]

@@ -18,6 +18,8 @@ COMMANDS = {
     "check": (".check", "validate a script and print a summary of its scene, rig and motion"),
     "render": (".render_cli", "render a script to a stereo multilayer-EXR sequence with ground truth"),
     "verify": (".verify_cli", "check every file of a render against its manifest; bad frames are re-rendered by --resume"),
+    "farm": (".farm.cli", "render many scenes in chunks of frames as Ray tasks, on this machine or a cluster"),
+    "generate": (".generate_cli", "write N varied scene scripts from a scene generator, and their dataset index"),
 }
 
 

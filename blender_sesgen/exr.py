@@ -22,6 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .contract.errors import ContractError
+from .contract.inputs import read_bytes
+
 MAGIC = 20000630
 _PIXEL_DTYPES = {0: np.dtype("<u4"), 1: np.dtype("<f2"), 2: np.dtype("<f4")}
 _LINES_PER_BLOCK = {0: 1, 2: 1, 3: 16}  # NONE, ZIPS, ZIP
@@ -45,6 +48,8 @@ def _read_header(buf: bytes, pos: int) -> tuple[dict, int]:
         typ, pos = _cstr(buf, pos)
         (size,) = struct.unpack_from("<i", buf, pos)
         pos += 4
+        if not 0 <= size <= len(buf) - pos:  # a negative size would loop back: never
+            raise ExrError(f"attribute {name!r} has size {size}, beyond the file")
         value = buf[pos:pos + size]
         pos += size
         header[None].append((name, typ, value))
@@ -72,7 +77,10 @@ def _read_header(buf: bytes, pos: int) -> tuple[dict, int]:
 def _unzip(data: bytes, expected: int) -> bytes:
     if len(data) >= expected:  # stored uncompressed
         return data
-    raw = np.frombuffer(zlib.decompress(data), dtype=np.uint8)
+    inflater = zlib.decompressobj()  # bounded: a block never inflates beyond what it holds
+    raw = np.frombuffer(inflater.decompress(data, expected), dtype=np.uint8)
+    if not inflater.eof:  # more data than the block holds, or a stream cut short
+        raise zlib.error("the block's zlib stream does not end where the block does")
     x = raw.astype(np.int64)
     x[1:] -= 128
     t = (np.cumsum(x) & 0xFF).astype(np.uint8)
@@ -121,16 +129,24 @@ def read_layout(buf: bytes, path="<exr>") -> ExrLayout:
             comp = h.get("compression", 0)
             if comp not in _LINES_PER_BLOCK:
                 raise ExrError(f"{path}: compression {comp} not supported (NONE, ZIPS, ZIP only)")
+            if not isinstance(h.get("channels"), list) or not isinstance(h.get("dataWindow"), tuple):
+                raise ExrError(f"{path}: corrupt EXR header (no channel list or data window)")
+            if any(pt not in _PIXEL_DTYPES for _, pt, _, _ in h["channels"]):
+                raise ExrError(f"{path}: corrupt EXR header (unknown pixel type)")
             x0, y0, x1, y1 = h["dataWindow"]
             W, H = x1 - x0 + 1, y1 - y0 + 1
+            if not (0 < W <= 65536 and 0 < H <= 65536):
+                raise ExrError(f"{path}: corrupt EXR header (data window {W}x{H})")
             lpb = _LINES_PER_BLOCK[comp]
             n_chunks = h.get("chunkCount", -(-H // lpb))
+            if not (isinstance(n_chunks, int) and 0 < n_chunks <= H and pos + 8 * n_chunks <= len(buf)):
+                raise ExrError(f"{path}: truncated or corrupt chunk table")
             offsets = struct.unpack_from(f"<{n_chunks}Q", buf, pos)
             pos += 8 * n_chunks
             parts.append((h, W, H, y0, lpb, offsets))
-    except (struct.error, IndexError, KeyError, ValueError) as e:
-        if isinstance(e, ExrError):
-            raise
+    except ExrError as e:
+        raise ExrError(str(e) if str(e).startswith(str(path)) else f"{path}: {e}") from None
+    except (struct.error, IndexError, KeyError, ValueError, TypeError) as e:
         raise ExrError(f"{path}: corrupt EXR header ({type(e).__name__})") from None
     return ExrLayout(multipart, tuple(parts), headers_end)
 
@@ -156,7 +172,11 @@ def check_complete(buf: bytes, path="<exr>", required: tuple = (), layout: ExrLa
 
 def read_exr(path) -> dict[str, np.ndarray]:
     """All channels of all parts: {channel name: (H, W) array} (row 0 = top)."""
-    return decode(Path(path).read_bytes(), path)
+    try:  # a regular file only: a FIFO must not block the contact sheet or the add-on's preview
+        buf = read_bytes(path, 16 << 30, "EXR file")
+    except ContractError as e:
+        raise ExrError(str(e)) from None
+    return decode(buf, path)
 
 
 def decode(buf: bytes, path="<exr>") -> dict[str, np.ndarray]:
@@ -177,7 +197,7 @@ def decode(buf: bytes, path="<exr>") -> dict[str, np.ndarray]:
             n_lines = min(lpb, y0 + H - y)
             try:
                 block = _unzip(data, row_bytes * n_lines) if h.get("compression", 0) else data
-            except zlib.error:
+            except (zlib.error, ValueError):
                 raise ExrError(f"{path}: corrupt pixel data (zlib)") from None
             if len(block) < row_bytes * n_lines or not 0 <= y - y0 < H:
                 raise ExrError(f"{path}: corrupt pixel data (short block)")

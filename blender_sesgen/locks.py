@@ -72,22 +72,27 @@ class FolderLocks:
     def live_pids(self) -> set[int]:
         return {int(w.rsplit("-", 1)[-1]) for w in self.live_writers() if w.rsplit("-", 1)[-1].isdigit()}
 
-    def take(self, frames: tuple[int, int], scene_sha256: str, settings_key: str, where) -> None:
-        """Our lock on frames ``first..last``; SesgenError if a live writer holds overlapping
-        frames or renders another scene or other settings here."""
+    def refuse_conflicts(self, frames: tuple[int, int], scene_sha256: str, settings_key: str, where) -> None:
+        """SesgenError naming the holder if a live writer holds frames overlapping ``first..last``
+        or renders another scene or other settings here (call under :meth:`mutex`)."""
         from .errors import SesgenError
         first, last = frames
+        for other in self.live():
+            same_plan = other.get("scene_sha256") == scene_sha256 and other.get("settings") == settings_key
+            overlap = not (last < other["frames"][0] or first > other["frames"][1])
+            if overlap or not same_plan:
+                since = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(other.get("started", 0)))
+                raise SesgenError(
+                    f"--out {where}: being rendered by pid {other['pid']} on {other['host']} "
+                    f"(frames {other['frames'][0]}..{other['frames'][1]}, since {since}"
+                    f"{'' if same_plan else ', another scene or other settings'}); "
+                    "wait for it to finish, or render into another folder")
+
+    def take(self, frames: tuple[int, int], scene_sha256: str, settings_key: str, where) -> None:
+        """Our lock on frames ``first..last``; SesgenError if a live writer conflicts."""
+        first, last = frames
         with self.mutex():
-            for other in self.live():
-                same_plan = other.get("scene_sha256") == scene_sha256 and other.get("settings") == settings_key
-                overlap = not (last < other["frames"][0] or first > other["frames"][1])
-                if overlap or not same_plan:
-                    since = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(other.get("started", 0)))
-                    raise SesgenError(
-                        f"--out {where}: being rendered by pid {other['pid']} on {other['host']} "
-                        f"(frames {other['frames'][0]}..{other['frames'][1]}, since {since}"
-                        f"{'' if same_plan else ', another scene or other settings'}); "
-                        "wait for it to finish, or render into another folder")
+            self.refuse_conflicts(frames, scene_sha256, settings_key, where)
             self.path = self.state / f"lock-{self.writer}.json"
             atomic.write_json(self.path, {"host": socket.gethostname(), "pid": os.getpid(), "frames": [first, last],
                                           "started": time.time(), "scene_sha256": scene_sha256,
@@ -97,6 +102,18 @@ class FolderLocks:
         """Show that the holder is alive (other hosts judge staleness by the file's time)."""
         if self.path is not None:
             os.utime(self.path)
+
+    def drop_dead(self, host: str, pid: int) -> bool:
+        """Remove the lock of writer ``pid`` on ``host``, known to be dead by the caller (a
+        render farm whose task saw the render killed or lost its worker), at once instead of
+        after ``STALE_LOCK_S``. True if there was one."""
+        if not self.state.is_dir():
+            return False
+        path = self.state / f"lock-{_safe(host)}-{int(pid)}.json"
+        with self.mutex():
+            existed = path.is_file()
+            path.unlink(missing_ok=True)
+        return existed
 
     def drop(self) -> None:
         if self.path is not None:

@@ -433,6 +433,33 @@ class Timeline:
         return ego_table(self.left())
 
 
+@dataclass(frozen=True, kw_only=True)
+class ObjectMotion:
+    """How one object moves (its ``MOVE`` statements, as written) and the per-frame poses
+    they give (blender_sesgen.dynamics). ``kind``:
+
+    - 'keys': ``keys`` = one (frame, x, y, z, rx, ry, rz) per keyframe, frames increasing
+      (frame 0 is the object's own position);
+    - 'twist': ``twists`` = one (first, last, U, V, W, alpha, beta, gamma) per segment;
+    - 'trajectory': ``trajectory_path`` (absolute), ``trajectory_format``, ``trajectory_first``.
+
+    ``T_world_obj[k]`` is the object frame's pose in the SES world at frame k (one per frame
+    of the sequence).
+    """
+    id: int
+    kind: Literal["keys", "twist", "trajectory"]
+    keys: tuple[tuple[float, ...], ...] = ()
+    twists: tuple[tuple[float, ...], ...] = ()
+    trajectory_path: Optional[str] = None
+    trajectory_format: Optional[Literal["tum", "kitti"]] = None
+    trajectory_first: int = 0
+    T_world_obj: tuple[Mat4, ...] = ()
+
+    def poses(self) -> np.ndarray:
+        """(N, 4, 4) T_world_obj per frame."""
+        return np.array(self.T_world_obj, dtype=float)
+
+
 # --- the scene --------------------------------------------------------------------------
 
 @dataclass(frozen=True, kw_only=True)
@@ -452,6 +479,7 @@ class Scene:
     noise: Optional[Noise] = None
     look: Look = field(default_factory=Look)
     render: RenderSettings = field(default_factory=RenderSettings)
+    object_motions: tuple[ObjectMotion, ...] = ()  # one per moving object (MOVE), by id
     timing: Optional[Timing] = None       # None: 25 Hz, instantaneous global shutter
     lens: Optional[Lens] = None
     sensor: Optional[Sensor] = None
@@ -461,6 +489,17 @@ class Scene:
     @property
     def frames(self) -> int:
         return self.timeline.frames
+
+    def motion_of(self, obj_id: int) -> Optional[ObjectMotion]:
+        """The ObjectMotion of object ``obj_id``, or None if it does not move."""
+        for m in self.object_motions:
+            if m.id == obj_id:
+                return m
+        return None
+
+    @property
+    def moving_ids(self) -> tuple[int, ...]:
+        return tuple(m.id for m in self.object_motions)
 
     def material(self, name: str) -> Material:
         for m in self.materials:

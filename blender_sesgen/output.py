@@ -119,6 +119,10 @@ class OutputFolder:
             raise SesgenError(f"--out {out}: exists and is not a folder")
         if not out.exists():
             return
+        if self.state.is_dir():  # a render writing here now is the first thing to say
+            with self.locks.mutex():
+                self.locks.refuse_conflicts((min(plan.frames), max(plan.frames)), plan.scene_sha256,
+                                            self.settings_key(plan.settings), out)
         try:
             previous = self.previous()
         except ContractError as e:
@@ -161,6 +165,19 @@ class OutputFolder:
         if self.locks.path is None:
             self.locks.take((min(plan.frames), max(plan.frames)), plan.scene_sha256,
                             self.settings_key(plan.settings), self.root)
+
+    def drop_lock_of(self, host: str, pid: int) -> bool:
+        """Remove the lock of writer ``pid`` on ``host``, known to be dead (a farm task saw its
+        render process killed, or lost the worker that ran it), so that a retry on another
+        host need not wait ``STALE_LOCK_S``; its completion log stays and is taken into the
+        manifest by the next writer. True if there was such a lock."""
+        return self.locks.drop_dead(host, pid)
+
+    def consolidate(self) -> None:
+        """Take every completion log into manifest.json and remove the logs (what a render
+        does when it ends; a farm does it once all chunks of a folder have ended, since a
+        killed chunk leaves its log). Refused while a render writes into the folder."""
+        self.mark_incomplete(())
 
     def release(self) -> None:
         """Take the completion log into the manifest and drop the lock (end of a render,

@@ -24,7 +24,7 @@ from . import __version__, assets
 from .contract import semantics
 from .contract.camera import scaled_K, scaled_size
 from .contract.errors import ContractError
-from .contract.manifest import SEED_RULE, Manifest, display_relpath, exr_relpath
+from .contract.manifest import SEED_RULE, Manifest, display_relpath, exr_relpath, object_motion_fields
 from .contract.timing import FrameSelection, frame_timestamps
 from .errors import SesgenError
 from .lighting_data import AGX_LOOKS, VIEW_TRANSFORMS
@@ -282,8 +282,9 @@ def texture_label(tex: Optional[TextureRef]) -> Optional[str]:
 
 def object_table(scene: Scene) -> list[dict]:
     """The manifest's ``objects``: id, name, shape, texture, material, semantic ``class`` and
-    its Cityscapes ``label_id`` (contract.semantics) of every object of the script (a BLEND
-    file's objects are added by the job, which learns their ids when loading them)."""
+    its Cityscapes ``label_id`` (contract.semantics) of every object of the script, and
+    whether it moves (with its per-frame poses if it does). A BLEND file's objects are added
+    by the job, which learns their ids when loading them."""
     out = []
     for o in scene.objects:
         tex = o.texture
@@ -293,9 +294,11 @@ def object_table(scene: Scene) -> list[dict]:
             except KeyError:
                 tex = None
         label = semantics.BY_NAME[semantics.canonical(o.semantic_class)]
+        motion = scene.motion_of(o.id)
         row = {"id": int(o.id), "name": o.name, "shape": o.shape,
                "texture": texture_label(tex), "material": o.material,
-               "class": label.name, "label_id": label.id}
+               "class": label.name, "label_id": label.id,
+               **(object_motion_fields(motion.kind, motion.poses()) if motion else object_motion_fields())}
         if o.shape == "asset":   # what regenerates its mesh: blender_sesgen.assets.generate(...)
             row.update(kind=o.kind, seed=int(o.seed), size=[float(x) for x in o.size])
             if assets.KINDS[o.kind].strip:

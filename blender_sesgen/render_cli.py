@@ -49,17 +49,22 @@ def _fmt(seconds: float) -> str:
     return f"{s // 3600:d}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60:02d}:{s % 60:02d}"
 
 
-def run(args: argparse.Namespace) -> int:
-    from .api import frame_progress, have_bpy
-    from .job import RenderJob
-    t_start = time.perf_counter()
-    options = RenderOptions(
+def render_options(args: argparse.Namespace) -> RenderOptions:
+    """The RenderOptions of parsed render arguments (the farm builds every chunk's with it)."""
+    return RenderOptions(
         samples=args.samples, denoise=args.denoise, seed=args.seed, device=args.device,
         resolution_scale=args.resolution_scale, frames=args.frames,
         normal_pass=args.normal_pass, position_pass=args.position_pass, threads=args.threads,
         verbose=args.verbose, rate_hz=args.rate, exposure_s=args.exposure, readout_s=args.readout,
         motion_blur=args.motion_blur,
     )
+
+
+def run(args: argparse.Namespace) -> int:
+    from .api import frame_progress, have_bpy
+    from .job import RenderJob
+    t_start = time.perf_counter()
+    options = render_options(args)
     job = RenderJob.prepare(args.scene, args.out, options, resume=args.resume, force=args.force)  # SesgenError -> 2
     if not have_bpy():
         raise SesgenError("rendering needs Blender's Python module 'bpy': pip install 'blender-sesgen[render]' "

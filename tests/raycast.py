@@ -9,6 +9,10 @@ and every intersection is closed form in float64:
 - cylinder (axis along local Y): the quadratic on x,z plus the two caps;
 - rounded box (CUBOID bevel): the union of 3 slabs, 12 edge cylinders and 8 corner spheres.
 Depth is planar z in the camera frame (what Cycles' Depth pass holds); misses are inf.
+
+Moving objects: ``Moved(prim, M)`` is ``prim`` carried by the rigid motion M (4x4, world to
+world): a ray is taken into the primitive's original frame by M⁻¹, intersected there, and
+its parameter t is the same. ``hit_point`` gives the world point and id a pixel centre sees.
 """
 from __future__ import annotations
 
@@ -55,6 +59,17 @@ class CylinderP:
     height: float
 
 
+@dataclass
+class Moved:
+    """``prim`` moved by the rigid world-to-world motion ``M`` (4x4)."""
+    prim: object
+    M: np.ndarray
+
+    @property
+    def id(self):
+        return self.prim.id
+
+
 def _tri_hit(o, d, a, b, c):
     """Moller-Trumbore for many rays (o (3,), d (n,3)) against one triangle: t or inf."""
     e1, e2 = b - a, c - a
@@ -75,6 +90,10 @@ def hit_t(prim, o, d):
     """Ray parameter t (ray o + t d) of the first hit, inf if none. d: (n, 3)."""
     if isinstance(prim, RoundedBoxP):
         return _rounded_box_t(prim, o, d)
+    if isinstance(prim, Moved):
+        M = np.asarray(prim.M, dtype=float)
+        R, t = M[:3, :3], M[:3, 3]
+        return hit_t(prim.prim, R.T @ (np.asarray(o, dtype=float) - t), d @ R)  # rows: R^T d
     if isinstance(prim, QuadP):
         V = np.asarray(prim.vertices, dtype=float)
         return np.minimum(_tri_hit(o, d, V[0], V[1], V[2]), _tri_hit(o, d, V[0], V[2], V[3]))
@@ -200,3 +219,25 @@ def _rounded_box_t(prim: RoundedBoxP, o, d):
             for sz in (-1, 1):
                 best = np.minimum(best, hit_t(SphereP(0, inner * np.array([sx, sy, sz]), r), ol, dl))
     return best
+def hit_point(prims, K, T_world_cam, u, v):
+    """World points (n, 3) and ids (n,) seen through pixel coordinates (u, v); inf / 0 where
+    nothing is hit."""
+    depth, ids = cast(prims, K, T_world_cam, u, v)
+    K = np.asarray(K, dtype=float)
+    T = np.asarray(T_world_cam, dtype=float)
+    u = np.asarray(u, dtype=float).ravel()
+    v = np.asarray(v, dtype=float).ravel()
+    rays_cam = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=1)
+    with np.errstate(invalid="ignore"):
+        X = T[:3, 3] + (rays_cam * depth[:, None]) @ T[:3, :3].T
+    return X, ids
+
+
+def visible(prims, T_world_cam, X_world, eps=1e-6):
+    """bool (n,): nothing of ``prims`` lies between the camera centre and each world point."""
+    o = np.asarray(T_world_cam, dtype=float)[:3, 3]
+    d = np.asarray(X_world, dtype=float) - o   # the point at t = 1
+    t = np.full(len(d), np.inf)
+    for p in prims:
+        t = np.minimum(t, hit_t(p, o, d))
+    return ~(t < 1.0 - eps)

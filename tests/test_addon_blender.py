@@ -234,9 +234,50 @@ def test_build_creates_the_model_objects_rig_and_path(addon_zip, tmp_path, scrip
             T_ses[:3, 3] = C_BLENDER_SES.T @ T[:3, 3]
             np.testing.assert_allclose(T_ses, T_expected[k], atol=TOL, err_msg=f"{view} frame {k}")
 
-    (path,) = [o for o in objs if o["type"] == "CURVE"]
+    (path,) = [o for o in objs if o["type"] == "CURVE" and o["name"] == "SESGen camera path"]
+    object_paths = sorted(o["name"] for o in objs if o["type"] == "CURVE" and o is not path)
+    assert object_paths == sorted(f"SESGen path: {m.name}" for m in model.objects if m.id in model.moving_ids), \
+        "one drawn path per moving object, none for static ones"
     assert path["hide_render"] and path["pass_index"] == 0
     np.testing.assert_allclose(to_ses(path["curve_points"]), model.timeline.left()[:, :3, 3], atol=TOL)
+
+
+# --- Moving objects and camera timing from the panel --------------------------------------------
+
+MOVING_SCRIPT = """CAMERA resolution 48 32 focal 30 baseline 0.1
+START position 0 1 4
+QUAD id 1 texture 3 vertices -3 0 -2  3 0 -2  3 3 -2  -3 3 -2
+CUBOID id 7 name car texture 4 position -1 0.5 0 dim 0.6 0.6 0.6
+MOVE id 7 twist 0.2 0 0 0 10 0
+FRAMES 4
+"""
+
+
+def test_build_draws_moving_objects_paths_and_render_takes_the_timing_override(addon_zip, tmp_path):
+    script = tmp_path / "moving.ses"
+    script.write_text(MOVING_SCRIPT)
+    out = tmp_path / "out"
+    res = run_child(f"""
+        S().script_path = {str(script)!r}
+        RESULT["build"] = call(bpy.ops.sesgen.build)
+        paths = {{o.name: [list(p.co)[:3] for p in o.data.splines[0].points]
+                 for o in bpy.data.objects if o.name.startswith("SESGen path: ")}}
+        RESULT["paths"] = paths
+        s = S()
+        s.output_dir = {str(out)!r}
+        s.override_render, s.samples = True, 1
+        s.override_timing, s.rate_hz, s.exposure_ms = True, 10.0, 20.0
+        RESULT["render"] = call(bpy.ops.sesgen.render)
+    """, addon_zip, tmp_path)
+    assert res["build"]["error"] is None and res["render"]["error"] is None
+    assert list(res["paths"]) == ["SESGen path: car"]
+    from blender_sesgen.ses import parse_file
+    expected = parse_file(script).motion_of(7).poses()[:, :3, 3]          # SES world
+    np.testing.assert_allclose(to_ses(res["paths"]["SESGen path: car"]), expected, atol=1e-5)
+    m = json.loads((out / "manifest.json").read_text())
+    assert m["fps"] == 10.0 and np.diff(m["timestamps"]) == pytest.approx([0.1] * 3)
+    assert m["timing"]["exposure_s"] == pytest.approx(0.02)
+    assert [o["id"] for o in m["objects"] if o.get("moving")] == [7]
 
 
 # --- Verify: the output folder against its manifest ---------------------------------------------

@@ -119,3 +119,35 @@ def test_preview_refuses_frames_not_rendered(tmp_path):
     from blender_sesgen.errors import SesgenError
     with pytest.raises(SesgenError, match="no render here"):
         preview.preview_rgba(tmp_path, 0, "left", "disparity")
+
+
+def test_zip_holds_only_the_package_source_whatever_else_lies_in_the_folder(tmp_path):
+    """An allowlist: plant secrets, VCS files, backups, copies and symlinks in a copy of the
+    package; the zip must hold exactly the tracked source files."""
+    src = tmp_path / "blender_sesgen"
+    shutil.copytree(PKG, src, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+    secret = tmp_path / "outside_secret.py"
+    secret.write_text("TOKEN = 'abc'\n")
+    (tmp_path / "outside_dir").mkdir()
+    (tmp_path / "outside_dir" / "stolen.py").write_text("x = 1\n")
+    planted = {
+        ".env": "API_KEY=xyz\n", ".git/config": "[remote]\n", ".git/HEAD": "ref\n", "addon/ops.py~": "old\n",
+        "addon/ops.py.orig": "old\n", "addon/ops.py.bak": "old\n", "addon/#ops.py#": "old\n",
+        "addon/.ops.py.swp": "old\n", "addon/ops copy.py": "old\n", "addon/ops-old.py": "old\n",
+        ".hidden/mod.py": "x\n", "secrets/id_rsa": "KEY\n", "notes.txt": "n\n", "build.log": "l\n",
+        "backup.py.save": "x\n", "addon/state.pyc": "\0", "test_local.py": "def test(): pass\n",
+        "blender/textures/.DS_Store": "x", "dist/blender_sesgen-0.1.0.zip": "PK",
+    }
+    for rel, text in planted.items():
+        (src / rel).parent.mkdir(parents=True, exist_ok=True)
+        (src / rel).write_text(text)
+    (src / "linked.py").symlink_to(secret)                 # a symlinked module: its target stays out
+    (src / "contract" / "linked_dir").symlink_to(tmp_path / "outside_dir", target_is_directory=True)
+    (src / "manifest_link.toml").symlink_to(src / "blender_manifest.toml")
+    names = set(zipfile.ZipFile(package.build_zip(tmp_path / "d", src)).namelist())
+    tracked = set(subprocess.run(["git", "ls-files", "blender_sesgen"], cwd=REPO, capture_output=True,
+                                 text=True, check=True).stdout.split())
+    expected = {t.removeprefix("blender_sesgen/") for t in tracked if (REPO / t).is_file()}
+    assert names == expected, (sorted(names - expected), sorted(expected - names))
+    with zipfile.ZipFile(package.build_zip(tmp_path / "d", src)) as z:
+        assert not any(b"API_KEY" in z.read(n) or b"TOKEN" in z.read(n) for n in z.namelist())

@@ -20,8 +20,10 @@ def test_examples_parse(tmp_path):
     assert complete.frames == 3 and len(complete.objects) == 3
     (tmp_path / "models").mkdir()
     (tmp_path / "models" / "chair.obj").write_text("v 0 0 0\n")
-    extensions = parse_string(next(b for b in BLOCKS if "extensions in use" in b), base_dir=str(tmp_path))
+    extensions = parse_string(next(b for b in BLOCKS if "// extensions in use" in b), base_dir=str(tmp_path))
     assert extensions.world.kind == "sky" and extensions.fog and extensions.noise and extensions.render.denoise
+    moving = parse_string(next(b for b in BLOCKS if "MOVE" in b))
+    assert moving.frames == 20 and moving.moving_ids == (2, 3)
 
 
 def test_every_keyword_and_tag_is_documented():
@@ -42,30 +44,3 @@ def test_documented_ego_signs():
     T = s.timeline.left()
     assert T[1][1, 2] > 0                                # optical axis gains world +Y: up
     assert np.isclose(T[3][1, 2], 0, atol=1e-12) and T[3][0, 2] > 0  # level again, turned to +X: right
-
-
-def test_asset_kinds_table_is_the_registry():
-    from blender_sesgen import assets
-    assert assets.kinds_markdown() in DOC
-
-
-def test_asset_example_parses():
-    block = next(b for b in BLOCKS if "ASSET road" in b)
-    scene = parse_string(block)
-    kinds = [o.kind for o in scene.objects]
-    assert kinds == ["road", "kerb", "sidewalk", "building", "car", "tree", "streetlight"]
-    assert scene.objects[0].bend == (0.0, 6.0) and scene.objects[2].offset == 5.4
-
-
-def test_photoreal_example_parses_and_library_and_classes_are_documented():
-    from blender_sesgen.contract.semantics import LABELS
-    from blender_sesgen.material_library import LIBRARY
-    photoreal = [b for b in BLOCKS if "library materials" in b]
-    assert len(photoreal) == 1
-    s = parse_string(photoreal[0])
-    assert s.world.kind == "hdri" and s.material("old_road").library.wear == 0.7
-    assert [o.semantic_class for o in s.objects] == ["road", "road", "building", "car", "pole"]
-    for name in LIBRARY:
-        assert f"| `{name}` |" in DOC, name
-    for label in LABELS:
-        assert f"{label.name} {label.id}" in DOC, label.name

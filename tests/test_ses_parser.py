@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import builtins
+import os
 import json
 import math
 from pathlib import Path
@@ -185,11 +186,14 @@ def test_only_named_files_are_read(tmp_path, monkeypatch):
     script.write_text("SPHERE id 1 position 0 0 0 dim 1 texture t.png\nMESH id 2 file m.obj\n"
                       "TRAJECTORY file p.txt format tum\n")
     opened = []
-    real_open = builtins.open
+    real_open, real_os_open = builtins.open, os.open
     monkeypatch.setattr(builtins, "open", lambda f, *a, **k: opened.append(str(f)) or real_open(f, *a, **k))
+    monkeypatch.setattr(os, "open", lambda f, *a, **k: opened.append(str(f)) or real_os_open(f, *a, **k))
     parse_file(script)
-    # image files are decoded (a corrupt image is a parse error); meshes only checked to exist
-    assert opened == [str(script), str(tmp_path / "t.png"), str(tmp_path / "p.txt")]
+    # the script, the image (decoded: a corrupt image is a parse error), the model (for the
+    # files it refers to: ses/mesh_files.py) and the trajectory
+    assert sorted(opened) == sorted([str(script), str(tmp_path / "t.png"), str(tmp_path / "m.obj"),
+                                     str(tmp_path / "p.txt")])
 
 
 def test_python_in_a_script_is_never_run(tmp_path):

@@ -29,6 +29,7 @@ from .products.disparity import (disparity_from_depth, read_disparity, sequence_
 from .products.exports import EXPORTERS, export, register_exporter
 from .products.flow import (Flow, read_flo, read_kitti_flow_png, sequence_flow as optical_flow,
                             sequence_stereo_occlusion as stereo_occlusion, write_flo, write_kitti_flow_png)
+from .products.scene_flow import SceneFlow, motion_mask, sequence_scene_flow as scene_flow
 from .stereo.pipeline import METHODS as STEREO_METHODS
 from .stereo.pipeline import VoResult, run_stereo_vo
 
@@ -39,6 +40,7 @@ __all__ = [
     # products
     "disparity", "disparity_from_depth", "read_disparity", "write_disparity",
     "optical_flow", "Flow", "stereo_occlusion", "dense_flow", "DenseFlow", "disparity_change",
+    "scene_flow", "SceneFlow", "motion_mask",
     "read_flo", "write_flo", "read_kitti_flow_png", "write_kitti_flow_png",
     "export", "EXPORTERS", "register_exporter",
     # VO

@@ -23,6 +23,7 @@ TARGETS = (
     ("kitti-odometry", "KITTI odometry", "The development kit's tree: dataset/sequences/NN + dataset/poses/NN.txt"),
     ("kitti-folder", "KITTI folder", "One KITTI sequence folder with poses.txt"),
     ("kitti-stereo", "KITTI stereo 2015", "image_2/3, disp_occ_0/disp_noc_0, flow_occ/flow_noc"),
+    ("kitti-sceneflow", "KITTI scene flow 2015", "image_2/3 _10/_11, disp_occ_0/1, flow_occ, obj_map, instance and motion masks"),
     ("tum", "TUM RGB-D", "rgb/, depth/ (5000 per metre), groundtruth.txt"),
     ("euroc", "EuRoC (ASL)", "mav0/cam0, cam1, state_groundtruth_estimate0"),
     ("png", "PNG", "Noisy RGB, ids, disparity per view"),

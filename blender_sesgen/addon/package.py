@@ -2,13 +2,22 @@
 
 Pure standard library (no bpy). The zip's root is the package's contents, with
 ``blender_manifest.toml`` at the root, so Blender's "Install from Disk" installs it as
-``bl_ext.<repository>.blender_sesgen``. Tests, caches and compiled files are left out; the
-archive is deterministic (sorted names, fixed timestamps).
+``bl_ext.<repository>.blender_sesgen``. The archive is deterministic (sorted names, fixed
+timestamps and permissions).
+
+What goes in is an allowlist, never "everything but": the package's own source files, i.e.
+Python modules with importable names (``name.py``, in folders with importable names) and
+``blender_manifest.toml`` at the root (add a data file to ``EXTRA_FILES`` when the extension
+needs one). So a ``.env``, ``.git/config``, an editor's backup (``ops.py~``, ``ops.py.orig``,
+``#ops.py#``), a copy (``ops copy.py``), hidden files and folders, caches, tests and any
+symbolic link (whatever it points to) stay out, even when someone leaves them in the folder.
 """
 from __future__ import annotations
 
 import argparse
+import os
 import re
+import stat
 import sys
 import tomllib
 import zipfile
@@ -16,9 +25,10 @@ from pathlib import Path
 
 PACKAGE_DIR = Path(__file__).resolve().parents[1]
 MANIFEST = "blender_manifest.toml"
-EXCLUDED_DIRS = {"__pycache__", "tests", "test", ".pytest_cache", ".mypy_cache", ".ruff_cache"}
-EXCLUDED_SUFFIXES = (".pyc", ".pyo", ".orig", ".rej", ".swp", "~")
-EXCLUDED_NAMES = {".DS_Store", "Thumbs.db"}
+EXTRA_FILES = {MANIFEST}                      # non-Python files the extension needs, relative paths
+EXCLUDED_DIRS = {"__pycache__", "tests", "test"}
+_MODULE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\.py")
+_FOLDER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _FIXED_TIME = (2024, 1, 1, 0, 0, 0)
 
 
@@ -50,18 +60,21 @@ def _package_version(package_dir: Path):
 
 
 def included_files(package_dir: Path = PACKAGE_DIR) -> list[Path]:
-    """Files that go into the zip, relative to the package directory, sorted."""
+    """Files that go into the zip (the allowlist above), relative to the package directory, sorted."""
+    package_dir = Path(package_dir)
     out = []
-    for p in sorted(package_dir.rglob("*")):
-        rel = p.relative_to(package_dir)
-        if not p.is_file() or any(part in EXCLUDED_DIRS or part.endswith(".egg-info") for part in rel.parts[:-1]):
-            continue
-        if p.name in EXCLUDED_NAMES or p.name.endswith(EXCLUDED_SUFFIXES):
-            continue
-        if rel.parts[0] in EXCLUDED_DIRS or (len(rel.parts) == 1 and p.name.startswith("test_")):
-            continue
-        out.append(rel)
-    return out
+    for folder, dirs, files in os.walk(package_dir, followlinks=False):
+        here = Path(folder)
+        rel_dir = here.relative_to(package_dir)
+        dirs[:] = [d for d in dirs if _FOLDER.fullmatch(d) and d not in EXCLUDED_DIRS
+                   and not (here / d).is_symlink()]
+        for name in files:
+            rel = rel_dir / name
+            path = here / name
+            wanted = rel.as_posix() in EXTRA_FILES or (_MODULE.fullmatch(name) and not name.startswith("test_"))
+            if wanted and not path.is_symlink() and stat.S_ISREG(path.lstat().st_mode):
+                out.append(rel)
+    return sorted(out)
 
 
 def build_zip(out_dir, package_dir: Path = PACKAGE_DIR) -> Path:

@@ -23,6 +23,18 @@ class SESGEN_PG_settings(bpy.types.PropertyGroup):
     denoise: BoolProperty(name="Denoise", default=False,
                           description="OpenImageDenoise on the beauty pass (ground truth is never denoised)")
     seed: IntProperty(name="Seed", min=0, default=0, description="Base seed (per-frame/view seeds derive from it)")
+    # camera timing (the script's TIMING statement; docs/ses-language.md)
+    override_timing: BoolProperty(name="Override Script Timing", default=False,
+                                  description="Use this frame rate, exposure, readout and motion blur instead of the "
+                                              "script's TIMING line")
+    rate_hz: FloatProperty(name="Frame Rate", min=0.001, soft_max=240.0, default=25.0, unit="NONE",
+                           description="Frames per second (frame k is stamped at the middle of its exposure)")
+    exposure_ms: FloatProperty(name="Exposure (ms)", min=0.0, soft_max=100.0, default=0.0,
+                               description="Exposure time; with motion blur on, the image is blurred over it")
+    readout_ms: FloatProperty(name="Readout (ms)", min=0.0, soft_max=100.0, default=0.0,
+                              description="Rolling-shutter readout, top row to bottom row (0: global shutter)")
+    motion_blur: BoolProperty(name="Motion Blur", default=False,
+                              description="Blur over the exposure (ground truth stays sharp, at mid-exposure)")
     resolution_scale: FloatProperty(name="Resolution Scale", min=0.01, max=4.0, soft_max=2.0, default=1.0,
                                     description="Scale the image size and K (e.g. 0.5 for a quick look)")
     device: EnumProperty(name="Device", items=(("cpu", "CPU", "Render on the CPU"),
@@ -78,7 +90,7 @@ def render_options(values: dict):
     """RenderOptions from a settings snapshot (None = the script's value)."""
     from ..contract.timing import FrameSelection
     from ..plan import RenderOptions
-    o = values["override_render"]
+    o, t = values["override_render"], values.get("override_timing", False)
     return RenderOptions(
         samples=values["samples"] if o else None,
         denoise=values["denoise"] if o else None,
@@ -86,4 +98,8 @@ def render_options(values: dict):
         device=values["device"],
         resolution_scale=float(values["resolution_scale"]),
         frames=FrameSelection.of(values["frame_first"], values["frame_last"] + 1) if values["use_frame_range"] else None,
+        rate_hz=float(values["rate_hz"]) if t else None,
+        exposure_s=values["exposure_ms"] / 1000.0 if t else None,
+        readout_s=values["readout_ms"] / 1000.0 if t else None,
+        motion_blur=bool(values["motion_blur"]) if t else None,
     )

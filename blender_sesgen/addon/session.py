@@ -18,7 +18,7 @@ from typing import Callable, Optional
 import bpy
 import numpy as np
 
-from ..contract.frames import camera_matrix_world
+from ..contract.frames import R_BLENDER_SES, camera_matrix_world
 from ..errors import SesgenError
 from ..job import RenderJob
 from ..plan import RenderPlan
@@ -27,6 +27,7 @@ from . import props
 SCENE_NAME = "SESGen"          # blender.datablocks.SCENE_NAME (not imported: keeps bpy modules lazy)
 PATH_TAG = "sesgen_camera_path"
 PATH_NAME = "SESGen camera path"
+OBJECT_PATH_PREFIX = "SESGen path: "
 
 
 # --- status shown in the panel ----------------------------------------------------------
@@ -101,14 +102,26 @@ def _remove_camera_path() -> None:
 def add_camera_path(built, scene) -> object:
     """A poly curve through the left camera's positions (not rendered)."""
     P = np.array([camera_matrix_world(T)[:3, 3] for T in scene.timeline.left()], dtype=float)
-    cu = bpy.data.curves.new(PATH_NAME, "CURVE")
+    return _path_curve(built, PATH_NAME, P)
+
+
+def add_object_paths(built, scene) -> list:
+    """One poly curve per moving object through its origin's positions, frame by frame."""
+    names = {o.id: o.name for o in scene.objects}
+    return [_path_curve(built, f"{OBJECT_PATH_PREFIX}{names.get(m.id, m.id)}",
+                        m.poses()[:, :3, 3] @ R_BLENDER_SES.T) for m in scene.object_motions]
+
+
+def _path_curve(built, name: str, P: np.ndarray) -> object:
+    """A poly curve (not rendered) through the Blender-world points ``P`` (N, 3)."""
+    cu = bpy.data.curves.new(name, "CURVE")
     cu[PATH_TAG] = 1
     cu.dimensions = "3D"
     spline = cu.splines.new("POLY")
     spline.points.add(len(P) - 1)
     co = np.concatenate([P, np.ones((len(P), 1))], axis=1).astype(np.float32)
     spline.points.foreach_set("co", co.ravel())
-    ob = bpy.data.objects.new(PATH_NAME, cu)
+    ob = bpy.data.objects.new(name, cu)
     ob[PATH_TAG] = 1
     ob["sesgen"] = 1          # the builder's tag: its next clear removes this object too
     ob.hide_render = True
@@ -142,6 +155,7 @@ def build(context, values: dict, make_session: Callable, scene):
     built = session.built
     _tag_camera_actions(built)
     add_camera_path(built, scene)
+    add_object_paths(built, scene)
     values = dict(values)
     props.restore(built.scene.sesgen, values)
     for w in showing:

@@ -19,6 +19,7 @@ from mathutils import Matrix
 import bpy
 
 from ..contract.frames import blender_to_ses_world, object_pose, ses_to_blender_world
+from ..contract.manifest import object_motion_fields
 from ..contract import semantics
 from ..errors import SesgenError
 from ..model import BlendImport
@@ -107,7 +108,7 @@ def load_blend(imp: BlendImport, bscene, collection, used_ids: set, tag) -> tupl
         o.pass_index = obj_id
         o["sesgen_id"] = obj_id
         rows.append({"id": obj_id, "name": o.name, "shape": "blend", "texture": None, "material": None,
-                     "class": label.name, "label_id": label.id, "file": imp.source})
+                     "class": label.name, "label_id": label.id, "file": imp.source, **object_motion_fields()})
     used_ids |= used
     if not rows:
         raise SesgenError(f"BLEND {imp.source}: holds no mesh object")

@@ -2,8 +2,9 @@
 
 The one place that puts a whole :class:`~blender_sesgen.model.Scene` into Blender: shapes
 (``shapes.build_shape``) with their materials (``materials``, ``library``), the objects of
-BLEND files (``blend_import``), lights and world (``lighting``), the keyed cameras (``rig``), all tagged (``datablocks``) in the dedicated
-scene ``SCENE_NAME``. Object ``pass_index`` = script ``id``.
+BLEND files (``blend_import``), lights and world (``lighting``), the keyed cameras (``rig``),
+the moving objects' keyed empties (``object_motion``), all tagged (``datablocks``) in the
+dedicated scene ``SCENE_NAME``. Object ``pass_index`` = script ``id``.
 """
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import bpy
 
 from ..model import Scene
 from . import assets as _assets  # noqa: F401  (registers the ASSET shape builder)
-from . import blend_import, library, lighting, rig
+from . import blend_import, library, lighting, object_motion, rig
 from .datablocks import SCENE_NAME, TAG, clear_previous, tag
 from .materials import MaterialFactory
 from .runtime import activate
@@ -29,6 +30,7 @@ class BuiltScene:
     cameras: dict = field(default_factory=dict)   # view -> camera object
     segments: dict = field(default_factory=dict)  # tessellated shape id -> segment count
     imported: list = field(default_factory=list)  # manifest rows of BLEND objects
+    movers: dict = field(default_factory=dict)    # moving object id -> its keyed empty (object_motion)
 
 
 def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -> BuiltScene:
@@ -55,6 +57,9 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -
             b["sesgen_id"] = int(o.id)
             library.object_properties(b, seed, o.id)   # the library materials' per-object variation
         built.objects[o.id] = objs
+        motion = scene.motion_of(o.id)
+        if motion is not None:  # a moving object hangs from an empty keyed with its motion
+            built.movers[o.id] = object_motion.attach_motion(o, motion, objs, coll, tag)
 
     used_ids = {o.id for o in scene.objects}
     file_lamps = False

@@ -54,21 +54,29 @@ def key_poses(obj, T_world_cam: np.ndarray) -> None:
     """Key location + rotation at every frame (constant interpolation): at frame k the
     object's matrix_world is camera_matrix_world(T_world_cam[k])."""
     T_world_cam = np.asarray(T_world_cam, dtype=float)
-    N = len(T_world_cam)
+    key_matrices(obj, [blender_frame(k) for k in range(len(T_world_cam))],
+                 [camera_matrix_world(T) for T in T_world_cam], "CONSTANT")
+
+
+def key_matrices(obj, times, matrices, interpolation: str = "CONSTANT") -> None:
+    """Key ``obj``'s location + rotation_quaternion at Blender frames ``times`` (increasing;
+    fractional for sub-frame keys) so that its matrix_basis there is ``matrices[i]`` (rigid,
+    4x4); ``interpolation`` of every key: 'CONSTANT' or 'LINEAR'."""
+    N = len(times)
     locs, quats = [], []
-    for T in T_world_cam:
-        M = Matrix(camera_matrix_world(T).tolist())
-        loc, rot, _ = M.decompose()
+    for M4 in matrices:
+        loc, rot, _ = Matrix(np.asarray(M4, dtype=float).tolist()).decompose()
         locs.append(tuple(loc))
         quats.append(tuple(rot))
-    if quats:  # keep quaternions in one hemisphere (no effect with constant interpolation)
+    if quats:  # keep quaternions in one hemisphere (so LINEAR keys take the short way)
         for i in range(1, N):
             if np.dot(quats[i], quats[i - 1]) < 0:
                 quats[i] = tuple(-q for q in quats[i])
+    obj.rotation_mode = "QUATERNION"
     obj.location = locs[0]
     obj.rotation_quaternion = quats[0]
-    obj.keyframe_insert("location", frame=blender_frame(0))
-    obj.keyframe_insert("rotation_quaternion", frame=blender_frame(0))
+    obj.keyframe_insert("location", frame=float(times[0]))
+    obj.keyframe_insert("rotation_quaternion", frame=float(times[0]))
     values = {("location", i): [l[i] for l in locs] for i in range(3)}
     values.update({("rotation_quaternion", i): [q[i] for q in quats] for i in range(4)})
     for fc in compat.object_fcurves(obj):
@@ -77,11 +85,11 @@ def key_poses(obj, T_world_cam: np.ndarray) -> None:
         if len(kp) < N:
             kp.add(N - len(kp))
         co = np.empty(2 * N, dtype=np.float32)
-        co[0::2] = [blender_frame(k) for k in range(N)]
+        co[0::2] = times
         co[1::2] = vals
         kp.foreach_set("co", co)
         for p in kp:
-            p.interpolation = "CONSTANT"
+            p.interpolation = interpolation
         fc.update()
     obj.location = locs[0]
     obj.rotation_quaternion = quats[0]

@@ -14,7 +14,7 @@ from ..contract.atomic import temp_path
 from ..contract.depth import BACKGROUND_THRESHOLD
 from ..contract.manifest import render_seed
 from ..exr import read_exr, write_exr
-from . import compat, render, rig, sensor
+from . import compat, object_motion, render, rig, sensor
 
 
 class SensorSession:
@@ -23,6 +23,7 @@ class SensorSession:
     def __init__(self, plan, built):
         self.plan = plan
         self.sensor = plan.sensor
+        self.built = built
         self.scene = built.scene
         self.cameras = built.cameras
         s = self.sensor
@@ -38,6 +39,8 @@ class SensorSession:
         times = np.concatenate([[float(bframe)]] + [sensor.motion_instants(bframe, s) for s in shutters if s > 0])
         for view, cam in self.cameras.items():
             sensor.key_camera_instants(cam, times, self.sensor.camera_poses(view, times + shift_frames, rig.FRAME0))
+        # moving objects at the same instants, so the shutter sees them move along their own motion
+        object_motion.key_instants(self.built, self.plan.scene, times, shift_frames, sensor.MOTION_STEPS)
 
     def render_frame(self, k: int, exposure_s: float, paths: dict[str, Path],
                      stop: Callable[[], bool] = lambda: False) -> dict[str, dict]:

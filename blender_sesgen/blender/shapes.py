@@ -26,7 +26,9 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
+from .. import dynamics
 from ..contract.frames import R_BLENDER_SES, object_pose, ses_to_blender_world
+from ..contract.se3 import invert
 from ..errors import SesgenError
 from ..model import Cuboid, Cylinder, Mesh, Quad, Scene, SceneObject, Sphere
 from ..rounded_box import rounded_box
@@ -66,12 +68,23 @@ def segments_for(radius: float, min_distance: float, focal_px: float,
     return int(min(max(n, 8), MAX_SEGMENTS))
 
 
-def _min_camera_distance(scene: Scene, centre, bounding_radius: float) -> float:
+def _camera_centre_distances(scene: Scene, obj: SceneObject, centre) -> np.ndarray:
+    """Distances from every camera of every frame to the object's centre at that frame
+    (a moving object's centre moves with its object frame)."""
     cams = [scene.timeline.left()[:, :3, 3]]
     if scene.rig.stereo:
         cams.append(scene.timeline.right(scene.rig.baseline)[:, :3, 3])
-    P = np.concatenate(cams)
-    d = float(np.min(np.linalg.norm(P - np.asarray(centre, dtype=float), axis=1))) - bounding_radius
+    motion = scene.motion_of(obj.id)
+    if motion is None:
+        C = np.asarray(centre, dtype=float)[None]
+    else:  # the centre in the object frame, carried by T_world_obj(k)
+        c_obj = invert(dynamics.rest_pose(obj)) @ np.append(np.asarray(centre, dtype=float), 1.0)
+        C = (motion.poses() @ c_obj)[:, :3]
+    return np.concatenate([np.linalg.norm(P - C, axis=1) for P in cams])
+
+
+def _min_camera_distance(scene: Scene, obj: SceneObject, centre, bounding_radius: float) -> float:
+    d = float(np.min(_camera_centre_distances(scene, obj, centre))) - bounding_radius
     return max(d, scene.rig.near)
 
 
@@ -149,13 +162,10 @@ def build_sphere(s: Sphere, collection, material):
     return obj
 
 
-def _cameras_inside(scene: Scene, centre, radius: float) -> tuple[bool, float]:
+def _cameras_inside(scene: Scene, obj: SceneObject, centre, radius: float) -> tuple[bool, float]:
     """Whether any camera of the sequence is inside the sphere, and the closest any camera
-    gets to its surface (from either side)."""
-    cams = [scene.timeline.left()[:, :3, 3]]
-    if scene.rig.stereo:
-        cams.append(scene.timeline.right(scene.rig.baseline)[:, :3, 3])
-    dist = np.linalg.norm(np.concatenate(cams) - np.asarray(centre, dtype=float), axis=1)
+    gets to its surface (from either side; a moving sphere's centre moves)."""
+    dist = _camera_centre_distances(scene, obj, centre)
     return bool(np.any(dist < radius)), max(float(np.min(np.abs(dist - radius))), scene.rig.near)
 
 
@@ -291,7 +301,7 @@ def _(o: Cuboid, ctx: ShapeContext) -> list:
 
 @build_shape.register
 def _(o: Sphere, ctx: ShapeContext) -> list:
-    inside, d_surface = _cameras_inside(ctx.scene, o.position, o.radius)
+    inside, d_surface = _cameras_inside(ctx.scene, o, o.position, o.radius)
     if not inside:
         return [build_sphere(o, ctx.collection, ctx.materials.get(o))]
     n = min(segments_for(o.radius, d_surface, ctx.focal_px), MAX_SPHERE_SEGMENTS)
@@ -302,7 +312,7 @@ def _(o: Sphere, ctx: ShapeContext) -> list:
 @build_shape.register
 def _(o: Cylinder, ctx: ShapeContext) -> list:
     bound = math.hypot(o.radius, o.height / 2.0)
-    n = segments_for(o.radius, _min_camera_distance(ctx.scene, o.position, bound), ctx.focal_px)
+    n = segments_for(o.radius, _min_camera_distance(ctx.scene, o, o.position, bound), ctx.focal_px)
     ctx.segments[o.id] = n
     return _with_material(build_cylinder(o, ctx.collection, n), o, ctx)
 

@@ -13,7 +13,9 @@ numpy + the standard library only, so it imports inside Blender's own Python and
 - ``colour``: sRGB
 - ``timing``: timestamps and the ``--frames`` syntax
 - ``manifest``: the render folder layout and the manifest's writer and reader
+  (``manifest_schema``: the JSON types of its keys, checked first)
 - ``trajectory_files``: TUM, KITTI and EuRoC text, the EGO table
 - ``atomic``: atomic (and durable) writes
+- ``inputs``: reading a user's input file (regular files only, bounded size)
 - ``errors``: :class:`ContractError`
 """

@@ -11,11 +11,26 @@ top-left pixel; square pixels (fx = fy). For a Blender camera with sensor_fit 'H
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
 SENSOR_WIDTH_MM = 36.0
 MIN_LENS_MM = 1.0   # Blender's shortest lens
+FOCAL_MIN_PX = 1e-3   # no camera has a focal length below a thousandth of a pixel: a reader refuses it
+
+
+def K_problem(K: np.ndarray, limit: float = 1e9) -> Optional[str]:
+    """Why ``K`` is not a usable pinhole camera matrix, or None: it must be finite, have
+    fx, fy in [FOCAL_MIN_PX, limit], |skew|, |cx|, |cy| <= limit and last row (0, 0, 1)."""
+    K = np.asarray(K, dtype=float)
+    if K.shape != (3, 3) or not np.all(np.isfinite(K)):
+        return "K must be a finite 3x3 matrix"
+    if not (FOCAL_MIN_PX <= K[0, 0] <= limit and FOCAL_MIN_PX <= K[1, 1] <= limit):
+        return f"focal lengths fx {K[0, 0]:g}, fy {K[1, 1]:g} must lie in {FOCAL_MIN_PX:g}..{limit:g} px"
+    if np.any(np.abs(K[0, 1:]) > limit) or abs(K[1, 2]) > limit or K[1, 0] != 0 or np.any(K[2] != (0.0, 0.0, 1.0)):
+        return "K must be [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with |s|, |cx|, |cy| within the limit"
+    return None
 
 
 def K_matrix(focal_px: float, cx: float, cy: float) -> np.ndarray:

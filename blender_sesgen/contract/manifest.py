@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Sequence
@@ -31,8 +32,11 @@ from typing import Sequence
 import numpy as np
 
 from .atomic import write_json
+from .camera import K_problem
 from .depth import DEPTH_BACKGROUND
 from .errors import ContractError
+from .inputs import read_text
+from .manifest_schema import check_types
 
 FORMAT = "sesgen-render/1"
 MANIFEST = "manifest.json"
@@ -44,14 +48,29 @@ STATE_DIR = ".sesgen"
 DONE_LOG_GLOB = "done-*.jsonl"
 VIEWS = ("left", "right")
 POSES_CONVENTION = "T_world_cam: OpenCV camera (x right, y down, z forward) in the SES world (Y up)"
+OBJECT_POSES_CONVENTION = ("T_world_obj: the object frame (origin at the object's position, axes turned by its "
+                           "rotation; a QUAD's is its vertex centroid with the world axes) in the SES world (Y up); "
+                           "a point fixed on the object is at T_world_obj[k] @ X_obj at frame k")
+OBJECT_MOTIONS = ("keys", "twist", "trajectory")
 SEED_RULE = "cycles seed = (seed * 1000003 + 2 * frame + view_index) mod (2^31 - 1)"
 LIMIT = 1e9  # no coordinate, focal length or size of ours is larger: beyond it a value is corrupt
+TIME_LIMIT_S = 1e12  # seconds: a Unix time (1.7e9) fits, 1e308 does not
+POSE_TOLERANCE = 1e-6  # max |R^T R - I| of a pose in a manifest (written from float64 products)
 
 
 def render_seed(seed: int, frame: int, view_index: int) -> int:
     """Cycles seed of one (frame, view) (``SEED_RULE``): deterministic, different for every
     frame and view (a fixed noise pattern shared by both views would look like texture)."""
     return (int(seed) * 1_000_003 + 2 * int(frame) + int(view_index)) % (2**31 - 1)
+
+
+def object_motion_fields(motion: str | None = None, T_world_obj=None) -> dict:
+    """The keys an ``objects`` entry carries about motion (their one writer): ``moving``
+    for every object and, for a moving one, ``motion`` (keys | twist | trajectory) and
+    ``T_world_obj`` (one 4x4 per frame; :data:`OBJECT_POSES_CONVENTION`)."""
+    if motion is None:
+        return {"moving": False}
+    return {"moving": True, "motion": motion, "T_world_obj": np.asarray(T_world_obj, dtype=float).tolist()}
 
 
 def exr_relpath(view: str, frame: int) -> str:
@@ -73,7 +92,8 @@ def trajectory_relpaths(views: Sequence[str]) -> dict:
 # the keys every manifest holds, in the order they are written
 _KEYS = ("format", "generator", "scene", "scene_source", "scene_sha256", "resolution", "K", "baseline", "near",
          "far", "frames", "fps", "timestamps", "views", "depth", "segmentation", "channels", "objects",
-         "poses_convention", "poses", "trajectories", "files", "frames_complete", "render")
+         "object_poses_convention", "poses_convention", "poses", "trajectories", "files", "frames_complete",
+         "render")
 
 
 @dataclass
@@ -82,6 +102,8 @@ class Manifest:
 
     Arrays are numpy (``K`` (3, 3), ``poses[view]`` (N, 4, 4), ``timestamps_s`` (N,)); keys this
     class does not model (``noise``, ``fog`` and those of later versions) stay in ``extra``.
+    ``object_poses`` {id: (N, 4, 4)} holds the moving objects' ``T_world_obj`` (validated from
+    ``objects``; empty for a static scene or a render made before moving objects existed).
     """
     resolution: tuple[int, int]
     K: np.ndarray
@@ -103,10 +125,13 @@ class Manifest:
     scene_sha256: str = ""
     generator: dict = field(default_factory=dict)
     extra: dict = field(default_factory=dict)
+    object_poses: dict = field(default_factory=dict)
 
     def __post_init__(self):
         if not self.frames_complete:
             self.frames_complete = [False] * self.frames
+        if not self.object_poses:
+            self.object_poses = object_poses(self.objects, self.frames)
 
     @property
     def frames(self) -> int:
@@ -137,6 +162,7 @@ class Manifest:
             "segmentation": self.segmentation,
             "channels": self.channels,
             "objects": self.objects,
+            "object_poses_convention": OBJECT_POSES_CONVENTION,
             "poses_convention": POSES_CONVENTION,
             "poses": {v: np.asarray(self.poses[v], dtype=float).tolist() for v in self.views},
             "trajectories": trajectory_relpaths(self.views),
@@ -166,6 +192,7 @@ class Manifest:
         missing = [k for k in ("resolution", "K", "baseline", "frames", "views", "poses", "files") if k not in m]
         if missing:
             raise ContractError(f"missing key(s) {', '.join(missing)}", source)
+        check_types(m, source, LIMIT)
         try:
             W, H = (int(v) for v in m["resolution"])
             K = np.array(m["K"], dtype=float).reshape(3, 3)
@@ -177,9 +204,8 @@ class Manifest:
             raise ContractError(f"bad resolution/K/baseline/frames/views/near/far ({e})", source) from None
         if not (0 < W <= 65536 and 0 < H <= 65536) or n < 1:
             raise ContractError(f"resolution {W}x{H} / {n} frames is not a render", source)
-        if not np.all(np.isfinite(K)) or not (0 < K[0, 0] < LIMIT and 0 < K[1, 1] < LIMIT) \
-                or np.any(np.abs(K[:2, 2]) > LIMIT) or np.any(K[2] != (0.0, 0.0, 1.0)):
-            raise ContractError(f"K is not a camera matrix: {K.tolist()}", source)
+        if K_problem(K, LIMIT):
+            raise ContractError(f"K is not a camera matrix ({K_problem(K, LIMIT)}): {K.tolist()}", source)
         if not (math.isfinite(baseline) and 0.0 <= baseline < LIMIT) or not (0 < near < far):
             raise ContractError(f"baseline {baseline} / near {near} / far {far} out of range", source)
         if not views or views[0] != "left" or not set(views) <= set(VIEWS) or len(set(views)) != len(views):
@@ -194,8 +220,15 @@ class Manifest:
                 raise ContractError(f"no usable poses for view {v!r}", source) from None
             if T.shape != (n, 4, 4):
                 raise ContractError(f"poses[{v!r}] has shape {T.shape}, expected ({n}, 4, 4)", source)
-            if not np.all(np.isfinite(T)) or np.abs(T[:, :3, 3]).max() > LIMIT:
+            if not np.all(np.isfinite(T)) or np.abs(T).max() > LIMIT:
                 raise ContractError(f"poses[{v!r}] holds non-finite or absurdly large values", source)
+            R = T[:, :3, :3]
+            err = np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3)).max(axis=(1, 2))
+            bad = np.flatnonzero(~(err <= POSE_TOLERANCE) | (np.linalg.det(R) < 0)
+                                 | np.any(T[:, 3] != (0.0, 0.0, 0.0, 1.0), axis=1))
+            if bad.size:
+                raise ContractError(f"poses[{v!r}][{bad[0]}] is not a rigid transform (rotation and 0 0 0 1 row)",
+                                    source)
             poses[v] = T
         files = {}
         for v in views:
@@ -216,8 +249,9 @@ class Manifest:
                 t = np.arange(n, dtype=float)
         except (TypeError, ValueError):
             raise ContractError("timestamps must be numbers", source) from None
-        if t.shape != (n,) or not np.all(np.isfinite(t)):
-            raise ContractError(f"timestamps must be {n} finite numbers", source)
+        if t.shape != (n,) or not np.all(np.isfinite(t)) or np.abs(t).max() > TIME_LIMIT_S \
+                or np.any(np.diff(t) <= 0):
+            raise ContractError(f"timestamps must be {n} increasing numbers within {TIME_LIMIT_S:g} s", source)
         complete = m.get("frames_complete", [True] * n)
         if not isinstance(complete, list) or len(complete) != n:
             raise ContractError(f"frames_complete must list {n} booleans", source)
@@ -226,11 +260,13 @@ class Manifest:
             raise ContractError(f"depth kind {depth.get('kind')!r} not supported (planar_z)", source)
         depth = {"kind": "planar_z", "background": DEPTH_BACKGROUND, "channel": None, **depth}
         extra = {k: v for k, v in m.items() if k not in _KEYS}
+        objects = list(m.get("objects") or [])
+        moving = object_poses(objects, n, source)
         return cls(resolution=(W, H), K=K, baseline=baseline, views=views, poses=poses, files=files,
                    timestamps_s=t, fps=float(fps) if fps else float("nan"), near=near, far=far,
                    frames_complete=[bool(x) for x in complete], depth=depth,
                    segmentation=m.get("segmentation") or {"kind": "object_index", "background": 0, "channel": None},
-                   channels=m.get("channels") or {}, objects=list(m.get("objects") or []),
+                   channels=m.get("channels") or {}, objects=objects, object_poses=moving,
                    render=m.get("render") or {}, scene_source=str(m.get("scene_source", "")),
                    scene_sha256=str(m.get("scene_sha256", "")), generator=m.get("generator") or {}, extra=extra)
 
@@ -250,17 +286,67 @@ class Manifest:
         return m
 
 
+def object_poses(objects: list, n: int, source: str = MANIFEST) -> dict[int, np.ndarray]:
+    """{id: (n, 4, 4) T_world_obj} of the ``objects`` entries marked ``moving`` (validated:
+    ContractError naming ``source`` for a moving object without n finite rigid poses)."""
+    out = {}
+    for o in objects:
+        if not isinstance(o, dict) or not o.get("moving"):
+            continue
+        try:
+            obj_id = int(o["id"])
+            T = np.array(o["T_world_obj"], dtype=float)
+        except (KeyError, TypeError, ValueError):
+            raise ContractError(f"moving object {o.get('id')!r} has no usable T_world_obj", source) from None
+        if T.shape != (n, 4, 4):
+            raise ContractError(f"objects[id={obj_id}].T_world_obj has shape {T.shape}, expected ({n}, 4, 4)", source)
+        if not np.all(np.isfinite(T)) or np.abs(T).max() > LIMIT \
+                or np.abs(np.einsum("nji,njk->nik", T[:, :3, :3], T[:, :3, :3]) - np.eye(3)).max() > 1e-6:
+            raise ContractError(f"objects[id={obj_id}].T_world_obj holds non-rigid or non-finite poses", source)
+        out[obj_id] = T
+    return out
+
+
 def load_json(path: Path) -> dict:
-    """A JSON file as a dict; ContractError (naming the file) when missing or not JSON."""
+    """A JSON file as a dict; ContractError (naming the file) when missing, not a regular
+    file, not JSON, or holding NaN / Infinity / numbers beyond a double (not JSON either:
+    Python's json module would read them as non-finite floats)."""
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise ContractError("no manifest.json (not a render folder)" if path.name == MANIFEST else "no such file",
                             str(path.parent if path.name == MANIFEST else path))
+    text = read_text(path, what="JSON file")
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError) as e:
-        raise ContractError(f"not valid JSON ({e})", str(path)) from None
+        data = json.loads(text, parse_constant=_not_json, parse_float=_finite_float)
+    except _NonFinite as e:
+        raise ContractError(f"{e.args[0]} is not a JSON number", str(path), _line_of_constant(text, e.args[0])) \
+            from None
+    except (ValueError, RecursionError) as e:
+        raise ContractError(f"not valid JSON ({e})", str(path), getattr(e, "lineno", None)) from None
     return data
+
+
+class _NonFinite(ValueError):
+    pass
+
+
+def _not_json(name: str):
+    raise _NonFinite(name)
+
+
+def _finite_float(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise _NonFinite(text)
+    return value
+
+
+def _line_of_constant(text: str, constant: str):
+    """The line of the first bare (not quoted) ``constant`` in JSON ``text``."""
+    for m in re.finditer(r'"(?:[^"\\]|\\.)*"|' + re.escape(constant), text):
+        if not m.group(0).startswith('"'):
+            return text.count("\n", 0, m.start()) + 1
+    return None
 
 
 def completed_in_logs(root) -> dict[int, dict]:
@@ -273,14 +359,17 @@ def completed_in_logs(root) -> dict[int, dict]:
     if not state.is_dir():
         return out
     for log in sorted(state.glob(DONE_LOG_GLOB)):
-        try:
-            text = log.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError):
-            continue
+        try:  # a regular file of bounded size (a FIFO here must not block a reader)
+            text = read_text(log, what="completion log", strict=False)
+        except ContractError:
+            continue  # unreadable: its frames count as not complete (they are rendered again)
         for line in text.split("\n"):
             try:
                 rec = json.loads(line)
-                out[int(rec["frame"])] = dict(rec.get("files") or {})
-            except (ValueError, KeyError, TypeError):
+            except ValueError:
                 continue
+            frame, files = (rec.get("frame"), rec.get("files") or {}) if isinstance(rec, dict) else (None, None)
+            if isinstance(frame, int) and not isinstance(frame, bool) and frame >= 0 and isinstance(files, dict) \
+                    and all(isinstance(k, str) and isinstance(v, str) for k, v in files.items()):
+                out[frame] = dict(files)
     return out

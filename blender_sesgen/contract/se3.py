@@ -209,3 +209,29 @@ def R_to_euler_xyz_deg(R: np.ndarray) -> tuple[float, float, float]:
         rz = 0.0
         rx = np.arctan2(-R[1, 2], R[1, 1])
     return tuple(float(a) for a in np.degrees([rx, ry, rz]))
+
+
+# --- interpolation between two poses ------------------------------------------------------
+
+def interpolate_pose(T_world_a: np.ndarray, T_world_b: np.ndarray, s: float) -> np.ndarray:
+    """The pose a fraction ``s`` of the way from ``T_world_a`` to ``T_world_b`` as keyframes
+    are interpolated: the position moves on the straight line between them, the orientation
+    turns at constant angular velocity about one axis (slerp),
+    R = R_a @ exp(s * log(R_a^T R_b)), t = (1 - s) t_a + s t_b.
+
+    s = 0 gives T_a, s = 1 gives T_b (to rounding). The rotation from a to b must be < 180 deg.
+    See also :func:`interpolate_twist`.
+    """
+    T_a, T_b = np.asarray(T_world_a, dtype=float), np.asarray(T_world_b, dtype=float)
+    w = so3_log(T_a[:3, :3].T @ T_b[:3, :3])
+    R = T_a[:3, :3] @ so3_exp(float(s) * w)
+    return se3(R, (1.0 - float(s)) * T_a[:3, 3] + float(s) * T_b[:3, 3])
+
+
+def interpolate_twist(T_world_a: np.ndarray, T_world_b: np.ndarray, s: float) -> np.ndarray:
+    """The pose a fraction ``s`` of the way from ``T_world_a`` to ``T_world_b`` along the
+    constant body twist that joins them (the SE(3) geodesic, how EGO moves the rig within a
+    frame step): T_a @ exp(s * log(inv(T_a) @ T_b)). The rotation must be < 180 deg.
+    See also :func:`interpolate_pose`."""
+    w, v = se3_log(relative(T_world_a, T_world_b))
+    return np.asarray(T_world_a, dtype=float) @ se3_exp(float(s) * w, float(s) * v)

@@ -13,6 +13,7 @@ skipped; every value must be a finite decimal number.
 from __future__ import annotations
 
 import math
+import re
 from typing import Optional, Sequence
 
 import numpy as np
@@ -37,7 +38,7 @@ def parse_table(text: str, ncols: Sequence[int], source: str = "<text>",
     ``nan``/``inf`` are numbers, so a row of them is an error, never a skipped line.
     """
     rows, lines = [], []
-    for lineno, raw in enumerate(text.split("\n"), 1):
+    for lineno, raw in enumerate(re.split(r"\r\n|\r|\n", text), 1):
         s = raw.strip()
         if not s or s.startswith("#"):
             continue
@@ -76,10 +77,21 @@ def _poses(R: np.ndarray, t: np.ndarray) -> np.ndarray:
     return T
 
 
-def _check_translations(T: np.ndarray, lines: list[int], source: str) -> None:
-    bad = np.flatnonzero(np.abs(T[:, :3, 3]).max(axis=1) > LIMIT)
+def _check_magnitudes(values: np.ndarray, lines: list[int], source: str) -> None:
+    """Every pose value (not the timestamps) within LIMIT: 1e308 is corruption, not a pose."""
+    bad = np.flatnonzero(np.abs(values).reshape(len(values), -1).max(axis=1) > LIMIT)
     if bad.size:
-        raise ContractError(f"a translation beyond {LIMIT:g} is not a pose", source, lines[bad[0]])
+        raise ContractError(f"a value beyond {LIMIT:g} is not a pose", source, lines[bad[0]])
+
+
+def check_rotations(R: np.ndarray, lines: list[int], source: str, tolerance: float) -> None:
+    """Each (3, 3) of ``R`` (n, 3, 3) a rotation within ``tolerance`` (max |R^T R - I|,
+    det > 0); else ContractError at the first bad line. Values must be within LIMIT."""
+    err = np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3)).max(axis=(1, 2))
+    bad = np.flatnonzero(~(err <= tolerance) | (np.linalg.det(R) < 0))
+    if bad.size:
+        raise ContractError(f"the 3x3 part is not a rotation (|R^T R - I| = {err[bad[0]]:.2g}, "
+                            f"tolerance {tolerance:g})", source, lines[bad[0]])
 
 
 def _quaternions_to_R(q: np.ndarray, lines: list[int], source: str, unit_tolerance: Optional[float]) -> np.ndarray:
@@ -100,8 +112,8 @@ def parse_tum(text: str, source: str = "<text>",
 
     Quaternions are normalised; with ``unit_tolerance`` their norms must be 1 within it."""
     a, lines = parse_table(text, (8,), source, "a TUM pose")
+    _check_magnitudes(a[:, 1:], lines, source)
     T = _poses(_quaternions_to_R(a[:, 4:8], lines, source, unit_tolerance), a[:, 1:4])
-    _check_translations(T, lines, source)
     return a[:, 0], T, lines
 
 
@@ -112,15 +124,12 @@ def parse_kitti(text: str, source: str = "<text>",
     Rotations as written; with ``rotation_tolerance`` each 3x3 part must be a rotation
     within it (max |R^T R - I|, det > 0) and is re-orthonormalised (files hold ~6 digits)."""
     a, lines = parse_table(text, (12,), source, "a KITTI pose")
+    _check_magnitudes(a, lines, source)
     T = np.tile(np.eye(4), (len(a), 1, 1))
     T[:, :3, :] = a.reshape(-1, 3, 4)
-    _check_translations(T, lines, source)
     if rotation_tolerance is not None:
         R = T[:, :3, :3]
-        err = np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3)).max(axis=(1, 2))
-        bad = np.flatnonzero((err > rotation_tolerance) | (np.linalg.det(R) < 0))
-        if bad.size:
-            raise ContractError("the 3x3 part is not a rotation", source, lines[bad[0]])
+        check_rotations(R, lines, source, rotation_tolerance)
         U, _, Vt = np.linalg.svd(R)
         T[:, :3, :3] = U @ Vt
     return T, lines
@@ -129,8 +138,8 @@ def parse_kitti(text: str, source: str = "<text>",
 def parse_euroc(text: str, source: str = "<text>") -> tuple[np.ndarray, np.ndarray, list[int]]:
     """(timestamps_s (n,), T_world_body (n, 4, 4), line numbers) of an EuRoC state csv."""
     a, lines = parse_table(text, tuple(range(8, 40)), source, "an EuRoC pose")
+    _check_magnitudes(a[:, 1:8], lines, source)
     T = _poses(_quaternions_to_R(a[:, [5, 6, 7, 4]], lines, source, None), a[:, 1:4])
-    _check_translations(T, lines, source)
     return a[:, 0] * 1e-9, T, lines
 
 

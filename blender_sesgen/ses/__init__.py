@@ -10,21 +10,27 @@ from __future__ import annotations
 import os
 from typing import Optional
 
+from ..contract.errors import ContractError
+from ..contract.inputs import MiB, read_bytes
 from ..errors import ScriptError, SesgenError
 from ..model import Scene
 from .parser import parse_bytes, parse_text
 
 __all__ = ["parse_file", "parse_string", "parse_bytes", "ScriptError"]
 
+MAX_SCRIPT_BYTES = 64 * MiB  # ~1.5 million statements; a FIFO, device or larger file is refused
+
 
 def parse_file(path: "str | os.PathLike[str]") -> Scene:
-    """Parse an SES script file; relative texture/mesh/trajectory paths are relative to it."""
+    """Parse an SES script file; relative texture/mesh/trajectory paths are relative to it.
+
+    The script must be a regular file of at most ``MAX_SCRIPT_BYTES`` (a FIFO or a device
+    is refused, never read)."""
     path = os.fspath(path)
     try:
-        with open(path, "rb") as f:
-            data = f.read()
-    except OSError as e:
-        raise SesgenError(f"{path}: cannot read the script ({e.strerror})") from None
+        data = read_bytes(path, MAX_SCRIPT_BYTES, "script")
+    except ContractError as e:
+        raise SesgenError(f"{path}: {e.detail}") from None
     return parse_bytes(data, source=path, base_dir=os.path.dirname(os.path.abspath(path)))
 
 

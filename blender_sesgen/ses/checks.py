@@ -10,6 +10,8 @@ import os
 from pathlib import Path
 from typing import Optional
 
+from ..contract.errors import ContractError
+from ..contract.inputs import check_regular
 from .diagnostics import Diagnostics
 from .lexer import Token
 from .statements import ParsedStatement
@@ -70,11 +72,16 @@ class Checks:
         tok = stmt.tags[tag].tokens[0]
         try:
             path = Path(os.path.abspath(self.base_dir / tok.text))
-            found = path.is_file()
+            exists = path.exists()
         except (ValueError, OSError):  # embedded NUL, unencodable name, ...
             self.err(tok, f"{stmt.keyword} '{tag}' is not a valid file name: {tok.shown()}")
             return None
-        if not found:
+        if not exists:
             self.err(tok, what or f"{stmt.keyword} '{tag}' file '{tok.text}' not found (looked for {path})")
+            return None
+        try:
+            check_regular(path)
+        except ContractError as e:  # a folder, FIFO or device: never opened
+            self.err(tok, f"{stmt.keyword} '{tag}' '{tok.text}': {e.detail}")
             return None
         return path

@@ -68,7 +68,8 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
     Statement("CYLINDER", _tags(*COMMON_OBJECT_TAGS, POSITION_REQUIRED,
                                 _num("dim", (2,), True, "dim r h"))),
     Statement("MESH", _tags(*COMMON_OBJECT_TAGS, Tag("file", "text", required=True, usage="file PATH"),
-                            POSITION, _num("scale", (1, 3), usage="scale s | scale sx sy sz"))),
+                            POSITION, _num("scale", (1, 3), usage="scale s | scale sx sy sz"),
+                            Tag("allow_external", "flag", usage="allow_external"))),
     Statement("ASSET", _tags(*COMMON_OBJECT_TAGS, POSITION_REQUIRED,
                              *(Tag(kind, "flag", usage=kind) for kind in ASSET_KINDS),
                              _num("size", (3,), usage="size sx sy sz"),
@@ -90,6 +91,15 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
     Statement("START", _tags(POSITION_REQUIRED)),
     Statement("EGO", positional=6, positional_usage="EGO U V W alpha beta gamma"),
     Statement("POSE", positional=6, positional_usage="POSE x y z rx ry rz"),
+    Statement("FRAMES", positional=1, positional_usage="FRAMES N"),
+    Statement("MOVE", _tags(Tag("id", "int", required=True, usage="id N"),
+                            Tag("frame", "int", usage="frame F"),
+                            POSITION,
+                            _num("twist", (6,), usage="twist U V W alpha beta gamma"),
+                            Tag("from", "int", usage="from F"),
+                            Tag("to", "int", usage="to F"),
+                            Tag("file", "text", usage="file PATH"),
+                            Tag("format", "choice", usage="format tum|kitti", choices=("tum", "kitti")))),
     Statement("TRAJECTORY", _tags(Tag("file", "text", required=True, usage="file PATH"),
                                   Tag("format", "choice", required=True, usage="format tum|kitti",
                                       choices=("tum", "kitti")))),
@@ -168,6 +178,6 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
 )}
 
 OBJECT_KEYWORDS = ("QUAD", "CUBOID", "SPHERE", "CYLINDER", "MESH", "ASSET")
-SINGLETON_KEYWORDS = ("CAMERA", "START", "TRAJECTORY", "WORLD", "FOG", "NOISE", "LOOK", "RENDER",
+SINGLETON_KEYWORDS = ("CAMERA", "START", "FRAMES", "TRAJECTORY", "WORLD", "FOG", "NOISE", "LOOK", "RENDER",
                       "TIMING", "LENS", "SENSOR", "AUTOEXPOSURE", "IMU")
 TAG_SYNONYMS = {"color": "colour"}

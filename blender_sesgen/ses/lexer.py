@@ -1,20 +1,27 @@
 """SES lexer: text -> lines of tokens, each with its 1-based line and column.
 
-Rules (docs/ses-language.md, "Lexical rules"): one statement per line; ``//`` starts a
-comment running to the end of the line (outside strings); tokens are separated by
-whitespace; a token is a NUMBER (decimal or scientific, optional sign), a double-quoted
-STRING (no escapes; may hold spaces and ``//``) or a bare WORD. Columns count characters,
-not bytes, so they match what an editor shows.
+Rules (docs/ses-language.md, "Lexical rules"): one statement per line, lines end at
+``\n``, ``\r\n`` or ``\r`` and nowhere else (a form feed or U+2028 in a comment does not
+start a line, so later line numbers stay those an editor shows); ``//`` starts a comment
+running to the end of the line (outside strings); tokens are separated by spaces and tabs
+only; a token is a NUMBER (ASCII digits, decimal or scientific, optional sign), a
+double-quoted STRING (no escapes; may hold spaces and ``//``) or a bare WORD. Any other
+space, control or format character outside a comment (NBSP, form feed, zero-width space,
+bidirectional controls) and any non-ASCII digit is an error at its column. Columns count
+characters, not bytes, so they match what an editor shows.
 """
 from __future__ import annotations
 
 import re
+import unicodedata
 from dataclasses import dataclass
 from typing import Literal
 
 from .diagnostics import Diagnostics
 
-NUMBER_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+NUMBER_RE = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+LINE_BREAK_RE = re.compile(r"\r\n|\r|\n")
+SEPARATORS = " \t"
 NONFINITE_RE = re.compile(r"[+-]?(?:nan|inf|infinity)", re.IGNORECASE)
 
 
@@ -42,9 +49,8 @@ def decode(data: bytes, diags: Diagnostics) -> str | None:
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as e:
-        before = data[: e.start]
-        line = before.count(b"\n") + 1
-        col = len(before[before.rfind(b"\n") + 1:].decode("utf-8", errors="replace")) + 1
+        lines = re.split(rb"\r\n|\r|\n", data[: e.start])
+        line, col = len(lines), len(lines[-1].decode("utf-8", errors="replace")) + 1
         diags.error(line, col, f"the file is not UTF-8 text (byte 0x{data[e.start]:02x} cannot be decoded); "
                     "save it as UTF-8")
         return None
@@ -56,19 +62,40 @@ def tokenize(text: str, diags: Diagnostics) -> list[list[Token]]:
     lines = []
     if text.startswith("\ufeff"):  # a UTF-8 byte-order mark is not part of the script
         text = text[1:]
-    for lineno, raw in enumerate(text.splitlines(), start=1):
+    for lineno, raw in enumerate(LINE_BREAK_RE.split(text), start=1):
         tokens = _tokenize_line(raw, lineno, diags)
         if tokens:
             lines.append(tokens)
     return lines
 
 
+def _char_name(ch: str) -> str:
+    return f"U+{ord(ch):04X}" + (f" {unicodedata.name(ch)}" if unicodedata.name(ch, "") else "")
+
+
+def _stray(ch: str, in_string: bool) -> str | None:
+    """Why ``ch`` may not appear in a token (or a string), or None if it may."""
+    cat = unicodedata.category(ch)
+    if cat == "Cc" and ch != "\t" or cat in ("Zl", "Zp"):
+        return f"control character {_char_name(ch)} is not allowed" + ("" if in_string else
+                                                                        " (only spaces and tabs separate tokens)")
+    if in_string:
+        return None
+    if cat == "Zs" or cat == "Cf":
+        return f"{_char_name(ch)} is not allowed here: only spaces and tabs separate tokens"
+    if cat == "Nd" and not "0" <= ch <= "9":
+        return f"non-ASCII digit {_char_name(ch)}: write numbers with the digits 0-9"
+    return None
+
+
 def _tokenize_line(raw: str, lineno: int, diags: Diagnostics) -> list[Token]:
+    """The line's tokens; a line with a lexical error yields none (its errors are recorded)."""
     tokens: list[Token] = []
+    bad = False
     i, n = 0, len(raw)
     while i < n:
         ch = raw[i]
-        if ch.isspace():
+        if ch in SEPARATORS:
             i += 1
         elif raw.startswith("//", i):
             break
@@ -77,14 +104,23 @@ def _tokenize_line(raw: str, lineno: int, diags: Diagnostics) -> list[Token]:
             if end < 0:
                 diags.error(lineno, i + 1, "unterminated string: a closing '\"' is missing on this line")
                 return []
+            for j in range(i + 1, end):
+                why = _stray(raw[j], in_string=True)
+                if why:
+                    diags.error(lineno, j + 1, why)
+                    bad = True
             tokens.append(Token("string", raw[i + 1:end], lineno, i + 1))
             i = end + 1
         else:
             j = i
-            while j < n and not raw[j].isspace() and raw[j] != '"' and not raw.startswith("//", j):
+            while j < n and raw[j] not in SEPARATORS and raw[j] != '"' and not raw.startswith("//", j):
+                why = _stray(raw[j], in_string=False)
+                if why:
+                    diags.error(lineno, j + 1, why)
+                    bad = True
                 j += 1
             text = raw[i:j]
             kind = "number" if NUMBER_RE.fullmatch(text) else "word"
             tokens.append(Token(kind, text, lineno, i + 1))
             i = j
-    return tokens
+    return [] if bad else tokens

@@ -1,10 +1,11 @@
-"""How the rig moves: START, EGO, POSE and TRAJECTORY statements -> the start pose, the
-:class:`blender_sesgen.model.Motion` as written and the per-frame Timeline.
+"""How the rig moves: START, EGO, POSE, TRAJECTORY and FRAMES statements -> the start pose,
+the :class:`blender_sesgen.model.Motion` as written and the per-frame Timeline.
 
 The poses come from the contract's frames and motion modules. The motion is described one way only (EGO, POSE
 or TRAJECTORY, not mixed); START sets frame 0 for EGO and TRAJECTORY and is refused with
 POSE, whose first line is frame 0. A TRAJECTORY file is read here and replayed relative
-to START.
+to START. ``FRAMES N`` holds a still rig at START for N frames (for scenes where only
+objects move); it cannot be combined with the other three.
 """
 from __future__ import annotations
 
@@ -20,7 +21,8 @@ from .checks import Checks, vec
 from .statements import ParsedStatement
 from .trajectory_files import TrajectoryFileError, read_trajectory
 
-MOTION_KEYWORDS = ("EGO", "POSE", "TRAJECTORY")
+MOTION_KEYWORDS = ("EGO", "POSE", "TRAJECTORY", "FRAMES")
+MAX_FRAMES = 1_000_000
 ORIGIN = (0.0, 0.0, 0.0)
 
 
@@ -59,6 +61,13 @@ def _motion(statements, start, start_position, start_rotation, check: Checks) ->
     if not first:
         return model.Motion(), [T_start]
     keyword = min(first, key=lambda k: first[k].token.line)
+    if keyword == "FRAMES":
+        stmt = first["FRAMES"]
+        n, tok = stmt.numbers[0], stmt.number_tokens[0]
+        if not float(n).is_integer() or not 1 <= n <= MAX_FRAMES:
+            check.err(tok, f"FRAMES must be a whole number in 1..{MAX_FRAMES}, got {tok.text}")
+            return model.Motion(), [T_start]
+        return model.Motion(), [T_start] * int(n)
     if keyword == "EGO":
         ego = tuple(s.numbers for s in statements if s.keyword == "EGO")
         return model.Motion(kind="ego", ego=ego), list(integrate_ego(T_start, ego))

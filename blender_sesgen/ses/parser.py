@@ -1,15 +1,19 @@
 """SES statements -> the scene model (blender_sesgen.model): the orchestrator.
 
 Owns the whole-script flow (lex, read statements, one-per-script singletons, at least one
-object), the object statements (QUAD, CUBOID, SPHERE, CYLINDER, MESH: ids and names
-unique, materials defined), the CAMERA rig, and the assembly of the Scene. Materials and
-textures live in ``materials``, START/EGO/POSE/TRAJECTORY in ``motion``, LIGHT/WORLD/FOG/
-NOISE/RENDER in ``environment``; all report through one ``checks.Checks``.
+object), the object statements (QUAD, CUBOID, SPHERE, CYLINDER, MESH, ASSET: ids and names
+unique, materials defined or from the library, semantic classes), BLEND imports, the CAMERA rig, and the assembly of the Scene. Materials and
+textures live in ``materials``, START/EGO/POSE/TRAJECTORY/FRAMES in ``motion``, MOVE in
+``object_motion``, LIGHT/WORLD/FOG/NOISE/RENDER in ``environment``; all report through one
+``checks.Checks``.
 
 All errors of a script are collected (file:line:col); if there is any, the first in
 source order is raised as ScriptError and the whole list rides along as its ``errors``
 attribute. A script with errors yields no Scene. The only files read are the script
-itself and the TRAJECTORY file it names; texture and mesh files are only checked to exist.
+itself, the TRAJECTORY (and MOVE) files it names, the image files it names (decoded:
+``blender_sesgen.image_check``) and the references inside MESH models (``mesh_files``: they
+must stay inside the model's folder), and a BLEND file's signature; mesh geometry and
+BLEND contents are read by Blender at render time.
 """
 from __future__ import annotations
 
@@ -27,9 +31,11 @@ from .geometry import quad_problem
 from .grammar import OBJECT_KEYWORDS, SINGLETON_KEYWORDS
 from .lexer import decode, tokenize
 from .materials import library_material, materials, texture
+from .mesh_files import reference_problems
 from .. import material_library
 from ..contract import semantics
 from .motion import rig_motion
+from .object_motion import object_motions
 from .statements import ParsedStatement, TagValue, did_you_mean, read_statement
 
 MAX_ID = 32767                 # Blender's object-index pass clamps above this
@@ -84,6 +90,10 @@ def _build(source: str, statements: list[ParsedStatement], attempted_objects: bo
                                 "CYLINDER, MESH, ASSET or BLEND")
     rig = _rig(seen.get("CAMERA"), check)
     moving = rig_motion(statements, seen.get("START"), check)
+    attempted_ids = frozenset(int(s.tags["id"].values[0]) for s in statements
+                              if s.keyword in OBJECT_KEYWORDS and "id" in s.tags)
+    motions = object_motions([s for s in statements if s.keyword == "MOVE"], objects,
+                             len(moving.timeline.T_world_left), check, attempted_ids)
     lights = tuple(light for light in (environment.light(s, check) for s in statements if s.keyword == "LIGHT")
                    if light)
     scene_kwargs = dict(
@@ -93,7 +103,8 @@ def _build(source: str, statements: list[ParsedStatement], attempted_objects: bo
     if check.diags:
         return None
     return model.Scene(source=source, objects=tuple(objects), imports=tuple(imports), rig=rig, **moving._asdict(),
-                       materials=tuple(named_materials.values()), lights=lights, **scene_kwargs)
+                       materials=tuple(named_materials.values()), lights=lights, object_motions=motions,
+                       **scene_kwargs)
 
 
 BLEND_MAGICS = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")   # plain, gzip, zstd
@@ -248,6 +259,11 @@ class _Objects:
         if path.suffix.lower() not in MESH_SUFFIXES:
             self.check.err(tok, f"MESH 'file' '{tok.text}' has an unsupported format "
                                 f"(use {', '.join(MESH_SUFFIXES)})")
+            return None
+        problems = reference_problems(path, allow_external="allow_external" in stmt.tags)
+        for problem in problems:
+            self.check.err(tok, f"MESH 'file' '{tok.text}': {problem}")
+        if problems:
             return None
         return model.Mesh(path=str(path), source=tok.text, scale=scale * 3 if len(scale) == 1 else scale,
                           **self._placement(stmt), **common)

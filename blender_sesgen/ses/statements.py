@@ -93,7 +93,8 @@ def _read_positional(spec: Statement, stmt: ParsedStatement, rest: list[Token], 
     where = f"{spec.keyword}"
     if len(rest) != spec.positional:
         at = rest[spec.positional] if len(rest) > spec.positional else stmt.token
-        diags.at(at, f"{spec.keyword} needs {spec.positional} numbers ({spec.positional_usage}), got {len(rest)}")
+        diags.at(at, f"{spec.keyword} needs {_count_words((spec.positional,))} ({spec.positional_usage}), "
+                     f"got {len(rest)}")
         return
     values = [_number(t, where, diags) for t in rest]
     if None not in values:

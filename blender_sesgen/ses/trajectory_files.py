@@ -10,9 +10,11 @@ from __future__ import annotations
 import numpy as np
 
 from ..contract.errors import ContractError
+from ..contract.inputs import MiB, read_text
 from ..contract.trajectory_files import parse_kitti, parse_tum
 
 TOLERANCE = 1e-3
+MAX_TRAJECTORY_BYTES = 64 * MiB  # a regular file only (a FIFO or a device is refused)
 
 
 class TrajectoryFileError(ValueError):
@@ -22,12 +24,9 @@ class TrajectoryFileError(ValueError):
 def read_trajectory(path: str, fmt: str) -> np.ndarray:
     """(N, 4, 4) poses T_world_cam of a TUM or KITTI file (N >= 1)."""
     try:
-        with open(path, "rb") as f:
-            text = f.read().decode("utf-8")
-    except UnicodeDecodeError:
-        raise TrajectoryFileError("is not UTF-8 text") from None
-    except OSError as e:
-        raise TrajectoryFileError(f"cannot be read ({e.strerror})") from None
+        text = read_text(path, MAX_TRAJECTORY_BYTES, "trajectory file")
+    except ContractError as e:
+        raise TrajectoryFileError(f"line {e.line}: {e.detail}" if e.line else e.detail) from None
     try:
         if fmt == "tum":
             return parse_tum(text, path, unit_tolerance=TOLERANCE)[1]

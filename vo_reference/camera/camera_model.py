@@ -12,7 +12,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import VoError
+from blender_sesgen.contract.camera import K_problem
+from blender_sesgen.contract.inputs import read_text
+from blender_sesgen.contract.manifest import LIMIT
+from blender_sesgen.contract.trajectory_files import parse_table
+
+from ..errors import VoError, as_vo_error
 
 
 @dataclass(frozen=True)
@@ -31,18 +36,18 @@ class CameraModel:
 
 def read_camera_model(path) -> CameraModel:
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise VoError(f"{path}: no such camera model file")
-    lines = [ln.split() for ln in path.read_text(encoding="utf-8", errors="replace").splitlines() if ln.strip()]
-    try:
-        vals = [[float(v) for v in ln] for ln in lines]
-    except ValueError:
-        raise VoError(f"{path}: a camera model holds numbers only") from None
-    if len(vals) < 5 or len(vals[0]) != 4 or any(len(r) != 4 for r in vals[1:5]):
+    with as_vo_error():
+        rows, _ = parse_table(read_text(path, what="camera model", strict=False), (4,), str(path),
+                              "a camera model row")
+    if len(rows) < 5:
         raise VoError(f"{path}: expected 'fx fy cx cy' then four rows of G_camera_image (4 numbers each)")
+    vals = rows.tolist()
     fx, fy, cx, cy = vals[0]
-    if fx <= 0 or fy <= 0:
-        raise VoError(f"{path}: focal lengths must be positive, got {fx}, {fy}")
+    problem = K_problem(np.array([[fx, 0, cx], [0, fy, cy], [0, 0, 1.0]]), LIMIT)
+    if problem:
+        raise VoError(f"{path}: {problem}")
     return CameraModel(path.stem, fx, fy, cx, cy, np.array(vals[1:5]))
 
 

@@ -14,7 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import VoError
+from blender_sesgen.contract.inputs import check_regular
+
+from ..errors import VoError, as_vo_error
 
 
 def parse_distortion(text: str | None) -> np.ndarray | None:
@@ -33,11 +35,14 @@ def parse_distortion(text: str | None) -> np.ndarray | None:
 def read_lut(path, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
     """(map_x, map_y) float32 (H, W) from a RobotCar LUT file for a W x H image."""
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise VoError(f"{path}: no such lookup table")
+    with as_vo_error():
+        size = check_regular(path, "lookup table")
+    if size != 16 * width * height:
+        raise VoError(f"{path}: {size} bytes ({size / 8:g} float64 values), a {width}x{height} image needs "
+                      f"{2 * width * height} values")
     a = np.fromfile(path, dtype="<f8")
-    if a.size != 2 * width * height:
-        raise VoError(f"{path}: {a.size} float64 values, a {width}x{height} image needs {2 * width * height}")
     return (a[: width * height].reshape(height, width).astype(np.float32),
             a[width * height:].reshape(height, width).astype(np.float32))
 

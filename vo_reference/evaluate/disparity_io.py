@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import VoError
-from ..io.files import read_image
+from ..io.files import load_npy, read_image
 
 
 def read_mask(path) -> np.ndarray:
@@ -15,12 +15,11 @@ def read_mask(path) -> np.ndarray:
     if not path.is_file():
         raise VoError(f"{path}: no such mask file")
     if path.suffix.lower() == ".npy":
-        try:
-            m = np.load(path, allow_pickle=False)
-        except (OSError, ValueError) as e:
-            raise VoError(f"{path}: not a readable .npy array ({e})") from None
+        m = load_npy(path)
     else:
         m = read_image(path)
     if m.ndim == 3:
         m = m[:, :, 0]
+    if m.ndim != 2 or m.dtype.kind not in "biuf":
+        raise VoError(f"{path}: a mask is a 2-D array of numbers, got shape {m.shape} dtype {m.dtype}")
     return np.asarray(m) != 0

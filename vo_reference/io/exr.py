@@ -12,30 +12,47 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract.inputs import check_regular
 
-from ..errors import VoError
+from ..errors import VoError, as_vo_error
+from .native import captured_stderr, first_complaint
 
 
 def read_exr_channels(path) -> dict[str, np.ndarray]:
     """All channels of all parts: full channel name -> (H, W) array (row 0 = top).
 
-    Raises VoError for a missing file, a file OpenEXR cannot read, or parts whose sizes
-    disagree.
+    Raises VoError for a missing file, a file OpenEXR cannot read, a part whose pixel data
+    is corrupt or truncated (its header lists channels that could not be decoded), or parts
+    whose sizes disagree. What OpenEXR prints about a bad file goes into that one message.
     """
     import OpenEXR
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise VoError(f"{path}: no such EXR file")
+    with as_vo_error():
+        check_regular(path, "EXR file")
     channels: dict[str, np.ndarray] = {}
-    try:
-        with OpenEXR.File(str(path), separate_channels=True) as f:
-            for part in f.parts:
-                for name, ch in part.channels.items():
-                    channels[name] = np.asarray(ch.pixels)
-    except VoError:
-        raise
-    except Exception as e:  # OpenEXR raises RuntimeError/OSError/... for bad files
-        raise VoError(f"{path}: not a readable EXR file ({type(e).__name__}: {e})") from None
+    with captured_stderr((1, 2)) as complaints:  # OpenEXR's binding prints warnings on stdout
+        try:
+            with OpenEXR.File(str(path), header_only=True) as f:
+                declared = {p.name() or f"#{i}": [c.name for c in p.header.get("channels", [])]
+                            for i, p in enumerate(f.parts)}
+            with OpenEXR.File(str(path), separate_channels=True) as f:
+                for part in f.parts:
+                    channels.update((name, np.asarray(ch.pixels)) for name, ch in part.channels.items())
+        except Exception as e:  # OpenEXR raises RuntimeError/OSError/... for bad files
+            error = f"{type(e).__name__}: {e}"
+        else:
+            error = None
+    if error is not None:
+        raise VoError(f"{path}: not a readable EXR file ({error})")
+    # a part whose pixel data cannot be decoded is dropped (with a warning printed), never raised
+    corrupt = [name for name, names in declared.items()
+               if any(n not in channels or channels[n] is None or channels[n].size == 0 for n in names)]
+    if corrupt:
+        why = first_complaint(complaints, path)
+        raise VoError(f"{path}: corrupt or truncated EXR: the pixel data of part(s) {', '.join(corrupt)} "
+                      f"cannot be decoded" + (f" ({why})" if why else ""))
     shapes = {a.shape for a in channels.values()}
     if len(shapes) > 1:
         raise VoError(f"{path}: EXR parts of different sizes {sorted(shapes)}")

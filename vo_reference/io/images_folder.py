@@ -22,10 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import VoError
+from blender_sesgen.contract.inputs import read_text
+
+from ..errors import VoError, as_vo_error
 from .files import read_image
 from .base import ImagesOnly, check_frame_view
-from .trajectory import read_kitti
+from .trajectory import read_kitti, read_times
 
 IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".bmp", ".pgm", ".ppm", ".tif", ".tiff")
 
@@ -33,7 +35,9 @@ IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".bmp", ".pgm", ".ppm", ".tif", ".tiff")
 def read_robotcar_timestamps(path) -> dict[int, float]:
     """'<microseconds> <chunk>' lines -> {microseconds: seconds}."""
     out = {}
-    for lineno, line in enumerate(Path(path).read_text(encoding="utf-8", errors="replace").splitlines(), 1):
+    with as_vo_error():
+        text = read_text(path, what="timestamps file", strict=False)
+    for lineno, line in enumerate(text.splitlines(), 1):
         parts = line.split()
         if not parts:
             continue
@@ -88,8 +92,8 @@ class ImageFolderSequence(ImagesOnly):
             if missing:
                 raise VoError(f"{ts_files[0]}: no timestamp for image {missing[0]} ({len(missing)} missing)")
             return np.array([table[int(s)] for s in stems])
-        if (self.root / "times.txt").is_file():
-            t = np.loadtxt(self.root / "times.txt", dtype=float, ndmin=1)
+        if (self.root / "times.txt").exists():
+            t = read_times(self.root / "times.txt")
             if len(t) != self.num_frames:
                 raise VoError(f"{self.root / 'times.txt'}: {len(t)} times for {self.num_frames} images")
             return t

@@ -15,15 +15,21 @@ B = (P_left[0,3] - P_right[0,3]) / fx (for P0/P1: -P1[0,3]/P1[0,0]).
 """
 from __future__ import annotations
 
+import math
+import re
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import VoError
+from blender_sesgen.contract.camera import K_problem
+from blender_sesgen.contract.inputs import read_text
+from blender_sesgen.contract.manifest import LIMIT
+
+from ..errors import VoError, as_vo_error
 from .color import rgb8_to_gray8
 from .files import read_image
 from .base import ImagesOnly, check_frame_view
-from .trajectory import read_kitti
+from .trajectory import read_kitti, read_times
 
 __all__ = ["KittiSequence", "read_kitti_calib", "looks_like_kitti", "poses_file"]
 
@@ -43,13 +49,17 @@ def looks_like_kitti(root) -> bool:
 
 def read_kitti_calib(path) -> dict[str, np.ndarray]:
     """``calib.txt`` -> {'P0': (3, 4), 'P1': ..., 'Tr': ...}. Lines are ``NAME: 12 numbers``
-    or bare 12-number lines, named P0, P1, P2, P3, Tr in order."""
+    or bare 12-number lines, named P0, P1, P2, P3, Tr in order. Every number must be finite
+    (an error names its line) and each ``Pn`` a rectified projection matrix K [I | t] whose
+    K is a camera matrix (``contract.camera.K_problem``)."""
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise VoError(f"{path}: no such calibration file")
+    with as_vo_error():
+        text = read_text(path, what="calibration file", strict=False)
     out: dict[str, np.ndarray] = {}
     bare_names = iter(("P0", "P1", "P2", "P3", "Tr"))
-    for lineno, line in enumerate(path.read_text(encoding="utf-8", errors="replace").splitlines(), 1):
+    for lineno, line in enumerate(re.split(r"\r\n|\r|\n", text), 1):
         s = line.strip()
         if not s or s.startswith("#"):
             continue
@@ -63,7 +73,13 @@ def read_kitti_calib(path) -> dict[str, np.ndarray]:
         except ValueError:
             raise VoError(f"{path}:{lineno}: expected numbers, got {s[:60]!r}") from None
         if len(vals) == 12:
-            out[name] = np.array(vals).reshape(3, 4)
+            if not all(math.isfinite(v) and abs(v) < LIMIT for v in vals):
+                raise VoError(f"{path}:{lineno}: {name}: numbers must be finite (and below {LIMIT:g})")
+            P = np.array(vals).reshape(3, 4)
+            if name.startswith("P") and K_problem(P[:, :3], LIMIT):
+                raise VoError(f"{path}:{lineno}: {name} is not a camera projection matrix K [I | t] "
+                              f"({K_problem(P[:, :3], LIMIT)})")
+            out[name] = P
         elif ":" not in s:
             raise VoError(f"{path}:{lineno}: expected 12 numbers, got {len(vals)}")
     if "P0" not in out and "P2" not in out:
@@ -131,11 +147,8 @@ class KittiSequence(ImagesOnly):
             T_cam0_left = np.eye(4)
             T_cam0_left[:3, 3] = -self._t_left
             self._poses = traj.T_world_cam @ T_cam0_left
-        if (root / "times.txt").is_file():
-            try:
-                t = np.loadtxt(root / "times.txt", dtype=float, ndmin=1)
-            except ValueError as e:
-                raise VoError(f"{root / 'times.txt'}: not one number per line ({e})") from None
+        if (root / "times.txt").exists():
+            t = read_times(root / "times.txt")
             if len(t) != self.num_frames:
                 raise VoError(f"{root / 'times.txt'}: {len(t)} times for {self.num_frames} frames")
             self.timestamps_s = t

@@ -2,14 +2,16 @@
 little-endian, rows stored bottom-to-top. Arrays here are row 0 = top."""
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract.inputs import BINARY_LIMIT, read_bytes
 
-from ..errors import VoError
+from ..errors import VoError, as_vo_error
 
 
 def write_pfm(path, image: np.ndarray) -> Path:
@@ -28,9 +30,10 @@ def write_pfm(path, image: np.ndarray) -> Path:
 
 def read_pfm(path) -> np.ndarray:
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise VoError(f"{path}: no such PFM file")
-    raw = path.read_bytes()
+    with as_vo_error():
+        raw = read_bytes(path, BINARY_LIMIT, "PFM file")
     # magic, width, height, scale; the data starts after the one whitespace ending the scale
     m = re.match(rb"(P[fF])\s+(\d+)\s+(\d+)\s+([-+0-9.eE]+)\s", raw[:256])
     if m is None:
@@ -40,6 +43,8 @@ def read_pfm(path) -> np.ndarray:
         scale = float(m.group(4))
     except ValueError:
         raise VoError(f"{path}: not a PFM file (bad scale)") from None
+    if not (0 < W <= 65536 and 0 < H <= 65536) or not math.isfinite(scale) or scale == 0:
+        raise VoError(f"{path}: not a PFM file (size {W}x{H}, scale {scale:g})")
     ch = 3 if kind == b"PF" else 1
     n = W * H * ch
     dt = "<f4" if scale < 0 else ">f4"

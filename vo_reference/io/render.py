@@ -23,6 +23,7 @@ import numpy as np
 
 from blender_sesgen.contract.colour import linear_to_srgb8
 from blender_sesgen.contract.depth import depth_from_pass
+from blender_sesgen.contract.inputs import read_bytes, read_text
 from blender_sesgen.contract.manifest import MANIFEST, Manifest
 
 from ..errors import VoError, as_vo_error
@@ -42,7 +43,7 @@ PASS_INDEX = ("Object Index", "IndexOB")
 def read_manifest(root) -> Manifest:
     """The validated manifest of a render folder (completion logs merged); VoError on any defect."""
     root = Path(root)
-    if not (root / MANIFEST).is_file():
+    if not (root / MANIFEST).exists():
         raise VoError(f"{root}: no manifest.json (not a render folder)")
     with as_vo_error():
         return Manifest.read(root)
@@ -71,6 +72,7 @@ class RenderSequence:
         self.depth_background = m.depth_background
         self.near, self.far = m.near, m.far
         self.objects = m.objects
+        self._object_poses = m.object_poses
         noise = m.extra.get("noise")
         self.noise = (float(noise["sigma"]), int(noise.get("seed", 0))) if isinstance(noise, dict) else None
         self._poses = m.poses
@@ -117,10 +119,8 @@ class RenderSequence:
         want = (self.info.extra.get("checksums") or {}).get(rel)
         if want is None:
             raise VoError(f"{path}: no checksum recorded for it (rendered before checksums existed?)")
-        try:
-            got = hashlib.sha256(path.read_bytes()).hexdigest()
-        except OSError as e:
-            raise VoError(f"{path}: cannot read ({e.strerror})") from None
+        with as_vo_error():  # a regular file only (a FIFO must not block the reader)
+            got = hashlib.sha256(read_bytes(path, 16 << 30, "EXR file")).hexdigest()
         if got != want:
             raise VoError(f"{path}: differs from the file the renderer wrote (SHA-256 mismatch); "
                           "run `python -m blender_sesgen verify` on the folder and re-render with --resume")
@@ -290,6 +290,18 @@ class RenderSequence:
             raise VoError(f"view {view!r} not in this sequence (views: {', '.join(self.views)})")
         return self._poses[view].copy()
 
+    @property
+    def moving_ids(self) -> tuple[int, ...]:
+        """Ids of the objects that move (manifest ``objects[i].moving``); () for a static scene
+        or a render written before moving objects existed."""
+        return tuple(sorted(self._object_poses))
+
+    def T_world_obj(self, obj_id: int) -> np.ndarray | None:
+        """(N, 4, 4) per-frame pose of a moving object's frame in the world (manifest
+        ``objects[i].T_world_obj``), or None for an object that does not move."""
+        T = self._object_poses.get(int(obj_id))
+        return None if T is None else T.copy()
+
     def __repr__(self) -> str:
         W, H = self.resolution
         return f"RenderSequence({str(self.root)!r}, {self.num_frames} frames, {W}x{H}, views={self.views})"
@@ -299,9 +311,11 @@ def _read_csv(path) -> np.ndarray:
     """A numeric CSV with '#' header lines (EuRoC style), first column integer ns kept exact."""
     from pathlib import Path as _P
     p = _P(path)
-    if not p.is_file():
+    if not p.exists():
         raise VoError(f"{p}: no such file")
-    rows = [ln.split(",") for ln in p.read_text(encoding="utf-8").splitlines() if ln.strip() and not ln.startswith("#")]
+    with as_vo_error():
+        text = read_text(p, what="CSV file", strict=False)
+    rows = [ln.split(",") for ln in text.splitlines() if ln.strip() and not ln.startswith("#")]
     try:
         return np.array([[int(r[0])] + [float(v) for v in r[1:]] for r in rows], dtype=np.float64).reshape(len(rows), -1)
     except (ValueError, IndexError):

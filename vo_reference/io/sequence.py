@@ -5,6 +5,7 @@ The interface every reader implements is :class:`vo_reference.io.base.Sequence`.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Iterable
 
 from ..errors import VoError
 from .base import Sequence
@@ -22,7 +23,7 @@ def open_sequence(path) -> Sequence:
         raise VoError(f"{p}: no such folder")
     if not p.is_dir():
         raise VoError(f"{p}: not a folder (expected a render folder or a KITTI sequence folder)")
-    if (p / "manifest.json").is_file():
+    if (p / "manifest.json").exists():
         from .render import RenderSequence
         return RenderSequence(p)
     from .kitti import KittiSequence, looks_like_kitti
@@ -31,3 +32,18 @@ def open_sequence(path) -> Sequence:
     raise VoError(
         f"{p}: neither a render folder (no manifest.json) nor a KITTI odometry folder "
         "(calib.txt + image_0/image_1, image_2/image_3 or image_l/image_r)")
+
+
+def require_complete(seq, frames: Iterable[int]) -> None:
+    """VoError naming the frames of ``frames`` that a render has not finished (recorded
+    complete with every view's EXR present); sequences without that notion pass. Export,
+    stereo and mono VO read only complete frames: a half-written render is resumed
+    (``render --resume``) or read over a ``--frames`` range it has finished."""
+    complete = getattr(seq, "frame_complete", None)
+    if complete is None:
+        return
+    missing = [k for k in frames if not complete(k)]
+    if missing:
+        shown = ", ".join(map(str, missing[:10])) + (" ..." if len(missing) > 10 else "")
+        raise VoError(f"{getattr(seq, 'root', 'input')}: {len(missing)} frame(s) not rendered completely ({shown}); "
+                      "finish the render (--resume) or choose --frames")

@@ -16,14 +16,17 @@ import numpy as np
 
 from blender_sesgen.contract import atomic
 from blender_sesgen.contract.errors import ContractError
+from blender_sesgen.contract.inputs import read_text
 from blender_sesgen.contract.manifest import MANIFEST, Manifest
-from blender_sesgen.contract.trajectory_files import (format_euroc, format_kitti, format_tum, parse_euroc,
-                                                      parse_kitti, parse_times, parse_tum)
+from blender_sesgen.contract.trajectory_files import (check_rotations, format_euroc, format_kitti, format_tum,
+                                                      parse_euroc, parse_kitti, parse_times, parse_tum)
 
 from ..errors import VoError, as_vo_error
 
 __all__ = ["Trajectory", "read_tum", "read_kitti", "read_euroc", "write_tum", "write_kitti", "write_euroc",
-           "read_render_poses", "read_trajectory", "guess_format"]
+           "read_render_poses", "read_trajectory", "guess_format", "read_times"]
+
+ROTATION_TOLERANCE = 1e-3  # max |R^T R - I| of a KITTI row: files hold 6+ digits; beyond, it is not a pose
 
 
 @dataclass(frozen=True)
@@ -57,13 +60,12 @@ class Trajectory:
 
 
 def _text(path: Path) -> str:
+    """The text of a trajectory file: a regular file of bounded size (contract.inputs)."""
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise VoError(f"{path}: no such trajectory file")
-    try:
-        return path.read_text(encoding="utf-8", errors="replace")
-    except OSError as e:
-        raise VoError(f"{path}: cannot read ({e.strerror})") from None
+    with as_vo_error():
+        return read_text(path, what="trajectory file", strict=False)
 
 
 def read_tum(path) -> Trajectory:
@@ -73,16 +75,28 @@ def read_tum(path) -> Trajectory:
 
 
 def read_kitti(path, times_path=None) -> Trajectory:
+    """A KITTI poses file (its 3x3 parts must be rotations to ``ROTATION_TOLERANCE``; they
+    are used as written), optionally with its ``times.txt``."""
     with as_vo_error():
-        T, _ = parse_kitti(_text(path), str(path))
+        T, lines = parse_kitti(_text(path), str(path))
+        check_rotations(T[:, :3, :3], lines, str(path), ROTATION_TOLERANCE)
     if times_path is not None:
-        with as_vo_error():
-            ts = parse_times(_text(times_path), str(times_path))
+        ts = read_times(times_path)
         if len(ts) != len(T):
             raise VoError(f"{times_path}: {len(ts)} timestamps for {len(T)} poses")
     else:
         ts = np.arange(len(T), dtype=float)
     return Trajectory(T, ts)
+
+
+def read_times(path) -> np.ndarray:
+    """KITTI ``times.txt``: one finite number (seconds) per line, non-decreasing."""
+    with as_vo_error():
+        t = parse_times(_text(path), str(path))
+    back = np.flatnonzero(np.diff(t) < 0)
+    if back.size:
+        raise VoError(f"{path}: times go backwards after value {back[0] + 1} ({t[back[0]]:g} -> {t[back[0] + 1]:g})")
+    return t
 
 
 def read_euroc(path) -> Trajectory:
@@ -109,12 +123,12 @@ def read_render_poses(render_dir_or_manifest, view: str = "left") -> Trajectory:
     timestamped as its manifest says. ``render_dir_or_manifest``: the folder or its manifest."""
     path = Path(render_dir_or_manifest)
     root = path.parent if path.name == MANIFEST else path
-    if not (root / MANIFEST).is_file():
+    if not (root / MANIFEST).exists():
         raise VoError(f"{root / MANIFEST}: no render manifest (expected a render folder or its manifest.json)")
     try:
         m = Manifest.read(root)
-    except ContractError as e:
-        raise VoError(f"{root / MANIFEST}: not a sesgen render ({e.detail})") from None
+    except ContractError as e:  # a defect at a line is reported there; otherwise say what the file is not
+        raise VoError(str(e) if e.line else f"{root / MANIFEST}: not a sesgen render ({e.detail})") from None
     if view not in m.views:
         raise VoError(f"{root / MANIFEST}: no poses for view {view!r} (have {list(m.views)})")
     return Trajectory(m.poses[view], m.timestamps_s)
@@ -143,19 +157,16 @@ def guess_format(path: Path) -> str:
     path = Path(path)
     if path.is_dir() or path.name == "manifest.json":
         return "sesgen"
-    if not path.is_file():
-        raise VoError(f"{path}: no such trajectory file")
-    with open(path, encoding="utf-8", errors="replace") as f:
-        for line in f:
-            s = line.strip()
-            if not s or s.startswith("#"):
-                continue
-            n = len(s.replace(",", " ").split())
-            if "," in s and n >= 8:
-                return "euroc"
-            if n == 12:
-                return "kitti"
-            if n == 8:
-                return "tum"
-            break
+    for line in _text(path).split("\n"):
+        s = line.strip()
+        if not s or s.startswith("#"):
+            continue
+        n = len(s.replace(",", " ").split())
+        if "," in s and n >= 8:
+            return "euroc"
+        if n == 12:
+            return "kitti"
+        if n == 8:
+            return "tum"
+        break
     raise VoError(f"{path}: cannot tell the trajectory format (use --format tum|kitti|euroc)")

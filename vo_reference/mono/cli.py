@@ -62,7 +62,7 @@ def open_input(args):
     root = Path(args.input)
     if not root.exists():
         raise VoError(f"{root}: no such folder")
-    if (root / "manifest.json").is_file() or (root.is_dir() and looks_like_kitti(root)):
+    if (root / "manifest.json").exists() or (root.is_dir() and looks_like_kitti(root)):
         from ..io.sequence import open_sequence
         if args.bayer:
             raise VoError("--bayer applies to folders of raw images (render and KITTI images are RGB/grey)")
@@ -109,6 +109,8 @@ def run(args: argparse.Namespace) -> int:
         rects.append((x0, y0, x1, y1))
     mask = build_mask(W, H, bottom=args.mask_bottom, rects=rects, file=args.mask, maps=maps)
     frames = frame_range(args.frames, seq.num_frames, min_frames=2)
+    from ..io.sequence import require_complete
+    require_complete(seq, frames)
     idx = list(frames)
     gt = seq.T_world_cam("left")
     gt = None if gt is None else gt[idx]

@@ -10,8 +10,9 @@ target image (same bounds as :mod:`.flow`) and *hidden* when the target sees a s
 the pixel nearest to p'.
 
 Disparity change (SceneFlow's ``disparity_change``): d_tgt − d_src = fx·B/z_tgt − fx·B/z_src,
-z_tgt the point's depth in the target camera (static scene: the warp of
-:func:`vo_reference.products.flow.warp_depth`); 0 for points at infinity.
+z_tgt the point's depth in the target camera (the warp of
+:func:`vo_reference.products.flow.warp_depth`, which moves the pixels of moving objects with
+them); 0 for points at infinity.
 """
 from __future__ import annotations
 
@@ -22,7 +23,7 @@ import numpy as np
 from blender_sesgen.contract.se3 import invert
 
 from ..errors import VoError
-from .flow import sequence_flow, warp_depth
+from .flow import object_transforms, sequence_flow, sequence_object_poses, warp_depth
 
 __all__ = ["DenseFlow", "dense_flow", "flow_at_infinity", "disparity_change"]
 
@@ -86,15 +87,17 @@ def dense_flow(seq, k_src: int, k_tgt: int, view: str = "left", rtol: float = 1e
 
 
 def disparity_change(seq, k_src: int, k_tgt: int, view: str = "left") -> np.ndarray:
-    """float32 (H, W): fx·B/z_tgt − fx·B/z_src of each source pixel's point (0 at infinity;
-    NaN where the point is behind the target camera). Static scene."""
+    """float32 (H, W): fx·B/z_tgt − fx·B/z_src of each source pixel's point, moved with its
+    object when it moves (0 at infinity; NaN where the point is behind the target camera)."""
     if seq.baseline_m <= 0:
         raise VoError("disparity change needs a stereo sequence (baseline 0)")
     T = seq.T_world_cam(view)
     z_src = seq.depth(k_src, view)
     if T is None or z_src is None:
         raise VoError(f"{seq!r} has no depth/pose ground truth: cannot derive the disparity change")
-    w = warp_depth(z_src, seq.K, invert(T[k_tgt]) @ T[k_src])
+    objs = sequence_object_poses(seq, k_src, k_tgt)
+    w = warp_depth(z_src, seq.K, invert(T[k_tgt]) @ T[k_src], ids_src=seq.ids(k_src, view) if objs else None,
+                   T_tgt_src_by_id=object_transforms(T[k_src], T[k_tgt], objs))
     fB = float(seq.K[0, 0]) * float(seq.baseline_m)
     out = np.zeros(z_src.shape, dtype=np.float64)
     ok = w.valid & np.isfinite(w.z)

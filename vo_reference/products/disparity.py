@@ -18,8 +18,10 @@ import numpy as np
 
 from blender_sesgen.contract import atomic
 from blender_sesgen.contract.depth import disparity_from_depth
+from blender_sesgen.contract.inputs import check_regular
 
-from ..errors import VoError
+from ..errors import VoError, as_vo_error
+from ..io.files import load_npy
 from ..io.files import read_image, write_image_atomic, write_png16
 from ..io.pfm import read_pfm, write_pfm
 
@@ -99,8 +101,10 @@ def read_disparity(path, channel: str | None = None) -> np.ndarray:
       0 = invalid, as Middlebury 2003 at scale 1).
     """
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise VoError(f"{path}: no such disparity file")
+    with as_vo_error():
+        check_regular(path, "disparity file")
     ext = path.suffix.lower()
     if ext == ".pfm":
         d = read_pfm(path)
@@ -108,10 +112,7 @@ def read_disparity(path, channel: str | None = None) -> np.ndarray:
         from ..io.exr import read_exr_channels
         d = _pick_channel(path, read_exr_channels(path), channel)
     elif ext == ".npy":
-        try:
-            d = np.load(path, allow_pickle=False)
-        except (OSError, ValueError) as e:
-            raise VoError(f"{path}: not a readable .npy array ({e})") from None
+        d = load_npy(path)
     elif ext in (".png", ".tif", ".tiff"):
         img = read_image(path)
         if img.ndim == 3:
@@ -123,6 +124,8 @@ def read_disparity(path, channel: str | None = None) -> np.ndarray:
             d[img == 0] = np.nan
     else:
         raise VoError(f"{path}: unknown disparity format {ext!r} (.png, .pfm, .npy, .tif, .exr)")
+    if not (np.issubdtype(d.dtype, np.floating) or np.issubdtype(d.dtype, np.integer)):
+        raise VoError(f"{path}: a disparity map holds numbers, got dtype {d.dtype}")
     d = np.asarray(d, dtype=np.float32)
     if d.ndim == 3 and d.shape[2] == 1:
         d = d[:, :, 0]

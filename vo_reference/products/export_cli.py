@@ -15,7 +15,7 @@ from .exports import EXPORTERS, export
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("render_dir", metavar="RENDER_DIR", help="render folder (with manifest.json)")
-    parser.add_argument("out", metavar="OUT", help="output folder (created; existing files are replaced)")
+    parser.add_argument("out", metavar="OUT", help="output folder (created; an earlier export there is replaced whole; a failed export leaves nothing)")
     parser.add_argument("--to", dest="target", required=True, choices=list(EXPORTERS), metavar="TARGET",
                         help="layout: " + "; ".join(f"{n}: {h}" for n, (_, h) in EXPORTERS.items()))
     parser.add_argument("--noise", type=float, metavar="SIGMA", default=None,

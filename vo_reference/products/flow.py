@@ -1,8 +1,14 @@
-"""Optical flow and occlusion ground truth from depth + K + poses (static scene).
+"""Optical flow and occlusion ground truth from depth + K + poses (+ ids and object poses).
 
 A source pixel p = (u, v) with planar depth Z back-projects to X_src = Z·K⁻¹(u, v, 1)ᵀ,
 moves to the target camera X_tgt = T_tgt_src·X_src and projects to p' = π(K·X_tgt); the
-flow is p' − p. It is checked against the target frame's own depth map:
+flow is p' − p. On a moving object (its id in the source frame's id map) the point also
+moves with the object: X_tgt = T_tgt_src_i·X_src with
+T_tgt_src_i = T_world_tgt⁻¹ · T_world_obj_i(tgt) · T_world_obj_i(src)⁻¹ · T_world_src
+(:mod:`vo_reference.products.scene_flow` adds the 3-D motion, motion masks and disparity
+change). Pixels of static objects take the static path unchanged, to the bit. The point
+is checked against the target frame's own depth map (which shows every object where it
+is at the target time):
 
 - *out of image*: p' outside the target image (pixel centres at integers, the image
   covers [−0.5, W−0.5) × [−0.5, H−0.5)) or X_tgt behind the camera;
@@ -27,9 +33,10 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract.inputs import BINARY_LIMIT, read_bytes
 from blender_sesgen.contract.se3 import invert
 
-from ..errors import VoError
+from ..errors import VoError, as_vo_error
 from ..io.files import read_image, write_image_atomic
 
 FLO_MAGIC = 202021.25
@@ -45,6 +52,8 @@ class Warp:
     valid: np.ndarray      # bool: source depth finite (and > 0)
     out_of_image: np.ndarray  # bool: valid and (p' outside the image or behind the camera)
     hidden: np.ndarray     # bool: valid, in the image, and behind the target's surface
+    X_src: np.ndarray | None = None  # float64 (H, W, 3) source-camera point (0 where not valid)
+    X_tgt: np.ndarray | None = None  # float64 (H, W, 3) the point in the target camera
 
     @property
     def occluded(self) -> np.ndarray:
@@ -56,10 +65,13 @@ class Warp:
 
 
 def warp_depth(depth_src: np.ndarray, K: np.ndarray, T_tgt_src: np.ndarray,
-               depth_tgt: np.ndarray | None = None, rtol: float = 1e-3, lens=None) -> Warp:
+               depth_tgt: np.ndarray | None = None, rtol: float = 1e-3, lens=None,
+               ids_src: np.ndarray | None = None, T_tgt_src_by_id: dict | None = None) -> Warp:
     """Project every source pixel into the target view and test its visibility there
     (``depth_tgt`` None: only the out-of-image test). ``lens`` (``contract.lens.Lens``): the
-    images are distorted; pixels back-project along the lens's rays and project through it."""
+    images are distorted; pixels back-project along the lens's rays and project through it.
+    ``T_tgt_src_by_id`` {id: 4x4} moves the pixels of those ids (``ids_src``) with their own
+    transform instead of ``T_tgt_src`` (moving objects)."""
     z_src = np.asarray(depth_src, dtype=np.float64)
     H, W = z_src.shape
     K = np.asarray(K, dtype=np.float64)
@@ -76,6 +88,15 @@ def warp_depth(depth_src: np.ndarray, K: np.ndarray, T_tgt_src: np.ndarray,
         rays = lens.pixel_rays(W, H)
         Xs = rays / rays[..., 2:3] * zs[..., None]
     Xt = Xs @ T[:3, :3].T + T[:3, 3]
+    if T_tgt_src_by_id and ids_src is not None:
+        ids = np.asarray(ids_src)
+        if ids.shape != (H, W):
+            raise VoError(f"id map is {ids.shape}, depth {(H, W)}")
+        for obj_id, T_obj in T_tgt_src_by_id.items():
+            on = valid & (ids == obj_id)
+            if on.any():
+                T_obj = np.asarray(T_obj, dtype=np.float64)
+                Xt[on] = Xs[on] @ T_obj[:3, :3].T + T_obj[:3, 3]
     zt = Xt[..., 2]
     front = valid & (zt > 1e-12)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -94,23 +115,31 @@ def warp_depth(depth_src: np.ndarray, K: np.ndarray, T_tgt_src: np.ndarray,
         zt_map = np.asarray(depth_tgt, dtype=np.float64)
         if zt_map.shape != (H, W):
             raise VoError(f"target depth is {zt_map.shape}, source {(H, W)}")
-        with np.errstate(divide="ignore"):
-            inv = np.where(np.isfinite(zt_map) & (zt_map > 0), 1.0 / zt_map, 0.0)
-        ui, vi = u[inside], v[inside]
-        # 2x2 cell around p'; in the half-pixel border the cell's plane is extrapolated
-        # (linear in inverse depth, so still exact for a plane)
-        x0 = np.clip(np.floor(ui), 0, max(W - 2, 0)).astype(np.intp)
-        y0 = np.clip(np.floor(vi), 0, max(H - 2, 0)).astype(np.intp)
-        x1 = np.minimum(x0 + 1, W - 1)
-        y1 = np.minimum(y0 + 1, H - 1)
-        ax = ui - x0
-        ay = vi - y0
-        inv_p = ((1 - ax) * (1 - ay) * inv[y0, x0] + ax * (1 - ay) * inv[y0, x1]
-                 + (1 - ax) * ay * inv[y1, x0] + ax * ay * inv[y1, x1])
-        # hidden  <=>  z_point > z_surface·(1+rtol)  <=>  inv_surface·z_point > 1 + rtol
-        h = inv_p * zt[inside] > 1.0 + rtol
-        hidden[inside] = h
-    return Warp(u=u, v=v, z=np.where(front, zt, np.nan), valid=valid, out_of_image=out, hidden=hidden)
+        hidden[inside] = hidden_behind(zt_map, u[inside], v[inside], zt[inside], rtol)
+    return Warp(u=u, v=v, z=np.where(front, zt, np.nan), valid=valid, out_of_image=out, hidden=hidden,
+                X_src=Xs, X_tgt=Xt)
+
+
+def hidden_behind(depth_map: np.ndarray, u: np.ndarray, v: np.ndarray, z: np.ndarray,
+                  rtol: float = 1e-3) -> np.ndarray:
+    """bool: points at pixels (u, v) (inside the image) with planar depth ``z`` lie behind
+    the surface of ``depth_map`` there by more than ``rtol`` (relative). The surface's
+    depth is bilinear in inverse depth over the 2x2 cell around (u, v) (exact for a plane;
+    in the half-pixel image border the cell's plane is extrapolated)."""
+    zt_map = np.asarray(depth_map, dtype=np.float64)
+    H, W = zt_map.shape
+    with np.errstate(divide="ignore"):
+        inv = np.where(np.isfinite(zt_map) & (zt_map > 0), 1.0 / zt_map, 0.0)
+    x0 = np.clip(np.floor(u), 0, max(W - 2, 0)).astype(np.intp)
+    y0 = np.clip(np.floor(v), 0, max(H - 2, 0)).astype(np.intp)
+    x1 = np.minimum(x0 + 1, W - 1)
+    y1 = np.minimum(y0 + 1, H - 1)
+    ax = u - x0
+    ay = v - y0
+    inv_p = ((1 - ax) * (1 - ay) * inv[y0, x0] + ax * (1 - ay) * inv[y0, x1]
+             + (1 - ax) * ay * inv[y1, x0] + ax * ay * inv[y1, x1])
+    # hidden  <=>  z_point > z_surface·(1+rtol)  <=>  inv_surface·z_point > 1 + rtol
+    return inv_p * z > 1.0 + rtol
 
 
 @dataclass(frozen=True)
@@ -126,12 +155,32 @@ class Flow:
         return self.valid & ~self.occluded
 
 
+def object_transforms(T_world_src, T_world_tgt, object_poses: dict | None) -> dict:
+    """{id: T_tgt_src_i} for the objects that move between the two instants
+    (``object_poses`` {id: (T_world_obj at source, T_world_obj at target)}; objects whose two
+    poses are equal are left out: their pixels take the static path)."""
+    out = {}
+    if not object_poses:
+        return out
+    T_tgt_world = invert(np.asarray(T_world_tgt, float))
+    T_world_src = np.asarray(T_world_src, float)
+    for obj_id, (T_obj_src, T_obj_tgt) in object_poses.items():
+        T_obj_src, T_obj_tgt = np.asarray(T_obj_src, float), np.asarray(T_obj_tgt, float)
+        if np.array_equal(T_obj_src, T_obj_tgt):
+            continue
+        out[int(obj_id)] = T_tgt_world @ (T_obj_tgt @ invert(T_obj_src)) @ T_world_src
+    return out
+
+
 def flow_from_depth(depth_src, K, T_world_src, T_world_tgt, depth_tgt=None, rtol: float = 1e-3,
-                    lens=None) -> Flow:
-    """Flow from a source frame to a target frame of the same camera (static scene);
-    ``lens``: of a distorted render (flow between distorted images)."""
+                    lens=None, ids_src=None, object_poses: dict | None = None) -> Flow:
+    """Flow from a source frame to a target frame of the same camera; ``lens``: of a
+    distorted render (flow between distorted images). With ``ids_src`` and ``object_poses``
+    {id: (T_world_obj at source, at target)} the pixels of moving objects move with them;
+    without, the scene is static."""
     T_tgt_src = invert(np.asarray(T_world_tgt, float)) @ np.asarray(T_world_src, float)
-    w = warp_depth(depth_src, K, T_tgt_src, depth_tgt, rtol, lens)
+    w = warp_depth(depth_src, K, T_tgt_src, depth_tgt, rtol, lens, ids_src=ids_src,
+                   T_tgt_src_by_id=object_transforms(T_world_src, T_world_tgt, object_poses))
     H, W = w.u.shape
     uu, vv = np.meshgrid(np.arange(W, dtype=np.float64), np.arange(H, dtype=np.float64))
     f = np.stack([w.u - uu, w.v - vv], axis=-1)
@@ -140,14 +189,29 @@ def flow_from_depth(depth_src, K, T_world_src, T_world_tgt, depth_tgt=None, rtol
                 out_of_image=w.out_of_image)
 
 
+def sequence_object_poses(seq, k_src: int, k_tgt: int) -> dict:
+    """{id: (T_world_obj at k_src, at k_tgt)} of a sequence's moving objects ({} if none)."""
+    ids = getattr(seq, "moving_ids", ())
+    out = {}
+    for obj_id in ids:
+        T = seq.T_world_obj(obj_id)
+        out[obj_id] = (T[k_src], T[k_tgt])
+    return out
+
+
 def sequence_flow(seq, k_src: int, k_tgt: int, view: str = "left", rtol: float = 1e-3) -> Flow:
-    """Flow of ``view`` from frame k_src to frame k_tgt (forward: k+1, backward: k-1)."""
+    """Flow of ``view`` from frame k_src to frame k_tgt (forward: k+1, backward: k-1);
+    moving objects (the manifest's ``T_world_obj``) move their pixels."""
     T = seq.T_world_cam(view)
     z_src = seq.depth(k_src, view)
     if T is None or z_src is None:
         raise VoError(f"{seq!r} has no depth/pose ground truth: cannot derive optical flow")
+    objs = sequence_object_poses(seq, k_src, k_tgt)
+    ids = seq.ids(k_src, view) if objs else None
+    if objs and ids is None:
+        raise VoError(f"{seq!r} has moving objects but no id maps: cannot tell their pixels apart")
     return flow_from_depth(z_src, seq.K, T[k_src], T[k_tgt], seq.depth(k_tgt, view), rtol,
-                           lens=getattr(seq, "lens", None))
+                           lens=getattr(seq, "lens", None), ids_src=ids, object_poses=objs)
 
 
 def forward_flow(seq, k: int, view: str = "left") -> Flow:
@@ -203,14 +267,17 @@ def write_flo(path, flow: np.ndarray) -> Path:
 def read_flo(path) -> np.ndarray:
     """(H, W, 2) float32, NaN where unknown (|value| > 1e9)."""
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise VoError(f"{path}: no such .flo file")
-    raw = path.read_bytes()
+    with as_vo_error():
+        raw = read_bytes(path, BINARY_LIMIT, ".flo file")
     if len(raw) < 12 or np.frombuffer(raw[:4], "<f4")[0] != np.float32(FLO_MAGIC):
         raise VoError(f"{path}: not a Middlebury .flo file (bad magic)")
     W, H = (int(x) for x in np.frombuffer(raw[4:12], "<i4"))
+    if not (0 < W <= 65536 and 0 < H <= 65536):
+        raise VoError(f"{path}: .flo size {W}x{H} is not an image size")
     if len(raw) < 12 + 8 * W * H:
-        raise VoError(f"{path}: .flo data truncated")
+        raise VoError(f"{path}: .flo data has {len(raw) - 12} bytes, {W}x{H} needs {8 * W * H} (truncated?)")
     f = np.frombuffer(raw, "<f4", count=2 * W * H, offset=12).reshape(H, W, 2).astype(np.float32)
     f[np.abs(f) > 1e9] = np.nan
     return f

@@ -18,7 +18,8 @@ rows bottom to top. SceneFlow's ground truth is dense; here too: disparity d = f
 where nothing is hit (a point at infinity), flow is defined for every pixel (points at
 infinity move with the rotation alone, :mod:`.dense_gt`), NaN only where a point goes
 behind the other camera. The right view's disparity is positive, x_left = x_right + d, as in
-SceneFlow. Disparity change is computed for the static scene.
+SceneFlow. Flow and disparity change move the pixels of moving objects with them
+(the manifest's ``objects[i].T_world_obj``; :mod:`.dense_gt`, :mod:`.flow`).
 """
 from __future__ import annotations
 

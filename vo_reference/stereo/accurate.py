@@ -11,7 +11,11 @@ Per stereo frame pair k -> k+1:
 3. **Sub-pixel tracking**: pyramidal LK left k -> left k+1 with a forward–backward check,
    then the same 1-D stereo refinement at k+1 (seeded with the disparity at k).
 4. **Robust estimation**: RANSAC PnP (OpenCV P3P) on the 3-D points of frame k against their
-   left positions at k+1.
+   left positions at k+1. A moving object can hold RANSAC's largest consistent set (close,
+   well textured, many stereo matches); so RANSAC runs again on the outliers, and if they
+   hold a second rigid motion the camera's is the one closer to the previous step's motion
+   (constant velocity), or on the first step the one whose inliers spread over more of the
+   image (:func:`~vo_reference.stereo.pose_estimation.background_motion`).
 5. **Non-linear refinement of the exact rigid motion**: Gauss–Newton on SE(3) minimising the
    reprojection error of the frame-k points in the *left and right* images at k+1 (Huber
    weights, inliers re-selected), so no first-order motion model is involved.
@@ -28,13 +32,14 @@ import numpy as np
 
 from blender_sesgen.contract.camera import backproject
 from blender_sesgen.contract.depth import depth_from_disparity, disparity_from_depth
-from blender_sesgen.contract.se3 import invert, se3, se3_exp
+from blender_sesgen.contract.se3 import invert
 
 from ..errors import VoError
 from .blockmatch import sad_disparity
 from .keypoints import shi_tomasi
-from .motion_field import T_to_twist, solve_small
+from .motion_field import T_to_twist
 from .paper import StepResult
+from .pose_estimation import background_motion, ransac_pnp, refine_pose, reprojection_errors
 
 
 @dataclass
@@ -56,6 +61,9 @@ class AccurateParams:
     huber_px: float = 0.5        # Huber threshold of the refinement, px
     inlier_px: float = 1.0       # final inlier threshold, px
     gn_iterations: int = 10
+    second_motion: bool = True     # look for a second rigid motion among RANSAC's outliers (moving objects)
+    second_motion_min: int = 8     # ... with at least this many inliers, moving the points apart by
+    second_motion_px: float = 3.0  # ... more than this (median, px); then the camera's is told apart
     carry_tracks: bool = True      # carry inlier keypoints to the next step (else fresh corners each step)
     retrack_fraction: float = 0.7  # detect new corners when fewer carried keypoints survive
 
@@ -74,6 +82,7 @@ class StereoTracks:
         self.left: np.ndarray | None = None
         self.pts = np.zeros((0, 2))
         self.pr = np.zeros((0, 2))
+        self.last_T_k_k1: np.ndarray | None = None   # the previous step's motion (a prediction of this one)
 
     def carried(self, left0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Left/right positions (N, 2) in ``left0`` carried from the previous step, if it ended there."""
@@ -142,78 +151,13 @@ def triangulate(pl: np.ndarray, pr: np.ndarray, K: np.ndarray, baseline_m: float
     return backproject(K, pl, depth_from_disparity(pl[:, 0] - pr[:, 0], K[0, 0], baseline_m))
 
 
-def _project_jac(P: np.ndarray, K: np.ndarray):
-    """Pixels (N, 2) and d(pixel)/dP (N, 2, 3) of camera-frame points."""
-    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
-    X, Y, Z = P[:, 0], P[:, 1], P[:, 2]
-    iz = 1.0 / Z
-    uv = np.stack([fx * X * iz + cx, fy * Y * iz + cy], axis=1)
-    J = np.zeros((P.shape[0], 2, 3))
-    J[:, 0, 0] = fx * iz
-    J[:, 0, 2] = -fx * X * iz * iz
-    J[:, 1, 1] = fy * iz
-    J[:, 1, 2] = -fy * Y * iz * iz
-    return uv, J
-
-
-def refine_pose(P0: np.ndarray, obs_left: np.ndarray, obs_right: np.ndarray | None, K: np.ndarray,
-                baseline_m: float, T_k1_k: np.ndarray, iterations: int = 10, huber_px: float = 0.5) -> np.ndarray:
-    """Gauss–Newton on SE(3): T_k1_k minimising the reprojection error of the frame-k points
-    ``P0`` (N, 3) in the left (and, where given and finite, right) image at k+1.
-
-    Update T <- exp(delta) T with delta = [v, w]; Huber weights with threshold ``huber_px``.
-    """
-    T = T_k1_k.copy()
-    has_r = obs_right is not None
-    if has_r:
-        rmask = np.all(np.isfinite(obs_right), axis=1)
-    b = np.array([baseline_m, 0.0, 0.0])
-    for _ in range(iterations):
-        P1 = P0 @ T[:3, :3].T + T[:3, 3]
-        if np.any(P1[:, 2] <= 0):
-            raise VoError("pose refinement diverged (points behind the camera)")
-        # dP1/ddelta = [I, -skew(P1)]
-        dP = np.zeros((P1.shape[0], 3, 6))
-        dP[:, 0, 0] = dP[:, 1, 1] = dP[:, 2, 2] = 1.0
-        dP[:, 0, 4], dP[:, 0, 5] = P1[:, 2], -P1[:, 1]
-        dP[:, 1, 3], dP[:, 1, 5] = -P1[:, 2], P1[:, 0]
-        dP[:, 2, 3], dP[:, 2, 4] = P1[:, 1], -P1[:, 0]
-        uv, J = _project_jac(P1, K)
-        res = [uv - obs_left]
-        jac = [J @ dP]
-        if has_r:
-            uvr, Jr = _project_jac(P1[rmask] - b, K)
-            res.append(uvr - obs_right[rmask])
-            jac.append(Jr @ dP[rmask])
-        r = np.concatenate(res).reshape(-1, 2)
-        A = np.concatenate(jac)                                    # (M, 2, 6)
-        e = np.linalg.norm(r, axis=1)
-        w = np.where(e <= huber_px, 1.0, huber_px / np.maximum(e, 1e-12))
-        Aw = A * w[:, None, None]
-        Hm = np.einsum("nij,nik->jk", Aw, A)
-        g = np.einsum("nij,ni->j", Aw, r)
-        delta = -solve_small(Hm + 1e-9 * np.eye(6), g)
-        T = se3_exp(delta[3:], delta[:3]) @ T
-        if np.linalg.norm(delta) < 1e-12:
-            break
-    return T
-
-
-def _residuals(P0, obs_left, obs_right, K, baseline_m, T_k1_k):
-    P1 = P0 @ T_k1_k[:3, :3].T + T_k1_k[:3, 3]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        uv, _ = _project_jac(P1, K)
-        e = np.linalg.norm(uv - obs_left, axis=1)
-        if obs_right is not None:
-            uvr, _ = _project_jac(P1 - np.array([baseline_m, 0, 0]), K)
-            er = np.linalg.norm(uvr - obs_right, axis=1)
-            e = np.where(np.isfinite(er), np.maximum(e, er), e)
-    return np.where(P1[:, 2] > 0, e, np.inf)
-
-
 def estimate_motion(P0: np.ndarray, obs_left: np.ndarray, obs_right: np.ndarray | None, K: np.ndarray,
-                    baseline_m: float, params: AccurateParams | None = None, robust: bool = True) -> tuple[np.ndarray, np.ndarray]:
-    """T_k_k1 from frame-k 3-D points and their left (and right) pixels at k+1; returns (T_k_k1, inliers)."""
+                    baseline_m: float, params: AccurateParams | None = None, robust: bool = True,
+                    prior_T_k_k1: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """T_k_k1 from frame-k 3-D points and their left (and right) pixels at k+1; returns (T_k_k1, inliers).
+
+    ``prior_T_k_k1``: the previous step's motion (constant-velocity prediction), used to
+    tell the camera's motion from a moving object's (:func:`~vo_reference.stereo.pose_estimation.background_motion`)."""
     p = params or AccurateParams()
     n = P0.shape[0]
     if n < 4:
@@ -221,21 +165,18 @@ def estimate_motion(P0: np.ndarray, obs_left: np.ndarray, obs_right: np.ndarray 
     T = np.eye(4)
     inl = np.ones(n, bool)
     if robust:
-        ok, rvec, tvec, idx = cv2.solvePnPRansac(P0.astype(np.float64), obs_left.astype(np.float64), K, None,
-                                                 iterationsCount=p.ransac_iterations,
-                                                 reprojectionError=p.ransac_px, confidence=0.999,
-                                                 flags=cv2.SOLVEPNP_P3P)
-        if ok and idx is not None and len(idx) >= 4:
-            R, _ = cv2.Rodrigues(rvec)
-            T = se3(R, tvec.reshape(3))
-            inl = np.zeros(n, bool)
-            inl[idx.reshape(-1)] = True
+        found = ransac_pnp(P0, obs_left, K, p)
+        if found is not None:
+            T, inl = found
+            if p.second_motion:
+                prior = None if prior_T_k_k1 is None else invert(prior_T_k_k1)
+                T, inl = background_motion(P0, obs_left, K, p, T, inl, prior)
     obs_r = obs_right
     for _ in range(2 if robust else 1):
         T = refine_pose(P0[inl], obs_left[inl], None if obs_r is None else obs_r[inl], K, baseline_m, T,
                         p.gn_iterations, p.huber_px if robust else np.inf)
         if robust:
-            inl = _residuals(P0, obs_left, obs_r, K, baseline_m, T) < p.inlier_px
+            inl = reprojection_errors(P0, obs_left, obs_r, K, baseline_m, T) < p.inlier_px
             if inl.sum() < 4:
                 raise VoError("too few inliers after refinement")
     return invert(T), inl
@@ -263,7 +204,7 @@ def _detect(left0: np.ndarray, right0: np.ndarray, have: np.ndarray, p: Accurate
 
 def accurate_step(left0, right0, left1, right1, K: np.ndarray, baseline_m: float,
                   params: AccurateParams | None = None, gt=None, gt_depth: bool = False, gt_flow: bool = False,
-                  tracks: StereoTracks | None = None) -> StepResult:
+                  tracks: StereoTracks | None = None, mask_dynamic: bool = False) -> StepResult:
     """Accurate estimate of the step k -> k+1 from the stereo pairs at k and k+1.
 
     ``tracks``: state of a running sequence; keypoints that ended the previous step in
@@ -273,11 +214,13 @@ def accurate_step(left0, right0, left1, right1, K: np.ndarray, baseline_m: float
     refinement then uses the left image at k+1 only unless ``gt_flow`` also gives the exact
     right positions. ``gt_flow``: exact left/right positions at k+1 from the ground truth.
     With either switch corners are detected afresh at integer pixels every step (where the
-    depth pass is exact).
+    depth pass is exact). ``mask_dynamic``: keypoints on objects that move from k to k+1
+    (the ground-truth motion mask, ``gt.static``) are dropped before estimation; without
+    it moving points are left to RANSAC and the inlier re-selection to reject.
     """
     p = params or AccurateParams()
-    if (gt_depth or gt_flow) and gt is None:
-        raise VoError("--gt-depth/--gt-flow need ground truth (a render folder with depth and poses)")
+    if (gt_depth or gt_flow or mask_dynamic) and gt is None:
+        raise VoError("--gt-depth/--gt-flow/--mask-dynamic-gt need ground truth (a render folder with depth and poses)")
     trk = tracks or StereoTracks(p)
     f = K[0, 0]
     if gt_depth or gt_flow:
@@ -299,6 +242,9 @@ def accurate_step(left0, right0, left1, right1, K: np.ndarray, baseline_m: float
                 pts, pr = np.concatenate([pts, pn]), np.concatenate([pr, prn])
         disp = pts[:, 0] - pr[:, 0]
         P0 = triangulate(pts, pr, K, baseline_m)
+    if mask_dynamic:
+        keep = gt.static(pts)
+        pts, P0, disp = pts[keep], P0[keep], disp[keep]
     r1_all = None
     if gt_flow:
         l1, r1 = gt.correspondences(pts)
@@ -315,7 +261,9 @@ def accurate_step(left0, right0, left1, right1, K: np.ndarray, baseline_m: float
             r1_all = r1
             if not p.use_right:
                 r1 = None
-    T_k_k1, inl = estimate_motion(P0, l1, r1, K, baseline_m, p, robust=not (gt_depth and gt_flow))
+    T_k_k1, inl = estimate_motion(P0, l1, r1, K, baseline_m, p, robust=not (gt_depth and gt_flow),
+                                  prior_T_k_k1=trk.last_T_k_k1)
+    trk.last_T_k_k1 = T_k_k1
     if r1_all is not None and not gt_flow:
         keep = inl & np.all(np.isfinite(r1_all), axis=1)
         trk.keep(left1, l1[keep], r1_all[keep])

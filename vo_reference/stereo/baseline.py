@@ -27,10 +27,16 @@ def sgbm_disparity(left: np.ndarray, right: np.ndarray, num_disp: int = 128, blo
     return sgbm.compute(left, right).astype(np.float32) / 16.0
 
 
-def baseline_step(left0, right0, left1, K: np.ndarray, baseline_m: float, num_disp: int = 128) -> StepResult:
+def baseline_step(left0, right0, left1, K: np.ndarray, baseline_m: float, num_disp: int = 128,
+                  gt=None, mask_dynamic: bool = False) -> StepResult:
+    """``mask_dynamic``: drop corners on objects that move (``gt``: a GroundTruthStep)."""
     pts = cv2.goodFeaturesToTrack(left0, 1000, 0.01, 8)
     if pts is None:
         raise VoError("no corners")
+    if mask_dynamic:
+        if gt is None:
+            raise VoError("--mask-dynamic-gt needs ground truth (a render folder with ids and poses)")
+        pts = pts[gt.static(pts.reshape(-1, 2))]
     lk = dict(winSize=(21, 21), maxLevel=3, criteria=(cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 0.01))
     p1, s1, _ = cv2.calcOpticalFlowPyrLK(left0, left1, pts, None, **lk)
     p0b, s2, _ = cv2.calcOpticalFlowPyrLK(left1, left0, p1, None, **lk)

@@ -23,6 +23,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="use the render's depth at each keypoint instead of stereo matching (render folders only)")
     p.add_argument("--gt-flow", action="store_true",
                    help="use each keypoint's exact position in the next frame (from depth + K + poses) instead of tracking")
+    p.add_argument("--mask-dynamic-gt", action="store_true",
+                   help="drop keypoints on objects that move (the render's ground-truth motion mask)")
     p.add_argument("--out", required=True, metavar="EST.txt", help="estimated trajectory (left camera poses)")
     p.add_argument("--out-format", default="kitti", choices=("kitti", "tum"),
                    help="trajectory format: kitti (12 numbers per line, default) or tum (with timestamps)")
@@ -86,15 +88,17 @@ def vo_progress(method: str, frames: tuple[int, int], mode: str = "auto", stream
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..io.sequence import open_sequence
+    from ..io.sequence import open_sequence, require_complete
     from ..io.trajectory import write_kitti, write_tum
     from .pipeline import parse_frames, run_stereo_vo
 
     seq = open_sequence(args.input)
     frames = parse_frames(args.frames, seq.num_frames)
+    require_complete(seq, range(frames[0], frames[1] + 1))  # refused before anything starts
     bar, show = vo_progress(args.method, frames, progress_mode(args))
     with bar:
-        res = run_stereo_vo(seq, args.method, gt_depth=args.gt_depth, gt_flow=args.gt_flow, frames=frames,
+        res = run_stereo_vo(seq, args.method, gt_depth=args.gt_depth, gt_flow=args.gt_flow,
+                            mask_dynamic_gt=args.mask_dynamic_gt, frames=frames,
                             params=make_params(args.method, args), progress=show)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -69,20 +69,23 @@ class StepResult:
 
 def paper_step(left0: np.ndarray, right0: np.ndarray, left1: np.ndarray, K: np.ndarray, baseline_m: float,
                params: PaperParams | None = None, gt=None, gt_depth: bool = False,
-               gt_flow: bool = False) -> StepResult:
+               gt_flow: bool = False, mask_dynamic: bool = False) -> StepResult:
     """The paper's egomotion estimate from the stereo pair at k and the left image at k+1.
 
     ``gt`` (a :class:`~vo_reference.stereo.groundtruth.GroundTruthStep`) is needed for
-    ``gt_depth`` (Z from the render's depth at the keypoint instead of SAD disparity) and
-    ``gt_flow`` (the keypoint's exact position at k+1 instead of SAD tracking).
+    ``gt_depth`` (Z from the render's depth at the keypoint instead of SAD disparity),
+    ``gt_flow`` (the keypoint's exact position at k+1 instead of SAD tracking) and
+    ``mask_dynamic`` (keypoints on objects that move from k to k+1 are dropped).
     """
     p = params or PaperParams()
-    if (gt_depth or gt_flow) and gt is None:
-        raise VoError("--gt-depth/--gt-flow need ground truth (a render folder with depth and poses)")
+    if (gt_depth or gt_flow or mask_dynamic) and gt is None:
+        raise VoError("--gt-depth/--gt-flow/--mask-dynamic-gt need ground truth (a render folder with depth and poses)")
     f = float(K[0, 0])
     cx, cy = float(K[0, 2]), float(K[1, 2])
     margin = p.block // 2 + 1
     pts = shi_tomasi(left0, p.max_corners, p.quality, p.min_distance, margin)
+    if mask_dynamic:
+        pts = pts[gt.static(pts)]
     if gt_depth:
         Z = gt.depth(pts)
         ok = np.isfinite(Z)

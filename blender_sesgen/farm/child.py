@@ -1,0 +1,70 @@
+"""``python -m blender_sesgen.farm.child render ...``: the render command, bound to the life
+of the process that started it (a farm task in a Ray worker).
+
+When a Ray worker dies (killed, out of memory, its node lost) the render it started must
+die with it: an orphaned render would keep its lock on the frames and render them again
+beside the retried task. On Linux the kernel sends SIGKILL when the parent goes
+(``PR_SET_PDEATHSIG``); elsewhere a thread polls the parent once a second. A render killed
+that way leaves a folder that ``--resume`` completes (every frame is written atomically).
+
+It also gives the render back its Ctrl-C: a Ray worker blocks SIGINT, and a child inherits
+the blocked signal, so a cancelled task's SIGINT would never arrive; here SIGINT and SIGTERM
+are unblocked and back to Python's defaults, and the render stops between views as usual.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import threading
+import time
+
+PARENT_ENV = "SESGEN_FARM_PARENT_PID"
+_PR_SET_PDEATHSIG = 1
+
+
+def _die():
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+def bind_to_parent(parent_pid: int) -> str:
+    """Arrange to be killed when ``parent_pid`` (our parent) exits; returns how."""
+    how = "poll"
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+            libc = ctypes.CDLL(None, use_errno=True)
+            if libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0) == 0:
+                how = "pdeathsig"
+        except (OSError, AttributeError):
+            pass
+    if os.getppid() != parent_pid:   # the parent went before the binding took effect
+        _die()
+    if how == "poll":
+        def watch():
+            while True:
+                time.sleep(1.0)
+                if os.getppid() != parent_pid:
+                    _die()
+        threading.Thread(target=watch, name="sesgen-farm-parent-watch", daemon=True).start()
+    return how
+
+
+def restore_interrupts() -> None:
+    """SIGINT and SIGTERM unblocked, with Python's default handling (see the module docstring)."""
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def main(argv=None) -> int:
+    parent = os.environ.get(PARENT_ENV)
+    bind_to_parent(int(parent) if parent else os.getppid())
+    restore_interrupts()
+    from ..cli import main as cli_main
+    return cli_main(sys.argv[1:] if argv is None else argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

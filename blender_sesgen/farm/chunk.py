@@ -1,0 +1,131 @@
+"""The body of one farm task: render one chunk of one scene in a subprocess (stdlib only).
+
+:func:`run_chunk` runs the render command (``work.render_argv``) with ``--progress json``,
+relays every JSON event it prints to ``report`` (the farm's progress across tasks) and keeps
+its other output lines for the failure report. It returns a plain dict (picklable, the
+task's result): the exit status, the host and pid of the render, the output tail.
+
+If the render dies by a signal (SIGKILL, the OOM killer) its lock on the frames stays
+behind; this process knows it is dead and removes it, so that the retry -- on any host --
+can take the frames at once. If the task itself is cancelled (KeyboardInterrupt in the
+worker) the render gets SIGINT and stops between views like a Ctrl-C'd render.
+"""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections import deque
+from pathlib import Path
+from typing import Callable, Optional
+
+from .child import PARENT_ENV
+from .work import ERROR_TAIL
+
+INTERRUPT_GRACE_S = 60.0   # after SIGINT, how long a render may take to finish its view
+
+
+def run_chunk(argv: list[str], key: str, out: str, report: Optional[Callable[[dict], None]] = None,
+              env: Optional[dict] = None) -> dict:
+    """Run one chunk's render ``argv`` (the key names the chunk in reports; ``out`` is its
+    render folder) and return its result dict (see the module docstring)."""
+    send = report or (lambda msg: None)
+    host = socket.gethostname()
+    t0 = time.monotonic()
+    proc_env = dict(os.environ if env is None else env)
+    proc_env[PARENT_ENV] = str(os.getpid())
+    proc_env.setdefault("PYTHONUNBUFFERED", "1")
+    tail: deque[str] = deque(maxlen=ERROR_TAIL)
+    frames_done = 0
+    proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True, errors="replace", env=proc_env)
+    send({"kind": "started", "key": key, "host": host, "pid": proc.pid})
+    interrupted = False
+    try:
+        for line in proc.stdout:
+            event = _event(line)
+            if event is None:
+                if line.strip():
+                    tail.append(line.rstrip("\n"))
+                continue
+            if event.get("event") == "progress":
+                frames_done += 1
+            send({"kind": "event", "key": key, "event": event})
+        rc = proc.wait()
+    except KeyboardInterrupt:   # the task was cancelled: stop the render like a Ctrl-C
+        interrupted = True
+        rc = _stop(proc)
+    if rc is not None and rc < 0:   # killed: it cannot release its lock, we know it is dead
+        _drop_lock(out, host, proc.pid)
+    return {"key": key, "rc": rc, "host": host, "pid": proc.pid, "tail": list(tail),
+            "frames_done": frames_done, "wall_s": round(time.monotonic() - t0, 3), "cancelled": interrupted}
+
+
+def _event(line: str) -> Optional[dict]:
+    s = line.strip()
+    if not (s.startswith("{") and s.endswith("}")):
+        return None
+    try:
+        ev = json.loads(s)
+    except ValueError:
+        return None
+    return ev if isinstance(ev, dict) and "event" in ev else None
+
+
+def _stop(proc: subprocess.Popen) -> Optional[int]:
+    try:
+        proc.send_signal(signal.SIGINT)
+        return proc.wait(INTERRUPT_GRACE_S)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        return proc.wait()
+    except KeyboardInterrupt:
+        proc.kill()
+        return proc.wait()
+
+
+def _drop_lock(out: str, host: str, pid: int) -> None:
+    try:
+        from ..output import OutputFolder
+        OutputFolder(Path(out)).drop_lock_of(host, pid)
+    except Exception as e:  # noqa: BLE001 - the retry still takes a stale lock over (same host) or waits
+        print(f"sesgen farm: could not remove the lock of killed render {pid}: {e}", file=sys.stderr)
+
+
+def task(args: list[str], key: str, out: str, inbox=None, scene: Optional[str] = None) -> dict:
+    """The Ray task: the render command ``args`` (``work.render_args``) run by this node's
+    Python through :mod:`.child`, reporting to the driver's inbox actor (one message per
+    event, fire and forget). A node that cannot see the scene or ROOT (not on a shared
+    filesystem) answers as a user error, without starting Blender."""
+    unseen = [p for p in (scene, str(Path(out).parent)) if p and not os.path.exists(p)]
+    if unseen:
+        return {"key": key, "rc": 2, "host": socket.gethostname(), "pid": 0, "frames_done": 0, "wall_s": 0.0,
+                "cancelled": False,
+                "tail": [f"error: node {socket.gethostname()} cannot see {unseen[0]}: ROOT and the scripts must be "
+                         "on a filesystem every node mounts at the same path"]}
+    report = None
+    if inbox is not None:
+        def report(msg: dict) -> None:
+            inbox.put.remote(msg)
+    return run_chunk([sys.executable, "-m", "blender_sesgen.farm.child", *args], key, out, report)
+
+
+def verify_task(out: str) -> dict:
+    """The Ray task run when every chunk of a folder has ended: the completion logs taken
+    into the manifest, then every frame recorded complete checked against its checksum
+    (``verify --quick``); bad frames are recorded as not rendered. Returns the frames still
+    to render and what was wrong."""
+    from ..contract.manifest import Manifest
+    from ..output import OutputFolder
+    folder = OutputFolder(Path(out))
+    folder.consolidate()
+    bad = folder.verify(full=False)
+    if bad:
+        folder.mark_incomplete(sorted({k for k, _ in bad}))
+    m = Manifest.read(Path(out))
+    missing = [k for k in range(m.frames) if not m.frames_complete[k]]
+    return {"out": out, "missing": missing, "bad": [[k, why] for k, why in bad], "frames": m.frames}

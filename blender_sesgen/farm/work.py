@@ -1,0 +1,157 @@
+"""What a farm renders (pure: no Ray, no bpy): its scenes, their output folders and names,
+the chunks of frames, the render command of a chunk and how its end is read.
+
+Names: every scene renders into ``ROOT/<name>``, ``<name>`` being the script's file name
+without ``.ses``; when several scripts share a name they get ``-2``, ``-3``, ... in the order
+they were given (the first keeps the plain name), so the same command line always maps the
+same script to the same folder.
+"""
+from __future__ import annotations
+
+import enum
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Iterable, Optional, Sequence
+
+from ..dataset import read_index
+from ..errors import SesgenError
+
+SCRIPT_SUFFIX = ".ses"
+ERROR_TAIL = 20                      # non-event output lines a task keeps for its report
+
+
+@dataclass
+class FarmScene:
+    """One scene of a farm: its script, output folder and what is still to render."""
+    name: str
+    script: Path                     # absolute
+    out: Path                        # absolute: ROOT/name
+    meta: dict = field(default_factory=dict)      # from a dataset index beside the script (split, seed, ...)
+    plan: object = None              # plan.RenderPlan once prepared
+    pending: list = field(default_factory=list)   # frames to render
+    error: Optional[str] = None      # why the scene cannot be rendered (a user error line)
+
+    @property
+    def frames(self) -> int:
+        return 0 if self.plan is None else len(self.plan.frames)
+
+
+def find_scripts(args: Sequence[str]) -> list[tuple[Path, dict]]:
+    """``(script, meta)`` for every SCENE argument: a script, or a folder whose scripts are
+    taken in the order of its dataset index (``dataset.json``, written by ``generate``) or,
+    without one, sorted by name. ``meta`` is the script's entry in a dataset index beside
+    it, if there is one. The same script given twice is rendered once."""
+    out, seen = [], set()
+    for arg in args:
+        p = Path(arg)
+        if p.is_dir():
+            index = read_index(p)
+            listed = [p / s["script"] for s in index.get("sequences", [])] if index else []
+            scripts = listed or sorted(q for q in p.iterdir() if q.suffix == SCRIPT_SUFFIX and q.is_file())
+            if not scripts:
+                raise SesgenError(f"{arg}: a folder with no {SCRIPT_SUFFIX} scripts")
+        else:
+            scripts = [p]
+        for s in scripts:
+            key = s.resolve() if s.exists() else s.absolute()
+            if key in seen:
+                continue
+            seen.add(key)
+            out.append((key, _meta_of(key)))
+    return out
+
+
+def _meta_of(script: Path) -> dict:
+    index = read_index(script.parent)
+    if not index:
+        return {}
+    for s in index.get("sequences", []):
+        if s.get("script") == script.name:
+            meta = {k: s[k] for k in ("split", "seed") if k in s}
+            if index.get("generator"):
+                meta["generator"] = index["generator"]
+            return meta
+    return {}
+
+
+def unique_names(scripts: Iterable[Path]) -> list[str]:
+    """Folder names: the file name without ``.ses``; repeats get ``-2``, ``-3``, ... in order."""
+    names, used = [], set()
+    for s in scripts:
+        stem = Path(s).stem if Path(s).suffix == SCRIPT_SUFFIX else Path(s).name
+        name, n = stem, 1
+        while name in used:
+            n += 1
+            name = f"{stem}-{n}"
+        used.add(name)
+        names.append(name)
+    return names
+
+
+def frame_ranges(frames: Iterable[int], size: int) -> list[tuple[int, int]]:
+    """Half-open ranges ``(a, b)`` covering exactly ``frames``: runs of consecutive frames,
+    cut every ``size`` frames counted from 0 (so a fresh scene gets the chunks
+    ``0:size, size:2*size, ...`` and a resumed one the same chunks minus what is done)."""
+    if size < 1:
+        raise ValueError("chunk size must be >= 1")
+    out: list[tuple[int, int]] = []
+    for k in sorted(set(int(f) for f in frames)):
+        if out and out[-1][1] == k and k % size != 0:
+            out[-1] = (out[-1][0], k + 1)
+        else:
+            out.append((k, k + 1))
+    return out
+
+
+def render_args(scene: FarmScene, a: int, b: int, threads: int, forwarded: Sequence[str]) -> list[str]:
+    """The render command's arguments for frames ``a:b`` of ``scene`` (the task runs them as
+    ``python -m blender_sesgen.farm.child render ...`` with its own node's Python)."""
+    return ["render", str(scene.script), "--out", str(scene.out), "--frames", f"{a}:{b}", "--resume",
+            "--progress", "json", "--threads", str(int(threads)), *forwarded]
+
+
+class Outcome(enum.Enum):
+    """How a chunk's render ended, from the farm's point of view."""
+    OK = "ok"                  # exit 0: the chunk is rendered
+    USER_ERROR = "user error"  # exit 2: bad input (script, folder); retrying cannot help
+    INTERRUPTED = "interrupted"  # exit 130: stopped by Ctrl-C / SIGTERM
+    LOST = "lost"              # exit 1, killed by a signal, the worker or node gone: retry
+
+
+def outcome_of(rc: Optional[int]) -> Outcome:
+    if rc == 0:
+        return Outcome.OK
+    if rc == 2:
+        return Outcome.USER_ERROR
+    if rc == 130:
+        return Outcome.INTERRUPTED
+    return Outcome.LOST
+
+
+def describe_exit(rc: Optional[int]) -> str:
+    if rc is None:
+        return "no exit status"
+    if rc < 0:
+        import signal
+        try:
+            return f"killed by {signal.Signals(-rc).name}"
+        except ValueError:
+            return f"killed by signal {-rc}"
+    return f"exit code {rc}"
+
+
+_ERROR = re.compile(r"(^|:\s)error:\s")
+
+
+def error_line(lines: Sequence[str]) -> Optional[str]:
+    """The line that says what went wrong: the last ``error:`` line (``file:line:col: error:
+    ...`` or ``error: ...``), else the last line of a Python traceback, else None (a render
+    killed by a signal says nothing)."""
+    text = [ln.rstrip() for ln in lines if ln.strip()]
+    for ln in reversed(text):
+        if _ERROR.search(ln):
+            return ln
+    if any(ln.startswith("Traceback (most recent call last)") for ln in text):
+        return text[-1]
+    return None

@@ -1,0 +1,266 @@
+"""The render farm on a real Ray (started here, stopped after) with real renders: chunked
+folders equal single-machine renders byte for byte; a render SIGKILLed mid-chunk and a Ray
+worker killed mid-chunk are retried and the output is complete and identical; a bad script
+among good ones is reported while the others finish; a generated folder renders with its
+dataset index; no Ray process is left behind."""
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from render_support import REPO, run_render  # noqa: E402
+
+pytestmark = pytest.mark.render
+pytest.importorskip("bpy")
+ray = pytest.importorskip("ray")
+
+SCENE = """\
+CAMERA resolution 64 48 focal 44 baseline 0.1 near 0.1 far 100
+START position 0 1 3
+QUAD id 1 texture {floor} vertices -2 0 -2  2 0 -2  2 0 4  -2 0 4
+QUAD id 2 texture 3 vertices -2 0 -2  -2 2.5 -2  2 2.5 -2  2 0 -2
+CUBOID id 3 texture 1 position -0.8 0.4 -0.5 dim 0.8 0.8 0.8
+SPHERE id 4 texture 2 colour 1 0.8 0.6 position {x} 0.5 -0.3 dim 0.5
+""" + "EGO 0.02 0 0.1 0 1 0\n" * 4
+BAD = """\
+CAMERA resolution 64 48 focal 44
+START position 0 1 3
+FOG start 10
+CUBOID id 3 texture 1 position -0.8 0.4 -0.5 dim 0.8 0.8 0.8
+"""
+RENDER = ("--samples", "2")
+
+
+@pytest.fixture(scope="module")
+def scenes(tmp_path_factory):
+    """Two tiny 5-frame scenes and their single-machine renders (same absolute script paths)."""
+    tmp = tmp_path_factory.mktemp("farm")
+    out = {}
+    for name, floor, x in (("alpha", 4, 0.6), ("beta", 8, -0.2)):
+        script = tmp / "scripts" / f"{name}.ses"
+        script.parent.mkdir(exist_ok=True)
+        script.write_text(SCENE.format(floor=floor, x=x))
+        ref = tmp / "single" / name
+        r = run_render(script, "--out", ref, *RENDER, "--quiet")
+        assert r.returncode == 0, r.stderr
+        out[name] = (script, ref)
+    return tmp, out
+
+
+def _marker_dir() -> str:
+    # short: Ray's socket paths live under it (a Unix socket path has ~107 characters)
+    return tempfile.mkdtemp(prefix="sg-ray-", dir="/tmp")
+
+
+def processes_mentioning(marker: str) -> list[str]:
+    """Command lines of live processes whose command line or environment names ``marker``."""
+    found = []
+    for d in Path("/proc").iterdir():
+        if not d.name.isdigit() or int(d.name) == os.getpid():
+            continue
+        try:
+            cmd = (d / "cmdline").read_bytes()
+            env = (d / "environ").read_bytes()
+            state = (d / "stat").read_text().rsplit(")", 1)[-1].split()[0]
+        except OSError:
+            continue
+        if state != "Z" and (marker.encode() in cmd or marker.encode() in env):
+            found.append(cmd.replace(b"\0", b" ").decode(errors="replace")[:160])
+    return found
+
+
+def assert_none_left(marker: str, timeout: float = 30.0) -> None:
+    t0 = time.time()
+    while processes_mentioning(marker) and time.time() - t0 < timeout:
+        time.sleep(0.5)
+    assert processes_mentioning(marker) == [], "Ray processes left behind"
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    """A Ray 'cluster' of one node with 2 CPUs, started here; the farm joins it by address."""
+    marker = _marker_dir()
+    ctx = ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False,
+                   object_store_memory=100 * 1024 * 1024, _temp_dir=os.path.join(marker, "ray"))
+    try:
+        yield ctx.address_info["gcs_address"]
+    finally:
+        ray.shutdown()
+        assert_none_left(marker)
+        shutil.rmtree(marker, ignore_errors=True)
+
+
+def farm_cmd(*args) -> list[str]:
+    return [sys.executable, "-m", "blender_sesgen", "farm", *map(str, args)]
+
+
+def farm(*args, env=None, timeout=900) -> subprocess.CompletedProcess:
+    return subprocess.run(farm_cmd(*args), cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO), **(env or {})),
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def exr_bytes(out: Path) -> dict[str, bytes]:
+    return {p.relative_to(out).as_posix(): p.read_bytes() for p in sorted(out.glob("exr/*/*.exr"))}
+
+
+TIMING_FIELDS = ()   # the manifest holds no wall-clock field today: it must equal the single render's
+
+
+def manifest(out: Path) -> dict:
+    m = json.loads((out / "manifest.json").read_text())
+    for k in TIMING_FIELDS:
+        m.pop(k, None)
+    return m
+
+
+def assert_same_as_single(root: Path, name: str, ref: Path) -> None:
+    out = root / name
+    got, want = exr_bytes(out), exr_bytes(ref)
+    assert len(want) == 10 and got == want, f"{name}: EXRs differ from the single render"
+    assert manifest(out) == manifest(ref), f"{name}: manifest differs"
+    assert all(manifest(out)["frames_complete"]) and len(manifest(out)["checksums"]) == 10
+    state = out / ".sesgen"
+    assert not list(state.glob("lock-*")) and not list(state.glob("done-*")), "locks or completion logs left"
+    assert not [f for f in out.rglob(".*tmp-*")], "temporary files left"
+    assert subprocess.run([sys.executable, "-m", "blender_sesgen", "verify", str(out), "--quiet"], cwd=REPO,
+                          env=dict(os.environ, PYTHONPATH=str(REPO))).returncode == 0
+
+
+def test_chunks_of_two_frames_equal_single_machine_renders(scenes, cluster):
+    tmp, refs = scenes
+    root = tmp / "chunked"
+    r = farm(refs["alpha"][0], refs["beta"][0], "--out", root, "--address", cluster, "--chunk", "2", *RENDER,
+             "--progress", "plain")
+    assert r.returncode == 0, r.stderr
+    assert "6 task(s) of <= 2 frames" in r.stdout and "2 of 2 scene(s) complete" in r.stdout
+    # one progress line with ETA across all tasks, counting all 10 frames
+    lines = [ln for ln in r.stderr.splitlines() if ln.startswith("farm: ")]
+    assert lines[-1].startswith("farm: 10/10 (100%)") and any("ETA" in ln for ln in lines)
+    for name, (_, ref) in refs.items():
+        assert_same_as_single(root, name, ref)
+    index = json.loads((root / "dataset.json").read_text())
+    assert [s["name"] for s in index["sequences"]] == ["alpha", "beta"]
+    assert all(s["complete"] and s["frames"] == 5 and s["render"]["samples"] == 2 for s in index["sequences"])
+    # again: nothing to render, every folder verified complete
+    again = farm(refs["alpha"][0], refs["beta"][0], "--out", root, "--address", cluster, "--chunk", "2", *RENDER)
+    assert again.returncode == 0 and "0 frame(s) rendered" in again.stdout, again.stderr
+    for name, (_, ref) in refs.items():
+        assert exr_bytes(root / name) == exr_bytes(ref)
+
+
+def _writers(out: Path) -> dict[int, int]:
+    """{pid: frames logged} of the renders holding a lock on ``out`` now."""
+    state = out / ".sesgen"
+    found = {}
+    for lock in state.glob("lock-*.json") if state.is_dir() else ():
+        pid = int(lock.stem.rsplit("-", 1)[1])
+        log = state / f"done-{lock.stem[len('lock-'):]}.jsonl"
+        found[pid] = len(log.read_text().splitlines()) if log.is_file() else 0
+    return found
+
+
+def _parent(pid: int) -> int:
+    return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[1])
+
+
+def test_a_killed_render_and_a_killed_worker_are_retried_and_the_output_is_identical(scenes, cluster):
+    tmp, refs = scenes
+    root = tmp / "killed"
+    p = subprocess.Popen(farm_cmd(refs["alpha"][0], refs["beta"][0], "--out", root, "--address", cluster,
+                                  "--chunk", "5", *RENDER, "--progress", "plain"),
+                         cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO)),
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    killed = {}
+    try:
+        t0 = time.time()
+        while len(killed) < 2 and time.time() - t0 < 600 and p.poll() is None:
+            for name, how in (("alpha", "render"), ("beta", "worker")):
+                if name in killed:
+                    continue
+                busy = {pid: n for pid, n in _writers(root / name).items() if n >= 1}   # mid-chunk: 1 of 5 done
+                if busy:
+                    pid = next(iter(busy))
+                    target = pid if how == "render" else _parent(pid)
+                    os.kill(target, signal.SIGKILL)
+                    killed[name] = (how, pid, target)
+            time.sleep(0.05)
+        out, err = p.communicate(timeout=900)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert set(killed) == {"alpha", "beta"}, f"could not kill mid-chunk: {killed}\n{err}"
+    assert p.returncode == 0, err
+    assert re.search(r"alpha\[0:5\] lost \(killed by SIGKILL\); retry 1 of 3", err), err
+    assert re.search(r"beta\[0:5\] lost \(task lost \(\w+\).*; retry 1 of 3", err), err
+    assert "2 task(s) retried" in out
+    for name, (_, ref) in refs.items():
+        assert_same_as_single(root, name, ref)
+
+
+def test_a_cancelled_task_stops_its_render_between_views(scenes, cluster):
+    """Ctrl-C on the farm cancels its tasks; each sends SIGINT to its render, which a Ray
+    worker's children would never receive (the worker blocks it) without farm.child."""
+    from blender_sesgen.farm import chunk
+    tmp, refs = scenes
+    script = tmp / "scripts" / "long.ses"
+    script.write_text(SCENE.format(floor=4, x=0.1) + "EGO 0.02 0 0.1 0 1 0\n" * 20)
+    out = tmp / "cancelled" / "long"
+    out.parent.mkdir()      # ROOT exists (the farm makes it before the tasks start)
+    args = ["render", str(script), "--out", str(out), "--frames", "0:25", "--resume", "--progress", "json",
+            "--threads", "1", "--samples", "16"]
+    ref = ray.remote(chunk.task).options(num_cpus=1, max_retries=0).remote(args, "long[0:25]#1", str(out), None,
+                                                                          str(script))
+    t0 = time.time()
+    while not any(_writers(out).values()) and time.time() - t0 < 300:
+        ready, _ = ray.wait([ref], timeout=0.05)
+        assert not ready, ray.get(ref)
+    ray.cancel(ref)
+    t1 = time.time()
+    res = ray.get(ref, timeout=120)
+    assert res["cancelled"] and res["rc"] == 130 and time.time() - t1 < 60, res
+    assert not list((out / ".sesgen").glob("lock-*")), "the stopped render left its lock"
+    done = json.loads((out / "manifest.json").read_text())["frames_complete"]
+    assert 1 <= sum(done) < 25
+
+
+def test_a_local_farm_renders_a_generated_folder_reports_a_bad_script_and_leaves_no_ray(tmp_path):
+    gen = tmp_path / "gen"
+    r = subprocess.run([sys.executable, "-m", "blender_sesgen", "generate", "street", "--count", "2", "--seed", "3",
+                        "--out", str(gen), "-o", "steps=1", "-q"], cwd=REPO, capture_output=True, text=True,
+                       env=dict(os.environ, PYTHONPATH=str(REPO)))
+    assert r.returncode == 0, r.stderr
+    bad = tmp_path / "bad.ses"
+    bad.write_text(BAD)
+    root = tmp_path / "root"
+    marker = _marker_dir()
+    try:
+        r = farm(gen, bad, "--out", root, "--samples", "1", "--resolution-scale", "0.1", env={"RAY_TMPDIR": marker})
+        assert r.returncode == 2, r.stderr                    # not every scene complete: a user error
+        assert f"bad: FAILED: {bad}:3:" in r.stderr and "error:" in r.stderr   # its error line
+        assert "2 of 3 scene(s) complete" in r.stderr
+        assert_none_left(marker)
+    finally:
+        shutil.rmtree(marker, ignore_errors=True)
+    index = json.loads((root / "dataset.json").read_text())
+    scripts = json.loads((gen / "dataset.json").read_text())["sequences"]
+    by_name = {s["name"]: s for s in index["sequences"]}
+    assert set(by_name) == {s["name"] for s in scripts} | {"bad"}
+    assert by_name["bad"]["complete"] is False and ":3:" in by_name["bad"]["error"]
+    for s in scripts:
+        e = by_name[s["name"]]
+        assert e["complete"] and e["split"] == s["split"] and e["seed"] == s["seed"]
+        assert e["frames"] == s["frames"] == 2 and e["path_length_m"] == s["path_length_m"] > 0
+        assert e["render"]["samples"] == 1 and e["render"]["resolution"] == [64, 48]
+        assert subprocess.run([sys.executable, "-m", "blender_sesgen", "verify", str(root / e["folder"]), "--quiet"],
+                              cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO))).returncode == 0
