@@ -4,18 +4,29 @@ and the same manifest (timing and version fields aside).
 
     .venv/bin/python bench/identical_renders.py [--base REV] [--scenes scenes/*.ses]
                                                 [--scale 0.25] [--samples 2] [--keep DIR]
+                                                [--base-args "..."] [--head-args "..."]
 
 The base revision is checked out into a temporary git worktree and run with the same
 Python; each scene renders frames 0, 1 and its last frame (both views) at ``--scale`` with
 ``--samples`` samples in a fresh process per side. Exit code 0 when everything is
 identical, 1 otherwise (the differing files and channels are listed). ``--keep DIR`` keeps
 the base renders there and reuses them on the next run (same base commit and settings).
+``--base-args`` / ``--head-args`` add render options to one side, e.g. the same revision
+rendered the plain way (a fresh Cycles session per view) against the fast path:
+
+    bench/identical_renders.py --base HEAD --base-args "--plain-pipeline --quality gt" --head-args "--quality gt"
+
+Manifest keys a side does not write (added by a later revision: ``render.quality``,
+``render.sampling``) and the record of how it was rendered (``render.pipeline``) are not
+compared; every other key is.
 """
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import os
+import shlex
 import shutil
 import subprocess
 import sys
@@ -44,29 +55,41 @@ def frame_count(code_root: Path, scene: Path) -> int:
     return int(out.stdout.strip())
 
 
-def render(code_root: Path, scene: Path, out: Path, frames: str, args) -> None:
+def render(code_root: Path, scene: Path, out: Path, frames: str, args, extra: str = "") -> None:
     # the scene path relative to the code root: the manifest records it as given
     cmd = [sys.executable, "-m", "blender_sesgen", "render", str(scene), "--out", str(out), "--frames", frames,
-           "--samples", str(args.samples), "--resolution-scale", str(args.scale), "--quiet", "--resume"]
+           "--samples", str(args.samples), "--resolution-scale", str(args.scale), "--quiet", "--resume",
+           *shlex.split(extra)]
     proc = subprocess.run(cmd, cwd=code_root, env=dict(os.environ, PYTHONPATH=str(code_root)),
                           capture_output=True, text=True)
     if proc.returncode != 0:
         raise SystemExit(f"render failed in {code_root} for {scene.name} {frames}:\n{proc.stderr}")
 
 
-def render_scene(code_root: Path, scene: Path, out: Path, args) -> None:
+def render_scene(code_root: Path, scene: Path, out: Path, args, extra: str = "") -> None:
     n = frame_count(code_root, scene)  # scene: relative to code_root
     for frames in sorted({"0:2" if n > 1 else "0:1", f"{n - 1}:{n}"}):
-        render(code_root, scene, out, frames, args)
+        render(code_root, scene, out, frames, args, extra)
+
+
+def comparable(manifest: dict, other: dict) -> dict:
+    """``manifest`` without the keys not compared (see the module docstring)."""
+    m = {k: v for k, v in manifest.items() if k not in VOLATILE}
+    r = dict(m.get("render") or {})
+    r.pop("pipeline", None)
+    for k in ("quality", "quality_overridden", "sampling"):
+        if k not in (other.get("render") or {}):
+            r.pop(k, None)
+    m["render"] = r
+    return m
 
 
 def compare(base: Path, head: Path) -> list[str]:
     problems = []
     mb = json.loads((base / "manifest.json").read_text())
     mh = json.loads((head / "manifest.json").read_text())
+    mb, mh = comparable(mb, mh), comparable(mh, mb)
     for key in sorted(set(mb) | set(mh)):
-        if key in VOLATILE:
-            continue
         if mb.get(key) != mh.get(key):
             problems.append(f"manifest key {key!r} differs")
     for exr in sorted(base.glob("exr/*/*.exr")):
@@ -92,10 +115,13 @@ def main(argv=None) -> int:
     p.add_argument("--scale", type=float, default=0.25)
     p.add_argument("--samples", type=int, default=2)
     p.add_argument("--keep", type=Path, help="keep (and reuse) the base renders in this folder")
+    p.add_argument("--base-args", default="", help="extra render options for the base revision")
+    p.add_argument("--head-args", default="", help="extra render options for the working tree")
     args = p.parse_args(argv)
     commit = git("rev-parse", args.base)
     tmp = Path(tempfile.mkdtemp(prefix="sesgen-identical-"))
-    base_root = args.keep.resolve() / f"{commit[:12]}-s{args.scale}-n{args.samples}" if args.keep else tmp / "base"
+    tag = hashlib.sha256(args.base_args.encode()).hexdigest()[:8]
+    base_root = args.keep.resolve() / f"{commit[:12]}-s{args.scale}-n{args.samples}-{tag}" if args.keep else tmp / "base"
     worktree = tmp / "src"
     failures = 0
     try:
@@ -105,8 +131,8 @@ def main(argv=None) -> int:
             rel = scene.relative_to(REPO)
             base_out, head_out = base_root / scene.stem, tmp / "head" / scene.stem
             if not (base_out / "manifest.json").is_file():
-                render_scene(worktree, rel, base_out, args)
-            render_scene(REPO, rel, head_out, args)
+                render_scene(worktree, rel, base_out, args, args.base_args)
+            render_scene(REPO, rel, head_out, args, args.head_args)
             problems = compare(base_out, head_out)
             n_exr = len(list(base_out.glob("exr/*/*.exr")))
             status = "identical" if not problems else f"{len(problems)} difference(s)"

@@ -78,7 +78,11 @@ def summary(scene: Scene) -> str:
     if scene.noise:
         extras.append(f"noise sigma {scene.noise.sigma:g} seed {scene.noise.seed}")
     r = scene.render
-    extras.append(f"render {r.samples} samples, denoise {'on' if r.denoise else 'off'}, seed {r.seed}")
+    from .presets import effective
+    p = effective(None, None, None, r.quality, r.samples, r.denoise)
+    sampling = f"adaptive <= {p.samples} samples" if p.adaptive else f"{p.samples} samples"
+    extras.append(f"render quality {p.quality}{'' if r.quality else ' (default)'}: {sampling}, "
+                  f"denoise {'on' if p.denoise else 'off'}, seed {r.seed}")
     lines.append("extras    " + "; ".join(extras))
     sensors = _sensor_text(scene)
     if sensors:

@@ -147,6 +147,10 @@ def read_layout(buf: bytes, path="<exr>") -> ExrLayout:
     except ExrError as e:
         raise ExrError(str(e) if str(e).startswith(str(path)) else f"{path}: {e}") from None
     except (struct.error, IndexError, KeyError, ValueError, TypeError) as e:
+        if isinstance(e, (struct.error, IndexError)) or (isinstance(e, ValueError) and "not found" in str(e)):
+            # parsing ran past the last byte (a name without its terminator, an attribute or
+            # offset table cut off): the file ends inside its headers
+            raise ExrError(f"{path}: truncated (the file ends inside its header)") from None
         raise ExrError(f"{path}: corrupt EXR header ({type(e).__name__})") from None
     return ExrLayout(multipart, tuple(parts), headers_end)
 

@@ -23,7 +23,8 @@ from typing import Callable, Optional
 
 from .contract.atomic import temp_path
 from .contract.manifest import Manifest
-from .output import OutputFolder
+from .output import OutputFolder, display_key, seal_frame
+from .sealer import Sealer, WorkerGone, run_here
 from .plan import RenderOptions, RenderPlan
 
 
@@ -106,7 +107,8 @@ class RenderJob:
         Writes nothing into the output folder."""
         from .blender.session import BlenderSession
         kept = self.folder.resumable(self.plan)
-        self.session = BlenderSession(self.plan, known_exposure=(kept or {}).get("render", {}).get("exposure"))
+        self.session = BlenderSession(self.plan, known_exposure=(kept or {}).get("render", {}).get("exposure"),
+                                      fast=self.plan.options.fast_pipeline)
 
     def new_manifest(self) -> Manifest:
         """This job's manifest with no frame complete (needs the built session)."""
@@ -130,6 +132,12 @@ class RenderJob:
         """Render every view of frame ``k`` into temporary files, check them, move them into
         place, record the frame complete. ``stop()`` is asked between views: when it says
         yes the frame is dropped and KeyboardInterrupt raised (the folder stays resumable)."""
+        res, temps = self._render(k, stop)
+        self._commit(k, temps, run_here(seal_frame, k, temps, self._required_channels()))
+        return res
+
+    def _render(self, k: int, stop: Callable[[], bool]) -> tuple[FrameResult, dict]:
+        """Frame ``k``'s views rendered into temporary files (removed if it fails)."""
         if self.session is None:
             self.build()
         self.begin()
@@ -147,15 +155,29 @@ class RenderJob:
             if self.plan.sensor.writes_sensor_images:   # from the checked-in-a-moment EXRs
                 sensor_outputs.write_sensor_images(self.plan.sensor, self.manifest, self.out_dir, k, exposure_s,
                                                    gain, temps, jpeg_writer=self.session.jpeg_writer)
-            self.folder.commit_frame(k, temps, self._required_channels(), display=shown)
-        finally:
+        except BaseException:
             for tmp in [*temps.values(), *(shown or {}).values()]:
                 tmp.unlink(missing_ok=True)
+            raise
         cyc = [st["cycles_s"] for st in stats.values()]
         res = FrameResult(frame=k, wall_s=time.perf_counter() - t0,
                           cycles_s=None if any(c is None for c in cyc) else sum(cyc), views=stats)
         self.timings.append(res)
-        return res
+        # the display PNGs ride with the EXRs through sealing and commit (output.display_key)
+        return res, {**temps, **{display_key(v): p for v, p in (shown or {}).items()}}
+
+    def _commit(self, k: int, temps: dict, sealed) -> None:
+        """Wait for frame ``k``'s sealing (a Future of ``output.seal_frame``), then move its
+        files into place and record it complete; its temporary files never outlive this."""
+        try:
+            try:
+                sums = sealed.result()
+            except WorkerGone:  # the worker died: seal here
+                sums = seal_frame(k, temps, self._required_channels())
+            self.folder.commit_sealed(k, temps, sums)
+        finally:
+            for tmp in temps.values():
+                tmp.unlink(missing_ok=True)
 
     def _required_channels(self) -> tuple[str, ...]:
         names = []
@@ -166,20 +188,32 @@ class RenderJob:
     def run(self, progress: Optional[Callable[[int, int, FrameResult, float], None]] = None,
             stop: Callable[[], bool] = lambda: False) -> list[FrameResult]:
         """Render every pending frame; ``progress(i, n, result, elapsed_s)`` after each;
-        ``stop()`` asked between views (KeyboardInterrupt, the folder resumable). The lock is
-        released and the completion log taken into the manifest however it ends."""
+        ``stop()`` asked between views (KeyboardInterrupt, the folder resumable). Frame k is
+        sealed (read back, checked, wall-clock header fields stripped, hashed) in a worker
+        process while frame k+1 renders (``sealer``); every rendered frame is committed, the
+        lock released and the completion log taken into the manifest, however it ends."""
         todo = self.pending_frames()
         out = []
         try:
             self.begin()
             t0 = time.perf_counter()
-            for i, k in enumerate(todo):
-                if stop():
-                    raise KeyboardInterrupt
-                r = self.render_frame(k, stop)
-                out.append(r)
-                if progress:
-                    progress(i + 1, len(todo), r, time.perf_counter() - t0)
+            pending = None
+            with Sealer(enabled=len(todo) > 2) as sealer:
+                try:
+                    for i, k in enumerate(todo):
+                        if stop():
+                            raise KeyboardInterrupt
+                        r, temps = self._render(k, stop)
+                        sealed = sealer.submit(k, temps, self._required_channels())
+                        if pending is not None:
+                            self._commit(*pending)
+                        pending = (k, temps, sealed)
+                        out.append(r)
+                        if progress:
+                            progress(i + 1, len(todo), r, time.perf_counter() - t0)
+                finally:
+                    if pending is not None:  # the last frame, or the one before an interruption
+                        self._commit(*pending)
         finally:
             self.close()
         return out

@@ -265,9 +265,11 @@ class Look:
 
 @dataclass(frozen=True, kw_only=True)
 class RenderSettings:
-    """``RENDER samples N [denoise on|off] [seed n]``; CLI flags override."""
-    samples: int = 16
-    denoise: bool = False
+    """``RENDER [quality Q] [samples N] [denoise on|off] [seed n]``; CLI flags override.
+    ``None``: not given (the quality preset decides, see ``presets.effective``)."""
+    quality: Optional[str] = None
+    samples: Optional[int] = None
+    denoise: Optional[bool] = None
     seed: int = 0
 
 

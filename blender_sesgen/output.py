@@ -36,7 +36,7 @@ from .contract.manifest import (DISPLAY_DIR, DONE_LOG_GLOB, EXR_DIR, FORMAT, MAN
                                 trajectory_relpaths)
 from .contract.trajectory_files import format_ego_table, format_kitti, format_tum
 from .errors import SesgenError
-from .image_check import ImageFileError, check_image
+from .image_check import ImageFileError, check_image_bytes
 from .exr import ExrError, check_complete, decode, read_layout, strip_volatile_attributes
 from .locks import FolderLocks
 from .plan import RenderPlan, RenderSettings
@@ -47,6 +47,60 @@ _OWN_PNG = re.compile(r"^\d{6}\.png$")
 
 class RenderWriteError(RuntimeError):
     """A file could not be written completely (a full disk, a failing device): exit 1."""
+
+
+DISPLAY_KEY = "display:"   # written[DISPLAY_KEY + view]: that view's display-referred PNG
+
+
+def display_key(view: str) -> str:
+    return DISPLAY_KEY + view
+
+
+def is_display_key(key: str) -> bool:
+    return key.startswith(DISPLAY_KEY)
+
+
+def display_view(key: str) -> str:
+    return key[len(DISPLAY_KEY):]
+
+
+def seal_frame(k: int, written: dict[str, Path], required_channels: tuple) -> dict[str, str]:
+    """Check each view's freshly written EXR (``written[view]``, a temporary file) and strip
+    its wall-clock header fields (the file rewritten), and decode its display-referred PNG
+    (``written[display_key(view)]``) if there is one; {relative path: sha256}.
+    RenderWriteError (every temporary file removed) if a file is short or lacks a channel.
+    Touches nothing but those files, so it may run in another process (``sealer``)."""
+    sums = {}
+    for key, tmp in written.items():   # the display PNGs: decoded (image_check)
+        if not is_display_key(key):
+            continue
+        view = display_view(key)
+        try:
+            buf = Path(tmp).read_bytes()
+            check_image_bytes(buf)
+        except (OSError, ImageFileError) as e:
+            for t in written.values():
+                Path(t).unlink(missing_ok=True)
+            raise RenderWriteError(f"frame {k} ({view}): the display PNG was not written completely ({e}); "
+                                   "is the disk full? The previous files were kept") from None
+        sums[display_relpath(view, k)] = hashlib.sha256(buf).hexdigest()
+    for view, tmp in written.items():
+        if is_display_key(view):
+            continue
+        rel = exr_relpath(view, k)
+        try:
+            buf = Path(tmp).read_bytes()
+            layout = check_complete(buf, rel, required_channels, read_layout(buf, rel))
+            buf = strip_volatile_attributes(buf, layout)
+            with open(tmp, "wb") as f:
+                f.write(buf)
+        except (OSError, ExrError) as e:
+            for t in written.values():
+                Path(t).unlink(missing_ok=True)
+            raise RenderWriteError(f"frame {k} ({view}): the EXR was not written completely ({e}); "
+                                   "is the disk full? The previous files were kept") from None
+        sums[rel] = hashlib.sha256(buf).hexdigest()
+    return sums
 
 
 class OutputFolder:
@@ -81,6 +135,7 @@ class OutputFolder:
             return False
         r = manifest.get("render", {})
         return (r.get("samples") == settings.samples and r.get("denoise") == settings.denoise
+                and r.get("sampling") == settings.preset.pixel_settings()
                 and r.get("seed") == settings.seed
                 and float(r.get("resolution_scale", 1.0)) == settings.resolution_scale
                 and list(r.get("passes", [])) == list(settings.passes)
@@ -145,7 +200,8 @@ class OutputFolder:
         if not self.same_settings(previous, plan.settings) and any(self._completed(previous)) and not force:
             r = previous.get("render", {})
             raise SesgenError(f"--out {out}: holds frames rendered with other settings "
-                              f"(samples {r.get('samples')}, denoise {r.get('denoise')}, seed {r.get('seed')}, "
+                              f"(quality {r.get('quality')}, samples {r.get('samples')}, denoise {r.get('denoise')}, "
+                              f"seed {r.get('seed')}, "
                               f"resolution {previous.get('resolution')}); use --force to re-render")
 
     def pending(self, plan: RenderPlan, resume: bool) -> list[int]:
@@ -231,43 +287,22 @@ class OutputFolder:
     def display_path(self, view: str, k: int) -> Path:
         return self.root / display_relpath(view, k)
 
-    def commit_frame(self, k: int, written: dict[str, Path], required_channels: tuple,
-                     display: Optional[dict[str, Path]] = None) -> None:
-        """Check each view's freshly written EXR (``written[view]``, a temporary file), strip
-        its wall-clock header fields, move it into place and record frame ``k`` complete;
-        RenderWriteError (the previous files kept) if a file is short or lacks a channel.
-        ``display[view]``: the display-referred PNG (a temporary file), decoded to check it,
-        moved into place before the EXRs (an EXR in place means a whole frame)."""
-        sums = {}
-        for view, tmp in (display or {}).items():
-            rel = display_relpath(view, k)
-            try:
-                buf = Path(tmp).read_bytes()
-                check_image(tmp)
-            except (OSError, ImageFileError) as e:
-                for t in [*written.values(), *display.values()]:
-                    Path(t).unlink(missing_ok=True)
-                raise RenderWriteError(f"frame {k} ({view}): the display PNG was not written completely ({e}); "
-                                       "is the disk full? The previous files were kept") from None
-            sums[rel] = hashlib.sha256(buf).hexdigest()
+    def commit_frame(self, k: int, written: dict[str, Path], required_channels: tuple) -> None:
+        """Check each view's freshly written EXR (``written[view]``, a temporary file; and
+        ``written[display_key(view)]``, its display-referred PNG), strip its wall-clock header
+        fields, move it into place and record frame ``k`` complete; RenderWriteError (the
+        previous files kept) if a file is short or lacks a channel."""
+        self.commit_sealed(k, written, seal_frame(k, written, required_channels))
+
+    def commit_sealed(self, k: int, written: dict[str, Path], sums: dict[str, str]) -> None:
+        """Move frame ``k``'s sealed files (:func:`seal_frame`) into place and record it
+        complete: the display PNGs first (an EXR in place means a whole frame)."""
+        for key, tmp in written.items():
+            if is_display_key(key):
+                os.replace(tmp, self.root / display_relpath(display_view(key), k))
         for view, tmp in written.items():
-            rel = exr_relpath(view, k)
-            try:
-                buf = Path(tmp).read_bytes()
-                layout = check_complete(buf, rel, required_channels, read_layout(buf, rel))
-                buf = strip_volatile_attributes(buf, layout)
-                with open(tmp, "wb") as f:
-                    f.write(buf)
-            except (OSError, ExrError) as e:
-                for t in written.values():
-                    Path(t).unlink(missing_ok=True)
-                raise RenderWriteError(f"frame {k} ({view}): the EXR was not written completely ({e}); "
-                                       "is the disk full? The previous files were kept") from None
-            sums[rel] = hashlib.sha256(buf).hexdigest()
-        for view, tmp in (display or {}).items():
-            os.replace(tmp, self.root / display_relpath(view, k))
-        for view, tmp in written.items():
-            os.replace(tmp, self.root / exr_relpath(view, k))
+            if not is_display_key(view):
+                os.replace(tmp, self.root / exr_relpath(view, k))
         self.manifest.frames_complete[k] = True
         self.checksums.update(sums)
         self._append_log({"frame": int(k), "files": sums})

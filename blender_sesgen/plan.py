@@ -29,6 +29,7 @@ from .contract.timing import FrameSelection, frame_timestamps
 from .errors import SesgenError
 from .lighting_data import AGX_LOOKS, VIEW_TRANSFORMS
 from .model import Mesh, Scene, TextureRef
+from .presets import QUALITIES, Preset, effective
 
 MAX_IMAGE_SIDE = 16384   # the script's own limit, applied to scaled sizes too
 MIN_IMAGE_SIDE = 4       # Blender renders nothing smaller (its resolution's hard minimum)
@@ -55,8 +56,11 @@ class RenderOptions:
     """Settings of one render (CLI flags / add-on properties). ``None`` = the script's value.
 
     ``frames``: a :class:`FrameSelection` (or its text, e.g. ``"0:10"``); ``None`` = all frames.
-    ``resolution_scale`` scales the image size and K (square pixels kept).
+    ``resolution_scale`` scales the image size and K (square pixels kept). ``quality``: a
+    preset (``presets.QUALITIES``) taken as it is; ``samples``/``denoise`` override it
+    (``presets.effective``).
     """
+    quality: Optional[str] = None
     samples: Optional[int] = None
     denoise: Optional[bool] = None
     seed: Optional[int] = None
@@ -71,9 +75,15 @@ class RenderOptions:
     exposure_s: Optional[float] = None
     readout_s: Optional[float] = None
     motion_blur: Optional[bool] = None
+    fast_pipeline: bool = True           # False: a fresh Cycles render per view (same pixels, slower)
 
     def __post_init__(self):
         object.__setattr__(self, "device", Device.parse(self.device))
+        if self.quality is not None:
+            q = str(self.quality).lower()
+            if q not in QUALITIES:
+                raise SesgenError(f"--quality must be one of {', '.join(QUALITIES)}, got '{self.quality}'")
+            object.__setattr__(self, "quality", q)
         if isinstance(self.frames, str):
             try:
                 object.__setattr__(self, "frames", FrameSelection.parse(self.frames))
@@ -83,11 +93,11 @@ class RenderOptions:
 
 @dataclass(frozen=True)
 class RenderSettings:
-    """The settings actually used: what the manifest records and resume compares."""
+    """The settings actually used: what the manifest records and resume compares.
+    ``preset``: the effective sampling and light-path settings (``presets.Preset``)."""
     engine: str
     device: Device
-    samples: int
-    denoise: bool
+    preset: Preset
     seed: int
     resolution_scale: float
     passes: tuple[str, ...]
@@ -111,11 +121,13 @@ class RenderSettings:
             passes.append("normal")
         if options.position_pass:
             passes.append("position")
+        r = scene.render
+        if options.samples is not None and options.samples < 1:
+            raise SesgenError(f"samples must be >= 1, got {options.samples}")
         settings = cls(
             engine="CYCLES",
             device=options.device,
-            samples=int(options.samples if options.samples is not None else scene.render.samples),
-            denoise=bool(options.denoise if options.denoise is not None else scene.render.denoise),
+            preset=effective(options.quality, options.samples, options.denoise, r.quality, r.samples, r.denoise),
             seed=int(options.seed if options.seed is not None else scene.render.seed),
             resolution_scale=s,
             passes=tuple(passes),
@@ -123,17 +135,30 @@ class RenderSettings:
             height=H,
             K=tuple(tuple(float(x) for x in row) for row in K),
         )
-        if settings.samples < 1:
-            raise SesgenError(f"samples must be >= 1, got {settings.samples}")
         return settings
+
+    @property
+    def quality(self) -> str:
+        return self.preset.quality
+
+    @property
+    def samples(self) -> int:
+        return self.preset.samples
+
+    @property
+    def denoise(self) -> bool:
+        return self.preset.denoise
 
     def manifest_block(self) -> dict:
         """The manifest's ``render`` entry (extended by the session with what it measured)."""
         return {
             "engine": self.engine,
             "device": self.device.value.upper(),
+            "quality": self.quality,
+            "quality_overridden": list(self.preset.overridden),
             "samples": self.samples,
             "denoise": self.denoise,
+            "sampling": self.preset.pixel_settings(),
             "seed": self.seed,
             "seed_rule": SEED_RULE,
             "resolution_scale": self.resolution_scale,

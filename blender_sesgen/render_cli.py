@@ -13,16 +13,22 @@ from .contract.cli import EXIT_FAILURE, EXIT_INTERRUPTED
 from .contract.progress import Progress, add_progress_argument, progress_mode
 from .errors import SesgenError
 from .interrupt import deferred_interrupts
-from .plan import RenderOptions
+from .plan import Device, RenderOptions
+from .presets import QUALITIES
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("scene", metavar="SCENE.ses", help="the SES script to render")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (manifest.json, exr/, poses/, scene.ses)")
     p.add_argument("--frames", metavar="A:B", help="frame range, half-open like Python (A:B, A:, :B or K); default all")
-    p.add_argument("--samples", type=int, metavar="N", help="Cycles samples per pixel (default: the script's RENDER, else 16)")
+    p.add_argument("--quality", choices=QUALITIES, default=None,
+                   help="render preset: gt (exact ground truth at primary-ray cost, flat-shaded RGB), draft, "
+                        "final (the default) or reference (docs/rendering.md); replaces the script's RENDER "
+                        "quality/samples/denoise")
+    p.add_argument("--samples", type=int, metavar="N",
+                   help="exactly N samples per pixel, overriding the preset (adaptive sampling off)")
     p.add_argument("--denoise", action=argparse.BooleanOptionalAction, default=None,
-                   help="OpenImageDenoise on the beauty pass (ground truth is never denoised)")
+                   help="OpenImageDenoise on the beauty pass, overriding the preset (ground truth is never denoised)")
     p.add_argument("--seed", type=int, metavar="S", help="base random seed (per frame/view seeds derive from it)")
     p.add_argument("--resume", action="store_true", help="render only the frames not complete in DIR")
     p.add_argument("--force", action="store_true", help="write into DIR even if it holds another scene's output")
@@ -30,6 +36,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="scale the image size and K (e.g. 0.5 for a quick look)")
     p.add_argument("--device", choices=("cpu", "gpu"), default="cpu", help="Cycles device (default cpu)")
     p.add_argument("--threads", type=int, default=0, metavar="N", help="CPU threads (0 = automatic)")
+    p.add_argument("--plain-pipeline", action="store_true",
+                   help="render each view in a fresh Cycles session, without persistent data or multiview "
+                        "(slower, the same pixels: to check the fast path)")
     p.add_argument("--normal-pass", action="store_true", help="also write the Normal pass")
     p.add_argument("--position-pass", action="store_true", help="also write the Position pass")
     p.add_argument("--contact-sheet", nargs="?", const="contact_sheet.png", metavar="PNG",
@@ -52,11 +61,11 @@ def _fmt(seconds: float) -> str:
 def render_options(args: argparse.Namespace) -> RenderOptions:
     """The RenderOptions of parsed render arguments (the farm builds every chunk's with it)."""
     return RenderOptions(
-        samples=args.samples, denoise=args.denoise, seed=args.seed, device=args.device,
+        quality=args.quality, samples=args.samples, denoise=args.denoise, seed=args.seed, device=args.device,
         resolution_scale=args.resolution_scale, frames=args.frames,
         normal_pass=args.normal_pass, position_pass=args.position_pass, threads=args.threads,
         verbose=args.verbose, rate_hz=args.rate, exposure_s=args.exposure, readout_s=args.readout,
-        motion_blur=args.motion_blur,
+        motion_blur=args.motion_blur, fast_pipeline=not args.plain_pipeline,
     )
 
 
@@ -72,10 +81,16 @@ def run(args: argparse.Namespace) -> int:
     todo = job.pending_frames()
     s = job.settings
     views = job.scene.rig.views
+    gpu = ""
+    if s.device is Device.GPU:  # no GPU: exit 2 before anything is printed or written
+        from .blender.render import enable_gpu
+        gpu = f" ({enable_gpu()})"
     if not args.quiet:
+        p = s.preset
+        sampling = f"adaptive <= {p.samples} samples" if p.adaptive else f"{p.samples} samples"
         print(f"sesgen render: {args.scene} -> {args.out}: {len(todo)} of {len(job.frames)} frames to render, "
-              f"{len(views)} view(s), {s.width}x{s.height}, {s.samples} samples"
-              f"{' + denoise' if s.denoise else ''}, seed {s.seed}, {s.device.value.upper()}", flush=True)
+              f"{len(views)} view(s), {s.width}x{s.height}, quality {s.quality}: {sampling}"
+              f"{' + denoise' if s.denoise else ''}, seed {s.seed}, {s.device.value.upper()}{gpu}", flush=True)
     with deferred_interrupts() as stop:
         try:
             job.build()

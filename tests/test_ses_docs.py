@@ -22,6 +22,7 @@ def test_examples_parse(tmp_path):
     (tmp_path / "models" / "chair.obj").write_text("v 0 0 0\n")
     extensions = parse_string(next(b for b in BLOCKS if "// extensions in use" in b), base_dir=str(tmp_path))
     assert extensions.world.kind == "sky" and extensions.fog and extensions.noise and extensions.render.denoise
+    assert extensions.render.quality == "final"
     moving = parse_string(next(b for b in BLOCKS if "MOVE" in b))
     assert moving.frames == 20 and moving.moving_ids == (2, 3)
 

@@ -17,10 +17,19 @@ class SESGEN_PG_settings(bpy.types.PropertyGroup):
     frame_first: IntProperty(name="First", min=0, default=0, description="First frame to render (0-based)")
     frame_last: IntProperty(name="Last", min=0, default=0, description="Last frame to render (inclusive)")
     # sampling
+    quality: EnumProperty(name="Quality", default="script", description="Render preset (docs/rendering.md)",
+                          items=(("script", "Script", "The script's RENDER quality (final when it names none)"),
+                                 ("gt", "Ground Truth", "Exact depth and ids at primary-ray cost; flat-shaded RGB, "
+                                  "not photoreal"),
+                                 ("draft", "Draft", "At least 32 dB PSNR against a converged render"),
+                                 ("final", "Final", "At least 38 dB PSNR (the default)"),
+                                 ("reference", "Reference", "At least 45 dB PSNR")))
     override_render: BoolProperty(name="Override Script Settings", default=False,
-                                  description="Use these samples/denoise/seed instead of the script's RENDER line")
-    samples: IntProperty(name="Samples", min=1, soft_max=4096, default=16, description="Cycles samples per pixel")
-    denoise: BoolProperty(name="Denoise", default=False,
+                                  description="Use these samples/denoise/seed over the quality preset and the "
+                                              "script's RENDER line")
+    samples: IntProperty(name="Samples", min=1, soft_max=4096, default=16,
+                         description="Exactly this many Cycles samples per pixel (adaptive sampling off)")
+    denoise: BoolProperty(name="Denoise", default=True,
                           description="OpenImageDenoise on the beauty pass (ground truth is never denoised)")
     seed: IntProperty(name="Seed", min=0, default=0, description="Base seed (per-frame/view seeds derive from it)")
     # camera timing (the script's TIMING statement; docs/ses-language.md)
@@ -91,7 +100,9 @@ def render_options(values: dict):
     from ..contract.timing import FrameSelection
     from ..plan import RenderOptions
     o, t = values["override_render"], values.get("override_timing", False)
+    q = values.get("quality", "script")
     return RenderOptions(
+        quality=None if q == "script" else q,
         samples=values["samples"] if o else None,
         denoise=values["denoise"] if o else None,
         seed=values["seed"] if o else None,

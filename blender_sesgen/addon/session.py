@@ -227,7 +227,7 @@ class RenderSession:
         if self.total == 0:
             return f"nothing to render: frames {self.job.frames[0]}..{self.job.frames[-1]} are complete"
         if self.done == 0:
-            return f"rendering {self.total} frame(s), {st.width}x{st.height}, {st.samples} samples"
+            return f"rendering {self.total} frame(s), {st.width}x{st.height}, quality {st.quality}, {st.samples} samples"
         el = time.perf_counter() - self.t0
         eta = el / self.done * (self.total - self.done)
         return f"frame {self.todo[self.done - 1]}: {self.done}/{self.total} done, ETA {eta:.0f} s"

@@ -49,7 +49,9 @@ def summary_lines(scene: Scene) -> tuple[str, ...]:
         f"Frames: {scene.frames} ({scene.motion.kind} motion)",
         f"Rig: {rig.width}x{rig.height} px, f {rig.focal_px:g} px, "
         + (f"baseline {rig.baseline:g}" if rig.stereo else "monocular"),
-        f"Script render: {r.samples} samples, denoise {'on' if r.denoise else 'off'}, seed {r.seed}",
+        f"Script render: quality {r.quality or 'final (default)'}"
+        + (f", {r.samples} samples" if r.samples is not None else "")
+        + ("" if r.denoise is None else f", denoise {'on' if r.denoise else 'off'}") + f", seed {r.seed}",
     )
 
 

@@ -2,16 +2,22 @@
 
 Ground truth (Depth = planar z, Object Index) comes from Cycles' first sample, which goes
 through the exact pixel centre, so it is exact for any sample count, filter or denoiser;
-the beauty pass is anti-aliased. Output: multilayer OpenEXR, float32, ZIP (lossless).
+the beauty pass is anti-aliased. Output: multilayer OpenEXR, float32, ZIP (lossless), the
+scene-linear values; beside it, on request, the display-referred 8-bit PNG (the same render
+through the scene's view transform, ``save_display``).
 """
 from __future__ import annotations
 
+import os
 import re
 import time
+from pathlib import Path
+from typing import Optional
 
 import bpy
 
 from ..errors import SesgenError
+from ..presets import Preset
 from . import compat
 from .runtime import activate, quiet_stdout
 
@@ -26,7 +32,8 @@ def gpu_devices(kinds=("OPTIX", "CUDA", "HIP", "METAL", "ONEAPI")) -> tuple[str,
             prefs.compute_device_type = kind
         except TypeError:
             continue
-        prefs.get_devices()
+        with quiet_stdout():  # Cycles logs every backend it cannot load
+            prefs.get_devices()
         devs = [d for d in prefs.devices if d.type == kind]
         if devs:
             return kind, [d.name for d in devs]
@@ -44,28 +51,43 @@ def enable_gpu() -> str:
     return f"{backend}: {', '.join(names)}"
 
 
-def configure(bscene, *, samples: int, denoise: bool, gpu: bool = False, threads: int = 0,
+_GUIDES = {"none": "RGB", "albedo": "RGB_ALBEDO", "albedo_normal": "RGB_ALBEDO_NORMAL"}
+_PREFILTERS = {"none": "NONE", "fast": "FAST", "accurate": "ACCURATE"}
+
+
+def configure(bscene, preset: Preset, *, gpu: bool = False, threads: int = 0,
               normal_pass: bool = False, position_pass: bool = False, view_transform: str = "AgX",
               look: str = "None") -> None:
-    """Cycles, passes and colour management. ``view_transform`` shapes the display-referred
-    PNG only (the EXR is scene-linear whatever it is)."""
+    """Cycles as ``preset`` says (presets.py), the passes, multilayer EXR output and the
+    colour management. ``view_transform`` and ``look`` shape the display-referred PNG only
+    (the EXR is scene-linear whatever they are)."""
     r = bscene.render
     r.engine = "CYCLES"
     c = bscene.cycles
     c.device = "GPU" if gpu else "CPU"
-    c.samples = int(samples)
-    c.use_adaptive_sampling = False
-    c.use_denoising = bool(denoise)
-    if denoise:
+    c.samples = int(preset.samples)
+    c.use_adaptive_sampling = preset.adaptive
+    c.adaptive_threshold = float(preset.adaptive_threshold)
+    c.adaptive_min_samples = int(preset.adaptive_min_samples)
+    c.use_denoising = bool(preset.denoise)
+    if preset.denoise:
         c.denoiser = "OPENIMAGEDENOISE"
-        c.denoising_input_passes = "RGB_ALBEDO_NORMAL"   # guided by albedo and normal
-        c.denoising_prefilter = "ACCURATE"
+        c.denoising_input_passes = _GUIDES[preset.denoise_guides]
+        c.denoising_prefilter = _PREFILTERS[preset.denoise_prefilter]
+        if hasattr(c, "denoising_use_gpu"):  # on a CPU render, do not probe for GPUs to denoise on
+            c.denoising_use_gpu = bool(gpu)
     c.use_animated_seed = False
-    c.sample_clamp_indirect = 10.0
-    # enough bounces for indirect light in a closed room, fewer than Cycles' 12 (speed)
-    c.max_bounces, c.diffuse_bounces, c.glossy_bounces = 6, 3, 3
-    c.transmission_bounces, c.volume_bounces, c.transparent_max_bounces = 6, 0, 8
-    c.caustics_reflective = c.caustics_refractive = False
+    c.sample_clamp_direct = float(preset.clamp_direct)
+    c.sample_clamp_indirect = float(preset.clamp_indirect)
+    c.max_bounces, c.diffuse_bounces, c.glossy_bounces = preset.max_bounces, preset.diffuse_bounces, preset.glossy_bounces
+    c.transmission_bounces, c.volume_bounces = preset.transmission_bounces, preset.volume_bounces
+    c.transparent_max_bounces = preset.transparent_bounces
+    c.caustics_reflective = c.caustics_refractive = bool(preset.caustics)
+    c.use_light_tree = bool(preset.light_tree)
+    if hasattr(c, "use_guiding"):  # CPU path guiding (Cycles ignores it on a GPU)
+        c.use_guiding = bool(preset.path_guiding)
+    c.pixel_filter_type = "BLACKMAN_HARRIS"
+    c.filter_width = 1.5
     r.use_motion_blur = False
     r.film_transparent = False
     r.use_persistent_data = False
@@ -99,24 +121,17 @@ class _Stats:
         self.last = None
 
     def __call__(self, text, *args):
-        m = _TIME_RE.search(str(text))
+        text = str(text)
+        if "Time:" not in text:  # called for every status line: keep it cheap
+            return
+        m = _TIME_RE.search(text)
         if m:
             self.last = 3600 * int(m.group(1) or 0) + 60 * int(m.group(2)) + float(m.group(3))
 
 
-def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: bool = True,
-                display_path: str | None = None) -> dict:
-    """Render ``camera`` at Blender frame ``frame`` into the multilayer EXR ``filepath``
-    (scene-linear) and, with ``display_path``, the display-referred 8-bit PNG (the same
-    render through the scene's view transform).
-
-    Returns {"wall_s": seconds around the render call, "cycles_s": Cycles' own render time}.
-    """
-    activate(bscene)
-    bscene.camera = camera
-    bscene.cycles.seed = int(seed)
-    bscene.frame_set(int(frame))
-    bscene.render.filepath = filepath
+def _render(bscene, quiet: bool) -> tuple[float, Optional[float]]:
+    """One render of the scene's camera at its current frame, its file(s) written; (wall s,
+    Cycles' own time)."""
     stats = _Stats()
     bpy.app.handlers.render_stats.append(stats)
     t0 = time.perf_counter()
@@ -129,18 +144,135 @@ def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: boo
         bpy.app.handlers.render_stats.remove(stats)
     wall = time.perf_counter() - t0
     if "FINISHED" not in result:
-        raise RuntimeError(f"Cycles render did not finish ({result}) for frame {frame}")
+        raise RuntimeError(f"Cycles render did not finish ({result}) for frame {bscene.frame_current}")
+    return wall, stats.last
+
+
+def _set(owner, name: str, value) -> None:
+    """Assign only a changed value: every RNA write triggers Blender's update machinery
+    (a new camera even rebuilds the dependency graph's relations)."""
+    if getattr(owner, name) != value:
+        setattr(owner, name, value)
+
+
+def _prepare(bscene, camera, frame: int, seed: int, fast: bool) -> None:
+    """Camera, seed and frame of the next render. ``fast``: set the frame without
+    evaluating the scene for it (the render evaluates its own dependency graph at the
+    scene's frame; frame_set would evaluate the view layer's too)."""
+    activate(bscene)
+    if fast:
+        _set(bscene, "camera", camera)
+        _set(bscene.cycles, "seed", int(seed))
+        _set(bscene, "frame_current", int(frame))
+    else:
+        bscene.camera = camera
+        bscene.cycles.seed = int(seed)
+        bscene.frame_set(int(frame))
+
+
+def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: bool = True,
+                fast: bool = False, display_path: Optional[str] = None) -> dict:
+    """Render ``camera`` at Blender frame ``frame`` into the multilayer EXR ``filepath``
+    (scene-linear) and, with ``display_path``, the display-referred 8-bit PNG.
+
+    Returns {"wall_s": seconds around the render call, "cycles_s": Cycles' own render time}.
+    """
+    set_multiview(bscene, False)
+    _prepare(bscene, camera, frame, seed, fast)
+    bscene.render.filepath = filepath
+    wall, cycles = _render(bscene, quiet)
     if display_path is not None:
         save_display(bscene, display_path)
-    return {"wall_s": wall, "cycles_s": stats.last}
+    return {"wall_s": wall, "cycles_s": cycles}
 
 
-def save_display(bscene, path: str) -> None:
+def save_display(bscene, path: str, views=None) -> None:
     """The last render result as an 8-bit sRGB PNG through the scene's view transform
-    (``Image.save_render`` applies the scene's colour management to non-float formats)."""
+    (``Image.save_render`` applies the scene's colour management to non-float formats).
+    ``views``: {view: path} of a multiview render (Blender writes each view with its file
+    suffix, as ``multiview_paths`` says; the files are moved to their paths)."""
     ims = bscene.render.image_settings
     try:
         compat.set_png(ims)
         bpy.data.images["Render Result"].save_render(filepath=path, scene=bscene)
     finally:
         compat.set_multilayer_exr(ims)
+    if views:
+        written = multiview_paths(Path(path), tuple(views))
+        for v, target in views.items():
+            src = written[v] if written[v].exists() else Path(path)   # one view: Blender may not suffix
+            os.replace(src, target)
+
+
+# --- the fast path: one camera for Blender, views chosen per render ---------------------
+# Switching ``scene.camera`` rebuilds Blender's dependency-graph relations, and Cycles then
+# synchronises the whole scene again and rebuilds its BVH (measured: 11 s per view for a
+# street of a few hundred assets, ~all of a ground-truth frame's time). So the fast path
+# never switches it: the scene renders in multiview mode (views_format MULTIVIEW) with the
+# left camera active, and each enabled view takes the camera named like the active one
+# with the view's suffix (SESGen_left -> SESGen_right), i.e. exactly the camera a per-view
+# render uses. A render enables the views it draws: one view (with that view's own seed),
+# or both at once when the beauty pass uses no random numbers
+# (``presets.Preset.deterministic_rgb``: the views of one render share a seed). The scene
+# is then synchronised once for the sequence (``use_persistent_data``); per frame only the
+# cameras move. Files: Blender inserts the view's suffix before the path's last dot.
+
+def can_render_multiview(cameras: dict) -> bool:
+    """The cameras are named for the suffix lookup (``<name>_<view>``, one name)."""
+    stems = {cam.name[:-len(v) - 1] for v, cam in cameras.items() if cam.name.endswith(f"_{v}")}
+    return len(stems) == 1 and len(cameras) == sum(cam.name.endswith(f"_{v}") for v, cam in cameras.items())
+
+
+def set_multiview(bscene, on: bool, views=("left", "right")) -> None:
+    """Multiview rendering of exactly ``views`` (each view's camera and file suffix
+    ``_<view>``), or off."""
+    r = bscene.render
+    if not on:
+        _set(r, "use_multiview", False)
+        return
+    _set(r, "use_multiview", True)
+    _set(r, "views_format", "MULTIVIEW")
+    _set(r.image_settings, "views_format", "INDIVIDUAL")
+    for name in views:
+        if r.views.get(name) is None:
+            r.views.new(name)
+    for rv in r.views:
+        _set(rv, "use", rv.name in views)
+        if rv.name in views:
+            _set(rv, "camera_suffix", f"_{rv.name}")
+            _set(rv, "file_suffix", f"_{rv.name}")
+
+
+def multiview_paths(base: Path, views) -> dict:
+    """Where Blender writes each view of a multiview render to ``base`` (suffix before the
+    name's last dot)."""
+    stem, dot, ext = base.name.rpartition(".")
+    return {v: base.with_name(f"{stem}_{v}.{ext}" if dot and stem else f"{base.name}_{v}") for v in views}
+
+
+def render_views(bscene, cameras: dict, views, frame: int, seed: int, paths: dict, quiet: bool = True,
+                 display_paths: Optional[dict] = None) -> dict:
+    """``views`` (a subset of ``cameras``) at ``frame`` in one multiview render with Cycles
+    seed ``seed``, view v into ``paths[v]`` (and its display-referred PNG into
+    ``display_paths[v]``); {view: stats} (the render's wall and Cycles time split evenly
+    between its views)."""
+    views = tuple(views)
+    set_multiview(bscene, True, views)
+    _prepare(bscene, cameras["left"], frame, seed, fast=True)
+    first = Path(paths[views[0]])                  # e.g. exr/left/.000003.tmp-PID.exr
+    base = first.with_name(first.name.removesuffix(".exr"))  # Blender writes .000003_<view>.tmp-PID
+    written = multiview_paths(base, views)
+    bscene.render.filepath = str(base)
+    try:
+        wall, cycles = _render(bscene, quiet)
+        for v in views:
+            os.replace(written[v], paths[v])
+        if display_paths:
+            save_display(bscene, str(display_paths[views[0]]), {v: display_paths[v] for v in views})
+    finally:
+        for p in written.values():
+            if p.exists():
+                p.unlink()
+    n = len(views)
+    return {v: {"wall_s": wall / n, "cycles_s": None if cycles is None else cycles / n, "views_per_render": n}
+            for v in views}

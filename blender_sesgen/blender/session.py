@@ -1,9 +1,18 @@
 """A plan's scene built in Blender and ready to render frames: the bpy side of a render job.
 
-``BlenderSession(plan)`` builds the scene (``builder``), configures Cycles (``render``) and
-fixes the film exposure; ``render_frame(k, paths)`` renders every view of frame k into the
-given EXR paths (and the display-referred PNGs). It knows nothing of output folders or manifests beyond what it reports
-for them (channel names, exposure, Blender's version).
+``BlenderSession(plan)`` builds the scene (``builder``), configures Cycles as the plan's
+quality preset says (``render``, ``presets``), the colour management as the script's LOOK
+says, and fixes the film exposure; ``render_frame(k, paths)`` renders every view of frame k
+into the given EXR paths (and the display-referred PNGs). It knows nothing of output folders
+or manifests beyond what it reports for them (channel names, exposure, Blender's version,
+how it renders).
+
+Speed (``fast``): the Cycles session persists from frame to frame and the active camera
+never changes (``render.render_views``), so a static scene is synchronised, its shaders
+compiled and its BVH built once per sequence, not once per view; when the beauty pass uses
+no random numbers (the ``gt`` preset) both views are rendered in one multiview render. The
+pixels are those of a fresh render per view (tests/test_quality_presets.py,
+bench/identical_renders.py); ``fast=False`` renders that plain way.
 """
 from __future__ import annotations
 
@@ -13,34 +22,44 @@ from typing import Callable, Optional
 from ..contract.manifest import render_seed
 from ..lighting_data import AGX_LOOKS, EXPOSURE_TARGET, VIEW_TRANSFORMS
 from ..plan import Device, RenderPlan
-from . import builder, compat, exposure, render, rig
+from ..presets import EXPOSURE_PREVIEW
+from . import builder, compat, exposure, render, rig, shading
 
 EXPOSURE_RULE_AUTO = f"auto: 90th-percentile luminance of frame 0 = {EXPOSURE_TARGET}"
+EXPOSURE_RULE_FLAT = "1 (gt: flat shading, no lights)"
 
 
 class BlenderSession:
     """The built scene of one plan (see the module docstring)."""
 
-    def __init__(self, plan: RenderPlan, known_exposure: Optional[float] = None):
+    def __init__(self, plan: RenderPlan, known_exposure: Optional[float] = None, fast: bool = True):
         """``known_exposure``: the exposure of frames already rendered for this plan (resume),
-        reused so that resumed frames match; measured when None (default lighting only)."""
+        reused so that resumed frames match; measured when None (default lighting only).
+        ``fast``: persistent Cycles data and multiview (same pixels, less time)."""
         self.plan = plan
         s = plan.settings
         self.built = builder.build_scene(plan.scene, width=s.width, height=s.height, K=s.K,
                                          view_poses=plan.view_poses)
         gpu = s.device is Device.GPU
-        if gpu:
-            render.enable_gpu()
-        render.configure(self.built.scene, samples=s.samples, denoise=s.denoise, gpu=gpu,
-                         threads=plan.options.threads, normal_pass=plan.options.normal_pass,
-                         position_pass=plan.options.position_pass,
-                         view_transform=VIEW_TRANSFORMS[plan.scene.look.view],
-                         look=AGX_LOOKS[plan.scene.look.look])
+        self.gpu = render.enable_gpu() if gpu else None
+        self._configure = dict(gpu=gpu, threads=plan.options.threads, normal_pass=plan.options.normal_pass,
+                               position_pass=plan.options.position_pass,
+                               view_transform=VIEW_TRANSFORMS[plan.scene.look.view],
+                               look=AGX_LOOKS[plan.scene.look.look])
+        self.flat = s.preset.shading == "flat"
         self.exposure = self._exposure(known_exposure)
+        render.configure(self.built.scene, s.preset, **self._configure)
+        exposure.set_exposure(self.built.scene, self.exposure)
+        if self.flat:
+            shading.apply_flat_shading(self.built, plan.scene, builder.tag)
         self.sensor = None          # the sensor path (motion blur, rolling shutter, lens), if any
         if plan.sensor.changes_rendering:
             from .sensor_render import SensorSession
             self.sensor = SensorSession(plan, self.built)
+        # the sensor path re-keys the cameras and renders twice per view: it renders the plain way
+        self.fast = bool(fast and self.sensor is None and render.can_render_multiview(self.built.cameras))
+        self.built.scene.render.use_persistent_data = self.fast
+        self.views_per_render = len(plan.views) if self.fast and s.preset.deterministic_rgb else 1
 
     @property
     def auto_exposure(self) -> bool:
@@ -51,16 +70,17 @@ class BlenderSession:
         return not any(light.kind != "portal" for light in self.plan.scene.lights)
 
     def _exposure(self, known: Optional[float]) -> float:
-        """One film exposure for the whole sequence: automatic (blender/exposure.py; the value
-        of frames already rendered when resuming) or the LOOK's fixed 2^EV."""
+        """One film exposure for the whole sequence: 1 for the flat ``gt`` shading, else
+        automatic (blender/exposure.py, measured with the same preview settings whatever the
+        preset; the value of frames already rendered when resuming) or the LOOK's fixed 2^EV."""
+        if self.flat:
+            return 1.0
         if not self.auto_exposure:
-            value = float(2.0 ** self.plan.scene.look.exposure_ev)
-        elif known is not None:
-            value = float(known)
-        else:
-            value = exposure.measure_exposure(self.built.scene, self.built.cameras["left"], rig.blender_frame(0))
-        exposure.set_exposure(self.built.scene, value)
-        return value
+            return float(2.0 ** self.plan.scene.look.exposure_ev)
+        if known is not None:
+            return float(known)
+        render.configure(self.built.scene, EXPOSURE_PREVIEW, **self._configure)
+        return exposure.measure_exposure(self.built.scene, self.built.cameras["left"], rig.blender_frame(0))
 
     @property
     def channels(self) -> dict:
@@ -73,9 +93,13 @@ class BlenderSession:
 
     def manifest_extra(self) -> dict:
         """What this session adds to the manifest's ``render`` entry."""
-        rule = EXPOSURE_RULE_AUTO if self.auto_exposure else \
+        rule = EXPOSURE_RULE_FLAT if self.flat else EXPOSURE_RULE_AUTO if self.auto_exposure else \
             f"fixed: {self.plan.scene.look.exposure_ev:g} EV (factor 2^EV)"
-        return {"exr_layout": self.channels["layout"], "exposure": self.exposure, "exposure_rule": rule}
+        extra = {"exr_layout": self.channels["layout"], "exposure": self.exposure, "exposure_rule": rule,
+                 "pipeline": {"persistent_data": self.fast, "views_per_render": self.views_per_render}}
+        if self.gpu:
+            extra["gpu"] = self.gpu
+        return extra
 
     @property
     def imported_objects(self) -> list[dict]:
@@ -92,18 +116,30 @@ class BlenderSession:
                      exposure_s: Optional[float] = None,
                      display_paths: Optional[dict[str, Path]] = None) -> dict[str, dict]:
         """Render frame ``k`` of each view into ``paths[view]``; {view: render stats}.
-        ``stop()`` is asked before each view (KeyboardInterrupt when it says yes);
+        ``stop()`` is asked before each render (KeyboardInterrupt when it says yes);
         ``exposure_s``: the frame's exposure time on the sensor path (auto-exposure);
         ``display_paths[view]``: where the display-referred PNG goes (plain path only)."""
         if self.sensor is not None:
             return self.sensor.render_frame(k, self.plan.sensor.nominal_exposure_s() if exposure_s is None
                                             else exposure_s, paths, stop)
+        quiet = not self.plan.options.verbose
+        bframe = rig.blender_frame(k)
+        seed = self.plan.settings.seed
+        scene, cameras, views = self.built.scene, self.built.cameras, self.plan.views
+        if stop():
+            raise KeyboardInterrupt
+        if self.views_per_render > 1:  # the RGB uses no random numbers: one seed for the sequence
+            return render.render_views(scene, cameras, views, bframe, render_seed(seed, 0, 0), paths, quiet,
+                                       display_paths)
         stats = {}
-        for vi, view in enumerate(self.plan.views):
-            if stop():
+        for vi, view in enumerate(views):
+            if vi and stop():
                 raise KeyboardInterrupt
-            stats[view] = render.render_view(self.built.scene, self.built.cameras[view], rig.blender_frame(k),
-                                             render_seed(self.plan.settings.seed, k, vi), str(paths[view]),
-                                             quiet=not self.plan.options.verbose,
-                                             display_path=str(display_paths[view]) if display_paths else None)
+            if self.fast:
+                stats.update(render.render_views(scene, cameras, (view,), bframe, render_seed(seed, k, vi),
+                                                 paths, quiet, display_paths))
+            else:
+                stats[view] = render.render_view(scene, cameras[view], bframe, render_seed(seed, k, vi),
+                                                 str(paths[view]), quiet=quiet,
+                                                 display_path=str(display_paths[view]) if display_paths else None)
         return stats

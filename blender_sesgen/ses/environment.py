@@ -150,11 +150,13 @@ def look(stmt: Optional[ParsedStatement], check: Checks) -> model.Look:
 def render(stmt: Optional[ParsedStatement], check: Checks) -> model.RenderSettings:
     if stmt is None:
         return model.RenderSettings()
-    samples = stmt.tags["samples"]
-    if not 1 <= samples.values[0] <= 1_000_000:
+    samples = stmt.tags.get("samples")
+    if samples is not None and not 1 <= samples.values[0] <= 1_000_000:
         check.err(samples.tokens[0], f"RENDER 'samples' must lie in 1..1000000, got {samples.tokens[0].text}")
-    return model.RenderSettings(samples=int(samples.values[0]), denoise=stmt.get("denoise", "off") == "on",
-                                seed=_seed(stmt, check))
+    denoise = stmt.get("denoise")
+    return model.RenderSettings(quality=stmt.get("quality"),
+                                samples=None if samples is None else int(samples.values[0]),
+                                denoise=None if denoise is None else denoise == "on", seed=_seed(stmt, check))
 
 
 def _seed(stmt: ParsedStatement, check: Checks, name: str = "seed") -> int:

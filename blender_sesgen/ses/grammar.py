@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from ..assets import KINDS as ASSET_KINDS
+from ..presets import QUALITIES
 
 
 @dataclass(frozen=True)
@@ -172,7 +173,8 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
                            _num("gyro_walk", usage="gyro_walk D"), _num("accel_noise", usage="accel_noise D"),
                            _num("accel_walk", usage="accel_walk D"), POSITION, _num("offset", usage="offset S"),
                            _num("gravity", usage="gravity G"), Tag("seed", "int", usage="seed n"))),
-    Statement("RENDER", _tags(Tag("samples", "int", required=True, usage="samples N"),
+    Statement("RENDER", _tags(Tag("quality", "choice", usage="quality gt|draft|final|reference", choices=QUALITIES),
+                              Tag("samples", "int", usage="samples N"),
                               Tag("denoise", "choice", usage="denoise on|off", choices=("on", "off")),
                               Tag("seed", "int", usage="seed n"))),
 )}

@@ -1,0 +1,219 @@
+"""Image quality per second of the render presets, side by side with Blender's own defaults
+and BlenderProc's defaults, in one run at one resolution.
+
+    .venv/bin/python bench/quality.py [--scene scenes/paper_room.ses] [--frame 0] [--scale 0.5]
+        [--views left] [--configs gt draft final reference blender blenderproc]
+        [--try NAME:base=final,samples=24,adaptive_threshold=0.03 ...] [--repeat 1]
+        [--reference-samples 4096] [--cache out/bench-cache]
+
+For every configuration the frame is rendered through the real Blender session (the same
+code as ``render``) and compared with a converged reference render of the same frame:
+``--reference-samples`` samples per pixel, no adaptive sampling, no denoiser, no clamping,
+Cycles' default light paths (12 bounces, caustics on). The reference is cached in
+``--cache`` (keyed by scene, frame, size, views and Blender version): it is the expensive part.
+
+Columns: PSNR and SSIM (vo_reference.evaluate.image_quality) of the sRGB-encoded beauty
+pass against the reference's, averaged over the views; seconds per stereo frame (the wall
+time of the session's render of the frame's views, EXR writing included; with one view,
+twice that view's time, marked ``x2``), the CPU seconds the process used for it (robust
+to a shared machine) and Cycles' own time; dB/s = PSNR / s per stereo frame; and the
+ratios to the BlenderProc configuration measured in the same run. Every configuration
+uses the same film exposure (the automatic exposure is measured once).
+
+Configurations: the presets (``blender_sesgen.presets``); ``blender``: a new Blender
+scene's Cycles settings (4096 samples, adaptive threshold 0.01, OpenImageDenoise, 12
+bounces, indirect clamp 10, caustics); ``blenderproc``: BlenderProc 2's defaults
+(``DefaultConfig``: at most 1024 samples, adaptive threshold 0.01, Intel OpenImageDenoise,
+3 bounces: diffuse 3, glossy 0, transmission 0, transparent 8) with all CPU threads.
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import platform
+import resource
+import statistics
+import sys
+import tempfile
+import time
+from dataclasses import fields, replace
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from blender_sesgen.contract.colour import linear_to_srgb  # noqa: E402
+from blender_sesgen.exr import read_exr  # noqa: E402
+from blender_sesgen.presets import PRESETS, Preset  # noqa: E402
+from vo_reference.evaluate.image_quality import psnr, ssim  # noqa: E402
+
+CYCLES_DEFAULT_PATHS = dict(max_bounces=12, diffuse_bounces=4, glossy_bounces=4, transmission_bounces=12,
+                            volume_bounces=0, transparent_bounces=8, caustics=True, light_tree=True)
+OTHERS = {
+    "blender": Preset("custom", samples=4096, adaptive_threshold=0.01, denoise=True, clamp_indirect=10.0,
+                      **CYCLES_DEFAULT_PATHS),
+    "blenderproc": Preset("custom", samples=1024, adaptive_threshold=0.01, denoise=True, max_bounces=3,
+                          diffuse_bounces=3, glossy_bounces=0, transmission_bounces=0, volume_bounces=0,
+                          transparent_bounces=8, clamp_indirect=10.0, caustics=True, light_tree=True),
+}
+
+
+def reference_preset(samples: int) -> Preset:
+    return Preset("custom", samples=samples, denoise=False, clamp_direct=0.0, clamp_indirect=0.0,
+                  **CYCLES_DEFAULT_PATHS)
+
+
+def parse_try(text: str) -> tuple[str, Preset]:
+    """``NAME:base=final,samples=24,...`` -> a Preset (fields of presets.Preset)."""
+    name, _, spec = text.partition(":")
+    kv = dict(item.split("=", 1) for item in spec.split(",") if item)
+    base = PRESETS[kv.pop("base", "final")]
+    types = {f.name: f.type for f in fields(Preset)}
+    conv = {}
+    for k, v in kv.items():
+        if k not in types:
+            raise SystemExit(f"--try {text}: unknown setting {k!r}")
+        t = str(types[k])
+        conv[k] = (v.lower() in ("1", "true", "on", "yes")) if "bool" in t else int(v) if t == "int" else \
+            float(v) if t == "float" else v
+    return name, replace(base, quality="custom", overridden=(), **conv)
+
+
+def cpu_s() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+class Bench:
+    def __init__(self, args):
+        from blender_sesgen.plan import RenderOptions, RenderPlan
+        self.args = args
+        self.plan = RenderPlan.from_file(args.scene, RenderOptions(resolution_scale=args.scale,
+                                                                   frames=f"{args.frame}:{args.frame + 1}"))
+        self.views = tuple(self.plan.views) if args.views == "both" else ("left",)
+        self.exposure = None
+        self.tmp = Path(tempfile.mkdtemp(prefix="sesgen-quality-"))
+
+    def session(self, preset: Preset):
+        from blender_sesgen.blender.session import BlenderSession
+        plan = replace(self.plan, settings=replace(self.plan.settings, preset=preset))
+        s = BlenderSession(plan, known_exposure=self.exposure)
+        if preset.shading != "flat" and self.exposure is None:
+            self.exposure = s.exposure
+        return s
+
+    def render(self, preset: Preset, repeat: int) -> dict:
+        """Render the frame's views with ``preset``; images and timings (median of repeats)."""
+        from blender_sesgen.blender import render as brender
+        from blender_sesgen.blender import rig
+        from blender_sesgen.contract.manifest import render_seed
+        s = self.session(preset)
+        k = self.args.frame
+        paths = {v: self.tmp / f"{v}.exr" for v in self.views}
+        walls, cpus, cycles = [], [], []
+        for i in range(max(1, repeat)):
+            c0, t0 = cpu_s(), time.perf_counter()
+            if self.views == tuple(self.plan.views):
+                stats = s.render_frame(k, paths)
+            else:  # one view: the session's per-view path
+                stats = brender.render_views(s.built.scene, s.built.cameras, self.views, rig.blender_frame(k),
+                                             render_seed(self.plan.settings.seed, k, 0), paths)
+            walls.append(time.perf_counter() - t0)
+            cpus.append(cpu_s() - c0)
+            cyc = [st["cycles_s"] for st in stats.values()]
+            cycles.append(None if None in cyc else sum(cyc))
+        images = {}
+        for v in self.views:
+            ch = read_exr(paths[v])
+            rgb = np.stack([next(a for n, a in ch.items() if n.endswith(f"Combined.{c}")) for c in "RGB"], -1)
+            images[v] = linear_to_srgb(rgb)
+        factor = len(self.plan.views) / len(self.views)
+        med = statistics.median
+        return {"images": images, "s_stereo": med(walls) * factor, "cpu_stereo": med(cpus) * factor,
+                "cycles_stereo": None if None in cycles else med(cycles) * factor, "factor": factor}
+
+    def reference(self) -> dict:
+        from blender_sesgen.blender import compat
+        a = self.args
+        key = json.dumps({"scene": self.plan.scene_sha256, "frame": a.frame, "scale": a.scale, "views": self.views,
+                          "samples": a.reference_samples, "blender": compat.version_string(),
+                          "preset": reference_preset(a.reference_samples).pixel_settings()}, sort_keys=True)
+        h = hashlib.sha256(key.encode()).hexdigest()[:16]
+        cache = Path(a.cache) / f"{Path(a.scene).stem}-f{a.frame}-s{a.scale}-{h}.npz"
+        if cache.is_file():
+            data = np.load(cache)
+            self.exposure = float(data["exposure"])
+            return {"images": {v: data[v] for v in self.views}, "cached": True,
+                    "s_stereo": float(data["s_stereo"])}
+        r = self.render(reference_preset(a.reference_samples), 1)
+        cache.parent.mkdir(parents=True, exist_ok=True)
+        np.savez_compressed(cache, exposure=self.exposure, s_stereo=r["s_stereo"], **r["images"])
+        r["cached"] = False
+        return r
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--scene", default=str(REPO / "scenes" / "paper_room.ses"))
+    p.add_argument("--frame", type=int, default=0)
+    p.add_argument("--scale", type=float, default=0.5, help="resolution scale (0.5: 320x240 for the paper room)")
+    p.add_argument("--views", choices=("left", "both"), default="left")
+    p.add_argument("--configs", nargs="*", default=["gt", "draft", "final", "reference", "blender", "blenderproc"])
+    p.add_argument("--try", dest="tries", nargs="*", default=[], metavar="NAME:key=value,...",
+                   help="extra configurations: a preset (base=...) with settings changed")
+    p.add_argument("--repeat", type=int, default=1, help="timed renders per configuration (median)")
+    p.add_argument("--reference-samples", type=int, default=4096)
+    p.add_argument("--cache", default=str(REPO / "out" / "bench-cache"))
+    p.add_argument("--json", metavar="FILE", help="also write the results as JSON")
+    a = p.parse_args(argv)
+    configs = {}
+    for name in a.configs:
+        configs[name] = PRESETS.get(name) or OTHERS.get(name)
+        if configs[name] is None:
+            raise SystemExit(f"unknown configuration {name!r}")
+    configs.update(parse_try(t) for t in a.tries)
+
+    bench = Bench(a)
+    load0 = os.getloadavg()[0]
+    s = bench.plan.settings
+    print(f"# quality bench: {Path(a.scene).name} frame {a.frame}, {s.width}x{s.height}, views {'+'.join(bench.views)}, "
+          f"{os.cpu_count()} CPUs, {platform.machine()}, load {load0:.1f} at the start", flush=True)
+    t0 = time.perf_counter()
+    ref = bench.reference()
+    print(f"# reference: {a.reference_samples} samples, {'cached' if ref['cached'] else 'rendered'} "
+          f"({ref['s_stereo']:.0f} s per stereo frame)", flush=True)
+    head = (f"{'config':14s} {'quality':9s} {'samples':>10s} {'s/stereo':>9s} {'cpu s':>8s} {'cycles s':>9s} "
+            f"{'PSNR dB':>8s} {'SSIM':>7s} {'dB/s':>8s}")
+    print(head, flush=True)
+    rows = {}
+    for name, preset in configs.items():
+        r = bench.render(preset, a.repeat)
+        r["psnr"] = float(np.mean([psnr(r["images"][v], ref["images"][v]) for v in bench.views]))
+        r["ssim"] = float(np.mean([ssim(r["images"][v], ref["images"][v]) for v in bench.views]))
+        r["preset"] = preset
+        rows[name] = r
+        samp = f"<={preset.samples}/{preset.adaptive_threshold:g}" if preset.adaptive else str(preset.samples)
+        mark = " x2" if r["factor"] > 1 else ""
+        cyc = f"{r['cycles_stereo']:9.2f}" if r["cycles_stereo"] is not None else f"{'-':>9s}"
+        print(f"{name:14s} {preset.quality:9s} {samp:>10s} {r['s_stereo']:9.2f}{mark} {r['cpu_stereo']:8.2f} {cyc} "
+              f"{r['psnr']:8.2f} {r['ssim']:7.4f} {r['psnr'] / r['s_stereo']:8.2f}", flush=True)
+    if "blenderproc" in rows:
+        bp = rows["blenderproc"]
+        print("# against blenderproc (same run):")
+        for name, r in rows.items():
+            print(f"#   {name:14s} time x{r['s_stereo'] / bp['s_stereo']:.3f} (cpu x{r['cpu_stereo'] / bp['cpu_stereo']:.3f})"
+                  f"  PSNR {r['psnr'] - bp['psnr']:+.2f} dB  SSIM {r['ssim'] - bp['ssim']:+.4f}")
+    print(f"# {time.perf_counter() - t0:.0f} s in all; load {os.getloadavg()[0]:.1f} at the end")
+    if a.json:
+        out = {n: {k: v for k, v in r.items() if k not in ("images", "preset")} | {"preset": r["preset"].pixel_settings(),
+               "samples": r["preset"].samples, "denoise": r["preset"].denoise} for n, r in rows.items()}
+        Path(a.json).write_text(json.dumps(out, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

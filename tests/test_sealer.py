@@ -1,0 +1,85 @@
+"""The sealing worker (blender_sesgen.sealer): frames sealed in another process exactly as
+in this one, failures reported as the render's own, a dead worker replaced by sealing here."""
+from __future__ import annotations
+
+import hashlib
+import shutil
+import signal
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from blender_sesgen.exr import read_exr, write_exr
+from blender_sesgen.output import RenderWriteError, seal_frame
+from blender_sesgen.sealer import Sealer, WorkerGone
+
+CHANNELS = ("ViewLayer.Combined.R", "ViewLayer.Depth.Z")
+
+
+def _frame(tmp_path: Path, k: int) -> dict:
+    rng = np.random.default_rng(k)
+    out = {}
+    for v in ("left", "right"):
+        p = tmp_path / f".{k:06d}_{v}.tmp-1.exr"
+        write_exr(p, {c: rng.random((12, 16), dtype=np.float32) for c in CHANNELS})
+        out[v] = p
+    return out
+
+
+def test_the_worker_seals_like_this_process(tmp_path):
+    (tmp_path / "a").mkdir()
+    frames = {k: _frame(tmp_path / "a", k) for k in range(4)}
+    copies = {}
+    for k, files in frames.items():
+        copies[k] = {}
+        for v, p in files.items():
+            (tmp_path / "b").mkdir(exist_ok=True)
+            copies[k][v] = Path(shutil.copy(p, tmp_path / "b" / p.name))
+    with Sealer() as s:
+        assert s.in_background
+        answers = [s.submit(k, files, CHANNELS) for k, files in frames.items()]
+        results = [a.result() for a in answers]
+    for (k, files), sums in zip(frames.items(), results):
+        assert sums == seal_frame(k, copies[k], CHANNELS)           # same hashes as sealed here
+        for v, p in files.items():
+            assert p.read_bytes() == copies[k][v].read_bytes()
+            assert sums[f"exr/{v}/{k:06d}.exr"] == hashlib.sha256(p.read_bytes()).hexdigest()
+            assert set(read_exr(p)) == set(CHANNELS)
+
+
+def test_a_bad_file_is_a_write_error_and_later_frames_still_seal(tmp_path):
+    bad, good = _frame(tmp_path, 0), _frame(tmp_path, 1)
+    bad["left"].write_bytes(bad["left"].read_bytes()[:200])       # truncated: a full disk
+    with Sealer() as s:
+        a, b = s.submit(0, bad, CHANNELS), s.submit(1, good, CHANNELS)
+        with pytest.raises(RenderWriteError, match="frame 0 .*not written completely"):
+            a.result()
+        assert set(b.result()) == {"exr/left/000001.exr", "exr/right/000001.exr"}
+    assert not bad["left"].exists() and not bad["right"].exists()  # the bad frame's files removed
+
+
+def test_a_dead_worker_is_reported_and_replaced(tmp_path):
+    files = _frame(tmp_path, 0)
+    # dies with a frame submitted: WorkerGone (the job then seals that frame itself)
+    s = Sealer()
+    s._proc.send_signal(signal.SIGSTOP)                 # cannot answer...
+    a = s.submit(0, files, CHANNELS)
+    s._proc.kill()                                      # ...and dies
+    with pytest.raises(WorkerGone):
+        a.result()
+    assert not s.in_background
+    # afterwards frames are sealed in this process, exactly as the worker would have
+    assert set(s.submit(0, files, CHANNELS).result()) == {"exr/left/000000.exr", "exr/right/000000.exr"}
+    # dead before a submit: sealed here at once
+    s = Sealer()
+    s._proc.kill()
+    s._proc.wait()
+    assert len(s.submit(0, files, CHANNELS).result()) == 2 and not s.in_background
+    s.close()
+
+
+def test_disabled_seals_here(tmp_path):
+    with Sealer(enabled=False) as s:
+        assert not s.in_background
+        assert len(s.submit(0, _frame(tmp_path, 0), CHANNELS).result()) == 2
