@@ -176,7 +176,8 @@ class BlendImport:
     in the order of their names (skipping ids in use), and a class: its ``sesgen_class``
     property, else ``semantic_class``. ``collection``: only that collection's objects.
     ``lights``: keep the file's lamps. The ids are assigned when the file is loaded (the
-    manifest lists them); no script stored in the file ever runs.
+    manifest lists them); no script stored in the file ever runs. The files it refers to
+    (images, linked libraries) must lie in its folder unless ``allow_external``.
     """
     path: str
     source: str
@@ -187,6 +188,7 @@ class BlendImport:
     scale: Vec3 = (1.0, 1.0, 1.0)
     semantic_class: str = "static"
     lights: bool = True
+    allow_external: bool = False   # the file's images and libraries may lie outside its folder
     line: int = 0
 
 

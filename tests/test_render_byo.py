@@ -148,3 +148,36 @@ def test_blend_errors_are_reported_before_anything_is_written(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+
+
+MAKE_BLEND_WITH_IMAGE = """
+    import bpy, os
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    os.makedirs("outside", exist_ok=True); os.makedirs("env", exist_ok=True)
+    img = bpy.data.images.new("tex", 4, 4); img.filepath_raw = os.path.abspath("outside/tex.png")
+    img.file_format = "PNG"; img.save()
+    mat = bpy.data.materials.new("m"); nt = mat.node_tree
+    tex = nt.nodes.new("ShaderNodeTexImage"); tex.image = img
+    nt.links.new(tex.outputs["Color"], nt.nodes["Principled BSDF"].inputs["Base Color"])
+    bpy.ops.mesh.primitive_cube_add(size=1, location=(0, 3, 0.5)); bpy.context.object.data.materials.append(mat)
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath("env/env.blend"), relative_remap=True)
+"""
+
+
+def test_blend_images_outside_its_folder_are_refused_unless_allowed(tmp_path):
+    """Like a MESH model's references (ses/mesh_files.py): a .blend's image that lies outside
+    its folder is refused (exit 2, nothing written) unless the statement says allow_external;
+    then a corrupt image is still refused (decoded by image_check)."""
+    _bpy(tmp_path, MAKE_BLEND_WITH_IMAGE)
+    script = tmp_path / "s.ses"
+    script.write_text("CAMERA resolution 16 12 focal 12\nBLEND file env/env.blend id 1\n")
+    r = run_render(script, "--out", tmp_path / "out", "--samples", "1", "--quiet")
+    assert r.returncode == 2 and "lies outside the file's folder" in r.stderr and "allow_external" in r.stderr, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and not (tmp_path / "out").exists()
+    script.write_text("CAMERA resolution 16 12 focal 12\nBLEND file env/env.blend id 1 allow_external\n")
+    r = run_render(script, "--out", tmp_path / "out", "--samples", "1", "--quiet")
+    assert r.returncode == 0, r.stderr
+    (tmp_path / "outside" / "tex.png").write_bytes((tmp_path / "outside" / "tex.png").read_bytes()[:40])
+    r = run_render(script, "--out", tmp_path / "out2", "--samples", "1", "--quiet")
+    assert r.returncode == 2 and "is not a usable image" in r.stderr, r.stderr
+    assert not (tmp_path / "out2").exists()

@@ -4,6 +4,9 @@ Safety: the file is appended with Python auto-execution switched off
 (``preferences.filepaths.use_scripts_auto_execute``), only objects (and what they use:
 meshes, materials, images, node groups) are appended, never text blocks, and any text
 block that arrives anyway is removed: no script stored in the file runs.
+The files the appended data refers to (unpacked images, linked libraries) must be regular
+files in the .blend's folder unless ``allow_external``, and images must decode
+(``image_check``), as a MESH model's references (``ses/mesh_files.py``).
 
 Placement: objects keep their place in the file's Blender (Z-up) world, moved as a whole
 by the statement's pose (SES world, through ``contract.frames.ses_to_blender_world``) and scale.
@@ -13,13 +16,18 @@ statement's ``class``. Every object's row goes into the manifest's object table.
 """
 from __future__ import annotations
 
+import os
+
 import numpy as np
 from mathutils import Matrix
 
 import bpy
 
 from ..contract.frames import blender_to_ses_world, object_pose, ses_to_blender_world
+from ..contract.errors import ContractError
+from ..contract.inputs import check_regular, is_inside
 from ..contract.manifest import object_motion_fields
+from ..image_check import ImageFileError, check_image
 from ..contract import semantics
 from ..errors import SesgenError
 from ..model import BlendImport
@@ -33,6 +41,33 @@ def _snapshot() -> dict:
     return {name: set(getattr(bpy.data, name)) for name in _NEW_ID_COLLECTIONS}
 
 
+def reference_problems(imp: BlendImport, images, libraries) -> list[str]:
+    """The files the appended data refers to (images that are not packed, linked
+    libraries) must exist as regular files, images must decode (``image_check``), and
+    without ``allow_external`` they must lie in the .blend's folder (as MESH references:
+    ``ses/mesh_files.py``)."""
+    folder = os.path.dirname(os.path.abspath(imp.path))
+    refs = [("image", im, im.filepath) for im in images
+            if im.source in {"FILE", "SEQUENCE", "TILED"} and im.packed_file is None and im.filepath]
+    refs += [("library", lib, lib.filepath) for lib in libraries]
+    out = []
+    for what, idb, raw in refs:
+        path = os.path.abspath(bpy.path.abspath(raw, start=folder, library=getattr(idb, "library", None)))
+        if not imp.allow_external and not is_inside(path, folder):
+            out.append(f"{what} '{raw}' lies outside the file's folder {folder}; add 'allow_external' to the "
+                       "BLEND statement if you trust this file")
+            continue
+        try:
+            check_regular(path, f"{what} file")
+            if what == "image":
+                check_image(path)
+        except ContractError as e:
+            out.append(f"{what} '{raw}': {e.detail}")
+        except ImageFileError as e:
+            out.append(f"{what} '{raw}' is not a usable image: {e}")
+    return out
+
+
 def load_blend(imp: BlendImport, bscene, collection, used_ids: set, tag) -> tuple[list, list]:
     """Append ``imp``'s objects into ``collection`` (of ``bscene``). Returns (rows for the manifest's object
     table, lamps). ``used_ids`` (the script's ids) is extended with the ids given out."""
@@ -40,6 +75,7 @@ def load_blend(imp: BlendImport, bscene, collection, used_ids: set, tag) -> tupl
     saved = prefs.use_scripts_auto_execute
     before = _snapshot()
     texts_before = set(bpy.data.texts)
+    libraries_before = set(bpy.data.libraries)
     prefs.use_scripts_auto_execute = False
     try:
         with bpy.data.libraries.load(imp.path, link=False) as (src, dst):
@@ -59,6 +95,11 @@ def load_blend(imp: BlendImport, bscene, collection, used_ids: set, tag) -> tupl
     for name, old in before.items():
         for idb in set(getattr(bpy.data, name)) - old:
             tag(idb)
+    problems = reference_problems(imp, [i for i in set(bpy.data.images) - before["images"]],
+                                  [lib for lib in set(bpy.data.libraries) - libraries_before])
+    if problems:
+        raise SesgenError(f"BLEND {imp.source}: {problems[0]}" + (f" (and {len(problems) - 1} more)"
+                                                                   if len(problems) > 1 else ""))
     objects = (list(dst.collections[0].all_objects) if imp.collection is not None
                else [o for o in dst.objects if o is not None])
     keep_types = {"MESH", "CURVE", "SURFACE", "META", "FONT"} | ({"LIGHT"} if imp.lights else set())

@@ -192,16 +192,20 @@ def save_display(bscene, path: str, views=None) -> None:
     ``views``: {view: path} of a multiview render (Blender writes each view with its file
     suffix, as ``multiview_paths`` says; the files are moved to their paths)."""
     ims = bscene.render.image_settings
+    written = multiview_paths(Path(path), tuple(views)) if views else {}
     try:
         compat.set_png(ims)
         bpy.data.images["Render Result"].save_render(filepath=path, scene=bscene)
+    except RuntimeError:
+        # Blender 5.0 writes every view of a multiview result (with its suffix) and then
+        # reports that the unsuffixed path could not be saved; the files are checked
+        # (decoded) when the frame is sealed
+        if not written or not all(p.exists() for p in written.values()):
+            raise
     finally:
         compat.set_multilayer_exr(ims)
-    if views:
-        written = multiview_paths(Path(path), tuple(views))
-        for v, target in views.items():
-            src = written[v] if written[v].exists() else Path(path)   # one view: Blender may not suffix
-            os.replace(src, target)
+    for v, target in (views or {}).items():
+        os.replace(written[v], target)
 
 
 # --- the fast path: one camera for Blender, views chosen per render ---------------------

@@ -292,7 +292,7 @@ def _(o: Cuboid, ctx: ShapeContext) -> list:
     if o.bevel <= 0:
         return _with_material(build_cuboid(o, ctx.collection), o, ctx)
     bound = float(np.linalg.norm(o.size)) / 2.0
-    n = segments_for(o.bevel, _min_camera_distance(ctx.scene, o.position, bound), ctx.focal_px)
+    n = segments_for(o.bevel, _min_camera_distance(ctx.scene, o, o.position, bound), ctx.focal_px)
     # per quarter arc, even; sqrt 2 finer than a cylinder's step, so that a corner cell's
     # diagonal deviates no more than a cylinder's side
     ctx.segments[o.id] = 2 * math.ceil(math.sqrt(2) * n / 8)

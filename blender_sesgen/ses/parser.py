@@ -108,6 +108,7 @@ def _build(source: str, statements: list[ParsedStatement], attempted_objects: bo
 
 
 BLEND_MAGICS = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")   # plain, gzip, zstd
+MAX_BLEND_BYTES = 64 << 30                                         # a whole environment, not a disk
 
 
 def _blend(stmt: ParsedStatement, check: Checks, objects: dict) -> Optional[model.BlendImport]:
@@ -123,7 +124,9 @@ def _blend(stmt: ParsedStatement, check: Checks, objects: dict) -> Optional[mode
     tok = stmt.tags["file"].tokens[0]
     path = check.existing_file(stmt, "file")
     if path is not None:
-        if path.suffix.lower() != ".blend":
+        if path.stat().st_size > MAX_BLEND_BYTES:
+            check.err(tok, f"BLEND 'file' '{tok.text}' is larger than {MAX_BLEND_BYTES >> 30} GiB")
+        elif path.suffix.lower() != ".blend":
             check.err(tok, f"BLEND 'file' '{tok.text}' is not a .blend file")
         else:
             try:
@@ -142,7 +145,8 @@ def _blend(stmt: ParsedStatement, check: Checks, objects: dict) -> Optional[mode
     return model.BlendImport(path=str(path), source=tok.text, first_id=first, collection=stmt.get("collection"),
                              position=placement[:3], rotation_deg=placement[3:] or (0.0, 0.0, 0.0),
                              scale=scale * 3 if len(scale) == 1 else scale, semantic_class=cls or "static",
-                             lights=stmt.get("lights", "on") == "on", line=stmt.token.line)
+                             lights=stmt.get("lights", "on") == "on",
+                             allow_external="allow_external" in stmt.tags, line=stmt.token.line)
 
 
 def _with_class(o: model.SceneObject, materials: dict[str, model.Material]) -> model.SceneObject:
