@@ -125,6 +125,18 @@ def _safe(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.]", "_", text) or "host"
 
 
+def _zombie(pid: int) -> bool:
+    """A process that has ended but not been reaped yet (Linux): a render orphaned by a killed
+    farm worker stays one until its new parent reaps it, and it will never release a lock."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            stat = f.read()
+    except OSError:
+        return False
+    state = stat[stat.rfind(b")") + 2:][:1]   # the field after "(comm)", which may hold spaces
+    return state in (b"Z", b"X")
+
+
 def _stale(host: str, pid: int, path: Path) -> bool:
     """A lock whose writer is gone: this host and no such process, or not refreshed for
     STALE_LOCK_S (another host)."""
@@ -137,7 +149,7 @@ def _stale(host: str, pid: int, path: Path) -> bool:
             return True
         except PermissionError:
             return False
-        return False
+        return _zombie(pid)
     try:
         return time.time() - path.stat().st_mtime > STALE_LOCK_S
     except OSError:

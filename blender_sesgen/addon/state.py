@@ -52,7 +52,35 @@ def summary_lines(scene: Scene) -> tuple[str, ...]:
         f"Script render: quality {r.quality or 'final (default)'}"
         + (f", {r.samples} samples" if r.samples is not None else "")
         + ("" if r.denoise is None else f", denoise {'on' if r.denoise else 'off'}") + f", seed {r.seed}",
-    )
+    ) + sensor_lines(scene)
+
+
+def sensor_lines(scene: Scene) -> tuple[str, ...]:
+    """What the script says about moving objects, camera timing, lens, sensor and IMU (one
+    line each, only for what it sets; the panel's Timing override replaces the timing)."""
+    lines = []
+    if scene.object_motions:
+        names = {o.id: o.name or str(o.id) for o in scene.objects}
+        shown = [f"{names.get(m.id, m.id)}: {m.kind}" for m in scene.object_motions[:3]]
+        more = len(scene.object_motions) - len(shown)
+        lines.append(f"Moving: {len(scene.object_motions)} object(s) (" + ", ".join(shown)
+                     + (f", {more} more" if more else "") + ")")
+    t = scene.timing
+    if t is not None:
+        lines.append(f"Timing: {t.rate_hz:g} Hz, exposure {t.exposure_s * 1e3:g} ms, readout {t.readout_s * 1e3:g} ms"
+                     + (", motion blur" if t.blur and t.exposure_s > 0 else ""))
+    if scene.lens is not None:
+        lens = scene.lens
+        optics = [f"f/{lens.f_number:g}" if lens.f_number else "", f"vignetting {lens.vignetting:g}"
+                  if lens.vignetting else "", f"chromatic {lens.chromatic_px:g} px" if lens.chromatic_px else ""]
+        lines.append(f"Lens: {lens.model}" + "".join(f", {o}" for o in optics if o))
+    if scene.sensor is not None:
+        sn = scene.sensor
+        lines.append(f"Sensor: full well {sn.full_well_e:g} e-, read noise {sn.read_noise_e:g} e-, "
+                     f"{sn.bits} bit" + (f", CFA {sn.cfa}" if sn.cfa else ""))
+    if scene.imu is not None:
+        lines.append(f"IMU: {scene.imu.rate_hz:g} Hz, seed {scene.imu.seed}")
+    return tuple(lines)
 
 
 def parse_script(path: str) -> Scene:

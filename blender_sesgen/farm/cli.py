@@ -27,10 +27,10 @@ DEFAULT_RETRIES = 3
 
 
 def render_actions() -> list[argparse.Action]:
-    """The render command's options a farm passes on to every chunk (``--samples``,
-    ``--denoise``, ``--seed``, ``--resolution-scale``, ``--device``, ``--quality`` where the
-    render command has it, ...): taken from the render command's own parser, so that a new
-    render option is a farm option too."""
+    """The render command's options a farm passes on to every chunk (``--quality``,
+    ``--samples``, ``--denoise``, ``--seed``, ``--resolution-scale``, ``--device``, ...):
+    taken from the render command's own parser, so that a new render option is a farm
+    option too."""
     from .. import render_cli
     p = argparse.ArgumentParser(add_help=False)
     render_cli.add_arguments(p)

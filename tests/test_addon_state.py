@@ -1,0 +1,32 @@
+"""The add-on panel's script summary (pure: no bpy): what it says about moving objects and the
+camera as a sensor, checked against the numbers written in the script."""
+from blender_sesgen.addon.state import summary_lines
+from blender_sesgen.ses import parse_string
+
+SCRIPT = """CAMERA resolution 64 48 focal 50 baseline 0.1
+START position 0 1 4
+QUAD id 1 texture 3 vertices -3 0 -2  3 0 -2  3 3 -2  -3 3 -2
+CUBOID id 7 name car texture 4 position -1 0.5 0 dim 0.6 0.6 0.6
+SPHERE id 8 name ball texture 2 position 1 0.5 0 dim 0.3
+MOVE id 7 twist 0.2 0 0 0 10 0
+MOVE id 8 frame 3 position 1 1 0
+TIMING rate 30 exposure 0.004 readout 0.02
+LENS brown -0.28 0.07 0.0002 0.00002 fnumber 2.8 vignetting 1
+SENSOR fullwell 9000 readnoise 2.5 cfa rggb bits 12 seed 3
+IMU rate 200 position 0.05 0 0 seed 4
+FRAMES 5
+"""
+
+
+def test_summary_names_moving_objects_timing_lens_sensor_and_imu():
+    lines = summary_lines(parse_string(SCRIPT))
+    assert "Moving: 2 object(s) (car: twist, ball: keys)" in lines
+    assert "Timing: 30 Hz, exposure 4 ms, readout 20 ms, motion blur" in lines
+    assert "Lens: brown, f/2.8, vignetting 1" in lines
+    assert "Sensor: full well 9000 e-, read noise 2.5 e-, 12 bit, CFA rggb" in lines
+    assert "IMU: 200 Hz, seed 4" in lines
+
+
+def test_a_plain_script_shows_no_sensor_lines():
+    lines = summary_lines(parse_string(SCRIPT.split("MOVE")[0] + "FRAMES 2\n"))
+    assert not [ln for ln in lines if ln.split(":")[0] in ("Moving", "Timing", "Lens", "Sensor", "IMU")]
