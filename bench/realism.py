@@ -26,6 +26,7 @@ real share + 2 %. Indicators only: never reach them by blurring or lowering reso
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import re
 import subprocess
@@ -103,13 +104,19 @@ def render(scene: str, out: Path, frames: int) -> float:
     """Render frames 0..frames-1 (resuming what is there); seconds per stereo frame of the
     frames rendered in this run (nan if all were there already)."""
     cmd = [sys.executable, "-m", "blender_sesgen", "render", scene, "--out", str(out), "--frames", f"0:{frames}",
-           "--resume"]
+           "--resume", "--progress", "json"]
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO)), capture_output=True, text=True)
     if proc.returncode != 0:
         sys.exit(f"render of {scene} failed:\n{proc.stderr[-2000:]}")
-    done = re.findall(r"frame\s+\d+\s+\[\d+/\d+\]\s+([\d.]+) s", proc.stdout + proc.stderr)
-    secs = [float(x) for x in done]
+    secs = []
+    for line in proc.stderr.splitlines():   # --progress json: one object per rendered frame
+        try:
+            ev = json.loads(line)
+        except ValueError:
+            continue
+        if isinstance(ev, dict) and ev.get("event") == "progress" and ev.get("wall_s") is not None:
+            secs.append(float(ev["wall_s"]))
     print(f"  {scene}: {len(secs)} stereo frames rendered in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
     return float(np.mean(secs)) if secs else float("nan")
 
