@@ -45,7 +45,7 @@ def sheet(folder: Path, frames: int) -> np.ndarray:
     rows, disps = [], []
     for k in pick:
         ids = seq.ids(k)
-        disps.append(disparity_from_depth(seq.depth(k), K[0, 0], seq.baseline))
+        disps.append(disparity_from_depth(seq.depth(k), K[0, 0], seq.baseline_m))
         sem = pal[lut[np.clip(ids, 0, len(lut) - 1)]]
         rows.append([seq.image_rgb(k, "left"), seq.image_rgb(k, "right"), None, sem])
     finite = np.concatenate([d[np.isfinite(d)] for d in disps])
