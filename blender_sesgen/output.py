@@ -64,10 +64,34 @@ def display_view(key: str) -> str:
     return key[len(DISPLAY_KEY):]
 
 
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+_PNG_TEXT_CHUNKS = {b"tEXt", b"iTXt", b"zTXt", b"tIME"}
+
+
+def strip_png_text(buf: bytes) -> bytes:
+    """The PNG without its text and time chunks: Blender writes its render metadata there
+    (date, render time, memory: wall-clock values), so two renders of one frame would
+    differ in bytes. Other chunks are kept as they are (their CRCs stay valid); a file that
+    is not a well-formed chunk list is returned unchanged (the image check then says why)."""
+    if not buf.startswith(_PNG_SIGNATURE):
+        return buf
+    out, i = [buf[:8]], 8
+    while i + 12 <= len(buf):
+        n = int.from_bytes(buf[i:i + 4], "big")
+        end = i + 12 + n
+        if end > len(buf):
+            return buf
+        if buf[i + 4:i + 8] not in _PNG_TEXT_CHUNKS:
+            out.append(buf[i:end])
+        i = end
+    return b"".join(out) if i == len(buf) else buf
+
+
 def seal_frame(k: int, written: dict[str, Path], required_channels: tuple) -> dict[str, str]:
     """Check each view's freshly written EXR (``written[view]``, a temporary file) and strip
     its wall-clock header fields (the file rewritten), and decode its display-referred PNG
-    (``written[display_key(view)]``) if there is one; {relative path: sha256}.
+    (``written[display_key(view)]``) if there is one, its text chunks (Blender's render
+    metadata, wall-clock values) dropped; {relative path: sha256}.
     RenderWriteError (every temporary file removed) if a file is short or lacks a channel.
     Touches nothing but those files, so it may run in another process (``sealer``)."""
     sums = {}
@@ -76,8 +100,10 @@ def seal_frame(k: int, written: dict[str, Path], required_channels: tuple) -> di
             continue
         view = display_view(key)
         try:
-            buf = Path(tmp).read_bytes()
+            buf = strip_png_text(Path(tmp).read_bytes())
             check_image_bytes(buf)
+            with open(tmp, "wb") as f:
+                f.write(buf)
         except (OSError, ImageFileError) as e:
             for t in written.values():
                 Path(t).unlink(missing_ok=True)
