@@ -22,7 +22,7 @@ import numpy as np
 from .check import summary
 from .contract.progress import Progress
 from .errors import ScriptError, SesgenError
-from .model import (Cuboid, Cylinder, Fog, Light, Material, Mesh, Motion, Noise, Quad, Rig, Scene, Sphere,
+from .model import (Asset, Cuboid, Cylinder, Fog, Light, Material, Mesh, Motion, Noise, Quad, Rig, Scene, Sphere,
                     TextureRef, Timeline, World, mat4)
 from .pipeline import RenderOptions
 from .ses import parse_file, parse_string
@@ -31,8 +31,9 @@ __all__ = [
     # scripts
     "parse_file", "parse_string", "summary", "ScriptError", "SesgenError",
     # the scene model
-    "Scene", "Rig", "Quad", "Cuboid", "Sphere", "Cylinder", "Mesh", "Material", "TextureRef", "Light", "World",
-    "Fog", "Noise", "Motion", "Timeline", "builtin_texture", "ego_timeline", "pose_timeline",
+    "Scene", "Rig", "Quad", "Cuboid", "Sphere", "Cylinder", "Mesh", "Asset", "Material", "TextureRef", "Light",
+    "World", "Fog", "Noise", "Motion", "Timeline", "builtin_texture", "ego_timeline", "pose_timeline",
+    "asset_kinds", "asset_mesh",
     # rendering
     "RenderOptions", "render", "frame_progress",
 ]
@@ -45,6 +46,23 @@ def builtin_texture(name: "str | int", scale: float = 1.0) -> TextureRef:
     if number not in BUILTIN_TEXTURES:
         raise SesgenError(f"unknown built-in texture {name!r} (one of: {', '.join(NAME_TO_NUMBER)})")
     return TextureRef(kind="builtin", name=BUILTIN_TEXTURES[number][0], number=number, scale=float(scale))
+
+
+def asset_kinds() -> tuple[str, ...]:
+    """The kinds an :class:`Asset` (``ASSET`` statement) can be (docs/ses-language.md)."""
+    from . import assets
+    return tuple(assets.KINDS)
+
+
+def asset_mesh(kind: str, size: Optional[Sequence[float]] = None, seed: int = 0,
+               bend: Sequence[float] = (0.0,), offset: float = 0.0):
+    """The exact triangles of a procedural asset, as rendered: ``.vertices`` (n, 3) in the
+    asset's own frame (SES axes, metres), ``.faces`` (m, 3), ``.face_surface`` and
+    ``.surfaces`` (material names and colours). ``size`` None: the kind's seeded default."""
+    from . import assets
+    if kind not in assets.KINDS:
+        raise SesgenError(f"unknown asset kind {kind!r} (one of: {', '.join(assets.KINDS)})")
+    return assets.generate(kind, size if size is not None else assets.default_size(kind, seed), seed, bend, offset)
 
 
 def pose_timeline(T_world_left: np.ndarray) -> Timeline:

@@ -23,7 +23,7 @@ from typing import Callable, Optional
 
 from .contract.atomic import temp_path
 from .contract.manifest import Manifest
-from .output import OutputFolder, seal_frame
+from .output import OutputFolder, display_key, seal_frame
 from .sealer import Sealer, WorkerGone, run_here
 from .plan import RenderOptions, RenderPlan
 
@@ -114,6 +114,7 @@ class RenderJob:
         """This job's manifest with no frame complete (needs the built session)."""
         m = self.plan.manifest(channels=self.session.channels, render_extra=self.session.manifest_extra(),
                                blender_version=self.session.blender_version)
+        m.objects = m.objects + self.session.imported_objects   # BLEND files: ids given when loaded
         from .sensor.outputs import prepare_manifest
         prepare_manifest(self.plan.sensor, m, self.folder.resumable(self.plan), self.out_dir)
         return m
@@ -141,26 +142,29 @@ class RenderJob:
             self.build()
         self.begin()
         temps = {v: temp_path(self.folder.exr_path(v, k)) for v in self.plan.views}
+        shown = {v: temp_path(self.folder.display_path(v, k)) for v in self.plan.views} \
+            if self.plan.writes_display else None
         t0 = time.perf_counter()
         from .sensor import outputs as sensor_outputs
         exposure_s, gain = sensor_outputs.exposure_for(self.plan.sensor, self.manifest.extra, k)
         try:
-            stats = self.session.render_frame(k, temps, stop, exposure_s=exposure_s)
+            stats = self.session.render_frame(k, temps, stop, exposure_s=exposure_s, display_paths=shown)
             for v, tmp in temps.items():
-                if not tmp.is_file():
+                if not tmp.is_file() or (shown and not shown[v].is_file()):
                     raise RuntimeError(f"Blender wrote no file for frame {k}, view {v}")
             if self.plan.sensor.writes_sensor_images:   # from the checked-in-a-moment EXRs
                 sensor_outputs.write_sensor_images(self.plan.sensor, self.manifest, self.out_dir, k, exposure_s,
                                                    gain, temps, jpeg_writer=self.session.jpeg_writer)
         except BaseException:
-            for tmp in temps.values():
+            for tmp in [*temps.values(), *(shown or {}).values()]:
                 tmp.unlink(missing_ok=True)
             raise
         cyc = [st["cycles_s"] for st in stats.values()]
         res = FrameResult(frame=k, wall_s=time.perf_counter() - t0,
                           cycles_s=None if any(c is None for c in cyc) else sum(cyc), views=stats)
         self.timings.append(res)
-        return res, temps
+        # the display PNGs ride with the EXRs through sealing and commit (output.display_key)
+        return res, {**temps, **{display_key(v): p for v, p in (shown or {}).items()}}
 
     def _commit(self, k: int, temps: dict, sealed) -> None:
         """Wait for frame ``k``'s sealing (a Future of ``output.seal_frame``), then move its

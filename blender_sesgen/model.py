@@ -44,8 +44,41 @@ class TextureRef:
 
 
 @dataclass(frozen=True, kw_only=True)
+class LibraryParams:
+    """A material built from the named library (``blender_sesgen.material_library``).
+
+    ``name``: the library entry; ``scale``: divides its pattern size (bigger = finer);
+    ``wear``, ``variation`` (0..1), ``bump`` (relief multiplier, >= 0) and ``seed`` (of the
+    per-object variation) as documented in docs/ses-language.md (Material library).
+    """
+    name: str
+    scale: float = 1.0
+    wear: float = 0.2
+    bump: float = 1.0
+    variation: float = 0.3
+    seed: int = 0
+
+
+@dataclass(frozen=True, kw_only=True)
+class ImageMaps:
+    """A user's PBR image set: absolute paths (None = not given) mapped box-wise on the
+    object's own coordinates in metres, one repeat every ``size_m``; ``sources`` as written;
+    ``bump`` scales the normal map's strength."""
+    albedo: Optional[str] = None
+    normal: Optional[str] = None
+    roughness: Optional[str] = None
+    sources: tuple[Optional[str], Optional[str], Optional[str]] = (None, None, None)
+    size_m: float = 1.0
+    bump: float = 1.0
+
+
+@dataclass(frozen=True, kw_only=True)
 class Material:
-    """``MATERIAL name N ...``: a physically based (Principled BSDF) material."""
+    """``MATERIAL name N ...``: a physically based (Principled BSDF) material.
+
+    ``library``: built from a library entry (its colour/roughness/metallic are then the
+    entry's defaults unless the script overrides them); ``maps``: the user's image set.
+    """
     name: str
     colour: Vec3 = (0.8, 0.8, 0.8)
     texture: Optional[TextureRef] = None
@@ -54,6 +87,8 @@ class Material:
     specular: float = 0.5
     emission: Vec3 = (0.0, 0.0, 0.0)
     emission_strength: float = 0.0
+    library: Optional[LibraryParams] = None
+    maps: Optional[ImageMaps] = None
 
 
 # --- objects ----------------------------------------------------------------------------
@@ -66,7 +101,8 @@ class SceneObject:
     name: str                      # from ``name`` or generated: "<shape>_<id>"
     colour: Vec3 = (1.0, 1.0, 1.0)  # multiplies the texture
     texture: Optional[TextureRef] = None
-    material: Optional[str] = None  # name of a Material
+    material: Optional[str] = None  # name of a Material (defined, or a library entry)
+    semantic_class: str = "static"  # contract.semantics name: ``class``, else the library material's, else static
     line: int = 0                  # source line (for messages); not part of the scene's meaning
 
 
@@ -87,6 +123,7 @@ class Quad(SceneObject):
 class Cuboid(Placed):
     shape: ClassVar[str] = "cuboid"
     size: Vec3  # full edge lengths along the object's local x, y, z
+    bevel: float = 0.0  # radius of the rounded edges (real geometry; 0 = sharp)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -115,32 +152,90 @@ class Mesh(Placed):
     scale: Vec3 = (1.0, 1.0, 1.0)
 
 
+@dataclass(frozen=True, kw_only=True)
+class Asset(Placed):
+    """``ASSET kind id N position ... [size sx sy sz] [seed n] [bend deg ...] [offset o]``: a
+    procedural asset (blender_sesgen.assets), its mesh a pure function of (kind, size, seed,
+    bend, offset). ``size`` is always explicit here (the kind's seeded default when the
+    script gives none); ``bend`` and ``offset`` only matter for strips."""
+    shape: ClassVar[str] = "asset"
+    kind: str
+    size: Vec3
+    seed: int
+    bend: tuple[float, ...] = (0.0,)
+    offset: float = 0.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class BlendImport:
+    """``BLEND file PATH id N ...``: the mesh objects of a .blend file (a whole environment).
+
+    Objects keep their place in the file's Blender (Z-up) world, moved as a whole by
+    ``position``/``rotation_deg`` and scaled by ``scale`` (SES axes). Each gets an id: its
+    custom property ``sesgen_id`` when it has one, else ``first_id``, ``first_id`` + 1, ...
+    in the order of their names (skipping ids in use), and a class: its ``sesgen_class``
+    property, else ``semantic_class``. ``collection``: only that collection's objects.
+    ``lights``: keep the file's lamps. The ids are assigned when the file is loaded (the
+    manifest lists them); no script stored in the file ever runs. The files it refers to
+    (images, linked libraries) must lie in its folder unless ``allow_external``.
+    """
+    path: str
+    source: str
+    first_id: int
+    collection: Optional[str] = None
+    position: Vec3 = (0.0, 0.0, 0.0)
+    rotation_deg: Vec3 = (0.0, 0.0, 0.0)
+    scale: Vec3 = (1.0, 1.0, 1.0)
+    semantic_class: str = "static"
+    lights: bool = True
+    allow_external: bool = False   # the file's images and libraries may lie outside its folder
+    line: int = 0
+
+
 # --- environment ------------------------------------------------------------------------
 
 @dataclass(frozen=True, kw_only=True)
 class Light:
-    """``LIGHT sun|point|area ...``.
+    """``LIGHT sun|point|spot|area|portal ...``.
 
     sun: ``direction`` (the way the light travels, SES world), ``strength`` in W/m^2.
     point: ``position``, ``strength`` in W, ``size`` = radius.
-    area: ``position``, ``direction`` (the way it emits), ``size`` = edge, ``strength`` in W.
+    spot: ``position``, ``direction``, ``strength`` in W, ``size`` = radius, cone
+    ``spot_angle_deg`` (full angle) with a soft edge ``spot_blend`` (0..1).
+    area: ``position``, ``direction`` (the way it emits), ``size`` = edge (``size_y``: a
+    rectangle's second edge, along the light's own y), ``strength`` in W.
+    portal: an area (``position``, ``direction`` into the room, ``size``/``size_y``) that
+    emits nothing itself but tells the renderer where the sky comes in (a window).
     """
-    kind: Literal["sun", "point", "area"]
+    kind: Literal["sun", "point", "spot", "area", "portal"]
     colour: Vec3 = (1.0, 1.0, 1.0)
     strength: float = 3.0
     position: Optional[Vec3] = None
     direction: Optional[Vec3] = None
     size: float = 0.0
+    size_y: Optional[float] = None
+    spot_angle_deg: float = 45.0
+    spot_blend: float = 0.15
 
 
 @dataclass(frozen=True, kw_only=True)
 class World:
-    """``WORLD colour r g b [strength s]`` or ``WORLD sky [strength s] [elevation e] [azimuth a]``."""
-    kind: Literal["colour", "sky"]
+    """``WORLD colour r g b [strength s]``, ``WORLD sky [strength s] [elevation e] [azimuth a]``
+    or ``WORLD hdri NAME|FILE [strength s] [rotation deg]``.
+
+    hdri: ``hdri`` is a built-in name (``blender_sesgen.lighting_data.BUILTIN_HDRIS``) or
+    None with ``hdri_path`` an absolute file path (``hdri_source`` as written);
+    ``rotation_deg`` turns the image about the vertical (SES +Y) axis.
+    """
+    kind: Literal["colour", "sky", "hdri"]
     colour: Vec3 = (0.05, 0.05, 0.05)
     strength: float = 1.0
     sun_elevation_deg: float = 45.0
     sun_azimuth_deg: float = 0.0
+    hdri: Optional[str] = None
+    hdri_path: Optional[str] = None
+    hdri_source: Optional[str] = None
+    rotation_deg: float = 0.0
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -156,6 +251,18 @@ class Noise:
     """Additive Gaussian noise (8-bit grey levels) for exported RGB; EXR stays clean."""
     sigma: float
     seed: int = 0
+
+
+@dataclass(frozen=True, kw_only=True)
+class Look:
+    """``LOOK [view agx|filmic|standard] [look NAME] [exposure auto|EV]``: how the
+    display-referred image is made. ``look``: AgX's contrast looks (lighting_data.AGX_LOOKS);
+    ``auto_exposure`` None = the default rule (automatic for a script without emitting
+    LIGHTs, else ``exposure_ev`` 0); the EXR stays scene-linear either way."""
+    view: Literal["agx", "filmic", "standard"] = "agx"
+    look: str = "base"
+    auto_exposure: Optional[bool] = None
+    exposure_ev: float = 0.0
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -363,6 +470,7 @@ class ObjectMotion:
 class Scene:
     source: str                           # the script's path as given ("<string>" if none)
     objects: tuple[SceneObject, ...]
+    imports: tuple[BlendImport, ...] = ()  # BLEND statements
     rig: Rig = field(default_factory=Rig)
     start_position: Vec3 = (0.0, 0.0, 0.0)
     start_rotation_deg: Vec3 = (0.0, 0.0, 0.0)
@@ -373,6 +481,7 @@ class Scene:
     world: Optional[World] = None         # None: the renderer's default world
     fog: Optional[Fog] = None
     noise: Optional[Noise] = None
+    look: Look = field(default_factory=Look)
     render: RenderSettings = field(default_factory=RenderSettings)
     object_motions: tuple[ObjectMotion, ...] = ()  # one per moving object (MOVE), by id
     timing: Optional[Timing] = None       # None: 25 Hz, instantaneous global shutter
@@ -416,7 +525,7 @@ def _jsonable(value):
         if isinstance(value, SceneObject):
             out["shape"] = value.shape
         for f in dataclasses.fields(value):
-            if f.name == "line":
+            if f.name == "line" or (f.name == "imports" and not value.imports):
                 continue
             if isinstance(value, Scene) and f.name in SENSOR_FIELDS and getattr(value, f.name) is None:
                 continue  # sensor statements absent: the JSON of a SESGen script is unchanged

@@ -31,28 +31,88 @@ from typing import Optional
 
 from .contract import atomic
 from .contract.errors import ContractError
-from .contract.manifest import (DONE_LOG_GLOB, EXR_DIR, FORMAT, MANIFEST, POSES_DIR, SCENE_COPY, STATE_DIR,
-                                Manifest, completed_in_logs, exr_relpath, load_json, trajectory_relpaths)
+from .contract.manifest import (DISPLAY_DIR, DONE_LOG_GLOB, EXR_DIR, FORMAT, MANIFEST, POSES_DIR, SCENE_COPY, STATE_DIR,
+                                Manifest, completed_in_logs, display_relpath, exr_relpath, load_json,
+                                trajectory_relpaths)
 from .contract.trajectory_files import format_ego_table, format_kitti, format_tum
 from .errors import SesgenError
+from .image_check import ImageFileError, check_image_bytes
 from .exr import ExrError, check_complete, decode, read_layout, strip_volatile_attributes
 from .locks import FolderLocks
 from .plan import RenderPlan, RenderSettings
 
 _OWN_EXR = re.compile(r"^\d{6}\.exr$")
+_OWN_PNG = re.compile(r"^\d{6}\.png$")
 
 
 class RenderWriteError(RuntimeError):
     """A file could not be written completely (a full disk, a failing device): exit 1."""
 
 
+DISPLAY_KEY = "display:"   # written[DISPLAY_KEY + view]: that view's display-referred PNG
+
+
+def display_key(view: str) -> str:
+    return DISPLAY_KEY + view
+
+
+def is_display_key(key: str) -> bool:
+    return key.startswith(DISPLAY_KEY)
+
+
+def display_view(key: str) -> str:
+    return key[len(DISPLAY_KEY):]
+
+
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+_PNG_TEXT_CHUNKS = {b"tEXt", b"iTXt", b"zTXt", b"tIME"}
+
+
+def strip_png_text(buf: bytes) -> bytes:
+    """The PNG without its text and time chunks: Blender writes its render metadata there
+    (date, render time, memory: wall-clock values), so two renders of one frame would
+    differ in bytes. Other chunks are kept as they are (their CRCs stay valid); a file that
+    is not a well-formed chunk list is returned unchanged (the image check then says why)."""
+    if not buf.startswith(_PNG_SIGNATURE):
+        return buf
+    out, i = [buf[:8]], 8
+    while i + 12 <= len(buf):
+        n = int.from_bytes(buf[i:i + 4], "big")
+        end = i + 12 + n
+        if end > len(buf):
+            return buf
+        if buf[i + 4:i + 8] not in _PNG_TEXT_CHUNKS:
+            out.append(buf[i:end])
+        i = end
+    return b"".join(out) if i == len(buf) else buf
+
+
 def seal_frame(k: int, written: dict[str, Path], required_channels: tuple) -> dict[str, str]:
     """Check each view's freshly written EXR (``written[view]``, a temporary file) and strip
-    its wall-clock header fields (the file rewritten); {relative path: sha256}.
+    its wall-clock header fields (the file rewritten), and decode its display-referred PNG
+    (``written[display_key(view)]``) if there is one, its text chunks (Blender's render
+    metadata, wall-clock values) dropped; {relative path: sha256}.
     RenderWriteError (every temporary file removed) if a file is short or lacks a channel.
     Touches nothing but those files, so it may run in another process (``sealer``)."""
     sums = {}
+    for key, tmp in written.items():   # the display PNGs: decoded (image_check)
+        if not is_display_key(key):
+            continue
+        view = display_view(key)
+        try:
+            buf = strip_png_text(Path(tmp).read_bytes())
+            check_image_bytes(buf)
+            with open(tmp, "wb") as f:
+                f.write(buf)
+        except (OSError, ImageFileError) as e:
+            for t in written.values():
+                Path(t).unlink(missing_ok=True)
+            raise RenderWriteError(f"frame {k} ({view}): the display PNG was not written completely ({e}); "
+                                   "is the disk full? The previous files were kept") from None
+        sums[display_relpath(view, k)] = hashlib.sha256(buf).hexdigest()
     for view, tmp in written.items():
+        if is_display_key(view):
+            continue
         rel = exr_relpath(view, k)
         try:
             buf = Path(tmp).read_bytes()
@@ -242,22 +302,33 @@ class OutputFolder:
         atomic.write_text(out / SCENE_COPY, plan.scene_text, durable=True)
         for view in plan.views:
             (out / EXR_DIR / view).mkdir(parents=True, exist_ok=True)
+            if plan.writes_display:
+                (out / DISPLAY_DIR / view).mkdir(parents=True, exist_ok=True)
         self._remove_stale_temporaries()
         self._write_pose_files(plan, manifest)
 
     def exr_path(self, view: str, k: int) -> Path:
         return self.root / exr_relpath(view, k)
 
+    def display_path(self, view: str, k: int) -> Path:
+        return self.root / display_relpath(view, k)
+
     def commit_frame(self, k: int, written: dict[str, Path], required_channels: tuple) -> None:
-        """Check each view's freshly written EXR (``written[view]``, a temporary file), strip
-        its wall-clock header fields, move it into place and record frame ``k`` complete;
-        RenderWriteError (the previous files kept) if a file is short or lacks a channel."""
+        """Check each view's freshly written EXR (``written[view]``, a temporary file; and
+        ``written[display_key(view)]``, its display-referred PNG), strip its wall-clock header
+        fields, move it into place and record frame ``k`` complete; RenderWriteError (the
+        previous files kept) if a file is short or lacks a channel."""
         self.commit_sealed(k, written, seal_frame(k, written, required_channels))
 
     def commit_sealed(self, k: int, written: dict[str, Path], sums: dict[str, str]) -> None:
-        """Move frame ``k``'s sealed files (:func:`seal_frame`) into place and record it complete."""
+        """Move frame ``k``'s sealed files (:func:`seal_frame`) into place and record it
+        complete: the display PNGs first (an EXR in place means a whole frame)."""
+        for key, tmp in written.items():
+            if is_display_key(key):
+                os.replace(tmp, self.root / display_relpath(display_view(key), k))
         for view, tmp in written.items():
-            os.replace(tmp, self.root / exr_relpath(view, k))
+            if not is_display_key(view):
+                os.replace(tmp, self.root / exr_relpath(view, k))
         self.manifest.frames_complete[k] = True
         self.checksums.update(sums)
         self._append_log({"frame": int(k), "files": sums})
@@ -300,7 +371,9 @@ class OutputFolder:
                 log.unlink(missing_ok=True)
 
     def _files_exist(self, m: Manifest, k: int) -> bool:
-        return all((self.root / m.files[v][k]).is_file() for v in m.views)
+        display = (m.extra.get("display") or {}).get("files") or {}
+        return all((self.root / m.files[v][k]).is_file() and
+                   (v not in display or (self.root / display[v][k]).is_file()) for v in m.views)
 
     def _write_pose_files(self, plan: RenderPlan, manifest: Manifest) -> None:
         (self.root / POSES_DIR).mkdir(parents=True, exist_ok=True)
@@ -363,11 +436,12 @@ class OutputFolder:
     def _remove_own_outputs(self) -> None:
         """Delete the files a previous render wrote (our own names only; nothing else)."""
         for view in ("left", "right"):
-            d = self.root / EXR_DIR / view
-            if d.is_dir():
-                for f in d.iterdir():
-                    if _OWN_EXR.match(f.name) or atomic.is_temp_name(f.name):
-                        f.unlink()
+            for folder, own in ((EXR_DIR, _OWN_EXR), (DISPLAY_DIR, _OWN_PNG)):
+                d = self.root / folder / view
+                if d.is_dir():
+                    for f in d.iterdir():
+                        if own.match(f.name) or atomic.is_temp_name(f.name):
+                            f.unlink()
         pd = self.root / POSES_DIR
         if pd.is_dir():
             for f in pd.iterdir():
@@ -381,7 +455,8 @@ class OutputFolder:
     def _remove_stale_temporaries(self) -> None:
         """Temporary files of interrupted writers (never those of a live one: its pid is in the name)."""
         live = self.locks.live_pids()
-        folders = [self.root / EXR_DIR / v for v in ("left", "right")] + [self.root, self.root / POSES_DIR, self.state]
+        folders = [self.root / d / v for d in (EXR_DIR, DISPLAY_DIR) for v in ("left", "right")]
+        folders += [self.root, self.root / POSES_DIR, self.state]
         for d in folders:
             if not d.is_dir():
                 continue

@@ -20,12 +20,14 @@ from typing import Optional
 
 import numpy as np
 
-from . import __version__
+from . import __version__, assets
+from .contract import semantics
 from .contract.camera import scaled_K, scaled_size
 from .contract.errors import ContractError
-from .contract.manifest import SEED_RULE, Manifest, exr_relpath, object_motion_fields
+from .contract.manifest import SEED_RULE, Manifest, display_relpath, exr_relpath, object_motion_fields
 from .contract.timing import FrameSelection, frame_timestamps
 from .errors import SesgenError
+from .lighting_data import AGX_LOOKS, VIEW_TRANSFORMS
 from .model import Mesh, Scene, TextureRef
 from .presets import QUALITIES, Preset, effective
 
@@ -213,6 +215,12 @@ class RenderPlan:
         return SensorPlan.create(self.scene, self.settings,
                                  TimingOverrides(o.rate_hz, o.exposure_s, o.readout_s, o.motion_blur))
 
+    @property
+    def writes_display(self) -> bool:
+        """Whether Blender writes the display-referred PNGs (``rgb/``): on the plain render
+        path; the sensor path (motion blur, rolling shutter, lens) makes its own images."""
+        return not self.sensor.changes_rendering
+
     @cached_property
     def view_poses(self) -> dict[str, np.ndarray]:
         """``{view: (N, 4, 4) T_world_cam}`` (OpenCV camera, SES world)."""
@@ -243,6 +251,12 @@ class RenderPlan:
             extra["fog"] = {"start": scene.fog.start, "end": scene.fog.end, "colour": list(scene.fog.colour),
                             "applies_to": "rgb only"}
         extra.update(self.sensor.manifest_entries(N))
+        if self.writes_display:
+            extra["display"] = {
+                "kind": "display-referred sRGB, 8-bit PNG (the Combined pass through the view transform)",
+                "view_transform": VIEW_TRANSFORMS[scene.look.view],
+                "look": AGX_LOOKS[scene.look.look],
+                "files": {v: [display_relpath(v, k) for k in range(N)] for v in self.views}}
         product_channels = {k: channels[k] for k in ("rgb", "depth", "object_index")}
         for p in ("normal", "position"):
             if p in s.passes:
@@ -292,8 +306,10 @@ def texture_label(tex: Optional[TextureRef]) -> Optional[str]:
 
 
 def object_table(scene: Scene) -> list[dict]:
-    """The manifest's ``objects``: id, name, shape, texture and material of every object, and
-    whether it moves (with its per-frame poses if it does)."""
+    """The manifest's ``objects``: id, name, shape, texture, material, semantic ``class`` and
+    its Cityscapes ``label_id`` (contract.semantics) of every object of the script, and
+    whether it moves (with its per-frame poses if it does). A BLEND file's objects are added
+    by the job, which learns their ids when loading them."""
     out = []
     for o in scene.objects:
         tex = o.texture
@@ -302,10 +318,17 @@ def object_table(scene: Scene) -> list[dict]:
                 tex = scene.material(o.material).texture
             except KeyError:
                 tex = None
+        label = semantics.BY_NAME[semantics.canonical(o.semantic_class)]
         motion = scene.motion_of(o.id)
-        out.append({"id": int(o.id), "name": o.name, "shape": o.shape,
-                    "texture": texture_label(tex), "material": o.material,
-                    **(object_motion_fields(motion.kind, motion.poses()) if motion else object_motion_fields())})
+        row = {"id": int(o.id), "name": o.name, "shape": o.shape,
+               "texture": texture_label(tex), "material": o.material,
+               "class": label.name, "label_id": label.id,
+               **(object_motion_fields(motion.kind, motion.poses()) if motion else object_motion_fields())}
+        if o.shape == "asset":   # what regenerates its mesh: blender_sesgen.assets.generate(...)
+            row.update(kind=o.kind, seed=int(o.seed), size=[float(x) for x in o.size])
+            if assets.KINDS[o.kind].strip:
+                row.update(bend=[float(x) for x in o.bend], offset=float(o.offset))
+        out.append(row)
     return out
 
 

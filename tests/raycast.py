@@ -6,7 +6,8 @@ and every intersection is closed form in float64:
 - quad: plane through the 4 vertices, inside test on the two triangles (0,1,2), (0,2,3);
 - box: slab test in the box's own frame (R from XYZ Euler degrees, R = Rz Ry Rx);
 - sphere: the quadratic;
-- cylinder (axis along local Y): the quadratic on x,z plus the two caps.
+- cylinder (axis along local Y): the quadratic on x,z plus the two caps;
+- rounded box (CUBOID bevel): the union of 3 slabs, 12 edge cylinders and 8 corner spheres.
 Depth is planar z in the camera frame (what Cycles' Depth pass holds); misses are inf.
 
 Moving objects: ``Moved(prim, M)`` is ``prim`` carried by the rigid motion M (4x4, world to
@@ -87,6 +88,8 @@ def _tri_hit(o, d, a, b, c):
 
 def hit_t(prim, o, d):
     """Ray parameter t (ray o + t d) of the first hit, inf if none. d: (n, 3)."""
+    if isinstance(prim, RoundedBoxP):
+        return _rounded_box_t(prim, o, d)
     if isinstance(prim, Moved):
         M = np.asarray(prim.M, dtype=float)
         R, t = M[:3, :3], M[:3, 3]
@@ -170,6 +173,52 @@ def render_truth(prims, K, T_world_cam, width, height, edge_eps_px=1e-3):
     return depth.reshape(height, width), ids.reshape(height, width), near_edge.reshape(height, width)
 
 
+@dataclass
+class RoundedBoxP:
+    """A box (full edge lengths ``size``) with edges rounded to ``radius``: the points within
+    ``radius`` of the inner box of half sizes size/2 - radius (Minkowski sum)."""
+    id: int
+    centre: np.ndarray
+    rotation_deg: tuple
+    size: np.ndarray
+    radius: float
+
+
+def _rounded_box_t(prim: RoundedBoxP, o, d):
+    """First hit on a rounded box: the union of three slabs (the inner box grown by r along
+    one axis), twelve edge cylinders and eight corner spheres, all convex: min of their t."""
+    R = euler_xyz_deg(*prim.rotation_deg)
+    ol = R.T @ (o - prim.centre)
+    dl = d @ R
+    r = float(prim.radius)
+    inner = np.asarray(prim.size, dtype=float) / 2 - r
+    best = np.full(len(d), np.inf)
+    for axis in range(3):  # slabs
+        grow = inner.copy()
+        grow[axis] += r
+        best = np.minimum(best, hit_t(BoxP(0, np.zeros(3), (0, 0, 0), 2 * grow), ol, dl))
+    for axis in range(3):  # edge cylinders along ``axis``
+        a, b = [i for i in range(3) if i != axis]
+        for sa in (-1, 1):
+            for sb in (-1, 1):
+                c = np.zeros(3)
+                c[a], c[b] = sa * inner[a], sb * inner[b]
+                oc = ol - c
+                A = dl[:, a] ** 2 + dl[:, b] ** 2
+                B = 2 * (oc[a] * dl[:, a] + oc[b] * dl[:, b])
+                C = oc[a] ** 2 + oc[b] ** 2 - r * r
+                disc = B * B - 4 * A * C
+                sq = np.sqrt(np.where(disc >= 0, disc, 0))
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    for t in ((-B - sq) / (2 * A), (-B + sq) / (2 * A)):
+                        along = oc[axis] + t * dl[:, axis]
+                        ok = (disc >= 0) & (t > 0) & (np.abs(along) <= inner[axis])
+                        best = np.where(ok & (t < best), t, best)
+    for sx in (-1, 1):  # corner spheres
+        for sy in (-1, 1):
+            for sz in (-1, 1):
+                best = np.minimum(best, hit_t(SphereP(0, inner * np.array([sx, sy, sz]), r), ol, dl))
+    return best
 def hit_point(prims, K, T_world_cam, u, v):
     """World points (n, 3) and ids (n,) seen through pixel coordinates (u, v); inf / 0 where
     nothing is hit."""

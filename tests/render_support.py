@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -35,7 +36,10 @@ ORACLE_START = ((0.2, 1.3, 3.0), (-10.0, 6.0, 3.0))
 ORACLE_EGO = [(0.05, -0.02, -0.15, 2.0, -3.0, 1.5), (-0.04, 0.03, -0.2, -1.5, 4.0, -2.0)]
 
 
-def oracle_script(width=160, height=120, focal=110.0, principal=(81.3, 57.6), baseline=0.15) -> str:
+def oracle_script(width=160, height=120, focal=110.0, principal=(81.3, 57.6), baseline=0.15,
+                  materials: dict | None = None, extra_lines=()) -> str:
+    """The oracle scene; ``materials`` {id: library material} replaces those objects'
+    textures (same geometry), ``extra_lines`` are appended (WORLD, LOOK, ...)."""
     v = " ".join(f"{x:.10g}" for x in TILTED.reshape(-1))
     (sx, sy, sz), (rx, ry, rz) = ORACLE_START
     lines = [
@@ -51,6 +55,10 @@ def oracle_script(width=160, height=120, focal=110.0, principal=(81.3, 57.6), ba
         "SPHERE id 6 texture 9 position 0.9 1.35 -2.2 dim 0.4",
     ]
     lines += [f"EGO {' '.join(str(x) for x in e)}" for e in ORACLE_EGO]
+    for obj_id, name in (materials or {}).items():
+        i = next(i for i, ln in enumerate(lines) if f" id {obj_id} " in ln)
+        lines[i] = re.sub(r"texture \d+ ", f"material {name} ", lines[i])
+    lines += list(extra_lines)
     return "\n".join(lines) + "\n"
 
 

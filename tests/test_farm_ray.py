@@ -129,7 +129,8 @@ def assert_same_as_single(root: Path, name: str, ref: Path) -> None:
     got, want = exr_bytes(out), exr_bytes(ref)
     assert len(want) == 10 and got == want, f"{name}: EXRs differ from the single render"
     assert manifest(out) == manifest(ref), f"{name}: manifest differs"
-    assert all(manifest(out)["frames_complete"]) and len(manifest(out)["checksums"]) == 10
+    shown = sum(len(v) for v in ((manifest(out).get("display") or {}).get("files") or {}).values())
+    assert all(manifest(out)["frames_complete"]) and len(manifest(out)["checksums"]) == 10 + shown  # EXRs + PNGs
     state = out / ".sesgen"
     assert not list(state.glob("lock-*")) and not list(state.glob("done-*")), "locks or completion logs left"
     assert not [f for f in out.rglob(".*tmp-*")], "temporary files left"

@@ -64,7 +64,7 @@ def test_output_contract(tmp_path):
     np.testing.assert_allclose(m["K"], [[70, 0, 47.5], [0, 70, 35.5], [0, 0, 1]])
     assert [o["id"] for o in m["objects"]] == [1, 2, 3, 4]
     assert m["objects"][3] == {"id": 4, "name": m["objects"][3]["name"], "shape": "sphere", "texture": "voronoi",
-                               "material": None, "moving": False}
+                               "material": None, "class": "static", "label_id": 4, "moving": False}
     assert m["frames_complete"] == [True] * 3
     assert m["noise"] == {"sigma": 2.5, "seed": 7}
     assert m["render"]["samples"] == 1 and m["render"]["engine"] == "CYCLES"

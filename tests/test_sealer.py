@@ -83,3 +83,24 @@ def test_disabled_seals_here(tmp_path):
     with Sealer(enabled=False) as s:
         assert not s.in_background
         assert len(s.submit(0, _frame(tmp_path, 0), CHANNELS).result()) == 2
+
+
+def test_display_pngs_lose_blenders_wall_clock_text_chunks():
+    """Blender writes its render metadata (date, render time) into the display PNG's tEXt
+    chunks; sealing drops every text/time chunk and nothing else, so the same frame gives
+    the same bytes. The PNG is written by OpenCV (an independent encoder), the chunks by hand."""
+    import zlib
+
+    import cv2
+    import numpy as np
+
+    from blender_sesgen.output import strip_png_text
+    rgb = np.random.default_rng(0).integers(0, 256, (9, 13, 3), dtype=np.uint8)
+    png = cv2.imencode(".png", rgb)[1].tobytes()
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return len(data).to_bytes(4, "big") + kind + data + zlib.crc32(kind + data).to_bytes(4, "big")
+    stamped = png[:33] + chunk(b"tEXt", b"Date\x002026/12/02 00:29:04") + chunk(b"tIME", bytes(7)) + png[33:]
+    assert strip_png_text(stamped) == png
+    assert np.array_equal(cv2.imdecode(np.frombuffer(strip_png_text(stamped), np.uint8), cv2.IMREAD_UNCHANGED), rgb)
+    assert strip_png_text(stamped[:-5]) == stamped[:-5]   # not a whole chunk list: left for the image check

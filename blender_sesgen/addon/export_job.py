@@ -32,6 +32,7 @@ TARGETS = (
     ("vkitti2", "Virtual KITTI 2", "frames/rgb, depth, class/instance segmentation, flow; intrinsic/extrinsic/pose.txt"),
     ("sceneflow", "SceneFlow", "FlyingThings3D tree: PFM disparity, flow, disparity change"),
     ("rosbag", "ROS 2 bag", "mcap: cam0/cam1 Image + CameraInfo, imu0 Imu, tf + PoseStamped ground truth"),
+    ("cityscapes", "Cityscapes", "leftImg8bit + gtFine labelIds, color, instanceIds per view; classes.json"),
 )
 TAKES_SEQUENCE = {"kitti-odometry", "tartanair", "vkitti2", "sceneflow"}
 NOT_FOUND = ("exporting needs the vo_reference tools outside Blender: pip install 'blender-sesgen[vo]' "

@@ -1,10 +1,10 @@
 """The scene model -> a Blender scene: objects, lights, world and the stereo rig (bpy).
 
 The one place that puts a whole :class:`~blender_sesgen.model.Scene` into Blender: shapes
-(``shapes.build_shape``) with their materials (``materials``), lights and world
-(``lighting``), the keyed cameras (``rig``), the moving objects' keyed empties
-(``object_motion``), all tagged (``datablocks``) in the dedicated scene ``SCENE_NAME``.
-Object ``pass_index`` = script ``id``.
+(``shapes.build_shape``) with their materials (``materials``, ``library``), the objects of
+BLEND files (``blend_import``), lights and world (``lighting``), the keyed cameras (``rig``),
+the moving objects' keyed empties (``object_motion``), all tagged (``datablocks``) in the
+dedicated scene ``SCENE_NAME``. Object ``pass_index`` = script ``id``.
 """
 from __future__ import annotations
 
@@ -13,7 +13,8 @@ from dataclasses import dataclass, field
 import bpy
 
 from ..model import Scene
-from . import lighting, object_motion, rig
+from . import assets as _assets  # noqa: F401  (registers the ASSET shape builder)
+from . import blend_import, library, lighting, object_motion, rig
 from .datablocks import SCENE_NAME, TAG, clear_previous, tag
 from .materials import MaterialFactory
 from .runtime import activate
@@ -28,6 +29,7 @@ class BuiltScene:
     objects: dict = field(default_factory=dict)   # id -> [bpy objects]
     cameras: dict = field(default_factory=dict)   # view -> camera object
     segments: dict = field(default_factory=dict)  # tessellated shape id -> segment count
+    imported: list = field(default_factory=list)  # manifest rows of BLEND objects
     movers: dict = field(default_factory=dict)    # moving object id -> its keyed empty (object_motion)
 
 
@@ -44,25 +46,38 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -
     bscene.collection.children.link(coll)
     built = BuiltScene(scene=bscene, collection=coll)
 
-    lights = list(scene.lights) or lighting.default_lights(scene)
-    ambient = lighting.DEFAULT_AMBIENT if not scene.lights else 0.0
-    ctx = ShapeContext(scene, coll, MaterialFactory(scene, ambient), max(float(K[0][0]), scene.rig.focal_px),
+    ctx = ShapeContext(scene, coll, MaterialFactory(scene), max(float(K[0][0]), scene.rig.focal_px),
                        built.segments)
     for o in scene.objects:
         objs = build_shape(o, ctx)
+        material = scene.material(o.material) if o.material else None
+        seed = material.library.seed if material is not None and material.library is not None else 0
         for b in objs:
             b.pass_index = int(o.id)
             b["sesgen_id"] = int(o.id)
+            library.object_properties(b, seed, o.id)   # the library materials' per-object variation
         built.objects[o.id] = objs
         motion = scene.motion_of(o.id)
         if motion is not None:  # a moving object hangs from an empty keyed with its motion
             built.movers[o.id] = object_motion.attach_motion(o, motion, objs, coll, tag)
 
-    for i, light in enumerate(lights):
+    used_ids = {o.id for o in scene.objects}
+    file_lamps = False
+    for imp in scene.imports:
+        rows, lamps = blend_import.load_blend(imp, bscene, coll, used_ids, tag)
+        file_lamps = file_lamps or bool(lamps)
+        built.imported += rows
+        for row in rows:
+            b = next(o for o in coll.objects if o.get("sesgen_id") == row["id"] and o.type != "LIGHT")
+            library.object_properties(b, 0, row["id"])
+            built.objects[row["id"]] = [b]
+
+    # lights after the objects: the default lighting's enclosure test casts rays at them
+    for i, light in enumerate(lighting.scene_lights(scene, bscene, file_lamps)):
         lo = lighting.add_light(bscene, coll, light, f"sesgen_light_{i}")
         tag(lo)
         tag(lo.data)
-    tag(lighting.build_world(bscene, scene.world, scene.fog, "sesgen_world"))
+    tag(lighting.build_world(bscene, lighting.effective_world(scene, file_lamps), scene.fog, "sesgen_world", tag))
 
     N = scene.frames
     for view, T in view_poses.items():

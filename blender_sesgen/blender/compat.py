@@ -36,6 +36,15 @@ def set_multilayer_exr(image_settings, codec: str = "ZIP", bits: str = "32") -> 
     image_settings.exr_codec = codec
 
 
+def set_png(image_settings, bits: str = "8") -> None:
+    """8-bit RGB PNG (the display-referred image)."""
+    if hasattr(image_settings, "media_type"):
+        image_settings.media_type = "IMAGE"
+    image_settings.file_format = "PNG"
+    image_settings.color_mode = "RGB"
+    image_settings.color_depth = bits
+
+
 def exr_channel_names(view_layer: str = "ViewLayer") -> dict:
     """Names of the EXR channels (``layer.pass.channel``) that hold each product."""
     index_pass = "Object Index" if version() >= (5, 0, 0) else "IndexOB"

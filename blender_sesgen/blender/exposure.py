@@ -1,13 +1,14 @@
-"""Automatic exposure for the *default* lighting (scripts with no LIGHT statement).
+"""Automatic exposure (``LOOK exposure auto``; the default for scripts without emitting LIGHTs).
 
-The default lights (lighting.default_lights) must make any SESGen script "well lit, not
-black" — but no fixed light power suits both a 5 m room and a camera 2 m above a 100 m
-ground. So, once per sequence, a tiny preview of frame 0 (left view) is rendered and the
+The default lighting must make any SESGen script "well lit, not black" — but no fixed light
+power suits both a 5 m room and a camera 2 m above a 100 m ground, and an HDRI's absolute
+level is arbitrary. So, once per sequence, a tiny preview of frame 0 (left view) is rendered and the
 film exposure (Cycles' linear ``film_exposure``: scales the beauty pass only; depth and
 object index are geometry) is set so that the 90th percentile of its luminance reads
 TARGET. The same factor is used for every frame and view, so brightness is constant over
 the sequence, as VO assumes; it is recorded in the manifest and reused on --resume.
-Scripts with their own LIGHTs are rendered with exactly the light they ask for.
+Scripts with their own LIGHTs are rendered with exactly the light they ask for (``LOOK
+exposure EV`` sets a fixed factor 2^EV).
 """
 from __future__ import annotations
 
@@ -17,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-TARGET = 0.6            # linear luminance of the 90th percentile pixel (sRGB ~200: highlights keep texture)
+from ..lighting_data import EXPOSURE_TARGET as TARGET
+
 PREVIEW_WIDTH = 96      # px; the preview keeps the aspect ratio
 PREVIEW_SAMPLES = 8
 

@@ -1,49 +1,42 @@
 """LIGHT, WORLD and FOG -> Blender lights, world shader and per-material fog.
 
-Defaults (a SESGen script has no lights; it must still render well lit, not black):
-- world: a soft grey-blue ambient (``DEFAULT_WORLD``);
-- a sun from elevation 50 deg, azimuth 30 deg, 2 W/m^2 (lights open scenes);
-- a point light at the rig's START position, power chosen so that the irradiance at half
-  the scene's extent is ~1.5 W/m^2 (lights closed rooms from the inside; it does not move,
-  so the shading is constant over the sequence, as VO assumes);
-- a small ambient term (5 % of each surface's own colour, like OpenGL's ambient light) so
-  that shadows are never pitch black.
+Worlds (``lighting_data`` holds the numbers):
+- ``WORLD colour``: a uniform background;
+- ``WORLD sky``: Blender's physical sky (multiple scattering, 5.0) *without* its sun disc,
+  plus a sun lamp of the disc's direction, colour and measured irradiance (a lamp is
+  sampled directly: half the noise on sunlit surfaces); on 4.x (single-scattering Nishita)
+  the disc stays in the sky;
+- ``WORLD hdri``: an equirectangular image (a bundled HDRI found through
+  ``bpy.utils.system_resource``, or the user's .exr/.hdr), turned about the vertical.
+
+Default lighting (a script with neither LIGHT nor WORLD, e.g. every SESGen script): a
+clear-sky day (``lighting_data.DEFAULT_SKY``: sky + sun), plus, when the rig starts inside
+a closed space (rays from START hit geometry in >= 90 % of directions), a ceiling light:
+a downward area light just under whatever is above START (or a point light at START when
+nothing is), of power giving ~1.5 W/m^2 at half the scene's extent. No ambient term: every
+bit of light comes from a light source, as in a camera.
+
 Fog is applied to camera rays only (a mix towards the fog colour by the distance from the
 camera), so only the RGB output is fogged; Depth/Object Index are geometry and never fogged.
 """
 from __future__ import annotations
 
 import math
+import os
 
 import bpy
 import numpy as np
 from mathutils import Vector
 
+from .. import lighting_data
 from ..contract.frames import R_BLENDER_SES
+from ..errors import SesgenError
 from ..model import Fog, Light, Scene, World
 from . import compat
-
-DEFAULT_WORLD = World(kind="colour", colour=(0.55, 0.6, 0.7), strength=0.35)
-DEFAULT_SUN_ELEVATION_DEG = 50.0
-DEFAULT_SUN_AZIMUTH_DEG = 30.0
-DEFAULT_SUN_STRENGTH = 2.0
-DEFAULT_FILL_IRRADIANCE = 1.5
-DEFAULT_AMBIENT = 0.05
-# Blender's physical sky is in absolute units: at strength 1 a white ground under a 45 deg
-# sun reads ~39 (linear), far past white. ``WORLD sky strength s`` means s / SKY_EXPOSURE,
-# so that strength 1 is well exposed (white ground ~0.75 at 45 deg, ~0.35 at 20 deg).
-SKY_EXPOSURE = 50.0
 
 
 def ses_vec_to_blender(v) -> Vector:
     return Vector(tuple(R_BLENDER_SES @ np.asarray(v, dtype=float)))
-
-
-def _direction_from_angles(elevation_deg: float, azimuth_deg: float) -> np.ndarray:
-    """SES-world direction *towards* the sun: elevation above the XZ ground plane (Y up),
-    azimuth from -Z (forward of an unrotated camera) towards +X."""
-    el, az = math.radians(elevation_deg), math.radians(azimuth_deg)
-    return np.array([math.cos(el) * math.sin(az), math.sin(el), -math.cos(el) * math.cos(az)])
 
 
 def _aim(obj, travel_dir_ses) -> None:
@@ -55,16 +48,30 @@ def _aim(obj, travel_dir_ses) -> None:
     obj.rotation_quaternion = d.normalized().to_track_quat("-Z", "Y")
 
 
+_TYPES = {"sun": "SUN", "point": "POINT", "spot": "SPOT", "area": "AREA", "portal": "AREA"}
+
+
 def add_light(bscene, collection, light: Light, name: str):
-    data = bpy.data.lights.new(name, type={"sun": "SUN", "point": "POINT", "area": "AREA"}[light.kind])
+    data = bpy.data.lights.new(name, type=_TYPES[light.kind])
     data.color = light.colour
     data.energy = float(light.strength)
     if light.kind == "sun":
-        data.angle = math.radians(0.5)
-    elif light.kind == "point":
+        data.angle = math.radians(lighting_data.SUN_ANGLE_DEG)
+    elif light.kind in ("point", "spot"):
         data.shadow_soft_size = float(light.size)
-    else:
-        data.size = float(light.size) if light.size > 0 else 1.0
+        if light.kind == "spot":
+            data.spot_size = math.radians(light.spot_angle_deg)
+            data.spot_blend = float(light.spot_blend)
+    else:  # area, portal
+        edge = float(light.size) if light.size > 0 else 1.0
+        if light.size_y is not None:
+            data.shape = "RECTANGLE"
+            data.size, data.size_y = edge, float(light.size_y)
+        else:
+            data.shape = "SQUARE"
+            data.size = edge
+        if light.kind == "portal":
+            data.cycles.is_portal = True
     obj = bpy.data.objects.new(name, data)
     if light.position is not None:
         obj.location = ses_vec_to_blender(light.position)
@@ -74,15 +81,55 @@ def add_light(bscene, collection, light: Light, name: str):
     return obj
 
 
-def default_lights(scene: Scene) -> list[Light]:
-    """The lights a script without LIGHT statements gets (see module docstring)."""
-    sun = Light(kind="sun", strength=DEFAULT_SUN_STRENGTH,
-                direction=tuple(-_direction_from_angles(DEFAULT_SUN_ELEVATION_DEG, DEFAULT_SUN_AZIMUTH_DEG)))
+def scene_lights(scene: Scene, bscene, file_lamps: bool = False) -> list[Light]:
+    """Every lamp the scene gets: the script's LIGHTs, the sky's sun, or the default lighting
+    (after the objects are built: the enclosure test casts rays against them). A BLEND
+    file's own lamps (``file_lamps``) count as the script's lights."""
+    lights = list(scene.lights)
+    world = effective_world(scene, file_lamps)
+    if world.kind == "sky" and _sky_without_disc():
+        sun = lighting_data.sky_sun_light(world)
+        if sun is not None:
+            lights.append(sun)
+    if not scene.lights and not file_lamps and scene.world is None:
+        lights += _enclosure_lights(scene, bscene)
+    return lights
+
+
+def effective_world(scene: Scene, file_lamps: bool = False) -> World:
+    """The script's WORLD; without one, the default sky (no LIGHT either) or, for a script
+    with its own LIGHTs (or a BLEND file's lamps), the soft uniform ``LIGHTS_ONLY_WORLD``."""
+    if scene.world is not None:
+        return scene.world
+    return lighting_data.LIGHTS_ONLY_WORLD if scene.lights or file_lamps else lighting_data.DEFAULT_SKY
+
+
+def _start_position(scene: Scene) -> np.ndarray:
+    return np.asarray(scene.timeline.left()[0][:3, 3] if scene.frames else scene.start_position, dtype=float)
+
+
+def _enclosure_lights(scene: Scene, bscene) -> list[Light]:
+    """A ceiling light when START is inside a closed space (module docstring)."""
+    with bpy.context.temp_override(scene=bscene, view_layer=bscene.view_layers[0]):
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+    start = _start_position(scene)
+    origin = ses_vec_to_blender(start)
+    hits = 0
+    dirs = lighting_data.fibonacci_directions(64)
+    for d in dirs:
+        hit = bscene.ray_cast(depsgraph, origin, ses_vec_to_blender(d), distance=1e6)
+        hits += bool(hit[0])
+    if hits < lighting_data.ENCLOSED_HIT_FRACTION * len(dirs):
+        return []
     half_extent = max(scene_extent(scene) / 2.0, 0.5)
-    fill = Light(kind="point", strength=4.0 * math.pi * half_extent**2 * DEFAULT_FILL_IRRADIANCE,
-                 position=tuple(float(x) for x in scene.timeline.left()[0][:3, 3]) if scene.frames else scene.start_position,
-                 size=0.1 * half_extent)
-    return [sun, fill]
+    power = 4.0 * math.pi * half_extent**2 * lighting_data.DEFAULT_FILL_IRRADIANCE
+    up = bscene.ray_cast(depsgraph, origin, ses_vec_to_blender((0.0, 1.0, 0.0)), distance=1e6)
+    if up[0] and up[1].z - origin.z > 0.3:
+        height = (up[1].z - origin.z) - 0.05
+        edge = float(np.clip(0.25 * half_extent, 0.3, 2.0))
+        return [Light(kind="area", strength=power, size=edge, direction=(0.0, -1.0, 0.0),
+                      position=tuple(start + np.array([0.0, height, 0.0])))]
+    return [Light(kind="point", strength=power, position=tuple(start), size=0.1 * half_extent)]
 
 
 def scene_extent(scene: Scene) -> float:
@@ -103,21 +150,54 @@ def scene_extent(scene: Scene) -> float:
     return float(np.linalg.norm(P.max(axis=0) - P.min(axis=0)))
 
 
-def build_world(bscene, world: World | None, fog: Fog | None, name: str):
-    w = world or DEFAULT_WORLD
+def _sky_without_disc() -> bool:
+    """Whether the physical sky's disc is replaced by a lamp (the calibrated 5.0 sky only)."""
+    return compat.sky_type_for() == "MULTIPLE_SCATTERING"
+
+
+def hdri_path(world: World) -> str:
+    """The image file of ``WORLD hdri``: the user's file, or a bundled HDRI found through
+    bpy's own resource path."""
+    if world.hdri_path:
+        return world.hdri_path
+    folder = bpy.utils.system_resource("DATAFILES", path="studiolights/world")
+    path = os.path.join(folder, f"{world.hdri}.exr") if folder else ""
+    if not os.path.isfile(path):
+        raise SesgenError(f"WORLD hdri {world.hdri}: this Blender has no bundled HDRI of that name "
+                          f"(looked for {path or 'datafiles/studiolights/world'})")
+    return path
+
+
+def build_world(bscene, w: World, fog: Fog | None, name: str, tag=lambda x: x):
     wd = bpy.data.worlds.new(name)
     nt = compat.node_tree(wd)
     nt.nodes.clear()
     out = nt.nodes.new("ShaderNodeOutputWorld")
     bg = nt.nodes.new("ShaderNodeBackground")
-    bg.inputs["Strength"].default_value = float(w.strength) / (SKY_EXPOSURE if w.kind == "sky" else 1.0)
+    bg.inputs["Strength"].default_value = float(w.strength) / (lighting_data.SKY_EXPOSURE if w.kind == "sky" else 1.0)
     if w.kind == "sky":
         sky = nt.nodes.new("ShaderNodeTexSky")
         sky.sky_type = compat.sky_type_for()
         if hasattr(sky, "sun_elevation"):
             sky.sun_elevation = math.radians(w.sun_elevation_deg)
             sky.sun_rotation = math.radians(w.sun_azimuth_deg)
+        if hasattr(sky, "sun_disc") and _sky_without_disc():
+            sky.sun_disc = False  # the sun is a lamp (scene_lights)
         nt.links.new(sky.outputs["Color"], bg.inputs["Color"])
+    elif w.kind == "hdri":
+        img = tag(bpy.data.images.load(hdri_path(w), check_existing=True))
+        env = nt.nodes.new("ShaderNodeTexEnvironment")
+        env.image = img
+        env.interpolation = "Linear"
+        coords = nt.nodes.new("ShaderNodeTexCoord")
+        mapping = nt.nodes.new("ShaderNodeMapping")
+        mapping.vector_type = "POINT"
+        # the SES vertical is Blender's Z; a positive rotation moves the image's content
+        # from SES -Z (ahead) towards +X, the rule of the sun's azimuth
+        mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(w.rotation_deg))
+        nt.links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+        nt.links.new(mapping.outputs["Vector"], env.inputs["Vector"])
+        nt.links.new(env.outputs["Color"], bg.inputs["Color"])
     else:
         bg.inputs["Color"].default_value = (*w.colour, 1.0)
     shader = bg.outputs["Background"]

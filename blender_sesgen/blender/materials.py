@@ -1,8 +1,10 @@
-"""Materials of SES objects: texture x colour on a Principled BSDF (bpy).
+"""Materials of SES objects: texture x colour on a Principled BSDF, a library material
+(``library``) or a user's image set (bpy).
 
 One data-block per distinct (texture, colour, MATERIAL, spherical mapping), shared by the
-objects that use it. The default lighting adds an OpenGL-like ambient term (emission of a
-fraction of the surface's own colour); fog wraps the surface shader (RGB only).
+objects that use it (a library material's per-object variation comes from the objects'
+own properties, see ``library``). Fog wraps the surface shader (RGB only). There is no
+ambient term: all light comes from light sources.
 """
 from __future__ import annotations
 
@@ -13,16 +15,15 @@ import numpy as np
 
 from ..errors import SesgenError
 from ..model import Material, Scene, SceneObject, Sphere, TextureRef
-from . import compat, lighting, textures
+from . import compat, library, lighting, textures
 from .datablocks import tag
 
 DEFAULT_ROUGHNESS = 0.6
 
 
 class MaterialFactory:
-    def __init__(self, scene: Scene, ambient: float):
+    def __init__(self, scene: Scene):
         self.scene = scene
-        self.ambient = ambient
         self.cache: dict = {}
 
     def get(self, obj: SceneObject):
@@ -46,6 +47,12 @@ class MaterialFactory:
         nt.nodes.clear()
         out = nt.nodes.new("ShaderNodeOutputMaterial")
         out.target = "ALL"
+        if m is not None and m.library is not None:
+            return self._finish(mat, nt, out, library.build_shader(nt, m, colour))
+        if m is not None and m.maps is not None:
+            bsdf = library.build_image_maps(nt, m.maps, colour, m.roughness, tag)
+            bsdf.inputs["Metallic"].default_value = m.metallic
+            return self._finish(mat, nt, out, bsdf.outputs["BSDF"])
         bsdf = nt.nodes.new("ShaderNodeBsdfPrincipled")
         if tex is not None:
             tex_col = textures.texture_colour(nt, tex, spherical)
@@ -54,10 +61,8 @@ class MaterialFactory:
             mul.inputs[0].default_value = 1.0
             nt.links.new(tex_col, mul.inputs[6])
             mul.inputs[7].default_value = (*colour, 1.0)
-            base = mul.outputs[2]
-            nt.links.new(base, bsdf.inputs["Base Color"])
+            nt.links.new(mul.outputs[2], bsdf.inputs["Base Color"])
         else:
-            base = None
             bsdf.inputs["Base Color"].default_value = (*colour, 1.0)
         bsdf.inputs["Roughness"].default_value = m.roughness if m else DEFAULT_ROUGHNESS
         bsdf.inputs["Metallic"].default_value = m.metallic if m else 0.0
@@ -66,15 +71,9 @@ class MaterialFactory:
         if m is not None and m.emission_strength > 0:
             emission.default_value = (*m.emission, 1.0)
             bsdf.inputs["Emission Strength"].default_value = m.emission_strength
-        elif self.ambient > 0:  # OpenGL-like ambient term of the default lighting
-            if base is not None:
-                nt.links.new(base, emission)
-            else:
-                emission.default_value = (*colour, 1.0)
-            bsdf.inputs["Emission Strength"].default_value = self.ambient
-            if hasattr(mat, "cycles") and hasattr(mat.cycles, "emission_sampling"):
-                mat.cycles.emission_sampling = "NONE"  # ambient, not a light to sample
-        shader = bsdf.outputs["BSDF"]
+        return self._finish(mat, nt, out, bsdf.outputs["BSDF"])
+
+    def _finish(self, mat, nt, out, shader):
         if self.scene.fog is not None:
             shader = lighting.fog_mix(nt, shader, self.scene.fog)
         nt.links.new(shader, out.inputs["Surface"])

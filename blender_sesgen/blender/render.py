@@ -2,7 +2,9 @@
 
 Ground truth (Depth = planar z, Object Index) comes from Cycles' first sample, which goes
 through the exact pixel centre, so it is exact for any sample count, filter or denoiser;
-the beauty pass is anti-aliased. Output: multilayer OpenEXR, float32, ZIP (lossless).
+the beauty pass is anti-aliased. Output: multilayer OpenEXR, float32, ZIP (lossless), the
+scene-linear values; beside it, on request, the display-referred 8-bit PNG (the same render
+through the scene's view transform, ``save_display``).
 """
 from __future__ import annotations
 
@@ -54,8 +56,11 @@ _PREFILTERS = {"none": "NONE", "fast": "FAST", "accurate": "ACCURATE"}
 
 
 def configure(bscene, preset: Preset, *, gpu: bool = False, threads: int = 0,
-              normal_pass: bool = False, position_pass: bool = False) -> None:
-    """Cycles as ``preset`` says (presets.py), the passes, multilayer EXR output."""
+              normal_pass: bool = False, position_pass: bool = False, view_transform: str = "AgX",
+              look: str = "None") -> None:
+    """Cycles as ``preset`` says (presets.py), the passes, multilayer EXR output and the
+    colour management. ``view_transform`` and ``look`` shape the display-referred PNG only
+    (the EXR is scene-linear whatever they are)."""
     r = bscene.render
     r.engine = "CYCLES"
     c = bscene.cycles
@@ -94,8 +99,9 @@ def configure(bscene, preset: Preset, *, gpu: bool = False, threads: int = 0,
     r.use_compositing = False
     r.use_sequencer = False
     r.dither_intensity = 0.0
-    bscene.view_settings.view_transform = "Standard"
-    bscene.view_settings.look = "None"
+    bscene.display_settings.display_device = "sRGB"
+    bscene.view_settings.view_transform = view_transform
+    bscene.view_settings.look = look
     bscene.view_settings.exposure = 0.0
     bscene.view_settings.gamma = 1.0
     vl = bscene.view_layers[0]
@@ -165,8 +171,9 @@ def _prepare(bscene, camera, frame: int, seed: int, fast: bool) -> None:
 
 
 def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: bool = True,
-                fast: bool = False) -> dict:
-    """Render ``camera`` at Blender frame ``frame`` into the multilayer EXR ``filepath``.
+                fast: bool = False, display_path: Optional[str] = None) -> dict:
+    """Render ``camera`` at Blender frame ``frame`` into the multilayer EXR ``filepath``
+    (scene-linear) and, with ``display_path``, the display-referred 8-bit PNG.
 
     Returns {"wall_s": seconds around the render call, "cycles_s": Cycles' own render time}.
     """
@@ -174,7 +181,31 @@ def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: boo
     _prepare(bscene, camera, frame, seed, fast)
     bscene.render.filepath = filepath
     wall, cycles = _render(bscene, quiet)
+    if display_path is not None:
+        save_display(bscene, display_path)
     return {"wall_s": wall, "cycles_s": cycles}
+
+
+def save_display(bscene, path: str, views=None) -> None:
+    """The last render result as an 8-bit sRGB PNG through the scene's view transform
+    (``Image.save_render`` applies the scene's colour management to non-float formats).
+    ``views``: {view: path} of a multiview render (Blender writes each view with its file
+    suffix, as ``multiview_paths`` says; the files are moved to their paths)."""
+    ims = bscene.render.image_settings
+    written = multiview_paths(Path(path), tuple(views)) if views else {}
+    try:
+        compat.set_png(ims)
+        bpy.data.images["Render Result"].save_render(filepath=path, scene=bscene)
+    except RuntimeError:
+        # Blender 5.0 writes every view of a multiview result (with its suffix) and then
+        # reports that the unsuffixed path could not be saved; the files are checked
+        # (decoded) when the frame is sealed
+        if not written or not all(p.exists() for p in written.values()):
+            raise
+    finally:
+        compat.set_multilayer_exr(ims)
+    for v, target in (views or {}).items():
+        os.replace(written[v], target)
 
 
 # --- the fast path: one camera for Blender, views chosen per render ---------------------
@@ -223,10 +254,12 @@ def multiview_paths(base: Path, views) -> dict:
     return {v: base.with_name(f"{stem}_{v}.{ext}" if dot and stem else f"{base.name}_{v}") for v in views}
 
 
-def render_views(bscene, cameras: dict, views, frame: int, seed: int, paths: dict, quiet: bool = True) -> dict:
+def render_views(bscene, cameras: dict, views, frame: int, seed: int, paths: dict, quiet: bool = True,
+                 display_paths: Optional[dict] = None) -> dict:
     """``views`` (a subset of ``cameras``) at ``frame`` in one multiview render with Cycles
-    seed ``seed``, view v into ``paths[v]``; {view: stats} (the render's wall and Cycles
-    time split evenly between its views)."""
+    seed ``seed``, view v into ``paths[v]`` (and its display-referred PNG into
+    ``display_paths[v]``); {view: stats} (the render's wall and Cycles time split evenly
+    between its views)."""
     views = tuple(views)
     set_multiview(bscene, True, views)
     _prepare(bscene, cameras["left"], frame, seed, fast=True)
@@ -238,6 +271,8 @@ def render_views(bscene, cameras: dict, views, frame: int, seed: int, paths: dic
         wall, cycles = _render(bscene, quiet)
         for v in views:
             os.replace(written[v], paths[v])
+        if display_paths:
+            save_display(bscene, str(display_paths[views[0]]), {v: display_paths[v] for v in views})
     finally:
         for p in written.values():
             if p.exists():

@@ -1,10 +1,11 @@
 """A plan's scene built in Blender and ready to render frames: the bpy side of a render job.
 
 ``BlenderSession(plan)`` builds the scene (``builder``), configures Cycles as the plan's
-quality preset says (``render``, ``presets``) and fixes the film exposure;
-``render_frame(k, paths)`` renders every view of frame k into the given EXR paths. It knows
-nothing of output folders or manifests beyond what it reports for them (channel names,
-exposure, Blender's version, how it renders).
+quality preset says (``render``, ``presets``), the colour management as the script's LOOK
+says, and fixes the film exposure; ``render_frame(k, paths)`` renders every view of frame k
+into the given EXR paths (and the display-referred PNGs). It knows nothing of output folders
+or manifests beyond what it reports for them (channel names, exposure, Blender's version,
+how it renders).
 
 Speed (``fast``): the Cycles session persists from frame to frame and the active camera
 never changes (``render.render_views``), so a static scene is synchronised, its shaders
@@ -19,12 +20,12 @@ from pathlib import Path
 from typing import Callable, Optional
 
 from ..contract.manifest import render_seed
+from ..lighting_data import AGX_LOOKS, EXPOSURE_TARGET, VIEW_TRANSFORMS
 from ..plan import Device, RenderPlan
 from ..presets import EXPOSURE_PREVIEW
 from . import builder, compat, exposure, render, rig, shading
 
-EXPOSURE_RULE_AUTO = "auto: default lighting, 90th-percentile luminance of frame 0 = 0.6"
-EXPOSURE_RULE_LIGHTS = "1 (the script's own lights)"
+EXPOSURE_RULE_AUTO = f"auto: 90th-percentile luminance of frame 0 = {EXPOSURE_TARGET}"
 EXPOSURE_RULE_FLAT = "1 (gt: flat shading, no lights)"
 
 
@@ -42,7 +43,9 @@ class BlenderSession:
         gpu = s.device is Device.GPU
         self.gpu = render.enable_gpu() if gpu else None
         self._configure = dict(gpu=gpu, threads=plan.options.threads, normal_pass=plan.options.normal_pass,
-                               position_pass=plan.options.position_pass)
+                               position_pass=plan.options.position_pass,
+                               view_transform=VIEW_TRANSFORMS[plan.scene.look.view],
+                               look=AGX_LOOKS[plan.scene.look.look])
         self.flat = s.preset.shading == "flat"
         self.exposure = self._exposure(known_exposure)
         render.configure(self.built.scene, s.preset, **self._configure)
@@ -58,11 +61,22 @@ class BlenderSession:
         self.built.scene.render.use_persistent_data = self.fast
         self.views_per_render = len(plan.views) if self.fast and s.preset.deterministic_rgb else 1
 
+    @property
+    def auto_exposure(self) -> bool:
+        """``LOOK exposure auto``, or no LOOK exposure and no emitting LIGHT (portals emit nothing)."""
+        look = self.plan.scene.look
+        if look.auto_exposure is not None:
+            return look.auto_exposure
+        return not any(light.kind != "portal" for light in self.plan.scene.lights)
+
     def _exposure(self, known: Optional[float]) -> float:
-        """Default lighting only: one film exposure for the whole sequence (blender/exposure.py),
-        measured with the same preview settings whatever the preset."""
-        if self.flat or self.plan.scene.lights:
+        """One film exposure for the whole sequence: 1 for the flat ``gt`` shading, else
+        automatic (blender/exposure.py, measured with the same preview settings whatever the
+        preset; the value of frames already rendered when resuming) or the LOOK's fixed 2^EV."""
+        if self.flat:
             return 1.0
+        if not self.auto_exposure:
+            return float(2.0 ** self.plan.scene.look.exposure_ev)
         if known is not None:
             return float(known)
         render.configure(self.built.scene, EXPOSURE_PREVIEW, **self._configure)
@@ -79,13 +93,18 @@ class BlenderSession:
 
     def manifest_extra(self) -> dict:
         """What this session adds to the manifest's ``render`` entry."""
-        rule = EXPOSURE_RULE_FLAT if self.flat else EXPOSURE_RULE_LIGHTS if self.plan.scene.lights \
-            else EXPOSURE_RULE_AUTO
+        rule = EXPOSURE_RULE_FLAT if self.flat else EXPOSURE_RULE_AUTO if self.auto_exposure else \
+            f"fixed: {self.plan.scene.look.exposure_ev:g} EV (factor 2^EV)"
         extra = {"exr_layout": self.channels["layout"], "exposure": self.exposure, "exposure_rule": rule,
                  "pipeline": {"persistent_data": self.fast, "views_per_render": self.views_per_render}}
         if self.gpu:
             extra["gpu"] = self.gpu
         return extra
+
+    @property
+    def imported_objects(self) -> list[dict]:
+        """Manifest rows of the objects BLEND files brought (their ids are given when loaded)."""
+        return list(self.built.imported)
 
     @property
     def jpeg_writer(self):
@@ -94,10 +113,12 @@ class BlenderSession:
         return save_jpeg
 
     def render_frame(self, k: int, paths: dict[str, Path], stop: Callable[[], bool] = lambda: False,
-                     exposure_s: Optional[float] = None) -> dict[str, dict]:
+                     exposure_s: Optional[float] = None,
+                     display_paths: Optional[dict[str, Path]] = None) -> dict[str, dict]:
         """Render frame ``k`` of each view into ``paths[view]``; {view: render stats}.
         ``stop()`` is asked before each render (KeyboardInterrupt when it says yes);
-        ``exposure_s``: the frame's exposure time on the sensor path (auto-exposure)."""
+        ``exposure_s``: the frame's exposure time on the sensor path (auto-exposure);
+        ``display_paths[view]``: where the display-referred PNG goes (plain path only)."""
         if self.sensor is not None:
             return self.sensor.render_frame(k, self.plan.sensor.nominal_exposure_s() if exposure_s is None
                                             else exposure_s, paths, stop)
@@ -108,15 +129,17 @@ class BlenderSession:
         if stop():
             raise KeyboardInterrupt
         if self.views_per_render > 1:  # the RGB uses no random numbers: one seed for the sequence
-            return render.render_views(scene, cameras, views, bframe, render_seed(seed, 0, 0), paths, quiet)
+            return render.render_views(scene, cameras, views, bframe, render_seed(seed, 0, 0), paths, quiet,
+                                       display_paths)
         stats = {}
         for vi, view in enumerate(views):
             if vi and stop():
                 raise KeyboardInterrupt
             if self.fast:
                 stats.update(render.render_views(scene, cameras, (view,), bframe, render_seed(seed, k, vi),
-                                                 paths, quiet))
+                                                 paths, quiet, display_paths))
             else:
                 stats[view] = render.render_view(scene, cameras[view], bframe, render_seed(seed, k, vi),
-                                                 str(paths[view]), quiet=quiet)
+                                                 str(paths[view]), quiet=quiet,
+                                                 display_path=str(display_paths[view]) if display_paths else None)
         return stats

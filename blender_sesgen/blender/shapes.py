@@ -4,7 +4,8 @@ model's type; a new shape registers its builder).
 Geometry, all in scene units, placed with ``contract.frames.object_pose`` and re-expressed in
 Blender's Z-up world with ``contract.frames.ses_to_blender_world``:
 - QUAD: one planar face through its 4 vertices (UVs (0,0) (1,0) (1,1) (0,1));
-- CUBOID: a box of the exact edge lengths;
+- CUBOID: a box of the exact edge lengths; with ``bevel``, the rounded box of
+  ``blender_sesgen.rounded_box`` (arcs as fine as a cylinder's, real geometry);
 - SPHERE: a one-point point cloud (Cycles intersects it as an exact sphere: silhouette
   and depth are those of the ideal sphere, no tessellation at all) — but Cycles never hits
   a point from inside, so a sphere that a camera enters (a dome, a spherical room) is a
@@ -30,6 +31,7 @@ from ..contract.frames import R_BLENDER_SES, object_pose, ses_to_blender_world
 from ..contract.se3 import invert
 from ..errors import SesgenError
 from ..model import Cuboid, Cylinder, Mesh, Quad, Scene, SceneObject, Sphere
+from ..rounded_box import rounded_box
 from .datablocks import tag
 from .materials import MaterialFactory
 from .runtime import quiet_stdout
@@ -126,6 +128,16 @@ def build_cuboid(b: Cuboid, collection):
     return obj
 
 
+def build_rounded_cuboid(b: Cuboid, collection, quarter_segments: int):
+    """A CUBOID with ``bevel``: the rounded box of ``rounded_box`` (real geometry), smooth
+    shaded with its exact surface normals."""
+    V, faces, N = rounded_box(b.size, b.bevel, quarter_segments)
+    obj = _mesh_object(b.name, V, faces, None, collection, smooth_faces=range(len(faces)))
+    obj.data.normals_split_custom_set_from_vertices([tuple(map(float, n)) for n in N])
+    _set_world_matrix(obj, object_pose(b.position, b.rotation_deg))
+    return obj
+
+
 def _sphere_node_group(radius: float, material):
     ng = tag(bpy.data.node_groups.new("sesgen_sphere", "GeometryNodeTree"))
     ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
@@ -214,6 +226,7 @@ def build_mesh(m: Mesh, collection, material) -> list:
     if not os.path.isfile(m.path):
         raise SesgenError(f"MESH {m.name}: file not found: {m.path}")
     before = set(bpy.data.objects)
+    owned_before = {name: set(getattr(bpy.data, name)) for name in ("materials", "images", "node_groups")}
     try:
         with quiet_stdout():
             result = _IMPORTERS[ext](m.path)
@@ -222,6 +235,9 @@ def build_mesh(m: Mesh, collection, material) -> list:
     if "FINISHED" not in result:
         raise SesgenError(f"MESH {m.name}: cannot import {m.source}")
     new = [o for o in bpy.data.objects if o not in before]
+    for name, old in owned_before.items():   # the file's own materials and textures: ours to remove on rebuild
+        for idb in set(getattr(bpy.data, name)) - old:
+            tag(idb)
     # glTF is Y up by definition and its importer turns it Z up: undo that (back to file axes)
     C = np.eye(4)
     if ext in (".gltf", ".glb"):
@@ -273,7 +289,14 @@ def _(o: Quad, ctx: ShapeContext) -> list:
 
 @build_shape.register
 def _(o: Cuboid, ctx: ShapeContext) -> list:
-    return _with_material(build_cuboid(o, ctx.collection), o, ctx)
+    if o.bevel <= 0:
+        return _with_material(build_cuboid(o, ctx.collection), o, ctx)
+    bound = float(np.linalg.norm(o.size)) / 2.0
+    n = segments_for(o.bevel, _min_camera_distance(ctx.scene, o, o.position, bound), ctx.focal_px)
+    # per quarter arc, even; sqrt 2 finer than a cylinder's step, so that a corner cell's
+    # diagonal deviates no more than a cylinder's side
+    ctx.segments[o.id] = 2 * math.ceil(math.sqrt(2) * n / 8)
+    return _with_material(build_rounded_cuboid(o, ctx.collection, ctx.segments[o.id]), o, ctx)
 
 
 @build_shape.register

@@ -8,7 +8,8 @@ and one validating reader (:class:`Manifest`).
     OUT/poses/<view>.tum.txt   TUM trajectories, one per view (contract.trajectory_files)
     OUT/poses/<view>.kitti.txt KITTI trajectories
     OUT/poses/ego.txt          the per-step EGO table
-    OUT/exr/<view>/NNNNNN.exr  one multilayer EXR per frame and view (float32, ZIP)
+    OUT/exr/<view>/NNNNNN.exr  one multilayer EXR per frame and view (float32, ZIP, scene-linear)
+    OUT/rgb/<view>/NNNNNN.png  the display-referred 8-bit sRGB image (manifest ``display``)
     OUT/.sesgen/               the render's own state (locks, completion logs): not data
 
 Poses are ``T_world_cam``: OpenCV camera (x right, y down, z forward) in the SES world (Y up).
@@ -42,6 +43,7 @@ MANIFEST = "manifest.json"
 SCENE_COPY = "scene.ses"
 POSES_DIR = "poses"
 EXR_DIR = "exr"
+DISPLAY_DIR = "rgb"           # the display-referred 8-bit PNGs (the view transform's image)
 STATE_DIR = ".sesgen"
 DONE_LOG_GLOB = "done-*.jsonl"
 VIEWS = ("left", "right")
@@ -73,6 +75,10 @@ def object_motion_fields(motion: str | None = None, T_world_obj=None) -> dict:
 
 def exr_relpath(view: str, frame: int) -> str:
     return f"{EXR_DIR}/{view}/{frame:06d}.exr"
+
+
+def display_relpath(view: str, frame: int) -> str:
+    return f"{DISPLAY_DIR}/{view}/{frame:06d}.png"
 
 
 def trajectory_relpaths(views: Sequence[str]) -> dict:

@@ -29,6 +29,9 @@ def scalar(stmt: ParsedStatement, name: str, default=None):
     return tv.values[0] if tv is not None else default
 
 
+MAX_SEED = 2**31 - 1           # Cycles seeds are 32-bit signed
+
+
 class Checks:
     """Value checks that record errors in ``diags``; file tags resolve against ``base_dir``."""
 
@@ -54,6 +57,15 @@ class Checks:
         for value, tok in zip(tv.values, tv.tokens):
             if not 0.0 <= value <= 1.0:
                 self.err(tok, f"{stmt.keyword} '{name}' values must lie in 0..1, got {tok.text}")
+
+    def seed(self, stmt: ParsedStatement, name: str = "seed") -> int:
+        """The integer tag ``name`` (0 if absent), checked to lie in 0..MAX_SEED."""
+        tv = stmt.tags.get(name)
+        if tv is None:
+            return 0
+        if not 0 <= tv.values[0] <= MAX_SEED:
+            self.err(tv.tokens[0], f"{stmt.keyword} '{name}' must lie in 0..{MAX_SEED}, got {tv.tokens[0].text}")
+        return int(tv.values[0])
 
     def existing_file(self, stmt: ParsedStatement, tag: str, what: str = "") -> Optional[Path]:
         """The absolute path of a file tag's value (relative to the script), or None and an error."""

@@ -11,32 +11,45 @@ from typing import Optional
 import numpy as np
 
 from .. import model
+from ..lighting_data import BUILTIN_HDRIS, HDRI_SUFFIXES
 from .checks import Checks, scalar, vec
-from .statements import ParsedStatement
+from .materials import image_file_ok
+from .statements import ParsedStatement, did_you_mean
 
-MAX_SEED = 2**31 - 1           # Cycles seeds are 32-bit signed
-LIGHT_DEFAULTS = {  # per kind: strength (sun W/m^2, others W) and size (point radius, area edge)
-    "sun": (3.0, 0.0), "point": (500.0, 0.1), "area": (500.0, 1.0)}
+LIGHT_KINDS = ("sun", "point", "spot", "area", "portal")
+LIGHT_DEFAULTS = {  # per kind: strength (sun W/m^2, others W) and size (point/spot radius, area edge)
+    "sun": (3.0, 0.0), "point": (500.0, 0.1), "spot": (500.0, 0.05), "area": (500.0, 1.0), "portal": (0.0, 1.0)}
+_LIGHT_NEEDS = {"sun": ("direction",), "point": ("position",), "spot": ("position", "direction"),
+                "area": ("position", "direction"), "portal": ("position", "direction")}
+_LIGHT_TAKES_NO = {"sun": ("position", "size", "angle", "blend"), "point": ("direction", "angle", "blend"),
+                   "spot": (), "area": ("angle", "blend"),
+                   "portal": ("angle", "blend", "strength", "colour")}
 
 
 def light(stmt: ParsedStatement, check: Checks) -> Optional[model.Light]:
-    kinds = [k for k in ("sun", "point", "area") if k in stmt.tags]
+    kinds = [k for k in LIGHT_KINDS if k in stmt.tags]
     if len(kinds) != 1:
         at = stmt.tags[kinds[1]].tag if len(kinds) > 1 else stmt.token
-        check.err(at, "LIGHT needs exactly one of sun, point, area")
+        check.err(at, f"LIGHT needs exactly one of {', '.join(LIGHT_KINDS)}")
         return None
     kind = kinds[0]
-    needs = {"sun": ("direction",), "point": ("position",), "area": ("position", "direction")}[kind]
-    unused = {"sun": ("position", "size"), "point": ("direction",), "area": ()}[kind]
-    for tag in needs:
+    for tag in _LIGHT_NEEDS[kind]:
         if tag not in stmt.tags:
             check.err(stmt.token, f"LIGHT {kind} needs the tag '{tag}'")
-    for tag in unused:
+    for tag in _LIGHT_TAKES_NO[kind]:
         if tag in stmt.tags:
             check.err(stmt.tags[tag].tag, f"LIGHT {kind} takes no '{tag}'")
+    size_tv = stmt.tags.get("size")
+    if size_tv is not None and len(size_tv.values) == 2 and kind not in ("area", "portal"):
+        check.err(size_tv.tag, f"LIGHT {kind} 'size' takes one number (two are for area and portal rectangles)")
     check.unit_range(stmt, "colour")
+    check.unit_range(stmt, "blend")
     check.positive(stmt, "strength", allow_zero=True)
-    check.positive(stmt, "size", allow_zero=(kind != "area"))
+    check.positive(stmt, "size", allow_zero=kind not in ("area", "portal"))
+    angle = float(scalar(stmt, "angle", 45.0))
+    if "angle" in stmt.tags and not 0.0 < angle <= 180.0:
+        check.err(stmt.tags["angle"].tokens[0], f"LIGHT spot 'angle' (the cone's full angle) must lie in "
+                                                f"0..180 degrees, got {angle:g}")
     direction = vec(stmt, "direction")
     if direction is not None:
         norm = float(np.linalg.norm(direction))
@@ -45,33 +58,52 @@ def light(stmt: ParsedStatement, check: Checks) -> Optional[model.Light]:
             return None
         direction = tuple(float(x) / norm for x in direction)
     strength, size = LIGHT_DEFAULTS[kind]
+    sizes = vec(stmt, "size", (size,))
     return model.Light(kind=kind, colour=vec(stmt, "colour", (1.0, 1.0, 1.0)),
                        strength=float(scalar(stmt, "strength", strength)),
                        position=vec(stmt, "position"), direction=direction,
-                       size=float(scalar(stmt, "size", size)))
+                       size=float(sizes[0]), size_y=float(sizes[1]) if len(sizes) == 2 else None,
+                       spot_angle_deg=angle, spot_blend=float(scalar(stmt, "blend", 0.15)))
 
 
 def world(stmt: Optional[ParsedStatement], check: Checks) -> Optional[model.World]:
     if stmt is None:
         return None
-    has_colour, has_sky = "colour" in stmt.tags, "sky" in stmt.tags
-    if has_colour == has_sky:
-        check.err(stmt.token, "WORLD needs either 'colour r g b' or 'sky' (one of them)")
+    kinds = [k for k in ("colour", "sky", "hdri") if k in stmt.tags]
+    if len(kinds) != 1:
+        check.err(stmt.token, "WORLD needs exactly one of 'colour r g b', 'sky' or 'hdri NAME|FILE'")
         return None
-    if has_colour:
-        for tag in ("elevation", "azimuth"):
-            if tag in stmt.tags:
-                check.err(stmt.tags[tag].tag, f"WORLD '{tag}' is only for 'WORLD sky'")
+    kind = kinds[0]
+    only = {"elevation": "sky", "azimuth": "sky", "rotation": "hdri"}
+    for tag, owner in only.items():
+        if tag in stmt.tags and kind != owner:
+            check.err(stmt.tags[tag].tag, f"WORLD '{tag}' is only for 'WORLD {owner}'")
     check.unit_range(stmt, "colour")
     check.positive(stmt, "strength", allow_zero=True)
     elevation = scalar(stmt, "elevation", model.World.sun_elevation_deg)
     if not -90.0 <= elevation <= 90.0:
         check.err(stmt.tags["elevation"].tokens[0], f"WORLD 'elevation' must lie in -90..90 degrees, got {elevation:g}")
-    return model.World(kind="sky" if has_sky else "colour",
-                       colour=vec(stmt, "colour", model.World.colour),
+    hdri = _hdri(stmt, check) if kind == "hdri" else (None, None, None)
+    return model.World(kind=kind, colour=vec(stmt, "colour", model.World.colour),
                        strength=float(scalar(stmt, "strength", 1.0)),
                        sun_elevation_deg=float(elevation),
-                       sun_azimuth_deg=float(scalar(stmt, "azimuth", 0.0)))
+                       sun_azimuth_deg=float(scalar(stmt, "azimuth", 0.0)),
+                       hdri=hdri[0], hdri_path=hdri[1], hdri_source=hdri[2],
+                       rotation_deg=float(scalar(stmt, "rotation", 0.0)))
+
+
+def _hdri(stmt: ParsedStatement, check: Checks):
+    """(built-in name, None, None) or (None, absolute path, as written); errors recorded."""
+    tok = stmt.tags["hdri"].tokens[0]
+    text = tok.text
+    if tok.lower in BUILTIN_HDRIS:
+        return tok.lower, None, None
+    path = check.existing_file(stmt, "hdri", f"WORLD 'hdri' '{text}' is neither a built-in HDRI "
+                               f"({', '.join(BUILTIN_HDRIS)}) nor an existing file (looked for "
+                               f"{check.base_dir / text}){did_you_mean(text, BUILTIN_HDRIS)}")
+    if path is None or not image_file_ok(stmt, "hdri", path, check, suffixes=HDRI_SUFFIXES):
+        return None, None, None
+    return None, str(path), text
 
 
 def fog(stmt: Optional[ParsedStatement], check: Checks) -> Optional[model.Fog]:
@@ -92,6 +124,29 @@ def noise(stmt: Optional[ParsedStatement], check: Checks) -> Optional[model.Nois
     return model.Noise(sigma=float(stmt.get("sigma")), seed=_seed(stmt, check))
 
 
+def look(stmt: Optional[ParsedStatement], check: Checks) -> model.Look:
+    if stmt is None:
+        return model.Look()
+    view = str(stmt.get("view", "agx"))
+    look_name = str(stmt.get("look", "base"))
+    if look_name != "base" and view != "agx":
+        check.err(stmt.tags["look"].tokens[0], f"LOOK 'look' {look_name} is one of AgX's looks: it needs 'view agx'")
+    tv = stmt.tags.get("exposure")
+    if tv is None:
+        return model.Look(view=view, look=look_name)
+    tok = tv.tokens[0]
+    if tok.kind == "word" and tok.lower == "auto":
+        return model.Look(view=view, look=look_name, auto_exposure=True)
+    try:
+        ev = float(tok.text) if tok.kind == "number" else None
+    except ValueError:
+        ev = None
+    if ev is None or not -20.0 <= ev <= 20.0:
+        check.err(tok, f"LOOK 'exposure' must be 'auto' or a number of stops in -20..20, got '{tok.shown()}'")
+        return model.Look(view=view, look=look_name)
+    return model.Look(view=view, look=look_name, auto_exposure=False, exposure_ev=ev)
+
+
 def render(stmt: Optional[ParsedStatement], check: Checks) -> model.RenderSettings:
     if stmt is None:
         return model.RenderSettings()
@@ -105,9 +160,4 @@ def render(stmt: Optional[ParsedStatement], check: Checks) -> model.RenderSettin
 
 
 def _seed(stmt: ParsedStatement, check: Checks, name: str = "seed") -> int:
-    tv = stmt.tags.get(name)
-    if tv is None:
-        return 0
-    if not 0 <= tv.values[0] <= MAX_SEED:
-        check.err(tv.tokens[0], f"{stmt.keyword} '{name}' must lie in 0..{MAX_SEED}, got {tv.tokens[0].text}")
-    return int(tv.values[0])
+    return check.seed(stmt, name)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from ..assets import KINDS as ASSET_KINDS
 from ..presets import QUALITIES
 
 
@@ -38,6 +39,9 @@ def _tags(*tags: Tag) -> dict[str, Tag]:
     return {t.name: t for t in tags}
 
 
+MAX_BENDS = 64  # pieces of a strip asset's centreline
+
+
 def _num(name, counts=(1,), required=False, usage=""):
     return Tag(name, "numbers", counts, required, usage or f"{name} v")
 
@@ -50,6 +54,7 @@ COMMON_OBJECT_TAGS = (
     _num("texture_scale", usage="texture_scale s"),
     _num("colour", (3,), usage="colour r g b"),
     Tag("material", "text", usage="material M"),
+    Tag("class", "text", usage="class NAME"),
 )
 POSITION = _num("position", (3, 6), usage="position x y z [rx ry rz]")
 POSITION_REQUIRED = Tag("position", "numbers", (3, 6), True, POSITION.usage)
@@ -58,7 +63,7 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
     Statement("QUAD", _tags(*COMMON_OBJECT_TAGS,
                             _num("vertices", (12,), True, "vertices x1 y1 z1 x2 y2 z2 x3 y3 z3 x4 y4 z4"))),
     Statement("CUBOID", _tags(*COMMON_OBJECT_TAGS, POSITION_REQUIRED,
-                              _num("dim", (3,), True, "dim sx sy sz"))),
+                              _num("dim", (3,), True, "dim sx sy sz"), _num("bevel", usage="bevel r"))),
     Statement("SPHERE", _tags(*COMMON_OBJECT_TAGS, POSITION_REQUIRED,
                               _num("dim", (1,), True, "dim r"))),
     Statement("CYLINDER", _tags(*COMMON_OBJECT_TAGS, POSITION_REQUIRED,
@@ -66,6 +71,19 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
     Statement("MESH", _tags(*COMMON_OBJECT_TAGS, Tag("file", "text", required=True, usage="file PATH"),
                             POSITION, _num("scale", (1, 3), usage="scale s | scale sx sy sz"),
                             Tag("allow_external", "flag", usage="allow_external"))),
+    Statement("ASSET", _tags(*COMMON_OBJECT_TAGS, POSITION_REQUIRED,
+                             *(Tag(kind, "flag", usage=kind) for kind in ASSET_KINDS),
+                             _num("size", (3,), usage="size sx sy sz"),
+                             Tag("seed", "int", usage="seed n"),
+                             _num("bend", tuple(range(1, MAX_BENDS + 1)), usage="bend deg [deg ...]"),
+                             _num("offset", usage="offset o"))),
+    Statement("BLEND", _tags(Tag("file", "text", required=True, usage="file PATH"),
+                             Tag("id", "int", required=True, usage="id N"),
+                             Tag("collection", "text", usage="collection NAME"),
+                             POSITION, _num("scale", (1, 3), usage="scale s | scale sx sy sz"),
+                             Tag("class", "text", usage="class NAME"),
+                             Tag("lights", "choice", usage="lights on|off", choices=("on", "off")),
+                             Tag("allow_external", "flag", usage="allow_external"))),
     Statement("CAMERA", _tags(_num("resolution", (2,), True, "resolution W H"),
                               _num("focal", (1,), True, "focal F"),
                               _num("principal", (2,), usage="principal cx cy"),
@@ -88,16 +106,21 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
                                   Tag("format", "choice", required=True, usage="format tum|kitti",
                                       choices=("tum", "kitti")))),
     Statement("LIGHT", _tags(Tag("sun", "flag", usage="sun"), Tag("point", "flag", usage="point"),
-                             Tag("area", "flag", usage="area"),
+                             Tag("spot", "flag", usage="spot"), Tag("area", "flag", usage="area"),
+                             Tag("portal", "flag", usage="portal"),
                              _num("colour", (3,), usage="colour r g b"),
                              _num("strength", usage="strength s"),
                              _num("position", (3,), usage="position x y z"),
                              _num("direction", (3,), usage="direction dx dy dz"),
-                             _num("size", usage="size s"))),
+                             _num("size", (1, 2), usage="size s | size sx sy"),
+                             _num("angle", usage="angle deg"),
+                             _num("blend", usage="blend b"))),
     Statement("WORLD", _tags(_num("colour", (3,), usage="colour r g b"), Tag("sky", "flag", usage="sky"),
+                             Tag("hdri", "text", usage="hdri NAME|FILE"),
                              _num("strength", usage="strength s"),
                              _num("elevation", usage="elevation deg"),
-                             _num("azimuth", usage="azimuth deg"))),
+                             _num("azimuth", usage="azimuth deg"),
+                             _num("rotation", usage="rotation deg"))),
     Statement("MATERIAL", _tags(Tag("name", "text", required=True, usage="name N"),
                                 _num("colour", (3,), usage="colour r g b"),
                                 Tag("texture", "text", usage="texture T"),
@@ -106,10 +129,25 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
                                 _num("metallic", usage="metallic m"),
                                 _num("specular", usage="specular s"),
                                 _num("emission", (3,), usage="emission r g b"),
-                                _num("emission_strength", usage="emission_strength s"))),
+                                _num("emission_strength", usage="emission_strength s"),
+                                Tag("library", "text", usage="library L"),
+                                _num("wear", usage="wear w"),
+                                _num("bump", usage="bump b"),
+                                _num("variation", usage="variation v"),
+                                Tag("seed", "int", usage="seed n"),
+                                Tag("albedo_map", "text", usage="albedo_map FILE"),
+                                Tag("normal_map", "text", usage="normal_map FILE"),
+                                Tag("roughness_map", "text", usage="roughness_map FILE"),
+                                _num("map_size", usage="map_size s"))),
     Statement("FOG", _tags(_num("start", (1,), True, "start s"), _num("end", (1,), True, "end e"),
                            _num("colour", (3,), usage="colour r g b"))),
     Statement("NOISE", _tags(_num("sigma", (1,), True, "sigma s"), Tag("seed", "int", usage="seed n"))),
+    Statement("LOOK", _tags(Tag("view", "choice", usage="view agx|filmic|standard",
+                                choices=("agx", "filmic", "standard")),
+                            Tag("look", "choice", usage="look base|punchy|...|very_high_contrast",
+                                choices=("base", "punchy", "very_low_contrast", "low_contrast", "medium_low_contrast",
+                                         "medium_high_contrast", "high_contrast", "very_high_contrast")),
+                            Tag("exposure", "text", usage="exposure auto|EV"))),
     Statement("TIMING", _tags(_num("rate", usage="rate HZ"), _num("start", usage="start S"),
                               _num("exposure", usage="exposure S"), _num("readout", usage="readout S"),
                               Tag("blur", "choice", usage="blur on|off", choices=("on", "off")))),
@@ -142,7 +180,7 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
                               Tag("seed", "int", usage="seed n"))),
 )}
 
-OBJECT_KEYWORDS = ("QUAD", "CUBOID", "SPHERE", "CYLINDER", "MESH")
-SINGLETON_KEYWORDS = ("CAMERA", "START", "FRAMES", "TRAJECTORY", "WORLD", "FOG", "NOISE", "RENDER",
+OBJECT_KEYWORDS = ("QUAD", "CUBOID", "SPHERE", "CYLINDER", "MESH", "ASSET")
+SINGLETON_KEYWORDS = ("CAMERA", "START", "FRAMES", "TRAJECTORY", "WORLD", "FOG", "NOISE", "LOOK", "RENDER",
                       "TIMING", "LENS", "SENSOR", "AUTOEXPOSURE", "IMU")
 TAG_SYNONYMS = {"color": "colour"}

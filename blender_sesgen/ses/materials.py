@@ -1,5 +1,6 @@
-"""Surface appearance: the ``texture`` / ``texture_scale`` tags -> TextureRef, and MATERIAL
-statements -> named :class:`blender_sesgen.model.Material` (names unique).
+"""Surface appearance: the ``texture`` / ``texture_scale`` tags -> TextureRef, MATERIAL
+statements -> named :class:`blender_sesgen.model.Material` (names unique), and the library
+materials objects name directly (``material asphalt`` with no MATERIAL asphalt).
 
 A texture is a built-in (number or name, see blender_sesgen.textures) or an image file
 relative to the script; image files (textures and PBR maps) are checked to be images
@@ -11,7 +12,7 @@ from __future__ import annotations
 import os
 from typing import Optional
 
-from .. import model
+from .. import material_library, model
 from ..image_check import ImageFileError, check_image
 from ..textures import BUILTIN_TEXTURES, NAME_TO_NUMBER
 from .checks import Checks, scalar, vec
@@ -74,6 +75,45 @@ def image_file_ok(stmt: ParsedStatement, tag: str, path, check: Checks, suffixes
     return True
 
 
+def _image(stmt: ParsedStatement, tag: str, check: Checks) -> Optional[str]:
+    if tag not in stmt.tags:
+        return None
+    path = check.existing_file(stmt, tag)
+    if path is None or not image_file_ok(stmt, tag, path, check):
+        return None
+    return str(path)
+
+
+def _library(stmt: ParsedStatement, check: Checks) -> Optional[model.LibraryParams]:
+    """``library L`` and its tags (None if absent or wrong: then with an error)."""
+    tv = stmt.tags["library"]
+    name = str(tv.values[0])
+    if not material_library.is_library_name(name):
+        check.err(tv.tokens[0], f"MATERIAL 'library' '{name}' is not a library material"
+                                f"{did_you_mean(name, material_library.LIBRARY)} "
+                                f"(library: {', '.join(material_library.LIBRARY)})")
+        return None
+    for tag in ("texture", "specular", "emission", "emission_strength", "albedo_map", "normal_map",
+                "roughness_map", "map_size"):
+        if tag in stmt.tags:
+            check.err(stmt.tags[tag].tag, f"MATERIAL '{tag}' cannot be combined with 'library' "
+                                          f"(a library material takes {', '.join(material_library.OVERRIDES)})")
+            return None
+    entry = material_library.entry(name)
+    return model.LibraryParams(
+        name=entry.name, scale=float(scalar(stmt, "texture_scale", 1.0)),
+        wear=float(scalar(stmt, "wear", entry.wear)), bump=float(scalar(stmt, "bump", 1.0)),
+        variation=float(scalar(stmt, "variation", entry.variation)), seed=int(scalar(stmt, "seed", 0)))
+
+
+def library_material(name: str) -> model.Material:
+    """The material an object gets from ``material NAME`` when NAME is a library entry and
+    no MATERIAL defines it: the entry with its documented defaults."""
+    entry = material_library.entry(name)
+    return model.Material(name=name, colour=entry.colour, roughness=entry.roughness, metallic=entry.metallic,
+                          library=model.LibraryParams(name=entry.name, wear=entry.wear, variation=entry.variation))
+
+
 def materials(statements: list[ParsedStatement], check: Checks) -> dict[str, model.Material]:
     """The MATERIAL statements' materials by name, in source order (faulty ones left out)."""
     found: dict[str, model.Material] = {}
@@ -85,18 +125,42 @@ def materials(statements: list[ParsedStatement], check: Checks) -> dict[str, mod
                       f"MATERIAL '{name}' is defined twice (first on line {first_line[name]})")
             continue
         first_line[name] = stmt.token.line
-        for tag in ("colour", "emission", "roughness", "metallic", "specular"):
+        before = len(check.diags.items)
+        for tag in ("colour", "emission", "roughness", "metallic", "specular", "wear", "variation"):
             check.unit_range(stmt, tag)
         check.positive(stmt, "emission_strength", allow_zero=True)
-        before = len(check.diags.items)
-        tex = texture(stmt, check)
+        check.positive(stmt, "bump", allow_zero=True)
+        check.positive(stmt, "map_size")
+        check.seed(stmt)
+        library = _library(stmt, check) if "library" in stmt.tags else None
+        if "library" not in stmt.tags:
+            for tag in ("wear", "bump", "variation", "seed"):
+                if tag in stmt.tags and not (tag == "bump" and "normal_map" in stmt.tags):
+                    check.err(stmt.tags[tag].tag, f"MATERIAL '{tag}' needs 'library L' "
+                                                  "(it changes a library material)")
+        maps = None
+        if any(t in stmt.tags for t in ("albedo_map", "normal_map", "roughness_map")):
+            if "texture" in stmt.tags:
+                check.err(stmt.tags["texture"].tag, "MATERIAL 'texture' cannot be combined with image maps "
+                                                    "(albedo_map is the colour image)")
+            paths = [_image(stmt, t, check) for t in ("albedo_map", "normal_map", "roughness_map")]
+            maps = model.ImageMaps(albedo=paths[0], normal=paths[1], roughness=paths[2],
+                                   sources=tuple(scalar(stmt, t) for t in ("albedo_map", "normal_map", "roughness_map")),
+                                   size_m=float(scalar(stmt, "map_size", 1.0)),
+                                   bump=float(scalar(stmt, "bump", 1.0)))
+        elif "map_size" in stmt.tags:
+            check.err(stmt.tags["map_size"].tag, "MATERIAL 'map_size' needs an image map "
+                                                 "(albedo_map, normal_map or roughness_map)")
+        tex = None if library is not None else texture(stmt, check)
         if len(check.diags.items) != before:
             continue
+        entry = material_library.entry(library.name) if library is not None else None
         found[name] = model.Material(
-            name=name, colour=vec(stmt, "colour", (0.8, 0.8, 0.8)), texture=tex,
-            roughness=float(scalar(stmt, "roughness", 0.5)),
-            metallic=float(scalar(stmt, "metallic", 0.0)),
+            name=name, colour=vec(stmt, "colour", entry.colour if entry else (0.8, 0.8, 0.8)), texture=tex,
+            roughness=float(scalar(stmt, "roughness", entry.roughness if entry else 0.5)),
+            metallic=float(scalar(stmt, "metallic", entry.metallic if entry else 0.0)),
             specular=float(scalar(stmt, "specular", 0.5)),
             emission=vec(stmt, "emission", (0.0, 0.0, 0.0)),
-            emission_strength=float(scalar(stmt, "emission_strength", 0.0)))
+            emission_strength=float(scalar(stmt, "emission_strength", 0.0)),
+            library=library, maps=maps)
     return found

@@ -1,8 +1,8 @@
 """SES statements -> the scene model (blender_sesgen.model): the orchestrator.
 
 Owns the whole-script flow (lex, read statements, one-per-script singletons, at least one
-object), the object statements (QUAD, CUBOID, SPHERE, CYLINDER, MESH: ids and names
-unique, materials defined), the CAMERA rig, and the assembly of the Scene. Materials and
+object), the object statements (QUAD, CUBOID, SPHERE, CYLINDER, MESH, ASSET: ids and names
+unique, materials defined or from the library, semantic classes), BLEND imports, the CAMERA rig, and the assembly of the Scene. Materials and
 textures live in ``materials``, START/EGO/POSE/TRAJECTORY/FRAMES in ``motion``, MOVE in
 ``object_motion``, LIGHT/WORLD/FOG/NOISE/RENDER in ``environment``; all report through one
 ``checks.Checks``.
@@ -12,14 +12,16 @@ source order is raised as ScriptError and the whole list rides along as its ``er
 attribute. A script with errors yields no Scene. The only files read are the script
 itself, the TRAJECTORY (and MOVE) files it names, the image files it names (decoded:
 ``blender_sesgen.image_check``) and the references inside MESH models (``mesh_files``: they
-must stay inside the model's folder); mesh geometry is read by Blender at render time.
+must stay inside the model's folder), and a BLEND file's signature; mesh geometry and
+BLEND contents are read by Blender at render time.
 """
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Optional
 
-from .. import model
+from .. import assets, model
 from ..contract.camera import default_principal_point
 from . import environment
 from .sensor import sensor_models
@@ -28,8 +30,10 @@ from .diagnostics import Diagnostics
 from .geometry import quad_problem
 from .grammar import OBJECT_KEYWORDS, SINGLETON_KEYWORDS
 from .lexer import decode, tokenize
-from .materials import materials, texture
+from .materials import library_material, materials, texture
 from .mesh_files import reference_problems
+from .. import material_library
+from ..contract import semantics
 from .motion import rig_motion
 from .object_motion import object_motions
 from .statements import ParsedStatement, TagValue, did_you_mean, read_statement
@@ -39,6 +43,8 @@ MAX_RESOLUTION = 16384
 MIN_RESOLUTION = 4      # Blender renders nothing smaller
 MIN_NEAR = 1e-6         # Blender's nearest clip distance
 MESH_SUFFIXES = (".obj", ".ply", ".stl", ".gltf", ".glb")
+MAX_SEED = 2**31 - 1
+MAX_BEND_DEG = 90.0
 
 
 def parse_bytes(data: bytes, source: str = "<string>", base_dir: Optional[str] = None) -> model.Scene:
@@ -54,7 +60,7 @@ def parse_text(text: str, source: str = "<string>", base_dir: Optional[str] = No
     lines = tokenize(text, diags)
     statements = [s for s in (read_statement(tokens, diags) for tokens in lines) if s is not None]
     check = Checks(Path(base_dir) if base_dir is not None else Path.cwd(), diags)
-    attempted_objects = any(t[0].kind == "word" and t[0].text.upper() in OBJECT_KEYWORDS for t in lines)
+    attempted_objects = any(t[0].kind == "word" and t[0].text.upper() in (*OBJECT_KEYWORDS, "BLEND") for t in lines)
     scene = _build(source, statements, attempted_objects, check)
     diags.raise_if_any()
     return scene
@@ -74,9 +80,14 @@ def _build(source: str, statements: list[ParsedStatement], attempted_objects: bo
 
     named_materials = materials([s for s in statements if s.keyword == "MATERIAL"], check)
     objects = _Objects(check, named_materials).build([s for s in statements if s.keyword in OBJECT_KEYWORDS])
+    for o in objects:  # library materials named directly by objects
+        if o.material is not None and o.material not in named_materials:
+            named_materials[o.material] = library_material(o.material)
+    objects = [_with_class(o, named_materials) for o in objects]
+    imports = [b for b in (_blend(s, check, {o.id: o for o in objects}) for s in statements if s.keyword == "BLEND") if b]
     if not attempted_objects:
         check.diags.error(1, 1, "the script defines no objects: add at least one QUAD, CUBOID, SPHERE, "
-                                "CYLINDER or MESH")
+                                "CYLINDER, MESH, ASSET or BLEND")
     rig = _rig(seen.get("CAMERA"), check)
     moving = rig_motion(statements, seen.get("START"), check)
     attempted_ids = frozenset(int(s.tags["id"].values[0]) for s in statements
@@ -87,17 +98,70 @@ def _build(source: str, statements: list[ParsedStatement], attempted_objects: bo
                    if light)
     scene_kwargs = dict(
         world=environment.world(seen.get("WORLD"), check), fog=environment.fog(seen.get("FOG"), check),
-        noise=environment.noise(seen.get("NOISE"), check), render=environment.render(seen.get("RENDER"), check),
-        **sensor_models(seen, rig, check))
+        noise=environment.noise(seen.get("NOISE"), check), look=environment.look(seen.get("LOOK"), check),
+        render=environment.render(seen.get("RENDER"), check), **sensor_models(seen, rig, check))
     if check.diags:
         return None
-    return model.Scene(source=source, objects=tuple(objects), rig=rig, **moving._asdict(),
+    return model.Scene(source=source, objects=tuple(objects), imports=tuple(imports), rig=rig, **moving._asdict(),
                        materials=tuple(named_materials.values()), lights=lights, object_motions=motions,
                        **scene_kwargs)
 
 
+BLEND_MAGICS = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")   # plain, gzip, zstd
+MAX_BLEND_BYTES = 64 << 30                                         # a whole environment, not a disk
+
+
+def _blend(stmt: ParsedStatement, check: Checks, objects: dict) -> Optional[model.BlendImport]:
+    """A BLEND statement (None and an error if it is wrong). The file is checked to be a
+    .blend by its signature; its objects and their ids are only known when it is loaded."""
+    before = len(check.diags.items)
+    id_tv = stmt.tags["id"]
+    first = int(id_tv.values[0])
+    if not 1 <= first <= MAX_ID:
+        check.err(id_tv.tokens[0], f"BLEND 'id' (the first id of its objects) must lie in 1..{MAX_ID}, "
+                                   f"got {id_tv.tokens[0].text}")
+    check.positive(stmt, "scale")
+    tok = stmt.tags["file"].tokens[0]
+    path = check.existing_file(stmt, "file")
+    if path is not None:
+        if path.stat().st_size > MAX_BLEND_BYTES:
+            check.err(tok, f"BLEND 'file' '{tok.text}' is larger than {MAX_BLEND_BYTES >> 30} GiB")
+        elif path.suffix.lower() != ".blend":
+            check.err(tok, f"BLEND 'file' '{tok.text}' is not a .blend file")
+        else:
+            try:
+                with open(path, "rb") as f:
+                    head = f.read(7)
+            except OSError as e:
+                head = b""
+                check.err(tok, f"BLEND 'file' '{tok.text}' cannot be read ({e.strerror})")
+            if head and not head.startswith(BLEND_MAGICS):
+                check.err(tok, f"BLEND 'file' '{tok.text}' is not a Blender file (no BLENDER signature)")
+    cls = _Objects(check, {})._class(stmt) if "class" in stmt.tags else semantics.DEFAULT_OBJECT_CLASS
+    if len(check.diags.items) != before or path is None:
+        return None
+    scale = vec(stmt, "scale", (1.0,))
+    placement = vec(stmt, "position", (0.0, 0.0, 0.0))
+    return model.BlendImport(path=str(path), source=tok.text, first_id=first, collection=stmt.get("collection"),
+                             position=placement[:3], rotation_deg=placement[3:] or (0.0, 0.0, 0.0),
+                             scale=scale * 3 if len(scale) == 1 else scale, semantic_class=cls or "static",
+                             lights=stmt.get("lights", "on") == "on",
+                             allow_external="allow_external" in stmt.tags, line=stmt.token.line)
+
+
+def _with_class(o: model.SceneObject, materials: dict[str, model.Material]) -> model.SceneObject:
+    """The object with its semantic class resolved: its ``class``, else (an ASSET) its kind's,
+    else its library material's, else ``static`` (contract.semantics)."""
+    if isinstance(o, model.Asset):
+        return dataclasses.replace(o, semantic_class=semantics.object_class(
+            o.semantic_class, assets.KINDS[o.kind].semantic_class))
+    m = materials.get(o.material) if o.material else None
+    from_material = material_library.entry(m.library.name).semantic_class if m and m.library else None
+    return dataclasses.replace(o, semantic_class=semantics.object_class(o.semantic_class, from_material))
+
+
 class _Objects:
-    """QUAD, CUBOID, SPHERE, CYLINDER and MESH statements -> SceneObjects (faulty ones left out)."""
+    """QUAD, CUBOID, SPHERE, CYLINDER, MESH and ASSET statements -> SceneObjects (faulty ones left out)."""
 
     def __init__(self, check: Checks, defined: dict[str, model.Material]):
         self.check, self.defined = check, defined
@@ -129,17 +193,33 @@ class _Objects:
                 names[name] = stmt
             check.unit_range(stmt, "colour")
             material = stmt.get("material")
-            if material is not None and material not in defined:
+            if material is not None and material not in defined and not material_library.is_library_name(material):
                 tok = stmt.tags["material"].tokens[0]
-                known = f" (defined: {', '.join(defined)})" if defined else " (no MATERIAL is defined)"
-                check.err(tok, f"{stmt.keyword} 'material' '{material}' is not defined{known}"
-                               f"{did_you_mean(material, defined) if defined else ''}")
+                known = f"defined: {', '.join(defined)}; " if defined else "no MATERIAL is defined; "
+                candidates = [*defined, *material_library.LIBRARY]
+                check.err(tok, f"{stmt.keyword} 'material' '{material}' is not defined and is not a library "
+                               f"material{did_you_mean(material, candidates)} "
+                               f"({known}library: {', '.join(material_library.LIBRARY)})")
             common = dict(id=obj_id, name=name, colour=vec(stmt, "colour", (1.0, 1.0, 1.0)),
-                          texture=texture(stmt, check), material=material, line=stmt.token.line)
+                          texture=texture(stmt, check), material=material,
+                          semantic_class=self._class(stmt), line=stmt.token.line)
             obj = getattr(self, f"_{shape}")(stmt, common)
             if obj is not None and len(check.diags.items) == before:
                 objects.append(obj)
         return objects
+
+    def _class(self, stmt: ParsedStatement) -> Optional[str]:
+        tv = stmt.tags.get("class")
+        if tv is None:
+            return None
+        label = semantics.lookup(str(tv.values[0]))
+        if label is None:
+            names = [lab.name for lab in semantics.LABELS]
+            self.check.err(tv.tokens[0], f"{stmt.keyword} 'class' '{tv.values[0]}' is not a known class"
+                                         f"{did_you_mean(semantics.canonical(str(tv.values[0])), names)} "
+                                         f"(classes: {', '.join(names)}; see docs/ses-language.md)")
+            return None
+        return label.name
 
     @staticmethod
     def _placement(stmt: ParsedStatement) -> dict:
@@ -157,7 +237,12 @@ class _Objects:
 
     def _cuboid(self, stmt, common):
         self.check.positive(stmt, "dim")
-        return model.Cuboid(size=vec(stmt, "dim"), **self._placement(stmt), **common)
+        self.check.positive(stmt, "bevel", allow_zero=True)
+        size, bevel = vec(stmt, "dim"), float(scalar(stmt, "bevel", 0.0))
+        if bevel > min(size) / 2 and "bevel" in stmt.tags:
+            self.check.err(stmt.tags["bevel"].tokens[0], f"CUBOID 'bevel' ({bevel:g}) must be at most half the "
+                                                         f"smallest edge ({min(size) / 2:g})")
+        return model.Cuboid(size=size, bevel=bevel, **self._placement(stmt), **common)
 
     def _sphere(self, stmt, common):
         self.check.positive(stmt, "dim")
@@ -186,6 +271,34 @@ class _Objects:
             return None
         return model.Mesh(path=str(path), source=tok.text, scale=scale * 3 if len(scale) == 1 else scale,
                           **self._placement(stmt), **common)
+
+
+    def _asset(self, stmt, common):
+        kinds = [k for k in assets.KINDS if k in stmt.tags]
+        if len(kinds) != 1:
+            at = stmt.tags[kinds[1]].tag if len(kinds) > 1 else stmt.token
+            self.check.err(at, f"ASSET needs exactly one kind ({', '.join(assets.KINDS)})")
+            return None
+        kind = assets.KINDS[kinds[0]]
+        self.check.positive(stmt, "size")
+        seed = int(scalar(stmt, "seed", common["id"]))
+        if not 0 <= seed <= MAX_SEED:
+            if "seed" in stmt.tags:
+                self.check.err(stmt.tags["seed"].tokens[0], f"ASSET 'seed' must lie in 0..{MAX_SEED}, got {seed}")
+            return None  # (a bad id used as the seed is reported as a bad id)
+        bend = vec(stmt, "bend", (0.0,))
+        strips = ", ".join(k for k, v in assets.KINDS.items() if v.strip)
+        for tag in ("bend", "offset"):
+            if tag in stmt.tags and not kind.strip:
+                self.check.err(stmt.tags[tag].tag, f"ASSET {kind.name} takes no '{tag}' (only {strips} do)")
+        if "bend" in stmt.tags:
+            for value, tok in zip(bend, stmt.tags["bend"].tokens):
+                if abs(value) > MAX_BEND_DEG:
+                    self.check.err(tok, f"ASSET 'bend' must lie in -{MAX_BEND_DEG:g}..{MAX_BEND_DEG:g} degrees "
+                                        f"per piece, got {tok.text}")
+        size = vec(stmt, "size") or assets.default_size(kind.name, seed)
+        return model.Asset(kind=kind.name, size=size, seed=seed, bend=bend,
+                           offset=float(scalar(stmt, "offset", 0.0)), **self._placement(stmt), **common)
 
 
 def _rig(stmt: Optional[ParsedStatement], check: Checks) -> model.Rig:

@@ -28,8 +28,9 @@ from blender_sesgen.contract.manifest import MANIFEST, Manifest
 
 from ..errors import VoError, as_vo_error
 from .color import rgb8_to_gray8
-from .exr import find_pass, read_exr_channels
 from .base import check_frame_view
+from .exr import find_pass, read_exr_channels
+from .files import read_image
 
 __all__ = ["RenderSequence", "read_manifest"]
 
@@ -149,16 +150,33 @@ class RenderSequence:
         found = find_pass(self._channels(k, view), PASS_COMBINED, ("A",))
         return None if found is None else self._channels(k, view)[found[0]].astype(np.float32)
 
+    def display_path(self, k: int, view: str = "left") -> Path | None:
+        """The display-referred 8-bit PNG of frame k (manifest ``display.files``), or None
+        when the render has none (renders made before it existed)."""
+        check_frame_view(self, k, view)
+        files = ((self.manifest.get("display") or {}).get("files") or {}).get(view)
+        if not isinstance(files, list) or len(files) != self.num_frames or not files[int(k)]:
+            return None
+        path = self.root / files[int(k)]
+        return path if path.is_file() else None
+
     def image_rgb(self, k: int, view: str = "left") -> np.ndarray:
         """uint8 (H, W, 3): the camera's image — the sensor's demosaiced RGB where the render
-        has a SENSOR (noise, CFA, response curve), else the EXR beauty sRGB-encoded (IEC
-        61966-2-1 transfer function, clipped)."""
+        has a SENSOR (noise, CFA, response curve); else the display-referred image Blender
+        wrote through the view transform (manifest ``display``); else (older renders) the
+        EXR beauty sRGB-encoded (IEC 61966-2-1 transfer function, clipped)."""
+        import cv2
         rel = self.sensor_file("rgb", k, view)
         if rel is not None:
-            from .files import read_image
-            import cv2
             return cv2.cvtColor(read_image(self.root / rel, cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
-        return linear_to_srgb8(self.rgb_linear(k, view))
+        path = self.display_path(k, view)
+        if path is None:
+            return linear_to_srgb8(self.rgb_linear(k, view))
+        img = read_image(path, cv2.IMREAD_COLOR)
+        W, H = self.resolution
+        if img.shape[:2] != (H, W):
+            raise VoError(f"{path}: image is {img.shape[1]}x{img.shape[0]}, manifest says {W}x{H}")
+        return np.ascontiguousarray(img[..., ::-1])
 
     # --- the camera and IMU as sensors (docs/output-format.md) -----------------------------
     def sensor_file(self, kind: str, k: int, view: str = "left"):

@@ -70,6 +70,9 @@ EXPORTERS: dict[str, tuple[str | Callable, str]] = {
                   "optical_flow and disparity_change into_future/into_past (--sequence TRAIN/A/0000)"),
     "rosbag": ("vo_reference.products.rosbag_export:export_rosbag",
                "ROS 2 bag (mcap): cam0/cam1 Image + CameraInfo, imu0 Imu, tf + PoseStamped ground truth"),
+    "cityscapes": ("vo_reference.products.semantic_export:export_cityscapes",
+                   "Cityscapes layout: leftImg8bit/ + gtFine/ labelIds, color, instanceIds (+ object ids), "
+                   "classes.json; right view in rightImg8bit/ + gtFineRight/"),
 }
 
 COLOUR, GREY = 0, 1

@@ -1,0 +1,317 @@
+"""Buildings: a closed shell with real window and door openings (reveals, recessed glass,
+frames with mullions, sills), a base band, string courses and a cornice, balconies with
+railings on the front, shop windows on some ground floors, a flat roof with a parapet or
+a pitched tiled roof with gables, a downpipe.
+
+Asset frame: footprint ``size`` = (width along x, height along y, depth along z) centred
+on the origin, ground at y = 0, the front (street) facade facing +z.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import palette
+from .mesh import MeshBuilder, MeshData, pose
+from .palette import pick
+
+@dataclass
+class Opening:
+    u0: float
+    u1: float
+    v0: float
+    v1: float
+    kind: str          # window | door | shop | french
+    recess: float
+
+
+class _Shell:
+    """The building's outer walls as one welded surface: four facade grids sharing the
+    global height breakpoints, with openings cut out, reveals and the glass/door planes."""
+
+    def __init__(self, W: float, D: float, H: float):
+        self.W, self.D, self.H = W, D, H
+        self.verts: dict[tuple, int] = {}
+        self.V: list = []
+        self.tris: list = []
+        self.surf: list = []
+
+    def vid(self, p) -> int:
+        key = tuple(np.round(np.asarray(p, float), 6))
+        if key not in self.verts:
+            self.verts[key] = len(self.V)
+            self.V.append(key)
+        return self.verts[key]
+
+    def poly(self, pts, s) -> None:
+        """A planar convex polygon (counter-clockwise from outside), fanned from its centroid
+        if it has more than 4 points (so collinear boundary points make no slivers)."""
+        ids = [self.vid(p) for p in pts]
+        if len(ids) == 3:
+            self.tris.append(tuple(ids)); self.surf.append(s)
+        elif len(ids) == 4:
+            self.tris += [(ids[0], ids[1], ids[2]), (ids[0], ids[2], ids[3])]; self.surf += [s, s]
+        else:
+            c = self.vid(np.mean(np.asarray(pts, float), axis=0))
+            for i in range(len(ids)):
+                self.tris.append((c, ids[i], ids[(i + 1) % len(ids)])); self.surf.append(s)
+
+
+def _sides(W, D):
+    """(origin at u = 0, v = 0, e_u, outward normal, length) for front, right, back, left."""
+    x, z = np.array([1.0, 0, 0]), np.array([0, 0, 1.0])
+    return [(np.array([-W / 2, 0, D / 2]), x, z, W), (np.array([W / 2, 0, D / 2]), -z, x, D),
+            (np.array([W / 2, 0, -D / 2]), -x, -z, W), (np.array([-W / 2, 0, -D / 2]), z, -x, D)]
+
+
+def generate(size, seed: int) -> MeshData:
+    rng = np.random.default_rng(seed)
+    W, H, D = (float(s) for s in size)
+    b = MeshBuilder()
+    brick = rng.random() < 0.25
+    wall = b.surface("brick", pick(rng, palette.BRICK)) if brick else b.surface("plaster", pick(rng, palette.PLASTER))
+    base = b.surface("concrete", pick(rng, palette.STONE))
+    trim = b.surface("plaster", (0.70, 0.69, 0.66)) if brick or rng.random() < 0.5 else wall
+    frame = b.surface("metal_painted", pick(rng, palette.FRAME))
+    glass = b.surface("glass_window")
+    sill = b.surface("concrete", (0.45, 0.44, 0.42))
+    door = b.surface("wood_planks", pick(rng, palette.DOOR))
+    rail = b.surface("metal_painted", (0.05, 0.05, 0.05) if rng.random() < 0.6 else (0.70, 0.70, 0.70))
+    roof_s = b.surface("roof_tiles", pick(rng, palette.ROOF))
+    pipe = b.surface("metal_brushed")
+
+    pitched = rng.random() < 0.45 and W <= 24
+    roof_h = min(0.55 * D * np.tan(np.radians(rng.uniform(28, 42))), 0.6 * H) if pitched else 0.0
+    wall_h = H - roof_h
+    ground_h = float(np.clip(rng.uniform(3.0, 4.2), 2.6, wall_h))
+    floor_h = rng.uniform(2.85, 3.3)
+    n_upper = max(int((wall_h - ground_h - (0.0 if pitched else 0.6)) // floor_h), 0)
+    floor_y = [0.0, ground_h] + [ground_h + i * floor_h for i in range(1, n_upper + 1)]
+    floor_y = [y for y in floor_y if y < wall_h - 2.2] or [0.0]
+    base_h = rng.uniform(0.35, 0.9)
+    shop = rng.random() < 0.35 and ground_h >= 3.4
+    balconies = rng.random() < 0.4 and len(floor_y) > 2
+    cornice_h = rng.uniform(0.3, 0.5)
+    bay = rng.uniform(2.5, 3.6)
+    win_w = float(np.clip(rng.uniform(0.9, 1.5), 0.6, bay - 0.9))
+    win_h = rng.uniform(1.25, 1.65)
+    sill_y = rng.uniform(0.8, 0.95)
+    recess = rng.uniform(0.12, 0.24)
+    mullion = win_w > 1.15
+    transom = rng.random() < 0.35
+
+    # --- openings per side -----------------------------------------------------------
+    sides = _sides(W, D)
+    openings: list[list[Opening]] = []
+    balcony_bays = []
+    for si, (_, _, _, L) in enumerate(sides):
+        ops: list[Opening] = []
+        n = max(int((L - 1.2) // bay), 0)
+        if n == 0:
+            openings.append(ops)
+            continue
+        margin = (L - n * bay) / 2
+        centres = margin + bay * (np.arange(n) + 0.5)
+        door_bay = int(rng.integers(n)) if si == 0 else -1
+        bal = set(rng.choice(n, size=max(1, n // 2), replace=False).tolist()) if balconies and si == 0 else set()
+        if bal:
+            balcony_bays.extend((c, fy) for c in centres[sorted(bal)] for fy in floor_y[1:])
+        for fi, fy in enumerate(floor_y):
+            top = floor_y[fi + 1] if fi + 1 < len(floor_y) else wall_h - cornice_h - 0.25
+            for bi, c in enumerate(centres):
+                if fi == 0:
+                    if bi == door_bay:
+                        dw = min(rng.uniform(1.0, 1.3), bay - 0.6)
+                        ops.append(Opening(c - dw / 2, c + dw / 2, 0.0, min(rng.uniform(2.15, 2.45), top - 0.4),
+                                           "door", 0.3))
+                    elif shop and si in (0, 1, 3):
+                        sw = min(bay - 0.5, 2.8)
+                        ops.append(Opening(c - sw / 2, c + sw / 2, base_h + 0.05, min(top - 0.5, 3.0), "shop", 0.15))
+                    elif si == 0 or rng.random() < 0.85:
+                        ops.append(Opening(c - win_w / 2, c + win_w / 2, max(sill_y, base_h + 0.1),
+                                           min(max(sill_y, base_h + 0.1) + win_h, top - 0.35), "window", recess))
+                    continue
+                if bi in bal:
+                    fw = min(win_w + 0.2, bay - 0.7)
+                    ops.append(Opening(c - fw / 2, c + fw / 2, fy + 0.12, min(fy + 2.2, top - 0.3), "french", recess))
+                elif si == 0 or rng.random() < 0.9:
+                    v0 = fy + sill_y
+                    ops.append(Opening(c - win_w / 2, c + win_w / 2, v0, min(v0 + win_h, top - 0.3), "window", recess))
+        openings.append([Opening(*(round(float(x), 6) for x in (o.u0, o.u1, o.v0, o.v1)), o.kind, o.recess)
+                         for o in ops if o.v1 - o.v0 > 0.5])
+
+    # --- the shell -------------------------------------------------------------------
+    ys = {0.0, wall_h, base_h}
+    for ops in openings:
+        for o in ops:
+            ys |= {o.v0, o.v1}
+    ys = np.array(sorted(round(y, 6) for y in ys if 0 <= y <= wall_h))
+    shell = _Shell(W, D, wall_h)
+    for (origin, e_u, n, L), ops in zip(sides, openings):
+        us = {0.0, L}
+        for o in ops:
+            us |= {o.u0, o.u1}
+        us = np.array(sorted(round(u, 6) for u in us))
+
+        def P(u, v, w=0.0, origin=origin, e_u=e_u, n=n):
+            return origin + u * e_u + v * np.array([0, 1.0, 0]) - w * n
+
+        for i in range(len(us) - 1):
+            for j in range(len(ys) - 1):
+                um, vm = (us[i] + us[i + 1]) / 2, (ys[j] + ys[j + 1]) / 2
+                if any(o.u0 < um < o.u1 and o.v0 < vm < o.v1 for o in ops):
+                    continue
+                s = base if vm < base_h else wall
+                shell.poly([P(us[i], ys[j]), P(us[i + 1], ys[j]), P(us[i + 1], ys[j + 1]), P(us[i], ys[j + 1])], s)
+        for o in ops:
+            ui = [u for u in us if o.u0 <= u <= o.u1]
+            vi = [v for v in ys if o.v0 <= v <= o.v1]
+            r = o.recess
+            # reveals: bottom, right, top, left (each split where the wall grid has points)
+            for a, bb in zip(ui[:-1], ui[1:]):
+                shell.poly([P(bb, o.v0), P(bb, o.v0, r), P(a, o.v0, r), P(a, o.v0)], sill if o.kind != "door" else base)
+                shell.poly([P(a, o.v1), P(a, o.v1, r), P(bb, o.v1, r), P(bb, o.v1)], wall)
+            for a, bb in zip(vi[:-1], vi[1:]):
+                shell.poly([P(o.u1, bb), P(o.u1, bb, r), P(o.u1, a, r), P(o.u1, a)], wall)
+                shell.poly([P(o.u0, a), P(o.u0, a, r), P(o.u0, bb, r), P(o.u0, bb)], wall)
+            # the closing plane (glass or door leaf), with the same boundary points
+            ring = ([P(u, o.v0, r) for u in ui] + [P(o.u1, v, r) for v in vi[1:]] +
+                    [P(u, o.v1, r) for u in ui[::-1][1:]] + [P(o.u0, v, r) for v in vi[::-1][1:-1]])
+            shell.poly(ring, door if o.kind == "door" else glass)
+    # roof cap and floor
+    top = [(-W / 2, wall_h, D / 2), (W / 2, wall_h, D / 2), (W / 2, wall_h, -D / 2), (-W / 2, wall_h, -D / 2)]
+    top_pts = _perimeter_points(shell, wall_h)
+    shell.poly(top_pts if len(top_pts) > 4 else top, roof_s if not pitched else wall)
+    bottom_pts = _perimeter_points(shell, 0.0)
+    shell.poly(bottom_pts[::-1], base)
+    b.add(np.array(shell.V), shell.tris, shell.surf, closed=True)
+
+    # --- details: frames, sills, door furniture ---------------------------
+    for (origin, e_u, n, L), ops in zip(sides, openings):
+        R = np.column_stack([e_u, [0, 1.0, 0], n])   # facade frame: u, v, out
+        T_side = pose(R, origin)
+        for o in ops:
+            _opening_details(b, o, T_side, frame, sill, mullion, transom)
+    # --- bands: base course, string course over the ground floor, cornice ------------------
+    proj = rng.uniform(0.15, 0.35)
+    _band(b, W, D, wall_h - cornice_h, wall_h + (0.0 if pitched else 0.25), proj, trim)
+    if len(floor_y) > 1 and rng.random() < 0.7:
+        _band(b, W, D, floor_y[1] - 0.12, floor_y[1] + 0.1, 0.06, trim)
+    # --- balconies on the front ------------------------------------------------------------
+    for c, fy in balcony_bays:
+        _balcony(b, rng, -W / 2 + c, fy, D / 2, min(bay - 0.4, 2.6), rng.uniform(1.1, 1.5), sill, rail)
+    # --- roof ------------------------------------------------------------------------------
+    if pitched:
+        _gable_roof(b, W, D, wall_h, roof_h, rng.uniform(0.3, 0.55), roof_s, wall, trim)
+        if rng.random() < 0.6:
+            cx, cz = rng.uniform(-W / 3, W / 3), rng.uniform(-D / 5, D / 5)
+            b.box((cx - 0.3, wall_h, cz - 0.3), (cx + 0.3, H + 0.6, cz + 0.3), wall)
+    elif rng.random() < 0.6:  # a plant room / lift housing on the flat roof
+        w2, d2 = rng.uniform(2, 4), rng.uniform(2, 4)
+        cx, cz = rng.uniform(-W / 4, W / 4), rng.uniform(-D / 4, D / 4)
+        b.box((cx - w2 / 2, wall_h, cz - d2 / 2), (cx + w2 / 2, wall_h + rng.uniform(1.8, 2.6), cz + d2 / 2), wall)
+    # --- a downpipe at a front corner --------------------------------------------------------
+    px = (W / 2 - 0.15) * (1 if rng.random() < 0.5 else -1)
+    b.cylinder(0.05, 0.0, wall_h - 0.1, 10, pipe, T=pose(None, (px, 0, D / 2 + 0.08)))
+    return b.build()
+
+
+def _perimeter_points(shell: _Shell, y: float) -> list:
+    """Every shell vertex on the roof (or ground) outline at height y, in counter-clockwise
+    order seen from above (so the cap shares the walls' vertices: watertight)."""
+    W, D = shell.W, shell.D
+    pts = [np.array(p) for p in shell.V if abs(p[1] - y) < 1e-5 and
+           (abs(abs(p[0]) - W / 2) < 1e-5 or abs(abs(p[2]) - D / 2) < 1e-5)]
+    # outline parameter going counter-clockwise seen from +Y: front (+z) left->right, right side, back, left
+    def t(p):
+        x, z = p[0], p[2]
+        if abs(z - D / 2) < 1e-5 and x < W / 2 - 1e-5:
+            return (x + W / 2)
+        if abs(x - W / 2) < 1e-5 and z > -D / 2 + 1e-5:
+            return W + (D / 2 - z)
+        if abs(z + D / 2) < 1e-5 and x > -W / 2 + 1e-5:
+            return W + D + (W / 2 - x)
+        return 2 * W + D + (z + D / 2)
+    pts.sort(key=t)
+    return pts
+
+
+def _opening_details(b, o: Opening, T_side, frame, sill, mullion, transom):
+    w, h, r = o.u1 - o.u0, o.v1 - o.v0, o.recess
+    fw, fd = 0.06, 0.07          # frame profile width and depth
+    z_front = -r + fd            # frame runs from the glass plane (-r) outwards by fd (facade frame: +w out)
+    if o.kind in ("window", "french", "shop"):
+        u0, u1, v0, v1 = o.u0, o.u1, o.v0, o.v1
+        bars = [((u0, v0, -r), (u1, v0 + fw, z_front)), ((u0, v1 - fw, -r), (u1, v1, z_front)),
+                ((u0, v0, -r), (u0 + fw, v1, z_front)), ((u1 - fw, v0, -r), (u1, v1, z_front))]
+        if mullion or o.kind == "shop" or w > 1.15:
+            parts = 2 if w < 2.2 else 3
+            for k in range(1, parts):
+                um = u0 + w * k / parts
+                bars.append(((um - fw / 2, v0, -r), (um + fw / 2, v1, z_front - 0.01)))
+        if (transom and o.kind == "window") or o.kind == "shop":
+            vt = v1 - min(0.45, h * 0.3)
+            bars.append(((u0, vt - fw / 2, -r), (u1, vt + fw / 2, z_front - 0.01)))
+        for lo, hi in bars:
+            b.box(lo, hi, frame, T=T_side)
+        if o.kind != "shop":   # the sill below the opening
+            b.box((u0 - 0.05, v0 - 0.05, -0.02), (u1 + 0.05, v0, 0.06), sill, T=T_side)
+    else:  # door: a frame, a handle, a step
+        u0, u1, v0, v1 = o.u0, o.u1, o.v0, o.v1
+        for lo, hi in [((u0, v1 - 0.08, -r), (u1, v1, -r + 0.08)), ((u0, v0, -r), (u0 + 0.08, v1, -r + 0.08)),
+                       ((u1 - 0.08, v0, -r), (u1, v1, -r + 0.08))]:
+            b.box(lo, hi, frame, T=T_side)
+        hu = u1 - 0.15
+        b.box((hu - 0.02, 1.0, -r), (hu + 0.02, 1.08, -r + 0.06), frame, T=T_side)
+        b.box((u0 - 0.2, -0.02, -0.02), (u1 + 0.2, 0.15, 0.35), sill, T=T_side)
+
+
+def _band(b, W, D, y0, y1, proj, s):
+    """A horizontal band projecting ``proj`` around the whole footprint (four boxes)."""
+    b.box((-W / 2 - proj, y0, D / 2 - 0.01), (W / 2 + proj, y1, D / 2 + proj), s)
+    b.box((-W / 2 - proj, y0, -D / 2 - proj), (W / 2 + proj, y1, -D / 2 + 0.01), s)
+    b.box((-W / 2 - proj, y0, -D / 2 + 0.005), (-W / 2 + 0.01, y1, D / 2 - 0.005), s)
+    b.box((W / 2 - 0.01, y0, -D / 2 + 0.005), (W / 2 + proj, y1, D / 2 - 0.005), s)
+
+
+def _balcony(b, rng, cx, fy, zf, width, depth, slab, rail):
+    t = 0.16
+    b.box((cx - width / 2, fy - t, zf - 0.02), (cx + width / 2, fy, zf + depth), slab)
+    top = fy + 1.0
+    solid = rng.random() < 0.35
+    x0, x1, z1 = cx - width / 2 + 0.03, cx + width / 2 - 0.03, zf + depth - 0.03
+    if solid:
+        for lo, hi in [((x0, fy, z1 - 0.03), (x1, top, z1)), ((x0, fy, zf), (x0 + 0.03, top, z1)),
+                       ((x1 - 0.03, fy, zf), (x1, top, z1))]:
+            b.box(lo, hi, rail)
+        return
+    for lo, hi in [((x0, top - 0.05, z1 - 0.05), (x1, top, z1)), ((x0, top - 0.05, zf), (x0 + 0.05, top, z1)),
+                   ((x1 - 0.05, top - 0.05, zf), (x1, top, z1))]:
+        b.box(lo, hi, rail)
+    n = int((x1 - x0) / 0.12)
+    for k in range(n + 1):
+        x = x0 + (x1 - x0) * k / n
+        b.box((x - 0.012, fy, z1 - 0.035), (x + 0.012, top - 0.05, z1 - 0.012), rail)
+    n = int((z1 - zf) / 0.12)
+    for k in range(1, n + 1):
+        z = zf + (z1 - zf) * k / n
+        for x in (x0 + 0.025, x1 - 0.025):
+            b.box((x - 0.012, fy, z - 0.012), (x + 0.012, top - 0.05, z + 0.012), rail)
+
+
+def _gable_roof(b, W, D, y0, rh, over, roof_s, wall, trim):
+    """A gable roof, ridge along x: two sloped slabs with eaves overhang, gable triangles."""
+    for sx in (-1, 1):   # gables: triangular prisms on the x ends, in the wall material
+        x = sx * W / 2
+        b.extrude([(x, y0, -D / 2), (x, y0, D / 2), (x, y0 + rh, 0.0)], (-sx * 0.2, 0, 0), wall)
+    slope = np.arctan2(rh, D / 2)
+    run = (D / 2 + over) / np.cos(slope)
+    thick = 0.18
+    x0, x1 = -W / 2 - over * 0.6, W / 2 + over * 0.6
+    for sz in (-1, 1):
+        down = np.array([0.0, -np.sin(slope), sz * np.cos(slope)])
+        nrm = np.array([0.0, np.cos(slope), sz * np.sin(slope)])
+        ridge = np.array([x0, y0 + rh, 0.0]) + nrm * 0.01
+        b.oriented_box(ridge, (x1 - x0, 0, 0), down * run, nrm * thick, roof_s)
+    b.box((x0, y0 + rh - 0.05, -0.12), (x1, y0 + rh + 0.2, 0.12), trim)

@@ -1,0 +1,97 @@
+"""ASSET objects -> Blender: the pure generator's triangles become one mesh object with one
+material slot per surface (blender_sesgen.assets does all the geometry; nothing here
+computes any). Importing this module registers the ASSET builder with ``shapes.build_shape``."""
+from __future__ import annotations
+
+import dataclasses
+
+import bpy
+import numpy as np
+from mathutils import Matrix
+
+from .. import assets, material_library
+from ..ses.materials import library_material
+from ..contract.frames import object_pose, ses_to_blender_world
+from ..errors import SesgenError
+from ..model import Asset, Material
+from .datablocks import tag
+from .shapes import ShapeContext, build_shape
+
+def library_or_stand_in(name: str) -> Material:
+    """The library material ``name`` with its defaults, or the asset-only material of that
+    name (``assets.ASSET_MATERIALS``)."""
+    if name in assets.ASSET_MATERIALS:
+        return assets.ASSET_MATERIALS[name]
+    if not material_library.is_library_name(name):
+        raise SesgenError(f"asset surface material '{name}' is neither a library material nor an asset material")
+    return library_material(name)
+
+
+def mesh_from_triangles(name: str, vertices: np.ndarray, faces: np.ndarray, tag=tag):
+    """A Blender mesh holding exactly these triangles, in this order (no clean-up that
+    could drop or reorder faces)."""
+    V = np.ascontiguousarray(vertices, dtype=np.float32)
+    F = np.ascontiguousarray(faces, dtype=np.int32)
+    me = tag(bpy.data.meshes.new(name))
+    me.vertices.add(len(V))
+    me.vertices.foreach_set("co", V.ravel())
+    me.loops.add(3 * len(F))
+    me.loops.foreach_set("vertex_index", F.ravel())
+    me.polygons.add(len(F))
+    me.polygons.foreach_set("loop_start", np.arange(0, 3 * len(F), 3, dtype=np.int32))
+    me.update(calc_edges=True)
+    if len(me.polygons) != len(F):
+        raise SesgenError(f"{name}: Blender kept {len(me.polygons)} of {len(F)} triangles")
+    return me
+
+
+def surface_material(factory, obj: Asset, surface, index: int):
+    """The Blender material of an asset's surface ``index``: the script's MATERIAL of that
+    name, else the library material (the surface's colour, if it has one, replacing the
+    library's); the main surface (0) takes the object's material, texture and colour."""
+    name, tex, tint = surface.material, None, (1.0, 1.0, 1.0)
+    if index == 0:
+        name = obj.material or name
+        tint, tex = obj.colour, obj.texture
+    try:
+        m = factory.scene.material(name)
+    except KeyError:
+        m = library_or_stand_in(name)
+        if surface.colour is not None and not (index == 0 and obj.material):
+            m = dataclasses.replace(m, colour=tuple(surface.colour))
+    if tex is not None and m.library is not None:
+        m = dataclasses.replace(m, library=None)      # a texture tag: the plain textured material
+    tex = tex if tex is not None else m.texture
+    colour = tuple(float(c) for c in np.multiply(tint, m.colour))
+    key = (tex, colour, m, False)
+    if key not in factory.cache:
+        factory.cache[key] = factory._make(f"sesgen_{name}", colour, tex, m)
+    return factory.cache[key]
+
+
+def build_asset(o: Asset, collection, surface_material_of, meshes: dict) -> object:
+    """One Blender object for the ASSET ``o``; ``surface_material_of(surface, index)`` gives the
+    Blender material of each surface (index 0 is the main one). Assets with the same kind,
+    size, seed, bend, offset and material tags share one mesh (``meshes`` caches them per
+    build): a forest of a dozen tree variants costs a dozen meshes, and Cycles instances them."""
+    key = (o.kind, tuple(o.size), o.seed, tuple(o.bend), o.offset, o.material, tuple(o.colour), o.texture)
+    me = meshes.get(key)
+    if me is None:
+        data = assets.generate(o.kind, o.size, o.seed, o.bend, o.offset)
+        me = mesh_from_triangles(f"{o.kind}_{o.seed}", data.vertices, data.faces, tag)
+        for i, s in enumerate(data.surfaces):
+            me.materials.append(surface_material_of(s, i))
+        me.polygons.foreach_set("material_index", data.face_surface.astype(np.int32))
+        me.polygons.foreach_set("use_smooth", data.smooth.astype(bool))
+        me.update()
+        meshes[key] = me
+    obj = tag(bpy.data.objects.new(o.name, me))
+    collection.objects.link(obj)
+    obj.matrix_world = Matrix(ses_to_blender_world(object_pose(o.position, o.rotation_deg)).tolist())
+    return obj
+
+
+@build_shape.register
+def _(o: Asset, ctx: ShapeContext) -> list:
+    meshes = ctx.__dict__.setdefault("_asset_meshes", {})
+    return [build_asset(o, ctx.collection, lambda s, i: surface_material(ctx.materials, o, s, i), meshes)]

@@ -1,0 +1,171 @@
+"""Library materials and user image sets as Cycles node setups (the bpy side of
+``blender_sesgen.material_library``).
+
+Coordinates: the object's own coordinates (``Texture Coordinate > Object``) times the
+object's scale (custom property ``sesgen_scale``) are metres on the object; the per-object
+offset (``sesgen_offset``, from ``material_library.object_variation``) moves the pattern so
+that no two objects repeat each other, and ``sesgen_rand`` gives each object its colour,
+roughness and wear shifts. The builder sets these three properties on every object
+(:func:`object_properties`); one material serves every object using it.
+
+Every recipe returns a :class:`Surface`; :func:`build_shader` adds what all share: the
+per-object colour variation, the generic dirt layer scaled by ``wear``, the relief through a
+Bump node (shading only: geometry, depth and ids never change) and the Principled BSDF.
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+import bpy
+
+from ... import material_library
+from ...model import ImageMaps, Material
+from .. import compat
+from . import built, interior, metal_glass, nature
+from .graph import Ctx, G, Surface
+
+RECIPES: dict[str, Callable[[Ctx], Surface]] = {**built.RECIPES, **interior.RECIPES, **metal_glass.RECIPES,
+                                                 **nature.RECIPES}
+assert set(RECIPES) == set(material_library.LIBRARY), set(RECIPES) ^ set(material_library.LIBRARY)
+
+OFFSET_PROP, RAND_PROP, SCALE_PROP = "sesgen_offset", "sesgen_rand", "sesgen_scale"
+
+
+def object_properties(obj, seed: int, object_id: int) -> None:
+    """Set the per-object variation properties the library shaders read."""
+    var = material_library.object_variation(seed, object_id)
+    obj[OFFSET_PROP] = list(var.offset_m)
+    obj[RAND_PROP] = list(var.rand)
+    s = obj.matrix_world.to_scale()
+    obj[SCALE_PROP] = [abs(float(s[0])), abs(float(s[1])), abs(float(s[2]))]
+
+
+def _attribute(g: G, name: str):
+    return g.node("ShaderNodeAttribute", attribute_type="OBJECT", attribute_name=name).outputs["Vector"]
+
+
+def _coordinates(g: G, texture_scale: float, with_offset: bool = True):
+    """(metric pattern coordinates, object-space normal, (r0, r1, r2))."""
+    tc = g.node("ShaderNodeTexCoord")
+    scale = _attribute(g, SCALE_PROP)
+    # an object without the property reads (0, 0, 0): fall back to 1 (unscaled)
+    safe = g.vmath("MAXIMUM", scale, (1e-6, 1e-6, 1e-6))
+    missing = g.math("LESS_THAN", g.vmath("LENGTH", scale), 1e-9)
+    scale = g.vmath("ADD", safe, g.vscale((1.0, 1.0, 1.0), missing))
+    p = g.vmath("MULTIPLY", tc.outputs["Object"], scale)
+    if with_offset:
+        p = g.vmath("ADD", p, _attribute(g, OFFSET_PROP))
+    p = g.vscale(p, float(texture_scale))
+    rand = g.sep(_attribute(g, RAND_PROP))
+    return p, tc.outputs["Normal"], rand
+
+
+def box_uv(g: G, p, n):
+    """Box mapping: ``p`` with its axes permuted so that the two lying in the surface come
+    first (the axis nearest the normal last): normal ~y -> (x, z, y), ~x -> (z, y, x),
+    ~z -> (x, y, z). Returns (uv, tangent_u, tangent_v) in object space."""
+    nx, ny, nz = g.sep(g.vmath("ABSOLUTE", n))
+    fy = g.math("GREATER_THAN", g.sub(ny, g.math("MAXIMUM", nx, nz)), 0.0)
+    fx = g.mul(g.math("GREATER_THAN", g.sub(nx, g.math("MAXIMUM", ny, nz)), 0.0), g.sub(1.0, fy))
+    fz = g.sub(g.sub(1.0, fy), fx)
+    x, y, z = g.sep(p)
+
+    def pick(a, b, c):  # fy * a + fx * b + fz * c
+        return g.add(g.add(g.mul(fy, a), g.mul(fx, b)), g.mul(fz, c))
+    uv = g.comb(pick(x, z, x), pick(z, y, y), pick(y, x, z))
+    tu = g.comb(g.add(fy, fz), 0.0, fx)          # the object axis along u
+    tv = g.comb(0.0, g.add(fx, fz), fy)          # the object axis along v
+    return uv, tu, tv
+
+
+def _variation(g: G, colour, rand, amount: float):
+    """The object's own shift of hue, saturation and value (scaled by ``variation``)."""
+    if amount <= 0:
+        return colour
+    r0, r1, r2 = rand
+    value = g.madd(g.sub(r0, 0.5), 0.5 * amount, 1.0)           # +-25 % at variation 1
+    hue = g.madd(g.sub(r1, 0.5), 0.06 * amount, 0.5)            # +-0.03 of the hue circle
+    sat = g.madd(g.sub(r2, 0.5), 0.4 * amount, 1.0)             # +-20 %
+    return g.hsv(colour, hue, sat, value)
+
+
+def _grime(g: G, ctx: Ctx, colour, roughness, amount: float):
+    """Generic dirt: large soft patches with fine breakup, darker and browner, rougher."""
+    if amount <= 0:
+        return colour, roughness
+    big = g.remap(g.noise(ctx.p, 0.7, detail=3.0), 0.45, 0.72, smooth=True)
+    fine = g.remap(g.noise(ctx.p, 12.0, detail=3.0), 0.35, 0.65)
+    mask = g.mul(g.mul(big, g.lerp(0.6, 1.0, fine)), min(amount, 1.0))
+    dirty = g.cmul(colour, (0.62, 0.58, 0.52))
+    return g.cmix(colour, dirty, mask), g.lerp(roughness, 0.95, g.mul(mask, 0.6))
+
+
+def build_shader(nt, m: Material, colour, *, fog_mix=None):
+    """The library material ``m`` (its ``library`` params) in node tree ``nt``; returns the
+    output shader socket. ``colour``: the main albedo (material colour times object colour)."""
+    g = G(nt)
+    lib = m.library
+    entry = material_library.entry(lib.name)
+    p, n, rand = _coordinates(g, lib.scale)
+    uv, _, _ = box_uv(g, p, n)
+    ctx = Ctx(g=g, p=p, uv=uv, n=n, rand=rand, colour=tuple(colour), roughness=float(m.roughness),
+              metallic=float(m.metallic), wear=float(lib.wear), entry=entry)
+    s = RECIPES[entry.name](ctx)
+    col = _variation(g, s.colour, rand, lib.variation)
+    rough = s.roughness
+    col, rough = _grime(g, ctx, col, rough, lib.wear * s.grime)
+    # the object's own small roughness shift
+    rough = g.math("MULTIPLY_ADD", g.sub(rand[1], 0.5), 0.1 * lib.variation, rough, clamp=True) \
+        if lib.variation > 0 else rough
+    bsdf = g.node("ShaderNodeBsdfPrincipled")
+    g.set(bsdf.inputs["Base Color"], col)
+    g.set(bsdf.inputs["Roughness"], rough)
+    g.set(bsdf.inputs["Metallic"], s.metallic)
+    for name, value in s.extra.items():
+        g.set(compat.principled_input(bsdf, name), value)
+    if s.height is not None and lib.bump > 0:
+        bump = g.node("ShaderNodeBump", {"Strength": 1.0, "Distance": float(lib.bump), "Height": s.height})
+        g.set(bsdf.inputs["Normal"], bump.outputs["Normal"])
+        if "Coat Weight" in s.extra:
+            coat = g.node("ShaderNodeBump", {"Strength": 1.0, "Distance": 0.1 * float(lib.bump),
+                                             "Height": s.height})
+            g.set(bsdf.inputs["Coat Normal"], coat.outputs["Normal"])
+    return bsdf.outputs["BSDF"]
+
+
+def build_image_maps(nt, maps: ImageMaps, colour, roughness: float, tag_image):
+    """A user's image set (albedo / normal / roughness files), box-mapped on the object's
+    metric coordinates, one repeat every ``maps.size_m``; returns the Principled BSDF node.
+    The normal map (OpenGL convention: green = +v) is turned into object space with the
+    box mapping's own tangents, then into world space."""
+    g = G(nt)
+    p, n, _ = _coordinates(g, 1.0 / maps.size_m, with_offset=False)
+    uv, tu, tv = box_uv(g, p, n)
+    bsdf = g.node("ShaderNodeBsdfPrincipled")
+
+    def image(path: str, colour_data: bool):
+        img = tag_image(bpy.data.images.load(path, check_existing=True))
+        if not colour_data:
+            img.colorspace_settings.is_data = True
+        return g.node("ShaderNodeTexImage", {"Vector": uv}, image=img, interpolation="Linear",
+                      extension="REPEAT").outputs["Color"]
+
+    if maps.albedo:
+        g.set(bsdf.inputs["Base Color"], g.cmul(image(maps.albedo, True), tuple(colour)))
+    else:
+        g.set(bsdf.inputs["Base Color"], tuple(colour))
+    g.set(bsdf.inputs["Roughness"], g.sep(image(maps.roughness, False))[0] if maps.roughness else roughness)
+    if maps.normal:
+        c = g.sep(image(maps.normal, False))
+        strength = float(maps.bump)
+        du, dv = g.madd(c[0], 2.0 * strength, -strength), g.madd(c[1], 2.0 * strength, -strength)
+        dn = g.madd(c[2], 2.0, -1.0)
+        nn = g.vmath("NORMALIZE", n)
+
+        def tangent(t):  # Gram-Schmidt against the normal
+            return g.vmath("NORMALIZE", g.vmath("SUBTRACT", t, g.vscale(nn, g.vmath("DOT_PRODUCT", t, nn))))
+        v = g.vmath("ADD", g.vmath("ADD", g.vscale(tangent(tu), du), g.vscale(tangent(tv), dv)), g.vscale(nn, dn))
+        world = g.node("ShaderNodeVectorTransform", {"Vector": g.vmath("NORMALIZE", v)},
+                       vector_type="NORMAL", convert_from="OBJECT", convert_to="WORLD")
+        g.set(bsdf.inputs["Normal"], world.outputs[0])
+    return bsdf

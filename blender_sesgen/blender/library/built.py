@@ -1,0 +1,121 @@
+"""Recipes of the built environment: asphalt, lane_marking, concrete, brick, plaster,
+roof_tiles. Lengths in metres (the coordinates are metric); ``ctx.entry.scale_m`` is the
+documented size of each one's main element."""
+from __future__ import annotations
+
+from .graph import Ctx, Surface
+
+
+def _aggregate(ctx: Ctx, stone_m: float = 0.008):
+    """Asphalt's exposed stones: (tone factor around 1, dome height 0..1)."""
+    g = ctx.g
+    cells = g.voronoi(ctx.p, 1.0 / stone_m)
+    tone = g.remap(g.sep(cells.outputs["Color"])[0], 0.0, 1.0, 0.78, 1.3)
+    dome = g.remap(cells.outputs["Distance"], 0.0, 0.5, 1.0, 0.0)
+    return tone, dome
+
+
+def asphalt(ctx: Ctx) -> Surface:
+    g, p, C = ctx.g, ctx.p, ctx.colour
+    tone, dome = _aggregate(ctx)
+    mottle = g.remap(g.noise(p, 1 / 0.35, detail=3.0), 0.3, 0.7, 0.88, 1.12)
+    large = g.remap(g.noise(p, 1 / 4.0, detail=2.0), 0.3, 0.7, 0.85, 1.15)
+    f = g.mul(g.mul(tone, mottle), large)
+    col = g.cmul(C, f)
+    # repair patches: square-ish cells, some of them newer (darker, finer) asphalt
+    cells = g.voronoi(p, 1 / 3.0, metric="CHEBYCHEV")
+    patch = g.math("GREATER_THAN", g.sep(cells.outputs["Color"])[1], 0.86)
+    col = g.cmix(col, g.cmul(C, g.mul(g.lerp(0.95, 1.05, tone), 0.62)), patch)
+    # sealed cracks: a thin network, only where a low-frequency mask (and wear) allows
+    warp = g.vmath("ADD", p, g.vscale(g.noise(p, 1 / 0.6, detail=3.0, colour=True), 0.35))
+    edge = g.voronoi(warp, 1 / 1.6, feature="DISTANCE_TO_EDGE").outputs["Distance"]
+    line = g.remap(edge, 0.0, 0.004 / 1.6, 1.0, 0.0)     # ~4 mm wide (distances are in cells of 1.6 m)
+    where = g.remap(g.noise(p, 1 / 5.0, detail=2.0), 0.62 - 0.2 * ctx.wear, 0.7 - 0.2 * ctx.wear, smooth=True)
+    crack = g.mul(g.mul(line, where), g.sub(1.0, patch))
+    col = g.cmix(col, (0.025, 0.025, 0.025), crack)
+    rough = g.lerp(g.lerp(ctx.roughness, ctx.roughness - 0.08, patch), 0.55, crack)
+    height = g.sub(g.mul(dome, 0.0015), g.mul(crack, 0.003))
+    return Surface(col, rough, height)
+
+
+def lane_marking(ctx: Ctx) -> Surface:
+    g, p, C = ctx.g, ctx.p, ctx.colour
+    tone, dome = _aggregate(ctx)
+    # paint worn off in patches: coverage falls with wear
+    worn = g.noise(p, 1 / 0.12, detail=6.0, roughness=0.6)
+    cover = g.remap(worn, 0.18 + 0.3 * ctx.wear, 0.3 + 0.3 * ctx.wear, 0.35, 1.0, smooth=True)  # thinned, not gone
+    dirt = g.remap(g.noise(p, 1 / 0.8, detail=3.0), 0.3, 0.7, 0.82, 1.05)
+    paint = g.cmul(C, g.mul(dirt, g.lerp(0.92, 1.04, tone)))
+    road = g.cmul((0.085, 0.085, 0.082), tone)
+    col = g.cmix(road, paint, cover)
+    rough = g.lerp(0.88, ctx.roughness, cover)
+    height = g.add(g.mul(dome, 0.0012), g.mul(cover, 0.0008))
+    return Surface(col, rough, height)
+
+
+def concrete(ctx: Ctx) -> Surface:
+    g, p, C = ctx.g, ctx.p, ctx.colour
+    stains = g.remap(g.noise(p, 1 / 1.2, detail=4.0, roughness=0.55), 0.3, 0.7, 0.86, 1.12)
+    mid = g.remap(g.noise(p, 1 / 0.12, detail=3.0), 0.3, 0.7, 0.95, 1.05)
+    pores = g.voronoi(p, 1 / 0.006)
+    pit = g.mul(g.math("GREATER_THAN", g.sep(pores.outputs["Color"])[2], 0.93),
+                g.remap(pores.outputs["Distance"], 0.15, 0.35, 1.0, 0.0))
+    col = g.cmul(C, g.mul(g.mul(stains, mid), g.lerp(1.0, 0.55, pit)))
+    rough = g.remap(g.noise(p, 1 / 0.3, detail=2.0), 0.3, 0.7, ctx.roughness - 0.06, ctx.roughness + 0.06)
+    fine = g.noise(p, 1 / 0.01, detail=2.0)
+    height = g.sub(g.mul(fine, 0.0004), g.mul(pit, 0.0015))
+    return Surface(col, rough, height)
+
+
+def brick(ctx: Ctx) -> Surface:
+    g, C = ctx.g, ctx.colour
+    length = ctx.entry.scale_m                     # 24 cm bricks, 1 cm mortar, 7.1 cm courses
+    rand, mortar = g.bricks(ctx.uv, length + 0.01, 0.081, 0.01, smooth=0.15)
+    r2 = g.white(g.add(rand, 0.37))
+    value = g.remap(rand, 0.0, 1.0, 0.72, 1.22)
+    burnt = g.math("GREATER_THAN", r2, 0.92)       # a few dark over-fired bricks
+    value = g.lerp(value, 0.55, burnt)
+    face = g.remap(g.noise(ctx.p, 1 / 0.03, detail=3.0), 0.3, 0.7, 0.92, 1.06)
+    tint = g.hsv(g.cmul(C, g.mul(value, face)), g.madd(r2, 0.02, 0.49), g.madd(rand, 0.15, 0.85), 1.0)
+    mortar_col = g.cmul((0.42, 0.40, 0.37), g.remap(g.noise(ctx.p, 1 / 0.05, detail=2.0), 0.3, 0.7, 0.85, 1.1))
+    col = g.cmix(tint, mortar_col, mortar)
+    rough = g.lerp(ctx.roughness, 0.95, mortar)
+    chips = g.remap(g.noise(ctx.p, 1 / 0.015, detail=4.0), 0.62, 0.72, 0.0, 1.0)
+    height = g.add(g.mul(mortar, -0.004), g.sub(g.mul(g.noise(ctx.p, 1 / 0.01, detail=3.0), 0.0006),
+                                                  g.mul(chips, 0.0015)))
+    return Surface(col, rough, height)
+
+
+def plaster(ctx: Ctx) -> Surface:
+    g, p, C = ctx.g, ctx.p, ctx.colour
+    patches = g.remap(g.noise(p, 1 / 2.0, detail=3.0), 0.3, 0.7, 0.95, 1.04)
+    mid = g.remap(g.noise(p, 1 / 0.3, detail=3.0), 0.3, 0.7, 0.98, 1.02)
+    # grime running down the wall (object y is up): streaks stretched vertically
+    streak_p = g.vmath("MULTIPLY", p, (6.0, 0.35, 6.0))
+    streaks = g.remap(g.noise(streak_p, 1.0, detail=4.0), 0.5, 0.75, smooth=True)
+    col = g.cmul(C, g.mul(g.mul(patches, mid), g.lerp(1.0, 0.8, g.mul(streaks, ctx.wear))))
+    rough = g.remap(g.noise(p, 1 / 0.5, detail=2.0), 0.3, 0.7, ctx.roughness - 0.05, ctx.roughness + 0.05)
+    height = g.add(g.mul(g.noise(p, 1 / 0.004, detail=2.0), 0.0003), g.mul(g.noise(p, 1 / 0.25, detail=2.0), 0.0008))
+    return Surface(col, rough, height)
+
+
+def roof_tiles(ctx: Ctx) -> Surface:
+    g, C = ctx.g, ctx.colour
+    row = ctx.entry.scale_m                          # rows every 33 cm along v, tiles 20 cm wide
+    rand, joint = g.bricks(ctx.uv, 0.20, row, 0.004, smooth=0.2)
+    _, v, _ = g.sep(ctx.uv)
+    t = g.math("FRACT", g.math("DIVIDE", v, row))    # 0 at a row's lower edge ... 1 at its top
+    value = g.remap(rand, 0.0, 1.0, 0.72, 1.25)
+    shade = g.remap(t, 0.78, 1.0, 1.0, 0.55)         # the shadow under the tile above
+    col = g.hsv(g.cmul(C, g.mul(value, shade)), g.madd(g.white(rand), 0.04, 0.48), 1.0, 1.0)
+    moss = g.mul(g.remap(g.noise(ctx.p, 1 / 0.15, detail=4.0), 0.55, 0.7, smooth=True),
+                 g.mul(g.remap(t, 0.0, 0.35, 1.0, 0.2), ctx.wear))
+    col = g.cmix(col, (0.06, 0.08, 0.03), moss)
+    col = g.cmix(col, (0.05, 0.04, 0.035), g.mul(joint, 0.7))
+    rough = g.lerp(ctx.roughness, 0.95, moss)
+    height = g.add(g.mul(g.sub(1.0, t), 0.012), g.mul(g.noise(ctx.p, 1 / 0.02, detail=2.0), 0.0006))
+    return Surface(col, rough, height)
+
+
+RECIPES = {"asphalt": asphalt, "lane_marking": lane_marking, "concrete": concrete, "brick": brick,
+           "plaster": plaster, "roof_tiles": roof_tiles}

@@ -1,0 +1,103 @@
+"""Daylight and image-based lighting as data (pure): the built-in HDRI names, the physical
+sky's sun as a lamp, and the default lighting's parameters. The Blender side is
+``blender/lighting.py``; docs/rendering.md (Lighting) explains the choices.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .model import Light, World
+
+# Blender's bundled CC0 HDRIs (Poly Haven, 1024 x 512; bpy's datafiles/studiolights/world)
+BUILTIN_HDRIS = ("city", "courtyard", "forest", "interior", "night", "studio", "sunrise", "sunset")
+HDRI_SUFFIXES = (".exr", ".hdr")
+
+# Blender's physical sky is in absolute units: at strength 1 a white ground under a 45 deg
+# sun reads ~39 (linear), far past white. ``WORLD sky strength s`` means s / SKY_EXPOSURE,
+# so that strength 1 is well exposed (white ground ~0.75 at 45 deg, ~0.35 at 20 deg).
+SKY_EXPOSURE = 50.0
+SUN_ANGLE_DEG = 0.545        # the sky model's (and the real) sun disc diameter
+
+# Irradiance (W/m^2 per channel, linear RGB, sky strength 1) of the physical sky's sun
+# disc on a surface facing the sun, per sun elevation (deg): measured on Blender 5.0's
+# MULTIPLE_SCATTERING sky by bench/calibrate_sky_sun.py. ``WORLD sky`` renders the sky
+# without its disc plus a sun lamp delivering this: a lamp is sampled directly, which
+# halves the noise of sunlit surfaces at a given sample count.
+SKY_SUN_IRRADIANCE: tuple[tuple[float, tuple[float, float, float]], ...] = (
+    (1, (18.46, 4.264, 0.07569)),
+    (2, (34.09, 10.74, 0.09561)),
+    (3, (48.56, 19.01, 1.656)),
+    (5, (72.24, 36.82, 8.399)),
+    (7, (89.79, 52.98, 17.79)),
+    (10, (108.2, 72.19, 32.48)),
+    (15, (126.7, 93.65, 53.01)),
+    (20, (137.5, 107.1, 68.04)),
+    (25, (144.6, 116.2, 79.01)),
+    (30, (149.4, 122.5, 87.18)),
+    (40, (155.5, 130.7, 98.28)),
+    (50, (159.1, 135.7, 105.2)),
+    (60, (161.3, 138.7, 109.6)),
+    (70, (162.7, 140.6, 112.3)),
+    (80, (163.4, 141.6, 113.8)),
+    (90, (163.9, 142.2, 114.5)),
+)
+
+# the default lighting of a script with neither LIGHT nor WORLD: a clear-sky day
+DEFAULT_SKY = World(kind="sky", strength=1.0, sun_elevation_deg=50.0, sun_azimuth_deg=210.0)  # behind the camera
+LIGHTS_ONLY_WORLD = World(kind="colour", colour=(0.55, 0.6, 0.7), strength=0.35)  # LIGHTs, no WORLD
+DEFAULT_FILL_IRRADIANCE = 1.5    # W/m^2 at half the scene's extent (enclosed scenes' ceiling light)
+ENCLOSED_HIT_FRACTION = 0.9      # a scene whose START sees geometry in >= 90 % of directions is enclosed
+
+
+# LOOK view -> Blender's view transform of the display-referred PNGs
+VIEW_TRANSFORMS = {"agx": "AgX", "filmic": "Filmic", "standard": "Standard"}
+# LOOK look (AgX only) -> Blender's look; "base" is AgX itself
+AGX_LOOKS = {"base": "None", "punchy": "AgX - Punchy", "very_low_contrast": "AgX - Very Low Contrast",
+             "low_contrast": "AgX - Low Contrast", "medium_low_contrast": "AgX - Medium Low Contrast",
+             "medium_high_contrast": "AgX - Medium High Contrast", "high_contrast": "AgX - High Contrast",
+             "very_high_contrast": "AgX - Very High Contrast"}
+
+# automatic exposure: the linear luminance the 90th-percentile pixel of a preview of frame 0
+# is brought to (blender/exposure.py)
+EXPOSURE_TARGET = 0.6
+
+
+def direction_towards_sun(elevation_deg: float, azimuth_deg: float) -> np.ndarray:
+    """SES-world unit vector *towards* the sun: elevation above the XZ ground plane (Y up),
+    azimuth from -Z (forward of an unrotated camera) towards +X."""
+    el, az = math.radians(elevation_deg), math.radians(azimuth_deg)
+    return np.array([math.cos(el) * math.sin(az), math.sin(el), -math.cos(el) * math.cos(az)])
+
+
+def sky_sun_irradiance(elevation_deg: float) -> np.ndarray:
+    """The sky model's sun irradiance (RGB, W/m^2 at sky strength 1) at this elevation
+    (linear interpolation in the measured table; 0 below the horizon)."""
+    if elevation_deg <= 0:
+        return np.zeros(3)
+    el = np.array([e for e, _ in SKY_SUN_IRRADIANCE], dtype=float)
+    E = np.array([rgb for _, rgb in SKY_SUN_IRRADIANCE], dtype=float)
+    if elevation_deg < el[0]:
+        return E[0] * elevation_deg / el[0]
+    return np.array([np.interp(elevation_deg, el, E[:, c]) for c in range(3)])
+
+
+def sky_sun_light(world: World) -> Light | None:
+    """The sun lamp that stands in for the sky's sun disc (None below the horizon)."""
+    E = sky_sun_irradiance(world.sun_elevation_deg) * world.strength / SKY_EXPOSURE
+    peak = float(E.max())
+    if peak <= 0:
+        return None
+    towards = direction_towards_sun(world.sun_elevation_deg, world.sun_azimuth_deg)
+    return Light(kind="sun", colour=tuple(float(x) for x in E / peak), strength=peak,
+                 direction=tuple(float(x) for x in -towards))
+
+
+def fibonacci_directions(n: int) -> np.ndarray:
+    """``n`` unit vectors spread evenly over the sphere (the enclosure test's rays)."""
+    i = np.arange(n) + 0.5
+    y = 1.0 - 2.0 * i / n
+    r = np.sqrt(1.0 - y * y)
+    phi = math.pi * (3.0 - math.sqrt(5.0)) * i
+    return np.stack([r * np.cos(phi), y, r * np.sin(phi)], axis=1)

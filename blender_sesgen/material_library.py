@@ -1,0 +1,154 @@
+"""The named material library: procedural PBR materials built for realism (pure data).
+
+A script selects one by name (``material asphalt`` where no MATERIAL of that name is
+defined) or derives its own from one (``MATERIAL name old_road library asphalt wear 0.6
+colour 0.12 0.12 0.12``). This module is the single source of the names, their documented
+defaults and the per-object variation rule; the Blender node setups live in
+``blender/library/`` (one recipe per name), pictures in docs/rendering.md (Material library).
+
+Conventions every entry follows:
+- **Units**: patterns are laid out in metres on the object's own coordinates (object-local,
+  times the object's scale), so a brick is 24 cm long on every object and patterns stick to
+  the surface. ``scale_m`` is the size of the entry's main element (a brick's length, a
+  tile's edge, a plank's width, a stone's diameter); ``texture_scale s`` divides it.
+- **Colours** are linear albedos (what a spectrophotometer would give, not sRGB): real
+  surfaces lie between ~0.03 (fresh asphalt, rubber) and ~0.85 (fresh white paint).
+- **Relief** is shading only (Cycles' Bump node: the normal changes, the geometry never
+  does, so depth and ids are untouched); ``bump_m`` is its depth in metres at ``bump 1``.
+- **Variation**: every object gets its own pattern offset and a small colour/roughness
+  shift from :func:`object_variation` (a pure function of the material seed and the
+  object id), so two walls of the same brick never repeat each other.
+- **Wear** (0..1) adds dirt, stains and the entry's own ageing (rust, worn paint, moss).
+- **Statistics**: fine detail is kept at low contrast and most variation lives at the
+  scale of centimetres to metres, as in camera images of real surfaces (the issue's power
+  spectrum and gradient figures: procedural noise at full contrast everywhere is what made
+  the old renders look synthetic).
+"""
+from __future__ import annotations
+
+import hashlib
+import struct
+from dataclasses import dataclass
+from typing import Optional
+
+Vec3 = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class LibraryEntry:
+    """One named material: its documented defaults (override them with MATERIAL tags)."""
+    name: str
+    description: str
+    colour: Vec3                   # main linear albedo (``colour`` replaces it)
+    roughness: float               # mean roughness (``roughness`` replaces it)
+    metallic: float = 0.0          # 0 dielectric, 1 metal (``metallic`` replaces it)
+    scale_m: float = 1.0           # size of the main element, metres
+    bump_m: float = 0.001          # relief depth at ``bump 1``, metres
+    variation: float = 0.3         # per-object colour variation (0..1)
+    wear: float = 0.2              # default wear/dirt (0..1)
+    semantic_class: Optional[str] = None  # default ``class`` of objects using it
+
+
+def _entries(*entries: LibraryEntry) -> dict[str, LibraryEntry]:
+    return {e.name: e for e in entries}
+
+
+LIBRARY: dict[str, LibraryEntry] = _entries(
+    # --- streets --------------------------------------------------------------------------
+    LibraryEntry("asphalt", "road asphalt: fine aggregate, tonal patches, sealed cracks and repair patches",
+                 (0.085, 0.085, 0.082), 0.88, scale_m=2.0, bump_m=0.0015, variation=0.25, wear=0.3,
+                 semantic_class="road"),
+    LibraryEntry("lane_marking", "white road paint, worn where tyres pass (colour for yellow lines)",
+                 (0.72, 0.72, 0.70), 0.55, scale_m=0.5, bump_m=0.0008, variation=0.1, wear=0.3,
+                 semantic_class="road"),
+    LibraryEntry("concrete", "cast concrete: formwork stains, pores, fine aggregate",
+                 (0.38, 0.37, 0.35), 0.85, scale_m=1.0, bump_m=0.0015, variation=0.3, wear=0.3,
+                 semantic_class="wall"),
+    LibraryEntry("brick", "brick wall, stretcher bond: 24 x 7.1 cm bricks with 1 cm recessed mortar, "
+                          "per-brick colour, chipped faces", (0.26, 0.10, 0.06), 0.85, scale_m=0.24,
+                 bump_m=0.004, variation=0.35, wear=0.2, semantic_class="building"),
+    LibraryEntry("plaster", "painted render/plaster wall: orange-peel relief, faint patches, grime streaks",
+                 (0.62, 0.58, 0.52), 0.8, scale_m=1.0, bump_m=0.0008, variation=0.25, wear=0.2,
+                 semantic_class="building"),
+    LibraryEntry("roof_tiles", "clay roof tiles in overlapping rows (33 x 20 cm), per-tile colour, moss with wear",
+                 (0.28, 0.085, 0.045), 0.75, scale_m=0.33, bump_m=0.012, variation=0.3, wear=0.3,
+                 semantic_class="building"),
+    # --- indoor / built ---------------------------------------------------------------------
+    LibraryEntry("wood_planks", "varnished wooden planks (14 cm x 1.2-2 m), grain and per-plank tone",
+                 (0.33, 0.19, 0.09), 0.45, scale_m=0.14, bump_m=0.002, variation=0.35, wear=0.15,
+                 semantic_class="floor"),
+    LibraryEntry("ceramic_tiles", "glazed ceramic tiles (30 cm) with 3 mm grout, per-tile tint",
+                 (0.62, 0.62, 0.60), 0.12, scale_m=0.30, bump_m=0.0015, variation=0.15, wear=0.15,
+                 semantic_class="floor"),
+    LibraryEntry("fabric", "woven upholstery fabric: sheen, soft folds in tone, faint weave",
+                 (0.18, 0.20, 0.26), 0.9, scale_m=0.004, bump_m=0.0003, variation=0.3, wear=0.1,
+                 semantic_class="furniture"),
+    LibraryEntry("plastic", "moulded plastic: glossy with faint texture, smudges with wear",
+                 (0.55, 0.55, 0.55), 0.35, scale_m=0.05, bump_m=0.00005, variation=0.2, wear=0.1),
+    LibraryEntry("rubber", "black rubber (tyres, seals): matte, dusty with wear",
+                 (0.035, 0.035, 0.035), 0.85, scale_m=0.02, bump_m=0.0002, variation=0.1, wear=0.3),
+    # --- metals and glass -------------------------------------------------------------------
+    LibraryEntry("metal_painted", "painted steel: orange-peel paint, chips showing primer and steel with wear",
+                 (0.12, 0.22, 0.16), 0.4, scale_m=0.5, bump_m=0.0002, variation=0.2, wear=0.2,
+                 semantic_class="pole"),
+    LibraryEntry("metal_brushed", "brushed stainless steel: fine directional streaks along the object's x axis",
+                 (0.58, 0.58, 0.58), 0.3, metallic=1.0, scale_m=0.2, bump_m=0.00005, variation=0.1, wear=0.1),
+    LibraryEntry("metal_rusty", "weathered steel: paint and steel giving way to rust (more with wear)",
+                 (0.30, 0.30, 0.29), 0.5, metallic=1.0, scale_m=0.5, bump_m=0.001, variation=0.3, wear=0.5,
+                 semantic_class="pole"),
+    LibraryEntry("chrome", "polished chrome: a near-perfect mirror with faint smudges",
+                 (0.55, 0.56, 0.55), 0.05, metallic=1.0, scale_m=0.1, bump_m=0.0001, variation=0.05, wear=0.1),
+    LibraryEntry("car_paint", "car paint: metallic base coat under a glossy clear coat (colour for the car's)",
+                 (0.05, 0.09, 0.20), 0.35, metallic=0.5, scale_m=0.5, bump_m=0.00003, variation=0.5, wear=0.15,
+                 semantic_class="car"),
+    LibraryEntry("glass_window", "window glass: mirror-like reflections over a dark interior (curtains, rooms); "
+                                 "opaque, so depth is the glass", (0.035, 0.038, 0.04), 0.03, scale_m=1.5,
+                 bump_m=0.0003, variation=0.5, wear=0.1, semantic_class="window"),
+    # --- nature -----------------------------------------------------------------------------
+    LibraryEntry("grass", "lawn seen from a few metres: clumps, dry and lush patches, fine blade relief",
+                 (0.06, 0.10, 0.03), 0.9, scale_m=0.3, bump_m=0.006, variation=0.3, wear=0.2,
+                 semantic_class="terrain"),
+    LibraryEntry("leaves", "foliage mass: leaf clusters catching the light, dark gaps, yellowed leaves with wear",
+                 (0.05, 0.09, 0.025), 0.6, scale_m=0.08, bump_m=0.05, variation=0.35, wear=0.15,
+                 semantic_class="vegetation"),
+    LibraryEntry("bark", "tree bark: vertical ridges along the object's y axis, lichen with wear",
+                 (0.13, 0.10, 0.08), 0.9, scale_m=0.05, bump_m=0.01, variation=0.3, wear=0.3,
+                 semantic_class="vegetation"),
+    LibraryEntry("soil", "bare earth: clods, small stones, damp patches", (0.14, 0.10, 0.07), 0.95,
+                 scale_m=0.1, bump_m=0.004, variation=0.3, wear=0.3, semantic_class="terrain"),
+    LibraryEntry("gravel", "loose gravel: rounded 2-4 cm stones of varied tone with dark gaps",
+                 (0.30, 0.28, 0.25), 0.85, scale_m=0.03, bump_m=0.008, variation=0.25, wear=0.2,
+                 semantic_class="terrain"),
+)
+
+# the tags of ``MATERIAL ... library L`` and what they change (docs/ses-language.md)
+OVERRIDES = ("colour", "roughness", "metallic", "texture_scale", "wear", "bump", "variation", "seed")
+
+
+def entry(name: str) -> LibraryEntry:
+    """The library entry ``name`` (case-insensitive); KeyError if there is none."""
+    return LIBRARY[name.lower()]
+
+
+def is_library_name(name: str) -> bool:
+    return name.lower() in LIBRARY
+
+
+@dataclass(frozen=True)
+class ObjectVariation:
+    """What makes one object's copy of a library material its own.
+
+    ``offset_m``: added to the object's coordinates before the pattern (metres, each
+    component in -500..500); ``rand``: three numbers in 0..1 the recipes use for the
+    object's colour, roughness and wear shifts.
+    """
+    offset_m: Vec3
+    rand: Vec3
+
+
+def object_variation(seed: int, object_id: int) -> ObjectVariation:
+    """A pure, platform-independent function of (material seed, object id): SHA-256 of
+    the two integers, its first 24 bytes read as six little-endian uint32 in 0..1."""
+    digest = hashlib.sha256(struct.pack("<qq", int(seed), int(object_id))).digest()
+    u = [x / 2**32 for x in struct.unpack("<6I", digest[:24])]
+    return ObjectVariation(offset_m=tuple(1000.0 * (v - 0.5) for v in u[:3]), rand=tuple(u[3:]))

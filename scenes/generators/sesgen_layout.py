@@ -1,0 +1,86 @@
+"""Shared helpers of the scene generators: number formatting, SES lines for assets and
+poses, a street's centreline (the same function the street strips are built from).
+
+Imported by the generators in this folder (``sys.path`` gets this folder); pure numpy.
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[2]
+if str(REPO) not in sys.path:
+    sys.path.insert(0, str(REPO))
+
+from blender_sesgen.contract.se3 import R_to_euler_xyz_deg, euler_xyz_deg_to_R  # noqa: E402
+from blender_sesgen.assets.street import arc_frame  # noqa: E402,F401  (re-exported)
+
+
+def num(v: float, nd: int = 3) -> str:
+    """A number with at most ``nd`` decimals, no trailing zeros, never '-0'."""
+    s = f"{float(v):.{nd}f}"
+    if "." in s:
+        s = s.rstrip("0").rstrip(".")
+    return "0" if s in ("-0", "") else s
+
+
+def nums(values, nd: int = 3) -> str:
+    return " ".join(num(v, nd) for v in values)
+
+
+class Ids:
+    """Object ids handed out in ranges per category (so ids say what an object is)."""
+
+    def __init__(self, starts: dict[str, int]):
+        self.next = dict(starts)
+
+    def __call__(self, category: str) -> int:
+        i = self.next[category]
+        self.next[category] += 1
+        return i
+
+
+def asset(kind: str, id_: int, position, yaw_deg: float = 0.0, size=None, seed=None, extra: str = "") -> str:
+    parts = [f"ASSET {kind} id {id_}"]
+    if seed is not None:
+        parts.append(f"seed {int(seed)}")
+    rot = f" 0 {num(yaw_deg, 3)} 0" if abs(yaw_deg) > 1e-9 else ""
+    parts.append(f"position {nums(position)}{rot}")
+    if size is not None:
+        parts.append(f"size {nums(size)}")
+    if extra:
+        parts.append(extra)
+    return " ".join(parts)
+
+
+def camera_pose_line(position, yaw_deg: float, pitch_deg: float = 0.0, roll_deg: float = 0.0) -> str:
+    """``POSE x y z rx ry rz`` of a camera at ``position`` heading ``yaw_deg`` (left
+    positive, 0 = looking along -z), pitched up by ``pitch_deg`` about its own x axis and
+    rolled by ``roll_deg`` about its own optical axis."""
+    R_body = (euler_xyz_deg_to_R(0, yaw_deg, 0) @ euler_xyz_deg_to_R(pitch_deg, 0, 0)
+              @ euler_xyz_deg_to_R(0, 0, -roll_deg))
+    rx, ry, rz = R_to_euler_xyz_deg(R_body)
+    return f"POSE {nums(position, 4)} {nums((rx, ry, rz), 4)}"
+
+
+def smooth_noise(rng, n: int, scale: float, cycles=(1.3, 2.9, 6.1)) -> np.ndarray:
+    """A smooth random signal of n samples: a few sines of random phase, RMS ~ scale."""
+    t = np.linspace(0.0, 1.0, n)
+    out = np.zeros(n)
+    for c in cycles:
+        out += np.sin(2 * np.pi * c * rng.uniform(0.7, 1.3) * t + rng.uniform(0, 2 * np.pi)) / np.sqrt(len(cycles))
+    return scale * out * np.sqrt(2)
+
+
+def sun_travel(elevation_deg: float, azimuth_deg: float) -> np.ndarray:
+    """The way sunlight travels (``LIGHT sun direction``) for a sun at this elevation and
+    azimuth (azimuth from -z towards +x, as ``WORLD sky``'s)."""
+    el, az = np.radians(elevation_deg), np.radians(azimuth_deg)
+    return -np.array([np.cos(el) * np.sin(az), np.sin(el), -np.cos(el) * np.cos(az)])
+
+
+def sky_and_sun(elevation_deg: float, azimuth_deg: float, sky_strength: float = 1.0) -> list[str]:
+    """A physical sky with its sun (the renderer adds the sun as a calibrated lamp)."""
+    return [f"WORLD sky strength {num(sky_strength)} elevation {num(elevation_deg)} azimuth {num(azimuth_deg)}"]

@@ -1,0 +1,120 @@
+"""Ray casting against triangle soups (numpy only): the oracle for procedural assets.
+
+Independent of Blender: rays from an OpenCV pinhole or any origins/directions, closest
+intersections by Möller–Trumbore in float64, with a per-mesh bounding-box cull.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def rays_hit_triangles(o: np.ndarray, d: np.ndarray, tris: np.ndarray, chunk: int = 2_000_000):
+    """Closest positive hit of rays (o (n,3), d (n,3)) with triangles (m,3,3):
+    (t (n,) with inf for a miss, index of the triangle (n,) with -1 for a miss)."""
+    o, d = np.asarray(o, float), np.asarray(d, float)
+    n, m = len(o), len(tris)
+    t_best = np.full(n, np.inf)
+    i_best = np.full(n, -1, dtype=np.int64)
+    if m == 0 or n == 0:
+        return t_best, i_best
+    a = tris[:, 0]
+    e1, e2 = tris[:, 1] - a, tris[:, 2] - a
+    step = max(1, chunk // max(n, 1))
+    for s in range(0, m, step):
+        A, E1, E2 = a[s:s + step], e1[s:s + step], e2[s:s + step]
+        p = np.cross(d[:, None, :], E2[None, :, :])                    # (n, k, 3)
+        det = np.einsum("nkj,kj->nk", p, E1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = 1.0 / det
+            tv = o[:, None, :] - A[None, :, :]
+            u = np.einsum("nkj,nkj->nk", tv, p) * inv
+            q = np.cross(tv, E1[None, :, :])
+            v = np.einsum("nj,nkj->nk", d, q) * inv
+            t = np.einsum("nkj,kj->nk", q, E2) * inv
+            ok = (np.abs(det) > 1e-15) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-9)
+        t = np.where(ok, t, np.inf)
+        k = np.argmin(t, axis=1)
+        tk = t[np.arange(n), k]
+        better = tk < t_best
+        t_best[better] = tk[better]
+        i_best[better] = k[better] + s
+    return t_best, i_best
+
+
+def box_hit(o, d, lo, hi) -> np.ndarray:
+    """Whether each ray meets the axis-aligned box [lo, hi] (slab test)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1, t2 = (lo - o) / d, (hi - o) / d
+    tn = np.nanmax(np.minimum(t1, t2), axis=1)
+    tf = np.nanmin(np.maximum(t1, t2), axis=1)
+    return (tf >= np.maximum(tn, 0.0))
+
+
+def _leaves(tris: np.ndarray, leaf: int):
+    """Split triangles by median cuts along the longest axis until each part has at most
+    ``leaf`` of them: a flat list of (triangles, lo, hi) - a one-level bounding-box tree."""
+    out, stack = [], [tris]
+    while stack:
+        t = stack.pop()
+        pts = t.reshape(-1, 3)
+        lo, hi = pts.min(0) - 1e-9, pts.max(0) + 1e-9
+        if len(t) <= leaf:
+            out.append((t, lo, hi))
+            continue
+        c = t.mean(axis=1)
+        axis = int(np.argmax(hi - lo))
+        order = np.argsort(c[:, axis], kind="stable")
+        half = len(t) // 2
+        stack += [t[order[:half]], t[order[half:]]]
+    return out
+
+
+class TriangleScene:
+    """Meshes in world coordinates with ids; ``cast`` gives the closest hit's distance and id."""
+
+    def __init__(self, leaf: int = 256):
+        self.leaf = leaf
+        self.parts: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = []   # (id, tris, lo, hi)
+
+    def add(self, obj_id: int, vertices: np.ndarray, faces: np.ndarray, T_world: np.ndarray = None) -> None:
+        V = np.asarray(vertices, float)
+        if T_world is not None:
+            V = V @ T_world[:3, :3].T + T_world[:3, 3]
+        for tris, lo, hi in _leaves(V[np.asarray(faces)], self.leaf):
+            self.parts.append((int(obj_id), tris, lo, hi))
+
+    def cast(self, o, d):
+        o, d = np.asarray(o, float), np.asarray(d, float)
+        t_best = np.full(len(o), np.inf)
+        id_best = np.zeros(len(o), dtype=np.int64)
+        if not self.parts:
+            return t_best, id_best
+        LO = np.array([p[2] for p in self.parts])
+        HI = np.array([p[3] for p in self.parts])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t1 = (LO[None, :, :] - o[:, None, :]) / d[:, None, :]
+            t2 = (HI[None, :, :] - o[:, None, :]) / d[:, None, :]
+        tn = np.nanmax(np.minimum(t1, t2), axis=2)
+        tf = np.nanmin(np.maximum(t1, t2), axis=2)
+        meets = tf >= np.maximum(tn, 0.0)                          # (rays, parts)
+        for j in np.flatnonzero(meets.any(axis=0)):
+            sel = np.flatnonzero(meets[:, j] & (tn[:, j] < t_best))
+            if len(sel) == 0:
+                continue
+            obj_id, tris, _, _ = self.parts[j]
+            t, _ = rays_hit_triangles(o[sel], d[sel], tris)
+            better = t < t_best[sel]
+            t_best[sel[better]] = t[better]
+            id_best[sel[better]] = obj_id
+        return t_best, id_best
+
+
+def pinhole_rays(K: np.ndarray, T_world_cam: np.ndarray, pixels: np.ndarray):
+    """World origins, unit directions and the cosine to the optical axis (planar depth =
+    distance * cosine) of rays through pixel centres ``pixels`` (n, 2) of an OpenCV camera."""
+    uv1 = np.column_stack([pixels, np.ones(len(pixels))])
+    r_cam = uv1 @ np.linalg.inv(K).T
+    norm = np.linalg.norm(r_cam, axis=1)
+    d = (r_cam / norm[:, None]) @ T_world_cam[:3, :3].T
+    o = np.broadcast_to(T_world_cam[:3, 3], d.shape)
+    return np.array(o), d, 1.0 / norm
