@@ -39,8 +39,12 @@ demo: $(STAMP)
 addon:
 	$(PY) -m blender_sesgen.addon.package --out dist
 
+# The speed and quality figures of the docs, each bench with its defaults (hours on 2 cores:
+# quality.py renders a 4096-sample reference once, then caches it; fuzz_campaign.py and
+# identical_renders.py are checks, run them by hand).
+BENCHES := bench_completion bench_evaluate bench_stereo_vo bench_mono bench_render bench_gt_cost bench_memory bench_farm quality
 bench: $(STAMP)
-	@for b in bench/*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
+	@for b in $(BENCHES); do echo "== bench/$$b.py"; $(PY) bench/$$b.py || exit 1; done
 
 clean:
 	rm -rf out dist build .pytest_cache

@@ -1,7 +1,7 @@
 """Image quality per second of the render presets, side by side with Blender's own defaults
 and BlenderProc's defaults, in one run at one resolution.
 
-    .venv/bin/python bench/quality.py [--scene scenes/paper_room.ses] [--frame 0] [--scale 0.5]
+    .venv/bin/python bench/quality.py [--scene scenes/paper_room.ses] [--frame 0] [--scale 0.25]
         [--views left] [--configs gt draft final reference blender blenderproc]
         [--try NAME:base=final,samples=24,adaptive_threshold=0.03 ...] [--repeat 1]
         [--reference-samples 4096] [--cache out/bench-cache]
@@ -24,7 +24,9 @@ Configurations: the presets (``blender_sesgen.presets``); ``blender``: a new Ble
 scene's Cycles settings (4096 samples, adaptive threshold 0.01, OpenImageDenoise, 12
 bounces, indirect clamp 10, caustics); ``blenderproc``: BlenderProc 2's defaults
 (``DefaultConfig``: at most 1024 samples, adaptive threshold 0.01, Intel OpenImageDenoise,
-3 bounces: diffuse 3, glossy 0, transmission 0, transparent 8) with all CPU threads.
+3 bounces: diffuse 3, glossy 0, transmission 0, transparent 8) with all CPU threads;
+``today``: the renderer's settings before the presets (16 samples, no denoiser, 6/3/3/6
+bounces, indirect clamp 10, no caustics).
 """
 from __future__ import annotations
 
@@ -59,6 +61,8 @@ OTHERS = {
     "blenderproc": Preset("custom", samples=1024, adaptive_threshold=0.01, denoise=True, max_bounces=3,
                           diffuse_bounces=3, glossy_bounces=0, transmission_bounces=0, volume_bounces=0,
                           transparent_bounces=8, clamp_indirect=10.0, caustics=True, light_tree=True),
+    # the renderer before the presets: 16 samples, no denoiser, 6/3/3/6 bounces, indirect clamp 10
+    "today": Preset("custom", samples=16),
 }
 
 
@@ -160,7 +164,9 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--scene", default=str(REPO / "scenes" / "paper_room.ses"))
     p.add_argument("--frame", type=int, default=0)
-    p.add_argument("--scale", type=float, default=0.5, help="resolution scale (0.5: 320x240 for the paper room)")
+    p.add_argument("--scale", type=float, default=0.25,
+                   help="resolution scale (0.25: 160x120 for the paper room, as in docs/rendering.md; a 4096-sample "
+                        "reference at 0.5 takes hours on 2 cores)")
     p.add_argument("--views", choices=("left", "both"), default="left")
     p.add_argument("--configs", nargs="*", default=["gt", "draft", "final", "reference", "blender", "blenderproc"])
     p.add_argument("--try", dest="tries", nargs="*", default=[], metavar="NAME:key=value,...",

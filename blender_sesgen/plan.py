@@ -16,7 +16,7 @@ import platform
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Optional
+from typing import Callable, Optional
 
 import numpy as np
 
@@ -178,8 +178,10 @@ class RenderPlan:
     scene_sha256: str = field(default="")
 
     @classmethod
-    def from_file(cls, scene_path, options: RenderOptions = RenderOptions()) -> "RenderPlan":
-        """Parse and validate ``scene_path`` with ``options`` (SesgenError/ScriptError)."""
+    def from_file(cls, scene_path, options: RenderOptions = RenderOptions(),
+                  edit: Optional[Callable[[str], str]] = None) -> "RenderPlan":
+        """Parse and validate ``scene_path`` with ``options`` (SesgenError/ScriptError);
+        ``edit`` rewrites the script's text first (the plan's script is the edited one)."""
         path = Path(scene_path)
         if not path.is_file():
             raise SesgenError(f"{scene_path}: no such script")
@@ -187,6 +189,8 @@ class RenderPlan:
             data = path.read_bytes()
         except OSError as e:
             raise SesgenError(f"{scene_path}: cannot read: {e.strerror}") from None
+        if edit is not None:   # undecodable bytes pass through, for the parser to locate
+            data = edit(data.decode("utf-8", errors="surrogateescape")).encode("utf-8", errors="surrogateescape")
         from .ses import parse_bytes
         scene = parse_bytes(data, source=str(scene_path), base_dir=str(path.resolve().parent))
         return cls.from_scene(scene, options, scene_text=data.decode("utf-8", errors="replace"))

@@ -285,6 +285,32 @@ def test_build_draws_moving_objects_paths_and_render_takes_the_timing_override(a
     assert [o["id"] for o in m["objects"] if o.get("moving")] == [7]
 
 
+def test_the_world_override_lights_the_build_and_the_render_with_a_bundled_hdri(addon_zip, tmp_path):
+    script = tmp_path / "lit.ses"
+    script.write_text(MOVING_SCRIPT.replace("FRAMES 4", "WORLD colour 0.2 0.2 0.2\nFRAMES 2"))
+    out = tmp_path / "out"
+    res = run_child(f"""
+        s = S()
+        s.script_path = {str(script)!r}
+        s.world, s.world_strength, s.world_rotation = "sunset", 2.0, 30.0
+        RESULT["build"] = call(bpy.ops.sesgen.build)
+        world = bpy.data.scenes["SESGen"].world
+        RESULT["images"] = [n.image.filepath for n in world.node_tree.nodes
+                            if n.type == "TEX_ENVIRONMENT" and n.image is not None]
+        s = S()
+        s.output_dir = {str(out)!r}
+        s.override_render, s.samples = True, 1
+        RESULT["render"] = call(bpy.ops.sesgen.render)
+    """, addon_zip, tmp_path)
+    assert res["build"]["error"] is None and res["render"]["error"] is None
+    assert [Path(p).stem for p in res["images"]] == ["sunset"], res["images"]
+    rendered = (out / "scene.ses").read_text()
+    assert "// WORLD colour 0.2 0.2 0.2" in rendered and "WORLD hdri sunset strength 2 rotation 30" in rendered
+    from blender_sesgen.ses import parse_file
+    w = parse_file(out / "scene.ses").world
+    assert (w.kind, w.hdri, w.strength, w.rotation_deg) == ("hdri", "sunset", 2.0, 30.0)
+
+
 # --- Verify: the output folder against its manifest ---------------------------------------------
 
 def test_verify_operator_names_a_damaged_frame_and_resume_renders_it_again(addon_zip, tmp_path):

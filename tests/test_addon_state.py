@@ -30,3 +30,15 @@ def test_summary_names_moving_objects_timing_lens_sensor_and_imu():
 def test_a_plain_script_shows_no_sensor_lines():
     lines = summary_lines(parse_string(SCRIPT.split("MOVE")[0] + "FRAMES 2\n"))
     assert not [ln for ln in lines if ln.split(":")[0] in ("Moving", "Timing", "Lens", "Sensor", "IMU")]
+
+
+def test_the_world_override_replaces_the_scripts_world_and_keeps_its_line_numbers():
+    from blender_sesgen.addon.state import script_with_world
+    text = SCRIPT.replace("FRAMES 5", "  world sky strength 0.5 // the script's own\nFRAMES 5")
+    edited = script_with_world(text, "sunset", 2.0, 30.0)
+    old, new = text.splitlines(), edited.splitlines()
+    assert new[: len(old)] == [("// " + ln) if ln.lstrip().lower().startswith("world ") else ln for ln in old]
+    scene = parse_string(edited)
+    w = scene.world
+    assert (w.kind, w.hdri, w.strength, w.rotation_deg) == ("hdri", "sunset", 2.0, 30.0)
+    assert parse_string(text).world.kind == "sky"

@@ -223,7 +223,10 @@ def test_a_cancelled_task_stops_its_render_between_views(scenes, cluster):
     ref = ray.remote(chunk.task).options(num_cpus=1, max_retries=0).remote(args, "long[0:25]#1", str(out), None,
                                                                           str(script))
     t0 = time.time()
-    while not any(_writers(out).values()) and time.time() - t0 < 300:
+    def first_frame_done() -> bool:   # a frame in a completion log: the render is under way
+        return any(f.stat().st_size > 0 for f in (out / ".sesgen").glob("done-*.jsonl")) if out.is_dir() else False
+
+    while not first_frame_done() and time.time() - t0 < 300:
         ready, _ = ray.wait([ref], timeout=0.05)
         assert not ready, ray.get(ref)
     ray.cancel(ref)

@@ -4,6 +4,7 @@ from __future__ import annotations
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
+from ..lighting_data import BUILTIN_HDRIS
 from .export_job import TARGETS
 from .preview import KINDS
 
@@ -24,6 +25,16 @@ class SESGEN_PG_settings(bpy.types.PropertyGroup):
                                  ("draft", "Draft", "At least 32 dB PSNR against a converged render"),
                                  ("final", "Final", "At least 38 dB PSNR (the default)"),
                                  ("reference", "Reference", "At least 45 dB PSNR")))
+    world: EnumProperty(name="World", default="script",
+                        description="Light the scene with a bundled HDRI instead of the script's WORLD "
+                                    "(the rendered scene.ses says so)",
+                        items=(("script", "Script", "The script's WORLD (the default lighting when it has none)"),
+                               *((n, n.capitalize(), f"Blender's bundled CC0 HDRI '{n}' (WORLD hdri {n})")
+                                 for n in BUILTIN_HDRIS)))
+    world_strength: FloatProperty(name="Strength", min=0.0, soft_max=10.0, default=1.0,
+                                  description="HDRI strength (WORLD hdri ... strength)")
+    world_rotation: FloatProperty(name="Rotation", soft_min=-180.0, soft_max=180.0, default=0.0,
+                                  description="HDRI rotation about the vertical, degrees (WORLD hdri ... rotation)")
     override_render: BoolProperty(name="Override Script Settings", default=False,
                                   description="Use these samples/denoise/seed over the quality preset and the "
                                               "script's RENDER line")

@@ -74,12 +74,22 @@ def script_path(values: dict) -> str:
     return path
 
 
+def plan(values: dict) -> RenderPlan:
+    """The script with the panel's options and its World override (``state.script_with_world``)."""
+    world = values.get("world", "script")
+    edit = None
+    if world != "script":
+        from .state import script_with_world
+        def edit(text: str) -> str:
+            return script_with_world(text, world, values["world_strength"], values["world_rotation"])
+    return RenderPlan.from_file(script_path(values), props.render_options(values), edit=edit)
+
+
 def prepare_render_job(values: dict) -> RenderJob:
     out = props.abspath(values["output_dir"])
     if not out:
         raise SesgenError("choose an output folder first")
-    return RenderJob.prepare(script_path(values), out, props.render_options(values),
-                             resume=values["resume"], force=values["overwrite"])
+    return RenderJob.of(plan(values), out, resume=values["resume"], force=values["overwrite"])
 
 
 def _fallback_scene(values: dict):
@@ -166,10 +176,10 @@ def build(context, values: dict, make_session: Callable, scene):
 def build_scene(context, values: dict) -> str:
     """The Build Scene button (no output folder involved): returns a one-line report."""
     from ..blender.session import BlenderSession
-    plan = RenderPlan.from_file(script_path(values), props.render_options(values))
-    built = build(context, values, lambda: BlenderSession(plan), plan.scene).built
+    the_plan = plan(values)
+    built = build(context, values, lambda: BlenderSession(the_plan), the_plan.scene).built
     n = sum(len(v) for v in built.objects.values())
-    msg = (f"built {n} objects, {len(built.cameras)} camera(s) keyed over {plan.scene.frames} frames "
+    msg = (f"built {n} objects, {len(built.cameras)} camera(s) keyed over {the_plan.scene.frames} frames "
            f"in scene '{built.scene.name}'")
     set_status(values, msg)
     return msg

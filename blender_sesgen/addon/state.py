@@ -6,6 +6,7 @@ path, modification time and size) and returns a :class:`ScriptInfo` to draw from
 from __future__ import annotations
 
 import os
+import re
 from collections import Counter
 from dataclasses import dataclass, field
 from typing import Optional
@@ -119,3 +120,20 @@ def forget(path: Optional[str] = None) -> None:
         _cache.clear()
     else:
         _cache.pop(path, None)
+
+
+# --- the panel's world override ----------------------------------------------------------
+
+_WORLD_LINE = re.compile(r"^[ \t]*world(?=[ \t]|$)", re.IGNORECASE)
+WORLD_OVERRIDE_NOTE = "// the add-on's World override:"
+
+
+def script_with_world(text: str, hdri: str, strength: float = 1.0, rotation_deg: float = 0.0) -> str:
+    """``text`` lit by the bundled HDRI ``hdri`` instead of its own WORLD: the script's WORLD
+    line is commented out in place (so every other line keeps its number, and errors their
+    position) and ``WORLD hdri ...`` is appended. What is rendered is then exactly the
+    script that the output folder's ``scene.ses`` holds."""
+    lines = text.splitlines()
+    lines = [f"// {ln}" if _WORLD_LINE.match(ln) else ln for ln in lines]
+    lines += [WORLD_OVERRIDE_NOTE, f"WORLD hdri {hdri} strength {strength:g} rotation {rotation_deg:g}"]
+    return "\n".join(lines) + "\n"

@@ -86,6 +86,10 @@ class SESGEN_PT_render(_SidebarPanel, bpy.types.Panel):
         layout.use_property_decorate = False
         _toggled(layout, s, "Frames", "use_frame_range", "Range", ("frame_first", "frame_last"))
         layout.prop(s, "quality")
+        layout.prop(s, "world")
+        if s.world != "script":
+            layout.prop(s, "world_strength")
+            layout.prop(s, "world_rotation")
         _toggled(layout, s, "Sampling", "override_render", "Override Script", ("samples", "denoise", "seed"))
         _toggled(layout, s, "Timing", "override_timing", "Override Script",
                  ("rate_hz", "exposure_ms", "readout_ms", "motion_blur"))
