@@ -1,7 +1,7 @@
 """How much do the scene library's renders look like real camera images? Side by side.
 
 Renders frames of scenes/city_kitti.ses (KITTI's rig) and scenes/hall.ses (EuRoC's rig)
-at their full resolution and default quality, and prints, in one run, the same image
+at their full resolution and the scripts' own quality, and prints, in one run, the same image
 statistics (vo_reference.realism) for them and for the real sequences in
 ../shared/data: the KITTI odometry excerpt (kitti/sequence_1) and the EuRoC V1_01 excerpt
 (euroc/mav0), plus the OpenCV baseline stereo VO's end-point drift where ground truth
@@ -182,7 +182,7 @@ def table(columns: list[tuple[str, ImageStats, float]], sec_per_frame: float) ->
     lines.append("| OpenCV baseline stereo VO end-point drift | " + " | ".join(fmt(d) for _, _, d in columns) + " |")
     lines.append("| frames | " + " | ".join(str(st.frames) for _, st, _ in columns) + " |")
     if np.isfinite(sec_per_frame):
-        lines.append(f"| seconds per stereo frame (this machine, default quality) | | {sec_per_frame:.0f} |" +
+        lines.append(f"| seconds per stereo frame (this machine, the script's quality) | | {sec_per_frame:.0f} |" +
                      " |" * (len(columns) - 2))
     return "\n".join(lines)
 

@@ -18,10 +18,9 @@ from blender_sesgen.ses import parse_string
 
 from test_scene_library import LIBRARY, _generator, assert_cameras_see_surfaces
 
-# indoors the walls have real window openings (sky beyond): a varied walk or flight that looks
-# along a window row may see sky through one row of the 7 x 5 grid, hence 0.8 (0.9 for the
-# checked-in scripts, whose paths face the racks and shelves)
-MIN_HIT = {"city_kitti": 0.5, "office": 0.8, "forest": 0.4, "hall": 0.8}
+# the checked-in scripts' thresholds (test_scene_library): indoors, open windows let upper rays
+# out to the sky
+MIN_HIT = {"city_kitti": 0.5, "office": 0.8, "forest": 0.4, "hall": 0.75}
 BUNDLED_HDRIS = {"city", "courtyard", "forest", "interior", "night", "studio", "sunrise", "sunset"}
 
 

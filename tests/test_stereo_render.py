@@ -1,7 +1,7 @@
 """Stereo VO end to end on a real render: script -> Cycles -> EXR folder -> VO -> report.
 
 The first 5 frames of ``scenes/paper_room.ses`` (the recreated paper scene) rendered at a
-quarter of its resolution (160x120, f = 97.25 px) with 2 samples — a few seconds. Oracle:
+quarter of its resolution (160x120, f = 97.25 px) with 4 denoised samples — a few seconds. Oracle:
 the render's own ground-truth poses (the script's EGO lines) and depth.
 
 What a broken pipeline would violate:
@@ -32,8 +32,10 @@ FRAMES = 5
 def render(tmp_path_factory):
     from render_support import REPO, run_render
     out = tmp_path_factory.mktemp("stereo_render") / "paper_room"
+    # denoised: under the physically based default lighting (no ambient glow) 2 noisy samples
+    # leave the dim room as noise
     r = run_render(REPO / "scenes" / "paper_room.ses", "--out", out, "--frames", f"0:{FRAMES}",
-                   "--samples", "2", "--no-denoise", "--resolution-scale", "0.25", "--quiet")
+                   "--samples", "4", "--denoise", "--resolution-scale", "0.25", "--quiet")
     assert r.returncode == 0, r.stderr
     return out
 
