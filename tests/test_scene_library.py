@@ -4,6 +4,7 @@ at every frame (rays cast against the scenes' own meshes)."""
 from __future__ import annotations
 
 import importlib.util
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +24,7 @@ LIBRARY = ("city_kitti", "office", "forest", "hall")
 def _generator(name):
     spec = importlib.util.spec_from_file_location(f"gen_{name}", SCENES / "generators" / f"{name}.py")
     mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod          # as generators.load_file does (dataclasses need it)
     spec.loader.exec_module(mod)
     return mod
 
@@ -170,15 +172,22 @@ def test_cameras_see_surfaces_at_every_frame(scenes, name, min_hit):
     the office's open windows and the hall's strip windows under the roof let upper rays
     out to the sky — measured minimum 0.86 and 0.80 of the grid), and the image's lower
     half always sees ground."""
-    s = scenes[name]
+    assert_cameras_see_surfaces(scenes[name], name, min_hit)
+
+
+def assert_cameras_see_surfaces(s, name: str, min_hit: float, frames=None) -> None:
+    """Both cameras' rays through a 7 x 5 pixel grid hit ``s``'s solid surfaces within 300 m
+    for at least ``min_hit`` of the grid, and all of the lower half, at every frame (or at
+    the frame indices ``frames``)."""
     ts = _solid_scene(s)
     W, H = s.rig.width, s.rig.height
     us, vs = np.linspace(0.5, W - 1.5, 7), np.linspace(0.5, H - 1.5, 5)
     pix = np.array([(u, v) for v in vs for u in us])
     lower = pix[:, 1] > H / 2 + 1
     K = s.rig.K()
-    for k, T_left in enumerate(s.timeline.left()):
-        for T in (T_left, s.timeline.right(s.rig.baseline)[k]):
+    lefts, rights = s.timeline.left(), s.timeline.right(s.rig.baseline)
+    for k in (range(len(lefts)) if frames is None else frames):
+        for T in (lefts[k], rights[k]):
             o, d, _ = mesh_raycast.pinhole_rays(K, T, pix)
             t, _ = ts.cast(o, d)
             hit = t < 300

@@ -10,22 +10,61 @@ keeping its lane with small steering, speed, pitch and roll variations.
 
     python scenes/generators/city_kitti.py [--seed N] [--frames N] > scenes/city_kitti.ses
 
-``generate(seed, **options)`` returns the script (the checked-in file is seed 0).
+``generate(seed, **options)`` returns the script (the checked-in file is seed 0). Every seed
+lays out its own street (curves, widths, buildings, trees, cars); a seed other than 0 also
+varies (:class:`Variation`) the time of day (sun elevation 12-65 deg, any azimuth) or, one
+time in three, a bundled daylight HDRI (city, courtyard, forest, sunrise, sunset) at a random
+strength and rotation, haze one time in four, the asphalt (tone, wear) and the paving, and
+the drive: 0.8-1.5 m per frame, 1-3 curves of 5-18 deg, the lane position and weave.
+``frames`` sets the sequence length; ``step_m``, ``sun_elevation``, ``sun_azimuth`` override
+the seed's (a sun given replaces an HDRI).
 """
 from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Optional
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from sesgen_layout import Ids, arc_frame, asset, camera_pose_line, num, nums, sky_and_sun, smooth_noise  # noqa: E402
+from sesgen_layout import (Ids, Lighting, arc_frame, asset, camera_pose_line, derived_material, draw_lighting,  # noqa: E402
+                           num, nums, smooth_noise, variation_rng)
 
 KITTI_RIG = "CAMERA resolution 1226 370 focal 707 baseline 0.54 near 0.1 far 600"
 CAMERA_HEIGHT = 1.65
 PIECE = 20.0                 # centreline pieces (m)
+ASPHALT = (0.085, 0.085, 0.082)
+PAVING = ((0.30, 0.29, 0.27), (0.34, 0.33, 0.31), (0.26, 0.25, 0.24), (0.31, 0.22, 0.18))
+
+
+@dataclass(frozen=True)
+class Variation:
+    """What a seed changes besides the layout; the defaults are city_kitti.ses's (seed 0)."""
+    lighting: Lighting = Lighting(sun=(42.0, 35.0))
+    step_m: float = 1.2                  # metres per frame (KITTI: ~1.2)
+    curves: int = 2                      # gentle curves along the street
+    curve_deg: tuple = (6.0, 14.0)       # the range of each curve's total turn
+    lane: float = 1.7                    # the left camera right of the centreline (m)
+    weave: float = 0.1                   # lane keeping: amplitude of the lateral wander (m)
+    road: Optional[tuple] = None         # (colour, wear) of the asphalt; None: as the road asset picks it
+    paving: Optional[tuple] = None       # (colour, wear) of the sidewalks' concrete
+
+    @classmethod
+    def of(cls, seed: int) -> "Variation":
+        if seed == 0:
+            return cls()
+        rng = variation_rng(seed, 0xC17)
+        tone = float(rng.uniform(0.8, 1.35))
+        return cls(lighting=draw_lighting(rng, p_hdri=1 / 3, p_fog=0.25, fog_start=(25.0, 80.0),
+                                          fog_depth=(150.0, 450.0)),
+                   step_m=round(float(rng.uniform(0.8, 1.5)), 3), curves=int(rng.integers(1, 4)),
+                   curve_deg=(5.0, 18.0), lane=round(float(rng.uniform(1.35, 1.9)), 2),
+                   weave=round(float(rng.uniform(0.04, 0.15)), 3),
+                   road=(tuple(round(c * tone, 3) for c in ASPHALT), round(float(rng.uniform(0.1, 0.8)), 2)),
+                   paving=(PAVING[int(rng.integers(len(PAVING)))], round(float(rng.uniform(0.0, 0.6)), 2)))
 
 
 def _centre(street_pos, street_yaw, s, L, bends):
@@ -36,19 +75,28 @@ def _centre(street_pos, street_yaw, s, L, bends):
     return (c @ R.T + street_pos, n @ R.T, np.degrees(h) + street_yaw)
 
 
-def generate(seed: int = 0, frames: int = 101, step_m: float = 1.2, sun_elevation: float = 42.0,
-             sun_azimuth: float = 35.0) -> str:
+def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, sun_elevation: Optional[float] = None,
+             sun_azimuth: Optional[float] = None) -> str:
     """The SES script of the city street for ``seed`` (layout, buildings, trees, cars and
-    drive all follow from it)."""
+    drive all follow from it; see the module docstring)."""
+    if int(seed) < 0 or int(frames) < 2:
+        raise ValueError(f"seed must be >= 0 and frames >= 2, got seed {seed}, frames {frames}")
+    v = Variation.of(int(seed))
+    step_m = v.step_m if step_m is None else float(step_m)
+    lighting = v.lighting
+    if sun_elevation is not None or sun_azimuth is not None:
+        lighting = Lighting(sun=(lighting.sun[0] if sun_elevation is None else float(sun_elevation),
+                                 lighting.sun[1] if sun_azimuth is None else float(sun_azimuth)),
+                            sky_strength=lighting.sky_strength, fog=lighting.fog)
     rng = np.random.default_rng(seed)
     behind, ahead = 40.0, 130.0
     L = behind + step_m * (frames - 1) * 1.1 + ahead
     n_pieces = int(np.ceil(L / PIECE))
     L = n_pieces * PIECE
     bends = np.zeros(n_pieces)
-    for _ in range(2):           # two gentle curves somewhere along the drive
+    for _ in range(v.curves):    # gentle curves somewhere along the drive
         i = int(rng.integers(2, n_pieces - 3))
-        turn = rng.choice([-1, 1]) * rng.uniform(6, 14)
+        turn = rng.choice([-1, 1]) * rng.uniform(*v.curve_deg)
         bends[i:i + 3] += turn * np.array([0.3, 0.4, 0.3])
     bends = np.round(bends, 3)
     street_pos = np.array([0.0, 0.0, behind])
@@ -67,18 +115,24 @@ def generate(seed: int = 0, frames: int = 101, step_m: float = 1.2, sun_elevatio
            f"// Generated by scenes/generators/city_kitti.py --seed {seed} --frames {frames} "
            "(edit that, not this file). Y up, metres.",
            KITTI_RIG,
-           *sky_and_sun(sun_elevation, sun_azimuth),
-           "RENDER samples 16 denoise on",
-           "", "// the street: one centreline (arcs of 20 m), strips side by side"]
+           *lighting.lines(),
+           "RENDER samples 16 denoise on"]
+    road_mat = paving_mat = ""
+    if v.road is not None:
+        out += ["", "// this seed's asphalt and paving (library materials with its own tone and wear)",
+                derived_material("road_asphalt", "asphalt", v.road[0], v.road[1], seed=seed),
+                derived_material("paving", "concrete", v.paving[0], v.paving[1], seed=seed)]
+        road_mat, paving_mat = " material road_asphalt", " material paving"
+    out += ["", "// the street: one centreline (arcs of 20 m), strips side by side"]
     bend_s = nums(bends)
     rot = f"position {nums(street_pos)} 0 {num(street_yaw)} 0"
 
-    def strip(kind, width, height, offset, seed_):
+    def strip(kind, width, height, offset, seed_, material=""):
         return (f"ASSET {kind} id {ids('street')} seed {seed_} {rot} size {nums((width, height, L))} "
-                f"bend {bend_s} offset {num(offset, 3)}")
+                f"bend {bend_s} offset {num(offset, 3)}{material}")
 
     r_kerb = half_road + kerb_w / 2 - 0.05            # kerbs overlap the road edge by 5 cm
-    out.append(strip("road", 2 * half_road, 0.3, 0.0, seed * 10 + 1))
+    out.append(strip("road", 2 * half_road, 0.3, 0.0, seed * 10 + 1, road_mat))
     out.append(strip("kerb", kerb_w, kerb_h, r_kerb, seed * 10 + 2))
     out.append(strip("kerb", kerb_w, kerb_h, -r_kerb, seed * 10 + 3))
     o = r_kerb + kerb_w / 2
@@ -86,13 +140,13 @@ def generate(seed: int = 0, frames: int = 101, step_m: float = 1.2, sun_elevatio
     out.append(strip("verge", lawn_w, kerb_h, o + lawn_w / 2, seed * 10 + 4))
     o += lawn_w
     walk_r_span = (o, o + walk_r)
-    out.append(strip("sidewalk", walk_r, kerb_h, o + walk_r / 2, seed * 10 + 5))
+    out.append(strip("sidewalk", walk_r, kerb_h, o + walk_r / 2, seed * 10 + 5, paving_mat))
     o += walk_r
     right_edge = o
     out.append(strip("verge", yard, kerb_h, o + yard / 2, seed * 10 + 6))
     o = r_kerb + kerb_w / 2
     walk_l_span = (-(o + walk_l), -o)
-    out.append(strip("sidewalk", walk_l, kerb_h, -(o + walk_l / 2), seed * 10 + 7))
+    out.append(strip("sidewalk", walk_l, kerb_h, -(o + walk_l / 2), seed * 10 + 7, paving_mat))
     o += walk_l
     left_edge = -o
     out.append(strip("verge", yard, kerb_h, -(o + yard / 2), seed * 10 + 8))
@@ -226,7 +280,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: float = 1.2, sun_elevatio
     k = np.arange(frames)
     speed = step_m * (1 + 0.06 * smooth_noise(rng, frames, 1.0, (0.7, 1.6)))
     s_cam = behind + np.concatenate([[0.0], np.cumsum(speed[:-1])])
-    lane = 1.7 + 0.1 * smooth_noise(rng, frames, 1.0, (0.8, 1.7, 3.1))
+    lane = v.lane + v.weave * smooth_noise(rng, frames, 1.0, (0.8, 1.7, 3.1))
     c, n, h = _centre(street_pos, street_yaw, s_cam, L, bends)
     pos = c + lane[:, None] * n + [0.0, CAMERA_HEIGHT, 0.0]
     pos[:, 1] += 0.01 * smooth_noise(rng, frames, 1.0, (9.0, 17.0))            # suspension

@@ -11,6 +11,15 @@ runs: ~0.6 m/s (at most ~1.5) at 1-2.5 m height, yawing to look around, rolling 
 degrees with its accelerations.
 
     python scenes/generators/hall.py [--seed N] [--frames N] > scenes/hall.ses
+
+``generate(seed, frames=200, width=30, depth=40, height=10)`` returns the script (the
+checked-in file is seed 0). Every seed fits out the hall its own way (machines, tanks, racks,
+clutter, cladding colour, brick or concrete plinth); a seed other than 0 also varies
+(:class:`Variation`) the daylight through the windows (sun elevation 10-65 deg, any azimuth,
+or one time in three a bundled HDRI outside: city, courtyard, forest, sunrise, sunset), the
+lamps' power and colour temperature, the finishes (floor concrete tone and wear, the aisle
+paint, the door) and the flight: how far it goes (4-10 m) and in which direction, its
+sideways swing, height and bobbing, and how much it yaws to look around.
 """
 from __future__ import annotations
 
@@ -18,16 +27,52 @@ import argparse
 import os
 import re
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from sesgen_layout import REPO, Ids, asset, camera_pose_line, num, nums, sky_and_sun, smooth_noise  # noqa: E402
+from sesgen_layout import (REPO, Ids, Lighting, asset, camera_pose_line, draw_lighting, num, nums,  # noqa: E402
+                           smooth_noise, variation_rng)
 
 # EuRoC MAV cam0/cam1 (../shared/data/euroc/mav0/*/sensor.yaml): used when the data folder is absent
 EUROC_DEFAULT = {"resolution": (752, 480), "fu": 458.654, "cu": 367.215, "cv": 248.375, "baseline": 0.110078}
 RATE_HZ = 20.0
+LAMP_COLOURS = ((1.0, 0.86, 0.7), (1.0, 0.95, 0.88), (0.92, 0.96, 1.0))   # warm, neutral, cool white
+AISLE_PAINTS = ((0.55, 0.45, 0.03), (0.7, 0.7, 0.68), (0.06, 0.3, 0.12), (0.6, 0.12, 0.04))
+DOOR_PAINTS = ((0.35, 0.3, 0.05), (0.05, 0.12, 0.3), (0.3, 0.31, 0.32), (0.35, 0.05, 0.03))
+
+
+@dataclass(frozen=True)
+class Variation:
+    """What a seed changes besides the layout; the defaults are hall.ses's (seed 0)."""
+    lighting: Lighting = Lighting(sun=(35.0, 120.0))
+    lamps: tuple = (250.0, None)         # hanging lamps: (strength W, colour or None = white)
+    floor: tuple = ((0.3, 0.3, 0.29), 0.6)            # (colour, wear) of the concrete floor
+    aisle_paint: tuple = (0.55, 0.45, 0.03)
+    door_paint: tuple = (0.35, 0.3, 0.05)
+    distance: float = 6.0                # how far the flight goes (m)
+    reverse: bool = False                # flown towards +z (south) instead of -z
+    swing: float = 1.5                   # sideways swing (m)
+    height: tuple = (1.6, 0.5)           # mean height and its swing (m)
+    look: float = 35.0                   # yawing to look around (deg)
+
+    @classmethod
+    def of(cls, seed: int) -> "Variation":
+        if seed == 0:
+            return cls()
+        rng = variation_rng(seed, 0x4A1)
+        tone = float(rng.uniform(0.75, 1.3))
+        return cls(lighting=draw_lighting(rng, elevation=(10.0, 65.0), p_hdri=1 / 3),
+                   lamps=(round(float(rng.uniform(120.0, 350.0)), 1), LAMP_COLOURS[int(rng.integers(3))]),
+                   floor=(tuple(round(0.3 * tone * c, 3) for c in (1, 1, 0.97)), round(float(rng.uniform(0.2, 0.9)), 2)),
+                   aisle_paint=AISLE_PAINTS[int(rng.integers(len(AISLE_PAINTS)))],
+                   door_paint=DOOR_PAINTS[int(rng.integers(len(DOOR_PAINTS)))],
+                   distance=round(float(rng.uniform(4.0, 10.0)), 2), reverse=bool(rng.uniform() < 0.4),
+                   swing=round(float(rng.uniform(0.6, 2.6)), 2),
+                   height=(round(float(rng.uniform(1.25, 2.1)), 2), round(float(rng.uniform(0.2, 0.6)), 2)),
+                   look=round(float(rng.uniform(15.0, 55.0)), 1))
 
 
 def _sensor(path: Path) -> dict:
@@ -57,6 +102,10 @@ def euroc_rig(root: Path = None) -> dict:
 
 def generate(seed: int = 0, frames: int = 200, width: float = 30.0, depth: float = 40.0,
              height: float = 10.0) -> str:
+    """The SES script of the hall flight for ``seed`` (see the module docstring)."""
+    if int(seed) < 0 or int(frames) < 2:
+        raise ValueError(f"seed must be >= 0 and frames >= 2, got seed {seed}, frames {frames}")
+    var = Variation.of(int(seed))
     rng = np.random.default_rng(seed)
     rig = euroc_rig()
     W, D, H = width, depth, height
@@ -71,14 +120,14 @@ def generate(seed: int = 0, frames: int = 200, width: float = 30.0, depth: float
            "Y up, metres.",
            f"CAMERA resolution {rig['resolution'][0]} {rig['resolution'][1]} focal {num(rig['fu'])} "
            f"principal {num(rig['cu'])} {num(rig['cv'])} baseline {num(rig['baseline'], 4)} near 0.05 far 200",
-           *sky_and_sun(35.0, 120.0), "LOOK exposure auto", "RENDER samples 16 denoise on", ""]
+           *var.lighting.lines(), "LOOK exposure auto", "RENDER samples 16 denoise on", ""]
     clad = rng.choice(["0.3 0.33 0.36", "0.45 0.46 0.45", "0.2 0.27 0.33"])
     out += ["// materials derived from the library (colour replaces the library's)",
-            "MATERIAL name hall_floor library concrete colour 0.3 0.3 0.29 wear 0.6",
+            f"MATERIAL name hall_floor library concrete colour {nums(var.floor[0])} wear {num(var.floor[1], 2)}",
             f"MATERIAL name cladding library metal_painted colour {clad}",
             "MATERIAL name roof_steel library metal_painted colour 0.3 0.31 0.32",
-            "MATERIAL name floor_paint library lane_marking colour 0.55 0.45 0.03",
-            "MATERIAL name door_paint library metal_painted colour 0.35 0.3 0.05", "",
+            f"MATERIAL name floor_paint library lane_marking colour {nums(var.aisle_paint)}",
+            f"MATERIAL name door_paint library metal_painted colour {nums(var.door_paint)}", "",
             "// the shell: floor, plinth walls, cladding between strip windows, roof"]
     out.append(f"CUBOID id {ids('shell')} name floor material hall_floor class floor "
                f"position 0 -0.1 0 dim {nums((W + 2 * t, 0.2, D + 2 * t))}")
@@ -127,7 +176,8 @@ def generate(seed: int = 0, frames: int = 200, width: float = 30.0, depth: float
         out.append(asset("girder", ids("structure"), (0, H - 0.9, z), 0.0, (W, 0.9, 0.3), seed=gir_seed))
         for x in np.linspace(-W / 3, W / 3, 3):
             out.append(asset("ceiling_light", ids("light"), (x, H - 0.9, z), 0.0, (0.6, 1.6, 0.3), seed=7))
-            out.append(f"LIGHT area position {nums((x, H - 2.55, z))} direction 0 -1 0 size 0.5 strength 250")
+            out.append(f"LIGHT area position {nums((x, H - 2.55, z))} direction 0 -1 0 size 0.5 "
+                       f"strength {num(var.lamps[0])}" + (f" colour {nums(var.lamps[1])}" if var.lamps[1] else ""))
     out.append(asset("girder", ids("structure"), (-W / 2 + 0.35, H - 0.9, 0), 90.0, (D, 0.5, 0.3), seed=gir_seed))
     out.append(asset("girder", ids("structure"), (W / 2 - 0.35, H - 0.9, 0), 90.0, (D, 0.5, 0.3), seed=gir_seed))
 
@@ -170,14 +220,15 @@ def generate(seed: int = 0, frames: int = 200, width: float = 30.0, depth: float
     tt = np.arange(n) / RATE_HZ
     s = np.linspace(0, 1, n)
     # a loop through the open middle of the hall: forward along -z, a turn, drifting sideways
-    path_x = 1.5 * np.sin(2 * np.pi * (0.5 * s + rng.uniform(0, 0.2))) + 0.3 * smooth_noise(rng, n, 1.0, (1.2, 2.5))
-    path_z = D / 2 - 12 - 6.0 * (0.5 - 0.5 * np.cos(np.pi * s))
-    path_y = 1.6 + 0.5 * np.sin(2 * np.pi * (0.6 * s + rng.uniform(0, 1))) + 0.15 * smooth_noise(rng, n, 1.0, (2.0, 4.1))
+    path_x = var.swing * np.sin(2 * np.pi * (0.5 * s + rng.uniform(0, 0.2))) + 0.3 * smooth_noise(rng, n, 1.0, (1.2, 2.5))
+    along = 0.5 - 0.5 * np.cos(np.pi * s)
+    path_z = D / 2 - 12 - var.distance * (along[::-1] if var.reverse else along)
+    path_y = var.height[0] + var.height[1] * np.sin(2 * np.pi * (0.6 * s + rng.uniform(0, 1))) + 0.15 * smooth_noise(rng, n, 1.0, (2.0, 4.1))
     P = np.stack([path_x, path_y, path_z], axis=1)
     vel = np.gradient(P, tt, axis=0)
     acc = np.gradient(vel, tt, axis=0)
     heading = np.degrees(np.arctan2(-vel[:, 0], -vel[:, 2]))
-    yaw = heading + 35.0 * smooth_noise(rng, n, 1.0, (0.9, 1.7))          # looks around, not only ahead
+    yaw = heading + var.look * smooth_noise(rng, n, 1.0, (0.9, 1.7))          # looks around, not only ahead
     # a multirotor tilts into its acceleration: pitch forward to speed up, roll into turns
     pitch = -8.0 + np.degrees(np.clip(-(acc[:, 2] * np.cos(np.radians(yaw)) + acc[:, 0] * np.sin(np.radians(yaw))) / 9.81, -0.1, 0.1)) \
         + 0.5 * smooth_noise(rng, n, 1.0, (9.0, 17.0))

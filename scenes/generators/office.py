@@ -9,39 +9,96 @@ moves like a hand-held one at 30 Hz: slowly along the aisle (~0.4 m/s, 12 s),
 panning and tilting to look at the shelves, desks and windows, with hand shake.
 
     python scenes/generators/office.py [--seed N] [--frames N] > scenes/office.ses
+
+``generate(seed, frames=360)`` returns the script (the checked-in file is seed 0). Every seed
+furnishes the room its own way (windows, door, desks, chairs, wall colour, floor); a seed
+other than 0 also varies (:class:`Variation`) the daylight (sun elevation 10-60 deg, any
+azimuth, or one time in three a bundled HDRI outside: city, courtyard, forest, sunrise,
+sunset), the ceiling lights' power and colour temperature, the finishes (floor tone and
+wear, wall wear) and the walk: the route's waypoints, its direction, the eye height, the
+points looked at and the hand shake.
 """
 from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Optional
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from sesgen_layout import Ids, asset, camera_pose_line, num, nums, sky_and_sun, smooth_noise  # noqa: E402
+from sesgen_layout import (Ids, Lighting, asset, camera_pose_line, derived_material, draw_lighting, num,  # noqa: E402
+                           nums, sky_and_sun, smooth_noise, variation_rng)
 
 RATE_HZ = 30.0
+FLOORS = {"wood_planks": ((0.33, 0.19, 0.09), (0.45, 0.30, 0.16), (0.20, 0.11, 0.05), (0.52, 0.40, 0.25)),
+          "ceramic_tiles": ((0.62, 0.62, 0.6), (0.45, 0.44, 0.42), (0.7, 0.66, 0.58), (0.3, 0.3, 0.31))}
+LAMP_COLOURS = ((1.0, 0.86, 0.7), (1.0, 0.95, 0.88), (0.92, 0.96, 1.0))   # warm, neutral, cool white
+WAY = ((2.75, 1.3), (2.75, -0.9), (1.8, -2.6), (0.8, -2.9))              # the route along the aisle
+LOOKS = ((0.0, 0.8, 0.2), (0.3, 0.8, -1.2), (1.0, 1.5, -4.5), (-2.5, 0.9, -2.0), (-0.5, 0.8, 0.8))
+
+
+@dataclass(frozen=True)
+class Variation:
+    """What a seed changes besides the layout; the defaults are office.ses's (seed 0)."""
+    lighting: Optional[Lighting] = None  # None: the sun the layout stream draws (office.ses's)
+    lamps: tuple = (60.0, None)          # ceiling area lights: (strength W, colour or None = white)
+    floor: Optional[tuple] = None        # (colour, wear) of the floor's library material; None: the library's
+    wall_wear: float = 0.1
+    way: tuple = WAY                     # waypoints (x, z) of the walk, walked in this order
+    looks: tuple = LOOKS                 # points looked at, in turn
+    eye: float = 1.45                    # mean eye height (m)
+    shake: float = 1.0                   # hand shake, relative to office.ses's
+
+    @classmethod
+    def of(cls, seed: int) -> "Variation":
+        if seed == 0:
+            return cls()
+        rng = variation_rng(seed, 0x0FF)
+        lighting = draw_lighting(rng, elevation=(10.0, 60.0), p_hdri=1 / 3)
+        lamps = (round(float(rng.uniform(25.0, 90.0)), 1), LAMP_COLOURS[int(rng.integers(len(LAMP_COLOURS)))])
+        floor = (int(rng.integers(4)), round(float(rng.uniform(0.0, 0.5)), 2))
+        # the aisle (x 2.6-2.9) stays between the desks and the bookcases; the corner by the windows moves more
+        jitter = [(rng.uniform(-0.12, 0.12), rng.uniform(-0.3, 0.3)), (rng.uniform(-0.12, 0.12), rng.uniform(-0.3, 0.3)),
+                  (rng.uniform(-0.3, 0.3), rng.uniform(-0.25, 0.25)), (rng.uniform(-0.4, 0.4), rng.uniform(-0.2, 0.3))]
+        way = tuple((round(x + dx, 3), round(z + dz, 3)) for (x, z), (dx, dz) in zip(WAY, jitter))
+        looks = tuple(tuple(round(c + float(rng.uniform(-0.5, 0.5)), 3) for c in p) for p in LOOKS)
+        if rng.uniform() < 0.4:                  # walked the other way: from the windows back down the aisle
+            way, looks = way[::-1], looks[::-1]
+        return cls(lighting=lighting, lamps=lamps, floor=floor, wall_wear=round(float(rng.uniform(0.0, 0.4)), 2),
+                   way=way, looks=looks, eye=round(float(rng.uniform(1.3, 1.65)), 2),
+                   shake=round(float(rng.uniform(0.6, 1.5)), 2))
 
 
 def generate(seed: int = 0, frames: int = 360) -> str:
+    """The SES script of the office walk for ``seed`` (see the module docstring)."""
+    if int(seed) < 0 or int(frames) < 2:
+        raise ValueError(f"seed must be >= 0 and frames >= 2, got seed {seed}, frames {frames}")
+    var = Variation.of(int(seed))
     rng = np.random.default_rng(seed)
     W, H, D, t = 7.0, 2.9, 9.0, 0.2
     ids = Ids({"shell": 1, "opening": 100, "light": 200, "furniture": 300, "decor": 700, "outside": 900})
     floor_mat = str(rng.choice(["wood_planks", "ceramic_tiles"]))
     wall_colour = rng.choice(["0.7 0.69 0.66", "0.66 0.64 0.58", "0.6 0.63 0.64", "0.72 0.7 0.62"])
+    sun = sky_and_sun(float(rng.uniform(25, 40)), float(rng.uniform(150, 210)))   # drawn all the same: the layout stays
     out = ["// office.ses - an office walked through with a hand-held camera, TUM RGB-D style:",
            "// 640x480, f 525 px (TUM's), stereo baseline 0.1 m, 30 Hz.",
            f"// Generated by scenes/generators/office.py --seed {seed} --frames {frames} (edit that, not this file). "
            "Y up, metres.",
            "CAMERA resolution 640 480 focal 525 baseline 0.1 near 0.05 far 200",
-           *sky_and_sun(float(rng.uniform(25, 40)), float(rng.uniform(150, 210))),
+           *(sun if var.lighting is None else var.lighting.lines()),
            "LOOK exposure auto", "RENDER samples 16 denoise on", "",
            "// materials derived from the library (colour replaces the library's)",
-           f"MATERIAL name wall_paint library plaster colour {wall_colour} wear 0.1",
+           f"MATERIAL name wall_paint library plaster colour {wall_colour} wear {num(var.wall_wear, 2)}",
            "MATERIAL name ceiling_paint library plaster colour 0.78 0.78 0.76 wear 0.05",
-           "MATERIAL name skirting library plastic colour 0.7 0.7 0.68", "",
-           "// the room: floor, ceiling, walls around a window row (north) and a door (west)"]
+           "MATERIAL name skirting library plastic colour 0.7 0.7 0.68"]
+    if var.floor is not None:
+        out.append(derived_material("floor_finish", floor_mat, FLOORS[floor_mat][var.floor[0]], var.floor[1], seed=seed))
+        floor_mat = "floor_finish"
+    out += ["",
+            "// the room: floor, ceiling, walls around a window row (north) and a door (west)"]
     out.append(f"CUBOID id {ids('shell')} name floor material {floor_mat} position 0 -0.1 0 "
                f"dim {nums((W + 2 * t, 0.2, D + 2 * t))}")
     out.append(f"CUBOID id {ids('shell')} name ceiling material ceiling_paint class ceiling position 0 {num(H + 0.1)} 0 "
@@ -92,7 +149,8 @@ def generate(seed: int = 0, frames: int = 360) -> str:
     for x in (-1.6, 1.6):
         for z in (-2.6, 0.0, 2.6):
             out.append(asset("ceiling_light", ids("light"), (x, H, z), 0.0, (1.2, 0.05, 0.3), seed=11))
-            out.append(f"LIGHT area position {nums((x, H - 0.12, z))} direction 0 -1 0 size 1.1 0.25 strength 60")
+            out.append(f"LIGHT area position {nums((x, H - 0.12, z))} direction 0 -1 0 size 1.1 0.25 "
+                       f"strength {num(var.lamps[0])}" + (f" colour {nums(var.lamps[1])}" if var.lamps[1] else ""))
 
     out += ["", "// desks with monitors and chairs (two rows facing each other), shelves, cabinets, sofa corner"]
     desk_z = [-1.2, 0.75]
@@ -140,7 +198,7 @@ def generate(seed: int = 0, frames: int = 360) -> str:
     tt = np.arange(n) / RATE_HZ
     s = np.linspace(0, 1, n)
     # through the aisle between the desks and the shelves, then turning towards the windows
-    way = np.array([(2.75, 1.3), (2.75, -0.9), (1.8, -2.6), (0.8, -2.9)])
+    way = np.array(var.way)
     u = np.linspace(0, 1, len(way))
     px = np.interp(s, u, way[:, 0])
     pz = np.interp(s, u, way[:, 1])
@@ -148,11 +206,11 @@ def generate(seed: int = 0, frames: int = 360) -> str:
     for _ in range(2):
         px = np.convolve(np.pad(px, k, mode="edge"), np.ones(2 * k + 1) / (2 * k + 1), "valid")
         pz = np.convolve(np.pad(pz, k, mode="edge"), np.ones(2 * k + 1) / (2 * k + 1), "valid")
-    py = 1.45 + 0.04 * smooth_noise(rng, n, 1.0, (0.6, 1.4)) + 0.008 * np.sin(2 * np.pi * 1.8 * tt)
+    py = var.eye + 0.04 * smooth_noise(rng, n, 1.0, (0.6, 1.4)) + 0.008 * np.sin(2 * np.pi * 1.8 * tt)
     P = np.stack([px, py, pz], axis=1)
     # where the camera looks: points of interest handed over smoothly (desks, shelves,
     # windows, the sofa corner), as a person filming the room would
-    looks = np.array([(0.0, 0.8, 0.2), (0.3, 0.8, -1.2), (1.0, 1.5, -4.5), (-2.5, 0.9, -2.0), (-0.5, 0.8, 0.8)])
+    looks = np.array(var.looks)
     lu = np.linspace(0, 1, len(looks))
     target = np.stack([np.interp(s, lu, looks[:, i]) for i in range(3)], axis=1)
     for _ in range(2):
@@ -162,9 +220,10 @@ def generate(seed: int = 0, frames: int = 360) -> str:
     yaw = np.degrees(np.arctan2(-view[:, 0], -view[:, 2]))
     yaw = np.degrees(np.unwrap(np.radians(yaw)))
     pitch = np.degrees(np.arctan2(view[:, 1], np.hypot(view[:, 0], view[:, 2])))
-    yaw = yaw + 4 * smooth_noise(rng, n, 1.0, (0.5, 1.1)) + 0.3 * smooth_noise(rng, n, 1.0, (6.0, 9.0, 14.0))
-    pitch = pitch + 3 * smooth_noise(rng, n, 1.0, (0.4, 0.9)) + 0.3 * smooth_noise(rng, n, 1.0, (6.0, 11.0))
-    roll = 2.0 * smooth_noise(rng, n, 1.0, (0.5, 1.2)) + 0.4 * smooth_noise(rng, n, 1.0, (7.0, 13.0))
+    q = var.shake
+    yaw = yaw + q * 4 * smooth_noise(rng, n, 1.0, (0.5, 1.1)) + q * 0.3 * smooth_noise(rng, n, 1.0, (6.0, 9.0, 14.0))
+    pitch = pitch + q * 3 * smooth_noise(rng, n, 1.0, (0.4, 0.9)) + q * 0.3 * smooth_noise(rng, n, 1.0, (6.0, 11.0))
+    roll = q * 2.0 * smooth_noise(rng, n, 1.0, (0.5, 1.2)) + q * 0.4 * smooth_noise(rng, n, 1.0, (7.0, 13.0))
     out += ["", f"// the walk: {n} poses of the left camera at {num(RATE_HZ, 0)} Hz"]
     out += [camera_pose_line(P[i], yaw[i], pitch[i], roll[i]) for i in range(n)]
     return "\n".join(out) + "\n"

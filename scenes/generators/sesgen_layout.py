@@ -6,7 +6,9 @@ Imported by the generators in this folder (``sys.path`` gets this folder); pure 
 from __future__ import annotations
 
 import sys
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Optional
 
 import numpy as np
 
@@ -84,3 +86,71 @@ def sun_travel(elevation_deg: float, azimuth_deg: float) -> np.ndarray:
 def sky_and_sun(elevation_deg: float, azimuth_deg: float, sky_strength: float = 1.0) -> list[str]:
     """A physical sky with its sun (the renderer adds the sun as a calibrated lamp)."""
     return [f"WORLD sky strength {num(sky_strength)} elevation {num(elevation_deg)} azimuth {num(azimuth_deg)}"]
+
+
+# --- what a seed varies besides the layout: light, time of day, fog -------------------------
+
+OUTDOOR_HDRIS = ("city", "courtyard", "forest", "sunrise", "sunset")   # bundled, daylight (not night/studio)
+HAZE = ((0.72, 0.75, 0.8), (0.78, 0.78, 0.78), (0.66, 0.68, 0.7))    # fog colours (linear): blue-grey haze, mist
+
+
+def variation_rng(seed: int, salt: int) -> np.random.Generator:
+    """The random stream of a seed's variation (light, materials, trajectory), apart from its
+    layout stream ``default_rng(seed)``: drawing variations never shifts the layout."""
+    return np.random.default_rng([int(seed), int(salt)])
+
+
+@dataclass(frozen=True)
+class Lighting:
+    """A scene's natural light: a physical sky with its sun at ``sun`` = (elevation, azimuth)
+    in degrees (the time of day), or a bundled HDRI ``hdri`` = (name, strength, rotation deg;
+    the sun is then unused);
+    optional distance fog ``fog`` = (start m, end m, colour)."""
+    sun: tuple = (45.0, 0.0)
+    sky_strength: float = 1.0
+    hdri: Optional[tuple] = None
+    fog: Optional[tuple] = None
+
+    def lines(self) -> list[str]:
+        if self.hdri is not None:
+            name, strength, rotation = self.hdri
+            out = [f"WORLD hdri {name} strength {num(strength)} rotation {num(rotation)}"]
+        else:
+            out = sky_and_sun(self.sun[0], self.sun[1], self.sky_strength)
+        if self.fog is not None:
+            start, end, colour = self.fog
+            out.append(f"FOG start {num(start, 1)} end {num(end, 1)} colour {nums(colour)}")
+        return out
+
+
+def draw_lighting(rng: np.random.Generator, elevation=(12.0, 65.0), azimuth=(0.0, 360.0), hdris=OUTDOOR_HDRIS,
+                  p_hdri: float = 0.3, p_fog: float = 0.0, fog_start=(15.0, 60.0), fog_depth=(80.0, 300.0)) -> Lighting:
+    """A random :class:`Lighting`: a sun anywhere in ``elevation`` x ``azimuth`` (sky
+    strength 0.8-1.2), or with probability ``p_hdri`` one of ``hdris`` (strength 0.7-1.4,
+    any rotation); fog with probability ``p_fog``, starting in ``fog_start`` and fully
+    fogged ``fog_depth`` metres further."""
+    sun = (round(float(rng.uniform(*elevation)), 1), round(float(rng.uniform(*azimuth)) % 360.0, 1))
+    strength = round(float(rng.uniform(0.8, 1.2)), 2)
+    hdri = None
+    if hdris and rng.uniform() < p_hdri:
+        hdri = (str(rng.choice(hdris)), round(float(rng.uniform(0.7, 1.4)), 2), round(float(rng.uniform(0, 360)), 1))
+    fog = None
+    if rng.uniform() < p_fog:
+        start = round(float(rng.uniform(*fog_start)), 1)
+        fog = (start, round(start + float(rng.uniform(*fog_depth)), 1), HAZE[int(rng.integers(len(HAZE)))])
+    return Lighting(sun=sun, sky_strength=strength, hdri=hdri, fog=fog)
+
+
+def derived_material(name: str, library: str, colour=None, wear=None, seed=None, texture_scale=None) -> str:
+    """``MATERIAL name N library L ...``: a library material with this scene's colour, wear
+    and per-object variation seed."""
+    parts = [f"MATERIAL name {name} library {library}"]
+    if colour is not None:
+        parts.append(f"colour {nums(colour)}")
+    if texture_scale is not None:
+        parts.append(f"texture_scale {num(texture_scale)}")
+    if wear is not None:
+        parts.append(f"wear {num(wear, 2)}")
+    if seed is not None:
+        parts.append(f"seed {int(seed)}")
+    return " ".join(parts)
