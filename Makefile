@@ -25,13 +25,13 @@ test-fast: $(STAMP)
 	$(PY) -m pytest -q -m "not render and not slow"
 
 # The main job: a photoreal street (3 frames of the scene library's city_kitti.ses, half size) and
-# the SESGen paper room: script -> render (half resolution, the draft preset: 8 denoised samples)
+# the SESGen paper room: script -> render (half resolution, the draft preset at 4 denoised samples)
 # -> contact sheet -> both stereo VOs -> report.
 demo: $(STAMP)
 	$(PY) -m blender_sesgen check $(DEMO_PHOTOREAL)
-	$(PY) -m blender_sesgen render $(DEMO_PHOTOREAL) --out $(DEMO_OUT)/photoreal --frames 0:3 --resolution-scale 0.5 --quality draft --resume --force --contact-sheet
+	$(PY) -m blender_sesgen render $(DEMO_PHOTOREAL) --out $(DEMO_OUT)/photoreal --frames 0:3 --resolution-scale 0.5 --quality draft --samples 4 --resume --force --contact-sheet
 	$(PY) -m blender_sesgen check $(DEMO_SCENE)
-	$(PY) -m blender_sesgen render $(DEMO_SCENE) --out $(DEMO_OUT)/render --resolution-scale 0.5 --quality draft --resume --force --contact-sheet
+	$(PY) -m blender_sesgen render $(DEMO_SCENE) --out $(DEMO_OUT)/render --resolution-scale 0.5 --quality draft --samples 4 --resume --force --contact-sheet
 	$(PY) -m vo_reference run $(DEMO_OUT)/render --report $(DEMO_OUT)/report
 	@echo "demo: contact sheets $(DEMO_OUT)/photoreal/contact_sheet.png and $(DEMO_OUT)/render/contact_sheet.png, report $(DEMO_OUT)/report/"
 
