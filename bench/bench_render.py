@@ -10,14 +10,24 @@ process. Configurations: a preset name (``gt``, ``draft``, ``final``, ``referenc
 ``NAME-plain`` (that preset rendered the plain way: a fresh Cycles session per view, as
 before the fast path), and ``today``: the renderer's settings before the presets (16
 samples, no denoiser, 6/3/3 bounces, indirect clamp 10, light tree) rendered the plain way.
+``CONFIG+zipL`` writes the EXRs at deflate level L (``gt+zip4``: OpenEXR's default level, as
+before the renderer chose its own).
+
+Any scene renders (``--scene``, the paper room by default), at its own size times ``--scale``.
 
 Columns (frames 2..N: the first frame pays for building the Cycles scene):
 - s/frame: wall seconds per stereo frame in the loop, and frames per second;
-- cpu s: CPU seconds the process used per stereo frame (robust on a shared machine);
+- cpu s: CPU seconds the rendering process used per stereo frame (user + system; robust on a
+  shared machine); seal s: the sealing worker process's CPU seconds per stereo frame (its
+  whole life, start-up included, over all frames), which compete for the same cores;
 - cycles s: Cycles' own render time per stereo frame (its ``Time:``, EXR writing included);
-- overhead: loop wall time / Cycles' time - 1, the pipeline's own per-frame cost
-  (camera and frame set-up, renames, the manifest; goal <= 2 %);
-- start s: process start to the end of the first frame (import, parse, build, exposure);
+- png s: writing the display-referred PNGs (Blender's colour management and PNG writer);
+- overhead: loop wall time / Cycles' time - 1, the pipeline's per-frame cost over Cycles'
+  (goal <= 2 %); w/o png: the same without the PNGs' time (frame and camera set-up, the
+  sealing hand-off, renames, the completion log);
+- build s: parsing the script and building the Blender scene (``RenderJob.build``: the
+  builder, textures, the exposure measurement); first s: the first frame (it synchronises
+  the Cycles scene: BVH, shaders, images);
 - peak MiB: the process's peak resident set.
 Ratios against ``today`` (when in the run) come from the same run. On a shared machine,
 read the ratios and the CPU seconds; ``--repeat`` runs each configuration again and keeps
@@ -48,7 +58,10 @@ def child(a) -> int:
     from blender_sesgen.plan import RenderOptions, RenderPlan
     from blender_sesgen.presets import Preset
 
-    name = a.config
+    name, _, zip_level = a.config.partition("+zip")
+    if zip_level:   # the EXRs at another deflate level (OpenEXR's default: 4)
+        from blender_sesgen.blender import render
+        render.EXR_ZIP_LEVEL = int(zip_level)
     plain = name == "today" or name.endswith("-plain")
     quality = None if name == "today" else name.removesuffix("-plain")
     options = RenderOptions(quality=quality, resolution_scale=a.scale, frames=f"0:{a.frames}",
@@ -58,17 +71,20 @@ def child(a) -> int:
         plan = replace(plan, settings=replace(plan.settings, preset=Preset(**TODAY)))
     with tempfile.TemporaryDirectory() as tmp:
         job = RenderJob.of(plan, Path(tmp) / "out")
+        t_build = time.perf_counter()
         job.build()
+        build_s = time.perf_counter() - t_build
         rows = []
 
         def progress(i, n, r, elapsed):
             ru = resource.getrusage(resource.RUSAGE_SELF)
             rows.append({"t": time.perf_counter(), "cpu": ru.ru_utime + ru.ru_stime, "cycles": r.cycles_s,
-                         "wall": r.wall_s})
+                         "wall": r.wall_s, "display": sum(v.get("display_s", 0.0) for v in r.views.values())})
         job.run(progress)
         ru = resource.getrusage(resource.RUSAGE_SELF)
-        end = {"t": time.perf_counter(), "cpu": ru.ru_utime + ru.ru_stime}
-    print(json.dumps({"rows": rows, "end": end, "start_s": rows[0]["t"] - START}), flush=True)
+        ch = resource.getrusage(resource.RUSAGE_CHILDREN)   # the sealing worker, waited for by run()
+        end = {"t": time.perf_counter(), "cpu": ru.ru_utime + ru.ru_stime, "children_cpu": ch.ru_utime + ch.ru_stime}
+    print(json.dumps({"rows": rows, "end": end, "start_s": rows[0]["t"] - START, "build_s": build_s}), flush=True)
     return 0
 
 
@@ -95,9 +111,12 @@ def run(a, config: str) -> dict:
     wall = end["t"] - rows[0]["t"] if len(rows) > 1 else rows[0]["wall"]
     cpu = end["cpu"] - rows[0]["cpu"] if len(rows) > 1 else float("nan")
     cycles = sum(r["cycles"] for r in loop)
+    display = sum(r["display"] for r in loop)
     return {"config": config, "s_frame": wall / n, "cpu_frame": cpu / n, "cycles_frame": cycles / n,
-            "overhead": wall / cycles - 1.0, "start_s": data["start_s"], "process_s": time.perf_counter() - t0,
-            "peak_mib": usage.ru_maxrss / 1024.0}
+            "seal_cpu_frame": end["children_cpu"] / len(rows), "png_frame": display / n,
+            "overhead": wall / cycles - 1.0, "overhead_no_png": (wall - display) / cycles - 1.0,
+            "start_s": data["start_s"], "build_s": data["build_s"], "first_s": rows[0]["wall"],
+            "process_s": time.perf_counter() - t0, "peak_mib": usage.ru_maxrss / 1024.0}
 
 
 def main(argv=None) -> int:
@@ -115,8 +134,8 @@ def main(argv=None) -> int:
     print(f"# render benchmark: {Path(a.scene).name}, {a.frames} stereo frames per configuration, scale {a.scale}, "
           f"{os.cpu_count()} CPUs, {platform.processor() or platform.machine()}, load {os.getloadavg()[0]:.1f}",
           flush=True)
-    print(f"{'config':14s} {'s/frame':>8s} {'fps':>6s} {'cpu s':>7s} {'cycles s':>9s} {'overhead':>9s} "
-          f"{'start s':>8s} {'peak MiB':>9s}", flush=True)
+    print(f"{'config':14s} {'s/frame':>8s} {'fps':>6s} {'cpu s':>7s} {'seal s':>7s} {'cycles s':>9s} {'png s':>7s} "
+          f"{'overhead':>9s} {'w/o png':>8s} {'build s':>8s} {'first s':>8s} {'peak MiB':>9s}", flush=True)
     results = {}
     for c in a.configs:
         best = None
@@ -125,8 +144,9 @@ def main(argv=None) -> int:
             best = r if best is None or r["s_frame"] < best["s_frame"] else best
         results[c] = best
         r = best
-        print(f"{c:14s} {r['s_frame']:8.3f} {1 / r['s_frame']:6.2f} {r['cpu_frame']:7.3f} {r['cycles_frame']:9.3f} "
-              f"{r['overhead']:9.1%} {r['start_s']:8.1f} {r['peak_mib']:9.0f}", flush=True)
+        print(f"{c:14s} {r['s_frame']:8.3f} {1 / r['s_frame']:6.2f} {r['cpu_frame']:7.3f} {r['seal_cpu_frame']:7.3f} "
+              f"{r['cycles_frame']:9.3f} {r['png_frame']:7.3f} {r['overhead']:9.1%} {r['overhead_no_png']:8.1%} "
+              f"{r['build_s']:8.1f} {r['first_s']:8.1f} {r['peak_mib']:9.0f}", flush=True)
     if "today" in results:
         t = results["today"]
         for c, r in results.items():

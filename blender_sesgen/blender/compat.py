@@ -9,12 +9,18 @@
 - Principled BSDF: ``Specular IOR Level`` (4.0+) vs ``Specular`` (3.x);
 - physical sky: ``MULTIPLE_SCATTERING`` (5.0) vs ``NISHITA`` (4.x) (``sky_type_for``);
 - evaluated geometry: ``Object.evaluated_geometry()`` (4.5+) vs the point cloud of a
-  geometry-nodes object appearing as a depsgraph instance (4.2-4.4) (``evaluated_points``).
+  geometry-nodes object appearing as a depsgraph instance (4.2-4.4) (``evaluated_points``);
+- the deflate level of ZIP EXRs: not in Blender's API; set in the OpenEXR library Blender
+  loaded, where it can be found (``exr_zip_level``).
 
 Verified with the ``bpy`` wheels 4.2.23 LTS, 4.4.0, 4.5.15 LTS and 5.0.1 (docs/rendering.md,
 bench/check_blender_versions.sh).
 """
 from __future__ import annotations
+
+import contextlib
+import ctypes
+import sys
 
 import bpy
 
@@ -34,6 +40,56 @@ def set_multilayer_exr(image_settings, codec: str = "ZIP", bits: str = "32") -> 
     image_settings.file_format = "OPEN_EXR_MULTILAYER"
     image_settings.color_depth = bits
     image_settings.exr_codec = codec
+
+
+_OPENEXR_CORE = []   # [ctypes library or None], found once
+
+
+def _openexr_core():
+    """The OpenEXR core library this Blender writes EXRs with (``ctypes.CDLL``), or None:
+    on Linux the one mapped into this process (the bpy wheel's ``lib/libOpenEXRCore``),
+    else a build exporting its symbols (OpenEXR linked into the executable)."""
+    if not _OPENEXR_CORE:
+        lib = None
+        paths = []
+        if sys.platform.startswith("linux"):
+            try:
+                with open("/proc/self/maps") as f:
+                    paths = [line.split()[-1] for line in f if "libOpenEXRCore" in line]
+            except OSError:
+                pass
+        for path in dict.fromkeys(paths + [None]):
+            try:
+                cand = ctypes.CDLL(path)
+                cand.exr_set_default_zip_compression_level.argtypes = [ctypes.c_int]
+                cand.exr_get_default_zip_compression_level.argtypes = [ctypes.POINTER(ctypes.c_int)]
+                lib = cand
+                break
+            except (OSError, AttributeError):
+                continue
+        _OPENEXR_CORE.append(lib)
+    return _OPENEXR_CORE[0]
+
+
+@contextlib.contextmanager
+def exr_zip_level(level: int):
+    """ZIP EXRs written inside the block use deflate level ``level`` (1 fastest, 9 smallest;
+    OpenEXR's default is 4); the previous default comes back after it. Deflate is lossless
+    at every level: only the file's size and the time to write it change, not one decoded
+    value (tests/test_quality_presets.py). Blender has no setting for it, so the level is
+    set in the OpenEXR library Blender loaded; where that cannot be found (a Blender with
+    OpenEXR linked in and not exported), nothing changes. Yields whether it was set."""
+    lib = _openexr_core()
+    if lib is None:
+        yield False
+        return
+    old = ctypes.c_int(-1)
+    lib.exr_get_default_zip_compression_level(ctypes.byref(old))
+    lib.exr_set_default_zip_compression_level(int(level))
+    try:
+        yield True
+    finally:
+        lib.exr_set_default_zip_compression_level(old.value)
 
 
 def set_png(image_settings, bits: str = "8") -> None:

@@ -2,9 +2,10 @@
 
 Ground truth (Depth = planar z, Object Index) comes from Cycles' first sample, which goes
 through the exact pixel centre, so it is exact for any sample count, filter or denoiser;
-the beauty pass is anti-aliased. Output: multilayer OpenEXR, float32, ZIP (lossless), the
-scene-linear values; beside it, on request, the display-referred 8-bit PNG (the same render
-through the scene's view transform, ``save_display``).
+the beauty pass is anti-aliased. Output: multilayer OpenEXR, float32, ZIP (lossless) at
+deflate level ``EXR_ZIP_LEVEL``, the scene-linear values; beside it, on request, the
+display-referred 8-bit PNG (the same render through the scene's view transform,
+``save_display``).
 """
 from __future__ import annotations
 
@@ -20,6 +21,11 @@ from ..errors import SesgenError
 from ..presets import Preset
 from . import compat
 from .runtime import activate, quiet_stdout
+
+# deflate level of the EXRs' ZIP compression (OpenEXR's default: 4). Measured on a 640x480
+# gt stereo frame of the paper room (bench/bench_gt_cost.py): level 1 makes the files 1 %
+# larger and costs less CPU to write; every level decodes to the same values.
+EXR_ZIP_LEVEL = 1
 
 _TIME_RE = re.compile(r"Time:\s*(?:(\d+):)?(\d+):(\d+(?:\.\d+)?)")
 
@@ -138,7 +144,7 @@ def _render(bscene, quiet: bool) -> tuple[float, Optional[float]]:
     try:
         # the render takes its frame from the *context* scene: make it ours even where
         # there is no window to activate (blender -b)
-        with quiet_stdout(quiet), bpy.context.temp_override(scene=bscene):
+        with quiet_stdout(quiet), bpy.context.temp_override(scene=bscene), compat.exr_zip_level(EXR_ZIP_LEVEL):
             result = bpy.ops.render.render(write_still=True, scene=bscene.name)
     finally:
         bpy.app.handlers.render_stats.remove(stats)
@@ -175,15 +181,17 @@ def render_view(bscene, camera, frame: int, seed: int, filepath: str, quiet: boo
     """Render ``camera`` at Blender frame ``frame`` into the multilayer EXR ``filepath``
     (scene-linear) and, with ``display_path``, the display-referred 8-bit PNG.
 
-    Returns {"wall_s": seconds around the render call, "cycles_s": Cycles' own render time}.
+    Returns {"wall_s": seconds around the render call, "cycles_s": Cycles' own render time,
+    "display_s": seconds writing the PNG}.
     """
     set_multiview(bscene, False)
     _prepare(bscene, camera, frame, seed, fast)
     bscene.render.filepath = filepath
     wall, cycles = _render(bscene, quiet)
+    t0 = time.perf_counter()
     if display_path is not None:
         save_display(bscene, display_path)
-    return {"wall_s": wall, "cycles_s": cycles}
+    return {"wall_s": wall, "cycles_s": cycles, "display_s": time.perf_counter() - t0}
 
 
 def save_display(bscene, path: str, views=None) -> None:
@@ -258,8 +266,8 @@ def render_views(bscene, cameras: dict, views, frame: int, seed: int, paths: dic
                  display_paths: Optional[dict] = None) -> dict:
     """``views`` (a subset of ``cameras``) at ``frame`` in one multiview render with Cycles
     seed ``seed``, view v into ``paths[v]`` (and its display-referred PNG into
-    ``display_paths[v]``); {view: stats} (the render's wall and Cycles time split evenly
-    between its views)."""
+    ``display_paths[v]``); {view: stats} (the render's wall and Cycles time, and the time
+    spent writing the display PNGs, split evenly between its views)."""
     views = tuple(views)
     set_multiview(bscene, True, views)
     _prepare(bscene, cameras["left"], frame, seed, fast=True)
@@ -271,12 +279,14 @@ def render_views(bscene, cameras: dict, views, frame: int, seed: int, paths: dic
         wall, cycles = _render(bscene, quiet)
         for v in views:
             os.replace(written[v], paths[v])
+        t0 = time.perf_counter()
         if display_paths:
             save_display(bscene, str(display_paths[views[0]]), {v: display_paths[v] for v in views})
+        display = time.perf_counter() - t0
     finally:
         for p in written.values():
             if p.exists():
                 p.unlink()
     n = len(views)
-    return {v: {"wall_s": wall / n, "cycles_s": None if cycles is None else cycles / n, "views_per_render": n}
-            for v in views}
+    return {v: {"wall_s": wall / n, "cycles_s": None if cycles is None else cycles / n, "views_per_render": n,
+                "display_s": display / n} for v in views}
