@@ -11,7 +11,10 @@ process. Configurations: a preset name (``gt``, ``draft``, ``final``, ``referenc
 before the fast path), and ``today``: the renderer's settings before the presets (16
 samples, no denoiser, 6/3/3 bounces, indirect clamp 10, light tree) rendered the plain way.
 ``CONFIG+zipL`` writes the EXRs at deflate level L (``gt+zip4``: OpenEXR's default level, as
-before the renderer chose its own).
+before the renderer chose its own). ``CONFIG*P`` runs P render processes side by side, each
+with cores/P Cycles threads and its own N frames (``gt*2``: two single-threaded renders on two
+cores, as ``farm`` runs chunks; the columns are then their throughput together, CPU per
+frame over both, peak MiB summed).
 
 Any scene renders (``--scene``, the paper room by default), at its own size times ``--scale``.
 
@@ -58,14 +61,15 @@ def child(a) -> int:
     from blender_sesgen.plan import RenderOptions, RenderPlan
     from blender_sesgen.presets import Preset
 
-    name, _, zip_level = a.config.partition("+zip")
+    name, _, zip_level = a.config.split("*")[0].partition("+zip")
     if zip_level:   # the EXRs at another deflate level (OpenEXR's default: 4)
         from blender_sesgen.blender import render
         render.EXR_ZIP_LEVEL = int(zip_level)
     plain = name == "today" or name.endswith("-plain")
     quality = None if name == "today" else name.removesuffix("-plain")
-    options = RenderOptions(quality=quality, resolution_scale=a.scale, frames=f"0:{a.frames}",
-                            fast_pipeline=not plain)
+    first = a.part * a.frames
+    options = RenderOptions(quality=quality, resolution_scale=a.scale, frames=f"{first}:{first + a.frames}",
+                            fast_pipeline=not plain, threads=a.threads)
     plan = RenderPlan.from_file(a.scene, options)
     if name == "today":
         plan = replace(plan, settings=replace(plan.settings, preset=Preset(**TODAY)))
@@ -92,19 +96,51 @@ START = time.perf_counter()
 
 
 def run(a, config: str) -> dict:
-    cmd = [sys.executable, __file__, "--child", config, "--scene", str(a.scene), "--frames", str(a.frames),
-           "--scale", str(a.scale)]
+    """One configuration; ``NAME*P``: P render processes at once, each with cores/P Cycles
+    threads, process i rendering frames [i*N, (i+1)*N) (N = --frames): the steady-state
+    throughput is the frames all of them finish while all of them are past their first frame."""
+    procs = int(config.split("*")[1]) if "*" in config else 1
+    threads = max(1, (os.cpu_count() or 1) // procs) if procs > 1 else 0
     t0 = time.perf_counter()
-    with tempfile.TemporaryFile("w+") as so, tempfile.TemporaryFile("w+") as se:
-        proc = subprocess.Popen(cmd, cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO)), stdout=so, stderr=se,
-                                text=True)
+    files, children = [], []
+    for i in range(procs):
+        so, se = tempfile.TemporaryFile("w+"), tempfile.TemporaryFile("w+")
+        cmd = [sys.executable, __file__, "--child", config, "--scene", str(a.scene), "--frames", str(a.frames),
+               "--scale", str(a.scale), "--part", str(i), "--threads", str(threads)]
+        children.append(subprocess.Popen(cmd, cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO)), stdout=so,
+                                         stderr=se, text=True))
+        files.append((so, se))
+    results = []
+    for proc, (so, se) in zip(children, files):
         _, status, usage = os.wait4(proc.pid, 0)  # this child's own peak memory
         proc.returncode = os.waitstatus_to_exitcode(status)
         so.seek(0), se.seek(0)
         out, err = so.read(), se.read()
-    if proc.returncode != 0:
-        raise SystemExit(f"{config}: render failed ({proc.returncode}): {err[-3000:]}")
-    data = json.loads(out.strip().splitlines()[-1])
+        so.close(), se.close()
+        if proc.returncode != 0:
+            raise SystemExit(f"{config}: render failed ({proc.returncode}): {err[-3000:]}")
+        results.append(_summary(config, json.loads(out.strip().splitlines()[-1]), usage, t0))
+    if procs == 1:
+        return results[0]
+    return _combined(config, results)
+
+
+def _combined(config: str, results: list[dict]) -> dict:
+    """P processes' figures as one: throughput over the window in which all were rendering."""
+    start = max(r["rows"][0]["t"] for r in results)
+    stop = min(r["rows"][-1]["t"] for r in results)
+    done = sum(sum(start < row["t"] <= stop for row in r["rows"]) for r in results)
+    n = sum(len(r["rows"]) - 1 for r in results)
+    out = {k: sum(r[k] for r in results) / len(results) for k in ("cycles_frame", "png_frame", "overhead",
+                                                                 "overhead_no_png", "start_s", "build_s", "first_s")}
+    out.update(config=config, s_frame=(stop - start) / max(done, 1),
+               cpu_frame=sum(r["cpu_frame"] * (len(r["rows"]) - 1) for r in results) / n,
+               seal_cpu_frame=sum(r["seal_cpu_frame"] for r in results) / len(results),
+               peak_mib=sum(r["peak_mib"] for r in results), process_s=max(r["process_s"] for r in results))
+    return out
+
+
+def _summary(config: str, data: dict, usage, t0: float) -> dict:
     rows, end = data["rows"], data["end"]
     loop = rows[1:] if len(rows) > 1 else rows
     n = len(loop)
@@ -116,7 +152,7 @@ def run(a, config: str) -> dict:
             "seal_cpu_frame": end["children_cpu"] / len(rows), "png_frame": display / n,
             "overhead": wall / cycles - 1.0, "overhead_no_png": (wall - display) / cycles - 1.0,
             "start_s": data["start_s"], "build_s": data["build_s"], "first_s": rows[0]["wall"],
-            "process_s": time.perf_counter() - t0, "peak_mib": usage.ru_maxrss / 1024.0}
+            "process_s": time.perf_counter() - t0, "peak_mib": usage.ru_maxrss / 1024.0, "rows": rows}
 
 
 def main(argv=None) -> int:
@@ -127,6 +163,8 @@ def main(argv=None) -> int:
     p.add_argument("--configs", nargs="+", default=["gt", "draft", "final", "today"])
     p.add_argument("--repeat", type=int, default=1)
     p.add_argument("--child", metavar="CONFIG", help=argparse.SUPPRESS)
+    p.add_argument("--part", type=int, default=0, help=argparse.SUPPRESS)
+    p.add_argument("--threads", type=int, default=0, help=argparse.SUPPRESS)
     a = p.parse_args(argv)
     if a.child:
         a.config = a.child

@@ -185,6 +185,39 @@ def test_fast_pipeline_gives_the_plain_pixels(tmp_path, quality, options):
 
 
 @pytest.mark.render
+def test_the_exr_deflate_level_changes_bytes_not_values(tmp_path, monkeypatch):
+    """The renderer writes its ZIP EXRs at deflate level render.EXR_ZIP_LEVEL (1), not
+    OpenEXR's default 4: other bytes, the same decoded values in every channel (OpenEXR's
+    own reader and the package's)."""
+    pytest.importorskip("bpy")
+    import ctypes
+    from blender_sesgen.blender import compat, render
+    from blender_sesgen.exr import read_exr as read_exr_pure
+    assert render.EXR_ZIP_LEVEL == 1
+    with compat.exr_zip_level(7) as found:
+        assert found, "the OpenEXR library of the bpy wheel was not found"
+        level = ctypes.c_int()
+        compat._openexr_core().exr_get_default_zip_compression_level(ctypes.byref(level))
+        assert level.value == 7
+    runs = {}
+    for lvl in (1, 4):
+        monkeypatch.setattr(render, "EXR_ZIP_LEVEL", lvl)
+        runs[lvl] = _render(tmp_path, f"zip{lvl}", quality="gt", resolution_scale=4.0)
+    (m1, exrs1), (m4, exrs4) = runs[1], runs[4]
+    assert m1["render"]["exr"]["codec"] == "ZIP"
+    differ = 0
+    for key, rel in [((v, k), rel) for v in m1["views"] for k, rel in enumerate(m1["files"][v])]:
+        assert exrs1[key].keys() == exrs4[key].keys()
+        for name in exrs1[key]:
+            assert exrs1[key][name].dtype == exrs4[key][name].dtype
+            assert exrs1[key][name].tobytes() == exrs4[key][name].tobytes(), f"{key} {name}"
+        pure1, pure4 = read_exr_pure(tmp_path / "zip1" / rel), read_exr_pure(tmp_path / "zip4" / rel)
+        assert all(pure1[n].tobytes() == pure4[n].tobytes() == exrs1[key][n].tobytes() for n in exrs1[key])
+        differ += (tmp_path / "zip1" / rel).read_bytes() != (tmp_path / "zip4" / rel).read_bytes()
+    assert differ == 4   # the level took effect: every file's bytes changed
+
+
+@pytest.mark.render
 def test_gpu_without_a_gpu_fails_cleanly(tmp_path):
     pytest.importorskip("bpy")
     from blender_sesgen.blender.render import gpu_devices
