@@ -19,10 +19,12 @@ Conventions every entry follows:
   shift from :func:`object_variation` (a pure function of the material seed and the
   object id), so two walls of the same brick never repeat each other.
 - **Wear** (0..1) adds dirt, stains and the entry's own ageing (rust, worn paint, moss).
-- **Statistics**: fine detail is kept at low contrast and most variation lives at the
-  scale of centimetres to metres, as in camera images of real surfaces (the issue's power
-  spectrum and gradient figures: procedural noise at full contrast everywhere is what made
-  the old renders look synthetic).
+- **Statistics**: variation at every scale a camera resolves, with the contrasts of the
+  real surface at each (asphalt's light stones in near-black binder at millimetres, its
+  ravelling at centimetres, stains at decimetres; concrete's sand speckle), not one
+  high-contrast noise everywhere (what made the old renders look synthetic) and not flat
+  paint either (what made the first library's roads and floors smoother than a camera
+  sees them: docs/rendering.md, "Side by side with real camera images").
 """
 from __future__ import annotations
 
@@ -55,13 +57,14 @@ def _entries(*entries: LibraryEntry) -> dict[str, LibraryEntry]:
 
 LIBRARY: dict[str, LibraryEntry] = _entries(
     # --- streets --------------------------------------------------------------------------
-    LibraryEntry("asphalt", "road asphalt: fine aggregate, tonal patches, sealed cracks and repair patches",
+    LibraryEntry("asphalt", "road asphalt: light AC 11 stones in dark binder, ravelling, oil stains, tonal "
+                            "patches, sealed cracks",
                  (0.085, 0.085, 0.082), 0.88, scale_m=2.0, bump_m=0.0015, variation=0.25, wear=0.3,
                  semantic_class="road"),
     LibraryEntry("lane_marking", "white road paint, worn where tyres pass (colour for yellow lines)",
                  (0.72, 0.72, 0.70), 0.55, scale_m=0.5, bump_m=0.0008, variation=0.1, wear=0.3,
                  semantic_class="road"),
-    LibraryEntry("concrete", "cast concrete: formwork stains, pores, fine aggregate",
+    LibraryEntry("concrete", "cast concrete: sand speckle, stains, pores; scuffs and dirt with wear",
                  (0.38, 0.37, 0.35), 0.85, scale_m=1.0, bump_m=0.0015, variation=0.3, wear=0.3,
                  semantic_class="wall"),
     LibraryEntry("brick", "brick wall, stretcher bond: 24 x 7.1 cm bricks with 1 cm recessed mortar, "

@@ -5,8 +5,9 @@
 Each swatch: a 1.2 m x 1.2 m wall seen square-on from 1.5 m above a 1.2 m strip of floor,
 and a sphere of radius 0.25 m, all in the same material, under a physical sky with its sun
 (45 deg elevation, from behind the camera on the left), a fixed exposure (0 EV), AgX view transform, OpenImageDenoise. A pixel is
-~5 mm on the wall at 192 px. Writes docs/img/material_NAME.png and docs/img/materials.png
-(the sheet, 6 per row, in the library's order).
+~5 mm on the wall at 192 px. Writes docs/img/material_NAME.png for each NAME (default:
+all) and rebuilds docs/img/materials.png from every swatch on disk (the sheet, 6 per row,
+in the library's order).
 """
 import argparse
 import sys
@@ -56,16 +57,16 @@ def main():
     args = ap.parse_args()
     img_dir = Path(args.out)
     img_dir.mkdir(parents=True, exist_ok=True)
-    tiles = []
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.names:
-            im = swatch(name, Path(tmp), args.size, args.samples)
-            write_png(img_dir / f"material_{name}.png", im)
-            tiles.append(im)
+            write_png(img_dir / f"material_{name}.png", swatch(name, Path(tmp), args.size, args.samples))
             print(name, flush=True)
-    if args.names != list(LIBRARY):
-        return
-    S, gap, per_row = args.size, 4, 6
+    # the sheet: every swatch, the ones not rendered now as they are on disk
+    import cv2
+    tiles = [cv2.imread(str(img_dir / f"material_{name}.png"))[..., ::-1] for name in LIBRARY]
+    if any(t.shape != tiles[0].shape for t in tiles):
+        sys.exit("swatches of different sizes: render them all (no NAME) to rebuild the sheet")
+    S, gap, per_row = tiles[0].shape[0], 4, 6
     rows = []
     for r in range(0, len(tiles), per_row):
         row = tiles[r:r + per_row] + [np.full((S, S, 3), 255, np.uint8)] * (per_row - len(tiles[r:r + per_row]))

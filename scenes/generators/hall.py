@@ -123,7 +123,10 @@ def generate(seed: int = 0, frames: int = 200, width: float = 30.0, depth: float
            *var.lighting.lines(), "LOOK exposure auto", "RENDER samples 16 denoise on", ""]
     clad = rng.choice(["0.3 0.33 0.36", "0.45 0.46 0.45", "0.2 0.27 0.33"])
     out += ["// materials derived from the library (colour replaces the library's)",
-            f"MATERIAL name hall_floor library concrete colour {nums(var.floor[0])} wear {num(var.floor[1], 2)}",
+            # power-trowelled: a faint sheen that mirrors lamps and windows, blurred
+            f"MATERIAL name hall_floor library concrete colour {nums(var.floor[0])} wear {num(var.floor[1], 2)} "
+            "roughness 0.55",
+            "MATERIAL name floor_joint library concrete colour 0.05 0.05 0.048 wear 0",
             f"MATERIAL name cladding library metal_painted colour {clad}",
             "MATERIAL name roof_steel library metal_painted colour 0.3 0.31 0.32",
             f"MATERIAL name floor_paint library lane_marking colour {nums(var.aisle_paint)}",
@@ -185,6 +188,16 @@ def generate(seed: int = 0, frames: int = 200, width: float = 30.0, depth: float
     for x in (-W / 2 + 6.5, W / 2 - 6.5):
         out.append(f"CUBOID id {ids('shell')} material floor_paint class floor "
                    f"position {nums((x, 0.002, 0))} dim {nums((0.12, 0.004, D - 4))}")
+
+    # saw-cut contraction joints every 6 m, 6 mm wide and dirt-filled; the cross joints stand
+    # 1 mm higher so that no two faces are coplanar (each pixel sees one id)
+    out += ["", "// floor joints: saw cuts every 6 m"]
+    for x in np.arange(-W / 2 + 3.0, W / 2 - 1.0, 6.0):
+        out.append(f"CUBOID id {ids('shell')} material floor_joint class floor "
+                   f"position {nums((x, 0.001, 0))} dim {nums((0.006, 0.002, D))}")
+    for z in np.arange(-D / 2 + 2.0, D / 2 - 1.0, 6.0):
+        out.append(f"CUBOID id {ids('shell')} material floor_joint class floor "
+                   f"position {nums((0, 0.0015, z))} dim {nums((W, 0.003, 0.006))}")
 
     out += ["", "// machines and tanks along the walls, racks at the north end, pipes, clutter"]
     for side in (-1, 1):

@@ -6,11 +6,16 @@ from __future__ import annotations
 from .graph import Ctx, Surface
 
 
-def _aggregate(ctx: Ctx, stone_m: float = 0.008):
-    """Asphalt's exposed stones: (tone factor around 1, dome height 0..1)."""
+def _aggregate(ctx: Ctx, stone_m: float = 0.011):
+    """Asphalt's exposed stones (AC 11: up to 11 mm) in dark binder, with the sand between
+    them: (tone factor around 1, dome height 0..1). Worn surface course shows light-grey
+    stones against near-black binder: the salt-and-pepper texture a camera resolves near
+    the car."""
     g = ctx.g
     cells = g.voronoi(ctx.p, 1.0 / stone_m)
-    tone = g.remap(g.sep(cells.outputs["Color"])[0], 0.0, 1.0, 0.78, 1.3)
+    stone = g.remap(g.sep(cells.outputs["Color"])[0], 0.0, 1.0, 0.45, 1.75)
+    sand = g.remap(g.sep(g.voronoi(ctx.p, 1.0 / 0.003).outputs["Color"])[1], 0.0, 1.0, 0.85, 1.15)
+    tone = g.mul(stone, sand)
     dome = g.remap(cells.outputs["Distance"], 0.0, 0.5, 1.0, 0.0)
     return tone, dome
 
@@ -18,10 +23,17 @@ def _aggregate(ctx: Ctx, stone_m: float = 0.008):
 def asphalt(ctx: Ctx) -> Surface:
     g, p, C = ctx.g, ctx.p, ctx.colour
     tone, dome = _aggregate(ctx)
-    mottle = g.remap(g.noise(p, 1 / 0.35, detail=3.0), 0.3, 0.7, 0.88, 1.12)
+    # segregation and ravelling: clusters of stones and binder-rich spots at 2-10 cm, the
+    # texture still resolved tens of metres ahead (a pixel there covers centimetres)
+    grit = g.remap(g.noise(p, 1 / 0.05, detail=5.0, roughness=0.7), 0.25, 0.75, 0.55, 1.45)
+    mottle = g.remap(g.noise(p, 1 / 0.35, detail=3.0), 0.3, 0.7, 0.84, 1.16)
     large = g.remap(g.noise(p, 1 / 4.0, detail=2.0), 0.3, 0.7, 0.85, 1.15)
-    f = g.mul(g.mul(tone, mottle), large)
+    f = g.mul(g.mul(g.mul(tone, grit), mottle), large)
     col = g.cmul(C, f)
+    # oil drips and tyre stains: dark blotches, more of them with wear
+    stain = g.remap(g.noise(p, 1 / 0.6, detail=4.0, roughness=0.6), 0.66 - 0.08 * ctx.wear, 0.74 - 0.08 * ctx.wear,
+                    smooth=True)
+    col = g.cmix(col, g.cmul(col, 0.6), stain)
     # repair patches: square-ish cells, some of them newer (darker, finer) asphalt
     cells = g.voronoi(p, 1 / 3.0, metric="CHEBYCHEV")
     patch = g.math("GREATER_THAN", g.sep(cells.outputs["Color"])[1], 0.86)
@@ -55,12 +67,18 @@ def lane_marking(ctx: Ctx) -> Surface:
 
 def concrete(ctx: Ctx) -> Surface:
     g, p, C = ctx.g, ctx.p, ctx.colour
-    stains = g.remap(g.noise(p, 1 / 1.2, detail=4.0, roughness=0.55), 0.3, 0.7, 0.86, 1.12)
-    mid = g.remap(g.noise(p, 1 / 0.12, detail=3.0), 0.3, 0.7, 0.95, 1.05)
+    stains = g.remap(g.noise(p, 1 / 1.2, detail=4.0, roughness=0.55), 0.3, 0.7, 0.8, 1.2)
+    mid = g.remap(g.noise(p, 1 / 0.12, detail=4.0, roughness=0.6), 0.3, 0.7, 0.86, 1.14)
+    # the sand and fine aggregate of the surface: a speckle at millimetres to centimetres
+    speckle = g.remap(g.noise(p, 1 / 0.02, detail=4.0, roughness=0.7), 0.25, 0.75, 0.7, 1.3)
     pores = g.voronoi(p, 1 / 0.006)
     pit = g.mul(g.math("GREATER_THAN", g.sep(pores.outputs["Color"])[2], 0.93),
                 g.remap(pores.outputs["Distance"], 0.15, 0.35, 1.0, 0.0))
-    col = g.cmul(C, g.mul(g.mul(stains, mid), g.lerp(1.0, 0.55, pit)))
+    col = g.cmul(C, g.mul(g.mul(g.mul(stains, mid), speckle), g.lerp(1.0, 0.55, pit)))
+    # with wear: scuffs and dirt (tyre marks, footprints, spills) at decimetres
+    scuff = g.mul(g.remap(g.noise(g.vmath("MULTIPLY", p, (1.0, 1.0, 0.25)), 1 / 0.15, detail=5.0, roughness=0.6),
+                          0.58, 0.72, smooth=True), ctx.wear)
+    col = g.cmix(col, g.cmul(col, 0.55), scuff)
     rough = g.remap(g.noise(p, 1 / 0.3, detail=2.0), 0.3, 0.7, ctx.roughness - 0.06, ctx.roughness + 0.06)
     fine = g.noise(p, 1 / 0.01, detail=2.0)
     height = g.sub(g.mul(fine, 0.0004), g.mul(pit, 0.0015))
@@ -89,7 +107,10 @@ def brick(ctx: Ctx) -> Surface:
 def plaster(ctx: Ctx) -> Surface:
     g, p, C = ctx.g, ctx.p, ctx.colour
     patches = g.remap(g.noise(p, 1 / 2.0, detail=3.0), 0.3, 0.7, 0.95, 1.04)
-    mid = g.remap(g.noise(p, 1 / 0.3, detail=3.0), 0.3, 0.7, 0.98, 1.02)
+    mid = g.remap(g.noise(p, 1 / 0.3, detail=3.0), 0.3, 0.7, 0.96, 1.04)
+    # the render's sand grain: a faint speckle at millimetres to centimetres
+    grain = g.remap(g.noise(p, 1 / 0.01, detail=3.0, roughness=0.7), 0.25, 0.75, 0.94, 1.06)
+    mid = g.mul(mid, grain)
     # grime running down the wall (object y is up): streaks stretched vertically
     streak_p = g.vmath("MULTIPLY", p, (6.0, 0.35, 6.0))
     streaks = g.remap(g.noise(streak_p, 1.0, detail=4.0), 0.5, 0.75, smooth=True)
