@@ -151,6 +151,14 @@ def test_presets_change_only_the_rgb(tmp_path):
         if q != "gt":  # and the RGB does change
             rgb = ch["rgb"][0]
             assert not np.array_equal(exrs[("left", 0)][rgb], base[("left", 0)][rgb])
+        # display PNGs for the photographs; gt's flat picture stays in its EXR, and readers
+        # encode that with the sRGB curve (docs/output-format.md)
+        assert ("display" in mq) == (q != "gt") and (tmp_path / q / "rgb").exists() == (q != "gt")
+    from vo_reference.io.sequence import open_sequence
+    c = np.clip(np.stack([base[("left", 0)][n] for n in ch["rgb"][:3]], -1).astype(np.float64), 0, 1)
+    srgb = np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055)   # IEC 61966-2-1
+    diff = open_sequence(tmp_path / "gt").image_rgb(0).astype(int) - np.rint(255 * srgb).astype(int)
+    assert np.abs(diff).max() <= 1   # rounding at a half only
     # gt's normals are the exact ones: on the sphere (id 4, centre (0.6, 0.5, 0) in the SES
     # world = (0.6, 0, 0.5) in Blender's Z-up world) normal = (position - centre) / |...|
     left = base[("left", 0)]
