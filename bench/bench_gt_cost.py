@@ -2,8 +2,8 @@
 one persistent session at several resolutions (a fixed per-render cost would show at the
 smallest), then, at the last resolution, split by stage: Cycles' render alone, + the EXRs
 (ZIP at the renderer's deflate level, the product; OpenEXR's default level 4, the files
-before; every other lossless codec for comparison), + the display PNGs
-(the job's render path), + sealing (``output.seal_frame``: read back, check, strip, hash).
+before; every other lossless codec for comparison), + the display PNGs (what they would
+cost: the job writes none for gt), + sealing (``output.seal_frame``: read back, check, strip, hash).
 
     .venv/bin/python bench/bench_gt_cost.py [--scene scenes/paper_room.ses] [--scales 0.1 0.5 1.0]
         [--frames 6] [--rounds 3] [--codecs ZIP ZIP:4 NONE RLE ZIPS PIZ]
@@ -68,10 +68,12 @@ def render_only(s, plan, ks) -> tuple[float, float]:
 
 
 def seal(plan, tmp: Path, n: int) -> float:
-    """CPU s of sealing one stereo frame (EXRs + PNGs), from pristine copies each time."""
+    """CPU s of sealing one stereo frame (the EXRs, and the PNGs where the job writes them),
+    from pristine copies each time."""
     from blender_sesgen.output import display_key, seal_frame
     written = {v: tmp / f"{v}.exr" for v in plan.views}
-    written.update({display_key(v): tmp / f"{v}.png" for v in plan.views})
+    if plan.writes_display:
+        written.update({display_key(v): tmp / f"{v}.png" for v in plan.views})
     keep = tmp / "pristine"
     keep.mkdir(exist_ok=True)
     for p in written.values():
@@ -102,8 +104,8 @@ def main(argv=None) -> int:
     last = None
     for scale in a.scales:
         plan, s = session(a.scene, scale)
-        frames(s, plan, tmp, [0], display=True)
-        cpu, wall = frames(s, plan, tmp, range(1, a.frames + 1), display=True)
+        frames(s, plan, tmp, [0], display=plan.writes_display)
+        cpu, wall = frames(s, plan, tmp, range(1, a.frames + 1), display=plan.writes_display)
         px = plan.settings.width * plan.settings.height * len(plan.views)
         print(f"{plan.settings.width:>5d}x{plan.settings.height:<4d} {px:8d} {cpu:7.3f} {wall:7.3f} {cpu / px * 1e6:9.2f}",
               flush=True)
@@ -132,7 +134,8 @@ def main(argv=None) -> int:
     frames(s, plan, tmp, [1], display=True)
     sealing = min(seal(plan, tmp, a.frames) for _ in range(max(1, a.rounds)))
     base = rows["render"][0]
-    job = rows["exr ZIP + png"][0] + sealing
+    # the job's frame: the EXRs, the PNGs only where it writes them (not for gt), the sealing
+    job = rows["exr ZIP + png" if plan.writes_display else "exr ZIP"][0] + sealing
     print(f"# ZIP is written at deflate level {product_level}")
     print(f"# CPU s per stereo frame by stage at {plan.settings.width}x{plan.settings.height} "
           f"(cheapest of {a.rounds} rounds; load {os.getloadavg()[0]:.1f}):")
@@ -144,7 +147,9 @@ def main(argv=None) -> int:
               f"{sizes[c] / 2**20:9.2f}")
     cpu, wall = rows["exr ZIP + png"]
     zip_cpu = rows["exr ZIP"][0]
-    print(f"{'+ display PNGs':22s} {cpu:7.3f} {wall:7.3f} {cpu - zip_cpu:7.3f} {(cpu - zip_cpu) / job:6.0%}")
+    label, share = ("+ display PNGs", f"{(cpu - zip_cpu) / job:6.0%}") if plan.writes_display else \
+        ("(+ PNGs, not written)", "")
+    print(f"{label:22s} {cpu:7.3f} {wall:7.3f} {cpu - zip_cpu:7.3f} {share:>6s}")
     print(f"{'+ sealing (worker)':22s} {job:7.3f} {'':>7s} {sealing:7.3f} {sealing / job:6.0%}")
     n = os.cpu_count() or 1
     print(f"# ceiling on {n} idle cores kept busy: {n / job:.2f} stereo frames/s (the job's stages), "
