@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import functools
 import sys
 
 import bpy
@@ -42,33 +43,27 @@ def set_multilayer_exr(image_settings, codec: str = "ZIP", bits: str = "32") -> 
     image_settings.exr_codec = codec
 
 
-_OPENEXR_CORE = []   # [ctypes library or None], found once
-
-
+@functools.cache
 def _openexr_core():
     """The OpenEXR core library this Blender writes EXRs with (``ctypes.CDLL``), or None:
     on Linux the one mapped into this process (the bpy wheel's ``lib/libOpenEXRCore``),
-    else a build exporting its symbols (OpenEXR linked into the executable)."""
-    if not _OPENEXR_CORE:
-        lib = None
-        paths = []
-        if sys.platform.startswith("linux"):
-            try:
-                with open("/proc/self/maps") as f:
-                    paths = [line.split()[-1] for line in f if "libOpenEXRCore" in line]
-            except OSError:
-                pass
-        for path in dict.fromkeys(paths + [None]):
-            try:
-                cand = ctypes.CDLL(path)
-                cand.exr_set_default_zip_compression_level.argtypes = [ctypes.c_int]
-                cand.exr_get_default_zip_compression_level.argtypes = [ctypes.POINTER(ctypes.c_int)]
-                lib = cand
-                break
-            except (OSError, AttributeError):
-                continue
-        _OPENEXR_CORE.append(lib)
-    return _OPENEXR_CORE[0]
+    else a build exporting its symbols (OpenEXR linked into the executable). Found once."""
+    paths = []
+    if sys.platform.startswith("linux"):
+        try:
+            with open("/proc/self/maps") as f:
+                paths = [line.split()[-1] for line in f if "libOpenEXRCore" in line]
+        except OSError:
+            pass
+    for path in dict.fromkeys(paths + [None]):
+        try:
+            lib = ctypes.CDLL(path)
+            lib.exr_set_default_zip_compression_level.argtypes = [ctypes.c_int]
+            lib.exr_get_default_zip_compression_level.argtypes = [ctypes.POINTER(ctypes.c_int)]
+            return lib
+        except (OSError, AttributeError):
+            continue
+    return None
 
 
 @contextlib.contextmanager
