@@ -22,7 +22,7 @@ from ... import material_library
 from ...model import ImageMaps, Material
 from .. import compat
 from . import built, interior, metal_glass, nature
-from .graph import Ctx, G, Surface
+from .graph import Ctx, G, Surface, box_uv
 
 RECIPES: dict[str, Callable[[Ctx], Surface]] = {**built.RECIPES, **interior.RECIPES, **metal_glass.RECIPES,
                                                  **nature.RECIPES}
@@ -58,24 +58,6 @@ def _coordinates(g: G, texture_scale: float, with_offset: bool = True):
     p = g.vscale(p, float(texture_scale))
     rand = g.sep(_attribute(g, RAND_PROP))
     return p, tc.outputs["Normal"], rand
-
-
-def box_uv(g: G, p, n):
-    """Box mapping: ``p`` with its axes permuted so that the two lying in the surface come
-    first (the axis nearest the normal last): normal ~y -> (x, z, y), ~x -> (z, y, x),
-    ~z -> (x, y, z). Returns (uv, tangent_u, tangent_v) in object space."""
-    nx, ny, nz = g.sep(g.vmath("ABSOLUTE", n))
-    fy = g.math("GREATER_THAN", g.sub(ny, g.math("MAXIMUM", nx, nz)), 0.0)
-    fx = g.mul(g.math("GREATER_THAN", g.sub(nx, g.math("MAXIMUM", ny, nz)), 0.0), g.sub(1.0, fy))
-    fz = g.sub(g.sub(1.0, fy), fx)
-    x, y, z = g.sep(p)
-
-    def pick(a, b, c):  # fy * a + fx * b + fz * c
-        return g.add(g.add(g.mul(fy, a), g.mul(fx, b)), g.mul(fz, c))
-    uv = g.comb(pick(x, z, x), pick(z, y, y), pick(y, x, z))
-    tu = g.comb(g.add(fy, fz), 0.0, fx)          # the object axis along u
-    tv = g.comb(0.0, g.add(fx, fz), fy)          # the object axis along v
-    return uv, tu, tv
 
 
 def _variation(g: G, colour, rand, amount: float):
