@@ -11,7 +11,8 @@ process. Configurations: a preset name (``gt``, ``draft``, ``final``, ``referenc
 before the fast path), and ``today``: the renderer's settings before the presets (16
 samples, no denoiser, 6/3/3 bounces, indirect clamp 10, light tree) rendered the plain way.
 ``CONFIG+zipL`` writes the EXRs at deflate level L (``gt+zip4``: OpenEXR's default level, as
-before the renderer chose its own). ``CONFIG*P`` runs P render processes side by side, each
+before the renderer chose its own). ``CONFIG@N`` renders that preset with N samples
+(``--samples N``: ``final@12``). ``CONFIG*P`` runs P render processes side by side, each
 with cores/P Cycles threads and its own N frames (``gt*2``: two single-threaded renders on two
 cores, as ``farm`` runs chunks; the columns are then their throughput together, CPU per
 frame over both, peak MiB summed).
@@ -64,13 +65,15 @@ def child(a) -> int:
     from blender_sesgen.presets import Preset
 
     name, _, zip_level = a.config.split("*")[0].partition("+zip")
+    name, _, samples = name.partition("@")
     if zip_level:   # the EXRs at another deflate level (OpenEXR's default: 4)
         from blender_sesgen.blender import render
         render.EXR_ZIP_LEVEL = int(zip_level)
     plain = name == "today" or name.endswith("-plain")
     quality = None if name == "today" else name.removesuffix("-plain")
     first = a.part * a.frames
-    options = RenderOptions(quality=quality, resolution_scale=a.scale, frames=f"{first}:{first + a.frames}",
+    options = RenderOptions(quality=quality, samples=int(samples) if samples else None,
+                            resolution_scale=a.scale, frames=f"{first}:{first + a.frames}",
                             fast_pipeline=not plain, threads=a.threads)
     plan = RenderPlan.from_file(a.scene, options)
     if name == "today":

@@ -4,7 +4,7 @@ and BlenderProc's defaults, in one run at one resolution.
     .venv/bin/python bench/quality.py [--scene scenes/paper_room.ses] [--frame 0] [--scale 0.25]
         [--views left] [--configs gt draft final reference blender blenderproc]
         [--try NAME:base=final,samples=24,adaptive_threshold=0.03 ...] [--repeat 1]
-        [--reference-samples 4096] [--cache out/bench-cache] [--crop 0.25]
+        [--reference-samples 4096] [--cache out/bench-cache] [--crop 0.25 [--crop-centre 0.5,0.5]]
 
 For every configuration the frame is rendered through the real Blender session (the same
 code as ``render``) and compared with a converged reference render of the same frame:
@@ -16,6 +16,8 @@ Cycles' default light paths (12 bounces, caustics on). The reference is cached i
 cropped; the denoiser sees that window): with ``--scale 1 --crop 0.25`` the quality at the
 script's own resolution for the cost of a 0.25-scale render (at 0.25 scale the denoiser sees
 the whole view with 4× fewer pixels per feature, a harder case than the renders users make).
+``--crop-centre x,y`` moves the window's centre (fractions of the width from the left and
+of the height from the top).
 
 Columns: PSNR and SSIM (vo_reference.evaluate.image_quality) of the sRGB-encoded beauty
 pass against the reference's, averaged over the views; seconds per stereo frame (the wall
@@ -114,10 +116,10 @@ class Bench:
         if preset.shading != "flat" and self.exposure is None:
             self.exposure = s.exposure
         if self.args.crop < 1:  # after the exposure, which is measured on the whole view
-            r, f = s.built.scene.render, self.args.crop
+            r, f, (cx, cy) = s.built.scene.render, self.args.crop, self.args.crop_centre
             r.use_border, r.use_crop_to_border = True, True
-            r.border_min_x, r.border_max_x = (1 - f) / 2, (1 + f) / 2
-            r.border_min_y, r.border_max_y = (1 - f) / 2, (1 + f) / 2
+            r.border_min_x, r.border_max_x = cx - f / 2, cx + f / 2
+            r.border_min_y, r.border_max_y = 1 - cy - f / 2, 1 - cy + f / 2  # Blender's y is up
         return s
 
     def render(self, preset: Preset, repeat: int) -> dict:
@@ -154,11 +156,14 @@ class Bench:
         from blender_sesgen.blender import compat
         a = self.args
         crop = {"crop": a.crop} if a.crop < 1 else {}  # keys of the caches made before --crop unchanged
+        if a.crop < 1 and a.crop_centre != (0.5, 0.5):
+            crop["crop_centre"] = list(a.crop_centre)
         key = json.dumps({"scene": self.plan.scene_sha256, "frame": a.frame, "scale": a.scale, "views": self.views,
                           "samples": a.reference_samples, "blender": compat.version_string(),
                           "preset": reference_preset(a.reference_samples).pixel_settings()} | crop, sort_keys=True)
         h = hashlib.sha256(key.encode()).hexdigest()[:16]
-        tag = f"-c{a.crop}" if a.crop < 1 else ""
+        tag = (f"-c{a.crop}" + ("" if a.crop_centre == (0.5, 0.5) else "@{:g},{:g}".format(*a.crop_centre))
+               if a.crop < 1 else "")
         cache = Path(a.cache) / f"{Path(a.scene).stem}-f{a.frame}-s{a.scale}{tag}-{h}.npz"
         if cache.is_file():
             data = np.load(cache)
@@ -182,6 +187,9 @@ def main(argv=None) -> int:
     p.add_argument("--crop", type=float, default=1.0,
                    help="render only the centred window of this fraction of the width and height (e.g. --scale 1 "
                         "--crop 0.25: the script's resolution at the cost of a 0.25-scale render)")
+    p.add_argument("--crop-centre", type=lambda s: tuple(float(v) for v in s.split(",")), default=(0.5, 0.5),
+                   metavar="X,Y", help="the window's centre, fractions of the width (from the left) and height (from "
+                                       "the top); default the view's centre")
     p.add_argument("--views", choices=("left", "both"), default="left")
     p.add_argument("--configs", nargs="*", default=["gt", "draft", "final", "reference", "blender", "blenderproc"])
     p.add_argument("--try", dest="tries", nargs="*", default=[], metavar="NAME:key=value,...",
@@ -201,9 +209,11 @@ def main(argv=None) -> int:
     bench = Bench(a)
     load0 = os.getloadavg()[0]
     s = bench.plan.settings
-    if not 0 < a.crop <= 1:
-        raise SystemExit("--crop must be in (0, 1]")
-    window = f" (the centred {round(s.width * a.crop)}x{round(s.height * a.crop)} window)" if a.crop < 1 else ""
+    cx, cy = a.crop_centre
+    if not 0 < a.crop <= 1 or not (a.crop / 2 <= cx <= 1 - a.crop / 2 and a.crop / 2 <= cy <= 1 - a.crop / 2):
+        raise SystemExit("--crop must be in (0, 1] and its window inside the view (--crop-centre)")
+    window = (f" (the {round(s.width * a.crop)}x{round(s.height * a.crop)} window centred at x {cx:g} W, y {cy:g} H "
+              "from the top)" if a.crop < 1 else "")
     print(f"# quality bench: {Path(a.scene).name} frame {a.frame}, {s.width}x{s.height}{window}, views {'+'.join(bench.views)}, "
           f"{os.cpu_count()} CPUs, {platform.machine()}, load {load0:.1f} at the start", flush=True)
     t0 = time.perf_counter()
