@@ -15,7 +15,7 @@ Cycles' default light paths (12 bounces, caustics on). The reference is cached i
 ``--crop f`` renders only the centred window of f·W × f·H pixels (Cycles' render border,
 cropped; the denoiser sees that window): with ``--scale 1 --crop 0.25`` the quality at the
 script's own resolution for the cost of a 0.25-scale render (at 0.25 scale the denoiser sees
-the whole view with 4× fewer pixels per feature, a harder case than the renders users make).
+the whole view with 16× fewer pixels per feature, a harder case than the renders users make).
 ``--crop-centre x,y`` moves the window's centre (fractions of the width from the left and
 of the height from the top).
 
