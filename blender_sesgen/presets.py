@@ -6,7 +6,7 @@ preset: Cycles writes it from the first sample, which goes through the pixel cen
 The values are measured choices (docs/rendering.md#quality-presets, ``bench/quality.py``):
 PSNR of the sRGB image against a converged 4096-sample render, at the scene's own resolution
 (two windows each of the paper room and of the photoreal hall): draft >= 35.3 dB, final
->= 38.7 dB; reference 45.5 dB on the paper room at 160x120.
+>= 38.7 dB; reference 45.4 dB on the paper room at 160x120.
 
 - ``gt``: ground truth at primary-ray cost. One sample, no bounces, no lights: the RGB is
   each object's flat colour under a head-light (not photoreal, not a photograph of the
