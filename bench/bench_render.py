@@ -161,7 +161,8 @@ def _summary(config: str, data: dict, usage, t0: float) -> dict:
     return {"config": config, "s_frame": wall / n, "cpu_frame": cpu / n, "cycles_frame": cycles / n,
             "seal_cpu_frame": end["children_cpu"] / len(rows), "png_frame": display / n,
             "overhead": wall / cycles - 1.0, "overhead_no_png": (wall - display) / cycles - 1.0,
-            "overhead_ours": (wall - display - op) / cycles, "start_s": data["start_s"], "build_s": data["build_s"], "first_s": rows[0]["wall"],
+            "overhead_ours": (wall - display - op) / cycles, "start_s": data["start_s"], "build_s": data["build_s"],
+            "first_s": rows[0]["wall"],
             "process_s": time.perf_counter() - t0, "peak_mib": usage.ru_maxrss / 1024.0, "rows": rows}
 
 
@@ -193,7 +194,8 @@ def main(argv=None) -> int:
         results[c] = best
         r = best
         print(f"{c:14s} {r['s_frame']:8.3f} {1 / r['s_frame']:6.2f} {r['cpu_frame']:7.3f} {r['seal_cpu_frame']:7.3f} "
-              f"{r['cycles_frame']:9.3f} {r['png_frame']:7.3f} {r['overhead']:9.1%} {r['overhead_no_png']:8.1%} {r['overhead_ours']:6.1%} "
+              f"{r['cycles_frame']:9.3f} {r['png_frame']:7.3f} {r['overhead']:9.1%} {r['overhead_no_png']:8.1%} "
+              f"{r['overhead_ours']:6.1%} "
               f"{r['build_s']:8.1f} {r['first_s']:8.1f} {r['peak_mib']:9.0f}", flush=True)
     if "today" in results:
         t = results["today"]

@@ -155,15 +155,14 @@ class Bench:
     def reference(self) -> dict:
         from blender_sesgen.blender import compat
         a = self.args
-        crop = {"crop": a.crop} if a.crop < 1 else {}  # keys of the caches made before --crop unchanged
-        if a.crop < 1 and a.crop_centre != (0.5, 0.5):
-            crop["crop_centre"] = list(a.crop_centre)
+        # the keys of the caches made before --crop stay as they were
+        cropped, centred = a.crop < 1, a.crop_centre == (0.5, 0.5)
+        crop = ({"crop": a.crop} | ({} if centred else {"crop_centre": list(a.crop_centre)})) if cropped else {}
         key = json.dumps({"scene": self.plan.scene_sha256, "frame": a.frame, "scale": a.scale, "views": self.views,
                           "samples": a.reference_samples, "blender": compat.version_string(),
                           "preset": reference_preset(a.reference_samples).pixel_settings()} | crop, sort_keys=True)
         h = hashlib.sha256(key.encode()).hexdigest()[:16]
-        tag = (f"-c{a.crop}" + ("" if a.crop_centre == (0.5, 0.5) else "@{:g},{:g}".format(*a.crop_centre))
-               if a.crop < 1 else "")
+        tag = (f"-c{a.crop}" + ("" if centred else "@{:g},{:g}".format(*a.crop_centre))) if cropped else ""
         cache = Path(a.cache) / f"{Path(a.scene).stem}-f{a.frame}-s{a.scale}{tag}-{h}.npz"
         if cache.is_file():
             data = np.load(cache)
@@ -214,8 +213,8 @@ def main(argv=None) -> int:
         raise SystemExit("--crop must be in (0, 1] and its window inside the view (--crop-centre)")
     window = (f" (the {round(s.width * a.crop)}x{round(s.height * a.crop)} window centred at x {cx:g} W, y {cy:g} H "
               "from the top)" if a.crop < 1 else "")
-    print(f"# quality bench: {Path(a.scene).name} frame {a.frame}, {s.width}x{s.height}{window}, views {'+'.join(bench.views)}, "
-          f"{os.cpu_count()} CPUs, {platform.machine()}, load {load0:.1f} at the start", flush=True)
+    print(f"# quality bench: {Path(a.scene).name} frame {a.frame}, {s.width}x{s.height}{window}, "
+          f"views {'+'.join(bench.views)}, {os.cpu_count()} CPUs, {platform.machine()}, load {load0:.1f} at the start", flush=True)
     t0 = time.perf_counter()
     ref = bench.reference()
     print(f"# reference: {a.reference_samples} samples, {'cached' if ref['cached'] else 'rendered'} "
