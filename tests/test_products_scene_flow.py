@@ -14,13 +14,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import dynamic_scene as ds  # noqa: E402
-import raycast  # noqa: E402
+import dynamic_scene as ds
+import raycast
 
-from vo_reference.io.render import RenderSequence  # noqa: E402
-from vo_reference.products.flow import flow_from_depth, sequence_flow  # noqa: E402
-from vo_reference.products.scene_flow import (  # noqa: E402
+from vo_reference.io.render import RenderSequence
+from vo_reference.products.flow import flow_from_depth, sequence_flow
+from vo_reference.products.scene_flow import (
     motion_mask, moving_objects_mask, scene_flow_from_depth, sequence_scene_flow)
 
 GOLDEN = Path(__file__).resolve().parent / "golden" / "static_flow.npz"

@@ -13,11 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from render_support import REPO, load_manifest, read_exr, render_cmd, run_render  # noqa: E402
+from render_support import REPO, load_manifest, read_exr, render_cmd, run_render
+from markers import needs
 
-pytestmark = pytest.mark.render
-pytest.importorskip("bpy")
+pytestmark = [pytest.mark.render, needs("bpy")]
 pytest.importorskip("OpenEXR")
 
 SMALL = """\

@@ -4,14 +4,11 @@ rosbags), the mono pipeline's undistortion table; and the IMU noise model agains
 ADIS16448 stream of EuRoC."""
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from render_support import run_render  # noqa: E402
+from render_support import run_render
 
 SCENE = """CAMERA resolution 64 48 focal 50 baseline 0.1
 POSE 0 1 3 0 0 0

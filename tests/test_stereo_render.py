@@ -20,9 +20,9 @@ import json
 
 import numpy as np
 import pytest
+from markers import needs
 
-pytestmark = pytest.mark.render
-pytest.importorskip("bpy")
+pytestmark = [pytest.mark.render, needs("bpy")]
 pytest.importorskip("OpenEXR")
 
 FRAMES = 5
