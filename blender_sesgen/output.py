@@ -26,11 +26,13 @@ import hashlib
 import json
 import os
 import re
+from dataclasses import replace
 from pathlib import Path
 from typing import Optional
 
 from .contract import atomic
 from .contract.errors import ContractError
+from .contract.pixel_settings import TIMING_KEYS, PixelSettings
 from .contract.manifest import (DISPLAY_DIR, DONE_LOG_GLOB, EXR_DIR, FORMAT, MANIFEST, POSES_DIR, SCENE_COPY, STATE_DIR,
                                 Manifest, completed_in_logs, display_relpath, exr_relpath, load_json,
                                 trajectory_relpaths)
@@ -156,23 +158,13 @@ class OutputFolder:
     @staticmethod
     def same_settings(manifest: Optional[dict], settings: RenderSettings) -> bool:
         """True when ``manifest``'s frames were rendered with the pixel-affecting ``settings``
-        (device aside: the same output is expected on any device)."""
-        if not manifest:
-            return False
-        r = manifest.get("render", {})
-        return (r.get("samples") == settings.samples and r.get("denoise") == settings.denoise
-                and r.get("sampling") == settings.preset.pixel_settings()
-                and r.get("seed") == settings.seed
-                and float(r.get("resolution_scale", 1.0)) == settings.resolution_scale
-                and list(r.get("passes", [])) == list(settings.passes)
-                and manifest.get("resolution") == [settings.width, settings.height])
+        (``contract.pixel_settings``: device aside, the same output is expected on any device)."""
+        return bool(manifest) and PixelSettings.from_manifest(manifest) == settings.pixel
 
     @staticmethod
     def settings_key(settings: RenderSettings) -> str:
         """The pixel-affecting settings as one string (what the locks compare)."""
-        return json.dumps({"samples": settings.samples, "denoise": settings.denoise, "seed": settings.seed,
-                           "scale": settings.resolution_scale, "passes": list(settings.passes),
-                           "size": [settings.width, settings.height]}, sort_keys=True)
+        return settings.pixel.key()
 
     def resumable(self, plan: RenderPlan) -> Optional[dict]:
         """The previous manifest if its frames may be kept for ``plan`` (same scene and
@@ -224,6 +216,12 @@ class OutputFolder:
             raise SesgenError(f"--out {out}: holds the output of a different scene ({previous.get('scene_source')}); "
                               "use --force to replace it")
         if not self.same_settings(previous, plan.settings) and any(self._completed(previous)) and not force:
+            old = PixelSettings.from_manifest(previous)
+            if old is not None and replace(old, timing=None) == replace(plan.settings.pixel, timing=None):
+                timing = previous.get("timing")
+                raise SesgenError("the output folder holds frames rendered with other timing "
+                                  f"({ {k: timing.get(k) for k in TIMING_KEYS} if timing else None}); "
+                                  "use --force to re-render")
             r = previous.get("render", {})
             raise SesgenError(f"--out {out}: holds frames rendered with other settings "
                               f"(quality {r.get('quality')}, samples {r.get('samples')}, denoise {r.get('denoise')}, "

@@ -16,7 +16,7 @@ import numpy as np
 from vo_reference.io.exr import write_exr_parts
 
 from blender_sesgen.contract.depth import depth_to_pass
-from blender_sesgen.contract.frames import right_from_left
+from blender_sesgen.contract.rig import right_from_left
 from blender_sesgen.contract.manifest import Manifest, exr_relpath
 
 

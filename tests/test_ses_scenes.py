@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from blender_sesgen import model
-from blender_sesgen.contract.frames import object_pose, right_from_left
+from blender_sesgen.contract.frames import object_pose
+from blender_sesgen.contract.rig import right_from_left
 from blender_sesgen.ses import parse_file
 
 SCENES_DIR = Path(__file__).resolve().parents[1] / "scenes"

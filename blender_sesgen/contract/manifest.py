@@ -37,6 +37,7 @@ from .depth import DEPTH_BACKGROUND
 from .errors import ContractError
 from .inputs import read_text
 from .manifest_schema import check_types
+from .se3 import not_rotations
 
 FORMAT = "sesgen-render/1"
 MANIFEST = "manifest.json"
@@ -223,9 +224,7 @@ class Manifest:
             if not np.all(np.isfinite(T)) or np.abs(T).max() > LIMIT:
                 raise ContractError(f"poses[{v!r}] holds non-finite or absurdly large values", source)
             R = T[:, :3, :3]
-            err = np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3)).max(axis=(1, 2))
-            bad = np.flatnonzero(~(err <= POSE_TOLERANCE) | (np.linalg.det(R) < 0)
-                                 | np.any(T[:, 3] != (0.0, 0.0, 0.0, 1.0), axis=1))
+            bad = np.flatnonzero(not_rotations(R, POSE_TOLERANCE) | np.any(T[:, 3] != (0.0, 0.0, 0.0, 1.0), axis=1))
             if bad.size:
                 raise ContractError(f"poses[{v!r}][{bad[0]}] is not a rigid transform (rotation and 0 0 0 1 row)",
                                     source)
@@ -300,8 +299,7 @@ def object_poses(objects: list, n: int, source: str = MANIFEST) -> dict[int, np.
             raise ContractError(f"moving object {o.get('id')!r} has no usable T_world_obj", source) from None
         if T.shape != (n, 4, 4):
             raise ContractError(f"objects[id={obj_id}].T_world_obj has shape {T.shape}, expected ({n}, 4, 4)", source)
-        if not np.all(np.isfinite(T)) or np.abs(T).max() > LIMIT \
-                or np.abs(np.einsum("nji,njk->nik", T[:, :3, :3], T[:, :3, :3]) - np.eye(3)).max() > 1e-6:
+        if not np.all(np.isfinite(T)) or np.abs(T).max() > LIMIT or not_rotations(T[:, :3, :3], POSE_TOLERANCE).any():
             raise ContractError(f"objects[id={obj_id}].T_world_obj holds non-rigid or non-finite poses", source)
         out[obj_id] = T
     return out

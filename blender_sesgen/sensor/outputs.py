@@ -17,16 +17,8 @@ EXR_LAYOUT = "single part holding every pass (beauty of the sensor render, groun
 
 def check_resumable(plan: SensorPlan, previous: Optional[dict], frames: list[int], resume: bool, force: bool) -> None:
     """Before anything is written: auto-exposure needs the brightness of every earlier
-    frame; a folder rendered with other timing (command-line overrides) is refused."""
-    prev_timing = (previous or {}).get("timing")
-    new_timing = plan.manifest_entries(1).get("timing")
-    if previous is not None and not force and any(previous.get("frames_complete", [])):
-        keys = ("rate_hz", "start_s", "exposure_s", "readout_s", "motion_blur")
-        old = {k: (prev_timing or {}).get(k) for k in keys} if prev_timing else None
-        new = {k: (new_timing or {}).get(k) for k in keys} if new_timing else None
-        if old != new:
-            raise SesgenError(f"the output folder holds frames rendered with other timing ({old}); "
-                              "use --force to re-render")
+    frame (a folder rendered with other timing is refused with the other pixel-affecting
+    settings: ``OutputFolder.check``)."""
     if plan.autoexposure is None or not frames or frames[0] == 0:
         return
     metered = ((previous or {}).get("sensor") or {}).get("metered") or []

@@ -21,6 +21,7 @@ from ..contract import timing as timing_mod
 from ..contract.timing import DEFAULT_FPS
 from .autoexposure import exposure_schedule
 from ..contract.lens import Lens, opencv_calibration_yaml, robotcar_lut_bytes, undistortion_maps
+from ..contract import rig
 from ..contract.rig_motion import RigMotion
 
 SENSOR_DIR = "sensor"
@@ -147,11 +148,7 @@ class SensorPlan:
     def camera_poses(self, view: str, blender_frames: np.ndarray, frame0: int = 0) -> np.ndarray:
         """T_world_cam (OpenCV, SES world) of ``view`` at (fractional) Blender frames."""
         t = (self.timing.start_s if self.timing else 0.0) + (np.asarray(blender_frames) - frame0) / self.rate_hz
-        T = self.motion.T_world_cam(t)
-        if view == "right":
-            T = T.copy()
-            T[:, :3, 3] += self.baseline * T[:, :3, 0]
-        return T
+        return rig.T_world_view(self.motion.T_world_cam(t), view, self.baseline)
 
     # --- files and manifest ------------------------------------------------------------------
     def sensor_relpath(self, kind: str, view: str, k: int) -> str:
@@ -197,6 +194,15 @@ class SensorPlan:
                                                               noisy.gyro_bias, noisy.accel_bias).encode(),
                 f"{IMU_DIR}/sensor.yaml": imu_sensor_yaml(p).encode()}
 
+    def timing_values(self) -> Optional[dict]:
+        """The manifest ``timing`` entry's values that change pixels and poses
+        (``contract.pixel_settings.TIMING_KEYS``); None for an inactive plan (no entry)."""
+        if not self.active:
+            return None
+        t = self.timing or model.Timing()
+        return {"rate_hz": t.rate_hz, "start_s": t.start_s, "exposure_s": t.exposure_s, "readout_s": t.readout_s,
+                "motion_blur": self.motion_blur}
+
     def manifest_entries(self, n_frames: int) -> dict:
         """Manifest keys of the sensor statements (none for an inactive plan)."""
         if not self.active:
@@ -206,8 +212,7 @@ class SensorPlan:
                                   "rule": "docs/rendering.md#rig-motion-between-frames"}}
         t = self.timing or model.Timing()
         m["timing"] = {
-            "rate_hz": t.rate_hz, "start_s": t.start_s, "exposure_s": t.exposure_s, "readout_s": t.readout_s,
-            "motion_blur": self.motion_blur, "rolling_shutter": self.rolling_shutter,
+            **self.timing_values(), "rolling_shutter": self.rolling_shutter,
             "stamp": "middle of the exposure",
             "row_time": "t_row(r) = t_k + (r + 0.5 - H/2) * readout_s / H (r = 0 at the top)",
             "row_offsets_s": timing_mod.row_offsets_s(self.height, t.readout_s).tolist() if self.rolling_shutter else None,

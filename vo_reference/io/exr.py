@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract.exr_format import VIEW_LAYER
 from blender_sesgen.contract.inputs import check_regular
 
 from ..errors import VoError, as_vo_error
@@ -100,7 +101,7 @@ def find_pass(channels: dict[str, np.ndarray], pass_names: tuple[str, ...], comp
                 suffix = f"{pname}.{c}"
                 cands = [n for n in channels if n == suffix or n.endswith("." + suffix)]
                 if comp_layer_first:
-                    cands = [n for n in cands if n.startswith("ViewLayer.")]
+                    cands = [n for n in cands if n.startswith(VIEW_LAYER + ".")]
                 if not cands:
                     break
                 found.append(sorted(cands)[0])

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import rig
 from blender_sesgen.contract.camera import K_problem
 from blender_sesgen.contract.inputs import read_text
 from blender_sesgen.contract.manifest import LIMIT
@@ -186,11 +187,7 @@ class KittiSequence(ImagesOnly):
             raise VoError(f"view {view!r} not in this sequence (views: {', '.join(self.views)})")
         if self._poses is None:
             return None
-        if view == "left":
-            return self._poses.copy()
-        T_left_right = np.eye(4)
-        T_left_right[0, 3] = self.baseline_m
-        return self._poses @ T_left_right
+        return rig.T_world_view(self._poses, view, self.baseline_m)
 
     def __repr__(self) -> str:
         W, H = self.resolution

@@ -21,10 +21,13 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import rig
 from blender_sesgen.contract.colour import linear_to_srgb8
 from blender_sesgen.contract.depth import depth_from_pass
+from blender_sesgen.contract.exr_format import PASS_COMBINED, PASS_DEPTH, PASS_INDEX, VIEW_LAYER
 from blender_sesgen.contract.inputs import read_bytes, read_text
 from blender_sesgen.contract.manifest import MANIFEST, Manifest
+from blender_sesgen.contract.timing import DEFAULT_FPS
 
 from ..errors import VoError, as_vo_error
 from .color import rgb8_to_gray8
@@ -34,10 +37,6 @@ from .files import read_image
 
 __all__ = ["RenderSequence", "read_manifest"]
 
-# pass name candidates (Blender 5.0 first, then 4.x names)
-PASS_COMBINED = ("Combined",)
-PASS_DEPTH = ("Depth",)
-PASS_INDEX = ("Object Index", "IndexOB")
 
 
 def read_manifest(root) -> Manifest:
@@ -137,7 +136,7 @@ class RenderSequence:
         if found is None:
             have = sorted(n for n in ch if n != "__path__")
             raise VoError(f"{ch['__path__']}: missing {what} pass "
-                          f"(expected ViewLayer.{names[0]}.{'/'.join(comps)}; channels: {', '.join(have)})")
+                          f"(expected {VIEW_LAYER}.{names[0]}.{'/'.join(comps)}; channels: {', '.join(have)})")
         return [ch[n] for n in found]
 
     # --- images and ground truth ------------------------------------------------------
@@ -216,21 +215,15 @@ class RenderSequence:
         """The rig's continuous motion (``blender_sesgen.contract.rig_motion.RigMotion``)."""
         from blender_sesgen.contract.rig_motion import RigMotion
         rm = self.manifest.get("rig_motion") or {}
-        rate = float(rm.get("rate_hz") or self.manifest.get("fps") or 25.0)
+        rate = float(rm.get("rate_hz") or self.manifest.get("fps") or DEFAULT_FPS)
         start = float(rm.get("start_s", self.timestamps_s[0] if len(self.timestamps_s) else 0.0))
         return RigMotion(self._poses["left"], rate, start, rm.get("interpolation", "c2_spline"))
-
-    def _view_offset(self, T: np.ndarray, view: str) -> np.ndarray:
-        if view == "right":
-            T = T.copy()
-            T[..., :3, 3] += self.baseline_m * T[..., :3, 0]
-        return T
 
     def T_world_cam_at(self, t_s, view: str = "left") -> np.ndarray:
         """(n, 4, 4) camera poses at any times (seconds; the rig's motion between frames)."""
         if view not in self.views:
             raise VoError(f"view {view!r} not in this sequence (views: {', '.join(self.views)})")
-        return self._view_offset(self.rig_motion().T_world_cam(np.atleast_1d(t_s)), view)
+        return rig.T_world_view(self.rig_motion().T_world_cam(np.atleast_1d(t_s)), view, self.baseline_m)
 
     @property
     def readout_s(self) -> float:
@@ -277,12 +270,12 @@ class RenderSequence:
 
     def depth(self, k: int, view: str = "left") -> np.ndarray:
         """float32 (H, W) planar z in metres, +inf where nothing was hit."""
-        (z,) = self._pass(k, view, PASS_DEPTH, ("Z",), "Depth", "depth")
+        (z,) = self._pass(k, view, PASS_DEPTH, ("Z",), PASS_DEPTH[0], "depth")
         return depth_from_pass(z, self.depth_background)
 
     def ids(self, k: int, view: str = "left") -> np.ndarray:
         """int32 (H, W) object ids (the script's ``id``), 0 = background."""
-        (x,) = self._pass(k, view, PASS_INDEX, ("X",), "Object Index", "object_index")
+        (x,) = self._pass(k, view, PASS_INDEX, ("X",), PASS_INDEX[0], "object_index")
         return np.rint(np.nan_to_num(x, nan=0.0)).astype(np.int32)
 
     def T_world_cam(self, view: str = "left") -> np.ndarray:

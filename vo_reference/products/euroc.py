@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract import rig
 from blender_sesgen.contract.se3 import invert
 from blender_sesgen.contract.trajectory_files import format_euroc
 
@@ -33,8 +34,7 @@ def _euroc_rate_hz(seq) -> float:
 def euroc_T_body_cam(seq, cam: int) -> np.ndarray:
     """Camera ``cam``'s pose in the EuRoC body frame: the IMU where the render has one
     (T_imu_cam = inv(T_cam_imu), right camera trans(B, 0, 0) further), else the left camera."""
-    T_cam_left = np.eye(4)
-    T_cam_left[0, 3] = seq.baseline_m if cam == 1 else 0.0
+    T_cam_left = rig.T_left_view("right" if cam == 1 else "left", seq.baseline_m)
     imu = seq.manifest.get("imu") if hasattr(seq, "manifest") else None
     if not imu:
         return T_cam_left

@@ -26,6 +26,7 @@ from typing import Callable
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract import rig
 from blender_sesgen.contract.timing import frame_range
 from blender_sesgen.contract.progress import MODES as PROGRESS_MODES
 from blender_sesgen.contract.progress import Progress
@@ -209,9 +210,7 @@ def progress_bar(opts: ExportOptions, total: int, label: str) -> Progress:
 
 def kitti_projections(K: np.ndarray, baseline_m: float) -> dict[str, np.ndarray]:
     """P0 = K[I|0], P1 = K[I|(-B,0,0)]; the colour pair P2/P3 is the same rig here."""
-    P0 = np.hstack([K, np.zeros((3, 1))])
-    P1 = P0.copy()
-    P1[:, 3] = K @ np.array([-baseline_m, 0.0, 0.0])
+    P0, P1 = (rig.projection_matrix(K, view, baseline_m) for view in ("left", "right"))
     return {"P0": P0, "P1": P1, "P2": P0.copy(), "P3": P1.copy()}
 
 

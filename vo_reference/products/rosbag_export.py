@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import rig
 from ..errors import VoError
 
 TOPICS = {"image": "/cam{}/image_raw", "info": "/cam{}/camera_info", "imu": "/imu0", "tf": "/tf",
@@ -94,7 +95,7 @@ def export_rosbag(seq, out: Path, opts) -> None:
                                                  is_bigendian=0, step=int(img.strides[0]), data=img.reshape(-1))
                 w.write(conn[("image", i)], tn, ts.serialize_cdr(msg, msg.__msgtype__))
                 P = np.hstack([K, np.zeros((3, 1))])
-                P[0, 3] = -K[0, 0] * seq.baseline_m if i == 1 else 0.0
+                P[0, 3] = K[0, 0] * rig.T_view_left(view, seq.baseline_m)[0, 3]   # ROS: fx * Tx
                 info = T["sensor_msgs/msg/CameraInfo"](
                     header=header(tn, f"cam{i}"), height=H, width=W, distortion_model=d_model,
                     d=np.array(D, dtype=np.float64), k=K.reshape(-1), r=np.eye(3).reshape(-1), p=P.reshape(-1),
