@@ -9,10 +9,12 @@ apply silently (image sizes, ids, files that must exist).
 from __future__ import annotations
 
 import enum
+import functools
 import hashlib
 import json
 import os
 import platform
+import tomllib
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
@@ -20,7 +22,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from . import __version__, assets
+from . import assets
 from .contract import semantics
 from .contract.camera import scaled_K, scaled_size
 from .contract.depth import DEPTH_BACKGROUND
@@ -298,13 +300,22 @@ class RenderPlan:
             render=render,
             scene_source=scene.source,
             scene_sha256=self.scene_sha256,
-            generator={"name": "blender-sesgen", "version": __version__, "blender": blender_version,
+            generator={"name": "blender-sesgen", "version": generator_version(), "blender": blender_version,
                        "python": platform.python_version()},
             extra=extra,
         )
 
 
 # --- helpers ----------------------------------------------------------------------------
+
+@functools.lru_cache(maxsize=1)
+def generator_version() -> str:
+    """This package's version as the manifest records it, read from its extension manifest
+    (``blender_manifest.toml``; building the add-on checks that ``__version__`` agrees): as
+    data, so that no module the add-on imports imports the package root (an import cycle)."""
+    with open(Path(__file__).with_name("blender_manifest.toml"), "rb") as f:
+        return str(tomllib.load(f)["version"])
+
 
 def _sensor_plan(scene: Scene, settings: RenderSettings, o: RenderOptions):
     from .sensor.render_plan import SensorPlan, TimingOverrides
