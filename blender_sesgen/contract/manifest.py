@@ -27,7 +27,7 @@ import math
 import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Sequence
+from typing import Optional, Sequence
 
 import numpy as np
 
@@ -37,6 +37,7 @@ from .depth import DEPTH_BACKGROUND
 from .errors import ContractError
 from .inputs import read_text
 from .manifest_schema import check_types
+from .manifest_sections import Sections
 from .se3 import not_rotations
 
 FORMAT = "sesgen-render/1"
@@ -127,12 +128,18 @@ class Manifest:
     generator: dict = field(default_factory=dict)
     extra: dict = field(default_factory=dict)
     object_poses: dict = field(default_factory=dict)
+    sections: Optional[Sections] = None
 
     def __post_init__(self):
         if not self.frames_complete:
             self.frames_complete = [False] * self.frames
         if not self.object_poses:
             self.object_poses = object_poses(self.objects, self.frames)
+        if self.sections is None:   # a manifest being written: its sections as the writer put them in extra
+            core = {"views": list(self.views), "frames": self.frames, "fps": self.fps,
+                    "timestamps": [float(t) for t in self.timestamps_s[:1]]}
+            self.sections = Sections.from_json({**core, **{k: self.extra.get(k) for k in Sections.KEYS}},
+                                               MANIFEST, LIMIT)
 
     @property
     def frames(self) -> int:
@@ -194,6 +201,7 @@ class Manifest:
         if missing:
             raise ContractError(f"missing key(s) {', '.join(missing)}", source)
         check_types(m, source, LIMIT)
+        sections = Sections.from_json(m, source, LIMIT)
         try:
             W, H = (int(v) for v in m["resolution"])
             K = np.array(m["K"], dtype=float).reshape(3, 3)
@@ -267,7 +275,8 @@ class Manifest:
                    segmentation=m.get("segmentation") or {"kind": "object_index", "background": 0, "channel": None},
                    channels=m.get("channels") or {}, objects=objects, object_poses=moving,
                    render=m.get("render") or {}, scene_source=str(m.get("scene_source", "")),
-                   scene_sha256=str(m.get("scene_sha256", "")), generator=m.get("generator") or {}, extra=extra)
+                   scene_sha256=str(m.get("scene_sha256", "")), generator=m.get("generator") or {}, extra=extra,
+                   sections=sections)
 
     @classmethod
     def read(cls, root) -> "Manifest":

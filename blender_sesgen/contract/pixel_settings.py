@@ -22,9 +22,9 @@ RENDER_KEYS = ("samples", "denoise", "sampling", "seed", "resolution_scale", "pa
 class PixelSettings:
     """Every setting that changes the pixels of a render.
 
-    ``sampling``: the preset's light-path settings as canonical JSON (a string, so that the
-    record is hashable and compares exactly); ``size``: (W, H) in pixels; ``timing``: the
-    :data:`TIMING_KEYS` values as canonical JSON, None without a TIMING.
+    ``sampling``: the preset's light-path settings as JSON text (a string, so that the record
+    is hashable and compares exactly); ``size``: (W, H) in pixels; ``timing``: the
+    :data:`TIMING_KEYS` values as JSON text, None without a TIMING.
     """
     samples: int
     denoise: bool
@@ -70,6 +70,8 @@ class PixelSettings:
 
 
 def _canonical(value: dict) -> str:
+    """The object as JSON text, its keys in the writer's order (what the manifest holds;
+    :meth:`PixelSettings.key` sorts them)."""
     if not isinstance(value, dict):
         raise TypeError("expected a JSON object")
-    return json.dumps(value, sort_keys=True)
+    return json.dumps(value)

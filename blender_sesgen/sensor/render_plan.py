@@ -22,6 +22,8 @@ from ..contract.timing import DEFAULT_FPS
 from .autoexposure import exposure_schedule
 from ..contract.lens import Lens, opencv_calibration_yaml, robotcar_lut_bytes, undistortion_maps
 from ..contract import rig
+from ..contract.manifest_sections import (ImuSection, LensSection, RigMotionSection, Sections, SensorSection,
+                                         TimingSection)
 from ..contract.rig_motion import RigMotion
 
 SENSOR_DIR = "sensor"
@@ -194,59 +196,54 @@ class SensorPlan:
                                                               noisy.gyro_bias, noisy.accel_bias).encode(),
                 f"{IMU_DIR}/sensor.yaml": imu_sensor_yaml(p).encode()}
 
-    def timing_values(self) -> Optional[dict]:
-        """The manifest ``timing`` entry's values that change pixels and poses
-        (``contract.pixel_settings.TIMING_KEYS``); None for an inactive plan (no entry)."""
+    def timing_section(self) -> Optional[TimingSection]:
+        """The manifest's ``timing`` entry (None for an inactive plan: no entry)."""
         if not self.active:
             return None
         t = self.timing or model.Timing()
-        return {"rate_hz": t.rate_hz, "start_s": t.start_s, "exposure_s": t.exposure_s, "readout_s": t.readout_s,
-                "motion_blur": self.motion_blur}
+        return TimingSection(
+            rate_hz=t.rate_hz, start_s=t.start_s, exposure_s=t.exposure_s, readout_s=t.readout_s,
+            motion_blur=self.motion_blur, rolling_shutter=self.rolling_shutter,
+            row_offsets_s=(tuple(timing_mod.row_offsets_s(self.height, t.readout_s).tolist())
+                           if self.rolling_shutter else None),
+            ground_truth=GROUND_TRUTH_RULE["rolling" if self.rolling_shutter else "global"])
+
+    def timing_values(self) -> Optional[dict]:
+        """The timing values that change pixels and poses (``contract.pixel_settings``)."""
+        section = self.timing_section()
+        return None if section is None else section.pixel_values()
+
+    def sections(self, n_frames: int) -> Sections:
+        """The manifest's sections of the sensor statements (none for an inactive plan)."""
+        if not self.active:
+            return Sections()
+        lens = sensor = imu = None
+        if self.lens_spec is not None:
+            ls = self.lens_spec
+            lens = LensSection(ls.model, tuple(ls.coeffs), ls.f_number, ls.defocus_px, ls.vignetting, ls.chromatic_px)
+            if self.lens is not None:
+                lens = dataclasses.replace(lens, calibration=self.lens.to_json(),
+                                           opencv_files={v: f"{LENS_DIR}/{v}.yaml" for v in self.views},
+                                           undistort_lut=f"{LENS_DIR}/undistort_lut.bin")
+        if self.sensor is not None:
+            none = (None,) * n_frames
+            sensor = SensorSection(
+                dataclasses.asdict(self.sensor),
+                {kind: {v: [self.sensor_relpath(kind, v, k) for k in range(n_frames)] for v in self.views}
+                 for kind in self.sensor_kinds()},
+                raw_layout=("PNG16, values 0..2^bits-1 (not scaled), CFA mosaic" if self.sensor.cfa
+                            else "PNG16 RGB, values 0..2^bits-1 (not scaled)"),
+                autoexposure=None if self.autoexposure is None else dataclasses.asdict(self.autoexposure),
+                exposure_s=none, gain=none, metered=none)
+        if self.imu is not None:
+            p = self.imu_params()
+            imu = ImuSection(p.rate_hz, p.gyro_noise, p.gyro_walk, p.accel_noise, p.accel_walk,
+                             tuple(map(tuple, p.T.tolist())), p.time_offset_s, (0.0, -p.gravity, 0.0), p.seed,
+                             {"noisy": f"{IMU_DIR}/data.csv", "ideal": f"{IMU_DIR}/data_ideal.csv",
+                              "groundtruth": f"{IMU_DIR}/groundtruth.csv", "yaml": f"{IMU_DIR}/sensor.yaml"})
+        return Sections(rig_motion=RigMotionSection(self.motion.kind, self.rate_hz, self.motion.start_s),
+                        timing=self.timing_section(), lens=lens, sensor=sensor, imu=imu)
 
     def manifest_entries(self, n_frames: int) -> dict:
         """Manifest keys of the sensor statements (none for an inactive plan)."""
-        if not self.active:
-            return {}
-        m: dict = {"rig_motion": {"interpolation": self.motion.kind, "rate_hz": self.rate_hz,
-                                  "start_s": self.motion.start_s,
-                                  "rule": "docs/rendering.md#rig-motion-between-frames"}}
-        t = self.timing or model.Timing()
-        m["timing"] = {
-            **self.timing_values(), "rolling_shutter": self.rolling_shutter,
-            "stamp": "middle of the exposure",
-            "row_time": "t_row(r) = t_k + (r + 0.5 - H/2) * readout_s / H (r = 0 at the top)",
-            "row_offsets_s": timing_mod.row_offsets_s(self.height, t.readout_s).tolist() if self.rolling_shutter else None,
-            "ground_truth": GROUND_TRUTH_RULE["rolling" if self.rolling_shutter else "global"],
-        }
-        if self.lens_spec is not None:
-            ls = self.lens_spec
-            entry = {"model": ls.model, "coeffs": list(ls.coeffs), "f_number": ls.f_number,
-                     "defocus_px": ls.defocus_px, "vignetting": ls.vignetting, "chromatic_px": ls.chromatic_px,
-                     "optics_apply_to": "sensor images only"}
-            if self.lens is not None:
-                entry.update(self.lens.to_json())
-                entry["files"] = {"opencv": {v: f"{LENS_DIR}/{v}.yaml" for v in self.views},
-                                  "undistort_lut": f"{LENS_DIR}/undistort_lut.bin",
-                                  "lut_layout": "RobotCar: float64, all W*H u then all W*H v, row-major; "
-                                                "undistorted (pinhole K) pixel -> distorted pixel to sample"}
-                entry["ground_truth"] = "depth (planar z), ids and flow at the distorted image's pixel centres"
-            m["lens"] = entry
-        if self.sensor is not None:
-            s = dataclasses.asdict(self.sensor)
-            s["files"] = {kind: {v: [self.sensor_relpath(kind, v, k) for k in range(n_frames)] for v in self.views}
-                          for kind in self.sensor_kinds()}
-            s["raw_layout"] = ("PNG16, values 0..2^bits-1 (not scaled), CFA mosaic" if self.sensor.cfa
-                               else "PNG16 RGB, values 0..2^bits-1 (not scaled)")
-            s["exposure_s"] = [None] * n_frames
-            s["gain"] = [None] * n_frames
-            s["metered"] = [None] * n_frames
-            if self.autoexposure is not None:
-                s["autoexposure"] = dataclasses.asdict(self.autoexposure)
-            m["sensor"] = s
-        if self.imu is not None:
-            entry = self.imu_params().to_json()
-            entry["files"] = {"noisy": f"{IMU_DIR}/data.csv", "ideal": f"{IMU_DIR}/data_ideal.csv",
-                              "groundtruth": f"{IMU_DIR}/groundtruth.csv", "yaml": f"{IMU_DIR}/sensor.yaml"}
-            entry["frame"] = "IMU = body; T_world_imu = T_world_cam(left) @ T_cam_imu"
-            m["imu"] = entry
-        return m
+        return self.sections(n_frames).to_json()

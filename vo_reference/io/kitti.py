@@ -29,7 +29,7 @@ from blender_sesgen.contract.manifest import LIMIT
 from ..errors import VoError, as_vo_error
 from .color import rgb8_to_gray8
 from .files import read_image
-from .base import ImagesOnly, check_frame_view
+from .base import Sequence, check_frame_view
 from .trajectory import read_kitti, read_times
 
 __all__ = ["KittiSequence", "read_kitti_calib", "looks_like_kitti", "poses_file"]
@@ -101,7 +101,7 @@ def poses_file(root: Path) -> Path | None:
     return kit if seq.parent.name == "sequences" and kit.is_file() else None
 
 
-class KittiSequence(ImagesOnly):
+class KittiSequence(Sequence):
     """A KITTI odometry folder (real data; no depth or ids ground truth)."""
 
     def __init__(self, root):

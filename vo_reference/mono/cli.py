@@ -94,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
     elif args.dist:
         from ..camera.undistort import lut_from_distortion, parse_distortion
         maps = lut_from_distortion(seq.K, parse_distortion(args.dist), W, H)
-    elif getattr(seq, "undistortion_maps", None) is not None and seq.undistortion_maps() is not None:
+    elif seq.undistortion_maps() is not None:
         maps = seq.undistortion_maps()          # a render through a distorting LENS: its own table
     if args.bayer:
         from ..camera.bayer import check_pattern
@@ -133,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
     elif mode == "speed":
         scale = scales.SpeedScale(args.speed, ts)
     elif mode == "stereo":
-        d0 = seq.depth(idx[0], "left") if hasattr(seq, "depth") else None
+        d0 = seq.depth(idx[0], "left")
         if d0 is not None:
             scale = scales.DepthScale(lambda i: seq.depth(idx[i], "left"))
         elif "right" in seq.views and seq.baseline_m > 0:

@@ -147,7 +147,7 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
     info = {"target": target, "source": str(render_dir.resolve()), "source_frames": list(rng),
             "sequence": sequence,
             "noise": None if opts.noise is None else {"sigma": opts.noise[0], "seed": opts.noise[1]},
-            "format": seq.manifest.get("format"), "scene_sha256": seq.manifest.get("scene_sha256")}
+            **{"format": None, "scene_sha256": None, **seq.provenance()}}
     if getattr(fn, "takes_sequence", False):  # a dataset tree: the target stages its own slot
         out.mkdir(parents=True, exist_ok=True)
         where = Path(fn(seq, out, opts) or out)

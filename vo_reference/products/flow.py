@@ -192,7 +192,7 @@ def flow_from_depth(depth_src, K, T_world_src, T_world_tgt, depth_tgt=None, rtol
 
 def sequence_object_poses(seq, k_src: int, k_tgt: int) -> dict:
     """{id: (T_world_obj at k_src, at k_tgt)} of a sequence's moving objects ({} if none)."""
-    ids = getattr(seq, "moving_ids", ())
+    ids = seq.moving_ids
     out = {}
     for obj_id in ids:
         T = seq.T_world_obj(obj_id)
@@ -212,7 +212,7 @@ def sequence_flow(seq, k_src: int, k_tgt: int, view: str = "left", rtol: float =
     if objs and ids is None:
         raise VoError(f"{seq!r} has moving objects but no id maps: cannot tell their pixels apart")
     return flow_from_depth(z_src, seq.K, T[k_src], T[k_tgt], seq.depth(k_tgt, view), rtol,
-                           lens=getattr(seq, "lens", None), ids_src=ids, object_poses=objs)
+                           lens=seq.lens, ids_src=ids, object_poses=objs)
 
 
 def forward_flow(seq, k: int, view: str = "left") -> Flow:

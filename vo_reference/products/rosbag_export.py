@@ -69,12 +69,11 @@ def export_rosbag(seq, out: Path, opts) -> None:
     cams = [(0, "left")] + ([(1, "right")] if "right" in seq.views and seq.baseline_m > 0 else [])
     K = np.asarray(seq.K, dtype=float)
     W, H = seq.resolution
-    lens = getattr(seq, "lens", None)
+    lens = seq.lens
     d_model, D = ("plumb_bob", [0.0] * 5) if lens is None else (
         ("equidistant", list(lens.coeffs)) if lens.model == "kannala_brandt" else ("plumb_bob", list(lens.coeffs)))
-    manifest = getattr(seq, "manifest", {}) or {}
-    imu_entry = manifest.get("imu")
-    T_cam_imu = np.array(imu_entry["T_cam_imu"]) if imu_entry else np.eye(4)
+    imu_entry = seq.imu_calibration()
+    T_cam_imu = imu_entry.T_cam_imu_matrix if imu_entry is not None else np.eye(4)
     body = "body"
     with Writer(bag, version=9, storage_plugin=plugin) as w:
         conn = {}
@@ -109,7 +108,7 @@ def export_rosbag(seq, out: Path, opts) -> None:
             Imu, V3, Q = T["sensor_msgs/msg/Imu"], T["geometry_msgs/msg/Vector3"], T["geometry_msgs/msg/Quaternion"]
             cov = np.zeros(9)
             lo, hi = seq.timestamps_s[frames[0]], seq.timestamps_s[frames[-1]]
-            off = float(imu_entry.get("time_offset_s", 0.0))
+            off = imu_entry.time_offset_s
             for t, g, a in zip(stream["t_s"], stream["gyro"], stream["accel"]):
                 if not lo - 1e-9 <= t - off <= hi + 1e-9:
                     continue

@@ -120,12 +120,12 @@ def sequence_scene_flow(seq, k_src: int, k_tgt: int, view: str = "left", rtol: f
     objs = sequence_object_poses(seq, k_src, k_tgt)
     ids = seq.ids(k_src, view)
     return scene_flow_from_depth(z_src, seq.K, T[k_src], T[k_tgt], ids_src=ids, object_poses=objs,
-                                 depth_tgt=seq.depth(k_tgt, view), rtol=rtol, lens=getattr(seq, "lens", None))
+                                 depth_tgt=seq.depth(k_tgt, view), rtol=rtol, lens=seq.lens)
 
 
 def moving_object_ids(seq) -> tuple[int, ...]:
     """Ids of the objects that move at some time in the sequence (() for static scenes)."""
-    return tuple(getattr(seq, "moving_ids", ()))
+    return tuple(seq.moving_ids)
 
 
 def motion_mask(seq, k_src: int, k_tgt: int, view: str = "left") -> np.ndarray:

@@ -143,7 +143,7 @@ def _row(values) -> str:
 def object_poses(seq) -> list[tuple[dict, np.ndarray]]:
     """(object, (N, 4, 4) T_world_obj) for the objects with a pose in the manifest."""
     out = []
-    for obj in getattr(seq, "objects", []) or []:
+    for obj in seq.objects:
         if not isinstance(obj, dict) or obj.get("T_world_obj") is None:
             continue
         T = np.asarray(obj["T_world_obj"], dtype=float)
@@ -190,7 +190,7 @@ def export_vkitti2(seq, out: Path, opts: ExportOptions) -> Path:
     fmt = _rgb_format(opts)
     cams = [(0, "left")] + ([(1, "right")] if "right" in seq.views else [])
     frames = list(opts.frames)
-    objects = [o for o in (getattr(seq, "objects", []) or []) if isinstance(o, dict)]
+    objects = [o for o in seq.objects if isinstance(o, dict)]
     final = sequence_folder(out, opts.sequence)
     with atomic.replacing_folder(final) as root:
         fr = root / "frames"
