@@ -127,9 +127,9 @@ def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: floa
         lin = np.stack([ch[n] for n in rgb_names], axis=-1).astype(np.float64)
         if vi == 0:
             metered = meter(lin)
-        f = pipeline.process(lin, sensor=plan.sensor, lens=plan.lens_spec, rays=rays, cx=plan.K[0, 2],
-                             cy=plan.K[1, 2], exposure_s=exposure_s, nominal_exposure_s=plan.nominal_exposure_s(),
-                             gain=gain, frame=k, view_index=vi, fpn_cache=fpn)
+        camera = pipeline.Camera(plan.sensor, plan.lens_spec, rays, plan.K[0, 2], plan.K[1, 2],
+                                 plan.nominal_exposure_s())
+        f = pipeline.process(lin, camera, pipeline.Shot(exposure_s, gain, k, vi), fpn_cache=fpn)
         write_png(Path(out) / plan.sensor_relpath("raw", view, k), f.raw_dn)
         write_png(Path(out) / plan.sensor_relpath("rgb", view, k), f.rgb8)
         if plan.sensor.jpeg_quality and jpeg_writer is not None:

@@ -19,7 +19,7 @@ from .. import model
 from . import imu as imu_mod
 from ..contract import timing as timing_mod
 from ..contract.timing import DEFAULT_FPS
-from .autoexposure import exposure_schedule
+from .autoexposure import ExposureControl, exposure_schedule
 from ..contract.lens import Lens, opencv_calibration_yaml, robotcar_lut_bytes, undistortion_maps
 from ..contract import rig
 from ..contract.manifest_sections import (ImuSection, LensSection, RigMotionSection, Sections, SensorSection,
@@ -142,10 +142,10 @@ class SensorPlan:
         if self.autoexposure is None:
             return [(self.nominal_exposure_s(), gain)] * (len(metered) + 1)
         a = self.autoexposure
-        return exposure_schedule(metered, nominal_exposure_s=self.nominal_exposure_s(), nominal_gain=gain,
-                                 rate_hz=self.rate_hz, readout_s=self.timing.readout_s, target=a.target,
-                                 speed=a.speed, saturation=self.sensor.saturation, max_exposure_s=a.max_exposure_s,
-                                 max_gain=a.max_gain, min_exposure_s=a.min_exposure_s)
+        return exposure_schedule(metered, ExposureControl(
+            nominal_exposure_s=self.nominal_exposure_s(), nominal_gain=gain, rate_hz=self.rate_hz,
+            readout_s=self.timing.readout_s, target=a.target, speed=a.speed, saturation=self.sensor.saturation,
+            max_exposure_s=a.max_exposure_s, max_gain=a.max_gain, min_exposure_s=a.min_exposure_s))
 
     def camera_poses(self, view: str, blender_frames: np.ndarray, frame0: int = 0) -> np.ndarray:
         """T_world_cam (OpenCV, SES world) of ``view`` at (fractional) Blender frames."""
