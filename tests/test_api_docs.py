@@ -94,6 +94,7 @@ def test_every_public_name_exists_and_is_documented(module):
         assert getattr(mod, name) is not None, name
 
 
+@pytest.mark.slow
 def test_doc_examples_run_without_blender(tmp_path):
     pytest.importorskip("OpenEXR")
     r = run_doc(tmp_path, with_bpy=False)

@@ -14,7 +14,7 @@ from evo.tools import file_interface
 from vo_reference.evaluate import ape, associate, align, rpe
 from vo_reference.io.trajectory import read_trajectory
 
-pytestmark = pytest.mark.data
+pytestmark = [pytest.mark.data, pytest.mark.slow]
 RTOL = 1e-6
 
 CASES = {

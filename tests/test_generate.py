@@ -18,6 +18,8 @@ from blender_sesgen.dataset import (assign_splits, path_length_m, sequence_seeds
                                     SEQUENCE_SEEDS)
 from blender_sesgen.errors import SesgenError
 
+pytestmark = pytest.mark.slow   # subprocesses and end-to-end runs (left out of make test-fast)
+
 REPO = Path(__file__).resolve().parents[1]
 
 

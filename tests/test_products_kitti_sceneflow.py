@@ -81,6 +81,7 @@ def test_layout(exported):
     assert np.array_equal(a, b)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("pair", [0, 1])
 def test_ground_truth_read_back_matches_the_oracle(exported, pair):
     scene, _, out = exported

@@ -17,6 +17,8 @@ from blender_sesgen.ses import parse_file
 
 import mesh_raycast
 
+pytestmark = pytest.mark.slow   # subprocesses and end-to-end runs (left out of make test-fast)
+
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 LIBRARY = ("city_kitti", "office", "forest", "hall")
 

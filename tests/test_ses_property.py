@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from blender_sesgen.errors import SesgenError
@@ -89,6 +90,7 @@ def mutated_scene(draw):
     return "\n".join(lines)
 
 
+@pytest.mark.slow
 @FUZZ
 @given(mutated_scene())
 def test_mutated_scenes(tmp_path, text):

@@ -136,6 +136,7 @@ def test_paper_room_is_textured_with_numbers_1_to_12(paper):
     assert sum(o.shape == "quad" for o in paper.objects) >= 6  # floor, ceiling, four walls
 
 
+@pytest.mark.slow
 def test_paper_room_camera_sees_textured_surfaces_at_1_to_5_m(paper):
     K_inv = np.linalg.inv(paper.rig.K())
     pixels = [(u, v) for u in np.linspace(0, 639, 7) for v in np.linspace(0, 479, 5)]
