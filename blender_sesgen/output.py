@@ -96,38 +96,34 @@ def seal_frame(k: int, written: dict[str, Path], required_channels: tuple) -> di
     metadata, wall-clock values) dropped; {relative path: sha256}.
     RenderWriteError (every temporary file removed) if a file is short or lacks a channel.
     Touches nothing but those files, so it may run in another process (``sealer``)."""
+    def sealed(tmp, view: str, what: str, seal) -> bytes:
+        try:
+            buf = seal(Path(tmp).read_bytes())
+            with open(tmp, "wb") as f:
+                f.write(buf)
+            return buf
+        except (OSError, ImageFileError, ExrError) as e:
+            for t in written.values():
+                Path(t).unlink(missing_ok=True)
+            raise RenderWriteError(f"frame {k} ({view}): the {what} was not written completely ({e}); "
+                                   "is the disk full? The previous files were kept") from None
+
+    def png(buf: bytes) -> bytes:
+        buf = strip_png_text(buf)
+        check_image_bytes(buf)
+        return buf
+
     sums = {}
-    for key, tmp in written.items():   # the display PNGs: decoded (image_check)
-        if not is_display_key(key):
-            continue
-        view = display_view(key)
-        try:
-            buf = strip_png_text(Path(tmp).read_bytes())
-            check_image_bytes(buf)
-            with open(tmp, "wb") as f:
-                f.write(buf)
-        except (OSError, ImageFileError) as e:
-            for t in written.values():
-                Path(t).unlink(missing_ok=True)
-            raise RenderWriteError(f"frame {k} ({view}): the display PNG was not written completely ({e}); "
-                                   "is the disk full? The previous files were kept") from None
-        sums[display_relpath(view, k)] = hashlib.sha256(buf).hexdigest()
+    for key, tmp in written.items():   # the display PNGs first: decoded (image_check)
+        if is_display_key(key):
+            view = display_view(key)
+            sums[display_relpath(view, k)] = hashlib.sha256(sealed(tmp, view, "display PNG", png)).hexdigest()
     for view, tmp in written.items():
-        if is_display_key(view):
-            continue
-        rel = exr_relpath(view, k)
-        try:
-            buf = Path(tmp).read_bytes()
-            layout = check_complete(buf, rel, required_channels, read_layout(buf, rel))
-            buf = strip_volatile_attributes(buf, layout)
-            with open(tmp, "wb") as f:
-                f.write(buf)
-        except (OSError, ExrError) as e:
-            for t in written.values():
-                Path(t).unlink(missing_ok=True)
-            raise RenderWriteError(f"frame {k} ({view}): the EXR was not written completely ({e}); "
-                                   "is the disk full? The previous files were kept") from None
-        sums[rel] = hashlib.sha256(buf).hexdigest()
+        if not is_display_key(view):
+            rel = exr_relpath(view, k)
+            buf = sealed(tmp, view, "EXR", lambda b: strip_volatile_attributes(
+                b, check_complete(b, rel, required_channels, read_layout(b, rel))))
+            sums[rel] = hashlib.sha256(buf).hexdigest()
     return sums
 
 

@@ -19,6 +19,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from .errors import ContractError
+from .inputs import is_number
 from .se3 import R_to_quat_xyzw, not_rotations, orthonormality_error, quat_xyzw_to_R
 
 TUM_HEADER = "# timestamp tx ty tz qx qy qz qw"
@@ -46,7 +47,7 @@ def parse_table(text: str, ncols: Sequence[int], source: str = "<text>",
         try:
             vals = [float(p) for p in parts]
         except ValueError:
-            if not rows and not _is_number(parts[0]):
+            if not rows and not is_number(parts[0]):
                 continue  # a header line
             raise ContractError(f"not a number in {s[:60]!r}", source, lineno) from None
         if len(vals) not in ncols:
@@ -61,14 +62,6 @@ def parse_table(text: str, ncols: Sequence[int], source: str = "<text>",
     if not rows:
         raise ContractError("holds no poses", source)
     return np.array(rows, dtype=float), lines
-
-
-def _is_number(word: str) -> bool:
-    try:
-        float(word)
-    except ValueError:
-        return False
-    return True
 
 
 def _poses(R: np.ndarray, t: np.ndarray) -> np.ndarray:

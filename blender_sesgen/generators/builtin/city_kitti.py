@@ -21,16 +21,14 @@ the seed's (a sun given replaces an HDRI).
 """
 from __future__ import annotations
 
-import argparse
-import sys
 from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
 
 from ...assets.street import arc_frame
-from .sesgen_layout import (Ids, Lighting, asset, camera_pose_line, derived_material, draw_lighting,
-                           num, nums, smooth_noise, variation_rng)
+from .sesgen_layout import (Ids, Lighting, asset, command_line, derived_material, draw_lighting, num, nums,
+                           pose_lines, smooth_noise, variation_rng)
 
 KITTI_RIG = "CAMERA resolution 1226 370 focal 707 baseline 0.54 near 0.1 far 600"
 CAMERA_HEIGHT = 1.65
@@ -276,7 +274,6 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
                 s += float(rng.uniform(4, 14))
 
     # --- the drive: right lane, ~1.2 m per frame -----------------------------------------
-    k = np.arange(frames)
     speed = step_m * (1 + 0.06 * smooth_noise(rng, frames, 1.0, (0.7, 1.6)))
     s_cam = behind + np.concatenate([[0.0], np.cumsum(speed[:-1])])
     lane = v.lane + v.weave * smooth_noise(rng, frames, 1.0, (0.8, 1.7, 3.1))
@@ -287,17 +284,12 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     yaw = h - np.degrees(drift) + 0.25 * smooth_noise(rng, frames, 1.0, (3.0, 7.0))
     pitch = 0.3 * smooth_noise(rng, frames, 1.0, (5.0, 11.0, 23.0))
     roll = 0.2 * smooth_noise(rng, frames, 1.0, (4.0, 9.0, 19.0))
-    out += ["", f"// the drive: {frames} poses of the left camera (KITTI: 1.65 m above the road, right lane)"]
-    out += [camera_pose_line(pos[i], yaw[i], pitch[i], roll[i]) for i in k]
+    out += pose_lines(f"the drive: {frames} poses of the left camera (KITTI: 1.65 m above the road, right lane)", pos, yaw, pitch, roll)
     return "\n".join(out) + "\n"
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--frames", type=int, default=101)
-    a = ap.parse_args(argv)
-    sys.stdout.write(generate(a.seed, frames=a.frames))
+    command_line(generate, __doc__, 101, argv)
 
 
 if __name__ == "__main__":

@@ -19,14 +19,12 @@ downward tilt. ``speed`` (m/s) overrides the seed's.
 """
 from __future__ import annotations
 
-import argparse
-import sys
 from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
 
-from .sesgen_layout import (Ids, Lighting, asset, camera_pose_line, derived_material, draw_lighting, num,
+from .sesgen_layout import (Ids, Lighting, asset, command_line, derived_material, draw_lighting, num, pose_lines,
                            sky_and_sun, smooth_noise, variation_rng)
 from ...assets.nature import terrain_height, trail_x
 
@@ -153,17 +151,12 @@ def generate(seed: int = 0, frames: int = 150, speed: Optional[float] = None) ->
     slope = np.degrees(np.arctan2(np.gradient(ground, tt), speed))
     pitch = var.tilt + 0.5 * slope + 3 * smooth_noise(rng, n, 1.0, (0.4, 0.9)) + 0.4 * np.sin(2 * np.pi * 2 * step_hz * tt + 0.5)
     roll = 0.8 * np.sin(2 * np.pi * step_hz * tt) + 0.5 * smooth_noise(rng, n, 1.0, (0.6, 1.3))
-    out += ["", f"// the walk: {n} poses of the left camera at {num(RATE_HZ, 0)} Hz along the trail"]
-    out += [camera_pose_line(P[i], yaw[i], pitch[i], roll[i]) for i in range(n)]
+    out += pose_lines(f"the walk: {n} poses of the left camera at {num(RATE_HZ, 0)} Hz along the trail", P, yaw, pitch, roll)
     return "\n".join(out) + "\n"
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--frames", type=int, default=150)
-    a = ap.parse_args(argv)
-    sys.stdout.write(generate(a.seed, frames=a.frames))
+    command_line(generate, __doc__, 150, argv)
 
 
 if __name__ == "__main__":

@@ -23,16 +23,14 @@ sideways swing, height and bobbing, and how much it yaws to look around.
 """
 from __future__ import annotations
 
-import argparse
 import os
 import re
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from .sesgen_layout import (REPO, Ids, Lighting, asset, camera_pose_line, draw_lighting, num, nums,
+from .sesgen_layout import (Ids, Lighting, REPO, asset, command_line, draw_lighting, num, nums, pose_lines,
                            smooth_noise, variation_rng)
 
 # EuRoC MAV cam0/cam1 (../shared/data/euroc/mav0/*/sensor.yaml): used when the data folder is absent
@@ -246,17 +244,12 @@ def generate(seed: int = 0, frames: int = 200, width: float = 30.0, depth: float
         + 0.5 * smooth_noise(rng, n, 1.0, (9.0, 17.0))
     roll = np.degrees(np.clip((acc[:, 0] * np.cos(np.radians(yaw)) - acc[:, 2] * np.sin(np.radians(yaw))) / 9.81, -0.1, 0.1)) \
         + 0.6 * smooth_noise(rng, n, 1.0, (8.0, 15.0))
-    out += ["", f"// the flight: {n} poses of cam0 at {num(RATE_HZ, 0)} Hz"]
-    out += [camera_pose_line(P[i], yaw[i], pitch[i], roll[i]) for i in range(n)]
+    out += pose_lines(f"the flight: {n} poses of cam0 at {num(RATE_HZ, 0)} Hz", P, yaw, pitch, roll)
     return "\n".join(out) + "\n"
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--frames", type=int, default=200)
-    a = ap.parse_args(argv)
-    sys.stdout.write(generate(a.seed, frames=a.frames))
+    command_line(generate, __doc__, 200, argv)
 
 
 if __name__ == "__main__":

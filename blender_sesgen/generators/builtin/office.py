@@ -20,15 +20,13 @@ points looked at and the hand shake.
 """
 from __future__ import annotations
 
-import argparse
-import sys
 from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
 
-from .sesgen_layout import (Ids, Lighting, asset, camera_pose_line, derived_material, draw_lighting, num,
-                           nums, sky_and_sun, smooth_noise, variation_rng)
+from .sesgen_layout import (Ids, Lighting, asset, command_line, derived_material, draw_lighting, num, nums,
+                           pose_lines, sky_and_sun, smooth_noise, variation_rng)
 
 RATE_HZ = 30.0
 FLOORS = {"wood_planks": ((0.33, 0.19, 0.09), (0.45, 0.30, 0.16), (0.20, 0.11, 0.05), (0.52, 0.40, 0.25)),
@@ -222,17 +220,12 @@ def generate(seed: int = 0, frames: int = 360) -> str:
     yaw = yaw + q * 4 * smooth_noise(rng, n, 1.0, (0.5, 1.1)) + q * 0.3 * smooth_noise(rng, n, 1.0, (6.0, 9.0, 14.0))
     pitch = pitch + q * 3 * smooth_noise(rng, n, 1.0, (0.4, 0.9)) + q * 0.3 * smooth_noise(rng, n, 1.0, (6.0, 11.0))
     roll = q * 2.0 * smooth_noise(rng, n, 1.0, (0.5, 1.2)) + q * 0.4 * smooth_noise(rng, n, 1.0, (7.0, 13.0))
-    out += ["", f"// the walk: {n} poses of the left camera at {num(RATE_HZ, 0)} Hz"]
-    out += [camera_pose_line(P[i], yaw[i], pitch[i], roll[i]) for i in range(n)]
+    out += pose_lines(f"the walk: {n} poses of the left camera at {num(RATE_HZ, 0)} Hz", P, yaw, pitch, roll)
     return "\n".join(out) + "\n"
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--frames", type=int, default=360)
-    a = ap.parse_args(argv)
-    sys.stdout.write(generate(a.seed, frames=a.frames))
+    command_line(generate, __doc__, 360, argv)
 
 
 if __name__ == "__main__":

@@ -150,3 +150,19 @@ def derived_material(name: str, library: str, colour=None, wear=None, seed=None,
     if seed is not None:
         parts.append(f"seed {int(seed)}")
     return " ".join(parts)
+
+
+def pose_lines(comment: str, P, yaw, pitch, roll) -> list[str]:
+    """A blank line, ``// comment`` and one POSE line per camera position (degrees)."""
+    return ["", f"// {comment}"] + [camera_pose_line(P[i], yaw[i], pitch[i], roll[i]) for i in range(len(P))]
+
+
+def command_line(generate, doc: str, frames: int, argv=None) -> None:
+    """A generator's command line: ``--seed S --frames N``, the script on stdout."""
+    import argparse
+    import sys
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--frames", type=int, default=frames)
+    a = ap.parse_args(argv)
+    sys.stdout.write(generate(a.seed, frames=a.frames))
