@@ -82,3 +82,10 @@ class ArraySequence(Sequence):
         Tr = np.eye(4)
         Tr[0, 3] = B
         return self._T @ Tr
+
+
+def rel_errors(res) -> np.ndarray:
+    """Per-step |estimated - true twist| / |true twist| of a VO result (twist [U, V, W,
+    alpha, beta, gamma], rad)."""
+    e = np.linalg.norm(res.twists - res.gt_twists, axis=1)
+    return e / np.linalg.norm(res.gt_twists, axis=1)
