@@ -27,8 +27,8 @@ from typing import Optional
 import numpy as np
 
 from ...assets.street import arc_frame
-from .sesgen_layout import (Ids, Lighting, asset, command_line, derived_material, draw_lighting, num, nums,
-                           pose_lines, smooth_noise, variation_rng)
+from .sesgen_layout import (script_with_poses, Ids, Lighting, asset, command_line, derived_material, draw_lighting, num, nums,
+                           smooth_noise, variation_rng)
 
 KITTI_RIG = "CAMERA resolution 1226 370 focal 707 baseline 0.54 near 0.1 far 600"
 CAMERA_HEIGHT = 1.65
@@ -284,13 +284,8 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     yaw = h - np.degrees(drift) + 0.25 * smooth_noise(rng, frames, 1.0, (3.0, 7.0))
     pitch = 0.3 * smooth_noise(rng, frames, 1.0, (5.0, 11.0, 23.0))
     roll = 0.2 * smooth_noise(rng, frames, 1.0, (4.0, 9.0, 19.0))
-    out += pose_lines(f"the drive: {frames} poses of the left camera (KITTI: 1.65 m above the road, right lane)", pos, yaw, pitch, roll)
-    return "\n".join(out) + "\n"
-
-
-def main(argv=None) -> None:
-    command_line(generate, __doc__, 101, argv)
+    return script_with_poses(out, f"the drive: {frames} poses of the left camera (KITTI: 1.65 m above the road, right lane)", pos, yaw, pitch, roll)
 
 
 if __name__ == "__main__":
-    main()
+    command_line(generate, __doc__, 101)

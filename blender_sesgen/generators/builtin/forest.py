@@ -24,7 +24,7 @@ from typing import Optional
 
 import numpy as np
 
-from .sesgen_layout import (Ids, Lighting, asset, command_line, derived_material, draw_lighting, num, pose_lines,
+from .sesgen_layout import (script_with_poses, Ids, Lighting, asset, command_line, derived_material, draw_lighting, num,
                            sky_and_sun, smooth_noise, variation_rng)
 from ...assets.nature import terrain_height, trail_x
 
@@ -151,13 +151,8 @@ def generate(seed: int = 0, frames: int = 150, speed: Optional[float] = None) ->
     slope = np.degrees(np.arctan2(np.gradient(ground, tt), speed))
     pitch = var.tilt + 0.5 * slope + 3 * smooth_noise(rng, n, 1.0, (0.4, 0.9)) + 0.4 * np.sin(2 * np.pi * 2 * step_hz * tt + 0.5)
     roll = 0.8 * np.sin(2 * np.pi * step_hz * tt) + 0.5 * smooth_noise(rng, n, 1.0, (0.6, 1.3))
-    out += pose_lines(f"the walk: {n} poses of the left camera at {num(RATE_HZ, 0)} Hz along the trail", P, yaw, pitch, roll)
-    return "\n".join(out) + "\n"
-
-
-def main(argv=None) -> None:
-    command_line(generate, __doc__, 150, argv)
+    return script_with_poses(out, f"the walk: {n} poses of the left camera at {num(RATE_HZ, 0)} Hz along the trail", P, yaw, pitch, roll)
 
 
 if __name__ == "__main__":
-    main()
+    command_line(generate, __doc__, 150)

@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .sesgen_layout import (Ids, Lighting, REPO, asset, command_line, draw_lighting, num, nums, pose_lines,
+from .sesgen_layout import (script_with_poses, Ids, Lighting, REPO, asset, command_line, draw_lighting, num, nums,
                            smooth_noise, variation_rng)
 
 # EuRoC MAV cam0/cam1 (../shared/data/euroc/mav0/*/sensor.yaml): used when the data folder is absent
@@ -244,13 +244,8 @@ def generate(seed: int = 0, frames: int = 200, width: float = 30.0, depth: float
         + 0.5 * smooth_noise(rng, n, 1.0, (9.0, 17.0))
     roll = np.degrees(np.clip((acc[:, 0] * np.cos(np.radians(yaw)) - acc[:, 2] * np.sin(np.radians(yaw))) / 9.81, -0.1, 0.1)) \
         + 0.6 * smooth_noise(rng, n, 1.0, (8.0, 15.0))
-    out += pose_lines(f"the flight: {n} poses of cam0 at {num(RATE_HZ, 0)} Hz", P, yaw, pitch, roll)
-    return "\n".join(out) + "\n"
-
-
-def main(argv=None) -> None:
-    command_line(generate, __doc__, 200, argv)
+    return script_with_poses(out, f"the flight: {n} poses of cam0 at {num(RATE_HZ, 0)} Hz", P, yaw, pitch, roll)
 
 
 if __name__ == "__main__":
-    main()
+    command_line(generate, __doc__, 200)

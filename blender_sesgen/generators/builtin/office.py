@@ -25,8 +25,8 @@ from typing import Optional
 
 import numpy as np
 
-from .sesgen_layout import (Ids, Lighting, asset, command_line, derived_material, draw_lighting, num, nums,
-                           pose_lines, sky_and_sun, smooth_noise, variation_rng)
+from .sesgen_layout import (script_with_poses, Ids, Lighting, asset, command_line, derived_material, draw_lighting, num, nums,
+                           sky_and_sun, smooth_noise, variation_rng)
 
 RATE_HZ = 30.0
 FLOORS = {"wood_planks": ((0.33, 0.19, 0.09), (0.45, 0.30, 0.16), (0.20, 0.11, 0.05), (0.52, 0.40, 0.25)),
@@ -220,13 +220,8 @@ def generate(seed: int = 0, frames: int = 360) -> str:
     yaw = yaw + q * 4 * smooth_noise(rng, n, 1.0, (0.5, 1.1)) + q * 0.3 * smooth_noise(rng, n, 1.0, (6.0, 9.0, 14.0))
     pitch = pitch + q * 3 * smooth_noise(rng, n, 1.0, (0.4, 0.9)) + q * 0.3 * smooth_noise(rng, n, 1.0, (6.0, 11.0))
     roll = q * 2.0 * smooth_noise(rng, n, 1.0, (0.5, 1.2)) + q * 0.4 * smooth_noise(rng, n, 1.0, (7.0, 13.0))
-    out += pose_lines(f"the walk: {n} poses of the left camera at {num(RATE_HZ, 0)} Hz", P, yaw, pitch, roll)
-    return "\n".join(out) + "\n"
-
-
-def main(argv=None) -> None:
-    command_line(generate, __doc__, 360, argv)
+    return script_with_poses(out, f"the walk: {n} poses of the left camera at {num(RATE_HZ, 0)} Hz", P, yaw, pitch, roll)
 
 
 if __name__ == "__main__":
-    main()
+    command_line(generate, __doc__, 360)

@@ -152,9 +152,11 @@ def derived_material(name: str, library: str, colour=None, wear=None, seed=None,
     return " ".join(parts)
 
 
-def pose_lines(comment: str, P, yaw, pitch, roll) -> list[str]:
-    """A blank line, ``// comment`` and one POSE line per camera position (degrees)."""
-    return ["", f"// {comment}"] + [camera_pose_line(P[i], yaw[i], pitch[i], roll[i]) for i in range(len(P))]
+def script_with_poses(lines: list[str], comment: str, P, yaw, pitch, roll) -> str:
+    """The script: ``lines``, a blank line, ``// comment`` and one POSE line per camera
+    position (angles in degrees)."""
+    poses = [camera_pose_line(P[i], yaw[i], pitch[i], roll[i]) for i in range(len(P))]
+    return "\n".join(lines + ["", f"// {comment}"] + poses) + "\n"
 
 
 def command_line(generate, doc: str, frames: int, argv=None) -> None:
