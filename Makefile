@@ -48,7 +48,7 @@ addon:
 # identical_renders.py are checks, run them by hand).
 BENCHES := bench_completion bench_evaluate bench_stereo_vo bench_mono bench_render bench_gt_cost bench_memory bench_farm quality
 bench: $(STAMP)
-	@for b in $(BENCHES); do echo "== bench/$$b.py"; PYTHONPATH=tests $(PY) bench/$$b.py || exit 1; done
+	@for b in $(BENCHES); do echo "== bench/$$b.py"; $(PY) bench/$$b.py || exit 1; done
 
 clean:
 	rm -rf out dist build .pytest_cache

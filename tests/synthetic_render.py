@@ -13,28 +13,10 @@ from typing import Sequence as Seq
 
 import numpy as np
 
-from vo_reference.io.exr import write_exr_parts
+from vo_reference.io.exr import render_exr_parts as exr_parts, write_exr_parts
 
-from blender_sesgen.contract.depth import depth_to_pass
 from blender_sesgen.contract.rig import right_from_left
 from blender_sesgen.contract.manifest import Manifest, exr_relpath
-
-
-def exr_parts(rgb_linear: np.ndarray, depth: np.ndarray, ids: np.ndarray | None,
-              alpha: np.ndarray | None = None, layer: str = "ViewLayer") -> dict:
-    """The parts of one Blender 5.0 multilayer EXR (depth +inf -> 1e10)."""
-    H, W = depth.shape
-    z = depth_to_pass(depth)
-    rgb = np.asarray(rgb_linear, dtype=np.float32)
-    a = np.ones((H, W), np.float32) if alpha is None else np.asarray(alpha, np.float32)
-    parts = {
-        f"{layer}.Combined": {f"{layer}.Combined.{c}": np.ascontiguousarray(x)
-                              for c, x in zip("RGBA", (rgb[..., 0], rgb[..., 1], rgb[..., 2], a))},
-        f"{layer}.Depth": {f"{layer}.Depth.Z": z},
-    }
-    if ids is not None:
-        parts[f"{layer}.Object Index"] = {f"{layer}.Object Index.X": np.asarray(ids, dtype=np.float32)}
-    return parts
 
 
 def write_render(root, *, K: np.ndarray, baseline_m: float, T_world_left: np.ndarray,
