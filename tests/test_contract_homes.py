@@ -12,6 +12,7 @@ derived again anywhere else in either package, checked on the source (AST).
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
@@ -24,12 +25,17 @@ SETTING_KEYS = {"samples", "sampling", "seed", "passes", "resolution_scale"}
 CHANNEL_NAMES = {"Combined", "Depth", "Object Index", "IndexOB"}
 
 
+@functools.lru_cache(maxsize=1)
+def _parsed() -> tuple:
+    """(relative path, in the contract?, AST) of every module of both packages, parsed once."""
+    return tuple((p.relative_to(REPO).as_posix(), CONTRACT in p.parents, ast.parse(p.read_text(encoding="utf-8")))
+                 for pkg in PACKAGES for p in sorted((REPO / pkg).rglob("*.py")) if "__pycache__" not in p.parts)
+
+
 def modules(outside_contract: bool = True):
-    for pkg in PACKAGES:
-        for p in sorted((REPO / pkg).rglob("*.py")):
-            if "__pycache__" in p.parts or (outside_contract and CONTRACT in p.parents):
-                continue
-            yield p.relative_to(REPO).as_posix(), ast.parse(p.read_text(encoding="utf-8"))
+    for path, in_contract, tree in _parsed():
+        if not (outside_contract and in_contract):
+            yield path, tree
 
 
 def _docstrings(tree) -> set[int]:
