@@ -135,10 +135,11 @@ def test_the_constants_have_one_home():
                                                      for c in [node.left, *node.comparators]):
                 found.append(f"{path}:{node.lineno}: an EXR header parsed (contract.exr_format.read_header)")
         for node in ast.walk(tree):   # 25 fps written again: a default rate or fps of 25
-            if isinstance(node, (ast.Assign, ast.AnnAssign, ast.keyword, ast.BoolOp)):
+            if isinstance(node, (ast.Assign, ast.AnnAssign, ast.keyword, ast.BoolOp)) and any(
+                    isinstance(c, ast.Constant) and c.value == 25 and not isinstance(c.value, bool)
+                    for c in ast.walk(node)):
                 text = ast.unparse(node).lower()
-                if ("fps" in text or "rate" in text) and any(isinstance(c, ast.Constant) and c.value == 25
-                                                              and not isinstance(c.value, bool) for c in ast.walk(node)):
+                if "fps" in text or "rate" in text:
                     found.append(f"{path}:{node.lineno}: 25 fps (contract.timing.DEFAULT_FPS)")
     assert found == [], "\n".join(found)
 
