@@ -1,5 +1,6 @@
 """Dataset exports of a render folder: KITTI odometry, KITTI stereo/flow, TUM RGB-D, EuRoC,
-PNG, Bayer, TartanAir, Virtual KITTI 2, SceneFlow.
+PNG, Bayer, TartanAir (V1, V2), Virtual KITTI 2, SceneFlow, COLMAP, nerfstudio, SLAM/VIO
+settings, Middlebury 2014, ETH3D, MPI-Sintel.
 
 Each target is a function ``export_X(seq, out, opts)`` registered in :data:`EXPORTERS`
 (name -> "module:function", imported when used). Adding a target is one line there, or
@@ -36,7 +37,7 @@ from ..io.sequence import require_complete
 from .noise import add_gaussian_noise
 
 __all__ = ["EXPORTERS", "ExportOptions", "export", "register_exporter", "get_exporter", "parse_frames",
-           "sequence_folder", "check_replaceable", "progress_bar", "image_rgb", "image_gray"]
+           "sequence_folder", "check_replaceable", "progress_bar", "image_rgb", "image_gray", "require_pinhole"]
 
 # target name -> ("module:function", one-line help)
 EXPORTERS: dict[str, tuple[str | Callable, str]] = {
@@ -73,6 +74,27 @@ EXPORTERS: dict[str, tuple[str | Callable, str]] = {
     "cityscapes": ("vo_reference.products.semantic_export:export_cityscapes",
                    "Cityscapes layout: leftImg8bit/ + gtFine/ labelIds, color, instanceIds (+ object ids), "
                    "classes.json; right view in rightImg8bit/ + gtFineRight/"),
+    "colmap": ("vo_reference.products.colmap:export_colmap",
+               "COLMAP text model: images/ + sparse/0/{cameras,images,points3D,rigs,frames}.txt, points from "
+               "the exact depth with their observations in every image that sees them"),
+    "nerfstudio": ("vo_reference.products.nerfstudio:export_nerfstudio",
+                   "nerfstudio / 3D Gaussian Splatting: transforms.json (OpenGL camera-to-world), images/, "
+                   "depths/ (16-bit mm), masks/, sparse_pc.ply"),
+    "slam": ("vo_reference.products.slam_config:export_slam_config",
+             "SLAM/VIO settings of the rig: ORB-SLAM3, VINS-Fusion, OpenVINS, Kalibr, Basalt (also written "
+             "beside the euroc and rosbag exports, in slam/)"),
+    "tartanair-v2": ("vo_reference.products.tartanair_v2:export_tartanair_v2",
+                     "TartanAir V2: ENV/Data_easy/P000/image_lcam_front, depth_* (RGBA-packed float PNG), "
+                     "seg_*, flow_lcam_front, pose_*.txt (NED) (--sequence ENV/Data_DIFF/PNNN)"),
+    "middlebury": ("vo_reference.products.middlebury:export_middlebury",
+                   "Middlebury 2014 stereo: one folder per frame with im0.png, im1.png, disp0.pfm, disp1.pfm, "
+                   "mask0nocc.png, calib.txt"),
+    "eth3d": ("vo_reference.products.middlebury:export_eth3d",
+              "ETH3D two-view stereo: two_view_training/NAME/{im0,im1}.png, calib.txt, cameras.txt, images.txt "
+              "+ two_view_training_gt/NAME/disp0GT.pfm, mask0nocc.png"),
+    "sintel": ("vo_reference.products.sintel:export_sintel",
+               "MPI-Sintel: training/{clean,final}/SCENE/frame_NNNN.png, flow/ .flo, occlusions/, invalid/, "
+               "depth/ .dpt, camdata_left/ .cam (--sequence SCENE)"),
 }
 
 COLOUR, GREY = 0, 1
@@ -175,6 +197,15 @@ def image_gray(seq, k: int, view: str, opts: ExportOptions) -> np.ndarray:
     if opts.noise is None:
         return g
     return add_gaussian_noise(g, opts.noise[0], opts.noise[1], (k, VIEW_INDEX[view], GREY))
+
+
+def require_pinhole(seq, layout: str) -> None:
+    """Refuse (VoError, exit 2) a render with a distorting lens for a layout whose format has
+    no lens model: its images and ground truth would be read as pinhole ones."""
+    lens = getattr(seq, "lens", None)
+    if lens is not None and not lens.is_pinhole:
+        raise VoError(f"{layout}: the render has a {lens.model} lens and the {layout} layout has no lens "
+                      "model; export with --undistort (pinhole images and ground truth)")
 
 
 def check_replaceable(folder: Path) -> None:
