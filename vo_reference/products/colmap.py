@@ -29,9 +29,9 @@ from blender_sesgen.contract.se3 import R_to_quat_xyzw, invert
 from ..errors import VoError
 from ..io.files import write_png_rgb
 from .exports import ExportOptions, image_rgb, progress_bar
-from .sparse_points import SparsePoints, sparse_points
+from .sparse_points import SparsePoints, pop_stride, sparse_points
 
-__all__ = ["export_colmap", "colmap_camera", "cam_from_world", "write_colmap_text", "parse_stride"]
+__all__ = ["export_colmap", "colmap_camera", "cam_from_world", "write_colmap_text"]
 
 CAMERA_ID = {"left": 1, "right": 2}
 
@@ -62,22 +62,6 @@ def cam_from_world(T_world_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     x, y, z, w = R_to_quat_xyzw(T[:3, :3])
     q = np.array([w, x, y, z])
     return (-q if q[0] < 0 else q), T[:3, 3]
-
-
-def parse_stride(opts: ExportOptions, layout: str) -> int | None:
-    extra = dict(opts.extra)
-    text = extra.pop("stride", None)
-    if extra:
-        raise VoError(f"{layout} export: unknown option(s) {', '.join(sorted(extra))} (stride)")
-    if text is None:
-        return None
-    try:
-        stride = int(text)
-    except ValueError:
-        raise VoError(f"stride={text!r}: expected a whole number of pixels") from None
-    if stride < 1:
-        raise VoError(f"stride={text!r}: must be >= 1")
-    return stride
 
 
 def write_colmap_text(folder: Path, seq, images: list[tuple[int, str]], names: list[str],
@@ -143,7 +127,10 @@ def write_colmap_text(folder: Path, seq, images: list[tuple[int, str]], names: l
 
 
 def export_colmap(seq, out: Path, opts: ExportOptions) -> None:
-    stride = parse_stride(opts, "colmap")
+    extra = dict(opts.extra)
+    stride = pop_stride(extra)
+    if extra:
+        raise VoError(f"colmap export: unknown option(s) {', '.join(sorted(extra))} (stride)")
     views = [v for v in ("left", "right") if v in seq.views]
     frames = list(opts.frames)
     n_img = len(frames) * len(views)

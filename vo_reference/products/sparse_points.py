@@ -28,7 +28,7 @@ from blender_sesgen.contract.se3 import invert
 from ..errors import VoError
 from .flow import surface_inverse_depth
 
-__all__ = ["SparsePoints", "sparse_points", "default_stride", "camera_lens", "observe"]
+__all__ = ["SparsePoints", "sparse_points", "default_stride", "pop_stride", "camera_lens", "observe"]
 
 TARGET_POINTS_PER_IMAGE = 2000
 
@@ -53,6 +53,21 @@ class SparsePoints:
 def default_stride(width: int, height: int) -> int:
     """Grid step (px) giving about TARGET_POINTS_PER_IMAGE points in the first image."""
     return max(2, int(round(np.sqrt(width * height / TARGET_POINTS_PER_IMAGE))))
+
+
+def pop_stride(extra: dict) -> int | None:
+    """Take ``stride`` (the grid step in pixels, ``--opt stride=PX``) out of an export's
+    options; None when not given."""
+    text = extra.pop("stride", None)
+    if text is None:
+        return None
+    try:
+        stride = int(text)
+    except ValueError:
+        raise VoError(f"stride={text!r}: expected a whole number of pixels") from None
+    if stride < 1:
+        raise VoError(f"stride={text!r}: must be >= 1")
+    return stride
 
 
 def camera_lens(seq):
