@@ -116,6 +116,8 @@ def export_euroc(seq, out: Path, opts: ExportOptions) -> None:
                       "# General sensor definitions.\nsensor_type: visual-inertial\n"
                       f"comment: sesgen ground truth; body frame = {body}, R = the SES world\n\n"
                       "# Sensor extrinsics wrt. the body-frame.\nT_BS:\n" + _yaml_matrix(np.eye(4)))
+    from .slam_config import write_slam_configs
+    write_slam_configs(seq, out / "slam", t_ns)   # the rig's SLAM/VIO settings beside mav0
 
 
 def _export_euroc_imu(seq, mav: Path, ts: np.ndarray) -> None:
