@@ -123,3 +123,26 @@ def write_layout_render(root, n: int = 4, stereo: bool = True, objects=None, noi
         extra["lens"] = {"model": cam.model, "coeffs": list(cam.coeffs)}
     return write_render(root, K=K, baseline_m=B if stereo else 0.0, T_world_left=T, frames=frames,
                         noise=noise, objects=OBJECTS if objects is None else objects, extra=extra)
+
+
+def analytic_flow(T_src: np.ndarray, T_tgt: np.ndarray):
+    """Expected flow of a camera from pose T_src to T_tgt in the closed-form scene (pinhole):
+    (flow (H, W, 2), the point's depth in the target, inside the target image, the target
+    depth at the nearest pixel's 3x3 neighbourhood: min and max)."""
+    z, _ = raycast(T_src)
+    zt_map, _ = raycast(T_tgt)
+    u, v = np.meshgrid(np.arange(W, dtype=float), np.arange(H, dtype=float))
+    r = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], -1)
+    Rs, Cs, Rt, Ct = T_src[:3, :3], T_src[:3, 3], T_tgt[:3, :3], T_tgt[:3, 3]
+    fin = np.isfinite(z)
+    # surface points move with the full motion, points at infinity with the rotation only
+    Xt = np.where(fin[..., None], (Cs + (r * np.where(fin, z, 0)[..., None]) @ Rs.T - Ct) @ Rt, (r @ Rs.T) @ Rt)
+    p = Xt @ K.T
+    up, vp = p[..., 0] / p[..., 2], p[..., 1] / p[..., 2]
+    flow = np.stack([up - u, vp - v], -1)
+    inside = (Xt[..., 2] > 0) & (up >= -0.5) & (up < W - 0.5) & (vp >= -0.5) & (vp < H - 0.5)
+    zpt = np.where(fin, Xt[..., 2], np.inf)
+    xi, yi = np.clip(np.rint(up), 0, W - 1).astype(int), np.clip(np.rint(vp), 0, H - 1).astype(int)
+    pad = np.pad(zt_map, 1, mode="edge")
+    nb = np.stack([pad[yi + 1 + dy, xi + 1 + dx] for dy in (-1, 0, 1) for dx in (-1, 0, 1)])
+    return flow, zpt, inside, nb.min(0), nb.max(0)
