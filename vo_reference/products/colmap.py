@@ -65,10 +65,11 @@ def cam_from_world(T_world_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def write_colmap_text(folder: Path, seq, images: list[tuple[int, str]], names: list[str],
-                      pts: SparsePoints | None = None) -> None:
-    """cameras/images/points3D/rigs/frames.txt in ``folder``: ``images`` (source frame, view),
-    frame by frame with the same views each, named ``names`` (relative to the image folder);
-    the points and their observations of ``pts`` (made for the same images), if given."""
+                      pts: SparsePoints | None = None, rig: bool = True) -> None:
+    """cameras/images/points3D(/rigs/frames).txt in ``folder``: ``images`` (source frame,
+    view), frame by frame with the same views each, named ``names`` (relative to the image
+    folder); the points and their observations of ``pts`` (made for the same images), if
+    given; ``rig``: also the stereo rig and its frames (COLMAP >= 3.12)."""
     views = list(dict.fromkeys(v for _, v in images))
     W, H = seq.resolution
     model, params = colmap_camera(seq)
@@ -108,6 +109,8 @@ def write_colmap_text(folder: Path, seq, images: list[tuple[int, str]], names: l
     atomic.write_text(folder / "points3D.txt", "# 3D point list with one line of data per point:\n"
                       "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)\n"
                       f"# Number of points: {n_pts}, mean track length: {mean_track:.6g}\n" + "".join(rows))
+    if not rig:
+        return
     # the rig: camera 1 is the reference, camera 2 sits at cam2_from_cam1 = trans(-B, 0, 0)
     sensors = "CAMERA 1" + (f" CAMERA 2 1 1 0 0 0 {_num(-seq.baseline_m)} 0 0" if "right" in views else "")
     atomic.write_text(folder / "rigs.txt", "# Rig calib list with one line of data per calib:\n"
