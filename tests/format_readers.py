@@ -12,6 +12,8 @@ writers (they import nothing of vo_reference): the oracles of the layout round-t
   TartanAirImageReader decodes depth as cv2.IMREAD_UNCHANGED bytes viewed as '<f4', flow PNG
   as (flow16 - 32768) / 64 with the mask in the third channel, flow npz as flow_fwd[0] CHW;
   its data cacher names files FRAME_lcam_front_depth.png, FRAME_NEXT_flow.png, ...).
+- MPI-Sintel: its SDK's sintel_io (depth_read: float32 tag, int32 width, height, float32
+  depth; cam_read: float32 tag, 9 float64 M, 12 float64 N).
 - Virtual KITTI 2: the README of vkitti_2.0.3 (Naver Labs Europe): depth PNG uint16 in cm;
   flow PNG decoded as in its read_vkitti_png_flow snippet; text files with a header line
   and 'frame cameraID ...' rows; extrinsic = the 4x4 world-to-camera matrix.
@@ -143,3 +145,18 @@ def read_tartanair_v2(path):
         flow16 = cv2.imread(path, cv2.IMREAD_UNCHANGED)
         return (flow16[:, :, :2].astype(np.float32) - 32768) / 64.0, flow16[:, :, 2].astype(np.uint8)
     return cv2.cvtColor(cv2.imread(path), cv2.COLOR_BGR2RGB)
+
+
+def read_sintel_dpt(path) -> np.ndarray:
+    with open(path, "rb") as f:
+        assert np.fromfile(f, np.float32, 1)[0] == 202021.25
+        w, h = np.fromfile(f, np.int32, 2)
+        return np.fromfile(f, np.float32, -1).reshape(h, w)
+
+
+def read_sintel_cam(path) -> tuple[np.ndarray, np.ndarray]:
+    with open(path, "rb") as f:
+        assert np.fromfile(f, np.float32, 1)[0] == 202021.25
+        M = np.fromfile(f, "float64", 9).reshape(3, 3)
+        N = np.fromfile(f, "float64", 12).reshape(3, 4)
+        return M, N

@@ -47,7 +47,7 @@ from blender_sesgen.contract import atomic
 
 from ..errors import VoError
 from ..io.files import write_png_rgb
-from .dense_gt import dense_flow
+from .dense_gt import dense_flow, pop_background_depth
 from .exports import ExportOptions, image_rgb, progress_bar, sequence_folder
 
 __all__ = ["export_tartanair", "ned_poses", "pose_lines", "flow_mask", "R_CV_NED", "R_NED_SES"]
@@ -55,7 +55,6 @@ __all__ = ["export_tartanair", "ned_poses", "pose_lines", "flow_mask", "R_CV_NED
 R_CV_NED = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])   # v_cv = R_CV_NED @ v_ned
 R_NED_SES = np.array([[0.0, 0.0, -1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])  # world: north = -Z, east = X, down = -Y
 MASK_VALID, MASK_HIDDEN, MASK_OUT_OF_VIEW = 0, 1, 100
-DEFAULT_BACKGROUND_DEPTH = 10000.0
 
 
 def ned_poses(T_world_cam: np.ndarray) -> np.ndarray:
@@ -93,17 +92,9 @@ def _npy(path: Path, a: np.ndarray) -> None:
 
 def _options(opts: ExportOptions) -> float:
     extra = dict(opts.extra)
-    text = extra.pop("background_depth", None)
+    value = pop_background_depth(extra)
     if extra:
         raise VoError(f"tartanair export: unknown option(s) {', '.join(sorted(extra))} (background_depth)")
-    if text is None:
-        return DEFAULT_BACKGROUND_DEPTH
-    try:
-        value = float(text)
-    except ValueError:
-        raise VoError(f"background_depth={text!r}: expected metres (a number or inf)") from None
-    if not value > 0:
-        raise VoError(f"background_depth={text!r}: must be > 0")
     return value
 
 

@@ -34,7 +34,6 @@ rosbag export for the IMU.
 """
 from __future__ import annotations
 
-import dataclasses
 import json
 from pathlib import Path
 
@@ -44,9 +43,9 @@ from blender_sesgen.contract import atomic
 
 from ..errors import VoError
 from ..io.files import write_image_atomic, write_png_rgb
-from .dense_gt import dense_flow
+from .dense_gt import dense_flow, pop_background_depth
 from .exports import ExportOptions, image_rgb, progress_bar, require_pinhole, sequence_folder
-from .tartanair import _check_ids, _options, flow_mask, ned_poses, pose_lines
+from .tartanair import _check_ids, flow_mask, ned_poses, pose_lines
 
 __all__ = ["export_tartanair_v2", "depth_rgba", "flow_png16", "CAMERA", "DEFAULT_SEQUENCE"]
 
@@ -89,7 +88,9 @@ def export_tartanair_v2(seq, out: Path, opts: ExportOptions) -> Path:
     flow_kind = extra.pop("flow", "png")
     if flow_kind not in ("png", "npz"):
         raise VoError(f"flow={flow_kind!r}: expected png (TartanAir V2's 16-bit flow) or npz (float, both directions)")
-    background = _options(dataclasses.replace(opts, extra=extra))
+    background = pop_background_depth(extra)
+    if extra:
+        raise VoError(f"tartanair-v2 export: unknown option(s) {', '.join(sorted(extra))} (flow, background_depth)")
     _check_ids(seq)
     views = [v for v in ("left", "right") if v in seq.views]
     frames = list(opts.frames)
