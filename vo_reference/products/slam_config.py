@@ -35,12 +35,33 @@ from blender_sesgen.contract.lens import opencv_matrix_text, real_text
 from blender_sesgen.contract.se3 import R_to_quat_xyzw, invert
 
 from ..errors import VoError
-from .euroc import _euroc_rate_hz, euroc_T_body_cam
 from .exports import ExportOptions
 
-__all__ = ["export_slam_config", "write_slam_configs", "slam_config_files", "Rig"]
+__all__ = ["export_slam_config", "write_slam_configs", "slam_config_files", "Rig", "T_body_cam", "camera_rate_hz"]
 
 TOPICS = {"cam0": "/cam0/image_raw", "cam1": "/cam1/image_raw", "imu": "/imu0"}
+
+
+def camera_rate_hz(seq) -> float:
+    """The camera's frame rate: the manifest's fps, else 1 / the median frame step."""
+    m = seq.manifest
+    fps = m.get("fps") or (m.get("render") or {}).get("fps")
+    if fps:
+        return float(fps)
+    dt = np.diff(seq.timestamps_s)
+    return float(1.0 / np.median(dt)) if dt.size and np.median(dt) > 0 else 0.0
+
+
+def T_body_cam(seq, cam: int) -> np.ndarray:
+    """Camera ``cam``'s pose in the rig's body frame: the IMU where the render has one
+    (T_imu_cam = inv(T_cam_imu), the right camera trans(B, 0, 0) further), else the left
+    camera (the body of the EuRoC export and of every settings file here)."""
+    T_cam_left = np.eye(4)
+    T_cam_left[0, 3] = seq.baseline_m if cam == 1 else 0.0
+    imu = seq.manifest.get("imu") if hasattr(seq, "manifest") else None
+    if not imu:
+        return T_cam_left
+    return invert(np.array(imu["T_cam_imu"], dtype=float)) @ T_cam_left
 
 
 class Rig:
@@ -53,11 +74,11 @@ class Rig:
         self.baseline_m = float(seq.baseline_m)
         lens = getattr(seq, "lens", None)
         self.lens = None if lens is None or lens.is_pinhole else lens
-        self.fps = _euroc_rate_hz(seq)
+        self.fps = camera_rate_hz(seq)
         self.imu = (getattr(seq, "manifest", None) or {}).get("imu") or None
         self.cams = [0, 1] if self.stereo else [0]
         # camera i in the body frame (the IMU, else the left camera) and the IMU in camera i
-        self.T_body_cam = [euroc_T_body_cam(seq, i) for i in self.cams]
+        self.T_body_cam = [T_body_cam(seq, i) for i in self.cams]
         self.T_cam_body = [invert(T) for T in self.T_body_cam]
         self.T_cam1_cam0 = np.eye(4)
         self.T_cam1_cam0[0, 3] = -self.baseline_m
