@@ -19,13 +19,8 @@ N = 4
 
 
 @pytest.fixture(scope="module")
-def render(layout_render):
-    return layout_render
-
-
-@pytest.fixture(scope="module")
-def exported(render, tmp_path_factory):
-    return export_layout(render, tmp_path_factory.mktemp("colmap") / "out", "colmap")
+def exported(layout_render, tmp_path_factory):
+    return export_layout(layout_render, tmp_path_factory.mktemp("colmap") / "out", "colmap")
 
 
 def _reprojection_errors(rec) -> np.ndarray:
@@ -152,9 +147,9 @@ def test_lens_renders_keep_their_lens_in_colmaps_models(tmp_path):
                 assert z[0] == pytest.approx((np.linalg.inv(T) @ np.append(p.xyz, 1.0))[2], rel=1e-7)
 
 
-def test_export_is_byte_reproducible_and_frames_renumbered(render, tmp_path):
-    a = export_layout(render, tmp_path / "a", "colmap", "--frames", "1:3")
-    b = export_layout(render, tmp_path / "b", "colmap", "--frames", "1:3")
+def test_export_is_byte_reproducible_and_frames_renumbered(layout_render, tmp_path):
+    a = export_layout(layout_render, tmp_path / "a", "colmap", "--frames", "1:3")
+    b = export_layout(layout_render, tmp_path / "b", "colmap", "--frames", "1:3")
     files = sorted(p.relative_to(a) for p in a.rglob("*") if p.is_file())
     assert files == sorted(p.relative_to(b) for p in b.rglob("*") if p.is_file())
     assert all((a / f).read_bytes() == (b / f).read_bytes() for f in files)
@@ -167,8 +162,8 @@ def test_export_is_byte_reproducible_and_frames_renumbered(render, tmp_path):
     assert np.allclose(T @ view_pose(N, 1, "left"), np.eye(4), atol=1e-12)
 
 
-def test_bad_stride_is_a_user_error(render, tmp_path, capsys):
+def test_bad_stride_is_a_user_error(layout_render, tmp_path, capsys):
     from vo_reference.cli import main
-    assert main(["export", str(render), str(tmp_path / "o"), "--to", "colmap", "--opt", "stride=0", "-q"]) == 2
+    assert main(["export", str(layout_render), str(tmp_path / "o"), "--to", "colmap", "--opt", "stride=0", "-q"]) == 2
     assert "stride" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()

@@ -17,11 +17,6 @@ pytest.importorskip("OpenEXR")
 N = 3
 
 
-@pytest.fixture(scope="module")
-def render(layout_render):
-    return layout_render
-
-
 def read_calib(path) -> dict:
     """Middlebury 2014 calib.txt: key=value lines; camN=[a b c; d e f; g h i]."""
     out = {}
@@ -58,8 +53,8 @@ def _stereo_visibility(k: int):
     return d, vis, occ
 
 
-def test_middlebury_scene_folders(render, tmp_path):
-    out = export_layout(render, tmp_path / "mb", "middlebury")
+def test_middlebury_scene_folders(layout_render, tmp_path):
+    out = export_layout(layout_render, tmp_path / "mb", "middlebury")
     scenes = sorted(p.name for p in out.iterdir() if p.is_dir())
     assert scenes == [f"sesgen_{i:06d}" for i in range(N)]
     for k, scene in enumerate(scenes):
@@ -89,8 +84,8 @@ def test_middlebury_scene_folders(render, tmp_path):
         assert occ.any() and vis.any()
 
 
-def test_eth3d_tree_and_colmap_pair(render, tmp_path):
-    out = export_layout(render, tmp_path / "eth", "eth3d", "--opt", "name=room", "--frames", "1:3")
+def test_eth3d_tree_and_colmap_pair(layout_render, tmp_path):
+    out = export_layout(layout_render, tmp_path / "eth", "eth3d", "--opt", "name=room", "--frames", "1:3")
     # the RAFT-Stereo / IGEV ETH3D loader: sorted globs, paired by position
     im0 = sorted(out.glob("two_view_training/*/im0.png"))
     im1 = sorted(out.glob("two_view_training/*/im1.png"))
@@ -117,7 +112,7 @@ def test_eth3d_tree_and_colmap_pair(render, tmp_path):
                        view_pose(N, 1, "left")[:3, 0] * B, atol=1e-12)
 
 
-def test_refusals(render, tmp_path, capsys):
+def test_refusals(layout_render, tmp_path, capsys):
     from vo_reference.cli import main
     mono = write_layout_render(tmp_path / "mono", n=2, stereo=False)
     assert main(["export", str(mono), str(tmp_path / "a"), "--to", "middlebury", "-q"]) == 2
@@ -128,12 +123,12 @@ def test_refusals(render, tmp_path, capsys):
         err = capsys.readouterr().err
         assert "--undistort" in err and re.search(r"kannala_brandt lens", err)
         assert not (tmp_path / target).exists()
-    assert main(["export", str(render), str(tmp_path / "b"), "--to", "eth3d", "--opt", "name=a/b", "-q"]) == 2
+    assert main(["export", str(layout_render), str(tmp_path / "b"), "--to", "eth3d", "--opt", "name=a/b", "-q"]) == 2
 
 
-def test_byte_reproducible(render, tmp_path):
+def test_byte_reproducible(layout_render, tmp_path):
     for target in ("middlebury", "eth3d"):
-        a = export_layout(render, tmp_path / target / "a", target)
-        b = export_layout(render, tmp_path / target / "b", target)
+        a = export_layout(layout_render, tmp_path / target / "a", target)
+        b = export_layout(layout_render, tmp_path / target / "b", target)
         files = sorted(p.relative_to(a) for p in a.rglob("*") if p.is_file())
         assert files and all((a / f).read_bytes() == (b / f).read_bytes() for f in files)

@@ -22,13 +22,8 @@ N = 4
 
 
 @pytest.fixture(scope="module")
-def render(layout_render):
-    return layout_render
-
-
-@pytest.fixture(scope="module")
-def exported(render, tmp_path_factory):
-    return export_layout(render, tmp_path_factory.mktemp("ns") / "out", "nerfstudio")
+def exported(layout_render, tmp_path_factory):
+    return export_layout(layout_render, tmp_path_factory.mktemp("ns") / "out", "nerfstudio")
 
 
 def load_dataparser(root: Path, depth_unit_scale_factor: float = 1e-3) -> list[dict]:
@@ -156,8 +151,8 @@ def test_lens_is_carried_in_nerfstudios_opencv_model(tmp_path):
     assert np.allclose(np.stack([u, v], -1), px, atol=1e-6)
 
 
-def test_byte_reproducible(render, tmp_path):
-    a = export_layout(render, tmp_path / "a", "nerfstudio", "--frames", "0:2")
-    b = export_layout(render, tmp_path / "b", "nerfstudio", "--frames", "0:2")
+def test_byte_reproducible(layout_render, tmp_path):
+    a = export_layout(layout_render, tmp_path / "a", "nerfstudio", "--frames", "0:2")
+    b = export_layout(layout_render, tmp_path / "b", "nerfstudio", "--frames", "0:2")
     files = sorted(p.relative_to(a) for p in a.rglob("*") if p.is_file())
     assert files and all((a / f).read_bytes() == (b / f).read_bytes() for f in files)

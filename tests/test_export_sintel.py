@@ -16,14 +16,9 @@ N = 4
 
 
 @pytest.fixture(scope="module")
-def render(layout_render):
-    return layout_render
-
-
-@pytest.fixture(scope="module")
-def exported(render, tmp_path_factory):
+def exported(layout_render, tmp_path_factory):
     root = tmp_path_factory.mktemp("sintel")
-    export_layout(render, root, "sintel")
+    export_layout(layout_render, root, "sintel")
     return root / "training"
 
 
@@ -67,21 +62,21 @@ def test_depth_and_camera_files(exported):
         assert np.allclose(p[:2] / p[2], [u, v], atol=1e-9)
 
 
-def test_scene_slot_options_and_refusals(render, tmp_path, capsys):
+def test_scene_slot_options_and_refusals(layout_render, tmp_path, capsys):
     from vo_reference.cli import main
-    assert main(["export", str(render), str(tmp_path), "--to", "sintel", "--sequence", "alley_9", "--frames", "0:2",
+    assert main(["export", str(layout_render), str(tmp_path), "--to", "sintel", "--sequence", "alley_9", "--frames", "0:2",
                  "--opt", "background_depth=inf", "-q"]) == 0
     d = read_sintel_dpt(tmp_path / "training" / "depth" / "alley_9" / "frame_0001.dpt")
     assert np.isinf(d).any() and len(list((tmp_path / "training" / "flow" / "alley_9").iterdir())) == 1
     lens = write_layout_render(tmp_path / "lens", n=2, lens=("brown", (-0.1, 0.02, 0.0, 0.0, 0.0)))
     assert main(["export", str(lens), str(tmp_path / "l"), "--to", "sintel", "-q"]) == 2
     assert "--undistort" in capsys.readouterr().err
-    assert main(["export", str(render), str(tmp_path / "o"), "--to", "sintel", "--opt", "x=1", "-q"]) == 2
+    assert main(["export", str(layout_render), str(tmp_path / "o"), "--to", "sintel", "--opt", "x=1", "-q"]) == 2
 
 
-def test_byte_reproducible(render, tmp_path):
-    export_layout(render, tmp_path / "a", "sintel")
-    export_layout(render, tmp_path / "b", "sintel")
+def test_byte_reproducible(layout_render, tmp_path):
+    export_layout(layout_render, tmp_path / "a", "sintel")
+    export_layout(layout_render, tmp_path / "b", "sintel")
     a, b = tmp_path / "a", tmp_path / "b"
     files = sorted(p.relative_to(a) for p in a.rglob("*") if p.is_file())
     assert files and all((a / f).read_bytes() == (b / f).read_bytes() for f in files)

@@ -22,14 +22,9 @@ TRAJ = "sesgen/Data_easy/P000"
 
 
 @pytest.fixture(scope="module")
-def render(layout_render):
-    return layout_render
-
-
-@pytest.fixture(scope="module")
-def exported(render, tmp_path_factory):
+def exported(layout_render, tmp_path_factory):
     root = tmp_path_factory.mktemp("ta2")
-    export_layout(render, root, "tartanair-v2")
+    export_layout(layout_render, root, "tartanair-v2")
     return root
 
 
@@ -50,9 +45,9 @@ def test_iterator_walk_finds_every_modality_of_both_cameras(exported):
     assert json.loads((traj / "export.json").read_text())["target"] == "tartanair-v2"
 
 
-def test_depth_segmentation_and_images(exported, render):
+def test_depth_segmentation_and_images(exported, layout_render):
     from vo_reference.io.render import RenderSequence
-    seq = RenderSequence(render)
+    seq = RenderSequence(layout_render)
     for k in (0, N - 1):
         for view, cam in (("left", "lcam_front"), ("right", "rcam_front")):
             z, ids = raycast(view_pose(N, k, view))
@@ -77,8 +72,8 @@ def test_png_flow_and_mask_against_the_closed_form_scene(exported):
         assert np.all(mask[inside & (zmin > zpt * 1.02) & np.isfinite(zpt)] == 0)
 
 
-def test_npz_flow_both_directions(render, tmp_path):
-    export_layout(render, tmp_path, "tartanair-v2", "--opt", "flow=npz", "--sequence", "office/Data_hard/P003")
+def test_npz_flow_both_directions(layout_render, tmp_path):
+    export_layout(layout_render, tmp_path, "tartanair-v2", "--opt", "flow=npz", "--sequence", "office/Data_hard/P003")
     traj = tmp_path / "office/Data_hard/P003"
     T = rig_poses(N)
     entries = tartanair_v2_entries(tmp_path)
@@ -111,11 +106,11 @@ def test_poses_are_ned(exported):
     assert labels == {o["name"]: o["id"] for o in OBJECTS}
 
 
-def test_user_errors(render, tmp_path, capsys):
+def test_user_errors(layout_render, tmp_path, capsys):
     from vo_reference.cli import main
-    assert main(["export", str(render), str(tmp_path / "a"), "--to", "tartanair-v2", "--sequence", "P000", "-q"]) == 2
+    assert main(["export", str(layout_render), str(tmp_path / "a"), "--to", "tartanair-v2", "--sequence", "P000", "-q"]) == 2
     assert "ENV/Data_DIFFICULTY/TRAJECTORY" in capsys.readouterr().err
-    assert main(["export", str(render), str(tmp_path / "b"), "--to", "tartanair-v2", "--opt", "flow=exr", "-q"]) == 2
+    assert main(["export", str(layout_render), str(tmp_path / "b"), "--to", "tartanair-v2", "--opt", "flow=exr", "-q"]) == 2
     big = write_layout_render(tmp_path / "big", n=2, objects=[dict(o, id=o["id"] + 300) for o in OBJECTS])
     assert main(["export", str(big), str(tmp_path / "c"), "--to", "tartanair-v2", "-q"]) == 2
     lens = write_layout_render(tmp_path / "lens", n=2, lens=("brown", (-0.1, 0.02, 0.0, 0.0, 0.0)))
@@ -124,9 +119,9 @@ def test_user_errors(render, tmp_path, capsys):
     assert not any((tmp_path / x).exists() and any((tmp_path / x).rglob("*.png")) for x in "abcd")
 
 
-def test_byte_reproducible(render, tmp_path):
-    export_layout(render, tmp_path / "a", "tartanair-v2", "--frames", "1:3")
-    export_layout(render, tmp_path / "b", "tartanair-v2", "--frames", "1:3")
+def test_byte_reproducible(layout_render, tmp_path):
+    export_layout(layout_render, tmp_path / "a", "tartanair-v2", "--frames", "1:3")
+    export_layout(layout_render, tmp_path / "b", "tartanair-v2", "--frames", "1:3")
     a, b = tmp_path / "a" / TRAJ, tmp_path / "b" / TRAJ
     files = sorted(p.relative_to(a) for p in a.rglob("*") if p.is_file())
     assert files and all((a / f).read_bytes() == (b / f).read_bytes() for f in files)

@@ -112,13 +112,5 @@ def disparity_change(seq, k_src: int, k_tgt: int, view: str = "left") -> np.ndar
 def pop_background_depth(extra: dict, default: float = DEFAULT_BACKGROUND_DEPTH) -> float:
     """Take ``background_depth`` (``--opt background_depth=M``, metres or inf: the depth
     written where a pixel sees nothing) out of an export's options."""
-    text = extra.pop("background_depth", None)
-    if text is None:
-        return default
-    try:
-        value = float(text)
-    except ValueError:
-        raise VoError(f"background_depth={text!r}: expected metres (a number or inf)") from None
-    if not value > 0:
-        raise VoError(f"background_depth={text!r}: must be > 0")
-    return value
+    from .exports import pop_number
+    return pop_number(extra, "background_depth", float, default, "metres (a number or inf)")

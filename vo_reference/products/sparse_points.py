@@ -58,16 +58,8 @@ def default_stride(width: int, height: int) -> int:
 def pop_stride(extra: dict) -> int | None:
     """Take ``stride`` (the grid step in pixels, ``--opt stride=PX``) out of an export's
     options; None when not given."""
-    text = extra.pop("stride", None)
-    if text is None:
-        return None
-    try:
-        stride = int(text)
-    except ValueError:
-        raise VoError(f"stride={text!r}: expected a whole number of pixels") from None
-    if stride < 1:
-        raise VoError(f"stride={text!r}: must be >= 1")
-    return stride
+    from .exports import pop_number
+    return pop_number(extra, "stride", int, None, "a whole number of pixels")
 
 
 def camera_lens(seq):

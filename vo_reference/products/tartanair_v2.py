@@ -45,7 +45,7 @@ from ..errors import VoError
 from ..io.files import write_image_atomic, write_png_rgb
 from .dense_gt import dense_flow, pop_background_depth
 from .exports import ExportOptions, image_rgb, progress_bar, require_pinhole, sequence_folder
-from .tartanair import _check_ids, flow_mask, ned_poses, pose_lines
+from .tartanair import _check_ids, depth_and_seg, flow_mask, ned_poses, pose_lines
 
 __all__ = ["export_tartanair_v2", "depth_rgba", "flow_png16", "CAMERA", "DEFAULT_SEQUENCE"]
 
@@ -101,13 +101,9 @@ def export_tartanair_v2(seq, out: Path, opts: ExportOptions) -> Path:
                 for v in views:
                     cam = CAMERA[v]
                     write_png_rgb(root / f"image_{cam}" / f"{i:06d}_{cam}.png", image_rgb(seq, k, v, opts))
-                    z = np.asarray(seq.depth(k, v), dtype=np.float32)
-                    write_image_atomic(root / f"depth_{cam}" / f"{i:06d}_{cam}_depth.png",
-                                       depth_rgba(np.where(np.isfinite(z), z, np.float32(background))))
-                    ids = seq.ids(k, v)
-                    if ids.size and (ids.min() < 0 or ids.max() > 255):
-                        raise VoError(f"tartanair-v2: frame {k} ({v}) has object ids outside 0..255")
-                    write_image_atomic(root / f"seg_{cam}" / f"{i:06d}_{cam}_seg.png", ids.astype(np.uint8))
+                    z, seg = depth_and_seg(seq, k, v, background, "tartanair-v2")
+                    write_image_atomic(root / f"depth_{cam}" / f"{i:06d}_{cam}_depth.png", depth_rgba(z))
+                    write_image_atomic(root / f"seg_{cam}" / f"{i:06d}_{cam}_seg.png", seg)
                     bar.update()
                 if i + 1 < len(frames):
                     fwd = dense_flow(seq, k, frames[i + 1], "left")
