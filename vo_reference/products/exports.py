@@ -143,7 +143,7 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
            sequence: str | None = None, progress_callback: Callable | None = None) -> Path:
     """Export a render folder. ``noise``: 'manifest' (the script's NOISE, if any), None
     (clean) or (sigma, seed); ``sequence``: the slot in a dataset tree, for the targets that
-    have one (kitti-odometry, tartanair, vkitti2, sceneflow); ``progress``: a mode of
+    have one (kitti-odometry, tartanair, tartanair-v2, vkitti2, sceneflow, sintel); ``progress``: a mode of
     :mod:`blender_sesgen.contract.progress` (True = 'auto', False = 'off') and
     ``progress_callback(event)`` a hook for every progress event. Returns the folder that
     holds the export (``out``, or the sequence's folder inside it) with its ``export.json``."""
