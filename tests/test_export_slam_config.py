@@ -286,3 +286,11 @@ def test_written_beside_the_euroc_and_rosbag_exports(tmp_path):
     pytest.importorskip("rosbags")
     out = export_layout(render, tmp_path / "b", "rosbag")
     assert (out / "bag").is_dir() and (out / "slam" / "kalibr" / "camchain-imucam.yaml").is_file()
+
+
+def test_byte_reproducible(tmp_path):
+    render = imu_render(tmp_path / "r")
+    a = export_layout(render, tmp_path / "a", "slam")
+    b = export_layout(render, tmp_path / "b", "slam")
+    files = sorted(p.relative_to(a) for p in a.rglob("*") if p.is_file())
+    assert len(files) > 10 and all((a / f).read_bytes() == (b / f).read_bytes() for f in files)
