@@ -33,7 +33,7 @@ def _reprojection_errors(rec) -> np.ndarray:
 
 
 def _image_pose(name: str) -> np.ndarray:
-    view, file = name.split("/")
+    view, file = name.split("_")
     return view_pose(N, int(file[:6]), view)
 
 
@@ -54,7 +54,7 @@ def test_pycolmap_reads_the_model_and_reprojects_every_observation(exported):
     assert rec.num_rigs() == 1 and rec.num_frames() == N
     by_name = {im.name: im for im in rec.images.values()}
     for k in range(N):
-        cl, cr = by_name[f"left/{k:06d}.png"].projection_center(), by_name[f"right/{k:06d}.png"].projection_center()
+        cl, cr = by_name[f"left_{k:06d}.png"].projection_center(), by_name[f"right_{k:06d}.png"].projection_center()
         assert np.allclose(cr - cl, view_pose(N, k, "left")[:3, 0] * B, atol=1e-12)
 
 
@@ -156,9 +156,9 @@ def test_export_is_byte_reproducible_and_frames_renumbered(layout_render, tmp_pa
     assert json.loads((a / "export.json").read_text())["source_frames"] == [1, 2]
     rec = pycolmap.Reconstruction(str(a / "sparse" / "0"))
     names = sorted(im.name for im in rec.images.values())
-    assert names == ["left/000000.png", "left/000001.png", "right/000000.png", "right/000001.png"]
+    assert names == ["left_000000.png", "left_000001.png", "right_000000.png", "right_000001.png"]
     by_name = {im.name: im for im in rec.images.values()}
-    T = np.vstack([by_name["left/000000.png"].cam_from_world().matrix(), [0, 0, 0, 1]])
+    T = np.vstack([by_name["left_000000.png"].cam_from_world().matrix(), [0, 0, 0, 1]])
     assert np.allclose(T @ view_pose(N, 1, "left"), np.eye(4), atol=1e-12)
 
 

@@ -1,7 +1,8 @@
 """Export target ``colmap``: a render as a COLMAP reconstruction in the text format, the input
 of COLMAP's own tools, pycolmap, 3D Gaussian Splatting and nerfstudio's ``colmap`` parser::
 
-    OUT/images/left/000000.png      8-bit RGB (the export's noise applies); right/ likewise
+    OUT/images/left_000000.png      8-bit RGB (the export's noise applies); right_000000.png likewise
+                                    (flat names: 3D Gaussian Splatting's loaders keep only the base name)
     OUT/sparse/0/cameras.txt        CAMERA_ID MODEL WIDTH HEIGHT PARAMS[] (1 = left, 2 = right)
     OUT/sparse/0/images.txt         IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME, then X Y POINT3D_ID ...
     OUT/sparse/0/points3D.txt       POINT3D_ID X Y Z R G B ERROR TRACK[] (IMAGE_ID POINT2D_IDX ...)
@@ -141,7 +142,7 @@ def export_colmap(seq, out: Path, opts: ExportOptions) -> None:
         images, names = [], []
         for i, k in enumerate(frames):
             for v in views:
-                name = f"{v}/{i:06d}.png"
+                name = f"{v}_{i:06d}.png"
                 write_png_rgb(out / "images" / name, image_rgb(seq, k, v, opts))
                 images.append((k, v))
                 names.append(name)
