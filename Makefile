@@ -36,8 +36,9 @@ demo: $(STAMP)
 	@echo "demo: contact sheets $(DEMO_OUT)/photoreal/contact_sheet.png and $(DEMO_OUT)/render/contact_sheet.png, report $(DEMO_OUT)/report/"
 
 
+# The Blender extension zip needs only the standard library: any Python >= 3.11, no .venv, no Blender.
 addon:
-	$(PY) -m blender_sesgen.addon.package --out dist
+	$(PYTHON) -m blender_sesgen.addon.package --out dist
 
 # The speed and quality figures of the docs, each bench with its defaults (hours on 2 cores:
 # quality.py renders a 4096-sample reference once, then caches it; fuzz_campaign.py and

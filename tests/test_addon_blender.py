@@ -141,6 +141,35 @@ def test_zip_installs_enables_and_disables_cleanly(addon_zip, tmp_path):
     assert again["enabled"] and all(again["ops"].values()) and len(again["menu"]) == 1
 
 
+def _doc_block(marker: str) -> str:
+    """The fenced code block right after ``<!-- marker -->`` in docs/addon.md."""
+    text = (REPO / "docs" / "addon.md").read_text(encoding="utf-8")
+    after = text.split(f"<!-- {marker} -->", 1)[1]
+    return after.split("```", 2)[1].split("\n", 1)[1]
+
+
+def test_the_three_headless_lines_of_the_docs_install_enable_and_keep_the_addon(addon_zip, tmp_path):
+    """docs/addon.md's three lines, run as written from a checkout with the built zip in dist/,
+    install and enable the add-on; a later session that reads the saved preferences has it."""
+    code = _doc_block("addon-install")
+    assert len(code.strip().splitlines()) == 3, code
+    (tmp_path / "dist").mkdir()
+    (tmp_path / "dist" / addon_zip.name).write_bytes(addon_zip.read_bytes())
+    (tmp_path / "install.py").write_text(code + 'print("OPS", hasattr(bpy.ops.sesgen, "check") and '
+                                               'bool(bpy.ops.sesgen.check.get_rna_type()))\n')
+    (tmp_path / "later.py").write_text("import bpy\nbpy.ops.wm.read_userpref()\n"
+                                       f'print("ENABLED", {MODULE!r} in bpy.context.preferences.addons)\n'
+                                       'print("OPS", bool(bpy.ops.sesgen.check.get_rna_type()))\n')
+    env = dict(os.environ, BLENDER_USER_RESOURCES=str(tmp_path / "user"))
+    for script in ("install.py", "later.py"):
+        r = subprocess.run([sys.executable, script], cwd=tmp_path, env=env, capture_output=True, text=True,
+                           timeout=300)
+        assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+        assert "OPS True" in r.stdout, (script, r.stdout[-3000:])
+    assert "ENABLED True" in r.stdout
+    assert (tmp_path / "user" / "extensions" / "user_default" / "blender_sesgen" / "__init__.py").is_file()
+
+
 # --- Build --------------------------------------------------------------------------------
 
 BUILD_BODY = """
