@@ -22,17 +22,19 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract.cli import add_report_argument
 from blender_sesgen.contract.progress import add_progress_argument, progress_mode
 
 from ..errors import VoError
+from ..evaluate.align import CLI_DEFAULT
 from .report import RunReport, error_summary, shape_errors, shape_line
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("input", metavar="INPUT", help="a sesgen render folder (manifest.json), or a KITTI odometry "
                                                   "folder with ground-truth poses")
-    p.add_argument("--report", metavar="DIR", help="report folder (default: INPUT/report for a render folder, "
-                                                   "else ./NAME_report)")
+    add_report_argument(p, "summary.md, report.json and per method its trajectory, metrics and plots",
+                        "INPUT/report for a render folder, else ./NAME_report")
     p.add_argument("--methods", default="paper,accurate", help="comma-separated methods (default: paper,accurate)")
     p.add_argument("--gt-depth", action="store_true", help="run the methods with ground-truth depth")
     p.add_argument("--gt-flow", action="store_true", help="run the methods with ground-truth correspondences")
@@ -40,8 +42,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="run the methods with the ground-truth motion mask (keypoints on moving objects dropped); "
                         "with moving objects the report compares both ways anyway")
     p.add_argument("--frames", metavar="A:B", help="frame range, half-open like Python (default: all)")
-    p.add_argument("--align", default="origin", choices=["none", "origin", "se3", "sim3"],
-                   help="trajectory alignment for APE (default origin: the VO starts at the ground-truth "
+    p.add_argument("--align", default=CLI_DEFAULT, choices=["none", "origin", "se3", "sim3"],
+                   help=f"trajectory alignment for APE (default {CLI_DEFAULT}: the VO starts at the ground-truth "
                         "first pose, so APE is the drift; se3 fitted to a short, nearly straight path is ill-posed)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     add_progress_argument(p, ("--quiet", "-q"))
