@@ -376,7 +376,7 @@ def test_render_operator_writes_the_output_contract_and_preview(addon_zip, tmp_p
         S().script_path = {str(REPO / 'scenes' / 'minimal.ses')!r}
         s = S()
         s.output_dir = {str(out)!r}
-        s.use_frame_range, s.frame_first, s.frame_last = True, 0, 1
+        s.use_frame_range, s.frame_first, s.frame_stop = True, 0, 2
         s.override_render, s.samples, s.seed = True, 1, 3
         s.resolution_scale = 0.5
         RESULT["render"] = call(bpy.ops.sesgen.render)
@@ -483,7 +483,7 @@ def test_export_operator_writes_a_dataset_layout_through_vo_reference(addon_zip,
         S().script_path = {str(REPO / 'scenes' / 'minimal.ses')!r}
         s = S()
         s.output_dir = {str(out)!r}
-        s.use_frame_range, s.frame_first, s.frame_last = True, 0, 1
+        s.use_frame_range, s.frame_first, s.frame_stop = True, 0, 2
         s.override_render, s.samples = True, 1
         s.resolution_scale = 0.5
         RESULT["render"] = call(bpy.ops.sesgen.render)

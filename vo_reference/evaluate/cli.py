@@ -5,7 +5,7 @@ import argparse
 from pathlib import Path
 
 from blender_sesgen.contract.cli import add_report_argument
-from blender_sesgen.contract.timing import frame_range
+from blender_sesgen.contract.timing import FRAMES_HELP, frame_range
 
 from ..errors import VoError, as_vo_error
 from ..io.trajectory import Trajectory, guess_format, read_trajectory
@@ -18,9 +18,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--format", default="auto", choices=("tum", "kitti", "euroc", "auto"),
                    help="trajectory file format (default: guessed from the content; a folder is a render)")
     p.add_argument("--frames", metavar="A:B",
-                   help="ground-truth frames A..B-1 the estimate covers (half-open, as stereo-vo's --frames); "
-                        "needed for an estimate without timestamps (KITTI) of part of the sequence; a TUM or "
-                        "EuRoC estimate is paired by its timestamps")
+                   help=f"the ground-truth {FRAMES_HELP} that an estimate without timestamps (KITTI) covers, "
+                        "as stereo-vo --frames wrote it; a TUM or EuRoC estimate is paired by its timestamps")
     p.add_argument("--align", default=CLI_DEFAULT, choices=METHODS,
                    help=f"alignment of the estimate before APE/RPE (default: {CLI_DEFAULT}: the first poses made "
                         "equal, so APE is the drift from the start, as `run` reports; se3/sim3 fit the whole path "

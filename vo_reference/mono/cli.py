@@ -11,7 +11,7 @@ import numpy as np
 from blender_sesgen.contract import atomic
 from blender_sesgen.contract.cli import add_report_argument
 from blender_sesgen.contract.progress import Progress, add_progress_argument, progress_mode
-from blender_sesgen.contract.timing import frame_range
+from blender_sesgen.contract.timing import FRAMES_HELP, frame_range
 
 from ..errors import VoError
 
@@ -48,7 +48,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="ignore the bottom rows (bonnet): pixels, or a fraction of the height if < 1")
     p.add_argument("--mask-rect", action="append", default=[], metavar="X0,Y0,X1,Y1", help="ignore a box (repeatable)")
     p.add_argument("--mask", metavar="PNG", help="mask image: non-zero = usable")
-    p.add_argument("--frames", metavar="A:B", help="frame range A..B-1")
+    p.add_argument("--frames", metavar="A:B", help=f"{FRAMES_HELP}; default all")
     p.add_argument("--compare-opencv", action="store_true",
                    help="also run OpenCV findEssentialMat + recoverPose on the same matches")
     p.add_argument("--opencv-method", choices=("usac", "ransac"), default="usac",
