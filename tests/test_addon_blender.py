@@ -625,3 +625,47 @@ def test_panels_draw_with_real_properties_and_operators(addon_zip, tmp_path):
     assert "Choose an .ses script" in res["empty"]
     assert "Script OK" in res["ok"] and any(t.startswith("Objects: 5") for t in res["ok"])
     assert any(t.startswith("line 3:") and "dim" in t for t in res["error"])
+
+
+def test_every_label_the_panels_show_is_in_the_addon_docs(addon_zip, tmp_path):
+    """Panels, headings, checkboxes, fields and buttons as drawn (a recording layout, no window)
+    each appear in docs/addon.md as **Label** (a panel as its section's heading); every choice
+    of a drop-down appears there too."""
+    res = run_child("""
+        from importlib import import_module
+        ui = import_module(MODULE + ".addon.ui")
+        labels, choices = set(), set()
+        class Layout:
+            def __init__(self): self.__dict__["attrs"] = {}
+            def __setattr__(self, k, v): self.attrs[k] = v
+            def __getattr__(self, k): return self.attrs.get(k, False)
+            def row(self, **kw): return Layout()
+            def column(self, heading="", **kw):
+                labels.add(heading)
+                return Layout()
+            def box(self): return Layout()
+            def label(self, text="", icon="NONE"): pass        # status lines, not labels
+            def progress(self, **kw): pass
+            def prop(self, data, name, text=None, **kw):
+                p = data.bl_rna.properties[name]
+                labels.add(p.name if text is None else text)
+                if p.type == "ENUM":
+                    choices.update(item.name for item in p.enum_items)
+            def operator(self, idname, text=None, **kw):
+                mod, op = idname.split(".")
+                labels.add(getattr(getattr(bpy.ops, mod), op).get_rna_type().name if text is None else text)
+        class Self: pass
+        S().script_path = """ + repr(str(REPO / "scenes" / "minimal.ses")) + """
+        for cls in ui.CLASSES:
+            labels.add(cls.bl_label)
+            me = Self(); me.layout = Layout()
+            cls.draw(me, bpy.context)
+        labels.add(bpy.ops.sesgen.import_ses.get_rna_type().name)
+        RESULT["labels"], RESULT["choices"] = sorted(labels - {""}), sorted(choices)
+    """, addon_zip, tmp_path)
+    doc = " ".join((REPO / "docs" / "addon.md").read_text(encoding="utf-8").split())  # line breaks are spaces
+    assert {"SES Scene", "Render", "Render Sequence", "Stop", "Layout"} <= set(res["labels"])
+    missing = [x for x in res["labels"] if f"**{x}**" not in doc and f"### {x} " not in doc]
+    assert missing == [], " / ".join(missing)
+    missing = [x for x in res["choices"] if x not in doc]
+    assert missing == [], " / ".join(missing)

@@ -73,7 +73,8 @@ class SESGEN_PG_settings(bpy.types.PropertyGroup):
     preview_frame: IntProperty(name="Frame", min=0, default=0, description="Frame to preview")
     preview_view: EnumProperty(name="View", items=(("left", "Left", ""), ("right", "Right", "")), default="left")
     preview_kind: EnumProperty(name="Show", default="disparity",
-                               items=tuple((k, k.capitalize(), f"Preview the {k} of a rendered frame") for k in KINDS))
+                               items=tuple((k, "RGB" if k == "rgb" else k.capitalize(),
+                                            f"Preview the {k} of a rendered frame") for k in KINDS))
     # export (vo_reference, run as a child process)
     export_target: EnumProperty(name="Layout", items=TARGETS, default="kitti-odometry",
                                 description="The dataset layout to export the rendered frames to")
