@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from typing import Optional, Union
 
 from .diagnostics import Diagnostics
-from .grammar import STATEMENTS, TAG_SYNONYMS, Statement, Tag
+from .grammar import STATEMENTS, TAG_HINTS, TAG_SYNONYMS, Statement, Tag
 from .lexer import NONFINITE_RE, Token
 
 Value = Union[float, int, str, bool]
@@ -49,6 +49,32 @@ def did_you_mean(word: str, candidates) -> str:
         return ""
     original = {c.lower(): c for c in candidates}[close[0]]
     return f"; did you mean '{original}'?"
+
+
+def kinds(spec: Statement) -> list[str]:
+    """The statement's kinds: its flag tags written as the word after the keyword (ASSET car)."""
+    return [t.name for t in spec.tags.values() if t.kind == "flag" and t.name not in ("allow_external",)]
+
+
+def hint(word: str, spec: Statement, following: str = "") -> str:
+    """What to write instead of ``word`` in a ``spec`` statement (grammar.TAG_HINTS), as
+    "; " + the hint; else a close tag name ("did you mean"); else "". ``following``: the
+    next word (``ASSET kind car`` -> ``ASSET car``)."""
+    for target, text in TAG_HINTS.get(word.lower(), ()):
+        tag = spec.tags.get(target)
+        k = kinds(spec)
+        if tag is not None or (target == "KIND" and k):
+            kind = following.lower() if following.lower() in k else (k or [""])[0]
+            return "; " + text.format(usage=tag.usage if tag else "", keyword=spec.keyword, kind=kind)
+    return did_you_mean(word, spec.tags)
+
+
+def tag_list(spec: Statement) -> str:
+    """The tags of ``spec`` for a message; many kinds (ASSET's) listed apart."""
+    k = kinds(spec)
+    if len(k) <= 5:
+        return f"tags: {', '.join(spec.tags)}"
+    return f"tags: {', '.join(t for t in spec.tags if t not in k)}; kinds: {', '.join(k)}"
 
 
 def read_statement(tokens: list[Token], diags: Diagnostics) -> Optional[ParsedStatement]:
@@ -118,10 +144,11 @@ def _read_tags(spec: Statement, stmt: ParsedStatement, rest: list[Token], diags:
         tag = _tag_of(tok, spec)
         if tag is None:
             if tok.kind == "word" and not NONFINITE_RE.fullmatch(tok.text):
-                diags.at(tok, f"{kw} has no tag '{tok.text}'{did_you_mean(tok.text, spec.tags)}"
-                              f" (tags: {', '.join(spec.tags)})")
+                after = rest[i + 1].text if i + 1 < len(rest) else ""
+                diags.at(tok, f"{kw} has no tag '{tok.text}'{hint(tok.text, spec, after)} ({tag_list(spec)})")
             else:
-                diags.at(tok, f"{kw}: expected a tag ({', '.join(spec.tags)}), got the value '{tok.shown()}'")
+                diags.at(tok, f"{kw}: expected a tag ({', '.join(spec.tags)}), got the value '{tok.shown()}'"
+                              + _values_hint(spec, rest, i))
             i += 1
             while i < len(rest) and _tag_of(rest[i], spec) is None:  # skip to the next tag
                 i += 1
@@ -135,6 +162,18 @@ def _read_tags(spec: Statement, stmt: ParsedStatement, rest: list[Token], diags:
     for tag in spec.tags.values():
         if tag.required and tag.name not in stmt.tags:
             diags.at(stmt.token, f"{kw} needs the tag '{tag.name}' ({tag.usage})")
+
+
+def _values_hint(spec: Statement, rest: list[Token], i: int) -> str:
+    """Numbers right after the keyword, as many as its first required tag takes: "did you mean"
+    them after that tag (``START 0 1 2`` -> ``START position 0 1 2``)."""
+    j = i
+    while j < len(rest) and rest[j].kind == "number":
+        j += 1
+    need = next((t for t in spec.tags.values() if t.required and t.kind == "numbers"), None)
+    if i != 0 or need is None or j - i not in need.counts:
+        return ""
+    return f"; did you mean '{spec.keyword} {need.name} {' '.join(t.text for t in rest[i:j])}'?"
 
 
 def _read_values(spec: Statement, tag: Tag, tag_tok: Token, rest: list[Token], i: int,
@@ -154,7 +193,7 @@ def _read_values(spec: Statement, tag: Tag, tag_tok: Token, rest: list[Token], i
             if len(toks) < max(tag.counts) and j < len(rest) and _tag_of(rest[j], spec) is None:
                 diags.at(rest[j], f"{where} expects a number, got '{rest[j].shown()}'")
             else:
-                diags.at(tag_tok, f"{where} needs {_count_words(tag.counts)}, got {len(toks)}")
+                diags.at(tag_tok, f"{where} needs {_count_words(tag.counts)} ({tag.usage}), got {len(toks)}")
             return j
         values = [_number(t, where, diags) for t in toks]
         if None not in values:
