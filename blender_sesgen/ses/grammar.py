@@ -205,4 +205,8 @@ TAG_HINTS: dict[str, tuple[tuple[str, str], ...]] = {
     **{w: (("principal", "write '{usage}'"),) for w in ("cx", "cy", "pp", "principal_point", "center", "centre")},
     **{w: (("rate", "write '{usage}'"),) for w in ("fps", "framerate", "frame_rate", "hz")},
     **{w: (("colour", "write '{usage}' (0..1 each)"),) for w in ("rgb", "albedo", "diffuse")},
+    **{w: (("size", "write '{usage}' (metres)"), _DIM) for w in ("scale", "scaling")},
+    **{w: (("file", "write '{usage}'"),) for w in ("path", "filename", "filepath", "src", "source")},
+    **{w: (("twist", "a constant motion is '{usage}' (per frame, in the object's own frame)"),)
+       for w in ("velocity", "speed", "motion")},
 }

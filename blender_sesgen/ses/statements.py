@@ -7,12 +7,13 @@ the next tag. Keywords and tags are case-insensitive; ``color`` is ``colour``.
 from __future__ import annotations
 
 import difflib
+import re
 from dataclasses import dataclass, field
 from typing import Optional, Union
 
 from .diagnostics import Diagnostics
 from .grammar import STATEMENTS, TAG_HINTS, TAG_SYNONYMS, Statement, Tag
-from .lexer import NONFINITE_RE, Token
+from .lexer import NONFINITE_RE, NUMBER_RE, Token
 
 Value = Union[float, int, str, bool]
 MAX_ABS = 1e9  # keeps every later product (areas, poses) finite
@@ -97,12 +98,24 @@ def read_statement(tokens: list[Token], diags: Diagnostics) -> Optional[ParsedSt
     return stmt if len(diags.items) == before else None
 
 
+def _not_a_number_hint(text: str) -> str:
+    """What a near-number is missing: ``640x480`` -> two numbers; ``0,`` -> spaces; ``12cm`` -> no unit."""
+    if re.fullmatch(r"[0-9.]+[xX×][0-9.]+", text):
+        return f"; write two numbers separated by a space: '{re.sub(r'[xX×]', ' ', text)}'"
+    if "," in text and all(NUMBER_RE.fullmatch(p) for p in text.split(",") if p):
+        return "; separate numbers with spaces, not commas"
+    head = re.match(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)", text)
+    if head and re.fullmatch(r"[a-zA-Z°%]+", text[head.end():]):
+        return f"; numbers take no unit: write '{head.group()}' (each tag's unit is fixed, docs/ses-language.md)"
+    return ""
+
+
 def _number(tok: Token, where: str, diags: Diagnostics) -> Optional[float]:
     if tok.kind == "word" and NONFINITE_RE.fullmatch(tok.text):
         diags.at(tok, f"{where}: '{tok.text}' is not allowed, numbers must be finite")
         return None
     if tok.kind != "number":
-        diags.at(tok, f"{where} expects a number, got '{tok.shown()}'")
+        diags.at(tok, f"{where} expects a number, got '{tok.shown()}'{_not_a_number_hint(tok.text)}")
         return None
     value = float(tok.text)
     if not abs(value) <= MAX_ABS:  # also catches overflow to inf
@@ -145,7 +158,8 @@ def _read_tags(spec: Statement, stmt: ParsedStatement, rest: list[Token], diags:
         if tag is None:
             if tok.kind == "word" and not NONFINITE_RE.fullmatch(tok.text):
                 after = rest[i + 1].text if i + 1 < len(rest) else ""
-                diags.at(tok, f"{kw} has no tag '{tok.text}'{hint(tok.text, spec, after)} ({tag_list(spec)})")
+                why = _not_a_number_hint(tok.text) or hint(tok.text, spec, after)
+                diags.at(tok, f"{kw} has no tag '{tok.text}'{why} ({tag_list(spec)})")
             else:
                 diags.at(tok, f"{kw}: expected a tag ({', '.join(spec.tags)}), got the value '{tok.shown()}'"
                               + _values_hint(spec, rest, i))
@@ -191,7 +205,9 @@ def _read_values(spec: Statement, tag: Tag, tag_tok: Token, rest: list[Token], i
         toks = rest[i:j]
         if len(toks) not in tag.counts:
             if len(toks) < max(tag.counts) and j < len(rest) and _tag_of(rest[j], spec) is None:
-                diags.at(rest[j], f"{where} expects a number, got '{rest[j].shown()}'")
+                diags.at(rest[j], f"{where} expects a number, got '{rest[j].shown()}'"
+                                  f"{_not_a_number_hint(rest[j].text)}")
+                return j + 1   # that word was meant as a value: not also an unknown tag
             else:
                 diags.at(tag_tok, f"{where} needs {_count_words(tag.counts)} ({tag.usage}), got {len(toks)}")
             return j
