@@ -148,6 +148,8 @@ CASES = {
     "asset scale": (OBJ + "ASSET car id 2 position 0 0 -5 scale 2\n", 2, "scale",
                     r"ASSET has no tag 'scale'; write 'size sx sy sz' \(metres\)"),
     "mesh path": (OBJ + "MESH id 2 path chair.obj\n", 2, "path", r"MESH has no tag 'path'; write 'file PATH'"),
+    "class vehicle is a car, never the ego vehicle": (OBJ + "SPHERE id 2 position 0 0 0 dim 1 class vehicle\n", 2,
+                                                       "vehicle", r"'vehicle' is not a known class; did you mean 'car'\?"),
     "value count says the usage": (OBJ + "CYLINDER id 2 position 0 0 0 dim 1\n", 2, "dim",
                                    r"CYLINDER 'dim' needs 2 numbers \(dim r h\), got 1"),
     "bend on a building": (OBJ + "ASSET building id 2 position 0 0 0 bend 5\n", 2, "bend",
@@ -229,3 +231,10 @@ def test_every_hint_names_a_tag_of_the_language_and_never_shadows_one():
         assert all(target in tags for target, _ in rules), word
         for s in STATEMENTS.values():   # a word that is a tag of a statement is read as that tag there
             assert word not in s.tags or not any(t in s.tags for t, _ in rules), (word, s.keyword)
+
+
+def test_class_words_name_real_classes():
+    from blender_sesgen.contract import semantics
+    from blender_sesgen.ses.parser import CLASS_WORDS, NOT_OBJECT_CLASSES
+    assert all(semantics.lookup(name) is not None for name in (*CLASS_WORDS.values(), *NOT_OBJECT_CLASSES))
+    assert all(semantics.lookup(word) is None for word in CLASS_WORDS)   # else it would never be asked
