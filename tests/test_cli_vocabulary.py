@@ -85,16 +85,19 @@ def _code(text: str) -> list[str]:
 
 
 def test_the_docs_call_the_tools_one_way():
-    """README and docs run `sesgen COMMAND` / `vo-reference COMMAND`, commands that exist,
-    never `python -m blender_sesgen COMMAND` (the --help says that one is the same)."""
-    commands = {program: set(subparsers(program)) for program in CLIS}
+    """README and docs run `sesgen COMMAND` / `vo-reference COMMAND` with commands and options
+    that exist, never `python -m blender_sesgen COMMAND` (the --help says that one is the same)."""
+    commands = {program: subparsers(program) for program in CLIS}
     for doc in DOCS:
         text = doc.read_text(encoding="utf-8")
         other = re.findall(r"(?:\.venv/bin/)?python3? -m (?:blender_sesgen|vo_reference) [a-z][\w-]*", text)
         assert other == [], (doc.name, other)
         for code in _code(text):
-            for program, command in re.findall(r"(?:^|[\s(])(sesgen|vo-reference) ([a-z][\w-]*)", code):
+            for program, command, rest in re.findall(r"(?:^|[\s(])(sesgen|vo-reference) ([a-z][\w-]*)(.*)", code):
                 assert command in commands[program], (doc.name, code)
+                options = {o for a in commands[program][command]._actions for o in a.option_strings}
+                used = re.findall(r"(?<![\w-])(--?[a-z][\w-]*)", rest.split("#")[0])
+                assert set(used) <= options | {"--no-" + o[2:] for o in options}, (doc.name, code, set(used) - options)
 
 
 def test_the_first_render_of_the_readme_is_cheap():
