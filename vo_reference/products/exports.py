@@ -220,3 +220,23 @@ def calib_text(seq) -> str:
     lines = [f"{n}: " + " ".join(f"{x:.12e}" for x in P[n].ravel()) for n in ("P0", "P1", "P2", "P3")]
     lines.append("Tr: " + " ".join(f"{x:.12e}" for x in np.eye(4)[:3].ravel()))  # no lidar: identity
     return "\n".join(lines) + "\n"
+
+
+def calib_cam_to_cam_text(seq) -> str:
+    """KITTI 2015's ``calib_cam_to_cam/NNNNNN.txt`` (the raw data's camera calibration) of the
+    rig: per camera xx = 00..03 (00/01 grey, 02/03 colour: here one rectified pair, 00 = 02
+    the left camera, 01 = 03 the right) ``S_xx`` (W H), ``K_xx``, ``D_xx`` (no distortion),
+    ``R_xx``/``T_xx`` (camera 0 -> xx: X_xx = R·X_0 + T, T = (-B, 0, 0) for the right
+    camera), ``S_rect_xx``, ``R_rect_xx`` (identity) and ``P_rect_xx`` (as ``calib.txt``'s P)."""
+    P = kitti_projections(seq.K, seq.baseline_m)
+    W, H = seq.resolution
+
+    def row(name, values) -> str:
+        return f"{name}: " + " ".join(f"{float(x):.12e}" for x in np.ravel(values)) + "\n"
+    out = []
+    for xx, (view_P, tx) in enumerate(((P["P0"], 0.0), (P["P1"], -seq.baseline_m),
+                                        (P["P2"], 0.0), (P["P3"], -seq.baseline_m))):
+        out += [row(f"S_{xx:02d}", (W, H)), row(f"K_{xx:02d}", seq.K), row(f"D_{xx:02d}", np.zeros(5)),
+                row(f"R_{xx:02d}", np.eye(3)), row(f"T_{xx:02d}", (tx, 0.0, 0.0)), row(f"S_rect_{xx:02d}", (W, H)),
+                row(f"R_rect_{xx:02d}", np.eye(3)), row(f"P_rect_{xx:02d}", view_P)]
+    return "".join(out)
