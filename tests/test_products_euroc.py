@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from vo_reference.io.render import RenderSequence
-from synthetic_render import write_render
+from synthetic_render import add_imu, write_render
 from vo_reference.io.trajectory import read_euroc
 from vo_reference.products.exports import export
 
@@ -129,37 +129,14 @@ def test_euroc_frames_noise_and_mono(render, tmp_path):
     assert (m / "mav0/cam0/data.csv").is_file() and not (m / "mav0/cam1").exists()
 
 
-def _with_imu(root):
-    """The euroc fixture plus an IMU (manifest ``imu`` entry and its files) whose sensor.yaml
-    is an old render's, opening with EuRoC's ``%YAML:1.0`` (PyYAML refuses it)."""
-    from blender_sesgen.sensor.imu_files import EUROC_GT_HEADER
-    imu = {"rate_hz": 200.0, "gyroscope_noise_density": 1.7e-4, "gyroscope_random_walk": 1.9e-5,
-           "accelerometer_noise_density": 2.0e-3, "accelerometer_random_walk": 3.0e-3,
-           "T_cam_imu": [[0, -1, 0, 0.05], [1, 0, 0, 0.0], [0, 0, 1, 0.01], [0, 0, 0, 1]],
-           "time_offset_s": 0.0, "gravity_world": [0.0, -9.81, 0.0], "seed": 0,
-           "files": {"noisy": "imu/data.csv", "ideal": "imu/data_ideal.csv", "groundtruth": "imu/groundtruth.csv",
-                     "yaml": "imu/sensor.yaml"}}
-    seq_root = _render(root)
-    import json
-    m = json.loads((seq_root / "manifest.json").read_text())
-    m["imu"] = imu
-    (seq_root / "manifest.json").write_text(json.dumps(m))
-    (seq_root / "imu").mkdir()
-    t_ns = np.arange(_t_ns(TS)[0], _t_ns(TS)[-1] + 1, 5_000_000)
-    rows = "".join(f"{t},0,0,0,0,9.81,0\n" for t in t_ns)
-    for name in ("data.csv", "data_ideal.csv"):
-        (seq_root / "imu" / name).write_text("#timestamp [ns],w_x,w_y,w_z,a_x,a_y,a_z\n" + rows)
-    (seq_root / "imu/groundtruth.csv").write_text(EUROC_GT_HEADER + "\n" + "".join(
-        f"{t},0,0,0,1,0,0,0,0,0,0,0,0,0,0,0,0\n" for t in t_ns))
-    (seq_root / "imu/sensor.yaml").write_text("%YAML:1.0\nsensor_type: imu\nrate_hz: 200\n")
-    return seq_root, imu
-
-
 def test_every_euroc_yaml_loads_with_pyyaml_and_opencv(tmp_path):
     """PyYAML (Kalibr and most Python loaders) and OpenCV's FileStorage both read every
     sensor.yaml of the export, the IMU's included (written from the manifest, not copied)."""
     yaml = pytest.importorskip("yaml")
-    root, imu = _with_imu(tmp_path / "r")
+    root = _render(tmp_path / "r")
+    # an old render's imu/sensor.yaml opens with EuRoC's "%YAML:1.0", which PyYAML refuses
+    imu = add_imu(root, [[0, -1, 0, 0.05], [1, 0, 0, 0.0], [0, 0, 1, 0.01], [0, 0, 0, 1]],
+                  yaml_text="%YAML:1.0\nsensor_type: imu\nrate_hz: 200\n")
     out = export(root, "euroc", tmp_path / "e", progress=False)
     files = sorted((out / "mav0").rglob("*.yaml"))
     assert [p.parent.name for p in files] == ["cam0", "cam1", "imu0", "state_groundtruth_estimate0"]
