@@ -45,7 +45,8 @@ def _euroc_distortion(seq) -> tuple[str, list]:
         return "equidistant", list(lens.coeffs)
     k1, k2, p1, p2, k3 = lens.coeffs
     if k3:
-        raise VoError("euroc: the EuRoC/Kalibr radial-tangential model has k1 k2 p1 p2 only; this lens has k3 != 0")
+        raise VoError("euroc: the EuRoC/Kalibr radial-tangential model has k1 k2 p1 p2 only and this lens has "
+                      "k3 != 0: add --undistort to write pinhole images")
     return "radial-tangential", [k1, k2, p1, p2]
 
 
@@ -130,3 +131,6 @@ def _export_euroc_imu(seq, mav: Path, ts: np.ndarray) -> None:
     # hold a file PyYAML cannot read)
     atomic.write_text(mav / "imu0" / "sensor.yaml", imu_sensor_yaml(entry))
     atomic.write_text(mav / "state_groundtruth_estimate0" / "data.csv", cut(entry["files"]["groundtruth"], 0.0))
+
+
+export_euroc.keeps_lens = True   # a distorted render is written as it is, with its lens (docs/output-format.md)

@@ -87,6 +87,7 @@ class ExportOptions:
     extra: dict = field(default_factory=dict)  # target-specific KEY=VALUE options (--opt)
     sequence: str | None = None            # the render's slot in a multi-sequence dataset tree (--sequence)
     progress_callback: Callable | None = None  # receives every progress event (a dict)
+    undistort: bool = False                # a lens render is exported through a pinhole camera (--undistort)
 
 
 def register_exporter(name: str, fn: Callable | str, help_text: str = "") -> None:
@@ -117,13 +118,17 @@ def parse_frames(spec: str | None, n: int) -> range:
 
 def export(render_dir, target: str, out, *, frames: str | range | None = None,
            noise="manifest", progress: bool | str = "auto", extra: dict | None = None,
-           sequence: str | None = None, progress_callback: Callable | None = None) -> Path:
+           sequence: str | None = None, progress_callback: Callable | None = None,
+           undistort: bool = False) -> Path:
     """Export a render folder. ``noise``: 'manifest' (the script's NOISE, if any), None
     (clean) or (sigma, seed); ``sequence``: the slot in a dataset tree, for the targets that
     have one (kitti-odometry, tartanair, vkitti2, sceneflow); ``progress``: a mode of
     :mod:`blender_sesgen.contract.progress` (True = 'auto', False = 'off') and
-    ``progress_callback(event)`` a hook for every progress event. Returns the folder that
-    holds the export (``out``, or the sequence's folder inside it) with its ``export.json``."""
+    ``progress_callback(event)`` a hook for every progress event; ``undistort``: a render
+    with a distorting lens is written through a pinhole camera (:mod:`.undistorted`) —
+    without it, a layout that has no lens model (``fn.keeps_lens`` unset) refuses such a
+    render. Returns the folder that holds the export (``out``, or the sequence's folder
+    inside it) with its ``export.json``."""
     from ..io.render import RenderSequence
     render_dir, out = Path(render_dir), Path(out)
     seq = RenderSequence(render_dir)
@@ -134,6 +139,8 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
         raise VoError(f"{out}: refusing to export into the render folder itself (choose another OUT)")
     rng = frames if isinstance(frames, range) else parse_frames(frames, seq.num_frames)
     require_complete(seq, rng)
+    lens = seq.lens
+    seq = _camera_of_the_layout(seq, target, fn, undistort)
     nz = seq.noise if noise == "manifest" else noise
     if nz is not None and float(nz[0]) <= 0:
         nz = None
@@ -142,11 +149,13 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
         raise VoError(f"progress {progress!r}: expected one of {', '.join(PROGRESS_MODES)}")
     opts = ExportOptions(frames=rng, noise=None if nz is None else (float(nz[0]), int(nz[1])),
                          progress=mode, extra=dict(extra or {}), sequence=sequence,
-                         progress_callback=progress_callback)
+                         progress_callback=progress_callback, undistort=seq.lens is None and lens is not None)
     info = {"target": target, "source": str(render_dir.resolve()), "source_frames": list(rng),
             "sequence": sequence,
             "noise": None if opts.noise is None else {"sigma": opts.noise[0], "seed": opts.noise[1]},
             "format": seq.manifest.get("format"), "scene_sha256": seq.manifest.get("scene_sha256")}
+    if opts.undistort:   # what the pinhole camera of the export is
+        info["undistorted"] = {"K": np.asarray(seq.K).tolist(), "lens": lens.to_json()}
     if getattr(fn, "takes_sequence", False):  # a dataset tree: the target stages its own slot
         out.mkdir(parents=True, exist_ok=True)
         where = Path(fn(seq, out, opts) or out)
@@ -159,6 +168,22 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
         fn(seq, staging, opts)
         atomic.write_json(staging / "export.json", info)
     return out
+
+
+def _camera_of_the_layout(seq, target: str, fn: Callable, undistort: bool):
+    """The sequence a layout is written from: a pinhole render as it is; a render with a
+    distorting lens as it is when the layout keeps the lens (``fn.keeps_lens``), through a
+    pinhole camera with ``undistort``, else refused (VoError: exit 2 at the CLI)."""
+    lens = getattr(seq, "lens", None)
+    if lens is None:
+        return seq
+    if undistort:
+        from .undistorted import UndistortedSequence
+        return UndistortedSequence(seq)
+    if not getattr(fn, "keeps_lens", False):
+        raise VoError(f"the render has a distorting lens ({lens.model}) and the {target} layout has no lens model: "
+                      "add --undistort to write pinhole images and ground truth")
+    return seq
 
 
 # --- images with noise ------------------------------------------------------------------

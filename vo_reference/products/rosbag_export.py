@@ -207,3 +207,6 @@ def _write_pose(w, conn, ts, header, tn: int, T_world_body: np.ndarray, body: st
     w.write(conn["pose"], tn, ts.serialize_cdr(pose, pose.__msgtype__))
     msg = T["tf2_msgs/msg/TFMessage"](transforms=[tf])
     w.write(conn["tf"], tn, ts.serialize_cdr(msg, msg.__msgtype__))
+
+
+export_rosbag.keeps_lens = True   # a distorted render is written as it is, with its lens (docs/output-format.md)

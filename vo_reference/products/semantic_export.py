@@ -180,3 +180,6 @@ def export_cityscapes(seq, out: Path, opts) -> None:
                 atomic.write_text(gt / f"{stem}_gtFine_polygons.json", json.dumps(maps.polygons(ids)) + "\n")
                 bar.update()
     atomic.write_text(out / "classes.json", json.dumps(maps.table(), indent=1) + "\n")
+
+
+export_cityscapes.keeps_lens = True   # no camera model: a distorted render's images and labels as they are
