@@ -251,3 +251,35 @@ def test_layouts_with_a_lens_model_carry_the_lens(render, tmp_path):
     assert _export(render, tmp_path / "euroc_u", "euroc", "--undistort") == 0
     y = yaml.safe_load((tmp_path / "euroc_u/mav0/cam0/sensor.yaml").read_text())
     assert y["distortion_coefficients"] == [0, 0, 0, 0]
+
+
+@pytest.mark.render
+def test_a_cycles_lens_render_undistorts_to_the_pinhole_ray_cast(tmp_path):
+    """The oracle scene rendered by Cycles through a sensors.ses-like Brown-Conrady lens
+    (80x60, 1 sample), exported with --undistort: depth and disparity against the scene
+    ray-cast through the pinhole camera, on every face away from silhouettes and creases."""
+    pytest.importorskip("bpy")
+    from render_support import oracle_script, run_render
+    script = tmp_path / "lens.ses"
+    script.write_text(oracle_script(80, 60, F, (K[0, 2], K[1, 2]), B, extra_lines=[
+        "LENS brown " + " ".join(str(c) for c in BARREL[1][:4])]))
+    r = run_render(script, "--out", tmp_path / "r", "--samples", "1", "--frames", "0:2", "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert _export(tmp_path / "r", tmp_path / "ta", "tartanair", "--undistort", "--frames", "0:2") == 0
+    assert _export(tmp_path / "r", tmp_path / "sf", "sceneflow", "--undistort", "--frames", "0:2") == 0
+    m = json.loads((tmp_path / "r/manifest.json").read_text())
+    K_new = np.array(json.loads((tmp_path / "ta/export.json").read_text())["undistorted"]["K"])
+    assert np.allclose(K_new, m["K"])
+    for k in range(2):
+        for view in ("left", "right"):
+            z, ids, interior = pinhole_truth(K_new, np.array(m["poses"][view][k]))
+            faces = interior & np.isfinite(z) & ~np.isin(ids, list(SPHERES))
+            depth = np.load(tmp_path / f"ta/depth_{view}/{k:06d}_{view}_depth.npy")
+            seg = np.load(tmp_path / f"ta/seg_{view}/{k:06d}_{view}_seg.npy")
+            disp = read_pfm(tmp_path / f"sf/disparity/TRAIN/A/0000/{view}/{k:04d}.pfm")
+            rel = np.abs(depth - z) / z
+            assert faces.sum() > 0.4 * W * H and np.median(rel[faces]) < 1e-4 and rel[faces].max() < 1e-3, \
+                (np.median(rel[faces]), rel[faces].max())
+            d_true = K_new[0, 0] * B / z
+            assert np.abs(disp - d_true)[faces].max() < 2e-3 * d_true[faces].max()
+            assert np.array_equal(seg[interior], ids[interior])
