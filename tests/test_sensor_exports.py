@@ -111,7 +111,7 @@ def test_rosbag_export_reads_back(render, tmp_path):
         stamps = {}
         for c, t, raw in r.messages():
             msg = ts.deserialize_cdr(raw, c.msgtype)
-            st = msg.transforms[0].header.stamp if c.topic == "/tf" else msg.header.stamp
+            st = msg.transforms[0].header.stamp if c.topic in ("/tf", "/tf_static") else msg.header.stamp
             assert st.sec * 1_000_000_000 + st.nanosec == t
             stamps.setdefault(c.topic, []).append(t)
             if c.topic == "/cam0/image_raw" and t == frame_ns[0]:
@@ -119,6 +119,7 @@ def test_rosbag_export_reads_back(render, tmp_path):
             if c.topic == "/cam0/camera_info":
                 assert msg.distortion_model == "plumb_bob" and np.allclose(msg.d[:2], [-0.2, 0.05])
     assert stamps["/cam0/image_raw"] == frame_ns
+    assert stamps["/tf_static"] == [min(min(v) for v in stamps.values())]     # once, at the bag's first instant
     noisy = render.imu("noisy")
     assert stamps["/imu0"] == [int(round(t * 1e9)) for t in noisy["t_s"]]
 
