@@ -16,8 +16,9 @@ that pair files by their position in a sorted listing (RAFT's and torchvision's
 ``FlyingThings3D``: image i with flow i into the future, image i+1 with flow i+1 into the
 past) pair the right frames. The two boundary files (the last frame into the future, the
 first into the past) flow into the neighbouring rendered frame when the render has it
-(outside the exported range: its image is not exported, as in FlyingThings3D), else they
-hold NaN (there is no frame to flow to; position-indexed loaders never read them).
+(outside the exported range: its image is not exported; FlyingThings3D's edge files hold
+the flow into frames it does not ship, lmb-freiburg/flownet2#210), else they hold NaN
+(there is no frame to flow to; position-indexed loaders never read them).
 
 ``SEQ`` is ``--sequence`` (default ``TRAIN/A/0000``, FlyingThings3D's split/letter/number);
 other sequences under OUT are left alone. PFM (as FlyingThings3D ships it): a text header
