@@ -36,8 +36,15 @@ TARGETS = (
                             "ground truth"),
     ("cityscapes", "Cityscapes", "leftImg8bit + gtFine labelIds, labelTrainIds, color, instanceIds, polygons per view; "
                                  "classes.json"),
+    ("colmap", "COLMAP", "images + sparse/0 text model with points from the exact depth"),
+    ("nerfstudio", "nerfstudio", "transforms.json, images, depths (mm), masks, seed point cloud"),
+    ("slam", "SLAM/VIO settings", "ORB-SLAM3, VINS-Fusion, OpenVINS, Kalibr and Basalt settings of the rig"),
+    ("tartanair-v2", "TartanAir V2", "ENV/Data_easy/P000: image/depth/seg_lcam_front, rcam_front, flow, NED poses"),
+    ("middlebury", "Middlebury 2014", "One folder per frame: im0/im1, disp0/disp1 PFM, mask0nocc, calib.txt"),
+    ("eth3d", "ETH3D two-view", "two_view_training + two_view_training_gt per frame"),
+    ("sintel", "MPI-Sintel", "training/clean, final, flow (.flo), occlusions, depth (.dpt), camdata_left (.cam)"),
 )
-TAKES_SEQUENCE = {"kitti-odometry", "tartanair", "vkitti2", "sceneflow"}
+TAKES_SEQUENCE = {"kitti-odometry", "tartanair", "tartanair-v2", "vkitti2", "sceneflow", "sintel"}
 NOT_FOUND = ("exporting needs the vo_reference tools outside Blender: pip install 'blender-sesgen[vo]' "
              "in a Python 3.11 and put its vo-reference command on PATH, or give the command under VO Command")
 

@@ -8,33 +8,13 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract import atomic
-from blender_sesgen.contract.se3 import invert
 from blender_sesgen.contract.sensor_yaml import YAML_HEADER, imu_sensor_yaml, yaml_matrix
 from blender_sesgen.contract.trajectory_files import format_euroc
 
 from ..errors import VoError
 from ..io.files import write_png_rgb
 from .exports import ExportOptions, image_gray, progress_bar
-
-
-def _euroc_rate_hz(seq) -> float:
-    m = seq.manifest
-    fps = m.get("fps") or (m.get("render") or {}).get("fps")
-    if fps:
-        return float(fps)
-    dt = np.diff(seq.timestamps_s)
-    return float(1.0 / np.median(dt)) if dt.size and np.median(dt) > 0 else 0.0
-
-
-def euroc_T_body_cam(seq, cam: int) -> np.ndarray:
-    """Camera ``cam``'s pose in the EuRoC body frame: the IMU where the render has one
-    (T_imu_cam = inv(T_cam_imu), right camera trans(B, 0, 0) further), else the left camera."""
-    T_cam_left = np.eye(4)
-    T_cam_left[0, 3] = seq.baseline_m if cam == 1 else 0.0
-    imu = seq.manifest.get("imu") if hasattr(seq, "manifest") else None
-    if not imu:
-        return T_cam_left
-    return invert(np.array(imu["T_cam_imu"], dtype=float)) @ T_cam_left
+from .slam_config import T_body_cam, camera_rate_hz, write_slam_configs
 
 
 def _euroc_distortion(seq) -> tuple[str, list]:
@@ -64,9 +44,9 @@ def euroc_sensor_yaml(seq, cam: int) -> str:
             "sensor_type: camera\n"
             f"comment: sesgen render, {'left' if cam == 0 else 'right'} camera (body frame = {body})\n\n"
             "# Sensor extrinsics wrt. the body-frame.\n"
-            "T_BS:\n" + yaml_matrix(euroc_T_body_cam(seq, cam)) + "\n"
+            "T_BS:\n" + yaml_matrix(T_body_cam(seq, cam)) + "\n"
             "# Camera specific definitions.\n"
-            f"rate_hz: {_euroc_rate_hz(seq):.9g}\n"
+            f"rate_hz: {camera_rate_hz(seq):.9g}\n"
             f"resolution: [{int(W)}, {int(H)}]\n"
             "camera_model: pinhole\n"
             f"intrinsics: [{K[0, 0]:.17g}, {K[1, 1]:.17g}, {K[0, 2]:.17g}, {K[1, 2]:.17g}] #fu, fv, cu, cv\n"
@@ -113,6 +93,7 @@ def export_euroc(seq, out: Path, opts: ExportOptions) -> None:
                       YAML_HEADER + "# General sensor definitions.\nsensor_type: visual-inertial\n"
                       f"comment: sesgen ground truth; body frame = {body}, R = the SES world\n\n"
                       "# Sensor extrinsics wrt. the body-frame.\nT_BS:\n" + yaml_matrix(np.eye(4)))
+    write_slam_configs(seq, out / "slam", t_ns)   # the rig's SLAM/VIO settings beside mav0
 
 
 def _export_euroc_imu(seq, mav: Path, ts: np.ndarray) -> None:

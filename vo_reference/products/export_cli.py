@@ -28,8 +28,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--sequence", default=None, metavar="NAME",
                         help="the render's slot in a dataset tree of several sequences: kitti-odometry "
                              "NN (default 00), sceneflow SPLIT/LETTER/NNNN (default TRAIN/A/0000), "
-                             "tartanair / vkitti2 a sub-folder of OUT (default: OUT itself); other "
-                             "sequences in OUT are left alone")
+                             "tartanair-v2 ENV/Data_DIFF/PNNN (default sesgen/Data_easy/P000), sintel "
+                             "SCENE (default sesgen), tartanair / vkitti2 a sub-folder of OUT (default: "
+                             "OUT itself); other sequences in OUT are left alone")
     parser.add_argument("--opt", action="append", default=[], metavar="KEY=VALUE",
                         help="target-specific option (repeatable)")
     parser.add_argument("--undistort", action="store_true",

@@ -1,5 +1,6 @@
 """Dataset exports of a render folder: KITTI odometry, KITTI stereo/flow, TUM RGB-D, EuRoC,
-PNG, Bayer, TartanAir, Virtual KITTI 2, SceneFlow.
+PNG, Bayer, TartanAir (V1, V2), Virtual KITTI 2, SceneFlow, COLMAP, nerfstudio, SLAM/VIO
+settings, Middlebury 2014, ETH3D, MPI-Sintel.
 
 Each target is a function ``export_X(seq, out, opts)`` registered in :data:`EXPORTERS`
 (name -> "module:function", imported when used). Adding a target is one line there, or
@@ -36,7 +37,8 @@ from ..io.sequence import require_complete
 from .noise import add_gaussian_noise
 
 __all__ = ["EXPORTERS", "ExportOptions", "export", "register_exporter", "get_exporter", "parse_frames",
-           "sequence_folder", "check_replaceable", "progress_bar", "image_rgb", "image_gray"]
+           "sequence_folder", "check_replaceable", "progress_bar", "image_rgb", "image_gray",
+           "pop_number"]
 
 # target name -> ("module:function", one-line help)
 EXPORTERS: dict[str, tuple[str | Callable, str]] = {
@@ -73,6 +75,27 @@ EXPORTERS: dict[str, tuple[str | Callable, str]] = {
     "cityscapes": ("vo_reference.products.semantic_export:export_cityscapes",
                    "Cityscapes layout: leftImg8bit/ + gtFine/ labelIds, color, instanceIds (+ object ids), "
                    "classes.json; right view in rightImg8bit/ + gtFineRight/"),
+    "colmap": ("vo_reference.products.colmap:export_colmap",
+               "COLMAP text model: images/ + sparse/0/{cameras,images,points3D,rigs,frames}.txt, points from "
+               "the exact depth with their observations in every image that sees them"),
+    "nerfstudio": ("vo_reference.products.nerfstudio:export_nerfstudio",
+                   "nerfstudio / 3D Gaussian Splatting: transforms.json (OpenGL camera-to-world), images/, "
+                   "depths/ (16-bit mm), masks/, sparse_pc.ply"),
+    "slam": ("vo_reference.products.slam_config:export_slam_config",
+             "SLAM/VIO settings of the rig: ORB-SLAM3, VINS-Fusion, OpenVINS, Kalibr, Basalt (also written "
+             "beside the euroc and rosbag exports, in slam/)"),
+    "tartanair-v2": ("vo_reference.products.tartanair_v2:export_tartanair_v2",
+                     "TartanAir V2: ENV/Data_easy/P000/image_lcam_front, depth_* (RGBA-packed float PNG), "
+                     "seg_*, flow_lcam_front, pose_*.txt (NED) (--sequence ENV/Data_DIFF/PNNN)"),
+    "middlebury": ("vo_reference.products.middlebury:export_middlebury",
+                   "Middlebury 2014 stereo: one folder per frame with im0.png, im1.png, disp0.pfm, disp1.pfm, "
+                   "mask0nocc.png, calib.txt"),
+    "eth3d": ("vo_reference.products.middlebury:export_eth3d",
+              "ETH3D two-view stereo: two_view_training/NAME/{im0,im1}.png, calib.txt, cameras.txt, images.txt "
+              "+ two_view_training_gt/NAME/disp0GT.pfm, mask0nocc.png"),
+    "sintel": ("vo_reference.products.sintel:export_sintel",
+               "MPI-Sintel: training/{clean,final}/SCENE/frame_NNNN.png, flow/ .flo, occlusions/, invalid/, "
+               "depth/ .dpt, camdata_left/ .cam (--sequence SCENE)"),
 }
 
 COLOUR, GREY = 0, 1
@@ -122,7 +145,7 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
            undistort: bool = False) -> Path:
     """Export a render folder. ``noise``: 'manifest' (the script's NOISE, if any), None
     (clean) or (sigma, seed); ``sequence``: the slot in a dataset tree, for the targets that
-    have one (kitti-odometry, tartanair, vkitti2, sceneflow); ``progress``: a mode of
+    have one (kitti-odometry, tartanair, tartanair-v2, vkitti2, sceneflow, sintel); ``progress``: a mode of
     :mod:`blender_sesgen.contract.progress` (True = 'auto', False = 'off') and
     ``progress_callback(event)`` a hook for every progress event; ``undistort``: a render
     with a distorting lens is written through a pinhole camera (:mod:`.undistorted`) —
@@ -175,14 +198,14 @@ def _camera_of_the_layout(seq, target: str, fn: Callable, undistort: bool):
     distorting lens as it is when the layout keeps the lens (``fn.keeps_lens``), through a
     pinhole camera with ``undistort``, else refused (VoError: exit 2 at the CLI)."""
     lens = getattr(seq, "lens", None)
-    if lens is None:
+    if lens is None or lens.is_pinhole:
         return seq
     if undistort:
         from .undistorted import UndistortedSequence
         return UndistortedSequence(seq)
     if not getattr(fn, "keeps_lens", False):
-        raise VoError(f"the render has a distorting lens ({lens.model}) and the {target} layout has no lens model: "
-                      "add --undistort to write pinhole images and ground truth")
+        raise VoError(f"{target}: the render has a {lens.model} lens and the {target} layout has no lens model; "
+                      "export with --undistort (pinhole images and ground truth)")
     return seq
 
 
@@ -200,6 +223,21 @@ def image_gray(seq, k: int, view: str, opts: ExportOptions) -> np.ndarray:
     if opts.noise is None:
         return g
     return add_gaussian_noise(g, opts.noise[0], opts.noise[1], (k, VIEW_INDEX[view], GREY))
+
+
+def pop_number(extra: dict, key: str, kind: type = float, default=None, what: str = "a number"):
+    """Take a positive number ``key`` out of an export's ``--opt`` options (``default`` when
+    absent); VoError naming the option otherwise."""
+    text = extra.pop(key, None)
+    if text is None:
+        return default
+    try:
+        value = kind(text)
+    except ValueError:
+        raise VoError(f"{key}={text!r}: expected {what}") from None
+    if not value > 0:
+        raise VoError(f"{key}={text!r}: must be > 0")
+    return value
 
 
 def check_replaceable(folder: Path) -> None:

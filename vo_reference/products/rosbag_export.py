@@ -128,6 +128,8 @@ def export_rosbag(seq, out: Path, opts) -> None:
                           linear_acceleration=V3(x=float(a[0]), y=float(a[1]), z=float(a[2])),
                           linear_acceleration_covariance=cov.copy())
                 w.write(conn["imu"], tn, ts.serialize_cdr(msg, msg.__msgtype__))
+    from .slam_config import write_slam_configs
+    write_slam_configs(seq, Path(out) / "slam", t_ns)   # the rig's SLAM/VIO settings beside the bag
 
 
 def _imu_rows(seq, frames, imu_entry) -> list:
