@@ -83,6 +83,9 @@ class SESGEN_PG_settings(bpy.types.PropertyGroup):
     export_sequence: StringProperty(name="Sequence", default="",
                                     description="The render's slot in the dataset tree: KITTI NN, SceneFlow "
                                                 "TRAIN/A/0000, a TartanAir/vKITTI 2 sub-folder (empty: the default)")
+    export_undistort: BoolProperty(name="Undistort", default=False,
+                                   description="A render with a distorting LENS: write pinhole images and ground truth "
+                                               "(needed by every layout but EuRoC, ROS 2 bag, Bayer and Cityscapes)")
     vo_command: StringProperty(name="VO Command", default="",
                                description="How to run vo_reference (a Python with pip install 'blender-sesgen[vo]'), "
                                            "e.g. /path/venv/bin/vo-reference; empty: vo-reference on PATH")

@@ -369,7 +369,7 @@ def start_export(values: dict):
     frames = f"{values['frame_first']}:{values['frame_stop']}" if values["use_frame_range"] else ""
     cmd = export_job.export_command(export_job.vo_command(values["vo_command"]), render_dir,
                                     props.abspath(values["export_dir"]), values["export_target"],
-                                    values["export_sequence"], frames)
+                                    values["export_sequence"], frames, values.get("export_undistort", False))
     return export_job.ExportProcess(cmd)
 
 

@@ -118,7 +118,7 @@ class SESGEN_PT_preview(_SettingsSubpanel, bpy.types.Panel):
 
 class SESGEN_PT_export(_SettingsSubpanel, bpy.types.Panel):
     bl_label = "Export Dataset"
-    draw = _settings_draw(("export_target", "export_dir", "export_sequence", "vo_command"), "sesgen.export", "EXPORT",
+    draw = _settings_draw(("export_target", "export_dir", "export_sequence", "export_undistort", "vo_command"), "sesgen.export", "EXPORT",
                           "Frames: the Render panel's range; source: its Output folder")
 
 

@@ -151,3 +151,6 @@ def export_colmap(seq, out: Path, opts: ExportOptions) -> None:
         pts = sparse_points(seq, frames, views, stride, rgb_of=lambda k, v: image_rgb(seq, k, v, opts),
                             tick=bar.update)
         write_colmap_text(out / "sparse" / "0", seq, images, names, pts)
+
+
+export_colmap.keeps_lens = True   # a distorted render is written as it is, with its lens (docs/output-format.md)

@@ -34,6 +34,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "OUT itself); other sequences in OUT are left alone")
     parser.add_argument("--opt", action="append", default=[], metavar="KEY=VALUE",
                         help="target-specific option (repeatable)")
+    parser.add_argument("--undistort", action="store_true",
+                        help="a render with a distorting LENS: write pinhole images and ground truth (depth, "
+                             "disparity, flow, ids, masks recomputed for the pinhole camera). Needed by every "
+                             "layout without a lens model (all but euroc, rosbag, bayer, cityscapes)")
     add_progress_argument(parser)
 
 
@@ -55,6 +59,6 @@ def run(args: argparse.Namespace) -> int:
             raise VoError(f"--noise {sigma}: sigma must be >= 0")
         noise = (sigma, seed) if sigma > 0 else None
     out = export(args.render_dir, args.target, args.out, frames=args.frames, noise=noise,
-                 progress=progress_mode(args), extra=extra, sequence=args.sequence)
+                 progress=progress_mode(args), extra=extra, sequence=args.sequence, undistort=args.undistort)
     print(f"exported {args.render_dir} -> {out} ({args.target})")
     return 0

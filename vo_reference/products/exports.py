@@ -37,7 +37,7 @@ from ..io.sequence import require_complete
 from .noise import add_gaussian_noise
 
 __all__ = ["EXPORTERS", "ExportOptions", "export", "register_exporter", "get_exporter", "parse_frames",
-           "sequence_folder", "check_replaceable", "progress_bar", "image_rgb", "image_gray", "require_pinhole",
+           "sequence_folder", "check_replaceable", "progress_bar", "image_rgb", "image_gray",
            "pop_number"]
 
 # target name -> ("module:function", one-line help)
@@ -110,6 +110,7 @@ class ExportOptions:
     extra: dict = field(default_factory=dict)  # target-specific KEY=VALUE options (--opt)
     sequence: str | None = None            # the render's slot in a multi-sequence dataset tree (--sequence)
     progress_callback: Callable | None = None  # receives every progress event (a dict)
+    undistort: bool = False                # a lens render is exported through a pinhole camera (--undistort)
 
 
 def register_exporter(name: str, fn: Callable | str, help_text: str = "") -> None:
@@ -140,13 +141,17 @@ def parse_frames(spec: str | None, n: int) -> range:
 
 def export(render_dir, target: str, out, *, frames: str | range | None = None,
            noise="manifest", progress: bool | str = "auto", extra: dict | None = None,
-           sequence: str | None = None, progress_callback: Callable | None = None) -> Path:
+           sequence: str | None = None, progress_callback: Callable | None = None,
+           undistort: bool = False) -> Path:
     """Export a render folder. ``noise``: 'manifest' (the script's NOISE, if any), None
     (clean) or (sigma, seed); ``sequence``: the slot in a dataset tree, for the targets that
     have one (kitti-odometry, tartanair, tartanair-v2, vkitti2, sceneflow, sintel); ``progress``: a mode of
     :mod:`blender_sesgen.contract.progress` (True = 'auto', False = 'off') and
-    ``progress_callback(event)`` a hook for every progress event. Returns the folder that
-    holds the export (``out``, or the sequence's folder inside it) with its ``export.json``."""
+    ``progress_callback(event)`` a hook for every progress event; ``undistort``: a render
+    with a distorting lens is written through a pinhole camera (:mod:`.undistorted`) —
+    without it, a layout that has no lens model (``fn.keeps_lens`` unset) refuses such a
+    render. Returns the folder that holds the export (``out``, or the sequence's folder
+    inside it) with its ``export.json``."""
     from ..io.render import RenderSequence
     render_dir, out = Path(render_dir), Path(out)
     seq = RenderSequence(render_dir)
@@ -157,6 +162,8 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
         raise VoError(f"{out}: refusing to export into the render folder itself (choose another OUT)")
     rng = frames if isinstance(frames, range) else parse_frames(frames, seq.num_frames)
     require_complete(seq, rng)
+    lens = seq.lens
+    seq = _camera_of_the_layout(seq, target, fn, undistort)
     nz = seq.noise if noise == "manifest" else noise
     if nz is not None and float(nz[0]) <= 0:
         nz = None
@@ -165,11 +172,13 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
         raise VoError(f"progress {progress!r}: expected one of {', '.join(PROGRESS_MODES)}")
     opts = ExportOptions(frames=rng, noise=None if nz is None else (float(nz[0]), int(nz[1])),
                          progress=mode, extra=dict(extra or {}), sequence=sequence,
-                         progress_callback=progress_callback)
+                         progress_callback=progress_callback, undistort=seq.lens is None and lens is not None)
     info = {"target": target, "source": str(render_dir.resolve()), "source_frames": list(rng),
             "sequence": sequence,
             "noise": None if opts.noise is None else {"sigma": opts.noise[0], "seed": opts.noise[1]},
             "format": seq.manifest.get("format"), "scene_sha256": seq.manifest.get("scene_sha256")}
+    if opts.undistort:   # what the pinhole camera of the export is
+        info["undistorted"] = {"K": np.asarray(seq.K).tolist(), "lens": lens.to_json()}
     if getattr(fn, "takes_sequence", False):  # a dataset tree: the target stages its own slot
         out.mkdir(parents=True, exist_ok=True)
         where = Path(fn(seq, out, opts) or out)
@@ -182,6 +191,22 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
         fn(seq, staging, opts)
         atomic.write_json(staging / "export.json", info)
     return out
+
+
+def _camera_of_the_layout(seq, target: str, fn: Callable, undistort: bool):
+    """The sequence a layout is written from: a pinhole render as it is; a render with a
+    distorting lens as it is when the layout keeps the lens (``fn.keeps_lens``), through a
+    pinhole camera with ``undistort``, else refused (VoError: exit 2 at the CLI)."""
+    lens = getattr(seq, "lens", None)
+    if lens is None or lens.is_pinhole:
+        return seq
+    if undistort:
+        from .undistorted import UndistortedSequence
+        return UndistortedSequence(seq)
+    if not getattr(fn, "keeps_lens", False):
+        raise VoError(f"{target}: the render has a {lens.model} lens and the {target} layout has no lens model; "
+                      "export with --undistort (pinhole images and ground truth)")
+    return seq
 
 
 # --- images with noise ------------------------------------------------------------------
@@ -213,15 +238,6 @@ def pop_number(extra: dict, key: str, kind: type = float, default=None, what: st
     if not value > 0:
         raise VoError(f"{key}={text!r}: must be > 0")
     return value
-
-
-def require_pinhole(seq, layout: str) -> None:
-    """Refuse (VoError, exit 2) a render with a distorting lens for a layout whose format has
-    no lens model: its images and ground truth would be read as pinhole ones."""
-    lens = getattr(seq, "lens", None)
-    if lens is not None and not lens.is_pinhole:
-        raise VoError(f"{layout}: the render has a {lens.model} lens and the {layout} layout has no lens "
-                      "model; export with --undistort (pinhole images and ground truth)")
 
 
 def check_replaceable(folder: Path) -> None:
@@ -267,3 +283,23 @@ def calib_text(seq) -> str:
     lines = [f"{n}: " + " ".join(f"{x:.12e}" for x in P[n].ravel()) for n in ("P0", "P1", "P2", "P3")]
     lines.append("Tr: " + " ".join(f"{x:.12e}" for x in np.eye(4)[:3].ravel()))  # no lidar: identity
     return "\n".join(lines) + "\n"
+
+
+def calib_cam_to_cam_text(seq) -> str:
+    """KITTI 2015's ``calib_cam_to_cam/NNNNNN.txt`` (the raw data's camera calibration) of the
+    rig: per camera xx = 00..03 (00/01 grey, 02/03 colour: here one rectified pair, 00 = 02
+    the left camera, 01 = 03 the right) ``S_xx`` (W H), ``K_xx``, ``D_xx`` (no distortion),
+    ``R_xx``/``T_xx`` (camera 0 -> xx: X_xx = R·X_0 + T, T = (-B, 0, 0) for the right
+    camera), ``S_rect_xx``, ``R_rect_xx`` (identity) and ``P_rect_xx`` (as ``calib.txt``'s P)."""
+    P = kitti_projections(seq.K, seq.baseline_m)
+    W, H = seq.resolution
+
+    def row(name, values) -> str:
+        return f"{name}: " + " ".join(f"{float(x):.12e}" for x in np.ravel(values)) + "\n"
+    out = []
+    for xx, (view_P, tx) in enumerate(((P["P0"], 0.0), (P["P1"], -seq.baseline_m),
+                                        (P["P2"], 0.0), (P["P3"], -seq.baseline_m))):
+        out += [row(f"S_{xx:02d}", (W, H)), row(f"K_{xx:02d}", seq.K), row(f"D_{xx:02d}", np.zeros(5)),
+                row(f"R_{xx:02d}", np.eye(3)), row(f"T_{xx:02d}", (tx, 0.0, 0.0)), row(f"S_rect_{xx:02d}", (W, H)),
+                row(f"R_rect_{xx:02d}", np.eye(3)), row(f"P_rect_{xx:02d}", view_P)]
+    return "".join(out)

@@ -41,7 +41,7 @@ from ..errors import VoError
 from ..io.files import write_image_atomic, write_png_rgb
 from .colmap import write_colmap_text
 from .disparity import sequence_disparity, write_disparity
-from .exports import ExportOptions, image_gray, image_rgb, progress_bar, require_pinhole
+from .exports import ExportOptions, image_gray, image_rgb, progress_bar
 
 __all__ = ["export_middlebury", "export_eth3d", "calib_text", "nocc_mask"]
 
@@ -76,7 +76,6 @@ def nocc_mask(disp: np.ndarray, occluded: np.ndarray) -> np.ndarray:
 
 
 def _scenes(seq, opts: ExportOptions, layout: str) -> tuple[str, list[int]]:
-    require_pinhole(seq, layout)
     if "right" not in seq.views or seq.baseline_m <= 0:
         raise VoError(f"{layout} needs a stereo render (views left and right)")
     extra = dict(opts.extra)

@@ -138,3 +138,6 @@ def export_nerfstudio(seq, out: Path, opts: ExportOptions) -> None:
     atomic.write_bytes(out / "sparse_pc.ply", ply_points_bytes(pts.xyz, pts.rgb))
     meta["frames"] = entries
     atomic.write_text(out / "transforms.json", json.dumps(meta, indent=2) + "\n")
+
+
+export_nerfstudio.keeps_lens = True   # a distorted render is written as it is, with its lens (docs/output-format.md)

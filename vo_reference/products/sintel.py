@@ -34,7 +34,7 @@ from blender_sesgen.contract.se3 import invert
 from ..errors import VoError
 from ..io.files import write_image_atomic, write_png_rgb
 from .dense_gt import dense_flow, pop_background_depth
-from .exports import ExportOptions, image_rgb, progress_bar, require_pinhole, sequence_folder
+from .exports import ExportOptions, image_rgb, progress_bar, sequence_folder
 from .flow import FLO_MAGIC, write_flo
 
 __all__ = ["export_sintel", "dpt_bytes", "cam_bytes", "KINDS", "DEFAULT_SCENE"]
@@ -58,7 +58,6 @@ def cam_bytes(K: np.ndarray, T_world_cam: np.ndarray) -> bytes:
 
 
 def export_sintel(seq, out: Path, opts: ExportOptions) -> Path:
-    require_pinhole(seq, "sintel")
     extra = dict(opts.extra)
     background = pop_background_depth(extra)
     if extra:

@@ -413,3 +413,6 @@ def export_slam_config(seq, out: Path, opts: ExportOptions) -> None:
         raise VoError(f"slam export: unknown option(s) {', '.join(sorted(opts.extra))} (none)")
     from blender_sesgen.contract.timing import to_ns
     write_slam_configs(seq, out, to_ns(seq.timestamps_s[list(opts.frames)]))
+
+
+export_slam_config.keeps_lens = True   # a distorted render is written as it is, with its lens (docs/output-format.md)
