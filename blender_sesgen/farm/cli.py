@@ -55,7 +55,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--gpus-per-task", type=float, default=0.0, metavar="G",
                    help="GPUs each task reserves (fractions share a GPU); > 0 renders with --device gpu")
     p.add_argument("--num-cpus", type=int, metavar="N", help="local Ray only: the CPUs it may use (default all)")
-    add_progress_argument(p, ("-q", "--quiet"))
+    add_progress_argument(p)
     from .. import render_cli
     render_cli.add_arguments(p.add_argument_group("render options", "as for `render`, for every scene"),
                              forwarded_only=True)

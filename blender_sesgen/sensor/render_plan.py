@@ -182,8 +182,17 @@ class SensorPlan:
                                  T_cam_imu=tuple(map(tuple, i.T_cam_imu())), time_offset_s=i.time_offset_s,
                                  gravity=i.gravity, seed=i.seed)
 
+    def imu_section(self) -> ImuSection:
+        """The manifest's ``imu`` section (also what imu/sensor.yaml is written from)."""
+        p = self.imu_params()
+        return ImuSection(p.rate_hz, p.gyro_noise, p.gyro_walk, p.accel_noise, p.accel_walk,
+                          tuple(map(tuple, p.T.tolist())), p.time_offset_s, (0.0, -p.gravity, 0.0), p.seed,
+                          {"noisy": f"{IMU_DIR}/data.csv", "ideal": f"{IMU_DIR}/data_ideal.csv",
+                           "groundtruth": f"{IMU_DIR}/groundtruth.csv", "yaml": f"{IMU_DIR}/sensor.yaml"})
+
     def _imu_files(self, n_frames: int) -> dict[str, bytes]:
-        from .imu_files import groundtruth_csv, imu_sensor_yaml
+        from ..contract.sensor_yaml import imu_sensor_yaml
+        from .imu_files import groundtruth_csv
         p = self.imu_params()
         t = self.frame_times_s(n_frames)
         stamps = imu_mod.sample_times(t[0], t[-1], p)
@@ -194,7 +203,7 @@ class SensorPlan:
                 f"{IMU_DIR}/data_ideal.csv": imu_mod.csv_text(ideal).encode(),
                 f"{IMU_DIR}/groundtruth.csv": groundtruth_csv(stamps - p.time_offset_s, T_wi, v_wi,
                                                               noisy.gyro_bias, noisy.accel_bias).encode(),
-                f"{IMU_DIR}/sensor.yaml": imu_sensor_yaml(p).encode()}
+                f"{IMU_DIR}/sensor.yaml": imu_sensor_yaml(self.imu_section()).encode()}
 
     def timing_section(self) -> Optional[TimingSection]:
         """The manifest's ``timing`` entry (None for an inactive plan: no entry)."""
@@ -236,11 +245,7 @@ class SensorPlan:
                 autoexposure=None if self.autoexposure is None else dataclasses.asdict(self.autoexposure),
                 exposure_s=none, gain=none, metered=none)
         if self.imu is not None:
-            p = self.imu_params()
-            imu = ImuSection(p.rate_hz, p.gyro_noise, p.gyro_walk, p.accel_noise, p.accel_walk,
-                             tuple(map(tuple, p.T.tolist())), p.time_offset_s, (0.0, -p.gravity, 0.0), p.seed,
-                             {"noisy": f"{IMU_DIR}/data.csv", "ideal": f"{IMU_DIR}/data_ideal.csv",
-                              "groundtruth": f"{IMU_DIR}/groundtruth.csv", "yaml": f"{IMU_DIR}/sensor.yaml"})
+            imu = self.imu_section()
         return Sections(rig_motion=RigMotionSection(self.motion.kind, self.rate_hz, self.motion.start_s),
                         timing=self.timing_section(), lens=lens, sensor=sensor, imu=imu)
 

@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import argparse
 
+from blender_sesgen.contract.cli import add_report_argument
 from blender_sesgen.contract.progress import add_progress_argument, progress_mode
+from blender_sesgen.contract.timing import FRAMES_HELP
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -41,12 +43,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="ignore the bottom rows (bonnet): pixels, or a fraction of the height if < 1")
     p.add_argument("--mask-rect", action="append", default=[], metavar="X0,Y0,X1,Y1", help="ignore a box (repeatable)")
     p.add_argument("--mask", metavar="PNG", help="mask image: non-zero = usable")
-    p.add_argument("--frames", metavar="A:B", help="frame range A..B-1")
+    p.add_argument("--frames", metavar="A:B", help=f"{FRAMES_HELP}; default all")
     p.add_argument("--compare-opencv", action="store_true",
                    help="also run OpenCV findEssentialMat + recoverPose on the same matches")
     p.add_argument("--opencv-method", choices=("usac", "ransac"), default="usac",
                    help="OpenCV's robust estimator: usac = USAC_ACCURATE (default), ransac = classic RANSAC")
-    p.add_argument("--plot", metavar="DIR", help="write plots and a per-frame table here")
+    add_report_argument(p, "plots (trajectories.png, per_frame.png), the per-frame table (frames.csv), summary.json")
     add_progress_argument(p)
 
 
@@ -57,6 +59,6 @@ def run(args: argparse.Namespace) -> int:
     for line in summary_lines(result.summary):
         print(line)
     print("wrote " + ", ".join(result.outputs))
-    if opts.plot:
-        print(f"plots in {opts.plot}")
+    if opts.report:
+        print(f"report: {opts.report}")
     return 0

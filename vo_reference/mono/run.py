@@ -47,7 +47,7 @@ class MonoRunOptions:
     frames: Optional[str] = None
     compare_opencv: bool = False
     opencv_method: str = "usac"
-    plot: Optional[str] = None
+    report: Optional[str] = None   # folder for plots, the per-frame table and summary.json
 
     @classmethod
     def of(cls, values) -> "MonoRunOptions":
@@ -185,8 +185,8 @@ def run_mono(opts: MonoRunOptions, progress: str = "off") -> MonoRun:
 
     errs = per_frame_errors(res.records, gt)
     summary = summarise(res, gt, ts, errs, mode)
-    if opts.plot:
-        write_plots(Path(opts.plot), res, gt, errs, summary)
+    if opts.report:
+        write_plots(Path(opts.report), res, gt, errs, summary)
     return MonoRun(res, summary, outputs)
 
 
