@@ -296,9 +296,9 @@ def calib_cam_to_cam_text(seq) -> str:
     def row(name, values) -> str:
         return f"{name}: " + " ".join(f"{float(x):.12e}" for x in np.ravel(values)) + "\n"
     out = []
-    for xx, (view_P, tx) in enumerate(((P["P0"], 0.0), (P["P1"], -seq.baseline_m),
-                                        (P["P2"], 0.0), (P["P3"], -seq.baseline_m))):
+    for xx, view in enumerate(("left", "right", "left", "right")):
+        T_xx_0 = rig.T_view_left(view, seq.baseline_m)
         out += [row(f"S_{xx:02d}", (W, H)), row(f"K_{xx:02d}", seq.K), row(f"D_{xx:02d}", np.zeros(5)),
-                row(f"R_{xx:02d}", np.eye(3)), row(f"T_{xx:02d}", (tx, 0.0, 0.0)), row(f"S_rect_{xx:02d}", (W, H)),
-                row(f"R_rect_{xx:02d}", np.eye(3)), row(f"P_rect_{xx:02d}", view_P)]
+                row(f"R_{xx:02d}", T_xx_0[:3, :3]), row(f"T_{xx:02d}", T_xx_0[:3, 3]), row(f"S_rect_{xx:02d}", (W, H)),
+                row(f"R_rect_{xx:02d}", np.eye(3)), row(f"P_rect_{xx:02d}", P[f"P{xx}"])]
     return "".join(out)
