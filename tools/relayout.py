@@ -328,6 +328,12 @@ class Rewriter:
             return offsets[lineno - 1] + len(line.encode("utf-8")[:col].decode("utf-8"))
 
         edits, notes = [], []
+        module_strings = set()   # import_module(".x", ...) arguments; ".x" first in a dict value's tuple
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Call) and getattr(node.func, "attr", getattr(node.func, "id", "")) == "import_module":
+                module_strings.update(id(a) for a in node.args[:1])
+            elif isinstance(node, ast.Dict):
+                module_strings.update(id(v.elts[0]) for v in node.values if isinstance(v, ast.Tuple) and v.elts)
         for node in ast.walk(tree):
             if isinstance(node, ast.ImportFrom):
                 names = [a.name for a in node.names]
@@ -369,8 +375,8 @@ class Rewriter:
                 start, end = pos(node.lineno, node.col_offset), pos(node.end_lineno, node.end_col_offset)
                 edits.append((start, end, text))
                 notes.append(f"{rel}:{node.lineno}: {src[start:end]} -> {text}")
-            elif isinstance(node, ast.Constant) and isinstance(node.value, str) \
-                    and re.fullmatch(r"\.+[A-Za-z_][\w.]*", node.value) and node.lineno == node.end_lineno:
+            elif id(node) in module_strings and isinstance(node, ast.Constant) and isinstance(node.value, str) \
+                    and re.fullmatch(r"\.+[A-Za-z_][\w.]*", node.value):
                 # a module named relative to this file's package (a command table)
                 level = len(node.value) - len(node.value.lstrip("."))
                 name = node.value[level:]
