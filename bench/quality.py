@@ -55,7 +55,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 
 from blender_sesgen.contract.colour import linear_to_srgb
-from blender_sesgen.exr import read_exr
+from blender_sesgen.files.exr import read_exr
 from blender_sesgen.presets import PRESETS, Preset
 from vo_reference.evaluate.image_quality import psnr, ssim
 

@@ -63,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_OK
     if not args.generator or args.count is None or not args.out:
         raise SesgenError("generate needs GENERATOR, --count N and --out DIR (or --list)")
-    from .dataset import DEFAULT_FRACTIONS, assign_splits, check_fractions, sequence_seeds
+    from .files.dataset import DEFAULT_FRACTIONS, assign_splits, check_fractions, sequence_seeds
     if args.count < 1:
         raise SesgenError(f"--count must be >= 1, got {args.count}")
     if not 0 <= args.seed <= 2**31 - 1:
@@ -93,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _check_folder(out: Path) -> None:
     """DIR must be new, empty, or hold only what an earlier ``generate`` wrote."""
-    from .dataset import INDEX, read_index
+    from .files.dataset import INDEX, read_index
     if out.exists() and not out.is_dir():
         raise SesgenError(f"--out {out}: exists and is not a folder")
     if not out.is_dir() or not any(out.iterdir()):
@@ -110,7 +110,7 @@ def _check_folder(out: Path) -> None:
 
 def _write(out: Path, gen, options: dict, args, seeds, splits, names, fractions) -> int:
     from .contract.atomic import replacing_folder, write_json
-    from .dataset import INDEX, path_length_m, scripts_index
+    from .files.dataset import INDEX, path_length_m, scripts_index
     from .plan import validate_scene
     from .ses import parse_string
     sequences = []

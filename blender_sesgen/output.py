@@ -38,8 +38,8 @@ from .contract.manifest import (DISPLAY_DIR, DONE_LOG_GLOB, EXR_DIR, FORMAT, MAN
                                 trajectory_relpaths)
 from .contract.trajectory_files import format_ego_table, format_kitti, format_tum
 from .errors import SesgenError
-from .image_check import ImageFileError, check_image_bytes
-from .exr import ExrError, check_complete, decode, read_layout, strip_volatile_attributes
+from .files.image_check import ImageFileError, check_image_bytes
+from .files.exr import ExrError, check_complete, decode, read_layout, strip_volatile_attributes
 from .locks import FolderLocks
 from .plan import RenderPlan, RenderSettings
 

@@ -159,7 +159,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"error: render failed: {e}", file=sys.stderr)
             return EXIT_FAILURE
     if args.contact_sheet:
-        from .contact_sheet import write_contact_sheet
+        from .files.contact_sheet import write_contact_sheet
         from pathlib import Path
         png = Path(args.contact_sheet)
         if not png.is_absolute():

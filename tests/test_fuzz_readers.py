@@ -88,9 +88,9 @@ def test_every_seed_is_read_without_error(fixtures):
 @_settings(100)
 @given(mutations=ops)
 def test_fuzz_pure_exr_reader(fixtures, mutations):
-    """``blender_sesgen.exr`` (numpy + zlib, no OpenEXR) on a mutated render EXR: channels
+    """``blender_sesgen.files.exr`` (numpy + zlib, no OpenEXR) on a mutated render EXR: channels
     or ExrError; a block never inflates beyond its size, a header never loops."""
-    from blender_sesgen.exr import ExrError, check_complete, decode
+    from blender_sesgen.files.exr import ExrError, check_complete, decode
     folder, path, seed = fixtures("exr")
     data = ft.mutate(seed, mutations)
     try:

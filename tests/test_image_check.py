@@ -19,7 +19,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 
 import fuzz_targets as ft
 from markers import examples
-from blender_sesgen.image_check import ImageFileError, check_image, check_image_bytes
+from blender_sesgen.files.image_check import ImageFileError, check_image, check_image_bytes
 
 REPO = Path(__file__).resolve().parents[1]
 W, H = 53, 37
@@ -143,7 +143,7 @@ def test_png_decompression_bomb_stops_early():
     full = bomb.replace(_chunk(b"IHDR", struct.pack(">IIBBBBB", 2, 2, 16, 0, 0, 0, 0)),
                         _chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 16, 0, 0, 0, 0)))
     code = ("import resource, sys; resource.setrlimit(resource.RLIMIT_AS, (256 << 20, 256 << 20)); "
-            "from blender_sesgen.image_check import check_image_bytes; "
+            "from blender_sesgen.files.image_check import check_image_bytes; "
             "print(check_image_bytes(sys.stdin.buffer.read()))")
     p = subprocess.run([sys.executable, "-c", code], input=full, capture_output=True, timeout=300,
                        env={**os.environ, "PYTHONPATH": str(REPO)})

@@ -197,7 +197,7 @@ def test_the_exr_deflate_level_changes_bytes_not_values(tmp_path, monkeypatch):
     pytest.importorskip("bpy")
     import ctypes
     from blender_sesgen.blender import compat, render
-    from blender_sesgen.exr import read_exr as read_exr_pure
+    from blender_sesgen.files.exr import read_exr as read_exr_pure
     assert render.EXR_ZIP_LEVEL == 1
     with compat.exr_zip_level(7) as found:
         assert found, "the OpenEXR library of the bpy wheel was not found"

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from blender_sesgen.exr import read_exr, write_exr
+from blender_sesgen.files.exr import read_exr, write_exr
 from blender_sesgen.output import RenderWriteError, seal_frame
 from blender_sesgen.sealer import Sealer, WorkerGone
 

@@ -18,7 +18,7 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 
-from blender_sesgen.contact_sheet import write_png
+from blender_sesgen.files.contact_sheet import write_png
 from blender_sesgen.contract.frames import start_pose
 from blender_sesgen.material_library import LIBRARY
 from blender_sesgen.model import Look, Quad, Rig, Scene, Sphere, Timeline, World, mat4

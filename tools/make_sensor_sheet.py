@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-from blender_sesgen.contact_sheet import colormap, id_colours
+from blender_sesgen.files.contact_sheet import colormap, id_colours
 from blender_sesgen.contract.colour import linear_to_srgb8
 from vo_reference.io.render import RenderSequence
 

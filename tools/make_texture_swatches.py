@@ -13,9 +13,9 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 
 from blender_sesgen.contract.frames import start_pose
-from blender_sesgen.contact_sheet import write_png
+from blender_sesgen.files.contact_sheet import write_png
 from blender_sesgen.contract.colour import linear_to_srgb8
-from blender_sesgen.exr import read_exr
+from blender_sesgen.files.exr import read_exr
 from blender_sesgen.model import Quad, Rig, Scene, Sphere, TextureRef, Timeline, mat4
 from blender_sesgen.job import RenderJob
 from blender_sesgen.plan import RenderOptions

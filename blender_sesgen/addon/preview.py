@@ -15,13 +15,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..contact_sheet import colormap, id_colours
+from ..files.contact_sheet import colormap, id_colours
 from ..contract.colour import linear_to_srgb8
 from ..contract.depth import depth_from_pass, disparity_from_depth
 from ..contract.errors import ContractError
 from ..contract.manifest import MANIFEST, Manifest
 from ..errors import SesgenError
-from ..exr import read_exr
+from ..files.exr import read_exr
 
 KINDS = ("disparity", "segmentation", "depth", "rgb")
 

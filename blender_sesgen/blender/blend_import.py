@@ -27,7 +27,7 @@ from ..contract.frames import blender_to_ses_world, object_pose, ses_to_blender_
 from ..contract.errors import ContractError
 from ..contract.inputs import check_regular, is_inside
 from ..contract.manifest import object_motion_fields
-from ..image_check import ImageFileError, check_image
+from ..files.image_check import ImageFileError, check_image
 from ..contract import semantics
 from ..errors import SesgenError
 from ..model import BlendImport

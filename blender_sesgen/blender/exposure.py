@@ -45,7 +45,7 @@ def measure_exposure(bscene, camera, frame: int) -> float:
 
     The preview goes to the system's temporary folder under a name with this process's pid,
     so that a later render removes it if this one is killed (``remove_stale_previews``)."""
-    from ..exr import read_exr
+    from ..files.exr import read_exr
     from .render import render_view
 
     remove_stale_previews()

@@ -13,7 +13,7 @@ import numpy as np
 from ..contract.atomic import temp_path
 from ..contract.depth import BACKGROUND_THRESHOLD
 from ..contract.manifest import render_seed
-from ..exr import read_exr, write_exr
+from ..files.exr import read_exr, write_exr
 from . import compat, object_motion, render, rig, sensor
 
 

@@ -1,5 +1,5 @@
 """The render's EXR files as the contract sees them: the channel that holds each product, and
-the one parser of an OpenEXR header (stdlib only: the pure reader ``blender_sesgen.exr`` and
+the one parser of an OpenEXR header (stdlib only: the pure reader ``blender_sesgen.files.exr`` and
 the image check both walk headers with it).
 
 Channels are ``<view layer>.<pass>.<component>``. Blender 5.0 names the index pass

@@ -122,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
             print(s.error, file=sys.stderr)
         return EXIT_USER_ERROR
 
-    from ..dataset import write_render_index
+    from ..files.dataset import write_render_index
     from .cluster import Cluster
     from .driver import Farm
     from .work import frame_ranges

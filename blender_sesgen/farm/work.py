@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable, Optional, Sequence
 
-from ..dataset import read_index
+from ..files.dataset import read_index
 from ..errors import SesgenError
 
 SCRIPT_SUFFIX = ".ses"

@@ -9,7 +9,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from ..errors import SesgenError
-from ..png import write_png
+from ..files.png import write_png
 from .render_plan import SENSOR_DIR, SensorPlan
 
 EXR_LAYOUT = "single part holding every pass (beauty of the sensor render, ground truth of the sharp render)"
@@ -111,7 +111,7 @@ def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: floa
     """Run the camera chain on frame k's EXRs (``exrs[view]``: their paths) and write raw /
     RGB / JPEG images; record the exposure, gain and metered brightness of the frame in the
     manifest ``m`` (a Manifest) and in the frame's state file."""
-    from ..exr import read_exr
+    from ..files.exr import read_exr
     from . import pipeline
     from .autoexposure import meter
     key = (id(plan), "rays")

@@ -4,7 +4,7 @@ materials objects name directly (``material asphalt`` with no MATERIAL asphalt).
 
 A texture is a built-in (number or name, see blender_sesgen.textures) or an image file
 relative to the script; image files (textures and PBR maps) are checked to be images
-(``blender_sesgen.image_check``: decoded or walked, so a corrupt or truncated file is an
+(``blender_sesgen.files.image_check``: decoded or walked, so a corrupt or truncated file is an
 error here, not a magenta surface in the render).
 """
 from __future__ import annotations
@@ -13,7 +13,7 @@ import os
 from typing import Optional
 
 from .. import material_library, model
-from ..image_check import ImageFileError, check_image
+from ..files.image_check import ImageFileError, check_image
 from ..textures import BUILTIN_TEXTURES, NAME_TO_NUMBER
 from .checks import Checks, scalar, vec
 from .lexer import Token

@@ -30,7 +30,7 @@ from urllib.parse import unquote
 
 from ..contract.errors import ContractError
 from ..contract.inputs import MiB, check_regular, is_inside, is_number, read_bytes
-from ..image_check import ImageFileError, check_image
+from ..files.image_check import ImageFileError, check_image
 
 MAX_MODEL_TEXT = 256 * MiB    # an OBJ, MTL or glTF JSON larger than this is refused
 # MTL statements whose image Blender's OBJ importer loads (keywords are case-sensitive there)

@@ -11,7 +11,7 @@ All errors of a script are collected (file:line:col); if there is any, the first
 source order is raised as ScriptError and the whole list rides along as its ``errors``
 attribute. A script with errors yields no Scene. The only files read are the script
 itself, the TRAJECTORY (and MOVE) files it names, the image files it names (decoded:
-``blender_sesgen.image_check``) and the references inside MESH models (``mesh_files``: they
+``blender_sesgen.files.image_check``) and the references inside MESH models (``mesh_files``: they
 must stay inside the model's folder), and a BLEND file's signature; mesh geometry and
 BLEND contents are read by Blender at render time.
 """

@@ -30,5 +30,5 @@ def encode_png(image: np.ndarray, level: int = 6) -> bytes:
 
 def write_png(path, image: np.ndarray) -> None:
     """Write ``image`` (see :func:`encode_png`) to ``path`` atomically."""
-    from .contract import atomic
+    from ..contract import atomic
     atomic.write_bytes(Path(path), encode_png(image))

@@ -22,9 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .contract.errors import ContractError
-from .contract.exr_format import MAGIC, ExrError, read_header as _read_header
-from .contract.inputs import read_bytes
+from ..contract.errors import ContractError
+from ..contract.exr_format import MAGIC, ExrError, read_header as _read_header
+from ..contract.inputs import read_bytes
 
 _PIXEL_DTYPES = {0: np.dtype("<u4"), 1: np.dtype("<f2"), 2: np.dtype("<f4")}
 _LINES_PER_BLOCK = {0: 1, 2: 1, 3: 16}  # NONE, ZIPS, ZIP
@@ -244,5 +244,5 @@ def write_exr(path, channels: dict) -> None:
         offsets.append(pos)
         pos += len(c)
     blob = (struct.pack("<ii", MAGIC, 2) + header + struct.pack(f"<{len(offsets)}Q", *offsets) + b"".join(chunks))
-    from .contract import atomic
+    from ..contract import atomic
     atomic.write_bytes(Path(path), blob)

@@ -1,7 +1,7 @@
 """Contact sheet of a render folder: one PNG, a row per chosen frame with left RGB, right RGB,
 left disparity and left segmentation (pure: numpy + zlib, reads EXRs with ``exr.py``).
 
-    python -m blender_sesgen.contact_sheet OUT [--png OUT/contact_sheet.png] [--frames 4]
+    python -m blender_sesgen.files.contact_sheet OUT [--png OUT/contact_sheet.png] [--frames 4]
 
 RGB: linear beauty -> sRGB, clipped. Disparity d = fx * B / Z (px), colour-mapped from 0 to
 its 99th percentile over the sheet; background black. Segmentation: a fixed colour per id
@@ -15,10 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .contract import atomic
-from .contract.colour import linear_to_srgb8
-from .contract.depth import depth_from_pass, disparity_from_depth
-from .contract.manifest import Manifest
+from ..contract import atomic
+from ..contract.colour import linear_to_srgb8
+from ..contract.depth import depth_from_pass, disparity_from_depth
+from ..contract.manifest import Manifest
 from .exr import read_exr
 from .png import encode_png
 
@@ -106,7 +106,7 @@ def write_contact_sheet(out_dir, png_path=None, n_frames: int = 4) -> Path:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m blender_sesgen.contact_sheet", description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(prog="python -m blender_sesgen.files.contact_sheet", description=__doc__.splitlines()[0])
     p.add_argument("out", help="a render folder (with manifest.json)")
     p.add_argument("--png", help="output PNG (default OUT/contact_sheet.png)")
     p.add_argument("--frames", type=int, default=4, help="how many frames (rows), evenly spaced")

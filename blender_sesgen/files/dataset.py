@@ -22,7 +22,7 @@ from typing import Iterable, Optional, Sequence
 
 import numpy as np
 
-from .contract import atomic
+from ..contract import atomic
 
 FORMAT = "sesgen-dataset/1"
 INDEX = "dataset.json"
@@ -91,7 +91,7 @@ def path_length_m(T_world_cam: np.ndarray) -> float:
 
 
 def check_fractions(fractions: Sequence[float]) -> tuple[float, float, float]:
-    from .errors import SesgenError
+    from ..errors import SesgenError
     f = tuple(float(x) for x in fractions)
     if len(f) != 3 or any(not np.isfinite(x) or x < 0 for x in f) or sum(f) <= 0:
         raise SesgenError(f"--split needs three non-negative fractions (train val test), got {list(fractions)}")

@@ -30,9 +30,9 @@ import math
 import struct
 import zlib
 
-from .contract.errors import ContractError
-from .contract.exr_format import read_header as read_exr_header
-from .contract.inputs import MiB, read_bytes
+from ..contract.errors import ContractError
+from ..contract.exr_format import read_header as read_exr_header
+from ..contract.inputs import MiB, read_bytes
 
 MAX_IMAGE_BYTES = 1024 * MiB
 MAX_SIDE = 65536  # Blender's largest image side
