@@ -128,7 +128,7 @@ def render_frames(out: Path, frames: int):
 
 def sensor_frames(seq, frames: int):
     """The render's scene-linear beauty through the sensor model (grey, 8-bit), both views."""
-    from blender_sesgen.model import Lens, Sensor
+    from blender_sesgen.scene.model import Lens, Sensor
     from blender_sesgen.sensor.pipeline import process
     from vo_reference.io.color import rgb8_to_gray8
     sensor, lens = Sensor(**SENSOR_MODEL), Lens(**LENS_MODEL)

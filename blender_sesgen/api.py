@@ -22,7 +22,7 @@ import numpy as np
 from .check import summary
 from .contract.progress import Progress
 from .errors import ScriptError, SesgenError
-from .model import (Asset, Cuboid, Cylinder, Fog, Light, Material, Mesh, Motion, Noise, Quad, Rig, Scene, Sphere,
+from .scene.model import (Asset, Cuboid, Cylinder, Fog, Light, Material, Mesh, Motion, Noise, Quad, Rig, Scene, Sphere,
                     TextureRef, Timeline, World, mat4)
 from .pipeline import RenderOptions
 from .ses import parse_file, parse_string
@@ -41,7 +41,7 @@ __all__ = [
 
 def builtin_texture(name: "str | int", scale: float = 1.0) -> TextureRef:
     """One of the 12 numbered procedural textures (docs/rendering.md), by name or number."""
-    from .textures import BUILTIN_TEXTURES, NAME_TO_NUMBER
+    from .scene.textures import BUILTIN_TEXTURES, NAME_TO_NUMBER
     number = NAME_TO_NUMBER.get(name) if isinstance(name, str) else int(name)
     if number not in BUILTIN_TEXTURES:
         raise SesgenError(f"unknown built-in texture {name!r} (one of: {', '.join(NAME_TO_NUMBER)})")
@@ -50,7 +50,7 @@ def builtin_texture(name: "str | int", scale: float = 1.0) -> TextureRef:
 
 def asset_kinds() -> tuple[str, ...]:
     """The kinds an :class:`Asset` (``ASSET`` statement) can be (docs/ses-language.md)."""
-    from . import assets
+    from .scene import assets
     return tuple(assets.KINDS)
 
 
@@ -59,7 +59,7 @@ def asset_mesh(kind: str, size: Optional[Sequence[float]] = None, seed: int = 0,
     """The exact triangles of a procedural asset, as rendered: ``.vertices`` (n, 3) in the
     asset's own frame (SES axes, metres), ``.faces`` (m, 3), ``.face_surface`` and
     ``.surfaces`` (material names and colours). ``size`` None: the kind's seeded default."""
-    from . import assets
+    from .scene import assets
     if kind not in assets.KINDS:
         raise SesgenError(f"unknown asset kind {kind!r} (one of: {', '.join(assets.KINDS)})")
     return assets.generate(kind, size if size is not None else assets.default_size(kind, seed), seed, bend, offset)

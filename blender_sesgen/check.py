@@ -14,7 +14,7 @@ import numpy as np
 from .errors import ScriptError
 from .contract.camera import field_of_view_deg
 from .contract.frames import start_rotation_deg
-from .model import Scene
+from .scene.model import Scene
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -100,7 +100,7 @@ def _world_text(w) -> str:
 def _lighting_lines(scene: Scene) -> list[str]:
     """The ``lights`` and ``world`` lines: what the renderer lights the scene with
     (``lighting_data.effective_world``; docs/ses-language.md, LIGHT and WORLD)."""
-    from .lighting_data import effective_world
+    from .scene.lighting import effective_world
     blend_lamps = any(imp.lights for imp in scene.imports)
     world = effective_world(scene.world, bool(scene.lights))
     sky_sun = " + the sky's sun" if world.kind == "sky" else ""

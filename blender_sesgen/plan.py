@@ -22,7 +22,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from . import assets
+from .scene import assets
 from .contract import semantics
 from .contract.camera import scaled_K, scaled_size
 from .contract.depth import DEPTH_BACKGROUND
@@ -32,8 +32,8 @@ from .contract.pixel_settings import PixelSettings
 from .contract.manifest import SEED_RULE, Manifest, display_relpath, exr_relpath, object_motion_fields
 from .contract.timing import FrameSelection, frame_timestamps
 from .errors import SesgenError
-from .lighting_data import AGX_LOOKS, VIEW_TRANSFORMS
-from .model import Mesh, Scene, TextureRef
+from .scene.lighting import AGX_LOOKS, VIEW_TRANSFORMS
+from .scene.model import Mesh, Scene, TextureRef
 from .presets import QUALITIES, Preset, effective
 
 MAX_IMAGE_SIDE = 16384   # the script's own limit, applied to scaled sizes too
@@ -346,8 +346,8 @@ def object_table(scene: Scene) -> list[dict]:
     bounding ``box`` where the geometry is known (:mod:`.bounds`), and whether it moves (with
     its per-frame poses if it does). A BLEND file's objects are added by the job, which
     learns their ids when loading them."""
-    from .bounds import object_box
-    from .dynamics import rest_pose
+    from .scene.bounds import object_box
+    from .scene.dynamics import rest_pose
     out, boxes = [], {}
     for o in scene.objects:
         tex = o.texture
@@ -365,7 +365,7 @@ def object_table(scene: Scene) -> list[dict]:
         box = object_box(o, boxes)
         if box is not None:
             row["box"] = box.tolist()
-        if o.shape == "asset":   # what regenerates its mesh: blender_sesgen.assets.generate(...)
+        if o.shape == "asset":   # what regenerates its mesh: blender_sesgen.scene.assets.generate(...)
             row.update(kind=o.kind, seed=int(o.seed), size=[float(x) for x in o.size])
             if assets.KINDS[o.kind].strip:
                 row.update(bend=[float(x) for x in o.bend], offset=float(o.offset))

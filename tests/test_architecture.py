@@ -140,17 +140,17 @@ def test_no_import_cycle_between_packages(graph):
 
 def test_the_graph_sees_ancestors_and_the_root(tmp_path):
     """``from . import __version__`` is an edge to the package's ``__init__`` (``from . import
-    assets`` one to the module), and the root's ``__init__`` is a node: the cycle __init__ ->
-    addon -> addon.props -> plan -> __init__ would be found."""
+    api`` one to the module), and the root's ``__init__`` is a node: the cycle __init__ ->
+    addon -> addon.props -> render.plan -> __init__ would be found."""
     assert "blender_sesgen" in all_modules()
-    f = tmp_path / "plan.py"
-    f.write_text("from . import __version__, assets\nfrom .contract import rig\n")
-    edges = imports_of("blender_sesgen.plan", f)
-    assert {"blender_sesgen", "blender_sesgen.assets", "blender_sesgen.contract.rig"} <= edges
-    f.write_text("from . import assets\n")
-    assert "blender_sesgen" not in imports_of("blender_sesgen.plan", f)
+    f = tmp_path / "pipeline.py"
+    f.write_text("from . import __version__, api\nfrom .contract import rig\n")
+    edges = imports_of("blender_sesgen.pipeline", f)
+    assert {"blender_sesgen", "blender_sesgen.api", "blender_sesgen.contract.rig"} <= edges
+    f.write_text("from . import api\n")
+    assert "blender_sesgen" not in imports_of("blender_sesgen.pipeline", f)
     g = {"blender_sesgen": {"blender_sesgen.addon"}, "blender_sesgen.addon": {"blender_sesgen.addon.props"},
-         "blender_sesgen.addon.props": {"blender_sesgen.plan"}, "blender_sesgen.plan": {"blender_sesgen"}}
+         "blender_sesgen.addon.props": {"blender_sesgen.render.plan"}, "blender_sesgen.render.plan": {"blender_sesgen"}}
     assert cycles(g) == [sorted(g)]
 
 

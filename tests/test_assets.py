@@ -1,4 +1,4 @@
-"""Procedural assets (blender_sesgen.assets): deterministic, well-formed meshes of the size
+"""Procedural assets (blender_sesgen.scene.assets): deterministic, well-formed meshes of the size
 asked for; strips that fit side by side exactly; the terrain's height function is its mesh."""
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ import pytest
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from blender_sesgen import assets
-from blender_sesgen.assets.mesh import MeshBuilder, edge_report, signed_volume, triangulate_polygon
-from blender_sesgen.assets.nature import terrain_height, trail_x
-from blender_sesgen.assets.street import arc_frame, end_pose
+from blender_sesgen.scene import assets
+from blender_sesgen.scene.assets.mesh import MeshBuilder, edge_report, signed_volume, triangulate_polygon
+from blender_sesgen.scene.assets.nature import terrain_height, trail_x
+from blender_sesgen.scene.assets.street import arc_frame, end_pose
 
 KINDS = sorted(assets.KINDS)
 SEEDS = (0, 1, 7)
@@ -191,7 +191,7 @@ def test_every_kind_has_a_known_class_and_documented_sizes():
 
 def test_surfaces_name_library_or_asset_materials_and_kinds_known_classes():
     from blender_sesgen.contract.semantics import lookup
-    from blender_sesgen.material_library import LIBRARY
+    from blender_sesgen.scene.materials import LIBRARY
     for kind, k in assets.KINDS.items():
         assert lookup(k.semantic_class) is not None, (kind, k.semantic_class)
         d = _mesh(kind, 0)

@@ -1,5 +1,5 @@
 """The manifest's object rows carry each object's rest pose and its object-frame bounding
-box (blender_sesgen.bounds), against the geometry the script states and, for assets and
+box (blender_sesgen.scene.bounds), against the geometry the script states and, for assets and
 OBJ meshes, the vertices themselves."""
 from __future__ import annotations
 
@@ -35,7 +35,7 @@ def test_boxes_of_the_primitives_and_their_rest_poses():
     assert np.allclose(T2[:3, 3], [1, 0.5, -2]) and T2[0, 2] == pytest.approx(np.sin(np.radians(30)))
     assert np.allclose(rows[3]["box"], [[-0.4] * 3, [0.4] * 3])
     assert np.allclose(rows[4]["box"], [[-0.25, -0.75, -0.25], [0.25, 0.75, 0.25]])
-    from blender_sesgen import assets
+    from blender_sesgen.scene import assets
     V = assets.generate("car", (1.8, 1.4, 4.2), 2).vertices
     assert np.allclose(rows[5]["box"], [V.min(0), V.max(0)])
     assert "box" not in rows[6]                                             # stuff: no box label

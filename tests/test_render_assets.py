@@ -1,5 +1,5 @@
 """Rendered procedural assets keep exact ground truth: depth and ids at pixel centres equal
-an independent ray cast against the asset's own triangles (blender_sesgen.assets, placed
+an independent ray cast against the asset's own triangles (blender_sesgen.scene.assets, placed
 by the contract's object pose), on a small street scene with a curved road, a kerb, a
 building, a car, a sign on its pole, a street light and a bush of thousands of leaves."""
 from __future__ import annotations
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from blender_sesgen import assets
+from blender_sesgen.scene import assets
 from blender_sesgen.contract.frames import object_pose
 from blender_sesgen.ses import parse_file
 

@@ -63,7 +63,7 @@ def library_swatches(tmp_path_factory):
     disparity on the quads is exactly SHIFT px, under a uniform white world (reflections
     are uniform too: only the material's own pattern remains). Rendered twice, with two
     seeds: the difference of the two left images is the render noise."""
-    from blender_sesgen.material_library import LIBRARY
+    from blender_sesgen.scene.materials import LIBRARY
     names = list(LIBRARY)
     cols = 6
     rows = (len(names) + cols - 1) // cols

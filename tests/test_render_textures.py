@@ -23,9 +23,9 @@ SIZE, F, Z, SHIFT = 64, 64.0, 1.5, 4
 def swatches(tmp_path_factory):
     from blender_sesgen.contract.frames import start_pose
     from blender_sesgen.plan import RenderOptions
-    from blender_sesgen.model import Quad, Rig, Scene, TextureRef, Timeline, mat4
+    from blender_sesgen.scene.model import Quad, Rig, Scene, TextureRef, Timeline, mat4
     from blender_sesgen.job import RenderJob
-    from blender_sesgen.textures import BUILTIN_TEXTURES
+    from blender_sesgen.scene.textures import BUILTIN_TEXTURES
     base = tmp_path_factory.mktemp("tex")
     out = {}
     B = SHIFT * Z / F  # disparity f B / Z = SHIFT px

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from blender_sesgen.rounded_box import rounded_box
+from blender_sesgen.scene.geometry.rounded_box import rounded_box
 
 
 def _volume(V, faces) -> float:

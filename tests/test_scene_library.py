@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from blender_sesgen import assets
+from blender_sesgen.scene import assets
 from blender_sesgen.contract.frames import object_pose
-from blender_sesgen.model import Asset, Cuboid, Quad
+from blender_sesgen.scene.model import Asset, Cuboid, Quad
 from blender_sesgen.ses import parse_file
 
 import mesh_raycast
@@ -60,7 +60,7 @@ def test_city_kitti_is_kittis_rig_and_drive(scenes):
     assert np.abs(T[:, 1, 3] - 1.65).max() < 0.05                       # camera 1.65 m above the road
     # lane keeping: the camera stays in the right lane and looks along the road
     road = next(o for o in s.objects if isinstance(o, Asset) and o.kind == "road")
-    from blender_sesgen.assets.street import arc_frame
+    from blender_sesgen.scene.assets.street import arc_frame
     ss = np.linspace(0, road.size[2], 20001)
     c, n, h = arc_frame(ss, road.size[2], road.bend)
     T_road = object_pose(road.position, road.rotation_deg)
@@ -101,7 +101,7 @@ def test_hall_uses_the_euroc_rig(scenes, shared_data):
 
 
 def test_forest_walk_follows_the_trail(scenes):
-    from blender_sesgen.assets.nature import terrain_height, trail_x
+    from blender_sesgen.scene.assets.nature import terrain_height, trail_x
     s = scenes["forest"]
     terrain = next(o for o in s.objects if isinstance(o, Asset) and o.kind == "terrain")
     T = s.timeline.left()

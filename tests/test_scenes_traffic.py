@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from blender_sesgen.model import Cuboid, Cylinder, Mesh
+from blender_sesgen.scene.model import Cuboid, Cylinder, Mesh
 from blender_sesgen.ses import parse_file
 
 REPO = Path(__file__).resolve().parents[1]

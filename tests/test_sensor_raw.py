@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from blender_sesgen import model
+from blender_sesgen.scene import model
 from blender_sesgen.contract import cfa
 from blender_sesgen.files.png import encode_png
 from blender_sesgen.sensor import autoexposure, optics, pipeline, raw

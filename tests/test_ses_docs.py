@@ -8,7 +8,7 @@ import numpy as np
 
 from blender_sesgen.ses import parse_string
 from blender_sesgen.ses.grammar import STATEMENTS
-from blender_sesgen.textures import BUILTIN_TEXTURES
+from blender_sesgen.scene.textures import BUILTIN_TEXTURES
 
 DOC = (Path(__file__).resolve().parents[1] / "docs" / "ses-language.md").read_text(encoding="utf-8")
 BLOCKS = re.findall(r"```ses\n(.*?)```", DOC, flags=re.S)
@@ -40,9 +40,9 @@ def _range(text: str) -> tuple[float, float]:
 
 
 def test_asset_table_lists_every_kind_of_the_registry():
-    """The ASSET table: one row per kind of ``blender_sesgen.assets.KINDS``, in its order, with
+    """The ASSET table: one row per kind of ``blender_sesgen.scene.assets.KINDS``, in its order, with
     the kind's class, what its size means and its default size ranges."""
-    from blender_sesgen.assets import KINDS
+    from blender_sesgen.scene.assets import KINDS
     rows = re.findall(r"^\| `(\w+)`(?: \(strip\))? \| ([\w ]+) \| ([^|]+) \| ([^|]+) \| ([^|]+) \|$", DOC,
                       flags=re.M)
     assert [r[0] for r in rows] == list(KINDS)

@@ -12,7 +12,7 @@ import pytest
 from scipy.linalg import expm
 from scipy.spatial.transform import Rotation, Slerp
 
-from blender_sesgen import dynamics
+from blender_sesgen.scene import dynamics
 from blender_sesgen.errors import ScriptError
 from blender_sesgen.ses import parse_string
 

@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from blender_sesgen import model
+from blender_sesgen.scene import model
 from blender_sesgen.errors import ScriptError
 from blender_sesgen.ses import parse_file, parse_string
-from blender_sesgen.textures import BUILTIN_TEXTURES
+from blender_sesgen.scene.textures import BUILTIN_TEXTURES
 from image_files import jpeg_bytes, png_bytes
 
 GOLDEN = Path(__file__).resolve().parent / "golden"

@@ -7,11 +7,11 @@ import re
 
 import pytest
 
-from blender_sesgen import material_library, model
+from blender_sesgen.scene import materials as material_library, model
 from blender_sesgen.contract import semantics
 from blender_sesgen.plan import object_table
 from blender_sesgen.errors import ScriptError
-from blender_sesgen.lighting_data import BUILTIN_HDRIS
+from blender_sesgen.scene.lighting import BUILTIN_HDRIS
 from blender_sesgen.ses import parse_string
 from image_files import jpeg_bytes, png_bytes
 

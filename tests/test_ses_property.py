@@ -12,7 +12,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from blender_sesgen.errors import SesgenError
-from blender_sesgen.model import Scene
+from blender_sesgen.scene.model import Scene
 from blender_sesgen.ses import parse_bytes, parse_string
 from blender_sesgen.ses.grammar import STATEMENTS
 from markers import examples

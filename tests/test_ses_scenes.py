@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from blender_sesgen import model
+from blender_sesgen.scene import model
 from blender_sesgen.contract.frames import object_pose
 from blender_sesgen.contract.rig import right_from_left
 from blender_sesgen.ses import parse_file

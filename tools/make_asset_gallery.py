@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-from blender_sesgen import assets
+from blender_sesgen.scene import assets
 
 ROWS = (
     (-7.0, ["car", "tree", "conifer", "bush", "hedge", "streetlight", "traffic_light", "bin", "bollard", "bench",

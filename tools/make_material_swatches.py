@@ -20,8 +20,8 @@ REPO = Path(__file__).resolve().parents[1]
 
 from blender_sesgen.files.contact_sheet import write_png
 from blender_sesgen.contract.frames import start_pose
-from blender_sesgen.material_library import LIBRARY
-from blender_sesgen.model import Look, Quad, Rig, Scene, Sphere, Timeline, World, mat4
+from blender_sesgen.scene.materials import LIBRARY
+from blender_sesgen.scene.model import Look, Quad, Rig, Scene, Sphere, Timeline, World, mat4
 from blender_sesgen.pipeline import RenderJob, RenderOptions
 from blender_sesgen.ses.materials import library_material
 

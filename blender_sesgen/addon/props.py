@@ -5,7 +5,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
 from ..contract.timing import DEFAULT_FPS
-from ..lighting_data import BUILTIN_HDRIS
+from ..scene.lighting import BUILTIN_HDRIS
 from .export_job import TARGETS
 from .preview import KINDS
 

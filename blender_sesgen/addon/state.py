@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from typing import Optional
 
 from ..errors import ScriptError, SesgenError
-from ..model import Scene
+from ..scene.model import Scene
 
 
 @dataclass(frozen=True)

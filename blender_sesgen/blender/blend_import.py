@@ -30,7 +30,7 @@ from ..contract.manifest import object_motion_fields
 from ..files.image_check import ImageFileError, check_image
 from ..contract import semantics
 from ..errors import SesgenError
-from ..model import BlendImport
+from ..scene.model import BlendImport
 
 MAX_ID = 32767
 _NEW_ID_COLLECTIONS = ("objects", "meshes", "materials", "images", "node_groups", "lights", "textures",

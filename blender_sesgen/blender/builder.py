@@ -1,6 +1,6 @@
 """The scene model -> a Blender scene: objects, lights, world and the stereo rig (bpy).
 
-The one place that puts a whole :class:`~blender_sesgen.model.Scene` into Blender: shapes
+The one place that puts a whole :class:`~blender_sesgen.scene.model.Scene` into Blender: shapes
 (``shapes.build_shape``) with their materials (``materials``, ``library``), the objects of
 BLEND files (``blend_import``), lights and world (``lighting``), the keyed cameras (``rig``),
 the moving objects' keyed empties (``object_motion``), all tagged (``datablocks``) in the
@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import bpy
 
-from ..model import Scene
+from ..scene.model import Scene
 from . import assets as _assets  # noqa: F401  (registers the ASSET shape builder)
 from . import blend_import, library, lighting, object_motion, rig
 from .datablocks import SCENE_NAME, TAG, clear_previous, tag

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..lighting_data import EXPOSURE_TARGET as TARGET
+from ..scene.lighting import EXPOSURE_TARGET as TARGET
 
 PREVIEW_WIDTH = 96      # px; the preview keeps the aspect ratio
 PREVIEW_SAMPLES = 8

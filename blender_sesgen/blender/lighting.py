@@ -28,10 +28,10 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from .. import lighting_data
+from ..scene import lighting as lighting_data
 from ..contract.frames import R_BLENDER_SES
 from ..errors import SesgenError
-from ..model import Fog, Light, Scene, World
+from ..scene.model import Fog, Light, Scene, World
 from . import compat
 
 

@@ -14,7 +14,7 @@ import bpy
 import numpy as np
 
 from ..errors import SesgenError
-from ..model import Material, Scene, SceneObject, Sphere, TextureRef
+from ..scene.model import Material, Scene, SceneObject, Sphere, TextureRef
 from . import compat, library, lighting, textures
 from .datablocks import tag
 

@@ -2,7 +2,7 @@
 
 For an object with a ``MOVE`` motion (model.ObjectMotion) the builder makes an empty
 ``sesgen_motion_<name>`` whose matrix_world at Blender frame FRAME0 + t is
-``ses_to_blender_world(T_world_obj(t))`` — the object frame's pose (blender_sesgen.dynamics:
+``ses_to_blender_world(T_world_obj(t))`` — the object frame's pose (blender_sesgen.scene.dynamics:
 exact at every frame, by the motion's own rule in between) — and parents the object's
 Blender objects to it with their placement *relative to the object frame* (a MESH's
 scale and file axes, a QUAD's vertices about their centroid) as their local matrix.
@@ -18,9 +18,9 @@ from __future__ import annotations
 import numpy as np
 from mathutils import Matrix
 
-from .. import dynamics
+from ..scene import dynamics
 from ..contract.frames import ses_to_blender_world
-from ..model import ObjectMotion, SceneObject
+from ..scene.model import ObjectMotion, SceneObject
 from . import compat, rig
 
 

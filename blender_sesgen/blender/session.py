@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Callable, Optional
 
 from ..contract.manifest import render_seed
-from ..lighting_data import AGX_LOOKS, EXPOSURE_TARGET, VIEW_TRANSFORMS
+from ..scene.lighting import AGX_LOOKS, EXPOSURE_TARGET, VIEW_TRANSFORMS
 from ..plan import Device, RenderPlan
 from ..presets import EXPOSURE_PREVIEW
 from . import builder, compat, exposure, render, rig, shading

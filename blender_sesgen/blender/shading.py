@@ -13,7 +13,7 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from ..model import Mesh, Scene
+from ..scene.model import Mesh, Scene
 from . import compat
 
 AMBIENT = 0.4        # brightness of a surface seen edge-on; face-on it is 1

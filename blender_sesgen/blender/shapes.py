@@ -5,7 +5,7 @@ Geometry, all in scene units, placed with ``contract.frames.object_pose`` and re
 Blender's Z-up world with ``contract.frames.ses_to_blender_world``:
 - QUAD: one planar face through its 4 vertices (UVs (0,0) (1,0) (1,1) (0,1));
 - CUBOID: a box of the exact edge lengths; with ``bevel``, the rounded box of
-  ``blender_sesgen.rounded_box`` (arcs as fine as a cylinder's, real geometry);
+  ``blender_sesgen.scene.geometry.rounded_box`` (arcs as fine as a cylinder's, real geometry);
 - SPHERE: a one-point point cloud (Cycles intersects it as an exact sphere: silhouette
   and depth are those of the ideal sphere, no tessellation at all) — but Cycles never hits
   a point from inside, so a sphere that a camera enters (a dome, a spherical room) is a
@@ -26,12 +26,12 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from .. import dynamics
+from ..scene import dynamics
 from ..contract.frames import R_BLENDER_SES, object_pose, ses_to_blender_world
 from ..contract.se3 import invert
 from ..errors import SesgenError
-from ..model import Cuboid, Cylinder, Mesh, Quad, Scene, SceneObject, Sphere
-from ..rounded_box import rounded_box
+from ..scene.model import Cuboid, Cylinder, Mesh, Quad, Scene, SceneObject, Sphere
+from ..scene.geometry.rounded_box import rounded_box
 from .datablocks import tag
 from .materials import MaterialFactory
 from .runtime import quiet_stdout

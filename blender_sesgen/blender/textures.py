@@ -1,4 +1,4 @@
-"""The built-in procedural textures (numbers and names in ``blender_sesgen.textures``) and
+"""The built-in procedural textures (numbers and names in ``blender_sesgen.scene.textures``) and
 image textures, as Cycles shader node setups.
 
 Every builtin is evaluated on the object's own coordinates (``Object`` output of Texture
@@ -16,7 +16,7 @@ from typing import Callable
 
 import bpy
 
-from ..textures import BUILTIN_TEXTURES
+from ..scene.textures import BUILTIN_TEXTURES
 from .library.graph import G, box_uv
 
 

@@ -15,7 +15,7 @@ from typing import Optional
 
 import numpy as np
 
-from .. import model
+from ..scene import model
 from . import imu as imu_mod
 from ..contract import timing as timing_mod
 from ..contract.timing import DEFAULT_FPS

@@ -1,4 +1,4 @@
-"""The SES scene language: scripts -> :class:`blender_sesgen.model.Scene` (pure Python + numpy).
+"""The SES scene language: scripts -> :class:`blender_sesgen.scene.model.Scene` (pure Python + numpy).
 
 ``parse_file(path)`` / ``parse_string(text)`` return a frozen Scene with its per-frame
 timeline, or raise :class:`blender_sesgen.errors.ScriptError` (``file:line:col: error:
@@ -13,7 +13,7 @@ from typing import Optional
 from ..contract.errors import ContractError
 from ..contract.inputs import MiB, read_bytes
 from ..errors import ScriptError, SesgenError
-from ..model import Scene
+from ..scene.model import Scene
 from .parser import parse_bytes, parse_text
 
 __all__ = ["parse_file", "parse_string", "parse_bytes", "ScriptError"]

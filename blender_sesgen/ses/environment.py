@@ -1,5 +1,5 @@
 """The scene around the objects and how it is rendered: LIGHT, WORLD, FOG, NOISE and
-RENDER statements -> their :mod:`blender_sesgen.model` values, with their value checks.
+RENDER statements -> their :mod:`blender_sesgen.scene.model` values, with their value checks.
 
 Each function takes one statement (None where the singleton is absent) and returns its
 model value, or None after recording an error; absent statements give the defaults.
@@ -10,8 +10,8 @@ from typing import Optional
 
 import numpy as np
 
-from .. import model
-from ..lighting_data import BUILTIN_HDRIS, HDRI_SUFFIXES
+from ..scene import model
+from ..scene.lighting import BUILTIN_HDRIS, HDRI_SUFFIXES
 from .checks import Checks, scalar, vec
 from .materials import image_file_ok
 from .statements import ParsedStatement, did_you_mean

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ..assets import KINDS as ASSET_KINDS
+from ..scene.assets import KINDS as ASSET_KINDS
 from ..presets import QUALITIES
 
 

@@ -1,8 +1,8 @@
 """Surface appearance: the ``texture`` / ``texture_scale`` tags -> TextureRef, MATERIAL
-statements -> named :class:`blender_sesgen.model.Material` (names unique), and the library
+statements -> named :class:`blender_sesgen.scene.model.Material` (names unique), and the library
 materials objects name directly (``material asphalt`` with no MATERIAL asphalt).
 
-A texture is a built-in (number or name, see blender_sesgen.textures) or an image file
+A texture is a built-in (number or name, see blender_sesgen.scene.textures) or an image file
 relative to the script; image files (textures and PBR maps) are checked to be images
 (``blender_sesgen.files.image_check``: decoded or walked, so a corrupt or truncated file is an
 error here, not a magenta surface in the render).
@@ -12,9 +12,9 @@ from __future__ import annotations
 import os
 from typing import Optional
 
-from .. import material_library, model
+from ..scene import materials as material_library, model
 from ..files.image_check import ImageFileError, check_image
-from ..textures import BUILTIN_TEXTURES, NAME_TO_NUMBER
+from ..scene.textures import BUILTIN_TEXTURES, NAME_TO_NUMBER
 from .checks import Checks, scalar, vec
 from .lexer import Token
 from .statements import ParsedStatement, did_you_mean

@@ -1,5 +1,5 @@
 """How the rig moves: START, EGO, POSE, TRAJECTORY and FRAMES statements -> the start pose,
-the :class:`blender_sesgen.model.Motion` as written and the per-frame Timeline.
+the :class:`blender_sesgen.scene.model.Motion` as written and the per-frame Timeline.
 
 The poses come from the contract's frames and motion modules. The motion is described one way only (EGO, POSE
 or TRAJECTORY, not mixed); START sets frame 0 for EGO and TRAJECTORY and is refused with
@@ -13,7 +13,7 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
-from .. import model
+from ..scene import model
 from ..contract.frames import start_pose
 from ..contract.motion import integrate_ego
 from ..contract.se3 import invert

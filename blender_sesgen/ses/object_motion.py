@@ -1,9 +1,9 @@
-"""MOVE statements -> one :class:`blender_sesgen.model.ObjectMotion` per moving object.
+"""MOVE statements -> one :class:`blender_sesgen.scene.model.ObjectMotion` per moving object.
 
 ``MOVE id N frame F position x y z [rx ry rz]`` (a keyframe), ``MOVE id N twist U V W alpha
 beta gamma [from A] [to B]`` (a constant per-frame twist in the object's own frame) or
 ``MOVE id N file PATH format tum|kitti [from A]`` (a recorded trajectory). The poses are
-computed by ``blender_sesgen.dynamics`` (with the contract's pose maths); this module checks the
+computed by ``blender_sesgen.scene.dynamics`` (with the contract's pose maths); this module checks the
 statements: the id names an object, an object moves one way only, frame numbers lie in
 the sequence, keyframes and twist segments come in increasing frame order without
 overlaps, and no step turns by 180 degrees or more (the twist between two poses would be
@@ -15,7 +15,7 @@ from typing import Optional
 
 import numpy as np
 
-from .. import dynamics, model
+from ..scene import dynamics, model
 from ..contract.frames import object_pose
 from ..contract.se3 import relative, rotation_angle_rad
 from .checks import Checks, vec

@@ -1,4 +1,4 @@
-"""SES statements -> the scene model (blender_sesgen.model): the orchestrator.
+"""SES statements -> the scene model (blender_sesgen.scene.model): the orchestrator.
 
 Owns the whole-script flow (lex, read statements, one-per-script singletons, at least one
 object), the object statements (QUAD, CUBOID, SPHERE, CYLINDER, MESH, ASSET: ids and names
@@ -21,7 +21,7 @@ import dataclasses
 from pathlib import Path
 from typing import Optional
 
-from .. import assets, model
+from ..scene import assets, model
 from ..contract.camera import default_principal_point
 from . import environment
 from .sensor import sensor_models
@@ -32,7 +32,7 @@ from .grammar import OBJECT_KEYWORDS, SINGLETON_KEYWORDS
 from .lexer import decode, tokenize
 from .materials import library_material, materials, texture
 from .mesh_files import reference_problems
-from .. import material_library
+from ..scene import materials as material_library
 from ..contract import semantics
 from .motion import rig_motion
 from .object_motion import object_motions

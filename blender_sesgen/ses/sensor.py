@@ -1,5 +1,5 @@
 """The camera and IMU as sensors: TIMING, LENS, SENSOR, AUTOEXPOSURE and IMU statements ->
-their :mod:`blender_sesgen.model` values, with their value checks (all optional; an absent
+their :mod:`blender_sesgen.scene.model` values, with their value checks (all optional; an absent
 statement leaves its effect off).
 
 Checks that need the rig (the lens folding check needs the image size and K) run in
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Optional
 
-from .. import model
+from ..scene import model
 from ..contract.lens import Lens as LensModel
 from ..contract.lens import fold_problem
 from .checks import Checks, scalar, vec

@@ -1,5 +1,5 @@
 """Library materials and user image sets as Cycles node setups (the bpy side of
-``blender_sesgen.material_library``).
+``blender_sesgen.scene.materials``).
 
 Coordinates: the object's own coordinates (``Texture Coordinate > Object``) times the
 object's scale (custom property ``sesgen_scale``) are metres on the object; the per-object
@@ -18,8 +18,8 @@ from typing import Callable
 
 import bpy
 
-from ... import material_library
-from ...model import ImageMaps, Material
+from ...scene import materials as material_library
+from ...scene.model import ImageMaps, Material
 from .. import compat
 from . import built, interior, metal_glass, nature
 from .graph import Ctx, G, Surface, box_uv

@@ -12,7 +12,7 @@ from typing import Any, Optional
 
 import bpy
 
-from ...material_library import LibraryEntry
+from ...scene.materials import LibraryEntry
 
 Socket = Any   # bpy.types.NodeSocket
 Value = Any    # a socket or a constant (float, or a 3/4-tuple)

@@ -26,7 +26,7 @@ from typing import Optional
 
 import numpy as np
 
-from ...assets.street import arc_frame
+from ...scene.assets.street import arc_frame
 from .sesgen_layout import (script_with_poses, Ids, Lighting, asset, command_line, derived_material, draw_lighting, num, nums,
                            smooth_noise, variation_rng)
 

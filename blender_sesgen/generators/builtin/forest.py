@@ -26,7 +26,7 @@ import numpy as np
 
 from .sesgen_layout import (script_with_poses, Ids, Lighting, asset, command_line, derived_material, draw_lighting, num,
                            sky_and_sun, smooth_noise, variation_rng)
-from ...assets.nature import terrain_height, trail_x
+from ...scene.assets.nature import terrain_height, trail_x
 
 RATE_HZ = 10.0
 TRAIL = {"soil": (0.16, 0.12, 0.08), "gravel": (0.3, 0.28, 0.25)}

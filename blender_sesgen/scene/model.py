@@ -13,10 +13,10 @@ from typing import ClassVar, Literal, Optional
 
 import numpy as np
 
-from .contract.camera import K_matrix
-from .contract.rig import right_from_left
-from .contract.motion import ego_table
-from .contract.timing import DEFAULT_FPS
+from ..contract.camera import K_matrix
+from ..contract.rig import right_from_left
+from ..contract.motion import ego_table
+from ..contract.timing import DEFAULT_FPS
 
 Vec3 = tuple[float, float, float]
 Mat4 = tuple[tuple[float, float, float, float], ...]  # 4 rows of 4, row-major
@@ -46,7 +46,7 @@ class TextureRef:
 
 @dataclass(frozen=True, kw_only=True)
 class LibraryParams:
-    """A material built from the named library (``blender_sesgen.material_library``).
+    """A material built from the named library (``blender_sesgen.scene.materials``).
 
     ``name``: the library entry; ``scale``: divides its pattern size (bigger = finer);
     ``wear``, ``variation`` (0..1), ``bump`` (relief multiplier, >= 0) and ``seed`` (of the
@@ -156,7 +156,7 @@ class Mesh(Placed):
 @dataclass(frozen=True, kw_only=True)
 class Asset(Placed):
     """``ASSET kind id N position ... [size sx sy sz] [seed n] [bend deg ...] [offset o]``: a
-    procedural asset (blender_sesgen.assets), its mesh a pure function of (kind, size, seed,
+    procedural asset (blender_sesgen.scene.assets), its mesh a pure function of (kind, size, seed,
     bend, offset). ``size`` is always explicit here (the kind's seeded default when the
     script gives none); ``bend`` and ``offset`` only matter for strips."""
     shape: ClassVar[str] = "asset"
@@ -224,7 +224,7 @@ class World:
     """``WORLD colour r g b [strength s]``, ``WORLD sky [strength s] [elevation e] [azimuth a]``
     or ``WORLD hdri NAME|FILE [strength s] [rotation deg]``.
 
-    hdri: ``hdri`` is a built-in name (``blender_sesgen.lighting_data.BUILTIN_HDRIS``) or
+    hdri: ``hdri`` is a built-in name (``blender_sesgen.scene.lighting.BUILTIN_HDRIS``) or
     None with ``hdri_path`` an absolute file path (``hdri_source`` as written);
     ``rotation_deg`` turns the image about the vertical (SES +Y) axis.
     """
@@ -372,7 +372,7 @@ class Imu:
     seed: int = 0
 
     def T_cam_imu(self) -> np.ndarray:
-        from .contract.frames import object_pose
+        from ..contract.frames import object_pose
         return object_pose(self.position, self.rotation_deg)
 
 
@@ -441,7 +441,7 @@ class Timeline:
 @dataclass(frozen=True, kw_only=True)
 class ObjectMotion:
     """How one object moves (its ``MOVE`` statements, as written) and the per-frame poses
-    they give (blender_sesgen.dynamics). ``kind``:
+    they give (blender_sesgen.scene.dynamics). ``kind``:
 
     - 'keys': ``keys`` = one (frame, x, y, z, rx, ry, rz) per keyframe, frames increasing
       (frame 0 is the object's own position);

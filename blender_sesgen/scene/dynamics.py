@@ -31,9 +31,9 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from .contract.frames import object_pose
-from .contract.motion import ego_step
-from .contract.se3 import interpolate_pose, interpolate_twist, invert, relative, rotation_angle_rad
+from ..contract.frames import object_pose
+from ..contract.motion import ego_step
+from ..contract.se3 import interpolate_pose, interpolate_twist, invert, relative, rotation_angle_rad
 from .model import Placed, Quad, SceneObject
 
 

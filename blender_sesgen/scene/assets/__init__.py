@@ -1,7 +1,7 @@
 """Procedural assets: the kinds an ``ASSET`` statement can name, and their mesh generators.
 
 Pure numpy (no bpy): ``generate(kind, size, seed, bend)`` returns a
-:class:`~blender_sesgen.assets.mesh.MeshData` in the asset's own frame (SES axes, Y up,
+:class:`~blender_sesgen.scene.assets.mesh.MeshData` in the asset's own frame (SES axes, Y up,
 metres); the Blender layer only turns it into one object. The same kind, size, seed and
 bend always give the same mesh (bit for bit), so a script fully determines its geometry.
 

@@ -17,9 +17,9 @@ from typing import Optional
 import numpy as np
 
 from . import assets
-from .contract import semantics
-from .contract.errors import ContractError
-from .contract.inputs import read_text
+from ..contract import semantics
+from ..contract.errors import ContractError
+from ..contract.inputs import read_text
 from .model import Asset, Cuboid, Cylinder, Mesh, Quad, SceneObject, Sphere
 
 __all__ = ["object_box"]

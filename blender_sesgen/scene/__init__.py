@@ -1,0 +1,1 @@
+"""The scene model (pure): objects, motion, materials, textures, lighting, procedural assets."""

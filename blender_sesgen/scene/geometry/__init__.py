@@ -1,0 +1,1 @@
+"""Pure mesh geometry of the scene model's primitives."""
