@@ -26,8 +26,8 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 
 from blender_sesgen.contract.atomic import temp_path
-from blender_sesgen.output import OutputFolder
-from blender_sesgen.plan import RenderOptions, RenderPlan
+from blender_sesgen.render.folder import OutputFolder
+from blender_sesgen.render.plan import RenderOptions, RenderPlan
 from blender_sesgen.ses import parse_string
 from vo_reference.io.exr import render_exr_parts, write_exr_parts
 

@@ -36,7 +36,7 @@ def cpu_s() -> float:
 
 def session(scene: str, scale: float):
     from blender_sesgen.blender.session import BlenderSession
-    from blender_sesgen.plan import RenderOptions, RenderPlan
+    from blender_sesgen.render.plan import RenderOptions, RenderPlan
     plan = RenderPlan.from_file(scene, RenderOptions(quality="gt", resolution_scale=scale))
     return plan, BlenderSession(plan)
 
@@ -69,7 +69,7 @@ def render_only(s, plan, ks) -> tuple[float, float]:
 def seal(plan, tmp: Path, n: int) -> float:
     """CPU s of sealing one stereo frame (the EXRs, and the PNGs where the job writes them),
     from pristine copies each time."""
-    from blender_sesgen.output import display_key, seal_frame
+    from blender_sesgen.render.folder import display_key, seal_frame
     written = {v: tmp / f"{v}.exr" for v in plan.views}
     if plan.writes_display:
         written.update({display_key(v): tmp / f"{v}.png" for v in plan.views})

@@ -46,8 +46,8 @@ def status_kib(field: str) -> int:
 
 
 def child(args) -> int:
-    from blender_sesgen.job import RenderJob
-    from blender_sesgen.plan import RenderOptions
+    from blender_sesgen.render.job import RenderJob
+    from blender_sesgen.render.plan import RenderOptions
     with tempfile.TemporaryDirectory() as tmp:
         script = Path(tmp) / "long.ses"
         script.write_text(long_script(args.frames))

@@ -59,9 +59,9 @@ TODAY = dict(quality="custom", samples=16)
 
 def child(a) -> int:
     from dataclasses import replace
-    from blender_sesgen.job import RenderJob
-    from blender_sesgen.plan import RenderOptions, RenderPlan
-    from blender_sesgen.presets import Preset
+    from blender_sesgen.render.job import RenderJob
+    from blender_sesgen.render.plan import RenderOptions, RenderPlan
+    from blender_sesgen.scene.presets import Preset
 
     name, _, zip_level = a.config.split("*")[0].partition("+zip")
     name, _, samples = name.partition("@")

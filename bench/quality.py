@@ -27,7 +27,7 @@ to a shared machine) and Cycles' own time; dB/s = PSNR / s per stereo frame; and
 ratios to the BlenderProc configuration measured in the same run. Every configuration
 uses the same film exposure (the automatic exposure is measured once).
 
-Configurations: the presets (``blender_sesgen.presets``); ``blender``: a new Blender
+Configurations: the presets (``blender_sesgen.scene.presets``); ``blender``: a new Blender
 scene's Cycles settings (4096 samples, adaptive threshold 0.01, OpenImageDenoise, 12
 bounces, indirect clamp 10, caustics); ``blenderproc``: BlenderProc 2's defaults
 (``DefaultConfig``: at most 1024 samples, adaptive threshold 0.01, Intel OpenImageDenoise,
@@ -56,7 +56,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 from blender_sesgen.contract.colour import linear_to_srgb
 from blender_sesgen.files.exr import read_exr
-from blender_sesgen.presets import PRESETS, Preset
+from blender_sesgen.scene.presets import PRESETS, Preset
 from vo_reference.evaluate.image_quality import psnr, ssim
 
 CYCLES_DEFAULT_PATHS = dict(max_bounces=12, diffuse_bounces=4, glossy_bounces=4, transmission_bounces=12,
@@ -100,7 +100,7 @@ def cpu_s() -> float:
 
 class Bench:
     def __init__(self, args):
-        from blender_sesgen.plan import RenderOptions, RenderPlan
+        from blender_sesgen.render.plan import RenderOptions, RenderPlan
         self.args = args
         self.plan = RenderPlan.from_file(args.scene, RenderOptions(resolution_scale=args.scale,
                                                                    frames=f"{args.frame}:{args.frame + 1}"))

@@ -14,7 +14,7 @@ EuRoC frames are raw (radial-tangential distortion); single-image statistics and
 them as they are, SGBM uses pairs rectified with OpenCV from the two sensor.yaml files.
 
 Each render is measured twice: as rendered (the scene alone: the display image of the
-script's LOOK) and through the sensor model of issue 18 (blender_sesgen.sensor.pipeline:
+script's LOOK) and through the sensor model of issue 18 (blender_sesgen.render.sensor.pipeline:
 lens MTF, shot/read/dark noise, fixed patterns, 8-bit quantisation, sRGB response) with one
 documented parameter set, ``SENSOR_MODEL`` and ``LENS_MODEL`` below, the same for every
 scene: a machine-vision global-shutter camera like KITTI's and EuRoC's (their pixels are
@@ -129,7 +129,7 @@ def render_frames(out: Path, frames: int):
 def sensor_frames(seq, frames: int):
     """The render's scene-linear beauty through the sensor model (grey, 8-bit), both views."""
     from blender_sesgen.scene.model import Lens, Sensor
-    from blender_sesgen.sensor.pipeline import process
+    from blender_sesgen.render.sensor.pipeline import process
     from vo_reference.io.color import rgb8_to_gray8
     sensor, lens = Sensor(**SENSOR_MODEL), Lens(**LENS_MODEL)
     K = np.asarray(seq.K, float)

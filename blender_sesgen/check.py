@@ -77,7 +77,7 @@ def summary(scene: Scene) -> str:
     if scene.noise:
         extras.append(f"noise sigma {scene.noise.sigma:g} seed {scene.noise.seed}")
     r = scene.render
-    from .presets import effective
+    from .scene.presets import effective
     p = effective(None, None, None, r.quality, r.samples, r.denoise)
     sampling = f"adaptive <= {p.samples} samples" if p.adaptive else f"{p.samples} samples"
     extras.append(f"render quality {p.quality}{'' if r.quality else ' (default)'}: {sampling}, "

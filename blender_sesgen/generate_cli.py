@@ -111,7 +111,7 @@ def _check_folder(out: Path) -> None:
 def _write(out: Path, gen, options: dict, args, seeds, splits, names, fractions) -> int:
     from .contract.atomic import replacing_folder, write_json
     from .files.dataset import INDEX, path_length_m, scripts_index
-    from .plan import validate_scene
+    from .render.plan import validate_scene
     from .ses import parse_string
     sequences = []
     with Progress(len(names), f"generate {gen.name}", mode=progress_mode(args), unit="script") as bar, \

@@ -5,15 +5,15 @@ command line and the add-on render with (they import them from ``plan`` and ``jo
     >>> job = RenderJob.prepare("scene.ses", "out/", RenderOptions(samples=16, frames="0:10"), resume=True)
     >>> job.run(progress=lambda i, n, result, elapsed_s: print(f"{i}/{n}"))
 
-What lives where: :mod:`~blender_sesgen.plan` decides what to render (RenderPlan,
-RenderOptions, RenderSettings, Device), :mod:`~blender_sesgen.output` owns the output
-folder, :mod:`~blender_sesgen.blender.session` the Blender side, :mod:`~blender_sesgen.job`
+What lives where: :mod:`~blender_sesgen.render.plan` decides what to render (RenderPlan,
+RenderOptions, RenderSettings, Device), :mod:`~blender_sesgen.render.folder` owns the output
+folder, :mod:`~blender_sesgen.blender.session` the Blender side, :mod:`~blender_sesgen.render.job`
 puts them together. This module only names the public ones.
 """
 from __future__ import annotations
 
 from .contract.timing import FrameSelection
-from .job import FrameResult, RenderJob
-from .plan import Device, RenderOptions, RenderPlan, RenderSettings
+from .render.job import FrameResult, RenderJob
+from .render.plan import Device, RenderOptions, RenderPlan, RenderSettings
 
 __all__ = ["Device", "FrameResult", "FrameSelection", "RenderJob", "RenderOptions", "RenderPlan", "RenderSettings"]

@@ -14,9 +14,9 @@ from .contract.cli import EXIT_FAILURE, EXIT_INTERRUPTED
 from .contract.progress import Progress, add_progress_argument, progress_mode
 from .contract.timing import FRAMES_HELP
 from .errors import SesgenError
-from .interrupt import deferred_interrupts
-from .plan import Device, RenderOptions
-from .presets import QUALITIES
+from .render.interrupt import deferred_interrupts
+from .render.plan import Device, RenderOptions
+from .scene.presets import QUALITIES
 
 
 def add_arguments(p, forwarded_only: bool = False) -> list[argparse.Action]:
@@ -117,7 +117,7 @@ def render_argv(o: RenderOptions) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     from .api import frame_progress, have_bpy
-    from .job import RenderJob
+    from .render.job import RenderJob
     t_start = time.perf_counter()
     args.quiet = progress_mode(args) == "off"   # -q is --progress off: neither says what it renders
     options = render_options(args)

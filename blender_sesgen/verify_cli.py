@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from .contract.manifest import MANIFEST
-    from .output import OutputFolder
+    from .render.folder import OutputFolder
     folder = OutputFolder(args.out)
     if not (Path(args.out) / MANIFEST).is_file():
         raise SesgenError(f"{args.out}: no render here (no manifest.json)")

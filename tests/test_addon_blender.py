@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from blender_sesgen.contract import manifest as contract
-from blender_sesgen.plan import RenderPlan
+from blender_sesgen.render.plan import RenderPlan
 from blender_sesgen.addon import package
 from blender_sesgen.ses import parse_file
 from raycast import euler_xyz_deg as R_xyz_deg  # the SES rule R = Rz @ Ry @ Rx, written independently

@@ -27,6 +27,7 @@ BPY_LAYER = ("blender_sesgen.blender", "blender_sesgen.addon")
 PURE_ADDON = {"blender_sesgen.addon.state", "blender_sesgen.addon.preview", "blender_sesgen.addon.package"}
 CONTRACT = "blender_sesgen.contract"
 FARM, FARM_EXTRA = "blender_sesgen.farm", {"ray"}   # the render farm may use Ray (the [farm] extra)
+BACKEND_BOUNDARY = ("blender_sesgen.render.job", "blender_sesgen.blender")
 OPTIONAL = {"cv2", "scipy", "OpenEXR", "matplotlib", "yaml", "evo", "rosbags", "ray", "pykitti"}
 
 
@@ -42,7 +43,7 @@ def all_modules() -> dict[str, Path]:
             if "__pycache__" not in p.parts}
 
 
-def imports_of(name: str, path: Path) -> set[str]:
+def imports_of(name: str, path: Path, eager_only: bool = False) -> set[str]:
     """Absolute names of everything ``name`` imports, anywhere in the file. ``from pkg import
     x`` imports module ``pkg.x`` where there is one, else ``x`` from ``pkg``'s ``__init__``:
     an edge to ``pkg`` (an ancestor package too: ``from .. import __version__``)."""
@@ -50,7 +51,12 @@ def imports_of(name: str, path: Path) -> set[str]:
     is_pkg = path.name == "__init__.py"
     base = name.split(".") if is_pkg else name.split(".")[:-1]
     out = set()
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    if eager_only:   # leave out the imports inside functions
+        for f in ast.walk(tree):
+            if isinstance(f, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                f.body = []
+    for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             out.update(a.name for a in node.names)
         elif isinstance(node, ast.ImportFrom):
@@ -117,9 +123,16 @@ def cycles(g: dict[str, set[str]]) -> list[list[str]]:
 
 def package_of(module: str) -> str:
     """The subpackage a module belongs to: blender_sesgen.ses, vo_reference.io, ...; a root
-    module (blender_sesgen.plan) is a unit of its own, and so is a package's ``__init__``."""
+    module (blender_sesgen.render.plan) is a unit of its own, and so is a package's ``__init__``."""
     parts = module.split(".")
     return ".".join(parts[:2]) if len(parts) > 1 else parts[0]
+
+
+def backend_boundary(a: str, b: str) -> bool:
+    """The one edge from render orchestration into the bpy layer: ``render.job`` starts the
+    back end's session (lazily, inside a function: test_render_reaches_blender_only_lazily_in_job);
+    the back end takes the render plan. Modules stay acyclic across it."""
+    return a == BACKEND_BOUNDARY[0] and (b == BACKEND_BOUNDARY[1] or b.startswith(BACKEND_BOUNDARY[1] + "."))
 
 
 def test_no_import_cycle_between_modules(graph):
@@ -133,7 +146,7 @@ def test_no_import_cycle_between_packages(graph):
             pa, pb = package_of(a), package_of(b)
             # a subpackage importing its own parent's __init__ is a cycle too: only a module
             # importing a sibling inside its own subpackage stays inside
-            if pa != pb:
+            if pa != pb and not backend_boundary(a, b):
                 pg[pa].add(pb)
     assert cycles(pg) == []
 
@@ -194,6 +207,51 @@ def test_the_packages_meet_only_at_the_contract(raw_imports):
                           and i != "blender_sesgen" and not i.startswith(CONTRACT)]
         else:
             offenders += [f"{m} -> {i}" for i in imps if i.startswith("vo_reference")]
+    assert not offenders
+
+
+# The layers (what each may import of the two packages; the standard library, numpy and
+# the optional extras aside): ses -> scene -> render -> blender, the contract beside them,
+# commands on top; in vo_reference the ground truth below the exporters.
+LAYERS = {
+    "blender_sesgen.scene": ("blender_sesgen.scene", CONTRACT),
+    "blender_sesgen.ses": ("blender_sesgen.ses", "blender_sesgen.scene", CONTRACT, "blender_sesgen.files.image_check",
+                           "blender_sesgen.errors"),
+    "blender_sesgen.render": ("blender_sesgen.render", "blender_sesgen.scene", "blender_sesgen.ses", CONTRACT,
+                              "blender_sesgen.files", "blender_sesgen.errors", BACKEND_BOUNDARY[1]),
+}
+NEVER = {"vo_reference.groundtruth": ("vo_reference.exporters", "vo_reference.commands")}
+COMMANDS = ("blender_sesgen.commands", "vo_reference.commands")   # imported by nothing but the packages' __main__
+
+
+def within(name: str, prefixes) -> bool:
+    return any(name == p or name.startswith(p + ".") for p in prefixes)
+
+
+def test_each_layer_imports_only_the_layers_below(raw_imports):
+    offenders = []
+    for m, imps in raw_imports.items():
+        for layer, allowed in LAYERS.items():
+            if within(m, [layer]):
+                offenders += [f"{m} -> {i}" for i in imps if within(i, PACKAGES) and not within(i, allowed)]
+        for layer, forbidden in NEVER.items():
+            if within(m, [layer]):
+                offenders += [f"{m} -> {i}" for i in imps if within(i, forbidden)]
+        if not within(m, COMMANDS) and not m.endswith("__main__"):
+            offenders += [f"{m} -> {i}" for i in imps if within(i, COMMANDS)]
+    assert not offenders
+
+
+def test_render_reaches_blender_only_lazily_in_job():
+    """The back-end boundary: render orchestration imports the bpy layer in ``render.job``
+    only, inside a function (so that planning and checking a render never import bpy)."""
+    offenders = []
+    for m, path in all_modules().items():
+        if within(m, ["blender_sesgen.render"]):
+            eager = {i for i in imports_of(m, path, eager_only=True) if within(i, [BACKEND_BOUNDARY[1]])}
+            lazy = {i for i in imports_of(m, path) if within(i, [BACKEND_BOUNDARY[1]])}
+            if eager or (lazy and m != BACKEND_BOUNDARY[0]):
+                offenders.append(f"{m}: {sorted(eager or lazy)}")
     assert not offenders
 
 

@@ -166,7 +166,7 @@ def test_a_task_relays_the_render_events_and_keeps_its_error_lines(tmp_path):
 
 
 def test_a_killed_render_leaves_no_lock_behind(tmp_path):
-    from blender_sesgen.locks import _safe
+    from blender_sesgen.render.locks import _safe
     out = tmp_path / "out"
     argv = _fake_render(tmp_path, f"""
         import json, os, signal, socket

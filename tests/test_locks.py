@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from blender_sesgen.locks import _stale
+from blender_sesgen.render.locks import _stale
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="zombies are read from /proc (Linux)")

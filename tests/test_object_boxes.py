@@ -10,7 +10,7 @@ import pytest
 
 from blender_sesgen.contract.errors import ContractError
 from blender_sesgen.contract.manifest_schema import check_types
-from blender_sesgen.plan import object_table
+from blender_sesgen.render.plan import object_table
 from blender_sesgen.ses import parse_string
 
 REPO = Path(__file__).resolve().parents[1]

@@ -14,8 +14,8 @@ import json
 import pytest
 
 from blender_sesgen.errors import SesgenError
-from blender_sesgen.output import OutputFolder
-from blender_sesgen.plan import RenderOptions, RenderPlan
+from blender_sesgen.render.folder import OutputFolder
+from blender_sesgen.render.plan import RenderOptions, RenderPlan
 
 SCRIPT = """\
 CAMERA resolution 64 48 focal 50 baseline 0.1

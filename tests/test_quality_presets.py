@@ -1,4 +1,4 @@
-"""Quality presets (blender_sesgen.presets): precedence, the SES and CLI syntax, what the
+"""Quality presets (blender_sesgen.scene.presets): precedence, the SES and CLI syntax, what the
 manifest records and what resume compares; then rendered: presets change only the RGB
 (depth, ids, normals, positions byte-identical across presets), and the fast pipeline
 (persistent Cycles data, both views in one multiview render) gives the pixels of a fresh
@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from blender_sesgen.errors import ScriptError, SesgenError
-from blender_sesgen.output import OutputFolder
-from blender_sesgen.plan import RenderOptions, RenderPlan
-from blender_sesgen.presets import DEFAULT_QUALITY, PRESETS, QUALITIES, effective, preset
+from blender_sesgen.render.folder import OutputFolder
+from blender_sesgen.render.plan import RenderOptions, RenderPlan
+from blender_sesgen.scene.presets import DEFAULT_QUALITY, PRESETS, QUALITIES, effective, preset
 from blender_sesgen.ses import parse_string
 
 from render_support import REPO, read_exr, render_cmd
@@ -115,7 +115,7 @@ def test_cli_rejects_an_unknown_quality(tmp_path):
 def _render(tmp_path, name, **options):
     """Frames 0 and 1, both views, normals and positions too: {(view, frame): channels}."""
     pytest.importorskip("bpy")
-    from blender_sesgen.job import RenderJob
+    from blender_sesgen.render.job import RenderJob
     p = tmp_path / "s.ses"
     p.write_text(SCRIPT)
     out = tmp_path / name

@@ -125,7 +125,7 @@ def test_manifest_poses_are_the_ego_integration(oracle_render):
 def test_blender_cameras_sit_at_the_manifest_poses(tmp_path):
     """In-process: build the scene and read each camera's world matrix at every frame."""
     from blender_sesgen.contract.frames import blender_to_cv_camera, blender_to_ses_world
-    from blender_sesgen.job import RenderJob
+    from blender_sesgen.render.job import RenderJob
     script = tmp_path / "oracle.ses"
     script.write_text(oracle_script())
     job = RenderJob.prepare(script, tmp_path / "out")

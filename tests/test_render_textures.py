@@ -22,9 +22,9 @@ SIZE, F, Z, SHIFT = 64, 64.0, 1.5, 4
 @pytest.fixture(scope="module")
 def swatches(tmp_path_factory):
     from blender_sesgen.contract.frames import start_pose
-    from blender_sesgen.plan import RenderOptions
+    from blender_sesgen.render.plan import RenderOptions
     from blender_sesgen.scene.model import Quad, Rig, Scene, TextureRef, Timeline, mat4
-    from blender_sesgen.job import RenderJob
+    from blender_sesgen.render.job import RenderJob
     from blender_sesgen.scene.textures import BUILTIN_TEXTURES
     base = tmp_path_factory.mktemp("tex")
     out = {}

@@ -193,7 +193,7 @@ def assert_cameras_see_surfaces(s, name: str, min_hit: float, frames=None) -> No
 
 
 def test_manifest_rows_of_assets_say_how_to_regenerate_them():
-    from blender_sesgen.plan import object_table
+    from blender_sesgen.render.plan import object_table
     from blender_sesgen.ses import parse_string
     s = parse_string("ASSET car id 3 seed 5 position 0 0 0\nASSET road id 4 position 0 0 0 size 7 0.3 20 bend 3 -2 "
                      "offset 0.5 class sidewalk\n")

@@ -13,7 +13,7 @@ import pytest
 from blender_sesgen.scene.assets.nature import terrain_height
 from blender_sesgen.cli import main as sesgen
 from blender_sesgen.scene.model import Asset
-from blender_sesgen.plan import validate_scene
+from blender_sesgen.render.plan import validate_scene
 from blender_sesgen.ses import parse_string
 
 from test_scene_library import LIBRARY, _generator, assert_cameras_see_surfaces

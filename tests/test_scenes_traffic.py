@@ -122,7 +122,7 @@ def test_traffic_is_in_view(scene):
 
 def test_cars_and_people_carry_their_class(scene):
     """So that the cityscapes export labels them car / person (instances) and vkitti2 Car."""
-    from blender_sesgen.plan import object_table
+    from blender_sesgen.render.plan import object_table
     rows = {r["id"]: r for r in object_table(scene)}
     meshes = [o for o in scene.objects if isinstance(o, Mesh)]
     assert len(meshes) >= 10

@@ -1,4 +1,4 @@
-"""The sealing worker (blender_sesgen.sealer): frames sealed in another process exactly as
+"""The sealing worker (blender_sesgen.render.sealer): frames sealed in another process exactly as
 in this one, failures reported as the render's own, a dead worker replaced by sealing here."""
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from blender_sesgen.files.exr import read_exr, write_exr
-from blender_sesgen.output import RenderWriteError, seal_frame
-from blender_sesgen.sealer import Sealer, WorkerGone
+from blender_sesgen.render.folder import RenderWriteError, seal_frame
+from blender_sesgen.render.sealer import Sealer, WorkerGone
 
 CHANNELS = ("ViewLayer.Combined.R", "ViewLayer.Depth.Z")
 
@@ -94,7 +94,7 @@ def test_display_pngs_lose_blenders_wall_clock_text_chunks():
     import cv2
     import numpy as np
 
-    from blender_sesgen.output import strip_png_text
+    from blender_sesgen.render.folder import strip_png_text
     rgb = np.random.default_rng(0).integers(0, 256, (9, 13, 3), dtype=np.uint8)
     png = cv2.imencode(".png", rgb)[1].tobytes()
 

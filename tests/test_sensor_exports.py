@@ -126,7 +126,7 @@ def test_noise_model_against_the_real_adis16448(shared_data):
     """The real stream (EuRoC V1_01, in flight: there is no stretch at rest) against our model
     with its datasheet densities: the real sensor never beats the model's noise floor, and
     our stream's white noise is the configured density (see docs/sensors.md, IMU)."""
-    from blender_sesgen.sensor import imu
+    from blender_sesgen.render.sensor import imu
     from vo_reference.evaluate.allan import allan_deviation
     path = shared_data / "euroc" / "mav0" / "imu0" / "data.csv"
     if not path.is_file():

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from blender_sesgen.contract import frames, motion, se3
-from blender_sesgen.sensor import imu
+from blender_sesgen.render.sensor import imu
 from blender_sesgen.contract.rig_motion import RigMotion
 from vo_reference.evaluate.allan import allan_deviation, fit_noise_densities
 

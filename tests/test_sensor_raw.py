@@ -8,7 +8,7 @@ import pytest
 from blender_sesgen.scene import model
 from blender_sesgen.contract import cfa
 from blender_sesgen.files.png import encode_png
-from blender_sesgen.sensor import autoexposure, optics, pipeline, raw
+from blender_sesgen.render.sensor import autoexposure, optics, pipeline, raw
 
 cv2 = pytest.importorskip("cv2")
 

@@ -9,7 +9,7 @@ import pytest
 
 from blender_sesgen.scene import materials as material_library, model
 from blender_sesgen.contract import semantics
-from blender_sesgen.plan import object_table
+from blender_sesgen.render.plan import object_table
 from blender_sesgen.errors import ScriptError
 from blender_sesgen.scene.lighting import BUILTIN_HDRIS
 from blender_sesgen.ses import parse_string

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-from blender_sesgen.sensor import imu
+from blender_sesgen.render.sensor import imu
 from vo_reference.evaluate.allan import allan_deviation, fit_noise_densities
 
 

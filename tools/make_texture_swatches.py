@@ -17,8 +17,8 @@ from blender_sesgen.files.contact_sheet import write_png
 from blender_sesgen.contract.colour import linear_to_srgb8
 from blender_sesgen.files.exr import read_exr
 from blender_sesgen.scene.model import Quad, Rig, Scene, Sphere, TextureRef, Timeline, mat4
-from blender_sesgen.job import RenderJob
-from blender_sesgen.plan import RenderOptions
+from blender_sesgen.render.job import RenderJob
+from blender_sesgen.render.plan import RenderOptions
 from blender_sesgen.scene.textures import BUILTIN_TEXTURES
 
 SIZE = 192

@@ -55,7 +55,7 @@ MOVES: list[tuple[int, str, str]] = [
     (2, "blender_sesgen.bounds", "blender_sesgen.scene.bounds"),
     # 3. render/: orchestration (plan, job, output folder, locks, sealing, sensor plan)
     (3, "blender_sesgen.plan", "blender_sesgen.render.plan"),
-    (3, "blender_sesgen.presets", "blender_sesgen.render.presets"),
+    (3, "blender_sesgen.presets", "blender_sesgen.scene.presets"),   # the RENDER statement names them: ses needs them
     (3, "blender_sesgen.job", "blender_sesgen.render.job"),
     (3, "blender_sesgen.output", "blender_sesgen.render.folder"),
     (3, "blender_sesgen.locks", "blender_sesgen.render.locks"),
@@ -115,7 +115,8 @@ EMPTIED = [(5, "vo_reference.products")]
 # new packages: their __init__ docstring
 NEW_PACKAGES = {
     "blender_sesgen.files": "Our own pure file formats: EXR and PNG codecs, image checks, contact sheets, dataset indexes.",
-    "blender_sesgen.scene": "The scene model (pure): objects, motion, materials, textures, lighting, procedural assets.",
+    "blender_sesgen.scene": ("The scene model (pure): objects, motion, materials, textures, lighting, procedural assets, "
+                             "the quality presets a RENDER statement names."),
     "blender_sesgen.scene.geometry": "Pure mesh geometry of the scene model's primitives.",
     "blender_sesgen.render": ("Render orchestration (pure; bpy only behind ``job``): the plan, the output folder, "
                               "its locks, sealing, Ctrl-C handling and the sensor plan."),

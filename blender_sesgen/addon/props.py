@@ -116,7 +116,7 @@ def abspath(path: str) -> str:
 def render_options(values: dict):
     """RenderOptions from a settings snapshot (None = the script's value)."""
     from ..contract.timing import FrameSelection
-    from ..plan import RenderOptions
+    from ..render.plan import RenderOptions
     o, t = values["override_render"], values.get("override_timing", False)
     q = values.get("quality", "script")
     return RenderOptions(

@@ -1,9 +1,9 @@
 """What the operators do, as plain functions over a settings snapshot (bpy, no UI).
 
 Everything goes through the code path of the command line: a
-:class:`~blender_sesgen.plan.RenderPlan` (parse + validate, writes nothing), a
+:class:`~blender_sesgen.render.plan.RenderPlan` (parse + validate, writes nothing), a
 :class:`~blender_sesgen.blender.session.BlenderSession` (the builder makes the dedicated
-scene 'SESGen') and, to render, :class:`~blender_sesgen.job.RenderJob` (``render_frame``:
+scene 'SESGen') and, to render, :class:`~blender_sesgen.render.job.RenderJob` (``render_frame``:
 one frame, atomically, then the manifest).
 This module only adds what the UI needs around it: leaving the SESGen scene before the
 builder replaces it, a curve showing the camera path, copying the settings onto the new
@@ -20,8 +20,8 @@ import numpy as np
 
 from ..contract.frames import R_BLENDER_SES, camera_matrix_world
 from ..errors import SesgenError
-from ..job import RenderJob
-from ..plan import RenderPlan
+from ..render.job import RenderJob
+from ..render.plan import RenderPlan
 from . import props
 
 SCENE_NAME = "SESGen"          # blender.datablocks.SCENE_NAME (not imported: keeps bpy modules lazy)
@@ -297,7 +297,7 @@ def verify(values: dict) -> str:
     blender_sesgen verify``); bad frames are recorded as not rendered, so that Render with
     Resume renders them again. One line to report."""
     from ..contract.manifest import MANIFEST
-    from ..output import OutputFolder
+    from ..render.folder import OutputFolder
     out = props.abspath(values["output_dir"])
     if not out or not os.path.isfile(os.path.join(out, MANIFEST)):
         raise SesgenError("no render in the output folder to verify")

@@ -18,7 +18,7 @@ from typing import Optional
 import bpy
 
 from ..errors import SesgenError
-from ..presets import Preset
+from ..scene.presets import Preset
 from . import compat
 from .runtime import activate, probing_devices, quiet_stdout
 

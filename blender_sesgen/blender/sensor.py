@@ -1,7 +1,7 @@
 """The camera as a sensor in Blender: sub-frame camera motion, Cycles' shutter (motion blur,
 rolling shutter), the distorting lens as a Cycles custom (OSL) camera, the ground-truth
 render settings and JPEG writing. Decisions (what to render, with which times) are made
-in the pure ``blender_sesgen.sensor.render_plan``; this module only applies them.
+in the pure ``blender_sesgen.render.sensor.render_plan``; this module only applies them.
 
 Measured facts this relies on (bpy 5.0.1, docs/rendering.md):
 - Cycles samples the camera at ``2^motion_steps + 1`` instants over the shutter, centred

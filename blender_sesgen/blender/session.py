@@ -21,8 +21,8 @@ from typing import Callable, Optional
 
 from ..contract.manifest import render_seed
 from ..scene.lighting import AGX_LOOKS, EXPOSURE_TARGET, VIEW_TRANSFORMS
-from ..plan import Device, RenderPlan
-from ..presets import EXPOSURE_PREVIEW
+from ..render.plan import Device, RenderPlan
+from ..scene.presets import EXPOSURE_PREVIEW
 from . import builder, compat, exposure, render, rig, shading
 
 EXPOSURE_RULE_AUTO = f"auto: 90th-percentile luminance of frame 0 = {EXPOSURE_TARGET}"

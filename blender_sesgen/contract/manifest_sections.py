@@ -1,7 +1,7 @@
 """The manifest's optional sections -- ``rig_motion``, ``timing``, ``lens``, ``sensor``,
 ``imu`` (written when a script has the sensor statements) -- as typed records.
 
-Each record has one writer (``to_json``: what ``blender_sesgen.sensor.render_plan`` puts
+Each record has one writer (``to_json``: what ``blender_sesgen.render.sensor.render_plan`` puts
 in the manifest) and one validating reader (``from_json``: called once by
 ``Manifest.from_json``; a defect is a :class:`ContractError` naming the key). Readers use
 the records (``Manifest.sections``), never ``.get()`` chains on the raw JSON.

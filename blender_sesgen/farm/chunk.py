@@ -90,7 +90,7 @@ def _stop(proc: subprocess.Popen) -> Optional[int]:
 
 def _drop_lock(out: str, host: str, pid: int) -> None:
     try:
-        from ..output import OutputFolder
+        from ..render.folder import OutputFolder
         OutputFolder(Path(out)).drop_lock_of(host, pid)
     except Exception as e:  # noqa: BLE001 - the retry still takes a stale lock over (same host) or waits
         print(f"sesgen farm: could not remove the lock of killed render {pid}: {e}", file=sys.stderr)
@@ -120,7 +120,7 @@ def verify_task(out: str) -> dict:
     (``verify --quick``); bad frames are recorded as not rendered. Returns the frames still
     to render and what was wrong."""
     from ..contract.manifest import Manifest
-    from ..output import OutputFolder
+    from ..render.folder import OutputFolder
     folder = OutputFolder(Path(out))
     folder.consolidate()
     bad = folder.verify(full=False)

@@ -75,8 +75,8 @@ def render_options(args: argparse.Namespace):
 
 def prepare(args: argparse.Namespace) -> tuple[Path, list]:
     """ROOT and the farm's scenes, each with its plan and pending frames or its user error."""
-    from ..output import OutputFolder
-    from ..plan import RenderPlan
+    from ..render.folder import OutputFolder
+    from ..render.plan import RenderPlan
     from .work import FarmScene, find_scripts, unique_names
     root = Path(args.out).absolute()
     if root.exists() and not root.is_dir():

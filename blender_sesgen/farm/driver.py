@@ -290,7 +290,7 @@ class Farm:
         if host == _hostname() and _alive(pid):
             return
         try:
-            from ..output import OutputFolder
+            from ..render.folder import OutputFolder
             OutputFolder(c.scene.out).drop_lock_of(host, pid)
         except Exception:  # noqa: BLE001 - the retry's render takes a stale lock over itself
             pass

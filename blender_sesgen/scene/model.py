@@ -359,7 +359,7 @@ class AutoExposure:
 
 @dataclass(frozen=True, kw_only=True)
 class Imu:
-    """``IMU ...``: accelerometer + gyroscope on the rig (see blender_sesgen.sensor.imu)."""
+    """``IMU ...``: accelerometer + gyroscope on the rig (see blender_sesgen.render.sensor.imu)."""
     rate_hz: float = 200.0
     gyro_noise: float = 1.6968e-04      # rad/s/sqrt(Hz)        (EuRoC ADIS16448)
     gyro_walk: float = 1.9393e-05       # rad/s^2/sqrt(Hz)

@@ -14,7 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from ..scene.assets import KINDS as ASSET_KINDS
-from ..presets import QUALITIES
+from ..scene.presets import QUALITIES
 
 
 @dataclass(frozen=True)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..contract.timing import to_ns
+from ...contract.timing import to_ns
 
 EUROC_GT_HEADER = ("#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q_RS_x [], q_RS_y [], "
                    "q_RS_z [], v_RS_R_x [m s^-1], v_RS_R_y [m s^-1], v_RS_R_z [m s^-1], "
@@ -14,7 +14,7 @@ EUROC_GT_HEADER = ("#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w
 def groundtruth_csv(t_s, T_world_imu, v_world, gyro_bias=None, accel_bias=None) -> str:
     """EuRoC ``state_groundtruth_estimate0/data.csv``: body (IMU) position, quaternion
     (w first, w >= 0), world velocity and the true biases of the noisy stream."""
-    from ..contract.se3 import R_to_quat_xyzw
+    from ...contract.se3 import R_to_quat_xyzw
     n = len(t_s)
     gb = np.zeros((n, 3)) if gyro_bias is None else gyro_bias
     ab = np.zeros((n, 3)) if accel_bias is None else accel_bias

@@ -5,8 +5,8 @@
     for k in job.pending_frames():   # the add-on: one frame per timer tick
         job.render_frame(k)          # all views of frame k, atomically, then the manifest
 
-``prepare`` parses and validates everything (:class:`~blender_sesgen.plan.RenderPlan`) and
-checks the output folder (:class:`~blender_sesgen.output.OutputFolder`), and writes nothing:
+``prepare`` parses and validates everything (:class:`~blender_sesgen.render.plan.RenderPlan`) and
+checks the output folder (:class:`~blender_sesgen.render.folder.OutputFolder`), and writes nothing:
 a bad script, bad options or a folder holding another scene's output raise
 :class:`SesgenError` before any file exists. ``begin()`` (called by ``render_frame`` if
 needed) writes the folder's skeleton; each EXR is written under a temporary name and
@@ -21,9 +21,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Optional
 
-from .contract.atomic import temp_path
-from .contract.manifest import Manifest
-from .output import OutputFolder, display_key, seal_frame
+from ..contract.atomic import temp_path
+from ..contract.manifest import Manifest
+from .folder import OutputFolder, display_key, seal_frame
 from .sealer import Sealer, WorkerGone, run_here
 from .plan import RenderOptions, RenderPlan
 
@@ -105,7 +105,7 @@ class RenderJob:
     def build(self) -> None:
         """Build the scene in Blender (a dedicated scene 'SESGen'; rebuilding replaces).
         Writes nothing into the output folder."""
-        from .blender.session import BlenderSession
+        from ..blender.session import BlenderSession
         kept = self.folder.resumable(self.plan)
         self.session = BlenderSession(self.plan, known_exposure=(kept or {}).get("render", {}).get("exposure"),
                                       fast=self.plan.options.fast_pipeline)

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..contract.rig_motion import RigMotion
+from ...contract.rig_motion import RigMotion
 
 GRAVITY = 9.81
 ADIS16448 = {"gyro_noise": 1.6968e-04, "gyro_walk": 1.9393e-05, "accel_noise": 2.0e-3, "accel_walk": 3.0e-3}
@@ -101,7 +101,7 @@ def add_noise(ideal: ImuStream, params: ImuParams, seed: int | None = None) -> I
 
 def csv_text(stream: ImuStream) -> str:
     """EuRoC ``imu0/data.csv``: ns stamp, gyro x y z (rad/s), accelerometer x y z (m/s^2)."""
-    from ..contract.timing import to_ns
+    from ...contract.timing import to_ns
     lines = ["#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],"
              "a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]"]
     for tn, w, a in zip(to_ns(stream.t_s), stream.gyro, stream.accel):

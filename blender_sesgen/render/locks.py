@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 from typing import Optional
 
-from .contract import atomic
+from ..contract import atomic
 
 try:
     import fcntl
@@ -75,7 +75,7 @@ class FolderLocks:
     def refuse_conflicts(self, frames: tuple[int, int], scene_sha256: str, settings_key: str, where) -> None:
         """SesgenError naming the holder if a live writer holds frames overlapping ``first..last``
         or renders another scene or other settings here (call under :meth:`mutex`)."""
-        from .errors import SesgenError
+        from ..errors import SesgenError
         first, last = frames
         for other in self.live():
             same_plan = other.get("scene_sha256") == scene_sha256 and other.get("settings") == settings_key

@@ -15,16 +15,16 @@ from typing import Optional
 
 import numpy as np
 
-from ..scene import model
+from ...scene import model
 from . import imu as imu_mod
-from ..contract import timing as timing_mod
-from ..contract.timing import DEFAULT_FPS
+from ...contract import timing as timing_mod
+from ...contract.timing import DEFAULT_FPS
 from .autoexposure import ExposureControl, exposure_schedule
-from ..contract.lens import Lens, opencv_calibration_yaml, robotcar_lut_bytes, undistortion_maps
-from ..contract import rig
-from ..contract.manifest_sections import (ImuSection, LensSection, RigMotionSection, Sections, SensorSection,
+from ...contract.lens import Lens, opencv_calibration_yaml, robotcar_lut_bytes, undistortion_maps
+from ...contract import rig
+from ...contract.manifest_sections import (ImuSection, LensSection, RigMotionSection, Sections, SensorSection,
                                          TimingSection)
-from ..contract.rig_motion import RigMotion
+from ...contract.rig_motion import RigMotion
 
 SENSOR_DIR = "sensor"
 LENS_DIR = "lens"
@@ -46,7 +46,7 @@ class TimingOverrides:
 
 
 def effective_timing(scene: model.Scene, o: TimingOverrides) -> Optional[model.Timing]:
-    from ..errors import SesgenError
+    from ...errors import SesgenError
     t = scene.timing
     if t is None and all(v is None for v in dataclasses.astuple(o)):
         return None
@@ -191,7 +191,7 @@ class SensorPlan:
                            "groundtruth": f"{IMU_DIR}/groundtruth.csv", "yaml": f"{IMU_DIR}/sensor.yaml"})
 
     def _imu_files(self, n_frames: int) -> dict[str, bytes]:
-        from ..contract.sensor_yaml import imu_sensor_yaml
+        from ...contract.sensor_yaml import imu_sensor_yaml
         from .imu_files import groundtruth_csv
         p = self.imu_params()
         t = self.frame_times_s(n_frames)

@@ -8,8 +8,8 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from ..errors import SesgenError
-from ..files.png import write_png
+from ...errors import SesgenError
+from ...files.png import write_png
 from .render_plan import SENSOR_DIR, SensorPlan
 
 EXR_LAYOUT = "single part holding every pass (beauty of the sensor render, ground truth of the sharp render)"
@@ -70,7 +70,7 @@ def write_static_files(plan: SensorPlan, out: Path, n_frames: int) -> None:
     sensor image folders."""
     if not plan.active:
         return
-    from ..contract import atomic
+    from ...contract import atomic
     for rel, data in plan.static_files(n_frames).items():
         path = Path(out) / rel
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -111,7 +111,7 @@ def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: floa
     """Run the camera chain on frame k's EXRs (``exrs[view]``: their paths) and write raw /
     RGB / JPEG images; record the exposure, gain and metered brightness of the frame in the
     manifest ``m`` (a Manifest) and in the frame's state file."""
-    from ..files.exr import read_exr
+    from ...files.exr import read_exr
     from . import pipeline
     from .autoexposure import meter
     key = (id(plan), "rays")
@@ -136,5 +136,5 @@ def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: floa
             jpeg_writer(str(Path(out) / plan.sensor_relpath("jpeg", view, k)), f.rgb8, plan.sensor.jpeg_quality)
     s = m.extra["sensor"]
     s["exposure_s"][k], s["gain"][k], s["metered"][k] = float(exposure_s), float(gain), metered
-    from ..contract import atomic
+    from ...contract import atomic
     atomic.write_json(Path(out) / state_relpath(k), {key: s[key][k] for key in STATE_KEYS})

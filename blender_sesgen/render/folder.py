@@ -30,16 +30,16 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Optional
 
-from .contract import atomic
-from .contract.errors import ContractError
-from .contract.pixel_settings import TIMING_KEYS, PixelSettings
-from .contract.manifest import (DISPLAY_DIR, DONE_LOG_GLOB, EXR_DIR, FORMAT, MANIFEST, POSES_DIR, SCENE_COPY, STATE_DIR,
+from ..contract import atomic
+from ..contract.errors import ContractError
+from ..contract.pixel_settings import TIMING_KEYS, PixelSettings
+from ..contract.manifest import (DISPLAY_DIR, DONE_LOG_GLOB, EXR_DIR, FORMAT, MANIFEST, POSES_DIR, SCENE_COPY, STATE_DIR,
                                 Manifest, completed_in_logs, display_relpath, exr_relpath, load_json,
                                 trajectory_relpaths)
-from .contract.trajectory_files import format_ego_table, format_kitti, format_tum
-from .errors import SesgenError
-from .files.image_check import ImageFileError, check_image_bytes
-from .files.exr import ExrError, check_complete, decode, read_layout, strip_volatile_attributes
+from ..contract.trajectory_files import format_ego_table, format_kitti, format_tum
+from ..errors import SesgenError
+from ..files.image_check import ImageFileError, check_image_bytes
+from ..files.exr import ExrError, check_complete, decode, read_layout, strip_volatile_attributes
 from .locks import FolderLocks
 from .plan import RenderPlan, RenderSettings
 

@@ -22,19 +22,19 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from .scene import assets
-from .contract import semantics
-from .contract.camera import scaled_K, scaled_size
-from .contract.depth import DEPTH_BACKGROUND
-from .contract.errors import ContractError
-from .contract.exr_format import LAYOUT_PARTS
-from .contract.pixel_settings import PixelSettings
-from .contract.manifest import SEED_RULE, Manifest, display_relpath, exr_relpath, object_motion_fields
-from .contract.timing import FrameSelection, frame_timestamps
-from .errors import SesgenError
-from .scene.lighting import AGX_LOOKS, VIEW_TRANSFORMS
-from .scene.model import Mesh, Scene, TextureRef
-from .presets import QUALITIES, Preset, effective
+from ..scene import assets
+from ..contract import semantics
+from ..contract.camera import scaled_K, scaled_size
+from ..contract.depth import DEPTH_BACKGROUND
+from ..contract.errors import ContractError
+from ..contract.exr_format import LAYOUT_PARTS
+from ..contract.pixel_settings import PixelSettings
+from ..contract.manifest import SEED_RULE, Manifest, display_relpath, exr_relpath, object_motion_fields
+from ..contract.timing import FrameSelection, frame_timestamps
+from ..errors import SesgenError
+from ..scene.lighting import AGX_LOOKS, VIEW_TRANSFORMS
+from ..scene.model import Mesh, Scene, TextureRef
+from ..scene.presets import QUALITIES, Preset, effective
 
 MAX_IMAGE_SIDE = 16384   # the script's own limit, applied to scaled sizes too
 MIN_IMAGE_SIDE = 4       # Blender renders nothing smaller (its resolution's hard minimum)
@@ -207,7 +207,7 @@ class RenderPlan:
             raise SesgenError(f"{scene_path}: cannot read: {e.strerror}") from None
         if edit is not None:   # undecodable bytes pass through, for the parser to locate
             data = edit(data.decode("utf-8", errors="surrogateescape")).encode("utf-8", errors="surrogateescape")
-        from .ses import parse_bytes
+        from ..ses import parse_bytes
         scene = parse_bytes(data, source=str(scene_path), base_dir=str(path.resolve().parent))
         return cls.from_scene(scene, options, scene_text=data.decode("utf-8", errors="replace"))
 
@@ -313,7 +313,7 @@ def generator_version() -> str:
     """This package's version as the manifest records it, read from its extension manifest
     (``blender_manifest.toml``; building the add-on checks that ``__version__`` agrees): as
     data, so that no module the add-on imports imports the package root (an import cycle)."""
-    with open(Path(__file__).with_name("blender_manifest.toml"), "rb") as f:
+    with open(Path(__file__).resolve().parents[1] / "blender_manifest.toml", "rb") as f:
         return str(tomllib.load(f)["version"])
 
 
@@ -346,8 +346,8 @@ def object_table(scene: Scene) -> list[dict]:
     bounding ``box`` where the geometry is known (:mod:`.bounds`), and whether it moves (with
     its per-frame poses if it does). A BLEND file's objects are added by the job, which
     learns their ids when loading them."""
-    from .scene.bounds import object_box
-    from .scene.dynamics import rest_pose
+    from ..scene.bounds import object_box
+    from ..scene.dynamics import rest_pose
     out, boxes = [], {}
     for o in scene.objects:
         tex = o.texture

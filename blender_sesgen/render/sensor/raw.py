@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..contract.cfa import cfa_channels
+from ...contract.cfa import cfa_channels
 
 def fixed_pattern(shape, prnu: float, dsnu_e: float, seed: int, view_index: int):
     """Per-camera PRNU (relative gain - 1) and DSNU (e-) maps of the given shape."""
@@ -134,7 +134,7 @@ def response(x: np.ndarray, kind: str = "srgb", gamma: float = 2.2) -> np.ndarra
     if kind == "gamma":
         return x ** (1.0 / float(gamma))
     if kind == "srgb":   # IEC 61966-2-1, the contract's one definition
-        from ..contract.colour import linear_to_srgb
+        from ...contract.colour import linear_to_srgb
         return linear_to_srgb(x).astype(np.float64)
     raise ValueError(f"unknown response {kind!r} (linear, srgb, gamma)")
 

@@ -10,7 +10,7 @@ A process, not a thread: a Python thread running beside bpy crashed Blender (2 o
 1000 frames segfaulted inside the thread's own pure-Python code; none of 5 without it), as
 bpy is not thread-safe even towards threads that never call it. Not ``multiprocessing``
 either: its ``spawn`` re-imports the caller's main script, which would render again in a
-user's script without a ``__main__`` guard. The worker is ``python -m blender_sesgen.sealer``
+user's script without a ``__main__`` guard. The worker is ``python -m blender_sesgen.render.sealer``
 (the same interpreter; inside Blender its bundled Python), in its own session so that Ctrl-C
 reaches only the rendering process, fed one JSON line per frame and answering one per
 frame, in order. If it cannot be started or dies, sealing happens in the rendering process.
@@ -25,7 +25,7 @@ from concurrent.futures import Future
 from pathlib import Path
 from typing import Callable, Optional
 
-PACKAGE_ROOT = Path(__file__).resolve().parents[1]
+PACKAGE_ROOT = Path(__file__).resolve().parents[2]   # the folder holding the blender_sesgen package
 
 
 class WorkerGone(RuntimeError):
@@ -73,7 +73,7 @@ class Sealer:
             env = dict(os.environ)
             env["PYTHONPATH"] = os.pathsep.join([str(PACKAGE_ROOT)] + [p for p in sys.path if p])
             try:
-                self._proc = subprocess.Popen([sys.executable, "-m", "blender_sesgen.sealer"], stdin=subprocess.PIPE,
+                self._proc = subprocess.Popen([sys.executable, "-m", "blender_sesgen.render.sealer"], stdin=subprocess.PIPE,
                                               stdout=subprocess.PIPE, text=True, env=env, start_new_session=True)
             except OSError:
                 self._proc = None
@@ -84,7 +84,7 @@ class Sealer:
 
     def submit(self, k: int, written: dict, required_channels: tuple):
         """Seal frame ``k`` (``output.seal_frame``) in the worker, or here without one."""
-        from .output import seal_frame
+        from .folder import seal_frame
         if self._proc is not None:
             try:
                 line = json.dumps({"k": int(k), "written": {v: str(p) for v, p in written.items()},
@@ -107,7 +107,7 @@ class Sealer:
             return
         msg = json.loads(line)
         if "error" in msg:
-            from .output import RenderWriteError
+            from .folder import RenderWriteError
             answer._value = RenderWriteError(msg["error"]) if msg.get("kind") == "write" else RuntimeError(msg["error"])
         else:
             answer._value = msg["sums"]
@@ -143,7 +143,7 @@ def _serve() -> int:
     """The worker: one JSON request per line on stdin, one answer per line on stdout."""
     import signal
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    from .output import RenderWriteError, seal_frame
+    from .folder import RenderWriteError, seal_frame
     for line in sys.stdin:
         req = json.loads(line)
         try:

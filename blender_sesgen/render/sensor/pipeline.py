@@ -11,7 +11,7 @@ from typing import Optional
 
 import numpy as np
 
-from ..contract import cfa
+from ...contract import cfa
 from . import optics, raw
 
 
