@@ -32,7 +32,7 @@ def _package_beside_this_file() -> None:
 
 def main() -> int:
     _package_beside_this_file()
-    cli_main = importlib.import_module("blender_sesgen.cli").main
+    cli_main = importlib.import_module("blender_sesgen.commands.main").main
     return cli_main(["render", *_render_args(sys.argv)])
 
 

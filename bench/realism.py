@@ -162,7 +162,7 @@ def vo_drift_pct(seq, frames: int) -> float:
     """End-point drift (% of the path) of the OpenCV baseline stereo VO over the frames."""
     from vo_reference.io.trajectory import Trajectory
     from vo_reference.stereo.pipeline import run_stereo_vo
-    from vo_reference.stereo.run_cli import shape_errors
+    from vo_reference.commands.run import shape_errors
     last = min(frames, seq.num_frames) - 1
     res = run_stereo_vo(seq, "opencv-baseline", frames=(0, last))
     T = seq.T_world_cam("left")[: last + 1]

@@ -154,7 +154,7 @@ def _paths(node, prefix=()):
 def vo(*argv) -> int:
     """``python -m vo_reference ARGV`` in-process: its exit code; printing suppressed. A user
     error is exit 2; any other exception propagates (a finding)."""
-    from vo_reference.cli import main
+    from vo_reference.commands.main import main
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()) as err:
         code = main([str(a) for a in argv])
     if code == 2:

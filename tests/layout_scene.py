@@ -54,7 +54,7 @@ def view_pose(n: int, k: int, view: str) -> np.ndarray:
 
 def export_layout(render, out, target: str, *extra: str) -> Path:
     """``vo-reference export RENDER OUT --to TARGET`` without noise; asserts it succeeded."""
-    from vo_reference.cli import main
+    from vo_reference.commands.main import main
     assert main(["export", str(render), str(out), "--to", target, "--noise", "0", "-q", *extra]) == 0
     return Path(out)
 

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-import blender_sesgen.cli as sesgen_cli
-import vo_reference.cli as vo_cli
+import blender_sesgen.commands.main as sesgen_cli
+import vo_reference.commands.main as vo_cli
 from blender_sesgen.contract.cli import build_parser
 from blender_sesgen.contract.progress import progress_mode
 from blender_sesgen.contract.timing import FRAMES_HELP
@@ -30,8 +30,8 @@ REPORTS = {("vo-reference", "run"): ["i"], ("vo-reference", "evaluate"): ["--gt"
 
 
 def parser(program: str) -> argparse.ArgumentParser:
-    module, package = CLIS[program]
-    return build_parser(module.PROG, module.DESCRIPTION, module.COMMANDS, package)
+    module, _ = CLIS[program]
+    return build_parser(module.PROG, module.DESCRIPTION, module.COMMANDS, module.__package__)
 
 
 def subparsers(program: str) -> dict[str, argparse.ArgumentParser]:
@@ -41,7 +41,7 @@ def subparsers(program: str) -> dict[str, argparse.ArgumentParser]:
 
 def test_the_programs_are_the_installed_commands_and_say_so():
     scripts = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["scripts"]
-    assert scripts == {"sesgen": "blender_sesgen.cli:main", "vo-reference": "vo_reference.cli:main"}
+    assert scripts == {"sesgen": "blender_sesgen.commands.main:main", "vo-reference": "vo_reference.commands.main:main"}
     for program, (module, package) in CLIS.items():
         assert module.PROG == program
         text = parser(program).format_help()

@@ -15,7 +15,7 @@ def test_render_without_bpy_is_a_clear_user_error(repo, tmp_path):
                 if name.split(".")[0] in ("bpy", "mathutils"):
                     raise ImportError(name)
         sys.meta_path.insert(0, Block())
-        from blender_sesgen.cli import main
+        from blender_sesgen.commands.main import main
         sys.exit(main(["render", {str(repo / "scenes" / "minimal.ses")!r}, "--out", {str(out)!r}]))
     """)
     r = subprocess.run([sys.executable, "-c", code], cwd=repo, capture_output=True, text=True, timeout=60)

@@ -166,9 +166,9 @@ def test_evaluate_takes_frames_for_an_estimate_of_part_of_the_sequence(tmp_path)
 
 def test_evaluate_aligns_as_run_does_and_says_when_an_se3_fit_is_ill_posed(tmp_path):
     import argparse
-    from vo_reference.evaluate import cli as evaluate_cli
+    from vo_reference.commands import evaluate as evaluate_cli
     from vo_reference.io.trajectory import write_tum
-    from vo_reference.stereo import run_cli as vo_run_cli
+    from vo_reference.commands import run as vo_run_cli
     defaults = []
     for module, argv in ((evaluate_cli, ["--gt", "a", "--est", "b"]), (vo_run_cli, ["INPUT"])):
         p = argparse.ArgumentParser()

@@ -131,7 +131,7 @@ def test_json2labelimg_redraws_our_label_ids(exported, render, tmp_path):
 
 
 def test_options(render, tmp_path, capsys):
-    from vo_reference.cli import main
+    from vo_reference.commands.main import main
     assert main(["export", str(render), str(tmp_path / "a"), "--to", "cityscapes", "--opt", "split=dev", "-q"]) == 2
     assert "split" in capsys.readouterr().err and not (tmp_path / "a").exists()
     assert main(["export", str(render), str(tmp_path / "b"), "--to", "cityscapes", "--opt", "town=x", "-q"]) == 2

@@ -163,7 +163,7 @@ def test_export_is_byte_reproducible_and_frames_renumbered(layout_render, tmp_pa
 
 
 def test_bad_stride_is_a_user_error(layout_render, tmp_path, capsys):
-    from vo_reference.cli import main
+    from vo_reference.commands.main import main
     assert main(["export", str(layout_render), str(tmp_path / "o"), "--to", "colmap", "--opt", "stride=0", "-q"]) == 2
     assert "stride" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()

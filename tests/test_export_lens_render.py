@@ -39,7 +39,7 @@ def render(tmp_path_factory):
 
 
 def _export(render, out, target, *extra) -> int:
-    from vo_reference.cli import main
+    from vo_reference.commands.main import main
     return main(["export", str(render), str(out), "--to", target, "-q", *extra])
 
 

@@ -113,7 +113,7 @@ def test_eth3d_tree_and_colmap_pair(layout_render, tmp_path):
 
 
 def test_refusals(layout_render, tmp_path, capsys):
-    from vo_reference.cli import main
+    from vo_reference.commands.main import main
     mono = write_layout_render(tmp_path / "mono", n=2, stereo=False)
     assert main(["export", str(mono), str(tmp_path / "a"), "--to", "middlebury", "-q"]) == 2
     assert "stereo" in capsys.readouterr().err

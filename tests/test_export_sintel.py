@@ -63,7 +63,7 @@ def test_depth_and_camera_files(exported):
 
 
 def test_scene_slot_options_and_refusals(layout_render, tmp_path, capsys):
-    from vo_reference.cli import main
+    from vo_reference.commands.main import main
     assert main(["export", str(layout_render), str(tmp_path), "--to", "sintel", "--sequence", "alley_9", "--frames", "0:2",
                  "--opt", "background_depth=inf", "-q"]) == 0
     d = read_sintel_dpt(tmp_path / "training" / "depth" / "alley_9" / "frame_0001.dpt")

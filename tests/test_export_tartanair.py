@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from vo_reference.cli import main as cli_main
+from vo_reference.commands.main import main as cli_main
 from vo_reference.io.render import RenderSequence
 
 from format_readers import read_tartanair_poses, tartanair_files

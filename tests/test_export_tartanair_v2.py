@@ -107,7 +107,7 @@ def test_poses_are_ned(exported):
 
 
 def test_user_errors(layout_render, tmp_path, capsys):
-    from vo_reference.cli import main
+    from vo_reference.commands.main import main
     assert main(["export", str(layout_render), str(tmp_path / "a"), "--to", "tartanair-v2", "--sequence", "P000", "-q"]) == 2
     assert "ENV/Data_DIFFICULTY/TRAJECTORY" in capsys.readouterr().err
     assert main(["export", str(layout_render), str(tmp_path / "b"), "--to", "tartanair-v2", "--opt", "flow=exr", "-q"]) == 2

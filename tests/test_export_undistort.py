@@ -120,7 +120,7 @@ def render(tmp_path_factory):
 
 
 def _export(render, out, target, *extra):
-    from vo_reference.cli import main
+    from vo_reference.commands.main import main
     return main(["export", str(render), str(out), "--to", target, "--noise", "0", "-q", *extra])
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vo_reference.cli import main as cli_main
+from vo_reference.commands.main import main as cli_main
 from vo_reference.io.render import RenderSequence
 
 from format_readers import read_vkitti_colors, read_vkitti_depth_m, read_vkitti_png_flow, read_vkitti_table

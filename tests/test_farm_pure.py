@@ -19,7 +19,7 @@ import pytest
 
 
 from blender_sesgen.farm import chunk as chunk_mod
-from blender_sesgen.farm import cli as farm_cli
+from blender_sesgen.commands import farm as farm_cli
 from blender_sesgen.farm.driver import Farm
 from blender_sesgen.farm.work import (FarmScene, Outcome, error_line, find_scripts, frame_ranges, outcome_of,
                                       unique_names)
@@ -89,7 +89,7 @@ def _farm_args(*argv):
 
 
 def test_every_render_option_is_a_farm_option_and_reaches_the_render_unchanged():
-    from blender_sesgen import render_cli
+    from blender_sesgen.commands import render as render_cli
     rp = argparse.ArgumentParser()
     render_cli.add_arguments(rp)
     passed_on = {a.dest for a in farm_cli.render_actions()}

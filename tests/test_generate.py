@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from blender_sesgen import generators
-from blender_sesgen.cli import main as sesgen
+from blender_sesgen.commands.main import main as sesgen
 from blender_sesgen.files.dataset import (assign_splits, path_length_m, sequence_seeds, split_counts,
                                     SEQUENCE_SEEDS)
 from blender_sesgen.errors import SesgenError

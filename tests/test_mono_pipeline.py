@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from vo_reference.cli import main as cli_main
+from vo_reference.commands.main import main as cli_main
 from vo_reference.evaluate import align, ape
 from vo_reference.io.images_folder import ImageFolderSequence
 from vo_reference.io.trajectory import Trajectory, read_kitti

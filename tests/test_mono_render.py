@@ -15,7 +15,7 @@ import pytest
 
 from render_support import run_render
 
-from vo_reference.cli import main as cli_main
+from vo_reference.commands.main import main as cli_main
 from markers import needs
 
 pytestmark = [pytest.mark.render, needs("bpy")]

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vo_reference.cli import main as cli_main
+from vo_reference.commands.main import main as cli_main
 from vo_reference.errors import VoError
 from vo_reference.io.kitti import KittiSequence
 from vo_reference.io.render import RenderSequence

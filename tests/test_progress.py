@@ -119,7 +119,7 @@ def test_cli_arguments():
 
 def test_stereo_vo_json_progress_parses_line_by_line(tmp_path, capsys):
     pytest.importorskip("OpenEXR")
-    from vo_reference.cli import main
+    from vo_reference.commands.main import main
     from synthetic_render import plane_scene
     root = plane_scene(tmp_path / "r", frames=4)
     assert main(["stereo-vo", str(root), "--gt-depth", "--gt-flow", "--out", str(tmp_path / "e.txt"),

@@ -4,7 +4,7 @@ names the file (and the line, for text files), no traceback, nothing written.
 The cases are the ones found by trying the readers adversarially (issue #19): zero
 quaternions, 1e308 estimates, K = 0, NaN rows, NaN in a KITTI calibration, a render whose
 frames are incomplete, a corrupt EXR part, a failed export, FIFOs and devices given as
-files. The commands run in-process through ``vo_reference.cli.main`` with the file
+files. The commands run in-process through ``vo_reference.commands.main.main`` with the file
 descriptors captured (``capfd``: what C libraries print counts too); two cases run the real
 ``python -m vo_reference`` to prove the whole path.
 """
@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from synthetic_render import plane_scene
-from vo_reference.cli import main
+from vo_reference.commands.main import main
 
 REPO = Path(__file__).resolve().parents[1]
 

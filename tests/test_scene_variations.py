@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from blender_sesgen.scene.assets.nature import terrain_height
-from blender_sesgen.cli import main as sesgen
+from blender_sesgen.commands.main import main as sesgen
 from blender_sesgen.scene.model import Asset
 from blender_sesgen.render.plan import validate_scene
 from blender_sesgen.ses import parse_string

@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from vo_reference.cli import main
+from vo_reference.commands.main import main
 from vo_reference.io.trajectory import read_kitti, read_tum
 
 import stereo_synth as S

@@ -90,7 +90,7 @@ def test_accurate_vo_keeps_rejecting_moving_points(seq):
 
 
 def test_run_reports_the_dynamic_share_and_both_errors(render, tmp_path):
-    from vo_reference.cli import main
+    from vo_reference.commands.main import main
     rep = tmp_path / "report"
     assert main(["run", str(render), "--frames", f"0:{FRAMES}", "--report", str(rep), "--no-plots", "--quiet",
                  "--methods", "accurate"]) == 0

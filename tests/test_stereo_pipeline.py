@@ -150,7 +150,7 @@ def test_a_sequence_where_no_step_works_is_an_error():
 
 def test_progress_and_summary_name_the_failed_steps():
     import io
-    from vo_reference.stereo.cli import failed_summary, vo_progress
+    from vo_reference.commands.stereo import failed_summary, vo_progress
     frames, T = S.sequence(S.smooth_twists(3))
     frames[2] = {**frames[2], "left": np.full_like(frames[2]["left"], 128), "right": np.full_like(frames[2]["right"], 128)}
     out = io.StringIO()

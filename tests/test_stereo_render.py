@@ -70,7 +70,7 @@ def test_paper_with_gt_depth_and_flow_errs_only_by_its_linearisation(seq):
 
 
 def test_accurate_from_images_alone_tracks_the_motion(render, seq, tmp_path):
-    from vo_reference.cli import main
+    from vo_reference.commands.main import main
     from vo_reference.io.trajectory import read_kitti
     out = tmp_path / "est.txt"
     assert main(["stereo-vo", str(render), "--method", "accurate", "--frames", f"0:{FRAMES}",
@@ -87,7 +87,7 @@ def test_accurate_from_images_alone_tracks_the_motion(render, seq, tmp_path):
 
 
 def test_run_writes_the_report_with_the_paper_table(render, tmp_path):
-    from vo_reference.cli import main
+    from vo_reference.commands.main import main
     rep = tmp_path / "report"
     assert main(["run", str(render), "--frames", f"0:{FRAMES}", "--report", str(rep), "--no-plots", "--quiet"]) == 0
     summary = (rep / "summary.md").read_text()

@@ -59,7 +59,7 @@ def test_the_vo_extra_is_complete_and_has_no_blender():
     assert {"numpy", "openexr", "opencv-python-headless", "scipy", "matplotlib"} <= names
     assert "bpy" not in names
     project = tomllib.loads((REPO / "pyproject.toml").read_text(encoding="utf-8"))["project"]
-    assert project["scripts"]["vo-reference"] == "vo_reference.cli:main"
+    assert project["scripts"]["vo-reference"] == "vo_reference.commands.main:main"
     assert project["optional-dependencies"]["render"] == ["bpy==5.0.1"]
 
 

@@ -240,6 +240,9 @@ class Tree:
     def exists(self, module: str) -> bool:
         return module in self.modules
 
+    def is_package(self, module: str) -> bool:
+        return module in self.modules and self.modules[module].name == "__init__.py"
+
     def defines(self, package: str, name: str) -> bool:
         if package not in self._names:
             names = set()
@@ -306,8 +309,8 @@ class Rewriter:
             return module
         for i, loc in enumerate(locs):
             t = resolve(loc, level, module)
-            ok = self.known(t) and all(self.known(f"{t}.{n}") or self.tree.defines(self.new(t), n) or n == "*"
-                                       for n in names)
+            ok = self.known(t) and (not self.tree.is_package(self.new(t)) or all(
+                self.known(f"{t}.{n}") or self.tree.defines(self.new(t), n) or n == "*" for n in names))
             if ok or i == len(locs) - 1:
                 return t
         return t

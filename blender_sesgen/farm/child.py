@@ -62,7 +62,7 @@ def main(argv=None) -> int:
     parent = os.environ.get(PARENT_ENV)
     bind_to_parent(int(parent) if parent else os.getppid())
     restore_interrupts()
-    from ..cli import main as cli_main
+    from ..commands.main import main as cli_main
     return cli_main(sys.argv[1:] if argv is None else argv)
 
 

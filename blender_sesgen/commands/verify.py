@@ -12,9 +12,9 @@ import argparse
 import contextlib
 import sys
 
-from .contract.cli import EXIT_FAILURE, EXIT_OK
-from .contract.progress import Progress, add_progress_argument, progress_mode
-from .errors import SesgenError
+from ..contract.cli import EXIT_FAILURE, EXIT_OK
+from ..contract.progress import Progress, add_progress_argument, progress_mode
+from ..errors import SesgenError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -26,8 +26,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def _not_rendered(out) -> str:
     """How many frames of the sequence are not rendered (complete) yet, as a line."""
-    from .contract.errors import ContractError
-    from .contract.manifest import Manifest
+    from ..contract.errors import ContractError
+    from ..contract.manifest import Manifest
     try:
         m = Manifest.read(out)
     except ContractError:  # a manifest verify found wrong: already said
@@ -41,8 +41,8 @@ def _not_rendered(out) -> str:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from .contract.manifest import MANIFEST
-    from .render.folder import OutputFolder
+    from ..contract.manifest import MANIFEST
+    from ..render.folder import OutputFolder
     folder = OutputFolder(args.out)
     if not (Path(args.out) / MANIFEST).is_file():
         raise SesgenError(f"{args.out}: no render here (no manifest.json)")

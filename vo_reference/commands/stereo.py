@@ -38,8 +38,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def make_params(method: str, args: argparse.Namespace):
     """Method parameters with the command-line overrides applied."""
-    from .accurate import AccurateParams
-    from .paper import PaperParams
+    from ..stereo.accurate import AccurateParams
+    from ..stereo.paper import PaperParams
     if method == "paper":
         p = PaperParams()
         if getattr(args, "search", None) is not None:
@@ -91,7 +91,7 @@ def vo_progress(method: str, frames: tuple[int, int], mode: str = "auto", stream
 def run(args: argparse.Namespace) -> int:
     from ..io.sequence import open_sequence, require_complete
     from ..io.trajectory import write_kitti, write_tum
-    from .pipeline import parse_frames, run_stereo_vo
+    from ..stereo.pipeline import parse_frames, run_stereo_vo
 
     seq = open_sequence(args.input)
     frames = parse_frames(args.frames, seq.num_frames)

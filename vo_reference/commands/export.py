@@ -11,7 +11,7 @@ from blender_sesgen.contract.progress import add_progress_argument, progress_mod
 from blender_sesgen.contract.timing import FRAMES_HELP
 
 from ..errors import VoError
-from .exports import EXPORTERS, export
+from ..products.exports import EXPORTERS, export
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -16,10 +16,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .disparity import disparity_metrics
+    from ..evaluate.disparity import disparity_metrics
     from ..products.disparity import read_disparity
-    from .disparity_io import read_mask
-    from .report import write_json
+    from ..evaluate.disparity_io import read_mask
+    from ..evaluate.report import write_json
 
     gt = read_disparity(args.gt)
     est = read_disparity(args.est)
@@ -36,7 +36,7 @@ def run(args: argparse.Namespace) -> int:
         write_json(args.json, m)
         print(f"metrics: {args.json}")
     if args.report:
-        from .plots import plot_disparity_error
+        from ..evaluate.plots import plot_disparity_error
         p = plot_disparity_error(gt, est, Path(args.report) / "disparity_error.png", title=Path(args.est).name)
         print(f"plot:    {p}")
     return 0

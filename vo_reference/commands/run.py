@@ -28,7 +28,7 @@ from blender_sesgen.contract.timing import FRAMES_HELP
 
 from ..errors import VoError
 from ..evaluate.align import CLI_DEFAULT
-from .report import RunReport, error_summary, shape_errors, shape_line
+from ..stereo.report import RunReport, error_summary, shape_errors, shape_line
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -63,8 +63,8 @@ def run(args: argparse.Namespace) -> int:
     from ..evaluate.trajectory_eval import evaluate_trajectory, summary_lines
     from ..io.sequence import open_sequence, require_complete
     from ..io.trajectory import Trajectory, write_kitti, write_tum
-    from .cli import failed_summary, vo_progress
-    from .pipeline import METHODS, check_stereo, parse_frames, run_stereo_vo
+    from .stereo import failed_summary, vo_progress
+    from ..stereo.pipeline import METHODS, check_stereo, parse_frames, run_stereo_vo
 
     root = Path(args.input)
     seq = open_sequence(root)

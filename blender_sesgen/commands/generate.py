@@ -18,9 +18,9 @@ import json
 import sys
 from pathlib import Path
 
-from .contract.cli import EXIT_FAILURE, EXIT_OK
-from .contract.progress import Progress, add_progress_argument, progress_mode
-from .errors import ScriptError, SesgenError
+from ..contract.cli import EXIT_FAILURE, EXIT_OK
+from ..contract.progress import Progress, add_progress_argument, progress_mode
+from ..errors import ScriptError, SesgenError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -56,14 +56,14 @@ def parse_options(items: list[str]) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    from . import generators
+    from .. import generators
     if args.list:
         for name, where in generators.available().items():
             print(f"{name:14s} {where}")
         return EXIT_OK
     if not args.generator or args.count is None or not args.out:
         raise SesgenError("generate needs GENERATOR, --count N and --out DIR (or --list)")
-    from .files.dataset import DEFAULT_FRACTIONS, assign_splits, check_fractions, sequence_seeds
+    from ..files.dataset import DEFAULT_FRACTIONS, assign_splits, check_fractions, sequence_seeds
     if args.count < 1:
         raise SesgenError(f"--count must be >= 1, got {args.count}")
     if not 0 <= args.seed <= 2**31 - 1:
@@ -93,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _check_folder(out: Path) -> None:
     """DIR must be new, empty, or hold only what an earlier ``generate`` wrote."""
-    from .files.dataset import INDEX, read_index
+    from ..files.dataset import INDEX, read_index
     if out.exists() and not out.is_dir():
         raise SesgenError(f"--out {out}: exists and is not a folder")
     if not out.is_dir() or not any(out.iterdir()):
@@ -109,10 +109,10 @@ def _check_folder(out: Path) -> None:
 
 
 def _write(out: Path, gen, options: dict, args, seeds, splits, names, fractions) -> int:
-    from .contract.atomic import replacing_folder, write_json
-    from .files.dataset import INDEX, path_length_m, scripts_index
-    from .render.plan import validate_scene
-    from .ses import parse_string
+    from ..contract.atomic import replacing_folder, write_json
+    from ..files.dataset import INDEX, path_length_m, scripts_index
+    from ..render.plan import validate_scene
+    from ..ses import parse_string
     sequences = []
     with Progress(len(names), f"generate {gen.name}", mode=progress_mode(args), unit="script") as bar, \
             replacing_folder(out) as tmp:

@@ -10,13 +10,13 @@ import dataclasses
 import sys
 import time
 
-from .contract.cli import EXIT_FAILURE, EXIT_INTERRUPTED
-from .contract.progress import Progress, add_progress_argument, progress_mode
-from .contract.timing import FRAMES_HELP
-from .errors import SesgenError
-from .render.interrupt import deferred_interrupts
-from .render.plan import Device, RenderOptions
-from .scene.presets import QUALITIES
+from ..contract.cli import EXIT_FAILURE, EXIT_INTERRUPTED
+from ..contract.progress import Progress, add_progress_argument, progress_mode
+from ..contract.timing import FRAMES_HELP
+from ..errors import SesgenError
+from ..render.interrupt import deferred_interrupts
+from ..render.plan import Device, RenderOptions
+from ..scene.presets import QUALITIES
 
 
 def add_arguments(p, forwarded_only: bool = False) -> list[argparse.Action]:
@@ -116,8 +116,8 @@ def render_argv(o: RenderOptions) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .api import frame_progress, have_bpy
-    from .render.job import RenderJob
+    from ..api import frame_progress, have_bpy
+    from ..render.job import RenderJob
     t_start = time.perf_counter()
     args.quiet = progress_mode(args) == "off"   # -q is --progress off: neither says what it renders
     options = render_options(args)
@@ -130,7 +130,7 @@ def run(args: argparse.Namespace) -> int:
     views = job.scene.rig.views
     gpu = ""
     if s.device is Device.GPU:  # no GPU: exit 2 before anything is printed or written
-        from .blender.render import enable_gpu
+        from ..blender.render import enable_gpu
         gpu = f" ({enable_gpu()})"
     if not args.quiet:
         p = s.preset
@@ -159,7 +159,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"error: render failed: {e}", file=sys.stderr)
             return EXIT_FAILURE
     if args.contact_sheet:
-        from .files.contact_sheet import write_contact_sheet
+        from ..files.contact_sheet import write_contact_sheet
         from pathlib import Path
         png = Path(args.contact_sheet)
         if not png.is_absolute():

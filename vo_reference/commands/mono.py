@@ -53,7 +53,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .run import MonoRunOptions, run_mono, summary_lines
+    from ..mono.run import MonoRunOptions, run_mono, summary_lines
     opts = MonoRunOptions.of(args)
     result = run_mono(opts, progress_mode(args))
     for line in summary_lines(result.summary):

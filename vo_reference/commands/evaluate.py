@@ -9,7 +9,7 @@ from blender_sesgen.contract.timing import FRAMES_HELP, frame_range
 
 from ..errors import VoError, as_vo_error
 from ..io.trajectory import Trajectory, guess_format, read_trajectory
-from .align import CLI_DEFAULT, METHODS
+from ..evaluate.align import CLI_DEFAULT, METHODS
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -70,8 +70,8 @@ def _select_frames(gt: Trajectory, est: Trajectory, spec, by_index: bool, est_na
 
 
 def run(args: argparse.Namespace) -> int:
-    from .report import write_json, write_report
-    from .trajectory_eval import EvaluationOptions, evaluate_trajectory, summary_lines
+    from ..evaluate.report import write_json, write_report
+    from ..evaluate.trajectory_eval import EvaluationOptions, evaluate_trajectory, summary_lines
 
     fmt_gt, fmt_est = _fmt_of(args.gt, args.format), _fmt_of(args.est, args.format)
     gt = read_trajectory(args.gt, fmt_gt, view=args.view)

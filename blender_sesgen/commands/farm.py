@@ -31,7 +31,7 @@ def render_actions() -> list[argparse.Action]:
     ``--samples``, ``--denoise``, ``--seed``, ``--resolution-scale``, ``--device``, ...):
     declared once, by the render command (``render_cli.add_arguments``), so that a new render
     option is a farm option too."""
-    from .. import render_cli
+    from . import render as render_cli
     return render_cli.add_arguments(argparse.ArgumentParser(add_help=False), forwarded_only=True)
 
 
@@ -56,20 +56,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="GPUs each task reserves (fractions share a GPU); > 0 renders with --device gpu")
     p.add_argument("--num-cpus", type=int, metavar="N", help="local Ray only: the CPUs it may use (default all)")
     add_progress_argument(p)
-    from .. import render_cli
+    from . import render as render_cli
     render_cli.add_arguments(p.add_argument_group("render options", "as for `render`, for every scene"),
                              forwarded_only=True)
 
 
 def forwarded_argv(args: argparse.Namespace) -> list[str]:
     """The render options given on the farm's command line, as render arguments."""
-    from .. import render_cli
+    from . import render as render_cli
     return render_cli.render_argv(render_options(args))
 
 
 def render_options(args: argparse.Namespace):
     """The RenderOptions every chunk renders with (the render command's reading of them)."""
-    from .. import render_cli
+    from . import render as render_cli
     return render_cli.forwarded_options(args)
 
 
@@ -77,7 +77,7 @@ def prepare(args: argparse.Namespace) -> tuple[Path, list]:
     """ROOT and the farm's scenes, each with its plan and pending frames or its user error."""
     from ..render.folder import OutputFolder
     from ..render.plan import RenderPlan
-    from .work import FarmScene, find_scripts, unique_names
+    from ..farm.work import FarmScene, find_scripts, unique_names
     root = Path(args.out).absolute()
     if root.exists() and not root.is_dir():
         raise SesgenError(f"--out {args.out}: exists and is not a folder")
@@ -123,9 +123,9 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_USER_ERROR
 
     from ..files.dataset import write_render_index
-    from .cluster import Cluster
-    from .driver import Farm
-    from .work import frame_ranges
+    from ..farm.cluster import Cluster
+    from ..farm.driver import Farm
+    from ..farm.work import frame_ranges
     cluster = Cluster(args.address, num_cpus=args.num_cpus).start()
     try:
         if args.address is not None:

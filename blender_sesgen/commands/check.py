@@ -11,10 +11,10 @@ from collections import Counter
 
 import numpy as np
 
-from .errors import ScriptError
-from .contract.camera import field_of_view_deg
-from .contract.frames import start_rotation_deg
-from .scene.model import Scene
+from ..errors import ScriptError
+from ..contract.camera import field_of_view_deg
+from ..contract.frames import start_rotation_deg
+from ..scene.model import Scene
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -22,7 +22,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .ses import parse_file
+    from ..ses import parse_file
     try:
         scene = parse_file(args.script)
     except ScriptError as e:
@@ -77,7 +77,7 @@ def summary(scene: Scene) -> str:
     if scene.noise:
         extras.append(f"noise sigma {scene.noise.sigma:g} seed {scene.noise.seed}")
     r = scene.render
-    from .scene.presets import effective
+    from ..scene.presets import effective
     p = effective(None, None, None, r.quality, r.samples, r.denoise)
     sampling = f"adaptive <= {p.samples} samples" if p.adaptive else f"{p.samples} samples"
     extras.append(f"render quality {p.quality}{'' if r.quality else ' (default)'}: {sampling}, "
@@ -100,7 +100,7 @@ def _world_text(w) -> str:
 def _lighting_lines(scene: Scene) -> list[str]:
     """The ``lights`` and ``world`` lines: what the renderer lights the scene with
     (``lighting_data.effective_world``; docs/ses-language.md, LIGHT and WORLD)."""
-    from .scene.lighting import effective_world
+    from ..scene.lighting import effective_world
     blend_lamps = any(imp.lights for imp in scene.imports)
     world = effective_world(scene.world, bool(scene.lights))
     sky_sun = " + the sky's sun" if world.kind == "sky" else ""

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import sys
 
-from .contract.cli import dispatch
-from .errors import ScriptError, SesgenError
+from ..contract.cli import dispatch
+from ..errors import ScriptError, SesgenError
 
 PROG = "sesgen"   # the installed command, the one the docs use
 DESCRIPTION = ("Synthetic stereo egomotion sequences with exact ground truth, rendered by Blender Cycles. "
@@ -17,10 +17,10 @@ DESCRIPTION = ("Synthetic stereo egomotion sequences with exact ground truth, re
 # command -> (module relative to this package, one-line help)
 COMMANDS = {
     "check": (".check", "validate a script and print a summary of its scene, rig and motion"),
-    "render": (".render_cli", "render a script to a stereo multilayer-EXR sequence with ground truth"),
-    "verify": (".verify_cli", "check every file of a render against its manifest; bad frames are re-rendered by --resume"),
-    "farm": (".farm.cli", "render many scenes in chunks of frames as Ray tasks, on this machine or a cluster"),
-    "generate": (".generate_cli", "write N varied scene scripts from a scene generator, and their dataset index"),
+    "render": (".render", "render a script to a stereo multilayer-EXR sequence with ground truth"),
+    "verify": (".verify", "check every file of a render against its manifest; bad frames are re-rendered by --resume"),
+    "farm": (".farm", "render many scenes in chunks of frames as Ray tasks, on this machine or a cluster"),
+    "generate": (".generate", "write N varied scene scripts from a scene generator, and their dataset index"),
 }
 
 

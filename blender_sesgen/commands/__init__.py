@@ -1,0 +1,1 @@
+"""The command line: one module per ``sesgen`` command, parsing and printing only; nothing imports this package."""

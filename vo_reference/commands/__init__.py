@@ -1,0 +1,1 @@
+"""The command line: one module per ``vo-reference`` command, parsing and printing only; nothing imports this package."""
