@@ -365,7 +365,7 @@ def _setup_pfm(folder: Path) -> Path:
 
 
 def _setup_png16(folder: Path) -> Path:
-    from vo_reference.products.disparity import write_disparity_png16
+    from vo_reference.groundtruth.disparity import write_disparity_png16
     d = np.linspace(1, 30, 6 * 8, dtype=np.float32).reshape(6, 8)
     d[0, 0] = np.nan
     write_disparity_png16(folder / "gt.png", d)
@@ -377,13 +377,13 @@ def _consume_disparity(path: Path, folder: Path) -> None:
 
 
 def _setup_flow_png(folder: Path) -> Path:
-    from vo_reference.products.flow import write_kitti_flow_png
+    from vo_reference.groundtruth.flow import write_kitti_flow_png
     f = np.stack(np.meshgrid(np.linspace(-3, 3, 8), np.linspace(-2, 2, 6)), -1).astype(np.float32)
     return write_kitti_flow_png(folder / "flow.png", f)
 
 
 def _consume_flow_png(path: Path, folder: Path) -> None:
-    from vo_reference.products.flow import read_kitti_flow_png
+    from vo_reference.groundtruth.flow import read_kitti_flow_png
     flow, valid = read_kitti_flow_png(path)
     assert flow.shape[:2] == valid.shape
 

@@ -8,7 +8,7 @@ import sys
 import pytest
 
 from blender_sesgen.addon import export_job
-from vo_reference.products.exports import EXPORTERS, get_exporter
+from vo_reference.exporters.driver import EXPORTERS, get_exporter
 
 PY_VO = [sys.executable, "-m", "vo_reference"]
 

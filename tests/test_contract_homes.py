@@ -19,7 +19,7 @@ REPO = Path(__file__).resolve().parents[1]
 PACKAGES = ("blender_sesgen", "vo_reference")
 CONTRACT = REPO / "blender_sesgen" / "contract"
 # a Middlebury .flo file's own "unknown" marker happens to be 1e10 too (not a depth)
-OTHER_1E10 = {("vo_reference/products/flow.py", "FLO_UNKNOWN")}
+OTHER_1E10 = {("vo_reference/groundtruth/flow.py", "FLO_UNKNOWN")}
 TIMING_KEYS = {"rate_hz", "start_s", "exposure_s", "readout_s", "motion_blur"}
 SETTING_KEYS = {"samples", "sampling", "seed", "passes", "resolution_scale"}
 CHANNEL_NAMES = {"Combined", "Depth", "Object Index", "IndexOB"}

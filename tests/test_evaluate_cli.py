@@ -10,7 +10,7 @@ import pytest
 
 from vo_reference.evaluate.disparity_io import read_mask
 from vo_reference.io.pfm import write_pfm
-from vo_reference.products.disparity import read_disparity
+from vo_reference.groundtruth.disparity import read_disparity
 
 pytestmark = pytest.mark.slow   # subprocesses and end-to-end runs (left out of make test-fast)
 

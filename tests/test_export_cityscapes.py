@@ -55,7 +55,7 @@ def render(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def exported(render, tmp_path_factory):
-    from vo_reference.products.exports import export
+    from vo_reference.exporters.driver import export
     return export(render, "cityscapes", tmp_path_factory.mktemp("cs_out") / "cityscapes", noise=None,
                   progress=False, extra={"city": "bochum", "split": "val"})
 

@@ -11,7 +11,7 @@ import pytest
 from vo_reference.commands.main import main as cli_main
 from vo_reference.io.render import RenderSequence
 from vo_reference.io.sequence import open_sequence
-from vo_reference.products.exports import export
+from vo_reference.exporters.driver import export
 
 from layout_scene import B, K, write_layout_render
 
@@ -91,7 +91,7 @@ def test_an_interrupted_export_leaves_the_old_sequence(render, tmp_path, monkeyp
     export(render, "kitti-odometry", out, progress=False)
     old = (out / "dataset/sequences/00/image_2/000003.png").read_bytes()
     old_poses = (out / "dataset/poses/00.txt").read_text()
-    import vo_reference.products.kitti_odometry as ko
+    import vo_reference.exporters.kitti_odometry as ko
     calls = {"n": 0}
     real = ko.write_png_rgb
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from vo_reference.products.exports import EXPORTERS
+from vo_reference.exporters.driver import EXPORTERS
 
 pytest.importorskip("cv2")
 pytest.importorskip("OpenEXR")
@@ -19,7 +19,7 @@ def tree(root: Path) -> dict[str, bytes]:
 
 @pytest.mark.parametrize("target, extra", [(t, {}) for t in sorted(EXPORTERS)] + [("rosbag", {"storage": "sqlite3"})])
 def test_two_exports_of_one_render_are_identical(layout_render, tmp_path, target, extra):
-    from vo_reference.products.exports import export
+    from vo_reference.exporters.driver import export
     if target == "rosbag":
         pytest.importorskip("rosbags")
     a = export(layout_render, target, tmp_path / "first" / "out", progress=False, extra=extra)

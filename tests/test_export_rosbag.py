@@ -48,7 +48,7 @@ def matrix(transform) -> np.ndarray:
 
 
 def test_tf_static_holds_the_rig_extrinsics(render, tmp_path):
-    from vo_reference.products.exports import export
+    from vo_reference.exporters.driver import export
     msgs, qos = read_bag(export(render, "rosbag", tmp_path / "b", progress=False) / "bag")
     (t, tf), = msgs["/tf_static"]
     edges = {(x.header.frame_id, x.child_frame_id): matrix(x.transform) for x in tf.transforms}
@@ -66,7 +66,7 @@ def test_tf_static_holds_the_rig_extrinsics(render, tmp_path):
 
 
 def test_stamps_are_the_renders_clock(render, tmp_path):
-    from vo_reference.products.exports import export
+    from vo_reference.exporters.driver import export
     msgs, _ = read_bag(export(render, "rosbag", tmp_path / "b", frames="1:", progress=False) / "bag")
     frame_ns = [int(round((START_S + k / 10) * 1e9)) for k in (1, 2)]
     assert [t for t, _ in msgs["/cam0/image_raw"]] == frame_ns
@@ -78,7 +78,7 @@ def test_stamps_are_the_renders_clock(render, tmp_path):
 
 
 def test_a_rig_without_imu_has_body_at_cam0(tmp_path):
-    from vo_reference.products.exports import export
+    from vo_reference.exporters.driver import export
     root = write_layout_render(tmp_path / "r", n=2)
     msgs, _ = read_bag(export(root, "rosbag", tmp_path / "b", progress=False) / "bag")
     (_, tf), = msgs["/tf_static"]

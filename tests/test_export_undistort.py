@@ -125,7 +125,7 @@ def _export(render, out, target, *extra):
 
 
 def test_layouts_without_a_lens_model_refuse_and_name_the_option(render, tmp_path, capsys):
-    from vo_reference.products.exports import EXPORTERS, get_exporter
+    from vo_reference.exporters.driver import EXPORTERS, get_exporter
     keep = {t for t in EXPORTERS if getattr(get_exporter(t), "keeps_lens", False)}
     assert {"bayer", "cityscapes", "euroc", "rosbag"} <= keep
     refuse = sorted(set(EXPORTERS) - keep)

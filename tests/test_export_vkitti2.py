@@ -153,7 +153,7 @@ def test_pose_bbox_and_info_tables(exported):
 
 
 def test_truncation_of_a_box_half_out_of_the_image():
-    from vo_reference.products.vkitti2 import truncation
+    from vo_reference.exporters.vkitti2 import truncation
     K_ = np.array([[100.0, 0, 49.5], [0, 100.0, 49.5], [0, 0, 1]])
     T = np.eye(4)
     T[:3, 3] = [0.0, 0.0, 10.0]                                   # a 2 m cube 10 m ahead, centred

@@ -14,7 +14,7 @@ from vo_reference.mono.motion_errors import per_frame_errors
 from vo_reference.mono.pipeline import MonoVoConfig, run_mono_vo
 from vo_reference.mono.prepare import Preparation
 from vo_reference.mono.scale import GroundTruthScale
-from vo_reference.products.bayer_export import write_bayer_frames
+from vo_reference.exporters.bayer import write_bayer_frames
 
 pytest.importorskip("cv2")
 

@@ -7,7 +7,7 @@ import pytest
 from vo_reference.errors import VoError
 from vo_reference.io.sequence import open_sequence
 from synthetic_render import plane_depth, write_render
-from vo_reference.products.disparity import (
+from vo_reference.groundtruth.disparity import (
     disparity_color, disparity_from_depth, disparity_to_png16, read_disparity, read_disparity_png16,
     sequence_disparity, write_disparity, write_disparity_color, write_disparity_png16)
 

@@ -8,7 +8,7 @@ import pytest
 from vo_reference.io.render import RenderSequence
 from synthetic_render import add_imu, write_render
 from vo_reference.io.trajectory import read_euroc
-from vo_reference.products.exports import export
+from vo_reference.exporters.driver import export
 
 cv2 = pytest.importorskip("cv2")
 pytest.importorskip("OpenEXR")

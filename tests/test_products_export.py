@@ -17,9 +17,9 @@ from vo_reference.errors import VoError
 from vo_reference.io.kitti import KittiSequence
 from vo_reference.io.render import RenderSequence
 from synthetic_render import write_render
-from vo_reference.products.disparity import disparity_to_png16
-from vo_reference.products.exports import EXPORTERS, export, parse_frames, register_exporter
-from vo_reference.products.flow import read_kitti_flow_png, stereo_occlusion
+from vo_reference.groundtruth.disparity import disparity_to_png16
+from vo_reference.exporters.driver import EXPORTERS, export, parse_frames, register_exporter
+from vo_reference.groundtruth.flow import read_kitti_flow_png, stereo_occlusion
 
 cv2 = pytest.importorskip("cv2")
 pytest.importorskip("OpenEXR")

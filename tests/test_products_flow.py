@@ -12,7 +12,7 @@ import pytest
 
 from vo_reference.errors import VoError
 from blender_sesgen.contract.se3 import se3_exp
-from vo_reference.products.flow import (
+from vo_reference.groundtruth.flow import (
     flow_from_depth, read_flo, read_kitti_flow_png, stereo_occlusion, write_flo, write_kitti_flow_png)
 
 W, H = 48, 36
@@ -216,7 +216,7 @@ def test_sequence_forward_and_backward_flow_on_a_render(tmp_path):
     """Rig moving +0.1 m along x in front of a plane at 4 m, f = 50: flow = ∓1.25 px."""
     from vo_reference.io.sequence import open_sequence
     from synthetic_render import plane_scene
-    from vo_reference.products.flow import backward_flow, forward_flow, sequence_stereo_occlusion
+    from vo_reference.groundtruth.flow import backward_flow, forward_flow, sequence_stereo_occlusion
     seq = open_sequence(plane_scene(tmp_path / "p", frames=3, step_m=0.1, f=50.0, plane_z=4.0))
     fw, bw = forward_flow(seq, 1), backward_flow(seq, 1)
     assert np.allclose(fw.flow[..., 0], -1.25, atol=1e-5) and np.allclose(fw.flow[..., 1], 0, atol=1e-5)

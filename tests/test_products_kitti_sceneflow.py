@@ -24,9 +24,9 @@ import dynamic_scene as ds
 import raycast
 from test_products_scene_flow import _near_edge, _oracle
 
-from vo_reference.products.disparity import read_disparity_png16
-from vo_reference.products.exports import export
-from vo_reference.products.flow import read_kitti_flow_png
+from vo_reference.groundtruth.disparity import read_disparity_png16
+from vo_reference.exporters.driver import export
+from vo_reference.groundtruth.flow import read_kitti_flow_png
 
 REPO = Path(__file__).resolve().parents[1]
 FOLDERS = ("image_2", "image_3", "disp_occ_0", "disp_noc_0", "disp_occ_1", "disp_noc_1", "flow_occ", "flow_noc",

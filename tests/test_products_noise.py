@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from vo_reference.errors import VoError
-from vo_reference.products.noise import add_gaussian_noise
+from vo_reference.groundtruth.noise import add_gaussian_noise
 
 
 def test_same_seed_identical_bytes_different_seed_different():

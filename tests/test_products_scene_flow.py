@@ -18,8 +18,8 @@ import dynamic_scene as ds
 import raycast
 
 from vo_reference.io.render import RenderSequence
-from vo_reference.products.flow import flow_from_depth, sequence_flow
-from vo_reference.products.scene_flow import (
+from vo_reference.groundtruth.flow import flow_from_depth, sequence_flow
+from vo_reference.groundtruth.scene_flow import (
     motion_mask, moving_objects_mask, scene_flow_from_depth, sequence_scene_flow)
 
 GOLDEN = Path(__file__).resolve().parent / "golden" / "static_flow.npz"
@@ -95,7 +95,7 @@ def test_flow_scene_flow_and_disparity_change_match_the_oracle(scene, seq, k, kt
 def test_dense_layouts_move_the_movers_too(scene, seq, k, kt):
     """The dense products of the TartanAir / vKITTI 2 / SceneFlow exports (flow for every
     pixel, disparity change) agree with the oracle on the movers."""
-    from vo_reference.products.dense_gt import dense_flow, disparity_change
+    from vo_reference.groundtruth.dense import dense_flow, disparity_change
     flow, _, z_t, _, hit, _, _, _, _ = _oracle(scene, k, kt)
     fl = dense_flow(seq, k, kt)
     assert np.abs(fl.flow[hit] - flow[hit]).max() <= 1e-4

@@ -276,7 +276,7 @@ def test_disparity_files(tmp_path, capfd):
 
 def test_flo_with_negative_size(tmp_path):
     from vo_reference.errors import VoError
-    from vo_reference.products.flow import FLO_MAGIC, read_flo
+    from vo_reference.groundtruth.flow import FLO_MAGIC, read_flo
     path = tmp_path / "x.flo"
     path.write_bytes(np.array([FLO_MAGIC], "<f4").tobytes() + np.array([-1, -1], "<i4").tobytes() + b"\0" * 16)
     with pytest.raises(VoError, match="not an image size"):

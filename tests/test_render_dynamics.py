@@ -114,7 +114,7 @@ def test_moving_objects_render_where_the_oracle_puts_them(dyn_render):
 
 def test_flow_from_the_render_matches_the_oracle(dyn_render):
     from vo_reference.io.render import RenderSequence
-    from vo_reference.products.scene_flow import sequence_scene_flow
+    from vo_reference.groundtruth.scene_flow import sequence_scene_flow
     out, m = dyn_render
     seq = RenderSequence(out)
     T_obj = oracle_object_poses()

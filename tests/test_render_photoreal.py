@@ -171,7 +171,7 @@ def test_cityscapes_export_of_classes(tmp_path):
     cv2 = pytest.importorskip("cv2")
     from blender_sesgen.contract import semantics
     from vo_reference.io.render import RenderSequence
-    from vo_reference.products.exports import export
+    from vo_reference.exporters.driver import export
     script = tmp_path / "s.ses"
     script.write_text("CAMERA resolution 64 48 focal 40 baseline 0.2\nSTART position 0 1.2 4 -10 0 0\n"
                       "QUAD id 1 material asphalt vertices -6 0 6  6 0 6  6 0 -6  -6 0 -6\n"

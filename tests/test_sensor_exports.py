@@ -66,7 +66,7 @@ def test_render_reader_gives_rows_imu_and_lens(render):
 
 def test_euroc_export_with_imu_is_read_by_evo(render, tmp_path):
     from evo.tools import file_interface
-    from vo_reference.products.exports import export
+    from vo_reference.exporters.driver import export
     out = export(render.root, "euroc", tmp_path / "euroc", progress=False)
     mav = out / "mav0"
     for f in ("imu0/data.csv", "imu0/sensor.yaml", "cam0/data.csv", "cam1/sensor.yaml", "cam0/row_offsets.csv",
@@ -95,7 +95,7 @@ def test_euroc_export_with_imu_is_read_by_evo(render, tmp_path):
 def test_rosbag_export_reads_back(render, tmp_path):
     from rosbags.rosbag2 import Reader
     from rosbags.typesys import Stores, get_typestore
-    from vo_reference.products.exports import export
+    from vo_reference.exporters.driver import export
     out = export(render.root, "rosbag", tmp_path / "ros", progress=False)
     ts = get_typestore(Stores.ROS2_HUMBLE)
     frame_ns = [int(round(t * 1e9)) for t in render.timestamps_s]
@@ -151,7 +151,7 @@ def test_flow_of_a_distorted_render_follows_the_lens(render):
     """Flow between distorted images against the render's own ground truth: a pixel moved by
     the flow lands on the same object in the next frame (rendered ids, nearest pixel), and
     the target depth there is the moved point's depth; the pinhole formula would not."""
-    from vo_reference.products.flow import flow_from_depth, sequence_flow
+    from vo_reference.groundtruth.flow import flow_from_depth, sequence_flow
     seq = render
     z0, z1 = seq.depth(0), seq.depth(1)
     ids0, ids1 = seq.ids(0), seq.ids(1)

@@ -54,7 +54,7 @@ def seq(render):
 
 
 def test_the_board_is_a_large_moving_object(seq):
-    from vo_reference.products.scene_flow import motion_mask
+    from vo_reference.groundtruth.scene_flow import motion_mask
     assert seq.moving_ids == (99,)
     shares = [motion_mask(seq, k, k + 1).mean() for k in range(FRAMES - 1)]
     assert min(shares) >= 0.15, shares

@@ -35,7 +35,7 @@ def test_static_and_dynamic_keypoints(seq):
 
 def test_gt_correspondences_move_with_the_movers(seq):
     """--gt-flow's keypoint positions at k+1 equal the exact scene-flow product's flow."""
-    from vo_reference.products.scene_flow import sequence_scene_flow
+    from vo_reference.groundtruth.scene_flow import sequence_scene_flow
     gt = ground_truth_step(seq, 1, seq.T_world_cam())
     sf = sequence_scene_flow(seq, 1, 2)
     ys, xs = np.nonzero(sf.valid)

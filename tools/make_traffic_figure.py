@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 
 from vo_reference.io.render import RenderSequence
-from vo_reference.products.scene_flow import sequence_scene_flow
+from vo_reference.groundtruth.scene_flow import sequence_scene_flow
 
 OUT = Path(__file__).resolve().parent / "img" / "street_kitti_traffic.jpg"
 

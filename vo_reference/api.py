@@ -23,13 +23,13 @@ from .io.kitti import KittiSequence
 from .io.render import RenderSequence
 from .io.sequence import Sequence, open_sequence
 from .io.trajectory import Trajectory, read_trajectory, write_kitti, write_tum
-from .products.dense_gt import DenseFlow, dense_flow, disparity_change
-from .products.disparity import (disparity_from_depth, read_disparity, sequence_disparity as disparity,
+from .groundtruth.dense import DenseFlow, dense_flow, disparity_change
+from .groundtruth.disparity import (disparity_from_depth, read_disparity, sequence_disparity as disparity,
                                  write_disparity)
-from .products.exports import EXPORTERS, export, register_exporter
-from .products.flow import (Flow, read_flo, read_kitti_flow_png, sequence_flow as optical_flow,
+from .exporters.driver import EXPORTERS, export, register_exporter
+from .groundtruth.flow import (Flow, read_flo, read_kitti_flow_png, sequence_flow as optical_flow,
                             sequence_stereo_occlusion as stereo_occlusion, write_flo, write_kitti_flow_png)
-from .products.scene_flow import SceneFlow, motion_mask, sequence_scene_flow as scene_flow
+from .groundtruth.scene_flow import SceneFlow, motion_mask, sequence_scene_flow as scene_flow
 from .stereo.pipeline import METHODS as STEREO_METHODS
 from .stereo.pipeline import VoResult, run_stereo_vo
 

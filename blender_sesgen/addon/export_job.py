@@ -18,7 +18,7 @@ from typing import Optional
 
 from ..errors import SesgenError
 
-# the layouts of vo_reference.products.exports.EXPORTERS (a test keeps the two lists equal)
+# the layouts of vo_reference.exporters.driver.EXPORTERS (a test keeps the two lists equal)
 TARGETS = (
     ("kitti-odometry", "KITTI odometry", "The development kit's tree: dataset/sequences/NN + dataset/poses/NN.txt"),
     ("kitti-folder", "KITTI folder", "One KITTI sequence folder with poses.txt"),

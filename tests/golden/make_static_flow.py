@@ -20,8 +20,8 @@ HERE = Path(__file__).resolve().parent
 
 
 def products(seq) -> dict:
-    from vo_reference.products.disparity import sequence_disparity
-    from vo_reference.products.flow import sequence_flow, sequence_stereo_occlusion
+    from vo_reference.groundtruth.disparity import sequence_disparity
+    from vo_reference.groundtruth.flow import sequence_flow, sequence_stereo_occlusion
     out = {}
     for k, kt in ((0, 1), (1, 2), (1, 0), (2, 1)):
         f = sequence_flow(seq, k, kt, "left")

@@ -17,7 +17,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..evaluate.disparity import disparity_metrics
-    from ..products.disparity import read_disparity
+    from ..groundtruth.disparity import read_disparity
     from ..evaluate.disparity_io import read_mask
     from ..evaluate.report import write_json
 

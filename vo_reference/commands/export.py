@@ -1,6 +1,6 @@
 """``python -m vo_reference export RENDER_DIR --to TARGET OUT``: dataset layouts of a render.
 
-Targets come from :data:`vo_reference.products.exports.EXPORTERS` (add one line there to
+Targets come from :data:`vo_reference.exporters.driver.EXPORTERS` (add one line there to
 add a target).
 """
 from __future__ import annotations
@@ -11,7 +11,7 @@ from blender_sesgen.contract.progress import add_progress_argument, progress_mod
 from blender_sesgen.contract.timing import FRAMES_HELP
 
 from ..errors import VoError
-from ..products.exports import EXPORTERS, export
+from ..exporters.driver import EXPORTERS, export
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -1,4 +1,4 @@
-"""Masks for disparity evaluation (disparity maps themselves: products.disparity.read_disparity)."""
+"""Masks for disparity evaluation (disparity maps themselves: groundtruth.disparity.read_disparity)."""
 from __future__ import annotations
 
 from pathlib import Path

@@ -89,8 +89,8 @@ def _ids(seq, k: int):
 
 def ground_truth_step(seq, k: int, T_gt: np.ndarray) -> GroundTruthStep:
     """The ground truth of step k -> k+1 (depth, ids and the movers' point motion at k)."""
-    from ..products.flow import sequence_object_poses
-    from ..products.scene_flow import object_motion_in_camera
+    from ..groundtruth.flow import sequence_object_poses
+    from ..groundtruth.scene_flow import object_motion_in_camera
     K = np.asarray(seq.K, dtype=float)
     moving = {i: P for i, P in sequence_object_poses(seq, k, k + 1).items() if not np.array_equal(*P)}
     ids = _ids(seq, k) if moving else None

@@ -150,7 +150,7 @@ def _polygon_label(cls: str) -> str:
 
 
 def export_cityscapes(seq, out: Path, opts) -> None:
-    from .exports import image_rgb, progress_bar
+    from .driver import image_rgb, progress_bar
     extra = dict(opts.extra)
     city = str(extra.pop("city", "sesgen"))
     split = str(extra.pop("split", "train"))

@@ -46,7 +46,7 @@ def _quat_xyzw(R: np.ndarray) -> np.ndarray:
 
 def export_rosbag(seq, out: Path, opts) -> None:
     from blender_sesgen.contract.timing import to_ns
-    from .exports import image_gray, image_rgb
+    from .driver import image_gray, image_rgb
     extra = dict(opts.extra)
     encoding = extra.pop("encoding", "mono8")
     storage = extra.pop("storage", "mcap")

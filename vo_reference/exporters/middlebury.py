@@ -40,8 +40,8 @@ from blender_sesgen.contract import atomic
 from ..errors import VoError
 from ..io.files import write_image_atomic, write_png_rgb
 from .colmap import write_colmap_text
-from .disparity import sequence_disparity, write_disparity
-from .exports import ExportOptions, image_gray, image_rgb, progress_bar
+from ..groundtruth.disparity import sequence_disparity, write_disparity
+from .driver import ExportOptions, image_gray, image_rgb, progress_bar
 
 __all__ = ["export_middlebury", "export_eth3d", "calib_text", "nocc_mask"]
 
@@ -93,7 +93,7 @@ def _scenes(seq, opts: ExportOptions, layout: str) -> tuple[str, list[int]]:
 
 
 def export_middlebury(seq, out: Path, opts: ExportOptions) -> None:
-    from .flow import sequence_stereo_occlusion
+    from ..groundtruth.flow import sequence_stereo_occlusion
     name, frames = _scenes(seq, opts, "middlebury")
     with progress_bar(opts, len(frames), "middlebury") as bar:
         for i, k in enumerate(frames):
@@ -109,7 +109,7 @@ def export_middlebury(seq, out: Path, opts: ExportOptions) -> None:
 
 
 def export_eth3d(seq, out: Path, opts: ExportOptions) -> None:
-    from .flow import sequence_stereo_occlusion
+    from ..groundtruth.flow import sequence_stereo_occlusion
     name, frames = _scenes(seq, opts, "eth3d")
     with progress_bar(opts, len(frames), "eth3d") as bar:
         for i, k in enumerate(frames):

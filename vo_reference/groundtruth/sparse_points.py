@@ -58,7 +58,7 @@ def default_stride(width: int, height: int) -> int:
 def pop_stride(extra: dict) -> int | None:
     """Take ``stride`` (the grid step in pixels, ``--opt stride=PX``) out of an export's
     options; None when not given."""
-    from .exports import pop_number
+    from ..exporters.driver import pop_number
     return pop_number(extra, "stride", int, None, "a whole number of pixels")
 
 

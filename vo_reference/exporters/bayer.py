@@ -81,8 +81,8 @@ def write_bayer_frames(frames_rgb, timestamps_s, T_world_cam, K, out, pattern: s
 
 
 def export_bayer(seq, out: Path, opts) -> None:
-    """The ``bayer`` target of :mod:`vo_reference.products.exports` (options via --opt)."""
-    from .exports import image_rgb
+    """The ``bayer`` target of :mod:`vo_reference.exporters.driver` (options via --opt)."""
+    from .driver import image_rgb
     extra = dict(opts.extra)
     pattern = check_pattern(extra.pop("pattern", "gbrg"))
     dist = parse_distortion(extra.pop("dist", None))

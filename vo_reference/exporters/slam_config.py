@@ -37,7 +37,7 @@ from blender_sesgen.contract.se3 import R_to_quat_xyzw, invert
 from blender_sesgen.contract.sensor_yaml import YAML_HEADER
 
 from ..errors import VoError
-from .exports import ExportOptions
+from .driver import ExportOptions
 
 __all__ = ["export_slam_config", "write_slam_configs", "slam_config_files", "Rig", "T_body_cam"]
 

@@ -19,7 +19,7 @@ frames (the render manifest's ``objects[i].T_world_obj``):
   the target left camera; ``disparity_tgt`` = f·B / Z' is KITTI's ``disp_1`` (the second
   pair's disparity mapped into the reference frame via the flow).
 
-All from :func:`vo_reference.products.flow.warp_depth`, so static pixels give the same
+All from :func:`vo_reference.groundtruth.flow.warp_depth`, so static pixels give the same
 flow and occlusion as the static-scene products, to the bit.
 """
 from __future__ import annotations

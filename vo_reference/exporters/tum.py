@@ -10,7 +10,7 @@ from blender_sesgen.contract import atomic
 
 from ..errors import VoError
 from ..io.files import write_png16, write_png_rgb
-from .exports import ExportOptions, image_rgb, progress_bar
+from .driver import ExportOptions, image_rgb, progress_bar
 
 
 TUM_DEPTH_SCALE = 5000.0  # 16-bit value per metre (TUM RGB-D)

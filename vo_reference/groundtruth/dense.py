@@ -1,7 +1,7 @@
 """Dense per-pixel ground truth for the learning-data layouts (TartanAir, Virtual KITTI 2,
 SceneFlow): optical flow for *every* pixel, background included, and the disparity change.
 
-The surface pixels' flow and visibility come from :func:`vo_reference.products.flow.sequence_flow`
+The surface pixels' flow and visibility come from :func:`vo_reference.groundtruth.flow.sequence_flow`
 (the one flow product). Pixels that see nothing (depth +inf) are points at infinity: they
 move with the rotation alone, p' = π(K·R_tgt_src·K⁻¹·p), which is the limit of the flow of
 ever farther points and what those datasets hold for their sky (TartanAir computes its flow
@@ -11,7 +11,7 @@ the pixel nearest to p'.
 
 Disparity change (SceneFlow's ``disparity_change``): d_tgt − d_src = fx·B/z_tgt − fx·B/z_src,
 z_tgt the point's depth in the target camera (the warp of
-:func:`vo_reference.products.flow.warp_depth`, which moves the pixels of moving objects with
+:func:`vo_reference.groundtruth.flow.warp_depth`, which moves the pixels of moving objects with
 them); 0 for points at infinity.
 """
 from __future__ import annotations
@@ -113,5 +113,5 @@ def disparity_change(seq, k_src: int, k_tgt: int, view: str = "left") -> np.ndar
 def pop_background_depth(extra: dict, default: float = DEFAULT_BACKGROUND_DEPTH) -> float:
     """Take ``background_depth`` (``--opt background_depth=M``, metres or inf: the depth
     written where a pixel sees nothing) out of an export's options."""
-    from .exports import pop_number
+    from ..exporters.driver import pop_number
     return pop_number(extra, "background_depth", float, default, "metres (a number or inf)")

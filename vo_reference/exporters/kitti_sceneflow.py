@@ -36,10 +36,10 @@ from blender_sesgen.contract import rig
 
 from ..errors import VoError
 from ..io.files import write_png16, write_png_rgb
-from .disparity import disparity_from_depth, write_disparity_png16
-from .exports import ExportOptions, calib_cam_to_cam_text, image_rgb, progress_bar
-from .flow import hidden_behind, sequence_stereo_occlusion, write_kitti_flow_png
-from .scene_flow import SceneFlow, moving_object_ids, sequence_scene_flow
+from ..groundtruth.disparity import disparity_from_depth, write_disparity_png16
+from .driver import ExportOptions, calib_cam_to_cam_text, image_rgb, progress_bar
+from ..groundtruth.flow import hidden_behind, sequence_stereo_occlusion, write_kitti_flow_png
+from ..groundtruth.scene_flow import SceneFlow, moving_object_ids, sequence_scene_flow
 
 MAX_OBJ_MAP = 255
 

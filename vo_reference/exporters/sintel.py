@@ -33,9 +33,9 @@ from blender_sesgen.contract.se3 import invert
 
 from ..errors import VoError
 from ..io.files import write_image_atomic, write_png_rgb
-from .dense_gt import dense_flow, pop_background_depth
-from .exports import ExportOptions, image_rgb, progress_bar, sequence_folder
-from .flow import FLO_MAGIC, write_flo
+from ..groundtruth.dense import dense_flow, pop_background_depth
+from .driver import ExportOptions, image_rgb, progress_bar, sequence_folder
+from ..groundtruth.flow import FLO_MAGIC, write_flo
 
 __all__ = ["export_sintel", "dpt_bytes", "cam_bytes", "KINDS", "DEFAULT_SCENE"]
 

@@ -42,9 +42,9 @@ from blender_sesgen.contract import atomic
 from ..errors import VoError
 from ..io.files import write_png_rgb
 from ..io.pfm import write_pfm
-from .dense_gt import dense_flow, disparity_change
-from .disparity import sequence_disparity
-from .exports import ExportOptions, image_rgb, progress_bar, sequence_folder
+from ..groundtruth.dense import dense_flow, disparity_change
+from ..groundtruth.disparity import sequence_disparity
+from .driver import ExportOptions, image_rgb, progress_bar, sequence_folder
 
 __all__ = ["export_sceneflow", "flow_pfm_array"]
 

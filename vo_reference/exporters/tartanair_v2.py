@@ -43,8 +43,8 @@ from blender_sesgen.contract import atomic
 
 from ..errors import VoError
 from ..io.files import write_image_atomic, write_png_rgb
-from .dense_gt import dense_flow, pop_background_depth
-from .exports import ExportOptions, image_rgb, progress_bar, sequence_folder
+from ..groundtruth.dense import dense_flow, pop_background_depth
+from .driver import ExportOptions, image_rgb, progress_bar, sequence_folder
 from .tartanair import _check_ids, depth_and_seg, flow_mask, ned_poses, pose_lines
 
 __all__ = ["export_tartanair_v2", "depth_rgba", "flow_png16", "CAMERA", "DEFAULT_SEQUENCE"]

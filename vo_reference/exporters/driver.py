@@ -35,7 +35,7 @@ from blender_sesgen.contract.progress import Progress
 from ..errors import VoError, as_vo_error
 from ..io.color import rgb8_to_gray8
 from ..io.sequence import require_complete
-from .noise import add_gaussian_noise
+from ..groundtruth.noise import add_gaussian_noise
 
 __all__ = ["EXPORTERS", "ExportOptions", "export", "register_exporter", "get_exporter", "parse_frames",
            "sequence_folder", "check_replaceable", "progress_bar", "image_rgb", "image_gray",
@@ -43,58 +43,58 @@ __all__ = ["EXPORTERS", "ExportOptions", "export", "register_exporter", "get_exp
 
 # target name -> ("module:function", one-line help)
 EXPORTERS: dict[str, tuple[str | Callable, str]] = {
-    "kitti-odometry": ("vo_reference.products.kitti_odometry:export_kitti_odometry",
+    "kitti-odometry": ("vo_reference.exporters.kitti_odometry:export_kitti_odometry",
                        "KITTI odometry devkit tree: dataset/sequences/NN/image_0..3, calib.txt, times.txt + "
                        "dataset/poses/NN.txt (--sequence NN, default 00)"),
-    "kitti-folder": ("vo_reference.products.kitti_odometry:export_kitti_folder",
+    "kitti-folder": ("vo_reference.exporters.kitti_odometry:export_kitti_folder",
                      "one KITTI sequence folder: image_0..3/, calib.txt, times.txt, poses.txt"),
-    "kitti-stereo": ("vo_reference.products.kitti_stereo:export_kitti_stereo",
+    "kitti-stereo": ("vo_reference.exporters.kitti_stereo:export_kitti_stereo",
                      "KITTI 2015 layout: image_2/3 *_10/_11.png, disp_occ_0/disp_noc_0 PNG16, flow_occ/flow_noc"),
-    "kitti-sceneflow": ("vo_reference.products.kitti_sceneflow:export_kitti_sceneflow",
+    "kitti-sceneflow": ("vo_reference.exporters.kitti_sceneflow:export_kitti_sceneflow",
                         "KITTI scene flow 2015: image_2/3 *_10/_11, disp_occ/noc_0/1, flow_occ/noc, obj_map, "
                         "+ instance_map, motion_mask (moving objects exact)"),
-    "tum": ("vo_reference.products.tum:export_tum",
+    "tum": ("vo_reference.exporters.tum:export_tum",
             "TUM RGB-D: rgb/ + depth/ (16-bit, 5000 per metre), rgb.txt, depth.txt, groundtruth.txt"),
-    "euroc": ("vo_reference.products.euroc:export_euroc",
+    "euroc": ("vo_reference.exporters.euroc:export_euroc",
               "EuRoC MAV/ASL: mav0/cam0 (+cam1) data/<t_ns>.png grey, data.csv, sensor.yaml; "
               "state_groundtruth_estimate0/data.csv (body = left camera, or the IMU + imu0/ with an IMU)"),
-    "png": ("vo_reference.products.png_layout:export_png",
+    "png": ("vo_reference.exporters.png:export_png",
             "per view: noisy 8-bit RGB, ids PNG16 + colour palette, disparity PNG16 (x256)"),
-    "bayer": ("vo_reference.products.bayer_export:export_bayer",
+    "bayer": ("vo_reference.exporters.bayer:export_bayer",
               "GBRG Bayer mosaics + distorted images + undistortion LUT (RobotCar-like)"),
-    "tartanair": ("vo_reference.products.tartanair:export_tartanair",
+    "tartanair": ("vo_reference.exporters.tartanair:export_tartanair",
                   "TartanAir: image_left/right PNG, depth_left/right .npy (m), seg_left/right .npy, "
                   "flow/ *_flow.npy + *_mask.npy, pose_left/right.txt (NED)"),
-    "vkitti2": ("vo_reference.products.vkitti2:export_vkitti2",
+    "vkitti2": ("vo_reference.exporters.vkitti2:export_vkitti2",
                 "Virtual KITTI 2: frames/{rgb,depth,classSegmentation,instanceSegmentation,forwardFlow,"
                 "backwardFlow}/Camera_0|1, intrinsic.txt, extrinsic.txt, pose.txt, colors.txt"),
-    "sceneflow": ("vo_reference.products.sceneflow:export_sceneflow",
+    "sceneflow": ("vo_reference.exporters.sceneflow_datasets:export_sceneflow",
                   "SceneFlow / FlyingThings3D: frames_cleanpass, disparity (PFM, both views), "
                   "optical_flow and disparity_change into_future/into_past (--sequence TRAIN/A/0000)"),
-    "rosbag": ("vo_reference.products.rosbag_export:export_rosbag",
+    "rosbag": ("vo_reference.exporters.rosbag:export_rosbag",
                "ROS 2 bag (mcap): cam0/cam1 Image + CameraInfo, imu0 Imu, tf + PoseStamped ground truth"),
-    "cityscapes": ("vo_reference.products.semantic_export:export_cityscapes",
+    "cityscapes": ("vo_reference.exporters.cityscapes:export_cityscapes",
                    "Cityscapes layout: leftImg8bit/ + gtFine/ labelIds, color, instanceIds (+ object ids), "
                    "classes.json; right view in rightImg8bit/ + gtFineRight/"),
-    "colmap": ("vo_reference.products.colmap:export_colmap",
+    "colmap": ("vo_reference.exporters.colmap:export_colmap",
                "COLMAP text model: images/ + sparse/0/{cameras,images,points3D,rigs,frames}.txt, points from "
                "the exact depth with their observations in every image that sees them"),
-    "nerfstudio": ("vo_reference.products.nerfstudio:export_nerfstudio",
+    "nerfstudio": ("vo_reference.exporters.nerfstudio:export_nerfstudio",
                    "nerfstudio / 3D Gaussian Splatting: transforms.json (OpenGL camera-to-world), images/, "
                    "depths/ (16-bit mm), masks/, sparse_pc.ply"),
-    "slam": ("vo_reference.products.slam_config:export_slam_config",
+    "slam": ("vo_reference.exporters.slam_config:export_slam_config",
              "SLAM/VIO settings of the rig: ORB-SLAM3, VINS-Fusion, OpenVINS, Kalibr, Basalt (also written "
              "beside the euroc and rosbag exports, in slam/)"),
-    "tartanair-v2": ("vo_reference.products.tartanair_v2:export_tartanair_v2",
+    "tartanair-v2": ("vo_reference.exporters.tartanair_v2:export_tartanair_v2",
                      "TartanAir V2: ENV/Data_easy/P000/image_lcam_front, depth_* (RGBA-packed float PNG), "
                      "seg_*, flow_lcam_front, pose_*.txt (NED) (--sequence ENV/Data_DIFF/PNNN)"),
-    "middlebury": ("vo_reference.products.middlebury:export_middlebury",
+    "middlebury": ("vo_reference.exporters.middlebury:export_middlebury",
                    "Middlebury 2014 stereo: one folder per frame with im0.png, im1.png, disp0.pfm, disp1.pfm, "
                    "mask0nocc.png, calib.txt"),
-    "eth3d": ("vo_reference.products.middlebury:export_eth3d",
+    "eth3d": ("vo_reference.exporters.middlebury:export_eth3d",
               "ETH3D two-view stereo: two_view_training/NAME/{im0,im1}.png, calib.txt, cameras.txt, images.txt "
               "+ two_view_training_gt/NAME/disp0GT.pfm, mask0nocc.png"),
-    "sintel": ("vo_reference.products.sintel:export_sintel",
+    "sintel": ("vo_reference.exporters.sintel:export_sintel",
                "MPI-Sintel: training/{clean,final}/SCENE/frame_NNNN.png, flow/ .flo, occlusions/, invalid/, "
                "depth/ .dpt, camdata_left/ .cam (--sequence SCENE)"),
 }

@@ -36,8 +36,8 @@ from blender_sesgen.contract import atomic
 
 from ..errors import VoError
 from ..io.files import write_image_atomic, write_png16, write_png_rgb
-from .exports import ExportOptions, image_rgb, progress_bar
-from .sparse_points import pop_stride, sparse_points
+from .driver import ExportOptions, image_rgb, progress_bar
+from ..groundtruth.sparse_points import pop_stride, sparse_points
 
 __all__ = ["export_nerfstudio", "opengl_camera_to_world", "nerfstudio_intrinsics", "ply_points_bytes",
            "MM_PER_M"]

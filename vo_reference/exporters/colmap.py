@@ -30,8 +30,8 @@ from blender_sesgen.contract.se3 import R_to_quat_xyzw, invert
 
 from ..errors import VoError
 from ..io.files import write_png_rgb
-from .exports import ExportOptions, image_rgb, progress_bar
-from .sparse_points import SparsePoints, pop_stride, sparse_points
+from .driver import ExportOptions, image_rgb, progress_bar
+from ..groundtruth.sparse_points import SparsePoints, pop_stride, sparse_points
 
 __all__ = ["export_colmap", "colmap_camera", "cam_from_world", "write_colmap_text"]
 

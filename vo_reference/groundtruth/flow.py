@@ -5,7 +5,7 @@ moves to the target camera X_tgt = T_tgt_src·X_src and projects to p' = π(K·X
 flow is p' − p. On a moving object (its id in the source frame's id map) the point also
 moves with the object: X_tgt = T_tgt_src_i·X_src with
 T_tgt_src_i = T_world_tgt⁻¹ · T_world_obj_i(tgt) · T_world_obj_i(src)⁻¹ · T_world_src
-(:mod:`vo_reference.products.scene_flow` adds the 3-D motion, motion masks and disparity
+(:mod:`vo_reference.groundtruth.scene_flow` adds the 3-D motion, motion masks and disparity
 change). Pixels of static objects take the static path unchanged, to the bit. The point
 is checked against the target frame's own depth map (which shows every object where it
 is at the target time):

@@ -47,8 +47,8 @@ from blender_sesgen.contract import atomic
 
 from ..errors import VoError
 from ..io.files import write_png_rgb
-from .dense_gt import dense_flow, pop_background_depth
-from .exports import ExportOptions, image_rgb, progress_bar, sequence_folder
+from ..groundtruth.dense import dense_flow, pop_background_depth
+from .driver import ExportOptions, image_rgb, progress_bar, sequence_folder
 
 __all__ = ["export_tartanair", "ned_poses", "pose_lines", "flow_mask", "depth_and_seg", "R_CV_NED", "R_NED_SES"]
 
@@ -76,7 +76,7 @@ def pose_lines(T_ned: np.ndarray) -> str:
 
 
 def flow_mask(f) -> np.ndarray:
-    """uint8 TartanAir mask of a :class:`~vo_reference.products.dense_gt.DenseFlow`."""
+    """uint8 TartanAir mask of a :class:`~vo_reference.groundtruth.dense.DenseFlow`."""
     m = np.full(f.hidden.shape, MASK_VALID, np.uint8)
     m[f.hidden] = MASK_HIDDEN
     m[f.out_of_image] = MASK_OUT_OF_VIEW

@@ -68,8 +68,8 @@ from blender_sesgen.contract.se3 import invert
 
 from ..errors import VoError
 from ..io.files import write_image_atomic
-from .dense_gt import dense_flow
-from .exports import ExportOptions, image_rgb, progress_bar, sequence_folder
+from ..groundtruth.dense import dense_flow
+from .driver import ExportOptions, image_rgb, progress_bar, sequence_folder
 
 __all__ = ["export_vkitti2", "CATEGORIES", "CATEGORY_OF_CLASS", "encode_flow", "depth_to_cm16", "class_image"]
 

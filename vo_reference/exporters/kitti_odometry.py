@@ -32,7 +32,7 @@ from blender_sesgen.contract.trajectory_files import format_kitti, format_times
 
 from ..errors import VoError
 from ..io.files import write_png_rgb
-from .exports import ExportOptions, calib_text, check_replaceable, image_gray, image_rgb, progress_bar
+from .driver import ExportOptions, calib_text, check_replaceable, image_gray, image_rgb, progress_bar
 
 __all__ = ["export_kitti_odometry", "export_kitti_folder", "sequence_name"]
 

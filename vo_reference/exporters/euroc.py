@@ -13,7 +13,7 @@ from blender_sesgen.contract.trajectory_files import format_euroc
 
 from ..errors import VoError
 from ..io.files import write_png_rgb
-from .exports import ExportOptions, image_gray, progress_bar
+from .driver import ExportOptions, image_gray, progress_bar
 from .slam_config import T_body_cam, write_slam_configs
 
 
