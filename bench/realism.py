@@ -2,7 +2,7 @@
 
 Renders frames of scenes/city_kitti.ses (KITTI's rig) and scenes/hall.ses (EuRoC's rig)
 at their full resolution and the scripts' own quality, and prints, in one run, the same image
-statistics (vo_reference.realism) for them and for the real sequences in
+statistics (vo_reference.evaluate.realism) for them and for the real sequences in
 ../shared/data: the KITTI odometry excerpt (kitti/sequence_1) and the EuRoC V1_01 excerpt
 (euroc/mav0), plus the OpenCV baseline stereo VO's end-point drift where ground truth
 exists (KITTI and our renders; the EuRoC excerpt carries none), and the seconds per
@@ -38,7 +38,7 @@ import cv2
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-from vo_reference.realism import ImageStats, sequence_stats
+from vo_reference.evaluate.realism import ImageStats, sequence_stats
 from vo_reference.io.sequence import open_sequence
 
 DATA = Path(os.environ.get("SESGEN_SHARED_DATA", REPO.parent / "shared" / "data"))

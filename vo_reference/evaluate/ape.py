@@ -12,7 +12,7 @@ import numpy as np
 
 from blender_sesgen.contract.se3 import rotation_angle_rad
 
-from ._poses import check_pair
+from .poses import check_pair
 from .stats import ErrorStats
 
 

@@ -25,7 +25,7 @@ from blender_sesgen.contract.motion import ego_between
 from blender_sesgen.contract.se3 import relative, so3_log
 
 from ..errors import VoError
-from ._poses import as_poses
+from .poses import as_poses
 
 COLUMNS = ("U", "V", "W", "alpha_deg", "beta_deg", "gamma_deg")
 PARAMETRISATIONS = ("twist", "rotvec")

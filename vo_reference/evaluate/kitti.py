@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import VoError
-from ._poses import check_pair
+from .poses import check_pair
 
 KITTI_LENGTHS_M = (100.0, 200.0, 300.0, 400.0, 500.0, 600.0, 700.0, 800.0)
 KITTI_SPEEDS_MPS = tuple(float(v) for v in range(2, 25, 2))

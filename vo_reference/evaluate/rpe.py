@@ -19,7 +19,7 @@ import numpy as np
 from blender_sesgen.contract.se3 import relative, rotation_angle_rad
 
 from ..errors import VoError
-from ._poses import check_pair
+from .poses import check_pair
 from .stats import ErrorStats
 
 DELTA_UNITS = ("f", "m")

@@ -32,7 +32,7 @@ from ..io.trajectory import Trajectory
 from .accurate import AccurateParams, StereoTracks, accurate_step
 from .groundtruth import GroundTruthStep
 from .motion_field import T_to_twist, compose
-from .baseline import baseline_step
+from .opencv_comparison import baseline_step
 from .paper import PaperParams, StepResult, paper_step
 
 __all__ = ["METHODS", "VoResult", "run_stereo_vo", "parse_frames", "check_stereo"]

@@ -86,7 +86,7 @@ def klt_fb_error(img0, img1) -> float:
 
 def sgbm_valid_fraction(left, right, num_disp: int = 128) -> float:
     """Share of pixels with a valid (> 0) SGBM disparity: the matcher of the OpenCV baseline VO."""
-    from .stereo.baseline import sgbm_disparity
+    from ..stereo.opencv_comparison import sgbm_disparity
     d = sgbm_disparity(_gray(left), _gray(right), num_disp)
     return float(np.mean(d > 0))
 
