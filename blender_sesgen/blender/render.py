@@ -64,7 +64,7 @@ _PREFILTERS = {"none": "NONE", "fast": "FAST", "accurate": "ACCURATE"}
 def configure(bscene, preset: Preset, *, gpu: bool = False, threads: int = 0,
               normal_pass: bool = False, position_pass: bool = False, view_transform: str = "AgX",
               look: str = "None") -> None:
-    """Cycles as ``preset`` says (presets.py), the passes, multilayer EXR output and the
+    """Cycles as ``preset`` says (scene/presets.py), the passes, multilayer EXR output and the
     colour management. ``view_transform`` and ``look`` shape the display-referred PNG only
     (the EXR is scene-linear whatever they are)."""
     r = bscene.render

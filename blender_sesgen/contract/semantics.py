@@ -9,7 +9,7 @@ are read by every Cityscapes tool. Indoor classes, which Cityscapes lacks, follo
 Names are case-insensitive in scripts and ``_``/``-`` stand for spaces
 (``class traffic_light`` = ``class "traffic light"``). An object without ``class`` gets
 its library material's class (asphalt -> road, brick -> building, ...; see
-``material_library``) or else ``static`` (Cityscapes' "other man-made object", void);
+``scene.materials``) or else ``static`` (Cityscapes' "other man-made object", void);
 pixels that see no object are ``sky``.
 """
 from __future__ import annotations
