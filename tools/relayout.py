@@ -61,6 +61,8 @@ MOVES: list[tuple[int, str, str]] = [
     (3, "blender_sesgen.locks", "blender_sesgen.render.locks"),
     (3, "blender_sesgen.sealer", "blender_sesgen.render.sealer"),
     (3, "blender_sesgen.interrupt", "blender_sesgen.render.interrupt"),
+    # (camera profiles, new on branch twins: named by the language's SENSOR profile, so model data)
+    (3, "blender_sesgen.sensor.profiles", "blender_sesgen.scene.camera_profiles"),
     (3, "blender_sesgen.sensor", "blender_sesgen.render.sensor"),
     # 4. commands/ in both packages: parsers and printing
     (4, "blender_sesgen.cli", "blender_sesgen.commands.main"),
