@@ -63,6 +63,8 @@ def mutate(data: bytes, ops: list[tuple]) -> bytes:
                 b[m.start():m.end()] = op[2].encode("utf-8")
         elif kind == "fixcrc":  # a PNG's CRCs made right again, so the mutation reaches the decoder
             b = bytearray(_fix_png_crcs(bytes(b)))
+        elif kind == "reseal":  # a manifest sealed again, so the mutation reaches its validation
+            b = bytearray(reseal(bytes(b)))
         elif kind in ("dupline", "dropline", "swapline"):  # whole lines: order, repeats, gaps
             lines = bytes(b).split(b"\n")
             i = min(int(a * len(lines)), len(lines) - 1)
@@ -91,6 +93,19 @@ def _fix_png_crcs(data: bytes) -> bytes:
     return bytes(b)
 
 
+def reseal(data: bytes) -> bytes:
+    """A manifest (JSON object with a seal) with its seal made right again; else unchanged."""
+    from blender_sesgen.contract.manifest import SEAL, seal_of
+    try:
+        doc = json.loads(data)
+        if isinstance(doc, dict) and SEAL in doc:
+            doc[SEAL] = seal_of(doc)
+            return json.dumps(doc, indent=1).encode()
+    except (ValueError, TypeError, RecursionError):
+        pass
+    return data
+
+
 def random_ops(rng: random.Random, text: bool, n_max: int = 4) -> list[tuple]:
     ops = []
     for _ in range(rng.randint(1, n_max)):
@@ -115,6 +130,8 @@ def random_ops(rng: random.Random, text: bool, n_max: int = 4) -> list[tuple]:
             ops.append((kind, a, rng.choice(INTERESTING)))
     if not text and rng.random() < 0.5:
         ops.append(("fixcrc", 0.0))
+    if text and rng.random() < 0.5:
+        ops.append(("reseal", 0.0))
     return ops
 
 
@@ -284,12 +301,13 @@ def _setup_manifest_sensor(folder: Path) -> Path:
     """A render whose manifest carries the sensor statements' sections (rig motion, rolling
     shutter timing, a Brown-Conrady lens), so that mutants reach those readers."""
     from blender_sesgen.contract.manifest import MANIFEST
+    from synthetic_render import write_manifest_dict
     root = _render(folder)
     m = json.loads((root / MANIFEST).read_text())
     m["rig_motion"] = {"interpolation": "c2_spline", "rate_hz": 1.0, "start_s": 0.0}
     m["timing"] = {"rate_hz": 1.0, "start_s": 0.0, "exposure_s": 0.01, "readout_s": 0.02}
     m["lens"] = {"model": "brown", "coeffs": [-0.1, 0.02, 0.001, -0.001, 0.0]}
-    return _put(root / MANIFEST, json.dumps(m, indent=1))
+    return write_manifest_dict(root, m)
 
 
 def _consume_manifest_sensor(path: Path, folder: Path) -> None:
@@ -307,10 +325,11 @@ def _consume_manifest_sensor(path: Path, folder: Path) -> None:
 def _setup_done_log(folder: Path) -> Path:
     """A render whose frames are recorded complete in a completion log, not the manifest."""
     from blender_sesgen.contract.manifest import MANIFEST, STATE_DIR
+    from synthetic_render import write_manifest_dict
     root = _render(folder)
     m = json.loads((root / MANIFEST).read_text())
     m["frames_complete"] = [False] * len(m["frames_complete"])
-    (root / MANIFEST).write_text(json.dumps(m))
+    write_manifest_dict(root, m)
     lines = [json.dumps({"frame": k, "files": {f"exr/{v}/{k:06d}.exr": "0" * 64 for v in ("left", "right")}})
              for k in range(len(m["frames_complete"]))]
     return _put(root / STATE_DIR / "done-host-1.jsonl", "\n".join(lines) + "\n")
@@ -434,6 +453,8 @@ def run_mutant(target: Target, folder: Path, path: Path, seed_bytes: bytes, ops:
     """Write the mutant over ``path`` and consume it: 'ok' or 'user-error' (a finding raises)."""
     if json_rng is not None:  # structure-aware mutants stay JSON (the byte-level ones rarely do)
         data = json.dumps(mutate_json(json.loads(seed_bytes), json_rng), indent=1).encode()
+        if json_rng.random() < 0.75:   # mostly sealed again: the checks behind the seal are the target
+            data = reseal(data)
     else:
         data = mutate(seed_bytes, ops)
     path.write_bytes(data)

@@ -82,6 +82,17 @@ def write_render(root, *, K: np.ndarray, baseline_m: float, T_world_left: np.nda
     return root
 
 
+def write_manifest_dict(root, m: dict) -> Path:
+    """Write ``m`` as ``root/manifest.json``, sealed as the renderer seals its own (for
+    fixtures that change a manifest on purpose; a reader refuses an unsealed edit)."""
+    import json
+    from blender_sesgen.contract.manifest import SEAL, seal_of
+    m = {**m, SEAL: seal_of(m)}
+    path = Path(root) / "manifest.json"
+    path.write_text(json.dumps(m, indent=1))
+    return path
+
+
 def plane_depth(K: np.ndarray, T_world_cam: np.ndarray, n_world: np.ndarray, d_world: float,
                 W: int, H: int) -> np.ndarray:
     """Planar z of the plane {X : n·X = d} seen by a camera (inf where not hit in front)."""

@@ -22,6 +22,7 @@ so that marking a frame complete costs O(1), whatever the sequence length).
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import re
@@ -45,6 +46,7 @@ POSES_DIR = "poses"
 EXR_DIR = "exr"
 DISPLAY_DIR = "rgb"           # the display-referred 8-bit PNGs (the view transform's image)
 STATE_DIR = ".sesgen"
+SEAL = "seal"                 # SHA-256 of the rest of the manifest (seal_of)
 DONE_LOG_GLOB = "done-*.jsonl"
 VIEWS = ("left", "right")
 POSES_CONVENTION = "T_world_cam: OpenCV camera (x right, y down, z forward) in the SES world (Y up)"
@@ -93,7 +95,7 @@ def trajectory_relpaths(views: Sequence[str]) -> dict:
 _KEYS = ("format", "generator", "scene", "scene_source", "scene_sha256", "resolution", "K", "baseline", "near",
          "far", "frames", "fps", "timestamps", "views", "depth", "segmentation", "channels", "objects",
          "object_poses_convention", "poses_convention", "poses", "trajectories", "files", "frames_complete",
-         "render")
+         "render", "seal")
 
 
 @dataclass
@@ -174,8 +176,15 @@ class Manifest:
         return m
 
     def write(self, root, durable: bool = True) -> Path:
-        """Write ``root/manifest.json`` atomically (NaN or infinities are refused)."""
-        return write_json(Path(root) / MANIFEST, self.to_json(), durable)
+        """Write ``root/manifest.json`` atomically (NaN or infinities are refused), sealed
+        (:func:`seal_of`)."""
+        m = self.to_json()
+        m[SEAL] = seal_of(m)
+        return write_json(Path(root) / MANIFEST, m, durable)
+
+    def frame_files(self, k: int) -> list[str]:
+        """Every file of frame ``k`` the manifest lists (:func:`frame_files`)."""
+        return frame_files({"views": list(self.views), "files": self.files, **self.extra}, k)
 
     def with_complete(self, complete: Sequence[bool]) -> "Manifest":
         return replace(self, frames_complete=[bool(x) for x in complete])
@@ -271,11 +280,16 @@ class Manifest:
                    scene_sha256=str(m.get("scene_sha256", "")), generator=m.get("generator") or {}, extra=extra)
 
     @classmethod
-    def read(cls, root) -> "Manifest":
+    def read(cls, root, sealed: bool = True) -> "Manifest":
         """``root/manifest.json`` validated, with the completion logs of a running or
-        interrupted render merged into ``frames_complete``."""
+        interrupted render merged into ``frames_complete``. ``sealed``: ContractError when
+        the manifest's seal does not match its content (edited after it was written; a
+        manifest written before seals existed has none and is read as it is)."""
         root = Path(root)
-        m = cls.from_json(load_json(root / MANIFEST), str(root / MANIFEST))
+        raw = load_json(root / MANIFEST)
+        m = cls.from_json(raw, str(root / MANIFEST))
+        if sealed and seal_problem(raw):
+            raise ContractError(seal_problem(raw), str(root / MANIFEST))
         done = completed_in_logs(root)
         if done:
             m = m.with_complete([c or k in done for k, c in enumerate(m.frames_complete)])
@@ -284,6 +298,55 @@ class Manifest:
                 sums.update(files)
             m.extra["checksums"] = sums
         return m
+
+
+def seal_of(m: dict) -> str:
+    """The manifest's seal: SHA-256 of its canonical JSON (keys sorted, no spaces, the seal
+    itself left out). Every write seals (:meth:`Manifest.write`), so a manifest whose
+    values were changed afterwards (K, baseline, poses, checksums...) no longer matches."""
+    body = {k: v for k, v in m.items() if k != SEAL}
+    text = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode("ascii")).hexdigest()
+
+
+def seal_problem(m: dict) -> str:
+    """'' when the manifest dict carries a seal that matches it (or none: written before
+    seals existed); else what is wrong."""
+    if SEAL not in m:
+        return ""
+    if not isinstance(m[SEAL], str) or m[SEAL] != seal_of(m):
+        return ("its content differs from what the renderer wrote (the seal does not match: edited "
+                "afterwards?); `render --resume` writes it again from the script")
+    return ""
+
+
+def frame_files(m: dict, k: int) -> list[str]:
+    """Every file of frame ``k`` a manifest (dict) lists: each view's EXR (``files``), display
+    PNG (``display.files``) and sensor images (``sensor.files``, every kind)."""
+    views = list(m.get("views") or [])
+    out = [m["files"][v][k] for v in views]
+    display = (m.get("display") or {}).get("files") or {}
+    out += [display[v][k] for v in views if v in display]
+    for per_view in ((m.get("sensor") or {}).get("files") or {}).values():
+        out += [per_view[v][k] for v in views if v in per_view]
+    return [f for f in out if f]
+
+
+def static_files(m: dict) -> list[str]:
+    """The files a manifest (dict) lists once per render: trajectories, the lens's
+    calibration and lookup table, the IMU streams."""
+    out = []
+    traj = m.get("trajectories") or {}
+    for kind in ("tum", "kitti"):
+        out += list((traj.get(kind) or {}).values())
+    if traj.get("ego"):
+        out.append(traj["ego"])
+    lens = (m.get("lens") or {}).get("files") or {}
+    out += list((lens.get("opencv") or {}).values())
+    if lens.get("undistort_lut"):
+        out.append(lens["undistort_lut"])
+    out += [v for v in ((m.get("imu") or {}).get("files") or {}).values() if isinstance(v, str)]
+    return out
 
 
 def object_poses(objects: list, n: int, source: str = MANIFEST) -> dict[int, np.ndarray]:

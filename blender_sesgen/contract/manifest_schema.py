@@ -72,6 +72,8 @@ def check_types(m: dict, source: str, limit: float) -> None:
     if not all(isinstance(c, str) or (isinstance(c, list) and all(isinstance(x, str) for x in c))
                for c in channels.values()):
         bad("channels", "channel names")
+    if m.get("seal") is not None and not isinstance(m["seal"], str):
+        bad("seal", "a SHA-256 string")
     if not all(isinstance(v, str) for v in (m.get("checksums") or {}).values()):
         bad("checksums", "an object of SHA-256 strings")
     noise = m.get("noise")
@@ -123,15 +125,28 @@ def _check_sensor_sections(m: dict, source: str, limit: float) -> None:
     files = lens.get("files") or {}
     if not isinstance(files, dict) or (files.get("undistort_lut") is not None and not _inside(files["undistort_lut"])):
         bad("lens.files", "paths inside the render folder")
-    sensor_files = (m.get("sensor") or {}).get("files") or {}
+    opencv = files.get("opencv") if isinstance(files, dict) else None
+    if opencv is not None and not (isinstance(opencv, dict) and all(_inside(p) for p in opencv.values())):
+        bad("lens.files.opencv", "paths inside the render folder")
     n = m.get("frames") if isinstance(m.get("frames"), int) else -1
-    if not isinstance(sensor_files, dict) or not all(
-            isinstance(per_view, dict) and all(
-                v in per_view and isinstance(per_view[v], list) and len(per_view[v]) == n
-                and all(_inside(p) for p in per_view[v]) for v in views)
-            for per_view in sensor_files.values()):
+
+    def per_frame(per_view) -> bool:
+        return isinstance(per_view, dict) and all(
+            v in per_view and isinstance(per_view[v], list) and len(per_view[v]) == n
+            and all(_inside(p) for p in per_view[v]) for v in views)
+    sensor_files = (m.get("sensor") or {}).get("files") or {}
+    if not isinstance(sensor_files, dict) or not all(per_frame(pv) for pv in sensor_files.values()):
         bad("sensor.files", f"for each kind and view, {n} paths inside the render folder")
+    traj = m.get("trajectories")
+    if traj is not None and not (isinstance(traj, dict) and all(
+            isinstance(traj.get(k) or {}, dict) and all(_inside(p) for p in (traj.get(k) or {}).values())
+            for k in ("tum", "kitti")) and (traj.get("ego") is None or _inside(traj["ego"]))):
+        bad("trajectories", "paths inside the render folder")
+    display = m.get("display")
+    if display is not None and not (isinstance(display, dict) and per_frame(display.get("files"))):
+        bad("display.files", f"for each view, {n} paths inside the render folder")
     imu_files = (m.get("imu") or {}).get("files") if m.get("imu") else {}
     if m.get("imu") and not (isinstance(imu_files, dict) and all(
-            _inside(imu_files.get(k)) for k in ("noisy", "ideal", "groundtruth"))):
+            _inside(imu_files.get(k)) for k in ("noisy", "ideal", "groundtruth"))
+            and all(_inside(p) for p in imu_files.values())):
         bad("imu.files", "paths inside the render folder (noisy, ideal, groundtruth)")

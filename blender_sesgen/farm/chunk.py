@@ -117,15 +117,18 @@ def task(args: list[str], key: str, out: str, inbox=None, scene: Optional[str] =
 def verify_task(out: str) -> dict:
     """The Ray task run when every chunk of a folder has ended: the completion logs taken
     into the manifest, then every frame recorded complete checked against its checksum
-    (``verify --quick``); bad frames are recorded as not rendered. Returns the frames still
-    to render and what was wrong."""
+    (``verify --quick``), and the folder's own files (the manifest's seal, scene.ses, the
+    trajectories...); bad frames are recorded as not rendered. Returns the frames still to
+    render and what was wrong (``bad`` per frame, ``folder`` for the folder's own files)."""
     from ..contract.manifest import Manifest
     from ..output import OutputFolder
     folder = OutputFolder(Path(out))
     folder.consolidate()
     bad = folder.verify(full=False)
-    if bad:
-        folder.mark_incomplete(sorted({k for k, _ in bad}))
+    frames = sorted({k for k, _ in bad if k is not None})
+    if frames:
+        folder.mark_incomplete(frames)
     m = Manifest.read(Path(out))
     missing = [k for k in range(m.frames) if not m.frames_complete[k]]
-    return {"out": out, "missing": missing, "bad": [[k, why] for k, why in bad], "frames": m.frames}
+    return {"out": out, "missing": missing, "bad": [[k, why] for k, why in bad if k is not None],
+            "folder": [why for k, why in bad if k is None], "frames": m.frames}
