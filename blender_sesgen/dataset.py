@@ -41,7 +41,10 @@ SPLIT_RULE = ("counts: largest remainders of count * fraction, then one for ever
 def sequence_seeds(seed: int, count: int) -> list[int]:
     """The seed of each of ``count`` sequences of base ``seed``: distinct, in
     0..SEQUENCE_SEEDS-1, small enough that a generator may derive further seeds from it
-    (``seed * 100 + k``) within the scripts' 31-bit seeds."""
+    (``seed * 100 + k``) within the scripts' 31-bit seeds. ValueError for more than
+    ``SEQUENCE_SEEDS`` sequences (there are not that many distinct seeds)."""
+    if not 0 <= int(count) <= SEQUENCE_SEEDS:
+        raise ValueError(f"{count} sequences: at most {SEQUENCE_SEEDS} have distinct seeds")
     out, used = [], set()
     for i in range(int(count)):
         extra = 0

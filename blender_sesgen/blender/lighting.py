@@ -33,6 +33,7 @@ from ..contract.frames import R_BLENDER_SES
 from ..errors import SesgenError
 from ..model import Fog, Light, Scene, World
 from . import compat
+from .datablocks import load_image
 
 
 def ses_vec_to_blender(v) -> Vector:
@@ -185,7 +186,7 @@ def build_world(bscene, w: World, fog: Fog | None, name: str, tag=lambda x: x):
             sky.sun_disc = False  # the sun is a lamp (scene_lights)
         nt.links.new(sky.outputs["Color"], bg.inputs["Color"])
     elif w.kind == "hdri":
-        img = tag(bpy.data.images.load(hdri_path(w), check_existing=True))
+        img = tag(load_image(hdri_path(w)))
         env = nt.nodes.new("ShaderNodeTexEnvironment")
         env.image = img
         env.interpolation = "Linear"

@@ -38,6 +38,7 @@ from .depth import DEPTH_BACKGROUND
 from .errors import ContractError
 from .inputs import read_text
 from .manifest_schema import check_types
+from .timing import TIME_LIMIT_S
 
 FORMAT = "sesgen-render/1"
 MANIFEST = "manifest.json"
@@ -56,7 +57,6 @@ OBJECT_POSES_CONVENTION = ("T_world_obj: the object frame (origin at the object'
 OBJECT_MOTIONS = ("keys", "twist", "trajectory")
 SEED_RULE = "cycles seed = (seed * 1000003 + 2 * frame + view_index) mod (2^31 - 1)"
 LIMIT = 1e9  # no coordinate, focal length or size of ours is larger: beyond it a value is corrupt
-TIME_LIMIT_S = 1e12  # seconds: a Unix time (1.7e9) fits, 1e308 does not
 POSE_TOLERANCE = 1e-6  # max |R^T R - I| of a pose in a manifest (written from float64 products)
 
 

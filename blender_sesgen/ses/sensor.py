@@ -12,6 +12,7 @@ from typing import Optional
 from .. import model
 from ..contract.lens import Lens as LensModel
 from ..contract.lens import fold_problem
+from ..contract.timing import stream_problem
 from .checks import Checks, scalar, vec
 from .environment import _seed
 from .statements import ParsedStatement
@@ -134,11 +135,18 @@ def imu(stmt: Optional[ParsedStatement], check: Checks) -> Optional[model.Imu]:
                      gravity=float(scalar(stmt, "gravity", d.gravity)), seed=_seed(stmt, check))
 
 
-def sensor_models(seen: dict[str, ParsedStatement], rig: model.Rig, check: Checks) -> dict:
-    """The Scene fields of the five sensor statements, with the checks across statements."""
+def sensor_models(seen: dict[str, ParsedStatement], rig: model.Rig, check: Checks, n_frames: int = 1) -> dict:
+    """The Scene fields of the five sensor statements, with the checks across statements
+    (``n_frames``: the sequence's, which bounds the IMU stream and the timestamps)."""
     out = dict(timing=timing(seen.get("TIMING"), check), lens=lens(seen.get("LENS"), check),
                sensor=sensor(seen.get("SENSOR"), check), autoexposure=autoexposure(seen.get("AUTOEXPOSURE"), check),
                imu=imu(seen.get("IMU"), check))
+    t, i = out["timing"] or model.Timing(), out["imu"]
+    if t.rate_hz > 0 and (i is None or i.rate_hz > 0):
+        problem = stream_problem(n_frames, t.rate_hz, t.start_s, i.rate_hz if i is not None else None)
+        where = seen.get("IMU") if "IMU stream" in problem else seen.get("TIMING")
+        if problem and where is not None:
+            check.err(where.token, f"{where.keyword}: {problem}")
     lens_m, lens_stmt = out["lens"], seen.get("LENS")
     if lens_m is not None and lens_m.model != "pinhole":
         tag = lens_stmt.tags["brown" if lens_m.model == "brown" else "fisheye"]
