@@ -143,13 +143,17 @@ def render_entry(state) -> dict:
 
 def write_render_index(root: Path, states: Iterable) -> Path:
     """``ROOT/dataset.json``: this farm's sequences, plus those of earlier farms into the same
-    ROOT that this one did not render (their entries are kept as they were)."""
+    ROOT that this one did not render (their entries are kept as they were). A scene refused
+    before rendering (``scene.error``: its folder holds other settings, say) did not touch
+    its folder: an earlier entry for it stays as it was."""
     root = Path(root)
+    old = read_index(root)
+    old_entries = {e.get("name"): e for e in (old or {}).get("sequences", []) if isinstance(e, dict)} \
+        if old and old.get("kind") == "renders" else {}
+    states = [st for st in states if not (st.scene.error and st.scene.name in old_entries)]
     new = [render_entry(st) for st in states]
     names = {e["name"] for e in new}
-    old = read_index(root)
-    kept = [e for e in (old or {}).get("sequences", []) if e.get("name") not in names] \
-        if old and old.get("kind") == "renders" else []
+    kept = [e for name, e in old_entries.items() if name not in names]
     sequences = sorted(kept + new, key=lambda e: e["name"])
     index = {"format": FORMAT, "kind": "renders", "count": len(sequences),
              "splits": {sp: sum(1 for e in sequences if e.get("split") == sp) for sp in SPLITS},

@@ -95,7 +95,7 @@ def prepare(args: argparse.Namespace) -> tuple[Path, list]:
     """ROOT and the farm's scenes, each with its plan and pending frames or its user error."""
     from ..output import OutputFolder
     from ..plan import RenderPlan
-    from .work import FarmScene, find_scripts, unique_names
+    from .work import FarmScene, find_scripts, folder_problem, unique_names
     root = Path(args.out).absolute()
     if root.exists() and not root.is_dir():
         raise SesgenError(f"--out {args.out}: exists and is not a folder")
@@ -104,6 +104,10 @@ def prepare(args: argparse.Namespace) -> tuple[Path, list]:
     scenes = []
     for (script, meta), name in zip(found, unique_names(s for s, _ in found)):
         sc = FarmScene(name=name, script=script, out=root / name, meta=meta)
+        if folder_problem(name):
+            sc.error = f"{script}: error: {folder_problem(name)}; rename the script"
+            scenes.append(sc)
+            continue
         try:
             sc.plan = RenderPlan.from_file(script, options)
             folder = OutputFolder(sc.out)
