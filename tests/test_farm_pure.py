@@ -462,3 +462,23 @@ def test_a_refused_scene_keeps_its_entry_in_the_dataset_index(tmp_path):
     by_name = {e["name"]: e for e in index["sequences"]}
     assert by_name["a"] == before
     assert by_name["b"]["complete"] is False and by_name["b"]["error"] == new.error
+
+
+def test_a_sigint_sent_while_the_render_process_starts_stops_it(tmp_path):
+    """A Ray worker blocks SIGINT and its child starts with it blocked: a cancel that comes
+    while the child starts leaves the signal pending. It must stop the command as a Ctrl-C
+    does (exit 130, nothing written), not kill the process (-2, which a farm reads as a lost
+    task and retries) nor be dropped."""
+    script = tmp_path / "big.ses"        # a check that takes a while: the signal comes first
+    script.write_text((REPO / "scenes" / "minimal.ses").read_text() + "// pad\n" * 200_000)
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        proc = subprocess.Popen([sys.executable, "-m", "blender_sesgen.farm.child", "check", str(script)], cwd=REPO,
+                                env={**os.environ, "PYTHONPATH": str(REPO), chunk_mod.PARENT_ENV: str(os.getpid())},
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        os.kill(proc.pid, signal.SIGINT)   # pending: the child has not unblocked it yet
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, (proc.returncode, err[-500:])
+    assert "Traceback" not in err and "interrupted" in err

@@ -44,10 +44,10 @@ def dispatch(argv: Optional[Sequence[str]], *, prog: str, description: str, comm
     ``user_errors``: the package's own user-error exceptions (ContractError is always one);
     ``describe`` turns one into its line on stderr.
     """
-    parser = build_parser(prog, description, commands, package)
-    args = parser.parse_args(sys.argv[1:] if argv is None else list(argv))
-    module = importlib.import_module(commands[args.command][0], package)
     try:
+        parser = build_parser(prog, description, commands, package)
+        args = parser.parse_args(sys.argv[1:] if argv is None else list(argv))
+        module = importlib.import_module(commands[args.command][0], package)
         return int(module.run(args) or EXIT_OK)
     except (ContractError, *user_errors) as e:
         print(describe(e), file=sys.stderr)

@@ -43,9 +43,9 @@ def run_chunk(argv: list[str], key: str, out: str, report: Optional[Callable[[di
     frames_done = 0
     proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                             text=True, errors="replace", env=proc_env)
-    send({"kind": "started", "key": key, "host": host, "pid": proc.pid})
     interrupted = False
-    try:
+    try:   # at once: a cancel from here on reaches the render (before, there is none to stop)
+        send({"kind": "started", "key": key, "host": host, "pid": proc.pid})
         for line in proc.stdout:
             event = _event(line)
             if event is None:
