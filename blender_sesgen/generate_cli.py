@@ -124,6 +124,8 @@ def _write(out: Path, gen, options: dict, args, seeds, splits, names, fractions)
                 text = gen(seed, **options)
             except SesgenError:
                 raise
+            except SystemExit as e:   # the generator's exit is not generate's
+                raise GeneratorFailed(f"generator {gen.name} called sys.exit({e.code!r}) for seed {seed}") from None
             except Exception as e:  # noqa: BLE001 - the generator's own failure
                 raise GeneratorFailed(f"generator {gen.name} failed for seed {seed}: {type(e).__name__}: {e}") \
                     from None

@@ -30,6 +30,7 @@ from .errors import SesgenError
 from .lighting_data import AGX_LOOKS, VIEW_TRANSFORMS
 from .model import Mesh, Scene, TextureRef
 from .presets import QUALITIES, Preset, effective
+from .ses.checks import MAX_SEED
 
 MAX_IMAGE_SIDE = 16384   # the script's own limit, applied to scaled sizes too
 MIN_IMAGE_SIDE = 4       # Blender renders nothing smaller (its resolution's hard minimum)
@@ -124,6 +125,8 @@ class RenderSettings:
         r = scene.render
         if options.samples is not None and options.samples < 1:
             raise SesgenError(f"samples must be >= 1, got {options.samples}")
+        if options.seed is not None and not 0 <= options.seed <= MAX_SEED:
+            raise SesgenError(f"--seed must lie in 0..{MAX_SEED} (Cycles seeds are 32-bit), got {options.seed}")
         settings = cls(
             engine="CYCLES",
             device=options.device,

@@ -58,6 +58,14 @@ def _fmt(seconds: float) -> str:
     return f"{s // 3600:d}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60:02d}:{s % 60:02d}"
 
 
+def one_line(e: BaseException) -> str:
+    """An exception as one line, ``Type: what``: Blender's importers put a whole Python
+    traceback into their error's text, whose last line says what went wrong."""
+    lines = [ln.strip() for ln in str(e).splitlines() if ln.strip()]
+    last = lines[-1] if lines else ""
+    return last if last.startswith(type(e).__name__) else f"{type(e).__name__}: {last}".rstrip(": ")
+
+
 def render_options(args: argparse.Namespace) -> RenderOptions:
     """The RenderOptions of parsed render arguments (the farm builds every chunk's with it)."""
     return RenderOptions(
@@ -97,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
         except SesgenError:
             raise
         except Exception as e:  # noqa: BLE001 - a Blender failure while building
-            print(f"error: building the Blender scene failed: {e}", file=sys.stderr)
+            print(f"error: building the Blender scene failed: {one_line(e)}", file=sys.stderr)
             return EXIT_FAILURE
         try:
             with Progress(len(todo), "render", mode=progress_mode(args), unit="frame") as bar:
@@ -109,7 +117,7 @@ def run(args: argparse.Namespace) -> int:
                   f"frame(s): {args.out} is consistent; render again with --resume to continue", file=sys.stderr)
             return EXIT_INTERRUPTED
         except Exception as e:  # noqa: BLE001 - Cycles/IO failure (a full disk...): the folder stays consistent
-            print(f"error: render failed: {e}", file=sys.stderr)
+            print(f"error: render failed: {one_line(e)}", file=sys.stderr)
             return EXIT_FAILURE
     if args.contact_sheet:
         from .contact_sheet import write_contact_sheet

@@ -77,6 +77,10 @@ def sensor(stmt: Optional[ParsedStatement], check: Checks) -> Optional[model.Sen
     jpeg = stmt.tags.get("jpeg")
     if jpeg is not None and not 1 <= jpeg.values[0] <= 100:
         check.err(jpeg.tokens[0], f"SENSOR 'jpeg' quality must lie in 1..100, got {jpeg.tokens[0].text}")
+    fill = stmt.tags.get("fill")
+    if fill is not None and not 0 <= fill.values[0] <= 1:
+        check.err(fill.tokens[0], f"SENSOR 'fill' is the pixel aperture as a fraction of the pitch (0..1), "
+                                  f"got {fill.tokens[0].text}")
     nbits = int(bits.values[0]) if bits is not None else model.Sensor.bits
     black = float(scalar(stmt, "black", 0.0))
     if black >= 2 ** nbits - 1:
@@ -160,4 +164,15 @@ def sensor_models(seen: dict[str, ParsedStatement], rig: model.Rig, check: Check
             check.err(ae.token, "AUTOEXPOSURE needs a SENSOR statement (it drives the sensor's exposure and gain)")
         if t is None or t.exposure_s <= 0:
             check.err(ae.token, "AUTOEXPOSURE needs TIMING with an exposure > 0 (its starting exposure time)")
+        a = out["autoexposure"]
+        if a is not None and t is not None and t.rate_hz > 0:
+            longest = 1.0 / t.rate_hz - t.readout_s    # an exposure ends before the next frame's readout
+            for name, value in (("max_exposure", a.max_exposure_s), ("min_exposure", a.min_exposure_s)):
+                if name in ae.tags and value > longest * (1 + 1e-9):
+                    check.err(ae.tags[name].tokens[0], f"AUTOEXPOSURE '{name}' ({value:g} s) is longer than the frame "
+                                                       f"period less the readout (1 / rate - readout = {longest:g} s)")
+            if a.max_exposure_s > 0 and a.min_exposure_s > a.max_exposure_s:
+                tag = ae.tags.get("min_exposure") or ae.tags["max_exposure"]
+                check.err(tag.tokens[0], f"AUTOEXPOSURE 'min_exposure' ({a.min_exposure_s:g} s) is longer than "
+                                         f"'max_exposure' ({a.max_exposure_s:g} s)")
     return out
