@@ -130,3 +130,41 @@ def plane_scene(root, *, W: int = 64, H: int = 48, f: float = 50.0, baseline_m: 
         fr.append(d)
     return write_render(root, K=K, baseline_m=baseline_m if stereo else 0.0, T_world_left=T, frames=fr,
                         noise=noise, objects=[{"id": object_id, "name": "plane", "shape": "QUAD"}])
+
+
+COMPLETE_SCRIPT = "CAMERA resolution 64 48 focal 50 baseline 0.2\nSTART position 0 0 0\n"
+
+
+def complete_render(root, frames: int = 3) -> Path:
+    """A synthetic render with what a plain Cycles render holds besides its EXRs: scene.ses,
+    display PNGs (display.files), trajectories, an IMU stream, and every file's SHA-256."""
+    import hashlib
+    import cv2
+    from blender_sesgen.contract.colour import linear_to_srgb8
+    from blender_sesgen.contract.manifest import display_relpath, static_files
+    from vo_reference.io.render import RenderSequence
+    root = plane_scene(root, frames=frames)
+    seq = RenderSequence(root)
+    m = Manifest.read(root)
+    sums = {}
+
+    def put(rel: str, data: bytes) -> None:
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        (root / rel).write_bytes(data)
+        sums[rel] = hashlib.sha256(data).hexdigest()
+    for k in range(frames):
+        for v in m.views:
+            put(m.files[v][k], (root / m.files[v][k]).read_bytes())
+            ok, png = cv2.imencode(".png", linear_to_srgb8(seq.rgb_linear(k, v))[..., ::-1])
+            put(display_relpath(v, k), png.tobytes())
+    m.extra["display"] = {"kind": "display-referred sRGB, 8-bit PNG", "view_transform": "Standard", "look": "None",
+                          "files": {v: [display_relpath(v, k) for k in range(frames)] for v in m.views}}
+    for rel in static_files(m.to_json()):      # the trajectories every manifest lists
+        put(rel, b"0 0 0 0 0 0 0 1\n")
+    put("imu/data.csv", b"#timestamp [ns],w_x,w_y,w_z,a_x,a_y,a_z\n0,0,0,0,0,9.81,0\n")
+    m.extra["imu"] = {"files": {"noisy": "imu/data.csv", "ideal": "imu/data.csv", "groundtruth": "imu/data.csv"}}
+    put("scene.ses", COMPLETE_SCRIPT.encode())
+    m.scene_sha256 = hashlib.sha256(COMPLETE_SCRIPT.encode()).hexdigest()
+    m.extra["checksums"] = sums
+    m.write(root)
+    return root

@@ -23,45 +23,11 @@ import pytest
 pytest.importorskip("cv2")
 pytest.importorskip("OpenEXR")
 
-from synthetic_render import plane_scene  # noqa: E402
+from synthetic_render import COMPLETE_SCRIPT as SCRIPT, complete_render  # noqa: E402
 
-from blender_sesgen.contract.manifest import Manifest, display_relpath, seal_of, static_files  # noqa: E402
+from blender_sesgen.contract.manifest import display_relpath, seal_of  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
-SCRIPT = "CAMERA resolution 64 48 focal 50 baseline 0.2\nSTART position 0 0 0\n"
-
-
-def full_render(root: Path, frames: int = 3) -> Path:
-    """A synthetic render with what a plain Cycles render holds besides its EXRs: scene.ses,
-    display PNGs (display.files), trajectories, an IMU stream, and every file's SHA-256."""
-    import cv2
-    from blender_sesgen.contract.colour import linear_to_srgb8
-    from vo_reference.io.render import RenderSequence
-    plane_scene(root, frames=frames)
-    seq = RenderSequence(root)
-    m = Manifest.read(root)
-    sums = {}
-
-    def put(rel: str, data: bytes) -> None:
-        (root / rel).parent.mkdir(parents=True, exist_ok=True)
-        (root / rel).write_bytes(data)
-        sums[rel] = hashlib.sha256(data).hexdigest()
-    for k in range(frames):
-        for v in m.views:
-            put(m.files[v][k], (root / m.files[v][k]).read_bytes())
-            ok, png = cv2.imencode(".png", linear_to_srgb8(seq.rgb_linear(k, v))[..., ::-1])
-            put(display_relpath(v, k), png.tobytes())
-    m.extra["display"] = {"kind": "display-referred sRGB, 8-bit PNG", "view_transform": "Standard", "look": "None",
-                          "files": {v: [display_relpath(v, k) for k in range(frames)] for v in m.views}}
-    for rel in static_files(m.to_json()):      # the trajectories every manifest lists
-        put(rel, b"0 0 0 0 0 0 0 1\n")
-    put("imu/data.csv", b"#timestamp [ns],w_x,w_y,w_z,a_x,a_y,a_z\n0,0,0,0,0,9.81,0\n")
-    m.extra["imu"] = {"files": {"noisy": "imu/data.csv", "ideal": "imu/data.csv", "groundtruth": "imu/data.csv"}}
-    put("scene.ses", SCRIPT.encode())
-    m.scene_sha256 = hashlib.sha256(SCRIPT.encode()).hexdigest()
-    m.extra["checksums"] = sums
-    m.write(root)
-    return root
 
 
 def verify(root: Path, *args) -> subprocess.CompletedProcess:
@@ -84,13 +50,13 @@ def edit_manifest(root: Path, change) -> None:
 
 
 def test_a_clean_render_verifies(tmp_path):
-    r = verify(full_render(tmp_path / "r"))
+    r = verify(complete_render(tmp_path / "r"))
     assert r.returncode == 0, r.stdout + r.stderr
 
 
 @pytest.mark.parametrize("what", ["K", "baseline", "pose", "checksum", "seal removed"])
 def test_a_hand_edited_manifest_fails_verify_and_is_never_exported(tmp_path, what):
-    root = full_render(tmp_path / "r")
+    root = complete_render(tmp_path / "r")
     before = None
 
     def change(m):
@@ -120,7 +86,7 @@ def test_a_hand_edited_manifest_fails_verify_and_is_never_exported(tmp_path, wha
 
 def test_the_seal_is_the_sha256_of_the_rest_of_the_manifest(tmp_path):
     """An independent computation: canonical JSON (sorted keys, no spaces) without the seal."""
-    root = full_render(tmp_path / "r")
+    root = complete_render(tmp_path / "r")
     m = json.loads((root / "manifest.json").read_text())
     body = {k: v for k, v in m.items() if k != "seal"}
     text = json.dumps(body, sort_keys=True, separators=(",", ":"))
@@ -128,7 +94,7 @@ def test_the_seal_is_the_sha256_of_the_rest_of_the_manifest(tmp_path):
 
 
 def test_verify_compares_scene_ses_with_the_manifests_sha256(tmp_path):
-    root = full_render(tmp_path / "r")
+    root = complete_render(tmp_path / "r")
     (root / "scene.ses").write_text(SCRIPT.replace("baseline 0.2", "baseline 0.3"))
     r = verify(root)
     assert r.returncode == 1 and "scene.ses" in r.stdout, r.stdout
@@ -139,7 +105,7 @@ def test_verify_compares_scene_ses_with_the_manifests_sha256(tmp_path):
 
 @pytest.mark.parametrize("damage", ["delete", "change", "truncate"])
 def test_verify_checks_the_display_pngs_and_marks_their_frame(tmp_path, damage):
-    root = full_render(tmp_path / "r")
+    root = complete_render(tmp_path / "r")
     png = root / display_relpath("right", 1)
     if damage == "delete":
         png.unlink()
@@ -160,7 +126,7 @@ def test_verify_checks_the_display_pngs_and_marks_their_frame(tmp_path, damage):
 
 @pytest.mark.parametrize("rel", ["imu/data.csv", "poses/left.tum.txt"])
 def test_verify_checks_the_files_listed_once_per_render(tmp_path, rel):
-    root = full_render(tmp_path / "r")
+    root = complete_render(tmp_path / "r")
     with open(root / rel, "a") as f:
         f.write("0,0,0,0,0,0,0\n")
     r = verify(root)
@@ -174,7 +140,7 @@ def test_a_missing_display_png_is_never_replaced_by_another_image(tmp_path):
     """The export used to encode the EXR to sRGB in its place: about 9.5 grey levels off the
     display image Blender wrote through the view transform."""
     from vo_reference.io.render import RenderSequence
-    root = full_render(tmp_path / "r")
+    root = complete_render(tmp_path / "r")
     (root / display_relpath("left", 2)).unlink()
     seq = RenderSequence(root)
     assert not seq.frame_complete(2) and seq.frame_complete(1)

@@ -99,6 +99,10 @@ def prepare(args: argparse.Namespace) -> tuple[Path, list]:
     root = Path(args.out).absolute()
     if root.exists() and not root.is_dir():
         raise SesgenError(f"--out {args.out}: exists and is not a folder")
+    from ..dataset import read_index
+    index = read_index(root)       # a damaged index: refused now, not after the renders
+    if index is not None and index.get("kind") != "renders":
+        raise SesgenError(f"--out {args.out}: holds the scripts index of `generate`; render into another folder")
     options = render_options(args)
     found = find_scripts(args.scenes)
     scenes = []

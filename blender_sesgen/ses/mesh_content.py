@@ -89,13 +89,20 @@ def _gltf_problems(model: Path) -> list[str]:
         end = _int(v, "byteOffset", 0, f"bufferView {i}") + _int(v, "byteLength", None, f"bufferView {i}")
         if end > _int(buffers[b], "byteLength", None, f"buffer {b}"):
             raise ContractError(f"glTF bufferView {i} ends at byte {end}, beyond its buffer {b}")
-    positions = {p.get("attributes", {}).get("POSITION") for m in _list(doc, "meshes") if isinstance(m, dict)
-                 for p in (m.get("primitives") or []) if isinstance(p, dict) and isinstance(p.get("attributes"), dict)}
+    positions = set()
+    for m in _list(doc, "meshes"):
+        prims = m.get("primitives")
+        for prim in prims if isinstance(prims, list) else ():
+            attrs = prim.get("attributes") if isinstance(prim, dict) else None
+            if isinstance(attrs, dict) and isinstance(attrs.get("POSITION"), int):
+                positions.add(attrs["POSITION"])
     total = 0
     for i, a in enumerate(accessors):
         what = f"glTF accessor {i}"
         count = _int(a, "count", None, what)
-        size = _GLTF_COMPONENTS.get(a.get("componentType"), 0) * _GLTF_TYPES.get(a.get("type"), 0)
+        ct, typ = a.get("componentType"), a.get("type")
+        size = (_GLTF_COMPONENTS.get(ct, 0) if isinstance(ct, int) else 0) * \
+            (_GLTF_TYPES.get(typ, 0) if isinstance(typ, str) else 0)
         if not size:
             raise ContractError(f"{what} has an unknown componentType or type")
         if i in positions:
