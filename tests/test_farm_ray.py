@@ -89,10 +89,17 @@ def assert_none_left(marker: str, timeout: float = 30.0) -> None:
 
 @pytest.fixture(scope="module")
 def cluster():
-    """A Ray 'cluster' of one node with 2 CPUs, started here; the farm joins it by address."""
+    """A Ray 'cluster' of one node with 2 CPUs, started here; the farm joins it by address.
+    Started with SIGINT ignored, as by a test run or farm started in the background (a
+    shell's ``&``): its workers inherit that, and the farm must cancel tasks all the same
+    (how this test file was launched once decided whether the cancel test passed)."""
     marker = _marker_dir()
-    ctx = ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False,
-                   object_store_memory=100 * 1024 * 1024, _temp_dir=os.path.join(marker, "ray"))
+    saved = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        ctx = ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False,
+                       object_store_memory=100 * 1024 * 1024, _temp_dir=os.path.join(marker, "ray"))
+    finally:
+        signal.signal(signal.SIGINT, saved)
     try:
         yield ctx.address_info["gcs_address"]
     finally:

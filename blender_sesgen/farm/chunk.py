@@ -12,12 +12,14 @@ worker) the render gets SIGINT and stops between views like a Ctrl-C'd render.
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from collections import deque
 from pathlib import Path
@@ -111,7 +113,27 @@ def task(args: list[str], key: str, out: str, inbox=None, scene: Optional[str] =
     if inbox is not None:
         def report(msg: dict) -> None:
             inbox.put.remote(msg)
-    return run_chunk([sys.executable, "-m", "blender_sesgen.farm.child", *args], key, out, report)
+    with _cancellable():
+        return run_chunk([sys.executable, "-m", "blender_sesgen.farm.child", *args], key, out, report)
+
+
+@contextlib.contextmanager
+def _cancellable():
+    """Ray cancels a running task with ``_thread.interrupt_main()``, which does nothing while
+    SIGINT is ignored -- as it is in every worker of a Ray started by a process that ignores
+    it (a farm or a test run started in the background: a shell's ``&`` ignores SIGINT). The
+    cancel then never reached the render, which rendered to its end and exited 0. So while
+    the task runs, SIGINT has Python's handler (the worker still blocks the real signal:
+    only Ray's cancel raises KeyboardInterrupt here)."""
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGINT) not in (signal.SIG_IGN, signal.SIG_DFL, None):
+        yield
+        return
+    saved = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, saved)
 
 
 def verify_task(out: str) -> dict:
