@@ -115,6 +115,8 @@ def read_layout(buf: bytes, path="<exr>") -> ExrLayout:
         if len(buf) < 8 or struct.unpack_from("<i", buf, 0)[0] != MAGIC:
             raise ExrError(f"{path}: not an OpenEXR file")
         (version,) = struct.unpack_from("<i", buf, 4)
+        if version & 0xFF != 2 or version & ~0x1EFF:
+            raise ExrError(f"{path}: not an OpenEXR 2 file (version field {version:#x})")
         if version & 0x200 or version & 0x800:
             raise ExrError(f"{path}: tiled or deep EXR not supported")
         multipart = bool(version & 0x1000)
@@ -217,8 +219,8 @@ def value_problem(buf: bytes, limit: float, path="<exr>") -> str:
             bad = ~np.isfinite(v) | (np.abs(v.astype(np.float64)) > limit)
             if bad.any():
                 y, x = np.argwhere(bad)[0]
-                return (f"channel {name} holds {float(v[y, x]):.4g} at pixel ({x}, {r + y}): values must be finite "
-                        f"and within +-{limit:g}")
+                return (f"channel {name!r} holds {float(v[y, x]):.4g} at pixel ({x}, {r + y}): values must be "
+                        f"finite and within +-{limit:g}")
     return ""
 
 

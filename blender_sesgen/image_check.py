@@ -102,7 +102,7 @@ def _check_png(data: bytes):
         _need(length < 2**31 and pos + 12 + length <= len(data), f"PNG truncated in chunk {ctype!r}")
         body = data[pos + 8:pos + 8 + length]
         (crc,) = struct.unpack_from(">I", data, pos + 8 + length)
-        _need(zlib.crc32(ctype + body) & 0xFFFFFFFF == crc, f"PNG chunk {ctype.decode('latin-1')} has a bad CRC")
+        _need(zlib.crc32(ctype + body) & 0xFFFFFFFF == crc, f"PNG chunk {ctype.decode('latin-1')!r} has a bad CRC")
         _need(ihdr is not None or ctype == b"IHDR", "PNG does not start with IHDR")
         if ctype == b"IHDR":
             _need(ihdr is None and length == 13, "PNG IHDR is invalid or repeated")
@@ -244,10 +244,25 @@ def _exr_header(data: bytes, pos: int) -> tuple[dict, int]:
     return header, pos + 1
 
 
+def _exr_channels(chlist: bytes, x0: int, y0: int, w: int, h: int) -> None:
+    """Every channel: a name, a pixel type (UINT, HALF, FLOAT) and a sampling that divides
+    the data window, as OpenEXR requires (a flipped bit there makes it refuse the file)."""
+    pos = 0
+    while chlist[pos] != 0:
+        end = chlist.index(b"\0", pos)
+        _need(end > pos, "EXR channel without a name")
+        ptype, xs, ys = struct.unpack_from("<i4xii", chlist, end + 1)
+        _need(ptype in (0, 1, 2), f"EXR channel has an unknown pixel type {ptype}")
+        _need(xs >= 1 and ys >= 1 and x0 % xs == 0 and y0 % ys == 0 and w % xs == 0 and h % ys == 0,
+              f"EXR channel sampling {xs}x{ys} does not divide the data window")
+        pos = end + 17
+
+
 def _check_exr(data: bytes):
     (version,) = struct.unpack_from("<I", data, 4)
     tiled, multipart, deep = bool(version & 0x200), bool(version & 0x1000), bool(version & 0x800)
     _need(version & 0xFF == 2, f"unknown OpenEXR version {version & 0xFF}")
+    _need(not version & ~0x1EFF, f"OpenEXR version flags {version >> 8:#x} hold unknown bits")   # OpenEXR refuses them
     pos, headers = 8, []
     while True:
         header, pos = _exr_header(data, pos)
@@ -263,6 +278,7 @@ def _check_exr(data: bytes):
         _need(len(header["channels"][1]) > 1, "EXR without channels")
         x0, y0, x1, y1 = struct.unpack("<iiii", header["dataWindow"][1])
         _need(0 <= x1 - x0 < MAX_SIDE and 0 <= y1 - y0 < MAX_SIDE, "EXR data window is empty or too large")
+        _exr_channels(header["channels"][1], x0, y0, x1 - x0 + 1, y1 - y0 + 1)
         comp = header["compression"][1][0]
         _need(comp in _EXR_LINES, f"EXR compression {comp} is unknown")
         ptype = header.get("type", ("", b"scanlineimage\0"))[1].rstrip(b"\0")
@@ -309,7 +325,7 @@ def _exr_values(data: bytes) -> None:
     except ExrError as e:
         if "not supported" in str(e):
             return
-        raise ImageFileError(str(e).split(": ", 1)[-1]) from None
+        raise ImageFileError(" ".join(str(e).split(": ", 1)[-1].split())) from None
     _need(not problem, problem)
 
 

@@ -416,15 +416,18 @@ class OutputFolder:
             bad.append((None, f"{MANIFEST}: not sealed (written before manifests were sealed): its values "
                               "cannot be proven; `render --resume` writes it again"))
         sums = dict(m.extra.get("checksums") or {})
-        scene = self.root / SCENE_COPY
-        try:
-            if hashlib.sha256(scene.read_bytes()).hexdigest() != m.scene_sha256:
+        try:   # a regular file only: a FIFO there must not block verify
+            if hashlib.sha256(read_bytes(self.root / SCENE_COPY, 64 << 20, "script")).hexdigest() != m.scene_sha256:
                 bad.append((None, f"{SCENE_COPY}: not the script that was rendered (its SHA-256 differs from the "
                                   "manifest's scene_sha256)"))
-        except OSError:
-            bad.append((None, f"{SCENE_COPY}: missing"))
+        except ContractError as e:
+            bad.append((None, f"{SCENE_COPY}: missing" if not (self.root / SCENE_COPY).exists() else
+                        f"{SCENE_COPY}: {e.detail}"))
+        # no file of a render is larger (an EXR of every pass, the lens table, the IMU streams):
+        # a larger one is damaged, and is not read to be hashed
+        limit = 64 * m.resolution[0] * m.resolution[1] + (1 << 30)
         for rel in dict.fromkeys(static_files(raw)):
-            why = self._check_file(rel, sums, full, None)
+            why = self._check_file(rel, sums, full, None, limit)
             if why:
                 bad.append((None, why))
         required = []
@@ -434,7 +437,7 @@ class OutputFolder:
         done = [k for k in range(m.frames) if m.frames_complete[k]]
         for i, k in enumerate(done):
             for rel in m.frame_files(k):
-                why = self._check_file(rel, sums, full, tuple(required) if rel in exrs else None)
+                why = self._check_file(rel, sums, full, tuple(required) if rel in exrs else None, limit)
                 if why:
                     bad.append((k, why))
                     break
@@ -442,11 +445,12 @@ class OutputFolder:
                 progress(i + 1, len(done))
         return bad
 
-    def _check_file(self, rel: str, sums: dict, full: bool, exr_channels) -> str:
+    def _check_file(self, rel: str, sums: dict, full: bool, exr_channels, limit: int) -> str:
         """'' when the file ``rel`` is whole and what was written (its SHA-256 in ``sums``);
-        ``exr_channels``: an EXR that must hold them; else ``full`` decodes an image."""
+        ``exr_channels``: an EXR that must hold them; else ``full`` decodes an image; a file
+        larger than ``limit`` bytes is not read."""
         try:
-            buf = read_bytes(self.root / rel, 16 << 30, "file")
+            buf = read_bytes(self.root / rel, limit, "file")
             if exr_channels is not None:
                 check_complete(buf, rel, exr_channels)
             if rel in sums and hashlib.sha256(buf).hexdigest() != sums[rel]:
