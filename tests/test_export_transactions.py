@@ -263,3 +263,34 @@ def test_export_json_lists_what_the_export_owns(renders, tmp_path):
     on_disk = sorted(k for k in tree(out))
     assert sorted(owns["files"]) == on_disk
     assert np.all([f.startswith(("dataset/poses/03.txt", "dataset/sequences/03/")) for f in owns["files"]])
+
+
+def test_recovery_never_touches_a_live_transaction_and_finishes_dead_ones(tmp_path):
+    """Another process's open transaction (alive: its stage is being written) is left alone;
+    one whose process is gone is removed without a journal and rolled forward with one."""
+    out = tmp_path / "OUT"
+    code = ("import sys, time; from blender_sesgen.contract import atomic\n"
+            f"tx = atomic.Transaction({str(out)!r}).open()\n"
+            "(tx.stage / 'f').write_text('x'); print('ready', flush=True); time.sleep(60)\n")
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True,
+                            env={**os.environ, "PYTHONPATH": str(REPO)})
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+        live = tmp_path / f".OUT.txn-{proc.pid}"
+        assert atomic.recover(out) == [] and (live / "new" / "OUT" / "f").is_file()
+    finally:
+        proc.kill()
+        proc.wait()
+    dead_stage = tmp_path / ".OUT.txn-999999999"          # no such pid: a killed export
+    (dead_stage / "new" / "OUT").mkdir(parents=True)
+    assert set(atomic.recover(out)) == {live, dead_stage}
+    assert not out.exists() and not leftovers(tmp_path)
+    # a killed commit: its journal says the new OUT is decided
+    tx = atomic.Transaction(out).open()
+    (tx.stage / "g").write_text("new")
+    atomic.write_json(tx.work / atomic.JOURNAL, {"format": atomic.TRANSACTION_FORMAT, "units": ["."]})
+    tx._lock.close()
+    tx._lock = None
+    dead = tx.work.rename(tmp_path / ".OUT.txn-999999998")
+    assert atomic.recover(out) == [dead]
+    assert (out / "g").read_text() == "new" and not leftovers(tmp_path)

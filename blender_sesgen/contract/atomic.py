@@ -189,8 +189,9 @@ def transaction(out) -> Iterator[Transaction]:
 
 
 def recover(out) -> list[Path]:
-    """Finish the interrupted transactions on ``out`` whose process is gone: those with a
-    journal rolled forward, the others deleted. Returns their working folders."""
+    """Finish the interrupted transactions on ``out`` whose process is gone (no process has
+    the pid in the working folder's name, or it is this one; and its lock is free): those
+    with a journal rolled forward, the others deleted. Returns their working folders."""
     out = Path(os.path.abspath(out))
     places = [(out.parent, f".{out.name}.txn-"), (out, _TXN_INSIDE)]
     done = []
@@ -201,8 +202,11 @@ def recover(out) -> list[Path]:
             continue
         for name in names:
             work = folder / name
-            lock = _flock(work / "lock", blocking=False) if (work / "lock").exists() else _dead_pid_lock(name)
-            if lock is None:            # its process is alive
+            pid = int(name[len(prefix):])
+            if pid != os.getpid() and _alive(pid):   # its owner runs (a lock just being taken is not held yet)
+                continue
+            lock = _flock(work / "lock", blocking=False) if (work / "lock").exists() else _Flock(-1)
+            if lock is None:            # held: a transaction of this process
                 continue
             try:
                 with held_interrupts(), _folder_lock(folder):
@@ -303,17 +307,16 @@ def _flock(path: Path, blocking: bool):
     return _Flock(fd)
 
 
-def _dead_pid_lock(name: str):
-    """For a working folder without its lock file (killed between mkdir and lock): a dummy
-    lock when the pid in its name is not alive, else None."""
-    pid = int(_TXN_NAME.match(name).group(1))
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` exists on this machine (a reused pid counts as alive: its
+    working folder then waits for a later recovery, it is never taken from a live owner)."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
-        return _Flock(-1)
+        return False
     except OSError:
-        return None
-    return None
+        return True
+    return True
 
 
 @contextmanager

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..contract.errors import ContractError
 from ..contract.inputs import check_regular, read_bytes
-from .mesh_files import MAX_MODEL_TEXT, _glb_json
+from .mesh_files import MAX_MODEL_TEXT, gltf_document
 from .statements import MAX_ABS
 
 MAX_MESH_VERTICES = 20_000_000   # per model file: a 3-D scan of a street; more is split into several files
@@ -71,16 +71,8 @@ def _too_many(n: int, what: str) -> str:
 # --- glTF ------------------------------------------------------------------------------------
 
 def _gltf_problems(model: Path) -> list[str]:
-    if model.suffix.lower() == ".glb":
-        doc_bytes, bin_chunk = _glb_json(model), _glb_bin(model)
-    else:
-        doc_bytes, bin_chunk = read_bytes(model, MAX_MODEL_TEXT, "glTF file"), None
-    try:
-        doc = json.loads(doc_bytes.decode("utf-8"))
-    except (UnicodeDecodeError, ValueError) as e:
-        raise ContractError(f"not valid glTF JSON ({e})") from None
-    if not isinstance(doc, dict):
-        raise ContractError("not valid glTF JSON (no top-level object)")
+    doc = gltf_document(model)
+    bin_chunk = _glb_bin(model) if model.suffix.lower() == ".glb" else None
     buffers, views, accessors = (_list(doc, k) for k in ("buffers", "bufferViews", "accessors"))
     for i, b in enumerate(buffers):      # each buffer within its data (read only where POSITIONs are)
         _buffer_data(model, b, i, bin_chunk, read=False)
