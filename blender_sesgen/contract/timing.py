@@ -21,6 +21,8 @@ from .errors import ContractError
 DEFAULT_FPS = 25.0
 TIME_LIMIT_S = 1e12          # seconds: a Unix time (1.7e9) fits, 1e308 does not (the manifest's limit)
 MAX_IMU_SAMPLES = 2_000_000  # 2.8 h at 200 Hz: its three CSV streams are built in memory
+# what every command's --frames help says (the one convention, above)
+FRAMES_HELP = "frames A..B-1 (A:B is half-open, a Python slice; also A:, :B, or K for frame K alone)"
 
 
 def frame_timestamps(n: int, fps: float = DEFAULT_FPS, t0_s: float = 0.0) -> np.ndarray:
