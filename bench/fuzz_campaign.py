@@ -109,9 +109,9 @@ FAULTS = ("fifo", "folder", "dev-zero", "empty", "oversized", "dangling-symlink"
 # --- exports interrupted at random instants -------------------------------------------------------
 
 EXPORT_FAULTS = ("export-sigint", "export-kill", "export-enospc")
-# layouts and their options: one folder (replaced whole) and trees whose slot spans 1, 2 or 4 units
-LAYOUTS = (("png", ()), ("kitti-odometry", ()), ("sceneflow", ()), ("tartanair", ("--sequence", "P001")),
-           ("vkitti2", ("--sequence", "Scene01/clone")))
+# layouts and their options: folders replaced whole and trees whose slot spans 1, 2, 4 or 7 units
+LAYOUTS = (("png", ()), ("colmap", ()), ("kitti-odometry", ()), ("sceneflow", ()),
+           ("tartanair", ("--sequence", "P001")), ("vkitti2", ("--sequence", "Scene01/clone")), ("sintel", ()))
 
 
 class ExportTrials:

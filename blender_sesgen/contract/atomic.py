@@ -132,18 +132,21 @@ class Transaction:
         self.work = base / (f"{_TXN_INSIDE}{os.getpid()}" if self.inside else f".{self.out.name}.txn-{os.getpid()}")
         self.stage = self.work / "new" / self.out.name
         self._lock = None
+        self._created = False          # the working folder is this transaction's (close may delete it)
         self.committed = False
 
     def open(self) -> "Transaction":
         self.work.parent.mkdir(parents=True, exist_ok=True)
         recover(self.out)               # earlier ones first (one may have had our pid)
-        try:
-            self.work.mkdir()
-        except FileExistsError:
-            raise ContractError("another export into this folder is running in this process",
-                                str(self.out)) from None
-        self._lock = _flock(self.work / "lock", blocking=True)
-        self.stage.mkdir(parents=True)
+        with held_interrupts():         # a Ctrl-C here would leave a working folder nobody removes
+            try:
+                self.work.mkdir()
+            except FileExistsError:
+                raise ContractError("another export into this folder is running in this process",
+                                    str(self.out)) from None
+            self._created = True
+            self._lock = _flock(self.work / "lock", blocking=True)
+            self.stage.mkdir(parents=True)
         return self
 
     def commit(self, units, last: str | None = None, check=None) -> None:
@@ -170,7 +173,7 @@ class Transaction:
         """Delete the working folder (abandoning the stage unless committed); a journal left
         by a commit that failed half-way is kept for :func:`recover`."""
         with held_interrupts():
-            if self.work.exists() and (self.committed or not (self.work / JOURNAL).exists()):
+            if self._created and self.work.exists() and (self.committed or not (self.work / JOURNAL).exists()):
                 shutil.rmtree(self.work, ignore_errors=True)
             if self._lock is not None:
                 self._lock.close()
@@ -181,8 +184,9 @@ class Transaction:
 def transaction(out) -> Iterator[Transaction]:
     """``with transaction(out) as tx: write under tx.stage; tx.commit(units)``: what was
     staged is deleted if the block raises or never commits (:class:`Transaction`)."""
-    tx = Transaction(out).open()
+    tx = Transaction(out)
     try:
+        tx.open()
         yield tx
     finally:
         tx.close()
