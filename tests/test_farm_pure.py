@@ -482,3 +482,18 @@ def test_a_sigint_sent_while_the_render_process_starts_stops_it(tmp_path):
     out, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, (proc.returncode, err[-500:])
     assert "Traceback" not in err and "interrupted" in err
+
+
+def test_the_verify_task_reports_a_tampered_manifest_as_the_folders_own_problem(tmp_path):
+    """The farm then runs one chunk, whose --resume writes the manifest again from the
+    script (a ContractError here used to fail the scene, and every later farm with it)."""
+    pytest.importorskip("cv2")
+    pytest.importorskip("OpenEXR")
+    from synthetic_render import complete_render
+    root = complete_render(tmp_path / "r")
+    assert chunk_mod.verify_task(str(root))["folder"] == []
+    m = json.loads((root / "manifest.json").read_text())
+    m["baseline"] = 0.3
+    (root / "manifest.json").write_text(json.dumps(m))
+    res = chunk_mod.verify_task(str(root))
+    assert res["missing"] == [] and len(res["folder"]) == 1 and "seal" in res["folder"][0]

@@ -142,10 +142,14 @@ def verify_task(out: str) -> dict:
     (``verify --quick``), and the folder's own files (the manifest's seal, scene.ses, the
     trajectories...); bad frames are recorded as not rendered. Returns the frames still to
     render and what was wrong (``bad`` per frame, ``folder`` for the folder's own files)."""
+    from ..contract.errors import ContractError
     from ..contract.manifest import Manifest
     from ..output import OutputFolder
     folder = OutputFolder(Path(out))
-    folder.consolidate()
+    try:
+        folder.consolidate()
+    except ContractError as e:   # a manifest edited since (its seal): a chunk's --resume writes it again
+        return {"out": out, "missing": [], "bad": [], "folder": [str(e)], "frames": 0}
     bad = folder.verify(full=False)
     frames = sorted({k for k, _ in bad if k is not None})
     if frames:
