@@ -5,14 +5,14 @@ a device, a folder, an empty or an oversized file where a file is expected) and 
 (SIGINT or SIGKILL at a random instant, a full disk at a random write: ``ExportTrials``).
 
 The targets and mutations are tests/fuzz_targets.py's (the CI test runs the same with a few
-examples each): the readers' inputs, render folders damaged file by file (``verify`` must
+examples each; tests/ on PYTHONPATH): the readers' inputs, render folders damaged file by file (``verify`` must
 see every change), hostile model files and HDRIs (what ``check`` passes decodes to finite
 numbers), farm and generate indexes. Outcomes per target: ``ok`` (read, exit 0, or an
 interrupted export that left one whole export), ``user-error`` (exit 2, one line),
 ``finding`` (a traceback, another exit code, a user error of several lines, a broken
 promise), ``crash`` (the worker died), ``hang`` (no answer within --timeout s).
 
-    python bench/fuzz_campaign.py --mutants 2000 --heavy 300 --parser 30000 --exports 300 [--seed 1] [--json out.json]
+    PYTHONPATH=tests python bench/fuzz_campaign.py --mutants 2000 --heavy 300 --parser 30000 --exports 300 [--seed 1] [--json out.json]
 
 Prints a markdown table (docs/reliability.md holds a run's figures) and every finding's
 mutation list, so it can be replayed with ``fuzz_targets.run_mutant``.
@@ -31,7 +31,6 @@ import traceback
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(REPO), str(REPO / "tests")]
 
 HEAVY = {"manifest", "exr", "kitti-calib", "kitti-folder-poses",   # each mutant runs VO or a whole verify:
          "render-exr-verify", "render-display-png", "render-manifest-seal", "render-scene-ses", "render-imu-csv",

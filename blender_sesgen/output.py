@@ -26,15 +26,17 @@ import hashlib
 import json
 import os
 import re
+from dataclasses import replace
 from pathlib import Path
 from typing import Optional
 
 from .contract import atomic
 from .contract.errors import ContractError
 from .contract.inputs import read_bytes
+from .contract.pixel_settings import TIMING_KEYS, PixelSettings
 from .contract.manifest import (DISPLAY_DIR, DONE_LOG_GLOB, EXR_DIR, FORMAT, MANIFEST, POSES_DIR, SCENE_COPY, SEAL,
-                                STATE_DIR, Manifest, completed_in_logs, display_relpath, exr_relpath, frame_files,
-                                load_json, seal_problem, static_files, trajectory_relpaths)
+                                STATE_DIR, Manifest, completed_in_logs, display_relpath, exr_relpath,
+                                load_json, seal_problem, trajectory_relpaths)
 from .contract.trajectory_files import format_ego_table, format_kitti, format_tum
 from .errors import SesgenError
 from .image_check import ImageFileError, check_image_bytes
@@ -95,38 +97,34 @@ def seal_frame(k: int, written: dict[str, Path], required_channels: tuple) -> di
     metadata, wall-clock values) dropped; {relative path: sha256}.
     RenderWriteError (every temporary file removed) if a file is short or lacks a channel.
     Touches nothing but those files, so it may run in another process (``sealer``)."""
+    def sealed(tmp, view: str, what: str, seal) -> bytes:
+        try:
+            buf = seal(Path(tmp).read_bytes())
+            with open(tmp, "wb") as f:
+                f.write(buf)
+            return buf
+        except (OSError, ImageFileError, ExrError) as e:
+            for t in written.values():
+                Path(t).unlink(missing_ok=True)
+            raise RenderWriteError(f"frame {k} ({view}): the {what} was not written completely ({e}); "
+                                   "is the disk full? The previous files were kept") from None
+
+    def png(buf: bytes) -> bytes:
+        buf = strip_png_text(buf)
+        check_image_bytes(buf)
+        return buf
+
     sums = {}
-    for key, tmp in written.items():   # the display PNGs: decoded (image_check)
-        if not is_display_key(key):
-            continue
-        view = display_view(key)
-        try:
-            buf = strip_png_text(Path(tmp).read_bytes())
-            check_image_bytes(buf)
-            with open(tmp, "wb") as f:
-                f.write(buf)
-        except (OSError, ImageFileError) as e:
-            for t in written.values():
-                Path(t).unlink(missing_ok=True)
-            raise RenderWriteError(f"frame {k} ({view}): the display PNG was not written completely ({e}); "
-                                   "is the disk full? The previous files were kept") from None
-        sums[display_relpath(view, k)] = hashlib.sha256(buf).hexdigest()
+    for key, tmp in written.items():   # the display PNGs first: decoded (image_check)
+        if is_display_key(key):
+            view = display_view(key)
+            sums[display_relpath(view, k)] = hashlib.sha256(sealed(tmp, view, "display PNG", png)).hexdigest()
     for view, tmp in written.items():
-        if is_display_key(view):
-            continue
-        rel = exr_relpath(view, k)
-        try:
-            buf = Path(tmp).read_bytes()
-            layout = check_complete(buf, rel, required_channels, read_layout(buf, rel))
-            buf = strip_volatile_attributes(buf, layout)
-            with open(tmp, "wb") as f:
-                f.write(buf)
-        except (OSError, ExrError) as e:
-            for t in written.values():
-                Path(t).unlink(missing_ok=True)
-            raise RenderWriteError(f"frame {k} ({view}): the EXR was not written completely ({e}); "
-                                   "is the disk full? The previous files were kept") from None
-        sums[rel] = hashlib.sha256(buf).hexdigest()
+        if not is_display_key(view):
+            rel = exr_relpath(view, k)
+            buf = sealed(tmp, view, "EXR", lambda b: strip_volatile_attributes(
+                b, check_complete(b, rel, required_channels, read_layout(b, rel))))
+            sums[rel] = hashlib.sha256(buf).hexdigest()
     return sums
 
 
@@ -157,23 +155,13 @@ class OutputFolder:
     @staticmethod
     def same_settings(manifest: Optional[dict], settings: RenderSettings) -> bool:
         """True when ``manifest``'s frames were rendered with the pixel-affecting ``settings``
-        (device aside: the same output is expected on any device)."""
-        if not manifest:
-            return False
-        r = manifest.get("render", {})
-        return (r.get("samples") == settings.samples and r.get("denoise") == settings.denoise
-                and r.get("sampling") == settings.preset.pixel_settings()
-                and r.get("seed") == settings.seed
-                and float(r.get("resolution_scale", 1.0)) == settings.resolution_scale
-                and list(r.get("passes", [])) == list(settings.passes)
-                and manifest.get("resolution") == [settings.width, settings.height])
+        (``contract.pixel_settings``: device aside, the same output is expected on any device)."""
+        return bool(manifest) and PixelSettings.from_manifest(manifest) == settings.pixel
 
     @staticmethod
     def settings_key(settings: RenderSettings) -> str:
         """The pixel-affecting settings as one string (what the locks compare)."""
-        return json.dumps({"samples": settings.samples, "denoise": settings.denoise, "seed": settings.seed,
-                           "scale": settings.resolution_scale, "passes": list(settings.passes),
-                           "size": [settings.width, settings.height]}, sort_keys=True)
+        return settings.pixel.key()
 
     def resumable(self, plan: RenderPlan) -> Optional[dict]:
         """The previous manifest if its frames may be kept for ``plan`` (same scene and
@@ -225,6 +213,12 @@ class OutputFolder:
             raise SesgenError(f"--out {out}: holds the output of a different scene ({previous.get('scene_source')}); "
                               "use --force to replace it")
         if not self.same_settings(previous, plan.settings) and any(self._completed(previous)) and not force:
+            old = PixelSettings.from_manifest(previous)
+            if old is not None and replace(old, timing=None) == replace(plan.settings.pixel, timing=None):
+                timing = previous.get("timing")
+                raise SesgenError("the output folder holds frames rendered with other timing "
+                                  f"({ {k: timing.get(k) for k in TIMING_KEYS} if timing else None}); "
+                                  "use --force to re-render")
             r = previous.get("render", {})
             raise SesgenError(f"--out {out}: holds frames rendered with other settings "
                               f"(quality {r.get('quality')}, samples {r.get('samples')}, denoise {r.get('denoise')}, "
@@ -300,7 +294,7 @@ class OutputFolder:
                     self.checksums.update(files)
                 redo = set() if resume else set(plan.frames)
                 manifest = manifest.with_complete(
-                    [bool(prev_done[k] and k not in redo and self._files_exist(manifest.to_json(), k))
+                    [bool(prev_done[k] and k not in redo and self._files_exist(manifest, k))
                      for k in range(manifest.frames)])
             files = {**self._pose_files(plan, manifest), **(static_files or {})}
             self.checksums.update({rel: hashlib.sha256(data).hexdigest() for rel, data in files.items()})
@@ -379,11 +373,13 @@ class OutputFolder:
             if writer not in live or (not dead_logs_only and writer == self.locks.writer):
                 log.unlink(missing_ok=True)
 
-    def _files_exist(self, m: dict, k: int) -> bool:
-        """Every file of frame ``k`` that manifest ``m`` (a dict) lists is in the folder."""
+    def _files_exist(self, m, k: int) -> bool:
+        """Every file of frame ``k`` that manifest ``m`` (a Manifest, or an earlier one's dict)
+        lists is in the folder."""
         try:
-            return all((self.root / rel).is_file() for rel in frame_files(m, k))
-        except (KeyError, IndexError, TypeError, AttributeError):   # an earlier manifest, unchecked
+            m = m if isinstance(m, Manifest) else Manifest.from_json(m, str(self.root / MANIFEST))
+            return all((self.root / rel).is_file() for rel in m.frame_files(k))
+        except (ContractError, IndexError):   # an earlier manifest that does not describe this render
             return False
 
     @staticmethod
@@ -426,7 +422,7 @@ class OutputFolder:
         # no file of a render is larger (an EXR of every pass, the lens table, the IMU streams):
         # a larger one is damaged, and is not read to be hashed
         limit = 64 * m.resolution[0] * m.resolution[1] + (1 << 30)
-        for rel in dict.fromkeys(static_files(raw)):
+        for rel in m.static_files():
             why = self._check_file(rel, sums, full, None, limit)
             if why:
                 bad.append((None, why))

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from markers import needs
 
 REPO = Path(__file__).resolve().parents[1]
 CAMERA = "CAMERA resolution 64 48 focal 50\nSTART position 0 1 3\n"
@@ -62,8 +63,8 @@ def test_timestamps_beyond_the_manifests_limit_are_refused(tmp_path):
     refused(s, "TIMING", "1e+12 s", line=5)
 
 
+@needs("bpy")
 def test_the_render_commands_rate_override_is_bounded_too(tmp_path):
-    pytest.importorskip("bpy")
     s = write(tmp_path, CAMERA + QUAD + "EGO 0 0 -0.1 0 0 0\nIMU rate 200\n")
     out = tmp_path / "out"
     r = cli("render", s, "--out", out, "--rate", "1e-9")
@@ -201,12 +202,12 @@ def test_an_hdr_file_with_a_huge_exponent_is_refused(tmp_path):
 
 
 @pytest.mark.render
+@needs("bpy", "OpenEXR")
 @pytest.mark.parametrize("use", ["hdri", "texture"])
 def test_the_renderer_checks_float_images_check_cannot_decode(tmp_path, use):
     """A PIZ-compressed EXR is beyond the pure reader (``check`` passes it); the renderer
     checks every float image as Blender decoded it, before it writes anything."""
-    pytest.importorskip("bpy")
-    OpenEXR = pytest.importorskip("OpenEXR")
+    import OpenEXR
     exr(tmp_path / "bad.exr", np.nan, OpenEXR.PIZ_COMPRESSION)
     stmt = "WORLD hdri bad.exr\n" if use == "hdri" else QUAD.rstrip("\n") + " texture bad.exr\n"
     s = write(tmp_path, CAMERA + QUAD.replace("id 1", "id 2") + stmt)

@@ -18,12 +18,10 @@ from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from render_support import REPO, run_render  # noqa: E402
+from render_support import REPO, run_render
+from markers import needs
 
-pytestmark = pytest.mark.render
-pytest.importorskip("bpy")
-ray = pytest.importorskip("ray")
+pytestmark = [pytest.mark.render, needs("bpy", "ray")]
 
 SCENE = """\
 CAMERA resolution 64 48 focal 44 baseline 0.1 near 0.1 far 100
@@ -93,6 +91,7 @@ def cluster():
     Started with SIGINT ignored, as by a test run or farm started in the background (a
     shell's ``&``): its workers inherit that, and the farm must cancel tasks all the same
     (how this test file was launched once decided whether the cancel test passed)."""
+    import ray
     marker = _marker_dir()
     saved = signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
@@ -227,6 +226,7 @@ def test_a_cancelled_task_stops_its_render_between_views(scenes, cluster):
     (each is checked below): with the 25 frames this test once had, an idle machine renders
     the ~23 left after the first in about 3 s, and a cancel that took longer to arrive found
     the render finished (exit 0) -- the test measured the machine, not the cancel."""
+    import ray
     from blender_sesgen.farm import chunk
     tmp, refs = scenes
     script = tmp / "scripts" / "long.ses"
@@ -259,6 +259,7 @@ def test_a_task_cancelled_while_its_render_starts_ends_cleanly(scenes, cluster):
     process starts with SIGINT still blocked, while it loads Blender -- ends the task as
     cancelled or the render as interrupted (exit 130), never killed by the signal (-2: a
     farm would retry it) nor finished (0); no frame is left half-written."""
+    import ray
     from blender_sesgen.farm import chunk
     tmp, refs = scenes
     script = tmp / "scripts" / "start.ses"

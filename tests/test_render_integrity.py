@@ -13,12 +13,10 @@ from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from render_support import REPO, run_render  # noqa: E402
+from markers import needs
+from render_support import REPO, run_render
 
-pytestmark = pytest.mark.render
-pytest.importorskip("bpy")
-pytest.importorskip("OpenEXR")
+pytestmark = [pytest.mark.render, needs("bpy", "OpenEXR")]
 
 PLAIN = """\
 CAMERA resolution 64 48 focal 44 baseline 0.1

@@ -28,7 +28,7 @@ import math
 import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Sequence
+from typing import Optional, Sequence
 
 import numpy as np
 
@@ -38,6 +38,8 @@ from .depth import DEPTH_BACKGROUND
 from .errors import ContractError
 from .inputs import read_text
 from .manifest_schema import check_types
+from .manifest_sections import Sections
+from .se3 import not_rotations
 from .timing import TIME_LIMIT_S
 
 FORMAT = "sesgen-render/1"
@@ -128,12 +130,18 @@ class Manifest:
     generator: dict = field(default_factory=dict)
     extra: dict = field(default_factory=dict)
     object_poses: dict = field(default_factory=dict)
+    sections: Optional[Sections] = None
 
     def __post_init__(self):
         if not self.frames_complete:
             self.frames_complete = [False] * self.frames
         if not self.object_poses:
             self.object_poses = object_poses(self.objects, self.frames)
+        if self.sections is None:   # a manifest being written: its sections as the writer put them in extra
+            core = {"views": list(self.views), "frames": self.frames, "fps": self.fps,
+                    "timestamps": [float(t) for t in self.timestamps_s[:1]]}
+            self.sections = Sections.from_json({**core, **{k: self.extra.get(k) for k in Sections.KEYS}},
+                                               MANIFEST, LIMIT)
 
     @property
     def frames(self) -> int:
@@ -183,8 +191,27 @@ class Manifest:
         return write_json(Path(root) / MANIFEST, m, durable)
 
     def frame_files(self, k: int) -> list[str]:
-        """Every file of frame ``k`` the manifest lists (:func:`frame_files`)."""
-        return frame_files({"views": list(self.views), "files": self.files, **self.extra}, k)
+        """Every file of frame ``k`` the manifest lists: each view's EXR (``files``), display
+        PNG (``display.files``) and sensor images (``sensor.files``, every kind)."""
+        out = [self.files[v][k] for v in self.views]
+        display = (self.extra.get("display") or {}).get("files") or {}   # checked by manifest_schema
+        out += [display[v][k] for v in self.views if v in display]
+        sensor = self.sections.sensor
+        if sensor is not None:
+            out += [sensor.file(kind, v, k) for kind in sensor.files for v in self.views]
+        return [f for f in out if f]
+
+    def static_files(self) -> list[str]:
+        """The files the manifest lists once per render: trajectories, the lens's calibration
+        and lookup table, the IMU streams."""
+        traj = trajectory_relpaths(self.views)
+        out = [*traj["tum"].values(), *traj["kitti"].values(), traj["ego"]]
+        lens, imu = self.sections.lens, self.sections.imu
+        if lens is not None:
+            out += list(lens.opencv_files.values()) + ([lens.undistort_lut] if lens.undistort_lut else [])
+        if imu is not None:
+            out += [p for p in imu.files.values() if isinstance(p, str)]
+        return list(dict.fromkeys(out))
 
     def with_complete(self, complete: Sequence[bool]) -> "Manifest":
         return replace(self, frames_complete=[bool(x) for x in complete])
@@ -202,6 +229,7 @@ class Manifest:
         if missing:
             raise ContractError(f"missing key(s) {', '.join(missing)}", source)
         check_types(m, source, LIMIT)
+        sections = Sections.from_json(m, source, LIMIT)
         try:
             W, H = (int(v) for v in m["resolution"])
             K = np.array(m["K"], dtype=float).reshape(3, 3)
@@ -232,9 +260,7 @@ class Manifest:
             if not np.all(np.isfinite(T)) or np.abs(T).max() > LIMIT:
                 raise ContractError(f"poses[{v!r}] holds non-finite or absurdly large values", source)
             R = T[:, :3, :3]
-            err = np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3)).max(axis=(1, 2))
-            bad = np.flatnonzero(~(err <= POSE_TOLERANCE) | (np.linalg.det(R) < 0)
-                                 | np.any(T[:, 3] != (0.0, 0.0, 0.0, 1.0), axis=1))
+            bad = np.flatnonzero(not_rotations(R, POSE_TOLERANCE) | np.any(T[:, 3] != (0.0, 0.0, 0.0, 1.0), axis=1))
             if bad.size:
                 raise ContractError(f"poses[{v!r}][{bad[0]}] is not a rigid transform (rotation and 0 0 0 1 row)",
                                     source)
@@ -277,7 +303,8 @@ class Manifest:
                    segmentation=m.get("segmentation") or {"kind": "object_index", "background": 0, "channel": None},
                    channels=m.get("channels") or {}, objects=objects, object_poses=moving,
                    render=m.get("render") or {}, scene_source=str(m.get("scene_source", "")),
-                   scene_sha256=str(m.get("scene_sha256", "")), generator=m.get("generator") or {}, extra=extra)
+                   scene_sha256=str(m.get("scene_sha256", "")), generator=m.get("generator") or {}, extra=extra,
+                   sections=sections)
 
     @classmethod
     def read(cls, root, sealed: bool = True) -> "Manifest":
@@ -320,35 +347,6 @@ def seal_problem(m: dict) -> str:
     return ""
 
 
-def frame_files(m: dict, k: int) -> list[str]:
-    """Every file of frame ``k`` a manifest (dict) lists: each view's EXR (``files``), display
-    PNG (``display.files``) and sensor images (``sensor.files``, every kind)."""
-    views = list(m.get("views") or [])
-    out = [m["files"][v][k] for v in views]
-    display = (m.get("display") or {}).get("files") or {}
-    out += [display[v][k] for v in views if v in display]
-    for per_view in ((m.get("sensor") or {}).get("files") or {}).values():
-        out += [per_view[v][k] for v in views if v in per_view]
-    return [f for f in out if f]
-
-
-def static_files(m: dict) -> list[str]:
-    """The files a manifest (dict) lists once per render: trajectories, the lens's
-    calibration and lookup table, the IMU streams."""
-    out = []
-    traj = m.get("trajectories") or {}
-    for kind in ("tum", "kitti"):
-        out += list((traj.get(kind) or {}).values())
-    if traj.get("ego"):
-        out.append(traj["ego"])
-    lens = (m.get("lens") or {}).get("files") or {}
-    out += list((lens.get("opencv") or {}).values())
-    if lens.get("undistort_lut"):
-        out.append(lens["undistort_lut"])
-    out += [v for v in ((m.get("imu") or {}).get("files") or {}).values() if isinstance(v, str)]
-    return out
-
-
 def object_poses(objects: list, n: int, source: str = MANIFEST) -> dict[int, np.ndarray]:
     """{id: (n, 4, 4) T_world_obj} of the ``objects`` entries marked ``moving`` (validated:
     ContractError naming ``source`` for a moving object without n finite rigid poses)."""
@@ -363,8 +361,7 @@ def object_poses(objects: list, n: int, source: str = MANIFEST) -> dict[int, np.
             raise ContractError(f"moving object {o.get('id')!r} has no usable T_world_obj", source) from None
         if T.shape != (n, 4, 4):
             raise ContractError(f"objects[id={obj_id}].T_world_obj has shape {T.shape}, expected ({n}, 4, 4)", source)
-        if not np.all(np.isfinite(T)) or np.abs(T).max() > LIMIT \
-                or np.abs(np.einsum("nji,njk->nik", T[:, :3, :3], T[:, :3, :3]) - np.eye(3)).max() > 1e-6:
+        if not np.all(np.isfinite(T)) or np.abs(T).max() > LIMIT or not_rotations(T[:, :3, :3], POSE_TOLERANCE).any():
             raise ContractError(f"objects[id={obj_id}].T_world_obj holds non-rigid or non-finite poses", source)
         out[obj_id] = T
     return out
