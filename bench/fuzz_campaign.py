@@ -332,6 +332,8 @@ def campaign(names, mutants: int, heavy: int, parser: int, seed: int, timeout: f
             tally[outcome] += 1
             if outcome not in ("ok", "user-error"):
                 findings.append({"target": name, "outcome": outcome, "detail": detail, "job": repr(job)})
+                # printed at once: a campaign stopped early still shows what it found
+                print(f"<!-- FINDING {name}: {outcome}: {detail} | job: {job!r} -->", flush=True)
             elif name in EXPORT_FAULTS:
                 ends[detail] = ends.get(detail, 0) + 1
         worker.close()
@@ -375,8 +377,6 @@ def main(argv=None) -> int:
                               not args.no_faults, args.exports)
     total = {c: sum(r[c] for r in rows) for c in COLUMNS[1:]}
     print(_row({"target": "**total**", **{k: (round(v, 1) if isinstance(v, float) else v) for k, v in total.items()}}))
-    for f in findings:
-        print(f"FINDING {f['target']}: {f['outcome']}: {f['detail']}\n    job: {f['job']}")
     if args.json:
         Path(args.json).write_text(json.dumps({"rows": rows, "findings": findings}, indent=1))
     return 1 if findings else 0
