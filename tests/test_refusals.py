@@ -94,3 +94,19 @@ def test_a_right_camera_on_the_wrong_side_is_named_as_such(tmp_path):
     (root / "calib.txt").write_text(f"P0: {P0}\nP1: 700 0 32 378 0 700 24 0 0 0 1 0\n")
     line = one_line(cli("vo_reference", "stereo-vo", root, "--out", tmp_path / "e.txt", "--quiet"), 2)
     assert "to the left of the left one" in line and "0.54" in line, line
+
+
+# --- a Blender importer's error --------------------------------------------------------------
+def test_a_blender_importers_traceback_becomes_its_last_line():
+    """Blender's operators raise RuntimeError whose text is a whole Python traceback (how the
+    oversized glTF once reached the user): the render prints its last line only."""
+    from blender_sesgen.render_cli import one_line as render_error
+    text = ("Error: Python: Traceback (most recent call last):\n"
+            '  File "/usr/lib/blender/io_import_scene_gltf2.py", line 121, in execute\n'
+            "    return self.import_gltf2(context)\n"
+            "MemoryError: Unable to allocate 11.2 GiB for an array with shape (1000000000, 3)\n")
+    line = render_error(RuntimeError(text))
+    assert "\n" not in line and "Traceback" not in line and line.endswith(
+        "MemoryError: Unable to allocate 11.2 GiB for an array with shape (1000000000, 3)"), line
+    assert render_error(ValueError("no such object")) == "ValueError: no such object"
+    assert render_error(RuntimeError("")) == "RuntimeError"
