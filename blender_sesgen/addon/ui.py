@@ -84,7 +84,7 @@ class SESGEN_PT_render(_SidebarPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         layout.use_property_decorate = False
-        _toggled(layout, s, "Frames", "use_frame_range", "Range", ("frame_first", "frame_last"))
+        _toggled(layout, s, "Frames", "use_frame_range", "Range", ("frame_first", "frame_stop"))
         layout.prop(s, "quality")
         layout.prop(s, "world")
         if s.world != "script":

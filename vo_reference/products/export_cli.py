@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 
 from blender_sesgen.contract.progress import add_progress_argument, progress_mode
+from blender_sesgen.contract.timing import FRAMES_HELP
 
 from ..errors import VoError
 from .exports import EXPORTERS, export
@@ -24,7 +25,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=None, metavar="S",
                         help="noise seed (default: the manifest's, else 0)")
     parser.add_argument("--frames", default=None, metavar="A:B",
-                        help="source frames A..B-1 (either may be empty); output is renumbered from 0")
+                        help=f"source {FRAMES_HELP}; the output is renumbered from 0")
     parser.add_argument("--sequence", default=None, metavar="NAME",
                         help="the render's slot in a dataset tree of several sequences: kitti-odometry "
                              "NN (default 00), sceneflow SPLIT/LETTER/NNNN (default TRAIN/A/0000), "
