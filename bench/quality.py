@@ -111,7 +111,7 @@ class Bench:
     def __init__(self, args):
         from blender_sesgen.plan import RenderOptions, RenderPlan
         self.args = args
-        self.plan = RenderPlan.from_file(args.scene, RenderOptions(resolution_scale=args.scale,
+        self.plan = RenderPlan.from_file(args.scene, RenderOptions(resolution_scale=args.scale, device=args.device,
                                                                    frames=f"{args.frame}:{args.frame + 1}"))
         self.views = tuple(self.plan.views) if args.views == "both" else ("left",)
         self.exposure = None
@@ -203,6 +203,8 @@ def main(argv=None) -> int:
                    help="extra configurations: a preset (base=...) with settings changed")
     p.add_argument("--repeat", type=int, default=1, help="timed renders per configuration (median)")
     p.add_argument("--reference-samples", type=int, default=4096)
+    p.add_argument("--device", choices=("cpu", "gpu"), default="cpu",
+                   help="Cycles device of every render (a cached reference serves either device)")
     p.add_argument("--cache", default=str(REPO / "out" / "bench-cache"))
     p.add_argument("--json", metavar="FILE", help="also write the results as JSON")
     a = p.parse_args(argv)
