@@ -66,6 +66,9 @@ class RenderJob:
         folder.check(plan, force)
         from .sensor.outputs import check_resumable
         check_resumable(plan.sensor, folder.previous(), list(plan.frames), resume, force)
+        if plan.options.reuse_exr:
+            from .reuse import check_reusable
+            check_reusable(plan, plan.options.reuse_exr)
         return cls(plan, folder, resume=resume, force=force)
 
     # --- what the job is ----------------------------------------------------------------
@@ -97,6 +100,11 @@ class RenderJob:
     def manifest(self) -> Optional[Manifest]:
         return self.folder.manifest
 
+    def session_needs_no_bpy(self) -> bool:
+        """A render that reuses another's EXRs needs Blender only to write JPEGs."""
+        sensor = self.plan.scene.sensor
+        return bool(self.plan.options.reuse_exr) and not (sensor is not None and sensor.jpeg_quality)
+
     def pending_frames(self) -> list[int]:
         """Requested frames not complete yet (all requested ones unless resuming)."""
         return self.folder.pending(self.plan, self.resume)
@@ -105,6 +113,10 @@ class RenderJob:
     def build(self) -> None:
         """Build the scene in Blender (a dedicated scene 'SESGen'; rebuilding replaces).
         Writes nothing into the output folder."""
+        if self.plan.options.reuse_exr:   # another render's EXRs: no Blender (blender_sesgen.reuse)
+            from .reuse import ReusedSession
+            self.session = ReusedSession(self.plan, self.plan.options.reuse_exr)
+            return
         from .blender.session import BlenderSession
         kept = self.folder.resumable(self.plan)
         self.session = BlenderSession(self.plan, known_exposure=(kept or {}).get("render", {}).get("exposure"),

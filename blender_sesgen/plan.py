@@ -76,6 +76,7 @@ class RenderOptions:
     readout_s: Optional[float] = None
     motion_blur: Optional[bool] = None
     fast_pipeline: bool = True           # False: a fresh Cycles render per view (same pixels, slower)
+    reuse_exr: Optional[str] = None      # a render folder whose EXRs this one reuses (blender_sesgen.reuse)
 
     def __post_init__(self):
         object.__setattr__(self, "device", Device.parse(self.device))

@@ -49,6 +49,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="rolling-shutter readout time, top to bottom (overrides TIMING readout; 0 = global shutter)")
     p.add_argument("--motion-blur", action=argparse.BooleanOptionalAction, default=None,
                    help="motion blur over the exposure (overrides TIMING blur)")
+    p.add_argument("--reuse-exr", metavar="BASE",
+                   help="take the EXRs from the render folder BASE and run only the post-render camera chain "
+                        "(SENSOR, the lens's optics, NOISE may differ from BASE's script; nothing else)")
     add_progress_argument(p, ("--quiet",))
     p.add_argument("--verbose", action="store_true", help="show Blender's own render log")
 
@@ -66,6 +69,7 @@ def render_options(args: argparse.Namespace) -> RenderOptions:
         normal_pass=args.normal_pass, position_pass=args.position_pass, threads=args.threads,
         verbose=args.verbose, rate_hz=args.rate, exposure_s=args.exposure, readout_s=args.readout,
         motion_blur=args.motion_blur, fast_pipeline=not args.plain_pipeline,
+        reuse_exr=getattr(args, "reuse_exr", None),
     )
 
 
@@ -75,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
     t_start = time.perf_counter()
     options = render_options(args)
     job = RenderJob.prepare(args.scene, args.out, options, resume=args.resume, force=args.force)  # SesgenError -> 2
-    if not have_bpy():
+    if not have_bpy() and not (options.reuse_exr and job.session_needs_no_bpy()):
         raise SesgenError("rendering needs Blender's Python module 'bpy': pip install 'blender-sesgen[render]' "
                           "(Python 3.11), or run inside Blender: blender -b -P render.py -- SCENE.ses --out DIR")
     todo = job.pending_frames()
@@ -88,7 +92,8 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         p = s.preset
         sampling = f"adaptive <= {p.samples} samples" if p.adaptive else f"{p.samples} samples"
-        print(f"sesgen render: {args.scene} -> {args.out}: {len(todo)} of {len(job.frames)} frames to render, "
+        how = f"reusing the EXRs of {options.reuse_exr}; " if options.reuse_exr else ""
+        print(f"sesgen render: {args.scene} -> {args.out}: {how}{len(todo)} of {len(job.frames)} frames to render, "
               f"{len(views)} view(s), {s.width}x{s.height}, quality {s.quality}: {sampling}"
               f"{' + denoise' if s.denoise else ''}, seed {s.seed}, {s.device.value.upper()}{gpu}", flush=True)
     with deferred_interrupts() as stop:

@@ -21,7 +21,7 @@ from ..errors import ScriptError, SesgenError
 
 # render options the farm sets itself (per chunk) or that make no sense for a farm
 CONTROLLED = {"scene", "out", "frames", "resume", "force", "contact_sheet", "progress", "quiet", "verbose",
-              "threads", "help"}
+              "threads", "reuse_exr", "help"}
 DEFAULT_CHUNK = 10
 DEFAULT_RETRIES = 3
 
