@@ -20,6 +20,7 @@ COMMANDS = {
     "verify": (".verify_cli", "check every file of a render against its manifest; bad frames are re-rendered by --resume"),
     "farm": (".farm.cli", "render many scenes in chunks of frames as Ray tasks, on this machine or a cluster"),
     "generate": (".generate_cli", "write N varied scene scripts from a scene generator, and their dataset index"),
+    "study": (".study.cli", "a verification study: vary one thing, run every VO on every variant, report where it breaks"),
 }
 
 

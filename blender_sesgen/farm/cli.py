@@ -93,30 +93,36 @@ def render_options(args: argparse.Namespace):
 
 def prepare(args: argparse.Namespace) -> tuple[Path, list]:
     """ROOT and the farm's scenes, each with its plan and pending frames or its user error."""
-    from ..output import OutputFolder
-    from ..plan import RenderPlan
     from .work import FarmScene, find_scripts, unique_names
     root = Path(args.out).absolute()
     if root.exists() and not root.is_dir():
         raise SesgenError(f"--out {args.out}: exists and is not a folder")
     options = render_options(args)
     found = find_scripts(args.scenes)
-    scenes = []
-    for (script, meta), name in zip(found, unique_names(s for s, _ in found)):
-        sc = FarmScene(name=name, script=script, out=root / name, meta=meta)
-        try:
-            sc.plan = RenderPlan.from_file(script, options)
-            folder = OutputFolder(sc.out)
-            folder.check(sc.plan, force=False)
-            sc.pending = folder.pending(sc.plan, resume=True)
-        except ScriptError as e:
-            sc.error = str(e)
-        except SesgenError as e:
-            sc.error = f"{script}: error: {e}" if not str(e).startswith(str(script)) else str(e)
-            if "--force" in sc.error:   # render's advice; a farm has no --force (chunks would undo each other)
-                sc.error += f" (farm: remove {sc.out} or render into another --out)"
-        scenes.append(sc)
+    scenes = [prepare_scene(FarmScene(name=name, script=script, out=root / name, meta=meta), options)
+              for (script, meta), name in zip(found, unique_names(s for s, _ in found))]
     return root, scenes
+
+
+def prepare_scene(sc, options):
+    """``sc`` (a FarmScene) with its plan and pending frames, or its user error line."""
+    from ..output import OutputFolder
+    from ..plan import RenderPlan
+    try:
+        sc.plan = RenderPlan.from_file(sc.script, options)
+        folder = OutputFolder(sc.out)
+        folder.check(sc.plan, force=False)
+        if options.reuse_exr:
+            from ..reuse import check_reusable
+            check_reusable(sc.plan, options.reuse_exr)
+        sc.pending = folder.pending(sc.plan, resume=True)
+    except ScriptError as e:
+        sc.error = str(e)
+    except SesgenError as e:
+        sc.error = f"{sc.script}: error: {e}" if not str(e).startswith(str(sc.script)) else str(e)
+        if "--force" in sc.error:   # render's advice; a farm has no --force (chunks would undo each other)
+            sc.error += f" (farm: remove {sc.out} or render into another --out)"
+    return sc
 
 
 def run(args: argparse.Namespace) -> int:
