@@ -25,7 +25,8 @@ COMMANDS = {
 
 
 def _describe(e: BaseException) -> str:
-    return str(e) if isinstance(e, ScriptError) else f"error: {e}"
+    """The error's line: a script error (and a study file's, ``whole_line``) names its place itself."""
+    return str(e) if isinstance(e, ScriptError) or getattr(e, "whole_line", False) else f"error: {e}"
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -82,7 +82,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .spec import StudyError, load
+    from ..errors import SesgenError
+    from .spec import load
     if args.study_command == "factors":
         from .factors import FACTORS
         for f in FACTORS.values():
@@ -92,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
         return compare(args)
     study = load(args.study)
     if args.chunk < 1 or args.retries < 0:
-        raise StudyError("--chunk must be >= 1 and --retries >= 0")
+        raise SesgenError("--chunk must be >= 1 and --retries >= 0")
     if args.plan:
         from .runner import check_folder
         from .variants import make_plan
@@ -110,14 +111,14 @@ def run(args: argparse.Namespace) -> int:
 
 def compare(args: argparse.Namespace) -> int:
     from ..contract import atomic
+    from ..errors import SesgenError
     from .results import compare as compare_docs
-    from .spec import StudyError
     docs = []
     for p in (args.old, args.new):
         try:
             docs.append(json.loads(Path(p).read_text(encoding="utf-8")))
         except (OSError, ValueError) as e:
-            raise StudyError(f"{p}: cannot read a results.json ({e})") from None
+            raise SesgenError(f"{p}: cannot read a results.json ({e})") from None
     sigmas = args.sigmas if args.sigmas is not None else float(docs[1].get("study", {}).get("regression_sigmas", 1.0))
     rows = compare_docs(*docs, sigmas=sigmas)
     worse = [r for r in rows if r["verdict"] == "worse"]

@@ -186,12 +186,12 @@ def _cells(doc: dict) -> dict:
 
 def compare(old: dict, new: dict, sigmas: float = 1.0) -> list[dict]:
     """One row per (factor, level, system) in both: ``verdict`` worse | better | same."""
-    from .spec import StudyError
+    from ..errors import SesgenError
     for d, which in ((old, "OLD"), (new, "NEW")):
         if not str(d.get("format", "")).startswith("sesgen-study-results/"):
-            raise StudyError(f"{which}: not a study's results.json (format {d.get('format')!r})")
+            raise SesgenError(f"{which}: not a study's results.json (format {d.get('format')!r})")
     if old["study"]["metric"] != new["study"]["metric"]:
-        raise StudyError(f"the two studies measure different errors ({old['study']['metric']} and "
+        raise SesgenError(f"the two studies measure different errors ({old['study']['metric']} and "
                          f"{new['study']['metric']})")
     a, b = _cells(old), _cells(new)
     rows = []

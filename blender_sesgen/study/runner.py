@@ -37,7 +37,8 @@ from typing import Optional
 from ..contract import atomic
 from ..contract.cli import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK
 from ..contract.progress import Progress
-from .spec import Study, StudyError
+from ..errors import SesgenError
+from .spec import Study
 from .variants import Plan, make_plan
 
 MARKER = "plan.json"
@@ -58,9 +59,9 @@ def est_name(fmt: str) -> str:
 
 def check_folder(out: Path) -> None:
     if out.exists() and not out.is_dir():
-        raise StudyError(f"--out {out}: exists and is not a folder")
+        raise SesgenError(f"--out {out}: exists and is not a folder")
     if out.is_dir() and any(out.iterdir()) and not (out / MARKER).is_file():
-        raise StudyError(f"--out {out}: a folder that holds something else than a study (no {MARKER}); "
+        raise SesgenError(f"--out {out}: a folder that holds something else than a study (no {MARKER}); "
                          "choose a new or empty folder")
 
 

@@ -15,7 +15,7 @@ from typing import Optional
 
 from ..errors import SesgenError
 from ..presets import QUALITIES
-from .factors import FACTORS, STAGES, Factor, UserFactor
+from .factors import FACTORS, STAGES, UserFactor
 
 POSE_FORMATS = ("tum", "kitti", "euroc")
 DESIGNS = ("oat", "grid", "lhs")
@@ -24,7 +24,8 @@ METRICS = ("ape_trans_rmse", "ape_rot_rmse_deg", "rpe_trans_rmse", "rpe_rot_rmse
 
 
 class StudyError(SesgenError):
-    """A study file that cannot be run: one line naming the file and the key."""
+    """A study file that cannot be run: one line naming the file and the key (printed as it is)."""
+    whole_line = True
 
 
 @dataclass(frozen=True)
@@ -108,7 +109,7 @@ def load(path) -> Study:
     try:
         data = path.read_bytes()
     except OSError as e:
-        raise StudyError(f"{path}: cannot read the study file ({e.strerror or e})") from None
+        raise StudyError(f"{path}: error: cannot read the study file ({e.strerror or e})") from None
     try:
         doc = tomllib.loads(data.decode("utf-8"))
     except UnicodeDecodeError:
@@ -343,7 +344,7 @@ def _design(c: _Checker, d: dict, factors: tuple) -> Design:
 
 
 def _systems(c: _Checker, systems) -> tuple[SystemSpec, ...]:
-    from .systems import BUILTIN, LAYOUTS
+    from .systems import BUILTIN, LAYOUTS, check_template
     if not isinstance(systems, list) or not systems:
         c.fail("systems", "expected at least one [[systems]] table")
     out, names = [], set()
@@ -371,6 +372,10 @@ def _systems(c: _Checker, systems) -> tuple[SystemSpec, ...]:
                 c.fail(f"{key}.cmd", f"cannot split the command ({e})")
             if not cmd:
                 c.fail(f"{key}.cmd", "empty command")
+            try:
+                check_template(cmd)
+            except SesgenError as e:
+                c.fail(f"{key}.cmd", str(e))
             if not any("{out}" in w for w in cmd):
                 c.fail(f"{key}.cmd", "the command must name where it writes its trajectory: {out}")
             layout = c.text(s.get("layout", ""), f"{key}.layout")
@@ -383,11 +388,6 @@ def _systems(c: _Checker, systems) -> tuple[SystemSpec, ...]:
             if not isinstance(mono, bool):
                 c.fail(f"{key}.mono", "expected true or false")
             b = None
-        from .systems import check_template
-        try:
-            check_template(cmd)
-        except SesgenError as e:
-            c.fail(f"{key}.cmd", str(e))
         name = c.text(s.get("name", b or f"system{i + 1}"), f"{key}.name")
         if not _NAME.match(name):
             c.fail(f"{key}.name", "a system name is letters, digits, '_', '-' or '.'")

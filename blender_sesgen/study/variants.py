@@ -21,7 +21,6 @@ import hashlib
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Optional
 
 from ..errors import ScriptError, SesgenError
 from . import design as design_mod
@@ -136,6 +135,9 @@ class _Parser:
 def make_variant(study: Study, point: dict, seed: int, scripts_dir: Path, options_key: str = "") -> Variant:
     levels = {**study.world.set, **point}
     where = f"variant {design_mod.label(point)} (world seed {seed})"
+    if len(point) == 1:
+        (name, lv), = point.items()
+        where = f"factors.{name}: level {lv!r} (world seed {seed})"
     parse = _Parser(Path(scripts_dir), f"{study.name}/{design_mod.label(point)}@s{seed}.ses")
     try:
         s = base_script(study, seed, levels, parse)
@@ -150,24 +152,34 @@ def make_variant(study: Study, point: dict, seed: int, scripts_dir: Path, option
                 render_text = s.text
             spec_opts = study.factor(name).options if any(x.name == name for x in study.factors) else {}
             edit = Edit(levels=levels, options={**getattr(f, "options", {}), **spec_opts}, seed=seed, parse=parse)
+            if name in point:
+                stages.append(f.stage)
             try:
+                if _same_level(f.base_level(parse(s)), levels[name]):
+                    continue                     # the script has that level already: the same text
                 f.apply(s, levels[name], edit)
             except ScriptError as e:
                 raise StudyError(f"{study.path}: error: factors.{name}: level {levels[name]!r}: the script before "
                                  f"it does not check: {e}") from None
             except SesgenError as e:
                 raise StudyError(f"{study.path}: error: factors.{name}: level {levels[name]!r}: {e}") from None
-            if name in point:
-                stages.append(f.stage)
         text = s.text
         render_text = text if render_text is None else render_text
         parse(text)
         parse(render_text)
     except ScriptError as e:
-        raise StudyError(f"{study.path}: error: {where}: its script does not check: {e}") from None
+        raise StudyError(f"{study.path}: error: {where}: the variant's script does not check: {e}") from None
     stage = max(stages, key=STAGES.index) if stages else "base"
     return Variant(point=dict(point), seed=seed, script=text, render_script=render_text, stage=stage,
                    options_key=options_key)
+
+
+def _same_level(base, level) -> bool:
+    if base is None or isinstance(base, bool) or isinstance(level, bool):
+        return False
+    if isinstance(base, (int, float)) and isinstance(level, (int, float)):
+        return float(base) == float(level)
+    return base == level
 
 
 def _factor(study: Study, name: str):
