@@ -37,8 +37,8 @@ START position 0 1 {WALL_Z:g}
 QUAD id 1 colour 0.8 0.8 0.8 vertices -20 -5 0  20 -5 0  20 5 0  -20 5 0
 CUBOID id 2 colour 0.02 0.02 0.02 position 0.3 1 0.01 dim 0.06 3 0.01
 CUBOID id 3 colour 0.02 0.02 0.02 position 0.9 1 0.01 dim 0.06 3 0.01
-WORLD colour 1 1 1 strength 1
-LIGHT sun direction 0 0 -1 strength 2
+WORLD colour 1 1 1 strength 0.3
+LIGHT sun direction 0 0 -1 strength 0.5
 SENSOR bits 12 fullwell 4000 saturation 1.2
 EGO {WALL_SPEED / 25:g} 0 0 0 0 0
 EGO {WALL_SPEED / 25:g} 0 0 0 0 0

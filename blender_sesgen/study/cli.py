@@ -67,6 +67,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     r.add_argument("--chunk", type=int, default=10, metavar="N", help="frames per render task (default 10)")
     r.add_argument("--retries", type=int, default=2, metavar="K",
                    help="times a lost render task is run again (default 2)")
+    r.add_argument("--rerun", metavar="SYSTEM[,SYSTEM]",
+                   help="run these systems again (or 'all'): a new version of a system's code keeps its command, "
+                        "so its finished runs would otherwise be taken as they are")
     r.add_argument("--plan", action="store_true",
                    help="only check the study file and print its variants and renders (nothing is run)")
     add_progress_argument(r)
@@ -105,8 +108,13 @@ def run(args: argparse.Namespace) -> int:
         print(f"{len(plan.variants)} variant(s): {len(plan.renders)} render(s), {len(plan.develops)} developed")
         return 0
     from .runner import run_study
+    rerun = [x.strip() for x in (args.rerun or "").split(",") if x.strip()]
+    names = [s.name for s in study.systems]
+    for name in rerun:
+        if name != "all" and name not in names:
+            raise SesgenError(f"--rerun {name}: the study has no such system (systems: {', '.join(names)})")
     return run_study(study, args.out, address=args.address, num_cpus=args.num_cpus, progress=progress_mode(args),
-                     chunk=args.chunk, retries=args.retries)
+                     chunk=args.chunk, retries=args.retries, rerun=names if "all" in rerun else rerun)
 
 
 def compare(args: argparse.Namespace) -> int:

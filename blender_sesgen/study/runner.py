@@ -76,12 +76,13 @@ class StudyRun:
     """One ``study run`` (see the module docstring)."""
 
     def __init__(self, study: Study, out, *, address: Optional[str] = None, num_cpus: Optional[int] = None,
-                 progress: str = "auto", chunk: int = 10, retries: int = 2, stream=None):
+                 progress: str = "auto", chunk: int = 10, retries: int = 2, rerun=(), stream=None):
         self.study, self.out = study, Path(out).absolute()
         self.address, self.num_cpus = address, num_cpus
         self.mode, self.chunk, self.retries = progress, int(chunk), int(retries)
         self.stream = stream if stream is not None else sys.stderr
         self.vo = vo_command(study)
+        self.rerun = set(rerun)              # systems whose finished runs are run again
         self.render_failed: dict = {}        # key -> why
         self.frames_rendered = 0             # by Cycles, in this run
         self.frames_developed = 0            # by the camera chain alone, on reused EXRs
@@ -199,6 +200,12 @@ class StudyRun:
     def tasks(self, cluster, plan: Plan) -> None:
         from ..farm.tasks import After, TaskGraph
         from .work import export_variant, run_trial
+        from .systems import remove_tree
+        for v in plan.variants:            # --rerun: a new version of a system behind the same command
+            for s in self.study.systems:
+                if s.name in self.rerun:
+                    for t in range(s.trials):
+                        remove_tree(self.run_dir(v.key, s, t))
         graph = TaskGraph(cluster)
         labels = {}
         seen = set()
