@@ -7,6 +7,7 @@ behind it (the parser, the pipeline, the Blender layer) are internal and may mov
 >>> scene = sg.parse_file("scenes/minimal.ses")          # ScriptError: file:line:col: error: ...
 >>> print(sg.summary(scene))
 >>> results = sg.render(scene, "out/room", sg.RenderOptions(samples=4), progress=print)
+>>> doc = sg.Study("studies/city_exposure.toml").run("out/city_exposure")   # a verification study
 
 Only :func:`render` needs Blender's Python module ``bpy``; the rest is pure (numpy).
 """
@@ -36,6 +37,8 @@ __all__ = [
     "asset_kinds", "asset_mesh",
     # rendering
     "RenderOptions", "render", "frame_progress",
+    # verification studies
+    "Study",
 ]
 
 
@@ -118,6 +121,58 @@ def render(scene: "Scene | str | os.PathLike", out: "str | os.PathLike", options
     job.build()
     with Progress(len(todo), "render", mode=progress_mode, callback=progress) as bar:
         return job.run(frame_progress(bar))
+
+
+class Study:
+    """A verification study (docs/studies.md) read from its study file (TOML):
+    ``SesgenError`` naming the file and the key when it is wrong.
+
+    ``plan(out)`` gives its variants (``.variants``: each with ``name``, ``point``, ``seed``,
+    ``stage``, ``key``, ``developed``), distinct renders (``.renders``) and developed
+    variants (``.develops``) without running anything; ``run(out)`` runs it (renders, every
+    system, evaluation, report; resumes a folder holding the same study) and returns the
+    ``results.json`` document; ``compare(old, new)`` is ``study compare``'s verdicts."""
+
+    def __init__(self, path: "str | os.PathLike"):
+        from .study.spec import load
+        self.path = Path(path)
+        self.spec = load(self.path)
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    @property
+    def factors(self) -> list[str]:
+        return [f.name for f in self.spec.factors]
+
+    @property
+    def systems(self) -> list[str]:
+        return [s.name for s in self.spec.systems]
+
+    def plan(self, out: "str | os.PathLike"):
+        from .study.variants import make_plan
+        return make_plan(self.spec, Path(out).absolute() / "scripts")
+
+    def run(self, out: "str | os.PathLike", *, address: Optional[str] = None, num_cpus: Optional[int] = None,
+            progress: str = "off", rerun: Sequence[str] = ()) -> dict:
+        from .study.runner import StudyRun
+        StudyRun(self.spec, out, address=address, num_cpus=num_cpus, progress=progress, rerun=rerun).run()
+        return self.results(out)
+
+    @staticmethod
+    def results(out: "str | os.PathLike") -> dict:
+        import json
+        path = Path(out) / "results.json"
+        try:
+            return json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as e:
+            raise SesgenError(f"{path}: no study results there ({e})") from None
+
+    @staticmethod
+    def compare(old: dict, new: dict, sigmas: float = 1.0) -> list[dict]:
+        from .study.results import compare
+        return compare(old, new, sigmas)
 
 
 def have_bpy() -> bool:

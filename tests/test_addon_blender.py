@@ -99,8 +99,9 @@ def test_blender_validates_the_zip(addon_zip):
 def test_zip_installs_enables_and_disables_cleanly(addon_zip, tmp_path):
     res = run_child("""
         import addon_utils
-        OPS = ["check", "build", "render", "open_output", "preview", "export", "import_ses", "verify"]
-        PANELS = ["SESGEN_PT_main", "SESGEN_PT_render", "SESGEN_PT_preview", "SESGEN_PT_export"]
+        OPS = ["check", "build", "render", "open_output", "preview", "export", "import_ses", "verify", "study_run",
+               "study_report"]
+        PANELS = ["SESGEN_PT_main", "SESGEN_PT_render", "SESGEN_PT_preview", "SESGEN_PT_export", "SESGEN_PT_study"]
         def menu_funcs():
             return [getattr(f, "__module__", "") for f in getattr(bpy.types.TOPBAR_MT_file_import.draw, "_draw_funcs", [])]
         def state():

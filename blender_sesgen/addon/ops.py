@@ -234,6 +234,90 @@ class SESGEN_OT_export(_WhenIdle, bpy.types.Operator):
         self._stop_timer(context)
 
 
+class SESGEN_OT_study_run(_WhenIdle, bpy.types.Operator):
+    """Run a one-factor study of the script: render every level, run the systems, evaluate, report (sesgen study run; Esc stops it, running it again resumes)"""
+    bl_idname = "sesgen.study_run"
+    bl_label = "Run Study"
+
+    _timer = None
+    _proc = None
+
+    def execute(self, context):  # headless: runs to the end
+        values = session.read_settings(context)
+        try:
+            proc = session.start_study(values)
+            proc.wait()
+            msg = session.finish_study(values, proc, context)
+        except SesgenError as e:
+            return _fail(self, context, values, e)
+        self.report({"INFO"}, msg)
+        return {"FINISHED"}
+
+    def invoke(self, context, event):
+        values = session.read_settings(context)
+        try:
+            self._proc = session.start_study(values)
+        except SesgenError as e:
+            return _fail(self, context, values, e)
+        self._values = values
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.5, window=context.window)
+        wm.modal_handler_add(self)
+        session.set_status(values, "study: starting...", 0.0, context=context)
+        return {"RUNNING_MODAL"}
+
+    def _stop_timer(self, context):
+        if self._timer is not None:
+            context.window_manager.event_timer_remove(self._timer)
+            self._timer = None
+
+    def modal(self, context, event):
+        p, values = self._proc, self._values
+        if event.type == "ESC" and event.value == "PRESS":
+            p.cancel()
+            self._stop_timer(context)
+            session.set_status(values, "study stopped (Run Study again resumes it)", context=context)
+            self.report({"WARNING"}, "study stopped")
+            return {"CANCELLED"}
+        if event.type != "TIMER" or event.timer is not self._timer:
+            return {"PASS_THROUGH"}
+        p.poll()
+        if not p.finished:
+            session.set_status(values, f"{p.line} (Esc to stop)", p.fraction, context=context)
+            return {"RUNNING_MODAL"}
+        self._stop_timer(context)
+        try:
+            msg = session.finish_study(values, p, context)
+        except SesgenError as e:
+            return _fail(self, context, values, e)
+        self.report({"INFO"}, msg)
+        return {"FINISHED"}
+
+    def cancel(self, context):
+        if self._proc is not None and not self._proc.finished:
+            self._proc.cancel()
+        self._stop_timer(context)
+
+
+class SESGEN_OT_study_report(bpy.types.Operator):
+    """Open the study's report (report.html) in the web browser"""
+    bl_idname = "sesgen.study_report"
+    bl_label = "Open Report"
+
+    @classmethod
+    def poll(cls, context):
+        return os.path.isfile(os.path.join(props.abspath(context.scene.sesgen.study_dir), "report.html"))
+
+    def execute(self, context):
+        values = session.read_settings(context)
+        try:
+            path = session.study_report(values)
+        except SesgenError as e:
+            return _fail(self, context, values, e)
+        bpy.ops.wm.url_open(url="file://" + path)
+        return {"FINISHED"}
+
+
 class SESGEN_OT_import(_WhenIdle, bpy.types.Operator, ImportHelper):
     """Import an SES scene script: set it in the SESGen panel and build its scene"""
     bl_idname = "sesgen.import_ses"
@@ -253,4 +337,5 @@ def menu_import(self, context):
 
 
 CLASSES = (SESGEN_OT_check, SESGEN_OT_build, SESGEN_OT_render, SESGEN_OT_open_output,
-           SESGEN_OT_preview, SESGEN_OT_export, SESGEN_OT_import, SESGEN_OT_verify)
+           SESGEN_OT_preview, SESGEN_OT_export, SESGEN_OT_import, SESGEN_OT_verify, SESGEN_OT_study_run,
+           SESGEN_OT_study_report)

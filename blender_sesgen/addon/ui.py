@@ -1,4 +1,4 @@
-"""The 3D-view sidebar tab "SESGen": script, build, render, preview."""
+"""The 3D-view sidebar tab "SESGen": script, build, render, preview, export, study."""
 from __future__ import annotations
 
 import bpy
@@ -122,4 +122,21 @@ class SESGEN_PT_export(_SettingsSubpanel, bpy.types.Panel):
                           "Frames: the Render panel's range; source: its Output folder")
 
 
-CLASSES = (SESGEN_PT_main, SESGEN_PT_render, SESGEN_PT_preview, SESGEN_PT_export)
+class SESGEN_PT_study(_SettingsSubpanel, bpy.types.Panel):
+    bl_label = "Study"
+
+    def draw(self, context):
+        s = context.scene.sesgen
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        for name in ("study_factor", "study_levels", "study_systems", "study_frames", "study_resolution",
+                     "study_dir", "study_command"):
+            layout.prop(s, name)
+        layout.label(text="Quality: the Render panel's (draft when it is Script)")
+        row = layout.row(align=True)
+        row.operator("sesgen.study_run", icon="GRAPH")
+        row.operator("sesgen.study_report", icon="URL")
+
+
+CLASSES = (SESGEN_PT_main, SESGEN_PT_render, SESGEN_PT_preview, SESGEN_PT_export, SESGEN_PT_study)

@@ -100,8 +100,11 @@ def run(args: argparse.Namespace) -> int:
     if args.plan:
         from .runner import check_folder
         from .variants import make_plan
+        from .runner import vo_command
+        from .systems import check_layouts
         check_folder(Path(args.out))
         plan = make_plan(study, Path(args.out).absolute() / "scripts")
+        check_layouts(study, vo_command(study))
         for v in plan.variants:
             how = f"developed from {v.render_key}" if v.developed else "rendered"
             print(f"{v.name:<40} {v.stage:<9} {v.key} {how}")

@@ -174,13 +174,12 @@ def _moving_cars(s: Script, level, e: Edit) -> None:
     P, d = _path_polyline(scene)
     rate = _rate(scene)
     t = np.arange(scene.frames) / rate
-    duration = t[-1]
     rng = np.random.default_rng([int(e.seed), 0xCA25])
-    lines = ["", f"// {n} car(s) driving towards the camera, {speed:g} m/s, {lane:g} m to its left (study)"]
+    first, spacing = float(e.options["first_m"]), float(e.options["spacing_m"])
+    lines = ["", f"// {n} car(s) driving towards the camera, {speed:g} m/s, {lane:g} m to its left, the first "
+                 f"{first:g} m ahead, then every {spacing:g} m (study)"]
     for car_id, i in zip(_free_ids(scene, n), range(n)):
-        meet_s = duration * (0.3 + 0.9 * i / n)             # when it passes the camera
-        cam_s = float(np.interp(meet_s, t, d)) if duration > 0 else 0.0
-        s0 = cam_s + speed * meet_s                          # its path length at t = 0
+        s0 = first + i * spacing                             # its path length at t = 0
         poses = []
         for tk in t:
             p, f = _along(P, d, s0 - speed * tk)
@@ -410,9 +409,10 @@ FACTORS: dict[str, Factor] = {f.name: f for f in (
     Factor("hand_shake", "deg", "RMS per axis of a smooth seeded hand-held shake (1.5-7 Hz) added to the "
            "orientation, same positions", "path", _hand_shake, lambda sc: 0.0, options={"seed": 0}),
     Factor("car_speed", "m/s", "speed of the cars moving_cars adds", "geometry", _car_speed, lambda sc: 10.0),
-    Factor("moving_cars", "cars", "cars driving towards the camera along its path in the lane to its left",
+    Factor("moving_cars", "cars", "cars driving towards the camera along its path in the lane to its left, "
+           "one every 12 m from 8 m ahead",
            "geometry", _moving_cars, lambda sc: 0,
-           options={"speed_mps": 10.0, "lane_offset_m": 3.4, "ground_y": 0.0}),
+           options={"speed_mps": 10.0, "lane_offset_m": 3.4, "first_m": 8.0, "spacing_m": 12.0, "ground_y": 0.0}),
     Factor("object_speed", "x base", "speed of every object the script moves (MOVE), on its own path",
            "geometry", _object_speed, lambda sc: 1.0),
     Factor("resolution", "x base", "image size and focal length in pixels (the same field of view)", "camera",

@@ -98,6 +98,8 @@ class StudyRun:
         """The plan and its scripts in the folder (nothing else is touched)."""
         check_folder(self.out)
         plan = make_plan(self.study, self.out / "scripts")
+        from .systems import check_layouts
+        check_layouts(self.study, self.vo)
         for sub in ("scripts", "renders"):
             (self.out / sub).mkdir(parents=True, exist_ok=True)
         for key, text in [*plan.renders.items(), *((k, t) for k, (t, _) in plan.develops.items())]:

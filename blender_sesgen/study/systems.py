@@ -38,10 +38,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional, Sequence
 
-from ..addon.export_job import TAKES_SEQUENCE, TARGETS
 from ..errors import SesgenError
 
-LAYOUTS = tuple(t[0] for t in TARGETS)
 PLACEHOLDERS = ("dataset", "sequence", "out", "workdir", "trial", "frames", "python", "vo")
 TAIL_LINES = 20
 KILL_GRACE_S = 5.0
@@ -98,12 +96,29 @@ def expand(cmd: Sequence[str], values: dict, vo: Sequence[str]) -> list[str]:
     return out
 
 
-def dataset_folder(export_dir: Path, layout: str) -> Path:
-    """``{sequence}`` of an export: the slot a tree layout fills (``export.json`` is there)."""
-    if layout not in TAKES_SEQUENCE:
-        return export_dir
-    found = sorted(p.parent for p in Path(export_dir).rglob("export.json"))
-    return found[0] if found else export_dir
+def dataset_folder(export_dir: Path) -> Path:
+    """``{sequence}`` of an export: the folder that holds its ``export.json`` (a tree layout's
+    sequence slot, else the export itself)."""
+    found = sorted((p.parent for p in Path(export_dir).rglob("export.json")), key=lambda p: len(p.parts))
+    return found[0] if found else Path(export_dir)
+
+
+def check_layouts(study, vo: Sequence[str]) -> None:
+    """Every system's layout must be one ``vo_reference`` exports (asked once, as a child
+    process: ``vo_reference study layouts``); StudyError naming the system's key."""
+    import json
+    from .spec import StudyError
+    try:
+        proc = subprocess.run([*vo, "study", "layouts"], capture_output=True, text=True, timeout=300,
+                              stdin=subprocess.DEVNULL)
+        layouts = json.loads(proc.stdout)["layouts"]
+    except (OSError, ValueError, KeyError, subprocess.TimeoutExpired) as e:
+        raise SesgenError(f"cannot run vo_reference ({' '.join(vo)} study layouts: {e}); a study needs it: "
+                          "pip install 'blender-sesgen[vo]', or set study.vo in the study file") from None
+    for i, s in enumerate(study.systems):
+        if s.layout not in layouts:
+            raise StudyError(f"{study.path}: error: systems[{i}].layout: {s.layout!r} is not a layout "
+                             f"vo_reference exports ({', '.join(layouts)})")
 
 
 # --- read-only datasets ---------------------------------------------------------------------

@@ -29,7 +29,6 @@ def _read(path: Path) -> Optional[dict]:
 def export_variant(vo: list, render_dir: str, out_dir: str, layout: str) -> dict:
     """``vo_reference export RENDER OUT --to LAYOUT`` into a fresh ``out_dir/data``, then
     made read-only; ``out_dir/done.json`` records it (and is returned by a rerun)."""
-    from ..addon.export_job import export_command
     out = Path(out_dir)
     done = _read(out / DONE)
     if done is not None and done.get("render") == render_dir:
@@ -37,8 +36,7 @@ def export_variant(vo: list, render_dir: str, out_dir: str, layout: str) -> dict
     data = out / "data"
     systems.remove_tree(data)
     out.mkdir(parents=True, exist_ok=True)
-    cmd = export_command(list(vo), render_dir, str(data), layout)
-    cmd[cmd.index("--progress") + 1] = "off"
+    cmd = [*vo, "export", render_dir, str(data), "--to", layout, "--progress", "off"]
     t0 = time.monotonic()
     proc = subprocess.run([sys.executable, "-m", "blender_sesgen.study.launch", str(out), "--", *cmd],
                           stdin=subprocess.DEVNULL, capture_output=True, text=True, errors="replace")
@@ -49,7 +47,7 @@ def export_variant(vo: list, render_dir: str, out_dir: str, layout: str) -> dict
         errs = [ln for ln in lines if "error" in ln.lower()]
         rec["error"] = (errs or lines or [f"exit code {proc.returncode}"])[-1]
         return rec                          # not recorded as done: a rerun tries again
-    rec["sequence"] = str(systems.dataset_folder(data, layout))
+    rec["sequence"] = str(systems.dataset_folder(data))
     systems.set_read_only(data)
     atomic.write_json(out / DONE, rec)
     return rec

@@ -26,9 +26,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_progress_argument(e)
     r = sub.add_parser("report", help="write DIR/report.html from DIR/results.json")
     r.add_argument("folder", metavar="DIR", help="a study folder (study run --out DIR)")
+    sub.add_parser("layouts", help="the export layouts, as JSON (what a study's systems may read)")
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.study_command == "layouts":
+        from ..products.exports import EXPORTERS
+        print(json.dumps({"layouts": list(EXPORTERS)}))
+        return 0
     if args.study_command == "report":
         from .report import write_report
         print(f"report: {write_report(args.folder)}")
