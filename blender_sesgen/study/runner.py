@@ -76,7 +76,7 @@ class StudyRun:
     """One ``study run`` (see the module docstring)."""
 
     def __init__(self, study: Study, out, *, address: Optional[str] = None, num_cpus: Optional[int] = None,
-                 progress: str = "auto", chunk: int = 10, retries: int = 2, rerun=(), stream=None):
+                 progress: str = "auto", chunk: int = 50, retries: int = 2, rerun=(), stream=None):
         self.study, self.out = study, Path(out).absolute()
         self.address, self.num_cpus = address, num_cpus
         self.mode, self.chunk, self.retries = progress, int(chunk), int(retries)
@@ -117,7 +117,7 @@ class StudyRun:
         s = self.study
         self.say(f"sesgen study {s.name}: {len(plan.variants)} variant(s) ({len(s.world.seeds)} world seed(s)), "
                  f"{len(plan.renders)} render(s), {len(plan.develops)} developed from another's EXRs, "
-                 f"{len(s.systems)} system(s), {sum(x.trials for x in s.systems)} trial(s) per variant -> {self.out}")
+                 f"{len(s.systems)} system(s), {sum(x.trials for x in s.systems)} run(s) per variant -> {self.out}")
         from ..farm.cluster import Cluster
         cluster = Cluster(self.address, num_cpus=self.num_cpus).start()
         try:
