@@ -61,6 +61,14 @@ for k in range(len(left) - 1):
 np.savetxt(out, np.array([p[:3].ravel() for p in poses]))
 '''
 
+PERFECT_SYSTEM = """
+[[systems]]
+name = "perfect"
+cmd = "{python} -c \\"%s\\" {sequence} {out}"
+layout = "kitti-folder"
+format = "kitti"
+""" % PERFECT.replace('"', "'")
+
 SYSTEMS = """
 [[systems]]
 builtin = "accurate-stereo"
@@ -299,12 +307,7 @@ quality = "draft"
 samples = 2
 [factors.exposure_time]
 levels = [0.01, 0.03]
-[[systems]]
-name = "perfect"
-cmd = "{python} -c \\"%s\\" {sequence} {out}"
-layout = "kitti-folder"
-format = "kitti"
-""" % PERFECT.replace('"', "'")
+""" + PERFECT_SYSTEM
     study = study_file(tmp_path, body, ROOM)
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": str(REPO), "RAY_USAGE_STATS_ENABLED": "0"}
@@ -345,12 +348,7 @@ samples = 64
 levels = [0.02]
 [factors.read_noise]
 levels = [20.0]
-[[systems]]
-name = "perfect"
-cmd = "{python} -c \\"%s\\" {sequence} {out}"
-layout = "kitti-folder"
-format = "kitti"
-""" % PERFECT.replace('"', "'")
+""" + PERFECT_SYSTEM
     out = folder / "out"
     p = run_study(study_file(folder, body, WALL), out)
     assert p.returncode == 0, p.stdout + p.stderr

@@ -10,16 +10,13 @@ turning its events into the panel's progress and status line. docs/addon.md, doc
 from __future__ import annotations
 
 import json
-import queue
 import shlex
 import shutil
-import signal
-import subprocess
-import threading
 from pathlib import Path
 from typing import Optional
 
 from ..errors import SesgenError
+from .export_job import ExportError, ExportProcess
 
 NOT_FOUND = ("a study needs Ray, OpenCV and Blender's module outside Blender: pip install "
              "'blender-sesgen[render,vo,farm]' in a Python 3.11 and put its sesgen command on PATH, or give the "
@@ -101,83 +98,32 @@ def write_study(folder: Path, text: str) -> Path:
     return path
 
 
-class StudyProcess:
-    """A running ``study run``: ``poll()`` reads its progress events; ``line`` is what the
-    panel shows, ``finished``/``returncode``/``error`` when it has ended."""
+class StudyProcess(ExportProcess):
+    """A running ``study run`` (an :class:`~.export_job.ExportProcess` of another tool):
+    ``poll()`` reads its progress events; ``line`` is what the panel shows, ``report`` the
+    page once there is one."""
 
     def __init__(self, prefix: list[str], study: Path, out: Path):
-        self.cmd = [*prefix, "study", "run", str(study), "--out", str(out), "--progress", "json"]
         self.out = Path(out)
+        self.task, self.detail = "", ""
         try:
-            self.proc = subprocess.Popen(self.cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                                         stdin=subprocess.DEVNULL)
-        except OSError as e:
-            raise StudyJobError(f"cannot run {prefix[0]}: {e.strerror or e} ({NOT_FOUND})") from None
-        self._events: queue.Queue = queue.Queue()
-        self._other: list[str] = []
-        self._stdout: list[str] = []
-        self._threads = [threading.Thread(target=self._read_stderr, daemon=True),
-                         threading.Thread(target=self._read_stdout, daemon=True)]
-        for t in self._threads:
-            t.start()
-        self.task, self.done, self.total, self.detail = "", 0, 0, ""
-        self.returncode: Optional[int] = None
-
-    def _read_stderr(self) -> None:
-        for line in self.proc.stderr:
-            try:
-                event = json.loads(line)
-            except ValueError:
-                event = None
-            if isinstance(event, dict) and "event" in event:
-                self._events.put(event)
-            elif line.strip():
-                self._other.append(line.rstrip("\n"))
-
-    def _read_stdout(self) -> None:
-        for line in self.proc.stdout:
-            self._stdout.append(line.rstrip("\n"))
+            super().__init__([*prefix, "study", "run", str(study), "--out", str(out), "--progress", "json"])
+        except ExportError as e:
+            raise StudyJobError(f"{e} ({NOT_FOUND})") from None
 
     def poll(self) -> list[dict]:
-        events = []
-        while True:
-            try:
-                events.append(self._events.get_nowait())
-            except queue.Empty:
-                break
+        events = super().poll()
         for e in events:
             self.task = e.get("task", self.task)
-            self.total = int(e.get("total", self.total) or 0)
-            self.done = int(e.get("done", self.done) or 0)
             if e.get("detail"):
                 self.detail = str(e["detail"])
-        if self.returncode is None and self.proc.poll() is not None:
-            for t in self._threads:
-                t.join(timeout=5)
-            self.returncode = self.proc.returncode
-            events += self.poll()
         return events
-
-    @property
-    def finished(self) -> bool:
-        return self.returncode is not None
-
-    @property
-    def fraction(self) -> float:
-        return min(self.done / self.total, 1.0) if self.total else 0.0
 
     @property
     def line(self) -> str:
         step = {"farm": "rendering", "study": "running the systems", "study evaluate": "evaluating"}.get(
             self.task, self.task or "starting")
         return f"study: {step} {self.done}/{self.total}" if self.total else f"study: {step}"
-
-    @property
-    def error(self) -> str:
-        msgs = [ln for ln in self._other if "error:" in ln]
-        if msgs:
-            return msgs[-1]
-        return self._other[-1] if self._other else f"the study exited with code {self.returncode}"
 
     @property
     def report(self) -> Optional[Path]:
@@ -188,22 +134,3 @@ class StudyProcess:
     def summary(self) -> str:
         """The study's result line (``study NAME: N run(s), ...``)."""
         return next((ln for ln in self._stdout if ln.startswith("study ")), "")
-
-    def wait(self, timeout: Optional[float] = None) -> int:
-        self.proc.wait(timeout)
-        self.poll()
-        return self.returncode
-
-    def cancel(self) -> None:
-        """Stop the study as Ctrl-C would (it resumes where it stopped when run again)."""
-        if self.proc.poll() is None:
-            try:
-                self.proc.send_signal(signal.SIGINT)
-            except (ValueError, OSError):
-                self.proc.terminate()
-            try:
-                self.proc.wait(60)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        self.poll()

@@ -65,8 +65,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="join this Ray cluster (DIR on a filesystem every node shares); default: a local Ray")
     r.add_argument("--num-cpus", type=int, metavar="N", help="local Ray only: the CPUs it may use (default all)")
     r.add_argument("--chunk", type=int, default=50, metavar="N",
-                   help="frames per render task (default 50: a study's short sequence renders in one task, its scene
-                        built once)")
+                   help="frames per render task (default 50: a study's short sequence renders in one task, its "
+                        "scene built once)")
     r.add_argument("--retries", type=int, default=2, metavar="K",
                    help="times a lost render task is run again (default 2)")
     r.add_argument("--rerun", metavar="SYSTEM[,SYSTEM]",
