@@ -56,6 +56,13 @@ np.savetxt(sys.argv[2], P.reshape(-1, 12))
 """
 
 
+def world(script: str = "scene.ses", **keys) -> str:
+    """A study file's [world] table: the script and ``keys`` (TOML values from Python's)."""
+    import json
+    return "[world]\n" + f"script = {json.dumps(script)}\n" + "".join(f"{k} = {json.dumps(v)}\n"
+                                                                     for k, v in keys.items())
+
+
 def write(folder: Path, name: str, text: str) -> Path:
     path = Path(folder) / name
     path.write_text(text, encoding="utf-8")

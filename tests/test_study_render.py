@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from study_scenes import NOISY, PERFECT, ROOM, WALL, WALL_FOCAL, WALL_SPEED, WALL_Z, study_file, write
+from study_scenes import NOISY, PERFECT, ROOM, WALL, WALL_FOCAL, WALL_SPEED, WALL_Z, study_file, world, write
 
 pytestmark = [pytest.mark.render, pytest.mark.slow]
 
@@ -148,12 +148,7 @@ def room_study(folder: Path, sigma: float = 0.01) -> Path:
 [study]
 name = "room"
 description = "the harness on a small room: controlled variants, reuse, failing systems"
-[world]
-script = "scene.ses"
-frames = 6
-quality = "draft"
-samples = 2
-[factors.exposure_time]
+{world(frames=6, quality="draft", samples=2)}[factors.exposure_time]
 levels = [0.02]
 [factors.fog_density]
 levels = [0.05]
@@ -299,13 +294,8 @@ def _complete_frames(out: Path) -> dict:
 
 
 def test_a_killed_study_resumes_and_renders_nothing_twice(tmp_path):
-    body = """
-[world]
-script = "scene.ses"
-frames = 5
-quality = "draft"
-samples = 2
-[factors.exposure_time]
+    body = f"""
+{world(frames=5, quality="draft", samples=2)}[factors.exposure_time]
 levels = [0.01, 0.03]
 """ + PERFECT_SYSTEM
     study = study_file(tmp_path, body, ROOM)
@@ -339,12 +329,8 @@ levels = [0.01, 0.03]
 @pytest.fixture(scope="module")
 def wall(tmp_path_factory):
     folder = tmp_path_factory.mktemp("wall")
-    body = """
-[world]
-script = "scene.ses"
-quality = "draft"
-samples = 64
-[factors.exposure_time]
+    body = f"""
+{world(quality="draft", samples=64)}[factors.exposure_time]
 levels = [0.02]
 [factors.read_noise]
 levels = [20.0]
@@ -448,13 +434,7 @@ def test_a_third_party_estimator_from_pypi_runs_through_the_harness(tmp_path):
     pytest.importorskip("pycolmap")
     write(tmp_path, "colmap_vo.py", COLMAP)
     body = f"""
-[world]
-script = "scene.ses"
-frames = 6
-resolution = 4.0
-quality = "draft"
-samples = 4
-[factors.exposure_time]
+{world(frames=6, resolution=4.0, quality="draft", samples=4)}[factors.exposure_time]
 levels = [0.03]
 [[systems]]
 name = "pycolmap"

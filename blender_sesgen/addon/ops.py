@@ -240,19 +240,9 @@ class SESGEN_OT_export(_ChildProcess, bpy.types.Operator):
     bl_idname = "sesgen.export"
     bl_label = "Export Dataset"
     stopped = "export cancelled (nothing half-written is left)"
-
-    @staticmethod
-    def start(values):
-        return session.start_export(values)
-
-    @staticmethod
-    def finish(values, proc, context):
-        return session.finish_export(values, proc, context)
-
-    @staticmethod
-    def running(values, proc):
-        return (f"exporting to {values['export_target']}: {proc.done}/{proc.total}" if proc.total
-                else f"exporting to {values['export_target']}...")
+    start, finish = staticmethod(session.start_export), staticmethod(session.finish_export)
+    running = staticmethod(lambda values, proc: f"exporting to {values['export_target']}: {proc.done}/{proc.total}"
+                           if proc.total else f"exporting to {values['export_target']}...")
 
 
 class SESGEN_OT_study_run(_ChildProcess, bpy.types.Operator):
@@ -261,18 +251,8 @@ class SESGEN_OT_study_run(_ChildProcess, bpy.types.Operator):
     bl_label = "Run Study"
     interval_s = 0.5
     stopped = "study stopped (Run Study again resumes it)"
-
-    @staticmethod
-    def start(values):
-        return session.start_study(values)
-
-    @staticmethod
-    def finish(values, proc, context):
-        return session.finish_study(values, proc, context)
-
-    @staticmethod
-    def running(values, proc):
-        return proc.line
+    start, finish = staticmethod(session.start_study), staticmethod(session.finish_study)
+    running = staticmethod(lambda values, proc: proc.line)
 
 
 class SESGEN_OT_study_report(bpy.types.Operator):

@@ -10,13 +10,11 @@ turning its events into the panel's progress and status line. docs/addon.md, doc
 from __future__ import annotations
 
 import json
-import shlex
-import shutil
 from pathlib import Path
 from typing import Optional
 
 from ..errors import SesgenError
-from .export_job import ExportError, ExportProcess
+from .export_job import ExportError, ExportProcess, tool_command
 
 NOT_FOUND = ("a study needs Ray, OpenCV and Blender's module outside Blender: pip install "
              "'blender-sesgen[render,vo,farm]' in a Python 3.11 and put its sesgen command on PATH, or give the "
@@ -29,13 +27,7 @@ class StudyJobError(SesgenError):
 
 def study_command(setting: str = "") -> list[str]:
     """The command prefix that runs ``sesgen``: the setting, else ``sesgen`` on PATH."""
-    words = shlex.split(setting) if setting and setting.strip() else []
-    if words:
-        return words
-    found = shutil.which("sesgen")
-    if found is None:
-        raise StudyJobError(NOT_FOUND)
-    return [found]
+    return tool_command(setting, "sesgen", NOT_FOUND, StudyJobError)
 
 
 def parse_levels(factor: str, text: str) -> list:
