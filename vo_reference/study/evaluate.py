@@ -107,7 +107,7 @@ def evaluate_run(gt: Trajectory, est_path, fmt: str, *, mono: bool, rate_hz: flo
     a = ape(g, aligned)
     r = rpe(g, aligned, 1, "f")
     rec.update(ok=True, failure=None, alignment=how, scale=scale, tracking_loss=lost / n,
-               lost_frames=int(n - len(i_gt)), jumps=[int(i_gt[k]) for k in jumped],
+               lost_frames=int(n - len(i_gt)), jumps=[int(i_gt[k + 1]) for k in jumped],
                ape_trans_rmse=a.trans.rmse, ape_rot_rmse_deg=a.rot_deg.rmse,
                rpe_trans_rmse=r.trans.rmse, rpe_rot_rmse_deg=r.rot_deg.rmse,
                gt_path_length_m=g.path_length())

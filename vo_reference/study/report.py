@@ -81,7 +81,8 @@ def factor_plot(factor: dict, curves: dict, base: dict, systems: list, metric: s
     ax.set_ylabel(metric)
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=8)
     ax.set_title("mean ± spread (trials × world seeds); × = failed; dotted: the base", fontsize=8)
     return _png(fig)
 
@@ -98,8 +99,29 @@ def frame_strip(images: list, titles: list) -> str:
     return _png(fig)
 
 
+def scatter_plot(factor: dict, points: list, systems: list, metric: str) -> str:
+    """Every design point's mean error against this factor's level (grid and Latin-hypercube
+    designs: the other factors vary too)."""
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(6.2, 3.6))
+    for i, s in enumerate(systems):
+        xy = [(p["point"][factor["name"]], (p["metrics"].get(metric) or {}).get("mean")) for p in points
+              if p["system"] == s["name"] and factor["name"] in p["point"]]
+        xy = [(x, y) for x, y in xy if y is not None and isinstance(x, (int, float))]
+        if xy:
+            ax.plot(*zip(*xy), "o", color=COLOURS[i % len(COLOURS)], ms=5, label=s["name"])
+    ax.set_xlabel(f"{factor['name']} ({factor['unit']})")
+    ax.set_ylabel(metric)
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=8)
+    ax.set_title("every point of the design (the other factors vary too)", fontsize=8)
+    return _png(fig)
+
+
 def trajectory_grid(rows: list, systems: list) -> str:
-    """``rows``: (level title, gt xyz, {system: est xyz or None}) per level."""
+    """``rows``: (level title, gt xyz, {system: [est xyz of each trial, or None]}) per level."""
     plt = pyplot()
     fig, axes = plt.subplots(len(rows), len(systems), figsize=(2.4 * len(systems) + 0.4, 2.2 * len(rows)),
                              squeeze=False)
@@ -108,11 +130,14 @@ def trajectory_grid(rows: list, systems: list) -> str:
         for c, s in enumerate(systems):
             ax = axes[r, c]
             ax.plot(gt[:, a], gt[:, b], "k-", lw=1.2, label="ground truth")
-            e = est.get(s["name"])
-            if e is not None and len(e):
-                ax.plot(e[:, a], e[:, b], "-", color=COLOURS[c % len(COLOURS)], lw=1, label=s["name"])
-            else:
-                ax.text(0.5, 0.5, "failed", transform=ax.transAxes, ha="center", color="red")
+            trials = est.get(s["name"]) or []
+            for e in trials:
+                if e is not None and len(e):
+                    ax.plot(e[:, a], e[:, b], "-", color=COLOURS[c % len(COLOURS)], lw=1, alpha=0.8)
+            failed = sum(e is None for e in trials)
+            if failed:
+                ax.text(0.5, 0.5, "failed" if failed == len(trials) else f"{failed} of {len(trials)} failed",
+                        transform=ax.transAxes, ha="center", color="red")
             ax.set_aspect("equal", adjustable="datalim")
             ax.tick_params(labelsize=6)
             if r == 0:
@@ -150,9 +175,9 @@ class Report:
         except VoError:
             return np.zeros((0, 3))
 
-    def run_of(self, variant: str, system: str):
-        runs = [r for r in self.r["runs"] if r["variant"] == variant and r["system"] == system]
-        return min(runs, key=lambda r: r["trial"]) if runs else None
+    def runs_of(self, variant: str, system: str) -> list:
+        return sorted((r for r in self.r["runs"] if r["variant"] == variant and r["system"] == system),
+                      key=lambda r: r["trial"])
 
     def est_xyz(self, run) -> "np.ndarray | None":
         if run is None or run["status"] != "ok":
@@ -231,6 +256,9 @@ class Report:
             out.append(_img(factor_plot(f, curves, self.r.get("base", {}), self.systems, self.metric),
                             f"{self.metric} against {name}"))
             out.append(self.curve_table(f, curves))
+        elif self.r.get("points"):
+            out.append(_img(scatter_plot(f, self.r["points"], self.systems, self.metric),
+                            f"{self.metric} against {name} at every point"))
         images, titles, rows = [], [], []
         base = next((v for v in self.r["variants"] if v["seed"] == seed0 and not v["point"]), None)
         for lv in [None, *f["levels"]]:
@@ -242,13 +270,13 @@ class Report:
             if im is not None:
                 images.append(im)
                 titles.append(title)
-            rows.append((title, self.gt_xyz(v), {s["name"]: self.est_xyz(self.run_of(v["name"], s["name"]))
+            rows.append((title, self.gt_xyz(v), {s["name"]: [self.est_xyz(r) for r in self.runs_of(v["name"], s["name"])]
                                                  for s in self.systems}))
         if images:
             out.append(f"<h3>First frame of each level (world seed {seed0})</h3>")
             out.append(_img(frame_strip(images, titles), f"first frames of {name}"))
         if rows and all(len(g) for _, g, _ in rows):
-            out.append(f"<h3>Trajectories from above (world seed {seed0}, trial 0; black: ground truth)</h3>")
+            out.append(f"<h3>Trajectories from above (world seed {seed0}, every trial; black: ground truth)</h3>")
             out.append(_img(trajectory_grid(rows, self.systems), f"trajectories of {name}"))
         return "\n".join(out)
 
