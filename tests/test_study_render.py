@@ -149,7 +149,7 @@ def room_study(folder: Path, sigma: float = 0.01) -> Path:
 name = "room"
 description = "the harness on a small room: controlled variants, reuse, failing systems"
 {world(frames=6, quality="draft", samples=2)}[factors.exposure_time]
-levels = [0.02]
+levels = [0.005, 0.02]
 [factors.fog_density]
 levels = [0.05]
 [factors.texture_richness]
@@ -177,7 +177,9 @@ def runs_of(doc, system):
 def test_variants_differ_only_in_their_factor(room):
     """Ground truth (every frame's depth and ids, both views, and the poses) is byte-identical
     to the base's for the image- and sensor-stage factors; checked by the study itself and
-    again here from the files."""
+    again here from the files. (A 5 ms exposure -- a shutter of 1/8 frame -- once gave its
+    sharp frame the pose of a neighbouring shutter instant: Blender takes a key within 0.01
+    frame as the evaluated time's; blender/sensor.py keys instants at least 0.0125 apart.)"""
     from vo_reference.io.render import RenderSequence
     _, out, _ = room
     doc = results(out)
@@ -200,8 +202,8 @@ def test_a_sensor_stage_variant_reuses_the_base_render(room):
     _, out, _ = room
     doc = results(out)
     c = doc["cost"]
-    assert (c["variants"], c["renders"], c["developed"], c["renders_saved"]) == (5, 4, 1, 1)
-    assert c["frames_rendered"] == 4 * 6 and c["frames_developed"] == 6
+    assert (c["variants"], c["renders"], c["developed"], c["renders_saved"]) == (6, 5, 1, 1)
+    assert c["frames_rendered"] == 5 * 6 and c["frames_developed"] == 6
     gain = next(v for v in doc["variants"] if v["point"] == {"gain": 4.0})
     base = next(v for v in doc["variants"] if not v["point"])
     assert gain["developed"] and gain["render_key"] == base["key"]

@@ -36,7 +36,8 @@ class SensorSession:
         """Key the cameras at the instants Cycles samples for frame k, with the poses of
         those instants shifted by ``shift_frames`` (the rolling shutter's half line)."""
         bframe = rig.blender_frame(k)
-        times = np.concatenate([[float(bframe)]] + [sensor.motion_instants(bframe, s) for s in shutters if s > 0])
+        times = sensor.sparse_instants(bframe, np.concatenate(
+            [[float(bframe)]] + [sensor.motion_instants(bframe, s) for s in shutters if s > 0]))
         for view, cam in self.cameras.items():
             sensor.key_camera_instants(cam, times, self.sensor.camera_poses(view, times + shift_frames, rig.FRAME0))
         # moving objects at the same instants, so the shutter sees them move along their own motion

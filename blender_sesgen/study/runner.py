@@ -294,6 +294,7 @@ class StudyRun:
 
     def collect_runs(self, plan: Plan) -> list[dict]:
         from .results import run_record
+        from .work import export_failure
         out = []
         for v in plan.variants:
             for s in self.study.systems:
@@ -302,7 +303,10 @@ class StudyRun:
                     if v.key in self.render_failed:
                         run = {"error": f"the variant could not be rendered: {self.render_failed[v.key]}"}
                     else:
-                        run = _read(rd / "run.json") or {"error": "did not run"}
+                        run = _read(rd / "run.json")
+                        why = export_failure(self.out / "exports" / v.key / s.layout)
+                        if run is None:
+                            run = {"error": f"the dataset could not be exported: {why}" if why else "did not run"}
                     metrics = _read(rd / "metrics.json") if run.get("error") is None else None
                     out.append(run_record(v, s, t, run, metrics, str(rd.relative_to(self.out))))
         return out

@@ -17,6 +17,13 @@ from ..contract import atomic
 from . import systems
 
 DONE = "done.json"
+FAILED = "failed.json"
+
+
+def export_failure(out_dir) -> Optional[str]:
+    """Why the export in ``out_dir`` failed the last time it ran (None: it did not fail)."""
+    rec = _read(Path(out_dir) / FAILED)
+    return None if rec is None else rec.get("error")
 
 
 def _read(path: Path) -> Optional[dict]:
@@ -46,7 +53,9 @@ def export_variant(vo: list, render_dir: str, out_dir: str, layout: str) -> dict
         lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
         errs = [ln for ln in lines if "error" in ln.lower()]
         rec["error"] = (errs or lines or [f"exit code {proc.returncode}"])[-1]
-        return rec                          # not recorded as done: a rerun tries again
+        atomic.write_json(out / FAILED, rec)   # for the results; not done: a rerun tries again
+        return rec
+    (out / FAILED).unlink(missing_ok=True)
     rec["sequence"] = str(systems.dataset_folder(data))
     systems.set_read_only(data)
     atomic.write_json(out / DONE, rec)
