@@ -19,7 +19,7 @@ import numpy as np
 from blender_sesgen.contract import atomic
 
 from ..errors import VoError
-from ..evaluate.plots import pyplot, view_axes
+from ..evaluate.plots import pyplot
 
 COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf")
 
@@ -126,7 +126,8 @@ def trajectory_grid(rows: list, systems: list) -> str:
     fig, axes = plt.subplots(len(rows), len(systems), figsize=(2.4 * len(systems) + 0.4, 2.2 * len(rows)),
                              squeeze=False)
     for r, (title, gt, est) in enumerate(rows):
-        (a, b), _ = view_axes(gt) if len(gt) > 1 else ((0, 2), (0, 1))
+        # from above: the SES world's ground plane (x, z; y is up), the longer extent across
+        a, b = (2, 0) if np.ptp(gt[:, 2]) > np.ptp(gt[:, 0]) else (0, 2)
         for c, s in enumerate(systems):
             ax = axes[r, c]
             ax.plot(gt[:, a], gt[:, b], "k-", lw=1.2, label="ground truth")
@@ -140,6 +141,7 @@ def trajectory_grid(rows: list, systems: list) -> str:
                         transform=ax.transAxes, ha="center", color="red")
             ax.set_aspect("equal", adjustable="datalim")
             ax.tick_params(labelsize=6)
+            ax.set_xlabel("xyz"[a] + " (m)", fontsize=6)
             if r == 0:
                 ax.set_title(s["name"], fontsize=8)
             if c == 0:
