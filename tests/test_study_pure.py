@@ -397,3 +397,15 @@ def test_the_docs_list_every_factor():
     rows = re.findall(r"^\| `([a-z_]+)` \| ([^|]+) \| (\w+) \|", text, flags=re.M)
     assert {name: (unit.strip(), stage) for name, unit, stage in rows} == \
         {f.name: (f.unit, f.stage) for f in FACTORS.values()}
+
+
+def test_one_study_run_per_folder(tmp_path):
+    import fcntl
+    path = study_file(tmp_path, '[world]\nscript = "scene.ses"\n[factors.gain]\nlevels = [2.0]\n' + SYSTEM)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "plan.json").write_text("{}")
+    with open(out / ".study.lock", "a+") as held:          # as a running study holds it
+        fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        rc, _, err = cli("study", "run", str(path), "--out", str(out))
+    assert rc == 2 and "another `study run` is writing into it" in err

@@ -74,6 +74,9 @@ SYSTEMS = """
 builtin = "accurate-stereo"
 
 [[systems]]
+builtin = "mono"
+
+[[systems]]
 name = "opencv-script"
 cmd = "{python} %(opencv)s {sequence} {out}"
 layout = "kitti-folder"
@@ -236,6 +239,9 @@ def test_failing_systems_are_recorded_and_the_rest_completes(room):
         assert all(r["status"] == "ok" and r["metrics"]["coverage"] == 1.0 for r in rs), \
             [(r["variant"], r["failure"]) for r in rs if r["status"] != "ok"]
     assert all(r["metrics"]["ape_trans_rmse"] < 1e-5 for r in runs_of(doc, "perfect"))
+    mono = runs_of(doc, "mono")                     # the monocular pipeline: evaluated after Sim(3)
+    assert len(mono) == n and all(r["status"] == "failed" or r["metrics"]["alignment"].startswith(("sim3", "origin+scale"))
+                                  for r in mono)
     assert doc["base"]["noisy"]["std"] > 0                                    # trials spread
     assert doc["breaking_points"]["exposure_time"]["crash"]["level"] == "base"
     assert "breaking point exposure_time / crash: base" in p.stdout

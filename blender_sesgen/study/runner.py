@@ -102,6 +102,7 @@ class StudyRun:
         check_layouts(self.study, self.vo)
         for sub in ("scripts", "renders"):
             (self.out / sub).mkdir(parents=True, exist_ok=True)
+        self._hold_folder()
         for key, text in [*plan.renders.items(), *((k, t) for k, (t, _) in plan.develops.items())]:
             path = self.out / "scripts" / f"{key}.ses"
             if not path.is_file() or path.read_text(encoding="utf-8") != text:
@@ -110,6 +111,20 @@ class StudyRun:
             atomic.write_bytes(self.out / "study.toml", self.study.path.read_bytes())
         atomic.write_json(self.out / MARKER, plan.to_json())
         return plan
+
+    def _hold_folder(self) -> None:
+        """One study run per folder: an exclusive ``flock`` on ``DIR/.study.lock`` for as long
+        as this process lives (the kernel drops it however the process ends)."""
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - not POSIX
+            return
+        self._lock = open(self.out / ".study.lock", "a+")
+        try:
+            fcntl.flock(self._lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise SesgenError(f"--out {self.out}: another `study run` is writing into it; wait for it to end "
+                              "or stop it (it resumes when run again)") from None
 
     def run(self) -> int:
         t0 = time.monotonic()
