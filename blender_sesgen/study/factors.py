@@ -118,7 +118,7 @@ def _hand_shake(s: Script, level, e: Edit) -> None:
         return
     scene = e.parse(s)
     t = paths.base_times(scene)
-    T = paths.shake(scene.timeline.left(), t, float(level), seed=e.options["seed"])
+    T = paths.shake(scene.timeline.left(), t, float(level), seed=int(e.options["seed"]) * 1_000_003 + int(e.seed))
     paths.write_path(s, scene, T, np.arange(scene.frames, dtype=float))
 
 
@@ -316,7 +316,7 @@ def _texture_richness(s: Script, level, e: Edit) -> None:
     sources = sorted([("material", n) for n in script_materials]
                      + [("library", n) for n in material_library.LIBRARY if n not in script_materials]
                      + textured, key=str)
-    rng = np.random.default_rng([int(e.options["seed"]), 0x7E27])
+    rng = np.random.default_rng([int(e.options["seed"]), int(e.seed), 0x7E27])
     order = [sources[i] for i in rng.permutation(len(sources))]
     plain = set(order[int(round(f * len(order))):])
     for st in s.statements("MATERIAL"):
