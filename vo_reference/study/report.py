@@ -88,10 +88,14 @@ def factor_plot(factor: dict, curves: dict, base: dict, systems: list, metric: s
 
 
 def frame_strip(images: list, titles: list) -> str:
+    """The images side by side (one above the other when they are wide, as KITTI's)."""
     plt = pyplot()
     n = len(images)
     h, w = images[0].shape[:2]
-    fig, axes = plt.subplots(1, n, figsize=(min(2.6 * n, 16), 2.6 * h / w + 0.4))
+    if w > 2 * h:
+        fig, axes = plt.subplots(n, 1, figsize=(7.0, n * (7.0 * h / w + 0.3)))
+    else:
+        fig, axes = plt.subplots(1, n, figsize=(min(2.6 * n, 16), 2.6 * h / w + 0.4))
     for ax, im, t in zip(np.atleast_1d(axes), images, titles):
         ax.imshow(im)
         ax.set_title(t, fontsize=8)
