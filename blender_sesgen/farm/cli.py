@@ -176,7 +176,7 @@ def run(args: argparse.Namespace) -> int:
         farm = Farm(cluster, scenes, chunk=args.chunk, retries=args.retries, cpus_per_task=cpt,
                     gpus_per_task=args.gpus_per_task, threads=threads, forwarded=forwarded_argv(args),
                     progress_mode=progress_mode(args))
-        with _sigterm_as_interrupt():
+        with sigterm_as_interrupt():
             result = farm.run()
     finally:
         cluster.stop()
@@ -185,7 +185,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 @contextlib.contextmanager
-def _sigterm_as_interrupt():
+def sigterm_as_interrupt():
     """SIGTERM stops the farm like Ctrl-C: every render stops between views (main thread)."""
     def handler(signum, frame):
         raise KeyboardInterrupt

@@ -127,6 +127,11 @@ class StudyRun:
                               "or stop it (it resumes when run again)") from None
 
     def run(self) -> int:
+        from ..farm.cli import sigterm_as_interrupt
+        with sigterm_as_interrupt():     # SIGTERM stops a study as Ctrl-C does: consistent, resumable
+            return self._run()
+
+    def _run(self) -> int:
         t0 = time.monotonic()
         plan = self.prepare()
         s = self.study
