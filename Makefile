@@ -28,16 +28,17 @@ test-fast: $(STAMP)
 # the SESGen paper room: script -> render (half resolution, the draft preset at 4 denoised samples)
 # -> contact sheet -> both stereo VOs -> report.
 demo: $(STAMP)
-	$(PY) -m blender_sesgen check $(DEMO_PHOTOREAL)
-	$(PY) -m blender_sesgen render $(DEMO_PHOTOREAL) --out $(DEMO_OUT)/photoreal --frames 0:3 --resolution-scale 0.5 --quality draft --samples 4 --resume --force --contact-sheet
-	$(PY) -m blender_sesgen check $(DEMO_SCENE)
-	$(PY) -m blender_sesgen render $(DEMO_SCENE) --out $(DEMO_OUT)/render --resolution-scale 0.5 --quality draft --samples 4 --resume --force --contact-sheet
-	$(PY) -m vo_reference run $(DEMO_OUT)/render --report $(DEMO_OUT)/report
+	$(VENV)/bin/sesgen check $(DEMO_PHOTOREAL)
+	$(VENV)/bin/sesgen render $(DEMO_PHOTOREAL) --out $(DEMO_OUT)/photoreal --frames 0:3 --resolution-scale 0.5 --quality draft --samples 4 --resume --force --contact-sheet
+	$(VENV)/bin/sesgen check $(DEMO_SCENE)
+	$(VENV)/bin/sesgen render $(DEMO_SCENE) --out $(DEMO_OUT)/render --resolution-scale 0.5 --quality draft --samples 4 --resume --force --contact-sheet
+	$(VENV)/bin/vo-reference run $(DEMO_OUT)/render --report $(DEMO_OUT)/report
 	@echo "demo: contact sheets $(DEMO_OUT)/photoreal/contact_sheet.png and $(DEMO_OUT)/render/contact_sheet.png, report $(DEMO_OUT)/report/"
 
 
+# The Blender extension zip needs only the standard library: any Python >= 3.11, no .venv, no Blender.
 addon:
-	$(PY) -m blender_sesgen.addon.package --out dist
+	$(PYTHON) -m blender_sesgen.addon.package --out dist
 
 # The speed and quality figures of the docs, each bench with its defaults (hours on 2 cores:
 # quality.py renders a 4096-sample reference once, then caches it; fuzz_campaign.py and

@@ -317,10 +317,14 @@ def texture_label(tex: Optional[TextureRef]) -> Optional[str]:
 
 def object_table(scene: Scene) -> list[dict]:
     """The manifest's ``objects``: id, name, shape, texture, material, semantic ``class`` and
-    its Cityscapes ``label_id`` (contract.semantics) of every object of the script, and
-    whether it moves (with its per-frame poses if it does). A BLEND file's objects are added
-    by the job, which learns their ids when loading them."""
-    out = []
+    its Cityscapes ``label_id`` (contract.semantics) of every object of the script, its
+    object frame's pose as the script places it (``T_world_obj_rest``) and its object-frame
+    bounding ``box`` where the geometry is known (:mod:`.bounds`), and whether it moves (with
+    its per-frame poses if it does). A BLEND file's objects are added by the job, which
+    learns their ids when loading them."""
+    from .bounds import object_box
+    from .dynamics import rest_pose
+    out, boxes = [], {}
     for o in scene.objects:
         tex = o.texture
         if tex is None and o.material:
@@ -332,8 +336,11 @@ def object_table(scene: Scene) -> list[dict]:
         motion = scene.motion_of(o.id)
         row = {"id": int(o.id), "name": o.name, "shape": o.shape,
                "texture": texture_label(tex), "material": o.material,
-               "class": label.name, "label_id": label.id,
+               "class": label.name, "label_id": label.id, "T_world_obj_rest": rest_pose(o).tolist(),
                **(object_motion_fields(motion.kind, motion.poses()) if motion else object_motion_fields())}
+        box = object_box(o, boxes)
+        if box is not None:
+            row["box"] = box.tolist()
         if o.shape == "asset":   # what regenerates its mesh: blender_sesgen.assets.generate(...)
             row.update(kind=o.kind, seed=int(o.seed), size=[float(x) for x in o.size])
             if assets.KINDS[o.kind].strip:

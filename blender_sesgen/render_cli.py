@@ -11,6 +11,7 @@ import time
 
 from .contract.cli import EXIT_FAILURE, EXIT_INTERRUPTED
 from .contract.progress import Progress, add_progress_argument, progress_mode
+from .contract.timing import FRAMES_HELP
 from .errors import SesgenError
 from .interrupt import deferred_interrupts
 from .plan import Device, RenderOptions
@@ -20,7 +21,7 @@ from .presets import QUALITIES
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("scene", metavar="SCENE.ses", help="the SES script to render")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (manifest.json, exr/, poses/, scene.ses)")
-    p.add_argument("--frames", metavar="A:B", help="frame range, half-open like Python (A:B, A:, :B or K); default all")
+    p.add_argument("--frames", metavar="A:B", help=f"{FRAMES_HELP}; default all")
     p.add_argument("--quality", choices=QUALITIES, default=None,
                    help="render preset: gt (exact ground truth at primary-ray cost, flat-shaded RGB), draft, "
                         "final (the default) or reference (docs/rendering.md); replaces the script's RENDER "
@@ -52,7 +53,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--reuse-exr", metavar="BASE",
                    help="take the EXRs from the render folder BASE and run only the post-render camera chain "
                         "(SENSOR, the lens's optics, NOISE may differ from BASE's script; nothing else)")
-    add_progress_argument(p, ("--quiet",))
+    add_progress_argument(p)
     p.add_argument("--verbose", action="store_true", help="show Blender's own render log")
 
 
@@ -77,6 +78,7 @@ def run(args: argparse.Namespace) -> int:
     from .api import frame_progress, have_bpy
     from .job import RenderJob
     t_start = time.perf_counter()
+    args.quiet = progress_mode(args) == "off"   # -q is --progress off: neither says what it renders
     options = render_options(args)
     job = RenderJob.prepare(args.scene, args.out, options, resume=args.resume, force=args.force)  # SesgenError -> 2
     if not have_bpy() and not (options.reuse_exr and job.session_needs_no_bpy()):

@@ -106,7 +106,7 @@ def test_bayer_export_with_distortion_runs_end_to_end(corridor, tmp_path):
     assert seq.raw(0).ndim == 2                                          # a real mosaic
     est = tmp_path / "est.txt"
     rc = cli_main(["mono-vo", str(out), "--bayer", "gbrg", "--lut", str(out / "model_distortion_lut.bin"),
-                   "--scale", "gt", "--out", str(est), "--compare-opencv", "--plot", str(tmp_path / "plots"), "-q"])
+                   "--scale", "gt", "--out", str(est), "--compare-opencv", "--report", str(tmp_path / "plots"), "-q"])
     assert rc == 0
     E = read_kitti(est).T_world_cam
     assert sim3_rmse_pct(E, T) <= 1.0

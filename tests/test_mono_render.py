@@ -48,7 +48,7 @@ def test_mono_vo_on_a_rendered_corridor(tmp_path, capsys):
     r = run_render(script, "--out", out, "--samples", "8", "--no-denoise", "--quiet")
     assert r.returncode == 0, r.stderr
     rc = cli_main(["mono-vo", str(out), "--scale", "gt", "--compare-opencv", "--out", str(tmp_path / "est.txt"),
-                   "--plot", str(tmp_path / "plots"), "-q"])
+                   "--report", str(tmp_path / "plots"), "-q"])
     assert rc == 0
     s = json.loads((tmp_path / "plots" / "summary.json").read_text())
     assert s["frames"] == 6 and not s["failed"] and not s["static"]

@@ -74,7 +74,8 @@ def test_layout(exported):
             assert names == ["000000_10.png", "000000_11.png", "000001_10.png", "000001_11.png"]
         else:
             assert names == ["000000_10.png", "000001_10.png"], folder
-    assert (out / "calib.txt").is_file() and (out / "export.json").is_file()
+    assert sorted(p.name for p in (out / "calib_cam_to_cam").iterdir()) == ["000000.txt", "000001.txt"]
+    assert (out / "export.json").is_file() and not (out / "calib.txt").exists()
     assert (out / "pairs.txt").read_text().splitlines()[1:] == ["000000 0 1", "000001 1 2"]
     # the _11 images are the _10 images of the next pair's source frame
     a = cv2.imread(str(out / "image_2" / "000000_11.png"))

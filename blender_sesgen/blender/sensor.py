@@ -202,6 +202,7 @@ def apply_lens(cam_data, lens, width: int, height: int) -> None:
     text = bpy.data.texts.get(name) or bpy.data.texts.new(name)
     text.from_string(lens_shader_source(lens.model))
     cam_data.type = "CUSTOM"
+    cam_data.shift_x = cam_data.shift_y = 0.0     # the shader places the principal point (cx, cy) itself
     cam_data.custom_mode = "INTERNAL"
     cam_data.custom_shader = text                 # compiles the shader and creates its parameters
     props = cam_data.cycles_custom

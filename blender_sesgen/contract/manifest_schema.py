@@ -60,6 +60,12 @@ def check_types(m: dict, source: str, limit: float) -> None:
     for o in m.get("objects") or []:
         if o.get("moving") and not (isinstance(o.get("id"), int) and _numbers_only(o.get("T_world_obj"))):
             bad("objects", "objects whose moving ones have an integer id and T_world_obj numbers")
+        box, rest = o.get("box"), o.get("T_world_obj_rest")
+        if box is not None and not (_numbers_only(box) and len(box) == 2 and all(len(r) == 3 for r in box)
+                                    and all(lo <= hi for lo, hi in zip(*box))):
+            bad("objects", "objects whose box is [[x, y, z] min, [x, y, z] max]")
+        if rest is not None and not (_numbers_only(rest) and len(rest) == 4 and all(len(r) == 4 for r in rest)):
+            bad("objects", "objects whose T_world_obj_rest is a 4x4 matrix")
     complete = m.get("frames_complete")
     if complete is not None and not (isinstance(complete, list) and all(isinstance(c, bool) for c in complete)):
         bad("frames_complete", "a list of true/false")

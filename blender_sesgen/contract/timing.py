@@ -19,6 +19,8 @@ import numpy as np
 from .errors import ContractError
 
 DEFAULT_FPS = 25.0
+# what every command's --frames help says (the one convention, above)
+FRAMES_HELP = "frames A..B-1 (A:B is half-open, a Python slice; also A:, :B, or K for frame K alone)"
 
 
 def frame_timestamps(n: int, fps: float = DEFAULT_FPS, t0_s: float = 0.0) -> np.ndarray:

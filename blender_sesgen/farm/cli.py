@@ -57,7 +57,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--gpus-per-task", type=float, default=0.0, metavar="G",
                    help="GPUs each task reserves (fractions share a GPU); > 0 renders with --device gpu")
     p.add_argument("--num-cpus", type=int, metavar="N", help="local Ray only: the CPUs it may use (default all)")
-    add_progress_argument(p, ("-q", "--quiet"))
+    add_progress_argument(p)
     g = p.add_argument_group("render options", "as for `render`, for every scene")
     for a in render_actions():
         g._add_action(a)

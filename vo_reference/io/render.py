@@ -123,7 +123,7 @@ class RenderSequence:
             got = hashlib.sha256(read_bytes(path, 16 << 30, "EXR file")).hexdigest()
         if got != want:
             raise VoError(f"{path}: differs from the file the renderer wrote (SHA-256 mismatch); "
-                          "run `python -m blender_sesgen verify` on the folder and re-render with --resume")
+                          "run `sesgen verify` on the folder and re-render with --resume")
 
     def _pass(self, k, view, names, comps, what, key=None):
         ch = self._channels(k, view)

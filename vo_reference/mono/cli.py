@@ -9,8 +9,9 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract.cli import add_report_argument
 from blender_sesgen.contract.progress import Progress, add_progress_argument, progress_mode
-from blender_sesgen.contract.timing import frame_range
+from blender_sesgen.contract.timing import FRAMES_HELP, frame_range
 
 from ..errors import VoError
 
@@ -47,12 +48,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="ignore the bottom rows (bonnet): pixels, or a fraction of the height if < 1")
     p.add_argument("--mask-rect", action="append", default=[], metavar="X0,Y0,X1,Y1", help="ignore a box (repeatable)")
     p.add_argument("--mask", metavar="PNG", help="mask image: non-zero = usable")
-    p.add_argument("--frames", metavar="A:B", help="frame range A..B-1")
+    p.add_argument("--frames", metavar="A:B", help=f"{FRAMES_HELP}; default all")
     p.add_argument("--compare-opencv", action="store_true",
                    help="also run OpenCV findEssentialMat + recoverPose on the same matches")
     p.add_argument("--opencv-method", choices=("usac", "ransac"), default="usac",
                    help="OpenCV's robust estimator: usac = USAC_ACCURATE (default), ransac = classic RANSAC")
-    p.add_argument("--plot", metavar="DIR", help="write plots and a per-frame table here")
+    add_report_argument(p, "plots (trajectories.png, per_frame.png), the per-frame table (frames.csv), summary.json")
     add_progress_argument(p)
 
 
@@ -180,9 +181,9 @@ def run(args: argparse.Namespace) -> int:
     for line in summary_lines(summary):
         print(line)
     print("wrote " + ", ".join(outputs))
-    if args.plot:
-        write_plots(Path(args.plot), res, gt, errs, summary)
-        print(f"plots in {args.plot}")
+    if args.report:
+        write_plots(Path(args.report), res, gt, errs, summary)
+        print(f"report: {args.report}")
     return 0
 
 

@@ -25,7 +25,10 @@ from blender_sesgen.contract.se3 import invert
 from ..errors import VoError
 from .flow import object_transforms, sequence_flow, sequence_object_poses, warp_depth
 
-__all__ = ["DenseFlow", "dense_flow", "flow_at_infinity", "disparity_change"]
+__all__ = ["DenseFlow", "dense_flow", "flow_at_infinity", "disparity_change", "pop_background_depth",
+           "DEFAULT_BACKGROUND_DEPTH"]
+
+DEFAULT_BACKGROUND_DEPTH = 10000.0   # metres: what the learning layouts' depth holds for the sky
 
 
 @dataclass(frozen=True)
@@ -104,3 +107,10 @@ def disparity_change(seq, k_src: int, k_tgt: int, view: str = "left") -> np.ndar
     out[ok] = fB / w.z[ok] - fB / np.asarray(z_src, np.float64)[ok]
     out[w.valid & ~np.isfinite(w.z)] = np.nan
     return out.astype(np.float32)
+
+
+def pop_background_depth(extra: dict, default: float = DEFAULT_BACKGROUND_DEPTH) -> float:
+    """Take ``background_depth`` (``--opt background_depth=M``, metres or inf: the depth
+    written where a pixel sees nothing) out of an export's options."""
+    from .exports import pop_number
+    return pop_number(extra, "background_depth", float, default, "metres (a number or inf)")

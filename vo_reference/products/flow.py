@@ -126,6 +126,13 @@ def hidden_behind(depth_map: np.ndarray, u: np.ndarray, v: np.ndarray, z: np.nda
     the surface of ``depth_map`` there by more than ``rtol`` (relative). The surface's
     depth is bilinear in inverse depth over the 2x2 cell around (u, v) (exact for a plane;
     in the half-pixel image border the cell's plane is extrapolated)."""
+    # hidden  <=>  z_point > z_surface·(1+rtol)  <=>  inv_surface·z_point > 1 + rtol
+    return surface_inverse_depth(depth_map, u, v) * z > 1.0 + rtol
+
+
+def surface_inverse_depth(depth_map: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """1/z of the surface of ``depth_map`` at pixels (u, v): bilinear in inverse depth over
+    the 2x2 cell around (u, v) (0 where the map sees nothing; exact for a plane)."""
     zt_map = np.asarray(depth_map, dtype=np.float64)
     H, W = zt_map.shape
     with np.errstate(divide="ignore"):
@@ -136,10 +143,8 @@ def hidden_behind(depth_map: np.ndarray, u: np.ndarray, v: np.ndarray, z: np.nda
     y1 = np.minimum(y0 + 1, H - 1)
     ax = u - x0
     ay = v - y0
-    inv_p = ((1 - ax) * (1 - ay) * inv[y0, x0] + ax * (1 - ay) * inv[y0, x1]
-             + (1 - ax) * ay * inv[y1, x0] + ax * ay * inv[y1, x1])
-    # hidden  <=>  z_point > z_surface·(1+rtol)  <=>  inv_surface·z_point > 1 + rtol
-    return inv_p * z > 1.0 + rtol
+    return ((1 - ax) * (1 - ay) * inv[y0, x0] + ax * (1 - ay) * inv[y0, x1]
+            + (1 - ax) * ay * inv[y1, x0] + ax * ay * inv[y1, x1])
 
 
 @dataclass(frozen=True)
