@@ -13,7 +13,6 @@ Only :func:`render` needs Blender's Python module ``bpy``; the rest is pure (num
 """
 from __future__ import annotations
 
-import importlib.util
 import os
 from pathlib import Path
 from typing import Callable, Optional, Sequence
@@ -25,6 +24,7 @@ from .contract.progress import Progress
 from .errors import ScriptError, SesgenError
 from .model import (Asset, Cuboid, Cylinder, Fog, Light, Material, Mesh, Motion, Noise, Quad, Rig, Scene, Sphere,
                     TextureRef, Timeline, World, mat4)
+from .job import frame_progress, have_bpy
 from .pipeline import RenderOptions
 from .ses import parse_file, parse_string
 
@@ -85,16 +85,6 @@ def ego_timeline(start_position: Sequence[float], start_rotation_deg: Sequence[f
     from .contract.frames import start_pose
     from .contract.motion import integrate_ego
     return pose_timeline(integrate_ego(start_pose(start_position, start_rotation_deg), [tuple(s) for s in steps]))
-
-
-def frame_progress(bar: Progress) -> Callable:
-    """Adapter from the pipeline's per-frame hook ``(i, n, FrameResult, elapsed_s)`` to a
-    :class:`~blender_sesgen.contract.progress.Progress` (fields ``frame``, ``wall_s``, ``cycles_s``)."""
-    def hook(i, n, r, elapsed_s):
-        cyc = f", cycles {r.cycles_s:.2f} s" if r.cycles_s is not None else ""
-        bar.update(detail=f"frame {r.frame} {r.wall_s:.2f} s{cyc}", frame=r.frame, wall_s=r.wall_s,
-                   cycles_s=r.cycles_s)
-    return hook
 
 
 def render(scene: "Scene | str | os.PathLike", out: "str | os.PathLike", options: Optional[RenderOptions] = None, *,
@@ -173,11 +163,3 @@ class Study:
     def compare(old: dict, new: dict, sigmas: float = 1.0) -> list[dict]:
         from .study.results import compare
         return compare(old, new, sigmas)
-
-
-def have_bpy() -> bool:
-    """True when Blender's Python module can be imported here."""
-    try:
-        return importlib.util.find_spec("bpy") is not None
-    except ImportError:
-        return False

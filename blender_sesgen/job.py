@@ -16,6 +16,7 @@ with results identical to an uninterrupted run.
 """
 from __future__ import annotations
 
+import importlib.util
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -233,3 +234,23 @@ class RenderJob:
     def close(self) -> None:
         """Release the folder: the completion log into the manifest, the lock dropped."""
         self.folder.release()
+
+
+# --- used by the command line and the Python API -------------------------------------------
+
+def frame_progress(bar) -> Callable:
+    """Adapter from the pipeline's per-frame hook ``(i, n, FrameResult, elapsed_s)`` to a
+    :class:`~blender_sesgen.contract.progress.Progress` (fields ``frame``, ``wall_s``, ``cycles_s``)."""
+    def hook(i, n, r, elapsed_s):
+        cyc = f", cycles {r.cycles_s:.2f} s" if r.cycles_s is not None else ""
+        bar.update(detail=f"frame {r.frame} {r.wall_s:.2f} s{cyc}", frame=r.frame, wall_s=r.wall_s,
+                   cycles_s=r.cycles_s)
+    return hook
+
+
+def have_bpy() -> bool:
+    """True when Blender's Python module can be imported here."""
+    try:
+        return importlib.util.find_spec("bpy") is not None
+    except ImportError:
+        return False

@@ -75,8 +75,7 @@ def render_options(args: argparse.Namespace) -> RenderOptions:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .api import frame_progress, have_bpy
-    from .job import RenderJob
+    from .job import RenderJob, frame_progress, have_bpy
     t_start = time.perf_counter()
     args.quiet = progress_mode(args) == "off"   # -q is --progress off: neither says what it renders
     options = render_options(args)

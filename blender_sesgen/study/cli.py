@@ -48,7 +48,7 @@ the systems under test:
   trials = 3
 
 Placeholders: {dataset} {sequence} {out} {workdir} {trial} {frames} {python} {vo}.
-Factors: python -m blender_sesgen study factors."""
+Factors: sesgen study factors."""
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -102,8 +102,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plan:
         from .runner import check_folder
         from .variants import make_plan
-        from .runner import vo_command
-        from .systems import check_layouts
+        from .runner import check_layouts, vo_command
         check_folder(Path(args.out))
         plan = make_plan(study, Path(args.out).absolute() / "scripts")
         check_layouts(study, vo_command(study))

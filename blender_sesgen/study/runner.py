@@ -32,13 +32,13 @@ import sys
 import time
 from dataclasses import replace
 from pathlib import Path
-from typing import Optional
+from typing import Optional, Sequence
 
 from ..contract import atomic
 from ..contract.cli import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK
 from ..contract.progress import Progress
 from ..errors import SesgenError
-from .spec import Study
+from .spec import Study, StudyError
 from .variants import Plan, make_plan
 
 MARKER = "plan.json"
@@ -55,6 +55,22 @@ def system_dir(s) -> str:
 
 def est_name(fmt: str) -> str:
     return "est.csv" if fmt == "euroc" else "est.txt"
+
+
+def check_layouts(study, vo: Sequence[str]) -> None:
+    """Every system's layout must be one ``vo_reference`` exports (asked once, as a child
+    process: ``vo_reference study layouts``); StudyError naming the system's key."""
+    try:
+        proc = subprocess.run([*vo, "study", "layouts"], capture_output=True, text=True, timeout=300,
+                              stdin=subprocess.DEVNULL)
+        layouts = json.loads(proc.stdout)["layouts"]
+    except (OSError, ValueError, KeyError, subprocess.TimeoutExpired) as e:
+        raise SesgenError(f"cannot run vo_reference ({' '.join(vo)} study layouts: {e}); a study needs it: "
+                          "pip install 'blender-sesgen[vo]', or set study.vo in the study file") from None
+    for i, s in enumerate(study.systems):
+        if s.layout not in layouts:
+            raise StudyError(f"{study.path}: error: systems[{i}].layout: {s.layout!r} is not a layout "
+                             f"vo_reference exports ({', '.join(layouts)})")
 
 
 def check_folder(out: Path) -> None:
@@ -98,7 +114,6 @@ class StudyRun:
         """The plan and its scripts in the folder (nothing else is touched)."""
         check_folder(self.out)
         plan = make_plan(self.study, self.out / "scripts")
-        from .systems import check_layouts
         check_layouts(self.study, self.vo)
         for sub in ("scripts", "renders"):
             (self.out / sub).mkdir(parents=True, exist_ok=True)

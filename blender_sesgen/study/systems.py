@@ -103,24 +103,6 @@ def dataset_folder(export_dir: Path) -> Path:
     return found[0] if found else Path(export_dir)
 
 
-def check_layouts(study, vo: Sequence[str]) -> None:
-    """Every system's layout must be one ``vo_reference`` exports (asked once, as a child
-    process: ``vo_reference study layouts``); StudyError naming the system's key."""
-    import json
-    from .spec import StudyError
-    try:
-        proc = subprocess.run([*vo, "study", "layouts"], capture_output=True, text=True, timeout=300,
-                              stdin=subprocess.DEVNULL)
-        layouts = json.loads(proc.stdout)["layouts"]
-    except (OSError, ValueError, KeyError, subprocess.TimeoutExpired) as e:
-        raise SesgenError(f"cannot run vo_reference ({' '.join(vo)} study layouts: {e}); a study needs it: "
-                          "pip install 'blender-sesgen[vo]', or set study.vo in the study file") from None
-    for i, s in enumerate(study.systems):
-        if s.layout not in layouts:
-            raise StudyError(f"{study.path}: error: systems[{i}].layout: {s.layout!r} is not a layout "
-                             f"vo_reference exports ({', '.join(layouts)})")
-
-
 # --- read-only datasets ---------------------------------------------------------------------
 
 def set_read_only(folder: Path, read_only: bool = True) -> None:
