@@ -94,7 +94,7 @@ class SESGEN_PG_settings(bpy.types.PropertyGroup):
     # a one-factor study of the script (blender_sesgen.study, run as a child process)
     study_factor: EnumProperty(name="Factor", default="exposure_time",
                                description="What changes from variant to variant (docs/studies.md)",
-                               items=tuple((f.name, f"{f.name} ({f.unit})", f.doc) for f in FACTORS.values()))
+                               items=tuple((f.name, f.name, f"{f.doc} ({f.unit})") for f in FACTORS.values()))
     study_levels: StringProperty(name="Levels", default="0.005, 0.01, 0.02",
                                  description="The factor's levels, benign to harsh (numbers in its unit, or names)")
     study_systems: StringProperty(name="Systems", default="accurate-stereo, opencv-stereo",

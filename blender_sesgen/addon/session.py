@@ -400,7 +400,7 @@ def start_study(values: dict):
     text = study_job.study_toml(script, factor, study_job.parse_levels(factor, values["study_levels"]), systems,
                                 frames=values["study_frames"], resolution=values["study_resolution"],
                                 quality="draft" if values["quality"] == "script" else values["quality"])
-    path = study_job.write_study(os.path.join(out, "study-file"), text)
+    path = study_job.write_study(out, text)
     return study_job.StudyProcess(study_job.study_command(values["study_command"]), path, out)
 
 

@@ -80,7 +80,8 @@ def check_study(path: Path) -> None:
 
 
 def write_study(folder: Path, text: str) -> Path:
-    """``FOLDER/study.toml`` (checked); the folder is the study's own."""
+    """``FOLDER/study.toml`` (checked): the study file in the study's own folder (which
+    ``study run`` accepts as it accepts an empty one)."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / "study.toml"

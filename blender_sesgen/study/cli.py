@@ -103,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
         from .runner import check_folder
         from .variants import make_plan
         from .runner import check_layouts, vo_command
-        check_folder(Path(args.out))
+        check_folder(Path(args.out), study.path)
         plan = make_plan(study, Path(args.out).absolute() / "scripts")
         check_layouts(study, vo_command(study))
         for v in plan.variants:

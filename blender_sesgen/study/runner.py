@@ -73,10 +73,13 @@ def check_layouts(study, vo: Sequence[str]) -> None:
                              f"vo_reference exports ({', '.join(layouts)})")
 
 
-def check_folder(out: Path) -> None:
+def check_folder(out: Path, study_file: Optional[Path] = None) -> None:
+    """A study folder: new, empty, a study's (it has plan.json), or holding only the study
+    file itself (as the add-on writes it)."""
     if out.exists() and not out.is_dir():
         raise SesgenError(f"--out {out}: exists and is not a folder")
-    if out.is_dir() and any(out.iterdir()) and not (out / MARKER).is_file():
+    own = {Path(study_file).resolve()} if study_file is not None else set()
+    if out.is_dir() and any(p.resolve() not in own for p in out.iterdir()) and not (out / MARKER).is_file():
         raise SesgenError(f"--out {out}: a folder that holds something else than a study (no {MARKER}); "
                          "choose a new or empty folder")
 
@@ -112,7 +115,7 @@ class StudyRun:
     # --- the whole run ------------------------------------------------------------------------
     def prepare(self) -> Plan:
         """The plan and its scripts in the folder (nothing else is touched)."""
-        check_folder(self.out)
+        check_folder(self.out, self.study.path)
         plan = make_plan(self.study, self.out / "scripts")
         check_layouts(self.study, self.vo)
         for sub in ("scripts", "renders"):
