@@ -77,13 +77,18 @@ def factor_plot(factor: dict, curves: dict, base: dict, systems: list, metric: s
         ax.axvline(factor["base_level"], color="0.6", lw=0.8, ls="--")
     if not numeric:
         ax.set_xticks(xs, names)
+    return _finish(ax, fig, factor, metric, "mean ± spread (trials × world seeds); × = failed; dotted: the base")
+
+
+def _finish(ax, fig, factor: dict, metric: str, title: str) -> str:
+    """Axes labelled with the factor (and its unit) and the error; the figure as a PNG URI."""
     ax.set_xlabel(f"{factor['name']} ({factor['unit']})")
     ax.set_ylabel(metric)
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(fontsize=8)
-    ax.set_title("mean ± spread (trials × world seeds); × = failed; dotted: the base", fontsize=8)
+    ax.set_title(title, fontsize=8)
     return _png(fig)
 
 
@@ -114,14 +119,7 @@ def scatter_plot(factor: dict, points: list, systems: list, metric: str) -> str:
         xy = [(x, y) for x, y in xy if y is not None and isinstance(x, (int, float))]
         if xy:
             ax.plot(*zip(*xy), "o", color=COLOURS[i % len(COLOURS)], ms=5, label=s["name"])
-    ax.set_xlabel(f"{factor['name']} ({factor['unit']})")
-    ax.set_ylabel(metric)
-    ax.set_ylim(bottom=0)
-    ax.grid(alpha=0.3)
-    if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=8)
-    ax.set_title("every point of the design (the other factors vary too)", fontsize=8)
-    return _png(fig)
+    return _finish(ax, fig, factor, metric, "every point of the design (the other factors vary too)")
 
 
 def trajectory_grid(rows: list, systems: list) -> str:
