@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import time
 from pathlib import Path
 
@@ -21,11 +20,10 @@ import cv2
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
 
-from vo_reference.evaluate.align import umeyama  # noqa: E402
-from vo_reference.io.sequence import open_sequence  # noqa: E402
-from vo_reference.stereo.pipeline import METHODS, parse_frames, run_stereo_vo  # noqa: E402
+from vo_reference.evaluate.align import umeyama
+from vo_reference.io.sequence import open_sequence
+from vo_reference.stereo.pipeline import METHODS, parse_frames, run_stereo_vo
 
 
 class Resized:

@@ -60,16 +60,11 @@ def check_reusable(plan, base: Path) -> Manifest:
         raise SesgenError("--reuse-exr: a script with AUTOEXPOSURE renders its own exposure schedule (its motion "
                           "blur depends on it); render it")
     if not OutputFolder.same_settings(raw, plan.settings):
-        raise SesgenError(f"--reuse-exr {base}: rendered with other settings (quality, samples, seed, resolution "
-                          "or passes)")
+        raise SesgenError(f"--reuse-exr {base}: rendered with other settings (quality, samples, seed, resolution, "
+                          "passes or timing)")
     if rendering_part(_base_scene(base, raw)) != rendering_part(plan.scene):
         raise SesgenError(f"--reuse-exr {base}: its scene differs from this script in more than the post-render "
                           "camera chain (SENSOR, the lens's optics, NOISE); render it")
-    keys = ("rate_hz", "start_s", "exposure_s", "readout_s", "motion_blur")
-    mine = plan.sensor.manifest_entries(1).get("timing") or {}
-    theirs = raw.get("timing") or {}
-    if any(mine.get(k) != theirs.get(k) for k in keys) and (mine or theirs):
-        raise SesgenError(f"--reuse-exr {base}: rendered with other timing; render it")
     missing = [k for k in plan.frames if not m.frames_complete[k]]
     if missing:
         raise SesgenError(f"--reuse-exr {base}: frame(s) {missing[:5]} are not rendered there")

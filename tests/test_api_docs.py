@@ -111,6 +111,7 @@ def test_every_render_option_is_in_the_table_with_its_default():
         assert documented[name] == (f'"{shown}"' if isinstance(shown, str) else repr(shown)), name
 
 
+@pytest.mark.slow
 def test_doc_examples_run_without_blender(tmp_path):
     pytest.importorskip("OpenEXR")
     r = run_doc(tmp_path, with_bpy=False)

@@ -12,6 +12,8 @@ from vo_reference.evaluate.disparity_io import read_mask
 from vo_reference.io.pfm import write_pfm
 from vo_reference.products.disparity import read_disparity
 
+pytestmark = pytest.mark.slow   # subprocesses and end-to-end runs (left out of make test-fast)
+
 HEADLINE = {"ape_trans_rmse", "ape_rot_rmse_deg", "rpe_trans_rmse", "rpe_rot_rmse_deg"}
 
 

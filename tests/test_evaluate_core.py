@@ -228,6 +228,7 @@ def test_evaluate_trajectory_of_a_perfect_scaled_estimate():
     json.dumps(m)  # JSON-ready
 
 
+@pytest.mark.slow
 def test_write_report_folder(tmp_path):
     pytest.importorskip("matplotlib")
     from vo_reference.evaluate.report import write_report

@@ -9,19 +9,16 @@ A wrong convention (inverse motion, wrong K, lost scale) fails them by far.
 from __future__ import annotations
 
 import json
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from render_support import run_render  # noqa: E402
+from render_support import run_render
 
-from vo_reference.cli import main as cli_main  # noqa: E402
+from vo_reference.cli import main as cli_main
+from markers import needs
 
-pytestmark = pytest.mark.render
-pytest.importorskip("bpy")
+pytestmark = [pytest.mark.render, needs("bpy")]
 pytest.importorskip("cv2")
 
 # open to the sky (lit by the default lighting); coarse textures, so 240x180 keeps corners

@@ -13,11 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from render_support import REPO, load_manifest, read_exr, render_cmd, run_render  # noqa: E402
+from render_support import REPO, load_manifest, read_exr, render_cmd, run_render
+from markers import needs
 
-pytestmark = pytest.mark.render
-pytest.importorskip("bpy")
+pytestmark = [pytest.mark.render, needs("bpy")]
 pytest.importorskip("OpenEXR")
 
 SMALL = """\
@@ -63,8 +62,12 @@ def test_output_contract(tmp_path):
     assert m["depth"]["kind"] == "planar_z" and m["depth"]["background"] == 1e10
     np.testing.assert_allclose(m["K"], [[70, 0, 47.5], [0, 70, 35.5], [0, 0, 1]])
     assert [o["id"] for o in m["objects"]] == [1, 2, 3, 4]
+    # the sphere as the script places it (position 0.6 0.5 0, radius 0.4): its rest pose and object-frame box
     assert m["objects"][3] == {"id": 4, "name": m["objects"][3]["name"], "shape": "sphere", "texture": "voronoi",
-                               "material": None, "class": "static", "label_id": 4, "moving": False}
+                               "material": None, "class": "static", "label_id": 4, "moving": False,
+                               "T_world_obj_rest": [[1.0, 0.0, 0.0, 0.6], [0.0, 1.0, 0.0, 0.5], [0.0, 0.0, 1.0, 0.0],
+                                                    [0.0, 0.0, 0.0, 1.0]],
+                               "box": [[-0.4, -0.4, -0.4], [0.4, 0.4, 0.4]]}
     assert m["frames_complete"] == [True] * 3
     assert m["noise"] == {"sigma": 2.5, "seed": 7}
     assert m["render"]["samples"] == 1 and m["render"]["engine"] == "CYCLES"

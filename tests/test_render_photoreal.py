@@ -14,19 +14,16 @@
 from __future__ import annotations
 
 import json
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import raycast  # noqa: E402
-from render_support import (ORACLE_PRIMS, depth_and_ids, load_manifest, oracle_script, read_exr,  # noqa: E402
+import raycast
+from render_support import (ORACLE_PRIMS, depth_and_ids, load_manifest, oracle_script, read_exr,
                             run_render)
+from markers import needs
 
-pytestmark = pytest.mark.render
-pytest.importorskip("bpy")
+pytestmark = [pytest.mark.render, needs("bpy")]
 pytest.importorskip("OpenEXR")
 
 LIBRARY_ORACLE = {1: "asphalt", 2: "brick", 3: "glass_window", 4: "metal_rusty", 5: "wood_planks", 6: "leaves"}

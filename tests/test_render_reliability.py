@@ -16,11 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from render_support import REPO, run_render  # noqa: E402
+from render_support import REPO, run_render
+from markers import needs
 
-pytestmark = pytest.mark.render
-pytest.importorskip("bpy")
+pytestmark = [pytest.mark.render, needs("bpy")]
 
 SCRIPT = """\
 CAMERA resolution 96 72 focal 60 baseline 0.1

@@ -4,14 +4,11 @@ rosbags), the mono pipeline's undistortion table; and the IMU noise model agains
 ADIS16448 stream of EuRoC."""
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from render_support import run_render  # noqa: E402
+from render_support import run_render
 
 SCENE = """CAMERA resolution 64 48 focal 50 baseline 0.1
 POSE 0 1 3 0 0 0
@@ -128,7 +125,7 @@ def test_rosbag_export_reads_back(render, tmp_path):
 def test_noise_model_against_the_real_adis16448(shared_data):
     """The real stream (EuRoC V1_01, in flight: there is no stretch at rest) against our model
     with its datasheet densities: the real sensor never beats the model's noise floor, and
-    our stream's white noise is the configured density (see docs/rendering.md, IMU)."""
+    our stream's white noise is the configured density (see docs/sensors.md, IMU)."""
     from blender_sesgen.sensor import imu
     from vo_reference.evaluate.allan import allan_deviation
     path = shared_data / "euroc" / "mav0" / "imu0" / "data.csv"

@@ -7,12 +7,12 @@ expectation never comes from the parser itself.
 """
 from __future__ import annotations
 
-import re
 
 import pytest
 
 from blender_sesgen.errors import ScriptError, SesgenError
 from blender_sesgen.ses import parse_bytes, parse_file, parse_string
+from script_errors import parse_error
 
 OBJ = "CUBOID id 1 position 0 0 0 dim 1 1 1\n"   # one valid object, for scripts that need one
 CAM = "CAMERA resolution 640 480 focal 389"
@@ -167,23 +167,10 @@ CASES = {
 }
 
 
-def _expected_col(script: str, line: int, marker) -> int:
-    text = script.splitlines(keepends=True)[line - 1]
-    if marker is None:
-        return len(text) - len(text.lstrip()) + 1
-    return text.index(marker) + 1
-
-
 @pytest.mark.parametrize("case", list(CASES), ids=list(CASES))
 def test_error_table(case, tmp_path):
     script, line, marker, pattern = CASES[case]
-    path = tmp_path / "scene.ses"
-    path.write_text(script, encoding="utf-8")
-    with pytest.raises(ScriptError) as info:
-        parse_file(path)
-    err = info.value
-    assert (err.file, err.line, err.col) == (str(path), line, _expected_col(script, line, marker)), str(err)
-    assert re.search(pattern, err.message), err.message
+    path, err = parse_error(tmp_path, script, line, marker, pattern)
     assert str(err) == f"{path}:{line}:{err.col}: error: {err.message}"
 
 

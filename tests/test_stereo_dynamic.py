@@ -21,9 +21,10 @@ import json
 
 import numpy as np
 import pytest
+from markers import needs
+from stereo_synth import rel_errors as _rel_errors
 
-pytestmark = pytest.mark.render
-pytest.importorskip("bpy")
+pytestmark = [pytest.mark.render, needs("bpy")]
 pytest.importorskip("OpenEXR")
 
 FRAMES = 6
@@ -50,10 +51,6 @@ def render(tmp_path_factory):
 def seq(render):
     from vo_reference.io.sequence import open_sequence
     return open_sequence(render)
-
-
-def _rel_errors(res) -> np.ndarray:
-    return np.linalg.norm(res.twists - res.gt_twists, axis=1) / np.linalg.norm(res.gt_twists, axis=1)
 
 
 def test_the_board_is_a_large_moving_object(seq):

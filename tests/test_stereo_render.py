@@ -20,9 +20,10 @@ import json
 
 import numpy as np
 import pytest
+from markers import needs
+from stereo_synth import rel_errors as _rel_errors
 
-pytestmark = pytest.mark.render
-pytest.importorskip("bpy")
+pytestmark = [pytest.mark.render, needs("bpy")]
 pytest.importorskip("OpenEXR")
 
 FRAMES = 5
@@ -44,12 +45,6 @@ def render(tmp_path_factory):
 def seq(render):
     from vo_reference.io.sequence import open_sequence
     return open_sequence(render)
-
-
-def _rel_errors(res) -> np.ndarray:
-    """Per-step |estimated - true twist| / |true twist| (twist [U, V, W, alpha, beta, gamma], rad)."""
-    e = np.linalg.norm(res.twists - res.gt_twists, axis=1)
-    return e / np.linalg.norm(res.gt_twists, axis=1)
 
 
 def test_render_is_the_paper_rig_at_quarter_scale(seq):

@@ -4,6 +4,7 @@ from __future__ import annotations
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
+from ..contract.timing import DEFAULT_FPS
 from ..lighting_data import BUILTIN_HDRIS
 from ..study.factors import FACTORS
 from ..study.systems import BUILTIN as BUILTIN_SYSTEMS
@@ -51,7 +52,7 @@ class SESGEN_PG_settings(bpy.types.PropertyGroup):
     override_timing: BoolProperty(name="Override Script Timing", default=False,
                                   description="Use this frame rate, exposure, readout and motion blur instead of the "
                                               "script's TIMING line")
-    rate_hz: FloatProperty(name="Frame Rate", min=0.001, soft_max=240.0, default=25.0, unit="NONE",
+    rate_hz: FloatProperty(name="Frame Rate", min=0.001, soft_max=240.0, default=DEFAULT_FPS, unit="NONE",
                            description="Frames per second (frame k is stamped at the middle of its exposure)")
     exposure_ms: FloatProperty(name="Exposure (ms)", min=0.0, soft_max=100.0, default=0.0,
                                description="Exposure time; with motion blur on, the image is blurred over it")

@@ -89,12 +89,6 @@ def row_time_s(t_frame_s: float, row, height: int, readout_s: float):
     return float(t_frame_s) + (y + 0.5 - height / 2.0) * float(readout_s) / float(height)
 
 
-def frame_window_s(t_frame_s: float, exposure_s: float, readout_s: float) -> tuple[float, float]:
-    """First and last instant any row of the frame integrates light."""
-    half = (float(exposure_s) + float(readout_s)) / 2.0
-    return float(t_frame_s) - half, float(t_frame_s) + half
-
-
 def cycles_shutter(exposure_s: float, readout_s: float, rate_hz: float) -> tuple[float, float]:
     """(shutter length in frames, rolling-shutter duration) for Cycles.
 

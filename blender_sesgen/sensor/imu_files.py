@@ -3,8 +3,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .imu import ImuParams
-from ..contract import sensor_yaml
 from ..contract.timing import to_ns
 
 EUROC_GT_HEADER = ("#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q_RS_x [], q_RS_y [], "
@@ -26,8 +24,3 @@ def groundtruth_csv(t_s, T_world_imu, v_world, gyro_bias=None, accel_bias=None) 
         vals = (*T[:3, 3], w, x, y, z, *v, *bw, *ba)
         lines.append(f"{int(tn)}," + ",".join(f"{v:.17g}" for v in vals))
     return "\n".join(lines) + "\n"
-
-
-def imu_sensor_yaml(p: ImuParams, T_BS=None) -> str:
-    """EuRoC ``imu0/sensor.yaml`` (Kalibr's imu.yaml keys included): ``contract.sensor_yaml``."""
-    return sensor_yaml.imu_sensor_yaml(p.to_json(), T_BS)

@@ -47,7 +47,7 @@ def run_record(variant, system, trial: int, run: dict, metrics: Optional[dict], 
         failure = m.get("failure") or "not evaluated"
     keep = {k: m[k] for k in (*METRIC_KEYS, "alignment", "scale", "lost_frames", "jumps", "n_paired", "n_frames",
                               "est_xyz", "frames", "gt_path_length_m") if k in m}
-    return {"variant": variant.name, "key": variant.key, "point": variant.point, "seed": variant.seed,
+    return {"variant": variant.name, "key": variant.key, "point": variant.point, "world_seed": variant.seed,
             "system": system.name, "trial": trial, "status": "ok" if failure is None else "failed",
             "failure": failure, "rc": run.get("rc"), "timed_out": bool(run.get("timed_out")),
             "wall_s": run.get("wall_s"), "stderr_tail": run.get("stderr_tail") or [], "dir": folder,
@@ -135,7 +135,7 @@ def results(study, plan, runs: list, controls: dict, cost: dict) -> dict:
                         "levels": list(f.levels), "base_level": bl, "options": f.options})
     variants = []
     for v in plan.variants:
-        variants.append({"name": v.name, "label": v.label, "point": v.point, "seed": v.seed, "key": v.key,
+        variants.append({"name": v.name, "label": v.label, "point": v.point, "world_seed": v.seed, "key": v.key,
                          "render_key": v.render_key, "stage": v.stage, "developed": v.developed,
                          "render": f"renders/{v.key}", "control": controls.get(v.key) if v.controlled else None})
     return {

@@ -87,7 +87,7 @@ class Plan:
 
     def to_json(self) -> dict:
         return {"renders": sorted(self.renders), "developed": {k: b for k, (_, b) in sorted(self.develops.items())},
-                "variants": [{"name": v.name, "point": v.point, "seed": v.seed, "key": v.key,
+                "variants": [{"name": v.name, "point": v.point, "world_seed": v.seed, "key": v.key,
                               "render_key": v.render_key, "stage": v.stage} for v in self.variants],
                 "render_args": self.render_args}
 

@@ -26,11 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract.trajectory_files import format_tum
+from blender_sesgen.generators.builtin import street
+
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
-sys.path.insert(0, str(HERE.parents[1]))
-import street  # noqa: E402
-from blender_sesgen.contract.trajectory_files import format_tum  # noqa: E402
 
 ASSETS = HERE.parent / "traffic"          # scenes/traffic: meshes and trajectories (--assets DIR: elsewhere)
 RATE = 10.0                               # KITTI: 10 frames per second

@@ -91,7 +91,7 @@ def export_bayer(seq, out: Path, opts) -> None:
         raise VoError(f"bayer export: unknown option(s) {', '.join(sorted(extra))} (pattern, dist, view)")
     if view not in seq.views:
         raise VoError(f"bayer export: no view {view!r} (views: {', '.join(seq.views)})")
-    lens = getattr(seq, "lens", None)
+    lens = seq.lens
     if lens is not None and dist is not None:
         raise VoError("bayer export: the render is already distorted by its LENS; drop --opt dist "
                       "(or add --undistort to start from pinhole images)")

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract import rig as rig_frames
 from blender_sesgen.contract.se3 import R_to_quat_xyzw, invert
 
 from ..errors import VoError
@@ -46,7 +47,7 @@ def colmap_camera(seq) -> tuple[str, list[float]]:
     """(model, params) of the render's camera in COLMAP's pixel convention (+0.5)."""
     K = np.asarray(seq.K, dtype=float)
     f_c = [K[0, 0], K[1, 1], K[0, 2] + 0.5, K[1, 2] + 0.5]
-    lens = getattr(seq, "lens", None)
+    lens = seq.lens
     if lens is None or lens.is_pinhole:
         return "PINHOLE", f_c
     if lens.model == "kannala_brandt":
@@ -112,8 +113,11 @@ def write_colmap_text(folder: Path, seq, images: list[tuple[int, str]], names: l
                       f"# Number of points: {n_pts}, mean track length: {mean_track:.6g}\n" + "".join(rows))
     if not rig:
         return
-    # the rig: camera 1 is the reference, camera 2 sits at cam2_from_cam1 = trans(-B, 0, 0)
-    sensors = "CAMERA 1" + (f" CAMERA 2 1 1 0 0 0 {_num(-seq.baseline_m)} 0 0" if "right" in views else "")
+    # the rig: camera 1 is the reference; camera 2's pose is cam2_from_cam1 (contract.rig)
+    sensors = "CAMERA 1"
+    if "right" in views:
+        q, t = cam_from_world(rig_frames.T_left_right(seq.baseline_m))
+        sensors += " CAMERA 2 1 " + " ".join(_num(x) for x in (*q, *t))
     atomic.write_text(folder / "rigs.txt", "# Rig calib list with one line of data per calib:\n"
                       "#   RIG_ID, NUM_SENSORS, REF_SENSOR_TYPE, REF_SENSOR_ID, SENSORS[] as (SENSOR_TYPE, "
                       "SENSOR_ID, HAS_POSE, [QW, QX, QY, QZ, TX, TY, TZ])\n"

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from blender_sesgen.contract.depth import disparity_of_depth
 from blender_sesgen.contract.se3 import invert
 
 from ..errors import VoError
@@ -101,10 +102,10 @@ def disparity_change(seq, k_src: int, k_tgt: int, view: str = "left") -> np.ndar
     objs = sequence_object_poses(seq, k_src, k_tgt)
     w = warp_depth(z_src, seq.K, invert(T[k_tgt]) @ T[k_src], ids_src=seq.ids(k_src, view) if objs else None,
                    T_tgt_src_by_id=object_transforms(T[k_src], T[k_tgt], objs))
-    fB = float(seq.K[0, 0]) * float(seq.baseline_m)
     out = np.zeros(z_src.shape, dtype=np.float64)
     ok = w.valid & np.isfinite(w.z)
-    out[ok] = fB / w.z[ok] - fB / np.asarray(z_src, np.float64)[ok]
+    out[ok] = (disparity_of_depth(w.z[ok], seq.K[0, 0], seq.baseline_m)
+               - disparity_of_depth(np.asarray(z_src, np.float64)[ok], seq.K[0, 0], seq.baseline_m))
     out[w.valid & ~np.isfinite(w.z)] = np.nan
     return out.astype(np.float32)
 

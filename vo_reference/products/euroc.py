@@ -14,11 +14,11 @@ from blender_sesgen.contract.trajectory_files import format_euroc
 from ..errors import VoError
 from ..io.files import write_png_rgb
 from .exports import ExportOptions, image_gray, progress_bar
-from .slam_config import T_body_cam, camera_rate_hz, write_slam_configs
+from .slam_config import T_body_cam, write_slam_configs
 
 
 def _euroc_distortion(seq) -> tuple[str, list]:
-    lens = getattr(seq, "lens", None)
+    lens = seq.lens
     if lens is None:
         return "radial-tangential", [0.0, 0.0, 0.0, 0.0]
     if lens.model == "kannala_brandt":
@@ -36,8 +36,8 @@ def euroc_sensor_yaml(seq, cam: int) -> str:
     K = seq.K
     W, H = seq.resolution
     model, coeffs = _euroc_distortion(seq)
-    body = "the IMU" if (getattr(seq, "manifest", None) or {}).get("imu") else "the left camera"
-    readout = float(getattr(seq, "readout_s", 0.0) or 0.0)
+    body = "the IMU" if seq.imu_calibration() is not None else "the left camera"
+    readout = float(seq.readout_s)
     rs = (f"rolling_shutter_readout_s: {readout:.9g}   # rows read top to bottom, see row_offsets.csv\n"
           if readout > 0 else "")
     return (YAML_HEADER + "# General sensor definitions.\n"
@@ -46,7 +46,7 @@ def euroc_sensor_yaml(seq, cam: int) -> str:
             "# Sensor extrinsics wrt. the body-frame.\n"
             "T_BS:\n" + yaml_matrix(T_body_cam(seq, cam)) + "\n"
             "# Camera specific definitions.\n"
-            f"rate_hz: {camera_rate_hz(seq):.9g}\n"
+            f"rate_hz: {seq.rate_hz:.9g}\n"
             f"resolution: [{int(W)}, {int(H)}]\n"
             "camera_model: pinhole\n"
             f"intrinsics: [{K[0, 0]:.17g}, {K[1, 1]:.17g}, {K[0, 2]:.17g}, {K[1, 2]:.17g}] #fu, fv, cu, cv\n"
@@ -75,15 +75,14 @@ def export_euroc(seq, out: Path, opts: ExportOptions) -> None:
     for i, (cam, _) in enumerate(cams):
         atomic.write_text(mav / cam / "data.csv", "\n".join(rows[cam]) + "\n")
         atomic.write_text(mav / cam / "sensor.yaml", euroc_sensor_yaml(seq, i))
-        readout = float(getattr(seq, "readout_s", 0.0) or 0.0)
+        readout = float(seq.readout_s)
         if readout > 0:
             from blender_sesgen.contract.timing import row_offsets_s, to_ns
             off = to_ns(row_offsets_s(seq.resolution[1], readout))
             atomic.write_text(mav / cam / "row_offsets.csv", "#row,offset [ns] (capture time of the row - frame stamp)\n"
                               + "".join(f"{r},{int(o)}\n" for r, o in enumerate(off)))
     gt = mav / "state_groundtruth_estimate0"
-    imu = (getattr(seq, "manifest", None) or {}).get("imu")
-    if imu:
+    if seq.imu_calibration() is not None:
         _export_euroc_imu(seq, mav, ts)
         body = "the IMU (imu0)"
     else:
@@ -99,19 +98,19 @@ def export_euroc(seq, out: Path, opts: ExportOptions) -> None:
 def _export_euroc_imu(seq, mav: Path, ts: np.ndarray) -> None:
     """imu0/data.csv + sensor.yaml (the noisy stream) and the body ground truth at the IMU's
     instants, both cut to the exported frames' time span."""
-    entry = seq.manifest["imu"]
+    entry = seq.imu_calibration()
     t0, t1 = float(ts[0]), float(ts[-1])
-    off = float(entry.get("time_offset_s", 0.0))
+    off = entry.time_offset_s
 
     def cut(rel: str, shift: float) -> str:
         lines = (seq.root / rel).read_text(encoding="utf-8").splitlines()
         keep = [ln for ln in lines[1:] if ln and t0 - 1e-9 <= int(ln.split(",")[0]) * 1e-9 - shift <= t1 + 1e-9]
         return "\n".join([lines[0]] + keep) + "\n"
-    atomic.write_text(mav / "imu0" / "data.csv", cut(entry["files"]["noisy"], off))
+    atomic.write_text(mav / "imu0" / "data.csv", cut(entry.files["noisy"], off))
     # written from the manifest (not copied: renders made before the YAML header was fixed
     # hold a file PyYAML cannot read)
     atomic.write_text(mav / "imu0" / "sensor.yaml", imu_sensor_yaml(entry))
-    atomic.write_text(mav / "state_groundtruth_estimate0" / "data.csv", cut(entry["files"]["groundtruth"], 0.0))
+    atomic.write_text(mav / "state_groundtruth_estimate0" / "data.csv", cut(entry.files["groundtruth"], 0.0))
 
 
 export_euroc.keeps_lens = True   # a distorted render is written as it is, with its lens (docs/output-format.md)

@@ -27,6 +27,7 @@ from typing import Callable
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract import rig
 from blender_sesgen.contract.timing import frame_range
 from blender_sesgen.contract.progress import MODES as PROGRESS_MODES
 from blender_sesgen.contract.progress import Progress
@@ -176,7 +177,7 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
     info = {"target": target, "source": str(render_dir.resolve()), "source_frames": list(rng),
             "sequence": sequence,
             "noise": None if opts.noise is None else {"sigma": opts.noise[0], "seed": opts.noise[1]},
-            "format": seq.manifest.get("format"), "scene_sha256": seq.manifest.get("scene_sha256")}
+            **{"format": None, "scene_sha256": None, **seq.provenance()}}
     if opts.undistort:   # what the pinhole camera of the export is
         info["undistorted"] = {"K": np.asarray(seq.K).tolist(), "lens": lens.to_json()}
     if getattr(fn, "takes_sequence", False):  # a dataset tree: the target stages its own slot
@@ -197,7 +198,7 @@ def _camera_of_the_layout(seq, target: str, fn: Callable, undistort: bool):
     """The sequence a layout is written from: a pinhole render as it is; a render with a
     distorting lens as it is when the layout keeps the lens (``fn.keeps_lens``), through a
     pinhole camera with ``undistort``, else refused (VoError: exit 2 at the CLI)."""
-    lens = getattr(seq, "lens", None)
+    lens = seq.lens
     if lens is None or lens.is_pinhole:
         return seq
     if undistort:
@@ -272,9 +273,7 @@ def progress_bar(opts: ExportOptions, total: int, label: str) -> Progress:
 
 def kitti_projections(K: np.ndarray, baseline_m: float) -> dict[str, np.ndarray]:
     """P0 = K[I|0], P1 = K[I|(-B,0,0)]; the colour pair P2/P3 is the same rig here."""
-    P0 = np.hstack([K, np.zeros((3, 1))])
-    P1 = P0.copy()
-    P1[:, 3] = K @ np.array([-baseline_m, 0.0, 0.0])
+    P0, P1 = (rig.projection_matrix(K, view, baseline_m) for view in ("left", "right"))
     return {"P0": P0, "P1": P1, "P2": P0.copy(), "P3": P1.copy()}
 
 
@@ -297,9 +296,9 @@ def calib_cam_to_cam_text(seq) -> str:
     def row(name, values) -> str:
         return f"{name}: " + " ".join(f"{float(x):.12e}" for x in np.ravel(values)) + "\n"
     out = []
-    for xx, (view_P, tx) in enumerate(((P["P0"], 0.0), (P["P1"], -seq.baseline_m),
-                                        (P["P2"], 0.0), (P["P3"], -seq.baseline_m))):
+    for xx, view in enumerate(("left", "right", "left", "right")):
+        T_xx_0 = rig.T_view_left(view, seq.baseline_m)
         out += [row(f"S_{xx:02d}", (W, H)), row(f"K_{xx:02d}", seq.K), row(f"D_{xx:02d}", np.zeros(5)),
-                row(f"R_{xx:02d}", np.eye(3)), row(f"T_{xx:02d}", (tx, 0.0, 0.0)), row(f"S_rect_{xx:02d}", (W, H)),
-                row(f"R_rect_{xx:02d}", np.eye(3)), row(f"P_rect_{xx:02d}", view_P)]
+                row(f"R_{xx:02d}", T_xx_0[:3, :3]), row(f"T_{xx:02d}", T_xx_0[:3, 3]), row(f"S_rect_{xx:02d}", (W, H)),
+                row(f"R_rect_{xx:02d}", np.eye(3)), row(f"P_rect_{xx:02d}", P[f"P{xx}"])]
     return "".join(out)

@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract import rig
 
 from ..errors import VoError
 from ..io.files import write_png16, write_png_rgb
@@ -47,7 +48,7 @@ def visible_in_right(sf: SceneFlow, depth_right_tgt: np.ndarray, K: np.ndarray, 
                      rtol: float = 1e-3) -> np.ndarray:
     """bool (H, W): the moved point (``sf.X_tgt``, left camera at the target frame) projects
     inside the target frame's right image and is not behind its depth map there."""
-    X = sf.X_tgt - np.array([baseline_m, 0.0, 0.0])
+    X = rig.points_in_view(sf.X_tgt, "right", baseline_m)
     H, W = depth_right_tgt.shape
     with np.errstate(divide="ignore", invalid="ignore"):
         u = K[0, 0] * X[..., 0] / X[..., 2] + K[0, 2]

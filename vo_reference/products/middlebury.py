@@ -52,6 +52,11 @@ def _num(x: float) -> str:
     return repr(float(x) + 0.0)
 
 
+def _mm(metres: float) -> str:
+    """A length in metres as Middlebury's millimetres."""
+    return _num(metres * 1000.0)
+
+
 def calib_text(seq, disp0: np.ndarray) -> str:
     """Middlebury / ETH3D ``calib.txt`` of one frame (module docstring)."""
     K = np.asarray(seq.K, dtype=float)
@@ -61,7 +66,7 @@ def calib_text(seq, disp0: np.ndarray) -> str:
     vmin = int(np.floor(disp0[valid].min())) if valid.any() else 0
     vmax = int(np.ceil(disp0[valid].max())) if valid.any() else 0
     ndisp = 16 * (vmax // 16 + 1)        # d <= vmax < ndisp
-    return (f"cam0={cam}\ncam1={cam}\ndoffs=0\nbaseline={_num(seq.baseline_m * 1000.0)}\n"
+    return (f"cam0={cam}\ncam1={cam}\ndoffs=0\nbaseline={_mm(seq.baseline_m)}\n"
             f"width={int(W)}\nheight={int(H)}\nndisp={ndisp}\nisint=0\nvmin={vmin}\nvmax={vmax}\n"
             "dyavg=0\ndymax=0\n")
 

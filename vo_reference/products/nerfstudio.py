@@ -57,7 +57,7 @@ def nerfstudio_intrinsics(seq) -> dict:
     W, H = seq.resolution
     out = {"camera_model": "PINHOLE", "fl_x": K[0, 0], "fl_y": K[1, 1], "cx": K[0, 2] + 0.5, "cy": K[1, 2] + 0.5,
            "w": int(W), "h": int(H)}
-    lens = getattr(seq, "lens", None)
+    lens = seq.lens
     if lens is not None and not lens.is_pinhole:
         if lens.model == "kannala_brandt":
             out["camera_model"] = "OPENCV_FISHEYE"
@@ -113,7 +113,7 @@ def export_nerfstudio(seq, out: Path, opts: ExportOptions) -> None:
     depth_kind, stride = _options(opts)
     views = [v for v in ("left", "right") if v in seq.views]
     frames = list(opts.frames)
-    moving = tuple(getattr(seq, "moving_ids", ()) or ())
+    moving = tuple(seq.moving_ids)
     meta = nerfstudio_intrinsics(seq)
     meta["depth_unit_scale_factor"] = 1e-3 if depth_kind == "png" else 1.0
     meta["ply_file_path"] = "sparse_pc.ply"

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import rig
 from ..errors import VoError
 
 TOPICS = {"image": "/cam{}/image_raw", "info": "/cam{}/camera_info", "imu": "/imu0", "tf": "/tf",
@@ -72,12 +73,11 @@ def export_rosbag(seq, out: Path, opts) -> None:
     cams = [(0, "left")] + ([(1, "right")] if "right" in seq.views and seq.baseline_m > 0 else [])
     K = np.asarray(seq.K, dtype=float)
     W, H = seq.resolution
-    lens = getattr(seq, "lens", None)
+    lens = seq.lens
     d_model, D = ("plumb_bob", [0.0] * 5) if lens is None else (
         ("equidistant", list(lens.coeffs)) if lens.model == "kannala_brandt" else ("plumb_bob", list(lens.coeffs)))
-    manifest = getattr(seq, "manifest", {}) or {}
-    imu_entry = manifest.get("imu")
-    T_cam_imu = np.array(imu_entry["T_cam_imu"]) if imu_entry else np.eye(4)
+    imu_entry = seq.imu_calibration()
+    T_cam_imu = imu_entry.T_cam_imu_matrix if imu_entry is not None else np.eye(4)
     body = "body"
     with Writer(bag, version=9, storage_plugin=plugin) as w:
         conn = {}
@@ -88,12 +88,12 @@ def export_rosbag(seq, out: Path, opts) -> None:
         conn["pose"] = w.add_connection(TOPICS["pose"], "geometry_msgs/msg/PoseStamped", typestore=ts)
         conn["tf_static"] = w.add_connection(TOPICS["tf_static"], "tf2_msgs/msg/TFMessage", typestore=ts,
                                              offered_qos_profiles=[_static_qos()])
-        if imu_entry:
+        if imu_entry is not None:
             conn["imu"] = w.add_connection(TOPICS["imu"], "sensor_msgs/msg/Imu", typestore=ts)
-        imu_rows = _imu_rows(seq, frames, imu_entry) if imu_entry else []
+        imu_rows = _imu_rows(seq, frames, imu_entry) if imu_entry is not None else []
         t_first = min([int(t_ns[0])] + [int(to_ns(t)) for t, _, _ in imu_rows[:1]])
         static = [_transform_stamped(ts, header(t_first, parent), child, T_pc)
-                  for parent, child, T_pc in static_transforms(T_cam_imu if imu_entry else None,
+                  for parent, child, T_pc in static_transforms(T_cam_imu if imu_entry is not None else None,
                                                                seq.baseline_m if len(cams) == 2 else None)]
         msg = T["tf2_msgs/msg/TFMessage"](transforms=static)
         w.write(conn["tf_static"], t_first, ts.serialize_cdr(msg, msg.__msgtype__))
@@ -107,7 +107,7 @@ def export_rosbag(seq, out: Path, opts) -> None:
                                                  is_bigendian=0, step=int(img.strides[0]), data=img.reshape(-1))
                 w.write(conn[("image", i)], tn, ts.serialize_cdr(msg, msg.__msgtype__))
                 P = np.hstack([K, np.zeros((3, 1))])
-                P[0, 3] = -K[0, 0] * seq.baseline_m if i == 1 else 0.0
+                P[0, 3] = K[0, 0] * rig.T_view_left(view, seq.baseline_m)[0, 3]   # ROS: fx * Tx
                 info = T["sensor_msgs/msg/CameraInfo"](
                     header=header(tn, f"cam{i}"), height=H, width=W, distortion_model=d_model,
                     d=np.array(D, dtype=np.float64), k=K.reshape(-1), r=np.eye(3).reshape(-1), p=P.reshape(-1),
@@ -116,7 +116,7 @@ def export_rosbag(seq, out: Path, opts) -> None:
         gt = _groundtruth(seq, frames, t_ns, imu_entry, T_cam_imu)
         for tn, Tb in gt:
             _write_pose(w, conn, ts, header, int(tn), Tb, body)
-        if imu_entry:
+        if imu_entry is not None:
             Imu, V3, Q = T["sensor_msgs/msg/Imu"], T["geometry_msgs/msg/Vector3"], T["geometry_msgs/msg/Quaternion"]
             cov = np.zeros(9)
             for t, g, a in imu_rows:
@@ -136,7 +136,7 @@ def _imu_rows(seq, frames, imu_entry) -> list:
     """(t_s, gyro, accel) of the noisy IMU samples within the exported frames' span."""
     stream = seq.imu("noisy")
     lo, hi = seq.timestamps_s[frames[0]], seq.timestamps_s[frames[-1]]
-    off = float(imu_entry.get("time_offset_s", 0.0))
+    off = imu_entry.time_offset_s
     return [(t, g, a) for t, g, a in zip(stream["t_s"], stream["gyro"], stream["accel"])
             if lo - 1e-9 <= t - off <= hi + 1e-9]
 
@@ -148,9 +148,7 @@ def static_transforms(T_cam_imu: np.ndarray | None, baseline_m: float | None) ->
     from blender_sesgen.contract.se3 import invert
     out = [("body", "cam0", np.eye(4) if T_cam_imu is None else invert(np.asarray(T_cam_imu, float)))]
     if baseline_m is not None:
-        T = np.eye(4)
-        T[0, 3] = float(baseline_m)
-        out.append(("cam0", "cam1", T))
+        out.append(("cam0", "cam1", rig.T_left_right(baseline_m)))
     if T_cam_imu is not None:
         out.append(("body", "imu0", np.eye(4)))
     return out
@@ -170,7 +168,7 @@ def _groundtruth(seq, frames, t_ns, imu_entry, T_cam_imu):
     """(t_ns, T_world_body) pairs: at the frame stamps; with an IMU also at its instants."""
     T_left = seq.T_world_cam("left")[frames]
     pairs = [(int(t), Tl @ T_cam_imu) for t, Tl in zip(t_ns, T_left)]
-    if imu_entry:
+    if imu_entry is not None:
         g = seq.imu_groundtruth()
         lo, hi = int(t_ns[0]), int(t_ns[-1])
         from blender_sesgen.contract.timing import to_ns

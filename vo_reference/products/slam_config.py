@@ -31,37 +31,28 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract import rig as rig_frames
 from blender_sesgen.contract.lens import opencv_matrix_text, real_text
 from blender_sesgen.contract.se3 import R_to_quat_xyzw, invert
+from blender_sesgen.contract.sensor_yaml import YAML_HEADER
 
 from ..errors import VoError
 from .exports import ExportOptions
 
-__all__ = ["export_slam_config", "write_slam_configs", "slam_config_files", "Rig", "T_body_cam", "camera_rate_hz"]
+__all__ = ["export_slam_config", "write_slam_configs", "slam_config_files", "Rig", "T_body_cam"]
 
 TOPICS = {"cam0": "/cam0/image_raw", "cam1": "/cam1/image_raw", "imu": "/imu0"}
 
 
-def camera_rate_hz(seq) -> float:
-    """The camera's frame rate: the manifest's fps, else 1 / the median frame step."""
-    m = seq.manifest
-    fps = m.get("fps") or (m.get("render") or {}).get("fps")
-    if fps:
-        return float(fps)
-    dt = np.diff(seq.timestamps_s)
-    return float(1.0 / np.median(dt)) if dt.size and np.median(dt) > 0 else 0.0
-
-
 def T_body_cam(seq, cam: int) -> np.ndarray:
     """Camera ``cam``'s pose in the rig's body frame: the IMU where the render has one
-    (T_imu_cam = inv(T_cam_imu), the right camera trans(B, 0, 0) further), else the left
-    camera (the body of the EuRoC export and of every settings file here)."""
-    T_cam_left = np.eye(4)
-    T_cam_left[0, 3] = seq.baseline_m if cam == 1 else 0.0
-    imu = seq.manifest.get("imu") if hasattr(seq, "manifest") else None
-    if not imu:
+    (T_imu_cam = inv(T_cam_imu), the right camera ``contract.rig``'s T_left_right further),
+    else the left camera (the body of the EuRoC export and of every settings file here)."""
+    T_cam_left = rig_frames.T_left_view("right" if cam == 1 else "left", seq.baseline_m)
+    imu = seq.imu_calibration()
+    if imu is None:
         return T_cam_left
-    return invert(np.array(imu["T_cam_imu"], dtype=float)) @ T_cam_left
+    return invert(imu.T_cam_imu_matrix) @ T_cam_left
 
 
 class Rig:
@@ -72,17 +63,16 @@ class Rig:
         self.W, self.H = (int(x) for x in seq.resolution)
         self.stereo = "right" in seq.views and seq.baseline_m > 0
         self.baseline_m = float(seq.baseline_m)
-        lens = getattr(seq, "lens", None)
+        lens = seq.lens
         self.lens = None if lens is None or lens.is_pinhole else lens
-        self.fps = camera_rate_hz(seq)
-        self.imu = (getattr(seq, "manifest", None) or {}).get("imu") or None
+        self.fps = seq.rate_hz
+        self.imu = seq.imu_calibration()     # contract.manifest_sections.ImuSection, or None
         self.cams = [0, 1] if self.stereo else [0]
         # camera i in the body frame (the IMU, else the left camera) and the IMU in camera i
         self.T_body_cam = [T_body_cam(seq, i) for i in self.cams]
         self.T_cam_body = [invert(T) for T in self.T_body_cam]
-        self.T_cam1_cam0 = np.eye(4)
-        self.T_cam1_cam0[0, 3] = -self.baseline_m
-        self.offset_s = float(self.imu.get("time_offset_s", 0.0)) if self.imu else 0.0
+        self.T_cam1_cam0 = rig_frames.T_right_left(self.baseline_m)
+        self.offset_s = self.imu.time_offset_s if self.imu is not None else 0.0
 
     @property
     def brown(self) -> tuple | None:
@@ -92,12 +82,9 @@ class Rig:
     def fisheye(self) -> bool:
         return self.lens is not None and self.lens.model == "kannala_brandt"
 
-    def imu_value(self, key: str) -> float:
-        return float(self.imu[key])
-
     @property
     def gravity(self) -> float:
-        return float(np.linalg.norm(self.imu.get("gravity_world", [0.0, -9.81, 0.0])))
+        return float(np.linalg.norm(self.imu.gravity_world))
 
 
 def _r(x) -> str:
@@ -154,11 +141,11 @@ def orbslam3_yaml(rig: Rig, inertial: bool) -> str:
     if inertial:
         lines += ["# camera 1 in the body (IMU) frame; continuous-time noise densities (Kalibr units)",
                   opencv_matrix_text("IMU.T_b_c1", rig.T_body_cam[0], "f").rstrip(),
-                  f"IMU.NoiseGyro: {_r(rig.imu_value('gyroscope_noise_density'))}",
-                  f"IMU.NoiseAcc: {_r(rig.imu_value('accelerometer_noise_density'))}",
-                  f"IMU.GyroWalk: {_r(rig.imu_value('gyroscope_random_walk'))}",
-                  f"IMU.AccWalk: {_r(rig.imu_value('accelerometer_random_walk'))}",
-                  f"IMU.Frequency: {_r(rig.imu_value('rate_hz'))}", ""]
+                  f"IMU.NoiseGyro: {_r(rig.imu.gyroscope_noise_density)}",
+                  f"IMU.NoiseAcc: {_r(rig.imu.accelerometer_noise_density)}",
+                  f"IMU.GyroWalk: {_r(rig.imu.gyroscope_random_walk)}",
+                  f"IMU.AccWalk: {_r(rig.imu.accelerometer_random_walk)}",
+                  f"IMU.Frequency: {_r(rig.imu.rate_hz)}", ""]
     lines += ["ORBextractor.nFeatures: 1200", "ORBextractor.scaleFactor: 1.2", "ORBextractor.nLevels: 8",
               "ORBextractor.iniThFAST: 20", "ORBextractor.minThFAST: 7", "",
               "Viewer.KeyFrameSize: 0.05", "Viewer.KeyFrameLineWidth: 1.0", "Viewer.GraphLineWidth: 0.9",
@@ -207,10 +194,10 @@ def vins_config_yaml(rig: Rig) -> str:
     if imu:
         out += ["# continuous-time noise densities and random walks of the render's IMU (exact; VINS-Fusion's",
                 "# own EuRoC settings inflate theirs about tenfold for robustness)",
-                f"acc_n: {_r(rig.imu_value('accelerometer_noise_density'))}",
-                f"gyr_n: {_r(rig.imu_value('gyroscope_noise_density'))}",
-                f"acc_w: {_r(rig.imu_value('accelerometer_random_walk'))}",
-                f"gyr_w: {_r(rig.imu_value('gyroscope_random_walk'))}",
+                f"acc_n: {_r(rig.imu.accelerometer_noise_density)}",
+                f"gyr_n: {_r(rig.imu.gyroscope_noise_density)}",
+                f"acc_w: {_r(rig.imu.accelerometer_random_walk)}",
+                f"gyr_w: {_r(rig.imu.gyroscope_random_walk)}",
                 f"g_norm: {_r(rig.gravity)}", ""]
     out += ["# image clock + td = IMU clock", "estimate_td: 0", f"td: {_r(rig.offset_s)}", "",
             "load_previous_pose_graph: 0", 'pose_graph_save_path: "~/output/pose_graph/"', "save_image: 0"]
@@ -253,25 +240,22 @@ def kalibr_camchain_yaml(rig: Rig, key: str = "T_cam_imu", header: str = "") -> 
 def kalibr_imu_yaml(rig: Rig) -> str:
     """Kalibr's imu.yaml (the input of kalibr_calibrate_imu_camera)."""
     return ("# Accelerometer: [ m / s^2 / sqrt(Hz) ] and [ m / s^3 / sqrt(Hz) ]\n"
-            f"accelerometer_noise_density: {_r(rig.imu_value('accelerometer_noise_density'))}\n"
-            f"accelerometer_random_walk: {_r(rig.imu_value('accelerometer_random_walk'))}\n"
+            f"accelerometer_noise_density: {_r(rig.imu.accelerometer_noise_density)}\n"
+            f"accelerometer_random_walk: {_r(rig.imu.accelerometer_random_walk)}\n"
             "# Gyroscope: [ rad / s / sqrt(Hz) ] and [ rad / s^2 / sqrt(Hz) ]\n"
-            f"gyroscope_noise_density: {_r(rig.imu_value('gyroscope_noise_density'))}\n"
-            f"gyroscope_random_walk: {_r(rig.imu_value('gyroscope_random_walk'))}\n"
-            f"rostopic: {TOPICS['imu']}\nupdate_rate: {_r(rig.imu_value('rate_hz'))}\n")
-
-
-OPENCV_AND_YAML = "%YAML 1.0\n---\n"   # a header both cv::FileStorage and PyYAML accept
+            f"gyroscope_noise_density: {_r(rig.imu.gyroscope_noise_density)}\n"
+            f"gyroscope_random_walk: {_r(rig.imu.gyroscope_random_walk)}\n"
+            f"rostopic: {TOPICS['imu']}\nupdate_rate: {_r(rig.imu.rate_hz)}\n")
 
 
 def openvins_imu_chain_yaml(rig: Rig) -> str:
     eye3 = _rows(np.eye(3), "    ")
-    return (OPENCV_AND_YAML + "imu0:\n  T_i_b:\n" + _rows(np.eye(4), "    ")
-            + f"  accelerometer_noise_density: {_r(rig.imu_value('accelerometer_noise_density'))}\n"
-            f"  accelerometer_random_walk: {_r(rig.imu_value('accelerometer_random_walk'))}\n"
-            f"  gyroscope_noise_density: {_r(rig.imu_value('gyroscope_noise_density'))}\n"
-            f"  gyroscope_random_walk: {_r(rig.imu_value('gyroscope_random_walk'))}\n"
-            f"  rostopic: {TOPICS['imu']}\n  time_offset: 0.0\n  update_rate: {_r(rig.imu_value('rate_hz'))}\n"
+    return (YAML_HEADER + "imu0:\n  T_i_b:\n" + _rows(np.eye(4), "    ")
+            + f"  accelerometer_noise_density: {_r(rig.imu.accelerometer_noise_density)}\n"
+            f"  accelerometer_random_walk: {_r(rig.imu.accelerometer_random_walk)}\n"
+            f"  gyroscope_noise_density: {_r(rig.imu.gyroscope_noise_density)}\n"
+            f"  gyroscope_random_walk: {_r(rig.imu.gyroscope_random_walk)}\n"
+            f"  rostopic: {TOPICS['imu']}\n  time_offset: 0.0\n  update_rate: {_r(rig.imu.rate_hz)}\n"
             '  model: "kalibr"\n  Tw:\n' + eye3 + "  R_IMUtoGYRO:\n" + eye3 + "  Ta:\n" + eye3
             + "  R_IMUtoACC:\n" + eye3 + "  Tg:\n" + _rows(np.zeros((3, 3)), "    "))
 
@@ -309,7 +293,7 @@ def openvins_estimator_yaml(rig: Rig) -> str:
               ("use_mask", "false"),
               ("relative_config_imu", '"kalibr_imu_chain.yaml"'),
               ("relative_config_imucam", '"kalibr_imucam_chain.yaml"')]
-    return (OPENCV_AND_YAML + "# OpenVINS settings of a sesgen render (exact calibration: not estimated)\n"
+    return (YAML_HEADER + "# OpenVINS settings of a sesgen render (exact calibration: not estimated)\n"
             + "".join(f"{k}: {v}\n" for k, v in values))
 
 
@@ -330,9 +314,9 @@ def basalt_calib_json(rig: Rig) -> str:
             ci.update(zip(("k1", "k2", "k3", "k4"), (float(k) for k in rig.lens.coeffs)))
         intr.append({"camera_type": "kb4" if rig.fisheye else "pinhole", "intrinsics": ci})
     if rig.imu is not None:
-        rate = rig.imu_value("rate_hz")
-        noise = [rig.imu_value("accelerometer_noise_density"), rig.imu_value("gyroscope_noise_density"),
-                 rig.imu_value("accelerometer_random_walk"), rig.imu_value("gyroscope_random_walk")]
+        rate = rig.imu.rate_hz
+        noise = [rig.imu.accelerometer_noise_density, rig.imu.gyroscope_noise_density,
+                 rig.imu.accelerometer_random_walk, rig.imu.gyroscope_random_walk]
     else:   # no IMU: basalt's defaults, unused with --use-imu 0
         rate, noise = 200.0, [0.016, 0.000282, 0.001, 0.0001]
     value = {"T_imu_cam": poses, "intrinsics": intr, "resolution": [[rig.W, rig.H]] * len(rig.cams),
@@ -369,7 +353,7 @@ def slam_config_files(seq, t_ns=None) -> tuple[dict[str, str], list[str]]:
             files["kalibr/imu.yaml"] = kalibr_imu_yaml(rig)
             files["openvins/estimator_config.yaml"] = openvins_estimator_yaml(rig)
             files["openvins/kalibr_imu_chain.yaml"] = openvins_imu_chain_yaml(rig)
-            files["openvins/kalibr_imucam_chain.yaml"] = kalibr_camchain_yaml(rig, "T_imu_cam", OPENCV_AND_YAML)
+            files["openvins/kalibr_imucam_chain.yaml"] = kalibr_camchain_yaml(rig, "T_imu_cam", YAML_HEADER)
         else:
             files["kalibr/camchain.yaml"] = kalibr_camchain_yaml(rig)
             left_out.append("openvins/: OpenVINS needs an IMU (add IMU to the script)")

@@ -65,7 +65,7 @@ def pop_stride(extra: dict) -> int | None:
 def camera_lens(seq):
     """The render's lens (``contract.lens.Lens``), a pinhole one on K when it has none."""
     from blender_sesgen.contract.lens import Lens
-    lens = getattr(seq, "lens", None)
+    lens = seq.lens
     return lens if lens is not None else Lens.from_K("pinhole", (), seq.K)
 
 
@@ -118,7 +118,7 @@ def sparse_points(seq, frames, views, stride_px: int | None = None, rtol: float 
     if s < 1:
         raise VoError(f"point stride {stride_px}: expected >= 1 pixel")
     lens = camera_lens(seq)
-    moving = tuple(getattr(seq, "moving_ids", ()) or ())
+    moving = tuple(seq.moving_ids)
     rgb_of = rgb_of or seq.image_rgb
     images = tuple((int(k), v) for k in frames for v in views)
     poses = {v: seq.T_world_cam(v) for v in views}

@@ -108,7 +108,7 @@ def _options(opts: ExportOptions) -> float:
 
 
 def _check_ids(seq) -> None:
-    ids = [int(o.get("id", 0)) for o in getattr(seq, "objects", []) if isinstance(o, dict)]
+    ids = [int(o.get("id", 0)) for o in seq.objects if isinstance(o, dict)]
     big = [i for i in ids if not 0 <= i <= 255]
     if big:
         raise VoError(f"tartanair: object id(s) {', '.join(map(str, big[:5]))} do not fit TartanAir's "

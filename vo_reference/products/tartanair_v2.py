@@ -120,7 +120,7 @@ def export_tartanair_v2(seq, out: Path, opts: ExportOptions) -> Path:
         for v in views:
             atomic.write_text(root / f"pose_{CAMERA[v]}.txt", pose_lines(ned_poses(seq.T_world_cam(v)[frames])))
         names = {}
-        for o in getattr(seq, "objects", []) or []:
+        for o in seq.objects:
             if isinstance(o, dict) and "id" in o:
                 name = str(o.get("name") or "object")
                 names[name if names.get(name, o["id"]) == o["id"] else f"{name}_{o['id']}"] = int(o["id"])

@@ -33,7 +33,7 @@ def export_tum(seq, out: Path, opts: ExportOptions) -> None:
         raise VoError("timestamps are not distinct at 1 µs: cannot name TUM files")
     # TUM's header names the recording; ours names the render folder (never the export's
     # temporary folder: two exports of one render are byte-identical)
-    source = Path(getattr(seq, "root", "") or "").name or "sesgen"
+    source = Path(seq.root or "").name or "sesgen"
     rgb_lines = ["# color images", f"# file: '{source}'", "# timestamp filename"]
     depth_lines = ["# depth maps", f"# file: '{source}'", "# timestamp filename"]
     assoc = []

@@ -76,11 +76,11 @@ def pinhole_K(lens: Lens, width: int, height: int) -> np.ndarray:
 
 class UndistortedSequence:
     """``seq`` (a distorted render) as a pinhole sequence of intrinsics :attr:`K` (module
-    docstring). Everything that is not geometry (poses, times, objects, IMU, manifest) is
+    docstring). Everything that is not geometry (poses, times, objects, IMU, provenance) is
     the render's own."""
 
     def __init__(self, seq, cache_frames: int = 8):
-        lens = getattr(seq, "lens", None)
+        lens = seq.lens
         if lens is None:
             raise VoError(f"{seq!r} has no lens to undistort")
         self._seq = seq
@@ -101,7 +101,7 @@ class UndistortedSequence:
 
     lens = None   # a pinhole camera now
 
-    def __getattr__(self, name):          # poses, times, objects, IMU, manifest: the render's
+    def __getattr__(self, name):          # poses, times, objects, IMU, provenance: the render's
         return getattr(self._seq, name)
 
     def __repr__(self) -> str:

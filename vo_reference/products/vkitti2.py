@@ -162,14 +162,14 @@ def _row(values) -> str:
 
 def vehicles(seq) -> list[dict]:
     """The objects vKITTI 2 tracks: its vehicle categories (Car, Truck, Van), by id."""
-    objs = [o for o in (getattr(seq, "objects", []) or []) if isinstance(o, dict) and int(o.get("id", 0)) > 0]
+    objs = [o for o in seq.objects if isinstance(o, dict) and int(o.get("id", 0)) > 0]
     return sorted((o for o in objs if category_of(o) in VEHICLES), key=lambda o: int(o["id"]))
 
 
 def object_pose(seq, obj: dict, k: int) -> np.ndarray | None:
     """T_world_obj of ``obj`` at frame k: its per-frame pose if it moves, else its pose as
     placed (``T_world_obj_rest``); None when the manifest has neither (BLEND objects)."""
-    T = seq.T_world_obj(int(obj["id"])) if hasattr(seq, "T_world_obj") else None
+    T = seq.T_world_obj(int(obj["id"]))
     if T is not None:
         return T[k]
     rest = obj.get("T_world_obj_rest")
@@ -179,7 +179,7 @@ def object_pose(seq, obj: dict, k: int) -> np.ndarray | None:
 def is_moving(seq, obj: dict, k: int) -> bool:
     """vKITTI 2's isMoving: the object moves between frame k and the next (the previous for
     the last frame of the render)."""
-    T = seq.T_world_obj(int(obj["id"])) if hasattr(seq, "T_world_obj") else None
+    T = seq.T_world_obj(int(obj["id"]))
     if T is None or len(T) < 2:
         return False
     j = k + 1 if k + 1 < len(T) else k - 1
@@ -288,7 +288,7 @@ def export_vkitti2(seq, out: Path, opts: ExportOptions) -> Path:
     fmt = _rgb_format(opts)
     cams = [(0, "left")] + ([(1, "right")] if "right" in seq.views else [])
     frames = list(opts.frames)
-    objects = [o for o in (getattr(seq, "objects", []) or []) if isinstance(o, dict)]
+    objects = [o for o in seq.objects if isinstance(o, dict)]
     vehicle_ids = [int(o["id"]) for o in vehicles(seq)]
     final = sequence_folder(out, opts.sequence)
     with atomic.replacing_folder(final) as root:

@@ -84,8 +84,7 @@ def check_stereo(seq) -> None:
 
 def _ids(seq, k: int):
     """The left id map of frame k, or None (sequences without ids)."""
-    ids = getattr(seq, "ids", None)
-    return None if ids is None else ids(k, "left")
+    return seq.ids(k, "left")
 
 
 def ground_truth_step(seq, k: int, T_gt: np.ndarray) -> GroundTruthStep:

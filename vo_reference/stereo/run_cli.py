@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     gt = Trajectory(T_gt[frames[0]:frames[1] + 1], np.asarray(seq.timestamps_s)[frames[0]:frames[1] + 1])
     variant = "".join([" +GT depth" if args.gt_depth else "", " +GT flow" if args.gt_flow else "",
                        " +GT motion mask" if args.mask_dynamic_gt else ""])
-    dynamic = bool(getattr(seq, "moving_ids", ()))
+    dynamic = bool(seq.moving_ids)
 
     report = RunReport(root=root, frames=frames, K=seq.K, baseline_m=seq.baseline_m, resolution=seq.resolution,
                        gt_depth=args.gt_depth, gt_flow=args.gt_flow, mask_dynamic_gt=args.mask_dynamic_gt,

@@ -71,8 +71,7 @@ def evaluate(args: argparse.Namespace) -> int:
                     bar.update(detail=f"{r['run_dir']} (done)")
                     continue
             if r["gt"] not in gts:
-                m = RenderSequence(r["gt"])
-                gts[r["gt"]] = (read_render_poses(r["gt"]), float(m.manifest.get("fps") or 25.0))
+                gts[r["gt"]] = (read_render_poses(r["gt"]), RenderSequence(r["gt"]).rate_hz)
             gt, rate = gts[r["gt"]]
             rec = evaluate_run(gt, est, r["format"], mono=bool(r.get("mono")), rate_hz=rate,
                                min_coverage=float(settings.get("min_coverage", 0.5)),

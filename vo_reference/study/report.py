@@ -191,7 +191,7 @@ class Report:
 
     def variant_at(self, factor: str, level, seed) -> "dict | None":
         for v in self.r["variants"]:
-            if v["seed"] == seed and v["point"] == {factor: level}:
+            if v["world_seed"] == seed and v["point"] == {factor: level}:
                 return v
         return None
 
@@ -264,7 +264,7 @@ class Report:
             out.append(_img(scatter_plot(f, self.r["points"], self.systems, self.metric),
                             f"{self.metric} against {name} at every point"))
         images, titles, rows = [], [], []
-        base = next((v for v in self.r["variants"] if v["seed"] == seed0 and not v["point"]), None)
+        base = next((v for v in self.r["variants"] if v["world_seed"] == seed0 and not v["point"]), None)
         for lv in [None, *f["levels"]]:
             v = base if lv is None else self.variant_at(name, lv, seed0)
             if v is None:

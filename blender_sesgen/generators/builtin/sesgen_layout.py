@@ -1,23 +1,19 @@
 """Shared helpers of the scene generators: number formatting, SES lines for assets and
 poses, a street's centreline (the same function the street strips are built from).
 
-Imported by the generators in this folder (``sys.path`` gets this folder); pure numpy.
+Imported by the generators of this package; pure numpy.
 """
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[2]
-if str(REPO) not in sys.path:
-    sys.path.insert(0, str(REPO))
+REPO = Path(__file__).resolve().parents[3]   # the source tree (its ../shared/data: real sensor files)
 
-from blender_sesgen.contract.se3 import R_to_euler_xyz_deg, euler_xyz_deg_to_R  # noqa: E402
-from blender_sesgen.assets.street import arc_frame  # noqa: E402,F401  (re-exported)
+from ...contract.se3 import R_to_euler_xyz_deg, euler_xyz_deg_to_R
 
 
 def num(v: float, nd: int = 3) -> str:
@@ -154,3 +150,21 @@ def derived_material(name: str, library: str, colour=None, wear=None, seed=None,
     if seed is not None:
         parts.append(f"seed {int(seed)}")
     return " ".join(parts)
+
+
+def script_with_poses(lines: list[str], comment: str, P, yaw, pitch, roll) -> str:
+    """The script: ``lines``, a blank line, ``// comment`` and one POSE line per camera
+    position (angles in degrees)."""
+    poses = [camera_pose_line(P[i], yaw[i], pitch[i], roll[i]) for i in range(len(P))]
+    return "\n".join(lines + ["", f"// {comment}"] + poses) + "\n"
+
+
+def command_line(generate, doc: str, frames: int, argv=None) -> None:
+    """A generator's command line: ``--seed S --frames N``, the script on stdout."""
+    import argparse
+    import sys
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--frames", type=int, default=frames)
+    a = ap.parse_args(argv)
+    sys.stdout.write(generate(a.seed, frames=a.frames))

@@ -1,7 +1,7 @@
 """docs/img/study_<NAME>_error.png and _frames.png, and the markdown table of docs/studies.md's
 example studies, from a study folder (its results.json and renders).
 
-    python docs/make_study_figures.py out/city_exposure city_exposure
+    python tools/make_study_figures.py out/city_exposure city_exposure
 """
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from pathlib import Path
 
 from vo_reference.study.report import Report, factor_plot, frame_strip
 
-IMG = Path(__file__).resolve().parent / "img"
+IMG = Path(__file__).resolve().parents[1] / "docs" / "img"
 
 
 def write_png(uri: str, path: Path) -> None:
@@ -30,7 +30,7 @@ def main() -> None:
     write_png(factor_plot(f, r["curves"][f["name"]], r["base"], rep.systems, rep.metric),
               IMG / f"study_{a.name}_error.png")
     seed = r["study"]["seeds"][0]
-    base = next(v for v in r["variants"] if v["seed"] == seed and not v["point"])
+    base = next(v for v in r["variants"] if v["world_seed"] == seed and not v["point"])
     shown = [("base", base)] + [(f"{lv} {f['unit']}", rep.variant_at(f["name"], lv, seed)) for lv in f["levels"]]
     images = [(t, rep.first_frame(v)) for t, v in shown if v is not None]
     write_png(frame_strip([im for _, im in images], [t for t, _ in images]), IMG / f"study_{a.name}_frames.png")
