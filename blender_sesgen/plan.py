@@ -82,6 +82,7 @@ class RenderOptions:
     readout_s: Optional[float] = None
     motion_blur: Optional[bool] = None
     fast_pipeline: bool = True           # False: a fresh Cycles render per view (same pixels, slower)
+    reuse_exr: Optional[str] = None      # a render folder whose EXRs this one reuses (blender_sesgen.reuse)
 
     def __post_init__(self):
         object.__setattr__(self, "device", Device.parse(self.device))
@@ -237,12 +238,14 @@ class RenderPlan:
 
     @property
     def writes_display(self) -> bool:
-        """Whether Blender writes the display-referred PNGs (``rgb/``): on the plain render
-        path; the sensor path (motion blur, rolling shutter, lens) makes its own images, and
-        ``gt``'s flat RGB is a picture of the ground truth, not a photograph: its EXR is
+        """Whether Blender writes the display-referred PNGs (``rgb/``): for every render but
+        ``gt``, whose flat RGB is a picture of the ground truth, not a photograph: its EXR is
         enough, and the view transform and PNG writer would cost it 15-20 % per frame
-        (docs/rendering.md, Speed)."""
-        return not self.sensor.changes_rendering and self.settings.preset.shading != "flat"
+        (docs/rendering.md, Speed). The sensor path (motion blur, rolling shutter, lens)
+        writes them too, through the same view transform and exposure, so that a blurred
+        frame looks as the sharp one but for its blur (a SENSOR's own images, when there
+        is one, are the camera's: readers take those first)."""
+        return self.settings.preset.shading != "flat"
 
     @cached_property
     def view_poses(self) -> dict[str, np.ndarray]:

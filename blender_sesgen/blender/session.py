@@ -125,10 +125,10 @@ class BlenderSession:
         """Render frame ``k`` of each view into ``paths[view]``; {view: render stats}.
         ``stop()`` is asked before each render (KeyboardInterrupt when it says yes);
         ``exposure_s``: the frame's exposure time on the sensor path (auto-exposure);
-        ``display_paths[view]``: where the display-referred PNG goes (plain path only)."""
+        ``display_paths[view]``: where the display-referred PNG goes."""
         if self.sensor is not None:
             return self.sensor.render_frame(k, self.plan.sensor.nominal_exposure_s() if exposure_s is None
-                                            else exposure_s, paths, stop)
+                                            else exposure_s, paths, stop, display_paths)
         quiet = not self.plan.options.verbose
         bframe = rig.blender_frame(k)
         seed = self.plan.settings.seed
