@@ -89,7 +89,8 @@ def defines_generate(path: Path) -> bool:
 
 
 def load_file(path: Path, name: Optional[str] = None) -> Generator:
-    """The ``generate`` of a Python file (run as a module of its own)."""
+    """The ``generate`` of a Python file (run as a module of its own; while it loads, its
+    folder is importable, as for a script, so it may import the modules beside it)."""
     path = Path(path).resolve()
     if not path.is_file():
         raise SesgenError(f"{path}: no such generator file")
@@ -97,6 +98,10 @@ def load_file(path: Path, name: Optional[str] = None) -> Generator:
     spec = importlib.util.spec_from_file_location(mod_name, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[mod_name] = module
+    folder = str(path.parent)
+    added = folder not in sys.path
+    if added:   # as when the file runs as a script: it may import the modules beside it
+        sys.path.insert(0, folder)
     try:
         spec.loader.exec_module(module)
     except SesgenError:
@@ -104,6 +109,9 @@ def load_file(path: Path, name: Optional[str] = None) -> Generator:
     except Exception as e:  # noqa: BLE001 - the generator's own bug, reported as one line
         sys.modules.pop(mod_name, None)
         raise SesgenError(f"{path}: loading the generator failed: {type(e).__name__}: {e}") from None
+    finally:
+        if added and folder in sys.path:
+            sys.path.remove(folder)
     fn = getattr(module, "generate", None)
     if not callable(fn):
         raise SesgenError(f"{path}: defines no generate(seed, **options) function")
