@@ -7,8 +7,8 @@ along -z, as an unrotated camera); the road surface is y = 0. Traffic keeps righ
 the directed street a -> b drives on the lane ``lane`` metres right of the street's axis.
 
 - :class:`RoadGraph`: intersections (nodes) joined by straight street segments (edges);
-  :func:`irregular_grid` lays one out: a grid of blocks of random sizes with some inner
-  segments left out (T-junctions, larger blocks), no dead ends.
+  :class:`BlockGrid` / :func:`irregular_grid`: a city of rectangular blocks of random sizes,
+  some of them joined (a street segment left out: T-junctions), no dead ends.
 - :func:`plan_route`: a walk on the graph that drives like a car -- no U-turns, turns only at
   intersections -- of at least ``length_m``, returning ``closures`` times to a street driven
   long before (in the same or the opposite direction); every other street it drives once.
@@ -115,49 +115,73 @@ def grid_graph(xs, zs, drop=(), half_road: float = 5.0, lane: float = 1.75) -> R
     return RoadGraph(nodes, tuple(edges), half_road, lane)
 
 
+@dataclass(frozen=True)
+class BlockGrid:
+    """A city of rectangular blocks: streets along x = ``xs[i]`` and z = ``zs[j]`` (their axes),
+    but for the segments in ``dropped`` (pairs of node indices, node (i, j) being
+    ``i * len(zs) + j``), where two neighbouring blocks are one."""
+    xs: np.ndarray
+    zs: np.ndarray
+    dropped: frozenset = frozenset()
+    half_road: float = 5.0
+    lane: float = 1.75
+
+    @property
+    def graph(self) -> RoadGraph:
+        return grid_graph(self.xs, self.zs, self.dropped, self.half_road, self.lane)
+
+    def _separating(self, a: int, b: int) -> tuple:
+        """The two cells (i, j) on either side of the segment between nodes a and b."""
+        n1z = len(self.zs)
+        (ia, ja), (ib, jb) = divmod(min(a, b), n1z), divmod(max(a, b), n1z)
+        if ja == jb:                       # along x, at z = zs[ja]
+            return (ia, ja - 1), (ia, ja)
+        return (ia - 1, ja), (ia, ja)      # along z, at x = xs[ia]
+
+    def blocks(self) -> list[tuple[float, float, float, float]]:
+        """(x0, x1, z0, z1) between street axes of every block (merged cells as one)."""
+        merged = {}
+        for a, b in self.dropped:
+            c1, c2 = self._separating(a, b)
+            merged[c1] = merged[c2] = (min(c1, c2), max(c1, c2))
+        out, seen = [], set()
+        for i in range(len(self.xs) - 1):
+            for j in range(len(self.zs) - 1):
+                c1, c2 = merged.get((i, j), ((i, j), (i, j)))
+                if c1 in seen:
+                    continue
+                seen.add(c1)
+                out.append((float(self.xs[c1[0]]), float(self.xs[c2[0] + 1]), float(self.zs[c1[1]]),
+                            float(self.zs[c2[1] + 1])))
+        return out
+
+
 def irregular_grid(rng: np.random.Generator, nx: int, nz: int, block=(70.0, 110.0), drop_fraction: float = 0.12,
-                   half_road: float = 5.0, lane: float = 1.75) -> RoadGraph:
+                   half_road: float = 5.0, lane: float = 1.75) -> BlockGrid:
     """A grid of ``nx`` x ``nz`` blocks whose sides are drawn from ``block`` (m), centred on the
-    origin, with about ``drop_fraction`` of the inner street segments left out (merging two
-    blocks into one; each removal keeps the graph connected and every node of degree >= 2, so
-    there are no dead ends and no car ever has to turn back)."""
+    origin, with about ``drop_fraction`` of the inner street segments left out: each joins two
+    blocks into one (a block is joined at most once, so blocks stay rectangles) and leaves
+    T-junctions, never a dead end or a bend (both ends keep three streets)."""
     xs = np.concatenate([[0.0], np.cumsum(rng.uniform(*block, nx))])
     zs = np.concatenate([[0.0], np.cumsum(rng.uniform(*block, nz))])
     xs, zs = np.round(xs - xs[-1] / 2, 2), np.round(zs - zs[-1] / 2, 2)
-    g = grid_graph(xs, zs, (), half_road, lane)
+    full = BlockGrid(xs, zs, frozenset(), half_road, lane)
+    g = full.graph
     n1z = nz + 1
-    inner = [e for e in g.edges if not _on_border(e, nx, nz)]
-    order = rng.permutation(len(inner))
-    dropped: set = set()
-    for i in order[:int(round(drop_fraction * len(inner)))]:
-        trial = grid_graph(xs, zs, dropped | {inner[i]}, half_road, lane)
-        degrees_ok = all(len(trial.adjacency[n]) >= 2 for n in inner[i])
-        # no two adjacent blocks merged twice in a row: keep junctions that are at least T-shaped
-        if degrees_ok and _connected(trial) and all(len(trial.adjacency[n]) >= 3 or _corner(n, nx, n1z)
-                                                    for n in inner[i]):
-            dropped.add(inner[i])
-    return grid_graph(xs, zs, dropped, half_road, lane)
-
-
-def _on_border(e, nx: int, nz: int) -> bool:
-    n1z = nz + 1
-    (ia, ja), (ib, jb) = divmod(e[0], n1z), divmod(e[1], n1z)
-    return (ia == ib and ia in (0, nx)) or (ja == jb and ja in (0, nz))
-
-
-def _corner(n: int, nx: int, n1z: int) -> bool:
-    i, j = divmod(n, n1z)
-    return i in (0, nx) and j in (0, n1z - 1)
-
-
-def _connected(g: RoadGraph) -> bool:
-    seen, todo = {0}, [0]
-    while todo:
-        for m in g.adjacency[todo.pop()]:
-            if m not in seen:
-                seen.add(m)
-                todo.append(m)
-    return len(seen) == len(g.nodes)
+    inner = [e for e in g.edges
+             if not (divmod(e[0], n1z)[0] == divmod(e[1], n1z)[0] in (0, nx)
+                     or divmod(e[0], n1z)[1] == divmod(e[1], n1z)[1] in (0, nz))]
+    degree = {n: len(g.adjacency[n]) for n in g.adjacency}
+    used_cells, dropped = set(), set()
+    for i in rng.permutation(len(inner))[:int(round(drop_fraction * len(inner)))]:
+        a, b = inner[i]
+        cells = full._separating(a, b)
+        if degree[a] > 3 and degree[b] > 3 and not (set(cells) & used_cells):
+            dropped.add((a, b))
+            used_cells |= set(cells)
+            degree[a] -= 1
+            degree[b] -= 1
+    return BlockGrid(xs, zs, frozenset(dropped), half_road, lane)
 
 
 # --- routes ------------------------------------------------------------------------------
@@ -341,6 +365,23 @@ def _turn_ok(g: RoadGraph, e1, e2) -> bool:
     return e1[1] == e2[0] and e2[1] in g.successors(*e1)
 
 
+def random_walk(g: RoadGraph, rng: np.random.Generator, length_m: float) -> Route:
+    """A car's random drive of at least ``length_m``: from a random street, at every junction
+    straight on (weight 0.55) or a turn (0.3 each), never back."""
+    a = int(rng.integers(len(g.nodes)))
+    nodes = [a, int(rng.choice(g.adjacency[a]))]
+    total = g.length(*nodes)
+    while total < length_m:
+        a, b = nodes[-2], nodes[-1]
+        h = g.heading(a, b)
+        cands = g.successors(a, b)
+        w = np.array([0.55 if abs(turn_angle(h, g.heading(b, c))) < 0.3 else 0.3 for c in cands])
+        c = int(cands[int(rng.choice(len(cands), p=w / w.sum()))])
+        nodes.append(c)
+        total += g.length(b, c)
+    return Route(nodes)
+
+
 def repeated_runs(g: RoadGraph, edges) -> list[tuple[int, int]]:
     """(first, last) route-edge indices of each maximal run of consecutive edges that were
     driven before (in either direction)."""
@@ -467,9 +508,10 @@ def route_path(g: RoadGraph, route: Route, p: DriveParams, rng: np.random.Genera
             u = np.linspace(0.0, arc_len, n + 1)[:-1]
             side = np.sign(ang)
             centre = p0 - side * R * right_of(h0)            # left turn: the centre is on the left
-            frac = u / arc_len
-            pts = np.array([centre + rotate_left(p0 - centre, ang * f) for f in frac])
-            hh = np.array([rotate_left(h0, ang * f) for f in frac])
+            c, sn = np.cos(ang * u / arc_len), np.sin(ang * u / arc_len)
+            rel = p0 - centre                                  # turned left by the arc's angle so far
+            pts = centre + np.column_stack([c * rel[0] + sn * rel[1], -sn * rel[0] + c * rel[1]])
+            hh = np.column_stack([c * h0[0] + sn * h0[1], -sn * h0[0] + c * h0[1]])
             S.append(s0 + u)
             XZ.append(pts)
             Hs.append(hh)
@@ -519,12 +561,12 @@ def speed_profile(path: Path, p: DriveParams, rng: np.random.Generator, v_start:
             dwell[i] = float(rng.uniform(*p.dwell_s))
     v[0] = min(v[0], v_start)
     v[-1] = 0.0
-    ds = np.diff(s)
-    for i in range(len(s) - 1):                     # accelerating
-        v[i + 1] = min(v[i + 1], np.sqrt(v[i] ** 2 + 2 * p.a_acc * ds[i]))
-    for i in range(len(s) - 2, -1, -1):             # braking
-        v[i] = min(v[i], np.sqrt(v[i + 1] ** 2 + 2 * p.a_dec * ds[i]))
-    return v, dwell
+    vl, ds = v.tolist(), np.diff(s).tolist()        # plain floats: the passes are sequential
+    for i in range(len(vl) - 1):                    # accelerating
+        vl[i + 1] = min(vl[i + 1], (vl[i] * vl[i] + 2 * p.a_acc * ds[i]) ** 0.5)
+    for i in range(len(vl) - 2, -1, -1):            # braking
+        vl[i] = min(vl[i], (vl[i + 1] * vl[i + 1] + 2 * p.a_dec * ds[i]) ** 0.5)
+    return np.array(vl), dwell
 
 
 def drive(g: RoadGraph, route: Route, rate_hz: float, p: DriveParams = DriveParams(),
