@@ -165,6 +165,7 @@ class OutputFolder:
                 and r.get("seed") == settings.seed
                 and float(r.get("resolution_scale", 1.0)) == settings.resolution_scale
                 and list(r.get("passes", [])) == list(settings.passes)
+                and r.get("culling") == settings.culling_block()
                 and manifest.get("resolution") == [settings.width, settings.height])
 
     @staticmethod

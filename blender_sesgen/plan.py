@@ -76,6 +76,7 @@ class RenderOptions:
     readout_s: Optional[float] = None
     motion_blur: Optional[bool] = None
     fast_pipeline: bool = True           # False: a fresh Cycles render per view (same pixels, slower)
+    cull: bool = False                   # build only what the frames can see (culling.py)
 
     def __post_init__(self):
         object.__setattr__(self, "device", Device.parse(self.device))
@@ -104,6 +105,7 @@ class RenderSettings:
     width: int
     height: int
     K: tuple[tuple[float, float, float], ...]
+    cull: bool = False
 
     @classmethod
     def of(cls, scene: Scene, options: RenderOptions) -> "RenderSettings":
@@ -134,7 +136,11 @@ class RenderSettings:
             width=W,
             height=H,
             K=tuple(tuple(float(x) for x in row) for row in K),
+            cull=bool(options.cull),
         )
+        if settings.cull:
+            from .culling import check_cullable
+            check_cullable(scene)
         return settings
 
     @property
@@ -164,7 +170,21 @@ class RenderSettings:
             "resolution_scale": self.resolution_scale,
             "passes": list(self.passes),
             "exr": {"codec": "ZIP", "bits": 32, "layout": "multilayer, one part per pass"},
+            **({"culling": self.culling_block()} if self.cull else {}),
         }
+
+    def culling_block(self) -> Optional[dict]:
+        """The manifest's ``render.culling`` (None without ``--cull``)."""
+        if not self.cull:
+            return None
+        from .culling import EDGE_MARGIN_PX, RGB_RADIUS_M
+        return {"rule": "each chunk builds the objects whose bounds meet a view volume of its frames "
+                        "(both views, to the far plane)" + ("" if self.preset.shading == "flat" else
+                                                            ", their sun shadows' casters and everything "
+                                                            f"within {RGB_RADIUS_M:g} m of the camera"),
+                "exact": "depth, object ids, normals, positions" + (", flat RGB" if self.preset.shading == "flat"
+                                                                     else ""),
+                "edge_margin_px": EDGE_MARGIN_PX}
 
 
 @dataclass(frozen=True)

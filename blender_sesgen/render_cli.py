@@ -39,6 +39,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--plain-pipeline", action="store_true",
                    help="render each view in a fresh Cycles session, without persistent data or multiview "
                         "(slower, the same pixels: to check the fast path)")
+    p.add_argument("--cull", action="store_true",
+                   help="build only the objects the frames rendered can see (view volumes, far plane; shadow "
+                        "casters and what is near for shaded presets): a long sequence in chunks (--frames, farm "
+                        "--chunk) loads only its part of a large world; depth and ids stay exact "
+                        "(docs/rendering.md, Culling)")
     p.add_argument("--normal-pass", action="store_true", help="also write the Normal pass")
     p.add_argument("--position-pass", action="store_true", help="also write the Position pass")
     p.add_argument("--contact-sheet", nargs="?", const="contact_sheet.png", metavar="PNG",
@@ -65,7 +70,7 @@ def render_options(args: argparse.Namespace) -> RenderOptions:
         resolution_scale=args.resolution_scale, frames=args.frames,
         normal_pass=args.normal_pass, position_pass=args.position_pass, threads=args.threads,
         verbose=args.verbose, rate_hz=args.rate, exposure_s=args.exposure, readout_s=args.readout,
-        motion_blur=args.motion_blur, fast_pipeline=not args.plain_pipeline,
+        motion_blur=args.motion_blur, fast_pipeline=not args.plain_pipeline, cull=args.cull,
     )
 
 
@@ -94,6 +99,8 @@ def run(args: argparse.Namespace) -> int:
     with deferred_interrupts() as stop:
         try:
             job.build()
+            if job.session.culling is not None and not args.quiet:
+                print(f"culling: {job.session.culling.summary()} built for {len(todo)} frame(s)", flush=True)
         except SesgenError:
             raise
         except Exception as e:  # noqa: BLE001 - a Blender failure while building
