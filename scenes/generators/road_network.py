@@ -133,7 +133,7 @@ class BlockGrid:
     def _separating(self, a: int, b: int) -> tuple:
         """The two cells (i, j) on either side of the segment between nodes a and b."""
         n1z = len(self.zs)
-        (ia, ja), (ib, jb) = divmod(min(a, b), n1z), divmod(max(a, b), n1z)
+        (ia, ja), (_, jb) = divmod(min(a, b), n1z), divmod(max(a, b), n1z)
         if ja == jb:                       # along x, at z = zs[ja]
             return (ia, ja - 1), (ia, ja)
         return (ia - 1, ja), (ia, ja)      # along z, at x = xs[ia]
