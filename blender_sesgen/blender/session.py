@@ -51,6 +51,14 @@ class BlenderSession:
             scene = culled_scene(plan.scene, keep)
         self.built = builder.build_scene(scene, width=s.width, height=s.height, K=s.K,
                                          view_poses=plan.view_poses)
+        if self.culling is not None:     # meshes shared in the full scene stay instanced (exact depth)
+            from collections import Counter
+
+            from .. import assets as asset_kinds
+            from ..model import Asset
+            from .assets import keep_instanced
+            full = Counter(asset_kinds.mesh_key(o) for o in plan.scene.objects if isinstance(o, Asset))
+            keep_instanced(self.built, scene.objects, full)
         gpu = s.device is Device.GPU
         self.gpu = render.enable_gpu() if gpu else None
         self._configure = dict(gpu=gpu, threads=plan.options.threads, normal_pass=plan.options.normal_pass,
