@@ -198,6 +198,7 @@ def test_small_city_script_parses_and_keeps_camera_and_traffic_on_its_streets(ci
     T = s.timeline.left()
     cam = T[:, :3, 3]
     assert np.allclose(cam[:, 1], 1.65, atol=0.05)
+    assert np.linalg.norm(np.diff(cam[:, [0, 2]], axis=0), axis=1).sum() >= 400.0     # the route asked for
     fwd = T[:, :3, 2][:, [0, 2]]
     fwd /= np.linalg.norm(fwd, axis=1, keepdims=True)
     assert _in_right_half(rects, cam[:, [0, 2]], fwd).all()

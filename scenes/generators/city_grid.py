@@ -488,14 +488,18 @@ def generate(seed: int = 0, route_m: float = 1000.0, closures: int = 3, gap_s: f
                                half_road=HALF_ROAD, lane=LANE)
         g = bg.graph
         try:
-            route = rn.plan_route(g, np.random.default_rng([seed, 1]), route_m + params.start_m, int(closures),
-                                  gap_s * params.v_max, direction)
+            # whole streets: the route is planned a little longer and the drive ends at route_m
+            route = rn.plan_route(g, np.random.default_rng([seed, 1]), 1.08 * route_m + params.start_m + 40.0,
+                                  int(closures), gap_s * params.v_max, direction)
             break
         except rn.RouteError:
             if blocks is not None or grow == 3:
                 raise
-    ego = rn.drive(g, route, RATE_HZ, params, np.random.default_rng([seed, 2]))
+    ego = rn.drive(g, route, RATE_HZ, params, np.random.default_rng([seed, 2]), length_m=route_m)
     events = rn.closure_events(g, route, ego, gap_s)
+    if len(events) != closures:      # the last return ran past route_m: drive the whole route
+        ego = rn.drive(g, route, RATE_HZ, params, np.random.default_rng([seed, 2]))
+        events = rn.closure_events(g, route, ego, gap_s)
     if len(events) != closures:
         raise rn.RouteError(f"the drive has {len(events)} loop closures, {closures} planned")
     ids = Ids(ID_STARTS)
