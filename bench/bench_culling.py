@@ -99,6 +99,37 @@ def render_chunk(script: Path, out: Path, a: int, b: int, args, cull: bool) -> d
             "cpu_per_frame": res["cpu_s"] / (b - a), "peak_rss_mib": res["maxrss_kib"] / 1024, "built": built}
 
 
+def rgb_difference(a) -> int:
+    """PSNR of the display images of a culled render against the whole world's, same frames."""
+    from blender_sesgen.generators import load_file
+    from vo_reference.evaluate.image_quality import psnr
+    from vo_reference.io.render import RenderSequence
+    gen = load_file(REPO / "scenes" / "generators" / "city_grid.py").function
+    f0, f1 = (int(x) for x in a.rgb_frames.split(":"))
+    print(f"# culled vs whole world, RGB: city_grid seed 0, {a.route_m:g} m route, frames {f0}:{f1}, quality "
+          f"{a.quality}, scale {a.scale}, far {a.far:g} m; load {' '.join(Path('/proc/loadavg').read_text().split()[:3])}",
+          flush=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        script = Path(tmp) / "long.ses"
+        script.write_text(gen(0, route_m=a.route_m, closures=0, far=a.far))
+        out = {}
+        for cull in (True, False):
+            out[cull] = Path(tmp) / ("culled" if cull else "full")
+            r = render_chunk(script, out[cull], f0, f1, a, cull=cull)
+            print(f"{'culled' if cull else 'whole world'}: built {r['built']}, {r['s_per_frame']:.1f} s/frame, "
+                  f"{r['cpu_per_frame']:.1f} CPU s/frame, peak RSS {r['peak_rss_mib']:.0f} MiB", flush=True)
+        A, B = RenderSequence(out[True]), RenderSequence(out[False])
+        ea, eb = A.manifest.render.get("exposure"), B.manifest.render.get("exposure")
+        print(f"exposure: culled {ea:.4f}, whole world {eb:.4f}")
+        for k in range(f0, f1):
+            for v in A.views:
+                ga, gb = A.depth(k, v), B.depth(k, v)
+                same_gt = np.array_equal(ga, gb) and np.array_equal(A.ids(k, v), B.ids(k, v))
+                print(f"frame {k} {v}: display image PSNR {psnr(A.image_rgb(k, v), B.image_rgb(k, v), 255.0):.2f} dB, "
+                      f"depth and ids {'identical' if same_gt else 'DIFFERENT'}")
+    return 0
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--route-m", type=float, default=1000.0)
@@ -109,7 +140,11 @@ def main(argv=None) -> int:
     p.add_argument("--quality", default="gt")
     p.add_argument("--far", type=float, default=150.0, help="the camera's far plane (m), where the haze ends")
     p.add_argument("--no-full", action="store_true", help="skip the renders with the whole world built")
+    p.add_argument("--rgb-frames", metavar="A:B", help="instead: render these frames of the long route at --quality "
+                   "(e.g. draft) culled and with the whole world, and print the PSNR of their images")
     a = p.parse_args(argv)
+    if a.rgb_frames:
+        return rgb_difference(a)
     from blender_sesgen.generators import load_file
     gen = load_file(REPO / "scenes" / "generators" / "city_grid.py").function
     long_text = gen(0, route_m=a.route_m, closures=0, far=a.far)

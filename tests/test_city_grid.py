@@ -39,7 +39,7 @@ def city_grid():
 def _plan(seed, length=900.0, closures=3, direction="mixed", gap_s=30.0, blocks=4):
     rng = np.random.default_rng(seed)
     g = rn.irregular_grid(rng, blocks, blocks, block=(55.0, 85.0)).graph
-    p = rn.DriveParams(a_acc=1.8, a_dec=2.5)
+    p = rn.DriveParams()
     route = rn.plan_route(g, rng, length, closures, gap_s * p.v_max, direction)
     return g, route, p, rn.drive(g, route, 10.0, p, rng)
 

@@ -412,8 +412,8 @@ def _traffic(g: rn.RoadGraph, ego: rn.Drive, n_cars: int, rng, ids: Ids, seeds: 
     for _ in range(n_cars):
         for _try in range(25):
             route = rn.random_walk(g, rng, (ego.duration_s + 80.0) * p.v_max)
-            params = rn.DriveParams(v_max=float(rng.uniform(7.0, 12.0)), p_stop=0.3, start_m=float(rng.uniform(5, 40)),
-                                    a_acc=1.8, a_dec=2.5, step_m=0.5)
+            params = rn.DriveParams(v_max=float(rng.uniform(7.0, 12.0)), p_stop=0.3, dwell_s=(1.0, 4.0),
+                                    start_m=float(rng.uniform(5, 40)), step_m=0.5)
             try:
                 d = rn.drive(g, route, RATE_HZ, params, rng, t_offset=float(rng.uniform(5.0, 60.0)), frames=frames)
             except rn.RouteError:
@@ -481,7 +481,7 @@ def generate(seed: int = 0, route_m: float = 1000.0, closures: int = 3, gap_s: f
                                  lighting.sun[1] if sun_azimuth is None else float(sun_azimuth)),
                             sky_strength=lighting.sky_strength)
     rng = np.random.default_rng(seed)
-    params = rn.DriveParams(v_max=v.v_max, p_stop=v.p_stop, a_acc=1.8, a_dec=2.5, dwell_s=(1.0, 3.0))
+    params = rn.DriveParams(v_max=v.v_max, p_stop=v.p_stop)
     n = int(blocks) if blocks is not None else _blocks_for(route_m, block_m)
     for grow in range(4):      # a larger city when this one is too small for the route
         bg = rn.irregular_grid(np.random.default_rng([seed, n + grow]), n + grow, n + grow, tuple(block_m),

@@ -408,10 +408,10 @@ class DriveParams:
     r_right: float = 6.0
     r_left: float = 9.0
     a_lat: float = 2.0
-    a_acc: float = 1.2
-    a_dec: float = 2.0
-    p_stop: float = 0.3
-    dwell_s: tuple = (1.0, 4.0)
+    a_acc: float = 1.8
+    a_dec: float = 2.5
+    p_stop: float = 0.25
+    dwell_s: tuple = (1.0, 3.0)
     step_m: float = 0.2
     start_m: float = 12.0          # where the drive starts on the route's first street, from its first node
 
