@@ -183,3 +183,15 @@ def test_default_lighting_cannot_be_culled():
     with pytest.raises(SesgenError, match="--cull needs"):
         RenderPlan.from_scene(s, RenderOptions(cull=True))
     assert RenderPlan.from_scene(s, RenderOptions()).settings.cull is False
+
+
+def test_the_manifest_says_a_render_was_culled_and_resume_keeps_to_it():
+    from blender_sesgen.output import OutputFolder
+    s = parse_string("CAMERA resolution 64 48 focal 50\nWORLD colour 0.5 0.5 0.5\nCUBOID id 1 position 0 0 -5 "
+                     "dim 1 1 1\n", source="t.ses")
+    culled = RenderPlan.from_scene(s, RenderOptions(quality="gt", cull=True)).settings
+    plain = RenderPlan.from_scene(s, RenderOptions(quality="gt")).settings
+    assert "culling" in culled.manifest_block() and "culling" not in plain.manifest_block()
+    assert "exact" in culled.manifest_block()["culling"]
+    manifest = {"render": plain.manifest_block(), "resolution": [plain.width, plain.height]}
+    assert OutputFolder.same_settings(manifest, plain) and not OutputFolder.same_settings(manifest, culled)
