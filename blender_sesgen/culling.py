@@ -32,7 +32,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import struct
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Optional
 
@@ -206,7 +206,6 @@ class CullResult:
     shadow: int = 0
     near: int = 0
     unknown: int = 0
-    reasons: dict = field(default_factory=dict)
 
     def summary(self) -> str:
         return (f"{len(self.keep)} of {self.total} objects ({self.in_view} in view"

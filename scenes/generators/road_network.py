@@ -40,12 +40,6 @@ def turn_angle(h1: np.ndarray, h2: np.ndarray) -> float:
     return float(-np.arctan2(cross, float(np.dot(h1, h2))))
 
 
-def rotate_left(v: np.ndarray, angle: float) -> np.ndarray:
-    """``v`` (x, z) turned left by ``angle`` rad (counter-clockwise seen from above)."""
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([c * v[0] + s * v[1], -s * v[0] + c * v[1]])
-
-
 def yaw_deg(h) -> np.ndarray:
     """The camera yaw (deg, left positive, 0 = looking along -z) of ground headings h (..., 2)."""
     h = np.asarray(h, float)
