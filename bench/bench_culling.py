@@ -119,7 +119,7 @@ def rgb_difference(a) -> int:
             print(f"{'culled' if cull else 'whole world'}: built {r['built']}, {r['s_per_frame']:.1f} s/frame, "
                   f"{r['cpu_per_frame']:.1f} CPU s/frame, peak RSS {r['peak_rss_mib']:.0f} MiB", flush=True)
         A, B = RenderSequence(out[True]), RenderSequence(out[False])
-        ea, eb = A.manifest.render.get("exposure"), B.manifest.render.get("exposure")
+        ea, eb = (S.manifest.get("render", {}).get("exposure") for S in (A, B))
         print(f"exposure: culled {ea:.4f}, whole world {eb:.4f}")
         for k in range(f0, f1):
             for v in A.views:
