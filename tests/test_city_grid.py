@@ -215,3 +215,13 @@ def test_small_city_script_parses_and_keeps_camera_and_traffic_on_its_streets(ci
 
 def test_checked_in_city_loop_is_seed_0(city_grid):
     assert city_grid.generate(0) == (SCENES / "city_loop.ses").read_text()
+
+
+def test_generate_command_makes_city_scripts(tmp_path, capsys):
+    from blender_sesgen.cli import main as sesgen
+    out = tmp_path / "scripts"
+    assert sesgen(["generate", "city_grid", "--count", "2", "--seed", "4", "--out", str(out), "-o", "route_m=150",
+                   "-o", "closures=0", "-o", "traffic=1", "--split", "0.5", "0.5", "0"]) == 0
+    scripts = sorted(out.glob("*.ses"))
+    assert len(scripts) == 2 and scripts[0].read_text() != scripts[1].read_text()
+    assert sesgen(["generate", "city_grid", "--count", "1", "--out", str(tmp_path / "bad"), "-o", "route_m=-5"]) != 0
