@@ -211,6 +211,8 @@ def test_small_city_script_parses_and_keeps_camera_and_traffic_on_its_streets(ci
         assert np.linalg.norm(xz - cam[:, [0, 2]], axis=1).min() >= 8.0
     # the header lists the loop closure, and the camera does come back there
     assert "closure 1: frames" in text
+    from test_scene_library import assert_cameras_see_surfaces
+    assert_cameras_see_surfaces(s, "city_grid", 0.5, frames=range(0, s.frames, 15))
 
 
 def test_checked_in_city_loop_is_seed_0(city_grid):
