@@ -18,26 +18,31 @@ $(STAMP): pyproject.toml
 
 setup: $(STAMP)
 
+# The whole suite on parallel workers (pytest-xdist; TEST_WORKERS=0 runs it in one process);
+# each test file stays on one worker, so its module fixtures (renders, the Ray cluster) are made once.
+TEST_WORKERS ?= auto
 test: $(STAMP)
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile
 
+# The pure tier: no Blender render, no long end-to-end run.
 test-fast: $(STAMP)
-	$(PY) -m pytest -q -m "not render and not slow"
+	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile -m "not render and not slow"
 
 # The main job: a photoreal street (3 frames of the scene library's city_kitti.ses, half size) and
 # the SESGen paper room: script -> render (half resolution, the draft preset at 4 denoised samples)
 # -> contact sheet -> both stereo VOs -> report.
 demo: $(STAMP)
-	$(PY) -m blender_sesgen check $(DEMO_PHOTOREAL)
-	$(PY) -m blender_sesgen render $(DEMO_PHOTOREAL) --out $(DEMO_OUT)/photoreal --frames 0:3 --resolution-scale 0.5 --quality draft --samples 4 --resume --force --contact-sheet
-	$(PY) -m blender_sesgen check $(DEMO_SCENE)
-	$(PY) -m blender_sesgen render $(DEMO_SCENE) --out $(DEMO_OUT)/render --resolution-scale 0.5 --quality draft --samples 4 --resume --force --contact-sheet
-	$(PY) -m vo_reference run $(DEMO_OUT)/render --report $(DEMO_OUT)/report
+	$(VENV)/bin/sesgen check $(DEMO_PHOTOREAL)
+	$(VENV)/bin/sesgen render $(DEMO_PHOTOREAL) --out $(DEMO_OUT)/photoreal --frames 0:3 --resolution-scale 0.5 --quality draft --samples 4 --resume --force --contact-sheet
+	$(VENV)/bin/sesgen check $(DEMO_SCENE)
+	$(VENV)/bin/sesgen render $(DEMO_SCENE) --out $(DEMO_OUT)/render --resolution-scale 0.5 --quality draft --samples 4 --resume --force --contact-sheet
+	$(VENV)/bin/vo-reference run $(DEMO_OUT)/render --report $(DEMO_OUT)/report
 	@echo "demo: contact sheets $(DEMO_OUT)/photoreal/contact_sheet.png and $(DEMO_OUT)/render/contact_sheet.png, report $(DEMO_OUT)/report/"
 
 
+# The Blender extension zip needs only the standard library: any Python >= 3.11, no .venv, no Blender.
 addon:
-	$(PY) -m blender_sesgen.addon.package --out dist
+	$(PYTHON) -m blender_sesgen.addon.package --out dist
 
 # The speed and quality figures of the docs, each bench with its defaults (hours on 2 cores:
 # quality.py renders a 4096-sample reference once, then caches it; fuzz_campaign.py and

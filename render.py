@@ -5,6 +5,8 @@ The same with the bpy wheel: ``python render.py -- SCENE.ses --out DIR [options]
 the arguments after ``--`` go to the ``render`` command. Exit codes: 0 ok, 2 bad input,
 1 render failure.
 """
+import importlib
+import importlib.util
 import os
 import sys
 
@@ -15,11 +17,22 @@ def _render_args(argv: list[str]) -> list[str]:
     return argv[1:]  # plain `python render.py SCENE.ses ...`
 
 
+def _package_beside_this_file() -> None:
+    """Import the ``blender_sesgen`` beside this file as the package: ``python render.py``
+    finds it anyway (the script's folder is on the path), Blender's ``-P`` does not."""
+    if "blender_sesgen" in sys.modules:
+        return
+    pkg = os.path.join(os.path.dirname(os.path.abspath(__file__)), "blender_sesgen")
+    spec = importlib.util.spec_from_file_location("blender_sesgen", os.path.join(pkg, "__init__.py"),
+                                                  submodule_search_locations=[pkg])
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["blender_sesgen"] = module
+    spec.loader.exec_module(module)
+
+
 def main() -> int:
-    repo = os.path.dirname(os.path.abspath(__file__))
-    if repo not in sys.path:
-        sys.path.insert(0, repo)
-    from blender_sesgen.cli import main as cli_main
+    _package_beside_this_file()
+    cli_main = importlib.import_module("blender_sesgen.cli").main
     return cli_main(["render", *_render_args(sys.argv)])
 
 

@@ -5,7 +5,7 @@ a drive through a 1 km route's city against the same chunks in the world of its 
     PYTHONPATH=. python bench/bench_culling.py [--route-m 1000] [--short-m 100] [--chunk 20]
         [--chunks 3] [--scale 0.5] [--quality gt] [--far 150] [--no-full]
 
-The city generator (scenes/generators/city_grid.py, seed 0, no loop closures) writes the long
+The city generator (blender_sesgen/generators/builtin/city_grid.py, seed 0, no loop closures) writes the long
 route's script: its city grows with the route (5 x 5 blocks, ~2700 objects for 1 km). The
 short one is the same drive cut after its first ``--short-m`` metres, in the world that drive
 needs: the objects whose bounds come within far + 50 m of its camera path (and its moving cars
@@ -101,10 +101,9 @@ def render_chunk(script: Path, out: Path, a: int, b: int, args, cull: bool) -> d
 
 def rgb_difference(a) -> int:
     """PSNR of the display images of a culled render against the whole world's, same frames."""
-    from blender_sesgen.generators import load_file
+    from blender_sesgen.generators.builtin.city_grid import generate as gen
     from vo_reference.evaluate.image_quality import psnr
     from vo_reference.io.render import RenderSequence
-    gen = load_file(REPO / "scenes" / "generators" / "city_grid.py").function
     f0, f1 = (int(x) for x in a.rgb_frames.split(":"))
     print(f"# culled vs whole world, RGB: city_grid seed 0, {a.route_m:g} m route, frames {f0}:{f1}, quality "
           f"{a.quality}, scale {a.scale}, far {a.far:g} m; load {' '.join(Path('/proc/loadavg').read_text().split()[:3])}",
@@ -145,8 +144,7 @@ def main(argv=None) -> int:
     a = p.parse_args(argv)
     if a.rgb_frames:
         return rgb_difference(a)
-    from blender_sesgen.generators import load_file
-    gen = load_file(REPO / "scenes" / "generators" / "city_grid.py").function
+    from blender_sesgen.generators.builtin.city_grid import generate as gen
     long_text = gen(0, route_m=a.route_m, closures=0, far=a.far)
     short_text, n_short = short_world(long_text, a.short_m, 50.0)
     n_obj = [sum(1 for ln in t.splitlines() if ln.split(" ", 1)[0] in ("CUBOID", "QUAD", "ASSET")) for t in

@@ -46,7 +46,6 @@ def status_kib(field: str) -> int:
 
 
 def child(args) -> int:
-    sys.path.insert(0, str(REPO))
     from blender_sesgen.job import RenderJob
     from blender_sesgen.plan import RenderOptions
     with tempfile.TemporaryDirectory() as tmp:

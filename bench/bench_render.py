@@ -58,7 +58,6 @@ TODAY = dict(quality="custom", samples=16)
 
 
 def child(a) -> int:
-    sys.path.insert(0, str(REPO))
     from dataclasses import replace
     from blender_sesgen.job import RenderJob
     from blender_sesgen.plan import RenderOptions, RenderPlan

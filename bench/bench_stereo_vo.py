@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import time
 from pathlib import Path
 
@@ -21,11 +20,10 @@ import cv2
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
 
-from vo_reference.evaluate.align import umeyama  # noqa: E402
-from vo_reference.io.sequence import open_sequence  # noqa: E402
-from vo_reference.stereo.pipeline import METHODS, parse_frames, run_stereo_vo  # noqa: E402
+from vo_reference.evaluate.align import umeyama
+from vo_reference.io.sequence import open_sequence
+from vo_reference.stereo.pipeline import METHODS, parse_frames, run_stereo_vo
 
 
 class Resized:
@@ -85,12 +83,12 @@ def main():
           f"on {os.cpu_count()} cores")
     for m in a.methods.split(","):
         t0, c0 = time.perf_counter(), time.process_time()
-        r = run_stereo_vo(small, m, frames=frames)
+        r = run_stereo_vo(small, m, frames=range(frames[0], frames[1] + 1))
         cpu_ms = 1000 * (time.process_time() - c0) / len(r.seconds)
         line = (f"{m:16s} {r.fps:6.1f} frames/s at {W}x{H} ({len(r.seconds)} steps, {time.perf_counter() - t0:.1f} s; "
                 f"CPU {cpu_ms:.0f} ms/step, load {os.getloadavg()[0]:.2f})")
         if not a.no_accuracy and seq.T_world_cam("left") is not None:
-            line += "  |  native: " + accuracy(seq, run_stereo_vo(seq, m, frames=frames))
+            line += "  |  native: " + accuracy(seq, run_stereo_vo(seq, m, frames=range(frames[0], frames[1] + 1)))
         print(line, flush=True)
 
 

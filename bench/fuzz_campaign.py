@@ -4,11 +4,11 @@ counted instead of ending the campaign; plus injected file-system faults (a FIFO
 a folder, an empty or an oversized file where a file is expected).
 
 The targets and mutations are tests/fuzz_targets.py's (the CI test runs the same with a few
-examples each). Outcomes per target: ``ok`` (read, exit 0), ``user-error`` (exit 2, one
+examples each; tests/ on PYTHONPATH). Outcomes per target: ``ok`` (read, exit 0), ``user-error`` (exit 2, one
 line), ``finding`` (a traceback, another exit code, a user error of several lines),
 ``crash`` (the worker died), ``hang`` (no answer within --timeout s).
 
-    python bench/fuzz_campaign.py --mutants 2000 --heavy 300 --parser 30000 [--seed 1] [--json out.json]
+    PYTHONPATH=tests python bench/fuzz_campaign.py --mutants 2000 --heavy 300 --parser 30000 [--seed 1] [--json out.json]
 
 Prints a markdown table (docs/reliability.md holds a run's figures) and every finding's
 mutation list, so it can be replayed with ``fuzz_targets.run_mutant``.
@@ -27,7 +27,6 @@ import traceback
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(REPO), str(REPO / "tests")]
 
 HEAVY = {"manifest", "exr", "kitti-calib", "kitti-folder-poses"}   # each mutant runs VO: fewer of them
 

@@ -36,8 +36,7 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
-from blender_sesgen.exr import read_exr  # noqa: E402  (pure reader: no OpenEXR needed)
+from blender_sesgen.exr import read_exr  # the pure reader: no OpenEXR needed
 
 # manifest keys that may differ between two identical renders
 VOLATILE = {"generator"}

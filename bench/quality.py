@@ -53,12 +53,11 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
 
-from blender_sesgen.contract.colour import linear_to_srgb  # noqa: E402
-from blender_sesgen.exr import read_exr  # noqa: E402
-from blender_sesgen.presets import PRESETS, Preset  # noqa: E402
-from vo_reference.evaluate.image_quality import psnr, ssim  # noqa: E402
+from blender_sesgen.contract.colour import linear_to_srgb
+from blender_sesgen.exr import read_exr
+from blender_sesgen.presets import PRESETS, Preset
+from vo_reference.evaluate.image_quality import psnr, ssim
 
 CYCLES_DEFAULT_PATHS = dict(max_bounces=12, diffuse_bounces=4, glossy_bounces=4, transmission_bounces=12,
                             volume_bounces=0, transparent_bounces=8, caustics=True, light_tree=True)

@@ -38,9 +38,8 @@ import cv2
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
-from vo_reference.realism import ImageStats, sequence_stats  # noqa: E402
-from vo_reference.io.sequence import open_sequence  # noqa: E402
+from vo_reference.realism import ImageStats, sequence_stats
+from vo_reference.io.sequence import open_sequence
 
 DATA = Path(os.environ.get("SESGEN_SHARED_DATA", REPO.parent / "shared" / "data"))
 SCENES = {"city": ("scenes/city_kitti.ses", "kitti"), "hall": ("scenes/hall.ses", "euroc"),

@@ -67,8 +67,7 @@ def summary(scene: Scene) -> str:
         f"end       {_pose_text(T[-1])}",
         "moving    " + (", ".join(f"{m.id} ({m.kind}, {_travel(m.poses()):.4g})" for m in scene.object_motions)
                          or "none (static scene)"),
-        "lights    " + (", ".join(light.kind for light in scene.lights) or "default lighting"),
-        "world     " + (scene.world.kind if scene.world else "default"),
+        *_lighting_lines(scene),
     ]
     extras = []
     if scene.materials:
@@ -88,6 +87,40 @@ def summary(scene: Scene) -> str:
     if sensors:
         lines.append("sensors   " + sensors)
     return "\n".join(lines)
+
+
+def _world_text(w) -> str:
+    if w.kind == "sky":
+        return f"sky, strength {w.strength:g}, sun at elevation {w.sun_elevation_deg:g} azimuth {w.sun_azimuth_deg:g} deg"
+    if w.kind == "hdri":
+        return f"hdri {w.hdri or w.hdri_source}, strength {w.strength:g}, rotation {w.rotation_deg:g} deg"
+    return f"colour {' '.join(f'{c:g}' for c in w.colour)}, strength {w.strength:g}"
+
+
+def _lighting_lines(scene: Scene) -> list[str]:
+    """The ``lights`` and ``world`` lines: what the renderer lights the scene with
+    (``lighting_data.effective_world``; docs/ses-language.md, LIGHT and WORLD)."""
+    from .lighting_data import effective_world
+    blend_lamps = any(imp.lights for imp in scene.imports)
+    world = effective_world(scene.world, bool(scene.lights))
+    sky_sun = " + the sky's sun" if world.kind == "sky" else ""
+    kinds = Counter(light.kind for light in scene.lights)
+    lamps = ", ".join(f"{n} {k}" if n > 1 else k for k, n in kinds.items())
+    if blend_lamps:
+        lamps = f"{lamps}, " * bool(lamps) + "the BLEND file's lamps (if it has any)"
+    if scene.lights or scene.world is not None:
+        lights = (lamps + sky_sun) if lamps else f"none: the WORLD lights the scene{sky_sun}"
+    else:
+        lights = (f"{lamps}; without lamps: " if lamps else "") + (
+            "default lighting: a clear-sky day (the sky and its sun), plus a ceiling light when START is "
+            "inside a closed space")
+    if scene.world is not None:
+        world_line = _world_text(scene.world)
+    elif scene.lights:
+        world_line = f"none: a uniform {_world_text(world)} (the LIGHTs light the scene)"
+    else:
+        world_line = f"none: the default lighting's {_world_text(world)}"
+    return ["lights    " + lights, "world     " + world_line]
 
 
 def _sensor_text(scene: Scene) -> str:

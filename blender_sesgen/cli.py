@@ -11,8 +11,9 @@ import sys
 from .contract.cli import dispatch
 from .errors import ScriptError, SesgenError
 
-PROG = "python -m blender_sesgen"
-DESCRIPTION = "Synthetic stereo egomotion sequences with exact ground truth, rendered by Blender Cycles."
+PROG = "sesgen"   # the installed command, the one the docs use
+DESCRIPTION = ("Synthetic stereo egomotion sequences with exact ground truth, rendered by Blender Cycles. "
+               "sesgen is the command pip installs; python -m blender_sesgen runs the same.")
 # command -> (module relative to this package, one-line help)
 COMMANDS = {
     "check": (".check", "validate a script and print a summary of its scene, rig and motion"),

@@ -40,6 +40,7 @@ import numpy as np
 
 from . import assets, dynamics, lighting_data
 from .contract.frames import object_pose
+from .contract.rig import T_world_view
 from .contract.se3 import invert
 from .errors import SesgenError
 from .model import Asset, Cuboid, Cylinder, Mesh, Quad, Scene, SceneObject, Sphere
@@ -241,9 +242,7 @@ def camera_poses(plan, frames: Iterable[int]) -> tuple[np.ndarray, np.ndarray, f
     T = sensor.motion.T_world_cam(start + t / sensor.rate_hz)
     poses, dp, dr = [], 0.0, 0.0
     for v in views:
-        Tv = T.copy()
-        if v == "right":
-            Tv[:, :3, 3] += sensor.baseline * Tv[:, :3, 0]
+        Tv = T_world_view(T, v, sensor.baseline)
         poses.append(Tv)
         if len(Tv) > 1:
             dp = max(dp, float(np.linalg.norm(np.diff(Tv[:, :3, 3], axis=0), axis=1).max()))

@@ -23,55 +23,11 @@ from pathlib import Path
 import numpy as np
 
 from .contract.errors import ContractError
+from .contract.exr_format import MAGIC, ExrError, read_header as _read_header
 from .contract.inputs import read_bytes
 
-MAGIC = 20000630
 _PIXEL_DTYPES = {0: np.dtype("<u4"), 1: np.dtype("<f2"), 2: np.dtype("<f4")}
 _LINES_PER_BLOCK = {0: 1, 2: 1, 3: 16}  # NONE, ZIPS, ZIP
-
-
-class ExrError(ValueError):
-    """Not an EXR this reader understands."""
-
-
-def _cstr(buf: bytes, pos: int) -> tuple[str, int]:
-    end = buf.index(b"\0", pos)
-    return buf[pos:end].decode("latin-1"), end + 1
-
-
-def _read_header(buf: bytes, pos: int) -> tuple[dict, int]:
-    """(attributes decoded by type, position after the header's null byte); the raw
-    attributes, (name, type, value bytes), are kept under the key ``None``."""
-    header = {None: []}
-    while buf[pos] != 0:
-        name, pos = _cstr(buf, pos)
-        typ, pos = _cstr(buf, pos)
-        (size,) = struct.unpack_from("<i", buf, pos)
-        pos += 4
-        if not 0 <= size <= len(buf) - pos:  # a negative size would loop back: never
-            raise ExrError(f"attribute {name!r} has size {size}, beyond the file")
-        value = buf[pos:pos + size]
-        pos += size
-        header[None].append((name, typ, value))
-        if typ == "chlist":
-            chans, p = [], 0
-            while value[p] != 0:
-                cname, p = _cstr(value, p)
-                ptype, _linear, xs, ys = struct.unpack_from("<iB3xii", value, p)
-                p += 16
-                chans.append((cname, ptype, xs, ys))
-            header[name] = chans
-        elif typ == "compression":
-            header[name] = value[0]
-        elif typ == "box2i":
-            header[name] = struct.unpack("<4i", value)
-        elif typ == "int":
-            header[name] = struct.unpack("<i", value)[0]
-        elif typ == "string":
-            header[name] = value.decode("utf-8", "replace")
-        else:
-            header[name] = value
-    return header, pos + 1
 
 
 def _unzip(data: bytes, expected: int) -> bytes:

@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     if progress_mode(args) != "off":
         print(f"generate {gen.name}: {n} script(s), seed {args.seed} -> {out} "
               f"(train {counts['train']}, val {counts['val']}, test {counts['test']}); "
-              f"render them with: python -m blender_sesgen farm {out} --out ROOT")
+              f"render them with: sesgen farm {out} --out ROOT")
     return EXIT_OK
 
 

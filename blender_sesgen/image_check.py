@@ -31,6 +31,7 @@ import struct
 import zlib
 
 from .contract.errors import ContractError
+from .contract.exr_format import read_header as read_exr_header
 from .contract.inputs import MiB, read_bytes
 
 MAX_IMAGE_BYTES = 1024 * MiB
@@ -227,17 +228,9 @@ _EXR_LINES = {0: 1, 1: 1, 2: 1, 3: 16, 4: 32, 5: 16, 6: 32, 7: 32, 8: 32, 9: 256
 
 
 def _exr_header(data: bytes, pos: int) -> tuple[dict, int]:
-    header = {}
-    while data[pos] != 0:
-        name_end = data.index(b"\0", pos)
-        type_end = data.index(b"\0", name_end + 1)
-        (size,) = struct.unpack_from("<i", data, type_end + 1)
-        _need(0 <= size <= len(data), "EXR attribute size out of range")
-        value = data[type_end + 5:type_end + 5 + size]
-        _need(len(value) == size, "EXR header truncated")
-        header[data[pos:name_end].decode("latin-1")] = (data[name_end + 1:type_end].decode("latin-1"), value)
-        pos = type_end + 5 + size
-    return header, pos + 1
+    """{name: (type, value bytes)} of the header at ``pos`` (contract.exr_format's parser)."""
+    header, pos = read_exr_header(data, pos)
+    return {name: (typ, value) for name, typ, value in header[None]}, pos
 
 
 def _check_exr(data: bytes):

@@ -83,6 +83,14 @@ def sky_sun_irradiance(elevation_deg: float) -> np.ndarray:
     return np.array([np.interp(elevation_deg, el, E[:, c]) for c in range(3)])
 
 
+def effective_world(world: World | None, has_lights: bool) -> World:
+    """The script's WORLD; without one, the default sky (no LIGHT either: the default
+    lighting) or, for a script with LIGHTs (or a BLEND file's lamps), ``LIGHTS_ONLY_WORLD``."""
+    if world is not None:
+        return world
+    return LIGHTS_ONLY_WORLD if has_lights else DEFAULT_SKY
+
+
 def sky_sun_light(world: World) -> Light | None:
     """The sun lamp that stands in for the sky's sun disc (None below the horizon)."""
     E = sky_sun_irradiance(world.sun_elevation_deg) * world.strength / SKY_EXPOSURE

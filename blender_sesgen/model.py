@@ -14,8 +14,9 @@ from typing import ClassVar, Literal, Optional
 import numpy as np
 
 from .contract.camera import K_matrix
-from .contract.frames import right_from_left
+from .contract.rig import right_from_left
 from .contract.motion import ego_table
+from .contract.timing import DEFAULT_FPS
 
 Vec3 = tuple[float, float, float]
 Mat4 = tuple[tuple[float, float, float, float], ...]  # 4 rows of 4, row-major
@@ -284,7 +285,7 @@ class Timing:
     Frame k is stamped at the middle of its exposure, ``start_s + k / rate_hz``. ``exposure_s``
     0 = instantaneous (no motion blur); ``readout_s`` 0 = global shutter, else rows are read
     top to bottom over that time (rolling shutter)."""
-    rate_hz: float = 25.0
+    rate_hz: float = DEFAULT_FPS
     start_s: float = 0.0
     exposure_s: float = 0.0
     readout_s: float = 0.0

@@ -26,11 +26,13 @@ import hashlib
 import json
 import os
 import re
+from dataclasses import replace
 from pathlib import Path
 from typing import Optional
 
 from .contract import atomic
 from .contract.errors import ContractError
+from .contract.pixel_settings import TIMING_KEYS, PixelSettings
 from .contract.manifest import (DISPLAY_DIR, DONE_LOG_GLOB, EXR_DIR, FORMAT, MANIFEST, POSES_DIR, SCENE_COPY, STATE_DIR,
                                 Manifest, completed_in_logs, display_relpath, exr_relpath, load_json,
                                 trajectory_relpaths)
@@ -94,38 +96,34 @@ def seal_frame(k: int, written: dict[str, Path], required_channels: tuple) -> di
     metadata, wall-clock values) dropped; {relative path: sha256}.
     RenderWriteError (every temporary file removed) if a file is short or lacks a channel.
     Touches nothing but those files, so it may run in another process (``sealer``)."""
+    def sealed(tmp, view: str, what: str, seal) -> bytes:
+        try:
+            buf = seal(Path(tmp).read_bytes())
+            with open(tmp, "wb") as f:
+                f.write(buf)
+            return buf
+        except (OSError, ImageFileError, ExrError) as e:
+            for t in written.values():
+                Path(t).unlink(missing_ok=True)
+            raise RenderWriteError(f"frame {k} ({view}): the {what} was not written completely ({e}); "
+                                   "is the disk full? The previous files were kept") from None
+
+    def png(buf: bytes) -> bytes:
+        buf = strip_png_text(buf)
+        check_image_bytes(buf)
+        return buf
+
     sums = {}
-    for key, tmp in written.items():   # the display PNGs: decoded (image_check)
-        if not is_display_key(key):
-            continue
-        view = display_view(key)
-        try:
-            buf = strip_png_text(Path(tmp).read_bytes())
-            check_image_bytes(buf)
-            with open(tmp, "wb") as f:
-                f.write(buf)
-        except (OSError, ImageFileError) as e:
-            for t in written.values():
-                Path(t).unlink(missing_ok=True)
-            raise RenderWriteError(f"frame {k} ({view}): the display PNG was not written completely ({e}); "
-                                   "is the disk full? The previous files were kept") from None
-        sums[display_relpath(view, k)] = hashlib.sha256(buf).hexdigest()
+    for key, tmp in written.items():   # the display PNGs first: decoded (image_check)
+        if is_display_key(key):
+            view = display_view(key)
+            sums[display_relpath(view, k)] = hashlib.sha256(sealed(tmp, view, "display PNG", png)).hexdigest()
     for view, tmp in written.items():
-        if is_display_key(view):
-            continue
-        rel = exr_relpath(view, k)
-        try:
-            buf = Path(tmp).read_bytes()
-            layout = check_complete(buf, rel, required_channels, read_layout(buf, rel))
-            buf = strip_volatile_attributes(buf, layout)
-            with open(tmp, "wb") as f:
-                f.write(buf)
-        except (OSError, ExrError) as e:
-            for t in written.values():
-                Path(t).unlink(missing_ok=True)
-            raise RenderWriteError(f"frame {k} ({view}): the EXR was not written completely ({e}); "
-                                   "is the disk full? The previous files were kept") from None
-        sums[rel] = hashlib.sha256(buf).hexdigest()
+        if not is_display_key(view):
+            rel = exr_relpath(view, k)
+            buf = sealed(tmp, view, "EXR", lambda b: strip_volatile_attributes(
+                b, check_complete(b, rel, required_channels, read_layout(b, rel))))
+            sums[rel] = hashlib.sha256(buf).hexdigest()
     return sums
 
 
@@ -156,24 +154,13 @@ class OutputFolder:
     @staticmethod
     def same_settings(manifest: Optional[dict], settings: RenderSettings) -> bool:
         """True when ``manifest``'s frames were rendered with the pixel-affecting ``settings``
-        (device aside: the same output is expected on any device)."""
-        if not manifest:
-            return False
-        r = manifest.get("render", {})
-        return (r.get("samples") == settings.samples and r.get("denoise") == settings.denoise
-                and r.get("sampling") == settings.preset.pixel_settings()
-                and r.get("seed") == settings.seed
-                and float(r.get("resolution_scale", 1.0)) == settings.resolution_scale
-                and list(r.get("passes", [])) == list(settings.passes)
-                and r.get("culling") == settings.culling_block()
-                and manifest.get("resolution") == [settings.width, settings.height])
+        (``contract.pixel_settings``: device aside, the same output is expected on any device)."""
+        return bool(manifest) and PixelSettings.from_manifest(manifest) == settings.pixel
 
     @staticmethod
     def settings_key(settings: RenderSettings) -> str:
         """The pixel-affecting settings as one string (what the locks compare)."""
-        return json.dumps({"samples": settings.samples, "denoise": settings.denoise, "seed": settings.seed,
-                           "scale": settings.resolution_scale, "passes": list(settings.passes),
-                           "size": [settings.width, settings.height]}, sort_keys=True)
+        return settings.pixel.key()
 
     def resumable(self, plan: RenderPlan) -> Optional[dict]:
         """The previous manifest if its frames may be kept for ``plan`` (same scene and
@@ -225,6 +212,12 @@ class OutputFolder:
             raise SesgenError(f"--out {out}: holds the output of a different scene ({previous.get('scene_source')}); "
                               "use --force to replace it")
         if not self.same_settings(previous, plan.settings) and any(self._completed(previous)) and not force:
+            old = PixelSettings.from_manifest(previous)
+            if old is not None and replace(old, timing=None) == replace(plan.settings.pixel, timing=None):
+                timing = previous.get("timing")
+                raise SesgenError("the output folder holds frames rendered with other timing "
+                                  f"({ {k: timing.get(k) for k in TIMING_KEYS} if timing else None}); "
+                                  "use --force to re-render")
             r = previous.get("render", {})
             raise SesgenError(f"--out {out}: holds frames rendered with other settings "
                               f"(quality {r.get('quality')}, samples {r.get('samples')}, denoise {r.get('denoise')}, "

@@ -1,4 +1,5 @@
-"""Rendering from Python: the stable entry points (the command line and the add-on use them).
+"""Rendering from Python, frame by frame: the public names (docs/api.md) of the classes the
+command line and the add-on render with (they import them from ``plan`` and ``job``).
 
     >>> from blender_sesgen.pipeline import RenderJob, RenderOptions
     >>> job = RenderJob.prepare("scene.ses", "out/", RenderOptions(samples=16, frames="0:10"), resume=True)

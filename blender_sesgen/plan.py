@@ -9,21 +9,26 @@ apply silently (image sizes, ids, files that must exist).
 from __future__ import annotations
 
 import enum
+import functools
 import hashlib
 import json
 import os
 import platform
-from dataclasses import dataclass, field
+import tomllib
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 from typing import Callable, Optional
 
 import numpy as np
 
-from . import __version__, assets
+from . import assets
 from .contract import semantics
 from .contract.camera import scaled_K, scaled_size
+from .contract.depth import DEPTH_BACKGROUND
 from .contract.errors import ContractError
+from .contract.exr_format import LAYOUT_PARTS
+from .contract.pixel_settings import PixelSettings
 from .contract.manifest import SEED_RULE, Manifest, display_relpath, exr_relpath, object_motion_fields
 from .contract.timing import FrameSelection, frame_timestamps
 from .errors import SesgenError
@@ -94,8 +99,10 @@ class RenderOptions:
 
 @dataclass(frozen=True)
 class RenderSettings:
-    """The settings actually used: what the manifest records and resume compares.
-    ``preset``: the effective sampling and light-path settings (``presets.Preset``)."""
+    """The settings actually used: what the manifest records; :attr:`pixel` is what resume
+    and the folder lock compare. ``preset``: the effective sampling and light-path settings
+    (``presets.Preset``); ``timing``: the manifest's timing values (None without one: set
+    by :class:`RenderPlan` from its sensor plan)."""
     engine: str
     device: Device
     preset: Preset
@@ -105,6 +112,7 @@ class RenderSettings:
     width: int
     height: int
     K: tuple[tuple[float, float, float], ...]
+    timing: Optional[dict] = None
     cull: bool = False
 
     @classmethod
@@ -155,22 +163,30 @@ class RenderSettings:
     def denoise(self) -> bool:
         return self.preset.denoise
 
+    @property
+    def pixel(self) -> PixelSettings:
+        """Every setting that changes pixels (the one record of resume, the lock and the manifest)."""
+        return PixelSettings.create(samples=self.samples, denoise=self.denoise, sampling=self.preset.pixel_settings(),
+                                    seed=self.seed, resolution_scale=self.resolution_scale, passes=self.passes,
+                                    size=(self.width, self.height), timing=self.timing, culling=self.culling_block())
+
     def manifest_block(self) -> dict:
         """The manifest's ``render`` entry (extended by the session with what it measured)."""
+        pixel = self.pixel.render_entries()
         return {
             "engine": self.engine,
             "device": self.device.value.upper(),
             "quality": self.quality,
             "quality_overridden": list(self.preset.overridden),
-            "samples": self.samples,
-            "denoise": self.denoise,
-            "sampling": self.preset.pixel_settings(),
-            "seed": self.seed,
+            "samples": pixel["samples"],
+            "denoise": pixel["denoise"],
+            "sampling": pixel["sampling"],
+            "seed": pixel["seed"],
             "seed_rule": SEED_RULE,
-            "resolution_scale": self.resolution_scale,
-            "passes": list(self.passes),
-            "exr": {"codec": "ZIP", "bits": 32, "layout": "multilayer, one part per pass"},
-            **({"culling": self.culling_block()} if self.cull else {}),
+            "resolution_scale": pixel["resolution_scale"],
+            "passes": pixel["passes"],
+            "exr": {"codec": "ZIP", "bits": 32, "layout": LAYOUT_PARTS},
+            **({"culling": pixel["culling"]} if "culling" in pixel else {}),
         }
 
     def culling_block(self) -> Optional[dict]:
@@ -227,17 +243,14 @@ class RenderPlan:
             frames = tuple((options.frames or FrameSelection()).resolve(N))
         except ContractError as e:
             raise SesgenError(str(e)) from None
-        plan = cls(scene, text, options, settings, frames, sha256_text(text))
-        plan.sensor  # validates the timing overrides (SesgenError) before anything is written
-        return plan
+        # the sensor plan validates the timing overrides (SesgenError) before anything is written
+        settings = replace(settings, timing=_sensor_plan(scene, settings, options).timing_values())
+        return cls(scene, text, options, settings, frames, sha256_text(text))
 
     @cached_property
     def sensor(self):
         """The sensor statements' plan (``sensor.render_plan.SensorPlan``; inactive without them)."""
-        from .sensor.render_plan import SensorPlan, TimingOverrides
-        o = self.options
-        return SensorPlan.create(self.scene, self.settings,
-                                 TimingOverrides(o.rate_hz, o.exposure_s, o.readout_s, o.motion_blur))
+        return _sensor_plan(self.scene, self.settings, self.options)
 
     @property
     def writes_display(self) -> bool:
@@ -300,20 +313,34 @@ class RenderPlan:
             near=float(scene.rig.near),
             far=float(scene.rig.far),
             frames_complete=[False] * N,
-            depth={"kind": "planar_z", "background": 1e10, "channel": channels["depth"]},
+            depth={"kind": "planar_z", "background": DEPTH_BACKGROUND, "channel": channels["depth"]},
             segmentation={"kind": "object_index", "background": 0, "channel": channels["object_index"]},
             channels=product_channels,
             objects=object_table(scene),
             render=render,
             scene_source=scene.source,
             scene_sha256=self.scene_sha256,
-            generator={"name": "blender-sesgen", "version": __version__, "blender": blender_version,
+            generator={"name": "blender-sesgen", "version": generator_version(), "blender": blender_version,
                        "python": platform.python_version()},
             extra=extra,
         )
 
 
 # --- helpers ----------------------------------------------------------------------------
+
+@functools.lru_cache(maxsize=1)
+def generator_version() -> str:
+    """This package's version as the manifest records it, read from its extension manifest
+    (``blender_manifest.toml``; building the add-on checks that ``__version__`` agrees): as
+    data, so that no module the add-on imports imports the package root (an import cycle)."""
+    with open(Path(__file__).with_name("blender_manifest.toml"), "rb") as f:
+        return str(tomllib.load(f)["version"])
+
+
+def _sensor_plan(scene: Scene, settings: RenderSettings, o: RenderOptions):
+    from .sensor.render_plan import SensorPlan, TimingOverrides
+    return SensorPlan.create(scene, settings, TimingOverrides(o.rate_hz, o.exposure_s, o.readout_s, o.motion_blur))
+
 
 def sha256_text(text: str) -> str:
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
@@ -334,10 +361,14 @@ def texture_label(tex: Optional[TextureRef]) -> Optional[str]:
 
 def object_table(scene: Scene) -> list[dict]:
     """The manifest's ``objects``: id, name, shape, texture, material, semantic ``class`` and
-    its Cityscapes ``label_id`` (contract.semantics) of every object of the script, and
-    whether it moves (with its per-frame poses if it does). A BLEND file's objects are added
-    by the job, which learns their ids when loading them."""
-    out = []
+    its Cityscapes ``label_id`` (contract.semantics) of every object of the script, its
+    object frame's pose as the script places it (``T_world_obj_rest``) and its object-frame
+    bounding ``box`` where the geometry is known (:mod:`.bounds`), and whether it moves (with
+    its per-frame poses if it does). A BLEND file's objects are added by the job, which
+    learns their ids when loading them."""
+    from .bounds import object_box
+    from .dynamics import rest_pose
+    out, boxes = [], {}
     for o in scene.objects:
         tex = o.texture
         if tex is None and o.material:
@@ -349,8 +380,11 @@ def object_table(scene: Scene) -> list[dict]:
         motion = scene.motion_of(o.id)
         row = {"id": int(o.id), "name": o.name, "shape": o.shape,
                "texture": texture_label(tex), "material": o.material,
-               "class": label.name, "label_id": label.id,
+               "class": label.name, "label_id": label.id, "T_world_obj_rest": rest_pose(o).tolist(),
                **(object_motion_fields(motion.kind, motion.poses()) if motion else object_motion_fields())}
+        box = object_box(o, boxes)
+        if box is not None:
+            row["box"] = box.tolist()
         if o.shape == "asset":   # what regenerates its mesh: blender_sesgen.assets.generate(...)
             row.update(kind=o.kind, seed=int(o.seed), size=[float(x) for x in o.size])
             if assets.KINDS[o.kind].strip:

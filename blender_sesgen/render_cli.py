@@ -6,56 +6,72 @@ output: nothing is created or touched); 1 render failure.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 
 from .contract.cli import EXIT_FAILURE, EXIT_INTERRUPTED
 from .contract.progress import Progress, add_progress_argument, progress_mode
+from .contract.timing import FRAMES_HELP
 from .errors import SesgenError
 from .interrupt import deferred_interrupts
 from .plan import Device, RenderOptions
 from .presets import QUALITIES
 
 
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("scene", metavar="SCENE.ses", help="the SES script to render")
-    p.add_argument("--out", required=True, metavar="DIR", help="output folder (manifest.json, exr/, poses/, scene.ses)")
-    p.add_argument("--frames", metavar="A:B", help="frame range, half-open like Python (A:B, A:, :B or K); default all")
-    p.add_argument("--quality", choices=QUALITIES, default=None,
-                   help="render preset: gt (exact ground truth at primary-ray cost, flat-shaded RGB), draft, "
-                        "final (the default) or reference (docs/rendering.md); replaces the script's RENDER "
-                        "quality/samples/denoise")
-    p.add_argument("--samples", type=int, metavar="N",
-                   help="exactly N samples per pixel, overriding the preset (adaptive sampling off)")
-    p.add_argument("--denoise", action=argparse.BooleanOptionalAction, default=None,
-                   help="OpenImageDenoise on the beauty pass, overriding the preset (ground truth is never denoised)")
-    p.add_argument("--seed", type=int, metavar="S", help="base random seed (per frame/view seeds derive from it)")
-    p.add_argument("--resume", action="store_true", help="render only the frames not complete in DIR")
-    p.add_argument("--force", action="store_true", help="write into DIR even if it holds another scene's output")
-    p.add_argument("--resolution-scale", type=float, default=1.0, metavar="S",
-                   help="scale the image size and K (e.g. 0.5 for a quick look)")
-    p.add_argument("--device", choices=("cpu", "gpu"), default="cpu", help="Cycles device (default cpu)")
-    p.add_argument("--threads", type=int, default=0, metavar="N", help="CPU threads (0 = automatic)")
-    p.add_argument("--plain-pipeline", action="store_true",
-                   help="render each view in a fresh Cycles session, without persistent data or multiview "
-                        "(slower, the same pixels: to check the fast path)")
-    p.add_argument("--cull", action="store_true",
-                   help="build only the objects the frames rendered can see (view volumes, far plane; shadow "
-                        "casters and what is near for shaded presets): a long sequence in chunks (--frames, farm "
-                        "--chunk) loads only its part of a large world; depth and ids stay exact "
-                        "(docs/rendering.md, Culling)")
-    p.add_argument("--normal-pass", action="store_true", help="also write the Normal pass")
-    p.add_argument("--position-pass", action="store_true", help="also write the Position pass")
-    p.add_argument("--contact-sheet", nargs="?", const="contact_sheet.png", metavar="PNG",
-                   help="after rendering, write a contact sheet (RGB, disparity, segmentation) into DIR")
-    p.add_argument("--rate", type=float, metavar="HZ", help="frame rate (overrides TIMING rate; default 25)")
-    p.add_argument("--exposure", type=float, metavar="S", help="exposure time in seconds (overrides TIMING exposure)")
-    p.add_argument("--readout", type=float, metavar="S",
-                   help="rolling-shutter readout time, top to bottom (overrides TIMING readout; 0 = global shutter)")
-    p.add_argument("--motion-blur", action=argparse.BooleanOptionalAction, default=None,
-                   help="motion blur over the exposure (overrides TIMING blur)")
-    add_progress_argument(p, ("--quiet",))
-    p.add_argument("--verbose", action="store_true", help="show Blender's own render log")
+def add_arguments(p, forwarded_only: bool = False) -> list[argparse.Action]:
+    """The render command's arguments (``forwarded_only``: just the render options a farm
+    passes on to every chunk, in the same order); the options' actions are returned."""
+    acts = []
+    if not forwarded_only:
+        p.add_argument("scene", metavar="SCENE.ses", help="the SES script to render")
+        p.add_argument("--out", required=True, metavar="DIR", help="output folder (manifest.json, exr/, poses/, scene.ses)")
+        p.add_argument("--frames", metavar="A:B", help=f"{FRAMES_HELP}; default all")
+    acts.append(p.add_argument("--quality", choices=QUALITIES, default=None,
+                               help="render preset: gt (exact ground truth at primary-ray cost, flat-shaded RGB), "
+                                    "draft, final (the default) or reference (docs/rendering.md); replaces the "
+                                    "script's RENDER quality/samples/denoise"))
+    acts.append(p.add_argument("--samples", type=int, metavar="N",
+                               help="exactly N samples per pixel, overriding the preset (adaptive sampling off)"))
+    acts.append(p.add_argument("--denoise", action=argparse.BooleanOptionalAction, default=None,
+                               help="OpenImageDenoise on the beauty pass, overriding the preset (ground truth is "
+                                    "never denoised)"))
+    acts.append(p.add_argument("--seed", type=int, metavar="S",
+                               help="base random seed (per frame/view seeds derive from it)"))
+    if not forwarded_only:
+        p.add_argument("--resume", action="store_true", help="render only the frames not complete in DIR")
+        p.add_argument("--force", action="store_true", help="write into DIR even if it holds another scene's output")
+    acts.append(p.add_argument("--resolution-scale", type=float, default=1.0, metavar="S",
+                               help="scale the image size and K (e.g. 0.5 for a quick look)"))
+    acts.append(p.add_argument("--device", choices=("cpu", "gpu"), default="cpu", help="Cycles device (default cpu)"))
+    if not forwarded_only:
+        p.add_argument("--threads", type=int, default=0, metavar="N", help="CPU threads (0 = automatic)")
+    acts.append(p.add_argument("--plain-pipeline", action="store_true",
+                               help="render each view in a fresh Cycles session, without persistent data or "
+                                    "multiview (slower, the same pixels: to check the fast path)"))
+    acts.append(p.add_argument("--cull", action="store_true",
+                               help="build only the objects the frames rendered can see (view volumes, far plane; "
+                                    "shadow casters and what is near for shaded presets): a long sequence in chunks "
+                                    "(--frames, farm --chunk) loads only its part of a large world; depth and ids "
+                                    "stay exact (docs/rendering.md, Culling)"))
+    acts.append(p.add_argument("--normal-pass", action="store_true", help="also write the Normal pass"))
+    acts.append(p.add_argument("--position-pass", action="store_true", help="also write the Position pass"))
+    if not forwarded_only:
+        p.add_argument("--contact-sheet", nargs="?", const="contact_sheet.png", metavar="PNG",
+                       help="after rendering, write a contact sheet (RGB, disparity, segmentation) into DIR")
+    acts.append(p.add_argument("--rate", type=float, metavar="HZ",
+                               help="frame rate (overrides TIMING rate; default 25)"))
+    acts.append(p.add_argument("--exposure", type=float, metavar="S",
+                               help="exposure time in seconds (overrides TIMING exposure)"))
+    acts.append(p.add_argument("--readout", type=float, metavar="S",
+                               help="rolling-shutter readout time, top to bottom (overrides TIMING readout; 0 = "
+                                    "global shutter)"))
+    acts.append(p.add_argument("--motion-blur", action=argparse.BooleanOptionalAction, default=None,
+                               help="motion blur over the exposure (overrides TIMING blur)"))
+    if not forwarded_only:
+        add_progress_argument(p)
+        p.add_argument("--verbose", action="store_true", help="show Blender's own render log")
+    return acts
 
 
 def _fmt(seconds: float) -> str:
@@ -63,21 +79,52 @@ def _fmt(seconds: float) -> str:
     return f"{s // 3600:d}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60:02d}:{s % 60:02d}"
 
 
-def render_options(args: argparse.Namespace) -> RenderOptions:
-    """The RenderOptions of parsed render arguments (the farm builds every chunk's with it)."""
+def forwarded_options(args: argparse.Namespace) -> RenderOptions:
+    """The RenderOptions of the options a farm passes on (``add_arguments(forwarded_only=True)``)."""
     return RenderOptions(
         quality=args.quality, samples=args.samples, denoise=args.denoise, seed=args.seed, device=args.device,
-        resolution_scale=args.resolution_scale, frames=args.frames,
-        normal_pass=args.normal_pass, position_pass=args.position_pass, threads=args.threads,
-        verbose=args.verbose, rate_hz=args.rate, exposure_s=args.exposure, readout_s=args.readout,
-        motion_blur=args.motion_blur, fast_pipeline=not args.plain_pipeline, cull=args.cull,
+        resolution_scale=args.resolution_scale, normal_pass=args.normal_pass, position_pass=args.position_pass,
+        rate_hz=args.rate, exposure_s=args.exposure, readout_s=args.readout, motion_blur=args.motion_blur,
+        fast_pipeline=not args.plain_pipeline, cull=args.cull,
     )
+
+
+def render_options(args: argparse.Namespace) -> RenderOptions:
+    """The RenderOptions of parsed render arguments."""
+    return dataclasses.replace(forwarded_options(args), frames=args.frames, threads=args.threads, verbose=args.verbose)
+
+
+def render_argv(o: RenderOptions) -> list[str]:
+    """The render arguments that give the forwarded options of ``o`` (the inverse of
+    :func:`forwarded_options`; options at their default are left out): what a farm adds to
+    every chunk's render command."""
+    out = []
+    for flag, value in (("--quality", o.quality), ("--samples", o.samples)):
+        if value is not None:
+            out += [flag, str(value)]
+    if o.denoise is not None:
+        out.append("--denoise" if o.denoise else "--no-denoise")
+    if o.seed is not None:
+        out += ["--seed", str(o.seed)]
+    if o.resolution_scale != 1.0:
+        out += ["--resolution-scale", str(o.resolution_scale)]
+    if o.device is not Device.CPU:
+        out += ["--device", o.device.value]
+    out += [flag for flag, on in (("--plain-pipeline", not o.fast_pipeline), ("--normal-pass", o.normal_pass),
+                                  ("--position-pass", o.position_pass), ("--cull", o.cull)) if on]
+    for flag, value in (("--rate", o.rate_hz), ("--exposure", o.exposure_s), ("--readout", o.readout_s)):
+        if value is not None:
+            out += [flag, str(value)]
+    if o.motion_blur is not None:
+        out.append("--motion-blur" if o.motion_blur else "--no-motion-blur")
+    return out
 
 
 def run(args: argparse.Namespace) -> int:
     from .api import frame_progress, have_bpy
     from .job import RenderJob
     t_start = time.perf_counter()
+    args.quiet = progress_mode(args) == "off"   # -q is --progress off: neither says what it renders
     options = render_options(args)
     job = RenderJob.prepare(args.scene, args.out, options, resume=args.resume, force=args.force)  # SesgenError -> 2
     if not have_bpy():

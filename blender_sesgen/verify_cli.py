@@ -9,9 +9,11 @@ frame is good, 1 when bad frames were found, 2 on bad input.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 
 from .contract.cli import EXIT_FAILURE, EXIT_OK
+from .contract.progress import Progress, add_progress_argument, progress_mode
 from .errors import SesgenError
 
 
@@ -19,7 +21,21 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("out", metavar="OUT", help="a render folder (with manifest.json)")
     p.add_argument("--quick", action="store_true", help="check structure and checksums, do not decode pixels")
     p.add_argument("--dry-run", action="store_true", help="name the bad frames, change nothing")
-    p.add_argument("--quiet", action="store_true", help="print only the bad frames")
+    add_progress_argument(p)
+
+
+def _not_rendered(out) -> str:
+    """How many frames of the sequence are not rendered (complete) yet, as a line."""
+    from .contract.errors import ContractError
+    from .contract.manifest import Manifest
+    try:
+        m = Manifest.read(out)
+    except ContractError:  # a manifest verify found wrong: already said
+        return ""
+    todo = m.frames - sum(bool(c) for c in m.frames_complete)
+    if not todo:
+        return f"verify {out}: all {m.frames} frames of the sequence are rendered"
+    return f"verify {out}: {todo} of the sequence's {m.frames} frames not rendered yet (render --resume renders them)"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -30,7 +46,15 @@ def run(args: argparse.Namespace) -> int:
     folder = OutputFolder(args.out)
     if not (Path(args.out) / MANIFEST).is_file():
         raise SesgenError(f"{args.out}: no render here (no manifest.json)")
-    bad = folder.verify(full=not args.quick)
+    args.quiet = progress_mode(args) == "off"   # -q is --progress off: no progress, no summary unless wrong
+    with contextlib.ExitStack() as stack:
+        bar = []   # the report starts with the first frame checked, when their number is known
+
+        def tick(i: int, n: int) -> None:
+            if not bar:
+                bar.append(stack.enter_context(Progress(n, "verify", mode=progress_mode(args), unit="frame")))
+            bar[0].update()
+        bad = folder.verify(full=not args.quick, progress=tick)
     for k, why in bad:
         print(f"frame {k}: {why}")
     if bad and not args.dry_run:
@@ -40,4 +64,7 @@ def run(args: argparse.Namespace) -> int:
                  f"{len(bad)} bad frame(s)" + ("" if args.dry_run else
                                                "; recorded as not rendered: render again with --resume"))
         print(f"verify {args.out}: {state}", file=sys.stderr if bad else sys.stdout)
+    line = "" if args.quiet else _not_rendered(args.out)
+    if line:
+        print(line)
     return EXIT_FAILURE if bad else EXIT_OK

@@ -7,6 +7,13 @@ writers (they import nothing of vo_reference): the oracles of the layout round-t
 - TartanAir: tartanair_tools' README and data_type.md: np.load for depth, segmentation, flow
   and mask; pose files 'tx ty tz qx qy qz qw' per line in the NED frame; file names
   000000_left.png, 000000_left_depth.npy, 000000_left_seg.npy, 000000_000001_flow.npy.
+- TartanAir V2: tartanairpy (its TartanAirIterator walks ROOT/ENV/Data_DIFF/TRAJ, sorts the
+  files of each MODALITY_CAMERA folder and reads pose_CAMERA.txt with np.loadtxt; its
+  TartanAirImageReader decodes depth as cv2.IMREAD_UNCHANGED bytes viewed as '<f4', flow PNG
+  as (flow16 - 32768) / 64 with the mask in the third channel, flow npz as flow_fwd[0] CHW;
+  its data cacher names files FRAME_lcam_front_depth.png, FRAME_NEXT_flow.png, ...).
+- MPI-Sintel: its SDK's sintel_io (depth_read: float32 tag, int32 width, height, float32
+  depth; cam_read: float32 tag, 9 float64 M, 12 float64 N).
 - Virtual KITTI 2: the README of vkitti_2.0.3 (Naver Labs Europe): depth PNG uint16 in cm;
   flow PNG decoded as in its read_vkitti_png_flow snippet; text files with a header line
   and 'frame cameraID ...' rows; extrinsic = the 4x4 world-to-camera matrix.
@@ -102,3 +109,54 @@ def read_vkitti_colors(path) -> dict[tuple[int, int, int], str]:
         name, r, g, b = line.split()
         out[(int(r), int(g), int(b))] = name
     return out
+
+
+def tartanair_v2_entries(root, camera_names=("lcam_front",), modalities=("image", "depth", "seg", "flow")) -> list:
+    """tartanairpy's iterator walk: one entry per frame but the last, {camera: {modality: path}},
+    over every ROOT/ENV/Data_*/TRAJ (files matched to frames by their sorted position)."""
+    import os
+    entries = []
+    for env in sorted(os.listdir(root)):
+        for diff in sorted(os.listdir(Path(root) / env)):
+            if not diff.startswith("Data_") or not (Path(root) / env / diff).is_dir():
+                continue
+            for traj in sorted(os.listdir(Path(root) / env / diff)):
+                tdir = Path(root) / env / diff / traj
+                n = len(os.listdir(tdir / f"{modalities[0]}_{camera_names[0]}"))
+                listing = {(c, m): sorted(os.listdir(tdir / f"{m}_{c}")) for c in camera_names for m in modalities}
+                for i in range(n - 1):
+                    entries.append({c: {m: tdir / f"{m}_{c}" / listing[(c, m)][i] for m in modalities}
+                                    for c in camera_names})
+    return entries
+
+
+def read_tartanair_v2(path):
+    """TartanAirImageReader: depth/seg/flow by modality and extension."""
+    import cv2
+    path = str(path)
+    if "/depth_" in path:
+        return np.squeeze(cv2.imread(path, cv2.IMREAD_UNCHANGED).view("<f4"), axis=-1)
+    if "/seg_" in path:
+        return cv2.imread(path, cv2.IMREAD_UNCHANGED)
+    if "/flow_" in path:
+        if path.endswith(".npz"):
+            with np.load(path) as data:
+                return data["flow_fwd"][0].transpose(1, 2, 0), None
+        flow16 = cv2.imread(path, cv2.IMREAD_UNCHANGED)
+        return (flow16[:, :, :2].astype(np.float32) - 32768) / 64.0, flow16[:, :, 2].astype(np.uint8)
+    return cv2.cvtColor(cv2.imread(path), cv2.COLOR_BGR2RGB)
+
+
+def read_sintel_dpt(path) -> np.ndarray:
+    with open(path, "rb") as f:
+        assert np.fromfile(f, np.float32, 1)[0] == 202021.25
+        w, h = np.fromfile(f, np.int32, 2)
+        return np.fromfile(f, np.float32, -1).reshape(h, w)
+
+
+def read_sintel_cam(path) -> tuple[np.ndarray, np.ndarray]:
+    with open(path, "rb") as f:
+        assert np.fromfile(f, np.float32, 1)[0] == 202021.25
+        M = np.fromfile(f, "float64", 9).reshape(3, 3)
+        N = np.fromfile(f, "float64", 12).reshape(3, 4)
+        return M, N

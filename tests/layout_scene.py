@@ -59,34 +59,55 @@ def export_layout(render, out, target: str, *extra: str) -> Path:
     return Path(out)
 
 
-def raycast(T_world_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(planar depth float32 with +inf for sky, ids int32) of one camera."""
+def raycast(T_world_cam: np.ndarray, lens=None) -> tuple[np.ndarray, np.ndarray]:
+    """(planar depth float32 with +inf for sky, ids int32) of one camera at its pixel
+    centres (through ``lens``, a ``contract.lens.Lens``, for a distorted camera)."""
     u, v = np.meshgrid(np.arange(W, dtype=float), np.arange(H, dtype=float))
-    rays = np.stack([(u - K[0, 2]) / F, (v - K[1, 2]) / F, np.ones_like(u)], -1) @ T_world_cam[:3, :3].T
+    z, ids = raycast_pixels(T_world_cam, np.stack([u, v], -1), lens)
+    return z.astype(np.float32), ids
+
+
+def raycast_pixels(T_world_cam: np.ndarray, px: np.ndarray, lens=None) -> tuple[np.ndarray, np.ndarray]:
+    """(planar depth float64, ids) seen through any pixels (..., 2) (OpenCV convention)."""
+    px = np.asarray(px, dtype=float)
+    if lens is None:
+        rays_cam = np.stack([(px[..., 0] - K[0, 2]) / F, (px[..., 1] - K[1, 2]) / F, np.ones(px.shape[:-1])], -1)
+    else:
+        r = lens.unproject(px)
+        rays_cam = r / r[..., 2:3]
+    rays = rays_cam @ T_world_cam[:3, :3].T
     C = T_world_cam[:3, 3]
-    z = np.full((H, W), np.inf)
-    ids = np.zeros((H, W), np.int32)
+    z = np.full(px.shape[:-1], np.inf)
+    ids = np.zeros(px.shape[:-1], np.int32)
     for n, d, (lo, hi), oid in PLANES:
         with np.errstate(divide="ignore", invalid="ignore"):
             t = (d - n @ C) / (rays @ n)
         X = C + t[..., None] * rays
         hit = (t > 0) & np.all((X >= np.array(lo) - 1e-9) & (X <= np.array(hi) + 1e-9), axis=-1) & (t < z)
         z[hit], ids[hit] = t[hit], oid
-    return z.astype(np.float32), ids
+    return z, ids
 
 
-def texture(T_world_cam: np.ndarray, z: np.ndarray) -> np.ndarray:
+def texture(T_world_cam: np.ndarray, z: np.ndarray, lens=None) -> np.ndarray:
     """Linear RGB that is a smooth function of the world point (sky: a flat blue)."""
     u, v = np.meshgrid(np.arange(W, dtype=float), np.arange(H, dtype=float))
     zz = np.where(np.isfinite(z), z, 0.0)
-    Xc = np.stack([(u - K[0, 2]) / F * zz, (v - K[1, 2]) / F * zz, zz], -1)
+    if lens is None:
+        Xc = np.stack([(u - K[0, 2]) / F * zz, (v - K[1, 2]) / F * zz, zz], -1)
+    else:
+        r = lens.unproject(np.stack([u, v], -1))
+        Xc = r / r[..., 2:3] * zz[..., None]
     X = Xc @ T_world_cam[:3, :3].T + T_world_cam[:3, 3]
     rgb = 0.45 + 0.4 * np.stack([np.sin(3.1 * X[..., 0]), np.sin(2.3 * X[..., 1] + 1), np.sin(1.7 * X[..., 2])], -1)
     rgb[~np.isfinite(z)] = (0.2, 0.4, 0.8)
     return rgb.astype(np.float32)
 
 
-def write_layout_render(root, n: int = 4, stereo: bool = True, objects=None, noise=None):
+def write_layout_render(root, n: int = 4, stereo: bool = True, objects=None, noise=None, lens=None, extra=None):
+    """The render folder; ``lens`` (model, coeffs), e.g. ("brown", (k1, k2, p1, p2, k3)): a
+    distorted camera (depth and ids at the distorted pixel centres, manifest ``lens``)."""
+    from blender_sesgen.contract.lens import Lens
+    cam = None if lens is None else Lens.from_K(lens[0], lens[1], K)
     T = rig_poses(n)
     frames = []
     for k in range(n):
@@ -94,8 +115,34 @@ def write_layout_render(root, n: int = 4, stereo: bool = True, objects=None, noi
         for view, dx in (("left", 0.0), ("right", B))[: 2 if stereo else 1]:
             Tv = T[k].copy()
             Tv[:3, 3] += Tv[:3, :3] @ np.array([dx, 0.0, 0.0])
-            z, ids = raycast(Tv)
-            fr[view] = (texture(Tv, z), z, ids)
+            z, ids = raycast(Tv, cam)
+            fr[view] = (texture(Tv, z, cam), z, ids)
         frames.append(fr)
+    extra = {"fps": 10, **(extra or {})}
+    if cam is not None:
+        extra["lens"] = {"model": cam.model, "coeffs": list(cam.coeffs)}
     return write_render(root, K=K, baseline_m=B if stereo else 0.0, T_world_left=T, frames=frames,
-                        noise=noise, objects=OBJECTS if objects is None else objects, extra={"fps": 10})
+                        noise=noise, objects=OBJECTS if objects is None else objects, extra=extra)
+
+
+def analytic_flow(T_src: np.ndarray, T_tgt: np.ndarray):
+    """Expected flow of a camera from pose T_src to T_tgt in the closed-form scene (pinhole):
+    (flow (H, W, 2), the point's depth in the target, inside the target image, the target
+    depth at the nearest pixel's 3x3 neighbourhood: min and max)."""
+    z, _ = raycast(T_src)
+    zt_map, _ = raycast(T_tgt)
+    u, v = np.meshgrid(np.arange(W, dtype=float), np.arange(H, dtype=float))
+    r = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], -1)
+    Rs, Cs, Rt, Ct = T_src[:3, :3], T_src[:3, 3], T_tgt[:3, :3], T_tgt[:3, 3]
+    fin = np.isfinite(z)
+    # surface points move with the full motion, points at infinity with the rotation only
+    Xt = np.where(fin[..., None], (Cs + (r * np.where(fin, z, 0)[..., None]) @ Rs.T - Ct) @ Rt, (r @ Rs.T) @ Rt)
+    p = Xt @ K.T
+    up, vp = p[..., 0] / p[..., 2], p[..., 1] / p[..., 2]
+    flow = np.stack([up - u, vp - v], -1)
+    inside = (Xt[..., 2] > 0) & (up >= -0.5) & (up < W - 0.5) & (vp >= -0.5) & (vp < H - 0.5)
+    zpt = np.where(fin, Xt[..., 2], np.inf)
+    xi, yi = np.clip(np.rint(up), 0, W - 1).astype(int), np.clip(np.rint(vp), 0, H - 1).astype(int)
+    pad = np.pad(zt_map, 1, mode="edge")
+    nb = np.stack([pad[yi + 1 + dy, xi + 1 + dx] for dy in (-1, 0, 1) for dx in (-1, 0, 1)])
+    return flow, zpt, inside, nb.min(0), nb.max(0)

@@ -6,6 +6,7 @@ import cv2
 import numpy as np
 
 from blender_sesgen.contract.se3 import se3_exp
+from vo_reference.io.base import Sequence
 
 F, W, H, B = 300.0, 320, 240, 0.12
 K = np.array([[F, 0, (W - 1) / 2], [0, F, (H - 1) / 2], [0, 0, 1.0]])
@@ -60,7 +61,7 @@ def smooth_twists(n, seed=1):
     return amp * np.sin(0.3 * k + phase)
 
 
-class ArraySequence:
+class ArraySequence(Sequence):
     """The :class:`vo_reference.io.sequence.Sequence` interface over in-memory frames."""
 
     def __init__(self, frames, T_world_left):
@@ -81,3 +82,10 @@ class ArraySequence:
         Tr = np.eye(4)
         Tr[0, 3] = B
         return self._T @ Tr
+
+
+def rel_errors(res) -> np.ndarray:
+    """Per-step |estimated - true twist| / |true twist| of a VO result (twist [U, V, W,
+    alpha, beta, gamma], rad)."""
+    e = np.linalg.norm(res.twists - res.gt_twists, axis=1)
+    return e / np.linalg.norm(res.gt_twists, axis=1)

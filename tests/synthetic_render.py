@@ -13,28 +13,10 @@ from typing import Sequence as Seq
 
 import numpy as np
 
-from vo_reference.io.exr import write_exr_parts
+from vo_reference.io.exr import render_exr_parts as exr_parts, write_exr_parts
 
-from blender_sesgen.contract.depth import depth_to_pass
-from blender_sesgen.contract.frames import right_from_left
+from blender_sesgen.contract.rig import right_from_left
 from blender_sesgen.contract.manifest import Manifest, exr_relpath
-
-
-def exr_parts(rgb_linear: np.ndarray, depth: np.ndarray, ids: np.ndarray | None,
-              alpha: np.ndarray | None = None, layer: str = "ViewLayer") -> dict:
-    """The parts of one Blender 5.0 multilayer EXR (depth +inf -> 1e10)."""
-    H, W = depth.shape
-    z = depth_to_pass(depth)
-    rgb = np.asarray(rgb_linear, dtype=np.float32)
-    a = np.ones((H, W), np.float32) if alpha is None else np.asarray(alpha, np.float32)
-    parts = {
-        f"{layer}.Combined": {f"{layer}.Combined.{c}": np.ascontiguousarray(x)
-                              for c, x in zip("RGBA", (rgb[..., 0], rgb[..., 1], rgb[..., 2], a))},
-        f"{layer}.Depth": {f"{layer}.Depth.Z": z},
-    }
-    if ids is not None:
-        parts[f"{layer}.Object Index"] = {f"{layer}.Object Index.X": np.asarray(ids, dtype=np.float32)}
-    return parts
 
 
 def write_render(root, *, K: np.ndarray, baseline_m: float, T_world_left: np.ndarray,
@@ -119,3 +101,36 @@ def plane_scene(root, *, W: int = 64, H: int = 48, f: float = 50.0, baseline_m: 
         fr.append(d)
     return write_render(root, K=K, baseline_m=baseline_m if stereo else 0.0, T_world_left=T, frames=fr,
                         noise=noise, objects=[{"id": object_id, "name": "plane", "shape": "QUAD"}])
+
+
+def add_imu(root, T_cam_imu, rate_hz: float = 200.0, time_offset_s: float = 0.0, yaml_text: str | None = None) -> dict:
+    """Give a render folder an IMU: the manifest's ``imu`` entry (ADIS16448-like densities)
+    and its files, samples at rest over the frames' span (gyro 0, accel +9.81 along y),
+    ground truth at the origin; ``yaml_text`` replaces the render's imu/sensor.yaml (an old
+    render's file, say). Returns the entry."""
+    import json
+    from blender_sesgen.contract.manifest import LIMIT, MANIFEST
+    from blender_sesgen.contract.manifest_sections import ImuSection
+    from blender_sesgen.contract.sensor_yaml import imu_sensor_yaml
+    from blender_sesgen.contract.timing import to_ns
+    root = Path(root)
+    m = json.loads((root / "manifest.json").read_text())
+    imu = {"rate_hz": float(rate_hz), "gyroscope_noise_density": 1.7e-4, "gyroscope_random_walk": 1.9e-5,
+           "accelerometer_noise_density": 2.0e-3, "accelerometer_random_walk": 3.0e-3,
+           "T_cam_imu": np.asarray(T_cam_imu, dtype=float).tolist(), "time_offset_s": float(time_offset_s),
+           "gravity_world": [0.0, -9.81, 0.0], "seed": 0,
+           "files": {"noisy": "imu/data.csv", "ideal": "imu/data_ideal.csv", "groundtruth": "imu/groundtruth.csv",
+                     "yaml": "imu/sensor.yaml"}}
+    m["imu"] = imu
+    (root / "manifest.json").write_text(json.dumps(m))
+    (root / "imu").mkdir(exist_ok=True)
+    t = np.asarray(m["timestamps"], dtype=float)
+    t_ns = to_ns(np.arange(t[0], t[-1] + 0.5 / rate_hz, 1.0 / rate_hz) + time_offset_s)
+    rows = "".join(f"{int(tn)},0,0,0,0,9.81,0\n" for tn in t_ns)
+    for name in ("data.csv", "data_ideal.csv"):
+        (root / "imu" / name).write_text("#timestamp [ns],w_x,w_y,w_z,a_x,a_y,a_z\n" + rows)
+    (root / "imu" / "groundtruth.csv").write_text("#timestamp, p, q_wxyz, v, b_w, b_a\n" + "".join(
+        f"{int(tn - round(time_offset_s * 1e9))},0,0,0,1,0,0,0,0,0,0,0,0,0,0,0,0\n" for tn in t_ns))
+    (root / "imu" / "sensor.yaml").write_text(imu_sensor_yaml(ImuSection.from_json(imu, MANIFEST, LIMIT))
+                                                if yaml_text is None else yaml_text)
+    return imu

@@ -141,6 +141,35 @@ def test_zip_installs_enables_and_disables_cleanly(addon_zip, tmp_path):
     assert again["enabled"] and all(again["ops"].values()) and len(again["menu"]) == 1
 
 
+def _doc_block(marker: str) -> str:
+    """The fenced code block right after ``<!-- marker -->`` in docs/addon.md."""
+    text = (REPO / "docs" / "addon.md").read_text(encoding="utf-8")
+    after = text.split(f"<!-- {marker} -->", 1)[1]
+    return after.split("```", 2)[1].split("\n", 1)[1]
+
+
+def test_the_three_headless_lines_of_the_docs_install_enable_and_keep_the_addon(addon_zip, tmp_path):
+    """docs/addon.md's three lines, run as written from a checkout with the built zip in dist/,
+    install and enable the add-on; a later session that reads the saved preferences has it."""
+    code = _doc_block("addon-install")
+    assert len(code.strip().splitlines()) == 3, code
+    (tmp_path / "dist").mkdir()
+    (tmp_path / "dist" / addon_zip.name).write_bytes(addon_zip.read_bytes())
+    (tmp_path / "install.py").write_text(code + 'print("OPS", hasattr(bpy.ops.sesgen, "check") and '
+                                               'bool(bpy.ops.sesgen.check.get_rna_type()))\n')
+    (tmp_path / "later.py").write_text("import bpy\nbpy.ops.wm.read_userpref()\n"
+                                       f'print("ENABLED", {MODULE!r} in bpy.context.preferences.addons)\n'
+                                       'print("OPS", bool(bpy.ops.sesgen.check.get_rna_type()))\n')
+    env = dict(os.environ, BLENDER_USER_RESOURCES=str(tmp_path / "user"))
+    for script in ("install.py", "later.py"):
+        r = subprocess.run([sys.executable, script], cwd=tmp_path, env=env, capture_output=True, text=True,
+                           timeout=300)
+        assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+        assert "OPS True" in r.stdout, (script, r.stdout[-3000:])
+    assert "ENABLED True" in r.stdout
+    assert (tmp_path / "user" / "extensions" / "user_default" / "blender_sesgen" / "__init__.py").is_file()
+
+
 # --- Build --------------------------------------------------------------------------------
 
 BUILD_BODY = """
@@ -347,7 +376,7 @@ def test_render_operator_writes_the_output_contract_and_preview(addon_zip, tmp_p
         S().script_path = {str(REPO / 'scenes' / 'minimal.ses')!r}
         s = S()
         s.output_dir = {str(out)!r}
-        s.use_frame_range, s.frame_first, s.frame_last = True, 0, 1
+        s.use_frame_range, s.frame_first, s.frame_stop = True, 0, 2
         s.override_render, s.samples, s.seed = True, 1, 3
         s.resolution_scale = 0.5
         RESULT["render"] = call(bpy.ops.sesgen.render)
@@ -454,7 +483,7 @@ def test_export_operator_writes_a_dataset_layout_through_vo_reference(addon_zip,
         S().script_path = {str(REPO / 'scenes' / 'minimal.ses')!r}
         s = S()
         s.output_dir = {str(out)!r}
-        s.use_frame_range, s.frame_first, s.frame_last = True, 0, 1
+        s.use_frame_range, s.frame_first, s.frame_stop = True, 0, 2
         s.override_render, s.samples = True, 1
         s.resolution_scale = 0.5
         RESULT["render"] = call(bpy.ops.sesgen.render)
@@ -596,3 +625,47 @@ def test_panels_draw_with_real_properties_and_operators(addon_zip, tmp_path):
     assert "Choose an .ses script" in res["empty"]
     assert "Script OK" in res["ok"] and any(t.startswith("Objects: 5") for t in res["ok"])
     assert any(t.startswith("line 3:") and "dim" in t for t in res["error"])
+
+
+def test_every_label_the_panels_show_is_in_the_addon_docs(addon_zip, tmp_path):
+    """Panels, headings, checkboxes, fields and buttons as drawn (a recording layout, no window)
+    each appear in docs/addon.md as **Label** (a panel as its section's heading); every choice
+    of a drop-down appears there too."""
+    res = run_child("""
+        from importlib import import_module
+        ui = import_module(MODULE + ".addon.ui")
+        labels, choices = set(), set()
+        class Layout:
+            def __init__(self): self.__dict__["attrs"] = {}
+            def __setattr__(self, k, v): self.attrs[k] = v
+            def __getattr__(self, k): return self.attrs.get(k, False)
+            def row(self, **kw): return Layout()
+            def column(self, heading="", **kw):
+                labels.add(heading)
+                return Layout()
+            def box(self): return Layout()
+            def label(self, text="", icon="NONE"): pass        # status lines, not labels
+            def progress(self, **kw): pass
+            def prop(self, data, name, text=None, **kw):
+                p = data.bl_rna.properties[name]
+                labels.add(p.name if text is None else text)
+                if p.type == "ENUM":
+                    choices.update(item.name for item in p.enum_items)
+            def operator(self, idname, text=None, **kw):
+                mod, op = idname.split(".")
+                labels.add(getattr(getattr(bpy.ops, mod), op).get_rna_type().name if text is None else text)
+        class Self: pass
+        S().script_path = """ + repr(str(REPO / "scenes" / "minimal.ses")) + """
+        for cls in ui.CLASSES:
+            labels.add(cls.bl_label)
+            me = Self(); me.layout = Layout()
+            cls.draw(me, bpy.context)
+        labels.add(bpy.ops.sesgen.import_ses.get_rna_type().name)
+        RESULT["labels"], RESULT["choices"] = sorted(labels - {""}), sorted(choices)
+    """, addon_zip, tmp_path)
+    doc = " ".join((REPO / "docs" / "addon.md").read_text(encoding="utf-8").split())  # line breaks are spaces
+    assert {"SES Scene", "Render", "Render Sequence", "Stop", "Layout"} <= set(res["labels"])
+    missing = [x for x in res["labels"] if f"**{x}**" not in doc and f"### {x} " not in doc]
+    assert missing == [], " / ".join(missing)
+    missing = [x for x in res["choices"] if x not in doc]
+    assert missing == [], " / ".join(missing)

@@ -50,3 +50,26 @@ def test_a_real_export_reports_progress_and_its_result(tmp_path):
 def test_a_missing_tool_is_a_clear_error(tmp_path):
     with pytest.raises(export_job.ExportError, match="pip install 'blender-sesgen\\[vo\\]'"):
         export_job.ExportProcess([str(tmp_path / "no-such-vo-reference"), "export"])
+
+
+def test_undistort_reaches_the_tool(tmp_path):
+    """A lens render: the layout without a lens model reports the tool's one line naming
+    --undistort; the panel's Undistort adds the option and the export succeeds."""
+    pytest.importorskip("OpenEXR")
+    import json
+    from synthetic_render import plane_scene
+    render = plane_scene(tmp_path / "r", frames=2)
+    m = json.loads((render / "manifest.json").read_text())
+    m["lens"] = {"model": "brown", "coeffs": [-0.1, 0.01, 0.0, 0.0, 0.0]}
+    (render / "manifest.json").write_text(json.dumps(m))
+    cmd = export_job.export_command(PY_VO, str(render), str(tmp_path / "t"), "tum")
+    assert "--undistort" not in cmd
+    p = export_job.ExportProcess(cmd)
+    p.wait(300)
+    assert p.returncode == 2 and "--undistort" in p.error and "\n" not in p.error
+    cmd = export_job.export_command(PY_VO, str(render), str(tmp_path / "t"), "tum", undistort=True)
+    assert cmd[-1] == "--undistort"
+    p = export_job.ExportProcess(cmd)
+    p.wait(300)
+    assert p.returncode == 0, p.error
+    assert "undistorted" in json.loads((tmp_path / "t/export.json").read_text())

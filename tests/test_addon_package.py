@@ -74,6 +74,19 @@ def test_package_command_runs_without_bpy(tmp_path):
     assert (tmp_path / "dist" / f"blender_sesgen-{blender_sesgen.__version__}.zip").is_file()
 
 
+@pytest.mark.skipif(shutil.which("make") is None, reason="needs make")
+def test_make_addon_works_on_a_fresh_checkout_without_a_venv(tmp_path):
+    """``make addon`` in a checkout that has no .venv (only the Makefile and the package)."""
+    shutil.copy(REPO / "Makefile", tmp_path / "Makefile")
+    shutil.copytree(PKG, tmp_path / "blender_sesgen", ignore=shutil.ignore_patterns("__pycache__"))
+    assert not (tmp_path / ".venv").exists()
+    r = subprocess.run(["make", "addon", f"PYTHON={sys.executable}"], cwd=tmp_path, capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert (tmp_path / "dist" / f"blender_sesgen-{blender_sesgen.__version__}.zip").is_file()
+    assert not (tmp_path / ".venv").exists()
+
+
 def test_version_mismatch_is_refused(tmp_path):
     src = tmp_path / "blender_sesgen"
     src.mkdir()

@@ -94,6 +94,22 @@ def test_every_public_name_exists_and_is_documented(module):
         assert getattr(mod, name) is not None, name
 
 
+def test_every_render_option_is_in_the_table_with_its_default():
+    """docs/api.md's RenderOptions table: a row for every field (quality and timing included),
+    each with the field's default."""
+    import dataclasses
+    from blender_sesgen.api import RenderOptions
+    text = DOC.read_text(encoding="utf-8").split("`RenderOptions` holds", 1)[1].split("\n\n")[1]   # the table
+    rows = re.findall(r"^\| (`[^|]+`) \| `?([^|`]+?)`?(?: \(all\))? \| ", text, re.M)
+    documented = {name: default for names, default in rows for name in re.findall(r"`(\w+)`", names)}
+    fields = {f.name: f.default for f in dataclasses.fields(RenderOptions)}
+    assert set(documented) == set(fields)
+    for name, default in fields.items():
+        shown = getattr(default, "value", default)          # Device.CPU is "cpu"
+        assert documented[name] == (f'"{shown}"' if isinstance(shown, str) else repr(shown)), name
+
+
+@pytest.mark.slow
 def test_doc_examples_run_without_blender(tmp_path):
     pytest.importorskip("OpenEXR")
     r = run_doc(tmp_path, with_bpy=False)

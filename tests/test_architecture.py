@@ -1,6 +1,7 @@
 """The architecture, checked from the source: the import graph of both packages (imports
-inside functions included) has no cycle at module or package level, bpy stays in the bpy
-layer, the contract stays numpy-only, and the two packages meet only at the contract.
+inside functions included, imports of ancestor packages and the packages' root modules
+too) has no cycle at module or package level, bpy stays in the bpy layer, the contract
+stays numpy-only, and the two packages meet only at the contract.
 
 Then at run time: every pure module imports in a fresh interpreter where bpy is blocked;
 a module that needs an optional dependency this machine lacks is reported as such, not as
@@ -9,6 +10,7 @@ a breach of the boundary.
 from __future__ import annotations
 
 import ast
+import functools
 import subprocess
 import sys
 import textwrap
@@ -34,13 +36,17 @@ def module_name(path: Path) -> str:
     return ".".join(parts)
 
 
+@functools.lru_cache(maxsize=1)
 def all_modules() -> dict[str, Path]:
     return {module_name(p): p for pkg in PACKAGES for p in sorted((REPO / pkg).rglob("*.py"))
             if "__pycache__" not in p.parts}
 
 
 def imports_of(name: str, path: Path) -> set[str]:
-    """Absolute names of everything ``name`` imports, anywhere in the file."""
+    """Absolute names of everything ``name`` imports, anywhere in the file. ``from pkg import
+    x`` imports module ``pkg.x`` where there is one, else ``x`` from ``pkg``'s ``__init__``:
+    an edge to ``pkg`` (an ancestor package too: ``from .. import __version__``)."""
+    known = all_modules()
     is_pkg = path.name == "__init__.py"
     base = name.split(".") if is_pkg else name.split(".")[:-1]
     out = set()
@@ -53,9 +59,11 @@ def imports_of(name: str, path: Path) -> set[str]:
                 mod = ".".join(anchor + ([node.module] if node.module else []))
             else:
                 mod = node.module
-            if not (name + ".").startswith(mod + "."):  # an ancestor package is imported anyway
+            subs = {f"{mod}.{a.name}" for a in node.names}
+            out.update(subs)                                    # `from pkg import module`
+            ancestor = (name + ".").startswith(mod + ".")
+            if not ancestor or not subs <= known.keys():       # a name defined in pkg/__init__
                 out.add(mod)
-            out.update(f"{mod}.{a.name}" for a in node.names)  # `from pkg import module`
     return out
 
 
@@ -108,7 +116,8 @@ def cycles(g: dict[str, set[str]]) -> list[list[str]]:
 
 
 def package_of(module: str) -> str:
-    """The subpackage a module belongs to: blender_sesgen.ses, vo_reference.io, ..."""
+    """The subpackage a module belongs to: blender_sesgen.ses, vo_reference.io, ...; a root
+    module (blender_sesgen.plan) is a unit of its own, and so is a package's ``__init__``."""
     parts = module.split(".")
     return ".".join(parts[:2]) if len(parts) > 1 else parts[0]
 
@@ -122,10 +131,27 @@ def test_no_import_cycle_between_packages(graph):
     for a, targets in graph.items():
         for b in targets:
             pa, pb = package_of(a), package_of(b)
-            # a package's own __init__ importing its modules is inside the package
-            if pa != pb and pa not in PACKAGES and pb not in PACKAGES:
+            # a subpackage importing its own parent's __init__ is a cycle too: only a module
+            # importing a sibling inside its own subpackage stays inside
+            if pa != pb:
                 pg[pa].add(pb)
     assert cycles(pg) == []
+
+
+def test_the_graph_sees_ancestors_and_the_root(tmp_path):
+    """``from . import __version__`` is an edge to the package's ``__init__`` (``from . import
+    assets`` one to the module), and the root's ``__init__`` is a node: the cycle __init__ ->
+    addon -> addon.props -> plan -> __init__ would be found."""
+    assert "blender_sesgen" in all_modules()
+    f = tmp_path / "plan.py"
+    f.write_text("from . import __version__, assets\nfrom .contract import rig\n")
+    edges = imports_of("blender_sesgen.plan", f)
+    assert {"blender_sesgen", "blender_sesgen.assets", "blender_sesgen.contract.rig"} <= edges
+    f.write_text("from . import assets\n")
+    assert "blender_sesgen" not in imports_of("blender_sesgen.plan", f)
+    g = {"blender_sesgen": {"blender_sesgen.addon"}, "blender_sesgen.addon": {"blender_sesgen.addon.props"},
+         "blender_sesgen.addon.props": {"blender_sesgen.plan"}, "blender_sesgen.plan": {"blender_sesgen"}}
+    assert cycles(g) == [sorted(g)]
 
 
 def test_the_cycle_finder_finds_cycles():

@@ -9,6 +9,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.slow   # subprocesses and end-to-end runs (left out of make test-fast)
+
 REPO = Path(__file__).resolve().parents[1]
 SCENES = sorted((REPO / "scenes").glob("*.ses"))
 
@@ -34,6 +36,28 @@ def test_minimal_summary():
     assert f"path length {length:.4g}" in out
     assert "start     position 0 1 3  rotation 0 0 0 deg" in out
     assert "default lighting" in out
+
+
+@pytest.mark.parametrize("statements, lights, world", [
+    # the rules of docs/ses-language.md (LIGHT, WORLD): neither -> the default lighting, a
+    # clear-sky day; a WORLD alone lights the scene; LIGHTs without a WORLD get a uniform one
+    ("", "default lighting: a clear-sky day (the sky and its sun), plus a ceiling light when START is inside a "
+         "closed space", "none: the default lighting's sky, strength 1, sun at elevation 50 azimuth 210 deg"),
+    ("WORLD sky elevation 30 azimuth 10\n", "none: the WORLD lights the scene + the sky's sun",
+     "sky, strength 1, sun at elevation 30 azimuth 10 deg"),
+    ("LIGHT sun direction 0 -1 0\nWORLD sky\n", "sun + the sky's sun", "sky, strength 1, sun at elevation 45 azimuth 0 deg"),
+    ("WORLD colour 0.2 0.2 0.2\n", "none: the WORLD lights the scene", "colour 0.2 0.2 0.2, strength 1"),
+    ("LIGHT point position 0 2 0\nLIGHT point position 1 2 0\nLIGHT sun direction 0 -1 0\n", "2 point, sun",
+     "none: a uniform colour 0.55 0.6 0.7, strength 0.35 (the LIGHTs light the scene)"),
+    ("LIGHT area position 0 2 0 direction 0 -1 0\nWORLD hdri studio\n", "area",
+     "hdri studio, strength 1, rotation 0 deg"),
+])
+def test_check_labels_the_lighting_the_renderer_uses(statements, lights, world):
+    from blender_sesgen.check import summary
+    from blender_sesgen.ses import parse_string
+    text = "CAMERA resolution 64 48 focal 40\nCUBOID id 1 position 0 0 -5 dim 1 1 1\n" + statements
+    lines = {line[:10].strip(): line[10:] for line in summary(parse_string(text, source="s.ses")).splitlines()}
+    assert (lines["lights"], lines["world"]) == (lights, world)
 
 
 @pytest.mark.parametrize("scene", SCENES, ids=[p.name for p in SCENES])

@@ -1,39 +1,26 @@
-"""The city of blocks (scenes/generators/city_grid.py) and its route planner
-(scenes/generators/road_network.py): the car keeps to the right half of the asphalt, turns
+"""The city of blocks (blender_sesgen/generators/builtin/city_grid.py) and its route planner
+(road_network.py beside it): the car keeps to the right half of the asphalt, turns
 only at junctions, never turns back, respects its speed and acceleration limits, and drives
 exactly the loop closures asked for; the generated script parses, is the same for the same
 seed, and its camera and its moving cars stay on the streets of the script itself."""
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from blender_sesgen.generators import load_file
+from blender_sesgen.generators.builtin import city_grid as city_grid_module
+from blender_sesgen.generators.builtin import road_network as rn
 from blender_sesgen.model import Cuboid
 from blender_sesgen.ses import parse_string
 
-GENERATORS = Path(__file__).resolve().parents[1] / "scenes" / "generators"
-SCENES = GENERATORS.parent
-
-
-def _module(name):
-    spec = importlib.util.spec_from_file_location(name, GENERATORS / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod
-    spec.loader.exec_module(mod)
-    return mod
-
-
-rn = _module("road_network")
+SCENES = Path(__file__).resolve().parents[1] / "scenes"
 
 
 @pytest.fixture(scope="module")
 def city_grid():
-    return sys.modules[load_file(GENERATORS / "city_grid.py").function.__module__]
+    return city_grid_module
 
 
 def _plan(seed, length=900.0, closures=3, direction="mixed", gap_s=30.0, blocks=4):

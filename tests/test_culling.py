@@ -11,13 +11,12 @@ import pytest
 from blender_sesgen import assets, culling
 from blender_sesgen.contract.frames import object_pose
 from blender_sesgen.errors import SesgenError
-from blender_sesgen.generators import load_file
+from blender_sesgen.generators.builtin.city_grid import generate as city_grid
 from blender_sesgen.model import Asset, Cuboid, Cylinder, Quad, Sphere
 from blender_sesgen.plan import RenderOptions, RenderPlan
 from blender_sesgen.ses import parse_string
 
 import mesh_raycast
-from test_city_grid import GENERATORS
 
 
 def _inside(box: culling.Box, V_world: np.ndarray, tol=1e-9) -> bool:
@@ -72,7 +71,7 @@ def test_primitive_boxes_hold_their_shapes(tmp_path):
 @pytest.fixture(scope="module")
 def city():
     """A small generated city (one loop closure, two moving cars) and its plan at KITTI's size."""
-    gen = load_file(GENERATORS / "city_grid.py").function
+    gen = city_grid
     text = gen(3, route_m=220.0, closures=1, traffic=2, blocks=2)
     scene = parse_string(text, source="city.ses")
     return scene, text

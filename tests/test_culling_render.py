@@ -9,10 +9,9 @@ import numpy as np
 import pytest
 
 from blender_sesgen.exr import read_exr
-from blender_sesgen.generators import load_file
+from blender_sesgen.generators.builtin.city_grid import generate as city_grid
 from blender_sesgen.plan import RenderOptions
 
-from test_city_grid import GENERATORS
 
 
 @pytest.mark.render
@@ -20,7 +19,7 @@ from test_city_grid import GENERATORS
 def test_culled_chunks_render_the_full_worlds_ground_truth(tmp_path):
     pytest.importorskip("bpy")
     from blender_sesgen.job import RenderJob
-    text = load_file(GENERATORS / "city_grid.py").function(3, route_m=220.0, closures=1, traffic=2, blocks=2)
+    text = city_grid(3, route_m=220.0, closures=1, traffic=2, blocks=2)
     script = tmp_path / "city.ses"
     script.write_text(text)
     n = text.count("\nPOSE ")

@@ -12,6 +12,8 @@ from vo_reference.evaluate.disparity_io import read_mask
 from vo_reference.io.pfm import write_pfm
 from vo_reference.products.disparity import read_disparity
 
+pytestmark = pytest.mark.slow   # subprocesses and end-to-end runs (left out of make test-fast)
+
 HEADLINE = {"ape_trans_rmse", "ape_rot_rmse_deg", "rpe_trans_rmse", "rpe_rot_rmse_deg"}
 
 
@@ -24,8 +26,8 @@ def run_cli(*args, cwd=None):
 def test_evaluate_kitti_with_json_and_report(shared_data, tmp_path):
     d = shared_data / "trajectories"
     out = tmp_path / "m.json"
-    r = run_cli("evaluate", "--gt", d / "KITTI_00_gt.txt", "--est", d / "KITTI_00_ORB.txt",
-                "--kitti", "--json", out, "--plot", tmp_path / "report")
+    r = run_cli("evaluate", "--gt", d / "KITTI_00_gt.txt", "--est", d / "KITTI_00_ORB.txt", "--align", "se3",
+                "--kitti", "--json", out, "--report", tmp_path / "report")
     assert r.returncode == 0, r.stderr
     assert "APE translation" in r.stdout and "KITTI odometry" in r.stdout
     m = json.loads(out.read_text())
@@ -114,7 +116,7 @@ def test_evaluate_disparity_cli(tmp_path):
     import cv2
     cv2.imwrite(str(tmp_path / "noc.png"), mask)
     r = run_cli("evaluate-disparity", "--gt", tmp_path / "gt.pfm", "--est", tmp_path / "est.npy",
-                "--mask", tmp_path / "noc.png", "--json", tmp_path / "d.json", "--plot", tmp_path / "plots")
+                "--mask", tmp_path / "noc.png", "--json", tmp_path / "d.json", "--report", tmp_path / "plots")
     assert r.returncode == 0, r.stderr
     m = json.loads((tmp_path / "d.json").read_text())
     assert m["all"]["d1_pct"] == pytest.approx(25.0) and m["noc"]["d1_pct"] == 0.0
@@ -122,3 +124,64 @@ def test_evaluate_disparity_cli(tmp_path):
     assert (tmp_path / "plots" / "disparity_error.png").stat().st_size > 0
     r = run_cli("evaluate-disparity", "--gt", tmp_path / "gt.pfm", "--est", tmp_path / "nope.pfm")
     assert r.returncode == 2 and "Traceback" not in r.stderr
+
+
+def _short_drive(tmp_path, n=40):
+    """A render's ground truth (a nearly straight forward drive, 5 cm per frame at 10 Hz) and
+    an estimate of its frames 5..8 that yaws 0.1 deg more per frame and is 3 mm noisy."""
+    from scipy.spatial.transform import Rotation
+    from test_evaluate_core import write_manifest
+    from vo_reference.io.trajectory import Trajectory
+    T = np.tile(np.eye(4), (n, 1, 1))
+    T[:, 2, 3] = -0.05 * np.arange(n)
+    T[:, 0, 3] = 2e-4 * np.arange(n) ** 2
+    folder = write_manifest(tmp_path / "render", T, fps=10)
+    est = T[5:9].copy()
+    yaw_deg = 0.1 * np.arange(4)
+    est[:, :3, :3] = Rotation.from_euler("y", yaw_deg[:, None], degrees=True).as_matrix()
+    est[:, :3, 3] += np.random.default_rng(1).normal(0, 0.003, (4, 3))
+    return folder, Trajectory(est, np.arange(5, 9) / 10.0), yaw_deg
+
+
+def test_evaluate_takes_frames_for_an_estimate_of_part_of_the_sequence(tmp_path):
+    from vo_reference.io.trajectory import write_kitti, write_tum
+    folder, est, yaw_deg = _short_drive(tmp_path)
+    write_kitti(tmp_path / "est.txt", est)      # no timestamps: which frames it covers must be given
+    r = run_cli("evaluate", "--gt", folder, "--est", tmp_path / "est.txt")
+    assert r.returncode == 2 and "--frames 0:4" in r.stderr and "Traceback" not in r.stderr, r.stderr
+    r = run_cli("evaluate", "--gt", folder, "--est", tmp_path / "est.txt", "--frames", "5:9",
+                "--json", tmp_path / "k.json")
+    assert r.returncode == 0, r.stderr
+    m = json.loads((tmp_path / "k.json").read_text())
+    assert m["n_poses"] == 4 and m["alignment"]["method"] == "origin"
+    # origin: the first poses made equal, so the rotation error is the yaw added since frame 5
+    assert m["ape_rot_rmse_deg"] == pytest.approx(np.sqrt(np.mean(yaw_deg ** 2)), rel=1e-6)
+    assert run_cli("evaluate", "--gt", folder, "--est", tmp_path / "est.txt", "--frames", "5:10").returncode == 2
+    write_tum(tmp_path / "est.tum", est)        # timestamps: paired with frames 5..8 by themselves
+    r = run_cli("evaluate", "--gt", folder, "--est", tmp_path / "est.tum", "--json", tmp_path / "t.json")
+    assert r.returncode == 0, r.stderr
+    t = json.loads((tmp_path / "t.json").read_text())
+    assert t["n_poses"] == 4 and t["ape_rot_rmse_deg"] == pytest.approx(m["ape_rot_rmse_deg"], rel=1e-6)
+
+
+def test_evaluate_aligns_as_run_does_and_says_when_an_se3_fit_is_ill_posed(tmp_path):
+    import argparse
+    from vo_reference.evaluate import cli as evaluate_cli
+    from vo_reference.io.trajectory import write_tum
+    from vo_reference.stereo import run_cli as vo_run_cli
+    defaults = []
+    for module, argv in ((evaluate_cli, ["--gt", "a", "--est", "b"]), (vo_run_cli, ["INPUT"])):
+        p = argparse.ArgumentParser()
+        module.add_arguments(p)
+        defaults.append(p.parse_args(argv).align)
+    assert defaults == ["origin", "origin"]
+    folder, est, yaw_deg = _short_drive(tmp_path)
+    write_tum(tmp_path / "est.tum", est)
+    r = run_cli("evaluate", "--gt", folder, "--est", tmp_path / "est.tum")
+    assert r.returncode == 0 and "alignment origin" in r.stdout and "note:" not in r.stdout, r.stdout
+    # four poses on a straight line: an SE(3) fit cannot fix the rotation about it, and says so
+    r = run_cli("evaluate", "--gt", folder, "--est", tmp_path / "est.tum", "--align", "se3", "--json", tmp_path / "s.json")
+    assert r.returncode == 0, r.stderr
+    s = json.loads((tmp_path / "s.json").read_text())
+    assert s["alignment"]["rotation_sigma_deg"] > s["ape_rot_rmse_deg"]
+    assert "note: on this short or nearly straight path the se3 fit" in r.stdout, r.stdout

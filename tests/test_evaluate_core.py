@@ -228,6 +228,7 @@ def test_evaluate_trajectory_of_a_perfect_scaled_estimate():
     json.dumps(m)  # JSON-ready
 
 
+@pytest.mark.slow
 def test_write_report_folder(tmp_path):
     pytest.importorskip("matplotlib")
     from vo_reference.evaluate.report import write_report
@@ -241,3 +242,25 @@ def test_write_report_folder(tmp_path):
     assert m["ape_trans_rmse"] == pytest.approx(ev.ape.trans.rmse) and m["inputs"]["gt"] == "a"
     md = (tmp_path / "rep" / "summary.md").read_text()
     assert md.startswith("# noisy") and "Egomotion per frame (twist" in md and "![egomotion](egomotion.png)" in md
+
+
+def test_trajectory_plot_panels_are_titled_by_the_axes_they_show(tmp_path, monkeypatch):
+    """A path that climbs (y) more than it strays sideways (x): its first panel shows z and y,
+    and says so -- not "top view"."""
+    pytest.importorskip("matplotlib")
+    from vo_reference.evaluate import plots
+    figures = []
+    monkeypatch.setattr(plots, "save_figure", lambda fig, path, dpi=120: figures.append(fig) or path)
+    n = 30
+    T = np.tile(np.eye(4), (n, 1, 1))
+    T[:, 2, 3] = -0.1 * np.arange(n)              # forward 2.9
+    T[:, 1, 3] = 0.05 * np.arange(n)              # up 1.45
+    T[:, 0, 3] = 0.002 * np.arange(n) ** 1.5      # sideways 0.31
+    gt = Trajectory.from_poses(T)
+    plots.plot_trajectories(gt, gt, tmp_path / "t.png")
+    shown = []
+    for ax in figures[0].axes:
+        x, y = ax.get_xlabel()[0], ax.get_ylabel()[0]
+        assert ax.get_title().startswith(f"{x}–{y} plane"), (ax.get_title(), x, y)
+        shown.append(x + y)
+    assert shown == ["zy", "zx"]

@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 
 evo_metrics = pytest.importorskip("evo.core.metrics", reason="evo (test extra) is not installed")
-from evo.core import sync  # noqa: E402
-from evo.core.units import Unit  # noqa: E402
-from evo.tools import file_interface  # noqa: E402
+from evo.core import sync
+from evo.core.units import Unit
+from evo.tools import file_interface
 
-from vo_reference.evaluate import ape, associate, align, rpe  # noqa: E402
-from vo_reference.io.trajectory import read_trajectory  # noqa: E402
+from vo_reference.evaluate import ape, associate, align, rpe
+from vo_reference.io.trajectory import read_trajectory
 
-pytestmark = pytest.mark.data
+pytestmark = [pytest.mark.data, pytest.mark.slow]
 RTOL = 1e-6
 
 CASES = {

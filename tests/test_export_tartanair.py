@@ -12,7 +12,8 @@ from vo_reference.cli import main as cli_main
 from vo_reference.io.render import RenderSequence
 
 from format_readers import read_tartanair_poses, tartanair_files
-from layout_scene import B, H, K, OBJECTS, STEP_M, W, YAW_DEG, export_layout, raycast, rig_poses, write_layout_render
+from layout_scene import (B, H, K, OBJECTS, STEP_M, W, YAW_DEG, analytic_flow, export_layout, raycast, rig_poses,
+                          write_layout_render)
 
 cv2 = pytest.importorskip("cv2")
 pytest.importorskip("OpenEXR")
@@ -98,26 +99,8 @@ def test_poses_are_ned_as_documented(render, exported):
 
 
 def _analytic_flow(k: int):
-    """Expected flow of the left camera k -> k+1 from the closed-form scene: (flow, z_point in
-    k+1, inside, target depth at the nearest pixel, its 3x3 min and max)."""
     T = rig_poses(N)
-    z, _ = raycast(T[k])
-    zt_map, _ = raycast(T[k + 1])
-    u, v = np.meshgrid(np.arange(W, dtype=float), np.arange(H, dtype=float))
-    r = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], -1)
-    Rs, Cs, Rt, Ct = T[k][:3, :3], T[k][:3, 3], T[k + 1][:3, :3], T[k + 1][:3, 3]
-    fin = np.isfinite(z)
-    # surface points move with the full motion, points at infinity with the rotation only
-    Xt = np.where(fin[..., None], (Cs + (r * np.where(fin, z, 0)[..., None]) @ Rs.T - Ct) @ Rt, (r @ Rs.T) @ Rt)
-    p = Xt @ K.T
-    up, vp = p[..., 0] / p[..., 2], p[..., 1] / p[..., 2]
-    flow = np.stack([up - u, vp - v], -1)
-    inside = (Xt[..., 2] > 0) & (up >= -0.5) & (up < W - 0.5) & (vp >= -0.5) & (vp < H - 0.5)
-    zpt = np.where(fin, Xt[..., 2], np.inf)
-    xi, yi = np.clip(np.rint(up), 0, W - 1).astype(int), np.clip(np.rint(vp), 0, H - 1).astype(int)
-    pad = np.pad(zt_map, 1, mode="edge")
-    nb = np.stack([pad[yi + 1 + dy, xi + 1 + dx] for dy in (-1, 0, 1) for dx in (-1, 0, 1)])
-    return flow, zpt, inside, nb.min(0), nb.max(0)
+    return analytic_flow(T[k], T[k + 1])
 
 
 def test_flow_and_mask_against_the_closed_form_scene(exported):

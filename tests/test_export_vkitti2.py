@@ -15,18 +15,18 @@ cv2 = pytest.importorskip("cv2")
 pytest.importorskip("OpenEXR")
 N = 4
 FLIP = np.diag([1.0, -1.0, -1.0, 1.0])   # vKITTI's world: y down
+T_BOX = np.eye(4)
+T_BOX[:3, :3] = [[np.cos(np.radians(30)), 0, np.sin(np.radians(30))], [0, 1, 0],
+                 [-np.sin(np.radians(30)), 0, np.cos(np.radians(30))]]
+T_BOX[:3, 3] = [0.0, 0.5, -3.0]
+BOX = [[-0.6, -0.5, -0.25], [0.6, 0.5, 0.25]]     # width 1.2 (x), height 1 (y), length 0.5 (z, forward)
 
 
 @pytest.fixture(scope="module")
 def render(tmp_path_factory):
     objects = [dict(o) for o in OBJECTS]
-    # the box carries a pose (as moving objects will): origin at its face centre, turned 30 deg
-    a = np.radians(30.0)
-    T_box = np.eye(4)
-    T_box[:3, :3] = [[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]]
-    T_box[:3, 3] = [0.0, 0.5, -3.0]
-    objects[2]["T_world_obj"] = T_box.tolist()
-    objects[2]["dim"] = [1.2, 1.0, 0.5]
+    # the box is a car: its frame as placed (origin mid-face, turned 30 deg) and its box
+    objects[2].update({"class": "car", "T_world_obj_rest": T_BOX.tolist(), "box": BOX})
     return write_layout_render(tmp_path_factory.mktemp("vk") / "r", n=N, objects=objects)
 
 
@@ -65,11 +65,12 @@ def test_class_and_instance_segmentation(exported):
     _, ids = raycast(view_pose(N, 1, "left"))
     cls = cv2.imread(str(exported / "frames/classSegmentation/Camera_0/classgt_00001.png"))[..., ::-1]
     names = np.array([[colours[tuple(int(x) for x in px)] for px in row] for row in cls])
-    expected = {0: "Sky", 1: "Road", 2: "Building", 3: "Undefined"}     # floor: road, wall: building, box: none
+    expected = {0: "Sky", 1: "Road", 2: "Building", 3: "Car"}     # floor: road, wall: building, box: car
     for oid, name in expected.items():
         assert (ids == oid).any() and np.all(names[ids == oid] == name), oid
     inst = cv2.imread(str(exported / "frames/instanceSegmentation/Camera_0/instancegt_00001.png"), cv2.IMREAD_UNCHANGED)
-    assert inst.dtype == np.uint8 and np.array_equal(inst, ids)      # trackID + 1 = object id, 0 = none
+    # vehicles only, as vKITTI 2: the car's trackID + 1 = its object id, everything else 0
+    assert inst.dtype == np.uint8 and np.array_equal(inst, np.where(ids == 3, 3, 0))
 
 
 def _expected_flow(k_src, k_tgt, view):
@@ -109,23 +110,60 @@ def test_intrinsic_extrinsic_and_pose_tables(exported, render):
     # the baseline from the two extrinsics, as vKITTI users compute it
     c0, c1 = np.linalg.inv(extr[0, 2:].reshape(4, 4)), np.linalg.inv(extr[1, 2:].reshape(4, 4))
     assert np.linalg.norm(c1[:3, 3] - c0[:3, 3]) == pytest.approx(B)
+    # the undistorted rig's K, as vKITTI users read it: unchanged here (pinhole render)
+    assert np.allclose(intr[0, 2:], [K[0, 0], K[1, 1], K[0, 2], K[1, 2]])
+
+
+def _seen(k, view):
+    """ids == 3 (the car) as the closed-form scene sees it."""
+    return raycast(view_pose(N, k, view))[1] == 3
+
+
+def test_pose_bbox_and_info_tables(exported):
+    """KITTI's 3-D box label of the car: dimensions from its box, bottom centre, heading as
+    KITTI's ry (x forward, y down), in vKITTI's world and each camera; bbox.txt from the
+    closed-form id map; info.txt names it a Car."""
     hdr, pose = read_vkitti_table(exported / "pose.txt")
     assert hdr[:7] == ["frame", "cameraID", "trackID", "alpha", "width", "height", "length"] and len(hdr) == 19
-    assert pose.shape == (2 * N, 19) and np.all(pose[:, 2] == 2)          # the box only (id 3 -> trackID 2)
-    assert np.allclose(pose[:, 4:7], [1.2, 1.0, 0.5])
-    assert np.allclose(pose[:, 7:10], [0.0, -0.5, 3.0])                   # world, y down
-    # a yaw of +30 deg about up is -30 deg about vKITTI's y (down)
-    assert np.allclose(pose[:, 10], -np.radians(30.0)) and np.allclose(pose[:, 11:13], 0)
+    seen = [(k, c) for k in range(N) for c in (0, 1) if _seen(k, "right" if c else "left").any()]
+    assert len(seen) >= 2 and [tuple(r) for r in pose[:, :2].astype(int)] == seen
+    assert np.all(pose[:, 2] == 2) and np.allclose(pose[:, 4:7], [1.2, 1.0, 0.5])
+    assert np.allclose(pose[:, 7:10], [0.0, 0.0, 3.0])          # bottom centre (0, 0, -3), vKITTI world y down
+    heading = T_BOX[:3, :3] @ [0, 0, 1.0]                       # the car faces its +Z
+    h_vk = FLIP[:3, :3] @ heading
+    assert np.allclose(pose[:, 10], np.arctan2(-h_vk[2], h_vk[0])) and np.allclose(pose[:, 11:13], 0)
     for row in pose:
-        T_cam_obj = np.linalg.inv(view_pose(N, int(row[0]), "right" if row[1] else "left")) @ np.array(
-            [[np.cos(np.radians(30)), 0, np.sin(np.radians(30)), 0], [0, 1, 0, 0.5],
-             [-np.sin(np.radians(30)), 0, np.cos(np.radians(30)), -3.0], [0, 0, 0, 1]]) @ FLIP
-        x, y, z = T_cam_obj[:3, 3]
-        assert np.allclose(row[13:16], [x, y, z], atol=1e-6)
-        from scipy.spatial.transform import Rotation
-        ry = Rotation.from_matrix(T_cam_obj[:3, :3]).as_euler("YXZ")[0]
-        assert row[16] == pytest.approx(ry, abs=1e-6)
-        assert row[3] == pytest.approx((ry - np.arctan2(x, z) + np.pi) % (2 * np.pi) - np.pi, abs=1e-6)
+        T = view_pose(N, int(row[0]), "right" if row[1] else "left")
+        X = np.linalg.inv(T) @ [0.0, 0.0, -3.0, 1.0]
+        h = T[:3, :3].T @ heading
+        ry = np.arctan2(-h[2], h[0])                             # KITTI: heading (cos ry, 0, -sin ry)
+        assert np.allclose(row[13:16], X[:3], atol=1e-6) and row[16] == pytest.approx(ry, abs=1e-6)
+        assert row[3] == pytest.approx((ry - np.arctan2(X[0], X[2]) + np.pi) % (2 * np.pi) - np.pi, abs=1e-6)
+    lines = (exported / "bbox.txt").read_text().splitlines()
+    assert lines[0].split() == ["frame", "cameraID", "trackID", "left", "right", "top", "bottom", "number_pixels",
+                                "truncation_ratio", "occupancy_ratio", "isMoving"]
+    assert len(lines) == len(seen) + 1
+    for line, (k, c) in zip(lines[1:], seen):
+        f = line.split()
+        on = _seen(k, "right" if c else "left")
+        ys, xs = np.nonzero(on)
+        assert [int(x) for x in f[:8]] == [k, c, 2, xs.min(), xs.max(), ys.min(), ys.max(), on.sum()]
+        assert 0.0 <= float(f[8]) <= 1.0 and float(f[9]) == -1.0 and f[10] == "False"
+    assert (exported / "info.txt").read_text().splitlines() == ["trackID label model color", "2 Car box Unknown"]
+
+
+def test_truncation_of_a_box_half_out_of_the_image():
+    from vo_reference.products.vkitti2 import truncation
+    K_ = np.array([[100.0, 0, 49.5], [0, 100.0, 49.5], [0, 0, 1]])
+    T = np.eye(4)
+    T[:3, 3] = [0.0, 0.0, 10.0]                                   # a 2 m cube 10 m ahead, centred
+    cube = {"box": [[-1, -1, -1], [1, 1, 1]]}
+    assert truncation(cube, T, K_, 100, 100) == 0.0
+    T[0, 3] = 5.0                          # moved right: x 4..6, from the far face's left to the near face's right
+    t = truncation(cube, T, K_, 100, 100)
+    u0, u1 = 100 * 4 / 11 + 49.5, 100 * 6 / 9 + 49.5
+    assert t == pytest.approx(1 - (99.5 - u0) / (u1 - u0), abs=1e-9)
+    assert truncation({}, T, K_, 100, 100) == -1.0
 
 
 def test_png_option_and_mono(render, tmp_path):
@@ -138,3 +176,19 @@ def test_png_option_and_mono(render, tmp_path):
     assert cli_main(["export", str(mono), str(tmp_path / "vm"), "--to", "vkitti2", "-q"]) == 0
     assert not (tmp_path / "vm/frames/rgb/Camera_1").exists()
     assert read_vkitti_table(tmp_path / "vm/intrinsic.txt")[1].shape == (2, 6)
+
+
+def test_a_moving_car_takes_its_pose_of_each_frame(tmp_path):
+    objects = [dict(o) for o in OBJECTS]
+    T = np.tile(T_BOX, (N, 1, 1))
+    T[:, 0, 3] += 0.1 * np.arange(N)                     # drives along +x, 0.1 m a frame, until frame N-2
+    T[-1] = T[-2]
+    objects[2].update({"class": "car", "T_world_obj_rest": T_BOX.tolist(), "box": BOX, "moving": True,
+                       "motion": "keys", "T_world_obj": T.tolist()})
+    render = write_layout_render(tmp_path / "r", n=N, objects=objects)
+    out = export_layout(render, tmp_path / "vk", "vkitti2")
+    _, pose = read_vkitti_table(out / "pose.txt")
+    for row in pose:
+        assert row[7] == pytest.approx(0.1 * min(int(row[0]), N - 2))
+    moving = {(int(f[0]), int(f[1])): f[10] for f in (ln.split() for ln in (out / "bbox.txt").read_text().splitlines()[1:])}
+    assert all(v == ("True" if k < N - 2 else "False") for (k, _), v in moving.items())

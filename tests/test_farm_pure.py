@@ -188,17 +188,18 @@ def test_a_node_that_cannot_see_the_files_answers_with_a_user_error(tmp_path):
 
 def test_the_render_dies_with_the_worker_that_started_it(tmp_path):
     """child.bind_to_parent: kill the parent (the Ray worker's stand-in) and the child goes."""
-    parent_code = textwrap.dedent(f"""
+    parent_code = textwrap.dedent("""
         import subprocess, sys, time
         child = subprocess.Popen([sys.executable, "-c",
-            "import os, sys, time; sys.path.insert(0, {str(REPO)!r}); "
+            "import os, time; "
             "from blender_sesgen.farm.child import bind_to_parent; bind_to_parent(os.getppid()); "
             "print('bound', flush=True); time.sleep(120)"], stdout=subprocess.PIPE, text=True)
         child.stdout.readline()
         print(child.pid, flush=True)
         time.sleep(120)
     """)
-    parent = subprocess.Popen([sys.executable, "-c", parent_code], stdout=subprocess.PIPE, text=True)
+    parent = subprocess.Popen([sys.executable, "-c", parent_code], stdout=subprocess.PIPE, text=True,
+                              env=dict(os.environ, PYTHONPATH=str(REPO)))
     child_pid = int(parent.stdout.readline())
     try:
         assert _alive(child_pid)

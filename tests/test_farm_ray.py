@@ -18,12 +18,10 @@ from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from render_support import REPO, run_render  # noqa: E402
+from render_support import REPO, run_render
+from markers import needs
 
-pytestmark = pytest.mark.render
-pytest.importorskip("bpy")
-ray = pytest.importorskip("ray")
+pytestmark = [pytest.mark.render, needs("bpy", "ray")]
 
 SCENE = """\
 CAMERA resolution 64 48 focal 44 baseline 0.1 near 0.1 far 100
@@ -90,6 +88,7 @@ def assert_none_left(marker: str, timeout: float = 30.0) -> None:
 @pytest.fixture(scope="module")
 def cluster():
     """A Ray 'cluster' of one node with 2 CPUs, started here; the farm joins it by address."""
+    import ray
     marker = _marker_dir()
     ctx = ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False,
                    object_store_memory=100 * 1024 * 1024, _temp_dir=os.path.join(marker, "ray"))
@@ -212,6 +211,7 @@ def test_a_killed_render_and_a_killed_worker_are_retried_and_the_output_is_ident
 def test_a_cancelled_task_stops_its_render_between_views(scenes, cluster):
     """Ctrl-C on the farm cancels its tasks; each sends SIGINT to its render, which a Ray
     worker's children would never receive (the worker blocks it) without farm.child."""
+    import ray
     from blender_sesgen.farm import chunk
     tmp, refs = scenes
     script = tmp / "scripts" / "long.ses"

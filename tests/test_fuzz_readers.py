@@ -5,7 +5,8 @@ Each target (tests/fuzz_targets.py) is a valid file in a fixture folder and the 
 that read it; hypothesis draws mutation lists (byte flips, truncation, insertion,
 deletion, whole-line repeats and swaps, numbers replaced by nan / 1e308 / 0 / non-ASCII
 digits...). The examples are derandomised (a failure reproduces) and few per target, so the
-module runs in well under a minute; ``bench/fuzz_campaign.py`` runs the same targets with
+module runs in well under a minute (the counts below are the ``fuzz`` profile's; the default
+profile runs a fifth of them); ``bench/fuzz_campaign.py`` runs the same targets with
 thousands of mutants, each in a child process (docs/reliability.md has its figures).
 """
 from __future__ import annotations
@@ -16,6 +17,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 import fuzz_targets as ft
+from markers import examples
 from blender_sesgen.errors import ScriptError, SesgenError
 from blender_sesgen.ses import parse_bytes
 from blender_sesgen.ses.diagnostics import Diagnostics
@@ -41,7 +43,7 @@ EXAMPLES = {"tum": 40, "kitti-poses": 30, "euroc": 30, "pfm": 40, "png16-dispari
 
 
 def _settings(n: int):
-    return settings(max_examples=n, deadline=None, derandomize=True, database=None,
+    return settings(max_examples=examples(n), deadline=None, derandomize=True, database=None,
                     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 
 

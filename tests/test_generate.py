@@ -18,6 +18,8 @@ from blender_sesgen.dataset import (assign_splits, path_length_m, sequence_seeds
                                     SEQUENCE_SEEDS)
 from blender_sesgen.errors import SesgenError
 
+pytestmark = pytest.mark.slow   # subprocesses and end-to-end runs (left out of make test-fast)
+
 REPO = Path(__file__).resolve().parents[1]
 
 
@@ -66,7 +68,7 @@ def test_path_length_sums_the_camera_steps():
 
 def test_built_in_generators_are_found_by_name():
     g = generators.find("street")
-    assert g.origin == "built-in" and Path(g.location) == REPO / "scenes/generators/street.py"
+    assert g.origin == "built-in" and Path(g.location) == REPO / "blender_sesgen/generators/builtin/street.py"
     assert g.options() == ["kitti", "steps"]
     assert "street" in generators.available()
     with pytest.raises(SesgenError, match="no generator 'nosuch'.*available: .*street"):

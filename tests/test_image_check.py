@@ -18,6 +18,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 import fuzz_targets as ft
+from markers import examples
 from blender_sesgen.image_check import ImageFileError, check_image, check_image_bytes
 
 REPO = Path(__file__).resolve().parents[1]
@@ -177,7 +178,7 @@ mutation = st.one_of(st.tuples(st.just("flip"), unit, st.integers(1, 255)), st.t
                      st.just(("fixcrc", 0.0)))
 
 
-@settings(max_examples=400, deadline=None, derandomize=True, database=None,
+@settings(max_examples=examples(400), deadline=None, derandomize=True, database=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(name=st.sampled_from(sorted(samples())), ops=st.lists(mutation, min_size=1, max_size=4))
 def test_fuzz_image_check(images, name, ops):

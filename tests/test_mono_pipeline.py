@@ -95,6 +95,7 @@ def test_corridor_ours_and_opencv_meet_the_render_targets(corridor):
     assert all(r.status == "ok" for r in res.records[1:])
 
 
+@pytest.mark.slow
 def test_bayer_export_with_distortion_runs_end_to_end(corridor, tmp_path):
     T, imgs = corridor
     dist = np.array([-0.25, 0.07, 0.001, -0.001])
@@ -106,7 +107,7 @@ def test_bayer_export_with_distortion_runs_end_to_end(corridor, tmp_path):
     assert seq.raw(0).ndim == 2                                          # a real mosaic
     est = tmp_path / "est.txt"
     rc = cli_main(["mono-vo", str(out), "--bayer", "gbrg", "--lut", str(out / "model_distortion_lut.bin"),
-                   "--scale", "gt", "--out", str(est), "--compare-opencv", "--plot", str(tmp_path / "plots"), "-q"])
+                   "--scale", "gt", "--out", str(est), "--compare-opencv", "--report", str(tmp_path / "plots"), "-q"])
     assert rc == 0
     E = read_kitti(est).T_world_cam
     assert sim3_rmse_pct(E, T) <= 1.0
@@ -127,6 +128,7 @@ def test_cli_errors_are_one_line_exit_2(tmp_path, capsys):
     assert "intrinsics" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 @pytest.mark.data
 def test_kitti_snippet_bounds(shared_data):
     from vo_reference.io.sequence import open_sequence
@@ -140,6 +142,7 @@ def test_kitti_snippet_bounds(shared_data):
         assert 100 * np.linalg.norm(T[-1, :3, 3] - gt[-1, :3, 3]) / L <= drift_max
 
 
+@pytest.mark.slow
 @pytest.mark.data
 def test_robotcar_forward_motion_dominates(shared_data):
     seq = ImageFolderSequence(shared_data / "robotcar/stereo_centre_bayer", bayer="gbrg",
@@ -154,6 +157,7 @@ def test_robotcar_forward_motion_dominates(shared_data):
         assert r.T_rel[2, 3] > 0.95                                       # forward, camera z
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("refine", ["none", "pnp"])
 def test_corridor_other_refinements_stay_close(corridor, refine):
     # the seed report's chain (non-linear triangulation + PnP) and the bare E decomposition

@@ -9,19 +9,16 @@ A wrong convention (inverse motion, wrong K, lost scale) fails them by far.
 from __future__ import annotations
 
 import json
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from render_support import run_render  # noqa: E402
+from render_support import run_render
 
-from vo_reference.cli import main as cli_main  # noqa: E402
+from vo_reference.cli import main as cli_main
+from markers import needs
 
-pytestmark = pytest.mark.render
-pytest.importorskip("bpy")
+pytestmark = [pytest.mark.render, needs("bpy")]
 pytest.importorskip("cv2")
 
 # open to the sky (lit by the default lighting); coarse textures, so 240x180 keeps corners
@@ -48,7 +45,7 @@ def test_mono_vo_on_a_rendered_corridor(tmp_path, capsys):
     r = run_render(script, "--out", out, "--samples", "8", "--no-denoise", "--quiet")
     assert r.returncode == 0, r.stderr
     rc = cli_main(["mono-vo", str(out), "--scale", "gt", "--compare-opencv", "--out", str(tmp_path / "est.txt"),
-                   "--plot", str(tmp_path / "plots"), "-q"])
+                   "--report", str(tmp_path / "plots"), "-q"])
     assert rc == 0
     s = json.loads((tmp_path / "plots" / "summary.json").read_text())
     assert s["frames"] == 6 and not s["failed"] and not s["static"]

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from vo_reference.io.render import RenderSequence
-from synthetic_render import write_render
+from synthetic_render import add_imu, write_render
 from vo_reference.io.trajectory import read_euroc
 from vo_reference.products.exports import export
 
@@ -127,3 +127,31 @@ def test_euroc_frames_noise_and_mono(render, tmp_path):
     mono = _render(tmp_path / "mono", stereo=False, n=2)
     m = export(mono, "euroc", tmp_path / "m", progress=False)
     assert (m / "mav0/cam0/data.csv").is_file() and not (m / "mav0/cam1").exists()
+
+
+def test_every_euroc_yaml_loads_with_pyyaml_and_opencv(tmp_path):
+    """PyYAML (Kalibr and most Python loaders) and OpenCV's FileStorage both read every
+    sensor.yaml of the export, the IMU's included (written from the manifest, not copied)."""
+    yaml = pytest.importorskip("yaml")
+    root = _render(tmp_path / "r")
+    # an old render's imu/sensor.yaml opens with EuRoC's "%YAML:1.0", which PyYAML refuses
+    imu = add_imu(root, [[0, -1, 0, 0.05], [1, 0, 0, 0.0], [0, 0, 1, 0.01], [0, 0, 0, 1]],
+                  yaml_text="%YAML:1.0\nsensor_type: imu\nrate_hz: 200\n")
+    out = export(root, "euroc", tmp_path / "e", progress=False)
+    files = sorted((out / "mav0").rglob("*.yaml"))
+    assert [p.parent.name for p in files] == ["cam0", "cam1", "imu0", "state_groundtruth_estimate0"]
+    for p in files:
+        y = yaml.safe_load(p.read_text())
+        fs = cv2.FileStorage(str(p), cv2.FILE_STORAGE_READ)
+        assert fs.getNode("sensor_type").string() == y["sensor_type"]
+        data = fs.getNode("T_BS").getNode("data")
+        T_cv = np.array([data.at(i).real() for i in range(data.size())]).reshape(4, 4)
+        assert np.array_equal(T_cv, np.array(y["T_BS"]["data"], float).reshape(4, 4))
+        fs.release()
+    y = yaml.safe_load((out / "mav0/imu0/sensor.yaml").read_text())
+    assert y["sensor_type"] == "imu" and y["rate_hz"] == 200
+    for key in ("gyroscope_noise_density", "gyroscope_random_walk", "accelerometer_noise_density",
+                "accelerometer_random_walk"):
+        assert y[key] == imu[key]
+    assert np.array_equal(np.array(y["T_BS"]["data"]).reshape(4, 4), np.eye(4))
+    assert np.array_equal(np.array(y["T_cam_imu"]["data"]).reshape(4, 4), np.array(imu["T_cam_imu"], float))

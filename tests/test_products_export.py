@@ -159,6 +159,23 @@ def test_kitti_stereo_layout_disparity_and_flow(render, tmp_path):
     assert np.all(valid >= valid_noc) and np.allclose(f[valid_noc], f_noc[valid_noc])
 
 
+def test_kitti_stereo_calib_cam_to_cam_read_by_pykitti(render, tmp_path):
+    """KITTI 2015 ships calib_cam_to_cam/NNNNNN.txt (no odometry calib.txt); pykitti's reader
+    of that file gives the rig back: P_rect_02 = K[I|0], P_rect_03 = K[I|(-B,0,0)], sizes."""
+    utils = pytest.importorskip("pykitti.utils")
+    out = export(render, "kitti-stereo", tmp_path / "ks", noise=None, progress=False)
+    assert not (out / "calib.txt").exists()
+    names = sorted(p.name for p in (out / "calib_cam_to_cam").iterdir())
+    assert names == [f"{i:06d}.txt" for i in range(RenderSequence(render).num_frames)]
+    c = utils.read_calib_file(str(out / "calib_cam_to_cam" / "000001.txt"))
+    P2, P3 = c["P_rect_02"].reshape(3, 4), c["P_rect_03"].reshape(3, 4)
+    assert np.allclose(P2, np.hstack([K, np.zeros((3, 1))]), rtol=1e-12)
+    assert np.allclose(P3[:, :3], K, rtol=1e-12) and P3[0, 3] / -P3[0, 0] == pytest.approx(B, rel=1e-12)
+    assert np.allclose(c["K_02"].reshape(3, 3), K) and np.allclose(c["T_03"], [-B, 0, 0])
+    assert np.allclose(c["R_rect_00"].reshape(3, 3), np.eye(3)) and not c["D_02"].any()
+    assert list(c["S_rect_02"]) == [W, H] and np.allclose(c["P_rect_00"], c["P_rect_02"])
+
+
 def test_png_layout_noise_from_manifest_and_override(render, tmp_path):
     a = export(render, "png", tmp_path / "a", progress=False)              # manifest NOISE 4, seed 9
     b = export(render, "png", tmp_path / "b", progress=False)

@@ -142,6 +142,7 @@ def _check_masks(scene, T_w_s, T_w_t, occluded, z_src, ids_tgt):
     return checked, n_occ, n_hidden
 
 
+@pytest.mark.slow
 def test_temporal_occlusion_matches_brute_force_visibility():
     rng = np.random.default_rng(7)
     total_occ = total_hidden = 0
@@ -158,6 +159,7 @@ def test_temporal_occlusion_matches_brute_force_visibility():
     assert total_occ > 200 and total_hidden > 30  # hidden, not merely out-of-image, points occur
 
 
+@pytest.mark.slow
 def test_stereo_occlusion_matches_brute_force_visibility():
     rng = np.random.default_rng(11)
     B = 0.6

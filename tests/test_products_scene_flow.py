@@ -8,19 +8,18 @@ whether anything of the target-frame scene lies in front of it.
 """
 from __future__ import annotations
 
-import sys
+import importlib.util
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import dynamic_scene as ds  # noqa: E402
-import raycast  # noqa: E402
+import dynamic_scene as ds
+import raycast
 
-from vo_reference.io.render import RenderSequence  # noqa: E402
-from vo_reference.products.flow import flow_from_depth, sequence_flow  # noqa: E402
-from vo_reference.products.scene_flow import (  # noqa: E402
+from vo_reference.io.render import RenderSequence
+from vo_reference.products.flow import flow_from_depth, sequence_flow
+from vo_reference.products.scene_flow import (
     motion_mask, moving_objects_mask, scene_flow_from_depth, sequence_scene_flow)
 
 GOLDEN = Path(__file__).resolve().parent / "golden" / "static_flow.npz"
@@ -153,8 +152,10 @@ def test_static_pixels_take_the_static_path_to_the_bit(seq):
 def test_static_scene_products_unchanged_to_the_bit(tmp_path):
     """Flow, occlusion and disparity of a static scene are those of the code before moving
     objects existed (tests/golden/make_static_flow.py wrote them with commit 9808421)."""
-    sys.path.insert(0, str(GOLDEN.parent))
-    from make_static_flow import products
+    spec = importlib.util.spec_from_file_location("make_static_flow", GOLDEN.parent / "make_static_flow.py")
+    make_static_flow = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(make_static_flow)
+    products = make_static_flow.products
     root = ds.write(tmp_path / "static", ds.make_scene(static=True), moving=False)
     now = products(RenderSequence(root))
     golden = np.load(GOLDEN)

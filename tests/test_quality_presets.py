@@ -7,9 +7,7 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,8 +18,7 @@ from blender_sesgen.plan import RenderOptions, RenderPlan
 from blender_sesgen.presets import DEFAULT_QUALITY, PRESETS, QUALITIES, effective, preset
 from blender_sesgen.ses import parse_string
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from render_support import REPO, read_exr, render_cmd  # noqa: E402
+from render_support import REPO, read_exr, render_cmd
 
 SCRIPT = """\
 CAMERA resolution 64 48 focal 50 baseline 0.1

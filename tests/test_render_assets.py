@@ -13,9 +13,9 @@ from blender_sesgen.ses import parse_file
 
 import mesh_raycast
 from render_support import depth_and_ids, load_manifest, read_exr, run_render
+from markers import needs
 
-pytestmark = pytest.mark.render
-pytest.importorskip("bpy")
+pytestmark = [pytest.mark.render, needs("bpy")]
 pytest.importorskip("OpenEXR")
 
 SCRIPT = """CAMERA resolution 112 84 focal 84 baseline 0.3

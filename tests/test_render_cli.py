@@ -13,11 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from render_support import REPO, load_manifest, read_exr, render_cmd, run_render  # noqa: E402
+from render_support import REPO, load_manifest, read_exr, render_cmd, run_render
+from markers import needs
 
-pytestmark = pytest.mark.render
-pytest.importorskip("bpy")
+pytestmark = [pytest.mark.render, needs("bpy")]
 pytest.importorskip("OpenEXR")
 
 SMALL = """\
@@ -63,8 +62,12 @@ def test_output_contract(tmp_path):
     assert m["depth"]["kind"] == "planar_z" and m["depth"]["background"] == 1e10
     np.testing.assert_allclose(m["K"], [[70, 0, 47.5], [0, 70, 35.5], [0, 0, 1]])
     assert [o["id"] for o in m["objects"]] == [1, 2, 3, 4]
+    # the sphere as the script places it (position 0.6 0.5 0, radius 0.4): its rest pose and object-frame box
     assert m["objects"][3] == {"id": 4, "name": m["objects"][3]["name"], "shape": "sphere", "texture": "voronoi",
-                               "material": None, "class": "static", "label_id": 4, "moving": False}
+                               "material": None, "class": "static", "label_id": 4, "moving": False,
+                               "T_world_obj_rest": [[1.0, 0.0, 0.0, 0.6], [0.0, 1.0, 0.0, 0.5], [0.0, 0.0, 1.0, 0.0],
+                                                    [0.0, 0.0, 0.0, 1.0]],
+                               "box": [[-0.4, -0.4, -0.4], [0.4, 0.4, 0.4]]}
     assert m["frames_complete"] == [True] * 3
     assert m["noise"] == {"sigma": 2.5, "seed": 7}
     assert m["render"]["samples"] == 1 and m["render"]["engine"] == "CYCLES"
@@ -190,3 +193,27 @@ def test_render_py_shim_matches_the_cli(tmp_path):
     r = subprocess.run([sys.executable, str(REPO / "render.py"), "--", str(tmp_path / "nope.ses"), "--out",
                         str(tmp_path / "c")], cwd=tmp_path, env=env, capture_output=True, text=True)
     assert r.returncode == 2 and not (tmp_path / "c").exists()
+
+
+def test_cpu_render_prints_no_gpu_backend_probe_lines_and_keeps_other_output(tmp_path):
+    """On a machine without CUDA, Cycles writes "CUEW initialization failed" to the process's
+    stdout when the denoiser asks whether OptiX is there; a CPU render never shows it, while
+    anything else written during a device probe still comes through."""
+    probe = ("import bpy; s = bpy.context.scene; s.render.engine = 'CYCLES'; "
+             "s.cycles.denoiser = 'OPENIMAGEDENOISE'")
+    raw = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
+    if "initialization failed" not in raw.stdout + raw.stderr:
+        pytest.skip("this machine loads every GPU backend Cycles probes: there is nothing to filter")
+    script = small_script(tmp_path, steps=0)
+    r = run_render(script, "--out", tmp_path / "out", "--quality", "draft", "--samples", "1")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.startswith("sesgen render:") and "done: 1 frames" in r.stdout
+    assert "initialization failed" not in r.stdout + r.stderr, (r.stdout, r.stderr)
+    keep = ("import os, sys; from blender_sesgen.blender.runtime import probing_devices\n"
+            "with probing_devices():\n"
+            "    os.write(1, b'CUEW initialization failed: Error opening the library\\n')\n"
+            "    os.write(2, b'error: a real one\\n'); os.write(1, b'kept\\n')\n")
+    r = subprocess.run([sys.executable, "-c", keep], cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO)),
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout == "kept\n" and r.stderr == "error: a real one\n"

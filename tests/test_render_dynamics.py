@@ -8,20 +8,17 @@ oracle's. With Cycles' motion blur on, a moving object is smeared along its moti
 """
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.linalg import expm
 from scipy.spatial.transform import Rotation, Slerp
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import raycast  # noqa: E402
-from render_support import depth_and_ids, load_manifest, read_exr, run_render  # noqa: E402
+import raycast
+from render_support import depth_and_ids, load_manifest, read_exr, run_render
+from markers import needs
 
-pytestmark = pytest.mark.render
-pytest.importorskip("bpy")
+pytestmark = [pytest.mark.render, needs("bpy")]
 pytest.importorskip("OpenEXR")
 
 SCRIPT = """\

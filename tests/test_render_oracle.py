@@ -12,19 +12,17 @@
 """
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import raycast  # noqa: E402
-from render_support import (ORACLE_EGO, ORACLE_PRIMS, ORACLE_START, depth_and_ids, load_manifest,  # noqa: E402
+import raycast
+from render_support import (ORACLE_EGO, ORACLE_PRIMS, ORACLE_START, depth_and_ids, load_manifest,
                             oracle_script, read_exr, run_render)
+from markers import needs
 
-pytestmark = pytest.mark.render
-pytest.importorskip("bpy")
+pytestmark = [pytest.mark.render, needs("bpy")]
 pytest.importorskip("OpenEXR")
 
 SPHERE_IDS = {p.id for p in ORACLE_PRIMS if isinstance(p, raycast.SphereP)}

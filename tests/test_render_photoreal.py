@@ -14,19 +14,16 @@
 from __future__ import annotations
 
 import json
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import raycast  # noqa: E402
-from render_support import (ORACLE_PRIMS, depth_and_ids, load_manifest, oracle_script, read_exr,  # noqa: E402
+import raycast
+from render_support import (ORACLE_PRIMS, depth_and_ids, load_manifest, oracle_script, read_exr,
                             run_render)
+from markers import needs
 
-pytestmark = pytest.mark.render
-pytest.importorskip("bpy")
+pytestmark = [pytest.mark.render, needs("bpy")]
 pytest.importorskip("OpenEXR")
 
 LIBRARY_ORACLE = {1: "asphalt", 2: "brick", 3: "glass_window", 4: "metal_rusty", 5: "wood_planks", 6: "leaves"}
@@ -191,7 +188,7 @@ def test_cityscapes_export_of_classes(tmp_path):
     for view, (img_dir, gt_dir) in (("left", ("leftImg8bit", "gtFine")), ("right", ("rightImg8bit", "gtFineRight"))):
         ids = seq.ids(0, view)
         assert set(np.unique(ids)) == set(expected_label), "every object in view"
-        stem = out / gt_dir / "sesgen" / "sesgen_000000_000000"
+        stem = out / gt_dir / "train" / "sesgen" / "sesgen_000000_000000"
         labels = cv2.imread(f"{stem}_gtFine_labelIds.png", cv2.IMREAD_UNCHANGED)
         inst = cv2.imread(f"{stem}_gtFine_instanceIds.png", cv2.IMREAD_UNCHANGED)
         colour = cv2.imread(f"{stem}_gtFine_color.png")[..., ::-1]
@@ -202,7 +199,7 @@ def test_cityscapes_export_of_classes(tmp_path):
             mask = ids == obj_id
             assert (labels[mask] == label).all() and (inst[mask] == expected_instance[obj_id]).all()
             assert (colour[mask] == semantics.BY_ID[label].colour).all()
-        assert (out / img_dir / "sesgen" / "sesgen_000000_000000_" f"{img_dir}.png").is_file()
+        assert (out / img_dir / "train" / "sesgen" / "sesgen_000000_000000_" f"{img_dir}.png").is_file()
     table = json.loads((out / "classes.json").read_text())
     assert {o["id"]: o["instanceId"] for o in table["objects"]} == {i: v for i, v in expected_instance.items() if i}
 

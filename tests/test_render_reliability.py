@@ -16,11 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from render_support import REPO, run_render  # noqa: E402
+from render_support import REPO, run_render
+from markers import needs
 
-pytestmark = pytest.mark.render
-pytest.importorskip("bpy")
+pytestmark = [pytest.mark.render, needs("bpy")]
 
 SCRIPT = """\
 CAMERA resolution 96 72 focal 60 baseline 0.1
@@ -213,9 +212,12 @@ def test_verify_names_damaged_frames_and_resume_renders_them_again(reference, tm
     assert "frame 9:" in r.stdout and "missing" in r.stdout
     m = json.loads((out / "manifest.json").read_text())
     assert [k for k, d in enumerate(m["frames_complete"]) if not d] == [3, 7, 9]
+    assert f"3 of the sequence's {m['frames']} frames not rendered yet" in r.stdout, r.stdout
     r = run_render(s, "--out", out, "--samples", "2", "--resume", "--quiet")
     assert r.returncode == 0, r.stderr
     assert exr_bytes(out) == exr_bytes(ref)
+    r = subprocess.run(cmd, cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO)), capture_output=True, text=True)
+    assert r.returncode == 0 and f"all {m['frames']} frames of the sequence are rendered" in r.stdout, r.stdout
 
 
 # --- limits Blender would apply silently -----------------------------------------------------

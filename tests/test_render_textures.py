@@ -6,17 +6,14 @@ the surface, not on the screen), and it must have contrast at a trackable scale.
 """
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from render_support import read_exr  # noqa: E402
+from render_support import read_exr
+from markers import needs
 
-pytestmark = pytest.mark.render
-pytest.importorskip("bpy")
+pytestmark = [pytest.mark.render, needs("bpy")]
 pytest.importorskip("OpenEXR")
 
 SIZE, F, Z, SHIFT = 64, 64.0, 1.5, 4

@@ -4,7 +4,6 @@ at every frame (rays cast against the scenes' own meshes)."""
 from __future__ import annotations
 
 import importlib.util
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -17,16 +16,14 @@ from blender_sesgen.ses import parse_file
 
 import mesh_raycast
 
+pytestmark = pytest.mark.slow   # subprocesses and end-to-end runs (left out of make test-fast)
+
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 LIBRARY = ("city_kitti", "office", "forest", "hall")
 
 
 def _generator(name):
-    spec = importlib.util.spec_from_file_location(f"gen_{name}", SCENES / "generators" / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod          # as generators.load_file does (dataclasses need it)
-    spec.loader.exec_module(mod)
-    return mod
+    return importlib.import_module(f"blender_sesgen.generators.builtin.{name}")
 
 
 class _Scenes(dict):

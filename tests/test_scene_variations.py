@@ -18,6 +18,8 @@ from blender_sesgen.ses import parse_string
 
 from test_scene_library import LIBRARY, _generator, assert_cameras_see_surfaces
 
+pytestmark = pytest.mark.slow   # subprocesses and end-to-end runs (left out of make test-fast)
+
 # the checked-in scripts' thresholds (test_scene_library): indoors, open windows let upper rays
 # out to the sky
 MIN_HIT = {"city_kitti": 0.5, "office": 0.8, "forest": 0.4, "hall": 0.75}

@@ -118,3 +118,14 @@ def test_traffic_is_in_view(scene):
     for name, sign in (("crossing_1", 1), ("crossing_2", -1)):
         u = seen[name + ":u"][seen[name]]
         assert len(u) >= 5 and sign * (u[-1] - u[0]) > W / 3, (name, u)
+
+
+def test_cars_and_people_carry_their_class(scene):
+    """So that the cityscapes export labels them car / person (instances) and vkitti2 Car."""
+    from blender_sesgen.plan import object_table
+    rows = {r["id"]: r for r in object_table(scene)}
+    meshes = [o for o in scene.objects if isinstance(o, Mesh)]
+    assert len(meshes) >= 10
+    for o in meshes:
+        want = {"car.obj": "car", "person.obj": "person"}[Path(o.path).name]
+        assert o.semantic_class == want and rows[o.id]["class"] == want, o.name

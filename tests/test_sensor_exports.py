@@ -4,14 +4,11 @@ rosbags), the mono pipeline's undistortion table; and the IMU noise model agains
 ADIS16448 stream of EuRoC."""
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from render_support import run_render  # noqa: E402
+from render_support import run_render
 
 SCENE = """CAMERA resolution 64 48 focal 50 baseline 0.1
 POSE 0 1 3 0 0 0
@@ -87,6 +84,12 @@ def test_euroc_export_with_imu_is_read_by_evo(render, tmp_path):
     coeffs = [float(v) for v in yaml.split("distortion_coefficients: [")[1].split("]")[0].split(",")]
     assert "distortion_model: radial-tangential" in yaml and np.allclose(coeffs, [-0.2, 0.05, 0.001, 0.0])
     assert "rolling_shutter_readout_s: 0.02" in yaml
+    pyyaml = pytest.importorskip("yaml")   # every sensor.yaml, the render's IMU file too, loads with PyYAML
+    for p in [*mav.rglob("*.yaml"), render.root / "imu" / "sensor.yaml"]:
+        assert isinstance(pyyaml.safe_load(p.read_text()), dict), p
+    imu_yaml = pyyaml.safe_load((mav / "imu0" / "sensor.yaml").read_text())
+    assert imu_yaml["rate_hz"] == 200 and np.allclose(np.array(imu_yaml["T_cam_imu"]["data"]).reshape(4, 4),
+                                                      render.manifest["imu"]["T_cam_imu"])
 
 
 def test_rosbag_export_reads_back(render, tmp_path):
@@ -105,7 +108,7 @@ def test_rosbag_export_reads_back(render, tmp_path):
         stamps = {}
         for c, t, raw in r.messages():
             msg = ts.deserialize_cdr(raw, c.msgtype)
-            st = msg.transforms[0].header.stamp if c.topic == "/tf" else msg.header.stamp
+            st = msg.transforms[0].header.stamp if c.topic in ("/tf", "/tf_static") else msg.header.stamp
             assert st.sec * 1_000_000_000 + st.nanosec == t
             stamps.setdefault(c.topic, []).append(t)
             if c.topic == "/cam0/image_raw" and t == frame_ns[0]:
@@ -113,6 +116,7 @@ def test_rosbag_export_reads_back(render, tmp_path):
             if c.topic == "/cam0/camera_info":
                 assert msg.distortion_model == "plumb_bob" and np.allclose(msg.d[:2], [-0.2, 0.05])
     assert stamps["/cam0/image_raw"] == frame_ns
+    assert stamps["/tf_static"] == [min(min(v) for v in stamps.values())]     # once, at the bag's first instant
     noisy = render.imu("noisy")
     assert stamps["/imu0"] == [int(round(t * 1e9)) for t in noisy["t_s"]]
 
@@ -121,7 +125,7 @@ def test_rosbag_export_reads_back(render, tmp_path):
 def test_noise_model_against_the_real_adis16448(shared_data):
     """The real stream (EuRoC V1_01, in flight: there is no stretch at rest) against our model
     with its datasheet densities: the real sensor never beats the model's noise floor, and
-    our stream's white noise is the configured density (see docs/rendering.md, IMU)."""
+    our stream's white noise is the configured density (see docs/sensors.md, IMU)."""
     from blender_sesgen.sensor import imu
     from vo_reference.evaluate.allan import allan_deviation
     path = shared_data / "euroc" / "mav0" / "imu0" / "data.csv"

@@ -126,6 +126,7 @@ def test_integrating_the_ideal_stream_recovers_ten_seconds_of_ego_motion():
     assert rot_err < 1e-6
 
 
+@pytest.mark.slow
 def test_allan_deviation_of_the_noisy_stream_matches_the_configured_densities():
     params = imu.ImuParams(seed=11)
     n = int(3 * 3600 * params.rate_hz)                            # three hours at rest

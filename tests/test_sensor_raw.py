@@ -21,8 +21,8 @@ def test_photon_transfer_follows_the_poisson_gaussian_model():
     means, variances = [], []
     for level in np.linspace(0.02, 0.6, 12):
         signal = np.full((256, 256), level * fw / gain)
-        a, b = (raw.capture(signal, full_well_e=fw, read_noise_e=read, bits=bits, gain=gain,
-                            black_level_dn=black, rng=rng).astype(float) for _ in range(2))
+        sensor = model.Sensor(full_well_e=fw, read_noise_e=read, bits=bits, black_level_dn=black)
+        a, b = (raw.capture(signal, sensor, gain=gain, rng=rng).astype(float) for _ in range(2))
         means.append((a.mean() + b.mean()) / 2 - black)
         variances.append(np.var(a - b) / 2)
     slope, intercept = np.polyfit(means, variances, 1)
@@ -34,22 +34,24 @@ def test_photon_transfer_follows_the_poisson_gaussian_model():
 def test_same_seed_same_noise_and_ground_truth_untouched():
     s = model.Sensor(read_noise_e=3, prnu=0.01, dsnu_e=2, row_noise_e=1, cfa="rggb", bits=10, seed=7)
     lin = np.random.default_rng(0).uniform(0, 1, (24, 32, 3))
-    kw = dict(sensor=s, exposure_s=0.01, nominal_exposure_s=0.01, gain=1.0, view_index=0)
-    a = pipeline.process(lin, frame=3, **kw)
-    b = pipeline.process(lin.copy(), frame=3, **kw)
-    c = pipeline.process(lin, frame=4, **kw)
+    cam = pipeline.Camera(s, nominal_exposure_s=0.01)
+    shot = lambda frame: pipeline.Shot(exposure_s=0.01, gain=1.0, frame=frame, view_index=0)  # noqa: E731
+    a = pipeline.process(lin, cam, shot(3))
+    b = pipeline.process(lin.copy(), cam, shot(3))
+    c = pipeline.process(lin, cam, shot(4))
     assert np.array_equal(a.raw_dn, b.raw_dn) and np.array_equal(a.rgb8, b.rgb8)
     assert not np.array_equal(a.raw_dn, c.raw_dn)
     assert a.raw_dn.shape == (24, 32) and a.raw_dn.max() <= 1023
-    d = pipeline.process(lin, frame=3, **{**kw, "sensor": model.Sensor(**{**s.__dict__, "seed": 8})})
+    d = pipeline.process(lin, pipeline.Camera(model.Sensor(**{**s.__dict__, "seed": 8}), nominal_exposure_s=0.01), shot(3))
     assert not np.array_equal(a.raw_dn, d.raw_dn)
 
 
 def test_fixed_pattern_noise_is_fixed_and_temporal_noise_is_not():
     s = model.Sensor(prnu=0.02, dsnu_e=5, full_well_e=1e9, cfa=None, bits=16, seed=2)
     lin = np.full((64, 64, 3), 0.5)
-    kw = dict(sensor=s, exposure_s=1, nominal_exposure_s=1, gain=1.0, view_index=1)
-    f0, f1 = pipeline.process(lin, frame=0, **kw).raw_dn, pipeline.process(lin, frame=1, **kw).raw_dn
+    cam = pipeline.Camera(s, nominal_exposure_s=1)
+    f0, f1 = (pipeline.process(lin, cam, pipeline.Shot(exposure_s=1, gain=1.0, frame=k, view_index=1)).raw_dn
+              for k in (0, 1))
     # the pattern (2 % of ~32768 DN) stays from frame to frame, the temporal noise (~1.5 DN) does not
     temporal = np.std(f0.astype(float) - f1.astype(float)) / np.sqrt(2)
     assert 1.0 < temporal < 2.5
@@ -135,7 +137,7 @@ def test_auto_exposure_darkens_then_recovers_at_its_speed():
     metered = [0.5] * 40 + [0.005] * 60                              # drive into a dark area
     kw = dict(nominal_exposure_s=0.002, nominal_gain=1.0, rate_hz=rate, readout_s=0.0, target=0.2, speed=speed,
               saturation=1.0, max_exposure_s=0.04, max_gain=8.0, min_exposure_s=1e-5)
-    sched = autoexposure.exposure_schedule(metered, **kw)
+    sched = autoexposure.exposure_schedule(metered, autoexposure.ExposureControl(**kw))
     E = np.array([t * g for t, g in sched])
     level = np.array(metered) * E[:-1] / 0.002
     assert level[39] == pytest.approx(0.2, rel=0.01)                 # converged in the bright part

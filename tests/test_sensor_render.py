@@ -10,23 +10,21 @@
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from render_support import read_exr, run_render  # noqa: E402
-from sensor_scenes import checkerboard_lines, grey, inner_corners, project_rows, refine_corners  # noqa: E402
+from render_support import read_exr, run_render
+from sensor_scenes import checkerboard_lines, grey, inner_corners, project_rows, refine_corners
 
-from blender_sesgen.contract import se3  # noqa: E402
-from blender_sesgen.contract.lens import Lens  # noqa: E402
-from blender_sesgen.contract.rig_motion import RigMotion  # noqa: E402
-from blender_sesgen.contract.timing import row_time_s  # noqa: E402
+from blender_sesgen.contract import se3
+from blender_sesgen.contract.lens import Lens
+from blender_sesgen.contract.rig_motion import RigMotion
+from blender_sesgen.contract.timing import row_time_s
+from markers import needs
 
-pytestmark = pytest.mark.render
-pytest.importorskip("bpy")
+pytestmark = [pytest.mark.render, needs("bpy")]
 pytest.importorskip("OpenEXR")
 cv2 = pytest.importorskip("cv2")
 

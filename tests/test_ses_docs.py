@@ -34,6 +34,23 @@ def test_every_keyword_and_tag_is_documented():
             assert re.search(rf"\b{tag}\b", DOC), f"{keyword} {tag}"
 
 
+def _range(text: str) -> tuple[float, float]:
+    lo, _, hi = text.strip().partition("–")
+    return float(lo), float(hi or lo)
+
+
+def test_asset_table_lists_every_kind_of_the_registry():
+    """The ASSET table: one row per kind of ``blender_sesgen.assets.KINDS``, in its order, with
+    the kind's class, what its size means and its default size ranges."""
+    from blender_sesgen.assets import KINDS
+    rows = re.findall(r"^\| `(\w+)`(?: \(strip\))? \| ([\w ]+) \| ([^|]+) \| ([^|]+) \| ([^|]+) \|$", DOC,
+                      flags=re.M)
+    assert [r[0] for r in rows] == list(KINDS)
+    for (name, cls, meaning, ranges, summary), kind in zip(rows, KINDS.values()):
+        assert (cls, meaning.strip(), summary.strip()) == (kind.semantic_class, kind.size_meaning, kind.summary), name
+        assert [_range(r) for r in ranges.split("×")] == [tuple(map(float, r)) for r in kind.size_ranges], name
+
+
 def test_texture_table_matches_textures_py():
     rows = dict(re.findall(r"^\| (\d+) \| `(\w+)` \|", DOC, flags=re.M))
     assert {int(k): v for k, v in rows.items()} == {n: name for n, (name, _) in BUILTIN_TEXTURES.items()}

@@ -7,12 +7,12 @@ expectation never comes from the parser itself.
 """
 from __future__ import annotations
 
-import re
 
 import pytest
 
 from blender_sesgen.errors import ScriptError, SesgenError
 from blender_sesgen.ses import parse_bytes, parse_file, parse_string
+from script_errors import parse_error
 
 OBJ = "CUBOID id 1 position 0 0 0 dim 1 1 1\n"   # one valid object, for scripts that need one
 CAM = "CAMERA resolution 640 480 focal 389"
@@ -35,11 +35,11 @@ CASES = {
                              r"CUBOID needs the tag 'dim' \(dim sx sy sz\)"),
     "missing id": ("SPHERE position 0 0 0 dim 1\n", 1, None, r"SPHERE needs the tag 'id'"),
     "wrong value count": (OBJ + "CUBOID id 2 position 0 0 0 dim 1 2\n", 2, "dim",
-                          r"CUBOID 'dim' needs 3 numbers, got 2"),
+                          r"CUBOID 'dim' needs 3 numbers \(dim sx sy sz\), got 2"),
     "wrong value count, too many": (OBJ + "SPHERE id 2 position 0 0 0 dim 1 2\n", 2, "dim",
-                                    r"SPHERE 'dim' needs 1 number, got 2"),
+                                    r"SPHERE 'dim' needs 1 number \(dim r\), got 2"),
     "position needs 3 or 6": (OBJ + "SPHERE id 2 position 0 0 0 1 dim 1\n", 2, "position",
-                              r"'position' needs 3 or 6 numbers, got 4"),
+                              r"'position' needs 3 or 6 numbers \(position x y z \[rx ry rz\]\), got 4"),
     "EGO value count": (OBJ + "EGO 0 0 0.1 0 0\n", 2, None, r"EGO needs 6 numbers .*got 5"),
     "EGO too many values": (OBJ + "EGO 0 0 0.1 0 0 0 7\n", 2, "7", r"EGO needs 6 numbers .*got 7"),
     "non-number": (OBJ + "CUBOID id 2 position 0 zero 0 dim 1 1 1\n", 2, "zero",
@@ -113,6 +113,45 @@ CASES = {
     "asset with two kinds": (OBJ + "ASSET car id 2 tree position 0 0 0\n", 2, "tree", r"ASSET needs exactly one kind"),
     "asset kind misspelt": (OBJ + "ASSET buiding id 2 position 0 0 0\n", 2, "buiding",
                             r"ASSET has no tag 'buiding'; did you mean 'building'\?"),
+    # the common slips: what to write instead (grammar.TAG_HINTS), echoing the user's own words
+    "asset kind as a tag": (OBJ + "ASSET kind car id 2 position 0 0 -5\n", 2, "kind",
+                            r"ASSET has no tag 'kind'; the kind is a word of its own right after the keyword: "
+                            r"'ASSET car \.\.\.' \(tags: id, .*; kinds: building, car, "),
+    "sphere radius": (OBJ + "SPHERE id 2 position 0 0 0 radius 1\n", 2, "radius",
+                      r"SPHERE has no tag 'radius'; the size is 'dim r' \("),
+    "cylinder radius and height": (OBJ + "CYLINDER id 2 position 0 0 0 radius 1 height 2\n", 2, "radius",
+                                   r"CYLINDER has no tag 'radius'; the size is 'dim r h'"),
+    "cuboid size": (OBJ + "CUBOID id 2 position 0 0 0 size 1 2 3\n", 2, "size",
+                    r"CUBOID has no tag 'size'; the size is 'dim sx sy sz'"),
+    "rotation as a tag": (OBJ + "ASSET car id 2 position 0 0 -5 rotation 0 90 0\n", 2, "rotation",
+                          r"no tag 'rotation'; the rotation is the last three numbers of 'position x y z \[rx ry rz\]'"),
+    "light rotation": (OBJ + "LIGHT sun rotation 0 -1 0\n", 2, "rotation",
+                       r"LIGHT has no tag 'rotation'; a light is turned by 'direction dx dy dz'"),
+    "light intensity": (OBJ + "LIGHT sun direction 0 -1 0 intensity 3\n", 2, "intensity",
+                        r"LIGHT has no tag 'intensity'; write 'strength s'"),
+    "light type": (OBJ + "LIGHT type point position 0 2 0\n", 2, "type", r"'LIGHT point \.\.\.'"),
+    "camera fx": ("CAMERA resolution 64 48 fx 40\n" + OBJ, 1, "fx", r"CAMERA has no tag 'fx'; write 'focal F' \(pixels\)"),
+    "timing fps": (OBJ + "TIMING fps 30\n", 2, "fps", r"TIMING has no tag 'fps'; write 'rate HZ'"),
+    "start without its tag": (OBJ + "START 0 1 2 0 10 0\n", 2, "0 1",
+                              r"START: expected a tag \(position\), got the value '0'; did you mean "
+                              r"'START position 0 1 2 0 10 0'\?"),
+    "resolution as WxH": ("CAMERA resolution 640x480 focal 400\n" + OBJ, 1, "640x480",
+                          r"'resolution' expects a number, got '640x480'; write two numbers separated by a space: "
+                          r"'640 480'$"),
+    "commas between numbers": (OBJ + "EGO 0, 0, 0.1, 0, 0, 0\n", 2, "0,", r"separate numbers with spaces, not commas"),
+    "a unit on a number": ("CAMERA resolution 64 48 focal 40 baseline 12cm\n" + OBJ, 1, "12cm",
+                           r"'baseline' expects a number, got '12cm'; numbers take no unit: write '12'"),
+    "a unit on a rotation": (OBJ + "CUBOID id 2 position 0 0 -5 90deg dim 1 1 1\n", 2, "90deg",
+                             r"no tag '90deg'; numbers take no unit: write '90'"),
+    "move velocity": (OBJ + "MOVE id 1 velocity 0 0 1\n", 2, "velocity",
+                      r"MOVE has no tag 'velocity'; a constant motion is 'twist U V W alpha beta gamma'"),
+    "asset scale": (OBJ + "ASSET car id 2 position 0 0 -5 scale 2\n", 2, "scale",
+                    r"ASSET has no tag 'scale'; write 'size sx sy sz' \(metres\)"),
+    "mesh path": (OBJ + "MESH id 2 path chair.obj\n", 2, "path", r"MESH has no tag 'path'; write 'file PATH'"),
+    "class vehicle is a car, never the ego vehicle": (OBJ + "SPHERE id 2 position 0 0 0 dim 1 class vehicle\n", 2,
+                                                       "vehicle", r"'vehicle' is not a known class; did you mean 'car'\?"),
+    "value count says the usage": (OBJ + "CYLINDER id 2 position 0 0 0 dim 1\n", 2, "dim",
+                                   r"CYLINDER 'dim' needs 2 numbers \(dim r h\), got 1"),
     "bend on a building": (OBJ + "ASSET building id 2 position 0 0 0 bend 5\n", 2, "bend",
                            r"ASSET building takes no 'bend' \(only road, kerb, sidewalk, verge do\)"),
     "offset on a car": (OBJ + "ASSET car id 2 position 0 0 0 offset 5\n", 2, "offset", r"ASSET car takes no 'offset'"),
@@ -128,23 +167,10 @@ CASES = {
 }
 
 
-def _expected_col(script: str, line: int, marker) -> int:
-    text = script.splitlines(keepends=True)[line - 1]
-    if marker is None:
-        return len(text) - len(text.lstrip()) + 1
-    return text.index(marker) + 1
-
-
 @pytest.mark.parametrize("case", list(CASES), ids=list(CASES))
 def test_error_table(case, tmp_path):
     script, line, marker, pattern = CASES[case]
-    path = tmp_path / "scene.ses"
-    path.write_text(script, encoding="utf-8")
-    with pytest.raises(ScriptError) as info:
-        parse_file(path)
-    err = info.value
-    assert (err.file, err.line, err.col) == (str(path), line, _expected_col(script, line, marker)), str(err)
-    assert re.search(pattern, err.message), err.message
+    path, err = parse_error(tmp_path, script, line, marker, pattern)
     assert str(err) == f"{path}:{line}:{err.col}: error: {err.message}"
 
 
@@ -183,3 +209,19 @@ def test_bad_trajectory_file_content(tmp_path):
 def test_errors_yield_no_scene_even_with_valid_lines():
     with pytest.raises(ScriptError):
         parse_bytes((OBJ * 1 + "SPHERE id 2 position 0 0 0 dim 0\n").encode())
+
+
+def test_every_hint_names_a_tag_of_the_language_and_never_shadows_one():
+    from blender_sesgen.ses.grammar import STATEMENTS, TAG_HINTS
+    tags = {t for s in STATEMENTS.values() for t in s.tags} | {"KIND"}
+    for word, rules in TAG_HINTS.items():
+        assert all(target in tags for target, _ in rules), word
+        for s in STATEMENTS.values():   # a word that is a tag of a statement is read as that tag there
+            assert word not in s.tags or not any(t in s.tags for t, _ in rules), (word, s.keyword)
+
+
+def test_class_words_name_real_classes():
+    from blender_sesgen.contract import semantics
+    from blender_sesgen.ses.parser import CLASS_WORDS, NOT_OBJECT_CLASSES
+    assert all(semantics.lookup(name) is not None for name in (*CLASS_WORDS.values(), *NOT_OBJECT_CLASSES))
+    assert all(semantics.lookup(word) is None for word in CLASS_WORDS)   # else it would never be asked

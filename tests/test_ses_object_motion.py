@@ -6,7 +6,6 @@ linear interpolation (keyframe position), a hand-written replay of a TUM file.
 """
 from __future__ import annotations
 
-import re
 
 import numpy as np
 import pytest
@@ -15,9 +14,9 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from blender_sesgen import dynamics
 from blender_sesgen.errors import ScriptError
-from blender_sesgen.ses import parse_file, parse_string
+from blender_sesgen.ses import parse_string
 
-from test_ses_errors import _expected_col
+from script_errors import parse_error
 
 STILL = "FRAMES 11\n"
 BOX = "CUBOID id 1 position 1 2 3 10 20 30 dim 1 1 1\n"
@@ -183,13 +182,7 @@ CASES = {
 @pytest.mark.parametrize("case", list(CASES), ids=list(CASES))
 def test_error_table(case, tmp_path):
     script, line, marker, pattern = CASES[case]
-    path = tmp_path / "scene.ses"
-    path.write_text(script, encoding="utf-8")
-    with pytest.raises(ScriptError) as info:
-        parse_file(path)
-    err = info.value
-    assert (err.file, err.line, err.col) == (str(path), line, _expected_col(script, line, marker)), str(err)
-    assert re.search(pattern, err.message), err.message
+    parse_error(tmp_path, script, line, marker, pattern)
 
 
 def test_bad_trajectory_file_names_the_line(tmp_path):

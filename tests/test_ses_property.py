@@ -8,12 +8,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from blender_sesgen.errors import SesgenError
 from blender_sesgen.model import Scene
 from blender_sesgen.ses import parse_bytes, parse_string
 from blender_sesgen.ses.grammar import STATEMENTS
+from markers import examples
 
 REPO = Path(__file__).resolve().parents[1]
 SCENES = [p.read_text(encoding="utf-8") for p in sorted((REPO / "scenes").glob("*.ses"))]
@@ -43,7 +45,7 @@ def _check(text_or_bytes, tmp_path: Path) -> None:
     result.to_json()
 
 
-FUZZ = settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+FUZZ = settings(max_examples=examples(300), deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 
 
 @FUZZ
@@ -88,6 +90,7 @@ def mutated_scene(draw):
     return "\n".join(lines)
 
 
+@pytest.mark.slow
 @FUZZ
 @given(mutated_scene())
 def test_mutated_scenes(tmp_path, text):

@@ -11,6 +11,8 @@ from vo_reference.io.trajectory import read_kitti, read_tum
 
 import stereo_synth as S
 
+pytestmark = pytest.mark.slow   # subprocesses and end-to-end runs (left out of make test-fast)
+
 
 @pytest.fixture(scope="module")
 def render_dir(tmp_path_factory):

@@ -2,19 +2,16 @@
 (pure: the analytic scene of tests/dynamic_scene.py, no Blender)."""
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import dynamic_scene as ds  # noqa: E402
-import stereo_synth  # noqa: E402
+import dynamic_scene as ds
+import stereo_synth
 
-from vo_reference.errors import VoError  # noqa: E402
-from vo_reference.io.render import RenderSequence  # noqa: E402
-from vo_reference.stereo.pipeline import ground_truth_step, run_stereo_vo  # noqa: E402
+from vo_reference.errors import VoError
+from vo_reference.io.render import RenderSequence
+from vo_reference.stereo.pipeline import ground_truth_step, run_stereo_vo
 
 
 @pytest.fixture(scope="module")

@@ -105,6 +105,14 @@ def test_gt_switches_need_ground_truth(seq):
         run_stereo_vo(s, "paper", gt_depth=True)
 
 
+def test_run_stereo_vo_takes_frames_half_open_as_everywhere():
+    from vo_reference.stereo.pipeline import frame_span
+    assert frame_span("2:5", 10) == frame_span(range(2, 5), 10) == (2, 4)
+    assert frame_span(None, 10) == (0, 9)
+    with pytest.raises(VoError, match="A:B"):
+        frame_span((2, 4), 10)      # an inclusive pair is no longer a frame range
+
+
 def test_parse_frames():
     assert parse_frames(None, 10) == (0, 9)
     assert parse_frames("2:5", 10) == (2, 4)

@@ -27,6 +27,8 @@ REPO = Path(__file__).resolve().parents[1]
 packaging_req = pytest.importorskip("packaging.requirements")
 from packaging.utils import canonicalize_name  # noqa: E402  (packaging is pytest's own dependency)
 
+pytestmark = pytest.mark.slow   # subprocesses and end-to-end runs (left out of make test-fast)
+
 
 def vo_requirements() -> list[str]:
     project = tomllib.loads((REPO / "pyproject.toml").read_text(encoding="utf-8"))["project"]

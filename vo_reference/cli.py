@@ -12,12 +12,13 @@ from blender_sesgen.contract.cli import dispatch
 
 from .errors import VoError
 
-PROG = "python -m vo_reference"
-DESCRIPTION = "Reference visual odometry, ground-truth products and evaluation for sesgen renders and real datasets."
+PROG = "vo-reference"   # the installed command, the one the docs use
+DESCRIPTION = ("Reference visual odometry, ground-truth products and evaluation for sesgen renders and real datasets. "
+               "vo-reference is the command pip installs; python -m vo_reference runs the same.")
 # command -> (module relative to this package, one-line help)
 COMMANDS = {
-    "export": (".products.export_cli", "export a render folder to dataset layouts (KITTI, TUM, EuRoC, TartanAir, "
-                                     "Virtual KITTI 2, SceneFlow, PNG, Bayer)"),
+    "export": (".products.export_cli", "export a render folder to a dataset layout (KITTI, TUM, EuRoC, a ROS 2 bag, "
+                                     "COLMAP, nerfstudio, SLAM settings, ...: --to lists them all)"),
     "evaluate": (".evaluate.cli", "evaluate an estimated trajectory against ground truth (APE, RPE, KITTI)"),
     "evaluate-disparity": (".evaluate.disparity_cli", "evaluate an estimated disparity map (EPE, bad-N, D1)"),
     "covisibility": (".products.covisibility_cli", "place-recognition / loop-closure ground truth: the "

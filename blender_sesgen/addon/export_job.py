@@ -22,19 +22,29 @@ from ..errors import SesgenError
 TARGETS = (
     ("kitti-odometry", "KITTI odometry", "The development kit's tree: dataset/sequences/NN + dataset/poses/NN.txt"),
     ("kitti-folder", "KITTI folder", "One KITTI sequence folder with poses.txt"),
-    ("kitti-stereo", "KITTI stereo 2015", "image_2/3, disp_occ_0/disp_noc_0, flow_occ/flow_noc"),
+    ("kitti-stereo", "KITTI stereo 2015", "image_2/3, disp_occ_0/disp_noc_0, flow_occ/flow_noc, calib_cam_to_cam"),
     ("kitti-sceneflow", "KITTI scene flow 2015", "image_2/3 _10/_11, disp_occ_0/1, flow_occ, obj_map, instance and motion masks"),
     ("tum", "TUM RGB-D", "rgb/, depth/ (5000 per metre), groundtruth.txt"),
     ("euroc", "EuRoC (ASL)", "mav0/cam0, cam1, state_groundtruth_estimate0"),
     ("png", "PNG", "Noisy RGB, ids, disparity per view"),
     ("bayer", "Bayer (RobotCar)", "Raw Bayer mosaics and an undistortion table"),
     ("tartanair", "TartanAir", "image/depth/seg per view, flow + mask, NED poses"),
-    ("vkitti2", "Virtual KITTI 2", "frames/rgb, depth, class/instance segmentation, flow; intrinsic/extrinsic/pose.txt"),
+    ("vkitti2", "Virtual KITTI 2", "frames/rgb, depth, class/instance segmentation, flow; intrinsic/extrinsic/pose/"
+                                   "bbox/info.txt"),
     ("sceneflow", "SceneFlow", "FlyingThings3D tree: PFM disparity, flow, disparity change"),
-    ("rosbag", "ROS 2 bag", "mcap: cam0/cam1 Image + CameraInfo, imu0 Imu, tf + PoseStamped ground truth"),
-    ("cityscapes", "Cityscapes", "leftImg8bit + gtFine labelIds, color, instanceIds per view; classes.json"),
+    ("rosbag", "ROS 2 bag", "mcap: cam0/cam1 Image + CameraInfo, imu0 Imu, tf_static extrinsics, tf + PoseStamped "
+                            "ground truth"),
+    ("cityscapes", "Cityscapes", "leftImg8bit + gtFine labelIds, labelTrainIds, color, instanceIds, polygons per view; "
+                                 "classes.json"),
+    ("colmap", "COLMAP", "images + sparse/0 text model with points from the exact depth"),
+    ("nerfstudio", "nerfstudio", "transforms.json, images, depths (mm), masks, seed point cloud"),
+    ("slam", "SLAM/VIO settings", "ORB-SLAM3, VINS-Fusion, OpenVINS, Kalibr and Basalt settings of the rig"),
+    ("tartanair-v2", "TartanAir V2", "ENV/Data_easy/P000: image/depth/seg_lcam_front, rcam_front, flow, NED poses"),
+    ("middlebury", "Middlebury 2014", "One folder per frame: im0/im1, disp0/disp1 PFM, mask0nocc, calib.txt"),
+    ("eth3d", "ETH3D two-view", "two_view_training + two_view_training_gt per frame"),
+    ("sintel", "MPI-Sintel", "training/clean, final, flow (.flo), occlusions, depth (.dpt), camdata_left (.cam)"),
 )
-TAKES_SEQUENCE = {"kitti-odometry", "tartanair", "vkitti2", "sceneflow"}
+TAKES_SEQUENCE = {"kitti-odometry", "tartanair", "tartanair-v2", "vkitti2", "sceneflow", "sintel"}
 NOT_FOUND = ("exporting needs the vo_reference tools outside Blender: pip install 'blender-sesgen[vo]' "
              "in a Python 3.11 and put its vo-reference command on PATH, or give the command under VO Command")
 
@@ -56,8 +66,9 @@ def vo_command(setting: str = "") -> list[str]:
 
 
 def export_command(prefix: list[str], render_dir: str, out_dir: str, target: str,
-                   sequence: str = "", frames: str = "") -> list[str]:
-    """``vo-reference export RENDER OUT --to TARGET --progress json [--sequence S] [--frames A:B]``."""
+                   sequence: str = "", frames: str = "", undistort: bool = False) -> list[str]:
+    """``vo-reference export RENDER OUT --to TARGET --progress json [--sequence S] [--frames A:B]
+    [--undistort]``."""
     if target not in {t[0] for t in TARGETS}:
         raise ExportError(f"unknown layout {target!r}")
     if not render_dir:
@@ -71,6 +82,8 @@ def export_command(prefix: list[str], render_dir: str, out_dir: str, target: str
         cmd += ["--sequence", sequence.strip()]
     if frames.strip():
         cmd += ["--frames", frames.strip()]
+    if undistort:
+        cmd.append("--undistort")
     return cmd
 
 

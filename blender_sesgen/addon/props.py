@@ -4,6 +4,7 @@ from __future__ import annotations
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
+from ..contract.timing import DEFAULT_FPS
 from ..lighting_data import BUILTIN_HDRIS
 from .export_job import TARGETS
 from .preview import KINDS
@@ -13,10 +14,12 @@ class SESGEN_PG_settings(bpy.types.PropertyGroup):
     script_path: StringProperty(name="Script", description="The SES scene script (.ses)",
                                 subtype="FILE_PATH", default="")
     # frames
+    # half-open First:Stop, as --frames A:B everywhere (contract.timing)
     use_frame_range: BoolProperty(name="Frame Range", default=False,
-                                  description="Render only the frames First..Last (else every frame)")
+                                  description="Render only the frames First..Stop-1 (else every frame)")
     frame_first: IntProperty(name="First", min=0, default=0, description="First frame to render (0-based)")
-    frame_last: IntProperty(name="Last", min=0, default=0, description="Last frame to render (inclusive)")
+    frame_stop: IntProperty(name="Stop", min=1, default=1,
+                            description="The frame after the last one rendered: First..Stop-1, as --frames First:Stop")
     # sampling
     quality: EnumProperty(name="Quality", default="script", description="Render preset (docs/rendering.md)",
                           items=(("script", "Script", "The script's RENDER quality (final when it names none)"),
@@ -47,7 +50,7 @@ class SESGEN_PG_settings(bpy.types.PropertyGroup):
     override_timing: BoolProperty(name="Override Script Timing", default=False,
                                   description="Use this frame rate, exposure, readout and motion blur instead of the "
                                               "script's TIMING line")
-    rate_hz: FloatProperty(name="Frame Rate", min=0.001, soft_max=240.0, default=25.0, unit="NONE",
+    rate_hz: FloatProperty(name="Frame Rate", min=0.001, soft_max=240.0, default=DEFAULT_FPS, unit="NONE",
                            description="Frames per second (frame k is stamped at the middle of its exposure)")
     exposure_ms: FloatProperty(name="Exposure (ms)", min=0.0, soft_max=100.0, default=0.0,
                                description="Exposure time; with motion blur on, the image is blurred over it")
@@ -71,7 +74,8 @@ class SESGEN_PG_settings(bpy.types.PropertyGroup):
     preview_frame: IntProperty(name="Frame", min=0, default=0, description="Frame to preview")
     preview_view: EnumProperty(name="View", items=(("left", "Left", ""), ("right", "Right", "")), default="left")
     preview_kind: EnumProperty(name="Show", default="disparity",
-                               items=tuple((k, k.capitalize(), f"Preview the {k} of a rendered frame") for k in KINDS))
+                               items=tuple((k, "RGB" if k == "rgb" else k.capitalize(),
+                                            f"Preview the {k} of a rendered frame") for k in KINDS))
     # export (vo_reference, run as a child process)
     export_target: EnumProperty(name="Layout", items=TARGETS, default="kitti-odometry",
                                 description="The dataset layout to export the rendered frames to")
@@ -80,6 +84,9 @@ class SESGEN_PG_settings(bpy.types.PropertyGroup):
     export_sequence: StringProperty(name="Sequence", default="",
                                     description="The render's slot in the dataset tree: KITTI NN, SceneFlow "
                                                 "TRAIN/A/0000, a TartanAir/vKITTI 2 sub-folder (empty: the default)")
+    export_undistort: BoolProperty(name="Undistort", default=False,
+                                   description="A render with a distorting LENS: write pinhole images and ground truth "
+                                               "(needed by every layout but EuRoC, ROS 2 bag, Bayer and Cityscapes)")
     vo_command: StringProperty(name="VO Command", default="",
                                description="How to run vo_reference (a Python with pip install 'blender-sesgen[vo]'), "
                                            "e.g. /path/venv/bin/vo-reference; empty: vo-reference on PATH")
@@ -119,7 +126,7 @@ def render_options(values: dict):
         seed=values["seed"] if o else None,
         device=values["device"],
         resolution_scale=float(values["resolution_scale"]),
-        frames=FrameSelection.of(values["frame_first"], values["frame_last"] + 1) if values["use_frame_range"] else None,
+        frames=FrameSelection.of(values["frame_first"], values["frame_stop"]) if values["use_frame_range"] else None,
         rate_hz=float(values["rate_hz"]) if t else None,
         exposure_s=values["exposure_ms"] / 1000.0 if t else None,
         readout_s=values["readout_ms"] / 1000.0 if t else None,

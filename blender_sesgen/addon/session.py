@@ -366,10 +366,10 @@ def start_export(values: dict):
     render_dir = props.abspath(values["output_dir"])
     if render_dir and not os.path.isfile(os.path.join(render_dir, "manifest.json")):
         raise SesgenError(f"{render_dir}: no render here yet (render first, or choose the render's output folder)")
-    frames = f"{values['frame_first']}:{values['frame_last'] + 1}" if values["use_frame_range"] else ""
+    frames = f"{values['frame_first']}:{values['frame_stop']}" if values["use_frame_range"] else ""
     cmd = export_job.export_command(export_job.vo_command(values["vo_command"]), render_dir,
                                     props.abspath(values["export_dir"]), values["export_target"],
-                                    values["export_sequence"], frames)
+                                    values["export_sequence"], frames, values.get("export_undistort", False))
     return export_job.ExportProcess(cmd)
 
 

@@ -84,7 +84,7 @@ class SESGEN_PT_render(_SidebarPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         layout.use_property_decorate = False
-        _toggled(layout, s, "Frames", "use_frame_range", "Range", ("frame_first", "frame_last"))
+        _toggled(layout, s, "Frames", "use_frame_range", "Range", ("frame_first", "frame_stop"))
         layout.prop(s, "quality")
         layout.prop(s, "world")
         if s.world != "script":
@@ -118,7 +118,7 @@ class SESGEN_PT_preview(_SettingsSubpanel, bpy.types.Panel):
 
 class SESGEN_PT_export(_SettingsSubpanel, bpy.types.Panel):
     bl_label = "Export Dataset"
-    draw = _settings_draw(("export_target", "export_dir", "export_sequence", "vo_command"), "sesgen.export", "EXPORT",
+    draw = _settings_draw(("export_target", "export_dir", "export_sequence", "export_undistort", "vo_command"), "sesgen.export", "EXPORT",
                           "Frames: the Render panel's range; source: its Output folder")
 
 

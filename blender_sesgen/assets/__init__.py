@@ -191,13 +191,3 @@ def generate(kind: str, size, seed: int, bend=(0.0,), offset: float = 0.0) -> Me
         return k.generator(tuple(map(float, size)), int(seed), tuple(map(float, np.atleast_1d(bend))),
                            float(offset))
     return k.generator(tuple(map(float, size)), int(seed))
-
-
-def kinds_markdown() -> str:
-    """The table of kinds in docs/ses-language.md (a test keeps the two equal)."""
-    rows = ["| kind | class | `size` (x, y, z) | default size range | what it is |", "|---|---|---|---|---|"]
-    for k in KINDS.values():
-        ranges = " × ".join(f"{lo:g}–{hi:g}" if lo != hi else f"{lo:g}" for lo, hi in k.size_ranges)
-        name = f"`{k.name}`" + (" (strip)" if k.strip else "")
-        rows.append(f"| {name} | {k.semantic_class} | {k.size_meaning} | {ranges} | {k.summary} |")
-    return "\n".join(rows) + "\n"

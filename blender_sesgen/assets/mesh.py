@@ -43,10 +43,6 @@ class MeshData:
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         return self.vertices.min(axis=0), self.vertices.max(axis=0)
 
-    def transformed(self, T: np.ndarray) -> "MeshData":
-        V = self.vertices @ np.asarray(T)[:3, :3].T + np.asarray(T)[:3, 3]
-        return MeshData(V, self.faces, self.face_surface, self.smooth, self.surfaces)
-
     def triangle_normals(self) -> np.ndarray:
         a, b, c = (self.vertices[self.faces[:, i]] for i in range(3))
         n = np.cross(b - a, c - a)
@@ -253,10 +249,6 @@ class MeshBuilder:
         cs = surf if cap_surf is None else cap_surf
         caps = [(0, i + 1, i) for i in range(1, k - 1)] + [(k, k + i, k + i + 1) for i in range(1, k - 1)]
         self.add(V, tris + caps, [surf] * len(tris) + [cs] * len(caps), closed=True)
-
-    def box_c(self, centre, size, surf, T=None) -> None:
-        c, h = np.asarray(centre, float), np.abs(np.asarray(size, float)) / 2
-        self.box(c - h, c + h, surf, T=T)
 
     def prism(self, poly_xz, y0: float, y1: float, surf, T=None, cap_surf=None) -> None:
         """A vertical prism: the simple polygon ``poly_xz`` (k, 2) of (x, z) points, either

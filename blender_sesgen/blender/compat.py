@@ -25,6 +25,8 @@ import sys
 
 import bpy
 
+from ..contract import exr_format
+
 
 def version() -> tuple[int, int, int]:
     return tuple(bpy.app.version)
@@ -96,18 +98,12 @@ def set_png(image_settings, bits: str = "8") -> None:
     image_settings.color_depth = bits
 
 
-def exr_channel_names(view_layer: str = "ViewLayer") -> dict:
-    """Names of the EXR channels (``layer.pass.channel``) that hold each product."""
-    index_pass = "Object Index" if version() >= (5, 0, 0) else "IndexOB"
-    return {
-        "rgb": [f"{view_layer}.Combined.{c}" for c in "RGBA"],
-        "depth": f"{view_layer}.Depth.Z",
-        "object_index": f"{view_layer}.{index_pass}.X",
-        "normal": [f"{view_layer}.Normal.{c}" for c in "XYZ"],
-        "position": [f"{view_layer}.Position.{c}" for c in "XYZ"],
-        "layout": ("multilayer, one part per pass" if version() >= (5, 0, 0)
-                   else "multilayer, one part holding every pass"),
-    }
+def exr_channel_names() -> dict:
+    """Names of the EXR channels (``layer.pass.channel``) that hold each product, as this
+    Blender writes them (contract.exr_format)."""
+    new = version() >= (5, 0, 0)
+    return exr_format.channel_names(exr_format.PASS_INDEX[0 if new else 1],
+                                    exr_format.LAYOUT_PARTS if new else exr_format.LAYOUT_SINGLE)
 
 
 def node_tree(idblock):

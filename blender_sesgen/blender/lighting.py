@@ -99,9 +99,7 @@ def scene_lights(scene: Scene, bscene, file_lamps: bool = False) -> list[Light]:
 def effective_world(scene: Scene, file_lamps: bool = False) -> World:
     """The script's WORLD; without one, the default sky (no LIGHT either) or, for a script
     with its own LIGHTs (or a BLEND file's lamps), the soft uniform ``LIGHTS_ONLY_WORLD``."""
-    if scene.world is not None:
-        return scene.world
-    return lighting_data.LIGHTS_ONLY_WORLD if scene.lights or file_lamps else lighting_data.DEFAULT_SKY
+    return lighting_data.effective_world(scene.world, bool(scene.lights) or file_lamps)
 
 
 def _start_position(scene: Scene) -> np.ndarray:

@@ -20,7 +20,7 @@ import bpy
 from ..errors import SesgenError
 from ..presets import Preset
 from . import compat
-from .runtime import activate, quiet_stdout
+from .runtime import activate, probing_devices, quiet_stdout
 
 # deflate level of the EXRs' ZIP compression (OpenEXR's default: 4). Measured on a 640x480
 # gt stereo frame of the paper room (bench/bench_gt_cost.py): level 1 makes the files 1 %
@@ -38,7 +38,7 @@ def gpu_devices(kinds=("OPTIX", "CUDA", "HIP", "METAL", "ONEAPI")) -> tuple[str,
             prefs.compute_device_type = kind
         except TypeError:
             continue
-        with quiet_stdout():  # Cycles logs every backend it cannot load
+        with probing_devices():
             prefs.get_devices()
         devs = [d for d in prefs.devices if d.type == kind]
         if devs:
@@ -77,7 +77,8 @@ def configure(bscene, preset: Preset, *, gpu: bool = False, threads: int = 0,
     c.adaptive_min_samples = int(preset.adaptive_min_samples)
     c.use_denoising = bool(preset.denoise)
     if preset.denoise:
-        c.denoiser = "OPENIMAGEDENOISE"
+        with probing_devices():  # the denoiser's choices ask Cycles whether OptiX is there
+            c.denoiser = "OPENIMAGEDENOISE"
         c.denoising_input_passes = _GUIDES[preset.denoise_guides]
         c.denoising_prefilter = _PREFILTERS[preset.denoise_prefilter]
         if hasattr(c, "denoising_use_gpu"):  # on a CPU render, do not probe for GPUs to denoise on

@@ -3,7 +3,9 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import sys
+import tempfile
 
 import bpy
 
@@ -38,3 +40,38 @@ def quiet_stdout(enabled: bool = True):
         os.dup2(saved, fd)
         os.close(saved)
         os.close(devnull)
+
+
+# Cycles' lines when it looks for a GPU backend whose library this machine lacks (CUDA's
+# wrangler on every machine without an NVIDIA driver): expected on a CPU render, not news
+BACKEND_PROBE_NOISE = re.compile(rb"\b[A-Z]+EW initialization failed\b")
+
+
+@contextlib.contextmanager
+def probing_devices():
+    """Around a call that makes Cycles enumerate its devices (``get_devices*``, the denoiser
+    enum, which asks for OptiX): the C library writes to the process's stdout/stderr file
+    descriptors, so both are captured at the fd level and written back afterwards without
+    the backend-loading lines (:data:`BACKEND_PROBE_NOISE`); every other line -- a real
+    error -- still reaches its stream."""
+    streams = []
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            fd = stream.fileno()
+        except (AttributeError, OSError, ValueError):
+            continue
+        stream.flush()
+        streams.append((fd, os.dup(fd), tempfile.TemporaryFile()))
+    try:
+        for fd, _, capture in streams:
+            os.dup2(capture.fileno(), fd)
+        yield
+    finally:
+        for fd, saved, capture in streams:
+            os.dup2(saved, fd)
+            os.close(saved)
+            capture.seek(0)
+            kept = [line for line in capture.read().splitlines(keepends=True) if not BACKEND_PROBE_NOISE.search(line)]
+            capture.close()
+            if kept:
+                os.write(fd, b"".join(kept))

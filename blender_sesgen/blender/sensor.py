@@ -163,15 +163,33 @@ shader sesgen_lens(float fx = 1.0, float fy = 1.0, float cx = 0.0, float cy = 0.
 """
 
 
+BUNDLED_FOR_OSL = ("oslquery", "OpenImageIO")   # what Cycles' OSL query imports by name
+
+
+class _BundledModules:
+    """A finder for the named top-level modules only, in Blender's bundled site-packages."""
+
+    def __init__(self, folder: str, names: tuple):
+        self.folder, self.names = folder, names
+
+    def find_spec(self, name, path=None, target=None):
+        if path is None and name in self.names:
+            import importlib.machinery
+            return importlib.machinery.PathFinder.find_spec(name, [self.folder])
+        return None
+
+
 def _ensure_oslquery() -> None:
-    """The bpy wheel keeps Blender's bundled modules (oslquery) out of sys.path."""
+    """The bpy wheel keeps Blender's bundled modules out of the import path; Cycles imports
+    ``oslquery`` (which imports ``OpenImageIO``) to read a custom camera's parameters: those
+    two, and nothing else of Blender's bundled site-packages, become importable."""
     import importlib.util
     if importlib.util.find_spec("oslquery") is not None:   # Blender's own Python has it
         return
     base = os.path.join(bpy.utils.resource_path("LOCAL"), "python", "lib")
     d = os.path.join(base, f"python{sys.version_info[0]}.{sys.version_info[1]}", "site-packages")
-    if os.path.isdir(d) and d not in sys.path:
-        sys.path.append(d)
+    if os.path.isdir(d) and not any(isinstance(f, _BundledModules) for f in sys.meta_path):
+        sys.meta_path.append(_BundledModules(d, BUNDLED_FOR_OSL))
 
 
 def apply_lens(cam_data, lens, width: int, height: int) -> None:
@@ -185,6 +203,7 @@ def apply_lens(cam_data, lens, width: int, height: int) -> None:
     text = bpy.data.texts.get(name) or bpy.data.texts.new(name)
     text.from_string(lens_shader_source(lens.model))
     cam_data.type = "CUSTOM"
+    cam_data.shift_x = cam_data.shift_y = 0.0     # the shader places the principal point (cx, cy) itself
     cam_data.custom_mode = "INTERNAL"
     cam_data.custom_shader = text                 # compiles the shader and creates its parameters
     props = cam_data.cycles_custom

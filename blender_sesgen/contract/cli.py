@@ -21,6 +21,14 @@ from .errors import ContractError
 EXIT_OK, EXIT_FAILURE, EXIT_USER_ERROR, EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 0, 1, 2, 130, 141
 
 
+def add_report_argument(parser: argparse.ArgumentParser, contents: str, default_text: str = "") -> None:
+    """``--report DIR``: the one name of a command's report folder (``contents``: what goes in);
+    ``--plot``, its earlier name in some commands, still works but is not shown."""
+    parser.add_argument("--report", metavar="DIR",
+                        help=f"report folder: {contents}" + (f" (default: {default_text})" if default_text else ""))
+    parser.add_argument("--plot", dest="report", metavar="DIR", help=argparse.SUPPRESS)
+
+
 def build_parser(prog: str, description: str, commands: dict, package: str) -> argparse.ArgumentParser:
     """``commands``: {name: (module relative to ``package``, one-line help)}."""
     parser = argparse.ArgumentParser(prog=prog, description=description)

@@ -30,13 +30,21 @@ def depth_to_pass(depth: np.ndarray, background: float = DEPTH_BACKGROUND) -> np
     return z
 
 
+def disparity_of_depth(depth: np.ndarray, focal_px: float, baseline_m: float) -> np.ndarray:
+    """fx * B / Z of every value, float64, unmasked: 0 where Z = +inf, negative behind the
+    camera (disparity changes and warped points need those; images use
+    :func:`disparity_from_depth`)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return (float(focal_px) * float(baseline_m)) / np.asarray(depth, dtype=np.float64)
+
+
 def disparity_from_depth(depth: np.ndarray, focal_px: float, baseline_m: float, dtype=np.float32) -> np.ndarray:
     """d = fx * B / Z (float32 for image products, ``dtype=np.float64`` for maths); NaN where Z
     is not finite and positive."""
     z = np.asarray(depth, dtype=np.float64)
     valid = np.isfinite(z) & (z > 0)
     d = np.full(z.shape, np.nan, dtype=dtype)
-    d[valid] = (float(focal_px) * float(baseline_m)) / z[valid]
+    d[valid] = disparity_of_depth(z[valid], focal_px, baseline_m)
     return d
 
 

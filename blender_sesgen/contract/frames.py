@@ -6,7 +6,7 @@
   Blender cameras look along -z with y up: ``R_CV_BLENDERCAM`` (its own inverse).
 - ``START position x y z [rx ry rz]``: R_world_cam = R(rx, ry, rz) @ ``R_START_CAM``, so with
   no rotation the camera looks along world -Z with world +Y up.
-- The rig: pose = left camera; right camera = left @ trans(B, 0, 0) (rectified, parallel).
+- The stereo rig (pose = left camera, right = left @ trans(B, 0, 0)): ``contract.rig``.
 """
 from __future__ import annotations
 
@@ -36,16 +36,6 @@ def start_pose(position: Sequence[float], rotation_deg: Sequence[float] = (0, 0,
 def start_rotation_deg(T_world_cam: np.ndarray) -> tuple[float, float, float]:
     """The START-statement angles (rx, ry, rz) of a camera pose: inverse of :func:`start_pose`."""
     return R_to_euler_xyz_deg(np.asarray(T_world_cam)[:3, :3] @ R_START_CAM)
-
-
-def right_from_left(T_world_left: np.ndarray, baseline: float) -> np.ndarray:
-    """Right camera(s) of a rectified parallel rig: T_world_right = T_world_left @ trans(B, 0, 0).
-
-    Works on one pose (4, 4) or a stack (N, 4, 4).
-    """
-    T = np.array(T_world_left, dtype=float)
-    T[..., :3, 3] += baseline * T[..., :3, 0]
-    return T
 
 
 def ses_to_blender_world(T_ses: np.ndarray) -> np.ndarray:

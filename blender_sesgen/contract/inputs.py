@@ -88,3 +88,12 @@ def is_inside(path, folder) -> bool:
     except ValueError:
         return False
     return True
+
+
+def is_number(word: str) -> bool:
+    """Whether a word of a text file reads as a number (``float`` accepts it)."""
+    try:
+        float(word)
+    except ValueError:
+        return False
+    return True

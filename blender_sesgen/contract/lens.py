@@ -251,16 +251,17 @@ def robotcar_lut_bytes(map_x: np.ndarray, map_y: np.ndarray) -> bytes:
     return np.concatenate([np.asarray(map_x, "<f8").ravel(), np.asarray(map_y, "<f8").ravel()]).tobytes()
 
 
-def _real(x: float) -> str:
+def real_text(x: float) -> str:
     """A float as YAML text that stays a real (OpenCV reads '0' as an integer)."""
-    s = f"{float(x):.17g}"
+    s = repr(float(x) + 0.0)   # the shortest text that reads back exactly; + 0.0: no '-0.0'
     return s if any(c in s for c in ".eEn") else s + ".0"
 
 
-def _cv_matrix(name: str, M: np.ndarray) -> str:
+def opencv_matrix_text(name: str, M: np.ndarray, dt: str = "d") -> str:
+    """``name: !!opencv-matrix`` (cv::FileStorage YAML); ``dt`` d = float64, f = float32."""
     M = np.atleast_2d(np.asarray(M, dtype=float))
-    data = ", ".join(_real(x) for x in M.ravel())
-    return (f"{name}: !!opencv-matrix\n   rows: {M.shape[0]}\n   cols: {M.shape[1]}\n   dt: d\n"
+    data = ", ".join(real_text(x) for x in M.ravel())
+    return (f"{name}: !!opencv-matrix\n   rows: {M.shape[0]}\n   cols: {M.shape[1]}\n   dt: {dt}\n"
             f"   data: [ {data} ]\n")
 
 
@@ -271,6 +272,6 @@ def opencv_calibration_yaml(lens: Lens, width: int, height: int, name: str = "ca
     coeffs = list(lens.coeffs) if lens.model != "pinhole" else [0.0] * 5
     return ("%YAML:1.0\n---\n"
             f"image_width: {int(width)}\nimage_height: {int(height)}\ncamera_name: {name}\n"
-            + _cv_matrix("camera_matrix", lens.K)
+            + opencv_matrix_text("camera_matrix", lens.K)
             + f"distortion_model: {ROS_MODEL[lens.model]}\n"
-            + _cv_matrix("distortion_coefficients", np.array([coeffs])))
+            + opencv_matrix_text("distortion_coefficients", np.array([coeffs])))

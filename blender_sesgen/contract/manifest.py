@@ -27,7 +27,7 @@ import math
 import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Sequence
+from typing import Optional, Sequence
 
 import numpy as np
 
@@ -37,6 +37,8 @@ from .depth import DEPTH_BACKGROUND
 from .errors import ContractError
 from .inputs import read_text
 from .manifest_schema import check_types
+from .manifest_sections import Sections
+from .se3 import not_rotations
 
 FORMAT = "sesgen-render/1"
 MANIFEST = "manifest.json"
@@ -126,12 +128,18 @@ class Manifest:
     generator: dict = field(default_factory=dict)
     extra: dict = field(default_factory=dict)
     object_poses: dict = field(default_factory=dict)
+    sections: Optional[Sections] = None
 
     def __post_init__(self):
         if not self.frames_complete:
             self.frames_complete = [False] * self.frames
         if not self.object_poses:
             self.object_poses = object_poses(self.objects, self.frames)
+        if self.sections is None:   # a manifest being written: its sections as the writer put them in extra
+            core = {"views": list(self.views), "frames": self.frames, "fps": self.fps,
+                    "timestamps": [float(t) for t in self.timestamps_s[:1]]}
+            self.sections = Sections.from_json({**core, **{k: self.extra.get(k) for k in Sections.KEYS}},
+                                               MANIFEST, LIMIT)
 
     @property
     def frames(self) -> int:
@@ -193,6 +201,7 @@ class Manifest:
         if missing:
             raise ContractError(f"missing key(s) {', '.join(missing)}", source)
         check_types(m, source, LIMIT)
+        sections = Sections.from_json(m, source, LIMIT)
         try:
             W, H = (int(v) for v in m["resolution"])
             K = np.array(m["K"], dtype=float).reshape(3, 3)
@@ -223,9 +232,7 @@ class Manifest:
             if not np.all(np.isfinite(T)) or np.abs(T).max() > LIMIT:
                 raise ContractError(f"poses[{v!r}] holds non-finite or absurdly large values", source)
             R = T[:, :3, :3]
-            err = np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3)).max(axis=(1, 2))
-            bad = np.flatnonzero(~(err <= POSE_TOLERANCE) | (np.linalg.det(R) < 0)
-                                 | np.any(T[:, 3] != (0.0, 0.0, 0.0, 1.0), axis=1))
+            bad = np.flatnonzero(not_rotations(R, POSE_TOLERANCE) | np.any(T[:, 3] != (0.0, 0.0, 0.0, 1.0), axis=1))
             if bad.size:
                 raise ContractError(f"poses[{v!r}][{bad[0]}] is not a rigid transform (rotation and 0 0 0 1 row)",
                                     source)
@@ -268,7 +275,8 @@ class Manifest:
                    segmentation=m.get("segmentation") or {"kind": "object_index", "background": 0, "channel": None},
                    channels=m.get("channels") or {}, objects=objects, object_poses=moving,
                    render=m.get("render") or {}, scene_source=str(m.get("scene_source", "")),
-                   scene_sha256=str(m.get("scene_sha256", "")), generator=m.get("generator") or {}, extra=extra)
+                   scene_sha256=str(m.get("scene_sha256", "")), generator=m.get("generator") or {}, extra=extra,
+                   sections=sections)
 
     @classmethod
     def read(cls, root) -> "Manifest":
@@ -300,8 +308,7 @@ def object_poses(objects: list, n: int, source: str = MANIFEST) -> dict[int, np.
             raise ContractError(f"moving object {o.get('id')!r} has no usable T_world_obj", source) from None
         if T.shape != (n, 4, 4):
             raise ContractError(f"objects[id={obj_id}].T_world_obj has shape {T.shape}, expected ({n}, 4, 4)", source)
-        if not np.all(np.isfinite(T)) or np.abs(T).max() > LIMIT \
-                or np.abs(np.einsum("nji,njk->nik", T[:, :3, :3], T[:, :3, :3]) - np.eye(3)).max() > 1e-6:
+        if not np.all(np.isfinite(T)) or np.abs(T).max() > LIMIT or not_rotations(T[:, :3, :3], POSE_TOLERANCE).any():
             raise ContractError(f"objects[id={obj_id}].T_world_obj holds non-rigid or non-finite poses", source)
         out[obj_id] = T
     return out

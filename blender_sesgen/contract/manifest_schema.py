@@ -6,15 +6,12 @@ expects a number: every key a reader relies on is checked here first, and a defe
 the key. Ranges (K, poses, timestamps) are the reader's own checks after this.
 
 The optional sections of the sensor statements (``rig_motion``, ``timing``, ``lens``,
-``sensor``, ``imu``) are checked as far as readers use them: their numbers, lens model and
-coefficient count, interpolation kind, and every file they name (a relative path inside
-the render folder, one per frame and view where the section lists frames).
+``sensor``, ``imu``) are typed records read and checked by ``manifest_sections``.
 """
 from __future__ import annotations
 
 import json
 import math
-from pathlib import PurePosixPath
 
 from .errors import ContractError
 
@@ -60,6 +57,12 @@ def check_types(m: dict, source: str, limit: float) -> None:
     for o in m.get("objects") or []:
         if o.get("moving") and not (isinstance(o.get("id"), int) and _numbers_only(o.get("T_world_obj"))):
             bad("objects", "objects whose moving ones have an integer id and T_world_obj numbers")
+        box, rest = o.get("box"), o.get("T_world_obj_rest")
+        if box is not None and not (_numbers_only(box) and len(box) == 2 and all(len(r) == 3 for r in box)
+                                    and all(lo <= hi for lo, hi in zip(*box))):
+            bad("objects", "objects whose box is [[x, y, z] min, [x, y, z] max]")
+        if rest is not None and not (_numbers_only(rest) and len(rest) == 4 and all(len(r) == 4 for r in rest)):
+            bad("objects", "objects whose T_world_obj_rest is a 4x4 matrix")
     complete = m.get("frames_complete")
     if complete is not None and not (isinstance(complete, list) and all(isinstance(c, bool) for c in complete)):
         bad("frames_complete", "a list of true/false")
@@ -78,60 +81,4 @@ def check_types(m: dict, source: str, limit: float) -> None:
     if noise is not None and not (_is_number(noise.get("sigma")) and noise["sigma"] >= 0
                                   and isinstance(noise.get("seed", 0), int)):
         bad("noise", "{\"sigma\": >= 0, \"seed\": integer}")
-    _check_sensor_sections(m, source, limit)
 
-
-def _inside(rel) -> bool:
-    """A relative path that stays inside the render folder."""
-    return isinstance(rel, str) and bool(rel) and not PurePosixPath(rel).is_absolute() and \
-        ".." not in PurePosixPath(rel).parts and "\\" not in rel and "\0" not in rel
-
-
-def _check_sensor_sections(m: dict, source: str, limit: float) -> None:
-    from .lens import MODELS
-    from .rig_motion import KINDS
-
-    def bad(key: str, want: str):
-        raise ContractError(f"'{key}' must be {want}", source)
-
-    def number(section: dict, key: str, low: float = -limit, positive: bool = False) -> None:
-        v = section.get(key)
-        if v is not None and not (_is_number(v) and low <= v <= limit and (v > 0 or not positive)):
-            bad(key, f"a number in {'(0' if positive else f'[{low:g}'}, {limit:g}]")
-
-    views = m["views"] if isinstance(m.get("views"), list) else []
-    for key in ("rig_motion", "timing", "lens", "sensor", "imu"):
-        if m.get(key) is not None and not isinstance(m[key], dict):
-            bad(key, "an object")
-    rig, timing = m.get("rig_motion") or {}, m.get("timing") or {}
-    number(rig, "rate_hz", positive=True)
-    number(rig, "start_s")
-    if rig.get("interpolation") is not None and rig["interpolation"] not in KINDS:
-        bad("rig_motion.interpolation", f"one of {', '.join(KINDS)}")
-    number(timing, "readout_s", low=0.0)
-    offsets = timing.get("row_offsets_s")
-    if offsets is not None and not (isinstance(offsets, list) and all(_is_number(x) for x in offsets)):
-        bad("timing.row_offsets_s", "numbers")
-    lens = m.get("lens") or {}
-    if lens.get("model") not in (None, "pinhole"):
-        if not isinstance(lens["model"], str) or lens["model"] not in MODELS:
-            bad("lens.model", f"one of {', '.join(MODELS)}")
-        coeffs = lens.get("coeffs")
-        if not (isinstance(coeffs, list) and len(coeffs) == MODELS[lens["model"]]
-                and all(_is_number(c) and abs(c) <= limit for c in coeffs)):
-            bad("lens.coeffs", f"{MODELS[lens['model']]} numbers for the {lens['model']} model")
-    files = lens.get("files") or {}
-    if not isinstance(files, dict) or (files.get("undistort_lut") is not None and not _inside(files["undistort_lut"])):
-        bad("lens.files", "paths inside the render folder")
-    sensor_files = (m.get("sensor") or {}).get("files") or {}
-    n = m.get("frames") if isinstance(m.get("frames"), int) else -1
-    if not isinstance(sensor_files, dict) or not all(
-            isinstance(per_view, dict) and all(
-                v in per_view and isinstance(per_view[v], list) and len(per_view[v]) == n
-                and all(_inside(p) for p in per_view[v]) for v in views)
-            for per_view in sensor_files.values()):
-        bad("sensor.files", f"for each kind and view, {n} paths inside the render folder")
-    imu_files = (m.get("imu") or {}).get("files") if m.get("imu") else {}
-    if m.get("imu") and not (isinstance(imu_files, dict) and all(
-            _inside(imu_files.get(k)) for k in ("noisy", "ideal", "groundtruth"))):
-        bad("imu.files", "paths inside the render folder (noisy, ideal, groundtruth)")

@@ -215,13 +215,16 @@ def _jsonable(x):
 
 
 def add_progress_argument(parser, quiet_flags: tuple[str, ...] = ("-q", "--quiet")) -> None:
-    """``--progress auto|bar|plain|json|off`` (and ``-q/--quiet`` = ``off``) on a CLI parser."""
+    """``--progress auto|bar|plain|json|off`` and ``-q/--quiet`` on a CLI parser: every long
+    command has both, and ``-q`` means ``--progress off`` (no progress report, nor the lines
+    that announce and sum up the work; results, warnings and errors still print)."""
     parser.add_argument("--progress", choices=MODES, default="auto", metavar="MODE",
                         help="progress report on stderr: auto (a bar on a terminal, else plain lines), bar, "
                              "plain (whole lines with ETA: one per frame or per 5 %%), json (one JSON object "
                              "per event), off")
     if quiet_flags:
-        parser.add_argument(*quiet_flags, dest="quiet", action="store_true", help="no progress report (--progress off)")
+        parser.add_argument(*quiet_flags, dest="quiet", action="store_true",
+                            help="no progress report, as --progress off (results, warnings and errors still print)")
 
 
 def progress_mode(args) -> str:

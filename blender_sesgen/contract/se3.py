@@ -149,6 +149,18 @@ def rotation_angle_rad(R: np.ndarray) -> np.ndarray:
     return np.linalg.norm(so3_log(R), axis=-1)
 
 
+def orthonormality_error(R: np.ndarray) -> np.ndarray:
+    """max |R^T R - I| of each matrix of a stack (n, 3, 3): (n,)."""
+    return np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3)).max(axis=(1, 2))
+
+
+def not_rotations(R: np.ndarray, tolerance: float) -> np.ndarray:
+    """bool (n,): which matrices of a stack (n, 3, 3) are no rotation within ``tolerance``
+    (max |R^T R - I| above it or not finite, or a reflection: det < 0). The one validity
+    check of every rotation read from a file."""
+    return ~(orthonormality_error(R) <= tolerance) | (np.linalg.det(R) < 0)
+
+
 # --- SE(3) ----------------------------------------------------------------------------
 
 def se3_exp(omega_rad: Sequence[float], v: Sequence[float]) -> np.ndarray:

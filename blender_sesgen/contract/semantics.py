@@ -118,7 +118,7 @@ def label_lut(object_classes: dict[int, str], size: Optional[int] = None) -> np.
     lut = np.full(n, BY_NAME[DEFAULT_OBJECT_CLASS].id, dtype=np.uint8)
     lut[0] = BY_NAME[BACKGROUND_CLASS].id
     for obj_id, name in object_classes.items():
-        lut[int(obj_id)] = BY_NAME[canonical(name)].id
+        lut[int(obj_id)] = BY_NAME[canonical(name)].id % 256   # license plate (-1) -> 255, as uint8 stores it
     return lut
 
 

@@ -19,6 +19,8 @@ import numpy as np
 from .errors import ContractError
 
 DEFAULT_FPS = 25.0
+# what every command's --frames help says (the one convention, above)
+FRAMES_HELP = "frames A..B-1 (A:B is half-open, a Python slice; also A:, :B, or K for frame K alone)"
 
 
 def frame_timestamps(n: int, fps: float = DEFAULT_FPS, t0_s: float = 0.0) -> np.ndarray:
@@ -85,12 +87,6 @@ def row_time_s(t_frame_s: float, row, height: int, readout_s: float):
     A fractional row y (pixel centres at integers) is read at t + (y + 0.5 - H/2) R / H."""
     y = np.asarray(row, dtype=float)
     return float(t_frame_s) + (y + 0.5 - height / 2.0) * float(readout_s) / float(height)
-
-
-def frame_window_s(t_frame_s: float, exposure_s: float, readout_s: float) -> tuple[float, float]:
-    """First and last instant any row of the frame integrates light."""
-    half = (float(exposure_s) + float(readout_s)) / 2.0
-    return float(t_frame_s) - half, float(t_frame_s) + half
 
 
 def cycles_shutter(exposure_s: float, readout_s: float, rate_hz: float) -> tuple[float, float]:

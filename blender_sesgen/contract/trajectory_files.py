@@ -19,7 +19,8 @@ from typing import Optional, Sequence
 import numpy as np
 
 from .errors import ContractError
-from .se3 import R_to_quat_xyzw, quat_xyzw_to_R
+from .inputs import is_number
+from .se3 import R_to_quat_xyzw, not_rotations, orthonormality_error, quat_xyzw_to_R
 
 TUM_HEADER = "# timestamp tx ty tz qx qy qz qw"
 EUROC_HEADER = ("#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q_RS_x [], q_RS_y [], "
@@ -46,7 +47,7 @@ def parse_table(text: str, ncols: Sequence[int], source: str = "<text>",
         try:
             vals = [float(p) for p in parts]
         except ValueError:
-            if not rows and not _is_number(parts[0]):
+            if not rows and not is_number(parts[0]):
                 continue  # a header line
             raise ContractError(f"not a number in {s[:60]!r}", source, lineno) from None
         if len(vals) not in ncols:
@@ -61,14 +62,6 @@ def parse_table(text: str, ncols: Sequence[int], source: str = "<text>",
     if not rows:
         raise ContractError("holds no poses", source)
     return np.array(rows, dtype=float), lines
-
-
-def _is_number(word: str) -> bool:
-    try:
-        float(word)
-    except ValueError:
-        return False
-    return True
 
 
 def _poses(R: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -87,10 +80,10 @@ def _check_magnitudes(values: np.ndarray, lines: list[int], source: str) -> None
 def check_rotations(R: np.ndarray, lines: list[int], source: str, tolerance: float) -> None:
     """Each (3, 3) of ``R`` (n, 3, 3) a rotation within ``tolerance`` (max |R^T R - I|,
     det > 0); else ContractError at the first bad line. Values must be within LIMIT."""
-    err = np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3)).max(axis=(1, 2))
-    bad = np.flatnonzero(~(err <= tolerance) | (np.linalg.det(R) < 0))
+    bad = np.flatnonzero(not_rotations(R, tolerance))
     if bad.size:
-        raise ContractError(f"the 3x3 part is not a rotation (|R^T R - I| = {err[bad[0]]:.2g}, "
+        err = orthonormality_error(R[bad[:1]])[0]
+        raise ContractError(f"the 3x3 part is not a rotation (|R^T R - I| = {err:.2g}, "
                             f"tolerance {tolerance:g})", source, lines[bad[0]])
 
 

@@ -29,12 +29,10 @@ DEFAULT_RETRIES = 3
 def render_actions() -> list[argparse.Action]:
     """The render command's options a farm passes on to every chunk (``--quality``,
     ``--samples``, ``--denoise``, ``--seed``, ``--resolution-scale``, ``--device``, ...):
-    taken from the render command's own parser, so that a new render option is a farm
-    option too."""
+    declared once, by the render command (``render_cli.add_arguments``), so that a new render
+    option is a farm option too."""
     from .. import render_cli
-    p = argparse.ArgumentParser(add_help=False)
-    render_cli.add_arguments(p)
-    return [a for a in p._actions if a.option_strings and a.dest not in CONTROLLED]
+    return render_cli.add_arguments(argparse.ArgumentParser(add_help=False), forwarded_only=True)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -57,38 +55,22 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--gpus-per-task", type=float, default=0.0, metavar="G",
                    help="GPUs each task reserves (fractions share a GPU); > 0 renders with --device gpu")
     p.add_argument("--num-cpus", type=int, metavar="N", help="local Ray only: the CPUs it may use (default all)")
-    add_progress_argument(p, ("-q", "--quiet"))
-    g = p.add_argument_group("render options", "as for `render`, for every scene")
-    for a in render_actions():
-        g._add_action(a)
+    add_progress_argument(p)
+    from .. import render_cli
+    render_cli.add_arguments(p.add_argument_group("render options", "as for `render`, for every scene"),
+                             forwarded_only=True)
 
 
 def forwarded_argv(args: argparse.Namespace) -> list[str]:
     """The render options given on the farm's command line, as render arguments."""
-    out = []
-    for a in render_actions():
-        v = getattr(args, a.dest, a.default)
-        if v == a.default:
-            continue
-        if isinstance(a, argparse.BooleanOptionalAction):
-            out.append(a.option_strings[0] if v else a.option_strings[1])
-        elif isinstance(a, argparse._StoreTrueAction):
-            out.append(a.option_strings[0])
-        elif isinstance(a, argparse._StoreAction):
-            vals = v if isinstance(v, (list, tuple)) else [v]
-            out += [a.option_strings[-1], *map(str, vals)]
-        else:  # pragma: no cover - a new kind of render option: teach this function
-            raise NotImplementedError(f"farm cannot pass on {a.option_strings[0]} ({type(a).__name__})")
-    return out
+    from .. import render_cli
+    return render_cli.render_argv(render_options(args))
 
 
 def render_options(args: argparse.Namespace):
-    """The RenderOptions every chunk renders with: the render command's own reading of the
-    options the farm passes on (``render_cli.render_options``)."""
+    """The RenderOptions every chunk renders with (the render command's reading of them)."""
     from .. import render_cli
-    p = argparse.ArgumentParser(add_help=False)
-    render_cli.add_arguments(p)
-    return render_cli.render_options(p.parse_args(["SCENE", "--out", "OUT", *forwarded_argv(args)]))
+    return render_cli.forwarded_options(args)
 
 
 def prepare(args: argparse.Namespace) -> tuple[Path, list]:

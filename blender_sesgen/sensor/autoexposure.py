@@ -13,6 +13,8 @@ area therefore darkens the image first and recovers at the configured speed.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])
@@ -29,10 +31,26 @@ def split_exposure(E: float, nominal_gain: float, t_min: float, t_max: float, ma
     return t, g
 
 
-def exposure_schedule(metered: list[float], *, nominal_exposure_s: float, nominal_gain: float, rate_hz: float,
-                      readout_s: float, target: float, speed: float, saturation: float, max_exposure_s: float,
-                      max_gain: float, min_exposure_s: float) -> list[tuple[float, float]]:
+@dataclass(frozen=True)
+class ExposureControl:
+    """The camera's exposure and the controller's settings (AUTOEXPOSURE, TIMING, SENSOR)."""
+    nominal_exposure_s: float      # t_nom: the TIMING exposure
+    nominal_gain: float            # g_nom: the SENSOR gain
+    rate_hz: float                 # frame rate
+    readout_s: float               # rolling-shutter readout (limits the exposure)
+    target: float                  # mean normalised signal to aim for
+    speed: float                   # 1/s
+    saturation: float              # linear value that fills the well at t_nom
+    max_exposure_s: float          # 0: the frame period minus the readout
+    max_gain: float
+    min_exposure_s: float
+
+
+def exposure_schedule(metered: list[float], c: ExposureControl) -> list[tuple[float, float]]:
     """(exposure_s, gain) of frames 0..len(metered): frame k depends on metered[:k]."""
+    nominal_exposure_s, nominal_gain, rate_hz = c.nominal_exposure_s, c.nominal_gain, c.rate_hz
+    readout_s, target, speed, saturation = c.readout_s, c.target, c.speed, c.saturation
+    max_exposure_s, max_gain, min_exposure_s = c.max_exposure_s, c.max_gain, c.min_exposure_s
     t_max = 1.0 / rate_hz - readout_s
     if max_exposure_s > 0:
         t_max = min(t_max, max_exposure_s)

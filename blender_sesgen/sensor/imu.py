@@ -45,12 +45,6 @@ class ImuParams:
     def T(self) -> np.ndarray:
         return np.array(self.T_cam_imu, dtype=float)
 
-    def to_json(self) -> dict:
-        return {"rate_hz": self.rate_hz, "gyroscope_noise_density": self.gyro_noise,
-                "gyroscope_random_walk": self.gyro_walk, "accelerometer_noise_density": self.accel_noise,
-                "accelerometer_random_walk": self.accel_walk, "T_cam_imu": self.T.tolist(),
-                "time_offset_s": self.time_offset_s, "gravity_world": [0.0, -self.gravity, 0.0], "seed": self.seed}
-
 
 @dataclass(frozen=True)
 class ImuStream:

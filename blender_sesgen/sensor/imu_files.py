@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .imu import ImuParams
 from ..contract.timing import to_ns
 
 EUROC_GT_HEADER = ("#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q_RS_x [], q_RS_y [], "
@@ -25,24 +24,3 @@ def groundtruth_csv(t_s, T_world_imu, v_world, gyro_bias=None, accel_bias=None) 
         vals = (*T[:3, 3], w, x, y, z, *v, *bw, *ba)
         lines.append(f"{int(tn)}," + ",".join(f"{v:.17g}" for v in vals))
     return "\n".join(lines) + "\n"
-
-
-def _yaml_matrix(T: np.ndarray) -> str:
-    rows = [", ".join(f"{x:.17g}" for x in r) for r in np.asarray(T, dtype=float)]
-    return "  cols: 4\n  rows: 4\n  data: [" + ",\n         ".join(rows) + "]\n"
-
-
-def imu_sensor_yaml(p: ImuParams, T_BS=None) -> str:
-    """EuRoC ``imu0/sensor.yaml`` (Kalibr's imu.yaml keys included)."""
-    T = np.eye(4) if T_BS is None else T_BS
-    return ("%YAML:1.0\n# General sensor definitions.\nsensor_type: imu\ncomment: sesgen IMU (body frame = IMU)\n\n"
-            "# Sensor extrinsics wrt. the body-frame.\nT_BS:\n" + _yaml_matrix(T)
-            + f"rate_hz: {p.rate_hz:.9g}\n\n# inertial sensor noise model parameters (static)\n"
-            f"gyroscope_noise_density: {p.gyro_noise:.9g}     # [ rad / s / sqrt(Hz) ]\n"
-            f"gyroscope_random_walk: {p.gyro_walk:.9g}       # [ rad / s^2 / sqrt(Hz) ]\n"
-            f"accelerometer_noise_density: {p.accel_noise:.9g}  # [ m / s^2 / sqrt(Hz) ]\n"
-            f"accelerometer_random_walk: {p.accel_walk:.9g}    # [ m / s^3 / sqrt(Hz) ]\n"
-            f"update_rate: {p.rate_hz:.9g}\n"
-            f"time_offset_s: {p.time_offset_s:.9g}   # IMU stamp = camera time + offset\n"
-            f"gravity_world: [0.0, {-p.gravity:.9g}, 0.0]   # SES world, Y up\n"
-            "T_cam_imu:\n" + _yaml_matrix(p.T))

@@ -17,16 +17,8 @@ EXR_LAYOUT = "single part holding every pass (beauty of the sensor render, groun
 
 def check_resumable(plan: SensorPlan, previous: Optional[dict], frames: list[int], resume: bool, force: bool) -> None:
     """Before anything is written: auto-exposure needs the brightness of every earlier
-    frame; a folder rendered with other timing (command-line overrides) is refused."""
-    prev_timing = (previous or {}).get("timing")
-    new_timing = plan.manifest_entries(1).get("timing")
-    if previous is not None and not force and any(previous.get("frames_complete", [])):
-        keys = ("rate_hz", "start_s", "exposure_s", "readout_s", "motion_blur")
-        old = {k: (prev_timing or {}).get(k) for k in keys} if prev_timing else None
-        new = {k: (new_timing or {}).get(k) for k in keys} if new_timing else None
-        if old != new:
-            raise SesgenError(f"the output folder holds frames rendered with other timing ({old}); "
-                              "use --force to re-render")
+    frame (a folder rendered with other timing is refused with the other pixel-affecting
+    settings: ``OutputFolder.check``)."""
     if plan.autoexposure is None or not frames or frames[0] == 0:
         return
     metered = ((previous or {}).get("sensor") or {}).get("metered") or []
@@ -135,9 +127,9 @@ def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: floa
         lin = np.stack([ch[n] for n in rgb_names], axis=-1).astype(np.float64)
         if vi == 0:
             metered = meter(lin)
-        f = pipeline.process(lin, sensor=plan.sensor, lens=plan.lens_spec, rays=rays, cx=plan.K[0, 2],
-                             cy=plan.K[1, 2], exposure_s=exposure_s, nominal_exposure_s=plan.nominal_exposure_s(),
-                             gain=gain, frame=k, view_index=vi, fpn_cache=fpn)
+        camera = pipeline.Camera(plan.sensor, plan.lens_spec, rays, plan.K[0, 2], plan.K[1, 2],
+                                 plan.nominal_exposure_s())
+        f = pipeline.process(lin, camera, pipeline.Shot(exposure_s, gain, k, vi), fpn_cache=fpn)
         write_png(Path(out) / plan.sensor_relpath("raw", view, k), f.raw_dn)
         write_png(Path(out) / plan.sensor_relpath("rgb", view, k), f.rgb8)
         if plan.sensor.jpeg_quality and jpeg_writer is not None:

@@ -42,11 +42,33 @@ def optical_image(linear_rgb: np.ndarray, lens, sensor, rays: Optional[np.ndarra
     return img
 
 
-def process(linear_rgb: np.ndarray, *, sensor, lens=None, rays=None, cx: float = 0.0, cy: float = 0.0,
-            exposure_s: float, nominal_exposure_s: float, gain: float, frame: int, view_index: int,
-            fpn_cache: Optional[dict] = None) -> SensorFrame:
+@dataclass(frozen=True)
+class Camera:
+    """What stays fixed over a render: the sensor (``model.Sensor``), the lens's optics
+    (``model.Lens``), each pixel's unit ray (vignetting), the principal point (chromatic
+    aberration) and the nominal exposure."""
+    sensor: object
+    lens: object = None
+    rays: Optional[np.ndarray] = None
+    cx: float = 0.0
+    cy: float = 0.0
+    nominal_exposure_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class Shot:
+    """One view of one frame: its exposure and gain, and the frame and view (the noise seeds)."""
+    exposure_s: float
+    gain: float
+    frame: int
+    view_index: int
+
+
+def process(linear_rgb: np.ndarray, camera: Camera, shot: Shot, fpn_cache: Optional[dict] = None) -> SensorFrame:
     """One view of one frame through the whole chain (see the module docstring)."""
-    img = optical_image(linear_rgb, lens, sensor, rays, cx, cy)
+    sensor, lens, nominal_exposure_s = camera.sensor, camera.lens, camera.nominal_exposure_s
+    exposure_s, gain, frame, view_index = shot.exposure_s, shot.gain, shot.frame, shot.view_index
+    img = optical_image(linear_rgb, lens, sensor, camera.rays, camera.cx, camera.cy)
     ratio = exposure_s / nominal_exposure_s if nominal_exposure_s > 0 else 1.0
     signal = np.clip(img, 0.0, None) * (sensor.full_well_e / sensor.saturation * ratio)
     if sensor.cfa:
@@ -57,11 +79,8 @@ def process(linear_rgb: np.ndarray, *, sensor, lens=None, rays=None, cx: float =
         cache[key] = raw.fixed_pattern(signal.shape, sensor.prnu, sensor.dsnu_e, sensor.seed, view_index)
     prnu_map, dsnu_map = cache[key]
     rng = np.random.default_rng([int(sensor.seed), int(frame), int(view_index), 0x5E5])
-    dn = raw.capture(signal, full_well_e=sensor.full_well_e, read_noise_e=sensor.read_noise_e,
-                     dark_current_e_s=sensor.dark_current_e_s, row_noise_e=sensor.row_noise_e,
-                     exposure_s=exposure_s, bits=sensor.bits, gain=gain, black_level_dn=sensor.black_level_dn,
-                     prnu_map=prnu_map if sensor.prnu else None, dsnu_map=dsnu_map if sensor.dsnu_e else None,
-                     rng=rng)
+    dn = raw.capture(signal, sensor, gain=gain, exposure_s=exposure_s, rng=rng,
+                     fixed_pattern=(prnu_map if sensor.prnu else None, dsnu_map if sensor.dsnu_e else None))
     full = 2 ** sensor.bits - 1
     x = (dn.astype(np.float64) - sensor.black_level_dn) / (full - sensor.black_level_dn)
     if sensor.cfa:

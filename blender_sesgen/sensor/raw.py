@@ -33,10 +33,16 @@ def conversion_gain(full_well_e: float, bits: int, gain: float) -> float:
     return float(gain) * (2 ** int(bits) - 1) / float(full_well_e)
 
 
-def capture(signal_e: np.ndarray, *, full_well_e: float, read_noise_e: float = 0.0, dark_current_e_s: float = 0.0,
-            row_noise_e: float = 0.0, exposure_s: float = 0.0, bits: int = 12, gain: float = 1.0,
-            black_level_dn: float = 0.0, prnu_map=None, dsnu_map=None, rng=None) -> np.ndarray:
-    """Mean signal (electrons, (H, W) or (H, W, C)) -> noisy digital numbers (uint16)."""
+def capture(signal_e: np.ndarray, sensor, *, gain: float, exposure_s: float = 0.0, fixed_pattern=(None, None),
+            rng=None) -> np.ndarray:
+    """Mean signal (electrons, (H, W) or (H, W, C)) -> noisy digital numbers (uint16).
+
+    ``sensor``: the electrical model (``model.Sensor``: full well, read noise, dark current,
+    row noise, bits, black level); ``gain``: this frame's analog gain; ``fixed_pattern``:
+    (PRNU map, DSNU map) or None for either (:func:`fixed_pattern`)."""
+    full_well_e, read_noise_e, dark_current_e_s = sensor.full_well_e, sensor.read_noise_e, sensor.dark_current_e_s
+    row_noise_e, bits, black_level_dn = sensor.row_noise_e, sensor.bits, sensor.black_level_dn
+    prnu_map, dsnu_map = fixed_pattern
     rng = rng if rng is not None else np.random.default_rng(0)
     s = np.clip(np.asarray(signal_e, dtype=np.float64), 0.0, None)
     if prnu_map is not None:

@@ -19,8 +19,11 @@ from .. import model
 from . import imu as imu_mod
 from ..contract import timing as timing_mod
 from ..contract.timing import DEFAULT_FPS
-from .autoexposure import exposure_schedule
+from .autoexposure import ExposureControl, exposure_schedule
 from ..contract.lens import Lens, opencv_calibration_yaml, robotcar_lut_bytes, undistortion_maps
+from ..contract import rig
+from ..contract.manifest_sections import (ImuSection, LensSection, RigMotionSection, Sections, SensorSection,
+                                         TimingSection)
 from ..contract.rig_motion import RigMotion
 
 SENSOR_DIR = "sensor"
@@ -139,19 +142,15 @@ class SensorPlan:
         if self.autoexposure is None:
             return [(self.nominal_exposure_s(), gain)] * (len(metered) + 1)
         a = self.autoexposure
-        return exposure_schedule(metered, nominal_exposure_s=self.nominal_exposure_s(), nominal_gain=gain,
-                                 rate_hz=self.rate_hz, readout_s=self.timing.readout_s, target=a.target,
-                                 speed=a.speed, saturation=self.sensor.saturation, max_exposure_s=a.max_exposure_s,
-                                 max_gain=a.max_gain, min_exposure_s=a.min_exposure_s)
+        return exposure_schedule(metered, ExposureControl(
+            nominal_exposure_s=self.nominal_exposure_s(), nominal_gain=gain, rate_hz=self.rate_hz,
+            readout_s=self.timing.readout_s, target=a.target, speed=a.speed, saturation=self.sensor.saturation,
+            max_exposure_s=a.max_exposure_s, max_gain=a.max_gain, min_exposure_s=a.min_exposure_s))
 
     def camera_poses(self, view: str, blender_frames: np.ndarray, frame0: int = 0) -> np.ndarray:
         """T_world_cam (OpenCV, SES world) of ``view`` at (fractional) Blender frames."""
         t = (self.timing.start_s if self.timing else 0.0) + (np.asarray(blender_frames) - frame0) / self.rate_hz
-        T = self.motion.T_world_cam(t)
-        if view == "right":
-            T = T.copy()
-            T[:, :3, 3] += self.baseline * T[:, :3, 0]
-        return T
+        return rig.T_world_view(self.motion.T_world_cam(t), view, self.baseline)
 
     # --- files and manifest ------------------------------------------------------------------
     def sensor_relpath(self, kind: str, view: str, k: int) -> str:
@@ -183,8 +182,17 @@ class SensorPlan:
                                  T_cam_imu=tuple(map(tuple, i.T_cam_imu())), time_offset_s=i.time_offset_s,
                                  gravity=i.gravity, seed=i.seed)
 
+    def imu_section(self) -> ImuSection:
+        """The manifest's ``imu`` section (also what imu/sensor.yaml is written from)."""
+        p = self.imu_params()
+        return ImuSection(p.rate_hz, p.gyro_noise, p.gyro_walk, p.accel_noise, p.accel_walk,
+                          tuple(map(tuple, p.T.tolist())), p.time_offset_s, (0.0, -p.gravity, 0.0), p.seed,
+                          {"noisy": f"{IMU_DIR}/data.csv", "ideal": f"{IMU_DIR}/data_ideal.csv",
+                           "groundtruth": f"{IMU_DIR}/groundtruth.csv", "yaml": f"{IMU_DIR}/sensor.yaml"})
+
     def _imu_files(self, n_frames: int) -> dict[str, bytes]:
-        from .imu_files import groundtruth_csv, imu_sensor_yaml
+        from ..contract.sensor_yaml import imu_sensor_yaml
+        from .imu_files import groundtruth_csv
         p = self.imu_params()
         t = self.frame_times_s(n_frames)
         stamps = imu_mod.sample_times(t[0], t[-1], p)
@@ -195,53 +203,52 @@ class SensorPlan:
                 f"{IMU_DIR}/data_ideal.csv": imu_mod.csv_text(ideal).encode(),
                 f"{IMU_DIR}/groundtruth.csv": groundtruth_csv(stamps - p.time_offset_s, T_wi, v_wi,
                                                               noisy.gyro_bias, noisy.accel_bias).encode(),
-                f"{IMU_DIR}/sensor.yaml": imu_sensor_yaml(p).encode()}
+                f"{IMU_DIR}/sensor.yaml": imu_sensor_yaml(self.imu_section()).encode()}
+
+    def timing_section(self) -> Optional[TimingSection]:
+        """The manifest's ``timing`` entry (None for an inactive plan: no entry)."""
+        if not self.active:
+            return None
+        t = self.timing or model.Timing()
+        return TimingSection(
+            rate_hz=t.rate_hz, start_s=t.start_s, exposure_s=t.exposure_s, readout_s=t.readout_s,
+            motion_blur=self.motion_blur, rolling_shutter=self.rolling_shutter,
+            row_offsets_s=(tuple(timing_mod.row_offsets_s(self.height, t.readout_s).tolist())
+                           if self.rolling_shutter else None),
+            ground_truth=GROUND_TRUTH_RULE["rolling" if self.rolling_shutter else "global"])
+
+    def timing_values(self) -> Optional[dict]:
+        """The timing values that change pixels and poses (``contract.pixel_settings``)."""
+        section = self.timing_section()
+        return None if section is None else section.pixel_values()
+
+    def sections(self, n_frames: int) -> Sections:
+        """The manifest's sections of the sensor statements (none for an inactive plan)."""
+        if not self.active:
+            return Sections()
+        lens = sensor = imu = None
+        if self.lens_spec is not None:
+            ls = self.lens_spec
+            lens = LensSection(ls.model, tuple(ls.coeffs), ls.f_number, ls.defocus_px, ls.vignetting, ls.chromatic_px)
+            if self.lens is not None:
+                lens = dataclasses.replace(lens, calibration=self.lens.to_json(),
+                                           opencv_files={v: f"{LENS_DIR}/{v}.yaml" for v in self.views},
+                                           undistort_lut=f"{LENS_DIR}/undistort_lut.bin")
+        if self.sensor is not None:
+            none = (None,) * n_frames
+            sensor = SensorSection(
+                dataclasses.asdict(self.sensor),
+                {kind: {v: [self.sensor_relpath(kind, v, k) for k in range(n_frames)] for v in self.views}
+                 for kind in self.sensor_kinds()},
+                raw_layout=("PNG16, values 0..2^bits-1 (not scaled), CFA mosaic" if self.sensor.cfa
+                            else "PNG16 RGB, values 0..2^bits-1 (not scaled)"),
+                autoexposure=None if self.autoexposure is None else dataclasses.asdict(self.autoexposure),
+                exposure_s=none, gain=none, metered=none)
+        if self.imu is not None:
+            imu = self.imu_section()
+        return Sections(rig_motion=RigMotionSection(self.motion.kind, self.rate_hz, self.motion.start_s),
+                        timing=self.timing_section(), lens=lens, sensor=sensor, imu=imu)
 
     def manifest_entries(self, n_frames: int) -> dict:
         """Manifest keys of the sensor statements (none for an inactive plan)."""
-        if not self.active:
-            return {}
-        m: dict = {"rig_motion": {"interpolation": self.motion.kind, "rate_hz": self.rate_hz,
-                                  "start_s": self.motion.start_s,
-                                  "rule": "docs/rendering.md#rig-motion-between-frames"}}
-        t = self.timing or model.Timing()
-        m["timing"] = {
-            "rate_hz": t.rate_hz, "start_s": t.start_s, "exposure_s": t.exposure_s, "readout_s": t.readout_s,
-            "motion_blur": self.motion_blur, "rolling_shutter": self.rolling_shutter,
-            "stamp": "middle of the exposure",
-            "row_time": "t_row(r) = t_k + (r + 0.5 - H/2) * readout_s / H (r = 0 at the top)",
-            "row_offsets_s": timing_mod.row_offsets_s(self.height, t.readout_s).tolist() if self.rolling_shutter else None,
-            "ground_truth": GROUND_TRUTH_RULE["rolling" if self.rolling_shutter else "global"],
-        }
-        if self.lens_spec is not None:
-            ls = self.lens_spec
-            entry = {"model": ls.model, "coeffs": list(ls.coeffs), "f_number": ls.f_number,
-                     "defocus_px": ls.defocus_px, "vignetting": ls.vignetting, "chromatic_px": ls.chromatic_px,
-                     "optics_apply_to": "sensor images only"}
-            if self.lens is not None:
-                entry.update(self.lens.to_json())
-                entry["files"] = {"opencv": {v: f"{LENS_DIR}/{v}.yaml" for v in self.views},
-                                  "undistort_lut": f"{LENS_DIR}/undistort_lut.bin",
-                                  "lut_layout": "RobotCar: float64, all W*H u then all W*H v, row-major; "
-                                                "undistorted (pinhole K) pixel -> distorted pixel to sample"}
-                entry["ground_truth"] = "depth (planar z), ids and flow at the distorted image's pixel centres"
-            m["lens"] = entry
-        if self.sensor is not None:
-            s = dataclasses.asdict(self.sensor)
-            s["files"] = {kind: {v: [self.sensor_relpath(kind, v, k) for k in range(n_frames)] for v in self.views}
-                          for kind in self.sensor_kinds()}
-            s["raw_layout"] = ("PNG16, values 0..2^bits-1 (not scaled), CFA mosaic" if self.sensor.cfa
-                               else "PNG16 RGB, values 0..2^bits-1 (not scaled)")
-            s["exposure_s"] = [None] * n_frames
-            s["gain"] = [None] * n_frames
-            s["metered"] = [None] * n_frames
-            if self.autoexposure is not None:
-                s["autoexposure"] = dataclasses.asdict(self.autoexposure)
-            m["sensor"] = s
-        if self.imu is not None:
-            entry = self.imu_params().to_json()
-            entry["files"] = {"noisy": f"{IMU_DIR}/data.csv", "ideal": f"{IMU_DIR}/data_ideal.csv",
-                              "groundtruth": f"{IMU_DIR}/groundtruth.csv", "yaml": f"{IMU_DIR}/sensor.yaml"}
-            entry["frame"] = "IMU = body; T_world_imu = T_world_cam(left) @ T_cam_imu"
-            m["imu"] = entry
-        return m
+        return self.sections(n_frames).to_json()

@@ -184,3 +184,29 @@ OBJECT_KEYWORDS = ("QUAD", "CUBOID", "SPHERE", "CYLINDER", "MESH", "ASSET")
 SINGLETON_KEYWORDS = ("CAMERA", "START", "FRAMES", "TRAJECTORY", "WORLD", "FOG", "NOISE", "LOOK", "RENDER",
                       "TIMING", "LENS", "SENSOR", "AUTOEXPOSURE", "IMU")
 TAG_SYNONYMS = {"color": "colour"}
+
+# Words people write for what this language says otherwise, and what to write instead: word ->
+# (the statement's tag that says it, the hint), tried in order; the first tag the statement
+# has gives the hint ({usage}: that tag's usage; {keyword}; {kind}: the statement's first
+# kind). "KIND" stands for a statement's kinds, the bare words after its keyword (ASSET car,
+# LIGHT sun, WORLD sky).
+_KIND = ("KIND", "the kind is a word of its own right after the keyword: '{keyword} {kind} ...'")
+_DIM = ("dim", "the size is '{usage}'")
+_ROTATION = (("direction", "a light is turned by '{usage}' (the way it shines)"),
+             ("position", "the rotation is the last three numbers of '{usage}', in degrees"))
+TAG_HINTS: dict[str, tuple[tuple[str, str], ...]] = {
+    **{w: (_KIND,) for w in ("kind", "type", "shape", "model")},
+    **{w: (("resolution", "write '{usage}'"), _DIM) for w in ("width", "height", "res")},
+    **{w: (_DIM,) for w in ("radius", "size", "dims", "dimensions", "extent", "length", "depth", "diameter")},
+    **{w: _ROTATION for w in ("rotation", "rot", "orientation", "angles", "euler", "yaw", "heading")},
+    **{w: (("position", "write '{usage}'"),) for w in ("pos", "location", "loc", "translation", "origin", "at")},
+    **{w: (("strength", "write '{usage}'"),) for w in ("intensity", "power", "energy", "brightness", "watts")},
+    **{w: (("focal", "write '{usage}' (pixels)"),) for w in ("f", "fx", "focal_length", "focallength", "fov")},
+    **{w: (("principal", "write '{usage}'"),) for w in ("cx", "cy", "pp", "principal_point", "center", "centre")},
+    **{w: (("rate", "write '{usage}'"),) for w in ("fps", "framerate", "frame_rate", "hz")},
+    **{w: (("colour", "write '{usage}' (0..1 each)"),) for w in ("rgb", "albedo", "diffuse")},
+    **{w: (("size", "write '{usage}' (metres)"), _DIM) for w in ("scale", "scaling")},
+    **{w: (("file", "write '{usage}'"),) for w in ("path", "filename", "filepath", "src", "source")},
+    **{w: (("twist", "a constant motion is '{usage}' (per frame, in the object's own frame)"),)
+       for w in ("velocity", "speed", "motion")},
+}

@@ -36,9 +36,6 @@ class Token:
     def lower(self) -> str:
         return self.text.lower()
 
-    def is_word(self, *names: str) -> bool:
-        return self.kind == "word" and (not names or self.lower in names)
-
     def shown(self) -> str:
         """The token as written (for messages)."""
         return f'"{self.text}"' if self.kind == "string" else self.text

@@ -29,7 +29,7 @@ from typing import Optional
 from urllib.parse import unquote
 
 from ..contract.errors import ContractError
-from ..contract.inputs import MiB, check_regular, is_inside, read_bytes
+from ..contract.inputs import MiB, check_regular, is_inside, is_number, read_bytes
 from ..image_check import ImageFileError, check_image
 
 MAX_MODEL_TEXT = 256 * MiB    # an OBJ, MTL or glTF JSON larger than this is refused
@@ -151,7 +151,7 @@ def _mtl_problems(mtl: Path, folder: Path, allow_external: bool) -> list[str]:
         while i < len(words) and words[i] in _MTL_OPTIONS:
             n, i = _MTL_OPTIONS[words[i]], i + 1
             if words[i - 1] in ("-o", "-s", "-bm"):  # up to n numbers
-                while n and i < len(words) and _is_number(words[i]):
+                while n and i < len(words) and is_number(words[i]):
                     i, n = i + 1, n - 1
             else:  # exactly n words
                 i += n
@@ -161,14 +161,6 @@ def _mtl_problems(mtl: Path, folder: Path, allow_external: bool) -> list[str]:
             if p:
                 problems.append(p)
     return problems
-
-
-def _is_number(word: str) -> bool:
-    try:
-        float(word)
-    except ValueError:
-        return False
-    return True
 
 
 # --- the rule -----------------------------------------------------------------------------

@@ -160,6 +160,13 @@ def _with_class(o: model.SceneObject, materials: dict[str, model.Material]) -> m
     return dataclasses.replace(o, semantic_class=semantics.object_class(o.semantic_class, from_material))
 
 
+# words people use for a class, and the Cityscapes name of it; the classes no object of a
+# scene is (the recording car itself, image borders) are never suggested for a misspelling
+CLASS_WORDS = {"vehicle": "car", "automobile": "car", "pedestrian": "person", "human": "person", "people": "person",
+               "bike": "bicycle", "tree": "vegetation", "plant": "vegetation", "grass": "terrain", "house": "building"}
+NOT_OBJECT_CLASSES = ("unlabeled", "ego vehicle", "rectification border", "out of roi", "license plate")
+
+
 class _Objects:
     """QUAD, CUBOID, SPHERE, CYLINDER, MESH and ASSET statements -> SceneObjects (faulty ones left out)."""
 
@@ -215,8 +222,10 @@ class _Objects:
         label = semantics.lookup(str(tv.values[0]))
         if label is None:
             names = [lab.name for lab in semantics.LABELS]
-            self.check.err(tv.tokens[0], f"{stmt.keyword} 'class' '{tv.values[0]}' is not a known class"
-                                         f"{did_you_mean(semantics.canonical(str(tv.values[0])), names)} "
+            word = semantics.canonical(str(tv.values[0]))
+            close = (f"; did you mean '{CLASS_WORDS[word]}'?" if word in CLASS_WORDS
+                     else did_you_mean(word, [n for n in names if n not in NOT_OBJECT_CLASSES]))
+            self.check.err(tv.tokens[0], f"{stmt.keyword} 'class' '{tv.values[0]}' is not a known class{close} "
                                          f"(classes: {', '.join(names)}; see docs/ses-language.md)")
             return None
         return label.name

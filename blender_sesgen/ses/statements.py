@@ -7,12 +7,13 @@ the next tag. Keywords and tags are case-insensitive; ``color`` is ``colour``.
 from __future__ import annotations
 
 import difflib
+import re
 from dataclasses import dataclass, field
 from typing import Optional, Union
 
 from .diagnostics import Diagnostics
-from .grammar import STATEMENTS, TAG_SYNONYMS, Statement, Tag
-from .lexer import NONFINITE_RE, Token
+from .grammar import STATEMENTS, TAG_HINTS, TAG_SYNONYMS, Statement, Tag
+from .lexer import NONFINITE_RE, NUMBER_RE, Token
 
 Value = Union[float, int, str, bool]
 MAX_ABS = 1e9  # keeps every later product (areas, poses) finite
@@ -51,6 +52,32 @@ def did_you_mean(word: str, candidates) -> str:
     return f"; did you mean '{original}'?"
 
 
+def kinds(spec: Statement) -> list[str]:
+    """The statement's kinds: its flag tags written as the word after the keyword (ASSET car)."""
+    return [t.name for t in spec.tags.values() if t.kind == "flag" and t.name not in ("allow_external",)]
+
+
+def hint(word: str, spec: Statement, following: str = "") -> str:
+    """What to write instead of ``word`` in a ``spec`` statement (grammar.TAG_HINTS), as
+    "; " + the hint; else a close tag name ("did you mean"); else "". ``following``: the
+    next word (``ASSET kind car`` -> ``ASSET car``)."""
+    for target, text in TAG_HINTS.get(word.lower(), ()):
+        tag = spec.tags.get(target)
+        k = kinds(spec)
+        if tag is not None or (target == "KIND" and k):
+            kind = following.lower() if following.lower() in k else (k or [""])[0]
+            return "; " + text.format(usage=tag.usage if tag else "", keyword=spec.keyword, kind=kind)
+    return did_you_mean(word, spec.tags)
+
+
+def tag_list(spec: Statement) -> str:
+    """The tags of ``spec`` for a message; many kinds (ASSET's) listed apart."""
+    k = kinds(spec)
+    if len(k) <= 5:
+        return f"tags: {', '.join(spec.tags)}"
+    return f"tags: {', '.join(t for t in spec.tags if t not in k)}; kinds: {', '.join(k)}"
+
+
 def read_statement(tokens: list[Token], diags: Diagnostics) -> Optional[ParsedStatement]:
     """The statement of one line, or None (with errors recorded) if its syntax is wrong."""
     head = tokens[0]
@@ -71,12 +98,24 @@ def read_statement(tokens: list[Token], diags: Diagnostics) -> Optional[ParsedSt
     return stmt if len(diags.items) == before else None
 
 
+def _not_a_number_hint(text: str) -> str:
+    """What a near-number is missing: ``640x480`` -> two numbers; ``0,`` -> spaces; ``12cm`` -> no unit."""
+    if re.fullmatch(r"[0-9.]+[xX×][0-9.]+", text):
+        return f"; write two numbers separated by a space: '{re.sub(r'[xX×]', ' ', text)}'"
+    if "," in text and all(NUMBER_RE.fullmatch(p) for p in text.split(",") if p):
+        return "; separate numbers with spaces, not commas"
+    head = re.match(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)", text)
+    if head and re.fullmatch(r"[a-zA-Z°%]+", text[head.end():]):
+        return f"; numbers take no unit: write '{head.group()}' (each tag's unit is fixed, docs/ses-language.md)"
+    return ""
+
+
 def _number(tok: Token, where: str, diags: Diagnostics) -> Optional[float]:
     if tok.kind == "word" and NONFINITE_RE.fullmatch(tok.text):
         diags.at(tok, f"{where}: '{tok.text}' is not allowed, numbers must be finite")
         return None
     if tok.kind != "number":
-        diags.at(tok, f"{where} expects a number, got '{tok.shown()}'")
+        diags.at(tok, f"{where} expects a number, got '{tok.shown()}'{_not_a_number_hint(tok.text)}")
         return None
     value = float(tok.text)
     if not abs(value) <= MAX_ABS:  # also catches overflow to inf
@@ -118,10 +157,12 @@ def _read_tags(spec: Statement, stmt: ParsedStatement, rest: list[Token], diags:
         tag = _tag_of(tok, spec)
         if tag is None:
             if tok.kind == "word" and not NONFINITE_RE.fullmatch(tok.text):
-                diags.at(tok, f"{kw} has no tag '{tok.text}'{did_you_mean(tok.text, spec.tags)}"
-                              f" (tags: {', '.join(spec.tags)})")
+                after = rest[i + 1].text if i + 1 < len(rest) else ""
+                why = _not_a_number_hint(tok.text) or hint(tok.text, spec, after)
+                diags.at(tok, f"{kw} has no tag '{tok.text}'{why} ({tag_list(spec)})")
             else:
-                diags.at(tok, f"{kw}: expected a tag ({', '.join(spec.tags)}), got the value '{tok.shown()}'")
+                diags.at(tok, f"{kw}: expected a tag ({', '.join(spec.tags)}), got the value '{tok.shown()}'"
+                              + _values_hint(spec, rest, i))
             i += 1
             while i < len(rest) and _tag_of(rest[i], spec) is None:  # skip to the next tag
                 i += 1
@@ -135,6 +176,18 @@ def _read_tags(spec: Statement, stmt: ParsedStatement, rest: list[Token], diags:
     for tag in spec.tags.values():
         if tag.required and tag.name not in stmt.tags:
             diags.at(stmt.token, f"{kw} needs the tag '{tag.name}' ({tag.usage})")
+
+
+def _values_hint(spec: Statement, rest: list[Token], i: int) -> str:
+    """Numbers right after the keyword, as many as its first required tag takes: "did you mean"
+    them after that tag (``START 0 1 2`` -> ``START position 0 1 2``)."""
+    j = i
+    while j < len(rest) and rest[j].kind == "number":
+        j += 1
+    need = next((t for t in spec.tags.values() if t.required and t.kind == "numbers"), None)
+    if i != 0 or need is None or j - i not in need.counts:
+        return ""
+    return f"; did you mean '{spec.keyword} {need.name} {' '.join(t.text for t in rest[i:j])}'?"
 
 
 def _read_values(spec: Statement, tag: Tag, tag_tok: Token, rest: list[Token], i: int,
@@ -152,9 +205,11 @@ def _read_values(spec: Statement, tag: Tag, tag_tok: Token, rest: list[Token], i
         toks = rest[i:j]
         if len(toks) not in tag.counts:
             if len(toks) < max(tag.counts) and j < len(rest) and _tag_of(rest[j], spec) is None:
-                diags.at(rest[j], f"{where} expects a number, got '{rest[j].shown()}'")
+                diags.at(rest[j], f"{where} expects a number, got '{rest[j].shown()}'"
+                                  f"{_not_a_number_hint(rest[j].text)}")
+                return j + 1   # that word was meant as a value: not also an unknown tag
             else:
-                diags.at(tag_tok, f"{where} needs {_count_words(tag.counts)}, got {len(toks)}")
+                diags.at(tag_tok, f"{where} needs {_count_words(tag.counts)} ({tag.usage}), got {len(toks)}")
             return j
         values = [_number(t, where, diags) for t in toks]
         if None not in values:

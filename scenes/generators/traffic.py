@@ -10,6 +10,9 @@ The street of ``street.py --kitti`` (KITTI odometry's rig: 1226x370 px, f = 707 
 - people (``scenes/traffic/person.obj``) walking along both sidewalks and crossing the road
   far ahead (MOVE ... twist: walking speed 1.3-1.5 m/s).
 
+Cars carry ``class car`` and people ``class person``, so the cityscapes and vkitti2 exports
+label them (car/person, vKITTI 2's Car with an instance).
+
 Lanes are 1.5 m left and right of the street axis (the camera drives on the axis, parked
 boxes stand at 3.6 m, people walk 5.5-6.2 m out); nothing moving comes closer than 2 m to the
 camera (tests/test_scenes_traffic.py checks that, and that traffic is in view).
@@ -23,11 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract.trajectory_files import format_tum
+from blender_sesgen.generators.builtin import street
+
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
-sys.path.insert(0, str(HERE.parents[1]))
-import street  # noqa: E402
-from blender_sesgen.contract.trajectory_files import format_tum  # noqa: E402
 
 ASSETS = HERE.parent / "traffic"          # scenes/traffic: meshes and trajectories (--assets DIR: elsewhere)
 RATE = 10.0                               # KITTI: 10 frames per second
@@ -208,7 +210,7 @@ def main(assets: Path = ASSETS) -> None:
         tum.write_text(format_tum(np.arange(FRAMES) / RATE, P,
                                   comment="T_world_obj of a car: x right, y up, z forward; SES world"))
         p0, y0 = P[0][:3, 3], yaw_deg(P[0][:3, 2])
-        traffic.append(f"MESH id {next_id} name {name} file traffic/car.obj texture {tex} colour {fmt(*col)} "
+        traffic.append(f"MESH id {next_id} name {name} class car file traffic/car.obj texture {tex} colour {fmt(*col)} "
                        f"position {fmt(*p0)} 0 {y0:.4f} 0")
         traffic.append(f"MOVE id {next_id} file traffic/{name}.tum format tum")
         next_id += 1
@@ -218,7 +220,7 @@ def main(assets: Path = ASSETS) -> None:
         heading = sgn * r_cross
         right = np.cross(heading, UP)
         p0 = cross_c - heading * dist + LANE * right
-        traffic.append(f"MESH id {next_id} name {name} file traffic/car.obj texture 7 colour {fmt(*colour)} "
+        traffic.append(f"MESH id {next_id} name {name} class car file traffic/car.obj texture 7 colour {fmt(*colour)} "
                        f"position {fmt(*p0)} 0 {yaw_deg(heading):.4f} 0")
         traffic.append(f"MOVE id {next_id} twist 0 0 {speed / RATE:.3f} 0 0 0 from {start_frame}")
         next_id += 1
@@ -230,7 +232,7 @@ def main(assets: Path = ASSETS) -> None:
         point, h = axis.at(s0)
         heading = h if speed > 0 else -h
         p0 = point + side * np.cross(h, UP)
-        traffic.append(f"MESH id {next_id} name walker_{i + 1} file traffic/person.obj colour {fmt(*np.random.default_rng(i).uniform(0.2, 0.9, 3))} "
+        traffic.append(f"MESH id {next_id} name walker_{i + 1} class person file traffic/person.obj colour {fmt(*np.random.default_rng(i).uniform(0.2, 0.9, 3))} "
                        f"position {fmt(*p0)} 0 {yaw_deg(heading):.4f} 0")
         traffic.append(f"MOVE id {next_id} twist 0 0 {abs(speed) / RATE:.3f} 0 0 0")
         next_id += 1
@@ -240,7 +242,7 @@ def main(assets: Path = ASSETS) -> None:
     for i, (sgn, offset, start) in enumerate(((1, -0.5, 12), (-1, 0.5, 0))):
         heading = sgn * np.cross(h, UP)
         p0 = point - heading * 7.5 + offset * h
-        traffic.append(f"MESH id {next_id} name crossing_walker_{i + 1} file traffic/person.obj "
+        traffic.append(f"MESH id {next_id} name crossing_walker_{i + 1} class person file traffic/person.obj "
                        f"colour {fmt(*np.random.default_rng(10 + i).uniform(0.2, 0.9, 3))} "
                        f"position {fmt(*p0)} 0 {yaw_deg(heading):.4f} 0")
         traffic.append(f"MOVE id {next_id} twist 0 0 0.14 0 0 0 from {start}")

@@ -3,22 +3,20 @@ disparity) of tests/dynamic_scene.py's scene with nothing moving, computed by th
 vo_reference of commit 9808421 — the code before moving objects existed.
 
     git worktree add /tmp/before 9808421
-    PYTHONPATH=/tmp/before python tests/golden/make_static_flow.py
+    PYTHONPATH=/tmp/before:tests python tests/golden/make_static_flow.py
 
 tests/test_products_scene_flow.py checks that today's code gives the same bits.
 """
 from __future__ import annotations
 
-import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))
+import dynamic_scene  # tests/ (on PYTHONPATH; pytest's pythonpath in the tests)
 
-import dynamic_scene  # noqa: E402
+HERE = Path(__file__).resolve().parent
 
 
 def products(seq) -> dict:

@@ -20,6 +20,10 @@ from ..errors import VoError
 from ..io.trajectory import Trajectory
 
 METHODS = ("none", "origin", "se3", "sim3", "scale")
+# The commands' default (evaluate, run): the first estimated pose put on the first
+# ground-truth one -- every VO here starts there, APE is then the drift -- whereas an SE(3)
+# fit to a short or nearly straight path cannot fix the rotation about it.
+CLI_DEFAULT = "origin"
 
 
 @dataclass(frozen=True)
@@ -31,6 +35,7 @@ class Alignment:
     t: np.ndarray        # (3,)
     scale: float
     n_poses: int         # pose pairs used for the fit (0 for none)
+    rotation_sigma_deg: float = 0.0   # se3/sim3: how well the fit fixes R (rotation_sigma_deg())
 
     @property
     def T(self) -> np.ndarray:
@@ -40,7 +45,7 @@ class Alignment:
 
     def as_dict(self) -> dict:
         return {"method": self.method, "R": self.R.tolist(), "t": self.t.tolist(),
-                "scale": self.scale, "n_poses": self.n_poses}
+                "scale": self.scale, "n_poses": self.n_poses, "rotation_sigma_deg": self.rotation_sigma_deg}
 
 
 def umeyama(x: np.ndarray, y: np.ndarray, with_scale: bool = False) -> tuple[np.ndarray, np.ndarray, float]:
@@ -69,6 +74,21 @@ def umeyama(x: np.ndarray, y: np.ndarray, with_scale: bool = False) -> tuple[np.
     c = float(np.trace(np.diag(d) @ S) / sigma_x) if with_scale else 1.0
     t = my - c * R @ mx
     return R, t, c
+
+
+def rotation_sigma_deg(x: np.ndarray, y: np.ndarray, R: np.ndarray, t: np.ndarray, c: float = 1.0) -> float:
+    """About how well the fit y ≈ c·R·x + t fixes R (1 σ, degrees, worst axis): the residuals'
+    scatter over the points' spread perpendicular to the axis they spread most along, the
+    axis a straight path leaves free (points on a line fix no rotation about it)."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    res = y - (c * x @ R.T + t)
+    dof = max(3 * len(x) - 6, 1)
+    sigma = float(np.sqrt(np.sum(res * res) / dof))
+    yc = y - y.mean(axis=0)
+    perp = float(np.sum(np.linalg.eigvalsh(yc.T @ yc)[:2]))   # sums of squares off the main axis
+    if sigma == 0.0:
+        return 0.0
+    return float(np.degrees(sigma / np.sqrt(perp))) if perp > 0 else float("inf")
 
 
 def apply_alignment(est: Trajectory, alignment: Alignment) -> Trajectory:
@@ -101,5 +121,5 @@ def align(est: Trajectory, gt: Trajectory, method: str = "se3", n: int = -1) -> 
     if method == "scale":
         a = Alignment("scale", np.eye(3), np.zeros(3), c, k)
     else:
-        a = Alignment(method, R, t, c, k)
+        a = Alignment(method, R, t, c, k, rotation_sigma_deg(est.positions[:k], gt.positions[:k], R, t, c))
     return apply_alignment(est, a), a

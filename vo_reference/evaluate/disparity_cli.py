@@ -4,13 +4,15 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from blender_sesgen.contract.cli import add_report_argument
+
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--gt", required=True, help="ground-truth disparity (PNG16 KITTI /256, PFM, .npy, TIFF, EXR)")
     p.add_argument("--est", required=True, help="estimated disparity (same formats)")
     p.add_argument("--mask", help="non-occlusion mask image (nonzero = visible in both views): adds 'noc' metrics")
     p.add_argument("--json", metavar="OUT.json", help="write the metrics as JSON")
-    p.add_argument("--plot", metavar="DIR", help="write the disparity error map (PNG) into DIR")
+    add_report_argument(p, "the disparity error map (disparity_error.png)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -33,8 +35,8 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         write_json(args.json, m)
         print(f"metrics: {args.json}")
-    if args.plot:
+    if args.report:
         from .plots import plot_disparity_error
-        p = plot_disparity_error(gt, est, Path(args.plot) / "disparity_error.png", title=Path(args.est).name)
+        p = plot_disparity_error(gt, est, Path(args.report) / "disparity_error.png", title=Path(args.est).name)
         print(f"plot:    {p}")
     return 0

@@ -32,28 +32,30 @@ def save_figure(fig, path, dpi: int = 120) -> Path:
 
 
 def view_axes(positions: np.ndarray) -> tuple[tuple[int, int], tuple[int, int]]:
-    """(top, side) pairs of axis indices: top = the two axes of largest extent, side = the
-    largest together with the smallest (for a camera moving over a ground plane: top = x/z,
-    side = the vertical)."""
+    """Two pairs of axis indices: the two axes of largest extent, and the largest together with
+    the smallest (for a camera moving over a ground plane: the ground plane, then the height)."""
     order = np.argsort(-np.ptp(positions, axis=0), kind="stable")
     return (int(order[0]), int(order[1])), (int(order[0]), int(order[2]))
 
 
 def plot_trajectories(gt: Trajectory, est: Trajectory, path, title: str = "",
                       labels=("ground truth", "estimate")) -> Path:
-    """Ground truth vs estimate, top view and side view side by side (cf. SESGen paper, Fig. 8)."""
+    """Ground truth vs estimate in two planes side by side (cf. SESGen paper, Fig. 8): the plane
+    of the path's two largest extents, and the largest with the smallest. Each panel is titled
+    by the axes it shows -- which of them is up depends on the data's world (SES: y; KITTI's
+    camera world: -y; TUM: z)."""
     plt = pyplot()
     g, e = gt.positions, est.positions
-    top, side = view_axes(g)
+    first, second = view_axes(g)
     fig, axs = plt.subplots(1, 2, figsize=(12, 5.5))
-    for ax, (i, j), name in ((axs[0], top, "top view"), (axs[1], side, "side view")):
+    for ax, (i, j), note in ((axs[0], first, " (the largest extents)"), (axs[1], second, "")):
         ax.plot(g[:, i], g[:, j], "-", color="tab:green", lw=1.5, label=labels[0])
         ax.plot(e[:, i], e[:, j], "-", color="tab:red", lw=1.0, label=labels[1])
         ax.plot(g[0, i], g[0, j], "ko", ms=4, label="start")
         ax.set_xlabel(f"{AXES[i]} (m)")
         ax.set_ylabel(f"{AXES[j]} (m)")
-        ax.set_title(name)
-        if name == "top view":  # the side view keeps free scales so height changes stay visible
+        ax.set_title(f"{AXES[i]}–{AXES[j]} plane{note}")
+        if ax is axs[0]:  # the second keeps free scales so small extents (height) stay visible
             ax.set_aspect("equal", adjustable="datalim")
         ax.grid(True, alpha=0.3)
     axs[0].legend(loc="best")

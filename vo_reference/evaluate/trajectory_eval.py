@@ -119,14 +119,22 @@ def evaluate_trajectory(gt: Trajectory, est: Trajectory, options: Optional[Evalu
         n_gt_input=n_gt, n_est_input=n_est)
 
 
+# summary_lines' note: an se3/sim3 fit whose own rotation uncertainty is at least this share
+# of the APE rotation it yields does not measure the estimate
+ILL_POSED_RATIO = 0.5
+
+
 def summary_lines(ev: TrajectoryEvaluation) -> list[str]:
     """A short human-readable table of the headline numbers."""
     a, r = ev.ape, ev.rpe
     unit = "frames" if r.delta_unit == "f" else "m"
+    al = ev.alignment
+    fitted = al.method in ("se3", "sim3")
     rows = [
         f"poses: {len(ev.gt)} associated (gt {ev.n_gt_input}, est {ev.n_est_input}); "
-        f"gt path {ev.gt.path_length():.3f} m; alignment {ev.alignment.method}"
-        + (f", scale {ev.alignment.scale:.6f}" if ev.alignment.method in ("sim3", "scale") else ""),
+        f"gt path {ev.gt.path_length():.3f} m; alignment {al.method}"
+        + (f", scale {al.scale:.6f}" if al.method in ("sim3", "scale") else "")
+        + (f", its rotation fixed to ±{al.rotation_sigma_deg:.2g}°" if fitted else ""),
         "",
         f"{'metric':<28}{'rmse':>12}{'mean':>12}{'median':>12}{'std':>12}{'min':>12}{'max':>12}",
     ]
@@ -140,6 +148,10 @@ def summary_lines(ev: TrajectoryEvaluation) -> list[str]:
     row(f"RPE trans (m) d={r.delta:g}{unit[0]}", r.trans)
     row(f"RPE rot (deg) d={r.delta:g}{unit[0]}", r.rot_deg)
     rows.append(f"(RPE: delta {r.delta:g} {unit}, {pairs}, {len(r.pairs)} pairs)")
+    if fitted and al.rotation_sigma_deg >= ILL_POSED_RATIO * a.rot_deg.rmse:
+        rows.append(f"note: on this short or nearly straight path the {al.method} fit fixes its rotation only to "
+                    f"±{al.rotation_sigma_deg:.2g}°, about the APE rotation it yields: that figure measures the fit, "
+                    "not the estimate (--align origin compares from a common first pose)")
     if ev.kitti is not None:
         rows += ["", f"KITTI odometry: t_err {ev.kitti.t_err_pct:.4f} %   r_err "
                      f"{ev.kitti.r_err_deg_per_100m:.4f} deg/100 m   ({ev.kitti.n_segments} segments)"]

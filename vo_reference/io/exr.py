@@ -12,6 +12,8 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract.depth import depth_to_pass
+from blender_sesgen.contract.exr_format import PASS_COMBINED, PASS_DEPTH, PASS_INDEX, VIEW_LAYER
 from blender_sesgen.contract.inputs import check_regular
 
 from ..errors import VoError, as_vo_error
@@ -100,10 +102,30 @@ def find_pass(channels: dict[str, np.ndarray], pass_names: tuple[str, ...], comp
                 suffix = f"{pname}.{c}"
                 cands = [n for n in channels if n == suffix or n.endswith("." + suffix)]
                 if comp_layer_first:
-                    cands = [n for n in cands if n.startswith("ViewLayer.")]
+                    cands = [n for n in cands if n.startswith(VIEW_LAYER + ".")]
                 if not cands:
                     break
                 found.append(sorted(cands)[0])
             else:
                 return found
     return None
+
+
+def render_exr_parts(rgb_linear: np.ndarray, depth: np.ndarray, ids: np.ndarray | None,
+                     alpha: np.ndarray | None = None, layer: str = VIEW_LAYER) -> dict:
+    """The parts of one render EXR as Blender 5.0 writes it (``contract.exr_format``: one part
+    per pass), for :func:`write_exr_parts`: a render folder written without Blender (tests,
+    benches). Depth +inf becomes the background marker (``contract.depth``)."""
+    H, W = depth.shape
+    z = depth_to_pass(depth)
+    rgb = np.asarray(rgb_linear, dtype=np.float32)
+    a = np.ones((H, W), np.float32) if alpha is None else np.asarray(alpha, np.float32)
+    combined, dpass, index = PASS_COMBINED[0], PASS_DEPTH[0], PASS_INDEX[0]
+    parts = {
+        f"{layer}.{combined}": {f"{layer}.{combined}.{c}": np.ascontiguousarray(x)
+                                for c, x in zip("RGBA", (rgb[..., 0], rgb[..., 1], rgb[..., 2], a))},
+        f"{layer}.{dpass}": {f"{layer}.{dpass}.Z": z},
+    }
+    if ids is not None:
+        parts[f"{layer}.{index}"] = {f"{layer}.{index}.X": np.asarray(ids, dtype=np.float32)}
+    return parts

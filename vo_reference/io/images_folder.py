@@ -26,7 +26,7 @@ from blender_sesgen.contract.inputs import read_text
 
 from ..errors import VoError, as_vo_error
 from .files import read_image
-from .base import ImagesOnly, check_frame_view
+from .base import Sequence, check_frame_view
 from .trajectory import read_kitti, read_times
 
 IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".bmp", ".pgm", ".ppm", ".tif", ".tiff")
@@ -47,7 +47,7 @@ def read_robotcar_timestamps(path) -> dict[int, float]:
     return out
 
 
-class ImageFolderSequence(ImagesOnly):
+class ImageFolderSequence(Sequence):
     """Monocular image sequence from a folder; see the module docstring."""
 
     views = ("left",)

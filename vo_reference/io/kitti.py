@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import rig
 from blender_sesgen.contract.camera import K_problem
 from blender_sesgen.contract.inputs import read_text
 from blender_sesgen.contract.manifest import LIMIT
@@ -28,7 +29,7 @@ from blender_sesgen.contract.manifest import LIMIT
 from ..errors import VoError, as_vo_error
 from .color import rgb8_to_gray8
 from .files import read_image
-from .base import ImagesOnly, check_frame_view
+from .base import Sequence, check_frame_view
 from .trajectory import read_kitti, read_times
 
 __all__ = ["KittiSequence", "read_kitti_calib", "looks_like_kitti", "poses_file"]
@@ -100,7 +101,7 @@ def poses_file(root: Path) -> Path | None:
     return kit if seq.parent.name == "sequences" and kit.is_file() else None
 
 
-class KittiSequence(ImagesOnly):
+class KittiSequence(Sequence):
     """A KITTI odometry folder (real data; no depth or ids ground truth)."""
 
     def __init__(self, root):
@@ -186,11 +187,7 @@ class KittiSequence(ImagesOnly):
             raise VoError(f"view {view!r} not in this sequence (views: {', '.join(self.views)})")
         if self._poses is None:
             return None
-        if view == "left":
-            return self._poses.copy()
-        T_left_right = np.eye(4)
-        T_left_right[0, 3] = self.baseline_m
-        return self._poses @ T_left_right
+        return rig.T_world_view(self._poses, view, self.baseline_m)
 
     def __repr__(self) -> str:
         W, H = self.resolution

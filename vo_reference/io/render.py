@@ -21,23 +21,23 @@ from pathlib import Path
 
 import numpy as np
 
+from blender_sesgen.contract import rig
 from blender_sesgen.contract.colour import linear_to_srgb8
 from blender_sesgen.contract.depth import depth_from_pass
+from blender_sesgen.contract.exr_format import PASS_COMBINED, PASS_DEPTH, PASS_INDEX, VIEW_LAYER
 from blender_sesgen.contract.inputs import read_bytes, read_text
-from blender_sesgen.contract.manifest import MANIFEST, Manifest
+from blender_sesgen.contract.manifest import FORMAT, MANIFEST, Manifest
+from blender_sesgen.contract.manifest_sections import RigMotionSection
+from blender_sesgen.contract.timing import DEFAULT_FPS
 
 from ..errors import VoError, as_vo_error
 from .color import rgb8_to_gray8
-from .base import check_frame_view
+from .base import Sequence, check_frame_view
 from .exr import find_pass, read_exr_channels
 from .files import read_image
 
 __all__ = ["RenderSequence", "read_manifest"]
 
-# pass name candidates (Blender 5.0 first, then 4.x names)
-PASS_COMBINED = ("Combined",)
-PASS_DEPTH = ("Depth",)
-PASS_INDEX = ("Object Index", "IndexOB")
 
 
 def read_manifest(root) -> Manifest:
@@ -49,7 +49,7 @@ def read_manifest(root) -> Manifest:
         return Manifest.read(root)
 
 
-class RenderSequence:
+class RenderSequence(Sequence):
     """A render folder as a :class:`~vo_reference.io.sequence.Sequence`.
 
     Extras: ``manifest`` (the dict), ``root``, ``near``/``far``, ``noise`` ((sigma, seed)
@@ -89,6 +89,10 @@ class RenderSequence:
             raise VoError(f"{self.root}: frame {k} ({view}) was not rendered")
         return self.root / rel
 
+    def provenance(self) -> dict:
+        """The render's format and scene hash (what an export records about its source)."""
+        return {"format": FORMAT, "scene_sha256": self.info.scene_sha256}
+
     def frame_complete(self, k: int) -> bool:
         """True when frame k is recorded complete and its EXR files exist for every view."""
         if not 0 <= int(k) < self.num_frames or not self.info.frames_complete[int(k)]:
@@ -123,7 +127,7 @@ class RenderSequence:
             got = hashlib.sha256(read_bytes(path, 16 << 30, "EXR file")).hexdigest()
         if got != want:
             raise VoError(f"{path}: differs from the file the renderer wrote (SHA-256 mismatch); "
-                          "run `python -m blender_sesgen verify` on the folder and re-render with --resume")
+                          "run `sesgen verify` on the folder and re-render with --resume")
 
     def _pass(self, k, view, names, comps, what, key=None):
         ch = self._channels(k, view)
@@ -137,7 +141,7 @@ class RenderSequence:
         if found is None:
             have = sorted(n for n in ch if n != "__path__")
             raise VoError(f"{ch['__path__']}: missing {what} pass "
-                          f"(expected ViewLayer.{names[0]}.{'/'.join(comps)}; channels: {', '.join(have)})")
+                          f"(expected {VIEW_LAYER}.{names[0]}.{'/'.join(comps)}; channels: {', '.join(have)})")
         return [ch[n] for n in found]
 
     # --- images and ground truth ------------------------------------------------------
@@ -181,11 +185,11 @@ class RenderSequence:
     # --- the camera and IMU as sensors (docs/output-format.md) -----------------------------
     def sensor_file(self, kind: str, k: int, view: str = "left"):
         """Relative path of a sensor image (kind raw | rgb | jpeg) or None when not rendered."""
-        files = ((self.manifest.get("sensor") or {}).get("files") or {}).get(kind)
-        if not files:
+        sensor = self.info.sections.sensor
+        if sensor is None or not sensor.files.get(kind):
             return None
         check_frame_view(self, k, view)
-        return files[view][int(k)]
+        return sensor.file(kind, view, k)
 
     def raw_dn(self, k: int, view: str = "left") -> np.ndarray | None:
         """uint16 raw sensor values (CFA mosaic or RGB), 0 .. 2^bits - 1; None without a SENSOR."""
@@ -198,43 +202,40 @@ class RenderSequence:
     @property
     def lens(self):
         """The lens (``blender_sesgen.contract.lens.Lens``) of a distorted render, else None."""
-        entry = self.manifest.get("lens") or {}
-        if entry.get("model") in (None, "pinhole"):
-            return None
-        from blender_sesgen.contract.lens import Lens
-        return Lens.from_K(entry["model"], entry["coeffs"], self.K)
+        section = self.info.sections.lens
+        return None if section is None else section.lens(self.K)
 
     def undistortion_maps(self):
         """(map_x, map_y) of the render's lookup table (pinhole K <- distorted image), or None."""
-        files = ((self.manifest.get("lens") or {}).get("files") or {})
-        if not files.get("undistort_lut"):
+        section = self.info.sections.lens
+        if section is None or not section.undistort_lut:
             return None
         from ..camera.undistort import read_lut
-        return read_lut(self.root / files["undistort_lut"], *self.resolution)
+        return read_lut(self.root / section.undistort_lut, *self.resolution)
+
+    @property
+    def rate_hz(self) -> float:
+        """Frames per second (the manifest's ``fps``)."""
+        return self.info.fps if np.isfinite(self.info.fps) else super().rate_hz
 
     def rig_motion(self):
         """The rig's continuous motion (``blender_sesgen.contract.rig_motion.RigMotion``)."""
         from blender_sesgen.contract.rig_motion import RigMotion
-        rm = self.manifest.get("rig_motion") or {}
-        rate = float(rm.get("rate_hz") or self.manifest.get("fps") or 25.0)
-        start = float(rm.get("start_s", self.timestamps_s[0] if len(self.timestamps_s) else 0.0))
-        return RigMotion(self._poses["left"], rate, start, rm.get("interpolation", "c2_spline"))
-
-    def _view_offset(self, T: np.ndarray, view: str) -> np.ndarray:
-        if view == "right":
-            T = T.copy()
-            T[..., :3, 3] += self.baseline_m * T[..., :3, 0]
-        return T
+        rm = self.info.sections.rig_motion or RigMotionSection(
+            "c2_spline", self.info.fps if np.isfinite(self.info.fps) else DEFAULT_FPS,
+            float(self.timestamps_s[0]) if len(self.timestamps_s) else 0.0)
+        return RigMotion(self._poses["left"], rm.rate_hz, rm.start_s, rm.interpolation)
 
     def T_world_cam_at(self, t_s, view: str = "left") -> np.ndarray:
         """(n, 4, 4) camera poses at any times (seconds; the rig's motion between frames)."""
         if view not in self.views:
             raise VoError(f"view {view!r} not in this sequence (views: {', '.join(self.views)})")
-        return self._view_offset(self.rig_motion().T_world_cam(np.atleast_1d(t_s)), view)
+        return rig.T_world_view(self.rig_motion().T_world_cam(np.atleast_1d(t_s)), view, self.baseline_m)
 
     @property
     def readout_s(self) -> float:
-        return float((self.manifest.get("timing") or {}).get("readout_s") or 0.0)
+        timing = self.info.sections.timing
+        return 0.0 if timing is None else timing.readout_s
 
     def row_times_s(self, k: int) -> np.ndarray:
         """(H,) capture time of every image row of frame k (all equal for a global shutter)."""
@@ -252,23 +253,27 @@ class RenderSequence:
         return self.T_world_cam_at(row_time_s(self.timestamps_s[int(k)], row, self.resolution[1], self.readout_s),
                                    view)[0]
 
+    def imu_calibration(self):
+        """The IMU's calibration and files (``contract.manifest_sections.ImuSection``), or None."""
+        return self.info.sections.imu
+
     def imu(self, kind: str = "noisy") -> dict | None:
         """The IMU stream (kind noisy | ideal) as {t_s, gyro (n,3) rad/s, accel (n,3) m/s^2}, or
         None without an IMU; ``imu_groundtruth()`` gives the body states."""
-        entry = self.manifest.get("imu")
-        if not entry:
+        entry = self.info.sections.imu
+        if entry is None:
             return None
-        if kind not in entry["files"]:
+        if kind not in ("noisy", "ideal"):
             raise VoError(f"IMU stream {kind!r} not in this render (noisy, ideal)")
-        a = _read_csv(self.root / entry["files"][kind])
+        a = _read_csv(self.root / entry.files[kind])
         return {"t_s": a[:, 0] * 1e-9, "gyro": a[:, 1:4], "accel": a[:, 4:7]}
 
     def imu_groundtruth(self) -> dict | None:
         """EuRoC-style body (IMU) states at the IMU's instants: t_s, p, q_wxyz, v, gyro/accel bias."""
-        entry = self.manifest.get("imu")
-        if not entry:
+        entry = self.info.sections.imu
+        if entry is None:
             return None
-        a = _read_csv(self.root / entry["files"]["groundtruth"])
+        a = _read_csv(self.root / entry.files["groundtruth"])
         return {"t_s": a[:, 0] * 1e-9, "p": a[:, 1:4], "q_wxyz": a[:, 4:8], "v": a[:, 8:11],
                 "gyro_bias": a[:, 11:14], "accel_bias": a[:, 14:17]}
 
@@ -277,12 +282,12 @@ class RenderSequence:
 
     def depth(self, k: int, view: str = "left") -> np.ndarray:
         """float32 (H, W) planar z in metres, +inf where nothing was hit."""
-        (z,) = self._pass(k, view, PASS_DEPTH, ("Z",), "Depth", "depth")
+        (z,) = self._pass(k, view, PASS_DEPTH, ("Z",), PASS_DEPTH[0], "depth")
         return depth_from_pass(z, self.depth_background)
 
     def ids(self, k: int, view: str = "left") -> np.ndarray:
         """int32 (H, W) object ids (the script's ``id``), 0 = background."""
-        (x,) = self._pass(k, view, PASS_INDEX, ("X",), "Object Index", "object_index")
+        (x,) = self._pass(k, view, PASS_INDEX, ("X",), PASS_INDEX[0], "object_index")
         return np.rint(np.nan_to_num(x, nan=0.0)).astype(np.int32)
 
     def T_world_cam(self, view: str = "left") -> np.ndarray:

@@ -39,11 +39,8 @@ def require_complete(seq, frames: Iterable[int]) -> None:
     complete with every view's EXR present); sequences without that notion pass. Export,
     stereo and mono VO read only complete frames: a half-written render is resumed
     (``render --resume``) or read over a ``--frames`` range it has finished."""
-    complete = getattr(seq, "frame_complete", None)
-    if complete is None:
-        return
-    missing = [k for k in frames if not complete(k)]
+    missing = [k for k in frames if not seq.frame_complete(k)]
     if missing:
         shown = ", ".join(map(str, missing[:10])) + (" ..." if len(missing) > 10 else "")
-        raise VoError(f"{getattr(seq, 'root', 'input')}: {len(missing)} frame(s) not rendered completely ({shown}); "
+        raise VoError(f"{seq.root or 'input'}: {len(missing)} frame(s) not rendered completely ({shown}); "
                       "finish the render (--resume) or choose --frames")

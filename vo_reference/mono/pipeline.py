@@ -117,7 +117,7 @@ def run_mono_vo(gray_of: Callable[[int], np.ndarray], num_frames: int, K: np.nda
         else:
             try:
                 rel = estimate_relative_pose(m.x1, m.x2, K, two_view, priors=(last_rel, FORWARD),
-                                             triangulate=getattr(scale, "needs_points", False))
+                                             triangulate=scale.needs_points)
                 rec.T_rel, rec.n_inliers = rel.T_c1_c2, rel.n_inliers
             except VoError as e:
                 rec.status, rec.message = "failed", str(e)

@@ -100,12 +100,6 @@ def refine_sampson(R: np.ndarray, t: np.ndarray, x1: np.ndarray, x2: np.ndarray,
     return model(res.x)
 
 
-def _inliers(R, t, x1, x2, K, threshold_px):
-    h1 = np.column_stack([x1, np.ones(len(x1))])
-    h2 = np.column_stack([x2, np.ones(len(x2))])
-    return np.abs(_sampson_residuals(R, t, h1, h2, np.linalg.inv(K))) < threshold_px
-
-
 def _msac(R, t, x1, x2, K, threshold_px):
     """Inliers and the MSAC cost Σ min(d², τ²) of the Sampson distances d (pixels)."""
     h1 = np.column_stack([x1, np.ones(len(x1))])

@@ -25,14 +25,24 @@ from ..errors import VoError
 SOURCES = ("gt", "speed", "stereo", "depth", "none")
 
 
-class UnitScale:
+class Scale:
+    """A source of step lengths: ``step_length(k, rel, x1)`` metres of step k-1 -> k (None:
+    unknown); ``needs_points``: it uses the step's triangulated points."""
+    name = ""
+    needs_points = False
+
+    def step_length(self, k: int, rel, x1: np.ndarray) -> float | None:
+        raise NotImplementedError
+
+
+class UnitScale(Scale):
     name = "none"
 
     def step_length(self, k: int, rel, x1: np.ndarray) -> float | None:
         return 1.0
 
 
-class GroundTruthScale:
+class GroundTruthScale(Scale):
     name = "gt"
 
     def __init__(self, T_world_cam: np.ndarray):
@@ -44,7 +54,7 @@ class GroundTruthScale:
         return float(np.linalg.norm(self.C[k] - self.C[k - 1]))
 
 
-class SpeedScale:
+class SpeedScale(Scale):
     name = "speed"
 
     def __init__(self, speed_mps: float, timestamps_s: np.ndarray):
@@ -63,7 +73,7 @@ def _median_ratio(z_metric: np.ndarray, z_unit: np.ndarray, min_points: int = 5)
     return float(np.median(z_metric[ok] / z_unit[ok]))
 
 
-class DepthScale:
+class DepthScale(Scale):
     name = "depth"
     needs_points = True
 
@@ -82,7 +92,7 @@ class DepthScale:
         return _median_ratio(z, rel.X_c1[:, 2])
 
 
-class StereoScale:
+class StereoScale(Scale):
     name = "stereo"
     needs_points = True
 

@@ -11,10 +11,14 @@ VO runs on ground truth end to end (demosaic -> undistort -> features -> geometr
     OUT/model_distortion_lut.bin   with ``dist`` only: the undistortion table, RobotCar
                                 binary layout (float64, all u then all v, row-major,
                                 0-based: undistorted pixel -> distorted pixel to sample)
-    OUT/bayer.json              pattern, distortion coefficients, source frames
+    OUT/bayer.json              pattern, distortion (model, coefficients) or null, source frames
 
-With ``dist`` (OpenCV coefficients on the render's K) each frame is first distorted — the
-lens acts before the colour filter array — then mosaicked; pixels that would sample
+A render with a distorting ``LENS`` is already distorted: its frames are mosaicked as they
+are and the lens is written (``bayer.json`` ``distortion``: its model and coefficients) with
+its lookup table (``model_distortion_lut.bin``, the same as the render's
+``lens/undistort_lut.bin``); ``dist`` is then refused (it would distort twice). With ``dist``
+(OpenCV coefficients on the render's K) on a pinhole render each frame is first distorted —
+the lens acts before the colour filter array — then mosaicked; pixels that would sample
 outside the ideal image are black. Read it back with
 ``python -m vo_reference mono-vo OUT --bayer gbrg [--lut OUT/model_distortion_lut.bin]``.
 """
@@ -44,8 +48,10 @@ def timestamp_names(timestamps_s: np.ndarray) -> list[str]:
 
 
 def write_bayer_frames(frames_rgb, timestamps_s, T_world_cam, K, out, pattern: str = "gbrg",
-                       dist=None) -> Path:
-    """Write RGB frames (iterable of uint8 (H, W, 3)) in the layout of the module docstring."""
+                       dist=None, lens=None) -> Path:
+    """Write RGB frames (iterable of uint8 (H, W, 3)) in the layout of the module docstring;
+    ``lens`` (``contract.lens.Lens``): the frames are already distorted by it (its table is
+    written, the frames are not resampled)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     pattern = check_pattern(pattern)
@@ -55,6 +61,10 @@ def write_bayer_frames(frames_rgb, timestamps_s, T_world_cam, K, out, pattern: s
         rgb = np.asarray(rgb)
         if rgb.dtype != np.uint8 or rgb.ndim != 3:
             raise VoError(f"Bayer export needs uint8 RGB frames, got {rgb.dtype} {rgb.shape}")
+        if lens is not None and name == names[0]:   # the lens's own table, once
+            from blender_sesgen.contract.lens import robotcar_lut_bytes, undistortion_maps
+            h, w = rgb.shape[:2]
+            atomic.write_bytes(out / "model_distortion_lut.bin", robotcar_lut_bytes(*undistortion_maps(lens, w, h)))
         if dist is not None:
             if maps is None:
                 h, w = rgb.shape[:2]
@@ -81,10 +91,20 @@ def export_bayer(seq, out: Path, opts) -> None:
         raise VoError(f"bayer export: unknown option(s) {', '.join(sorted(extra))} (pattern, dist, view)")
     if view not in seq.views:
         raise VoError(f"bayer export: no view {view!r} (views: {', '.join(seq.views)})")
+    lens = seq.lens
+    if lens is not None and dist is not None:
+        raise VoError("bayer export: the render is already distorted by its LENS; drop --opt dist "
+                      "(or add --undistort to start from pinhole images)")
     frames = list(opts.frames)
     T = seq.T_world_cam(view)
     write_bayer_frames((image_rgb(seq, k, view, opts) for k in frames), seq.timestamps_s[frames],
-                       None if T is None else T[frames], seq.K, out, pattern, dist)
-    info = {"pattern": pattern, "view": view, "distortion": None if dist is None else dist.tolist(),
+                       None if T is None else T[frames], seq.K, out, pattern, dist, lens)
+    distortion = (None if dist is None else {"model": "brown", "coeffs": [float(c) for c in dist]}) \
+        if lens is None else {"model": lens.model, "coeffs": list(lens.coeffs)}
+    info = {"pattern": pattern, "view": view, "distortion": distortion,
+            "lut": None if distortion is None else "model_distortion_lut.bin",
             "source_frames": frames, "K": np.asarray(seq.K).tolist()}
     atomic.write_text(Path(out) / "bayer.json", json.dumps(info, indent=1) + "\n")
+
+
+export_bayer.keeps_lens = True   # a distorted render is written as it is, with its lens (docs/output-format.md)

@@ -256,12 +256,12 @@ def compute_covisibility(seq, params: CovisibilityParams = CovisibilityParams(),
     if frames.min() < 0 or frames.max() >= N_all:
         raise VoError(f"frames out of range 0..{N_all - 1}")
     for k in frames:
-        if hasattr(seq, "frame_complete") and not seq.frame_complete(int(k)):
+        if not seq.frame_complete(int(k)):
             raise VoError(f"frame {k} is not rendered completely: finish the render or choose --frames")
     K = np.asarray(seq.K, dtype=np.float64)
     W, H = seq.resolution
-    lens = getattr(seq, "lens", None)
-    mover_poses = {int(i): seq.T_world_obj(i) for i in getattr(seq, "moving_ids", ())}
+    lens = seq.lens
+    mover_poses = {int(i): seq.T_world_obj(i) for i in seq.moving_ids}
     movers = list(mover_poses)
     pts = _gather(seq, frames, p, K, W, H, lens, mover_poses, progress)
     T = seq.T_world_cam(p.view)[frames]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from blender_sesgen.contract.progress import Progress, add_progress_argument, progress_mode
+from blender_sesgen.contract.timing import FRAMES_HELP, frame_range
 
 from ..errors import VoError
 
@@ -24,13 +25,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help=f"loop closures: at least S seconds apart (default {P.min_gap_s:g})")
     p.add_argument("--rtol", type=float, default=P.rtol, help=f"depth test's relative tolerance (default {P.rtol:g})")
     p.add_argument("--view", default="left", choices=("left", "right"))
-    p.add_argument("--frames", metavar="A:B", help="only frames A..B-1 (default all)")
+    p.add_argument("--frames", metavar="A:B", help=f"only {FRAMES_HELP}; default all")
     add_progress_argument(p)
 
 
 def run(args: argparse.Namespace) -> int:
     from blender_sesgen.contract.errors import ContractError
-    from blender_sesgen.contract.timing import frame_range
 
     from ..io.render import RenderSequence
     from .covisibility import CovisibilityParams, compute_covisibility, write_covisibility

@@ -20,12 +20,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from blender_sesgen.contract.depth import disparity_of_depth
 from blender_sesgen.contract.se3 import invert
 
 from ..errors import VoError
 from .flow import object_transforms, sequence_flow, sequence_object_poses, warp_depth
 
-__all__ = ["DenseFlow", "dense_flow", "flow_at_infinity", "disparity_change"]
+__all__ = ["DenseFlow", "dense_flow", "flow_at_infinity", "disparity_change", "pop_background_depth",
+           "DEFAULT_BACKGROUND_DEPTH"]
+
+DEFAULT_BACKGROUND_DEPTH = 10000.0   # metres: what the learning layouts' depth holds for the sky
 
 
 @dataclass(frozen=True)
@@ -98,9 +102,16 @@ def disparity_change(seq, k_src: int, k_tgt: int, view: str = "left") -> np.ndar
     objs = sequence_object_poses(seq, k_src, k_tgt)
     w = warp_depth(z_src, seq.K, invert(T[k_tgt]) @ T[k_src], ids_src=seq.ids(k_src, view) if objs else None,
                    T_tgt_src_by_id=object_transforms(T[k_src], T[k_tgt], objs))
-    fB = float(seq.K[0, 0]) * float(seq.baseline_m)
     out = np.zeros(z_src.shape, dtype=np.float64)
     ok = w.valid & np.isfinite(w.z)
-    out[ok] = fB / w.z[ok] - fB / np.asarray(z_src, np.float64)[ok]
+    out[ok] = (disparity_of_depth(w.z[ok], seq.K[0, 0], seq.baseline_m)
+               - disparity_of_depth(np.asarray(z_src, np.float64)[ok], seq.K[0, 0], seq.baseline_m))
     out[w.valid & ~np.isfinite(w.z)] = np.nan
     return out.astype(np.float32)
+
+
+def pop_background_depth(extra: dict, default: float = DEFAULT_BACKGROUND_DEPTH) -> float:
+    """Take ``background_depth`` (``--opt background_depth=M``, metres or inf: the depth
+    written where a pixel sees nothing) out of an export's options."""
+    from .exports import pop_number
+    return pop_number(extra, "background_depth", float, default, "metres (a number or inf)")

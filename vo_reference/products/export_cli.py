@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 
 from blender_sesgen.contract.progress import add_progress_argument, progress_mode
+from blender_sesgen.contract.timing import FRAMES_HELP
 
 from ..errors import VoError
 from .exports import EXPORTERS, export
@@ -24,14 +25,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=None, metavar="S",
                         help="noise seed (default: the manifest's, else 0)")
     parser.add_argument("--frames", default=None, metavar="A:B",
-                        help="source frames A..B-1 (either may be empty); output is renumbered from 0")
+                        help=f"source {FRAMES_HELP}; the output is renumbered from 0")
     parser.add_argument("--sequence", default=None, metavar="NAME",
                         help="the render's slot in a dataset tree of several sequences: kitti-odometry "
                              "NN (default 00), sceneflow SPLIT/LETTER/NNNN (default TRAIN/A/0000), "
-                             "tartanair / vkitti2 a sub-folder of OUT (default: OUT itself); other "
-                             "sequences in OUT are left alone")
+                             "tartanair-v2 ENV/Data_DIFF/PNNN (default sesgen/Data_easy/P000), sintel "
+                             "SCENE (default sesgen), tartanair / vkitti2 a sub-folder of OUT (default: "
+                             "OUT itself); other sequences in OUT are left alone")
     parser.add_argument("--opt", action="append", default=[], metavar="KEY=VALUE",
                         help="target-specific option (repeatable)")
+    parser.add_argument("--undistort", action="store_true",
+                        help="a render with a distorting LENS: write pinhole images and ground truth (depth, "
+                             "disparity, flow, ids, masks recomputed for the pinhole camera). Needed by every "
+                             "layout without a lens model (all but euroc, rosbag, bayer, cityscapes)")
     add_progress_argument(parser)
 
 
@@ -53,6 +59,6 @@ def run(args: argparse.Namespace) -> int:
             raise VoError(f"--noise {sigma}: sigma must be >= 0")
         noise = (sigma, seed) if sigma > 0 else None
     out = export(args.render_dir, args.target, args.out, frames=args.frames, noise=noise,
-                 progress=progress_mode(args), extra=extra, sequence=args.sequence)
+                 progress=progress_mode(args), extra=extra, sequence=args.sequence, undistort=args.undistort)
     print(f"exported {args.render_dir} -> {out} ({args.target})")
     return 0

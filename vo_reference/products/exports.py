@@ -1,5 +1,6 @@
 """Dataset exports of a render folder: KITTI odometry, KITTI stereo/flow, TUM RGB-D, EuRoC,
-PNG, Bayer, TartanAir, Virtual KITTI 2, SceneFlow.
+PNG, Bayer, TartanAir (V1, V2), Virtual KITTI 2, SceneFlow, COLMAP, nerfstudio, SLAM/VIO
+settings, Middlebury 2014, ETH3D, MPI-Sintel.
 
 Each target is a function ``export_X(seq, out, opts)`` registered in :data:`EXPORTERS`
 (name -> "module:function", imported when used). Adding a target is one line there, or
@@ -26,6 +27,7 @@ from typing import Callable
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract import rig
 from blender_sesgen.contract.timing import frame_range
 from blender_sesgen.contract.progress import MODES as PROGRESS_MODES
 from blender_sesgen.contract.progress import Progress
@@ -36,7 +38,8 @@ from ..io.sequence import require_complete
 from .noise import add_gaussian_noise
 
 __all__ = ["EXPORTERS", "ExportOptions", "export", "register_exporter", "get_exporter", "parse_frames",
-           "sequence_folder", "check_replaceable", "progress_bar", "image_rgb", "image_gray"]
+           "sequence_folder", "check_replaceable", "progress_bar", "image_rgb", "image_gray",
+           "pop_number"]
 
 # target name -> ("module:function", one-line help)
 EXPORTERS: dict[str, tuple[str | Callable, str]] = {
@@ -73,6 +76,27 @@ EXPORTERS: dict[str, tuple[str | Callable, str]] = {
     "cityscapes": ("vo_reference.products.semantic_export:export_cityscapes",
                    "Cityscapes layout: leftImg8bit/ + gtFine/ labelIds, color, instanceIds (+ object ids), "
                    "classes.json; right view in rightImg8bit/ + gtFineRight/"),
+    "colmap": ("vo_reference.products.colmap:export_colmap",
+               "COLMAP text model: images/ + sparse/0/{cameras,images,points3D,rigs,frames}.txt, points from "
+               "the exact depth with their observations in every image that sees them"),
+    "nerfstudio": ("vo_reference.products.nerfstudio:export_nerfstudio",
+                   "nerfstudio / 3D Gaussian Splatting: transforms.json (OpenGL camera-to-world), images/, "
+                   "depths/ (16-bit mm), masks/, sparse_pc.ply"),
+    "slam": ("vo_reference.products.slam_config:export_slam_config",
+             "SLAM/VIO settings of the rig: ORB-SLAM3, VINS-Fusion, OpenVINS, Kalibr, Basalt (also written "
+             "beside the euroc and rosbag exports, in slam/)"),
+    "tartanair-v2": ("vo_reference.products.tartanair_v2:export_tartanair_v2",
+                     "TartanAir V2: ENV/Data_easy/P000/image_lcam_front, depth_* (RGBA-packed float PNG), "
+                     "seg_*, flow_lcam_front, pose_*.txt (NED) (--sequence ENV/Data_DIFF/PNNN)"),
+    "middlebury": ("vo_reference.products.middlebury:export_middlebury",
+                   "Middlebury 2014 stereo: one folder per frame with im0.png, im1.png, disp0.pfm, disp1.pfm, "
+                   "mask0nocc.png, calib.txt"),
+    "eth3d": ("vo_reference.products.middlebury:export_eth3d",
+              "ETH3D two-view stereo: two_view_training/NAME/{im0,im1}.png, calib.txt, cameras.txt, images.txt "
+              "+ two_view_training_gt/NAME/disp0GT.pfm, mask0nocc.png"),
+    "sintel": ("vo_reference.products.sintel:export_sintel",
+               "MPI-Sintel: training/{clean,final}/SCENE/frame_NNNN.png, flow/ .flo, occlusions/, invalid/, "
+               "depth/ .dpt, camdata_left/ .cam (--sequence SCENE)"),
 }
 
 COLOUR, GREY = 0, 1
@@ -87,6 +111,7 @@ class ExportOptions:
     extra: dict = field(default_factory=dict)  # target-specific KEY=VALUE options (--opt)
     sequence: str | None = None            # the render's slot in a multi-sequence dataset tree (--sequence)
     progress_callback: Callable | None = None  # receives every progress event (a dict)
+    undistort: bool = False                # a lens render is exported through a pinhole camera (--undistort)
 
 
 def register_exporter(name: str, fn: Callable | str, help_text: str = "") -> None:
@@ -117,13 +142,17 @@ def parse_frames(spec: str | None, n: int) -> range:
 
 def export(render_dir, target: str, out, *, frames: str | range | None = None,
            noise="manifest", progress: bool | str = "auto", extra: dict | None = None,
-           sequence: str | None = None, progress_callback: Callable | None = None) -> Path:
+           sequence: str | None = None, progress_callback: Callable | None = None,
+           undistort: bool = False) -> Path:
     """Export a render folder. ``noise``: 'manifest' (the script's NOISE, if any), None
     (clean) or (sigma, seed); ``sequence``: the slot in a dataset tree, for the targets that
-    have one (kitti-odometry, tartanair, vkitti2, sceneflow); ``progress``: a mode of
+    have one (kitti-odometry, tartanair, tartanair-v2, vkitti2, sceneflow, sintel); ``progress``: a mode of
     :mod:`blender_sesgen.contract.progress` (True = 'auto', False = 'off') and
-    ``progress_callback(event)`` a hook for every progress event. Returns the folder that
-    holds the export (``out``, or the sequence's folder inside it) with its ``export.json``."""
+    ``progress_callback(event)`` a hook for every progress event; ``undistort``: a render
+    with a distorting lens is written through a pinhole camera (:mod:`.undistorted`) —
+    without it, a layout that has no lens model (``fn.keeps_lens`` unset) refuses such a
+    render. Returns the folder that holds the export (``out``, or the sequence's folder
+    inside it) with its ``export.json``."""
     from ..io.render import RenderSequence
     render_dir, out = Path(render_dir), Path(out)
     seq = RenderSequence(render_dir)
@@ -134,6 +163,8 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
         raise VoError(f"{out}: refusing to export into the render folder itself (choose another OUT)")
     rng = frames if isinstance(frames, range) else parse_frames(frames, seq.num_frames)
     require_complete(seq, rng)
+    lens = seq.lens
+    seq = _camera_of_the_layout(seq, target, fn, undistort)
     nz = seq.noise if noise == "manifest" else noise
     if nz is not None and float(nz[0]) <= 0:
         nz = None
@@ -142,11 +173,13 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
         raise VoError(f"progress {progress!r}: expected one of {', '.join(PROGRESS_MODES)}")
     opts = ExportOptions(frames=rng, noise=None if nz is None else (float(nz[0]), int(nz[1])),
                          progress=mode, extra=dict(extra or {}), sequence=sequence,
-                         progress_callback=progress_callback)
+                         progress_callback=progress_callback, undistort=seq.lens is None and lens is not None)
     info = {"target": target, "source": str(render_dir.resolve()), "source_frames": list(rng),
             "sequence": sequence,
             "noise": None if opts.noise is None else {"sigma": opts.noise[0], "seed": opts.noise[1]},
-            "format": seq.manifest.get("format"), "scene_sha256": seq.manifest.get("scene_sha256")}
+            **{"format": None, "scene_sha256": None, **seq.provenance()}}
+    if opts.undistort:   # what the pinhole camera of the export is
+        info["undistorted"] = {"K": np.asarray(seq.K).tolist(), "lens": lens.to_json()}
     if getattr(fn, "takes_sequence", False):  # a dataset tree: the target stages its own slot
         out.mkdir(parents=True, exist_ok=True)
         where = Path(fn(seq, out, opts) or out)
@@ -159,6 +192,22 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
         fn(seq, staging, opts)
         atomic.write_json(staging / "export.json", info)
     return out
+
+
+def _camera_of_the_layout(seq, target: str, fn: Callable, undistort: bool):
+    """The sequence a layout is written from: a pinhole render as it is; a render with a
+    distorting lens as it is when the layout keeps the lens (``fn.keeps_lens``), through a
+    pinhole camera with ``undistort``, else refused (VoError: exit 2 at the CLI)."""
+    lens = seq.lens
+    if lens is None or lens.is_pinhole:
+        return seq
+    if undistort:
+        from .undistorted import UndistortedSequence
+        return UndistortedSequence(seq)
+    if not getattr(fn, "keeps_lens", False):
+        raise VoError(f"{target}: the render has a {lens.model} lens and the {target} layout has no lens model; "
+                      "export with --undistort (pinhole images and ground truth)")
+    return seq
 
 
 # --- images with noise ------------------------------------------------------------------
@@ -175,6 +224,21 @@ def image_gray(seq, k: int, view: str, opts: ExportOptions) -> np.ndarray:
     if opts.noise is None:
         return g
     return add_gaussian_noise(g, opts.noise[0], opts.noise[1], (k, VIEW_INDEX[view], GREY))
+
+
+def pop_number(extra: dict, key: str, kind: type = float, default=None, what: str = "a number"):
+    """Take a positive number ``key`` out of an export's ``--opt`` options (``default`` when
+    absent); VoError naming the option otherwise."""
+    text = extra.pop(key, None)
+    if text is None:
+        return default
+    try:
+        value = kind(text)
+    except ValueError:
+        raise VoError(f"{key}={text!r}: expected {what}") from None
+    if not value > 0:
+        raise VoError(f"{key}={text!r}: must be > 0")
+    return value
 
 
 def check_replaceable(folder: Path) -> None:
@@ -209,9 +273,7 @@ def progress_bar(opts: ExportOptions, total: int, label: str) -> Progress:
 
 def kitti_projections(K: np.ndarray, baseline_m: float) -> dict[str, np.ndarray]:
     """P0 = K[I|0], P1 = K[I|(-B,0,0)]; the colour pair P2/P3 is the same rig here."""
-    P0 = np.hstack([K, np.zeros((3, 1))])
-    P1 = P0.copy()
-    P1[:, 3] = K @ np.array([-baseline_m, 0.0, 0.0])
+    P0, P1 = (rig.projection_matrix(K, view, baseline_m) for view in ("left", "right"))
     return {"P0": P0, "P1": P1, "P2": P0.copy(), "P3": P1.copy()}
 
 
@@ -220,3 +282,23 @@ def calib_text(seq) -> str:
     lines = [f"{n}: " + " ".join(f"{x:.12e}" for x in P[n].ravel()) for n in ("P0", "P1", "P2", "P3")]
     lines.append("Tr: " + " ".join(f"{x:.12e}" for x in np.eye(4)[:3].ravel()))  # no lidar: identity
     return "\n".join(lines) + "\n"
+
+
+def calib_cam_to_cam_text(seq) -> str:
+    """KITTI 2015's ``calib_cam_to_cam/NNNNNN.txt`` (the raw data's camera calibration) of the
+    rig: per camera xx = 00..03 (00/01 grey, 02/03 colour: here one rectified pair, 00 = 02
+    the left camera, 01 = 03 the right) ``S_xx`` (W H), ``K_xx``, ``D_xx`` (no distortion),
+    ``R_xx``/``T_xx`` (camera 0 -> xx: X_xx = R·X_0 + T, T = (-B, 0, 0) for the right
+    camera), ``S_rect_xx``, ``R_rect_xx`` (identity) and ``P_rect_xx`` (as ``calib.txt``'s P)."""
+    P = kitti_projections(seq.K, seq.baseline_m)
+    W, H = seq.resolution
+
+    def row(name, values) -> str:
+        return f"{name}: " + " ".join(f"{float(x):.12e}" for x in np.ravel(values)) + "\n"
+    out = []
+    for xx, view in enumerate(("left", "right", "left", "right")):
+        T_xx_0 = rig.T_view_left(view, seq.baseline_m)
+        out += [row(f"S_{xx:02d}", (W, H)), row(f"K_{xx:02d}", seq.K), row(f"D_{xx:02d}", np.zeros(5)),
+                row(f"R_{xx:02d}", T_xx_0[:3, :3]), row(f"T_{xx:02d}", T_xx_0[:3, 3]), row(f"S_rect_{xx:02d}", (W, H)),
+                row(f"R_rect_{xx:02d}", np.eye(3)), row(f"P_rect_{xx:02d}", P[f"P{xx}"])]
+    return "".join(out)

@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract import rig
 from blender_sesgen.contract.inputs import BINARY_LIMIT, read_bytes
 from blender_sesgen.contract.se3 import invert
 
@@ -126,6 +127,13 @@ def hidden_behind(depth_map: np.ndarray, u: np.ndarray, v: np.ndarray, z: np.nda
     the surface of ``depth_map`` there by more than ``rtol`` (relative). The surface's
     depth is bilinear in inverse depth over the 2x2 cell around (u, v) (exact for a plane;
     in the half-pixel image border the cell's plane is extrapolated)."""
+    # hidden  <=>  z_point > z_surface·(1+rtol)  <=>  inv_surface·z_point > 1 + rtol
+    return surface_inverse_depth(depth_map, u, v) * z > 1.0 + rtol
+
+
+def surface_inverse_depth(depth_map: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """1/z of the surface of ``depth_map`` at pixels (u, v): bilinear in inverse depth over
+    the 2x2 cell around (u, v) (0 where the map sees nothing; exact for a plane)."""
     zt_map = np.asarray(depth_map, dtype=np.float64)
     H, W = zt_map.shape
     with np.errstate(divide="ignore"):
@@ -136,10 +144,8 @@ def hidden_behind(depth_map: np.ndarray, u: np.ndarray, v: np.ndarray, z: np.nda
     y1 = np.minimum(y0 + 1, H - 1)
     ax = u - x0
     ay = v - y0
-    inv_p = ((1 - ax) * (1 - ay) * inv[y0, x0] + ax * (1 - ay) * inv[y0, x1]
-             + (1 - ax) * ay * inv[y1, x0] + ax * ay * inv[y1, x1])
-    # hidden  <=>  z_point > z_surface·(1+rtol)  <=>  inv_surface·z_point > 1 + rtol
-    return inv_p * z > 1.0 + rtol
+    return ((1 - ax) * (1 - ay) * inv[y0, x0] + ax * (1 - ay) * inv[y0, x1]
+            + (1 - ax) * ay * inv[y1, x0] + ax * ay * inv[y1, x1])
 
 
 @dataclass(frozen=True)
@@ -191,7 +197,7 @@ def flow_from_depth(depth_src, K, T_world_src, T_world_tgt, depth_tgt=None, rtol
 
 def sequence_object_poses(seq, k_src: int, k_tgt: int) -> dict:
     """{id: (T_world_obj at k_src, at k_tgt)} of a sequence's moving objects ({} if none)."""
-    ids = getattr(seq, "moving_ids", ())
+    ids = seq.moving_ids
     out = {}
     for obj_id in ids:
         T = seq.T_world_obj(obj_id)
@@ -211,7 +217,7 @@ def sequence_flow(seq, k_src: int, k_tgt: int, view: str = "left", rtol: float =
     if objs and ids is None:
         raise VoError(f"{seq!r} has moving objects but no id maps: cannot tell their pixels apart")
     return flow_from_depth(z_src, seq.K, T[k_src], T[k_tgt], seq.depth(k_tgt, view), rtol,
-                           lens=getattr(seq, "lens", None), ids_src=ids, object_poses=objs)
+                           lens=seq.lens, ids_src=ids, object_poses=objs)
 
 
 def forward_flow(seq, k: int, view: str = "left") -> Flow:
@@ -225,17 +231,13 @@ def backward_flow(seq, k: int, view: str = "left") -> Flow:
 def stereo_occlusion(depth_left, depth_right, K, baseline_m: float, rtol: float = 1e-3) -> np.ndarray:
     """bool (H, W): left pixels with depth whose point has no visible partner in the right
     view (hidden there or outside the right image)."""
-    T_right_left = np.eye(4)
-    T_right_left[0, 3] = -float(baseline_m)
-    w = warp_depth(depth_left, K, T_right_left, depth_right, rtol)
+    w = warp_depth(depth_left, K, rig.T_right_left(baseline_m), depth_right, rtol)
     return w.valid & w.occluded
 
 
 def stereo_occlusion_right(depth_right, depth_left, K, baseline_m: float, rtol: float = 1e-3) -> np.ndarray:
     """The same for right pixels (partner sought in the left view)."""
-    T_left_right = np.eye(4)
-    T_left_right[0, 3] = float(baseline_m)
-    w = warp_depth(depth_right, K, T_left_right, depth_left, rtol)
+    w = warp_depth(depth_right, K, rig.T_left_right(baseline_m), depth_left, rtol)
     return w.valid & w.occluded
 
 

@@ -18,7 +18,7 @@ One *pair* per source frame k whose next frame k+1 is rendered, numbered i = 0, 
                                moving ids, 255 for rank >= 255) and it moves between k and k+1
     instance_map/iiiiii_10.png uint16: the object id of every pixel at frame k (0 = none)  [ours]
     motion_mask/iiiiii_10.png  uint8: 255 where the pixel's surface point moves k -> k+1   [ours]
-    calib.txt                  P0..P3, Tr as the kitti-stereo target writes them
+    calib_cam_to_cam/iiiiii.txt  KITTI 2015's camera calibration of the pair (P_rect_02, P_rect_03, ...)
 
 Formats as the KITTI devkit's readme specifies: disparity uint16 PNG, d = I/256, I = 0
 invalid; flow 3-channel uint16 PNG (R = u·64 + 2^15, G = v·64 + 2^15, B = valid); the
@@ -32,11 +32,12 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract import rig
 
 from ..errors import VoError
 from ..io.files import write_png16, write_png_rgb
 from .disparity import disparity_from_depth, write_disparity_png16
-from .exports import ExportOptions, calib_text, image_rgb, progress_bar
+from .exports import ExportOptions, calib_cam_to_cam_text, image_rgb, progress_bar
 from .flow import hidden_behind, sequence_stereo_occlusion, write_kitti_flow_png
 from .scene_flow import SceneFlow, moving_object_ids, sequence_scene_flow
 
@@ -47,7 +48,7 @@ def visible_in_right(sf: SceneFlow, depth_right_tgt: np.ndarray, K: np.ndarray, 
                      rtol: float = 1e-3) -> np.ndarray:
     """bool (H, W): the moved point (``sf.X_tgt``, left camera at the target frame) projects
     inside the target frame's right image and is not behind its depth map there."""
-    X = sf.X_tgt - np.array([baseline_m, 0.0, 0.0])
+    X = rig.points_in_view(sf.X_tgt, "right", baseline_m)
     H, W = depth_right_tgt.shape
     with np.errstate(divide="ignore", invalid="ignore"):
         u = K[0, 0] * X[..., 0] / X[..., 2] + K[0, 2]
@@ -99,6 +100,8 @@ def export_kitti_sceneflow(seq, out: Path, opts: ExportOptions) -> None:
             write_png16(out / "instance_map" / n10, np.clip(ids, 0, 65535).astype(np.uint16))
             write_png_rgb(out / "motion_mask" / n10, np.where(sf.dynamic, 255, 0).astype(np.uint8))
             bar.update()
-    atomic.write_text(out / "calib.txt", calib_text(seq))
+    calib = calib_cam_to_cam_text(seq)
+    for i in range(len(pairs)):
+        atomic.write_text(out / "calib_cam_to_cam" / f"{i:06d}.txt", calib)
     atomic.write_text(out / "pairs.txt", "# pair source_frame_10 source_frame_11\n"
                       + "".join(f"{i:06d} {k} {k + 1}\n" for i, k in enumerate(pairs)))

@@ -1,6 +1,7 @@
 """KITTI stereo/flow 2015 layout of a render: image_2/3 ``*_10``/``*_11`` pairs, disparity
 (``disp_occ_0``/``disp_noc_0``) and flow (``flow_occ``/``flow_noc``) in KITTI's PNG16
-encodings, ``calib.txt`` (docs/output-format.md)."""
+encodings, and KITTI 2015's ``calib_cam_to_cam/NNNNNN.txt`` per pair (``P_rect_02``,
+``P_rect_03``, ...; docs/output-format.md)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -12,7 +13,7 @@ from blender_sesgen.contract import atomic
 from ..errors import VoError
 from ..io.files import write_png_rgb
 from .disparity import sequence_disparity, write_disparity_png16
-from .exports import ExportOptions, calib_text, image_rgb, progress_bar
+from .exports import ExportOptions, calib_cam_to_cam_text, image_rgb, progress_bar
 
 
 def export_kitti_stereo(seq, out: Path, opts: ExportOptions) -> None:
@@ -37,4 +38,6 @@ def export_kitti_stereo(seq, out: Path, opts: ExportOptions) -> None:
                 write_kitti_flow_png(out / "flow_occ" / n10, fl.flow, fl.valid)
                 write_kitti_flow_png(out / "flow_noc" / n10, fl.flow, fl.noc)
             bar.update()
-    atomic.write_text(out / "calib.txt", calib_text(seq))
+    calib = calib_cam_to_cam_text(seq)
+    for i in range(len(frames)):
+        atomic.write_text(out / "calib_cam_to_cam" / f"{i:06d}.txt", calib)

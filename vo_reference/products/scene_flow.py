@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from blender_sesgen.contract.depth import disparity_of_depth
 from blender_sesgen.contract.se3 import invert
 
 from ..errors import VoError
@@ -54,8 +55,7 @@ class SceneFlow:
 
     def disparity_tgt(self, fx: float, baseline_m: float) -> np.ndarray:
         """float32 f·B / Z' (KITTI ``disp_1``), NaN where not valid or behind the camera."""
-        with np.errstate(divide="ignore", invalid="ignore"):
-            d = (float(fx) * float(baseline_m)) / self.depth_tgt.astype(np.float64)
+        d = disparity_of_depth(self.depth_tgt, fx, baseline_m)
         return np.where(self.valid & (self.depth_tgt > 0), d, np.nan).astype(np.float32)
 
     def disparity_change(self, depth_src: np.ndarray, fx: float, baseline_m: float) -> np.ndarray:
@@ -120,12 +120,12 @@ def sequence_scene_flow(seq, k_src: int, k_tgt: int, view: str = "left", rtol: f
     objs = sequence_object_poses(seq, k_src, k_tgt)
     ids = seq.ids(k_src, view)
     return scene_flow_from_depth(z_src, seq.K, T[k_src], T[k_tgt], ids_src=ids, object_poses=objs,
-                                 depth_tgt=seq.depth(k_tgt, view), rtol=rtol, lens=getattr(seq, "lens", None))
+                                 depth_tgt=seq.depth(k_tgt, view), rtol=rtol, lens=seq.lens)
 
 
 def moving_object_ids(seq) -> tuple[int, ...]:
     """Ids of the objects that move at some time in the sequence (() for static scenes)."""
-    return tuple(getattr(seq, "moving_ids", ()))
+    return tuple(seq.moving_ids)
 
 
 def motion_mask(seq, k_src: int, k_tgt: int, view: str = "left") -> np.ndarray:

@@ -5,11 +5,20 @@ that stereo and scene-flow loaders (PSMNet, RAFT-Stereo, RAFT, ...) read it as i
     OUT/frames_cleanpass/SEQ/left/0000.png                  8-bit RGB (right/ likewise)
     OUT/disparity/SEQ/left/0000.pfm                         float32 'Pf', both views
     OUT/optical_flow/SEQ/into_future/left/OpticalFlowIntoFuture_0000_L.pfm   'PF' (u, v, 0), k -> k+1
-    OUT/optical_flow/SEQ/into_past/left/OpticalFlowIntoPast_0001_L.pfm       k -> k-1 (right: _R)
+    OUT/optical_flow/SEQ/into_past/left/OpticalFlowIntoPast_0000_L.pfm       k -> k-1 (right: _R)
     OUT/disparity_change/SEQ/into_future/left/0000.pfm      'Pf': d_{k+1} − d_k of each pixel's point
-    OUT/disparity_change/SEQ/into_past/left/0001.pfm        d_{k-1} − d_k
+    OUT/disparity_change/SEQ/into_past/left/0000.pfm        d_{k-1} − d_k
     OUT/frames_cleanpass/SEQ/camera.txt                     fx fy cx cy baseline_m (ours)
     OUT/frames_cleanpass/SEQ/export.json                    source, frames, noise (ours)
+
+Every frame has its file in both directions, as FlyingThings3D ships them, so that loaders
+that pair files by their position in a sorted listing (RAFT's and torchvision's
+``FlyingThings3D``: image i with flow i into the future, image i+1 with flow i+1 into the
+past) pair the right frames. The two boundary files (the last frame into the future, the
+first into the past) flow into the neighbouring rendered frame when the render has it
+(outside the exported range: its image is not exported; FlyingThings3D's edge files hold
+the flow into frames it does not ship, lmb-freiburg/flownet2#210), else they hold NaN
+(there is no frame to flow to; position-indexed loaders never read them).
 
 ``SEQ`` is ``--sequence`` (default ``TRAIN/A/0000``, FlyingThings3D's split/letter/number);
 other sequences under OUT are left alone. PFM (as FlyingThings3D ships it): a text header
@@ -62,6 +71,7 @@ def export_sceneflow(seq, out: Path, opts: ExportOptions) -> Path:
     main = sequence_folder(Path(out) / "frames_cleanpass", rel)
     ours = (main / "export.json").is_file()
     slots = {kind: sequence_folder(Path(out) / kind, rel, check=not ours) for kind in KINDS}
+    step = opts.frames.step if isinstance(opts.frames, range) else 1
     with ExitStack() as stack:
         d = {kind: stack.enter_context(atomic.replacing_folder(slots[kind])) for kind in KINDS}
         with progress_bar(opts, len(frames) * 2, "sceneflow") as bar:
@@ -71,14 +81,13 @@ def export_sceneflow(seq, out: Path, opts: ExportOptions) -> Path:
                     write_png_rgb(d["frames_cleanpass"] / view / f"{name}.png", image_rgb(seq, k, view, opts))
                     disp = sequence_disparity(seq, k, view)
                     write_pfm(d["disparity"] / view / f"{name}.pfm", np.nan_to_num(disp, nan=0.0))
-                    for j, when, word in ((i + 1, "into_future", "Future"), (i - 1, "into_past", "Past")):
-                        if not 0 <= j < len(frames):
-                            continue
-                        f = dense_flow(seq, k, frames[j], view)
+                    # one file per frame in both directions, as FlyingThings3D ships them, so that
+                    # loaders that pair files by position (RAFT, torchvision) pair the right frames
+                    for k_tgt, when, word in ((k + step, "into_future", "Future"), (k - step, "into_past", "Past")):
+                        flow, dchange = _towards(seq, k, k_tgt, view)
                         write_pfm(d["optical_flow"] / when / view / f"OpticalFlowInto{word}_{name}_{L}.pfm",
-                                  flow_pfm_array(f.flow))
-                        write_pfm(d["disparity_change"] / when / view / f"{name}.pfm",
-                                  disparity_change(seq, k, frames[j], view))
+                                  flow_pfm_array(flow))
+                        write_pfm(d["disparity_change"] / when / view / f"{name}.pfm", dchange)
                     bar.update()
         K = seq.K
         atomic.write_text(d["frames_cleanpass"] / "camera.txt", "# fx fy cx cy baseline_m (pixels, metres)\n"
@@ -87,3 +96,12 @@ def export_sceneflow(seq, out: Path, opts: ExportOptions) -> Path:
 
 
 export_sceneflow.takes_sequence = True
+
+
+def _towards(seq, k: int, k_tgt: int, view: str) -> tuple[np.ndarray, np.ndarray]:
+    """(flow (H, W, 2), disparity change (H, W)) of frame k towards frame k_tgt; all NaN when
+    the render has no such frame (the boundary files: there is nothing to flow to)."""
+    if 0 <= k_tgt < seq.num_frames and seq.frame_complete(k_tgt):
+        return dense_flow(seq, k, k_tgt, view).flow, disparity_change(seq, k, k_tgt, view)
+    W, H = seq.resolution
+    return np.full((H, W, 2), np.nan, np.float32), np.full((H, W), np.nan, np.float32)

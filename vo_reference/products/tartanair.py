@@ -47,15 +47,14 @@ from blender_sesgen.contract import atomic
 
 from ..errors import VoError
 from ..io.files import write_png_rgb
-from .dense_gt import dense_flow
+from .dense_gt import dense_flow, pop_background_depth
 from .exports import ExportOptions, image_rgb, progress_bar, sequence_folder
 
-__all__ = ["export_tartanair", "ned_poses", "pose_lines", "flow_mask", "R_CV_NED", "R_NED_SES"]
+__all__ = ["export_tartanair", "ned_poses", "pose_lines", "flow_mask", "depth_and_seg", "R_CV_NED", "R_NED_SES"]
 
 R_CV_NED = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])   # v_cv = R_CV_NED @ v_ned
 R_NED_SES = np.array([[0.0, 0.0, -1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])  # world: north = -Z, east = X, down = -Y
 MASK_VALID, MASK_HIDDEN, MASK_OUT_OF_VIEW = 0, 1, 100
-DEFAULT_BACKGROUND_DEPTH = 10000.0
 
 
 def ned_poses(T_world_cam: np.ndarray) -> np.ndarray:
@@ -84,6 +83,15 @@ def flow_mask(f) -> np.ndarray:
     return m
 
 
+def depth_and_seg(seq, k: int, view: str, background: float, layout: str = "tartanair"):
+    """(float32 depth, ``background`` where nothing is hit; uint8 object ids) of one image."""
+    z = np.asarray(seq.depth(k, view), dtype=np.float32)
+    ids = seq.ids(k, view)
+    if ids.size and (ids.min() < 0 or ids.max() > 255):
+        raise VoError(f"{layout}: frame {k} ({view}) has object ids outside 0..255")
+    return np.where(np.isfinite(z), z, np.float32(background)).astype(np.float32), ids.astype(np.uint8)
+
+
 def _npy(path: Path, a: np.ndarray) -> None:
     import io
     buf = io.BytesIO()
@@ -93,22 +101,14 @@ def _npy(path: Path, a: np.ndarray) -> None:
 
 def _options(opts: ExportOptions) -> float:
     extra = dict(opts.extra)
-    text = extra.pop("background_depth", None)
+    value = pop_background_depth(extra)
     if extra:
         raise VoError(f"tartanair export: unknown option(s) {', '.join(sorted(extra))} (background_depth)")
-    if text is None:
-        return DEFAULT_BACKGROUND_DEPTH
-    try:
-        value = float(text)
-    except ValueError:
-        raise VoError(f"background_depth={text!r}: expected metres (a number or inf)") from None
-    if not value > 0:
-        raise VoError(f"background_depth={text!r}: must be > 0")
     return value
 
 
 def _check_ids(seq) -> None:
-    ids = [int(o.get("id", 0)) for o in getattr(seq, "objects", []) if isinstance(o, dict)]
+    ids = [int(o.get("id", 0)) for o in seq.objects if isinstance(o, dict)]
     big = [i for i in ids if not 0 <= i <= 255]
     if big:
         raise VoError(f"tartanair: object id(s) {', '.join(map(str, big[:5]))} do not fit TartanAir's "
@@ -127,13 +127,9 @@ def export_tartanair(seq, out: Path, opts: ExportOptions) -> Path:
             for i, k in enumerate(frames):
                 for v in views:
                     write_png_rgb(root / f"image_{v}" / f"{i:06d}_{v}.png", image_rgb(seq, k, v, opts))
-                    z = np.asarray(seq.depth(k, v), dtype=np.float32)
-                    _npy(root / f"depth_{v}" / f"{i:06d}_{v}_depth.npy",
-                         np.where(np.isfinite(z), z, np.float32(background)).astype(np.float32))
-                    ids = seq.ids(k, v)
-                    if ids.size and (ids.min() < 0 or ids.max() > 255):
-                        raise VoError(f"tartanair: frame {k} ({v}) has object ids outside 0..255")
-                    _npy(root / f"seg_{v}" / f"{i:06d}_{v}_seg.npy", ids.astype(np.uint8))
+                    z, seg = depth_and_seg(seq, k, v, background)
+                    _npy(root / f"depth_{v}" / f"{i:06d}_{v}_depth.npy", z)
+                    _npy(root / f"seg_{v}" / f"{i:06d}_{v}_seg.npy", seg)
                     bar.update()
                 if i + 1 < len(frames):
                     f = dense_flow(seq, k, frames[i + 1], "left")

@@ -31,8 +31,11 @@ def export_tum(seq, out: Path, opts: ExportOptions) -> None:
     names = [f"{t:.6f}" for t in ts]
     if len(set(names)) != len(names):
         raise VoError("timestamps are not distinct at 1 µs: cannot name TUM files")
-    rgb_lines = ["# color images", f"# file: '{out.name}'", "# timestamp filename"]
-    depth_lines = ["# depth maps", f"# file: '{out.name}'", "# timestamp filename"]
+    # TUM's header names the recording; ours names the render folder (never the export's
+    # temporary folder: two exports of one render are byte-identical)
+    source = Path(seq.root or "").name or "sesgen"
+    rgb_lines = ["# color images", f"# file: '{source}'", "# timestamp filename"]
+    depth_lines = ["# depth maps", f"# file: '{source}'", "# timestamp filename"]
     assoc = []
     with progress_bar(opts, len(frames), "tum") as bar:
         for k, name in zip(frames, names):

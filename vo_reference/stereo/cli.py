@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract.progress import Progress, add_progress_argument, progress_mode
+from blender_sesgen.contract.timing import FRAMES_HELP
 
 from ..errors import VoError
 
@@ -28,11 +29,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", required=True, metavar="EST.txt", help="estimated trajectory (left camera poses)")
     p.add_argument("--out-format", default="kitti", choices=("kitti", "tum"),
                    help="trajectory format: kitti (12 numbers per line, default) or tum (with timestamps)")
-    p.add_argument("--frames", metavar="A:B", help="frame range, half-open like Python (default: all)")
+    p.add_argument("--frames", metavar="A:B", help=f"{FRAMES_HELP}; default all")
     p.add_argument("--search", type=int, metavar="R", help="paper method: tracking search range +-R px (default 16)")
     p.add_argument("--block", type=int, metavar="M", help="paper method: SAD block size M (odd, default 9)")
     p.add_argument("--d-max", type=int, metavar="D", help="disparity search range in px (paper 64, accurate 128)")
-    add_progress_argument(p, ("--quiet", "-q"))
+    add_progress_argument(p)
 
 
 def make_params(method: str, args: argparse.Namespace):
@@ -98,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
     bar, show = vo_progress(args.method, frames, progress_mode(args))
     with bar:
         res = run_stereo_vo(seq, args.method, gt_depth=args.gt_depth, gt_flow=args.gt_flow,
-                            mask_dynamic_gt=args.mask_dynamic_gt, frames=frames,
+                            mask_dynamic_gt=args.mask_dynamic_gt, frames=range(frames[0], frames[1] + 1),
                             params=make_params(args.method, args), progress=show)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from blender_sesgen.contract import rig
 from blender_sesgen.contract.camera import backproject, project
 from blender_sesgen.contract.se3 import invert
 
@@ -110,5 +111,5 @@ class GroundTruthStep:
         P1 = P0 @ T_k1_k[:3, :3].T + T_k1_k[:3, 3]
         P1[P1[:, 2] <= 0] = np.nan
         left = project(self.K, P1)
-        right = project(self.K, P1 - np.array([self.baseline_m, 0.0, 0.0]))
+        right = project(self.K, rig.points_in_view(P1, "right", self.baseline_m))
         return left, right

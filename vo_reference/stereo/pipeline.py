@@ -66,6 +66,16 @@ def parse_frames(spec: Optional[str], num_frames: int) -> tuple[int, int]:
     return r.start, r.stop - 1
 
 
+def frame_span(frames, num_frames: int) -> tuple[int, int]:
+    """(first, last) of what :func:`run_stereo_vo` takes: ``"A:B"`` (frames A..B-1, as
+    ``--frames``), ``range(A, B)`` or None (all)."""
+    if frames is None or isinstance(frames, str):
+        return parse_frames(frames, num_frames)
+    if isinstance(frames, range) and frames.step == 1 and len(frames) >= 2:
+        return frames[0], frames[-1]
+    raise VoError(f"frames: 'A:B' (frames A..B-1, as --frames) or range(A, B), at least 2 frames; got {frames!r}")
+
+
 def check_stereo(seq) -> None:
     """VoError unless ``seq`` is a stereo sequence (left and right views, baseline > 0)."""
     if "right" not in seq.views or seq.baseline_m <= 0:
@@ -74,8 +84,7 @@ def check_stereo(seq) -> None:
 
 def _ids(seq, k: int):
     """The left id map of frame k, or None (sequences without ids)."""
-    ids = getattr(seq, "ids", None)
-    return None if ids is None else ids(k, "left")
+    return seq.ids(k, "left")
 
 
 def ground_truth_step(seq, k: int, T_gt: np.ndarray) -> GroundTruthStep:
@@ -103,16 +112,17 @@ def _dynamic_shares(seq, k: int, gt: Optional[GroundTruthStep], res) -> tuple[fl
 
 
 def run_stereo_vo(seq, method: str = "accurate", *, gt_depth: bool = False, gt_flow: bool = False,
-                  mask_dynamic_gt: bool = False, frames: Optional[tuple[int, int]] = None, params=None,
+                  mask_dynamic_gt: bool = False, frames: "str | range | None" = None, params=None,
                   progress: Optional[Callable[[int, int, object, float], None]] = None) -> VoResult:
-    """Estimate the left camera's trajectory of ``seq`` with ``method`` ('paper' or 'accurate').
+    """Estimate the left camera's trajectory of ``seq`` with ``method`` ('paper' or 'accurate')
+    over ``frames`` (``"A:B"`` = frames A..B-1 as ``--frames``, or ``range(A, B)``; None: all).
 
     ``mask_dynamic_gt``: drop keypoints on objects that move in each step (the ground-truth
     motion mask of a render with moving objects; a static scene is unaffected)."""
     if method not in METHODS:
         raise VoError(f"unknown method {method!r} (choose {' or '.join(METHODS)})")
     check_stereo(seq)
-    first, last = frames if frames is not None else (0, seq.num_frames - 1)
+    first, last = frame_span(frames, seq.num_frames)
     if not (0 <= first < last < seq.num_frames):
         raise VoError(f"frame range {first}..{last} outside 0..{seq.num_frames - 1}")
     require_complete(seq, range(first, last + 1))

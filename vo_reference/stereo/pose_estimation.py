@@ -6,6 +6,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from blender_sesgen.contract import rig
 from blender_sesgen.contract.camera import project
 from blender_sesgen.contract.se3 import se3, se3_exp
 
@@ -38,7 +39,6 @@ def refine_pose(P0: np.ndarray, obs_left: np.ndarray, obs_right: np.ndarray | No
     has_r = obs_right is not None
     if has_r:
         rmask = np.all(np.isfinite(obs_right), axis=1)
-    b = np.array([baseline_m, 0.0, 0.0])
     for _ in range(iterations):
         P1 = P0 @ T[:3, :3].T + T[:3, 3]
         if np.any(P1[:, 2] <= 0):
@@ -53,7 +53,7 @@ def refine_pose(P0: np.ndarray, obs_left: np.ndarray, obs_right: np.ndarray | No
         res = [uv - obs_left]
         jac = [J @ dP]
         if has_r:
-            uvr, Jr = _project_jac(P1[rmask] - b, K)
+            uvr, Jr = _project_jac(rig.points_in_view(P1[rmask], "right", baseline_m), K)
             res.append(uvr - obs_right[rmask])
             jac.append(Jr @ dP[rmask])
         r = np.concatenate(res).reshape(-1, 2)
@@ -77,7 +77,7 @@ def reprojection_errors(P0, obs_left, obs_right, K, baseline_m, T_k1_k):
         uv, _ = _project_jac(P1, K)
         e = np.linalg.norm(uv - obs_left, axis=1)
         if obs_right is not None:
-            uvr, _ = _project_jac(P1 - np.array([baseline_m, 0, 0]), K)
+            uvr, _ = _project_jac(rig.points_in_view(P1, "right", baseline_m), K)
             er = np.linalg.norm(uvr - obs_right, axis=1)
             e = np.where(np.isfinite(er), np.maximum(e, er), e)
     return np.where(P1[:, 2] > 0, e, np.inf)

@@ -22,29 +22,32 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract import atomic
+from blender_sesgen.contract.cli import add_report_argument
 from blender_sesgen.contract.progress import add_progress_argument, progress_mode
+from blender_sesgen.contract.timing import FRAMES_HELP
 
 from ..errors import VoError
+from ..evaluate.align import CLI_DEFAULT
 from .report import RunReport, error_summary, shape_errors, shape_line
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("input", metavar="INPUT", help="a sesgen render folder (manifest.json), or a KITTI odometry "
                                                   "folder with ground-truth poses")
-    p.add_argument("--report", metavar="DIR", help="report folder (default: INPUT/report for a render folder, "
-                                                   "else ./NAME_report)")
+    add_report_argument(p, "summary.md, report.json and per method its trajectory, metrics and plots",
+                        "INPUT/report for a render folder, else ./NAME_report")
     p.add_argument("--methods", default="paper,accurate", help="comma-separated methods (default: paper,accurate)")
     p.add_argument("--gt-depth", action="store_true", help="run the methods with ground-truth depth")
     p.add_argument("--gt-flow", action="store_true", help="run the methods with ground-truth correspondences")
     p.add_argument("--mask-dynamic-gt", action="store_true",
                    help="run the methods with the ground-truth motion mask (keypoints on moving objects dropped); "
                         "with moving objects the report compares both ways anyway")
-    p.add_argument("--frames", metavar="A:B", help="frame range, half-open like Python (default: all)")
-    p.add_argument("--align", default="origin", choices=["none", "origin", "se3", "sim3"],
-                   help="trajectory alignment for APE (default origin: the VO starts at the ground-truth "
+    p.add_argument("--frames", metavar="A:B", help=f"{FRAMES_HELP}; default all")
+    p.add_argument("--align", default=CLI_DEFAULT, choices=["none", "origin", "se3", "sim3"],
+                   help=f"trajectory alignment for APE (default {CLI_DEFAULT}: the VO starts at the ground-truth "
                         "first pose, so APE is the drift; se3 fitted to a short, nearly straight path is ill-posed)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
-    add_progress_argument(p, ("--quiet", "-q"))
+    add_progress_argument(p)
 
 
 def default_report_dir(root: Path) -> Path:
@@ -84,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     gt = Trajectory(T_gt[frames[0]:frames[1] + 1], np.asarray(seq.timestamps_s)[frames[0]:frames[1] + 1])
     variant = "".join([" +GT depth" if args.gt_depth else "", " +GT flow" if args.gt_flow else "",
                        " +GT motion mask" if args.mask_dynamic_gt else ""])
-    dynamic = bool(getattr(seq, "moving_ids", ()))
+    dynamic = bool(seq.moving_ids)
 
     report = RunReport(root=root, frames=frames, K=seq.K, baseline_m=seq.baseline_m, resolution=seq.resolution,
                        gt_depth=args.gt_depth, gt_flow=args.gt_flow, mask_dynamic_gt=args.mask_dynamic_gt,
@@ -94,7 +97,8 @@ def run(args: argparse.Namespace) -> int:
         bar, show = vo_progress(m, frames, progress_mode(args))
         with bar:
             res = run_stereo_vo(seq, m, gt_depth=args.gt_depth, gt_flow=args.gt_flow,
-                                mask_dynamic_gt=args.mask_dynamic_gt, frames=frames, progress=show)
+                                mask_dynamic_gt=args.mask_dynamic_gt, frames=range(frames[0], frames[1] + 1),
+                                progress=show)
         mdir = out / m
         mdir.mkdir(parents=True, exist_ok=True)
         write_kitti(mdir / "est.txt", res.trajectory)
@@ -115,7 +119,8 @@ def run(args: argparse.Namespace) -> int:
         if dynamic:  # the same method the other way round: without / with the ground-truth motion mask
             print(f"== {m}: {'without' if args.mask_dynamic_gt else 'with'} the ground-truth motion mask")
             other = run_stereo_vo(seq, m, gt_depth=args.gt_depth, gt_flow=args.gt_flow,
-                                  mask_dynamic_gt=not args.mask_dynamic_gt, frames=frames)
+                                  mask_dynamic_gt=not args.mask_dynamic_gt,
+                                  frames=range(frames[0], frames[1] + 1))
             ev_other = evaluate_trajectory(gt, other.trajectory, align=args.align, egomotion=True, by_index=True)
             this = error_summary(ev, shape, res)
             that = error_summary(ev_other, shape_errors(gt, other.trajectory), other)

@@ -3,21 +3,19 @@ the EXR beauty (motion blur, rolling shutter, distortion), the sensor's RGB outp
 depth (inverse, colour-mapped) and the segmentation, all of the left view.
 
     python -m blender_sesgen render scenes/sensors.ses --out out/sensors --resolution-scale 0.5 --samples 8
-    python docs/make_sensor_sheet.py out/sensors [--frames 0 8 16 23]
+    python tools/make_sensor_sheet.py out/sensors [--frames 0 8 16 23]
 """
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
-from blender_sesgen.contact_sheet import colormap, id_colours  # noqa: E402
-from blender_sesgen.contract.colour import linear_to_srgb8  # noqa: E402
-from vo_reference.io.render import RenderSequence  # noqa: E402
+from blender_sesgen.contact_sheet import colormap, id_colours
+from blender_sesgen.contract.colour import linear_to_srgb8
+from vo_reference.io.render import RenderSequence
 
 
 def main() -> None:

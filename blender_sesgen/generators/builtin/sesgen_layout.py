@@ -1,23 +1,20 @@
 """Shared helpers of the scene generators: number formatting, SES lines for assets and
 poses, a street's centreline (the same function the street strips are built from).
 
-Imported by the generators in this folder (``sys.path`` gets this folder); pure numpy.
+Imported by the generators of this package; pure numpy.
 """
 from __future__ import annotations
 
-import sys
+import inspect
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[2]
-if str(REPO) not in sys.path:
-    sys.path.insert(0, str(REPO))
+REPO = Path(__file__).resolve().parents[3]   # the source tree (its ../shared/data: real sensor files)
 
-from blender_sesgen.contract.se3 import R_to_euler_xyz_deg, euler_xyz_deg_to_R  # noqa: E402
-from blender_sesgen.assets.street import arc_frame  # noqa: E402,F401  (re-exported)
+from ...contract.se3 import R_to_euler_xyz_deg, euler_xyz_deg_to_R
 
 
 KITTI_CAMERA_HEIGHT = 1.65     # KITTI's left camera above the road (m)
@@ -285,3 +282,28 @@ def street_lights(rng: np.random.Generator, place, s: float, s_end: float, side:
         out.append(asset("streetlight", ids("furniture"), p, h if side > 0 else h + 180, seed=seed_of("streetlight")))
         s += float(rng.uniform(*spacing))
     return out
+
+
+def script_with_poses(lines: list[str], comment: str, P, yaw, pitch, roll) -> str:
+    """The script: ``lines``, a blank line, ``// comment`` and one POSE line per camera
+    position (angles in degrees)."""
+    poses = [camera_pose_line(P[i], yaw[i], pitch[i], roll[i]) for i in range(len(P))]
+    return "\n".join(lines + ["", f"// {comment}"] + poses) + "\n"
+
+
+def command_line(generate, doc: str, frames: Optional[int], argv=None) -> None:
+    """A generator's command line: ``--seed S``, ``--frames N`` (default ``frames``) when it
+    takes frames, and ``--NAME VALUE`` for each other option with a number or text default
+    (typed as that default); the script on stdout."""
+    import argparse
+    import sys
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--seed", type=int, default=0)
+    params = list(inspect.signature(generate).parameters.values())[1:]
+    if any(p.name == "frames" for p in params):
+        ap.add_argument("--frames", type=int, default=frames)
+    for p in params:
+        if p.name != "frames" and type(p.default) in (int, float, str):
+            ap.add_argument("--" + p.name.replace("_", "-"), type=type(p.default), default=p.default)
+    a = vars(ap.parse_args(argv))
+    sys.stdout.write(generate(a.pop("seed"), **a))

@@ -1,6 +1,6 @@
 """Render the material library's swatch sheet into docs/img/ (bpy; ~3 minutes on 2 cores).
 
-    .venv/bin/python docs/make_material_swatches.py [NAME ...] [--size 192] [--samples 32]
+    .venv/bin/python tools/make_material_swatches.py [NAME ...] [--size 192] [--samples 32]
 
 Each swatch: a 1.2 m x 1.2 m wall seen square-on from 1.5 m above a 1.2 m strip of floor,
 and a sphere of radius 0.25 m, all in the same material, under a physical sky with its sun
@@ -17,14 +17,13 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
 
-from blender_sesgen.contact_sheet import write_png  # noqa: E402
-from blender_sesgen.contract.frames import start_pose  # noqa: E402
-from blender_sesgen.material_library import LIBRARY  # noqa: E402
-from blender_sesgen.model import Look, Quad, Rig, Scene, Sphere, Timeline, World, mat4  # noqa: E402
-from blender_sesgen.pipeline import RenderJob, RenderOptions  # noqa: E402
-from blender_sesgen.ses.materials import library_material  # noqa: E402
+from blender_sesgen.contact_sheet import write_png
+from blender_sesgen.contract.frames import start_pose
+from blender_sesgen.material_library import LIBRARY
+from blender_sesgen.model import Look, Quad, Rig, Scene, Sphere, Timeline, World, mat4
+from blender_sesgen.pipeline import RenderJob, RenderOptions
+from blender_sesgen.ses.materials import library_material
 
 
 def swatch(name: str, tmp: Path, size: int, samples: int) -> np.ndarray:

@@ -9,17 +9,15 @@ returns an SES script; the same seed and options must give the same script. ``GE
    installed package (``NAME = "package.module:function"`` in its pyproject.toml);
 3. ``NAME.py`` in a folder named by the environment variable ``SESGEN_GENERATORS``
    (folders separated by ``os.pathsep``);
-4. a built-in generator: ``NAME.py`` in the source tree's ``scenes/generators/`` (every file
-   there that defines a top-level ``generate`` is one; ``city`` is ``city_kitti``).
-
-The built-in generators are scripts of the source tree, not modules of the package: a
-checkout (``pip install -e .``, ``make``) has them; an installed wheel has only 1-3 -- point
-``SESGEN_GENERATORS`` at a checkout's ``scenes/generators`` or pass the file.
+4. a built-in generator: a module of ``blender_sesgen.generators.builtin`` that defines a
+   top-level ``generate`` (``city`` is ``city_kitti``): they are part of the package, so a
+   wheel and the Blender extension have them too.
 """
 from __future__ import annotations
 
 import ast
 import hashlib
+import importlib
 import importlib.util
 import inspect
 import os
@@ -29,7 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Optional
 
-from .errors import SesgenError
+from ..errors import SesgenError
 
 ENTRY_POINT_GROUP = "blender_sesgen.generators"
 ENV_PATH = "SESGEN_GENERATORS"
@@ -38,8 +36,14 @@ _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]*$")
 
 
 def builtin_folder() -> Path:
-    """``scenes/generators`` of the source tree this package lives in (may not exist)."""
-    return Path(__file__).resolve().parents[1] / "scenes" / "generators"
+    """The folder of the built-in generators (``generators/builtin`` of this package)."""
+    return Path(__file__).resolve().parent / "builtin"
+
+
+def _load_builtin(path: Path, name: str) -> "Generator":
+    """A built-in generator: imported as a module of the package (its relative imports)."""
+    module = importlib.import_module(f"{__name__}.builtin.{path.stem}")
+    return Generator(name, "built-in", str(path), module.generate)
 
 
 @dataclass
@@ -89,8 +93,7 @@ def defines_generate(path: Path) -> bool:
 
 
 def load_file(path: Path, name: Optional[str] = None) -> Generator:
-    """The ``generate`` of a Python file (run as a module of its own; while it loads, its
-    folder is importable, as for a script, so it may import the modules beside it)."""
+    """The ``generate`` of a Python file (run as a module of its own)."""
     path = Path(path).resolve()
     if not path.is_file():
         raise SesgenError(f"{path}: no such generator file")
@@ -98,10 +101,6 @@ def load_file(path: Path, name: Optional[str] = None) -> Generator:
     spec = importlib.util.spec_from_file_location(mod_name, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[mod_name] = module
-    folder = str(path.parent)
-    added = folder not in sys.path
-    if added:   # as when the file runs as a script: it may import the modules beside it
-        sys.path.insert(0, folder)
     try:
         spec.loader.exec_module(module)
     except SesgenError:
@@ -109,9 +108,6 @@ def load_file(path: Path, name: Optional[str] = None) -> Generator:
     except Exception as e:  # noqa: BLE001 - the generator's own bug, reported as one line
         sys.modules.pop(mod_name, None)
         raise SesgenError(f"{path}: loading the generator failed: {type(e).__name__}: {e}") from None
-    finally:
-        if added and folder in sys.path:
-            sys.path.remove(folder)
     fn = getattr(module, "generate", None)
     if not callable(fn):
         raise SesgenError(f"{path}: defines no generate(seed, **options) function")
@@ -145,14 +141,13 @@ def find(spec: str) -> Generator:
         for folder in folders:
             for stem in (spec, ALIASES.get(spec)):
                 if stem and (folder / f"{stem}.py").is_file() and defines_generate(folder / f"{stem}.py"):
+                    if origin == "built-in":
+                        return _load_builtin(folder / f"{stem}.py", spec)
                     g = load_file(folder / f"{stem}.py", spec)
                     g.origin = origin
                     return g
     known = ", ".join(sorted(available())) or "none"
-    hint = "" if builtin_folder().is_dir() else (
-        f" (the built-in generators are in the source tree's scenes/generators/, not in an installed wheel: "
-        f"set {ENV_PATH} to that folder or pass a generator file)")
-    raise SesgenError(f"no generator '{spec}' (available: {known}){hint}")
+    raise SesgenError(f"no generator '{spec}' (available: {known})")
 
 
 def available() -> dict[str, str]:

@@ -1,6 +1,6 @@
 """Renders docs/img/assets.jpg: most asset kinds side by side (docs/ses-language.md).
 
-    .venv/bin/python docs/make_asset_gallery.py [--samples 32] [--out out/asset_gallery]
+    .venv/bin/python tools/make_asset_gallery.py [--samples 32] [--out out/asset_gallery]
 
 Three rows on a concrete ground: street and vegetation at the back, indoor furniture in
 the middle, industrial and natural clutter at the front; buildings, strips, terrain and
@@ -15,8 +15,7 @@ import sys
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
-from blender_sesgen import assets  # noqa: E402
+from blender_sesgen import assets
 
 ROWS = (
     (-7.0, ["car", "tree", "conifer", "bush", "hedge", "streetlight", "traffic_light", "bin", "bollard", "bench",
@@ -27,7 +26,7 @@ ROWS = (
 
 
 def script() -> str:
-    lines = ["// the asset gallery of docs/ses-language.md (docs/make_asset_gallery.py)",
+    lines = ["// the asset gallery of docs/ses-language.md (tools/make_asset_gallery.py)",
              "CAMERA resolution 1280 640 focal 780 baseline 0.1",
              "START position 0 7 14 -22 0 0",
              "WORLD sky elevation 40 azimuth -30",

@@ -6,8 +6,8 @@ ground-truth disparity colour-mapped with one scale for the sheet, and the Citys
 semantic colours of the object ids), or with ``--single`` the left image of the first
 complete frame alone. Written as JPEG (quality 88), scaled by ``--scale``.
 
-    python docs/make_scene_sheets.py out/realism/city --out docs/img/city_kitti_contact_sheet.jpg --scale 0.5
-    python docs/make_scene_sheets.py out/sheets/office --single --out docs/img/office_frame.jpg
+    python tools/make_scene_sheets.py out/realism/city --out docs/img/city_kitti_contact_sheet.jpg --scale 0.5
+    python tools/make_scene_sheets.py out/sheets/office --single --out docs/img/office_frame.jpg
 """
 from __future__ import annotations
 
@@ -19,10 +19,9 @@ import cv2
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
-from blender_sesgen.contract import semantics  # noqa: E402
-from blender_sesgen.contract.depth import disparity_from_depth  # noqa: E402
-from vo_reference.io.sequence import open_sequence  # noqa: E402
+from blender_sesgen.contract import semantics
+from blender_sesgen.contract.depth import disparity_from_depth
+from vo_reference.io.sequence import open_sequence
 
 
 def _disparity_colours(d: np.ndarray, scale: float) -> np.ndarray:

@@ -2,20 +2,18 @@
 densities, three hours at rest) next to the real ADIS16448 stream of EuRoC V1_01 (its quietest
 3 s, and the whole 145 s), with the datasheet lines N / sqrt(tau) and K sqrt(tau / 3).
 
-    python docs/make_imu_allan.py [--data ../shared/data/euroc/mav0/imu0/data.csv]
+    python tools/make_imu_allan.py [--data ../shared/data/euroc/mav0/imu0/data.csv]
 """
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
-from blender_sesgen.sensor import imu  # noqa: E402
-from vo_reference.evaluate.allan import allan_deviation, fit_noise_densities  # noqa: E402
+from blender_sesgen.sensor import imu
+from vo_reference.evaluate.allan import allan_deviation, fit_noise_densities
 
 
 def main() -> None:

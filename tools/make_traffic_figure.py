@@ -4,7 +4,7 @@ mask (red: pixels of objects that move between the two frames).
 
     python -m blender_sesgen render scenes/street_kitti_traffic.ses --out out/traffic \\
         --frames 14:16 --samples 16 --denoise --resolution-scale 0.5
-    python docs/make_traffic_figure.py out/traffic 14
+    python tools/make_traffic_figure.py out/traffic 14
 """
 from __future__ import annotations
 

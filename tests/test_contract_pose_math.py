@@ -7,7 +7,8 @@ from scipy.linalg import expm
 from scipy.spatial.transform import Rotation
 
 from blender_sesgen.contract.frames import (blender_to_cv_camera, blender_to_ses_world, camera_matrix_world,
-                                            cv_to_blender_camera, right_from_left, ses_to_blender_world, start_pose)
+                                            cv_to_blender_camera, ses_to_blender_world, start_pose)
+from blender_sesgen.contract.rig import right_from_left
 from blender_sesgen.contract.motion import ego_from_poses, ego_step, integrate_ego
 from blender_sesgen.contract.se3 import R_to_euler_xyz_deg, euler_xyz_deg_to_R, invert, se3_exp, skew
 from blender_sesgen.ses import parse_string

@@ -1,27 +1,25 @@
 """Render one swatch PNG per built-in texture into docs/img/ (bpy; ~1 minute on 2 cores).
 
-    .venv/bin/python docs/make_texture_swatches.py
+    .venv/bin/python tools/make_texture_swatches.py
 
 Each swatch: a 1.2 m x 1.2 m quad seen square-on from 1.5 m, plus a sphere of radius
 0.25 m, default lighting, 32 samples, 192 x 192 px (a pixel is ~5 mm on the quad).
 """
-import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
 
-from blender_sesgen.contract.frames import start_pose  # noqa: E402
-from blender_sesgen.contact_sheet import write_png  # noqa: E402
-from blender_sesgen.contract.colour import linear_to_srgb8  # noqa: E402
-from blender_sesgen.exr import read_exr  # noqa: E402
-from blender_sesgen.model import Quad, Rig, Scene, Sphere, TextureRef, Timeline, mat4  # noqa: E402
-from blender_sesgen.job import RenderJob  # noqa: E402
-from blender_sesgen.plan import RenderOptions  # noqa: E402
-from blender_sesgen.textures import BUILTIN_TEXTURES  # noqa: E402
+from blender_sesgen.contract.frames import start_pose
+from blender_sesgen.contact_sheet import write_png
+from blender_sesgen.contract.colour import linear_to_srgb8
+from blender_sesgen.exr import read_exr
+from blender_sesgen.model import Quad, Rig, Scene, Sphere, TextureRef, Timeline, mat4
+from blender_sesgen.job import RenderJob
+from blender_sesgen.plan import RenderOptions
+from blender_sesgen.textures import BUILTIN_TEXTURES
 
 SIZE = 192
 
