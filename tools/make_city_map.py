@@ -4,7 +4,7 @@ passes within ``--radius`` metres of where it was at least ``--gap`` seconds bef
 thick, joined to where it was then); with ``--covisibility RENDER`` the ground truth's
 loop-closure pairs of that render instead (vo_reference.products.covisibility).
 
-    python docs/make_city_map.py scenes/city_loop.ses [--covisibility out/city_loop] [--out PNG]
+    python tools/make_city_map.py scenes/city_loop.ses [--covisibility out/city_loop] [--out PNG]
 """
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from blender_sesgen.contract.frames import object_pose
 from blender_sesgen.model import Asset, Cuboid, Quad
 from blender_sesgen.ses import parse_file
 
-OUT = Path(__file__).resolve().parent / "img" / "city_loop_map.png"
+OUT = Path(__file__).resolve().parents[1] / "docs" / "img" / "city_loop_map.png"
 COLOURS = {"road": "#4a4a4a", "sidewalk": "#b9b4aa", "terrain": "#a9c98f", "building": "#c0714f",
            "vegetation": "#3f7a3a", "car": "#3465a4", "parking": "#6a6a6a", "pole": "#222222"}
 
