@@ -6,6 +6,7 @@ Imported by the generators of this package; pure numpy.
 from __future__ import annotations
 
 import inspect
+import typing
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
@@ -291,19 +292,28 @@ def script_with_poses(lines: list[str], comment: str, P, yaw, pitch, roll) -> st
     return "\n".join(lines + ["", f"// {comment}"] + poses) + "\n"
 
 
+def _option_type(hint, default):
+    """The command-line type of an option: its annotation's (``Optional[X]``: X) when that is a
+    number, text or a truth value, else its default's; None when it has no such type."""
+    args = [a for a in typing.get_args(hint) if a is not type(None)] if typing.get_origin(hint) is typing.Union else [hint]
+    t = args[0] if len(args) == 1 and args[0] in (int, float, str, bool) else type(default)
+    if t is bool:
+        return lambda v: {"true": True, "false": False}[v.lower()]
+    return t if t in (int, float, str) else None
+
+
 def command_line(generate, doc: str, frames: Optional[int], argv=None) -> None:
     """A generator's command line: ``--seed S``, ``--frames N`` (default ``frames``) when it
-    takes frames, and ``--NAME VALUE`` for each other option with a number or text default
-    (typed as that default); the script on stdout."""
+    takes frames, and ``--NAME VALUE`` for each other option that is a number, text or a truth
+    value (``true``/``false``); the script on stdout."""
     import argparse
     import sys
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("--seed", type=int, default=0)
-    params = list(inspect.signature(generate).parameters.values())[1:]
-    if any(p.name == "frames" for p in params):
-        ap.add_argument("--frames", type=int, default=frames)
-    for p in params:
-        if p.name != "frames" and type(p.default) in (int, float, str):
-            ap.add_argument("--" + p.name.replace("_", "-"), type=type(p.default), default=p.default)
+    hints = typing.get_type_hints(generate)
+    for p in list(inspect.signature(generate).parameters.values())[1:]:
+        kind = int if p.name == "frames" else _option_type(hints.get(p.name), p.default)
+        if kind is not None:
+            ap.add_argument("--" + p.name.replace("_", "-"), type=kind, default=frames if p.name == "frames" else p.default)
     a = vars(ap.parse_args(argv))
     sys.stdout.write(generate(a.pop("seed"), **a))
