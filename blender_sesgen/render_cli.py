@@ -49,6 +49,11 @@ def add_arguments(p, forwarded_only: bool = False) -> list[argparse.Action]:
     acts.append(p.add_argument("--plain-pipeline", action="store_true",
                                help="render each view in a fresh Cycles session, without persistent data or "
                                     "multiview (slower, the same pixels: to check the fast path)"))
+    acts.append(p.add_argument("--cull", action="store_true",
+                               help="build only the objects the frames rendered can see (view volumes, far plane; "
+                                    "shadow casters and what is near for shaded presets): a long sequence in chunks "
+                                    "(--frames, farm --chunk) loads only its part of a large world; depth and ids "
+                                    "stay exact (docs/rendering.md, Culling)"))
     acts.append(p.add_argument("--normal-pass", action="store_true", help="also write the Normal pass"))
     acts.append(p.add_argument("--position-pass", action="store_true", help="also write the Position pass"))
     if not forwarded_only:
@@ -91,7 +96,7 @@ def forwarded_options(args: argparse.Namespace) -> RenderOptions:
         quality=args.quality, samples=args.samples, denoise=args.denoise, seed=args.seed, device=args.device,
         resolution_scale=args.resolution_scale, normal_pass=args.normal_pass, position_pass=args.position_pass,
         rate_hz=args.rate, exposure_s=args.exposure, readout_s=args.readout, motion_blur=args.motion_blur,
-        fast_pipeline=not args.plain_pipeline,
+        fast_pipeline=not args.plain_pipeline, cull=args.cull,
     )
 
 
@@ -118,7 +123,7 @@ def render_argv(o: RenderOptions) -> list[str]:
     if o.device is not Device.CPU:
         out += ["--device", o.device.value]
     out += [flag for flag, on in (("--plain-pipeline", not o.fast_pipeline), ("--normal-pass", o.normal_pass),
-                                  ("--position-pass", o.position_pass)) if on]
+                                  ("--position-pass", o.position_pass), ("--cull", o.cull)) if on]
     for flag, value in (("--rate", o.rate_hz), ("--exposure", o.exposure_s), ("--readout", o.readout_s)):
         if value is not None:
             out += [flag, str(value)]
@@ -153,6 +158,8 @@ def run(args: argparse.Namespace) -> int:
     with deferred_interrupts() as stop:
         try:
             job.build()
+            if job.session.culling is not None and not args.quiet:
+                print(f"culling: {job.session.culling.summary()} built for {len(todo)} frame(s)", flush=True)
         except SesgenError:
             raise
         except Exception as e:  # noqa: BLE001 - a Blender failure while building
