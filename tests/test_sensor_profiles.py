@@ -86,3 +86,16 @@ def test_a_half_size_render_has_the_noise_of_the_sensor_binned_2x2(name):
     assert full.std() > 1.6 * half.std()
     # blur stays the same size on the sensor: half the pixels
     assert half_l.defocus_px == pytest.approx(full_l.defocus_px / 2)
+
+
+def test_resolution_scale_bins_the_profile_in_the_render_plan():
+    from blender_sesgen.plan import RenderOptions, RenderSettings
+    from blender_sesgen.sensor.render_plan import SensorPlan
+    sc = scene("SENSOR profile kitti native 256\n")
+    plans = [SensorPlan.create(sc, RenderSettings.of(sc, RenderOptions(resolution_scale=r))) for r in (1.0, 0.5)]
+    assert [p.width for p in plans] == [256, 128]
+    assert plans[1].sensor.full_well_e == pytest.approx(4 * plans[0].sensor.full_well_e)
+    assert plans[1].lens_spec.defocus_px == pytest.approx(plans[0].lens_spec.defocus_px / 2)
+    settings = plans[1].manifest_entries(2)["sensor"]
+    assert (settings["profile"], settings["native_width_px"], settings["full_well_e"]) == (
+        "kitti", 128, pytest.approx(4 * PROFILES["kitti"].sensor["fullwell"]))
