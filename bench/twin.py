@@ -34,7 +34,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from blender_sesgen.contract.camera import backproject, scaled_K, scaled_size
+from blender_sesgen.contract.camera import backproject, scaled_K
 from blender_sesgen.contract.depth import depth_from_disparity
 from blender_sesgen.contract.se3 import invert, se3
 from vo_reference.io.base import Sequence
