@@ -243,7 +243,12 @@ def main(argv=None) -> int:
     secs = float("nan") if a.no_render else render(twin_script(script, profile, REPO / a.out), out, a.frames,
                                                    a.scale, a.quality)
     seq = open_sequence(out)
-    n = min(a.frames, seq.num_frames)
+    n = 0
+    while n < min(a.frames, seq.num_frames) and seq.frame_complete(n):
+        n += 1
+    if n < 3:
+        print(f"{out}: only {n} frame(s) rendered completely; render more (without --no-render)", file=sys.stderr)
+        return 2
     ours = resized(seq, n, tuple(seq.resolution))
     if profile == "kitti":
         real_seq = open_sequence(DATA / "kitti" / "sequence_1")

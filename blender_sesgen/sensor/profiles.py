@@ -55,7 +55,7 @@ PROFILES: dict[str, Profile] = {p.name: p for p in (
             sensor=dict(fullwell=6000.0, readnoise=8.0, black=0.0, bits=8, cfa="grbg", response="srgb",
                         pixel=5.6, jpeg=0),
             lens=dict(fnumber=2.0, vignetting=1.0),
-            timing=dict(rate=30.0, exposure=0.01, readout=0.03),
+            timing=dict(rate=30.0, exposure=0.01, readout=0.02),
             autoexposure=dict(target=0.3)),
     Profile("robotcar", "Oxford RobotCar: Point Grey Bumblebee XB3 (Sony ICX445 CCD, Bayer GBRG, global shutter), "
             "1280x960", 1280, 960,
