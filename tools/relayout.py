@@ -64,6 +64,8 @@ MOVES: list[tuple[int, str, str]] = [
     # (camera profiles, new on branch twins: named by the language's SENSOR profile, so model data)
     (3, "blender_sesgen.sensor.profiles", "blender_sesgen.scene.camera_profiles"),
     (3, "blender_sesgen.sensor", "blender_sesgen.render.sensor"),
+    (3, "blender_sesgen.culling", "blender_sesgen.render.culling"),   # slam: render --cull
+    (3, "blender_sesgen.reuse", "blender_sesgen.render.reuse"),       # speed: render --reuse-exr
     # 4. commands/ in both packages: parsers and printing
     (4, "blender_sesgen.cli", "blender_sesgen.commands.main"),
     (4, "blender_sesgen.render_cli", "blender_sesgen.commands.render"),
@@ -78,6 +80,9 @@ MOVES: list[tuple[int, str, str]] = [
     (4, "vo_reference.evaluate.cli", "vo_reference.commands.evaluate"),
     (4, "vo_reference.evaluate.disparity_cli", "vo_reference.commands.disparity"),
     (4, "vo_reference.products.export_cli", "vo_reference.commands.export"),
+    (4, "blender_sesgen.study.cli", "blender_sesgen.commands.study"),
+    (4, "vo_reference.study.cli", "vo_reference.commands.study"),
+    (4, "vo_reference.products.covisibility_cli", "vo_reference.commands.covisibility"),
     # 5. vo_reference/products -> groundtruth/ (computed) + exporters/ (dataset layouts)
     (5, "vo_reference.products.disparity", "vo_reference.groundtruth.disparity"),
     (5, "vo_reference.products.flow", "vo_reference.groundtruth.flow"),
@@ -86,6 +91,7 @@ MOVES: list[tuple[int, str, str]] = [
     (5, "vo_reference.products.segmentation", "vo_reference.groundtruth.segmentation"),
     (5, "vo_reference.products.noise", "vo_reference.groundtruth.noise"),
     (5, "vo_reference.products.sparse_points", "vo_reference.groundtruth.sparse_points"),
+    (5, "vo_reference.products.covisibility", "vo_reference.groundtruth.covisibility"),
     (5, "vo_reference.products.exports", "vo_reference.exporters.driver"),
     (5, "vo_reference.products.undistorted", "vo_reference.exporters.undistorted"),
     (5, "vo_reference.products.png_layout", "vo_reference.exporters.png"),
