@@ -111,7 +111,7 @@ def _oracle(i: int, j: int):
 
 
 def _warp_visible(seq, i: int, j: int):
-    """The optical flow's own visibility test (products/flow.py) from frame i to j, per pixel
+    """The optical flow's own visibility test (groundtruth/flow.py) from frame i to j, per pixel
     of frame i that sees a surface (row-major), its movers moving with the manifest's poses."""
     from vo_reference.groundtruth.flow import object_transforms, sequence_object_poses, warp_depth
     T = seq.T_world_cam()

@@ -8,7 +8,7 @@ left and right images. The render's depth pass is point-sampled at the pixel cen
 (blender-facts.md), so at integer keypoint positions it is the exact depth of the ray.
 
 With moving objects (``ids_m`` and ``point_motion`` {id: D}, D = how a point fixed on
-the object moves from k to k+1, in camera-k coordinates — see products.scene_flow) a
+the object moves from k to k+1, in camera-k coordinates — see groundtruth.scene_flow) a
 keypoint on a mover lands where the *moved* point projects, and :meth:`static` tells the
 keypoints off the movers (the ground-truth motion mask, grown by ``MASK_MARGIN_PX`` so that
 a keypoint rounding onto a mover's edge counts as on it).
