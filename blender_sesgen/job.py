@@ -47,6 +47,7 @@ class RenderJob:
         self.force = force
         self.session = None                        # blender.session.BlenderSession after build()
         self.timings: list[FrameResult] = []
+        self._other_sums: dict[int, dict] = {}     # frame -> SHA-256 of its sensor images
 
     @classmethod
     def prepare(cls, scene_path, out_dir, options: RenderOptions = RenderOptions(), *,
@@ -137,9 +138,11 @@ class RenderJob:
         if self.folder.manifest is None:
             if self.session is None:
                 self.build()
-            self.folder.begin(self.plan, self.new_manifest(), self.resume, self.force)
-            from .sensor.outputs import write_static_files
-            write_static_files(self.plan.sensor, self.out_dir, self.plan.scene.frames)
+            self.folder.begin(self.plan, self.new_manifest(), self.resume, self.force,
+                              static_files=self.plan.sensor.static_files(self.plan.scene.frames)
+                              if self.plan.sensor.active else None)
+            from .sensor.outputs import make_folders
+            make_folders(self.plan.sensor, self.out_dir)
 
     def render_frame(self, k: int, stop: Callable[[], bool] = lambda: False) -> FrameResult:
         """Render every view of frame ``k`` into temporary files, check them, move them into
@@ -166,8 +169,9 @@ class RenderJob:
                 if not tmp.is_file() or (shown and not shown[v].is_file()):
                     raise RuntimeError(f"Blender wrote no file for frame {k}, view {v}")
             if self.plan.sensor.writes_sensor_images:   # from the checked-in-a-moment EXRs
-                sensor_outputs.write_sensor_images(self.plan.sensor, self.manifest, self.out_dir, k, exposure_s,
-                                                   gain, temps, jpeg_writer=self.session.jpeg_writer)
+                self._other_sums[k] = sensor_outputs.write_sensor_images(
+                    self.plan.sensor, self.manifest, self.out_dir, k, exposure_s, gain, temps,
+                    jpeg_writer=self.session.jpeg_writer)
         except BaseException:
             for tmp in [*temps.values(), *(shown or {}).values()]:
                 tmp.unlink(missing_ok=True)
@@ -187,7 +191,7 @@ class RenderJob:
                 sums = sealed.result()
             except WorkerGone:  # the worker died: seal here
                 sums = seal_frame(k, temps, self._required_channels())
-            self.folder.commit_sealed(k, temps, sums)
+            self.folder.commit_sealed(k, temps, {**sums, **self._other_sums.pop(k, {})})
         finally:
             for tmp in temps.values():
                 tmp.unlink(missing_ok=True)

@@ -49,6 +49,11 @@ def add_arguments(p, forwarded_only: bool = False) -> list[argparse.Action]:
     acts.append(p.add_argument("--plain-pipeline", action="store_true",
                                help="render each view in a fresh Cycles session, without persistent data or "
                                     "multiview (slower, the same pixels: to check the fast path)"))
+    acts.append(p.add_argument("--cull", action="store_true",
+                               help="build only the objects the frames rendered can see (view volumes, far plane; "
+                                    "shadow casters and what is near for shaded presets): a long sequence in chunks "
+                                    "(--frames, farm --chunk) loads only its part of a large world; depth and ids "
+                                    "stay exact (docs/rendering.md, Culling)"))
     acts.append(p.add_argument("--normal-pass", action="store_true", help="also write the Normal pass"))
     acts.append(p.add_argument("--position-pass", action="store_true", help="also write the Position pass"))
     if not forwarded_only:
@@ -77,13 +82,21 @@ def _fmt(seconds: float) -> str:
     return f"{s // 3600:d}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60:02d}:{s % 60:02d}"
 
 
+def one_line(e: BaseException) -> str:
+    """An exception as one line, ``Type: what``: Blender's importers put a whole Python
+    traceback into their error's text, whose last line says what went wrong."""
+    lines = [ln.strip() for ln in str(e).splitlines() if ln.strip()]
+    last = lines[-1] if lines else ""
+    return last if last.startswith(type(e).__name__) else f"{type(e).__name__}: {last}".rstrip(": ")
+
+
 def forwarded_options(args: argparse.Namespace) -> RenderOptions:
     """The RenderOptions of the options a farm passes on (``add_arguments(forwarded_only=True)``)."""
     return RenderOptions(
         quality=args.quality, samples=args.samples, denoise=args.denoise, seed=args.seed, device=args.device,
         resolution_scale=args.resolution_scale, normal_pass=args.normal_pass, position_pass=args.position_pass,
         rate_hz=args.rate, exposure_s=args.exposure, readout_s=args.readout, motion_blur=args.motion_blur,
-        fast_pipeline=not args.plain_pipeline,
+        fast_pipeline=not args.plain_pipeline, cull=args.cull,
     )
 
 
@@ -110,7 +123,7 @@ def render_argv(o: RenderOptions) -> list[str]:
     if o.device is not Device.CPU:
         out += ["--device", o.device.value]
     out += [flag for flag, on in (("--plain-pipeline", not o.fast_pipeline), ("--normal-pass", o.normal_pass),
-                                  ("--position-pass", o.position_pass)) if on]
+                                  ("--position-pass", o.position_pass), ("--cull", o.cull)) if on]
     for flag, value in (("--rate", o.rate_hz), ("--exposure", o.exposure_s), ("--readout", o.readout_s)):
         if value is not None:
             out += [flag, str(value)]
@@ -145,10 +158,12 @@ def run(args: argparse.Namespace) -> int:
     with deferred_interrupts() as stop:
         try:
             job.build()
+            if job.session.culling is not None and not args.quiet:
+                print(f"culling: {job.session.culling.summary()} built for {len(todo)} frame(s)", flush=True)
         except SesgenError:
             raise
         except Exception as e:  # noqa: BLE001 - a Blender failure while building
-            print(f"error: building the Blender scene failed: {e}", file=sys.stderr)
+            print(f"error: building the Blender scene failed: {one_line(e)}", file=sys.stderr)
             return EXIT_FAILURE
         try:
             with Progress(len(todo), "render", mode=progress_mode(args), unit="frame") as bar:
@@ -160,7 +175,7 @@ def run(args: argparse.Namespace) -> int:
                   f"frame(s): {args.out} is consistent; render again with --resume to continue", file=sys.stderr)
             return EXIT_INTERRUPTED
         except Exception as e:  # noqa: BLE001 - Cycles/IO failure (a full disk...): the folder stays consistent
-            print(f"error: render failed: {e}", file=sys.stderr)
+            print(f"error: render failed: {one_line(e)}", file=sys.stderr)
             return EXIT_FAILURE
     if args.contact_sheet:
         from .contact_sheet import write_contact_sheet

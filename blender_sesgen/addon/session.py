@@ -303,12 +303,16 @@ def verify(values: dict) -> str:
         raise SesgenError("no render in the output folder to verify")
     folder = OutputFolder(out)
     bad = folder.verify(full=True)
+    frames = sorted({k for k, _ in bad if k is not None})
     if not bad:
-        msg = "verified: every frame recorded complete is intact"
+        msg = "verified: the manifest, its files and every frame recorded complete are intact"
+    elif not frames:
+        msg = f"{bad[0][1]}; Render with Resume writes it again"
     else:
-        folder.mark_incomplete(sorted({k for k, _ in bad}))
-        frames = ", ".join(str(k) for k, _ in bad[:8]) + (" ..." if len(bad) > 8 else "")
-        msg = f"{len(bad)} bad frame(s) ({frames}: {bad[0][1]}); Render with Resume renders them again"
+        folder.mark_incomplete(frames)
+        named = ", ".join(map(str, frames[:8])) + (" ..." if len(frames) > 8 else "")
+        first = next(why for k, why in bad if k is not None)
+        msg = f"{len(frames)} bad frame(s) ({named}: {first}); Render with Resume renders them again"
     set_status(values, msg)
     return msg
 

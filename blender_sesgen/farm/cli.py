@@ -79,6 +79,10 @@ def prepare(args: argparse.Namespace) -> tuple[Path, list]:
     root = Path(args.out).absolute()
     if root.exists() and not root.is_dir():
         raise SesgenError(f"--out {args.out}: exists and is not a folder")
+    from ..dataset import read_index
+    index = read_index(root)       # a damaged index: refused now, not after the renders
+    if index is not None and index.get("kind") != "renders":
+        raise SesgenError(f"--out {args.out}: holds the scripts index of `generate`; render into another folder")
     options = render_options(args)
     found = find_scripts(args.scenes)
     scenes = [prepare_scene(FarmScene(name=name, script=script, out=root / name, meta=meta), options)
@@ -90,6 +94,10 @@ def prepare_scene(sc, options):
     """``sc`` (a FarmScene) with its plan and pending frames, or its user error line."""
     from ..output import OutputFolder
     from ..plan import RenderPlan
+    from .work import folder_problem
+    if folder_problem(sc.name):
+        sc.error = f"{sc.script}: error: {folder_problem(sc.name)}; rename the script"
+        return sc
     try:
         sc.plan = RenderPlan.from_file(sc.script, options)
         folder = OutputFolder(sc.out)

@@ -90,6 +90,19 @@ def unique_names(scripts: Iterable[Path]) -> list[str]:
     return names
 
 
+def folder_problem(name: str) -> Optional[str]:
+    """Why ``ROOT/<name>`` cannot be a scene's folder (None when it can): ``..`` leaves ROOT,
+    ``.`` is ROOT, the index's own name, a hidden name (``.x``: where state lives)."""
+    from ..dataset import INDEX
+    if name in ("", ".", ".."):
+        return f"its folder would be ROOT/{name}, {'outside ROOT' if name == '..' else 'ROOT itself'}"
+    if name == INDEX:
+        return f"its folder would be ROOT/{name}, the farm's dataset index"
+    if name.startswith("."):
+        return f"its folder would be ROOT/{name}, a hidden name"
+    return None
+
+
 def frame_ranges(frames: Iterable[int], size: int) -> list[tuple[int, int]]:
     """Half-open ranges ``(a, b)`` covering exactly ``frames``: runs of consecutive frames,
     cut every ``size`` frames counted from 0 (so a fresh scene gets the chunks
