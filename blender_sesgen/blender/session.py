@@ -47,6 +47,10 @@ class BlenderSession:
                                view_transform=VIEW_TRANSFORMS[plan.scene.look.view],
                                look=AGX_LOOKS[plan.scene.look.look])
         self.flat = s.preset.shading == "flat"
+        # the sensor path re-keys the cameras and renders twice per view: it renders the plain way
+        self.fast = bool(fast and not plan.sensor.changes_rendering
+                         and render.can_render_multiview(self.built.cameras))
+        self._configure["persistent"] = self.fast
         self.exposure = self._exposure(known_exposure)
         render.configure(self.built.scene, s.preset, **self._configure)
         exposure.set_exposure(self.built.scene, self.exposure)
@@ -56,9 +60,6 @@ class BlenderSession:
         if plan.sensor.changes_rendering:
             from .sensor_render import SensorSession
             self.sensor = SensorSession(plan, self.built)
-        # the sensor path re-keys the cameras and renders twice per view: it renders the plain way
-        self.fast = bool(fast and self.sensor is None and render.can_render_multiview(self.built.cameras))
-        self.built.scene.render.use_persistent_data = self.fast
         self.views_per_render = len(plan.views) if self.fast and s.preset.deterministic_rgb else 1
 
     @property
@@ -79,8 +80,14 @@ class BlenderSession:
             return float(2.0 ** self.plan.scene.look.exposure_ev)
         if known is not None:
             return float(known)
-        render.configure(self.built.scene, EXPOSURE_PREVIEW, **self._configure)
-        return exposure.measure_exposure(self.built.scene, self.built.cameras["left"], rig.blender_frame(0))
+        # fast: the preview renders in the persistent Cycles session that the frames then reuse
+        # (synchronised and its BVH built once) - if they take at least the preview's samples:
+        # a persistent session whose sample count goes down renders other pixels than a fresh
+        # one (bpy 5.0.1, its default blue-noise pattern), and resumed frames start fresh
+        share = self.fast and self.plan.settings.preset.samples >= EXPOSURE_PREVIEW.samples
+        render.configure(self.built.scene, EXPOSURE_PREVIEW, **{**self._configure, "persistent": share})
+        return exposure.measure_exposure(self.built.scene, self.built.cameras["left"], rig.blender_frame(0),
+                                         self.built.cameras if share else None)
 
     @property
     def channels(self) -> dict:
