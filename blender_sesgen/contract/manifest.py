@@ -322,9 +322,9 @@ class Manifest:
         manifest written before seals existed has none and is read as it is)."""
         root = Path(root)
         raw = load_json(root / MANIFEST)
-        if sealed and seal_problem(raw):   # first: an edit is named as such, whatever it broke
-            raise ContractError(seal_problem(raw), str(root / MANIFEST))
         m = cls.from_json(raw, str(root / MANIFEST))
+        if sealed and seal_problem(raw):
+            raise ContractError(seal_problem(raw), str(root / MANIFEST))
         done = completed_in_logs(root)
         if done:
             m = m.with_complete([c or k in done for k, c in enumerate(m.frames_complete)])
