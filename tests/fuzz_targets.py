@@ -14,6 +14,7 @@ finding.
 from __future__ import annotations
 
 import contextlib
+import copy
 import io
 import json
 import random
@@ -154,8 +155,8 @@ def mutate_json(doc, rng: random.Random, n: int = 2):
             del parent[key]
         elif isinstance(parent[key], (int, float)) and not isinstance(parent[key], bool) and rng.random() < 0.5:
             parent[key] = rng.choice([0.0, -parent[key], parent[key] * 1e12, parent[key] + 1e-9, 1e308])
-        else:
-            parent[key] = rng.choice(values)
+        else:   # a copy: a shared list could be put inside itself by the next mutation
+            parent[key] = copy.deepcopy(rng.choice(values))
     return doc
 
 

@@ -216,3 +216,11 @@ def test_the_renderer_checks_float_images_check_cannot_decode(tmp_path, use):
     r = cli("render", s, "--out", out, "--samples", "1", timeout=300)
     assert r.returncode == 2 and "bad.exr" in r.stderr and "finite" in r.stderr, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and not out.exists(), r.stderr
+
+
+def test_a_ply_header_that_ends_the_file_is_refused(tmp_path):
+    """``end_header`` with no line end after it (found by the campaign: a ValueError
+    traceback from the header scan) is one line, exit 2."""
+    model = tmp_path / "m.ply"
+    model.write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nend_header")
+    refused(mesh_script(tmp_path, model), "PLY", line=3)
