@@ -16,6 +16,7 @@ with results identical to an uninterrupted run.
 """
 from __future__ import annotations
 
+import importlib.util
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -67,6 +68,9 @@ class RenderJob:
         folder.check(plan, force)
         from .sensor.outputs import check_resumable
         check_resumable(plan.sensor, folder.previous(), list(plan.frames), resume, force)
+        if plan.options.reuse_exr:
+            from .reuse import check_reusable
+            check_reusable(plan, plan.options.reuse_exr)
         return cls(plan, folder, resume=resume, force=force)
 
     # --- what the job is ----------------------------------------------------------------
@@ -98,6 +102,11 @@ class RenderJob:
     def manifest(self) -> Optional[Manifest]:
         return self.folder.manifest
 
+    def session_needs_no_bpy(self) -> bool:
+        """A render that reuses another's EXRs needs Blender only to write JPEGs."""
+        sensor = self.plan.scene.sensor
+        return bool(self.plan.options.reuse_exr) and not (sensor is not None and sensor.jpeg_quality)
+
     def pending_frames(self) -> list[int]:
         """Requested frames not complete yet (all requested ones unless resuming)."""
         return self.folder.pending(self.plan, self.resume)
@@ -106,6 +115,10 @@ class RenderJob:
     def build(self) -> None:
         """Build the scene in Blender (a dedicated scene 'SESGen'; rebuilding replaces).
         Writes nothing into the output folder."""
+        if self.plan.options.reuse_exr:   # another render's EXRs: no Blender (blender_sesgen.reuse)
+            from .reuse import ReusedSession
+            self.session = ReusedSession(self.plan, self.plan.options.reuse_exr)
+            return
         from .blender.session import BlenderSession
         kept = self.folder.resumable(self.plan)
         self.session = BlenderSession(self.plan, known_exposure=(kept or {}).get("render", {}).get("exposure"),
@@ -225,3 +238,23 @@ class RenderJob:
     def close(self) -> None:
         """Release the folder: the completion log into the manifest, the lock dropped."""
         self.folder.release()
+
+
+# --- used by the command line and the Python API -------------------------------------------
+
+def frame_progress(bar) -> Callable:
+    """Adapter from the pipeline's per-frame hook ``(i, n, FrameResult, elapsed_s)`` to a
+    :class:`~blender_sesgen.contract.progress.Progress` (fields ``frame``, ``wall_s``, ``cycles_s``)."""
+    def hook(i, n, r, elapsed_s):
+        cyc = f", cycles {r.cycles_s:.2f} s" if r.cycles_s is not None else ""
+        bar.update(detail=f"frame {r.frame} {r.wall_s:.2f} s{cyc}", frame=r.frame, wall_s=r.wall_s,
+                   cycles_s=r.cycles_s)
+    return hook
+
+
+def have_bpy() -> bool:
+    """True when Blender's Python module can be imported here."""
+    try:
+        return importlib.util.find_spec("bpy") is not None
+    except ImportError:
+        return False

@@ -31,6 +31,7 @@ class FarmScene:
     plan: object = None              # plan.RenderPlan once prepared
     pending: list = field(default_factory=list)   # frames to render
     error: Optional[str] = None      # why the scene cannot be rendered (a user error line)
+    args: list = field(default_factory=list)      # render arguments of this scene only (e.g. --reuse-exr BASE)
 
     @property
     def frames(self) -> int:
@@ -121,7 +122,7 @@ def render_args(scene: FarmScene, a: int, b: int, threads: int, forwarded: Seque
     """The render command's arguments for frames ``a:b`` of ``scene`` (the task runs them as
     ``python -m blender_sesgen.farm.child render ...`` with its own node's Python)."""
     return ["render", str(scene.script), "--out", str(scene.out), "--frames", f"{a}:{b}", "--resume",
-            "--progress", "json", "--threads", str(int(threads)), *forwarded]
+            "--progress", "json", "--threads", str(int(threads)), *forwarded, *scene.args]
 
 
 class Outcome(enum.Enum):

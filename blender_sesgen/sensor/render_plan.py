@@ -17,6 +17,7 @@ import numpy as np
 
 from .. import model
 from . import imu as imu_mod
+from . import profiles
 from ..contract import timing as timing_mod
 from ..contract.timing import DEFAULT_FPS
 from .autoexposure import ExposureControl, exposure_schedule
@@ -94,7 +95,9 @@ class SensorPlan:
             from ..errors import SesgenError
             raise SesgenError(f"--rate {rate:g}: {problem}")
         motion = RigMotion.for_motion_kind(scene.timeline.left(), rate, start, scene.motion.kind)
-        return cls(t, scene.lens, lens, scene.sensor, scene.autoexposure, scene.imu, motion, settings.width,
+        # a profile's sensor is the physical one: bin it to the render's pixels
+        sensor, lens_spec = profiles.at_width(scene.sensor, scene.lens, settings.width)
+        return cls(t, lens_spec, lens, sensor, scene.autoexposure, scene.imu, motion, settings.width,
                    settings.height, K, tuple(scene.rig.views), float(scene.rig.baseline))
 
     # --- what to render ------------------------------------------------------------------
