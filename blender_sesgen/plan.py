@@ -35,6 +35,7 @@ from .errors import SesgenError
 from .lighting_data import AGX_LOOKS, VIEW_TRANSFORMS
 from .model import Mesh, Scene, TextureRef
 from .presets import QUALITIES, Preset, effective
+from .ses.checks import MAX_SEED
 
 MAX_IMAGE_SIDE = 16384   # the script's own limit, applied to scaled sizes too
 MIN_IMAGE_SIDE = 4       # Blender renders nothing smaller (its resolution's hard minimum)
@@ -81,6 +82,7 @@ class RenderOptions:
     readout_s: Optional[float] = None
     motion_blur: Optional[bool] = None
     fast_pipeline: bool = True           # False: a fresh Cycles render per view (same pixels, slower)
+    reuse_exr: Optional[str] = None      # a render folder whose EXRs this one reuses (blender_sesgen.reuse)
     cull: bool = False                   # build only what the frames can see (culling.py)
 
     def __post_init__(self):
@@ -134,6 +136,8 @@ class RenderSettings:
         r = scene.render
         if options.samples is not None and options.samples < 1:
             raise SesgenError(f"samples must be >= 1, got {options.samples}")
+        if options.seed is not None and not 0 <= options.seed <= MAX_SEED:
+            raise SesgenError(f"--seed must lie in 0..{MAX_SEED} (Cycles seeds are 32-bit), got {options.seed}")
         settings = cls(
             engine="CYCLES",
             device=options.device,
@@ -254,12 +258,14 @@ class RenderPlan:
 
     @property
     def writes_display(self) -> bool:
-        """Whether Blender writes the display-referred PNGs (``rgb/``): on the plain render
-        path; the sensor path (motion blur, rolling shutter, lens) makes its own images, and
-        ``gt``'s flat RGB is a picture of the ground truth, not a photograph: its EXR is
+        """Whether Blender writes the display-referred PNGs (``rgb/``): for every render but
+        ``gt``, whose flat RGB is a picture of the ground truth, not a photograph: its EXR is
         enough, and the view transform and PNG writer would cost it 15-20 % per frame
-        (docs/rendering.md, Speed)."""
-        return not self.sensor.changes_rendering and self.settings.preset.shading != "flat"
+        (docs/rendering.md, Speed). The sensor path (motion blur, rolling shutter, lens)
+        writes them too, through the same view transform and exposure, so that a blurred
+        frame looks as the sharp one but for its blur (a SENSOR's own images, when there
+        is one, are the camera's: readers take those first)."""
+        return self.settings.preset.shading != "flat"
 
     @cached_property
     def view_poses(self) -> dict[str, np.ndarray]:

@@ -28,6 +28,7 @@ COMMANDS = {
     "stereo-vo": (".stereo.cli", "run the reference stereo VO (SESGen paper / accurate) on a render or KITTI folder"),
     "run": (".stereo.run_cli", "one-shot: stereo VO (both methods) + evaluation + plots on a render or KITTI folder with ground truth"),
     "mono-vo": (".mono.cli", "run the classic monocular VO pipeline (8-point RANSAC, E, PnP)"),
+    "study": (".study.cli", "a verification study's evaluation and HTML report (run by `sesgen study run`)"),
 }
 
 

@@ -65,6 +65,10 @@ class BlenderSession:
                                position_pass=plan.options.position_pass,
                                view_transform=VIEW_TRANSFORMS[plan.scene.look.view],
                                look=AGX_LOOKS[plan.scene.look.look])
+        # the sensor path re-keys the cameras and renders twice per view: it renders the plain way
+        self.fast = bool(fast and not plan.sensor.changes_rendering
+                         and render.can_render_multiview(self.built.cameras))
+        self._configure["persistent"] = self.fast
         self.exposure = self._exposure(known_exposure)
         if self._exposure_ids is not None:   # what only frame 0's metering needed stays out of the frames
             self._show(self.culling.keep)
@@ -76,9 +80,6 @@ class BlenderSession:
         if plan.sensor.changes_rendering:
             from .sensor_render import SensorSession
             self.sensor = SensorSession(plan, self.built)
-        # the sensor path re-keys the cameras and renders twice per view: it renders the plain way
-        self.fast = bool(fast and self.sensor is None and render.can_render_multiview(self.built.cameras))
-        self.built.scene.render.use_persistent_data = self.fast
         self.views_per_render = len(plan.views) if self.fast and s.preset.deterministic_rgb else 1
 
     def _measures_exposure(self, known: Optional[float]) -> bool:
@@ -108,10 +109,16 @@ class BlenderSession:
             return float(2.0 ** self.plan.scene.look.exposure_ev)
         if known is not None:
             return float(known)
-        render.configure(self.built.scene, EXPOSURE_PREVIEW, **self._configure)
+        # fast: the preview renders in the persistent Cycles session that the frames then reuse
+        # (synchronised and its BVH built once) - if they take at least the preview's samples:
+        # a persistent session whose sample count goes down renders other pixels than a fresh
+        # one (bpy 5.0.1, its default blue-noise pattern), and resumed frames start fresh
+        share = self.fast and self.plan.settings.preset.samples >= EXPOSURE_PREVIEW.samples
+        render.configure(self.built.scene, EXPOSURE_PREVIEW, **{**self._configure, "persistent": share})
         if self._exposure_ids is not None:   # culled: frame 0 metered with what frame 0 sees, in every chunk
             self._show(self._exposure_ids)
-        return exposure.measure_exposure(self.built.scene, self.built.cameras["left"], rig.blender_frame(0))
+        return exposure.measure_exposure(self.built.scene, self.built.cameras["left"], rig.blender_frame(0),
+                                         self.built.cameras if share else None)
 
     @property
     def channels(self) -> dict:
@@ -149,10 +156,10 @@ class BlenderSession:
         """Render frame ``k`` of each view into ``paths[view]``; {view: render stats}.
         ``stop()`` is asked before each render (KeyboardInterrupt when it says yes);
         ``exposure_s``: the frame's exposure time on the sensor path (auto-exposure);
-        ``display_paths[view]``: where the display-referred PNG goes (plain path only)."""
+        ``display_paths[view]``: where the display-referred PNG goes."""
         if self.sensor is not None:
             return self.sensor.render_frame(k, self.plan.sensor.nominal_exposure_s() if exposure_s is None
-                                            else exposure_s, paths, stop)
+                                            else exposure_s, paths, stop, display_paths)
         quiet = not self.plan.options.verbose
         bframe = rig.blender_frame(k)
         seed = self.plan.settings.seed
