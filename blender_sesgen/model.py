@@ -343,6 +343,8 @@ class Sensor:
     olpf_px: float = 0.0           # optical low-pass filter spot separation (pixels)
     jpeg_quality: int = 0          # 0: no JPEG
     seed: int = 0
+    profile: Optional[str] = None  # the camera profile the defaults came from (sensor/profiles.py)
+    native_width_px: int = 0       # the values are per pixel of a sensor this wide (0: per render pixel)
 
 
 @dataclass(frozen=True, kw_only=True)

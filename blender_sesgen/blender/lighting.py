@@ -33,6 +33,7 @@ from ..contract.frames import R_BLENDER_SES
 from ..errors import SesgenError
 from ..model import Fog, Light, Scene, World
 from . import compat
+from .datablocks import load_image
 
 
 def ses_vec_to_blender(v) -> Vector:
@@ -199,7 +200,7 @@ def build_world(bscene, w: World, fog: Fog | None, name: str, tag=lambda x: x):
         nt.links.new(sky.outputs["Color"], bg.inputs["Color"])
         _importance_map(wd, SKY_MAP_WIDTH)
     elif w.kind == "hdri":
-        img = tag(bpy.data.images.load(hdri_path(w), check_existing=True))
+        img = tag(load_image(hdri_path(w)))
         env = nt.nodes.new("ShaderNodeTexEnvironment")
         env.image = img
         env.interpolation = "Linear"

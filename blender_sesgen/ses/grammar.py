@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 from ..assets import KINDS as ASSET_KINDS
 from ..presets import QUALITIES
+from ..sensor.profiles import PROFILES
 
 
 @dataclass(frozen=True)
@@ -155,7 +156,9 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
                             _num("fisheye", (4,), usage="fisheye k1 k2 k3 k4"),
                             _num("fnumber", usage="fnumber N"), _num("defocus", usage="defocus PX"),
                             _num("vignetting", usage="vignetting V"), _num("chromatic", usage="chromatic PX"))),
-    Statement("SENSOR", _tags(_num("fullwell", usage="fullwell E"), _num("readnoise", usage="readnoise E"),
+    Statement("SENSOR", _tags(Tag("profile", "choice", usage="profile " + "|".join(PROFILES), choices=tuple(PROFILES)),
+                              Tag("native", "int", usage="native PX"),
+                              _num("fullwell", usage="fullwell E"), _num("readnoise", usage="readnoise E"),
                               _num("dark", usage="dark E_PER_S"), _num("prnu", usage="prnu F"),
                               _num("dsnu", usage="dsnu E"), _num("rownoise", usage="rownoise E"),
                               Tag("cfa", "choice", usage="cfa rggb|bggr|grbg|gbrg",

@@ -16,11 +16,11 @@ from __future__ import annotations
 
 from typing import Callable
 
-import bpy
 
 from ... import material_library
 from ...model import ImageMaps, Material
 from .. import compat
+from ..datablocks import load_image
 from . import built, interior, metal_glass, nature
 from .graph import Ctx, G, Surface, box_uv
 
@@ -139,7 +139,7 @@ def build_image_maps(nt, maps: ImageMaps, colour, roughness: float, tag_image):
     bsdf = g.node("ShaderNodeBsdfPrincipled")
 
     def image(path: str, colour_data: bool):
-        img = tag_image(bpy.data.images.load(path, check_existing=True))
+        img = tag_image(load_image(path))
         if not colour_data:
             img.colorspace_settings.is_data = True
         return g.node("ShaderNodeTexImage", {"Vector": uv}, image=img, interpolation="Linear",

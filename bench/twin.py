@@ -1,0 +1,270 @@
+"""A camera twin beside the real camera: renders N frames of a library twin through its
+camera profile and prints, in one run and at the same image size, the image and tracking
+figures and three stereo VOs' errors on the render and on the real excerpt, with ratios.
+
+    python bench/twin.py [--scene city] [--frames 45] [--scale 0.5] [--quality draft] [--out out/twin]
+                         [--no-render]
+
+Scenes: ``city`` = scenes/city_kitti.ses with ``SENSOR profile kitti`` + ``AUTOEXPOSURE``
+beside KITTI sequence_1 (../shared/data/kitti); ``hall`` = scenes/hall.ses with
+``SENSOR profile euroc`` + ``AUTOEXPOSURE`` beside the EuRoC V1_01 excerpt (rectified with
+its sensor.yaml; it has no ground truth: image and tracking figures only). A script that
+already has a SENSOR statement is rendered as it is. The real frames are brought to the
+render's size with area averaging (cv2.INTER_AREA; K scaled like ``--resolution-scale``).
+
+Figures (issue 28): power-spectrum slope, KLT forward-backward error (median), pixels at 0
+or 255, SGBM valid share (vo_reference.realism); per VO - the OpenCV KLT+SGBM+PnP VO
+(``opencv-baseline``), an ORB-matching VO (below) and our ``accurate`` VO - translation RPE
+(median over the steps, % of the true step), rotation RPE (median, deg/step; compare VO
+against VO: KITTI's ground truth rotation noise is ~0.05 deg/frame), end-point drift and the
+Sim(3)-aligned position RMSE (% of the path), each with its render/real ratio. Targets for
+city vs KITTI sequence 1: translation RPE and Sim(3) error ratios 0.67-1.5, KLT error and
+SGBM valid share within 25 %, clipped share within 2 points, slope within 0.2.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from blender_sesgen.contract.camera import backproject, scaled_K
+from blender_sesgen.contract.depth import depth_from_disparity
+from blender_sesgen.contract.se3 import invert, se3
+from vo_reference.io.base import Sequence
+from vo_reference.io.sequence import open_sequence
+from vo_reference.io.trajectory import Trajectory
+from vo_reference.realism import sequence_stats
+from vo_reference.stereo.baseline import sgbm_disparity
+from vo_reference.stereo.pipeline import run_stereo_vo
+from vo_reference.stereo.report import shape_errors
+
+REPO = Path(__file__).resolve().parents[1]
+DATA = Path(os.environ.get("SESGEN_SHARED_DATA", REPO.parent / "shared" / "data"))
+SCENES = {"city": ("scenes/city_kitti.ses", "kitti"), "hall": ("scenes/hall.ses", "euroc")}
+VOS = ("opencv-baseline", "orb", "accurate")
+
+
+class Frames(Sequence):
+    """A stereo sequence held in memory (grey frames, K, baseline, poses or None)."""
+
+    def __init__(self, left, right, K, baseline_m, T_world_cam=None, timestamps_s=None):
+        self._img = {"left": list(left), "right": list(right)}
+        self.K, self.baseline_m = np.asarray(K, float), float(baseline_m)
+        self.num_frames = len(self._img["left"])
+        H, W = self._img["left"][0].shape[:2]
+        self.resolution, self.views = (W, H), ("left", "right")
+        self._T = None if T_world_cam is None else np.asarray(T_world_cam)[: self.num_frames]
+        self.timestamps_s = (np.arange(self.num_frames, dtype=float) if timestamps_s is None
+                             else np.asarray(timestamps_s, float)[: self.num_frames])
+
+    def image_gray(self, k, view="left"):
+        return self._img[view][k]
+
+    def image_rgb(self, k, view="left"):
+        return cv2.cvtColor(self._img[view][k], cv2.COLOR_GRAY2RGB)
+
+    def T_world_cam(self, view="left"):
+        return self._T
+
+
+def resized(seq, n: int, size: tuple[int, int]) -> Frames:
+    """The first n frames of ``seq`` at ``size`` (W, H), area-averaged, K scaled."""
+    W0, H0 = seq.resolution
+    imgs = {v: [cv2.resize(seq.image_gray(k, v), size, interpolation=cv2.INTER_AREA) if size != (W0, H0)
+                else seq.image_gray(k, v) for k in range(n)] for v in ("left", "right")}
+    return Frames(imgs["left"], imgs["right"], scaled_K(np.asarray(seq.K, float), W0, H0, *size), seq.baseline_m,
+                  seq.T_world_cam("left"), seq.timestamps_s)
+
+
+def euroc_rectified(n: int, size) -> Frames:
+    """The EuRoC excerpt rectified with its two sensor.yaml files (no poses)."""
+    from realism import euroc_frames        # bench/realism.py, beside this script
+    _, L, R = euroc_frames(n)
+    if size != (L[0].shape[1], L[0].shape[0]):
+        L = [cv2.resize(x, size, interpolation=cv2.INTER_AREA) for x in L]
+        R = [cv2.resize(x, size, interpolation=cv2.INTER_AREA) for x in R]
+    return Frames(L, R, np.eye(3), 0.11)     # K and baseline unused: no VO without ground truth
+
+
+# --- an ORB-matching stereo VO --------------------------------------------------------------
+
+def orb_steps(seq: Frames, n: int) -> list[np.ndarray]:
+    """T_k_k1 per step: ORB (2000) matched k -> k+1 (Hamming, cross-check), SGBM depth at k,
+    solvePnPRansac + LM refinement; a failed step keeps the previous motion."""
+    orb = cv2.ORB_create(2000)
+    bf = cv2.BFMatcher(cv2.NORM_HAMMING, crossCheck=True)
+    K, steps = seq.K, []
+    for k in range(n - 1):
+        a, b = seq.image_gray(k), seq.image_gray(k + 1)
+        ka, da = orb.detectAndCompute(a, None)
+        kb, db = orb.detectAndCompute(b, None)
+        T = steps[-1] if steps else np.eye(4)
+        if da is not None and db is not None:
+            m = bf.match(da, db)
+            p0 = np.array([ka[x.queryIdx].pt for x in m]).reshape(-1, 2)
+            p1 = np.array([kb[x.trainIdx].pt for x in m]).reshape(-1, 2)
+            disp = sgbm_disparity(a, seq.image_gray(k, "right"))
+            d = disp[np.rint(p0[:, 1]).astype(int), np.rint(p0[:, 0]).astype(int)]
+            ok = d > 1.0
+            if ok.sum() >= 6:
+                P = backproject(K, p0[ok], depth_from_disparity(d[ok], K[0, 0], seq.baseline_m))
+                okr, rvec, tvec, inl = cv2.solvePnPRansac(P, p1[ok], K, None, iterationsCount=200,
+                                                          reprojectionError=1.0, confidence=0.999)
+                if okr and inl is not None and len(inl) >= 6:
+                    inl = inl.ravel()
+                    rvec, tvec = cv2.solvePnPRefineLM(P[inl], p1[ok][inl], K, None, rvec, tvec)
+                    T = invert(se3(cv2.Rodrigues(rvec)[0], tvec.ravel()))
+        steps.append(T)
+    return steps
+
+
+def vo_steps(seq: Frames, method: str, n: int) -> list[np.ndarray]:
+    if method == "orb":
+        return orb_steps(seq, n)
+    res = run_stereo_vo(seq, method, frames=range(0, n))
+    return [np.asarray(T) for T in _steps_of(res.trajectory.T_world_cam)]
+
+
+def _steps_of(poses) -> list[np.ndarray]:
+    return [invert(poses[k]) @ poses[k + 1] for k in range(len(poses) - 1)]
+
+
+def vo_errors(seq: Frames, method: str, n: int) -> dict:
+    """Translation RPE (% of the true step), rotation RPE (deg/step), end-point drift and
+    Sim(3) RMSE (% of the path) of one VO against the sequence's ground truth."""
+    T_gt = seq.T_world_cam("left")[:n]
+    est_steps = vo_steps(seq, method, n)
+    poses = [T_gt[0]]
+    for T in est_steps:
+        poses.append(poses[-1] @ T)
+    t_rpe, r_rpe = [], []
+    for Tg, Te in zip(_steps_of(T_gt), est_steps):
+        E = invert(Tg) @ Te
+        t_rpe.append(100 * np.linalg.norm(E[:3, 3]) / max(np.linalg.norm(Tg[:3, 3]), 1e-9))
+        r_rpe.append(np.degrees(np.arccos(np.clip((np.trace(E[:3, :3]) - 1) / 2, -1, 1))))
+    ts = np.asarray(seq.timestamps_s, float)[:n]
+    shape = shape_errors(Trajectory(np.asarray(T_gt), ts), Trajectory(np.asarray(poses), ts))
+    return {"t_rpe_pct": float(np.median(t_rpe)), "r_rpe_deg": float(np.median(r_rpe)),
+            "drift_pct": shape["end_point_drift_pct"], "sim3_pct": shape.get("sim3_position_rmse_pct", np.nan)}
+
+
+# --- the render -----------------------------------------------------------------------------
+
+def twin_script(script: str, profile: str, out: Path) -> Path:
+    """The library script with its camera profile (unchanged when it has a SENSOR already)."""
+    text = (REPO / script).read_text()
+    if any(line.startswith("SENSOR") for line in text.splitlines()):
+        return REPO / script
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / Path(script).name
+    path.write_text(text + f"\n// the camera twin (bench/twin.py)\nSENSOR profile {profile}\nAUTOEXPOSURE\n")
+    return path
+
+
+def render(script: Path, out: Path, n: int, scale: float, quality: str) -> float:
+    """Render frames 0..n-1 (resuming); mean seconds per stereo frame rendered in this run."""
+    cmd = [sys.executable, "-m", "blender_sesgen", "render", str(script), "--out", str(out), "--frames", f"0:{n}",
+           "--resume", "--resolution-scale", str(scale), "--quality", quality, "--progress", "json"]
+    proc = subprocess.Popen(cmd, cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO)), stderr=subprocess.PIPE,
+                            text=True)
+    secs = []
+    for line in proc.stderr:
+        try:
+            ev = json.loads(line)
+        except ValueError:
+            print("  " + line.rstrip(), file=sys.stderr)
+            continue
+        if isinstance(ev, dict) and ev.get("event") == "progress" and ev.get("wall_s") is not None:
+            secs.append(float(ev["wall_s"]))
+            print(f"  rendered frame {ev.get('frame')} in {secs[-1]:.0f} s", file=sys.stderr)
+    if proc.wait() != 0:
+        sys.exit(f"render of {script} failed (exit {proc.returncode})")
+    return float(np.mean(secs)) if secs else float("nan")
+
+
+# --- the table ------------------------------------------------------------------------------
+
+def _ratio(a, b):
+    return a / b if np.isfinite(a) and np.isfinite(b) and b != 0 else float("nan")
+
+
+def table(real_name: str, real: Frames, ours: Frames, n: int, with_vo: bool) -> list[str]:
+    rs, os_ = sequence_stats(real._img["left"], real._img["right"]), sequence_stats(ours._img["left"],
+                                                                                    ours._img["right"])
+    rows = [f"| figure ({n} frames, {ours.resolution[0]}x{ours.resolution[1]}) | {real_name} | render | "
+            "render / real | target |", "|---|---|---|---|---|"]
+    ok = lambda c: "met" if c else "missed"  # noqa: E731
+    rows.append(f"| power-spectrum slope | {rs.slope:.2f} | {os_.slope:.2f} | {os_.slope - rs.slope:+.2f} | "
+                f"within 0.2: {ok(abs(os_.slope - rs.slope) <= 0.2)} |")
+    r = _ratio(os_.klt_fb_median, rs.klt_fb_median)
+    rows.append(f"| KLT forward-backward error (px) | {rs.klt_fb_median:.3f} | {os_.klt_fb_median:.3f} | {r:.2f} | "
+                f"within 25 %: {ok(abs(r - 1) <= 0.25)} |")
+    rows.append(f"| pixels at 0 or 255 | {100 * rs.clipped:.1f} % | {100 * os_.clipped:.1f} % | "
+                f"{100 * (os_.clipped - rs.clipped):+.1f} pt | within 2 pt: {ok(abs(os_.clipped - rs.clipped) <= 0.02)} |")
+    r = _ratio(os_.sgbm_valid, rs.sgbm_valid)
+    rows.append(f"| SGBM valid share | {rs.sgbm_valid:.2f} | {os_.sgbm_valid:.2f} | {r:.2f} | "
+                f"within 25 %: {ok(abs(r - 1) <= 0.25)} |")
+    rows.append(f"| Shi-Tomasi corners | {rs.corners:.0f} | {os_.corners:.0f} | {_ratio(os_.corners, rs.corners):.2f} | |")
+    if with_vo:
+        for vo in VOS:
+            er, eo = vo_errors(real, vo, n), vo_errors(ours, vo, n)
+            for key, label, target in (("t_rpe_pct", "translation RPE (median, % of step)", True),
+                                       ("r_rpe_deg", "rotation RPE (median, deg/step)", "compare VO against VO"),
+                                       ("drift_pct", "end-point drift (% of path)", ""),
+                                       ("sim3_pct", "Sim(3) position RMSE (% of path)", True)):
+                r = _ratio(eo[key], er[key])
+                rows.append(f"| {vo}: {label} | {er[key]:.3f} | {eo[key]:.3f} | {r:.2f} | "
+                            + (f"0.67-1.5: {ok(0.67 <= r <= 1.5)} |" if target is True else f"{target} |"))
+    return rows
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scene", default="city", choices=sorted(SCENES))
+    ap.add_argument("--frames", type=int, default=45)
+    ap.add_argument("--scale", type=float, default=0.5, help="--resolution-scale of the render (default 0.5)")
+    ap.add_argument("--quality", default="draft")
+    ap.add_argument("--out", default="out/twin")
+    ap.add_argument("--no-render", action="store_true", help="use the frames already rendered in --out")
+    a = ap.parse_args(argv)
+    if not DATA.is_dir():
+        print(f"real data not found at {DATA} (set SESGEN_SHARED_DATA)", file=sys.stderr)
+        return 2
+    script, profile = SCENES[a.scene]
+    out = REPO / a.out / a.scene
+    t0 = time.perf_counter()
+    secs = float("nan") if a.no_render else render(twin_script(script, profile, REPO / a.out), out, a.frames,
+                                                   a.scale, a.quality)
+    seq = open_sequence(out)
+    n = 0
+    while n < min(a.frames, seq.num_frames) and seq.frame_complete(n):
+        n += 1
+    if n < 3:
+        print(f"{out}: only {n} frame(s) rendered completely; render more (without --no-render)", file=sys.stderr)
+        return 2
+    ours = resized(seq, n, tuple(seq.resolution))
+    if profile == "kitti":
+        real_seq = open_sequence(DATA / "kitti" / "sequence_1")
+        n = min(n, real_seq.num_frames)
+        real, name = resized(real_seq, n, tuple(seq.resolution)), "real KITTI sequence_1"
+    else:
+        real, name = euroc_rectified(n, tuple(seq.resolution)), "real EuRoC V1_01"
+    ours = Frames(ours._img["left"][:n], ours._img["right"][:n], ours.K, ours.baseline_m, ours.T_world_cam(),
+                  ours.timestamps_s)
+    print(f"\n### {script} + SENSOR profile {profile} (--resolution-scale {a.scale:g}, --quality {a.quality}) "
+          f"vs {name}\n")
+    print("\n".join(table(name, real, ours, n, with_vo=profile == "kitti")))
+    print(f"\nseconds per stereo frame rendered: {secs:.0f}; bench wall time {time.perf_counter() - t0:.0f} s; "
+          f"load {open('/proc/loadavg').read().split()[0]}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,91 @@
+"""Camera profiles: the measured parameter sets of real cameras (``SENSOR profile NAME``), and
+the binning that carries a profile to another render size (pure).
+
+A profile describes the **physical sensor** at its native width: its tags are the SES tags of
+SENSOR, LENS, TIMING and AUTOEXPOSURE (a script's own tags override them one by one). Each
+number is measured on the real frames in ../shared/data by ``bench/camera_profiles.py`` or
+taken from the cited datasheet/paper; docs/sensors.md ("Camera profiles") has the table with
+how each was measured. Where neither is available the number is marked *assumed* there.
+
+Binning (:func:`at_width`): a render ``s = native / width`` times narrower than the sensor has
+pixels of s x s native pixels: the full well, dark current grow by s^2, the read noise and DSNU
+(independent per native pixel) by s, the row noise (s rows of s pixels) by s^1.5, PRNU falls by
+1/s, the pitch grows by s; lengths in pixels (defocus, chromatic, OLPF) shrink by 1/s. So a
+flat patch's noise, relative to full scale, is 1/s of the native one - as if s x s pixels
+were averaged - and blur stays the same size on the sensor.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True)
+class Profile:
+    name: str
+    camera: str                      # what the camera is
+    native_width_px: int             # the width the parameters are per pixel of
+    native_height_px: int
+    sensor: dict                     # SENSOR tags
+    lens: dict = field(default_factory=dict)          # LENS tags
+    timing: dict = field(default_factory=dict)        # TIMING tags
+    autoexposure: dict = field(default_factory=dict)  # AUTOEXPOSURE tags (used when the script has one)
+    edge_spread_px: float = 0.0      # measured Gaussian-equivalent edge spread (-> LENS defocus)
+
+
+# The render's own pixel filter (Blackman-Harris, 1.5 px; blender/render.py) has a Gaussian-
+# equivalent spread of 0.208 px; a defocus disc of diameter d adds d / 4. The profiles' defocus
+# is 4 sqrt(s_measured^2 - 0.208^2) (docs/sensors.md).
+RENDER_EDGE_SPREAD_PX = 0.208
+
+PROFILES: dict[str, Profile] = {p.name: p for p in (
+    Profile("kitti", "KITTI: Point Grey Flea2 FL2-14S3M (Sony ICX267 CCD, greyscale, global shutter), "
+            "rectified 8-bit images as distributed", 1226, 370,
+            sensor=dict(fullwell=4500.0, readnoise=0.0, black=7.0, bits=8, response="gamma", gamma=1.3,
+                        pixel=4.65),
+            lens=dict(defocus=2.25, vignetting=0.35),
+            timing=dict(rate=10.0, exposure=0.002, readout=0.0),
+            autoexposure=dict(target=0.25), edge_spread_px=0.60),
+    Profile("euroc", "EuRoC MAV: VI-Sensor, Aptina MT9V034 (greyscale, global shutter), raw 752x480", 752, 480,
+            sensor=dict(fullwell=8400.0, readnoise=15.6, black=13.0, bits=8, response="linear", pixel=6.0),
+            lens=dict(defocus=3.25, vignetting=0.30),
+            timing=dict(rate=20.0, exposure=0.005, readout=0.0),
+            autoexposure=dict(target=0.52), edge_spread_px=0.83),
+    Profile("tum", "TUM RGB-D: Microsoft Kinect v1 RGB (Aptina MT9M112, Bayer, rolling shutter), 640x480", 640, 480,
+            sensor=dict(fullwell=6000.0, readnoise=8.0, black=0.0, bits=8, cfa="grbg", response="srgb",
+                        pixel=5.6, jpeg=0),
+            lens=dict(fnumber=2.0, vignetting=1.0),
+            timing=dict(rate=30.0, exposure=0.01, readout=0.02),
+            autoexposure=dict(target=0.3)),
+    Profile("robotcar", "Oxford RobotCar: Point Grey Bumblebee XB3 (Sony ICX445 CCD, Bayer GBRG, global shutter), "
+            "1280x960", 1280, 960,
+            sensor=dict(fullwell=4000.0, readnoise=19.0, black=6.0, bits=8, cfa="gbrg", response="linear",
+                        pixel=3.75),
+            lens=dict(vignetting=1.0),
+            timing=dict(rate=16.0, exposure=0.002, readout=0.0),
+            autoexposure=dict(target=0.54)),
+    Profile("phone", "a generic phone camera (12 MP, 1.4 um, rolling shutter, JPEG)", 4032, 3024,
+            sensor=dict(fullwell=6000.0, readnoise=2.0, black=0.0, bits=10, cfa="rggb", response="srgb",
+                        pixel=1.4, jpeg=90),
+            lens=dict(fnumber=1.8, vignetting=1.0),
+            timing=dict(rate=30.0, exposure=0.008, readout=0.025),
+            autoexposure=dict(target=0.18)),
+)}
+
+
+def at_width(sensor, lens, width_px: int):
+    """(sensor, lens) per pixel of a render ``width_px`` wide (:mod:`this module`'s binning);
+    unchanged when the sensor has no native width."""
+    native = int(getattr(sensor, "native_width_px", 0) or 0) if sensor is not None else 0
+    if not native or int(width_px) == native:
+        return sensor, lens
+    s = native / float(width_px)
+    a = s * s
+    sensor = dataclasses.replace(
+        sensor, full_well_e=sensor.full_well_e * a, read_noise_e=sensor.read_noise_e * s,
+        dark_current_e_s=sensor.dark_current_e_s * a, dsnu_e=sensor.dsnu_e * s, prnu=sensor.prnu / s,
+        row_noise_e=sensor.row_noise_e * s ** 1.5, pixel_um=sensor.pixel_um * s, olpf_px=sensor.olpf_px / s,
+        native_width_px=int(width_px))
+    if lens is not None:
+        lens = dataclasses.replace(lens, defocus_px=lens.defocus_px / s, chromatic_px=lens.chromatic_px / s)
+    return sensor, lens

@@ -1,0 +1,101 @@
+"""Camera profiles (``SENSOR profile NAME``): the profile's values as defaults of SENSOR, LENS,
+TIMING and AUTOEXPOSURE, overridable tag by tag, and binning to the render's size."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from blender_sesgen.errors import ScriptError
+from blender_sesgen.sensor import pipeline
+from blender_sesgen.sensor.profiles import PROFILES, at_width
+from blender_sesgen.ses.parser import parse_text
+
+HEAD = "CAMERA resolution 256 192 focal 200 baseline 0.1\nFRAMES 2\nSPHERE id 1 position 0 0 5 dim 1\n"
+
+
+def scene(lines: str):
+    return parse_text(HEAD + lines)
+
+
+def test_a_profile_fills_every_statement_and_each_tag_stays_overridable():
+    p = PROFILES["kitti"]
+    sc = scene("SENSOR profile kitti readnoise 3\nAUTOEXPOSURE\n")
+    s = sc.sensor
+    assert (s.profile, s.native_width_px, s.read_noise_e) == ("kitti", p.native_width_px, 3.0)
+    assert (s.full_well_e, s.black_level_dn, s.response, s.gamma, s.pixel_um) == (
+        p.sensor["fullwell"], p.sensor["black"], "gamma", p.sensor["gamma"], p.sensor["pixel"])
+    assert (sc.timing.rate_hz, sc.timing.exposure_s, sc.timing.readout_s) == (10.0, 0.002, 0.0)
+    assert (sc.lens.model, sc.lens.defocus_px, sc.lens.vignetting) == ("pinhole", p.lens["defocus"],
+                                                                        p.lens["vignetting"])
+    assert sc.autoexposure.target == p.autoexposure["target"]
+    # the script's statements win tag by tag; the profile fills the rest
+    sc = scene("SENSOR profile euroc response srgb\nTIMING rate 100\nLENS vignetting 0 fnumber 4\n"
+               "AUTOEXPOSURE target 0.1\n")
+    assert (sc.sensor.response, sc.sensor.full_well_e) == ("srgb", PROFILES["euroc"].sensor["fullwell"])
+    assert (sc.timing.rate_hz, sc.timing.exposure_s) == (100.0, PROFILES["euroc"].timing["exposure"])
+    assert (sc.lens.vignetting, sc.lens.f_number, sc.lens.defocus_px) == (0.0, 4.0, PROFILES["euroc"].lens["defocus"])
+    assert sc.autoexposure.target == 0.1
+    # a profile's exposure shortens to the script's frame period; auto-exposure stays the script's choice
+    sc = scene("SENSOR profile phone\nTIMING rate 1000\n")
+    assert sc.timing.exposure_s == pytest.approx(0.001) and sc.timing.readout_s == pytest.approx(0.001)
+    assert sc.autoexposure is None and sc.sensor.cfa == "rggb" and sc.sensor.jpeg_quality == 90
+
+
+def test_without_a_profile_nothing_changes():
+    sc = scene("SENSOR readnoise 2\n")
+    assert sc.timing is None and sc.lens is None
+    assert (sc.sensor.profile, sc.sensor.native_width_px) == (None, 0)
+    assert at_width(sc.sensor, None, 64) == (sc.sensor, None)
+
+
+@pytest.mark.parametrize("line, message", [
+    ("SENSOR profile kodak", "SENSOR 'profile' must be one of kitti, euroc, tum, robotcar, phone, got 'kodak'"),
+    ("SENSOR profile kitti gamma 2 response srgb", "SENSOR 'gamma' needs 'response gamma'"),
+    ("SENSOR profile kitti native 0", "native"),
+])
+def test_bad_profile_lines_are_one_line_errors(line, message):
+    with pytest.raises(ScriptError) as e:
+        scene(line + "\n")
+    assert message in str(e.value) and "\n" not in str(e.value)
+
+
+def _flat_raw(sensor, lens, shape, level=0.3, frame=0):
+    cam = pipeline.Camera(sensor=sensor, lens=lens, nominal_exposure_s=0.0)
+    out = pipeline.process(np.full(shape + (3,), level), cam, pipeline.Shot(0.0, 1.0, frame, 0))
+    full = 2 ** sensor.bits - 1
+    dn = out.raw_dn if out.raw_dn.ndim == 2 else out.raw_dn[..., 1]
+    return (dn.astype(np.float64) - sensor.black_level_dn) / (full - sensor.black_level_dn)
+
+
+@pytest.mark.parametrize("name", ["kitti", "euroc", "robotcar"])
+def test_a_half_size_render_has_the_noise_of_the_sensor_binned_2x2(name):
+    """Binning physics as the oracle: the full-size sensor's raw frame averaged over 2x2 blocks
+    has the noise (and the level) that the half-size render must have, within 10 %."""
+    sc = scene(f"SENSOR profile {name} native 256 bits 12 readnoise 20 rownoise 0 seed 5\n")
+    full_s, full_l = at_width(sc.sensor, sc.lens, 256)
+    half_s, half_l = at_width(sc.sensor, sc.lens, 128)
+    assert (half_s.native_width_px, half_s.full_well_e) == (128, 4 * full_s.full_well_e)
+    full = _flat_raw(dataclasses.replace(full_s, seed=1), None, (192, 256))
+    binned = full.reshape(96, 2, 128, 2).mean(axis=(1, 3))
+    half = _flat_raw(dataclasses.replace(half_s, seed=2), None, (96, 128))
+    assert half.mean() == pytest.approx(binned.mean(), rel=0.01)
+    assert half.std() == pytest.approx(binned.std(), rel=0.10)
+    # and not the unbinned sensor's noise at every render pixel (what the test guards against)
+    assert full.std() > 1.6 * half.std()
+    # blur stays the same size on the sensor: half the pixels
+    assert half_l.defocus_px == pytest.approx(full_l.defocus_px / 2)
+
+
+def test_resolution_scale_bins_the_profile_in_the_render_plan():
+    from blender_sesgen.plan import RenderOptions, RenderSettings
+    from blender_sesgen.sensor.render_plan import SensorPlan
+    sc = scene("SENSOR profile kitti native 256\n")
+    plans = [SensorPlan.create(sc, RenderSettings.of(sc, RenderOptions(resolution_scale=r))) for r in (1.0, 0.5)]
+    assert [p.width for p in plans] == [256, 128]
+    assert plans[1].sensor.full_well_e == pytest.approx(4 * plans[0].sensor.full_well_e)
+    assert plans[1].lens_spec.defocus_px == pytest.approx(plans[0].lens_spec.defocus_px / 2)
+    settings = plans[1].manifest_entries(2)["sensor"]
+    assert (settings["profile"], settings["native_width_px"], settings["full_well_e"]) == (
+        "kitti", 128, pytest.approx(4 * PROFILES["kitti"].sensor["fullwell"]))
