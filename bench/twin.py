@@ -5,11 +5,10 @@ figures and three stereo VOs' errors on the render and on the real excerpt, with
     python bench/twin.py [--scene city] [--frames 45] [--scale 0.5] [--quality draft] [--out out/twin]
                          [--no-render]
 
-Scenes: ``city`` = scenes/city_kitti.ses with ``SENSOR profile kitti`` + ``AUTOEXPOSURE``
-beside KITTI sequence_1 (../shared/data/kitti); ``hall`` = scenes/hall.ses with
-``SENSOR profile euroc`` + ``AUTOEXPOSURE`` beside the EuRoC V1_01 excerpt (rectified with
-its sensor.yaml; it has no ground truth: image and tracking figures only). A script that
-already has a SENSOR statement is rendered as it is. The real frames are brought to the
+Scenes: ``city`` = scenes/city_kitti.ses (``SENSOR profile kitti``) beside KITTI sequence_1
+(../shared/data/kitti); ``hall`` = scenes/hall.ses (``SENSOR profile euroc``) beside the EuRoC
+V1_01 excerpt (rectified with its sensor.yaml; it has no ground truth: image and tracking
+figures only); both rendered with ``AUTOEXPOSURE`` added (written to OUT/<scene>_twin.ses). The real frames are brought to the
 render's size with area averaging (cv2.INTER_AREA; K scaled like ``--resolution-scale``).
 
 Figures (issue 28): power-spectrum slope, KLT forward-backward error (median), pixels at 0
@@ -158,13 +157,17 @@ def vo_errors(seq: Frames, method: str, n: int) -> dict:
 # --- the render -----------------------------------------------------------------------------
 
 def twin_script(script: str, profile: str, out: Path) -> Path:
-    """The library script with its camera profile (unchanged when it has a SENSOR already)."""
-    text = (REPO / script).read_text()
-    if any(line.startswith("SENSOR") for line in text.splitlines()):
-        return REPO / script
+    """The library script with its camera profile (the library's default) and AUTOEXPOSURE
+    (exposure following the scene, as the real cameras do; the library leaves it out because
+    it makes a render start at frame 0 and run in order, which this bench does)."""
+    lines = (REPO / script).read_text().splitlines()
+    if not any(ln.startswith("SENSOR") for ln in lines):
+        lines.append(f"SENSOR profile {profile}")
+    if not any(ln.startswith("AUTOEXPOSURE") for ln in lines):
+        lines.append("AUTOEXPOSURE")
     out.mkdir(parents=True, exist_ok=True)
-    path = out / Path(script).name
-    path.write_text(text + f"\n// the camera twin (bench/twin.py)\nSENSOR profile {profile}\nAUTOEXPOSURE\n")
+    path = out / f"{Path(script).stem}_twin.ses"
+    path.write_text("\n".join(lines) + "\n")
     return path
 
 
