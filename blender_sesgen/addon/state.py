@@ -138,3 +138,18 @@ def script_with_world(text: str, hdri: str, strength: float = 1.0, rotation_deg:
     lines = [f"// {ln}" if _WORLD_LINE.match(ln) else ln for ln in lines]
     lines += [WORLD_OVERRIDE_NOTE, f"WORLD hdri {hdri} strength {strength:g} rotation {rotation_deg:g}"]
     return "\n".join(lines) + "\n"
+
+
+# --- the panel's camera profile -------------------------------------------------------------
+
+_SENSOR_LINE = re.compile(r"^[ \t]*sensor(?=[ \t]|$)", re.IGNORECASE)
+PROFILE_OVERRIDE_NOTE = "// the add-on's Camera override:"
+
+
+def script_with_profile(text: str, profile: str) -> str:
+    """``text`` seen through the camera ``profile`` (``sensor/profiles.py``) instead of its
+    own SENSOR: the script's SENSOR line is commented out in place (line numbers kept) and
+    ``SENSOR profile NAME`` is appended, as :func:`script_with_world` does for the WORLD."""
+    lines = [f"// {ln}" if _SENSOR_LINE.match(ln) else ln for ln in text.splitlines()]
+    lines += [PROFILE_OVERRIDE_NOTE, f"SENSOR profile {profile}"]
+    return "\n".join(lines) + "\n"
