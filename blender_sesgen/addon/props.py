@@ -11,6 +11,9 @@ from .export_job import TARGETS
 from .preview import KINDS
 
 _LABELS = {"kitti": "KITTI", "euroc": "EuRoC", "tum": "TUM RGB-D", "robotcar": "RobotCar"}
+# built here: Blender evaluates the annotations below where module names inside a generator are not seen
+CAMERA_ITEMS = (("script", "Script", "The script's own SENSOR (an ideal camera without one)"),
+                *((n, _LABELS.get(n, n.capitalize()), f"{p.camera} (SENSOR profile {n})") for n, p in PROFILES.items()))
 
 
 class SESGEN_PG_settings(bpy.types.PropertyGroup):
@@ -37,12 +40,9 @@ class SESGEN_PG_settings(bpy.types.PropertyGroup):
                         items=(("script", "Script", "The script's WORLD (the default lighting when it has none)"),
                                *((n, n.capitalize(), f"Blender's bundled CC0 HDRI '{n}' (WORLD hdri {n})")
                                  for n in BUILTIN_HDRIS)))
-    camera_profile: EnumProperty(name="Camera", default="script",
+    camera_profile: EnumProperty(name="Camera", default="script", items=CAMERA_ITEMS,
                                  description="See the scene through a real camera's measured profile instead of "
-                                             "the script's SENSOR (docs/sensors.md; the rendered scene.ses says so)",
-                                 items=(("script", "Script", "The script's own SENSOR (an ideal camera without one)"),
-                                        *((n, _LABELS.get(n, n.capitalize()), p.camera + f" (SENSOR profile {n})")
-                                          for n, p in PROFILES.items())))
+                                             "the script's SENSOR (docs/sensors.md; the rendered scene.ses says so)")
     world_strength: FloatProperty(name="Strength", min=0.0, soft_max=10.0, default=1.0,
                                   description="HDRI strength (WORLD hdri ... strength)")
     world_rotation: FloatProperty(name="Rotation", soft_min=-180.0, soft_max=180.0, default=0.0,
