@@ -45,7 +45,7 @@ def test_the_world_override_replaces_the_scripts_world_and_keeps_its_line_number
 
 
 def test_the_summary_names_a_camera_profile():
-    lines = summary_lines(parse_string(SCRIPT.replace("SENSOR fullwell 9000", "SENSOR profile kitti fullwell 9000")))
+    lines = summary_lines(parse_string(SCRIPT.replace("SENSOR fullwell 9000", "SENSOR profile kitti mono off fullwell 9000")))
     assert "Sensor: profile kitti (per pixel of 1226 px), full well 9000 e-, read noise 2.5 e-, 12 bit, CFA rggb" in lines
 
 

@@ -79,7 +79,7 @@ def sensor_lines(scene: Scene) -> tuple[str, ...]:
         sn = scene.sensor
         lines.append("Sensor: " + (f"profile {sn.profile} (per pixel of {sn.native_width_px} px), " if sn.profile else "")
                      + f"full well {sn.full_well_e:g} e-, read noise {sn.read_noise_e:g} e-, "
-                     f"{sn.bits} bit" + (f", CFA {sn.cfa}" if sn.cfa else ""))
+                     f"{sn.bits} bit" + (f", CFA {sn.cfa}" if sn.cfa else ", mono" if sn.mono else ""))
     if scene.imu is not None:
         lines.append(f"IMU: {scene.imu.rate_hz:g} Hz, seed {scene.imu.seed}")
     return tuple(lines)
