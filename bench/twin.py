@@ -192,6 +192,32 @@ def render(script: Path, out: Path, n: int, scale: float, quality: str) -> float
     return float(np.mean(secs)) if secs else float("nan")
 
 
+def resensor(out: Path, n: int) -> Frames:
+    """Frames 0..n-1 of the render in ``out`` through today's camera chain again (its EXRs,
+    each frame's recorded exposure and gain, the scene.ses of the folder parsed with today's
+    profiles): the chain runs after Cycles, so a changed profile needs no new render."""
+    from blender_sesgen.plan import RenderOptions, RenderSettings
+    from blender_sesgen.sensor import pipeline
+    from blender_sesgen.sensor.outputs import _rays, state_relpath
+    from blender_sesgen.sensor.render_plan import SensorPlan
+    from blender_sesgen.ses.parser import parse_text
+    from vo_reference.io.color import rgb8_to_gray8
+    seq = open_sequence(out)
+    scene = parse_text((out / "scene.ses").read_text(), str(out / "scene.ses"), str(out))
+    scale = json.loads((out / "manifest.json").read_text())["render"]["resolution_scale"]
+    plan = SensorPlan.create(scene, RenderSettings.of(scene, RenderOptions(resolution_scale=scale)))
+    camera = pipeline.Camera(plan.sensor, plan.lens_spec, _rays(plan), plan.K[0, 2], plan.K[1, 2],
+                             plan.nominal_exposure_s())
+    imgs, fpn = {"left": [], "right": []}, {}
+    for k in range(n):
+        st = json.loads((out / state_relpath(k)).read_text())
+        for vi, view in enumerate(("left", "right")):
+            f = pipeline.process(seq.rgb_linear(k, view), camera, pipeline.Shot(st["exposure_s"], st["gain"], k, vi),
+                                 fpn_cache=fpn)
+            imgs[view].append(rgb8_to_gray8(f.rgb8))
+    return Frames(imgs["left"], imgs["right"], seq.K, seq.baseline_m, seq.T_world_cam("left"), seq.timestamps_s)
+
+
 # --- the table ------------------------------------------------------------------------------
 
 def _ratio(a, b):
@@ -236,6 +262,8 @@ def main(argv=None) -> int:
     ap.add_argument("--quality", default="draft")
     ap.add_argument("--out", default="out/twin")
     ap.add_argument("--no-render", action="store_true", help="use the frames already rendered in --out")
+    ap.add_argument("--resensor", action="store_true",
+                    help="run today's camera chain again on the rendered EXRs (after a profile changed)")
     a = ap.parse_args(argv)
     if not DATA.is_dir():
         print(f"real data not found at {DATA} (set SESGEN_SHARED_DATA)", file=sys.stderr)
@@ -252,7 +280,7 @@ def main(argv=None) -> int:
     if n < 3:
         print(f"{out}: only {n} frame(s) rendered completely; render more (without --no-render)", file=sys.stderr)
         return 2
-    ours = resized(seq, n, tuple(seq.resolution))
+    ours = resensor(out, n) if a.resensor else resized(seq, n, tuple(seq.resolution))
     if profile == "kitti":
         real_seq = open_sequence(DATA / "kitti" / "sequence_1")
         n = min(n, real_seq.num_frames)
