@@ -12,7 +12,8 @@ before the fast path), and ``today``: the renderer's settings before the presets
 samples, no denoiser, 6/3/3 bounces, indirect clamp 10, light tree) rendered the plain way.
 ``CONFIG+zipL`` writes the EXRs at deflate level L (``gt+zip4``: OpenEXR's default level, as
 before the renderer chose its own). ``CONFIG@N`` renders that preset with N samples
-(``--samples N``: ``final@12``). ``CONFIG*P`` runs P render processes side by side, each
+(``--samples N``: ``final@12``). ``CONFIG/gpu`` renders on the GPU (``--device gpu``: Cycles'
+OptiX or CUDA device; ``final/gpu``, without ``/gpu`` the CPU). ``CONFIG*P`` runs P render processes side by side, each
 with cores/P Cycles threads and its own N frames (``gt*2``: two single-threaded renders on two
 cores, as ``farm`` runs chunks; the columns are then their throughput together, CPU per
 frame over both, peak MiB summed).
@@ -63,7 +64,8 @@ def child(a) -> int:
     from blender_sesgen.plan import RenderOptions, RenderPlan
     from blender_sesgen.presets import Preset
 
-    name, _, zip_level = a.config.split("*")[0].partition("+zip")
+    gpu = "/gpu" in a.config
+    name, _, zip_level = a.config.split("*")[0].replace("/gpu", "").partition("+zip")
     name, _, samples = name.partition("@")
     if zip_level:   # the EXRs at another deflate level (OpenEXR's default: 4)
         from blender_sesgen.blender import render
@@ -73,7 +75,7 @@ def child(a) -> int:
     first = a.part * a.frames
     options = RenderOptions(quality=quality, samples=int(samples) if samples else None,
                             resolution_scale=a.scale, frames=f"{first}:{first + a.frames}",
-                            fast_pipeline=not plain, threads=a.threads)
+                            fast_pipeline=not plain, threads=a.threads, device="gpu" if gpu else "cpu")
     plan = RenderPlan.from_file(a.scene, options)
     if name == "today":
         plan = replace(plan, settings=replace(plan.settings, preset=Preset(**TODAY)))
@@ -202,6 +204,11 @@ def main(argv=None) -> int:
             if c != "today":
                 print(f"# {c}: time per stereo frame x{r['s_frame'] / t['s_frame']:.3f} of today's "
                       f"(cpu x{r['cpu_frame'] / t['cpu_frame']:.3f})")
+    for c, r in results.items():
+        cpu = results.get(c.replace("/gpu", ""))
+        if "/gpu" in c and cpu is not None:
+            print(f"# {c}: wall seconds per stereo frame x{r['s_frame'] / cpu['s_frame']:.3f} of the CPU's "
+                  f"({cpu['s_frame'] / r['s_frame']:.1f}x faster), build x{r['build_s'] / cpu['build_s']:.3f}")
     print(f"# load {os.getloadavg()[0]:.1f} at the end")
     return 0
 

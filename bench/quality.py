@@ -10,7 +10,8 @@ For every configuration the frame is rendered through the real Blender session (
 code as ``render``) and compared with a converged reference render of the same frame:
 ``--reference-samples`` samples per pixel, no adaptive sampling, no denoiser, no clamping,
 Cycles' default light paths (12 bounces, caustics on). The reference is cached in
-``--cache`` (keyed by scene, frame, size, crop, views and Blender version): it is the expensive part.
+``--cache`` (keyed by the script without its RENDER statement, the seed, frame, size, crop, views and
+Blender version): it is the expensive part.
 
 ``--crop f`` renders only the centred window of f·W × f·H pixels (Cycles' render border,
 cropped; the denoiser sees that window): with ``--scale 1 --crop 0.25`` the quality at the
@@ -93,6 +94,14 @@ def parse_try(text: str) -> tuple[str, Preset]:
     return name, replace(base, quality="custom", overridden=(), **conv)
 
 
+def scene_key(plan) -> str:
+    """The script's hash without its RENDER statement, which the reference replaces entirely
+    (the seed it may set is in the plan's settings, added here): a library script that drops
+    its pinned samples keeps its cached references."""
+    lines = [ln for ln in plan.scene_text.splitlines(keepends=True) if not ln.lstrip().upper().startswith("RENDER")]
+    return hashlib.sha256(("".join(lines) + f"\nseed {plan.settings.seed}").encode()).hexdigest()
+
+
 def cpu_s() -> float:
     r = resource.getrusage(resource.RUSAGE_SELF)
     return r.ru_utime + r.ru_stime
@@ -102,7 +111,7 @@ class Bench:
     def __init__(self, args):
         from blender_sesgen.plan import RenderOptions, RenderPlan
         self.args = args
-        self.plan = RenderPlan.from_file(args.scene, RenderOptions(resolution_scale=args.scale,
+        self.plan = RenderPlan.from_file(args.scene, RenderOptions(resolution_scale=args.scale, device=args.device,
                                                                    frames=f"{args.frame}:{args.frame + 1}"))
         self.views = tuple(self.plan.views) if args.views == "both" else ("left",)
         self.exposure = None
@@ -157,7 +166,7 @@ class Bench:
         # the keys of the caches made before --crop stay as they were
         cropped, centred = a.crop < 1, a.crop_centre == (0.5, 0.5)
         crop = ({"crop": a.crop} | ({} if centred else {"crop_centre": list(a.crop_centre)})) if cropped else {}
-        key = json.dumps({"scene": self.plan.scene_sha256, "frame": a.frame, "scale": a.scale, "views": self.views,
+        key = json.dumps({"scene": scene_key(self.plan), "frame": a.frame, "scale": a.scale, "views": self.views,
                           "samples": a.reference_samples, "blender": compat.version_string(),
                           "preset": reference_preset(a.reference_samples).pixel_settings()} | crop, sort_keys=True)
         h = hashlib.sha256(key.encode()).hexdigest()[:16]
@@ -194,6 +203,8 @@ def main(argv=None) -> int:
                    help="extra configurations: a preset (base=...) with settings changed")
     p.add_argument("--repeat", type=int, default=1, help="timed renders per configuration (median)")
     p.add_argument("--reference-samples", type=int, default=4096)
+    p.add_argument("--device", choices=("cpu", "gpu"), default="cpu",
+                   help="Cycles device of every render (a cached reference serves either device)")
     p.add_argument("--cache", default=str(REPO / "out" / "bench-cache"))
     p.add_argument("--json", metavar="FILE", help="also write the results as JSON")
     a = p.parse_args(argv)

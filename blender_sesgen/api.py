@@ -7,12 +7,12 @@ behind it (the parser, the pipeline, the Blender layer) are internal and may mov
 >>> scene = sg.parse_file("scenes/minimal.ses")          # ScriptError: file:line:col: error: ...
 >>> print(sg.summary(scene))
 >>> results = sg.render(scene, "out/room", sg.RenderOptions(samples=4), progress=print)
+>>> doc = sg.Study("studies/city_exposure.toml").run("out/city_exposure")   # a verification study
 
 Only :func:`render` needs Blender's Python module ``bpy``; the rest is pure (numpy).
 """
 from __future__ import annotations
 
-import importlib.util
 import os
 from pathlib import Path
 from typing import Callable, Optional, Sequence
@@ -24,6 +24,7 @@ from .contract.progress import Progress
 from .errors import ScriptError, SesgenError
 from .model import (Asset, Cuboid, Cylinder, Fog, Light, Material, Mesh, Motion, Noise, Quad, Rig, Scene, Sphere,
                     TextureRef, Timeline, World, mat4)
+from .job import frame_progress, have_bpy
 from .pipeline import RenderOptions
 from .ses import parse_file, parse_string
 
@@ -36,6 +37,8 @@ __all__ = [
     "asset_kinds", "asset_mesh",
     # rendering
     "RenderOptions", "render", "frame_progress",
+    # verification studies
+    "Study",
 ]
 
 
@@ -84,16 +87,6 @@ def ego_timeline(start_position: Sequence[float], start_rotation_deg: Sequence[f
     return pose_timeline(integrate_ego(start_pose(start_position, start_rotation_deg), [tuple(s) for s in steps]))
 
 
-def frame_progress(bar: Progress) -> Callable:
-    """Adapter from the pipeline's per-frame hook ``(i, n, FrameResult, elapsed_s)`` to a
-    :class:`~blender_sesgen.contract.progress.Progress` (fields ``frame``, ``wall_s``, ``cycles_s``)."""
-    def hook(i, n, r, elapsed_s):
-        cyc = f", cycles {r.cycles_s:.2f} s" if r.cycles_s is not None else ""
-        bar.update(detail=f"frame {r.frame} {r.wall_s:.2f} s{cyc}", frame=r.frame, wall_s=r.wall_s,
-                   cycles_s=r.cycles_s)
-    return hook
-
-
 def render(scene: "Scene | str | os.PathLike", out: "str | os.PathLike", options: Optional[RenderOptions] = None, *,
            resume: bool = False, force: bool = False, progress: Optional[Callable[[dict], None]] = None,
            progress_mode: str = "off") -> list:
@@ -120,9 +113,53 @@ def render(scene: "Scene | str | os.PathLike", out: "str | os.PathLike", options
         return job.run(frame_progress(bar))
 
 
-def have_bpy() -> bool:
-    """True when Blender's Python module can be imported here."""
-    try:
-        return importlib.util.find_spec("bpy") is not None
-    except ImportError:
-        return False
+class Study:
+    """A verification study (docs/studies.md) read from its study file (TOML):
+    ``SesgenError`` naming the file and the key when it is wrong.
+
+    ``plan(out)`` gives its variants (``.variants``: each with ``name``, ``point``, ``seed``,
+    ``stage``, ``key``, ``developed``), distinct renders (``.renders``) and developed
+    variants (``.develops``) without running anything; ``run(out)`` runs it (renders, every
+    system, evaluation, report; resumes a folder holding the same study) and returns the
+    ``results.json`` document; ``compare(old, new)`` is ``study compare``'s verdicts."""
+
+    def __init__(self, path: "str | os.PathLike"):
+        from .study.spec import load
+        self.path = Path(path)
+        self.spec = load(self.path)
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    @property
+    def factors(self) -> list[str]:
+        return [f.name for f in self.spec.factors]
+
+    @property
+    def systems(self) -> list[str]:
+        return [s.name for s in self.spec.systems]
+
+    def plan(self, out: "str | os.PathLike"):
+        from .study.variants import make_plan
+        return make_plan(self.spec, Path(out).absolute() / "scripts")
+
+    def run(self, out: "str | os.PathLike", *, address: Optional[str] = None, num_cpus: Optional[int] = None,
+            progress: str = "off", rerun: Sequence[str] = ()) -> dict:
+        from .study.runner import StudyRun
+        StudyRun(self.spec, out, address=address, num_cpus=num_cpus, progress=progress, rerun=rerun).run()
+        return self.results(out)
+
+    @staticmethod
+    def results(out: "str | os.PathLike") -> dict:
+        import json
+        path = Path(out) / "results.json"
+        try:
+            return json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as e:
+            raise SesgenError(f"{path}: no study results there ({e})") from None
+
+    @staticmethod
+    def compare(old: dict, new: dict, sigmas: float = 1.0) -> list[dict]:
+        from .study.results import compare
+        return compare(old, new, sigmas)

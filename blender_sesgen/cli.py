@@ -21,11 +21,13 @@ COMMANDS = {
     "verify": (".verify_cli", "check every file of a render against its manifest; bad frames are re-rendered by --resume"),
     "farm": (".farm.cli", "render many scenes in chunks of frames as Ray tasks, on this machine or a cluster"),
     "generate": (".generate_cli", "write N varied scene scripts from a scene generator, and their dataset index"),
+    "study": (".study.cli", "a verification study: vary one thing, run every VO on every variant, report where it breaks"),
 }
 
 
 def _describe(e: BaseException) -> str:
-    return str(e) if isinstance(e, ScriptError) else f"error: {e}"
+    """The error's line: a script error (and a study file's, ``whole_line``) names its place itself."""
+    return str(e) if isinstance(e, ScriptError) or getattr(e, "whole_line", False) else f"error: {e}"
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -23,9 +23,12 @@ from typing import Iterable, Optional, Sequence
 import numpy as np
 
 from .contract import atomic
+from .contract.errors import ContractError
+from .contract.inputs import MiB, read_text
 
 FORMAT = "sesgen-dataset/1"
 INDEX = "dataset.json"
+MAX_INDEX_BYTES = 256 * MiB
 SPLITS = ("train", "val", "test")
 DEFAULT_FRACTIONS = (0.8, 0.1, 0.1)
 _SPLIT_STREAM = 0x5E5_5B17          # a fixed second word: the split's random stream
@@ -41,7 +44,10 @@ SPLIT_RULE = ("counts: largest remainders of count * fraction, then one for ever
 def sequence_seeds(seed: int, count: int) -> list[int]:
     """The seed of each of ``count`` sequences of base ``seed``: distinct, in
     0..SEQUENCE_SEEDS-1, small enough that a generator may derive further seeds from it
-    (``seed * 100 + k``) within the scripts' 31-bit seeds."""
+    (``seed * 100 + k``) within the scripts' 31-bit seeds. ValueError for more than
+    ``SEQUENCE_SEEDS`` sequences (there are not that many distinct seeds)."""
+    if not 0 <= int(count) <= SEQUENCE_SEEDS:
+        raise ValueError(f"{count} sequences: at most {SEQUENCE_SEEDS} have distinct seeds")
     out, used = [], set()
     for i in range(int(count)):
         extra = 0
@@ -109,15 +115,54 @@ def scripts_index(generator: dict, seed: int, fractions: Sequence[float], sequen
 
 
 def read_index(folder: Path) -> Optional[dict]:
-    """``folder/dataset.json`` if it is an index of ours, else None."""
+    """``folder/dataset.json``, checked, if it is an index of ours (``format``
+    sesgen-dataset/1); None when there is none or it is another tool's file. An index of ours
+    that is damaged -- not JSON, a sequence without a name, a script outside its folder --
+    is a SesgenError naming what is wrong: nothing is rendered, generated or rewritten on it."""
+    from .errors import SesgenError
     path = Path(folder) / INDEX
-    if not path.is_file():
+    if not path.exists():
         return None
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError):
+        text = read_text(path, MAX_INDEX_BYTES, "dataset index")
+    except ContractError as e:
+        raise SesgenError(str(e)) from None
+    try:
+        data = json.loads(text)
+    except (ValueError, RecursionError):
+        if FORMAT not in text:
+            return None
+        raise SesgenError(f"{path}: a damaged dataset index (not JSON); move it away or write it again") from None
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
         return None
-    return data if isinstance(data, dict) and data.get("format") == FORMAT else None
+    problem = _index_problem(data)
+    if problem:
+        raise SesgenError(f"{path}: a damaged dataset index ({problem}); move it away or write it again")
+    return data
+
+
+def _index_problem(data: dict) -> str:
+    """'' when ``data`` has the shape every reader of an index relies on."""
+    kind, sequences = data.get("kind"), data.get("sequences")
+    if kind not in ("scripts", "renders"):
+        return f"kind {json.dumps(kind)[:40]} is neither scripts nor renders"
+    if not isinstance(sequences, list) or not all(isinstance(e, dict) for e in sequences):
+        return "'sequences' is not a list of objects"
+    for i, e in enumerate(sequences):
+        name, script = e.get("name", f"#{i}" if kind == "scripts" else None), e.get("script")
+        if not isinstance(name, str) or not name:
+            return f"sequence {i} has no name"
+        if kind == "scripts" and not (isinstance(script, str) and script and Path(script).name == script
+                                      and script not in (".", "..")):
+            return f"sequence {name!r}: 'script' must be a file name in the index's folder"
+        if "seed" in e and not (isinstance(e["seed"], int) and not isinstance(e["seed"], bool)):
+            return f"sequence {name!r}: 'seed' must be a whole number"
+        if "split" in e and e["split"] not in SPLITS:
+            return f"sequence {name!r}: 'split' must be one of {', '.join(SPLITS)}"
+    names = [e["name"] for e in sequences] if kind == "renders" else []
+    if len(set(names)) != len(names):
+        return "a sequence name is given twice"
+    return ""
 
 
 def render_entry(state) -> dict:
@@ -140,13 +185,16 @@ def render_entry(state) -> dict:
 
 def write_render_index(root: Path, states: Iterable) -> Path:
     """``ROOT/dataset.json``: this farm's sequences, plus those of earlier farms into the same
-    ROOT that this one did not render (their entries are kept as they were)."""
+    ROOT that this one did not render (their entries are kept as they were). A scene refused
+    before rendering (``scene.error``: its folder holds other settings, say) did not touch
+    its folder: an earlier entry for it stays as it was."""
     root = Path(root)
+    old = read_index(root)
+    old_entries = {e["name"]: e for e in old["sequences"]} if old and old.get("kind") == "renders" else {}
+    states = [st for st in states if not (st.scene.error and st.scene.name in old_entries)]
     new = [render_entry(st) for st in states]
     names = {e["name"] for e in new}
-    old = read_index(root)
-    kept = [e for e in (old or {}).get("sequences", []) if e.get("name") not in names] \
-        if old and old.get("kind") == "renders" else []
+    kept = [e for name, e in old_entries.items() if name not in names]
     sequences = sorted(kept + new, key=lambda e: e["name"])
     index = {"format": FORMAT, "kind": "renders", "count": len(sequences),
              "splits": {sp: sum(1 for e in sequences if e.get("split") == sp) for sp in SPLITS},

@@ -48,19 +48,17 @@ def rest_pose(obj: SceneObject) -> np.ndarray:
 
 def keyed_poses(T_rest: np.ndarray, keys: Sequence[tuple[int, np.ndarray]], frames: int) -> np.ndarray:
     """(frames, 4, 4): rest pose at frame 0, ``keys`` = [(frame, T_world_obj)] in increasing
-    frame order (all >= 1), the constant twist between consecutive keys, held after the last."""
+    frame order (all >= 1), straight line + slerp between consecutive keys
+    (``contract.se3.interpolate_pose``, one interval at a time), held after the last."""
     knots = [(0, np.asarray(T_rest, dtype=float))] + [(int(f), np.asarray(T, dtype=float)) for f, T in keys]
     out = np.empty((frames, 4, 4))
-    j = 0
-    for k in range(frames):
-        while j + 1 < len(knots) and knots[j + 1][0] <= k:
-            j += 1
-        f0, T0 = knots[j]
-        if j + 1 < len(knots):
-            f1, T1 = knots[j + 1]
-            out[k] = T0 if k == f0 else interpolate_pose(T0, T1, (k - f0) / (f1 - f0))
-        else:
-            out[k] = T0
+    for (f0, T0), (f1, T1) in zip(knots, knots[1:]):
+        k = np.arange(f0, min(f1, frames))
+        if len(k):
+            out[k] = interpolate_pose(T0, T1, (k - f0) / (f1 - f0))
+            out[f0] = T0
+    f_last, T_last = knots[-1]
+    out[f_last:] = T_last
     return out
 
 
@@ -97,12 +95,11 @@ def trajectory_poses(T_rest: np.ndarray, T_file: np.ndarray, first: int, frames:
 def largest_step_rotation_deg(T_frames: np.ndarray) -> tuple[float, int]:
     """(angle, k): the largest rotation between consecutive poses and the step k -> k+1 where it is."""
     T = np.asarray(T_frames, dtype=float)
-    best, at = 0.0, 0
-    for k in range(len(T) - 1):
-        a = float(np.degrees(rotation_angle_rad(relative(T[k], T[k + 1])[:3, :3])))
-        if a > best:
-            best, at = a, k
-    return best, at
+    if len(T) < 2:
+        return 0.0, 0
+    angles = np.degrees(rotation_angle_rad(relative(T[:-1], T[1:])[..., :3, :3]))
+    k = int(np.argmax(angles))
+    return float(angles[k]), k
 
 
 def pose_at(T_frames: np.ndarray, t: float, kind: str = "keys") -> np.ndarray:

@@ -1,8 +1,8 @@
 """A small pure reader (numpy + zlib) for the EXR files this package writes.
 
 Enough OpenEXR for our own output: scanline images, single- or multi-part (Blender 5.0
-writes one part per pass, 4.x one part holding every pass), compression NONE / ZIPS /
-ZIP, pixel types UINT / HALF / FLOAT. It exists so that the contact sheet and the
+writes one part per pass, 4.x one part holding every pass), compression NONE / RLE /
+ZIPS / ZIP, pixel types UINT / HALF / FLOAT. It exists so that the contact sheet and the
 add-on's preview work inside Blender's own Python, which has no OpenEXR module. Other
 readers (vo_reference, the tests) use the OpenEXR package.
 
@@ -27,7 +27,7 @@ from .contract.exr_format import MAGIC, ExrError, read_header as _read_header
 from .contract.inputs import read_bytes
 
 _PIXEL_DTYPES = {0: np.dtype("<u4"), 1: np.dtype("<f2"), 2: np.dtype("<f4")}
-_LINES_PER_BLOCK = {0: 1, 2: 1, 3: 16}  # NONE, ZIPS, ZIP
+_LINES_PER_BLOCK = {0: 1, 1: 1, 2: 1, 3: 16}  # NONE, RLE, ZIPS, ZIP
 
 
 def _unzip(data: bytes, expected: int) -> bytes:
@@ -37,6 +37,11 @@ def _unzip(data: bytes, expected: int) -> bytes:
     raw = np.frombuffer(inflater.decompress(data, expected), dtype=np.uint8)
     if not inflater.eof:  # more data than the block holds, or a stream cut short
         raise zlib.error("the block's zlib stream does not end where the block does")
+    return _unpredict(raw)
+
+
+def _unpredict(raw: np.ndarray) -> bytes:
+    """Undo the byte predictor and interleaving of ZIP and RLE blocks."""
     x = raw.astype(np.int64)
     x[1:] -= 128
     t = (np.cumsum(x) & 0xFF).astype(np.uint8)
@@ -66,6 +71,8 @@ def read_layout(buf: bytes, path="<exr>") -> ExrLayout:
         if len(buf) < 8 or struct.unpack_from("<i", buf, 0)[0] != MAGIC:
             raise ExrError(f"{path}: not an OpenEXR file")
         (version,) = struct.unpack_from("<i", buf, 4)
+        if version & 0xFF != 2 or version & ~0x1EFF:
+            raise ExrError(f"{path}: not an OpenEXR 2 file (version field {version:#x})")
         if version & 0x200 or version & 0x800:
             raise ExrError(f"{path}: tiled or deep EXR not supported")
         multipart = bool(version & 0x1000)
@@ -84,7 +91,7 @@ def read_layout(buf: bytes, path="<exr>") -> ExrLayout:
         for h in headers:
             comp = h.get("compression", 0)
             if comp not in _LINES_PER_BLOCK:
-                raise ExrError(f"{path}: compression {comp} not supported (NONE, ZIPS, ZIP only)")
+                raise ExrError(f"{path}: compression {comp} not supported (NONE, RLE, ZIPS, ZIP only)")
             if not isinstance(h.get("channels"), list) or not isinstance(h.get("dataWindow"), tuple):
                 raise ExrError(f"{path}: corrupt EXR header (no channel list or data window)")
             if any(pt not in _PIXEL_DTYPES for _, pt, _, _ in h["channels"]):
@@ -142,35 +149,80 @@ def read_exr(path) -> dict[str, np.ndarray]:
 def decode(buf: bytes, path="<exr>") -> dict[str, np.ndarray]:
     """:func:`read_exr` of the bytes of a file."""
     layout = check_complete(buf, path)
-    multipart = layout.multipart
     out: dict[str, np.ndarray] = {}
-    for h, W, H, y0, lpb, offs in layout.parts:
+    arrays: dict[int, dict[str, np.ndarray]] = {}
+    for part, h, W, H, r, rows in _blocks(buf, path, layout):
+        if part not in arrays:
+            arrays[part] = {name: np.empty((H, W), dtype=_PIXEL_DTYPES[pt]) for name, pt, _, _ in h["channels"]}
+        for name, a in arrays[part].items():
+            a[r:r + rows[name].shape[0]] = rows[name]
+    for part in arrays.values():
+        for name, a in part.items():
+            out[name] = a.astype(a.dtype.newbyteorder("="))
+    return out
+
+
+def value_problem(buf: bytes, limit: float, path="<exr>") -> str:
+    """'' when every HALF and FLOAT sample of the EXR is finite and within +-``limit``; else
+    what is not (decoded block by block, nothing kept). ExrError for files this reader does
+    not decode (compressions other than NONE, RLE, ZIPS, ZIP; tiled files)."""
+    layout = check_complete(buf, path)
+    for _part, h, _W, _H, r, rows in _blocks(buf, path, layout):
+        for name, pt, _, _ in h["channels"]:
+            if pt == 0:
+                continue
+            v = rows[name]
+            bad = ~np.isfinite(v) | (np.abs(v.astype(np.float64)) > limit)
+            if bad.any():
+                y, x = np.argwhere(bad)[0]
+                return (f"channel {name!r} holds {float(v[y, x]):.4g} at pixel ({x}, {r + y}): values must be "
+                        f"finite and within +-{limit:g}")
+    return ""
+
+
+def _blocks(buf: bytes, path, layout: ExrLayout):
+    """Each decoded block: (part index, header, W, H, first row, rows) with ``rows`` a
+    structured array (n_lines,) whose fields are the channels ((W,) each)."""
+    for part, (h, W, H, y0, lpb, offs) in enumerate(layout.parts):
         chans = h["channels"]
         if any(xs != 1 or ys != 1 for _, _, xs, ys in chans):
             raise ExrError(f"{path}: subsampled channels not supported")
-        arrays = {name: np.empty((H, W), dtype=_PIXEL_DTYPES[pt]) for name, pt, _, _ in chans}
-        row_bytes = sum(W * _PIXEL_DTYPES[pt].itemsize for _, pt, _, _ in chans)
+        line = np.dtype([(name, _PIXEL_DTYPES[pt], (W,)) for name, pt, _, _ in chans])
+        comp = h.get("compression", 0)
         for off in offs:
-            p = off + (4 if multipart else 0)
+            p = off + (4 if layout.multipart else 0)
             y, size = struct.unpack_from("<ii", buf, p)
             data = buf[p + 8:p + 8 + size]
             n_lines = min(lpb, y0 + H - y)
+            if not 0 <= y - y0 < H or n_lines < 1:
+                raise ExrError(f"{path}: corrupt pixel data (a block outside the data window)")
             try:
-                block = _unzip(data, row_bytes * n_lines) if h.get("compression", 0) else data
+                block = {0: lambda d, n: d, 1: _unrle}.get(comp, _unzip)(data, line.itemsize * n_lines)
             except (zlib.error, ValueError):
-                raise ExrError(f"{path}: corrupt pixel data (zlib)") from None
-            if len(block) < row_bytes * n_lines or not 0 <= y - y0 < H:
+                raise ExrError(f"{path}: corrupt pixel data ({'RLE' if comp == 1 else 'zlib'})") from None
+            if len(block) < line.itemsize * n_lines:
                 raise ExrError(f"{path}: corrupt pixel data (short block)")
-            q = 0
-            for line in range(n_lines):
-                r = y - y0 + line
-                for name, pt, _, _ in chans:
-                    dt = _PIXEL_DTYPES[pt]
-                    arrays[name][r] = np.frombuffer(block, dtype=dt, count=W, offset=q)
-                    q += W * dt.itemsize
-        for name, a in arrays.items():
-            out[name] = a.astype(a.dtype.newbyteorder("="))
-    return out
+            rows = np.frombuffer(block, dtype=line, count=n_lines)
+            yield part, h, W, H, y - y0, {name: rows[name] for name in line.names}
+
+
+def _unrle(data: bytes, expected: int) -> bytes:
+    """OpenEXR's RLE: runs (count >= 0: count + 1 copies of the next byte) and literals
+    (count < 0: -count bytes), then the same predictor and interleaving as ZIP."""
+    if len(data) >= expected:  # stored uncompressed
+        return data
+    out, i = bytearray(), 0
+    while i < len(data) and len(out) < expected:
+        n = struct.unpack_from("<b", data, i)[0]
+        if n < 0:
+            out += data[i + 1:i + 1 - n]
+            i += 1 - n
+        else:
+            out += data[i + 1:i + 2] * (n + 1)
+            i += 2
+    if len(out) != expected or i != len(data):
+        raise ValueError("RLE data does not end where the block does")
+    return _unpredict(np.frombuffer(bytes(out), dtype=np.uint8))
 
 
 # --- stripping volatile header attributes ---------------------------------------------------

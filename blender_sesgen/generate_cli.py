@@ -38,6 +38,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_progress_argument(p)
 
 
+MAX_COUNT = 1_000_000   # scripts per folder (distinct seeds run out at dataset.SEQUENCE_SEEDS)
+
+
 class GeneratorFailed(RuntimeError):
     """The generator raised or wrote a script that does not check: exit 1."""
 
@@ -64,8 +67,8 @@ def run(args: argparse.Namespace) -> int:
     if not args.generator or args.count is None or not args.out:
         raise SesgenError("generate needs GENERATOR, --count N and --out DIR (or --list)")
     from .dataset import DEFAULT_FRACTIONS, assign_splits, check_fractions, sequence_seeds
-    if args.count < 1:
-        raise SesgenError(f"--count must be >= 1, got {args.count}")
+    if not 1 <= args.count <= MAX_COUNT:
+        raise SesgenError(f"--count must lie in 1..{MAX_COUNT}, got {args.count}")
     if not 0 <= args.seed <= 2**31 - 1:
         raise SesgenError(f"--seed must be in 0..2147483647, got {args.seed}")
     fractions = check_fractions(args.split or DEFAULT_FRACTIONS)
@@ -121,6 +124,8 @@ def _write(out: Path, gen, options: dict, args, seeds, splits, names, fractions)
                 text = gen(seed, **options)
             except SesgenError:
                 raise
+            except SystemExit as e:   # the generator's exit is not generate's
+                raise GeneratorFailed(f"generator {gen.name} called sys.exit({e.code!r}) for seed {seed}") from None
             except Exception as e:  # noqa: BLE001 - the generator's own failure
                 raise GeneratorFailed(f"generator {gen.name} failed for seed {seed}: {type(e).__name__}: {e}") \
                     from None

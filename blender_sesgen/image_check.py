@@ -1,4 +1,4 @@
-"""Is this file an image Blender can use? A pure check (stdlib only) at parse time.
+"""Is this file an image Blender can use? A pure check (stdlib; numpy for EXR samples) at parse time.
 
 Blender loads images lazily and renders a broken one as flat magenta without an error, so
 the parser checks every image a script names (textures, PBR maps, HDRIs, the images a MESH
@@ -10,9 +10,12 @@ not its name; the formats are those the parser accepts by suffix (``IMAGE_SUFFIX
   stream inflated in bounded steps (never more than the image needs: a decompression
   bomb stops at its first excess byte) to exactly its expected length, and every row's
   filter byte;
-- Radiance HDR is decoded completely (every scanline's run-length encoding);
-- OpenEXR is walked completely without decompressing (headers, the chunk offset tables,
-  every chunk's header within the file and the data window), so a truncated file fails;
+- Radiance HDR is decoded completely (every scanline's run-length encoding), its largest
+  exponent within ``MAX_PIXEL_VALUE`` (RGBE holds no NaN, but exponent 255 is 1.7e38);
+- OpenEXR is walked completely (headers, the chunk offset tables, every chunk's header
+  within the file and the data window), so a truncated file fails; where the pure reader
+  decodes it (``exr``: NONE, RLE, ZIPS, ZIP) every float sample is finite and within
+  ``MAX_PIXEL_VALUE`` (an HDRI of NaN or 3e38 renders black frames; Blender says nothing);
 - JPEG is walked segment by segment, through every scan's entropy-coded data, to its
   end-of-image marker (a frame header and quantisation tables required);
 - TIFF: every IFD and every tag's values, and every strip or tile (offset + byte count)
@@ -36,6 +39,7 @@ from .contract.inputs import MiB, read_bytes
 
 MAX_IMAGE_BYTES = 1024 * MiB
 MAX_SIDE = 65536  # Blender's largest image side
+MAX_PIXEL_VALUE = 1e7  # a float image's samples (HDRIs, float textures): finite and within this
 
 
 class ImageFileError(ValueError):
@@ -99,7 +103,7 @@ def _check_png(data: bytes):
         _need(length < 2**31 and pos + 12 + length <= len(data), f"PNG truncated in chunk {ctype!r}")
         body = data[pos + 8:pos + 8 + length]
         (crc,) = struct.unpack_from(">I", data, pos + 8 + length)
-        _need(zlib.crc32(ctype + body) & 0xFFFFFFFF == crc, f"PNG chunk {ctype.decode('latin-1')} has a bad CRC")
+        _need(zlib.crc32(ctype + body) & 0xFFFFFFFF == crc, f"PNG chunk {ctype.decode('latin-1')!r} has a bad CRC")
         _need(ihdr is not None or ctype == b"IHDR", "PNG does not start with IHDR")
         if ctype == b"IHDR":
             _need(ihdr is None and length == 13, "PNG IHDR is invalid or repeated")
@@ -233,10 +237,25 @@ def _exr_header(data: bytes, pos: int) -> tuple[dict, int]:
     return {name: (typ, value) for name, typ, value in header[None]}, pos
 
 
+def _exr_channels(chlist: bytes, x0: int, y0: int, w: int, h: int) -> None:
+    """Every channel: a name, a pixel type (UINT, HALF, FLOAT) and a sampling that divides
+    the data window, as OpenEXR requires (a flipped bit there makes it refuse the file)."""
+    pos = 0
+    while chlist[pos] != 0:
+        end = chlist.index(b"\0", pos)
+        _need(end > pos, "EXR channel without a name")
+        ptype, xs, ys = struct.unpack_from("<i4xii", chlist, end + 1)
+        _need(ptype in (0, 1, 2), f"EXR channel has an unknown pixel type {ptype}")
+        _need(xs >= 1 and ys >= 1 and x0 % xs == 0 and y0 % ys == 0 and w % xs == 0 and h % ys == 0,
+              f"EXR channel sampling {xs}x{ys} does not divide the data window")
+        pos = end + 17
+
+
 def _check_exr(data: bytes):
     (version,) = struct.unpack_from("<I", data, 4)
     tiled, multipart, deep = bool(version & 0x200), bool(version & 0x1000), bool(version & 0x800)
     _need(version & 0xFF == 2, f"unknown OpenEXR version {version & 0xFF}")
+    _need(not version & ~0x1EFF, f"OpenEXR version flags {version >> 8:#x} hold unknown bits")   # OpenEXR refuses them
     pos, headers = 8, []
     while True:
         header, pos = _exr_header(data, pos)
@@ -252,6 +271,7 @@ def _check_exr(data: bytes):
         _need(len(header["channels"][1]) > 1, "EXR without channels")
         x0, y0, x1, y1 = struct.unpack("<iiii", header["dataWindow"][1])
         _need(0 <= x1 - x0 < MAX_SIDE and 0 <= y1 - y0 < MAX_SIDE, "EXR data window is empty or too large")
+        _exr_channels(header["channels"][1], x0, y0, x1 - x0 + 1, y1 - y0 + 1)
         comp = header["compression"][1][0]
         _need(comp in _EXR_LINES, f"EXR compression {comp} is unknown")
         ptype = header.get("type", ("", b"scanlineimage\0"))[1].rstrip(b"\0")
@@ -284,7 +304,22 @@ def _check_exr(data: bytes):
             y, size = struct.unpack_from("<ii", data, p)
             _need(header["_window"][1] <= y <= header["_window"][3], "EXR chunk outside the data window")
             _need(0 <= size and p + 8 + size <= len(data), "EXR chunk runs past the end of the file (truncated)")
+    _exr_values(data)
     return "exr", width, height
+
+
+def _exr_values(data: bytes) -> None:
+    """Every float sample finite and within MAX_PIXEL_VALUE, where the pure reader decodes the
+    file (``exr.value_problem``); other compressions and tiled files are checked by the
+    renderer when it loads the image (``blender.textures.load_image``)."""
+    from .exr import ExrError, value_problem
+    try:
+        problem = value_problem(data, MAX_PIXEL_VALUE)
+    except ExrError as e:
+        if "not supported" in str(e):
+            return
+        raise ImageFileError(" ".join(str(e).split(": ", 1)[-1].split())) from None
+    _need(not problem, problem)
 
 
 # --- Radiance HDR -----------------------------------------------------------------------
@@ -304,27 +339,33 @@ def _check_hdr(data: bytes):
     _need(0 < w <= MAX_SIDE and 0 < h <= MAX_SIDE, "Radiance HDR size is not a usable image size")
     pos, scanlines = nl + 1, (h if parts[0].endswith(b"Y") else w)
     length = w if parts[0].endswith(b"Y") else h
+    top = 0   # the largest exponent byte: values lie below 2 ** (top - 128)
     for _ in range(scanlines):
         _need(pos + 4 <= len(data), "Radiance HDR truncated")
         if 8 <= length < 32768 and data[pos] == 2 and data[pos + 1] == 2 and not data[pos + 2] & 0x80:
             _need((data[pos + 2] << 8 | data[pos + 3]) == length, "Radiance HDR scanline has the wrong length")
             pos += 4
-            for _channel in range(4):
+            for channel in range(4):
                 n = 0
                 while n < length:
                     _need(pos < len(data), "Radiance HDR truncated inside a scanline")
                     count = data[pos]
                     if count > 128:
                         count -= 128
+                        top = max(top, data[pos + 1]) if channel == 3 else top
                         pos += 2
                     else:
                         _need(count > 0, "Radiance HDR run of length 0")
+                        top = max(top, max(data[pos + 1:pos + 1 + count], default=0)) if channel == 3 else top
                         pos += 1 + count
                     n += count
                 _need(n == length and pos <= len(data), "Radiance HDR scanline is corrupt or truncated")
         else:  # flat (or old-style RLE) pixels, 4 bytes each
+            top = max(top, max(data[pos + 3:pos + 4 * length:4], default=0))
             pos += 4 * length
             _need(pos <= len(data), "Radiance HDR truncated")
+    _need(top == 0 or 2.0 ** (top - 128) <= MAX_PIXEL_VALUE,
+          f"Radiance HDR holds values up to {2.0 ** (top - 128):.3g}: values must lie within {MAX_PIXEL_VALUE:g}")
     return "hdr", w, h
 
 

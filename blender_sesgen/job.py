@@ -16,6 +16,7 @@ with results identical to an uninterrupted run.
 """
 from __future__ import annotations
 
+import importlib.util
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,6 +47,7 @@ class RenderJob:
         self.force = force
         self.session = None                        # blender.session.BlenderSession after build()
         self.timings: list[FrameResult] = []
+        self._other_sums: dict[int, dict] = {}     # frame -> SHA-256 of its sensor images
 
     @classmethod
     def prepare(cls, scene_path, out_dir, options: RenderOptions = RenderOptions(), *,
@@ -66,6 +68,9 @@ class RenderJob:
         folder.check(plan, force)
         from .sensor.outputs import check_resumable
         check_resumable(plan.sensor, folder.previous(), list(plan.frames), resume, force)
+        if plan.options.reuse_exr:
+            from .reuse import check_reusable
+            check_reusable(plan, plan.options.reuse_exr)
         return cls(plan, folder, resume=resume, force=force)
 
     # --- what the job is ----------------------------------------------------------------
@@ -97,6 +102,11 @@ class RenderJob:
     def manifest(self) -> Optional[Manifest]:
         return self.folder.manifest
 
+    def session_needs_no_bpy(self) -> bool:
+        """A render that reuses another's EXRs needs Blender only to write JPEGs."""
+        sensor = self.plan.scene.sensor
+        return bool(self.plan.options.reuse_exr) and not (sensor is not None and sensor.jpeg_quality)
+
     def pending_frames(self) -> list[int]:
         """Requested frames not complete yet (all requested ones unless resuming)."""
         return self.folder.pending(self.plan, self.resume)
@@ -105,6 +115,10 @@ class RenderJob:
     def build(self) -> None:
         """Build the scene in Blender (a dedicated scene 'SESGen'; rebuilding replaces).
         Writes nothing into the output folder."""
+        if self.plan.options.reuse_exr:   # another render's EXRs: no Blender (blender_sesgen.reuse)
+            from .reuse import ReusedSession
+            self.session = ReusedSession(self.plan, self.plan.options.reuse_exr)
+            return
         from .blender.session import BlenderSession
         kept = self.folder.resumable(self.plan)
         self.session = BlenderSession(self.plan, known_exposure=(kept or {}).get("render", {}).get("exposure"),
@@ -124,9 +138,11 @@ class RenderJob:
         if self.folder.manifest is None:
             if self.session is None:
                 self.build()
-            self.folder.begin(self.plan, self.new_manifest(), self.resume, self.force)
-            from .sensor.outputs import write_static_files
-            write_static_files(self.plan.sensor, self.out_dir, self.plan.scene.frames)
+            self.folder.begin(self.plan, self.new_manifest(), self.resume, self.force,
+                              static_files=self.plan.sensor.static_files(self.plan.scene.frames)
+                              if self.plan.sensor.active else None)
+            from .sensor.outputs import make_folders
+            make_folders(self.plan.sensor, self.out_dir)
 
     def render_frame(self, k: int, stop: Callable[[], bool] = lambda: False) -> FrameResult:
         """Render every view of frame ``k`` into temporary files, check them, move them into
@@ -153,8 +169,9 @@ class RenderJob:
                 if not tmp.is_file() or (shown and not shown[v].is_file()):
                     raise RuntimeError(f"Blender wrote no file for frame {k}, view {v}")
             if self.plan.sensor.writes_sensor_images:   # from the checked-in-a-moment EXRs
-                sensor_outputs.write_sensor_images(self.plan.sensor, self.manifest, self.out_dir, k, exposure_s,
-                                                   gain, temps, jpeg_writer=self.session.jpeg_writer)
+                self._other_sums[k] = sensor_outputs.write_sensor_images(
+                    self.plan.sensor, self.manifest, self.out_dir, k, exposure_s, gain, temps,
+                    jpeg_writer=self.session.jpeg_writer)
         except BaseException:
             for tmp in [*temps.values(), *(shown or {}).values()]:
                 tmp.unlink(missing_ok=True)
@@ -174,7 +191,7 @@ class RenderJob:
                 sums = sealed.result()
             except WorkerGone:  # the worker died: seal here
                 sums = seal_frame(k, temps, self._required_channels())
-            self.folder.commit_sealed(k, temps, sums)
+            self.folder.commit_sealed(k, temps, {**sums, **self._other_sums.pop(k, {})})
         finally:
             for tmp in temps.values():
                 tmp.unlink(missing_ok=True)
@@ -221,3 +238,23 @@ class RenderJob:
     def close(self) -> None:
         """Release the folder: the completion log into the manifest, the lock dropped."""
         self.folder.release()
+
+
+# --- used by the command line and the Python API -------------------------------------------
+
+def frame_progress(bar) -> Callable:
+    """Adapter from the pipeline's per-frame hook ``(i, n, FrameResult, elapsed_s)`` to a
+    :class:`~blender_sesgen.contract.progress.Progress` (fields ``frame``, ``wall_s``, ``cycles_s``)."""
+    def hook(i, n, r, elapsed_s):
+        cyc = f", cycles {r.cycles_s:.2f} s" if r.cycles_s is not None else ""
+        bar.update(detail=f"frame {r.frame} {r.wall_s:.2f} s{cyc}", frame=r.frame, wall_s=r.wall_s,
+                   cycles_s=r.cycles_s)
+    return hook
+
+
+def have_bpy() -> bool:
+    """True when Blender's Python module can be imported here."""
+    try:
+        return importlib.util.find_spec("bpy") is not None
+    except ImportError:
+        return False

@@ -32,10 +32,11 @@ from typing import Optional
 
 from .contract import atomic
 from .contract.errors import ContractError
+from .contract.inputs import read_bytes
 from .contract.pixel_settings import TIMING_KEYS, PixelSettings
-from .contract.manifest import (DISPLAY_DIR, DONE_LOG_GLOB, EXR_DIR, FORMAT, MANIFEST, POSES_DIR, SCENE_COPY, STATE_DIR,
-                                Manifest, completed_in_logs, display_relpath, exr_relpath, load_json,
-                                trajectory_relpaths)
+from .contract.manifest import (DISPLAY_DIR, DONE_LOG_GLOB, EXR_DIR, FORMAT, MANIFEST, POSES_DIR, SCENE_COPY, SEAL,
+                                STATE_DIR, Manifest, completed_in_logs, display_relpath, exr_relpath,
+                                load_json, seal_problem, trajectory_relpaths)
 from .contract.trajectory_files import format_ego_table, format_kitti, format_tum
 from .errors import SesgenError
 from .image_check import ImageFileError, check_image_bytes
@@ -229,7 +230,8 @@ class OutputFolder:
         if self.manifest is not None:
             done = self.manifest.frames_complete
         elif resume and self.resumable(plan) is not None:
-            done = self._completed(self.resumable(plan))
+            kept = self.resumable(plan)   # a frame recorded complete whose files are gone is rendered again
+            done = [d and self._files_exist(kept, k) for k, d in enumerate(self._completed(kept))]
         else:
             return list(plan.frames)
         return [k for k in plan.frames if not (k < len(done) and done[k])]
@@ -271,9 +273,12 @@ class OutputFolder:
             self.locks.drop()
 
     # --- writing ------------------------------------------------------------------------
-    def begin(self, plan: RenderPlan, manifest: Manifest, resume: bool, force: bool) -> None:
+    def begin(self, plan: RenderPlan, manifest: Manifest, resume: bool, force: bool,
+              static_files: Optional[dict] = None) -> None:
         """Lock, then write the manifest first (keeping the completion of frames already
-        rendered with the same scene and settings), scene.ses and poses/."""
+        rendered with the same scene and settings), scene.ses, poses/ and ``static_files``
+        ({relative path: bytes}: the sensor's lens tables and IMU streams), their SHA-256
+        recorded in the manifest."""
         self.acquire(plan)
         out = self.root
         with self.locks.mutex():
@@ -291,6 +296,8 @@ class OutputFolder:
                 manifest = manifest.with_complete(
                     [bool(prev_done[k] and k not in redo and self._files_exist(manifest, k))
                      for k in range(manifest.frames)])
+            files = {**self._pose_files(plan, manifest), **(static_files or {})}
+            self.checksums.update({rel: hashlib.sha256(data).hexdigest() for rel, data in files.items()})
             self.manifest = manifest
             self._write_manifest(dead_logs_only=True)
         atomic.write_text(out / SCENE_COPY, plan.scene_text, durable=True)
@@ -299,7 +306,8 @@ class OutputFolder:
             if plan.writes_display:
                 (out / DISPLAY_DIR / view).mkdir(parents=True, exist_ok=True)
         self._remove_stale_temporaries()
-        self._write_pose_files(plan, manifest)
+        for rel, data in files.items():
+            atomic.write_bytes(out / rel, data)
 
     def exr_path(self, view: str, k: int) -> Path:
         return self.root / exr_relpath(view, k)
@@ -316,7 +324,8 @@ class OutputFolder:
 
     def commit_sealed(self, k: int, written: dict[str, Path], sums: dict[str, str]) -> None:
         """Move frame ``k``'s sealed files (:func:`seal_frame`) into place and record it
-        complete: the display PNGs first (an EXR in place means a whole frame)."""
+        complete with ``sums`` (theirs and those of the frame's other files, its sensor
+        images): the display PNGs first (an EXR in place means a whole frame)."""
         for key, tmp in written.items():
             if is_display_key(key):
                 os.replace(tmp, self.root / display_relpath(display_view(key), k))
@@ -364,51 +373,95 @@ class OutputFolder:
             if writer not in live or (not dead_logs_only and writer == self.locks.writer):
                 log.unlink(missing_ok=True)
 
-    def _files_exist(self, m: Manifest, k: int) -> bool:
-        display = (m.extra.get("display") or {}).get("files") or {}
-        return all((self.root / m.files[v][k]).is_file() and
-                   (v not in display or (self.root / display[v][k]).is_file()) for v in m.views)
+    def _files_exist(self, m, k: int) -> bool:
+        """Every file of frame ``k`` that manifest ``m`` (a Manifest, or an earlier one's dict)
+        lists is in the folder."""
+        try:
+            m = m if isinstance(m, Manifest) else Manifest.from_json(m, str(self.root / MANIFEST))
+            return all((self.root / rel).is_file() for rel in m.frame_files(k))
+        except (ContractError, IndexError):   # an earlier manifest that does not describe this render
+            return False
 
-    def _write_pose_files(self, plan: RenderPlan, manifest: Manifest) -> None:
-        (self.root / POSES_DIR).mkdir(parents=True, exist_ok=True)
+    @staticmethod
+    def _pose_files(plan: RenderPlan, manifest: Manifest) -> dict[str, bytes]:
+        """poses/: each view's TUM and KITTI trajectory and the EGO table."""
         rel = trajectory_relpaths(manifest.views)
+        out = {}
         for view, T in plan.view_poses.items():
-            atomic.write_text(self.root / rel["tum"][view],
-                              format_tum(manifest.timestamps_s, T, "T_world_cam: OpenCV camera, SES world"))
-            atomic.write_text(self.root / rel["kitti"][view], format_kitti(T))
-        atomic.write_text(self.root / rel["ego"], format_ego_table(plan.scene.timeline.ego_table()))
+            out[rel["tum"][view]] = format_tum(manifest.timestamps_s, T, "T_world_cam: OpenCV camera, SES world")
+            out[rel["kitti"][view]] = format_kitti(T)
+        out[rel["ego"]] = format_ego_table(plan.scene.timeline.ego_table())
+        return {k: v.encode("utf-8") for k, v in out.items()}
 
     # --- checking ---------------------------------------------------------------------------
-    def verify(self, full: bool = True, progress=None) -> list[tuple[int, str]]:
-        """(frame, what is wrong) for every frame recorded complete whose files are missing,
-        truncated, lack a channel the manifest names, differ from their recorded SHA-256, or
-        (``full``) hold pixel data that does not decode. ``progress(i, n)`` after each frame."""
-        m = Manifest.read(self.root)
+    def verify(self, full: bool = True, progress=None) -> list[tuple[Optional[int], str]]:
+        """What is wrong with the folder, as (frame, what) -- frame None for the folder's own
+        files: a manifest whose seal does not match it (then nothing else is checked: none of
+        its values can be trusted) or that has none, a ``scene.ses`` that is not the script
+        rendered, a trajectory, lens table or IMU file missing or not what was written; and
+        for every frame recorded complete, each file the manifest lists for it (EXRs,
+        display PNGs, sensor images) missing, truncated, lacking a channel the manifest names,
+        differing from its recorded SHA-256 or (``full``) not decoding.
+        ``progress(i, n)`` after each frame."""
+        raw = load_json(self.root / MANIFEST)
+        m = Manifest.read(self.root, sealed=False)   # malformed: ContractError (a user error)
+        if seal_problem(raw):
+            return [(None, f"{MANIFEST}: {seal_problem(raw)}")]
+        bad: list[tuple[Optional[int], str]] = []
+        if SEAL not in raw:
+            bad.append((None, f"{MANIFEST}: not sealed (written before manifests were sealed): its values "
+                              "cannot be proven; `render --resume` writes it again"))
         sums = dict(m.extra.get("checksums") or {})
+        try:   # a regular file only: a FIFO there must not block verify
+            if hashlib.sha256(read_bytes(self.root / SCENE_COPY, 64 << 20, "script")).hexdigest() != m.scene_sha256:
+                bad.append((None, f"{SCENE_COPY}: not the script that was rendered (its SHA-256 differs from the "
+                                  "manifest's scene_sha256)"))
+        except ContractError as e:
+            bad.append((None, f"{SCENE_COPY}: missing" if not (self.root / SCENE_COPY).exists() else
+                        f"{SCENE_COPY}: {e.detail}"))
+        # no file of a render is larger (an EXR of every pass, the lens table, the IMU streams):
+        # a larger one is damaged, and is not read to be hashed
+        limit = 64 * m.resolution[0] * m.resolution[1] + (1 << 30)
+        for rel in m.static_files():
+            why = self._check_file(rel, sums, full, None, limit)
+            if why:
+                bad.append((None, why))
         required = []
         for v in m.channels.values():
             required += [v] if isinstance(v, str) else list(v)
+        exrs = {f for v in m.views for f in m.files[v]}
         done = [k for k in range(m.frames) if m.frames_complete[k]]
-        bad = []
         for i, k in enumerate(done):
-            for view in m.views:
-                rel = m.files[view][k]
-                try:
-                    buf = (self.root / rel).read_bytes()
-                    check_complete(buf, rel, tuple(required))
-                    if rel in sums and hashlib.sha256(buf).hexdigest() != sums[rel]:
-                        raise ExrError(f"{rel}: its SHA-256 differs from the one recorded when it was written")
-                    if full:
-                        decode(buf, rel)
-                except FileNotFoundError:
-                    bad.append((k, f"{rel}: missing"))
-                    break
-                except (OSError, ExrError) as e:
-                    bad.append((k, str(e)))
+            for rel in m.frame_files(k):
+                why = self._check_file(rel, sums, full, tuple(required) if rel in exrs else None, limit)
+                if why:
+                    bad.append((k, why))
                     break
             if progress:
                 progress(i + 1, len(done))
         return bad
+
+    def _check_file(self, rel: str, sums: dict, full: bool, exr_channels, limit: int) -> str:
+        """'' when the file ``rel`` is whole and what was written (its SHA-256 in ``sums``);
+        ``exr_channels``: an EXR that must hold them; else ``full`` decodes an image; a file
+        larger than ``limit`` bytes is not read."""
+        try:
+            buf = read_bytes(self.root / rel, limit, "file")
+            if exr_channels is not None:
+                check_complete(buf, rel, exr_channels)
+            if rel in sums and hashlib.sha256(buf).hexdigest() != sums[rel]:
+                return f"{rel}: its SHA-256 differs from the one recorded when it was written"
+            if full and exr_channels is not None:
+                decode(buf, rel)
+            elif full and rel.endswith((".png", ".jpg", ".jpeg")):
+                check_image_bytes(buf)
+        except ContractError as e:
+            return f"{rel}: missing" if not (self.root / rel).exists() else f"{rel}: {e.detail}"
+        except (OSError, ExrError) as e:
+            return str(e) if isinstance(e, ExrError) else f"{rel}: {e.strerror or e}"
+        except ImageFileError as e:
+            return f"{rel}: {e}"
+        return ""
 
     def mark_incomplete(self, frames) -> None:
         """Record ``frames`` as not rendered (``--resume`` renders them again); refused while
@@ -422,8 +475,8 @@ class OutputFolder:
             self.checksums = dict(self.manifest.extra.get("checksums") or {})
             for k in frames:
                 self.manifest.frames_complete[k] = False
-                for view in self.manifest.views:
-                    self.checksums.pop(self.manifest.files[view][k], None)
+                for rel in self.manifest.frame_files(k):
+                    self.checksums.pop(rel, None)
             self.manifest.extra["checksums"] = self.checksums
             self._write_manifest(dead_logs_only=False)
 

@@ -35,6 +35,7 @@ from .errors import SesgenError
 from .lighting_data import AGX_LOOKS, VIEW_TRANSFORMS
 from .model import Mesh, Scene, TextureRef
 from .presets import QUALITIES, Preset, effective
+from .ses.checks import MAX_SEED
 
 MAX_IMAGE_SIDE = 16384   # the script's own limit, applied to scaled sizes too
 MIN_IMAGE_SIDE = 4       # Blender renders nothing smaller (its resolution's hard minimum)
@@ -81,6 +82,8 @@ class RenderOptions:
     readout_s: Optional[float] = None
     motion_blur: Optional[bool] = None
     fast_pipeline: bool = True           # False: a fresh Cycles render per view (same pixels, slower)
+    reuse_exr: Optional[str] = None      # a render folder whose EXRs this one reuses (blender_sesgen.reuse)
+    cull: bool = False                   # build only what the frames can see (culling.py)
 
     def __post_init__(self):
         object.__setattr__(self, "device", Device.parse(self.device))
@@ -112,6 +115,7 @@ class RenderSettings:
     height: int
     K: tuple[tuple[float, float, float], ...]
     timing: Optional[dict] = None
+    cull: bool = False
 
     @classmethod
     def of(cls, scene: Scene, options: RenderOptions) -> "RenderSettings":
@@ -132,6 +136,8 @@ class RenderSettings:
         r = scene.render
         if options.samples is not None and options.samples < 1:
             raise SesgenError(f"samples must be >= 1, got {options.samples}")
+        if options.seed is not None and not 0 <= options.seed <= MAX_SEED:
+            raise SesgenError(f"--seed must lie in 0..{MAX_SEED} (Cycles seeds are 32-bit), got {options.seed}")
         settings = cls(
             engine="CYCLES",
             device=options.device,
@@ -142,7 +148,11 @@ class RenderSettings:
             width=W,
             height=H,
             K=tuple(tuple(float(x) for x in row) for row in K),
+            cull=bool(options.cull),
         )
+        if settings.cull:
+            from .culling import check_cullable
+            check_cullable(scene)
         return settings
 
     @property
@@ -162,7 +172,7 @@ class RenderSettings:
         """Every setting that changes pixels (the one record of resume, the lock and the manifest)."""
         return PixelSettings.create(samples=self.samples, denoise=self.denoise, sampling=self.preset.pixel_settings(),
                                     seed=self.seed, resolution_scale=self.resolution_scale, passes=self.passes,
-                                    size=(self.width, self.height), timing=self.timing)
+                                    size=(self.width, self.height), timing=self.timing, culling=self.culling_block())
 
     def manifest_block(self) -> dict:
         """The manifest's ``render`` entry (extended by the session with what it measured)."""
@@ -180,7 +190,21 @@ class RenderSettings:
             "resolution_scale": pixel["resolution_scale"],
             "passes": pixel["passes"],
             "exr": {"codec": "ZIP", "bits": 32, "layout": LAYOUT_PARTS},
+            **({"culling": pixel["culling"]} if "culling" in pixel else {}),
         }
+
+    def culling_block(self) -> Optional[dict]:
+        """The manifest's ``render.culling`` (None without ``--cull``)."""
+        if not self.cull:
+            return None
+        from .culling import EDGE_MARGIN_PX, RGB_RADIUS_M
+        return {"rule": "each chunk builds the objects whose bounds meet a view volume of its frames "
+                        "(both views, to the far plane)" + ("" if self.preset.shading == "flat" else
+                                                            ", their sun shadows' casters and everything "
+                                                            f"within {RGB_RADIUS_M:g} m of the camera"),
+                "exact": "depth, object ids, normals, positions" + (", flat RGB" if self.preset.shading == "flat"
+                                                                     else ""),
+                "edge_margin_px": EDGE_MARGIN_PX}
 
 
 @dataclass(frozen=True)
@@ -234,12 +258,14 @@ class RenderPlan:
 
     @property
     def writes_display(self) -> bool:
-        """Whether Blender writes the display-referred PNGs (``rgb/``): on the plain render
-        path; the sensor path (motion blur, rolling shutter, lens) makes its own images, and
-        ``gt``'s flat RGB is a picture of the ground truth, not a photograph: its EXR is
+        """Whether Blender writes the display-referred PNGs (``rgb/``): for every render but
+        ``gt``, whose flat RGB is a picture of the ground truth, not a photograph: its EXR is
         enough, and the view transform and PNG writer would cost it 15-20 % per frame
-        (docs/rendering.md, Speed)."""
-        return not self.sensor.changes_rendering and self.settings.preset.shading != "flat"
+        (docs/rendering.md, Speed). The sensor path (motion blur, rolling shutter, lens)
+        writes them too, through the same view transform and exposure, so that a blurred
+        frame looks as the sharp one but for its blur (a SENSOR's own images, when there
+        is one, are the camera's: readers take those first)."""
+        return self.settings.preset.shading != "flat"
 
     @cached_property
     def view_poses(self) -> dict[str, np.ndarray]:

@@ -49,6 +49,11 @@ def add_arguments(p, forwarded_only: bool = False) -> list[argparse.Action]:
     acts.append(p.add_argument("--plain-pipeline", action="store_true",
                                help="render each view in a fresh Cycles session, without persistent data or "
                                     "multiview (slower, the same pixels: to check the fast path)"))
+    acts.append(p.add_argument("--cull", action="store_true",
+                               help="build only the objects the frames rendered can see (view volumes, far plane; "
+                                    "shadow casters and what is near for shaded presets): a long sequence in chunks "
+                                    "(--frames, farm --chunk) loads only its part of a large world; depth and ids "
+                                    "stay exact (docs/rendering.md, Culling)"))
     acts.append(p.add_argument("--normal-pass", action="store_true", help="also write the Normal pass"))
     acts.append(p.add_argument("--position-pass", action="store_true", help="also write the Position pass"))
     if not forwarded_only:
@@ -64,6 +69,9 @@ def add_arguments(p, forwarded_only: bool = False) -> list[argparse.Action]:
     acts.append(p.add_argument("--motion-blur", action=argparse.BooleanOptionalAction, default=None,
                                help="motion blur over the exposure (overrides TIMING blur)"))
     if not forwarded_only:
+        p.add_argument("--reuse-exr", metavar="BASE",
+                       help="take the EXRs from the render folder BASE and run only the post-render camera chain "
+                            "(SENSOR, the lens's optics, NOISE may differ from BASE's script; nothing else)")
         add_progress_argument(p)
         p.add_argument("--verbose", action="store_true", help="show Blender's own render log")
     return acts
@@ -74,19 +82,28 @@ def _fmt(seconds: float) -> str:
     return f"{s // 3600:d}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60:02d}:{s % 60:02d}"
 
 
+def one_line(e: BaseException) -> str:
+    """An exception as one line, ``Type: what``: Blender's importers put a whole Python
+    traceback into their error's text, whose last line says what went wrong."""
+    lines = [ln.strip() for ln in str(e).splitlines() if ln.strip()]
+    last = lines[-1] if lines else ""
+    return last if last.startswith(type(e).__name__) else f"{type(e).__name__}: {last}".rstrip(": ")
+
+
 def forwarded_options(args: argparse.Namespace) -> RenderOptions:
     """The RenderOptions of the options a farm passes on (``add_arguments(forwarded_only=True)``)."""
     return RenderOptions(
         quality=args.quality, samples=args.samples, denoise=args.denoise, seed=args.seed, device=args.device,
         resolution_scale=args.resolution_scale, normal_pass=args.normal_pass, position_pass=args.position_pass,
         rate_hz=args.rate, exposure_s=args.exposure, readout_s=args.readout, motion_blur=args.motion_blur,
-        fast_pipeline=not args.plain_pipeline,
+        fast_pipeline=not args.plain_pipeline, cull=args.cull,
     )
 
 
 def render_options(args: argparse.Namespace) -> RenderOptions:
     """The RenderOptions of parsed render arguments."""
-    return dataclasses.replace(forwarded_options(args), frames=args.frames, threads=args.threads, verbose=args.verbose)
+    return dataclasses.replace(forwarded_options(args), frames=args.frames, threads=args.threads, verbose=args.verbose,
+                               reuse_exr=args.reuse_exr)
 
 
 def render_argv(o: RenderOptions) -> list[str]:
@@ -106,7 +123,7 @@ def render_argv(o: RenderOptions) -> list[str]:
     if o.device is not Device.CPU:
         out += ["--device", o.device.value]
     out += [flag for flag, on in (("--plain-pipeline", not o.fast_pipeline), ("--normal-pass", o.normal_pass),
-                                  ("--position-pass", o.position_pass)) if on]
+                                  ("--position-pass", o.position_pass), ("--cull", o.cull)) if on]
     for flag, value in (("--rate", o.rate_hz), ("--exposure", o.exposure_s), ("--readout", o.readout_s)):
         if value is not None:
             out += [flag, str(value)]
@@ -116,13 +133,12 @@ def render_argv(o: RenderOptions) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .api import frame_progress, have_bpy
-    from .job import RenderJob
+    from .job import RenderJob, frame_progress, have_bpy
     t_start = time.perf_counter()
     args.quiet = progress_mode(args) == "off"   # -q is --progress off: neither says what it renders
     options = render_options(args)
     job = RenderJob.prepare(args.scene, args.out, options, resume=args.resume, force=args.force)  # SesgenError -> 2
-    if not have_bpy():
+    if not have_bpy() and not (options.reuse_exr and job.session_needs_no_bpy()):
         raise SesgenError("rendering needs Blender's Python module 'bpy': pip install 'blender-sesgen[render]' "
                           "(Python 3.11), or run inside Blender: blender -b -P render.py -- SCENE.ses --out DIR")
     todo = job.pending_frames()
@@ -135,16 +151,19 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         p = s.preset
         sampling = f"adaptive <= {p.samples} samples" if p.adaptive else f"{p.samples} samples"
-        print(f"sesgen render: {args.scene} -> {args.out}: {len(todo)} of {len(job.frames)} frames to render, "
+        how = f"reusing the EXRs of {options.reuse_exr}; " if options.reuse_exr else ""
+        print(f"sesgen render: {args.scene} -> {args.out}: {how}{len(todo)} of {len(job.frames)} frames to render, "
               f"{len(views)} view(s), {s.width}x{s.height}, quality {s.quality}: {sampling}"
               f"{' + denoise' if s.denoise else ''}, seed {s.seed}, {s.device.value.upper()}{gpu}", flush=True)
     with deferred_interrupts() as stop:
         try:
             job.build()
+            if job.session.culling is not None and not args.quiet:
+                print(f"culling: {job.session.culling.summary()} built for {len(todo)} frame(s)", flush=True)
         except SesgenError:
             raise
         except Exception as e:  # noqa: BLE001 - a Blender failure while building
-            print(f"error: building the Blender scene failed: {e}", file=sys.stderr)
+            print(f"error: building the Blender scene failed: {one_line(e)}", file=sys.stderr)
             return EXIT_FAILURE
         try:
             with Progress(len(todo), "render", mode=progress_mode(args), unit="frame") as bar:
@@ -156,7 +175,7 @@ def run(args: argparse.Namespace) -> int:
                   f"frame(s): {args.out} is consistent; render again with --resume to continue", file=sys.stderr)
             return EXIT_INTERRUPTED
         except Exception as e:  # noqa: BLE001 - Cycles/IO failure (a full disk...): the folder stays consistent
-            print(f"error: render failed: {e}", file=sys.stderr)
+            print(f"error: render failed: {one_line(e)}", file=sys.stderr)
             return EXIT_FAILURE
     if args.contact_sheet:
         from .contact_sheet import write_contact_sheet

@@ -1,10 +1,14 @@
-"""``python -m blender_sesgen verify OUT``: check every file of a render against its manifest.
+"""``python -m blender_sesgen verify OUT``: check a render folder against its manifest.
 
-Every frame recorded complete is checked: its EXRs exist, lie whole in their files, hold the
-channels the manifest names, match the SHA-256 recorded when they were written, and (unless
-``--quick``) decode. Bad frames are named and recorded as not rendered, so that
-``render --resume`` renders them again (``--dry-run`` only names them). Exit 0 when every
-frame is good, 1 when bad frames were found, 2 on bad input.
+The manifest first: its seal must match it (a manifest edited afterwards -- K, baseline,
+poses, checksums -- is reported and nothing else is trusted), ``scene.ses`` must be the
+script rendered (its SHA-256), the trajectories, lens tables and IMU streams what was
+written. Then every frame recorded complete: each file the manifest lists for it (EXRs,
+display PNGs, sensor images) exists, lies whole in its file, holds the channels the
+manifest names, matches the SHA-256 recorded when it was written, and (unless ``--quick``)
+decodes. Bad frames are named and recorded as not rendered, so that ``render --resume``
+renders them again (``--dry-run`` only names them); ``--resume`` also writes the folder's
+own files again. Exit 0 when all is good, 1 when something is wrong, 2 on bad input.
 """
 from __future__ import annotations
 
@@ -56,13 +60,15 @@ def run(args: argparse.Namespace) -> int:
             bar[0].update()
         bad = folder.verify(full=not args.quick, progress=tick)
     for k, why in bad:
-        print(f"frame {k}: {why}")
-    if bad and not args.dry_run:
-        folder.mark_incomplete(sorted({k for k, _ in bad}))
+        print(why if k is None else f"frame {k}: {why}")
+    frames = sorted({k for k, _ in bad if k is not None})
+    if frames and not args.dry_run:
+        folder.mark_incomplete(frames)
     if not args.quiet or bad:
-        state = ("all frames recorded complete are good" if not bad else
-                 f"{len(bad)} bad frame(s)" + ("" if args.dry_run else
-                                               "; recorded as not rendered: render again with --resume"))
+        state = ("the manifest, its files and all frames recorded complete are good" if not bad else
+                 f"{len(bad)} problem(s)" + (f", {len(frames)} bad frame(s)" if frames else "")
+                 + ("" if args.dry_run else f"{'; recorded as not rendered' if frames else ''}: "
+                                            "render again with --resume"))
         print(f"verify {args.out}: {state}", file=sys.stderr if bad else sys.stdout)
     line = "" if args.quiet else _not_rendered(args.out)
     if line:

@@ -19,6 +19,7 @@ import json
 import random
 import re
 import shutil
+import struct
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
@@ -63,6 +64,8 @@ def mutate(data: bytes, ops: list[tuple]) -> bytes:
                 b[m.start():m.end()] = op[2].encode("utf-8")
         elif kind == "fixcrc":  # a PNG's CRCs made right again, so the mutation reaches the decoder
             b = bytearray(_fix_png_crcs(bytes(b)))
+        elif kind == "reseal":  # a manifest sealed again, so the mutation reaches its validation
+            b = bytearray(reseal(bytes(b)))
         elif kind in ("dupline", "dropline", "swapline"):  # whole lines: order, repeats, gaps
             lines = bytes(b).split(b"\n")
             i = min(int(a * len(lines)), len(lines) - 1)
@@ -91,6 +94,19 @@ def _fix_png_crcs(data: bytes) -> bytes:
     return bytes(b)
 
 
+def reseal(data: bytes) -> bytes:
+    """A manifest (JSON object with a seal) with its seal made right again; else unchanged."""
+    from blender_sesgen.contract.manifest import SEAL, seal_of
+    try:
+        doc = json.loads(data)
+        if isinstance(doc, dict) and SEAL in doc:
+            doc[SEAL] = seal_of(doc)
+            return json.dumps(doc, indent=1).encode()
+    except (ValueError, TypeError, RecursionError):
+        pass
+    return data
+
+
 def random_ops(rng: random.Random, text: bool, n_max: int = 4) -> list[tuple]:
     ops = []
     for _ in range(rng.randint(1, n_max)):
@@ -115,6 +131,8 @@ def random_ops(rng: random.Random, text: bool, n_max: int = 4) -> list[tuple]:
             ops.append((kind, a, rng.choice(INTERESTING)))
     if not text and rng.random() < 0.5:
         ops.append(("fixcrc", 0.0))
+    if text and rng.random() < 0.5:
+        ops.append(("reseal", 0.0))
     return ops
 
 
@@ -284,12 +302,13 @@ def _setup_manifest_sensor(folder: Path) -> Path:
     """A render whose manifest carries the sensor statements' sections (rig motion, rolling
     shutter timing, a Brown-Conrady lens), so that mutants reach those readers."""
     from blender_sesgen.contract.manifest import MANIFEST
+    from synthetic_render import write_manifest_dict
     root = _render(folder)
     m = json.loads((root / MANIFEST).read_text())
     m["rig_motion"] = {"interpolation": "c2_spline", "rate_hz": 1.0, "start_s": 0.0}
     m["timing"] = {"rate_hz": 1.0, "start_s": 0.0, "exposure_s": 0.01, "readout_s": 0.02}
     m["lens"] = {"model": "brown", "coeffs": [-0.1, 0.02, 0.001, -0.001, 0.0]}
-    return _put(root / MANIFEST, json.dumps(m, indent=1))
+    return write_manifest_dict(root, m)
 
 
 def _consume_manifest_sensor(path: Path, folder: Path) -> None:
@@ -307,10 +326,11 @@ def _consume_manifest_sensor(path: Path, folder: Path) -> None:
 def _setup_done_log(folder: Path) -> Path:
     """A render whose frames are recorded complete in a completion log, not the manifest."""
     from blender_sesgen.contract.manifest import MANIFEST, STATE_DIR
+    from synthetic_render import write_manifest_dict
     root = _render(folder)
     m = json.loads((root / MANIFEST).read_text())
     m["frames_complete"] = [False] * len(m["frames_complete"])
-    (root / MANIFEST).write_text(json.dumps(m))
+    write_manifest_dict(root, m)
     lines = [json.dumps({"frame": k, "files": {f"exr/{v}/{k:06d}.exr": "0" * 64 for v in ("left", "right")}})
              for k in range(len(m["frames_complete"]))]
     return _put(root / STATE_DIR / "done-host-1.jsonl", "\n".join(lines) + "\n")
@@ -410,6 +430,216 @@ def _consume_texture(path: Path, folder: Path) -> None:
     parse_file(folder / "s.ses")
 
 
+# --- a render folder, damaged: verify must see every change ----------------------------------------
+
+def _render_file(rel: str):
+    """A complete synthetic render (display PNGs, scene.ses, IMU stream, every SHA-256); the
+    file ``rel`` of it is mutated (its original kept beside, for the oracle)."""
+    def setup(folder: Path) -> Path:
+        from synthetic_render import complete_render
+        root = complete_render(folder / "render")
+        (folder / "orig.bin").write_bytes((root / rel).read_bytes())
+        return root / rel
+    return setup
+
+
+def _changed(path: Path, folder: Path) -> bool:
+    """Whether the mutant differs from the original in what it says (a manifest: its JSON
+    values; anything else: its bytes; not a regular file: changed)."""
+    orig = (folder / "orig.bin").read_bytes()
+    if path.is_symlink() or not path.is_file():
+        return True
+    data = path.read_bytes()
+    if path.name == "manifest.json":
+        try:
+            return json.loads(data) != json.loads(orig)
+        except (ValueError, RecursionError):
+            return True
+    return data != orig
+
+
+def _consume_damaged_render(path: Path, folder: Path) -> None:
+    """``verify --dry-run`` must fail (1, or 2 for a manifest that does not read) exactly when
+    the file changed; the reader and an export then read the folder or refuse it."""
+    root = folder / "render"
+    code = sesgen("verify", root, "--dry-run", "--quiet")
+    changed = _changed(path, folder)
+    if changed and code == 0:
+        raise AssertionError(f"verify passed a changed {path.name}")
+    if not changed and code != 0:
+        raise AssertionError(f"verify failed an unchanged {path.name} (exit {code})")
+    out = folder / "export"
+    shutil.rmtree(out, ignore_errors=True)
+    vo("export", root, out, "--to", "png", "-q")
+
+
+def sesgen(*argv) -> int:
+    """``python -m blender_sesgen ARGV`` in-process, like :func:`vo`: exit 0, 1 (a failure the
+    command reports in one line) or 2 (a user error in one line); anything else raises."""
+    from blender_sesgen.cli import main
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()) as err:
+        code = main([str(a) for a in argv])
+    lines = err.getvalue().strip().splitlines()
+    if code == 2 and len(lines) != 1:
+        raise AssertionError(f"exit 2 with {len(lines)} lines on stderr: {err.getvalue()[:500]!r}")
+    if code not in (0, 1, 2) or "Traceback" in err.getvalue():
+        raise AssertionError(f"exit code {code}: {err.getvalue()[-500:]!r}")
+    EXITS.append(code if code != 1 else 0)
+    return code
+
+
+# --- hostile asset files: check refuses, or what it passes is numbers -------------------------------
+
+_TRIANGLE = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.5]], dtype="<f4")
+
+
+def _model_setup(kind: str):
+    def setup(folder: Path) -> Path:
+        import base64
+        if kind == "gltf":
+            data = _TRIANGLE.tobytes() + np.array([0, 1, 2, 1, 3, 2], "<u2").tobytes()
+            doc = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+                   "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+                   "buffers": [{"byteLength": len(data), "uri": "data:application/octet-stream;base64,"
+                                + base64.b64encode(data).decode()}],
+                   "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48},
+                                   {"buffer": 0, "byteOffset": 48, "byteLength": 12}],
+                   "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+                                  "min": [0, 0, 0], "max": [1, 1, 0.5]},
+                                 {"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"}]}
+            path = _put(folder / "m.gltf", json.dumps(doc, indent=1))
+        elif kind == "obj":
+            path = _put(folder / "m.obj", "".join(f"v {x:g} {y:g} {z:g}\n" for x, y, z in _TRIANGLE)
+                        + "f 1 2 3\nf 2 4 3\n")
+        elif kind == "stl":
+            tris = _TRIANGLE[[0, 1, 2, 1, 3, 2]].reshape(2, 9)
+            path = _put(folder / "m.stl", b"\0" * 80 + struct.pack("<I", 2) + b"".join(
+                struct.pack("<3f", 0, 0, 1) + t.tobytes() + b"\0\0" for t in tris))
+        else:
+            head = ("ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+                    "property float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n")
+            path = _put(folder / "m.ply", head.encode() + _TRIANGLE.tobytes() + struct.pack("<B3iB3i", 3, 0, 1, 2,
+                                                                                            3, 1, 3, 2))
+        _put(folder / "s.ses", f"CAMERA resolution 32 24 focal 30\nMESH id 1 file {path.name} position 0 0 -3\n")
+        return path
+    return setup
+
+
+def _consume_model(path: Path, folder: Path) -> None:
+    """``check``; a model it passes has finite vertices within range (the OBJ's and STL's read
+    here independently), and no more than the limit."""
+    from blender_sesgen.ses import parse_file
+    from blender_sesgen.ses.mesh_content import MAX_MESH_VERTICES
+    parse_file(folder / "s.ses")
+    xyz = None
+    if path.suffix == ".obj":
+        rows = [ln.split()[1:4] for ln in path.read_bytes().decode("utf-8", "replace").splitlines()
+                if ln.split()[:1] == ["v"]]
+        xyz = np.array([[float(v) for v in r] for r in rows if len(r) == 3]).reshape(-1, 3)
+    elif path.suffix == ".stl" and path.stat().st_size >= 84:
+        data = path.read_bytes()
+        n = struct.unpack_from("<I", data, 80)[0]
+        if len(data) == 84 + 50 * n:
+            xyz = np.frombuffer(data, dtype=np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")]),
+                                count=n, offset=84)["v"].reshape(-1, 3).astype(float)
+    if xyz is not None and (len(xyz) > MAX_MESH_VERTICES or not np.all(np.isfinite(xyz))
+                            or np.abs(xyz).max(initial=0) > 1e9):
+        raise AssertionError(f"check passed {path.name} with {len(xyz)} vertices, non-finite or out of range")
+
+
+def _hdri_setup(kind: str):
+    def setup(folder: Path) -> Path:
+        rgb = np.random.default_rng(1).uniform(0.1, 2.0, (8, 16, 3)).astype(np.float32)
+        if kind == "exr":     # uncompressed: a flipped byte is a different number (NaN, inf, 3e38...)
+            import OpenEXR
+            with OpenEXR.File({"compression": OpenEXR.NO_COMPRESSION, "type": OpenEXR.scanlineimage},
+                              {"RGB": rgb}) as f:
+                f.write(str(folder / "sky.exr"))
+            path = folder / "sky.exr"
+        else:                 # flat RGBE pixels
+            m, e = np.frexp(rgb.max(axis=2))
+            scale = np.where(rgb.max(axis=2) > 0, m * 256.0 / rgb.max(axis=2), 0)
+            pix = np.concatenate([np.clip(rgb * scale[..., None], 0, 255), (e + 128)[..., None]], axis=2)
+            path = _put(folder / "sky.hdr", b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 8 +X 16\n"
+                        + pix.astype(np.uint8).tobytes())
+        _put(folder / "s.ses", f"CAMERA resolution 32 24 focal 30\nCUBOID id 1 position 0 0 -3 dim 1 1 1\n"
+                               f"WORLD hdri {path.name}\n")
+        return path
+    return setup
+
+
+def _consume_hdri(path: Path, folder: Path) -> None:
+    """``check``; an HDRI it passes decodes (OpenEXR, OpenCV: independent readers) to finite
+    values within the limit."""
+    import cv2
+    from blender_sesgen.image_check import MAX_PIXEL_VALUE
+    from blender_sesgen.ses import parse_file
+    parse_file(folder / "s.ses")
+    if path.suffix == ".exr":
+        import OpenEXR
+        with OpenEXR.File(str(path)) as f:
+            values = [np.asarray(c.pixels, dtype=np.float64) for part in f.parts for c in part.channels.values()]
+    else:
+        img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+        values = [] if img is None else [img.astype(np.float64)]
+    for v in values:
+        if not (np.all(np.isfinite(v)) and np.abs(v).max(initial=0) <= MAX_PIXEL_VALUE * 1.01):
+            raise AssertionError(f"check passed {path.name} holding {np.nanmax(np.abs(v))} or non-finite values")
+
+
+# --- farm indexes ------------------------------------------------------------------------------------
+
+def _setup_scripts_index(folder: Path) -> Path:
+    from blender_sesgen.cli import main
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(["generate", "street", "--count", "2", "--seed", "3", "--out", str(folder / "gen"),
+                     "-o", "steps=1", "-q"]) == 0
+    return folder / "gen" / "dataset.json"
+
+
+def _consume_scripts_index(path: Path, folder: Path) -> None:
+    """What reads a scripts index: the farm's scene list (``farm.cli.prepare``, no Ray),
+    ``generate``'s check of a folder it would replace, the index reader."""
+    import argparse
+    from blender_sesgen.dataset import read_index
+    from blender_sesgen.farm import cli as farm_cli
+    from blender_sesgen.generate_cli import _check_folder
+    read_index(path.parent)
+    p = argparse.ArgumentParser()
+    farm_cli.add_arguments(p)
+    try:
+        farm_cli.prepare(p.parse_args([str(path.parent), "--out", str(folder / "R")]))
+    except SesgenError:
+        EXITS.append(2)
+    try:
+        _check_folder(path.parent)
+    except SesgenError:
+        EXITS.append(2)
+
+
+def _setup_renders_index(folder: Path) -> Path:
+    from blender_sesgen.dataset import write_render_index
+    return write_render_index(folder / "R", [_farm_state("old", complete=True), _farm_state("other")])
+
+
+def _farm_state(name: str, complete: bool = False, error: str | None = None):
+    from blender_sesgen.farm.driver import SceneState
+    from blender_sesgen.farm.work import FarmScene
+    sc = FarmScene(name=name, script=Path(f"/scripts/{name}.ses"), out=Path(f"/R/{name}"),
+                   meta={"split": "train", "seed": 3}, error=error)
+    return SceneState(sc, complete=complete, failed=error, user_error=error is not None)
+
+
+def _consume_renders_index(path: Path, folder: Path) -> None:
+    """A farm writing its index over a damaged earlier one: a valid index comes out."""
+    from blender_sesgen.dataset import FORMAT, read_index, write_render_index
+    write_render_index(path.parent, [_farm_state("new", complete=True), _farm_state("old", error="x: error: y")])
+    index = read_index(path.parent)
+    if not (isinstance(index, dict) and index.get("format") == FORMAT and isinstance(index.get("sequences"), list)
+            and {"new", "old"} <= {e.get("name") for e in index["sequences"] if isinstance(e, dict)}):
+        raise AssertionError(f"the farm wrote an index that does not read back: {str(index)[:200]}")
+
+
 TARGETS = {t.name: t for t in (
     Target("tum", True, _setup_tum, _consume_evaluate),
     Target("kitti-poses", True, _setup_kitti_poses, _consume_evaluate),
@@ -426,6 +656,19 @@ TARGETS = {t.name: t for t in (
     Target("texture-png", False, _texture_setup("png"), _consume_texture),
     Target("texture-jpeg", False, _texture_setup("jpg"), _consume_texture),
     Target("texture-exr", False, _texture_setup("exr"), _consume_texture),
+    Target("render-display-png", False, _render_file("rgb/left/000001.png"), _consume_damaged_render),
+    Target("render-exr-verify", False, _render_file("exr/right/000002.exr"), _consume_damaged_render),
+    Target("render-manifest-seal", True, _render_file("manifest.json"), _consume_damaged_render, json_doc=True),
+    Target("render-scene-ses", True, _render_file("scene.ses"), _consume_damaged_render),
+    Target("render-imu-csv", True, _render_file("imu/data.csv"), _consume_damaged_render),
+    Target("model-gltf", True, _model_setup("gltf"), _consume_model, json_doc=True),
+    Target("model-obj", True, _model_setup("obj"), _consume_model),
+    Target("model-stl", False, _model_setup("stl"), _consume_model),
+    Target("model-ply", False, _model_setup("ply"), _consume_model),
+    Target("hdri-exr", False, _hdri_setup("exr"), _consume_hdri),
+    Target("hdri-hdr", False, _hdri_setup("hdr"), _consume_hdri),
+    Target("scripts-index", True, _setup_scripts_index, _consume_scripts_index, json_doc=True),
+    Target("renders-index", True, _setup_renders_index, _consume_renders_index, json_doc=True),
 )}
 
 
@@ -434,6 +677,8 @@ def run_mutant(target: Target, folder: Path, path: Path, seed_bytes: bytes, ops:
     """Write the mutant over ``path`` and consume it: 'ok' or 'user-error' (a finding raises)."""
     if json_rng is not None:  # structure-aware mutants stay JSON (the byte-level ones rarely do)
         data = json.dumps(mutate_json(json.loads(seed_bytes), json_rng), indent=1).encode()
+        if json_rng.random() < 0.75:   # mostly sealed again: the checks behind the seal are the target
+            data = reseal(data)
     else:
         data = mutate(seed_bytes, ops)
     path.write_bytes(data)

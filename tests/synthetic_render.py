@@ -64,6 +64,17 @@ def write_render(root, *, K: np.ndarray, baseline_m: float, T_world_left: np.nda
     return root
 
 
+def write_manifest_dict(root, m: dict) -> Path:
+    """Write ``m`` as ``root/manifest.json``, sealed as the renderer seals its own (for
+    fixtures that change a manifest on purpose; a reader refuses an unsealed edit)."""
+    import json
+    from blender_sesgen.contract.manifest import SEAL, seal_of
+    m = {**m, SEAL: seal_of(m)}
+    path = Path(root) / "manifest.json"
+    path.write_text(json.dumps(m, indent=1))
+    return path
+
+
 def plane_depth(K: np.ndarray, T_world_cam: np.ndarray, n_world: np.ndarray, d_world: float,
                 W: int, H: int) -> np.ndarray:
     """Planar z of the plane {X : n·X = d} seen by a camera (inf where not hit in front)."""
@@ -103,6 +114,44 @@ def plane_scene(root, *, W: int = 64, H: int = 48, f: float = 50.0, baseline_m: 
                         noise=noise, objects=[{"id": object_id, "name": "plane", "shape": "QUAD"}])
 
 
+COMPLETE_SCRIPT = "CAMERA resolution 64 48 focal 50 baseline 0.2\nSTART position 0 0 0\n"
+
+
+def complete_render(root, frames: int = 3) -> Path:
+    """A synthetic render with what a plain Cycles render holds besides its EXRs: scene.ses,
+    display PNGs (display.files), trajectories, an IMU stream, and every file's SHA-256."""
+    import hashlib
+    import cv2
+    from blender_sesgen.contract.colour import linear_to_srgb8
+    from blender_sesgen.contract.manifest import display_relpath
+    from vo_reference.io.render import RenderSequence
+    root = plane_scene(root, frames=frames)
+    seq = RenderSequence(root)
+    m = Manifest.read(root)
+    sums = {}
+
+    def put(rel: str, data: bytes) -> None:
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        (root / rel).write_bytes(data)
+        sums[rel] = hashlib.sha256(data).hexdigest()
+    for k in range(frames):
+        for v in m.views:
+            put(m.files[v][k], (root / m.files[v][k]).read_bytes())
+            ok, png = cv2.imencode(".png", linear_to_srgb8(seq.rgb_linear(k, v))[..., ::-1])
+            put(display_relpath(v, k), png.tobytes())
+    m.extra["display"] = {"kind": "display-referred sRGB, 8-bit PNG", "view_transform": "Standard", "look": "None",
+                          "files": {v: [display_relpath(v, k) for k in range(frames)] for v in m.views}}
+    for rel in m.static_files():      # the trajectories every manifest lists
+        put(rel, b"0 0 0 0 0 0 0 1\n")
+    put("imu/data.csv", b"#timestamp [ns],w_x,w_y,w_z,a_x,a_y,a_z\n0,0,0,0,0,9.81,0\n")
+    m.extra["imu"] = {"files": {"noisy": "imu/data.csv", "ideal": "imu/data.csv", "groundtruth": "imu/data.csv"}}
+    put("scene.ses", COMPLETE_SCRIPT.encode())
+    m.scene_sha256 = hashlib.sha256(COMPLETE_SCRIPT.encode()).hexdigest()
+    m.extra["checksums"] = sums
+    m.write(root)
+    return root
+
+
 def add_imu(root, T_cam_imu, rate_hz: float = 200.0, time_offset_s: float = 0.0, yaml_text: str | None = None) -> dict:
     """Give a render folder an IMU: the manifest's ``imu`` entry (ADIS16448-like densities)
     and its files, samples at rest over the frames' span (gyro 0, accel +9.81 along y),
@@ -122,7 +171,7 @@ def add_imu(root, T_cam_imu, rate_hz: float = 200.0, time_offset_s: float = 0.0,
            "files": {"noisy": "imu/data.csv", "ideal": "imu/data_ideal.csv", "groundtruth": "imu/groundtruth.csv",
                      "yaml": "imu/sensor.yaml"}}
     m["imu"] = imu
-    (root / "manifest.json").write_text(json.dumps(m))
+    write_manifest_dict(root, m)
     (root / "imu").mkdir(exist_ok=True)
     t = np.asarray(m["timestamps"], dtype=float)
     t_ns = to_ns(np.arange(t[0], t[-1] + 0.5 / rate_hz, 1.0 / rate_hz) + time_offset_s)

@@ -99,8 +99,9 @@ def test_blender_validates_the_zip(addon_zip):
 def test_zip_installs_enables_and_disables_cleanly(addon_zip, tmp_path):
     res = run_child("""
         import addon_utils
-        OPS = ["check", "build", "render", "open_output", "preview", "export", "import_ses", "verify"]
-        PANELS = ["SESGEN_PT_main", "SESGEN_PT_render", "SESGEN_PT_preview", "SESGEN_PT_export"]
+        OPS = ["check", "build", "render", "open_output", "preview", "export", "import_ses", "verify", "study_run",
+               "study_report"]
+        PANELS = ["SESGEN_PT_main", "SESGEN_PT_render", "SESGEN_PT_preview", "SESGEN_PT_export", "SESGEN_PT_study"]
         def menu_funcs():
             return [getattr(f, "__module__", "") for f in getattr(bpy.types.TOPBAR_MT_file_import.draw, "_draw_funcs", [])]
         def state():
@@ -508,6 +509,33 @@ def test_export_operator_writes_a_dataset_layout_through_vo_reference(addon_zip,
     assert res["kitti"]["error"] is None and (ds / "dataset/poses/05.txt").is_file()
     assert res["missing"]["result"] is None and "pip install 'blender-sesgen[vo]'" in res["missing"]["error"]
     assert res["no_slot"]["result"] is None and "no sequence slot" in res["no_slot"]["error"]
+
+
+@pytest.mark.slow
+def test_study_operator_runs_a_one_factor_study_and_finds_its_report(addon_zip, tmp_path):
+    """The Study panel: a factor and its levels for the open script, Run Study (the add-on runs
+    `sesgen study run` -- here this test's Python, which has Ray and vo_reference -- as a child
+    process), then the report; a level that is not one is an error in the status line."""
+    out = tmp_path / "study"
+    res = run_child(f"""
+        S().script_path = {str(REPO / 'scenes' / 'minimal.ses')!r}
+        s = S()
+        s.study_factor, s.study_levels, s.study_systems = "gain", "4", "accurate-stereo"
+        s.study_resolution, s.study_dir = 1.0, {str(out)!r}
+        s.study_command = {f"{sys.executable} -m blender_sesgen"!r}
+        RESULT["run"] = call(bpy.ops.sesgen.study_run)
+        RESULT["status"], RESULT["progress"] = S().status, S().progress
+        RESULT["report_ready"] = bpy.ops.sesgen.study_report.poll()
+        S().study_levels = "loud"
+        RESULT["bad"] = call(bpy.ops.sesgen.study_run)
+        RESULT["bad_status"] = S().status
+    """, addon_zip, tmp_path)
+    assert res["run"] == {"result": ["FINISHED"], "error": None}, res
+    assert res["status"].startswith("study minimal-gain: 2 run(s)") and res["progress"] == 1.0
+    assert res["report_ready"] and (out / "report.html").is_file()
+    doc = json.loads((out / "results.json").read_text())
+    assert [v["point"] for v in doc["variants"]] == [{}, {"gain": 4}] and doc["cost"]["developed"] == 1
+    assert res["bad"]["result"] is None and "numbers" in res["bad"]["error"] and res["bad_status"].startswith("Error")
 
 
 def test_cancel_leaves_a_resumable_folder_and_resume_completes_it(addon_zip, tmp_path):

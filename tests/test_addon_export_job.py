@@ -57,11 +57,11 @@ def test_undistort_reaches_the_tool(tmp_path):
     --undistort; the panel's Undistort adds the option and the export succeeds."""
     pytest.importorskip("OpenEXR")
     import json
-    from synthetic_render import plane_scene
+    from synthetic_render import plane_scene, write_manifest_dict
     render = plane_scene(tmp_path / "r", frames=2)
     m = json.loads((render / "manifest.json").read_text())
     m["lens"] = {"model": "brown", "coeffs": [-0.1, 0.01, 0.0, 0.0, 0.0]}
-    (render / "manifest.json").write_text(json.dumps(m))
+    write_manifest_dict(render, m)
     cmd = export_job.export_command(PY_VO, str(render), str(tmp_path / "t"), "tum")
     assert "--undistort" not in cmd
     p = export_job.ExportProcess(cmd)

@@ -61,7 +61,8 @@ def doc_blocks() -> list[tuple[bool, str]]:
 
 
 def run_doc(tmp_path: Path, with_bpy: bool) -> subprocess.CompletedProcess:
-    (tmp_path / "scenes").symlink_to(REPO / "scenes", target_is_directory=True)
+    for folder in ("scenes", "studies"):
+        (tmp_path / folder).symlink_to(REPO / folder, target_is_directory=True)
     parts = []
     for is_render, code in doc_blocks():
         parts.append(code if (with_bpy or not is_render) else SYNTHETIC_RENDER)
@@ -74,12 +75,13 @@ def run_doc(tmp_path: Path, with_bpy: bool) -> subprocess.CompletedProcess:
 
 def test_the_doc_has_the_sections_the_api_promises():
     blocks = doc_blocks()
-    assert len(blocks) == 7 and sum(r for r, _ in blocks) == 1
+    assert len(blocks) == 8 and sum(r for r, _ in blocks) == 1
     text = DOC.read_text(encoding="utf-8")
     headings = re.findall(r"^## \d\. (.*)$", text, re.M)
     assert headings == ["Parse and check a script", "Build a scene in Python",
                         "Render, with options and a progress callback", "Open a sequence",
-                        "Derive ground-truth products, export a dataset layout", "Run visual odometry", "Evaluate"]
+                        "Derive ground-truth products, export a dataset layout", "Run visual odometry", "Evaluate",
+                        "Run a verification study"]
 
 
 @pytest.mark.parametrize("module", ["blender_sesgen.api", "blender_sesgen.pipeline", "vo_reference.api",

@@ -95,7 +95,15 @@ def test_the_docs_call_the_tools_one_way():
         for code in _code(text):
             for program, command, rest in re.findall(r"(?:^|[\s(])(sesgen|vo-reference) ([a-z][\w-]*)(.*)", code):
                 assert command in commands[program], (doc.name, code)
-                options = {o for a in commands[program][command]._actions for o in a.option_strings}
+                sub = commands[program][command]
+                nested = [a for a in sub._actions if isinstance(a, argparse._SubParsersAction)]
+                if nested:   # a command with actions of its own (study run, study compare, ...)
+                    action = rest.split()[0] if rest.split() else ""
+                    if not action:   # the command named alone
+                        continue
+                    assert action in nested[0].choices, (doc.name, code)
+                    sub = nested[0].choices[action]
+                options = {o for a in sub._actions for o in a.option_strings}
                 used = re.findall(r"(?<![\w-])(--?[a-z][\w-]*)", rest.split("#")[0])
                 assert set(used) <= options | {"--no-" + o[2:] for o in options}, (doc.name, code, set(used) - options)
 

@@ -418,3 +418,83 @@ def test_the_shared_filesystem_check_names_the_node_that_cannot_see_root(tmp_pat
     msg = str(e.value)
     assert "node 10.0.0.2" in msg and f"cannot see {root}" in msg and "cannot see 1 script(s)" in msg
     assert "10.0.0.1" not in msg and list(root.iterdir()) == []      # the probe file is gone
+
+
+@pytest.mark.parametrize("name", ["...ses", "..ses", "dataset.json.ses", ".sesgen.ses"])
+def test_a_script_whose_name_is_no_folder_of_root_is_a_user_error_of_its_scene(tmp_path, name):
+    """``...ses`` would render into ROOT/.. (outside ROOT), ``..ses`` into ROOT itself,
+    ``dataset.json.ses`` onto the farm's index (a traceback), a hidden name among the
+    folders' own state: each is refused on its scene, the others still render."""
+    good = tmp_path / "good.ses"
+    good.write_text((REPO / "scenes" / "minimal.ses").read_text())
+    odd = tmp_path / "odd" / name
+    odd.parent.mkdir()
+    odd.write_text(good.read_text())
+    p = argparse.ArgumentParser()
+    farm_cli.add_arguments(p)
+    root, scenes = farm_cli.prepare(p.parse_args([str(good), str(odd), "--out", str(tmp_path / "R")]))
+    ok, bad = scenes
+    assert ok.error is None
+    assert bad.error is not None and str(odd) in bad.error and "rename the script" in bad.error, bad.error
+    assert "\n" not in bad.error
+
+
+def test_a_refused_scene_keeps_its_entry_in_the_dataset_index(tmp_path):
+    """A farm whose scene is refused (its folder holds frames of other settings) must not
+    rewrite that sequence's entry -- complete, with its seed -- as incomplete with the new
+    seed; a scene refused with no entry yet gets one with its error."""
+    from blender_sesgen.dataset import read_index, write_render_index
+    from blender_sesgen.farm.driver import SceneState
+    from blender_sesgen.plan import RenderOptions, RenderPlan
+    script = tmp_path / "a.ses"
+    script.write_text((REPO / "scenes" / "minimal.ses").read_text())
+    root = tmp_path / "R"
+    first = FarmScene(name="a", script=script, out=root / "a", plan=RenderPlan.from_file(script, RenderOptions(seed=1)))
+    write_render_index(root, [SceneState(first, complete=True)])
+    before = read_index(root)["sequences"][0]
+    assert before["complete"] and before["render"]["seed"] == 1
+    refused = FarmScene(name="a", script=script, out=root / "a",
+                        plan=RenderPlan.from_file(script, RenderOptions(seed=5)),
+                        error=f"{script}: error: --out {root / 'a'}: holds frames rendered with other settings")
+    new = FarmScene(name="b", script=script, out=root / "b", error=f"{script}:1:1: error: something")
+    write_render_index(root, [SceneState(refused, failed=refused.error, user_error=True),
+                              SceneState(new, failed=new.error, user_error=True)])
+    index = read_index(root)
+    by_name = {e["name"]: e for e in index["sequences"]}
+    assert by_name["a"] == before
+    assert by_name["b"]["complete"] is False and by_name["b"]["error"] == new.error
+
+
+def test_a_sigint_sent_while_the_render_process_starts_stops_it(tmp_path):
+    """A Ray worker blocks SIGINT and its child starts with it blocked: a cancel that comes
+    while the child starts leaves the signal pending. It must stop the command as a Ctrl-C
+    does (exit 130, nothing written), not kill the process (-2, which a farm reads as a lost
+    task and retries) nor be dropped."""
+    script = tmp_path / "big.ses"        # a check that takes a while: the signal comes first
+    script.write_text((REPO / "scenes" / "minimal.ses").read_text() + "// pad\n" * 200_000)
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        proc = subprocess.Popen([sys.executable, "-m", "blender_sesgen.farm.child", "check", str(script)], cwd=REPO,
+                                env={**os.environ, "PYTHONPATH": str(REPO), chunk_mod.PARENT_ENV: str(os.getpid())},
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        os.kill(proc.pid, signal.SIGINT)   # pending: the child has not unblocked it yet
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, (proc.returncode, err[-500:])
+    assert "Traceback" not in err and "interrupted" in err
+
+
+def test_the_verify_task_reports_a_tampered_manifest_as_the_folders_own_problem(tmp_path):
+    """The farm then runs one chunk, whose --resume writes the manifest again from the
+    script (a ContractError here used to fail the scene, and every later farm with it)."""
+    pytest.importorskip("cv2")
+    pytest.importorskip("OpenEXR")
+    from synthetic_render import complete_render
+    root = complete_render(tmp_path / "r")
+    assert chunk_mod.verify_task(str(root))["folder"] == []
+    m = json.loads((root / "manifest.json").read_text())
+    m["baseline"] = 0.3
+    (root / "manifest.json").write_text(json.dumps(m))
+    res = chunk_mod.verify_task(str(root))
+    assert res["missing"] == [] and len(res["folder"]) == 1 and "seal" in res["folder"][0]

@@ -39,7 +39,10 @@ ops = st.lists(op, min_size=1, max_size=4)
 # examples per target: cheap readers get more
 EXAMPLES = {"tum": 40, "kitti-poses": 30, "euroc": 30, "pfm": 40, "png16-disparity": 30, "kitti-flow-png": 30,
             "manifest": 20, "exr": 15, "kitti-calib": 5, "kitti-folder-poses": 5, "done-log": 8,
-            "manifest-sensor": 30, "texture-png": 40, "texture-jpeg": 40, "texture-exr": 30}
+            "manifest-sensor": 30, "texture-png": 40, "texture-jpeg": 40, "texture-exr": 30,
+            "render-display-png": 10, "render-exr-verify": 5, "render-manifest-seal": 15, "render-scene-ses": 10,
+            "render-imu-csv": 10, "model-gltf": 30, "model-obj": 30, "model-stl": 30, "model-ply": 20,
+            "hdri-exr": 30, "hdri-hdr": 30, "scripts-index": 15, "renders-index": 20}
 
 
 def _settings(n: int):

@@ -113,3 +113,14 @@ def test_errors(tmp_path):
     (root / "image_0" / "000001.png").write_bytes(b"garbage")
     with pytest.raises(VoError, match="000001.png: not a readable image"):
         KittiSequence(root).image_gray(1)
+
+
+@pytest.mark.parametrize("second", ["P0: 800 0 300 0 0 800 200 0 0 0 1 0", "800 0 300 0 0 800 200 0 0 0 1 0"])
+def test_a_calibration_that_names_a_matrix_twice_is_refused(tmp_path, second):
+    """A second ``P0:`` used to win silently (the baseline then came from the wrong pair);
+    a bare line after the four named ones would be a second P0 too."""
+    root = _kitti_folder(tmp_path / "s", prefixes=True)
+    lines = (root / "calib.txt").read_text().splitlines()
+    (root / "calib.txt").write_text("\n".join(lines + [second]) + "\n")
+    with pytest.raises(VoError, match=rf"calib.txt:{len(lines) + 1}: P0 is given twice \(first on line 1\)"):
+        KittiSequence(root)

@@ -10,7 +10,7 @@ from vo_reference.errors import VoError
 from vo_reference.io.exr import read_exr_channels, write_exr_parts
 from vo_reference.io.render import RenderSequence
 from vo_reference.io.sequence import Sequence, open_sequence
-from synthetic_render import plane_scene, write_render
+from synthetic_render import plane_scene, write_manifest_dict, write_render
 
 pytest.importorskip("OpenEXR")
 
@@ -116,7 +116,7 @@ def _edit_manifest(root, **changes):
             del m[k]
         else:
             m[k] = v
-    (root / "manifest.json").write_text(json.dumps(m))
+    write_manifest_dict(root, m)
 
 
 def test_wrong_format_version(tiny):

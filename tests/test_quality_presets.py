@@ -173,9 +173,12 @@ def test_presets_change_only_the_rgb(tmp_path):
 
 
 @pytest.mark.render
-@pytest.mark.parametrize("quality,options", [("gt", {}), ("draft", {"samples": 2})])
+@pytest.mark.parametrize("quality,options", [("gt", {}), ("draft", {"samples": 2}), ("draft", {}),
+                                             ("final", {"samples": 12})])
 def test_fast_pipeline_gives_the_plain_pixels(tmp_path, quality, options):
-    """Persistent data (+ multiview for gt) vs a fresh render per view: every channel equal."""
+    """Persistent data (+ multiview for gt) vs a fresh render per view: every channel equal.
+    With at least the exposure preview's 8 samples the fast path renders the preview in the
+    session the frames reuse (fewer samples: a fresh session, as the plain path)."""
     mf, fast = _render(tmp_path, "fast", quality=quality, **options)
     mp, plain = _render(tmp_path, "plain", quality=quality, fast_pipeline=False, **options)
     assert mf["render"]["pipeline"] == {"persistent_data": True, "views_per_render": 2 if quality == "gt" else 1}

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from synthetic_render import plane_scene
+from synthetic_render import plane_scene, write_manifest_dict
 from vo_reference.cli import main
 
 REPO = Path(__file__).resolve().parents[1]
@@ -152,7 +152,7 @@ def test_vo_refuses_incomplete_frames_as_export_does(copy, tmp_path, capfd, comm
     root = copy()
     m = json.loads((root / "manifest.json").read_text())
     m["frames_complete"] = [True, True, False, False]
-    (root / "manifest.json").write_text(json.dumps(m))
+    write_manifest_dict(root, m)
     argv = {"stereo-vo": ("stereo-vo", root, "--out", tmp_path / "e.txt", "--quiet"),
             "mono-vo": ("mono-vo", root, "--out", tmp_path / "e.txt", "-q"),
             "run": ("run", root, "--report", tmp_path / "rep", "--quiet", "--no-plots"),

@@ -96,7 +96,10 @@ MAKE_BLEND = """
 """
 
 
-def test_blend_environment_loads_with_ids_classes_and_no_scripts(tmp_path):
+@pytest.mark.parametrize("quality", ["final", "gt"])
+def test_blend_environment_loads_with_ids_classes_and_no_scripts(tmp_path, quality):
+    """Also under ``--quality gt``, whose flat shading colours the file's objects too (it
+    once looked their ids up among the script's objects only and failed every BLEND)."""
     marker = tmp_path / "ran.txt"
     _bpy(tmp_path, MAKE_BLEND.replace("MARKER", str(marker)))
     script = tmp_path / "s.ses"
@@ -104,7 +107,7 @@ def test_blend_environment_loads_with_ids_classes_and_no_scripts(tmp_path):
                       "BLEND file env.blend id 100 class building position 0.5 0 0\n"
                       "SPHERE id 100 position 0 -50 0 dim 0.5\n"    # takes id 100: the file's get 101, ...
                       "LIGHT sun direction -0.3 -1 -0.2\n")
-    r = run_render(script, "--out", tmp_path / "out", "--samples", "1", "--quiet")
+    r = run_render(script, "--out", tmp_path / "out", "--samples", "1", "--quiet", "--quality", quality)
     assert r.returncode == 0, r.stderr
     assert not marker.exists(), "a script stored in the .blend ran"
     m = load_manifest(tmp_path / "out")

@@ -21,9 +21,14 @@ COMMANDS = {
                                      "COLMAP, nerfstudio, SLAM settings, ...: --to lists them all)"),
     "evaluate": (".evaluate.cli", "evaluate an estimated trajectory against ground truth (APE, RPE, KITTI)"),
     "evaluate-disparity": (".evaluate.disparity_cli", "evaluate an estimated disparity map (EPE, bad-N, D1)"),
+    "covisibility": (".products.covisibility_cli", "place-recognition / loop-closure ground truth: the "
+                                                    "covisibility of every pair of frames of a render"),
+    "evaluate-slam": (".evaluate.slam_cli", "evaluate a SLAM system's keyframe trajectory (APE, KITTI, consistency "
+                                            "at loop closures) and loop-closure detections (precision, recall)"),
     "stereo-vo": (".stereo.cli", "run the reference stereo VO (SESGen paper / accurate) on a render or KITTI folder"),
     "run": (".stereo.run_cli", "one-shot: stereo VO (both methods) + evaluation + plots on a render or KITTI folder with ground truth"),
     "mono-vo": (".mono.cli", "run the classic monocular VO pipeline (8-point RANSAC, E, PnP)"),
+    "study": (".study.cli", "a verification study's evaluation and HTML report (run by `sesgen study run`)"),
 }
 
 

@@ -53,16 +53,22 @@ class ExportError(SesgenError):
     """The export could not start or failed; the message is one line for the user."""
 
 
-def vo_command(setting: str = "") -> list[str]:
-    """The command line prefix that runs ``vo-reference``: the setting (e.g.
-    ``/opt/venv/bin/vo-reference`` or ``python3 -m vo_reference``), else ``vo-reference`` on PATH."""
+def tool_command(setting: str, program: str, not_found: str, error=None) -> list[str]:
+    """The command line prefix of a tool the add-on runs: the setting split like a shell
+    line, else ``program`` on PATH, else ``error(not_found)`` (ExportError by default)."""
     words = shlex.split(setting) if setting and setting.strip() else []
     if words:
         return words
-    found = shutil.which("vo-reference")
+    found = shutil.which(program)
     if found is None:
-        raise ExportError(NOT_FOUND)
+        raise (error or ExportError)(not_found)
     return [found]
+
+
+def vo_command(setting: str = "") -> list[str]:
+    """The command line prefix that runs ``vo-reference``: the setting (e.g.
+    ``/opt/venv/bin/vo-reference`` or ``python3 -m vo_reference``), else ``vo-reference`` on PATH."""
+    return tool_command(setting, "vo-reference", NOT_FOUND)
 
 
 def export_command(prefix: list[str], render_dir: str, out_dir: str, target: str,

@@ -168,20 +168,22 @@ class SESGEN_OT_preview(bpy.types.Operator):
                                                   f"(image '{session.PREVIEW_IMAGE}')")
 
 
-class SESGEN_OT_export(_WhenIdle, bpy.types.Operator):
-    """Export the rendered frames of the output folder to a dataset layout (runs vo_reference; Esc cancels)"""
-    bl_idname = "sesgen.export"
-    bl_label = "Export Dataset"
+class _ChildProcess(_WhenIdle):
+    """An operator that runs a tool as a child process (``start(values)``: its process, with
+    ``poll``, ``finished``, ``fraction``, ``cancel``, ``wait``; ``finish(values, proc,
+    context)``: its message or SesgenError; ``running(values, proc)``: the status line)."""
 
     _timer = None
     _proc = None
+    interval_s = 0.1
+    stopped = "stopped"
 
     def execute(self, context):  # headless: runs to the end
         values = session.read_settings(context)
         try:
-            proc = session.start_export(values)
+            proc = self.start(values)
             proc.wait()
-            msg = session.finish_export(values, proc, context)
+            msg = self.finish(values, proc, context)
         except SesgenError as e:
             return _fail(self, context, values, e)
         self.report({"INFO"}, msg)
@@ -190,14 +192,14 @@ class SESGEN_OT_export(_WhenIdle, bpy.types.Operator):
     def invoke(self, context, event):  # interactive: the progress bar follows the tool's JSON events
         values = session.read_settings(context)
         try:
-            self._proc = session.start_export(values)
+            self._proc = self.start(values)
         except SesgenError as e:
             return _fail(self, context, values, e)
         self._values = values
         wm = context.window_manager
-        self._timer = wm.event_timer_add(0.1, window=context.window)
+        self._timer = wm.event_timer_add(self.interval_s, window=context.window)
         wm.modal_handler_add(self)
-        session.set_status(values, f"exporting to {values['export_target']}...", 0.0, context=context)
+        session.set_status(values, self.running(values, self._proc), 0.0, context=context)
         return {"RUNNING_MODAL"}
 
     def _stop_timer(self, context):
@@ -210,19 +212,18 @@ class SESGEN_OT_export(_WhenIdle, bpy.types.Operator):
         if event.type == "ESC" and event.value == "PRESS":
             p.cancel()
             self._stop_timer(context)
-            session.set_status(values, "export cancelled (nothing half-written is left)", context=context)
-            self.report({"WARNING"}, "export cancelled")
+            session.set_status(values, self.stopped, context=context)
+            self.report({"WARNING"}, self.stopped)
             return {"CANCELLED"}
         if event.type != "TIMER" or event.timer is not self._timer:
             return {"PASS_THROUGH"}
         p.poll()
         if not p.finished:
-            session.set_status(values, f"exporting to {values['export_target']}: {p.done}/{p.total} (Esc to cancel)",
-                               p.fraction, context=context)
+            session.set_status(values, self.running(values, p) + " (Esc to stop)", p.fraction, context=context)
             return {"RUNNING_MODAL"}
         self._stop_timer(context)
         try:
-            msg = session.finish_export(values, p, context)
+            msg = self.finish(values, p, context)
         except SesgenError as e:
             return _fail(self, context, values, e)
         self.report({"INFO"}, msg)
@@ -232,6 +233,45 @@ class SESGEN_OT_export(_WhenIdle, bpy.types.Operator):
         if self._proc is not None and not self._proc.finished:
             self._proc.cancel()
         self._stop_timer(context)
+
+
+class SESGEN_OT_export(_ChildProcess, bpy.types.Operator):
+    """Export the rendered frames of the output folder to a dataset layout (runs vo_reference; Esc cancels)"""
+    bl_idname = "sesgen.export"
+    bl_label = "Export Dataset"
+    stopped = "export cancelled (nothing half-written is left)"
+    start, finish = staticmethod(session.start_export), staticmethod(session.finish_export)
+    running = staticmethod(lambda values, proc: f"exporting to {values['export_target']}: {proc.done}/{proc.total}"
+                           if proc.total else f"exporting to {values['export_target']}...")
+
+
+class SESGEN_OT_study_run(_ChildProcess, bpy.types.Operator):
+    """Run a one-factor study of the script: render every level, run the systems, evaluate, report (sesgen study run; Esc stops it, running it again resumes)"""
+    bl_idname = "sesgen.study_run"
+    bl_label = "Run Study"
+    interval_s = 0.5
+    stopped = "study stopped (Run Study again resumes it)"
+    start, finish = staticmethod(session.start_study), staticmethod(session.finish_study)
+    running = staticmethod(lambda values, proc: proc.line)
+
+
+class SESGEN_OT_study_report(bpy.types.Operator):
+    """Open the study's report (report.html) in the web browser"""
+    bl_idname = "sesgen.study_report"
+    bl_label = "Open Report"
+
+    @classmethod
+    def poll(cls, context):
+        return os.path.isfile(os.path.join(props.abspath(context.scene.sesgen.study_dir), "report.html"))
+
+    def execute(self, context):
+        values = session.read_settings(context)
+        try:
+            path = session.study_report(values)
+        except SesgenError as e:
+            return _fail(self, context, values, e)
+        bpy.ops.wm.url_open(url="file://" + path)
+        return {"FINISHED"}
 
 
 class SESGEN_OT_import(_WhenIdle, bpy.types.Operator, ImportHelper):
@@ -253,4 +293,5 @@ def menu_import(self, context):
 
 
 CLASSES = (SESGEN_OT_check, SESGEN_OT_build, SESGEN_OT_render, SESGEN_OT_open_output,
-           SESGEN_OT_preview, SESGEN_OT_export, SESGEN_OT_import, SESGEN_OT_verify)
+           SESGEN_OT_preview, SESGEN_OT_export, SESGEN_OT_import, SESGEN_OT_verify, SESGEN_OT_study_run,
+           SESGEN_OT_study_report)

@@ -7,6 +7,8 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, St
 from ..contract.timing import DEFAULT_FPS
 from ..lighting_data import BUILTIN_HDRIS
 from ..sensor.profiles import PROFILES
+from ..study.factors import FACTORS
+from ..study.systems import BUILTIN as BUILTIN_SYSTEMS
 from .export_job import TARGETS
 from .preview import KINDS
 
@@ -99,6 +101,23 @@ class SESGEN_PG_settings(bpy.types.PropertyGroup):
     vo_command: StringProperty(name="VO Command", default="",
                                description="How to run vo_reference (a Python with pip install 'blender-sesgen[vo]'), "
                                            "e.g. /path/venv/bin/vo-reference; empty: vo-reference on PATH")
+    # a one-factor study of the script (blender_sesgen.study, run as a child process)
+    study_factor: EnumProperty(name="Factor", default="exposure_time",
+                               description="What changes from variant to variant (docs/studies.md)",
+                               items=tuple((f.name, f.name, f"{f.doc} ({f.unit})") for f in FACTORS.values()))
+    study_levels: StringProperty(name="Levels", default="0.005, 0.01, 0.02",
+                                 description="The factor's levels, benign to harsh (numbers in its unit, or names)")
+    study_systems: StringProperty(name="Systems", default="accurate-stereo, opencv-stereo",
+                                  description="Built-in systems, comma-separated: " + ", ".join(BUILTIN_SYSTEMS))
+    study_frames: IntProperty(name="Frames", min=0, default=0, description="The first N frames (0: all)")
+    study_resolution: FloatProperty(name="Size", min=0.01, max=4.0, default=0.5,
+                                    description="Image size of the study's renders (a scale of the script's)")
+    study_dir: StringProperty(name="Study Folder", subtype="DIR_PATH", default="",
+                              description="The study's folder: renders, runs, results.json, report.html")
+    study_command: StringProperty(name="Study Command", default="",
+                                  description="How to run sesgen outside Blender (a Python with pip install "
+                                              "'blender-sesgen[render,vo,farm]'), e.g. /path/venv/bin/python -m "
+                                              "blender_sesgen; empty: sesgen on PATH")
     # state shown in the panel
     status: StringProperty(name="Status", default="")
     progress: FloatProperty(name="Progress", min=0.0, max=1.0, default=0.0, subtype="FACTOR")

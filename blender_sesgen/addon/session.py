@@ -307,12 +307,16 @@ def verify(values: dict) -> str:
         raise SesgenError("no render in the output folder to verify")
     folder = OutputFolder(out)
     bad = folder.verify(full=True)
+    frames = sorted({k for k, _ in bad if k is not None})
     if not bad:
-        msg = "verified: every frame recorded complete is intact"
+        msg = "verified: the manifest, its files and every frame recorded complete are intact"
+    elif not frames:
+        msg = f"{bad[0][1]}; Render with Resume writes it again"
     else:
-        folder.mark_incomplete(sorted({k for k, _ in bad}))
-        frames = ", ".join(str(k) for k, _ in bad[:8]) + (" ..." if len(bad) > 8 else "")
-        msg = f"{len(bad)} bad frame(s) ({frames}: {bad[0][1]}); Render with Resume renders them again"
+        folder.mark_incomplete(frames)
+        named = ", ".join(map(str, frames[:8])) + (" ..." if len(frames) > 8 else "")
+        first = next(why for k, why in bad if k is not None)
+        msg = f"{len(frames)} bad frame(s) ({named}: {first}); Render with Resume renders them again"
     set_status(values, msg)
     return msg
 
@@ -386,3 +390,42 @@ def finish_export(values: dict, proc, context=None) -> str:
     msg = proc.summary or f"exported to {values['export_target']}"
     set_status(values, msg, 1.0, context=context)
     return msg
+
+
+# --- a one-factor study (study_job: ``sesgen study run`` as a child process) -----------------------
+
+def start_study(values: dict):
+    """Write the panel's study file into the study folder and start ``study run`` on it."""
+    from . import study_job
+    script = script_path(values)
+    out = props.abspath(values["study_dir"])
+    if not out:
+        raise SesgenError("choose a study folder first")
+    factor = values["study_factor"]
+    systems = [w.strip() for w in values["study_systems"].replace(",", " ").split() if w.strip()]
+    if not systems:
+        raise SesgenError("name at least one system (e.g. accurate-stereo)")
+    text = study_job.study_toml(script, factor, study_job.parse_levels(factor, values["study_levels"]), systems,
+                                frames=values["study_frames"], resolution=values["study_resolution"],
+                                quality="draft" if values["quality"] == "script" else values["quality"])
+    path = study_job.write_study(out, text)
+    return study_job.StudyProcess(study_job.study_command(values["study_command"]), path, out)
+
+
+def finish_study(values: dict, proc, context=None) -> str:
+    """The status line of a finished study; StudyJobError with its message if it failed."""
+    from . import study_job
+    proc.poll()
+    if proc.returncode not in (0, 1) or proc.report is None:
+        raise study_job.StudyJobError(proc.error)
+    msg = (proc.summary or "study done") + ("" if proc.returncode == 0 else " (a step failed: see the report)")
+    set_status(values, msg, 1.0, context=context)
+    return msg
+
+
+def study_report(values: dict) -> str:
+    """The study's report.html (to open in a browser)."""
+    path = os.path.join(props.abspath(values["study_dir"]), "report.html")
+    if not os.path.isfile(path):
+        raise SesgenError(f"{path}: no report yet (run the study first)")
+    return path

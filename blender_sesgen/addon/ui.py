@@ -1,4 +1,4 @@
-"""The 3D-view sidebar tab "SESGen": script, build, render, preview."""
+"""The 3D-view sidebar tab "SESGen": script, build, render, preview, export, study."""
 from __future__ import annotations
 
 import bpy
@@ -28,8 +28,9 @@ class _SettingsSubpanel(_SidebarPanel):
     bl_options = {"DEFAULT_CLOSED"}
 
 
-def _settings_draw(names: tuple, operator: str, icon: str, note: str = ""):
-    """A panel's draw: its settings, an optional note, the button of its operator."""
+def _settings_draw(names: tuple, operator: str, icon: str, note: str = "", more: tuple = ()):
+    """A panel's draw: its settings, an optional note, the button of its operator (and the
+    buttons of ``more``: (operator, icon) pairs, on the same row)."""
     def draw(self, context):
         s = context.scene.sesgen
         layout = self.layout
@@ -39,7 +40,9 @@ def _settings_draw(names: tuple, operator: str, icon: str, note: str = ""):
             layout.prop(s, name)
         if note:
             layout.label(text=note)
-        layout.operator(operator, icon=icon)
+        row = layout.row(align=True)
+        for op, ic in ((operator, icon), *more):
+            row.operator(op, icon=ic)
     return draw
 
 
@@ -123,4 +126,11 @@ class SESGEN_PT_export(_SettingsSubpanel, bpy.types.Panel):
                           "Frames: the Render panel's range; source: its Output folder")
 
 
-CLASSES = (SESGEN_PT_main, SESGEN_PT_render, SESGEN_PT_preview, SESGEN_PT_export)
+class SESGEN_PT_study(_SettingsSubpanel, bpy.types.Panel):
+    bl_label = "Study"
+    draw = _settings_draw(("study_factor", "study_levels", "study_systems", "study_frames", "study_resolution",
+                           "study_dir", "study_command"), "sesgen.study_run", "GRAPH",
+                          "Quality: the Render panel's (draft when it is Script)", (("sesgen.study_report", "URL"),))
+
+
+CLASSES = (SESGEN_PT_main, SESGEN_PT_render, SESGEN_PT_preview, SESGEN_PT_export, SESGEN_PT_study)

@@ -177,6 +177,13 @@ def default_size(kind: str, seed: int) -> Vec3:
     return tuple(round(float(rng.uniform(lo, hi)), 3) for lo, hi in KINDS[kind].size_ranges)
 
 
+def mesh_key(obj) -> tuple:
+    """What makes two ASSET objects share one mesh in Blender (their geometry and the material
+    tags of their main surface): equal keys, one mesh."""
+    return (obj.kind, tuple(obj.size), obj.seed, tuple(obj.bend), obj.offset, obj.material, tuple(obj.colour),
+            obj.texture)
+
+
 def generate(kind: str, size, seed: int, bend=(0.0,), offset: float = 0.0) -> MeshData:
     """The mesh of one asset (asset frame, SES axes, metres)."""
     k = KINDS[kind]

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import palette
-from .mesh import MeshBuilder, MeshData
+from .mesh import MeshBuilder, MeshData, cross3
 from .palette import pick, scaled
 
 def _unit(v):
@@ -75,9 +75,9 @@ class _Branches:
             f = t * segs - i
             q = pts[i] * (1 - f) + pts[i + 1] * f
             axis = _unit(pts[i + 1] - pts[i])
-            ortho = _unit(np.cross(axis, [0.3, 1, 0.1]))
+            ortho = _unit(cross3(axis, (0.3, 1.0, 0.1)))
             phi = phi0 + golden * k
-            side = ortho * np.cos(phi) + np.cross(axis, ortho) * np.sin(phi)
+            side = ortho * np.cos(phi) + cross3(axis, ortho) * np.sin(phi)
             ang = np.radians(rng.uniform(35, 65))
             cd = _unit(np.cos(ang) * axis + np.sin(ang) * side)
             scale = rng.uniform(0.45, 0.7) if level > 0 else rng.uniform(0.6, 0.9)

@@ -74,7 +74,7 @@ def build_asset(o: Asset, collection, surface_material_of, meshes: dict) -> obje
     Blender material of each surface (index 0 is the main one). Assets with the same kind,
     size, seed, bend, offset and material tags share one mesh (``meshes`` caches them per
     build): a forest of a dozen tree variants costs a dozen meshes, and Cycles instances them."""
-    key = (o.kind, tuple(o.size), o.seed, tuple(o.bend), o.offset, o.material, tuple(o.colour), o.texture)
+    key = assets.mesh_key(o)
     me = meshes.get(key)
     if me is None:
         data = assets.generate(o.kind, o.size, o.seed, o.bend, o.offset)
@@ -89,6 +89,30 @@ def build_asset(o: Asset, collection, surface_material_of, meshes: dict) -> obje
     collection.objects.link(obj)
     obj.matrix_world = Matrix(ses_to_blender_world(object_pose(o.position, o.rotation_deg)).tolist())
     return obj
+
+
+def keep_instanced(built, scene_objects, full_users: dict, tag=tag) -> int:
+    """Give every asset mesh that the full scene shares between several objects but a culled
+    build uses once a second user that no ray ever meets (visible to volume-scattering rays
+    only, which these scenes never cast): Cycles then keeps it instanced, as in the full
+    build, instead of baking its one object's transform into the vertices -- which would move
+    the surface by float rounding and change depth in the last bits. Returns how many."""
+    users: dict = {}
+    for o in scene_objects:
+        if isinstance(o, Asset) and o.id in built.objects:
+            users.setdefault(assets.mesh_key(o), []).append(o.id)
+    added = 0
+    for key, ids in users.items():
+        if len(ids) == 1 and full_users.get(key, 0) > 1:
+            src = built.objects[ids[0]][0]
+            twin = tag(bpy.data.objects.new(f"sesgen_instance_keeper_{ids[0]}", src.data))
+            built.collection.objects.link(twin)
+            twin.matrix_world = src.matrix_world.copy()
+            for ray in ("camera", "diffuse", "glossy", "transmission", "shadow"):
+                setattr(twin, f"visible_{ray}", False)
+            twin.visible_volume_scatter = True            # not all off: Cycles would not export it at all
+            added += 1
+    return added
 
 
 @build_shape.register

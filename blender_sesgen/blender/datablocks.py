@@ -20,6 +20,28 @@ def tag(idblock):
     return idblock
 
 
+def load_image(path: str):
+    """``bpy.data.images.load`` (tagged), refusing a float image (an HDRI, a float texture)
+    with a sample that is not finite or beyond ``image_check.MAX_PIXEL_VALUE``: Cycles
+    renders such an image as black frames and says nothing. ``check`` has decoded what it
+    can (Radiance HDR, EXR with NONE/RLE/ZIP); here every float format is checked, as
+    Blender decoded it (PIZ, DWA, tiled EXR, float TIFF)."""
+    import numpy as np
+    from ..errors import SesgenError
+    from ..image_check import MAX_PIXEL_VALUE
+    img = tag(bpy.data.images.load(path, check_existing=True))
+    if img.is_float and img.get("sesgen_values") is None:
+        px = np.empty(len(img.pixels), dtype=np.float32)
+        img.pixels.foreach_get(px)
+        with np.errstate(invalid="ignore"):
+            bad = np.flatnonzero(~(np.abs(px) <= MAX_PIXEL_VALUE))
+        if bad.size:
+            raise SesgenError(f"{path}: holds {float(px[bad[0]]):.4g} (and {bad.size - 1} more such samples): "
+                              f"an image's values must be finite and within +-{MAX_PIXEL_VALUE:g}")
+        img["sesgen_values"] = 1
+    return img
+
+
 def clear_previous() -> None:
     """Remove the SESGen scene and every data-block this module created before."""
     old = bpy.data.scenes.get(SCENE_NAME)

@@ -30,7 +30,7 @@ PREVIEW_PREFIX = "sesgen-exposure-"
 def remove_stale_previews(folder=None) -> None:
     """Delete preview files of processes that no longer run (a killed render's leftovers)."""
     folder = Path(folder or tempfile.gettempdir())
-    for f in folder.glob(f"{PREVIEW_PREFIX}*-*.exr"):
+    for f in folder.glob(f"{PREVIEW_PREFIX}*-*"):   # NAME.exr, or NAME_left while Blender writes it
         try:
             pid = int(f.name[len(PREVIEW_PREFIX):].split("-", 1)[0])
             os.kill(pid, 0)
@@ -40,13 +40,18 @@ def remove_stale_previews(folder=None) -> None:
             continue
 
 
-def measure_exposure(bscene, camera, frame: int) -> float:
+def measure_exposure(bscene, camera, frame: int, cameras=None) -> float:
     """The film exposure that brings the preview's 90th-percentile luminance to TARGET.
+
+    ``cameras`` ({view: camera}, the left one ``camera``): render the preview the fast way
+    (``render.render_views``) in the scene's persistent Cycles session, which the frames
+    then reuse (the scene is synchronised and its BVH built once, not twice); without it a
+    plain render of ``camera``.
 
     The preview goes to the system's temporary folder under a name with this process's pid,
     so that a later render removes it if this one is killed (``remove_stale_previews``)."""
     from ..exr import read_exr
-    from .render import render_view
+    from .render import render_view, render_views
 
     remove_stale_previews()
     r, c = bscene.render, bscene.cycles
@@ -56,7 +61,10 @@ def measure_exposure(bscene, camera, frame: int) -> float:
     fd, path = tempfile.mkstemp(suffix=".exr", prefix=f"{PREVIEW_PREFIX}{os.getpid()}-")
     os.close(fd)
     try:
-        render_view(bscene, camera, frame, seed=0, filepath=path)
+        if cameras is not None:
+            render_views(bscene, cameras, ("left",), frame, 0, {"left": path})
+        else:
+            render_view(bscene, camera, frame, seed=0, filepath=path)
         ch = read_exr(path)
     finally:
         r.resolution_percentage, c.samples, c.use_denoising, c.film_exposure = saved

@@ -33,6 +33,7 @@ from ..contract.frames import R_BLENDER_SES
 from ..errors import SesgenError
 from ..model import Fog, Light, Scene, World
 from . import compat
+from .datablocks import load_image
 
 
 def ses_vec_to_blender(v) -> Vector:
@@ -166,6 +167,21 @@ def hdri_path(world: World) -> str:
     return path
 
 
+# The world's importance map (what Cycles samples background light by). Left automatic,
+# Cycles makes it 4096 x 2048 for any sky without its sun disc or any HDRI (a sun disc
+# alone gets 512 x 256): 8.4 million shader evaluations, 1.3-2.2 CPU s at the start of
+# every render session. The disc-less sky is smooth (its sun is a lamp): it gets the
+# resolution Cycles gives a sky with a disc; an HDRI gets its own width (one cell per
+# texel). Only the noise of the background's sampling depends on it, never its mean.
+SKY_MAP_WIDTH = 512
+
+
+def _importance_map(wd, width: int) -> None:
+    if hasattr(wd, "cycles") and width > 0:
+        wd.cycles.sampling_method = "MANUAL"
+        wd.cycles.sample_map_resolution = int(width)
+
+
 def build_world(bscene, w: World, fog: Fog | None, name: str, tag=lambda x: x):
     wd = bpy.data.worlds.new(name)
     nt = compat.node_tree(wd)
@@ -182,8 +198,9 @@ def build_world(bscene, w: World, fog: Fog | None, name: str, tag=lambda x: x):
         if hasattr(sky, "sun_disc") and _sky_without_disc():
             sky.sun_disc = False  # the sun is a lamp (scene_lights)
         nt.links.new(sky.outputs["Color"], bg.inputs["Color"])
+        _importance_map(wd, SKY_MAP_WIDTH)
     elif w.kind == "hdri":
-        img = tag(bpy.data.images.load(hdri_path(w), check_existing=True))
+        img = tag(load_image(hdri_path(w)))
         env = nt.nodes.new("ShaderNodeTexEnvironment")
         env.image = img
         env.interpolation = "Linear"
@@ -196,6 +213,7 @@ def build_world(bscene, w: World, fog: Fog | None, name: str, tag=lambda x: x):
         nt.links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
         nt.links.new(mapping.outputs["Vector"], env.inputs["Vector"])
         nt.links.new(env.outputs["Color"], bg.inputs["Color"])
+        _importance_map(wd, img.size[0])
     else:
         bg.inputs["Color"].default_value = (*w.colour, 1.0)
     shader = bg.outputs["Background"]

@@ -8,6 +8,7 @@ ambient term: all light comes from light sources.
 """
 from __future__ import annotations
 
+import dataclasses
 from typing import Optional
 
 import bpy
@@ -25,6 +26,7 @@ class MaterialFactory:
     def __init__(self, scene: Scene):
         self.scene = scene
         self.cache: dict = {}
+        self._library: dict = {}   # library material (colour aside) -> the first one built
 
     def get(self, obj: SceneObject):
         mat_model: Optional[Material] = None
@@ -42,12 +44,24 @@ class MaterialFactory:
         return self.cache[key]
 
     def _make(self, name: str, colour, tex: Optional[TextureRef], m: Optional[Material], spherical: bool = False):
+        if m is not None and m.library is not None:
+            # a library material's graph depends on its colour only through one RGB node: the
+            # same material in another colour is a copy of the first (a node graph built
+            # through bpy costs ~0.05 s per material: every socket write updates the tree)
+            key = dataclasses.replace(m, colour=(1.0, 1.0, 1.0))
+            first = self._library.get(key)
+            if first is not None:
+                mat = tag(first.copy())
+                mat.name = name
+                library.set_colour(compat.node_tree(mat), colour)
+                return mat
         mat = tag(bpy.data.materials.new(name))
         nt = compat.node_tree(mat)
         nt.nodes.clear()
         out = nt.nodes.new("ShaderNodeOutputMaterial")
         out.target = "ALL"
         if m is not None and m.library is not None:
+            self._library[key] = mat
             return self._finish(mat, nt, out, library.build_shader(nt, m, colour))
         if m is not None and m.maps is not None:
             bsdf = library.build_image_maps(nt, m.maps, colour, m.roughness, tag)

@@ -63,12 +63,17 @@ _PREFILTERS = {"none": "NONE", "fast": "FAST", "accurate": "ACCURATE"}
 
 def configure(bscene, preset: Preset, *, gpu: bool = False, threads: int = 0,
               normal_pass: bool = False, position_pass: bool = False, view_transform: str = "AgX",
-              look: str = "None") -> None:
+              look: str = "None", persistent: bool = False) -> None:
     """Cycles as ``preset`` says (presets.py), the passes, multilayer EXR output and the
     colour management. ``view_transform`` and ``look`` shape the display-referred PNG only
-    (the EXR is scene-linear whatever they are)."""
+    (the EXR is scene-linear whatever they are). ``persistent``: keep the Cycles session
+    (synchronised scene, BVH, importance map) from render to render; switching it off frees
+    that session, so it is written only when it changes (configure may run between the
+    exposure preview and the frames, which reuse the preview's session)."""
     r = bscene.render
-    r.engine = "CYCLES"
+    # writes that would free or resynchronise a persistent session even when the value is
+    # unchanged (the engine, the display device) go through _set
+    _set(r, "engine", "CYCLES")
     c = bscene.cycles
     c.device = "GPU" if gpu else "CPU"
     c.samples = int(preset.samples)
@@ -97,7 +102,7 @@ def configure(bscene, preset: Preset, *, gpu: bool = False, threads: int = 0,
     c.filter_width = 1.5
     r.use_motion_blur = False
     r.film_transparent = False
-    r.use_persistent_data = False
+    _set(r, "use_persistent_data", bool(persistent))
     r.use_multiview = False
     r.threads_mode = "FIXED" if threads > 0 else "AUTO"
     if threads > 0:
@@ -106,11 +111,11 @@ def configure(bscene, preset: Preset, *, gpu: bool = False, threads: int = 0,
     r.use_compositing = False
     r.use_sequencer = False
     r.dither_intensity = 0.0
-    bscene.display_settings.display_device = "sRGB"
-    bscene.view_settings.view_transform = view_transform
-    bscene.view_settings.look = look
-    bscene.view_settings.exposure = 0.0
-    bscene.view_settings.gamma = 1.0
+    _set(bscene.display_settings, "display_device", "sRGB")
+    _set(bscene.view_settings, "view_transform", view_transform)
+    _set(bscene.view_settings, "look", look)
+    _set(bscene.view_settings, "exposure", 0.0)
+    _set(bscene.view_settings, "gamma", 1.0)
     vl = bscene.view_layers[0]
     vl.name = "ViewLayer"
     vl.use_pass_combined = True

@@ -40,6 +40,23 @@ def motion_instants(frame: int, shutter_frames: float, steps: int = MOTION_STEPS
     return (np.float32(frame) + rel * np.float32(shutter_frames) * np.float32(0.5)).astype(np.float64)
 
 
+# Blender takes a key within 0.01 frame of the time it evaluates as that time's key (measured:
+# a camera keyed at Cycles' 17 instants of a 0.125-frame shutter, 0.0078 frame apart, is posed
+# at a neighbouring instant at the frame itself; 0.2 frame, 0.0125 apart, is exact)
+KEY_GAP_FRAMES = 0.0125
+
+
+def sparse_instants(frame: float, instants, gap: float = KEY_GAP_FRAMES) -> np.ndarray:
+    """The frame and those of ``instants`` at least ``gap`` from every other key, the
+    outermost taken first (the whole shutter stays keyed; a short one with fewer keys, between
+    which Blender interpolates linearly)."""
+    kept = [float(frame)]
+    for t in sorted((float(x) for x in instants), key=lambda x: -abs(x - frame)):
+        if all(abs(t - k) >= gap for k in kept):
+            kept.append(t)
+    return np.array(sorted(kept))
+
+
 def rolling_shift_frames(readout_s: float, height: int, rate_hz: float) -> float:
     """Cycles reads image row r (0 = top) at (r + 1) / H of its rolling shutter (measured:
     the integer pixel row sets the time), half a line later than the symmetric convention

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Optional
 
 import numpy as np
 
@@ -36,16 +36,19 @@ class SensorSession:
         """Key the cameras at the instants Cycles samples for frame k, with the poses of
         those instants shifted by ``shift_frames`` (the rolling shutter's half line)."""
         bframe = rig.blender_frame(k)
-        times = np.concatenate([[float(bframe)]] + [sensor.motion_instants(bframe, s) for s in shutters if s > 0])
+        times = sensor.sparse_instants(bframe, np.concatenate(
+            [[float(bframe)]] + [sensor.motion_instants(bframe, s) for s in shutters if s > 0]))
         for view, cam in self.cameras.items():
             sensor.key_camera_instants(cam, times, self.sensor.camera_poses(view, times + shift_frames, rig.FRAME0))
         # moving objects at the same instants, so the shutter sees them move along their own motion
         object_motion.key_instants(self.built, self.plan.scene, times, shift_frames, sensor.MOTION_STEPS)
 
     def render_frame(self, k: int, exposure_s: float, paths: dict[str, Path],
-                     stop: Callable[[], bool] = lambda: False) -> dict[str, dict]:
-        """Every view of frame k into ``paths[view]``; {view: render stats}. ``stop()`` is
-        asked before each view (KeyboardInterrupt when it says yes)."""
+                     stop: Callable[[], bool] = lambda: False,
+                     display_paths: Optional[dict] = None) -> dict[str, dict]:
+        """Every view of frame k into ``paths[view]`` (and the beauty's display-referred PNG
+        into ``display_paths[view]``); {view: render stats}. ``stop()`` is asked before each
+        view (KeyboardInterrupt when it says yes)."""
         s = self.sensor
         shutter, duration = s.shutter(exposure_s)
         gt_shutter = s.shutter(0.0)[0] if s.rolling_shutter else 0.0
@@ -62,7 +65,8 @@ class SensorSession:
             tmp, tmp_gt = temp_path(final.with_name("beauty-" + final.name)), temp_path(final.with_name("gt-" + final.name))
             seed = render_seed(self.plan.settings.seed, k, vi)
             sensor.set_shutter(self.scene, shutter, s.rolling_shutter, duration)
-            st = render.render_view(self.scene, self.cameras[view], rig.blender_frame(k), seed, str(tmp), quiet=quiet)
+            st = render.render_view(self.scene, self.cameras[view], rig.blender_frame(k), seed, str(tmp), quiet=quiet,
+                                    display_path=str(display_paths[view]) if display_paths else None)
             channels = read_exr(tmp)
             if s.shutter_effects:
                 with sensor.ground_truth_settings(self.scene, gt_shutter, s.rolling_shutter):

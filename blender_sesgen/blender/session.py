@@ -38,16 +38,40 @@ class BlenderSession:
         ``fast``: persistent Cycles data and multiview (same pixels, less time)."""
         self.plan = plan
         s = plan.settings
-        self.built = builder.build_scene(plan.scene, width=s.width, height=s.height, K=s.K,
+        self.flat = s.preset.shading == "flat"
+        self.culling, self._exposure_ids = None, None
+        scene = plan.scene
+        if plan.options.cull:   # only what the frames can see (and, to meter, what frame 0 sees)
+            from ..culling import culled_scene, visible_objects
+            self.culling = visible_objects(plan, plan.frames)
+            keep = set(self.culling.keep)
+            if self._measures_exposure(known_exposure):
+                self._exposure_ids = visible_objects(plan, [0]).keep
+                keep |= self._exposure_ids
+            scene = culled_scene(plan.scene, keep)
+        self.built = builder.build_scene(scene, width=s.width, height=s.height, K=s.K,
                                          view_poses=plan.view_poses)
+        if self.culling is not None:     # meshes shared in the full scene stay instanced (exact depth)
+            from collections import Counter
+
+            from .. import assets as asset_kinds
+            from ..model import Asset
+            from .assets import keep_instanced
+            full = Counter(asset_kinds.mesh_key(o) for o in plan.scene.objects if isinstance(o, Asset))
+            keep_instanced(self.built, scene.objects, full)
         gpu = s.device is Device.GPU
         self.gpu = render.enable_gpu() if gpu else None
         self._configure = dict(gpu=gpu, threads=plan.options.threads, normal_pass=plan.options.normal_pass,
                                position_pass=plan.options.position_pass,
                                view_transform=VIEW_TRANSFORMS[plan.scene.look.view],
                                look=AGX_LOOKS[plan.scene.look.look])
-        self.flat = s.preset.shading == "flat"
+        # the sensor path re-keys the cameras and renders twice per view: it renders the plain way
+        self.fast = bool(fast and not plan.sensor.changes_rendering
+                         and render.can_render_multiview(self.built.cameras))
+        self._configure["persistent"] = self.fast
         self.exposure = self._exposure(known_exposure)
+        if self._exposure_ids is not None:   # what only frame 0's metering needed stays out of the frames
+            self._show(self.culling.keep)
         render.configure(self.built.scene, s.preset, **self._configure)
         exposure.set_exposure(self.built.scene, self.exposure)
         if self.flat:
@@ -56,10 +80,16 @@ class BlenderSession:
         if plan.sensor.changes_rendering:
             from .sensor_render import SensorSession
             self.sensor = SensorSession(plan, self.built)
-        # the sensor path re-keys the cameras and renders twice per view: it renders the plain way
-        self.fast = bool(fast and self.sensor is None and render.can_render_multiview(self.built.cameras))
-        self.built.scene.render.use_persistent_data = self.fast
         self.views_per_render = len(plan.views) if self.fast and s.preset.deterministic_rgb else 1
+
+    def _measures_exposure(self, known: Optional[float]) -> bool:
+        return not self.flat and self.auto_exposure and known is None
+
+    def _show(self, ids) -> None:
+        """Render only the built objects whose ids are in ``ids`` (the others stay built, hidden)."""
+        for oid, objs in self.built.objects.items():
+            for b in objs:
+                b.hide_render = oid not in ids
 
     @property
     def auto_exposure(self) -> bool:
@@ -79,8 +109,16 @@ class BlenderSession:
             return float(2.0 ** self.plan.scene.look.exposure_ev)
         if known is not None:
             return float(known)
-        render.configure(self.built.scene, EXPOSURE_PREVIEW, **self._configure)
-        return exposure.measure_exposure(self.built.scene, self.built.cameras["left"], rig.blender_frame(0))
+        # fast: the preview renders in the persistent Cycles session that the frames then reuse
+        # (synchronised and its BVH built once) - if they take at least the preview's samples:
+        # a persistent session whose sample count goes down renders other pixels than a fresh
+        # one (bpy 5.0.1, its default blue-noise pattern), and resumed frames start fresh
+        share = self.fast and self.plan.settings.preset.samples >= EXPOSURE_PREVIEW.samples
+        render.configure(self.built.scene, EXPOSURE_PREVIEW, **{**self._configure, "persistent": share})
+        if self._exposure_ids is not None:   # culled: frame 0 metered with what frame 0 sees, in every chunk
+            self._show(self._exposure_ids)
+        return exposure.measure_exposure(self.built.scene, self.built.cameras["left"], rig.blender_frame(0),
+                                         self.built.cameras if share else None)
 
     @property
     def channels(self) -> dict:
@@ -118,10 +156,10 @@ class BlenderSession:
         """Render frame ``k`` of each view into ``paths[view]``; {view: render stats}.
         ``stop()`` is asked before each render (KeyboardInterrupt when it says yes);
         ``exposure_s``: the frame's exposure time on the sensor path (auto-exposure);
-        ``display_paths[view]``: where the display-referred PNG goes (plain path only)."""
+        ``display_paths[view]``: where the display-referred PNG goes."""
         if self.sensor is not None:
             return self.sensor.render_frame(k, self.plan.sensor.nominal_exposure_s() if exposure_s is None
-                                            else exposure_s, paths, stop)
+                                            else exposure_s, paths, stop, display_paths)
         quiet = not self.plan.options.verbose
         bframe = rig.blender_frame(k)
         seed = self.plan.settings.seed

@@ -71,9 +71,9 @@ def apply_flat_shading(built, scene: Scene, tag) -> None:
     """Switch the built scene to flat shading (see the module docstring)."""
     by_id = {o.id: o for o in scene.objects}
     for oid, bobjs in built.objects.items():
-        model = by_id[oid]
-        custom = not isinstance(model, Mesh) or model.texture is not None or model.material is not None \
-            or tuple(model.colour) != (1.0, 1.0, 1.0)
+        model = by_id.get(oid)          # None: an object of a BLEND file, coloured as its file says
+        custom = model is not None and (not isinstance(model, Mesh) or model.texture is not None
+                                        or model.material is not None or tuple(model.colour) != (1.0, 1.0, 1.0))
         for b in bobjs:
             rgb = model_colour(model, scene) if custom else _file_colour(b)
             b.color = (*rgb, 1.0)

@@ -14,9 +14,9 @@ from __future__ import annotations
 
 from typing import Callable
 
-import bpy
 
 from ..textures import BUILTIN_TEXTURES
+from .datablocks import load_image
 from .library.graph import G, box_uv
 
 
@@ -143,8 +143,7 @@ def texture_colour(nt, ref, spherical: bool = False):
     g = G(nt)
     coords = g.node("ShaderNodeTexCoord")
     if ref.kind == "image":
-        img = bpy.data.images.load(ref.path, check_existing=True)
-        img["sesgen"] = 1
+        img = load_image(ref.path)
         tex = g.node("ShaderNodeTexImage", interpolation="Cubic", extension="REPEAT")
         tex.image = img
         if spherical:

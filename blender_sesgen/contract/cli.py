@@ -11,6 +11,7 @@ imported only when its command runs (bpy, OpenCV and friends are heavy).
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import os
 import sys
@@ -19,6 +20,11 @@ from typing import Callable, Optional, Sequence
 from .errors import ContractError
 
 EXIT_OK, EXIT_FAILURE, EXIT_USER_ERROR, EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 0, 1, 2, 130, 141
+# failures of the file system, one line each: the disk (exit 1: the same command may work later) ...
+SYSTEM_ERRNOS = {errno.ENOSPC: EXIT_FAILURE, errno.EDQUOT: EXIT_FAILURE, errno.EFBIG: EXIT_FAILURE,
+                 errno.EIO: EXIT_FAILURE,
+                 # ... or a place the user may not write to (exit 2)
+                 errno.EROFS: EXIT_USER_ERROR, errno.EACCES: EXIT_USER_ERROR, errno.EPERM: EXIT_USER_ERROR}
 
 
 def add_report_argument(parser: argparse.ArgumentParser, contents: str, default_text: str = "") -> None:
@@ -46,10 +52,10 @@ def dispatch(argv: Optional[Sequence[str]], *, prog: str, description: str, comm
     ``user_errors``: the package's own user-error exceptions (ContractError is always one);
     ``describe`` turns one into its line on stderr.
     """
-    parser = build_parser(prog, description, commands, package)
-    args = parser.parse_args(sys.argv[1:] if argv is None else list(argv))
-    module = importlib.import_module(commands[args.command][0], package)
     try:
+        parser = build_parser(prog, description, commands, package)
+        args = parser.parse_args(sys.argv[1:] if argv is None else list(argv))
+        module = importlib.import_module(commands[args.command][0], package)
         return int(module.run(args) or EXIT_OK)
     except (ContractError, *user_errors) as e:
         print(describe(e), file=sys.stderr)
@@ -60,3 +66,8 @@ def dispatch(argv: Optional[Sequence[str]], *, prog: str, description: str, comm
     except BrokenPipeError:  # output piped into a reader that stopped early (e.g. `| head`)
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_BROKEN_PIPE
+    except OSError as e:
+        if e.errno not in SYSTEM_ERRNOS:
+            raise
+        print(f"error: {e.filename + ': ' if e.filename else ''}{e.strerror}", file=sys.stderr)
+        return SYSTEM_ERRNOS[e.errno]

@@ -53,9 +53,19 @@ def read_bytes(path, limit: int = TEXT_LIMIT, what: str = "file") -> bytes:
         # O_NONBLOCK: should the path have been swapped for a FIFO since the stat, open does not block
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
         with os.fdopen(fd, "rb") as f:
-            if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
+            st = os.fstat(f.fileno())
+            if not stat.S_ISREG(st.st_mode):
                 raise ContractError(f"the {what} is not a regular file", str(path))
-            data = f.read(limit + 1)
+            # what the file holds, not the limit: read(limit + 1) reserves the limit's memory
+            # first (16 GiB for an EXR: a MemoryError under an address-space cap)
+            data = f.read(min(st.st_size, limit) + 1)
+            parts = [data]
+            while len(data) > st.st_size and sum(map(len, parts)) <= limit:   # it grew: read on, in steps
+                more = f.read(min(MiB, limit + 1 - sum(map(len, parts))))
+                if not more:
+                    break
+                parts.append(more)
+            data = b"".join(parts)
     except (OSError, ValueError) as e:
         raise ContractError(f"cannot read the {what} ({getattr(e, 'strerror', None) or e})", str(path)) from None
     if len(data) > limit:

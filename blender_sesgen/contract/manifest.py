@@ -22,6 +22,7 @@ so that marking a frame complete costs O(1), whatever the sequence length).
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import re
@@ -39,6 +40,7 @@ from .inputs import read_text
 from .manifest_schema import check_types
 from .manifest_sections import Sections
 from .se3 import not_rotations
+from .timing import TIME_LIMIT_S
 
 FORMAT = "sesgen-render/1"
 MANIFEST = "manifest.json"
@@ -47,6 +49,7 @@ POSES_DIR = "poses"
 EXR_DIR = "exr"
 DISPLAY_DIR = "rgb"           # the display-referred 8-bit PNGs (the view transform's image)
 STATE_DIR = ".sesgen"
+SEAL = "seal"                 # SHA-256 of the rest of the manifest (seal_of)
 DONE_LOG_GLOB = "done-*.jsonl"
 VIEWS = ("left", "right")
 POSES_CONVENTION = "T_world_cam: OpenCV camera (x right, y down, z forward) in the SES world (Y up)"
@@ -56,7 +59,6 @@ OBJECT_POSES_CONVENTION = ("T_world_obj: the object frame (origin at the object'
 OBJECT_MOTIONS = ("keys", "twist", "trajectory")
 SEED_RULE = "cycles seed = (seed * 1000003 + 2 * frame + view_index) mod (2^31 - 1)"
 LIMIT = 1e9  # no coordinate, focal length or size of ours is larger: beyond it a value is corrupt
-TIME_LIMIT_S = 1e12  # seconds: a Unix time (1.7e9) fits, 1e308 does not
 POSE_TOLERANCE = 1e-6  # max |R^T R - I| of a pose in a manifest (written from float64 products)
 
 
@@ -95,7 +97,7 @@ def trajectory_relpaths(views: Sequence[str]) -> dict:
 _KEYS = ("format", "generator", "scene", "scene_source", "scene_sha256", "resolution", "K", "baseline", "near",
          "far", "frames", "fps", "timestamps", "views", "depth", "segmentation", "channels", "objects",
          "object_poses_convention", "poses_convention", "poses", "trajectories", "files", "frames_complete",
-         "render")
+         "render", "seal")
 
 
 @dataclass
@@ -182,8 +184,34 @@ class Manifest:
         return m
 
     def write(self, root, durable: bool = True) -> Path:
-        """Write ``root/manifest.json`` atomically (NaN or infinities are refused)."""
-        return write_json(Path(root) / MANIFEST, self.to_json(), durable)
+        """Write ``root/manifest.json`` atomically (NaN or infinities are refused), sealed
+        (:func:`seal_of`)."""
+        m = self.to_json()
+        m[SEAL] = seal_of(m)
+        return write_json(Path(root) / MANIFEST, m, durable)
+
+    def frame_files(self, k: int) -> list[str]:
+        """Every file of frame ``k`` the manifest lists: each view's EXR (``files``), display
+        PNG (``display.files``) and sensor images (``sensor.files``, every kind)."""
+        out = [self.files[v][k] for v in self.views]
+        display = (self.extra.get("display") or {}).get("files") or {}   # checked by manifest_schema
+        out += [display[v][k] for v in self.views if v in display]
+        sensor = self.sections.sensor
+        if sensor is not None:
+            out += [sensor.file(kind, v, k) for kind in sensor.files for v in self.views]
+        return [f for f in out if f]
+
+    def static_files(self) -> list[str]:
+        """The files the manifest lists once per render: trajectories, the lens's calibration
+        and lookup table, the IMU streams."""
+        traj = trajectory_relpaths(self.views)
+        out = [*traj["tum"].values(), *traj["kitti"].values(), traj["ego"]]
+        lens, imu = self.sections.lens, self.sections.imu
+        if lens is not None:
+            out += list(lens.opencv_files.values()) + ([lens.undistort_lut] if lens.undistort_lut else [])
+        if imu is not None:
+            out += [p for p in imu.files.values() if isinstance(p, str)]
+        return list(dict.fromkeys(out))
 
     def with_complete(self, complete: Sequence[bool]) -> "Manifest":
         return replace(self, frames_complete=[bool(x) for x in complete])
@@ -279,11 +307,16 @@ class Manifest:
                    sections=sections)
 
     @classmethod
-    def read(cls, root) -> "Manifest":
+    def read(cls, root, sealed: bool = True) -> "Manifest":
         """``root/manifest.json`` validated, with the completion logs of a running or
-        interrupted render merged into ``frames_complete``."""
+        interrupted render merged into ``frames_complete``. ``sealed``: ContractError when
+        the manifest's seal does not match its content (edited after it was written; a
+        manifest written before seals existed has none and is read as it is)."""
         root = Path(root)
-        m = cls.from_json(load_json(root / MANIFEST), str(root / MANIFEST))
+        raw = load_json(root / MANIFEST)
+        m = cls.from_json(raw, str(root / MANIFEST))
+        if sealed and seal_problem(raw):
+            raise ContractError(seal_problem(raw), str(root / MANIFEST))
         done = completed_in_logs(root)
         if done:
             m = m.with_complete([c or k in done for k, c in enumerate(m.frames_complete)])
@@ -292,6 +325,26 @@ class Manifest:
                 sums.update(files)
             m.extra["checksums"] = sums
         return m
+
+
+def seal_of(m: dict) -> str:
+    """The manifest's seal: SHA-256 of its canonical JSON (keys sorted, no spaces, the seal
+    itself left out). Every write seals (:meth:`Manifest.write`), so a manifest whose
+    values were changed afterwards (K, baseline, poses, checksums...) no longer matches."""
+    body = {k: v for k, v in m.items() if k != SEAL}
+    text = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode("ascii")).hexdigest()
+
+
+def seal_problem(m: dict) -> str:
+    """'' when the manifest dict carries a seal that matches it (or none: written before
+    seals existed); else what is wrong."""
+    if SEAL not in m:
+        return ""
+    if not isinstance(m[SEAL], str) or m[SEAL] != seal_of(m):
+        return ("its content differs from what the renderer wrote (the seal does not match: edited "
+                "afterwards?); `render --resume` writes it again from the script")
+    return ""
 
 
 def object_poses(objects: list, n: int, source: str = MANIFEST) -> dict[int, np.ndarray]:

@@ -14,6 +14,7 @@ import json
 import math
 
 from .errors import ContractError
+from .manifest_sections import inside
 
 
 def _is_number(v) -> bool:
@@ -75,10 +76,33 @@ def check_types(m: dict, source: str, limit: float) -> None:
     if not all(isinstance(c, str) or (isinstance(c, list) and all(isinstance(x, str) for x in c))
                for c in channels.values()):
         bad("channels", "channel names")
+    if m.get("seal") is not None and not isinstance(m["seal"], str):
+        bad("seal", "a SHA-256 string")
     if not all(isinstance(v, str) for v in (m.get("checksums") or {}).values()):
         bad("checksums", "an object of SHA-256 strings")
     noise = m.get("noise")
     if noise is not None and not (_is_number(noise.get("sigma")) and noise["sigma"] >= 0
                                   and isinstance(noise.get("seed", 0), int)):
         bad("noise", "{\"sigma\": >= 0, \"seed\": integer}")
+    _check_listed_files(m, source)
 
+
+def _check_listed_files(m: dict, source: str) -> None:
+    """The trajectories and display PNGs the manifest lists stay inside the render folder
+    (``verify`` checks each of them; the optional sections check their own files)."""
+    def bad(key: str, want: str):
+        raise ContractError(f"'{key}' must be {want}", source)
+
+    views = m["views"]
+    n = m["frames"]
+    traj = m.get("trajectories")
+    if traj is not None and not (isinstance(traj, dict) and all(
+            isinstance(traj.get(k) or {}, dict) and all(inside(p) for p in (traj.get(k) or {}).values())
+            for k in ("tum", "kitti")) and (traj.get("ego") is None or inside(traj["ego"]))):
+        bad("trajectories", "paths inside the render folder")
+    display = m.get("display")
+    files = display.get("files") if isinstance(display, dict) else None
+    if display is not None and not (isinstance(files, dict) and all(
+            v in files and isinstance(files[v], list) and len(files[v]) == n and all(inside(p) for p in files[v])
+            for v in views)):
+        bad("display.files", f"for each view, {n} paths inside the render folder")

@@ -282,7 +282,7 @@ class ImuSection:
         r = _Reader("imu", d, source, limit)
         files = r.d.get("files")
         if not (isinstance(files, dict) and all(inside(files.get(k)) for k in IMU_STREAMS)
-                and (files.get("yaml") is None or inside(files["yaml"]))):
+                and all(inside(p) for p in files.values())):
             raise ContractError("'imu.files' must be paths inside the render folder (noisy, ideal, groundtruth)",
                                 source)
         T = r.d.get("T_cam_imu", np.eye(4).tolist())

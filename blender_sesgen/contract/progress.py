@@ -69,17 +69,20 @@ class Progress:
     ``update(n=1, detail=None, **fields)`` counts ``n`` more units done; ``detail`` is a
     short text shown after the counters (plain/bar) and ``fields`` go into the json event.
     ``note(message)`` reports something that must not be lost (a failed step). Leaving the
-    ``with`` block ends the task (status ``error`` or ``interrupted`` on an exception)."""
+    ``with`` block ends the task (status ``error`` or ``interrupted`` on an exception).
+    ``every_line``: in plain mode, a line for every update (work of few, long units)."""
 
     def __init__(self, total: int, task: str = "", *, mode: str = "auto", stream=None,
                  callback: Optional[Callable[[dict], None]] = None, unit: str = "frame",
-                 min_interval_s: float = 0.1, clock: Callable[[], float] = time.monotonic):
+                 min_interval_s: float = 0.1, clock: Callable[[], float] = time.monotonic,
+                 every_line: bool = False):
         self.total = max(int(total), 0)
         self.task, self.unit = task, unit
         self.stream = stream if stream is not None else sys.stderr
         self.mode = resolve_mode(mode, self.stream)
         self.callback = callback
         self.min_interval_s = float(min_interval_s)
+        self.every_line = bool(every_line)      # plain: a line for every update (one per task)
         self.clock = clock
         self.done = 0
         self.detail: Optional[str] = None
@@ -128,7 +131,7 @@ class Progress:
             self._draw_bar(force=self.done >= self.total)
         elif self.mode == "plain":
             frac = self._fraction()
-            if (self.done >= self.total or frac - self._last_line_frac >= PLAIN_STEP - 1e-12
+            if (self.every_line or self.done >= self.total or frac - self._last_line_frac >= PLAIN_STEP - 1e-12
                     or self._now - self._last_line_t >= PLAIN_INTERVAL_S):
                 self._last_line_frac, self._last_line_t = frac, self._now
                 self._line(self._plain_text())

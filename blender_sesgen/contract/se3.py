@@ -232,10 +232,17 @@ def interpolate_pose(T_world_a: np.ndarray, T_world_b: np.ndarray, s: float) -> 
     R = R_a @ exp(s * log(R_a^T R_b)), t = (1 - s) t_a + s t_b.
 
     s = 0 gives T_a, s = 1 gives T_b (to rounding). The rotation from a to b must be < 180 deg.
-    See also :func:`interpolate_twist`.
+    ``s`` may be an array of fractions: (len(s), 4, 4). See also :func:`interpolate_twist`.
     """
     T_a, T_b = np.asarray(T_world_a, dtype=float), np.asarray(T_world_b, dtype=float)
     w = so3_log(T_a[:3, :3].T @ T_b[:3, :3])
+    if np.ndim(s):            # many fractions at once: (n, 4, 4)
+        s = np.asarray(s, dtype=float)
+        out = np.zeros(s.shape + (4, 4))
+        out[..., :3, :3] = T_a[:3, :3] @ so3_exp(s[..., None] * w)
+        out[..., :3, 3] = (1.0 - s)[..., None] * T_a[:3, 3] + s[..., None] * T_b[:3, 3]
+        out[..., 3, 3] = 1.0
+        return out
     R = T_a[:3, :3] @ so3_exp(float(s) * w)
     return se3(R, (1.0 - float(s)) * T_a[:3, 3] + float(s) * T_b[:3, 3])
 

@@ -19,6 +19,8 @@ import numpy as np
 from .errors import ContractError
 
 DEFAULT_FPS = 25.0
+TIME_LIMIT_S = 1e12          # seconds: a Unix time (1.7e9) fits, 1e308 does not (the manifest's limit)
+MAX_IMU_SAMPLES = 2_000_000  # 2.8 h at 200 Hz: its three CSV streams are built in memory
 # what every command's --frames help says (the one convention, above)
 FRAMES_HELP = "frames A..B-1 (A:B is half-open, a Python slice; also A:, :B, or K for frame K alone)"
 
@@ -26,6 +28,26 @@ FRAMES_HELP = "frames A..B-1 (A:B is half-open, a Python slice; also A:, :B, or 
 def frame_timestamps(n: int, fps: float = DEFAULT_FPS, t0_s: float = 0.0) -> np.ndarray:
     """(n,) seconds of frames 0..n-1."""
     return t0_s + np.arange(int(n), dtype=float) / float(fps)
+
+
+def stream_problem(n_frames: int, rate_hz: float, start_s: float = 0.0,
+                   imu_rate_hz: Optional[float] = None) -> str:
+    """'' when a sequence of ``n_frames`` at ``rate_hz`` from ``start_s`` stays within the
+    limits, else what exceeds one: a timestamp beyond :data:`TIME_LIMIT_S`, or an IMU stream
+    (``imu_rate_hz``, sampled over the frames' time span) of more than :data:`MAX_IMU_SAMPLES`
+    samples. Asked before anything is allocated (the script's check, the render's options)."""
+    span_s = (int(n_frames) - 1) / float(rate_hz)
+    last_s = float(start_s) + span_s
+    if not (abs(float(start_s)) <= TIME_LIMIT_S and abs(last_s) <= TIME_LIMIT_S):
+        return (f"the last frame would be stamped {last_s:.4g} s ({n_frames} frames at {rate_hz:g} Hz from "
+                f"{float(start_s):g} s), beyond the {TIME_LIMIT_S:g} s a timestamp may reach")
+    if imu_rate_hz:
+        samples = int(np.floor(span_s * float(imu_rate_hz) + 1e-6)) + 1
+        if samples > MAX_IMU_SAMPLES:
+            return (f"the IMU stream would hold {samples:.4g} samples ({span_s:.4g} s of {n_frames} frames at "
+                    f"{rate_hz:g} Hz, sampled at {imu_rate_hz:g} Hz), more than the limit of {MAX_IMU_SAMPLES} "
+                    "samples")
+    return ""
 
 
 @dataclass(frozen=True)

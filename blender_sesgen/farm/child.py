@@ -51,18 +51,26 @@ def bind_to_parent(parent_pid: int) -> str:
 
 
 def restore_interrupts() -> None:
-    """SIGINT and SIGTERM unblocked, with Python's default handling (see the module docstring)."""
-    if hasattr(signal, "pthread_sigmask"):
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
+    """SIGINT and SIGTERM back to Python's default handling, then unblocked (see the module
+    docstring). In that order: a SIGINT sent while this process started (the farm cancelled
+    its task at once) waited, blocked; unblocked, it meets Python's handler and stops the
+    render as a Ctrl-C does, instead of an ignoring disposition that would drop it."""
     signal.signal(signal.SIGINT, signal.default_int_handler)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
 
 
 def main(argv=None) -> int:
-    parent = os.environ.get(PARENT_ENV)
-    bind_to_parent(int(parent) if parent else os.getppid())
-    restore_interrupts()
-    from ..cli import main as cli_main
+    from ..contract.cli import EXIT_INTERRUPTED
+    try:
+        parent = os.environ.get(PARENT_ENV)
+        bind_to_parent(int(parent) if parent else os.getppid())
+        restore_interrupts()
+        from ..cli import main as cli_main
+    except KeyboardInterrupt:   # interrupted before the command began: nothing was written
+        print("interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     return cli_main(sys.argv[1:] if argv is None else argv)
 
 

@@ -12,12 +12,14 @@ worker) the render gets SIGINT and stops between views like a Ctrl-C'd render.
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from collections import deque
 from pathlib import Path
@@ -43,9 +45,9 @@ def run_chunk(argv: list[str], key: str, out: str, report: Optional[Callable[[di
     frames_done = 0
     proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                             text=True, errors="replace", env=proc_env)
-    send({"kind": "started", "key": key, "host": host, "pid": proc.pid})
     interrupted = False
-    try:
+    try:   # at once: a cancel from here on reaches the render (before, there is none to stop)
+        send({"kind": "started", "key": key, "host": host, "pid": proc.pid})
         for line in proc.stdout:
             event = _event(line)
             if event is None:
@@ -111,21 +113,48 @@ def task(args: list[str], key: str, out: str, inbox=None, scene: Optional[str] =
     if inbox is not None:
         def report(msg: dict) -> None:
             inbox.put.remote(msg)
-    return run_chunk([sys.executable, "-m", "blender_sesgen.farm.child", *args], key, out, report)
+    with _cancellable():
+        return run_chunk([sys.executable, "-m", "blender_sesgen.farm.child", *args], key, out, report)
+
+
+@contextlib.contextmanager
+def _cancellable():
+    """Ray cancels a running task with ``_thread.interrupt_main()``, which does nothing while
+    SIGINT is ignored -- as it is in every worker of a Ray started by a process that ignores
+    it (a farm or a test run started in the background: a shell's ``&`` ignores SIGINT). The
+    cancel then never reached the render, which rendered to its end and exited 0. So while
+    the task runs, SIGINT has Python's handler (the worker still blocks the real signal:
+    only Ray's cancel raises KeyboardInterrupt here)."""
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGINT) not in (signal.SIG_IGN, signal.SIG_DFL, None):
+        yield
+        return
+    saved = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, saved)
 
 
 def verify_task(out: str) -> dict:
     """The Ray task run when every chunk of a folder has ended: the completion logs taken
     into the manifest, then every frame recorded complete checked against its checksum
-    (``verify --quick``); bad frames are recorded as not rendered. Returns the frames still
-    to render and what was wrong."""
+    (``verify --quick``), and the folder's own files (the manifest's seal, scene.ses, the
+    trajectories...); bad frames are recorded as not rendered. Returns the frames still to
+    render and what was wrong (``bad`` per frame, ``folder`` for the folder's own files)."""
+    from ..contract.errors import ContractError
     from ..contract.manifest import Manifest
     from ..output import OutputFolder
     folder = OutputFolder(Path(out))
-    folder.consolidate()
+    try:
+        folder.consolidate()
+    except ContractError as e:   # a manifest edited since (its seal): a chunk's --resume writes it again
+        return {"out": out, "missing": [], "bad": [], "folder": [str(e)], "frames": 0}
     bad = folder.verify(full=False)
-    if bad:
-        folder.mark_incomplete(sorted({k for k, _ in bad}))
+    frames = sorted({k for k, _ in bad if k is not None})
+    if frames:
+        folder.mark_incomplete(frames)
     m = Manifest.read(Path(out))
     missing = [k for k in range(m.frames) if not m.frames_complete[k]]
-    return {"out": out, "missing": missing, "bad": [[k, why] for k, why in bad], "frames": m.frames}
+    return {"out": out, "missing": missing, "bad": [[k, why] for k, why in bad if k is not None],
+            "folder": [why for k, why in bad if k is None], "frames": m.frames}

@@ -21,7 +21,7 @@ from ..errors import ScriptError, SesgenError
 
 # render options the farm sets itself (per chunk) or that make no sense for a farm
 CONTROLLED = {"scene", "out", "frames", "resume", "force", "contact_sheet", "progress", "quiet", "verbose",
-              "threads", "help"}
+              "threads", "reuse_exr", "help"}
 DEFAULT_CHUNK = 10
 DEFAULT_RETRIES = 3
 
@@ -75,30 +75,44 @@ def render_options(args: argparse.Namespace):
 
 def prepare(args: argparse.Namespace) -> tuple[Path, list]:
     """ROOT and the farm's scenes, each with its plan and pending frames or its user error."""
-    from ..output import OutputFolder
-    from ..plan import RenderPlan
     from .work import FarmScene, find_scripts, unique_names
     root = Path(args.out).absolute()
     if root.exists() and not root.is_dir():
         raise SesgenError(f"--out {args.out}: exists and is not a folder")
+    from ..dataset import read_index
+    index = read_index(root)       # a damaged index: refused now, not after the renders
+    if index is not None and index.get("kind") != "renders":
+        raise SesgenError(f"--out {args.out}: holds the scripts index of `generate`; render into another folder")
     options = render_options(args)
     found = find_scripts(args.scenes)
-    scenes = []
-    for (script, meta), name in zip(found, unique_names(s for s, _ in found)):
-        sc = FarmScene(name=name, script=script, out=root / name, meta=meta)
-        try:
-            sc.plan = RenderPlan.from_file(script, options)
-            folder = OutputFolder(sc.out)
-            folder.check(sc.plan, force=False)
-            sc.pending = folder.pending(sc.plan, resume=True)
-        except ScriptError as e:
-            sc.error = str(e)
-        except SesgenError as e:
-            sc.error = f"{script}: error: {e}" if not str(e).startswith(str(script)) else str(e)
-            if "--force" in sc.error:   # render's advice; a farm has no --force (chunks would undo each other)
-                sc.error += f" (farm: remove {sc.out} or render into another --out)"
-        scenes.append(sc)
+    scenes = [prepare_scene(FarmScene(name=name, script=script, out=root / name, meta=meta), options)
+              for (script, meta), name in zip(found, unique_names(s for s, _ in found))]
     return root, scenes
+
+
+def prepare_scene(sc, options):
+    """``sc`` (a FarmScene) with its plan and pending frames, or its user error line."""
+    from ..output import OutputFolder
+    from ..plan import RenderPlan
+    from .work import folder_problem
+    if folder_problem(sc.name):
+        sc.error = f"{sc.script}: error: {folder_problem(sc.name)}; rename the script"
+        return sc
+    try:
+        sc.plan = RenderPlan.from_file(sc.script, options)
+        folder = OutputFolder(sc.out)
+        folder.check(sc.plan, force=False)
+        if options.reuse_exr:
+            from ..reuse import check_reusable
+            check_reusable(sc.plan, options.reuse_exr)
+        sc.pending = folder.pending(sc.plan, resume=True)
+    except ScriptError as e:
+        sc.error = str(e)
+    except SesgenError as e:
+        sc.error = f"{sc.script}: error: {e}" if not str(e).startswith(str(sc.script)) else str(e)
+        if "--force" in sc.error:   # render's advice; a farm has no --force (chunks would undo each other)
+            sc.error += f" (farm: remove {sc.out} or render into another --out)"
+    return sc
 
 
 def run(args: argparse.Namespace) -> int:
@@ -152,7 +166,7 @@ def run(args: argparse.Namespace) -> int:
         farm = Farm(cluster, scenes, chunk=args.chunk, retries=args.retries, cpus_per_task=cpt,
                     gpus_per_task=args.gpus_per_task, threads=threads, forwarded=forwarded_argv(args),
                     progress_mode=progress_mode(args))
-        with _sigterm_as_interrupt():
+        with sigterm_as_interrupt():
             result = farm.run()
     finally:
         cluster.stop()
@@ -161,7 +175,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 @contextlib.contextmanager
-def _sigterm_as_interrupt():
+def sigterm_as_interrupt():
     """SIGTERM stops the farm like Ctrl-C: every render stops between views (main thread)."""
     def handler(signum, frame):
         raise KeyboardInterrupt

@@ -20,8 +20,8 @@ import sys
 from pathlib import Path
 from typing import Optional, Sequence
 
-from .. import __version__
 from ..errors import SesgenError
+from ..plan import generator_version
 
 LOCAL_OBJECT_STORE_BYTES = 128 * 1024 * 1024
 PROBE_TIMEOUT_S = 120.0
@@ -50,7 +50,7 @@ def package_root() -> Path:
 
 def _probe(probe_path: str, token: str, paths: list) -> dict:
     """Run on one node: what it sees of the farm's files and of blender_sesgen."""
-    from .. import __version__ as version   # the node's own blender_sesgen (this module is imported there)
+    version = generator_version()   # the node's own blender_sesgen (this module is imported there)
     seen = ""
     try:
         seen = Path(probe_path).read_text(encoding="utf-8")
@@ -172,9 +172,9 @@ class Cluster:
                 if r["missing"]:
                     problems.append(f"node {addr} ({r['host']}) cannot see {len(r['missing'])} script(s), "
                                     f"e.g. {r['missing'][0]}")
-                if r["version"] != __version__:
+                if r["version"] != generator_version():
                     problems.append(f"node {addr} ({r['host']}) runs blender_sesgen {r['version']}, "
-                                    f"this driver {__version__}")
+                                    f"this driver {generator_version()}")
         finally:
             probe.unlink(missing_ok=True)
         if problems:

@@ -255,19 +255,21 @@ class Farm:
         if done_now != st.counted:
             self.bar.update(done_now - st.counted)
             st.counted = done_now
-        if not missing:
+        folder = list(res.get("folder") or [])
+        if not missing and not folder:
             st.complete = True
             return
-        bad = "; ".join(why for _, why in res["bad"][:3])
+        bad = "; ".join([why for _, why in res["bad"][:3]] + folder[:3])
         if st.repairs >= self.retries:
-            self._fail(st, f"{st.scene.name}: {len(missing)} frame(s) still missing after {self.retries} "
+            self._fail(st, f"{st.scene.name}: {len(missing)} frame(s) still missing or bad after {self.retries} "
                            f"retries{': ' + bad if bad else ''}")
             return
         st.repairs += 1
         self.retried += 1
         self.bar.note(f"farm: {st.scene.name}: {len(missing)} frame(s) missing or bad after its chunks"
-                      f"{' (' + bad + ')' if bad else ''}; rendering them again")
-        ranges = frame_ranges(missing, self.chunk)
+                      f"{' (' + bad + ')' if bad else ''}; rendering again")
+        # a render --resume writes the folder's own files again, even with no frame to render
+        ranges = frame_ranges(missing, self.chunk) or [(0, 1)]
         st.open_chunks = len(ranges)
         for a, b in reversed(ranges):
             self.queue.appendleft(Chunk(st.scene, a, b, attempt=st.repairs))

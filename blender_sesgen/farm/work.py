@@ -31,6 +31,7 @@ class FarmScene:
     plan: object = None              # plan.RenderPlan once prepared
     pending: list = field(default_factory=list)   # frames to render
     error: Optional[str] = None      # why the scene cannot be rendered (a user error line)
+    args: list = field(default_factory=list)      # render arguments of this scene only (e.g. --reuse-exr BASE)
 
     @property
     def frames(self) -> int:
@@ -89,6 +90,19 @@ def unique_names(scripts: Iterable[Path]) -> list[str]:
     return names
 
 
+def folder_problem(name: str) -> Optional[str]:
+    """Why ``ROOT/<name>`` cannot be a scene's folder (None when it can): ``..`` leaves ROOT,
+    ``.`` is ROOT, the index's own name, a hidden name (``.x``: where state lives)."""
+    from ..dataset import INDEX
+    if name in ("", ".", ".."):
+        return f"its folder would be ROOT/{name}, {'outside ROOT' if name == '..' else 'ROOT itself'}"
+    if name == INDEX:
+        return f"its folder would be ROOT/{name}, the farm's dataset index"
+    if name.startswith("."):
+        return f"its folder would be ROOT/{name}, a hidden name"
+    return None
+
+
 def frame_ranges(frames: Iterable[int], size: int) -> list[tuple[int, int]]:
     """Half-open ranges ``(a, b)`` covering exactly ``frames``: runs of consecutive frames,
     cut every ``size`` frames counted from 0 (so a fresh scene gets the chunks
@@ -108,7 +122,7 @@ def render_args(scene: FarmScene, a: int, b: int, threads: int, forwarded: Seque
     """The render command's arguments for frames ``a:b`` of ``scene`` (the task runs them as
     ``python -m blender_sesgen.farm.child render ...`` with its own node's Python)."""
     return ["render", str(scene.script), "--out", str(scene.out), "--frames", f"{a}:{b}", "--resume",
-            "--progress", "json", "--threads", str(int(threads)), *forwarded]
+            "--progress", "json", "--threads", str(int(threads)), *forwarded, *scene.args]
 
 
 class Outcome(enum.Enum):

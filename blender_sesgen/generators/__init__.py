@@ -20,6 +20,7 @@ import hashlib
 import importlib
 import importlib.util
 import inspect
+import json
 import os
 import re
 import sys
@@ -72,12 +73,22 @@ class Generator:
         return [p.name for p in params if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
 
     def check_options(self, options: dict) -> None:
-        """SesgenError when ``options`` are not what the function takes."""
+        """SesgenError when ``options`` are not what the function takes: an unknown name, or
+        a value of another type than the parameter's default (``steps=abc`` where the
+        default is 10: a number, an int for an int, true/false for a bool, text for text)."""
+        sig = inspect.signature(self.function)
         try:
-            inspect.signature(self.function).bind(0, **options)
+            sig.bind(0, **options)
         except TypeError as e:
             takes = ", ".join(self.options()) or "no options"
             raise SesgenError(f"generator {self.name}: {e} (it takes: {takes})") from None
+        for name, value in options.items():
+            p = sig.parameters.get(name)
+            default = None if p is None else p.default
+            kinds = {bool: (bool,), int: (int,), float: (int, float), str: (str,)}.get(type(default))
+            if kinds and not (isinstance(value, kinds) and (type(default) is bool or not isinstance(value, bool))):
+                raise SesgenError(f"generator {self.name}: option {name}={json.dumps(value)}: expected "
+                                  f"{type(default).__name__} like its default {json.dumps(default)}")
 
     def __call__(self, seed: int, **options) -> str:
         return self.function(seed, **options)

@@ -3,6 +3,8 @@ written once at the start, the per-frame exposure (auto-exposure state lives in 
 manifest, so --resume continues it), and the sensor images of each frame."""
 from __future__ import annotations
 
+import hashlib
+
 from pathlib import Path
 from typing import Callable, Optional
 
@@ -65,16 +67,11 @@ def prepare_manifest(plan: SensorPlan, m, kept: Optional[dict], out: Optional[Pa
                     pass
 
 
-def write_static_files(plan: SensorPlan, out: Path, n_frames: int) -> None:
-    """The files written once per render (lens calibration and table, IMU streams) and the
-    sensor image folders."""
+def make_folders(plan: SensorPlan, out: Path) -> None:
+    """The sensor image folders (the files written once per render, lens tables and IMU
+    streams, are ``plan.static_files``: the output folder writes them with its own)."""
     if not plan.active:
         return
-    from ..contract import atomic
-    for rel, data in plan.static_files(n_frames).items():
-        path = Path(out) / rel
-        path.parent.mkdir(parents=True, exist_ok=True)
-        atomic.write_bytes(path, data)
     for kind in plan.sensor_kinds():
         for view in plan.views:
             (Path(out) / SENSOR_DIR / view / kind).mkdir(parents=True, exist_ok=True)
@@ -107,10 +104,11 @@ _CACHE: dict = {}
 
 
 def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: float, gain: float,
-                        exrs: dict, jpeg_writer: Optional[Callable] = None) -> None:
+                        exrs: dict, jpeg_writer: Optional[Callable] = None) -> dict[str, str]:
     """Run the camera chain on frame k's EXRs (``exrs[view]``: their paths) and write raw /
     RGB / JPEG images; record the exposure, gain and metered brightness of the frame in the
-    manifest ``m`` (a Manifest) and in the frame's state file."""
+    manifest ``m`` (a Manifest) and in the frame's state file. Returns {relative path:
+    SHA-256} of the images written (recorded with the frame, checked by ``verify``)."""
     from ..exr import read_exr
     from . import pipeline
     from .autoexposure import meter
@@ -121,7 +119,7 @@ def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: floa
         _CACHE[(id(plan), "fpn")] = {}
     rays, fpn = _CACHE[key], _CACHE[(id(plan), "fpn")]
     rgb_names = m.channels["rgb"][:3]
-    metered = None
+    metered, sums = None, {}
     for vi, view in enumerate(plan.views):
         ch = read_exr(exrs[view])
         lin = np.stack([ch[n] for n in rgb_names], axis=-1).astype(np.float64)
@@ -130,11 +128,15 @@ def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: floa
         camera = pipeline.Camera(plan.sensor, plan.lens_spec, rays, plan.K[0, 2], plan.K[1, 2],
                                  plan.nominal_exposure_s())
         f = pipeline.process(lin, camera, pipeline.Shot(exposure_s, gain, k, vi), fpn_cache=fpn)
-        write_png(Path(out) / plan.sensor_relpath("raw", view, k), f.raw_dn)
-        write_png(Path(out) / plan.sensor_relpath("rgb", view, k), f.rgb8)
+        written = [plan.sensor_relpath("raw", view, k), plan.sensor_relpath("rgb", view, k)]
+        write_png(Path(out) / written[0], f.raw_dn)
+        write_png(Path(out) / written[1], f.rgb8)
         if plan.sensor.jpeg_quality and jpeg_writer is not None:
-            jpeg_writer(str(Path(out) / plan.sensor_relpath("jpeg", view, k)), f.rgb8, plan.sensor.jpeg_quality)
+            written.append(plan.sensor_relpath("jpeg", view, k))
+            jpeg_writer(str(Path(out) / written[-1]), f.rgb8, plan.sensor.jpeg_quality)
+        sums.update({rel: hashlib.sha256((Path(out) / rel).read_bytes()).hexdigest() for rel in written})
     s = m.extra["sensor"]
     s["exposure_s"][k], s["gain"][k], s["metered"][k] = float(exposure_s), float(gain), metered
     from ..contract import atomic
     atomic.write_json(Path(out) / state_relpath(k), {key: s[key][k] for key in STATE_KEYS})
+    return sums

@@ -90,6 +90,10 @@ class SensorPlan:
             lens = Lens.from_K(scene.lens.model, scene.lens.coeffs, K)
         rate = t.rate_hz if t else DEFAULT_FPS
         start = t.start_s if t else 0.0
+        problem = timing_mod.stream_problem(scene.frames, rate, start, scene.imu.rate_hz if scene.imu else None)
+        if problem:   # the script was checked: an option of the render command goes beyond a limit
+            from ..errors import SesgenError
+            raise SesgenError(f"--rate {rate:g}: {problem}")
         motion = RigMotion.for_motion_kind(scene.timeline.left(), rate, start, scene.motion.kind)
         # a profile's sensor is the physical one: bin it to the render's pixels
         sensor, lens_spec = profiles.at_width(scene.sensor, scene.lens, settings.width)

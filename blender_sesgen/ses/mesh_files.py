@@ -55,10 +55,8 @@ def reference_problems(model: Path, allow_external: bool = False) -> list[str]:
     model = Path(model)
     ext = model.suffix.lower()
     try:
-        if ext == ".gltf":
-            refs = _gltf_references(model, read_bytes(model, MAX_MODEL_TEXT, "glTF file"))
-        elif ext == ".glb":
-            refs = _gltf_references(model, _glb_json(model))
+        if ext in (".gltf", ".glb"):
+            refs = _gltf_references(model, gltf_document(model))
         elif ext == ".obj":
             return _obj_problems(model, allow_external)
         else:
@@ -86,13 +84,19 @@ def _glb_json(path: Path) -> bytes:
     return data
 
 
-def _gltf_references(model: Path, data: bytes) -> list[Reference]:
+def gltf_document(model: Path) -> dict:
+    """The JSON document of a .gltf, or of a .glb's JSON chunk (ContractError if none)."""
+    data = _glb_json(model) if model.suffix.lower() == ".glb" else read_bytes(model, MAX_MODEL_TEXT, "glTF file")
     try:
         doc = json.loads(data.decode("utf-8"))
-    except (UnicodeDecodeError, ValueError) as e:
+    except (UnicodeDecodeError, ValueError, RecursionError) as e:
         raise ContractError(f"not valid glTF JSON ({e})") from None
     if not isinstance(doc, dict):
         raise ContractError("not valid glTF JSON (no top-level object)")
+    return doc
+
+
+def _gltf_references(model: Path, doc: dict) -> list[Reference]:
     refs = []
     for key, what in (("buffers", "buffer"), ("images", "image")):
         items = doc.get(key) or []

@@ -31,6 +31,7 @@ from .geometry import quad_problem
 from .grammar import OBJECT_KEYWORDS, SINGLETON_KEYWORDS
 from .lexer import decode, tokenize
 from .materials import library_material, materials, texture
+from .mesh_content import content_problems
 from .mesh_files import reference_problems
 from .. import material_library
 from ..contract import semantics
@@ -99,7 +100,8 @@ def _build(source: str, statements: list[ParsedStatement], attempted_objects: bo
     scene_kwargs = dict(
         world=environment.world(seen.get("WORLD"), check), fog=environment.fog(seen.get("FOG"), check),
         noise=environment.noise(seen.get("NOISE"), check), look=environment.look(seen.get("LOOK"), check),
-        render=environment.render(seen.get("RENDER"), check), **sensor_models(seen, rig, check))
+        render=environment.render(seen.get("RENDER"), check),
+        **sensor_models(seen, rig, check, len(moving.timeline.T_world_left)))
     if check.diags:
         return None
     return model.Scene(source=source, objects=tuple(objects), imports=tuple(imports), rig=rig, **moving._asdict(),
@@ -274,6 +276,7 @@ class _Objects:
                                 f"(use {', '.join(MESH_SUFFIXES)})")
             return None
         problems = reference_problems(path, allow_external="allow_external" in stmt.tags)
+        problems = problems or content_problems(path)
         for problem in problems:
             self.check.err(tok, f"MESH 'file' '{tok.text}': {problem}")
         if problems:

@@ -12,6 +12,7 @@ from typing import Optional
 from .. import model
 from ..contract.lens import Lens as LensModel
 from ..contract.lens import fold_problem
+from ..contract.timing import stream_problem
 from ..sensor.profiles import PROFILES, Profile
 from .checks import Checks, scalar, vec
 from .environment import _seed
@@ -100,6 +101,10 @@ def sensor(stmt: Optional[ParsedStatement], check: Checks) -> Optional[model.Sen
     jpeg = stmt.tags.get("jpeg")
     if jpeg is not None and not 1 <= jpeg.values[0] <= 100:
         check.err(jpeg.tokens[0], f"SENSOR 'jpeg' quality must lie in 1..100, got {jpeg.tokens[0].text}")
+    fill = stmt.tags.get("fill")
+    if fill is not None and not 0 <= fill.values[0] <= 1:
+        check.err(fill.tokens[0], f"SENSOR 'fill' is the pixel aperture as a fraction of the pitch (0..1), "
+                                  f"got {fill.tokens[0].text}")
     nbits = int(val("bits", model.Sensor.bits))
     black = float(val("black", 0.0))
     if black >= 2 ** nbits - 1:
@@ -168,14 +173,21 @@ def imu(stmt: Optional[ParsedStatement], check: Checks) -> Optional[model.Imu]:
                      gravity=float(scalar(stmt, "gravity", d.gravity)), seed=_seed(stmt, check))
 
 
-def sensor_models(seen: dict[str, ParsedStatement], rig: model.Rig, check: Checks) -> dict:
-    """The Scene fields of the five sensor statements, with the checks across statements."""
+def sensor_models(seen: dict[str, ParsedStatement], rig: model.Rig, check: Checks, n_frames: int = 1) -> dict:
+    """The Scene fields of the five sensor statements, with the checks across statements
+    (``n_frames``: the sequence's, which bounds the IMU stream and the timestamps)."""
     prof = _profile(seen.get("SENSOR"))
     out = dict(timing=timing(seen.get("TIMING"), check, prof.timing if prof else {}),
                lens=lens(seen.get("LENS"), check, prof.lens if prof else {}),
                sensor=sensor(seen.get("SENSOR"), check),
                autoexposure=autoexposure(seen.get("AUTOEXPOSURE"), check, prof.autoexposure if prof else {}),
                imu=imu(seen.get("IMU"), check))
+    t, i = out["timing"] or model.Timing(), out["imu"]
+    if t.rate_hz > 0 and (i is None or i.rate_hz > 0):
+        problem = stream_problem(n_frames, t.rate_hz, t.start_s, i.rate_hz if i is not None else None)
+        where = seen.get("IMU") if "IMU stream" in problem else seen.get("TIMING")
+        if problem and where is not None:
+            check.err(where.token, f"{where.keyword}: {problem}")
     lens_m, lens_stmt = out["lens"], seen.get("LENS")
     if lens_m is not None and lens_m.model != "pinhole":
         tag = lens_stmt.tags["brown" if lens_m.model == "brown" else "fisheye"]
@@ -189,4 +201,15 @@ def sensor_models(seen: dict[str, ParsedStatement], rig: model.Rig, check: Check
             check.err(ae.token, "AUTOEXPOSURE needs a SENSOR statement (it drives the sensor's exposure and gain)")
         if t is None or t.exposure_s <= 0:
             check.err(ae.token, "AUTOEXPOSURE needs TIMING with an exposure > 0 (its starting exposure time)")
+        a = out["autoexposure"]
+        if a is not None and t is not None and t.rate_hz > 0:
+            longest = 1.0 / t.rate_hz - t.readout_s    # an exposure ends before the next frame's readout
+            for name, value in (("max_exposure", a.max_exposure_s), ("min_exposure", a.min_exposure_s)):
+                if name in ae.tags and value > longest * (1 + 1e-9):
+                    check.err(ae.tags[name].tokens[0], f"AUTOEXPOSURE '{name}' ({value:g} s) is longer than the frame "
+                                                       f"period less the readout (1 / rate - readout = {longest:g} s)")
+            if a.max_exposure_s > 0 and a.min_exposure_s > a.max_exposure_s:
+                tag = ae.tags.get("min_exposure") or ae.tags["max_exposure"]
+                check.err(tag.tokens[0], f"AUTOEXPOSURE 'min_exposure' ({a.min_exposure_s:g} s) is longer than "
+                                         f"'max_exposure' ({a.max_exposure_s:g} s)")
     return out

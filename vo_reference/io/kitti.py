@@ -50,7 +50,8 @@ def looks_like_kitti(root) -> bool:
 
 def read_kitti_calib(path) -> dict[str, np.ndarray]:
     """``calib.txt`` -> {'P0': (3, 4), 'P1': ..., 'Tr': ...}. Lines are ``NAME: 12 numbers``
-    or bare 12-number lines, named P0, P1, P2, P3, Tr in order. Every number must be finite
+    or bare 12-number lines, named P0, P1, P2, P3, Tr in order; a name given twice is an
+    error (which one is meant cannot be known). Every number must be finite
     (an error names its line) and each ``Pn`` a rectified projection matrix K [I | t] whose
     K is a camera matrix (``contract.camera.K_problem``)."""
     path = Path(path)
@@ -59,6 +60,7 @@ def read_kitti_calib(path) -> dict[str, np.ndarray]:
     with as_vo_error():
         text = read_text(path, what="calibration file", strict=False)
     out: dict[str, np.ndarray] = {}
+    first_line: dict[str, int] = {}
     bare_names = iter(("P0", "P1", "P2", "P3", "Tr"))
     for lineno, line in enumerate(re.split(r"\r\n|\r|\n", text), 1):
         s = line.strip()
@@ -80,7 +82,10 @@ def read_kitti_calib(path) -> dict[str, np.ndarray]:
             if name.startswith("P") and K_problem(P[:, :3], LIMIT):
                 raise VoError(f"{path}:{lineno}: {name} is not a camera projection matrix K [I | t] "
                               f"({K_problem(P[:, :3], LIMIT)})")
-            out[name] = P
+            if name in first_line:
+                raise VoError(f"{path}:{lineno}: {name} is given twice (first on line {first_line[name]}); "
+                              "keep the one that is meant")
+            out[name], first_line[name] = P, lineno
         elif ":" not in s:
             raise VoError(f"{path}:{lineno}: expected 12 numbers, got {len(vals)}")
     if "P0" not in out and "P2" not in out:

@@ -94,10 +94,11 @@ class RenderSequence(Sequence):
         return {"format": FORMAT, "scene_sha256": self.info.scene_sha256}
 
     def frame_complete(self, k: int) -> bool:
-        """True when frame k is recorded complete and its EXR files exist for every view."""
+        """True when frame k is recorded complete and every file the manifest lists for it
+        (EXRs, display PNGs, sensor images) exists."""
         if not 0 <= int(k) < self.num_frames or not self.info.frames_complete[int(k)]:
             return False
-        return all((self.root / self._files[v][int(k)]).is_file() for v in self.views)
+        return all((self.root / rel).is_file() for rel in self.info.frame_files(int(k)))
 
     def _channels(self, k: int, view: str) -> dict:
         key = (int(k), view)
@@ -156,13 +157,18 @@ class RenderSequence(Sequence):
 
     def display_path(self, k: int, view: str = "left") -> Path | None:
         """The display-referred 8-bit PNG of frame k (manifest ``display.files``), or None
-        when the render has none (renders made before it existed)."""
+        when the render has none (``gt`` renders, the sensor path, renders made before it
+        existed). A PNG the manifest lists but the folder lacks is an error: no other image
+        stands in for it."""
         check_frame_view(self, k, view)
         files = ((self.manifest.get("display") or {}).get("files") or {}).get(view)
-        if not isinstance(files, list) or len(files) != self.num_frames or not files[int(k)]:
+        if not files:
             return None
         path = self.root / files[int(k)]
-        return path if path.is_file() else None
+        if not path.is_file():
+            raise VoError(f"{path}: missing (the manifest lists it as frame {k}'s {view} image); "
+                          "run `python -m blender_sesgen verify` on the folder and render again with --resume")
+        return path
 
     def image_rgb(self, k: int, view: str = "left") -> np.ndarray:
         """uint8 (H, W, 3): the camera's image — the sensor's demosaiced RGB where the render

@@ -10,16 +10,27 @@ slot from ``opts.sequence`` (``--sequence``) and returns the sequence's folder, 
 ``export.json`` then goes (otherwise it goes into ``out``).
 
 Common rules: frames are renumbered from 0 in the order of ``opts.frames`` (the source
-frame of each output frame is recorded in ``export.json``); an export is built in a
-temporary folder beside its final place (OUT, or the sequence's slot in a tree) and renamed
-into place at the end: a failure leaves nothing, an earlier export is replaced whole, a
-non-empty folder that is not an export of ours is refused; 8-bit images carry the noise of
+frame of each output frame is recorded in ``export.json``); 8-bit images carry the noise of
 ``opts.noise`` (sigma, seed), drawn per source frame, view and kind so that a frame's noise
 does not depend on the exported range.
+
+Every export is a transaction (``contract.atomic.Transaction``), here for every layout: the
+exporter writes into a stage that mirrors OUT, never into OUT; then what it staged becomes
+visible at once -- OUT whole for a one-folder layout; in a tree, its *units*, every staged
+folder at the slot's depth and every file above it (:func:`staged_units`: kitti-odometry's
+``sequences/NN`` with ``poses/NN.txt``, SceneFlow's four ``<kind>/<slot>`` folders). A
+failure or Ctrl-C leaves the earlier export or nothing, never a mix or a temporary folder
+(a ``kill -9`` leaves one that the next export into OUT completes or removes). A place is
+replaced only if it is empty or holds what an earlier export listed in its ``export.json``
+(``owns``: slot, units, files): an export never deletes anything that is not its own. A
+full disk is one line (exit 1), the stage removed.
 """
 from __future__ import annotations
 
 import importlib
+import json
+import os
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -28,6 +39,7 @@ import numpy as np
 
 from blender_sesgen.contract import atomic
 from blender_sesgen.contract import rig
+from blender_sesgen.contract.cli import SYSTEM_ERRNOS
 from blender_sesgen.contract.timing import frame_range
 from blender_sesgen.contract.progress import MODES as PROGRESS_MODES
 from blender_sesgen.contract.progress import Progress
@@ -159,8 +171,6 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
     fn = get_exporter(target)
     if sequence is not None and not getattr(fn, "takes_sequence", False):
         raise VoError(f"--sequence does not apply to the {target} layout")
-    if out.resolve() == render_dir.resolve() or (render_dir / "exr").resolve() in (out.resolve(), *out.resolve().parents):
-        raise VoError(f"{out}: refusing to export into the render folder itself (choose another OUT)")
     rng = frames if isinstance(frames, range) else parse_frames(frames, seq.num_frames)
     require_complete(seq, rng)
     lens = seq.lens
@@ -180,18 +190,121 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
             **{"format": None, "scene_sha256": None, **seq.provenance()}}
     if opts.undistort:   # what the pinhole camera of the export is
         info["undistorted"] = {"K": np.asarray(seq.K).tolist(), "lens": lens.to_json()}
-    if getattr(fn, "takes_sequence", False):  # a dataset tree: the target stages its own slot
-        out.mkdir(parents=True, exist_ok=True)
-        where = Path(fn(seq, out, opts) or out)
-        atomic.write_json(where / "export.json", info)
-        return where
-    # one folder: written beside OUT and renamed onto it at the end, so a failure (or Ctrl-C)
-    # leaves no partial export and an earlier export stays until the new one replaces it
-    check_replaceable(out)
-    with atomic.replacing_folder(out) as staging:
-        fn(seq, staging, opts)
-        atomic.write_json(staging / "export.json", info)
-    return out
+    tree = bool(getattr(fn, "takes_sequence", False))
+    _refuse_overlap(render_dir, out, tree)
+    # the export is staged in a transaction (contract.atomic) and made visible at once
+    with _disk_errors(out), atomic.transaction(out) as tx:
+        if not tree:   # OUT is replaced whole: say so before the work, not after it
+            _check_ours(out, ".", ".", out, render_dir)
+        where = Path(fn(seq, tx.stage, opts) or tx.stage) if tree else (fn(seq, tx.stage, opts), tx.stage)[1]
+        slot = _relative(where, tx.stage)
+        units = staged_units(tx.stage, slot)
+        files = {_relative(p, tx.stage) for u in units for p in _files_under(atomic.unit_path(tx.stage, u))}
+        files.add(_relative(where / EXPORT_JSON, tx.stage))
+        info["owns"] = {"slot": slot, "units": units, "files": sorted(files)}
+        atomic.write_json(where / EXPORT_JSON, info)
+        tx.commit(units, last=slot, check=lambda unit, dest: _check_ours(out, slot, unit, dest, render_dir))
+    return atomic.unit_path(out, slot)
+
+
+EXPORT_JSON = "export.json"
+
+
+def _relative(path: Path, root: Path) -> str:
+    rel = Path(os.path.abspath(path)).relative_to(os.path.abspath(root)).as_posix()
+    return rel if rel not in ("", ".") else "."
+
+
+def _files_under(path: Path):
+    """Every file (or symbolic link) at or under ``path``."""
+    if path.is_symlink() or not path.is_dir():
+        yield path
+        return
+    for dirpath, dirnames, filenames in os.walk(path):
+        for name in filenames + [d for d in dirnames if os.path.islink(os.path.join(dirpath, d))]:
+            yield Path(dirpath) / name
+
+
+def staged_units(stage: Path, slot: str) -> list[str]:
+    """What an export replaces whole, relative to OUT: OUT itself for a one-folder layout
+    (slot ``.``); in a tree, every staged folder at the slot's depth and every staged file
+    above it -- ``dataset/sequences/00`` and ``dataset/poses/00.txt`` for kitti-odometry,
+    ``<kind>/TRAIN/A/0000`` for each of SceneFlow's four kinds -- so that the folders they
+    share with other sequences (``dataset/``, ``poses/``) are never replaced."""
+    depth = 0 if slot == "." else len(slot.split("/"))
+    if depth == 0:
+        return ["."]
+    units, level = [], [(stage, "")]
+    for d in range(1, depth + 1):
+        deeper = []
+        for folder, rel in level:
+            for entry in sorted(os.scandir(folder), key=lambda e: e.name):
+                name = f"{rel}/{entry.name}" if rel else entry.name
+                if entry.is_dir(follow_symlinks=False) and d < depth:
+                    deeper.append((Path(entry.path), name))
+                else:
+                    units.append(name)
+        level = deeper
+    return units
+
+
+def _refuse_overlap(render_dir: Path, out: Path, tree: bool) -> None:
+    """OUT may not lie in the render folder; a one-folder export (OUT replaced whole) may not
+    hold the render either (a tree export may: only its slot is replaced)."""
+    src, dst = render_dir.resolve(), out.resolve()
+    if dst == src or src in dst.parents:
+        raise VoError(f"{out}: refusing to export into the render folder itself (choose another OUT)")
+    if not tree and dst in src.parents:
+        raise VoError(f"{out}: holds the render folder {render_dir}, and an export replaces OUT whole; "
+                      "choose another OUT")
+
+
+def _check_ours(out: Path, slot: str, unit: str, dest: Path, render_dir: Path) -> None:
+    """Refuse to replace ``dest`` (the place of ``unit``) unless it is empty or an earlier
+    export of ours wrote every file in it (the ``owns`` of its ``export.json``, at the same
+    slot); an export never deletes anything else -- real data, the user's notes, a render.
+    (An ``export.json`` written before exports listed their files vouches for its slot,
+    unless a render folder lies inside.)"""
+    if not os.path.lexists(dest):
+        return
+    src = render_dir.resolve()
+    if not dest.is_symlink() and dest.resolve() in (src, *src.parents):
+        raise VoError(f"{dest}: holds the render folder {render_dir}, and the export would replace it; "
+                      "choose another OUT")
+    if dest.is_dir() and not dest.is_symlink() and not any(dest.iterdir()):
+        return
+    record = atomic.unit_path(out, slot) / EXPORT_JSON
+    fix = "move it away, or choose another OUT or --sequence"
+    try:
+        info = json.loads(record.read_text(encoding="utf-8")) if record.is_file() else None
+    except (OSError, ValueError):
+        info = None
+    if not isinstance(info, dict):
+        raise VoError(f"{dest}: exists and is not an export of ours (no readable {EXPORT_JSON} in "
+                      f"{record.parent}); {fix}")
+    owns = info.get("owns")
+    listed = set(owns.get("files") or []) | {_relative(record, out)} if isinstance(owns, dict) else None
+    if listed is not None and unit not in (owns.get("units") or []):
+        raise VoError(f"{dest}: not written by the export recorded in {record}; {fix}")
+    for path in _files_under(dest):
+        rel = _relative(path, out)
+        if (rel not in listed) if listed is not None else path.name == "manifest.json":
+            raise VoError(f"{out}: holds {rel}, which no export of ours wrote (an export never deletes what "
+                          f"is not its own); {fix}")
+
+
+@contextmanager
+def _disk_errors(out: Path):
+    """A write that fails for want of space (or rights) is one line naming the file: the
+    transaction has removed what it had staged, OUT is as it was."""
+    try:
+        yield
+    except OSError as e:
+        if e.errno not in SYSTEM_ERRNOS:
+            raise
+        where = f" ({e.filename})" if e.filename else ""
+        raise OSError(e.errno, f"{e.strerror}{where}; the export was abandoned, {out} is as it was",
+                      f"export to {out}") from None
 
 
 def _camera_of_the_layout(seq, target: str, fn: Callable, undistort: bool):
@@ -242,8 +355,9 @@ def pop_number(extra: dict, key: str, kind: type = float, default=None, what: st
 
 
 def check_replaceable(folder: Path) -> None:
-    """A sequence folder an export may replace: absent, empty, or written by an export
-    (it has ``export.json``). Anything else -- real data, say -- is never replaced."""
+    """VoError unless ``folder`` is absent, empty, or holds an ``export.json``. Exporters
+    write into the driver's stage, where this always holds; what decides whether the real
+    place may be replaced is the driver's check at commit (:func:`export`)."""
     folder = Path(folder)
     if folder.exists() and (not folder.is_dir()
                             or (any(folder.iterdir()) and not (folder / "export.json").is_file())):
@@ -253,7 +367,8 @@ def check_replaceable(folder: Path) -> None:
 
 def sequence_folder(out: Path, sequence: str | None, default: str | None = None, check: bool = True) -> Path:
     """``OUT/<sequence>`` (``--sequence``: a relative path without '..'; ``default`` when not
-    given; ``OUT`` itself when both are None), checked with :func:`check_replaceable`."""
+    given; ``OUT`` itself when both are None), checked with :func:`check_replaceable` (within
+    the stage: see there)."""
     rel = sequence if sequence is not None else default
     folder = Path(out).resolve()
     if rel is not None:

@@ -16,13 +16,13 @@ and image_1 ... Folder 'poses' ... NN.txt"), so that the devkit, pykitti
     OUT/dataset/poses/NN.txt                      inv(T_0)·T_k of the left camera, 12 numbers a line
 
 ``--sequence NN`` (default 00) names the slot, so several renders go into one dataset; the
-other sequences are not touched. The sequence folder is built under a temporary name and
-renamed into place at the end (an interrupted export leaves the old NN, or none); an
-existing ``NN`` that is not an export of ours (no ``export.json``) is never replaced.
+other sequences are not touched. The slot -- ``sequences/NN`` and ``poses/NN.txt`` -- is
+replaced as one transaction by the export driver (``exports.export``): an interrupted
+export leaves the old NN, or none, never images of one run with poses of another; an
+``NN`` that is not an export of ours is never replaced.
 """
 from __future__ import annotations
 
-import os
 import re
 from pathlib import Path
 
@@ -32,7 +32,7 @@ from blender_sesgen.contract.trajectory_files import format_kitti, format_times
 
 from ..errors import VoError
 from ..io.files import write_png_rgb
-from .exports import ExportOptions, calib_text, check_replaceable, image_gray, image_rgb, progress_bar
+from .exports import ExportOptions, calib_text, image_gray, image_rgb, progress_bar
 
 __all__ = ["export_kitti_odometry", "export_kitti_folder", "sequence_name"]
 
@@ -77,17 +77,8 @@ def export_kitti_odometry(seq, out: Path, opts: ExportOptions) -> Path:
     nn = sequence_name(opts.sequence)
     dataset = Path(out) / "dataset"
     final = dataset / "sequences" / nn
-    check_replaceable(final)
-    poses = dataset / "poses" / f"{nn}.txt"
-    staged_poses = atomic.temp_path(poses)
-    try:
-        with atomic.replacing_folder(final) as tmp:
-            frames = write_sequence_folder(seq, tmp, opts, f"kitti-odometry {nn}")
-            atomic.write_text(staged_poses, relative_poses_text(seq, frames))
-        os.replace(staged_poses, poses)
-    finally:
-        if staged_poses.exists():
-            staged_poses.unlink()
+    frames = write_sequence_folder(seq, final, opts, f"kitti-odometry {nn}")
+    atomic.write_text(dataset / "poses" / f"{nn}.txt", relative_poses_text(seq, frames))
     return final
 
 

@@ -19,7 +19,9 @@ from .paper import StepResult
 
 
 def sgbm_disparity(left: np.ndarray, right: np.ndarray, num_disp: int = 128, block: int = 5) -> np.ndarray:
-    """Left disparity (float px, <= 0 invalid) by OpenCV's semi-global block matching."""
+    """Left disparity (float px, <= 0 invalid) by OpenCV's semi-global block matching. The
+    range is at most half the image width (SGBM fails on an image narrower than its range)."""
+    num_disp = max(16, min(int(num_disp), left.shape[1] // 2 // 16 * 16))
     sgbm = cv2.StereoSGBM_create(minDisparity=0, numDisparities=num_disp, blockSize=block,
                                  P1=8 * block * block, P2=32 * block * block, disp12MaxDiff=1,
                                  uniquenessRatio=10, speckleWindowSize=100, speckleRange=2,

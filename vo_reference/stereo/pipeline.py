@@ -77,9 +77,15 @@ def frame_span(frames, num_frames: int) -> tuple[int, int]:
 
 
 def check_stereo(seq) -> None:
-    """VoError unless ``seq`` is a stereo sequence (left and right views, baseline > 0)."""
-    if "right" not in seq.views or seq.baseline_m <= 0:
-        raise VoError("stereo VO needs a stereo sequence (left and right views, baseline > 0)")
+    """VoError unless ``seq`` is a stereo sequence (left and right views, baseline > 0); a
+    negative baseline -- a right camera whose calibration puts it to the left -- is named."""
+    where = f"{seq.root}: " if getattr(seq, "root", None) else ""
+    if "right" not in seq.views or seq.baseline_m == 0:
+        raise VoError(f"{where}stereo VO needs a stereo sequence (left and right views, baseline > 0)")
+    if seq.baseline_m < 0:
+        raise VoError(f"{where}the calibration puts the right camera {-seq.baseline_m:g} m to the left of the left "
+                      "one (a negative baseline: in KITTI's calib.txt the right camera's P[0,3] = -fx * B is "
+                      "negative); its sign is wrong, or the left and right images are swapped")
 
 
 def _ids(seq, k: int):

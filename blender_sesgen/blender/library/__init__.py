@@ -16,11 +16,11 @@ from __future__ import annotations
 
 from typing import Callable
 
-import bpy
 
 from ... import material_library
 from ...model import ImageMaps, Material
 from .. import compat
+from ..datablocks import load_image
 from . import built, interior, metal_glass, nature
 from .graph import Ctx, G, Surface, box_uv
 
@@ -82,15 +82,22 @@ def _grime(g: G, ctx: Ctx, colour, roughness, amount: float):
     return g.cmix(colour, dirty, mask), g.lerp(roughness, 0.95, g.mul(mask, 0.6))
 
 
+COLOUR_NODE = "sesgen_colour"
+
+
 def build_shader(nt, m: Material, colour, *, fog_mix=None):
     """The library material ``m`` (its ``library`` params) in node tree ``nt``; returns the
-    output shader socket. ``colour``: the main albedo (material colour times object colour)."""
+    output shader socket. ``colour``: the main albedo (material colour times object colour),
+    held by the one RGB node named ``COLOUR_NODE`` (``set_colour`` changes it in a copy)."""
     g = G(nt)
     lib = m.library
     entry = material_library.entry(lib.name)
     p, n, rand = _coordinates(g, lib.scale)
     uv, _, _ = box_uv(g, p, n)
-    ctx = Ctx(g=g, p=p, uv=uv, n=n, rand=rand, colour=tuple(colour), roughness=float(m.roughness),
+    rgb = g.node("ShaderNodeRGB")
+    rgb.name = COLOUR_NODE
+    set_colour(nt, colour)
+    ctx = Ctx(g=g, p=p, uv=uv, n=n, rand=rand, colour=rgb.outputs[0], roughness=float(m.roughness),
               metallic=float(m.metallic), wear=float(lib.wear), entry=entry)
     s = RECIPES[entry.name](ctx)
     col = _variation(g, s.colour, rand, lib.variation)
@@ -115,6 +122,12 @@ def build_shader(nt, m: Material, colour, *, fog_mix=None):
     return bsdf.outputs["BSDF"]
 
 
+def set_colour(nt, colour) -> None:
+    """The main albedo of a library material's node tree (a copy of one built by
+    ``build_shader`` takes another colour this way, without building its graph again)."""
+    nt.nodes[COLOUR_NODE].outputs[0].default_value = (*(float(c) for c in colour), 1.0)
+
+
 def build_image_maps(nt, maps: ImageMaps, colour, roughness: float, tag_image):
     """A user's image set (albedo / normal / roughness files), box-mapped on the object's
     metric coordinates, one repeat every ``maps.size_m``; returns the Principled BSDF node.
@@ -126,7 +139,7 @@ def build_image_maps(nt, maps: ImageMaps, colour, roughness: float, tag_image):
     bsdf = g.node("ShaderNodeBsdfPrincipled")
 
     def image(path: str, colour_data: bool):
-        img = tag_image(bpy.data.images.load(path, check_existing=True))
+        img = tag_image(load_image(path))
         if not colour_data:
             img.colorspace_settings.is_data = True
         return g.node("ShaderNodeTexImage", {"Vector": uv}, image=img, interpolation="Linear",

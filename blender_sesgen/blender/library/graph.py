@@ -206,7 +206,7 @@ class Ctx:
     uv: Socket
     n: Socket
     rand: tuple[Socket, Socket, Socket]
-    colour: tuple[float, float, float]
+    colour: Socket                 # the main albedo (an RGB node's output)
     roughness: float
     metallic: float
     wear: float

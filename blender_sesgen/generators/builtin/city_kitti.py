@@ -27,11 +27,11 @@ from typing import Optional
 import numpy as np
 
 from ...assets.street import arc_frame
-from .sesgen_layout import (script_with_poses, Ids, Lighting, asset, command_line, derived_material, draw_lighting, num, nums,
-                           smooth_noise, variation_rng)
+from .sesgen_layout import (KITTI_CAMERA_HEIGHT, Ids, Lighting, asset, command_line, derived_material, draw_lighting, kerb_cars, kitti_rig, line_street_side, num, nums,
+                           script_with_poses, smooth_noise, street_lights, variation_rng)
 
-KITTI_RIG = "CAMERA resolution 1226 370 focal 707 baseline 0.54 near 0.1 far 600"
-CAMERA_HEIGHT = 1.65
+KITTI_RIG = kitti_rig(far=600)
+CAMERA_HEIGHT = KITTI_CAMERA_HEIGHT
 PIECE = 20.0                 # centreline pieces (m)
 ASPHALT = (0.085, 0.085, 0.082)
 PAVING = ((0.30, 0.29, 0.27), (0.34, 0.33, 0.31), (0.26, 0.25, 0.24), (0.31, 0.22, 0.18))
@@ -156,52 +156,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     # --- buildings and green blocks on both sides -------------------------------------
     out += ["", "// buildings (front facades towards the street) and green blocks"]
     for side in (1, -1):
-        s = float(rng.uniform(2, 10))
-        edge = right_edge if side > 0 else -left_edge
-        while s < L - 12:
-            if rng.random() < 0.4:        # a green block: trees and bushes in a lawn
-                length = float(rng.uniform(25, 45))
-                for t in np.arange(s + 3, s + length - 3, rng.uniform(4, 8)):
-                    depth = edge + rng.uniform(3, 18)
-                    p, _ = place(t + rng.uniform(-2, 2), side * depth)
-                    kind = "conifer" if rng.random() < 0.25 else "tree"
-                    out.append(asset(kind, ids("tree"), p, rng.uniform(0, 360), seed=int(rng.integers(1e6))))
-                    if rng.random() < 0.5:
-                        bp, _ = place(t + rng.uniform(-3, 3), side * (edge + rng.uniform(2, 12)))
-                        out.append(asset("bush", ids("veg"), bp, rng.uniform(0, 360), seed=int(rng.integers(1e6))))
-                s += length
-                continue
-            W = float(rng.uniform(11, 24))
-            D = float(rng.uniform(9, 15))
-            H = float(rng.choice([rng.uniform(8, 12), rng.uniform(12, 19)], p=[0.55, 0.45]))
-            setback = float(rng.uniform(4.0, 12.0))
-            centre_s = s + W / 2
-            p, h = place(centre_s, side * (edge + setback + D / 2))
-            yaw = h - 90 if side > 0 else h + 90
-            out.append(asset("building", ids("building"), p, yaw, (round(W, 2), round(H, 2), round(D, 2)),
-                             seed=int(rng.integers(1e6))))
-            # front yard: a hedge or a fence along the sidewalk (length along the street), bushes
-            r = rng.random()
-            if setback > 2.6 and r < 0.75:
-                kind = "hedge" if r < 0.45 else "fence"
-                hp, hh = place(centre_s, side * (edge + (0.6 if kind == "hedge" else 0.25)))
-                size = ((round(W * rng.uniform(0.6, 0.95), 2), round(float(rng.uniform(0.8, 1.5)), 2), 0.7)
-                        if kind == "hedge" else (round(W * rng.uniform(0.7, 1.0), 2), round(float(rng.uniform(0.8, 1.2)), 2), 0.2))
-                out.append(asset(kind, ids("veg"), hp, hh + 90, size, seed=int(rng.integers(1e6))))
-            for _ in range(int(rng.integers(0, 4)) if setback > 2.5 else 0):
-                bp, _ = place(centre_s + rng.uniform(-W / 2, W / 2), side * (edge + rng.uniform(1.2, setback - 0.8)))
-                out.append(asset("bush", ids("veg"), bp, rng.uniform(0, 360), seed=int(rng.integers(1e6))))
-            if rng.random() < 0.35:     # a bin facing the street
-                bp, bh = place(centre_s + rng.uniform(-W / 3, W / 3), side * (edge + 0.9))
-                out.append(asset("bin", ids("furniture"), bp, bh - 90 if side > 0 else bh + 90,
-                                 seed=int(rng.integers(1e6))))
-            # a second row behind (seen through the gaps), simpler and taller
-            if rng.random() < 0.7:
-                p2, h2 = place(centre_s + rng.uniform(-5, 5), side * (edge + setback + D + rng.uniform(8, 20) + 6))
-                out.append(asset("building", ids("building"), p2, (h2 - 90 if side > 0 else h2 + 90) + rng.uniform(-8, 8),
-                                 (round(float(rng.uniform(12, 26)), 2), round(float(rng.uniform(10, 22)), 2),
-                                  round(float(rng.uniform(10, 14)), 2)), seed=int(rng.integers(1e6))))
-            s += W + float(rng.uniform(1.5, 7.0))
+        out += line_street_side(rng, place, L - 12, side, right_edge if side > 0 else -left_edge, ids)
 
     # a building across the far end of the street closes the view
     p_end, h_end = place(L + 12.0, 0.0)
@@ -226,12 +181,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     for side in (1, -1):
         s = float(rng.uniform(5, 25)) + (0 if side > 0 else 14)
         kerb_out = r_kerb + kerb_w / 2
-        while s < L - 5:
-            o_light = side * (kerb_out + (lawn_w * 0.5 + 0.8 if side > 0 else 0.5))
-            p, h = place(s, o_light)
-            out.append(asset("streetlight", ids("furniture"), p, h if side > 0 else h + 180,
-                             seed=int(rng.integers(1e6))))
-            s += float(rng.uniform(28, 36))
+        out += street_lights(rng, place, s, L - 5, side, kerb_out + (lawn_w * 0.5 + 0.8 if side > 0 else 0.5), ids)
     for _ in range(int(L / 45)):
         side = int(rng.choice([1, -1]))
         s = float(rng.uniform(10, L - 10))
@@ -265,14 +215,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     out += ["", "// parked cars along the kerbs (right side facing the drive)"]
     for side in (1, -1):
         s = behind + float(rng.uniform(12, 20)) if side > 0 else float(rng.uniform(5, 15))
-        while s < L - 8:
-            if rng.random() < (0.5 if side > 0 else 0.3):
-                p, h = place(s, side * (half_road - 0.95 + rng.uniform(-0.05, 0.05)))
-                out.append(asset("car", ids("car"), p, (h + 180 if side > 0 else h) + rng.uniform(-2, 2),
-                                 seed=int(rng.integers(1e6))))
-                s += float(rng.uniform(5.2, 6.5))
-            else:
-                s += float(rng.uniform(4, 14))
+        out += kerb_cars(rng, place, s, L - 8, side, half_road - 0.95, 0.5 if side > 0 else 0.3, ids)
 
     # --- the drive: right lane, ~1.2 m per frame -----------------------------------------
     speed = step_m * (1 + 0.06 * smooth_noise(rng, frames, 1.0, (0.7, 1.6)))
@@ -285,7 +228,8 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     yaw = h - np.degrees(drift) + 0.25 * smooth_noise(rng, frames, 1.0, (3.0, 7.0))
     pitch = 0.3 * smooth_noise(rng, frames, 1.0, (5.0, 11.0, 23.0))
     roll = 0.2 * smooth_noise(rng, frames, 1.0, (4.0, 9.0, 19.0))
-    return script_with_poses(out, f"the drive: {frames} poses of the left camera (KITTI: 1.65 m above the road, right lane)", pos, yaw, pitch, roll)
+    return script_with_poses(out, f"the drive: {frames} poses of the left camera (KITTI: 1.65 m above the road, right lane)",
+                             pos, yaw, pitch, roll)
 
 
 if __name__ == "__main__":

@@ -5,6 +5,8 @@ Imported by the generators of this package; pure numpy.
 """
 from __future__ import annotations
 
+import inspect
+import typing
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
@@ -14,6 +16,14 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[3]   # the source tree (its ../shared/data: real sensor files)
 
 from ...contract.se3 import R_to_euler_xyz_deg, euler_xyz_deg_to_R
+
+
+KITTI_CAMERA_HEIGHT = 1.65     # KITTI's left camera above the road (m)
+
+
+def kitti_rig(far: float = 600.0) -> str:
+    """KITTI odometry's stereo rig: 1226 x 370 px, f = 707 px, baseline 0.54 m."""
+    return f"CAMERA resolution 1226 370 focal 707 baseline 0.54 near 0.1 far {num(far)}"
 
 
 def num(v: float, nd: int = 3) -> str:
@@ -152,6 +162,129 @@ def derived_material(name: str, library: str, colour=None, wear=None, seed=None,
     return " ".join(parts)
 
 
+# --- lining a street: buildings with front yards, green stretches, parked cars, lights ------
+# ``place(s, offset)`` gives (the ground point, the street's yaw in degrees (0 = along -z, left
+# positive)) at arc length s along a street line and ``offset`` metres to its right; the
+# helpers below fill one side of such a line (side +1: right, -1: left), city_kitti's street
+# and the sides of city_grid's blocks alike.
+
+@dataclass(frozen=True)
+class Frontage:
+    """How a street side is lined: green stretches (trees, bushes in a lawn) with probability
+    ``p_green``, else buildings of ``width`` x ``depth`` and a height drawn from ``height_low``
+    or (probability ``p_high``) ``height_high``, set back ``setback`` from the edge, with front
+    yards (hedge or fence, bushes), bins and (``p_second_row``) a taller building behind.
+    The defaults are city_kitti's."""
+    start: tuple = (2.0, 10.0)
+    p_green: float = 0.4
+    green_length: tuple = (25.0, 45.0)
+    green_depth: tuple = (3.0, 18.0)
+    width: tuple = (11.0, 24.0)
+    depth: tuple = (9.0, 15.0)
+    height_low: tuple = (8.0, 12.0)
+    height_high: tuple = (12.0, 19.0)
+    p_high: float = 0.45
+    setback: tuple = (4.0, 12.0)
+    gap: tuple = (1.5, 7.0)
+    p_second_row: float = 0.7
+
+
+def random_seed(rng: np.random.Generator):
+    """The default asset seeds of the lining helpers: a fresh seed per asset."""
+    return lambda kind: int(rng.integers(1e6))
+
+
+def line_street_side(rng: np.random.Generator, place, s_end: float, side: int, edge: float, ids: Ids,
+                     style: Frontage = Frontage(), seed_of=None, limit: Optional[float] = None) -> list[str]:
+    """Buildings (front facades towards the street) and green stretches along one side of a
+    street line, from a start drawn in ``style.start`` while the arc length is below
+    ``s_end``; ``edge``: the distance from the line to where the lots begin. ``limit``: no
+    building reaches beyond this arc length (the last one is narrowed, or left out).
+    ``seed_of(kind)`` gives each asset's seed."""
+    seed_of = seed_of or random_seed(rng)
+    out = []
+    s = float(rng.uniform(*style.start))
+    while s < s_end:
+        if rng.random() < style.p_green:        # a green stretch: trees and bushes in a lawn
+            length = float(rng.uniform(*style.green_length))
+            for t in np.arange(s + 3, s + length - 3, rng.uniform(4, 8)):
+                depth = edge + rng.uniform(*style.green_depth)
+                p, _ = place(t + rng.uniform(-2, 2), side * depth)
+                kind = "conifer" if rng.random() < 0.25 else "tree"
+                out.append(asset(kind, ids("tree"), p, rng.uniform(0, 360), seed=seed_of(kind)))
+                if rng.random() < 0.5:
+                    bp, _ = place(t + rng.uniform(-3, 3), side * (edge + rng.uniform(2, 12)))
+                    out.append(asset("bush", ids("veg"), bp, rng.uniform(0, 360), seed=seed_of("bush")))
+            s += length
+            continue
+        W = float(rng.uniform(*style.width))
+        D = float(rng.uniform(*style.depth))
+        H = float(rng.choice([rng.uniform(*style.height_low), rng.uniform(*style.height_high)],
+                             p=[1 - style.p_high, style.p_high]))
+        setback = float(rng.uniform(*style.setback))
+        if limit is not None and s + W > limit:
+            W = limit - s
+            if W < 0.7 * style.width[0]:
+                break
+        centre_s = s + W / 2
+        p, h = place(centre_s, side * (edge + setback + D / 2))
+        yaw = h - 90 if side > 0 else h + 90
+        out.append(asset("building", ids("building"), p, yaw, (round(W, 2), round(H, 2), round(D, 2)),
+                         seed=seed_of("building")))
+        # front yard: a hedge or a fence along the sidewalk (length along the street), bushes
+        r = rng.random()
+        if setback > 2.6 and r < 0.75:
+            kind = "hedge" if r < 0.45 else "fence"
+            hp, hh = place(centre_s, side * (edge + (0.6 if kind == "hedge" else 0.25)))
+            size = ((round(W * rng.uniform(0.6, 0.95), 2), round(float(rng.uniform(0.8, 1.5)), 2), 0.7)
+                    if kind == "hedge" else (round(W * rng.uniform(0.7, 1.0), 2), round(float(rng.uniform(0.8, 1.2)), 2), 0.2))
+            out.append(asset(kind, ids("veg"), hp, hh + 90, size, seed=seed_of(kind)))
+        for _ in range(int(rng.integers(0, 4)) if setback > 2.5 else 0):
+            bp, _ = place(centre_s + rng.uniform(-W / 2, W / 2), side * (edge + rng.uniform(1.2, setback - 0.8)))
+            out.append(asset("bush", ids("veg"), bp, rng.uniform(0, 360), seed=seed_of("bush")))
+        if rng.random() < 0.35:     # a bin facing the street
+            bp, bh = place(centre_s + rng.uniform(-W / 3, W / 3), side * (edge + 0.9))
+            out.append(asset("bin", ids("furniture"), bp, bh - 90 if side > 0 else bh + 90, seed=seed_of("bin")))
+        # a second row behind (seen through the gaps), simpler and taller
+        if rng.random() < style.p_second_row:
+            p2, h2 = place(centre_s + rng.uniform(-5, 5), side * (edge + setback + D + rng.uniform(8, 20) + 6))
+            out.append(asset("building", ids("building"), p2, (h2 - 90 if side > 0 else h2 + 90) + rng.uniform(-8, 8),
+                             (round(float(rng.uniform(12, 26)), 2), round(float(rng.uniform(10, 22)), 2),
+                              round(float(rng.uniform(10, 14)), 2)), seed=seed_of("building")))
+        s += W + float(rng.uniform(*style.gap))
+    return out
+
+
+def kerb_cars(rng: np.random.Generator, place, s: float, s_end: float, side: int, offset: float, p_park: float,
+              ids: Ids, seed_of=None) -> list[str]:
+    """Cars parked along the kerb on one side of a street line, ``offset`` from it (facing the
+    way traffic on that side drives), one in a slot with probability ``p_park``."""
+    seed_of = seed_of or random_seed(rng)
+    out = []
+    while s < s_end:
+        if rng.random() < p_park:
+            p, h = place(s, side * (offset + rng.uniform(-0.05, 0.05)))
+            out.append(asset("car", ids("car"), p, (h + 180 if side > 0 else h) + rng.uniform(-2, 2),
+                             seed=seed_of("car")))
+            s += float(rng.uniform(5.2, 6.5))
+        else:
+            s += float(rng.uniform(4, 14))
+    return out
+
+
+def street_lights(rng: np.random.Generator, place, s: float, s_end: float, side: int, offset: float, ids: Ids,
+                  spacing=(28.0, 36.0), seed_of=None) -> list[str]:
+    """Street lights on one side of a street line, ``offset`` from it, their arms reaching
+    over the street."""
+    seed_of = seed_of or random_seed(rng)
+    out = []
+    while s < s_end:
+        p, h = place(s, side * offset)
+        out.append(asset("streetlight", ids("furniture"), p, h if side > 0 else h + 180, seed=seed_of("streetlight")))
+        s += float(rng.uniform(*spacing))
+    return out
+
+
 def script_with_poses(lines: list[str], comment: str, P, yaw, pitch, roll) -> str:
     """The script: ``lines``, a blank line, ``// comment`` and one POSE line per camera
     position (angles in degrees)."""
@@ -159,12 +292,28 @@ def script_with_poses(lines: list[str], comment: str, P, yaw, pitch, roll) -> st
     return "\n".join(lines + ["", f"// {comment}"] + poses) + "\n"
 
 
-def command_line(generate, doc: str, frames: int, argv=None) -> None:
-    """A generator's command line: ``--seed S --frames N``, the script on stdout."""
+def _option_type(hint, default):
+    """The command-line type of an option: its annotation's (``Optional[X]``: X) when that is a
+    number, text or a truth value, else its default's; None when it has no such type."""
+    args = [a for a in typing.get_args(hint) if a is not type(None)] if typing.get_origin(hint) is typing.Union else [hint]
+    t = args[0] if len(args) == 1 and args[0] in (int, float, str, bool) else type(default)
+    if t is bool:
+        return lambda v: {"true": True, "false": False}[v.lower()]
+    return t if t in (int, float, str) else None
+
+
+def command_line(generate, doc: str, frames: Optional[int], argv=None) -> None:
+    """A generator's command line: ``--seed S``, ``--frames N`` (default ``frames``) when it
+    takes frames, and ``--NAME VALUE`` for each other option that is a number, text or a truth
+    value (``true``/``false``); the script on stdout."""
     import argparse
     import sys
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--frames", type=int, default=frames)
-    a = ap.parse_args(argv)
-    sys.stdout.write(generate(a.seed, frames=a.frames))
+    hints = typing.get_type_hints(generate)
+    for p in list(inspect.signature(generate).parameters.values())[1:]:
+        kind = int if p.name == "frames" else _option_type(hints.get(p.name), p.default)
+        if kind is not None:
+            ap.add_argument("--" + p.name.replace("_", "-"), type=kind, default=frames if p.name == "frames" else p.default)
+    a = vars(ap.parse_args(argv))
+    sys.stdout.write(generate(a.pop("seed"), **a))

@@ -1,0 +1,459 @@
+"""Where the library scenes' render time goes: the scene build (script to first sample), path
+tracing, denoising, writing, paths per second, memory, and what each expensive feature
+costs, measured by switching it off in the same run.
+
+    PYTHONPATH=. .venv/bin/python bench/profile_scenes.py [--scenes city_kitti hall office forest paper_room]
+        [--quality final] [--samples N] [--scale 0.5] [--frames 2] [--features all|none|NAME ...]
+        [--base REV] [--json FILE]
+
+Each row is one fresh render process (the real job: ``RenderJob.build`` and ``run``, EXRs
+written and sealed) rendering frames 0..N-1 of the scene at ``--scale`` times its own size.
+CPU seconds are the process's user + system time (robust on a shared machine; wall seconds
+beside them); ratios come from rows of the same run.
+
+Build, up to frame 0's first sample (what every render process pays before its first frame;
+a farm chunk or a study variant pays it again): ``import`` (bpy), ``parse`` (the script and
+the plan), ``assets`` (the procedural assets' numpy generators), ``meshes`` (their Blender
+meshes), ``materials`` (node graphs), ``scene`` (the rest of the builder: objects, lights,
+world, cameras), ``exposure`` (the automatic exposure's preview render, Cycles set-up
+included when it pays it), and the Cycles set-up of the render sessions before frame 0's
+first sample, split by Cycles' own status: ``sync`` (Blender objects to Cycles), ``shaders``,
+``bvh`` (meshes, BVH), ``images`` (textures, the sky), ``lights`` (the world's importance
+map, the light tree), ``kernels``; ``total`` = script start to frame 0's first sample.
+
+Per stereo frame (the frames after frame 0, which pays the Cycles set-up; frame 0 when it is
+the only one): ``trace`` (Cycles' sampling, the denoiser included: Cycles denoises inside
+its last sample), ``write`` (Blender writing the EXRs after Cycles finished), ``other``
+(frame set-up, the display PNGs, the sealing hand-off: the rest of the frame), ``frame``
+(all of it); ``Mpath/s``: camera paths (pixels x samples, both views) per CPU second of
+``trace``; ``peak MiB``: the process's peak resident set; ``Cycles MiB``: Cycles' own peak.
+
+Features (``--features``; each measured by switching it off, reported as the CPU it costs
+per stereo frame and in the build):
+- in the same process, frame N-1 rendered again with the feature off, right after the same
+  frame with it on: ``denoiser`` (OpenImageDenoise), ``glass`` (the glass_window library
+  material replaced by a plain dark diffuse), ``relief`` (every Bump node removed: the
+  library materials' relief; the renderer uses no displacement, relief is bump only);
+- in a process of its own, the script edited: ``trees`` (the trees, conifers, bushes,
+  hedges, grass tufts, ferns and plants with their leaves), ``lights`` (the script's
+  point, spot and area lamps; the sky's sun stays), ``bevels`` (CUBOID ``bevel``), ``fog``
+  (FOG). A feature the scene does not have is listed as absent.
+
+``--base REV`` renders the baseline row of every scene again with revision REV's code
+(checked out into a temporary git worktree), in the same run: today's figures beside the
+working tree's.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+T0 = time.perf_counter()
+REPO = Path(__file__).resolve().parents[1]
+SCENES = ("city_kitti", "hall", "office", "forest", "paper_room")
+IN_PROCESS = ("denoiser", "glass", "relief")
+EDITED = ("trees", "lights", "bevels", "fog")
+VEGETATION = ("tree", "conifer", "bush", "hedge", "grass_tuft", "fern", "plant")
+BUILD_STAGES = ("import", "parse", "assets", "meshes", "materials", "scene", "exposure")
+CYCLES_STAGES = ("sync", "shaders", "bvh", "images", "lights", "kernels", "other")
+# Cycles' status text -> the set-up stage it belongs to (first match; the rest: other)
+STATUS_STAGES = (("Synchronizing", "sync"), ("Updating Shaders", "shaders"), ("Updating Meshes", "bvh"),
+                 ("Building BVH", "bvh"), ("Copying BVH", "bvh"), ("Computing attributes", "bvh"),
+                 ("Copying Attributes", "bvh"), ("Computing normals", "bvh"), ("Copying Mesh", "bvh"),
+                 ("Applying Static", "bvh"), ("Updating Images", "images"), ("Loading", "images"),
+                 ("Updating Lights", "lights"), ("Importance map", "lights"), ("Computing tree", "lights"),
+                 ("Loading render kernels", "kernels"), ("Loading denoising kernels", "kernels"))
+MEM_RE = re.compile(r"Mem:\s*([\d.]+)([KMG])")
+
+
+def cpu_s() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+# --- the script edits (features switched off in a process of their own) ----------------------
+
+def edit_script(text: str, feature: str) -> tuple[str, int]:
+    """The script without ``feature``; (text, how many statements or tags it removed)."""
+    lines, n = [], 0
+    for line in text.splitlines(keepends=True):
+        words = line.split()
+        key = words[0].upper() if words else ""
+        if feature == "trees" and key == "ASSET" and len(words) > 1 and words[1] in VEGETATION:
+            n += 1
+            continue
+        if feature == "lights" and key == "LIGHT" and len(words) > 1 and words[1] in ("point", "spot", "area"):
+            n += 1
+            continue
+        if feature == "fog" and key == "FOG":
+            n += 1
+            continue
+        if feature == "bevels" and key == "CUBOID" and " bevel " in f" {line} ":
+            line, k = re.subn(r"\s+bevel\s+\S+", "", line)
+            n += k
+        lines.append(line)
+    return "".join(lines), n
+
+
+# --- the child: one render process -------------------------------------------------------------
+
+class Stages:
+    """CPU seconds of the build's stages: wraps the builder's functions where they exist (a
+    revision without one reports nothing for it); ``spans[stage]``: the Cycles status log's
+    extent during each call (``log``)."""
+
+    def __init__(self, log):
+        self.cpu = dict.fromkeys(BUILD_STAGES, 0.0)
+        self.spans: dict[str, list] = {}
+        self.log = log
+
+    def wrap(self, owner, name: str, stage: str) -> None:
+        f = getattr(owner, name, None)
+        if f is None:
+            return
+        stages = self
+
+        def wrapped(*a, **k):
+            c, m = cpu_s(), stages.log.mark()
+            try:
+                return f(*a, **k)
+            finally:
+                stages.cpu[stage] += cpu_s() - c
+                stages.spans.setdefault(stage, []).append((m, stages.log.mark()))
+        setattr(owner, name, wrapped)
+
+
+class CyclesLog:
+    """Cycles' status lines with the process's CPU and wall clock at each (render_stats)."""
+
+    def __init__(self):
+        self.events: list[tuple[str, float, float]] = []
+        self.mem_mib = 0.0
+
+    def __call__(self, text, *args):
+        text = str(text)
+        m = MEM_RE.search(text)
+        if m:
+            self.mem_mib = max(self.mem_mib, float(m.group(1)) * {"K": 1 / 1024, "M": 1.0, "G": 1024.0}[m.group(2)])
+        fields = [f.strip() for f in text.split("|")]
+        fields = [f for f in fields if f and not f.startswith(("Remaining:", "Mem:", "Fra:", "Peak:"))]
+        status = fields[0] if fields else ""
+        if not self.events or self.events[-1][0] != status:
+            self.events.append((status, cpu_s(), time.perf_counter()))
+
+    def mark(self) -> int:
+        return len(self.events)
+
+    def first(self, prefix: str, start: int = 0):
+        return next((e for e in self.events[start:] if e[0].startswith(prefix)), None)
+
+    def setup(self, start: int, stop: int) -> dict:
+        """CPU seconds of each Cycles set-up stage over events[start:stop] (each status lasts
+        until the next one)."""
+        out = dict.fromkeys(CYCLES_STAGES, 0.0)
+        ev = self.events[start:stop]
+        for (status, c, _), (_, c_next, _) in zip(ev, ev[1:]):
+            if status.startswith(("Sample", "Finished", "Time:")):
+                continue
+            stage = next((s for prefix, s in STATUS_STAGES if status.startswith(prefix)), "other")
+            out[stage] += c_next - c
+        return out
+
+    def renders(self, start: int, stop: int) -> list[dict]:
+        """Per render over events[start:stop]: sampling (first 'Sample' to 'Finished'; Cycles
+        denoises inside its last sample) and writing ('Finished' to the 'Time:' line, which
+        Blender prints once the files are saved), CPU seconds."""
+        out, cur = [], {}
+        for status, c, _ in self.events[start:stop]:
+            if status.startswith("Sample") and "sample" not in cur:
+                cur["sample"] = c
+            elif status.startswith("Finished"):
+                cur["finished"] = c
+            elif status.startswith("Time:") and "finished" in cur:
+                out.append({"trace": cur["finished"] - cur.get("sample", cur["finished"]),
+                            "write": c - cur["finished"]})
+                cur = {}
+        return out
+
+
+def child(a) -> int:
+    import bpy  # noqa: F401
+    c_import = cpu_s()
+    from blender_sesgen import assets
+    from blender_sesgen.blender import assets as bassets, builder, exposure, materials
+    from blender_sesgen.job import RenderJob
+    from blender_sesgen.plan import RenderOptions, RenderPlan
+    log = CyclesLog()
+    bpy.app.handlers.render_stats.append(log)
+    stages = Stages(log)
+    stages.cpu["import"] = c_import
+    stages.wrap(assets, "generate", "assets")
+    stages.wrap(bassets, "mesh_from_triangles", "meshes")
+    stages.wrap(materials.MaterialFactory, "_make", "materials")
+    stages.wrap(builder, "build_scene", "scene")
+    stages.wrap(exposure, "measure_exposure", "exposure")
+
+    c = cpu_s()
+    edit = (lambda text: edit_script(text, a.feature)[0]) if a.feature in EDITED else None
+    options = RenderOptions(quality=a.quality, samples=a.samples, resolution_scale=a.scale, frames=f"0:{a.frames}")
+    plan = RenderPlan.from_file(a.scene, options, edit=edit) if edit else RenderPlan.from_file(a.scene, options)
+    stages.cpu["parse"] = cpu_s() - c
+    tmp = Path(tempfile.mkdtemp(prefix="sesgen-profile-"))
+    job = RenderJob.of(plan, tmp / "out")
+    job.build()
+    # the builder's own work without the stages inside it
+    stages.cpu["scene"] -= stages.cpu["assets"] + stages.cpu["meshes"] + stages.cpu["materials"]
+    frames = []
+
+    def progress(i, n, r, elapsed):
+        frames.append({"cpu": cpu_s(), "wall": time.perf_counter(), "mark": log.mark()})
+    start = {"cpu": cpu_s(), "wall": time.perf_counter(), "mark": log.mark()}
+    job.run(progress)
+    # frame 0's first sample: the first 'Sample' status after the job started rendering
+    first = log.first("Sample", start["mark"])
+    setup = log.setup(0, log.events.index(first))
+    # the exposure preview's own Cycles set-up is in the set-up stages, not twice
+    for m0, m1 in stages.spans.get("exposure", []):
+        stages.cpu["exposure"] -= sum(log.setup(m0, m1).values())
+    s = plan.settings
+    views = len(plan.views)
+    rows = []
+    for k in range(len(frames)):
+        prev = frames[k - 1] if k else start
+        renders = log.renders(prev["mark"], frames[k]["mark"])
+        rows.append({"frame": frames[k]["cpu"] - prev["cpu"], "wall": frames[k]["wall"] - prev["wall"],
+                     "trace": sum(r["trace"] for r in renders), "write": sum(r["write"] for r in renders)})
+    steady = rows[1:] or rows
+    per = {key: sum(r[key] for r in steady) / len(steady) for key in ("frame", "wall", "trace", "write")}
+    per["other"] = per["frame"] - per["trace"] - per["write"]
+    paths = s.width * s.height * views * s.preset.samples
+    out = {"scene": Path(a.scene).stem, "feature": a.feature, "size": [s.width, s.height],
+           "samples": s.preset.samples, "denoise": s.preset.denoise, "build": stages.cpu, "cycles_setup": setup,
+           "to_first_sample": {"cpu": first[1], "wall": first[2] - T0}, "per_frame": per,
+           "mpaths_per_s": paths / max(per["trace"], 1e-9) / 1e6, "cycles_mib": log.mem_mib,
+           "removed": edit_script(plan.scene_text, a.feature)[1] if a.feature in EDITED else None}
+    if a.in_process:
+        out["in_process"] = in_process_features(job, plan, log, a.in_process, tmp)
+    out["peak_mib"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    shutil.rmtree(tmp, ignore_errors=True)
+    print("PROFILE " + json.dumps(out), flush=True)
+    return 0
+
+
+def in_process_features(job, plan, log, names, tmp: Path) -> dict:
+    """Frame N-1 again with each feature on, then off (the pair back to back): CPU seconds of
+    the two stereo frames and what the feature costs (on - off); None where the scene lacks it."""
+    import bpy
+    session = job.session
+    scene = session.built.scene
+    k = plan.frames[-1]
+    paths = {v: tmp / f"{v}.exr" for v in plan.views}
+
+    def render() -> float:
+        c = cpu_s()
+        session.render_frame(k, paths)
+        return cpu_s() - c
+
+    out = {}
+    for name in names:
+        undo = switch_off(bpy, scene, name)
+        if undo is None:
+            out[name] = None
+            continue
+        undo()
+        on = render()
+        undo2 = switch_off(bpy, scene, name)
+        off = render()
+        undo2()
+        out[name] = {"on": on, "off": off, "cost": on - off}
+    return out
+
+
+def switch_off(bpy, scene, name):
+    """Switch ``name`` off in the built scene; returns the function that switches it back on
+    (None when the scene does not have it)."""
+    if name == "denoiser":
+        c = scene.cycles
+        if not c.use_denoising:
+            return None
+        c.use_denoising = False
+        return lambda: setattr(c, "use_denoising", True)
+    trees = [m.node_tree for m in bpy.data.materials if m.node_tree is not None]
+    if name == "relief":
+        removed = []
+        for nt in trees:
+            for link in list(nt.links):
+                if link.from_node.bl_idname == "ShaderNodeBump":
+                    removed.append((nt, link.from_socket, link.to_socket))
+                    nt.links.remove(link)
+        if not removed:
+            return None
+        return lambda: [nt.links.new(a, b) for nt, a, b in removed]
+    if name == "glass":
+        swapped = []
+        for m in bpy.data.materials:
+            if "glass_window" not in m.name or m.node_tree is None:
+                continue
+            nt = m.node_tree
+            out = next(n for n in nt.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+            link = next((ln for ln in nt.links if ln.to_socket == out.inputs["Surface"]), None)
+            if link is None:
+                continue
+            plain = nt.nodes.new("ShaderNodeBsdfDiffuse")
+            plain.inputs["Color"].default_value = (0.05, 0.05, 0.05, 1.0)
+            swapped.append((nt, link.from_socket, out.inputs["Surface"], plain))
+            nt.links.new(plain.outputs[0], out.inputs["Surface"])
+        if not swapped:
+            return None
+
+        def undo():
+            for nt, src, dst, plain in swapped:
+                nt.links.new(src, dst)
+                nt.nodes.remove(plain)
+        return undo
+    raise ValueError(name)
+
+
+# --- the parent ----------------------------------------------------------------------------------
+
+def run_child(a, scene: Path, feature: str, code_root: Path, in_process=()) -> dict:
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--child", "--scene", str(scene), "--feature", feature,
+           "--quality", a.quality, "--scale", str(a.scale), "--frames", str(a.frames),
+           *(["--samples", str(a.samples)] if a.samples else []),
+           *(["--in-process", *in_process] if in_process else [])]
+    env = dict(os.environ, PYTHONPATH=str(code_root))
+    proc = subprocess.run(cmd, cwd=code_root, env=env, capture_output=True, text=True)
+    line = next((ln for ln in proc.stdout.splitlines() if ln.startswith("PROFILE ")), None)
+    if proc.returncode != 0 or line is None:
+        raise SystemExit(f"{scene.name} ({feature}) failed in {code_root}:\n{proc.stderr[-3000:]}")
+    return json.loads(line[len("PROFILE "):])
+
+
+def print_build(rows: list[tuple[str, dict]]) -> None:
+    print("\n# build (CPU s): script start to frame 0's first sample")
+    head = "".join(f"{s:>10s}" for s in BUILD_STAGES + tuple("c:" + s for s in CYCLES_STAGES) + ("rest",))
+    print(f"{'scene':24s}{head}{'total':>9s}{'wall':>8s}")
+    for label, r in rows:
+        cells = [r["build"][s] for s in BUILD_STAGES] + [r["cycles_setup"][s] for s in CYCLES_STAGES]
+        cells.append(r["to_first_sample"]["cpu"] - sum(cells))   # the job's own work, Python's start
+        print(f"{label:24s}" + "".join(f"{v:10.2f}" for v in cells)
+              + f"{r['to_first_sample']['cpu']:9.2f}{r['to_first_sample']['wall']:8.1f}")
+
+
+def print_frames(rows: list[tuple[str, dict]]) -> None:
+    print("\n# per stereo frame (CPU s; frames after the first)")
+    print(f"{'scene':24s}{'size':>11s}{'samples':>8s}{'trace':>9s}{'write':>8s}{'other':>8s}{'frame':>9s}"
+          f"{'wall':>8s}{'Mpath/s':>9s}{'peak MiB':>9s}{'Cycles MiB':>11s}")
+    for label, r in rows:
+        p = r["per_frame"]
+        size = "x".join(map(str, r["size"]))
+        print(f"{label:24s}{size:>11s}{r['samples']:8d}{p['trace']:9.2f}{p['write']:8.2f}{p['other']:8.2f}"
+              f"{p['frame']:9.2f}{p['wall']:8.1f}{r['mpaths_per_s']:9.3f}{r['peak_mib']:9.0f}{r['cycles_mib']:11.0f}")
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--scenes", nargs="+", default=list(SCENES))
+    p.add_argument("--quality", default="final")
+    p.add_argument("--samples", type=int, help="override the preset's samples (ratios: fewer samples suffice)")
+    p.add_argument("--scale", type=float, default=0.5, help="resolution scale (1.0 = the script's size)")
+    p.add_argument("--frames", type=int, default=2)
+    p.add_argument("--features", nargs="+", default=["all"], help="all, none, or names: " +
+                   ", ".join(IN_PROCESS + EDITED))
+    p.add_argument("--base", help="also render the baseline rows with this git revision's code")
+    p.add_argument("--json", help="write every row as JSON")
+    p.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    p.add_argument("--scene", help=argparse.SUPPRESS)
+    p.add_argument("--feature", default="baseline", help=argparse.SUPPRESS)
+    p.add_argument("--in-process", nargs="*", default=[], help=argparse.SUPPRESS)
+    a = p.parse_args(argv)
+    if a.child:
+        return child(a)
+    features = list(IN_PROCESS + EDITED) if a.features == ["all"] else [] if a.features == ["none"] else a.features
+    unknown = set(features) - set(IN_PROCESS + EDITED)
+    if unknown:
+        raise SystemExit(f"unknown feature(s): {', '.join(sorted(unknown))}")
+    print(f"# profile: {', '.join(a.scenes)}; quality {a.quality}{f' at {a.samples} samples' if a.samples else ''}, "
+          f"scale {a.scale}, {a.frames} frames; {os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f}", flush=True)
+    worktree = None
+    if a.base:
+        worktree = Path(tempfile.mkdtemp(prefix="sesgen-profile-base-")) / "src"
+        subprocess.run(["git", "worktree", "add", "--detach", str(worktree), a.base], cwd=REPO, check=True,
+                       capture_output=True)
+    results = []
+    try:
+        for name in a.scenes:
+            scene = Path(name if name.endswith(".ses") else f"scenes/{name}.ses")
+            label = scene.stem
+            if worktree is not None:
+                r = run_child(a, scene, "baseline", worktree)
+                results.append((f"{label} @{a.base}", r))
+                print(f"{label} @{a.base}: to first sample {r['to_first_sample']['cpu']:.1f} CPU s, "
+                      f"{r['per_frame']['frame']:.1f} CPU s per stereo frame", flush=True)
+            inproc = [f for f in features if f in IN_PROCESS]
+            base = run_child(a, scene, "baseline", REPO, inproc)
+            results.append((label, base))
+            print(f"{label}: to first sample {base['to_first_sample']['cpu']:.1f} CPU s, "
+                  f"{base['per_frame']['frame']:.1f} CPU s per stereo frame (load {os.getloadavg()[0]:.1f})",
+                  flush=True)
+            for f in features:
+                if f in EDITED:
+                    text = (REPO / scene).read_text()
+                    if edit_script(text, f)[1] == 0:
+                        base.setdefault("features", {})[f] = None
+                        continue
+                    r = run_child(a, scene, f, REPO)
+                    results.append((f"{label} -{f}", r))
+                    base.setdefault("features", {})[f] = {
+                        "frame": base["per_frame"]["frame"] - r["per_frame"]["frame"],
+                        "build": base["to_first_sample"]["cpu"] - r["to_first_sample"]["cpu"],
+                        "removed": r["removed"]}
+                    print(f"{label} -{f}: {r['per_frame']['frame']:.1f} CPU s per stereo frame", flush=True)
+    finally:
+        if worktree is not None:
+            subprocess.run(["git", "worktree", "remove", "--force", str(worktree)], cwd=REPO, capture_output=True)
+    print_build(results)
+    print_frames(results)
+    if features:
+        print("\n# what each feature costs (CPU s it adds; per stereo frame, and to the build)")
+        print(f"{'scene':14s}" + "".join(f"{f:>18s}" for f in features))
+        for label, r in results:
+            if r["feature"] != "baseline" or "@" in label:
+                continue
+            cells = []
+            for f in features:
+                v = (r.get("in_process") or {}).get(f) if f in IN_PROCESS else (r.get("features") or {}).get(f)
+                if v is None:
+                    cells.append("absent")
+                elif f in IN_PROCESS:
+                    cells.append(f"{v['cost']:+.2f} ({v['cost'] / v['on']:.0%})")
+                else:
+                    cells.append(f"{v['frame']:+.2f} / {v['build']:+.1f}b")
+            print(f"{label:14s}" + "".join(f"{c:>18s}" for c in cells))
+        print("# in-process features: frame N-1 with the feature on, then off (share of that frame);"
+              " edited ones: per stereo frame / build (b), against the baseline row")
+    if worktree is not None:
+        print(f"\n# against {a.base} (same run): CPU to first sample and per stereo frame")
+        for name in a.scenes:
+            label = Path(name).stem
+            old = next(r for lb, r in results if lb == f"{label} @{a.base}")
+            new = next(r for lb, r in results if lb == label)
+            print(f"{label:14s} build x{new['to_first_sample']['cpu'] / old['to_first_sample']['cpu']:.3f}  "
+                  f"frame x{new['per_frame']['frame'] / old['per_frame']['frame']:.3f}")
+    print(f"# load {os.getloadavg()[0]:.1f} at the end; {time.perf_counter() - T0:.0f} s in all")
+    if a.json:
+        Path(a.json).write_text(json.dumps([{"label": lb, **r} for lb, r in results], indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

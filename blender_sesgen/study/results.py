@@ -1,0 +1,216 @@
+"""``results.json`` (format ``sesgen-study-results/1``): every run, its aggregates, the
+breaking points; and ``study compare`` (pure: numpy and the standard library).
+
+- A **run** is ``ok`` when the system exited 0 within its timeout and its trajectory was
+  usable (``vo_reference.study.evaluate``); otherwise it ``failed``, with the reason, the
+  exit code and the tail of its stderr.
+- **Aggregates** pool a design point's runs over trials and world seeds, per system: the
+  number of runs and of failures, and per metric the mean, spread (sample standard
+  deviation; 0 for one value), min and max of the runs that did not fail.
+- The **breaking point** of a factor for a system (one-factor-at-a-time designs): the first
+  level, in the order the study file lists them, at which at least half the runs fail or
+  the mean error exceeds ``break_multiple`` times the base's.
+- **compare** OLD NEW: per factor, level and system, NEW is *worse* when it fails more
+  often, or when its mean error exceeds OLD's by more than ``sigmas`` times the larger of
+  the two spreads (and by more than 1e-9 relative: a deterministic system run twice is
+  unchanged); *better* the other way round.
+"""
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from typing import Optional
+
+import numpy as np
+
+FORMAT = "sesgen-study-results/1"
+METRIC_KEYS = ("ape_trans_rmse", "ape_rot_rmse_deg", "rpe_trans_rmse", "rpe_rot_rmse_deg", "rpe_trans_per_m",
+               "kitti_t_err_pct", "kitti_r_err_deg_per_100m", "tracking_loss", "coverage")
+REL_TOL = 1e-9
+
+
+def stats(values) -> dict:
+    v = np.asarray([x for x in values if x is not None and math.isfinite(x)], dtype=float)
+    if v.size == 0:
+        return {"n": 0, "mean": None, "std": None, "min": None, "max": None}
+    return {"n": int(v.size), "mean": float(v.mean()), "std": float(v.std(ddof=1)) if v.size > 1 else 0.0,
+            "min": float(v.min()), "max": float(v.max())}
+
+
+def run_record(variant, system, trial: int, run: dict, metrics: Optional[dict], folder: str) -> dict:
+    """One run as results.json lists it (``run``: its run.json, ``metrics``: its metrics.json)."""
+    failure = run.get("error")
+    m = metrics or {}
+    if failure is None and metrics is None:
+        failure = "not evaluated"
+    if failure is None and not m.get("ok"):
+        failure = m.get("failure") or "not evaluated"
+    keep = {k: m[k] for k in (*METRIC_KEYS, "alignment", "scale", "lost_frames", "jumps", "n_paired", "n_frames",
+                              "est_xyz", "frames", "gt_path_length_m") if k in m}
+    return {"variant": variant.name, "key": variant.key, "point": variant.point, "world_seed": variant.seed,
+            "system": system.name, "trial": trial, "status": "ok" if failure is None else "failed",
+            "failure": failure, "rc": run.get("rc"), "timed_out": bool(run.get("timed_out")),
+            "wall_s": run.get("wall_s"), "stderr_tail": run.get("stderr_tail") or [], "dir": folder,
+            "metrics": keep}
+
+
+def aggregate(runs: list, metric: str) -> dict:
+    """{(point label, system): aggregate} over the runs (module docstring)."""
+    from .design import label
+    groups = defaultdict(list)
+    for r in runs:
+        groups[(label(r["point"]), r["system"])].append(r)
+    out = {}
+    for key, rs in groups.items():
+        ok = [r for r in rs if r["status"] == "ok"]
+        out[key] = {"point": rs[0]["point"], "system": key[1], "n": len(rs), "n_failed": len(rs) - len(ok),
+                    "metrics": {m: stats([r["metrics"].get(m) for r in ok]) for m in METRIC_KEYS}}
+    return out
+
+
+def _cell(agg: Optional[dict], metric: str) -> dict:
+    if agg is None:
+        return {"n": 0, "n_failed": 0, "mean": None, "std": None}
+    s = agg["metrics"][metric]
+    return {"n": agg["n"], "n_failed": agg["n_failed"], "mean": s["mean"], "std": s["std"], "min": s["min"],
+            "max": s["max"]}
+
+
+def _failed(c: dict) -> bool:
+    return c["n"] > 0 and 2 * c["n_failed"] >= c["n"]
+
+
+def curves_and_breaks(study, aggs: dict, metric: str) -> tuple[dict, dict, dict]:
+    """(curves {factor: {system: [cell per level]}}, base {system: cell}, breaking points)."""
+    from .design import label
+    base = {s.name: _cell(aggs.get(("base", s.name)), metric) for s in study.systems}
+    curves, breaks = {}, {}
+    if study.design.kind != "oat":
+        return curves, base, breaks
+    mult = study.evaluation.break_multiple
+    for f in study.factors:
+        curves[f.name], breaks[f.name] = {}, {}
+        for s in study.systems:
+            b = base[s.name]
+            cells, found = [], None
+            for lv in f.levels:
+                c = _cell(aggs.get((label({f.name: lv}), s.name)), metric)
+                why = None
+                if _failed(c):
+                    why = f"{c['n_failed']} of {c['n']} runs failed"
+                elif c["mean"] is not None and b["mean"] is not None and c["mean"] > mult * b["mean"]:
+                    why = f"{metric} {c['mean']:.3g} > {mult:g} x the base's {b['mean']:.3g}"
+                c["broken"] = why is not None
+                if why and found is None:
+                    found = {"level": lv, "reason": why}
+                cells.append(c)
+            if _failed(b):
+                found = {"level": "base", "reason": f"fails at the base ({b['n_failed']} of {b['n']} runs)"}
+            curves[f.name][s.name] = cells
+            breaks[f.name][s.name] = found or {"level": None, "reason": f"holds up to {f.levels[-1]}"}
+    return curves, base, breaks
+
+
+def results(study, plan, runs: list, controls: dict, cost: dict) -> dict:
+    """The whole results.json document."""
+    metric = study.evaluation.metric
+    aggs = aggregate(runs, metric)
+    curves, base, breaks = curves_and_breaks(study, aggs, metric)
+    w = study.world
+    base_scenes = {}
+    factors = []
+    for f in study.factors:
+        bl = None
+        try:
+            if not base_scenes:
+                from ..ses.parser import parse_text
+                v0 = plan.base_of(study.world.seeds[0])
+                base_scenes[0] = parse_text(v0.script, "<base>", "/")
+            bl = f.factor.base_level(base_scenes[0])
+        except Exception:  # noqa: BLE001 - the base level is a label for the plots only
+            bl = None
+        if isinstance(bl, float) and bl == int(bl) and all(isinstance(x, int) for x in f.levels):
+            bl = int(bl)
+        factors.append({"name": f.name, "unit": f.unit, "doc": f.factor.doc, "stage": f.factor.stage,
+                        "levels": list(f.levels), "base_level": bl, "options": f.options})
+    variants = []
+    for v in plan.variants:
+        variants.append({"name": v.name, "label": v.label, "point": v.point, "world_seed": v.seed, "key": v.key,
+                         "render_key": v.render_key, "stage": v.stage, "developed": v.developed,
+                         "render": f"renders/{v.key}", "control": controls.get(v.key) if v.controlled else None})
+    return {
+        "format": FORMAT,
+        "study": {"name": study.name, "description": study.description, "file": str(study.path),
+                  "world": {"script": str(w.script) if w.script else None, "generator": w.generator,
+                            "options": w.options, "frames": w.frames,
+                            "resolution": list(w.resolution) if w.resolution else None, "quality": w.quality,
+                            "samples": w.samples, "set": w.set},
+                  "seeds": list(w.seeds),
+                  "design": {"kind": study.design.kind, "samples": study.design.samples, "seed": study.design.seed},
+                  "metric": metric, "break_multiple": study.evaluation.break_multiple,
+                  "min_coverage": study.evaluation.min_coverage, "jump_factor": study.evaluation.jump_factor,
+                  "regression_sigmas": study.evaluation.regression_sigmas},
+        "factors": factors,
+        "systems": [{"name": s.name, "builtin": s.builtin, "cmd": list(s.cmd), "layout": s.layout,
+                     "format": s.format, "trials": s.trials, "mono": s.mono, "timeout_s": s.timeout_s}
+                    for s in study.systems],
+        "variants": variants,
+        "runs": runs,
+        "points": [{"label": k[0], **v} for k, v in sorted(aggs.items())],
+        "curves": curves,
+        "base": base,
+        "breaking_points": breaks,
+        "cost": cost,
+    }
+
+
+# --- compare ---------------------------------------------------------------------------------
+
+def _cells(doc: dict) -> dict:
+    """{(factor, level, system): cell} of a results document (the base as factor '(base)')."""
+    out = {}
+    for s, c in (doc.get("base") or {}).items():
+        out[("(base)", "", s)] = c
+    for f in doc.get("factors", []):
+        for s, cells in (doc.get("curves", {}).get(f["name"]) or {}).items():
+            for lv, c in zip(f["levels"], cells):
+                out[(f["name"], str(lv), s)] = c
+    if not doc.get("curves"):
+        metric = doc["study"]["metric"]
+        for p in doc.get("points", []):
+            m = p["metrics"][metric]
+            out[("(point)", p["label"], p["system"])] = {"n": p["n"], "n_failed": p["n_failed"], "mean": m["mean"],
+                                                         "std": m["std"]}
+    return out
+
+
+def compare(old: dict, new: dict, sigmas: float = 1.0) -> list[dict]:
+    """One row per (factor, level, system) in both: ``verdict`` worse | better | same."""
+    from ..errors import SesgenError
+    for d, which in ((old, "OLD"), (new, "NEW")):
+        if not str(d.get("format", "")).startswith("sesgen-study-results/"):
+            raise SesgenError(f"{which}: not a study's results.json (format {d.get('format')!r})")
+    if old["study"]["metric"] != new["study"]["metric"]:
+        raise SesgenError(f"the two studies measure different errors ({old['study']['metric']} and "
+                         f"{new['study']['metric']})")
+    a, b = _cells(old), _cells(new)
+    rows = []
+    for key in [k for k in a if k in b]:
+        o, n = a[key], b[key]
+        fo = o["n_failed"] / o["n"] if o["n"] else 0.0
+        fn = n["n_failed"] / n["n"] if n["n"] else 0.0
+        verdict, why = "same", ""
+        if fn > fo:
+            verdict, why = "worse", f"fails {n['n_failed']}/{n['n']} (was {o['n_failed']}/{o['n']})"
+        elif fn < fo:
+            verdict, why = "better", f"fails {n['n_failed']}/{n['n']} (was {o['n_failed']}/{o['n']})"
+        elif o["mean"] is not None and n["mean"] is not None:
+            spread = max(o["std"] or 0.0, n["std"] or 0.0)
+            margin = sigmas * spread + REL_TOL * max(1.0, abs(o["mean"]))
+            if n["mean"] > o["mean"] + margin:
+                verdict = "worse"
+            elif n["mean"] < o["mean"] - margin:
+                verdict = "better"
+            why = f"{o['mean']:.4g} ± {o['std'] or 0:.2g} -> {n['mean']:.4g} ± {n['std'] or 0:.2g}"
+        rows.append({"factor": key[0], "level": key[1], "system": key[2], "verdict": verdict, "detail": why})
+    return rows

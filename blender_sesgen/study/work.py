@@ -1,0 +1,86 @@
+"""The bodies of a study's tasks (pure: the standard library): export a variant's render,
+run one trial of one system on it. The runner submits them as Ray tasks
+(``farm.tasks.TaskGraph``); each is resumable on its own -- its result is a JSON file
+written last and atomically, found and returned at once by a rerun -- and runs its child
+process through :mod:`.launch` (bound to the task's life).
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Optional
+
+from ..contract import atomic
+from . import systems
+
+DONE = "done.json"
+FAILED = "failed.json"
+
+
+def export_failure(out_dir) -> Optional[str]:
+    """Why the export in ``out_dir`` failed the last time it ran (None: it did not fail)."""
+    rec = _read(Path(out_dir) / FAILED)
+    return None if rec is None else rec.get("error")
+
+
+def _read(path: Path) -> Optional[dict]:
+    try:
+        return json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+
+
+def export_variant(vo: list, render_dir: str, out_dir: str, layout: str) -> dict:
+    """``vo_reference export RENDER OUT --to LAYOUT`` into a fresh ``out_dir/data``, then
+    made read-only; ``out_dir/done.json`` records it (and is returned by a rerun)."""
+    out = Path(out_dir)
+    done = _read(out / DONE)
+    if done is not None and done.get("render") == render_dir:
+        return done
+    data = out / "data"
+    systems.remove_tree(data)
+    out.mkdir(parents=True, exist_ok=True)
+    cmd = [*vo, "export", render_dir, str(data), "--to", layout, "--progress", "off"]
+    t0 = time.monotonic()
+    proc = subprocess.run([sys.executable, "-m", "blender_sesgen.study.launch", str(out), "--", *cmd],
+                          stdin=subprocess.DEVNULL, capture_output=True, text=True, errors="replace")
+    rec = {"render": render_dir, "layout": layout, "dataset": str(data), "wall_s": round(time.monotonic() - t0, 3),
+           "ok": proc.returncode == 0}
+    if proc.returncode != 0:
+        lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
+        errs = [ln for ln in lines if "error" in ln.lower()]
+        rec["error"] = (errs or lines or [f"exit code {proc.returncode}"])[-1]
+        atomic.write_json(out / FAILED, rec)   # for the results; not done: a rerun tries again
+        return rec
+    (out / FAILED).unlink(missing_ok=True)
+    rec["sequence"] = str(systems.dataset_folder(data))
+    systems.set_read_only(data)
+    atomic.write_json(out / DONE, rec)
+    return rec
+
+
+def run_trial(export: dict, cmd: list, vo: list, run_dir: str, trial: int, frames: int, timeout_s: float,
+              env: dict, est_name: str) -> dict:
+    """One trial of one system on an exported dataset; ``run_dir/run.json`` records how it
+    ended (and is returned by a rerun). A failed export is this run's failure."""
+    rd = Path(run_dir)
+    done = _read(rd / "run.json")
+    if done is not None:
+        return done
+    rd.mkdir(parents=True, exist_ok=True)
+    est = rd / est_name
+    est.unlink(missing_ok=True)
+    if not isinstance(export, dict) or not export.get("ok"):
+        why = export.get("error") if isinstance(export, dict) else getattr(export, "message", str(export))
+        return {"rc": None, "timed_out": False, "error": f"the dataset could not be exported: {why}",
+                "est": str(est), "export_failed": True}
+    values = {"dataset": export["dataset"], "sequence": export["sequence"], "out": str(est),
+              "workdir": str(rd / "work"), "trial": trial, "frames": frames, "python": sys.executable}
+    argv = systems.expand(cmd, values, vo)
+    rec = systems.run(argv, rd, timeout_s, env)
+    rec.update(est=str(est), trial=trial)
+    atomic.write_json(rd / "run.json", rec)
+    return rec

@@ -1,0 +1,411 @@
+"""Verification studies without rendering: the study file, the factors, the same-path
+variants, the designs, the plan, the system runner, results and compare (docs/studies.md)."""
+from __future__ import annotations
+
+import io
+import json
+import re
+import sys
+from contextlib import redirect_stderr, redirect_stdout
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from study_scenes import ROOM, study_file, write
+
+REPO = Path(__file__).resolve().parents[1]
+SYSTEM = """
+[[systems]]
+name = "perfect"
+cmd = "{python} -c 'pass' {sequence} {out}"
+layout = "kitti-folder"
+format = "kitti"
+"""
+
+
+def cli(*argv) -> tuple[int, str, str]:
+    from blender_sesgen.cli import main
+    out, err = io.StringIO(), io.StringIO()
+    with redirect_stdout(out), redirect_stderr(err):
+        rc = main(list(argv))
+    return rc, out.getvalue(), err.getvalue()
+
+
+def load(tmp_path, body: str, script: str = ROOM):
+    from blender_sesgen.study.spec import load
+    return load(study_file(tmp_path, body, script))
+
+
+def scene_of(text: str):
+    from blender_sesgen.ses.parser import parse_text
+    return parse_text(text, "<test>", "/")
+
+
+# --- the study file ------------------------------------------------------------------------------
+
+def test_a_toml_syntax_error_is_one_line_with_file_line_and_column(tmp_path):
+    path = study_file(tmp_path, '[world]\nscript = "scene.ses"\nframes = \n')
+    rc, out, err = cli("study", "run", str(path), "--out", str(tmp_path / "o"))
+    assert rc == 2 and out == ""
+    assert re.fullmatch(rf"{re.escape(str(path))}:3:\d+: error: .+\n", err), err
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("body, key, words", [
+    ('[world]\nscript = "scene.ses"\n[factors.exposure_tme]\nlevels = [0.01]\n' + SYSTEM,
+     "factors.exposure_tme", "did you mean 'exposure_time'"),
+    ('[world]\nscript = "scene.ses"\n[factors.exposure_time]\nlevels = ["fast"]\n' + SYSTEM,
+     "factors.exposure_time.levels[0]", "expected a number"),
+    ('[world]\nscript = "scene.ses"\ngenerator = "street"\n' + SYSTEM, "world", "exactly one of"),
+    ('[world]\nscript = "missing.ses"\n' + SYSTEM, "world.script", "no such file"),
+    ('[world]\nscript = "scene.ses"\nquality = "best"\n' + SYSTEM, "world.quality", "expected one of"),
+    ('[world]\nscript = "scene.ses"\n[[systems]]\ncmd = "my_vo {dataset}"\nlayout = "kitti-folder"\n'
+     'format = "kitti"\n', "systems[0].cmd", "{out}"),
+    ('[world]\nscript = "scene.ses"\n[[systems]]\ncmd = "my_vo {dataset} {output}"\nlayout = "kitti-folder"\n'
+     'format = "kitti"\n', "systems[0].cmd", "unknown placeholder {output}"),
+    ('[world]\nscript = "scene.ses"\n[[systems]]\ncmd = "vo {out}"\nlayout = "kitti"\nformat = "kitti"\n',
+     "systems[0].layout", "kitti-folder"),
+    ('[world]\nscript = "scene.ses"\n[[systems]]\nbuiltin = "orb-slam"\n', "systems[0].builtin", "accurate-stereo"),
+    ('[world]\nscript = "scene.ses"\n[design]\nkind = "grid"\n[factors.gain]\nlevels = [2]\n' + SYSTEM,
+     "design.kind", "exactly two factors"),
+    ('[world]\nscript = "scene.ses"\n[factors.fogg]\nstatement = "FOG"\ntag = "density"\nlevels = [1]\n' + SYSTEM,
+     "factors.fogg.tag", "FOG has no tag 'density'"),
+    ('[world]\nscript = "scene.ses"\n[factors.lamp]\nstatement = "LIGHT"\ntag = "strength"\nlevels = [1]\n' + SYSTEM,
+     "factors.lamp.match", "match"),
+    ('[world]\nscript = "scene.ses"\nsamples = 0\n' + SYSTEM, "world.samples", ">= 1"),
+    ('[world]\nscript = "scene.ses"\n[evaluation]\nbreak_multiple = 0.5\n' + SYSTEM, "evaluation.break_multiple",
+     "> 1"),
+    ('[world]\nscript = "scene.ses"\n[wrld]\n' + SYSTEM, "wrld", "unknown key"),
+])
+def test_a_semantic_error_names_its_key(tmp_path, body, key, words):
+    path = study_file(tmp_path, body)
+    rc, out, err = cli("study", "run", str(path), "--out", str(tmp_path / "o"))
+    assert rc == 2, err
+    assert err.startswith(f"{path}: error: {key}"), err
+    assert words in err and err.count("\n") == 1
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_level_that_makes_a_bad_script_names_the_factor_and_level(tmp_path):
+    body = '[world]\nscript = "scene.ses"\n[factors.lens_distortion]\nlevels = [-0.1, -3.0]\n' + SYSTEM
+    rc, _, err = cli("study", "run", str(study_file(tmp_path, body)), "--out", str(tmp_path / "o"), "--plan")
+    assert rc == 2 and "factors.lens_distortion: level -3.0" in err and "folds the image" in err, err
+
+
+def test_the_help_documents_the_study_file_and_placeholders():
+    from blender_sesgen.study.cli import EPILOG
+    for word in ("[world]", "[factors.", "[design]", "[[systems]]", "{dataset}", "{out}", "{workdir}", "builtin",
+                 "timeout_s", "trials", "statement", "generator"):
+        assert word in EPILOG
+    rc, out, _ = cli("study", "factors")
+    assert rc == 0 and "exposure_time" in out and "Hz" in out
+
+
+# --- the script editor --------------------------------------------------------------------------
+
+def test_the_script_editor_rewrites_only_what_it_touches():
+    from blender_sesgen.study.script import Script
+    s = Script(ROOM)
+    s.set_tag("TIMING", "exposure", 0.004)
+    s.set_tag("CAMERA", "baseline", 0.3)
+    s.drop("LIGHT")
+    lines = s.text.splitlines()
+    before = ROOM.splitlines()
+    assert [ln for ln in before if not ln.startswith(("CAMERA", "LIGHT"))] == \
+        [ln for ln in lines if not ln.startswith(("CAMERA", "TIMING"))]
+    assert "CAMERA resolution 96 64 focal 60 baseline 0.3 near 0.1 far 100" in lines
+    assert "TIMING exposure 0.004" in lines
+    sc = scene_of(s.text)
+    assert sc.timing.exposure_s == 0.004 and sc.rig.baseline == 0.3 and not sc.lights
+
+
+# --- factors and their variants -----------------------------------------------------------------
+
+MOVING = ROOM.replace("LIGHT sun", "MOVE id 6 twist 0.05 0 0 0 10 0\nMOVE id 5 frame 4 position -0.4 0.4 -1.2 0 30 0\n"
+                                   "LIGHT sun")
+
+SAMPLES = {"frame_rate": 50, "rig_speed": 2.0, "rotation_rate": 30, "hand_shake": 0.5, "car_speed": 12,
+           "moving_cars": 2, "object_speed": 2.0, "resolution": 0.5, "baseline": 0.3, "lens_distortion": -0.1,
+           "readout_time": 0.02, "exposure_time": 0.01, "sun_elevation": 10, "hdri": "night", "illuminance": 0.1,
+           "fog_density": 0.2, "texture_richness": 0.3, "gain": 4.0, "read_noise": 5.0, "full_well": 2000,
+           "cfa": "rggb", "response": "linear", "vignetting": 1.0}
+
+
+def test_every_factor_of_the_registry_has_a_sample_here():
+    from blender_sesgen.study.factors import FACTORS
+    assert set(SAMPLES) == set(FACTORS)
+
+
+@pytest.mark.parametrize("name", sorted(SAMPLES))
+def test_every_factor_makes_a_checked_variant_that_differs_from_the_base(tmp_path, name):
+    from blender_sesgen.study.factors import FACTORS
+    from blender_sesgen.study.variants import make_variant
+    world = '[world]\nscript = "scene.ses"\n' + ('set = { moving_cars = 2 }\n' if name == "car_speed" else "")
+    body = f'{world}[factors.{name}]\nlevels = [{json.dumps(SAMPLES[name])}]\n' + SYSTEM
+    study = load(tmp_path, body, script=MOVING if name == "object_speed" else ROOM)
+    base = make_variant(study, {}, 0, tmp_path)
+    v = make_variant(study, {name: SAMPLES[name]}, 0, tmp_path)
+    assert v.script != base.script
+    assert v.stage == FACTORS[name].stage
+    if FACTORS[name].stage == "sensor":       # the render is the base's: only the camera chain differs
+        assert v.render_script == base.script and v.developed
+    else:
+        assert v.render_script == v.script and not v.developed
+    scene_of(v.script)
+
+
+def test_factors_change_what_they_say_and_nothing_else(tmp_path):
+    from blender_sesgen.study.variants import make_variant
+    study = load(tmp_path, '[world]\nscript = "scene.ses"\n' + SYSTEM)
+    base = scene_of(make_variant(study, {}, 0, tmp_path).script)
+    sc = lambda p: scene_of(make_variant(study, p, 0, tmp_path).script)   # noqa: E731
+    assert sc({"exposure_time": 0.01}).timing.exposure_s == 0.01
+    assert sc({"readout_time": 0.02}).timing.readout_s == 0.02
+    assert sc({"gain": 4.0}).sensor.gain == 4.0
+    assert sc({"read_noise": 5.0}).sensor.read_noise_e == 5.0
+    assert sc({"cfa": "rggb"}).sensor.cfa == "rggb"
+    assert sc({"vignetting": 1.0}).lens.vignetting == 1.0
+    assert sc({"baseline": 0.3}).rig.baseline == 0.3
+    assert sc({"fog_density": 0.2}).fog.end == pytest.approx(5.0)
+    w = sc({"sun_elevation": 10}).world
+    assert w.kind == "sky" and w.sun_elevation_deg == 10
+    assert sc({"hdri": "night"}).world.hdri == "night"
+    lit = sc({"illuminance": 0.1})
+    assert lit.lights[0].strength == pytest.approx(0.3) and lit.world.strength == pytest.approx(0.1)
+    half = sc({"resolution": 0.5}).rig
+    assert (half.width, half.height, half.focal_px) == (48, 32, 30) and half.cx == pytest.approx(23.5)
+    lens = sc({"lens_distortion": -0.1}).lens
+    assert lens.model == "brown" and lens.coeffs[0] == -0.1
+    for p in ({"exposure_time": 0.01}, {"gain": 4.0}, {"fog_density": 0.2}, {"sun_elevation": 10}):
+        v = sc(p)   # geometry and motion untouched
+        assert [o.to_json() if hasattr(o, "to_json") else o for o in v.objects] == list(base.objects)
+        assert np.array_equal(v.timeline.left(), base.timeline.left())
+
+
+def test_texture_richness_keeps_a_nested_seeded_share_and_the_geometry(tmp_path):
+    from blender_sesgen.study.variants import make_variant
+    study = load(tmp_path, '[world]\nscript = "scene.ses"\n' + SYSTEM)
+    textured = []
+    for f in (0.0, 0.3, 0.7, 1.0):
+        s = scene_of(make_variant(study, {"texture_richness": f}, 0, tmp_path).script)
+        textured.append({o.id for o in s.objects if o.texture is not None})
+        geo = [(o.id, o.shape, getattr(o, "vertices", None), getattr(o, "position", None)) for o in s.objects]
+        assert geo == [(o.id, o.shape, getattr(o, "vertices", None), getattr(o, "position", None))
+                       for o in scene_of(ROOM).objects]
+        assert [o.semantic_class for o in s.objects] == [o.semantic_class for o in scene_of(ROOM).objects]
+    assert textured[0] == set() and textured[-1] == {1, 2, 3, 4, 5, 6}
+    assert textured[1] <= textured[2] <= textured[3]
+
+
+def _rig_motion(text):
+    from blender_sesgen.study.paths import rig_motion
+    return rig_motion(scene_of(text))
+
+
+@pytest.mark.parametrize("factor, level", [("frame_rate", 50), ("frame_rate", 10), ("rig_speed", 2.0),
+                                           ("rig_speed", 0.5)])
+def test_same_path_variants_lie_on_the_base_path(tmp_path, factor, level):
+    """Every frame of the variant is the base's continuous motion at some instant: frame k
+    of a frame-rate variant at t = k / rate, of a rig-speed variant at t = k * speed / rate."""
+    from blender_sesgen.contract.se3 import relative, rotation_angle_rad
+    from blender_sesgen.study.variants import make_variant
+    study = load(tmp_path, '[world]\nscript = "scene.ses"\n' + SYSTEM)
+    base = make_variant(study, {}, 0, tmp_path)
+    v = scene_of(make_variant(study, {factor: level}, 0, tmp_path).script)
+    m = _rig_motion(base.script)
+    k = np.arange(v.frames)
+    t = k / level if factor == "frame_rate" else k * level / 25.0
+    T_base = m.T_world_cam(t)
+    T_var = v.timeline.left()
+    assert np.abs(T_var[:, :3, 3] - T_base[:, :3, 3]).max() < 1e-7
+    assert max(float(rotation_angle_rad(relative(a, b)[:3, :3])) for a, b in zip(T_var, T_base)) < 1e-7
+    duration = (scene_of(base.script).frames - 1) / 25.0
+    assert t[-1] <= duration + 1e-9 and t[-1] + (1 / level if factor == "frame_rate" else level / 25) > duration
+    if factor == "frame_rate":
+        assert v.timing.rate_hz == level
+
+
+def test_a_pan_and_a_shake_turn_the_camera_in_place(tmp_path):
+    from blender_sesgen.study import paths
+    from blender_sesgen.contract.se3 import so3_log
+    from blender_sesgen.study.variants import make_variant
+    study = load(tmp_path, '[world]\nscript = "scene.ses"\n' + SYSTEM)
+    base = scene_of(make_variant(study, {}, 0, tmp_path).script)
+    for p in ({"rotation_rate": 30}, {"hand_shake": 0.5}):
+        v = scene_of(make_variant(study, p, 0, tmp_path).script)
+        assert np.abs(v.timeline.left()[:, :3, 3] - base.timeline.left()[:, :3, 3]).max() < 1e-8
+    # the pan's peak rate is the level: finite differences of the added turn over one period
+    t = np.linspace(0, 2, 4001)
+    T0 = np.tile(np.eye(4), (len(t), 1, 1))
+    yaw = np.array([so3_log(R[:3, :3])[1] for R in paths.pan(T0, t, 30.0)])
+    assert np.degrees(np.abs(np.diff(yaw) / np.diff(t))).max() == pytest.approx(30.0, rel=1e-3)
+    # the shake's RMS per axis is the level (over a long stretch)
+    t = np.linspace(0, 60, 6001)
+    ang = np.array([so3_log(R[:3, :3]) for R in paths.shake(np.tile(np.eye(4), (len(t), 1, 1)), t, 0.5, seed=3)])
+    assert np.degrees(np.sqrt((ang ** 2).mean(axis=0))) == pytest.approx([0.5, 0.5, 0.5], rel=0.05)
+
+
+def test_a_resampled_clock_keeps_the_moving_objects_on_their_own_motion(tmp_path):
+    from blender_sesgen.dynamics import pose_at
+    from blender_sesgen.study.variants import make_variant
+    study = load(tmp_path, '[world]\nscript = "scene.ses"\n' + SYSTEM, script=MOVING)
+    base = scene_of(make_variant(study, {}, 0, tmp_path).script)
+    for p, tau in (({"frame_rate": 50}, lambda k: k / 2), ({"rig_speed": 2.0}, lambda k: k),
+                   ({"object_speed": 0.5}, lambda k: k * 0.5)):
+        v = scene_of(make_variant(study, p, 0, tmp_path).script)
+        for om in base.object_motions:
+            kind = "twist" if om.kind == "twist" else "keys"
+            got = v.motion_of(om.id).poses()
+            want = np.array([pose_at(om.poses(), tau(k), kind) for k in range(v.frames)])
+            assert np.abs(got - want).max() < 1e-7, (p, om.id)
+
+
+def test_moving_cars_drive_along_the_path_beside_the_camera(tmp_path):
+    from blender_sesgen.study.variants import make_variant
+    street = ROOM.replace("EGO 0.02 0 0.12 0 1.5 0", "EGO 0 0 1.2 0 0.5 0")
+    study = load(tmp_path, '[world]\nscript = "scene.ses"\n[factors.moving_cars]\nlevels = [3]\n' + SYSTEM,
+                 script=street)
+    v = scene_of(make_variant(study, {"moving_cars": 3, "car_speed": 8.0}, 0, tmp_path).script)
+    cars = [o for o in v.objects if o.shape == "asset" and o.kind == "car"]
+    assert len(cars) == 3 and len({o.id for o in cars}) == 3
+    cam = v.timeline.left()[:, :3, 3]
+    for o in cars:
+        P = v.motion_of(o.id).poses()[:, :3, 3]
+        assert np.linalg.norm(P - cam, axis=1).min() > 2.5
+        speed = np.linalg.norm(np.diff(P, axis=0), axis=1) * 25
+        assert np.median(speed) == pytest.approx(8.0, rel=0.05)
+
+
+# --- designs and the plan ------------------------------------------------------------------------
+
+def test_designs_one_at_a_time_grid_and_latin_hypercube(tmp_path):
+    from blender_sesgen.study import design
+    factors = '[factors.gain]\nlevels = [1.0, 4.0]\n[factors.exposure_time]\nlevels = [0.0, 0.02]\n'
+    s = load(tmp_path, '[world]\nscript = "scene.ses"\n' + factors + SYSTEM)
+    assert design.points(s.design, s.factors) == [{}, {"gain": 1.0}, {"gain": 4.0}, {"exposure_time": 0.0},
+                                                   {"exposure_time": 0.02}]
+    s = load(tmp_path, '[world]\nscript = "scene.ses"\n[design]\nkind = "grid"\n' + factors + SYSTEM)
+    assert len(design.points(s.design, s.factors)) == 1 + 4
+    s = load(tmp_path, '[world]\nscript = "scene.ses"\n[design]\nkind = "lhs"\nsamples = 8\nseed = 3\n'
+             + factors + SYSTEM)
+    pts = design.points(s.design, s.factors)[1:]
+    assert pts == design.points(s.design, s.factors)[1:]             # seeded
+    for name, lo, hi in (("gain", 1.0, 4.0), ("exposure_time", 0.0, 0.02)):
+        strata = sorted(int((p[name] - lo) / (hi - lo) * 8) for p in pts)
+        assert strata == list(range(8))                               # one sample per stratum
+
+
+def test_a_plan_costs_its_distinct_renders(tmp_path):
+    from blender_sesgen.study.variants import make_plan
+    body = ('[world]\nscript = "scene.ses"\nseeds = [0, 1]\n[factors.gain]\nlevels = [1.0, 2.0, 8.0]\n'
+            '[factors.exposure_time]\nlevels = [0.0, 0.02]\n' + SYSTEM)
+    plan = make_plan(load(tmp_path, body), tmp_path)
+    assert len(plan.variants) == 2 * 6
+    # per seed: the base (= gain 1 = exposure 0) and exposure 0.02 are rendered; gain 2 and 8 developed
+    assert len(plan.renders) == 2 * 2 and len(plan.develops) == 2 * 2
+    for v in plan.variants:
+        if v.point.get("gain", 1.0) != 1.0:
+            assert v.developed and v.render_key == plan.base_of(v.seed).key
+    assert plan.base_of(0).key != plan.base_of(1).key        # a script world's seed is its render seed
+
+
+# --- systems --------------------------------------------------------------------------------------
+
+def test_a_system_run_records_crashes_timeouts_and_a_read_only_dataset(tmp_path):
+    from blender_sesgen.study import systems
+    data = tmp_path / "data"
+    (data / "sub").mkdir(parents=True)
+    write(data / "sub", "f.txt", "x")
+    systems.set_read_only(data)
+    py = sys.executable
+    r = systems.run([py, "-c", "import sys; print('going down', file=sys.stderr); sys.exit(7)"], tmp_path / "a", 10)
+    assert r["rc"] == 7 and r["error"] == "exit code 7" and r["stderr_tail"] == ["going down"]
+    r = systems.run([py, "-c", "import time; time.sleep(60)"], tmp_path / "b", 1.0)
+    assert r["timed_out"] and "timeout" in r["error"] and r["wall_s"] < 10
+    r = systems.run([py, "-c", f"open({str(data / 'sub' / 'g.txt')!r}, 'w')"], tmp_path / "c", 10)
+    assert r["rc"] == 1 and "Permission denied" in "\n".join(r["stderr_tail"])
+    r = systems.run([py, "-c", "import os; open('mine.txt', 'w').write(os.getcwd())"], tmp_path / "d", 10)
+    assert r["rc"] == 0 and (tmp_path / "d" / "work" / "mine.txt").read_text() == str(tmp_path / "d" / "work")
+    systems.remove_tree(data)
+    assert not data.exists()
+
+
+def test_templates_expand_and_refuse_unknown_placeholders():
+    from blender_sesgen.errors import SesgenError
+    from blender_sesgen.study import systems
+    argv = systems.expand(["{vo}", "stereo-vo", "{sequence}", "--out", "{out}", "t{trial}"],
+                          {"sequence": "/d/s", "out": "/r/e.txt", "trial": 2}, ["py", "-m", "vo_reference"])
+    assert argv == ["py", "-m", "vo_reference", "stereo-vo", "/d/s", "--out", "/r/e.txt", "t2"]
+    for bad in (["x", "{nope}"], ["x{vo}"], ["{"]):
+        with pytest.raises(SesgenError):
+            systems.check_template(bad)
+
+
+# --- results and compare -----------------------------------------------------------------------
+
+def _runs(points: dict, system="s") -> list:
+    """Synthetic run records: {label point: [error or None (failed), ...]}."""
+    out = []
+    for point, errs in points:
+        for t, e in enumerate(errs):
+            out.append({"point": point, "system": system, "trial": t, "status": "ok" if e is not None else "failed",
+                        "metrics": {"ape_trans_rmse": e} if e is not None else {}})
+    return out
+
+
+def test_breaking_points_and_compare(tmp_path):
+    from blender_sesgen.study.results import aggregate, compare, curves_and_breaks
+    body = ('[world]\nscript = "scene.ses"\n[factors.exposure_time]\nlevels = [0.01, 0.02, 0.04]\n'
+            '[[systems]]\nname = "s"\ncmd = "x {out}"\nlayout = "tum"\nformat = "tum"\n')
+    study = load(tmp_path, body)
+    runs = _runs([({}, [1.0, 1.2]), ({"exposure_time": 0.01}, [1.1, 1.3]), ({"exposure_time": 0.02}, [2.5, 2.7]),
+                  ({"exposure_time": 0.04}, [None, None])])
+    curves, base, breaks = curves_and_breaks(study, aggregate(runs, "ape_trans_rmse"), "ape_trans_rmse")
+    assert base["s"]["mean"] == pytest.approx(1.1) and base["s"]["std"] == pytest.approx(np.std([1.0, 1.2], ddof=1))
+    assert breaks["exposure_time"]["s"]["level"] == 0.02
+    assert [c["broken"] for c in curves["exposure_time"]["s"]] == [False, True, True]
+    runs2 = _runs([({}, [1.0, 1.2]), ({"exposure_time": 0.01}, [None, None])])
+    assert curves_and_breaks(study, aggregate(runs2, "ape_trans_rmse"),
+                             "ape_trans_rmse")[2]["exposure_time"]["s"]["level"] == 0.01
+
+    def doc(runs):
+        c, b, br = curves_and_breaks(study, aggregate(runs, "ape_trans_rmse"), "ape_trans_rmse")
+        return {"format": "sesgen-study-results/1", "study": {"metric": "ape_trans_rmse"},
+                "factors": [{"name": "exposure_time", "levels": [0.01, 0.02, 0.04]}], "curves": c, "base": b}
+    old = doc(runs)
+    assert {r["verdict"] for r in compare(old, doc(runs))} == {"same"}
+    worse = _runs([({}, [1.0, 1.2]), ({"exposure_time": 0.01}, [1.6, 1.8]), ({"exposure_time": 0.02}, [2.5, 2.7]),
+                   ({"exposure_time": 0.04}, [None, None])])
+    rows = {(r["factor"], r["level"]): r["verdict"] for r in compare(old, doc(worse))}
+    assert rows[("exposure_time", "0.01")] == "worse" and rows[("exposure_time", "0.02")] == "same"
+    within = _runs([({}, [1.0, 1.2]), ({"exposure_time": 0.01}, [1.2, 1.3]), ({"exposure_time": 0.02}, [2.5, 2.7]),
+                    ({"exposure_time": 0.04}, [None, None])])
+    assert {r["verdict"] for r in compare(old, doc(within))} == {"same"}    # within one spread
+    a, b = tmp_path / "old.json", tmp_path / "new.json"
+    a.write_text(json.dumps(old))
+    b.write_text(json.dumps(doc(worse)))
+    rc, out, _ = cli("study", "compare", str(a), str(b))
+    assert rc == 1 and "WORSE  exposure_time = 0.01 / s" in out
+    rc, _, _ = cli("study", "compare", str(a), str(a))
+    assert rc == 0
+
+
+def test_the_docs_list_every_factor():
+    from blender_sesgen.study.factors import FACTORS
+    text = (REPO / "docs" / "studies.md").read_text(encoding="utf-8")
+    rows = re.findall(r"^\| `([a-z_]+)` \| ([^|]+) \| (\w+) \|", text, flags=re.M)
+    assert {name: (unit.strip(), stage) for name, unit, stage in rows} == \
+        {f.name: (f.unit, f.stage) for f in FACTORS.values()}
+
+
+def test_one_study_run_per_folder(tmp_path):
+    import fcntl
+    path = study_file(tmp_path, '[world]\nscript = "scene.ses"\n[factors.gain]\nlevels = [2.0]\n' + SYSTEM)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "plan.json").write_text("{}")
+    with open(out / ".study.lock", "a+") as held:          # as a running study holds it
+        fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        rc, _, err = cli("study", "run", str(path), "--out", str(out))
+    assert rc == 2 and "another `study run` is writing into it" in err

@@ -1,0 +1,149 @@
+"""Evaluation of one run of a system in a verification study, and the ground-truth
+controls of its variants (docs/studies.md).
+
+A run's trajectory is paired with the variant's ground truth -- by index for KITTI files
+(line k is frame k), by timestamp for TUM and EuRoC (the nearest frame stamp within a
+quarter of a frame period) -- and then:
+
+- **failure**: the file is missing, does not parse (a row of NaN, a broken rotation, more
+  poses than frames), or covers fewer than ``min_coverage`` of the frames (a short
+  trajectory); the run's own end (an exit code, a timeout) is the study's to report;
+- **tracking loss**: the share of frames without a pose, plus those after a *jump* -- a
+  step ``jump_factor`` times longer than the estimate's median step;
+- **APE**: after SE(3) alignment (Sim(3) for monocular systems; Umeyama over every paired
+  pose); on a path too straight for it (collinear positions) the estimate is aligned at its
+  first pose instead (and scaled by the path-length ratio for monocular systems), and the
+  record says so;
+- **RPE** per frame (consecutive frames) and per metre (consecutive 1 m pieces of path, in
+  m/m); the **KITTI** metric where the ground-truth path is at least 100 m (its shortest
+  segment).
+"""
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import VoError
+from ..evaluate.align import Alignment, align, apply_alignment
+from ..evaluate.ape import ape
+from ..evaluate.associate import matching_time_indices
+from ..evaluate.kitti import kitti_metric
+from ..evaluate.rpe import rpe
+from ..io.trajectory import Trajectory, read_trajectory
+
+KITTI_MIN_PATH_M = 100.0
+FORMATS = ("tum", "kitti", "euroc")
+
+
+def sha256_file(path: Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def pair(gt: Trajectory, est: Trajectory, fmt: str, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """(frame index, estimate index) of every pose paired with a frame."""
+    if fmt == "kitti":
+        if len(est) > len(gt):
+            raise VoError(f"{len(est)} poses for {len(gt)} frames")
+        n = len(est)
+        return np.arange(n), np.arange(n)
+    i_est, i_gt = matching_time_indices(est.timestamps_s, gt.timestamps_s, max_diff=0.25 / rate_hz)
+    keep = np.unique(i_gt, return_index=True)[1]         # one pose per frame: the first
+    return i_gt[keep], i_est[keep]
+
+
+def jumps(positions: np.ndarray, factor: float) -> np.ndarray:
+    """Indices k of steps k -> k+1 longer than ``factor`` times the median step."""
+    steps = np.linalg.norm(np.diff(positions, axis=0), axis=1)
+    if len(steps) < 3:
+        return np.zeros(0, dtype=int)
+    med = float(np.median(steps))
+    return np.nonzero(steps > factor * max(med, 1e-12))[0]
+
+
+def _align(gt: Trajectory, est: Trajectory, mono: bool) -> tuple[Trajectory, str, float]:
+    method = "sim3" if mono else "se3"
+    try:
+        aligned, a = align(est, gt, method)
+        return aligned, method, float(a.scale)
+    except VoError:                       # a straight path: the rotation about it is not observable
+        scale = 1.0
+        if mono:
+            L_est = est.path_length()
+            scale = gt.path_length() / L_est if L_est > 1e-12 else 1.0
+        T = est.T_world_cam.copy()
+        T[:, :3, 3] *= scale
+        A = gt.T_world_cam[0] @ np.linalg.inv(T[0])
+        a = Alignment("origin", A[:3, :3].copy(), A[:3, 3].copy(), 1.0, 1)
+        return apply_alignment(Trajectory(T, est.timestamps_s), a), f"origin{'+scale' if mono else ''} " \
+            "(path too straight for " + method + ")", scale
+
+
+def evaluate_run(gt: Trajectory, est_path, fmt: str, *, mono: bool, rate_hz: float, min_coverage: float,
+                 jump_factor: float) -> dict:
+    """The record of one run's trajectory (see the module docstring): ``ok``, ``failure``
+    and, when it could be measured, ``coverage``, ``tracking_loss`` and the metrics."""
+    est_path = Path(est_path)
+    n = len(gt)
+    if not est_path.is_file():
+        return {"ok": False, "failure": "wrote no trajectory file"}
+    try:
+        est = read_trajectory(est_path, fmt)
+        i_gt, i_est = pair(gt, est, fmt, rate_hz)
+    except VoError as e:
+        return {"ok": False, "failure": f"malformed trajectory: {e}"}
+    coverage = len(i_gt) / n if n else 0.0
+    rec = {"n_frames": n, "n_poses": int(len(est)), "n_paired": int(len(i_gt)), "coverage": coverage}
+    if coverage < min_coverage or len(i_gt) < 2:
+        rec.update(ok=False, failure=f"short trajectory: poses for {len(i_gt)} of {n} frames "
+                                     f"(at least {min_coverage:.0%} needed)")
+        return rec
+    g = Trajectory(gt.T_world_cam[i_gt], gt.timestamps_s[i_gt])
+    e = Trajectory(est.T_world_cam[i_est], gt.timestamps_s[i_gt])
+    aligned, how, scale = _align(g, e, mono)
+    jumped = jumps(aligned.positions, jump_factor)
+    lost = (n - len(i_gt)) + len(jumped)
+    a = ape(g, aligned)
+    r = rpe(g, aligned, 1, "f")
+    rec.update(ok=True, failure=None, alignment=how, scale=scale, tracking_loss=lost / n,
+               lost_frames=int(n - len(i_gt)), jumps=[int(i_gt[k + 1]) for k in jumped],
+               ape_trans_rmse=a.trans.rmse, ape_rot_rmse_deg=a.rot_deg.rmse,
+               rpe_trans_rmse=r.trans.rmse, rpe_rot_rmse_deg=r.rot_deg.rmse,
+               gt_path_length_m=g.path_length())
+    if g.path_length() >= 2.0:
+        rm = rpe(g, aligned, 1.0, "m")
+        rec["rpe_trans_per_m"] = rm.trans.rmse if len(rm.pairs) else None
+    if g.path_length() >= KITTI_MIN_PATH_M:
+        est_k = e
+        if mono:
+            T = e.T_world_cam.copy()
+            T[:, :3, 3] *= scale
+            est_k = Trajectory(T, e.timestamps_s)
+        k = kitti_metric(g, est_k, frame_period_s=1.0 / rate_hz)
+        if k.n_segments:
+            rec["kitti_t_err_pct"] = k.t_err_pct
+            rec["kitti_r_err_deg_per_100m"] = k.r_err_deg_per_100m
+    rec["frames"] = [int(k) for k in i_gt]
+    rec["est_xyz"] = np.round(aligned.positions, 6).tolist()
+    return rec
+
+
+def ground_truth_identical(variant, base) -> dict:
+    """Whether two renders (``RenderSequence``) hold the same ground truth: every frame's
+    depth and object ids, both views, byte for byte, and the same poses."""
+    if variant.num_frames != base.num_frames or variant.views != base.views:
+        return {"identical": False, "difference": "frame count or views differ"}
+    for view in variant.views:
+        if not np.array_equal(variant.T_world_cam(view), base.T_world_cam(view)):
+            return {"identical": False, "difference": f"{view} poses differ"}
+    for k in range(variant.num_frames):
+        for view in variant.views:
+            for what in ("depth", "ids"):
+                a, b = getattr(variant, what)(k, view), getattr(base, what)(k, view)
+                if a.dtype != b.dtype or a.tobytes() != b.tobytes():
+                    diff = float(np.nanmax(np.abs(np.where(np.isfinite(a) & np.isfinite(b), a - b, 0)))) \
+                        if what == "depth" else int((a != b).sum())
+                    return {"identical": False, "difference": f"frame {k} {view} {what}: "
+                                                              f"{'max |difference|' if what == 'depth' else 'pixels'} {diff:g}"}
+    return {"identical": True, "frames": variant.num_frames}
