@@ -129,16 +129,16 @@ def render_frames(out: Path, frames: int):
 def sensor_frames(seq, frames: int):
     """The render's scene-linear beauty through the sensor model (grey, 8-bit), both views."""
     from blender_sesgen.model import Lens, Sensor
-    from blender_sesgen.sensor.pipeline import process
+    from blender_sesgen.sensor.pipeline import Camera, Shot, process
     from vo_reference.io.color import rgb8_to_gray8
     sensor, lens = Sensor(**SENSOR_MODEL), Lens(**LENS_MODEL)
     K = np.asarray(seq.K, float)
+    camera = Camera(sensor=sensor, lens=lens, cx=K[0, 2], cy=K[1, 2], nominal_exposure_s=EXPOSURE_S)
     cache: dict = {}
     out = {"left": [], "right": []}
     for k in range(min(frames, seq.num_frames)):
         for vi, view in enumerate(("left", "right")):
-            f = process(seq.rgb_linear(k, view), sensor=sensor, lens=lens, cx=K[0, 2], cy=K[1, 2],
-                        exposure_s=EXPOSURE_S, nominal_exposure_s=EXPOSURE_S, gain=1.0, frame=k, view_index=vi,
+            f = process(seq.rgb_linear(k, view), camera, Shot(exposure_s=EXPOSURE_S, gain=1.0, frame=k, view_index=vi),
                         fpn_cache=cache)
             out[view].append(rgb8_to_gray8(f.rgb8))
     return out["left"], out["right"]
