@@ -22,7 +22,9 @@ Measured per camera (docs/sensors.md, "Camera profiles", says how each number en
 - **vignetting**: the column means of all frames (rows 20-80 %), fitted with
   a * cos(theta)^(4 v) over the horizontal ray angle (f from the calibration);
 - **metering**: the median frame mean, linearised with the fitted exponent (the target a
-  scene-following auto-exposure holds).
+  scene-following auto-exposure holds);
+- **frame rate**: the median step of the excerpt's time stamps (EuRoC data.csv, RobotCar
+  stereo.timestamps; KITTI's excerpt has none).
 RobotCar frames are raw Bayer GBRG: noise and edges are measured on the first green plane
 (half size, so its noise is per sensor pixel) and the edge spread is doubled back to sensor
 pixels.
@@ -173,6 +175,19 @@ def vignetting(imgs, focal_px: float) -> float:
     return float(v)
 
 
+def frame_rate_hz(camera: str) -> float:
+    """The median frame rate of the excerpt's time stamps (nan where it has none: KITTI's)."""
+    if camera == "euroc":
+        rows = (DATA / "euroc" / "mav0" / "cam0" / "data.csv").read_text().splitlines()
+        t = np.array([float(r.split(",")[0]) * 1e-9 for r in rows if r and not r.startswith("#")])
+    elif camera == "robotcar":
+        rows = (DATA / "robotcar" / "stereo_centre_bayer" / "stereo.timestamps").read_text().split("\n")
+        t = np.array([float(r.split()[0]) * 1e-6 for r in rows if r.strip()])
+    else:
+        return float("nan")
+    return float(1.0 / np.median(np.diff(t)))
+
+
 def measure(camera: str, spread_scale: float = 1.0) -> dict:
     imgs, focal_px = frames(camera)
     allpx = np.concatenate([im.ravel() for im in imgs])
@@ -187,7 +202,7 @@ def measure(camera: str, spread_scale: float = 1.0) -> dict:
             "nlf": nlf, "gamma": g, "full_well_e": fw, "read_noise_e": rn, "nlf_rms_dn": rms,
             "edge_spread_px": spread * spread_scale, "edges": n_edges,
             "mtf50": sqrt(log(2) / 2) / (pi * spread * spread_scale), "vignetting": vignetting(imgs, focal_px),
-            "metered_target": target}
+            "metered_target": target, "rate_hz": frame_rate_hz(camera)}
 
 
 def main(argv=None) -> int:
@@ -214,7 +229,8 @@ def main(argv=None) -> int:
                 ("MTF50 (cycles/px)", m["mtf50"], None), ("edges used", m["edges"], None),
                 ("vignetting exponent v", m["vignetting"], p.lens.get("vignetting", 0.0)),
                 ("pixels at 255", m["clipped_255"], None), ("pixels at the black level", m["at_black"], None),
-                ("metered mean (linear)", m["metered_target"], p.autoexposure.get("target")))
+                ("metered mean (linear)", m["metered_target"], p.autoexposure.get("target")),
+                ("frame rate (Hz, time stamps)", m["rate_hz"], p.timing.get("rate")))
         for name, meas, prof in rows:
             print(f"  {name:34s} measured {meas:10.4g}   profile {'' if prof is None else format(prof, '.4g')}")
     return 0

@@ -13,7 +13,9 @@ beside them); ratios come from rows of the same run.
 
 Build, up to frame 0's first sample (what every render process pays before its first frame;
 a farm chunk or a study variant pays it again): ``import`` (bpy), ``parse`` (the script and
-the plan), ``assets`` (the procedural assets' numpy generators), ``meshes`` (their Blender
+the plan), ``assets`` (the procedural assets' numpy generators; the rows switch the disk
+cache of asset meshes off, as a machine's first render finds it: bench/bench_asset_cache.py
+measures what it saves the others), ``meshes`` (their Blender
 meshes), ``materials`` (node graphs), ``scene`` (the rest of the builder: objects, lights,
 world, cameras), ``exposure`` (the automatic exposure's preview render, Cycles set-up
 included when it pays it), and the Cycles set-up of the render sessions before frame 0's
@@ -188,15 +190,20 @@ class CyclesLog:
 def child(a) -> int:
     import bpy  # noqa: F401
     c_import = cpu_s()
-    from blender_sesgen.scene import assets
+    from blender_sesgen import assets
+    try:
+        from blender_sesgen.assets import cache as asset_cache
+    except ImportError:   # a revision before the disk cache of asset meshes
+        asset_cache = None
     from blender_sesgen.blender import assets as bassets, builder, exposure, materials
-    from blender_sesgen.render.job import RenderJob
-    from blender_sesgen.render.plan import RenderOptions, RenderPlan
+    from blender_sesgen.job import RenderJob
+    from blender_sesgen.plan import RenderOptions, RenderPlan
     log = CyclesLog()
     bpy.app.handlers.render_stats.append(log)
     stages = Stages(log)
     stages.cpu["import"] = c_import
-    stages.wrap(assets, "generate", "assets")
+    # the asset meshes (read from the disk cache where the code has one: switched off here)
+    stages.wrap(*((asset_cache, "generate") if asset_cache else (assets, "generate")), "assets")
     stages.wrap(bassets, "mesh_from_triangles", "meshes")
     stages.wrap(materials.MaterialFactory, "_make", "materials")
     stages.wrap(builder, "build_scene", "scene")
@@ -330,7 +337,8 @@ def run_child(a, scene: Path, feature: str, code_root: Path, in_process=()) -> d
            "--quality", a.quality, "--scale", str(a.scale), "--frames", str(a.frames),
            *(["--samples", str(a.samples)] if a.samples else []),
            *(["--in-process", *in_process] if in_process else [])]
-    env = dict(os.environ, PYTHONPATH=str(code_root))
+    # every row builds its assets the way a machine's first render process does
+    env = dict(os.environ, PYTHONPATH=str(code_root), SESGEN_ASSET_CACHE="off")
     proc = subprocess.run(cmd, cwd=code_root, env=env, capture_output=True, text=True)
     line = next((ln for ln in proc.stdout.splitlines() if ln.startswith("PROFILE ")), None)
     if proc.returncode != 0 or line is None:

@@ -10,7 +10,7 @@ For every configuration the frame is rendered through the real Blender session (
 code as ``render``) and compared with a converged reference render of the same frame:
 ``--reference-samples`` samples per pixel, no adaptive sampling, no denoiser, no clamping,
 Cycles' default light paths (12 bounces, caustics on). The reference is cached in
-``--cache`` (keyed by the script without its RENDER statement, the seed, frame, size, crop, views and
+``--cache`` (keyed by the script without its comments and RENDER statement, the seed, frame, size, crop, views and
 Blender version): it is the expensive part.
 
 ``--crop f`` renders only the centred window of f·W × f·H pixels (Cycles' render border,
@@ -95,10 +95,12 @@ def parse_try(text: str) -> tuple[str, Preset]:
 
 
 def scene_key(plan) -> str:
-    """The script's hash without its RENDER statement, which the reference replaces entirely
-    (the seed it may set is in the plan's settings, added here): a library script that drops
-    its pinned samples keeps its cached references."""
-    lines = [ln for ln in plan.scene_text.splitlines(keepends=True) if not ln.lstrip().upper().startswith("RENDER")]
+    """The script's hash without its comment lines and its RENDER statement, which the
+    reference replaces entirely (the seed it may set is in the plan's settings, added here):
+    a library script that drops its pinned samples or whose header names its generator
+    elsewhere keeps its cached references."""
+    lines = [ln for ln in plan.scene_text.splitlines(keepends=True)
+             if not ln.lstrip().upper().startswith("RENDER") and not ln.lstrip().startswith("//")]
     return hashlib.sha256(("".join(lines) + f"\nseed {plan.settings.seed}").encode()).hexdigest()
 
 

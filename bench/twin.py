@@ -5,11 +5,10 @@ figures and three stereo VOs' errors on the render and on the real excerpt, with
     python bench/twin.py [--scene city] [--frames 45] [--scale 0.5] [--quality draft] [--out out/twin]
                          [--no-render]
 
-Scenes: ``city`` = scenes/city_kitti.ses with ``SENSOR profile kitti`` + ``AUTOEXPOSURE``
-beside KITTI sequence_1 (../shared/data/kitti); ``hall`` = scenes/hall.ses with
-``SENSOR profile euroc`` + ``AUTOEXPOSURE`` beside the EuRoC V1_01 excerpt (rectified with
-its sensor.yaml; it has no ground truth: image and tracking figures only). A script that
-already has a SENSOR statement is rendered as it is. The real frames are brought to the
+Scenes: ``city`` = scenes/city_kitti.ses (``SENSOR profile kitti``) beside KITTI sequence_1
+(../shared/data/kitti); ``hall`` = scenes/hall.ses (``SENSOR profile euroc``) beside the EuRoC
+V1_01 excerpt (rectified with its sensor.yaml; it has no ground truth: image and tracking
+figures only); both rendered with ``AUTOEXPOSURE`` added (written to OUT/<scene>_twin.ses). The real frames are brought to the
 render's size with area averaging (cv2.INTER_AREA; K scaled like ``--resolution-scale``).
 
 Figures (issue 28): power-spectrum slope, KLT forward-backward error (median), pixels at 0
@@ -158,13 +157,17 @@ def vo_errors(seq: Frames, method: str, n: int) -> dict:
 # --- the render -----------------------------------------------------------------------------
 
 def twin_script(script: str, profile: str, out: Path) -> Path:
-    """The library script with its camera profile (unchanged when it has a SENSOR already)."""
-    text = (REPO / script).read_text()
-    if any(line.startswith("SENSOR") for line in text.splitlines()):
-        return REPO / script
+    """The library script with its camera profile (the library's default) and AUTOEXPOSURE
+    (exposure following the scene, as the real cameras do; the library leaves it out because
+    it makes a render start at frame 0 and run in order, which this bench does)."""
+    lines = (REPO / script).read_text().splitlines()
+    if not any(ln.startswith("SENSOR") for ln in lines):
+        lines.append(f"SENSOR profile {profile}")
+    if not any(ln.startswith("AUTOEXPOSURE") for ln in lines):
+        lines.append("AUTOEXPOSURE")
     out.mkdir(parents=True, exist_ok=True)
-    path = out / Path(script).name
-    path.write_text(text + f"\n// the camera twin (bench/twin.py)\nSENSOR profile {profile}\nAUTOEXPOSURE\n")
+    path = out / f"{Path(script).stem}_twin.ses"
+    path.write_text("\n".join(lines) + "\n")
     return path
 
 
@@ -187,6 +190,32 @@ def render(script: Path, out: Path, n: int, scale: float, quality: str) -> float
     if proc.wait() != 0:
         sys.exit(f"render of {script} failed (exit {proc.returncode})")
     return float(np.mean(secs)) if secs else float("nan")
+
+
+def resensor(out: Path, n: int) -> Frames:
+    """Frames 0..n-1 of the render in ``out`` through today's camera chain again (its EXRs,
+    each frame's recorded exposure and gain, the scene.ses of the folder parsed with today's
+    profiles): the chain runs after Cycles, so a changed profile needs no new render."""
+    from blender_sesgen.plan import RenderOptions, RenderSettings
+    from blender_sesgen.sensor import pipeline
+    from blender_sesgen.sensor.outputs import _rays, state_relpath
+    from blender_sesgen.sensor.render_plan import SensorPlan
+    from blender_sesgen.ses.parser import parse_text
+    from vo_reference.io.color import rgb8_to_gray8
+    seq = open_sequence(out)
+    scene = parse_text((out / "scene.ses").read_text(), str(out / "scene.ses"), str(out))
+    scale = json.loads((out / "manifest.json").read_text())["render"]["resolution_scale"]
+    plan = SensorPlan.create(scene, RenderSettings.of(scene, RenderOptions(resolution_scale=scale)))
+    camera = pipeline.Camera(plan.sensor, plan.lens_spec, _rays(plan), plan.K[0, 2], plan.K[1, 2],
+                             plan.nominal_exposure_s())
+    imgs, fpn = {"left": [], "right": []}, {}
+    for k in range(n):
+        st = json.loads((out / state_relpath(k)).read_text())
+        for vi, view in enumerate(("left", "right")):
+            f = pipeline.process(seq.rgb_linear(k, view), camera, pipeline.Shot(st["exposure_s"], st["gain"], k, vi),
+                                 fpn_cache=fpn)
+            imgs[view].append(rgb8_to_gray8(f.rgb8))
+    return Frames(imgs["left"], imgs["right"], seq.K, seq.baseline_m, seq.T_world_cam("left"), seq.timestamps_s)
 
 
 # --- the table ------------------------------------------------------------------------------
@@ -233,6 +262,8 @@ def main(argv=None) -> int:
     ap.add_argument("--quality", default="draft")
     ap.add_argument("--out", default="out/twin")
     ap.add_argument("--no-render", action="store_true", help="use the frames already rendered in --out")
+    ap.add_argument("--resensor", action="store_true",
+                    help="run today's camera chain again on the rendered EXRs (after a profile changed)")
     a = ap.parse_args(argv)
     if not DATA.is_dir():
         print(f"real data not found at {DATA} (set SESGEN_SHARED_DATA)", file=sys.stderr)
@@ -249,7 +280,7 @@ def main(argv=None) -> int:
     if n < 3:
         print(f"{out}: only {n} frame(s) rendered completely; render more (without --no-render)", file=sys.stderr)
         return 2
-    ours = resized(seq, n, tuple(seq.resolution))
+    ours = resensor(out, n) if a.resensor else resized(seq, n, tuple(seq.resolution))
     if profile == "kitti":
         real_seq = open_sequence(DATA / "kitti" / "sequence_1")
         n = min(n, real_seq.num_frames)

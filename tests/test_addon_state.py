@@ -45,5 +45,15 @@ def test_the_world_override_replaces_the_scripts_world_and_keeps_its_line_number
 
 
 def test_the_summary_names_a_camera_profile():
-    lines = summary_lines(parse_string(SCRIPT.replace("SENSOR fullwell 9000", "SENSOR profile kitti fullwell 9000")))
+    lines = summary_lines(parse_string(SCRIPT.replace("SENSOR fullwell 9000", "SENSOR profile kitti mono off fullwell 9000")))
     assert "Sensor: profile kitti (per pixel of 1226 px), full well 9000 e-, read noise 2.5 e-, 12 bit, CFA rggb" in lines
+
+
+def test_the_camera_override_replaces_the_scripts_sensor_and_keeps_its_line_numbers():
+    from blender_sesgen.addon.state import script_with_profile
+    edited = script_with_profile(SCRIPT, "euroc")
+    old, new = SCRIPT.splitlines(), edited.splitlines()
+    assert new[: len(old)] == [("// " + ln) if ln.startswith("SENSOR") else ln for ln in old]
+    scene = parse_string(edited)
+    assert (scene.sensor.profile, scene.sensor.full_well_e, scene.sensor.cfa) == ("euroc", 8400.0, None)
+    assert scene.timing.rate_hz == 30      # the script's TIMING stays; the profile fills only what it leaves out

@@ -216,3 +216,23 @@ def test_the_renderer_checks_float_images_check_cannot_decode(tmp_path, use):
     r = cli("render", s, "--out", out, "--samples", "1", timeout=300)
     assert r.returncode == 2 and "bad.exr" in r.stderr and "finite" in r.stderr, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and not out.exists(), r.stderr
+
+
+def test_a_ply_header_that_ends_the_file_is_refused(tmp_path):
+    """``end_header`` with no line end after it (found by the campaign: a ValueError
+    traceback from the header scan) is one line, exit 2."""
+    model = tmp_path / "m.ply"
+    model.write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nend_header")
+    refused(mesh_script(tmp_path, model), "PLY", line=3)
+
+
+@needs("OpenEXR")
+def test_an_exr_whose_names_are_not_utf8_is_refused(tmp_path):
+    """A channel name that is not UTF-8 (found by the campaign: ``check`` passed it, and
+    OpenEXR's own Python reader cannot open it) is refused at the script's line."""
+    good = exr(tmp_path / "sky.exr", 1.0)
+    buf = bytearray(good.read_bytes())
+    at = buf.index(b"\0G\0") + 1            # the channel name "G" in the channel list
+    buf[at] = 0xC6                          # a lone UTF-8 lead byte
+    good.write_bytes(bytes(buf))
+    refused(write(tmp_path, CAMERA + QUAD + "WORLD hdri sky.exr\n"), "sky.exr", "UTF-8", line=4)

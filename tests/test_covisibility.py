@@ -205,3 +205,19 @@ def test_bad_input_is_one_clear_error(render, tmp_path):
     (d / "covisibility.json").write_text('{"format": "something else"}')
     with pytest.raises(VoError, match="not a"):
         read_covisibility(tmp_path)
+
+
+def test_a_selection_of_stretches_gives_the_same_pairs(render, tmp_path):
+    """``--frames 0:3,5:7``: the pairs among the chosen frames are the whole sequence's, and
+    the files say which frames were computed."""
+    import shutil
+    from vo_reference.cli import main as vo
+    whole = compute_covisibility(RenderSequence(render), CovisibilityParams(stride=2, threshold=0.05))
+    r = tmp_path / "r"
+    shutil.copytree(render, r)
+    assert vo(["covisibility", str(r), "--stride", "2", "--frames", "0:3,5:7", "-q"]) == 0
+    back = read_covisibility(r)
+    chosen = [0, 1, 2, 5, 6]
+    assert back.frames.tolist() == chosen
+    expected = [row for row in whole.pairs if int(row[0]) in chosen and int(row[1]) in chosen]
+    assert np.allclose(back.pairs, np.array(expected).reshape(-1, 4), atol=1e-6)

@@ -494,7 +494,7 @@ def test_the_verify_task_reports_a_tampered_manifest_as_the_folders_own_problem(
     root = complete_render(tmp_path / "r")
     assert chunk_mod.verify_task(str(root))["folder"] == []
     m = json.loads((root / "manifest.json").read_text())
-    m["baseline"] = 0.3
+    m["K"][0][0] *= 1.01
     (root / "manifest.json").write_text(json.dumps(m))
     res = chunk_mod.verify_task(str(root))
     assert res["missing"] == [] and len(res["folder"]) == 1 and "seal" in res["folder"][0]

@@ -71,7 +71,7 @@ def test_a_hand_edited_manifest_fails_verify_and_is_never_exported(tmp_path, wha
             m["checksums"]["exr/left/000001.exr"] = "0" * 64
         else:
             del m["seal"]
-            m["baseline"] = 0.25
+            m["K"][0][0] *= 1.01
         before = json.dumps(m, sort_keys=True)
     edit_manifest(root, change)
     r = verify(root)
@@ -80,8 +80,30 @@ def test_a_hand_edited_manifest_fails_verify_and_is_never_exported(tmp_path, wha
     assert json.dumps(json.loads((root / "manifest.json").read_text()), sort_keys=True) == before  # not re-sealed
     if what != "seal removed":   # a manifest without a seal is read (older renders); verify names it
         e = export(root, tmp_path / "E")
-        assert e.returncode == 2 and "seal" in e.stderr and e.stderr.strip().count("\n") == 0, e.stderr
+        # refused: by the seal, or first by a value no render has (a baseline the poses do not show)
+        why = "baseline" if what in ("baseline", "pose") else "seal"
+        assert e.returncode == 2 and why in e.stderr and e.stderr.strip().count("\n") == 0, e.stderr
         assert not (tmp_path / "E").exists()
+
+
+@pytest.mark.parametrize("what", ["baseline", "right pose"])
+def test_a_resealed_manifest_whose_right_camera_leaves_the_rig_is_refused(tmp_path, what):
+    """The seal is a checksum, not a signature: an edit sealed again (found by the campaign:
+    a right pose's x from 0.2 to 1e-320) passes it, so the reader checks what holds in every
+    render: the right camera is the left one moved by the baseline along its x axis."""
+    root = complete_render(tmp_path / "r")
+
+    def change(m):
+        if what == "baseline":
+            m["baseline"] = 0.25
+        else:
+            m["poses"]["right"][0][0][3] = 1e-320
+        m["seal"] = seal_of(m)
+    edit_manifest(root, change)
+    r = verify(root)
+    assert r.returncode == 2 and "poses['right'][0]" in r.stderr and "baseline" in r.stderr, r.stdout + r.stderr
+    e = export(root, tmp_path / "E")
+    assert e.returncode == 2 and "baseline" in e.stderr and not (tmp_path / "E").exists(), e.stderr
 
 
 def test_the_seal_is_the_sha256_of_the_rest_of_the_manifest(tmp_path):

@@ -115,7 +115,7 @@ def test_manifest_with_k_zero(copy, tmp_path, capfd):
     root = copy()
     m = json.loads((root / "manifest.json").read_text())
     m["K"] = [[0, 0, 0], [0, 0, 0], [0, 0, 1]]
-    (root / "manifest.json").write_text(json.dumps(m))
+    write_manifest_dict(root, m)   # sealed again: the checks behind the seal are tested
     for argv in (("export", root, tmp_path / "out", "--to", "kitti-stereo", "-q"),
                  ("stereo-vo", root, "--out", tmp_path / "e.txt", "--quiet"),
                  ("evaluate", "--gt", root, "--est", gt_tum(tmp_path))):
@@ -315,7 +315,7 @@ def test_sensor_sections_of_a_manifest_are_checked(copy, tmp_path, capfd, key, v
     root = copy()
     m = json.loads((root / "manifest.json").read_text())
     m[key] = value
-    (root / "manifest.json").write_text(json.dumps(m))
+    write_manifest_dict(root, m)   # sealed again: the checks behind the seal are tested
     line = fails(capfd, "stereo-vo", root, "--out", tmp_path / "e.txt", "--quiet")
     assert line.startswith(f"error: {root / 'manifest.json'}: ") and message in line, line
 
@@ -333,7 +333,7 @@ def test_moving_object_poses_are_checked(copy, tmp_path, capfd, T):
     else:
         poses = poses[:-1]
     m["objects"] = [{"id": 7, "name": "car", "shape": "CUBOID", "moving": True, "motion": "keys", "T_world_obj": poses}]
-    (root / "manifest.json").write_text(json.dumps(m))
+    write_manifest_dict(root, m)   # sealed again: the checks behind the seal are tested
     capfd.readouterr()
     line = fails(capfd, "stereo-vo", root, "--out", tmp_path / "e.txt", "--quiet")
     assert line.startswith(f"error: {root / 'manifest.json'}: ") and ("objects" in line or "T_world_obj" in line), line

@@ -99,3 +99,20 @@ def test_resolution_scale_bins_the_profile_in_the_render_plan():
     settings = plans[1].manifest_entries(2)["sensor"]
     assert (settings["profile"], settings["native_width_px"], settings["full_well_e"]) == (
         "kitti", 128, pytest.approx(4 * PROFILES["kitti"].sensor["fullwell"]))
+
+
+def test_a_mono_sensor_has_one_channel_and_the_noise_of_a_grey_pixel():
+    """A grey camera's noise is per pixel: the same flat patch through a colour sensor
+    without CFA, turned grey, has 0.75x less (three independent channels averaged)."""
+    from blender_sesgen.sensor.autoexposure import LUMA
+    mono = scene("SENSOR profile kitti bits 12 response linear seed 1\n").sensor
+    assert mono.mono and mono.cfa is None
+    colour = dataclasses.replace(mono, mono=False)
+    level = np.full((96, 128, 3), 0.3)
+    outs = [pipeline.process(level, pipeline.Camera(sensor=s), pipeline.Shot(0.0, 1.0, 0, 0)) for s in (mono, colour)]
+    assert outs[0].raw_dn.shape == (96, 128) and outs[1].raw_dn.shape == (96, 128, 3)
+    assert (outs[0].rgb8[..., 0] == outs[0].rgb8[..., 2]).all()
+    grey_of_colour = outs[1].raw_dn.astype(float) @ LUMA
+    assert grey_of_colour.std() / outs[0].raw_dn.std() == pytest.approx(np.linalg.norm(LUMA), rel=0.08)
+    with pytest.raises(ScriptError, match="'mono on' is a sensor without colour filters"):
+        scene("SENSOR profile kitti cfa rggb\n")

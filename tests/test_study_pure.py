@@ -409,3 +409,25 @@ def test_one_study_run_per_folder(tmp_path):
         fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
         rc, _, err = cli("study", "run", str(path), "--out", str(out))
     assert rc == 2 and "another `study run` is writing into it" in err
+
+
+def test_a_fixed_exposure_drops_the_scripts_autoexposure(tmp_path):
+    from blender_sesgen.study.variants import make_variant
+    auto = ROOM + "TIMING exposure 0.002\nSENSOR readnoise 2\nAUTOEXPOSURE target 0.3\n"
+    study = load(tmp_path, '[world]\nscript = "scene.ses"\n' + SYSTEM, auto)
+    base = scene_of(make_variant(study, {}, 0, tmp_path).script)
+    assert base.autoexposure is not None and base.timing.exposure_s == 0.002
+    v = scene_of(make_variant(study, {"exposure_time": 0.02}, 0, tmp_path).script)
+    assert v.autoexposure is None and v.timing.exposure_s == 0.02 and v.timing.motion_blur
+    assert v.sensor.read_noise_e == 2.0     # the rest of the camera kept
+
+
+def test_a_sensor_variant_with_autoexposure_is_rendered_not_developed(tmp_path):
+    from blender_sesgen.study.variants import make_variant
+    body = '[world]\nscript = "scene.ses"\n' + SYSTEM
+    plain = make_variant(load(tmp_path, body, ROOM + "TIMING exposure 0.002\nSENSOR readnoise 2\n"),
+                         {"gain": 4.0}, 0, tmp_path)
+    assert plain.developed
+    auto = make_variant(load(tmp_path, body, ROOM + "TIMING exposure 0.002\nSENSOR readnoise 2\nAUTOEXPOSURE\n"),
+                        {"gain": 4.0}, 0, tmp_path)
+    assert not auto.developed and auto.stage == "sensor" and "gain 4" in auto.script

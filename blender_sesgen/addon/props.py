@@ -5,11 +5,17 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
 from ..contract.timing import DEFAULT_FPS
-from ..scene.lighting import BUILTIN_HDRIS
+from ..lighting_data import BUILTIN_HDRIS
+from ..sensor.profiles import PROFILES
 from ..study.factors import FACTORS
 from ..study.systems import BUILTIN as BUILTIN_SYSTEMS
 from .export_job import TARGETS
 from .preview import KINDS
+
+_LABELS = {"kitti": "KITTI", "euroc": "EuRoC", "tum": "TUM RGB-D", "robotcar": "RobotCar"}
+# built here: Blender evaluates the annotations below where module names inside a generator are not seen
+CAMERA_ITEMS = (("script", "Script", "The script's own SENSOR (an ideal camera without one)"),
+                *((n, _LABELS.get(n, n.capitalize()), f"{p.camera} (SENSOR profile {n})") for n, p in PROFILES.items()))
 
 
 class SESGEN_PG_settings(bpy.types.PropertyGroup):
@@ -36,6 +42,9 @@ class SESGEN_PG_settings(bpy.types.PropertyGroup):
                         items=(("script", "Script", "The script's WORLD (the default lighting when it has none)"),
                                *((n, n.capitalize(), f"Blender's bundled CC0 HDRI '{n}' (WORLD hdri {n})")
                                  for n in BUILTIN_HDRIS)))
+    camera_profile: EnumProperty(name="Camera", default="script", items=CAMERA_ITEMS,
+                                 description="See the scene through a real camera's measured profile instead of "
+                                             "the script's SENSOR (docs/sensors.md; the rendered scene.ses says so)")
     world_strength: FloatProperty(name="Strength", min=0.0, soft_max=10.0, default=1.0,
                                   description="HDRI strength (WORLD hdri ... strength)")
     world_rotation: FloatProperty(name="Rotation", soft_min=-180.0, soft_max=180.0, default=0.0,
@@ -135,7 +144,7 @@ def abspath(path: str) -> str:
 def render_options(values: dict):
     """RenderOptions from a settings snapshot (None = the script's value)."""
     from ..contract.timing import FrameSelection
-    from ..render.plan import RenderOptions
+    from ..plan import RenderOptions
     o, t = values["override_render"], values.get("override_timing", False)
     q = values.get("quality", "script")
     return RenderOptions(

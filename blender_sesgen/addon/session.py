@@ -75,13 +75,17 @@ def script_path(values: dict) -> str:
 
 
 def plan(values: dict) -> RenderPlan:
-    """The script with the panel's options and its World override (``state.script_with_world``)."""
-    world = values.get("world", "script")
+    """The script with the panel's options and its World and Camera overrides
+    (``state.script_with_world``, ``state.script_with_profile``)."""
+    world, camera = values.get("world", "script"), values.get("camera_profile", "script")
     edit = None
-    if world != "script":
-        from .state import script_with_world
+    if world != "script" or camera != "script":
+        from .state import script_with_profile, script_with_world
+
         def edit(text: str) -> str:
-            return script_with_world(text, world, values["world_strength"], values["world_rotation"])
+            if world != "script":
+                text = script_with_world(text, world, values["world_strength"], values["world_rotation"])
+            return text if camera == "script" else script_with_profile(text, camera)
     return RenderPlan.from_file(script_path(values), props.render_options(values), edit=edit)
 
 

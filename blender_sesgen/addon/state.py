@@ -79,7 +79,7 @@ def sensor_lines(scene: Scene) -> tuple[str, ...]:
         sn = scene.sensor
         lines.append("Sensor: " + (f"profile {sn.profile} (per pixel of {sn.native_width_px} px), " if sn.profile else "")
                      + f"full well {sn.full_well_e:g} e-, read noise {sn.read_noise_e:g} e-, "
-                     f"{sn.bits} bit" + (f", CFA {sn.cfa}" if sn.cfa else ""))
+                     f"{sn.bits} bit" + (f", CFA {sn.cfa}" if sn.cfa else ", mono" if sn.mono else ""))
     if scene.imu is not None:
         lines.append(f"IMU: {scene.imu.rate_hz:g} Hz, seed {scene.imu.seed}")
     return tuple(lines)
@@ -137,4 +137,19 @@ def script_with_world(text: str, hdri: str, strength: float = 1.0, rotation_deg:
     lines = text.splitlines()
     lines = [f"// {ln}" if _WORLD_LINE.match(ln) else ln for ln in lines]
     lines += [WORLD_OVERRIDE_NOTE, f"WORLD hdri {hdri} strength {strength:g} rotation {rotation_deg:g}"]
+    return "\n".join(lines) + "\n"
+
+
+# --- the panel's camera profile -------------------------------------------------------------
+
+_SENSOR_LINE = re.compile(r"^[ \t]*sensor(?=[ \t]|$)", re.IGNORECASE)
+PROFILE_OVERRIDE_NOTE = "// the add-on's Camera override:"
+
+
+def script_with_profile(text: str, profile: str) -> str:
+    """``text`` seen through the camera ``profile`` (``sensor/profiles.py``) instead of its
+    own SENSOR: the script's SENSOR line is commented out in place (line numbers kept) and
+    ``SENSOR profile NAME`` is appended, as :func:`script_with_world` does for the WORLD."""
+    lines = [f"// {ln}" if _SENSOR_LINE.match(ln) else ln for ln in text.splitlines()]
+    lines += [PROFILE_OVERRIDE_NOTE, f"SENSOR profile {profile}"]
     return "\n".join(lines) + "\n"

@@ -89,6 +89,7 @@ class SESGEN_PT_render(_SidebarPanel, bpy.types.Panel):
         layout.use_property_decorate = False
         _toggled(layout, s, "Frames", "use_frame_range", "Range", ("frame_first", "frame_stop"))
         layout.prop(s, "quality")
+        layout.prop(s, "camera_profile")
         layout.prop(s, "world")
         if s.world != "script":
             layout.prop(s, "world_strength")

@@ -1,5 +1,5 @@
 """ASSET objects -> Blender: the pure generator's triangles become one mesh object with one
-material slot per surface (blender_sesgen.scene.assets does all the geometry; nothing here
+material slot per surface (blender_sesgen.assets does all the geometry; nothing here
 computes any). Importing this module registers the ASSET builder with ``shapes.build_shape``."""
 from __future__ import annotations
 
@@ -9,11 +9,12 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from ..scene import assets, materials as material_library
+from .. import assets, material_library
+from ..assets import cache as asset_cache
 from ..ses.materials import library_material
 from ..contract.frames import object_pose, ses_to_blender_world
 from ..errors import SesgenError
-from ..scene.model import Asset, Material
+from ..model import Asset, Material
 from .datablocks import tag
 from .shapes import ShapeContext, build_shape
 
@@ -77,7 +78,7 @@ def build_asset(o: Asset, collection, surface_material_of, meshes: dict) -> obje
     key = assets.mesh_key(o)
     me = meshes.get(key)
     if me is None:
-        data = assets.generate(o.kind, o.size, o.seed, o.bend, o.offset)
+        data = asset_cache.generate(o.kind, o.size, o.seed, o.bend, o.offset)   # what an earlier process made
         me = mesh_from_triangles(f"{o.kind}_{o.seed}", data.vertices, data.faces, tag)
         for i, s in enumerate(data.surfaces):
             me.materials.append(surface_material_of(s, i))

@@ -40,7 +40,10 @@ class ExrError(ValueError):
 
 def _cstr(buf: bytes, pos: int) -> tuple[str, int]:
     end = buf.index(b"\0", pos)
-    return buf[pos:end].decode("latin-1"), end + 1
+    try:   # OpenEXR's readers (its Python binding too) take names as UTF-8
+        return buf[pos:end].decode("utf-8"), end + 1
+    except UnicodeDecodeError:
+        raise ExrError(f"a name in the header is not UTF-8 ({bytes(buf[pos:end])[:40]!r})") from None
 
 
 def read_header(buf: bytes, pos: int) -> tuple[dict, int]:

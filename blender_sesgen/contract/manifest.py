@@ -32,6 +32,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from . import rig
 from .atomic import write_json
 from .camera import K_problem
 from .depth import DEPTH_BACKGROUND
@@ -265,6 +266,13 @@ class Manifest:
                 raise ContractError(f"poses[{v!r}][{bad[0]}] is not a rigid transform (rotation and 0 0 0 1 row)",
                                     source)
             poses[v] = T
+        if "right" in poses:   # the rig is rigid: the right camera is the left one moved by the baseline
+            expect = rig.T_world_view(poses["left"], "right", baseline)
+            tol = 1e-6 * (1.0 + baseline + np.abs(poses["left"][:, :3, 3]).max(axis=1))
+            bad = np.flatnonzero(np.abs(poses["right"] - expect).max(axis=(1, 2)) > tol)
+            if bad.size:
+                raise ContractError(f"poses['right'][{bad[0]}] is not the left pose moved by the baseline "
+                                    f"({baseline:g} m along its x axis)", source)
         files = {}
         for v in views:
             f = (m["files"] or {}).get(v) if isinstance(m["files"], dict) else None
@@ -339,7 +347,7 @@ def seal_of(m: dict) -> str:
 def seal_problem(m: dict) -> str:
     """'' when the manifest dict carries a seal that matches it (or none: written before
     seals existed); else what is wrong."""
-    if SEAL not in m:
+    if not isinstance(m, dict) or SEAL not in m:   # not a manifest at all: its reader says so
         return ""
     if not isinstance(m[SEAL], str) or m[SEAL] != seal_of(m):
         return ("its content differs from what the renderer wrote (the seal does not match: edited "

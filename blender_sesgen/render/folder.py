@@ -404,9 +404,9 @@ class OutputFolder:
         differing from its recorded SHA-256 or (``full``) not decoding.
         ``progress(i, n)`` after each frame."""
         raw = load_json(self.root / MANIFEST)
-        m = Manifest.read(self.root, sealed=False)   # malformed: ContractError (a user error)
-        if seal_problem(raw):
+        if seal_problem(raw):   # first: an edit is named as such, whatever it broke
             return [(None, f"{MANIFEST}: {seal_problem(raw)}")]
+        m = Manifest.read(self.root, sealed=False)   # malformed: ContractError (a user error)
         bad: list[tuple[Optional[int], str]] = []
         if SEAL not in raw:
             bad.append((None, f"{MANIFEST}: not sealed (written before manifests were sealed): its values "

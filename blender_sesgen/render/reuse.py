@@ -80,6 +80,7 @@ class ReusedSession:
         self.base = Path(base).resolve()
         self.base_manifest = check_reusable(plan, self.base)
         self.built = None
+        self.culling = None      # nothing is built here (the base's render culled, if it did)
         r = self.base_manifest.render
         self.exposure = r.get("exposure")
 

@@ -332,6 +332,7 @@ class Sensor:
     dsnu_e: float = 0.0            # dark signal non-uniformity (electrons, std)
     row_noise_e: float = 0.0       # per-row temporal offset (electrons, std)
     cfa: Optional[Literal["rggb", "bggr", "grbg", "gbrg"]] = None   # None: a colour sensor without mosaic
+    mono: bool = False             # a greyscale sensor: one channel, the Rec. 709 luminance
     bits: int = 8
     gain: float = 1.0              # analog gain at the nominal exposure
     black_level_dn: float = 0.0

@@ -163,6 +163,7 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
                               _num("dsnu", usage="dsnu E"), _num("rownoise", usage="rownoise E"),
                               Tag("cfa", "choice", usage="cfa rggb|bggr|grbg|gbrg",
                                   choices=("rggb", "bggr", "grbg", "gbrg")),
+                              Tag("mono", "choice", usage="mono on|off", choices=("on", "off")),
                               Tag("bits", "int", usage="bits N"), _num("gain", usage="gain G"),
                               _num("black", usage="black DN"), _num("saturation", usage="saturation L"),
                               Tag("response", "choice", usage="response srgb|linear|gamma",

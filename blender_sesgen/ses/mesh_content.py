@@ -261,8 +261,8 @@ def _ply_problems(model: Path) -> list[str]:
     with open(model, "rb") as f:
         head = f.read(min(size, 1 << 20))
     end = head.find(b"end_header")
-    if not head.startswith(b"ply") or end < 0:
-        return ["PLY: no 'ply' signature or no 'end_header' in its first MiB"]
+    if not head.startswith(b"ply") or end < 0 or head.find(b"\n", end) < 0:
+        return ["PLY: no 'ply' signature or no 'end_header' line in its first MiB"]
     body = head.index(b"\n", end) + 1
     fmt, elements = None, []                       # [(name, count, [(type, name) or ("list", ...)])]
     for line in head[:end].decode("latin-1").splitlines():

@@ -113,12 +113,18 @@ def sensor(stmt: Optional[ParsedStatement], check: Checks) -> Optional[model.Sen
     response = stmt.get("response", p.get("response"))
     if "gamma" in stmt.tags and (response or "gamma") != "gamma":
         check.err(stmt.tags["gamma"].tag, "SENSOR 'gamma' needs 'response gamma'")
+    mono = stmt.get("mono", p.get("mono", "off")) == "on"
+    cfa = stmt.get("cfa", p.get("cfa"))
+    if mono and cfa:
+        tag = stmt.tags.get("mono") or stmt.tags["cfa"]
+        check.err(tag.tag, "SENSOR 'mono on' is a sensor without colour filters: it takes no 'cfa' "
+                           "(write 'mono off' for a colour sensor)")
     d = model.Sensor
     return model.Sensor(
         full_well_e=float(val("fullwell", d.full_well_e)), read_noise_e=float(val("readnoise", 0.0)),
         dark_current_e_s=float(val("dark", 0.0)), prnu=float(val("prnu", 0.0)),
         dsnu_e=float(val("dsnu", 0.0)), row_noise_e=float(val("rownoise", 0.0)),
-        cfa=stmt.get("cfa", p.get("cfa")), bits=nbits, gain=float(val("gain", 1.0)), black_level_dn=black,
+        cfa=cfa, mono=mono, bits=nbits, gain=float(val("gain", 1.0)), black_level_dn=black,
         saturation=float(val("saturation", 1.0)),
         response=response or ("gamma" if "gamma" in stmt.tags else "srgb"),
         gamma=float(val("gamma", d.gamma)), pixel_um=float(val("pixel", d.pixel_um)),

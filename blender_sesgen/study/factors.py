@@ -251,8 +251,10 @@ def _timing(tag: str, what: str):
         if x > 1.0 / _rate(scene) + 1e-12:
             raise SesgenError(f"{what} {x:g} s is longer than the frame period 1/{_rate(scene):g} s")
         s.set_tag("TIMING", tag, x)
-        if tag == "exposure" and x > 0:
-            s.set_tag("TIMING", "blur", "on")
+        if tag == "exposure":     # a fixed exposure: AUTOEXPOSURE would choose its own (and its blur)
+            s.drop("AUTOEXPOSURE")
+            if x > 0:
+                s.set_tag("TIMING", "blur", "on")
     return apply
 
 
@@ -422,7 +424,8 @@ FACTORS: dict[str, Factor] = {f.name: f for f in (
            _lens_distortion, lambda sc: sc.lens.coeffs[0] if sc.lens and sc.lens.model == "brown" else 0.0),
     Factor("readout_time", "s", "rolling-shutter readout time, top to bottom (0: global shutter)", "camera",
            _timing("readout", "readout time"), lambda sc: _t(sc, "readout_s", 0.0)),
-    Factor("exposure_time", "s", "exposure time: the motion blur of the camera moving during it", "image",
+    Factor("exposure_time", "s", "fixed exposure time: the motion blur of the camera moving during it (a "
+           "script's AUTOEXPOSURE is dropped)", "image",
            _timing("exposure", "exposure time"), lambda sc: _t(sc, "exposure_s", 0.0)),
     Factor("sun_elevation", "deg", "time of day: the physical sky's sun elevation (replaces the WORLD and sun "
            "lamps)", "image", _sun_elevation, _sky_elevation),

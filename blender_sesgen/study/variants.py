@@ -11,7 +11,8 @@ order (``factors.ordered``).
 Controlled variants: the *render script* of a variant is its script without its
 ``sensor``-stage factors. When the two differ, the variant is not rendered: it is developed
 from the render of its render script (``render --reuse-exr``: the EXRs copied, only the
-camera chain run). Renders are content-addressed (the SHA-256 of the script and the render
+camera chain run) -- unless it has AUTOEXPOSURE, whose exposures (and so its motion blur)
+depend on the sensor's images: then it is rendered. Renders are content-addressed (the SHA-256 of the script and the render
 options): two variants with the same script -- a level equal to the base's -- are one
 render, and a study costs its distinct renders.
 """
@@ -164,8 +165,8 @@ def make_variant(study: Study, point: dict, seed: int, scripts_dir: Path, option
             except SesgenError as e:
                 raise StudyError(f"{study.path}: error: factors.{name}: level {levels[name]!r}: {e}") from None
         text = s.text
-        render_text = text if render_text is None else render_text
-        parse(text)
+        if render_text is None or parse(text).autoexposure is not None:
+            render_text = text   # AUTOEXPOSURE meters the developed images: its exposures, so its blur, follow them
         parse(render_text)
     except ScriptError as e:
         raise StudyError(f"{study.path}: error: {where}: the variant's script does not check: {e}") from None

@@ -25,7 +25,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help=f"loop closures: at least S seconds apart (default {P.min_gap_s:g})")
     p.add_argument("--rtol", type=float, default=P.rtol, help=f"depth test's relative tolerance (default {P.rtol:g})")
     p.add_argument("--view", default="left", choices=("left", "right"))
-    p.add_argument("--frames", metavar="A:B", help=f"only {FRAMES_HELP}; default all")
+    p.add_argument("--frames", metavar="A:B", help=f"only {FRAMES_HELP}, or several such ranges separated by commas (stretches "
+                        "around loop closures: 0:60,823:883); default all")
     add_progress_argument(p)
 
 
@@ -38,7 +39,8 @@ def run(args: argparse.Namespace) -> int:
                                 loop_threshold=args.loop_threshold, min_gap_s=args.min_gap, view=args.view)
     seq = RenderSequence(args.render_dir)
     try:
-        frames = list(frame_range(args.frames, seq.num_frames, 2))
+        ranges = args.frames.split(",") if args.frames else [None]
+        frames = sorted({k for r in ranges for k in frame_range(r, seq.num_frames, 1)})
     except ContractError as e:
         raise VoError(str(e)) from None
     with Progress(2 * len(frames), "covisibility", mode=progress_mode(args), unit="step") as bar:

@@ -351,12 +351,19 @@ def write_covisibility(root, cov: Covisibility) -> Path:
         frames = cov.frames if cov.frames is not None else np.arange(cov.num_frames)
         meta = {"format": FORMAT, "definition": DEFINITION, "params": {**asdict(cov.params),
                                                                        "tiles": list(cov.params.tiles)},
-                "frames": [int(frames[0]), int(frames[-1]) + 1], "num_frames": cov.num_frames,
+                "frames": _ranges(frames), "num_frames": cov.num_frames,
                 "points_per_frame": [int(x) for x in cov.points], "timestamps_s": [float(x) for x in t],
                 "counts": {"pairs": int(len(cov.pairs)), "loop_closures": int(len(lc))},
                 "files": {"pairs": "pairs.csv", "loop_closures": "loop_closures.csv"}}
         (tmp / "covisibility.json").write_text(atomic.dumps_json(meta, str(final / "covisibility.json")))
     return final
+
+
+def _ranges(frames) -> list[list[int]]:
+    """The frame indices as half-open ranges [[a, b], ...] (a selection may have gaps)."""
+    f = np.asarray(frames, dtype=int)
+    cuts = np.flatnonzero(np.diff(f) != 1) + 1
+    return [[int(r[0]), int(r[-1]) + 1] for r in np.split(f, cuts)]
 
 
 def read_covisibility(root) -> Covisibility:
@@ -384,7 +391,7 @@ def read_covisibility(root) -> Covisibility:
             .reshape(-1, 4)
         t = np.asarray(meta["timestamps_s"], dtype=np.float64)
         n = int(meta["num_frames"])
-        a, b = meta["frames"]
+        frames = np.concatenate([np.arange(int(a), int(b)) for a, b in meta["frames"]])
     except (KeyError, TypeError, ValueError, IndexError, OSError) as e:
         raise VoError(f"{d}: malformed covisibility files ({e})") from None
     if len(t) != n or (len(pairs) and (pairs[:, :2].min() < 0 or pairs[:, :2].max() >= n
@@ -392,4 +399,4 @@ def read_covisibility(root) -> Covisibility:
         raise VoError(f"{d}: covisibility pairs out of range")
     return Covisibility(pairs=pairs, timestamps_s=t, params=params,
                         points=np.asarray(meta.get("points_per_frame", [0] * n), dtype=int),
-                        frames=np.arange(int(a), int(b)))
+                        frames=frames)

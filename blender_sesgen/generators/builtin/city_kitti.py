@@ -114,8 +114,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
            KITTI_RIG,
            *lighting.lines(),
            "RENDER samples 16 denoise on",
-           "SENSOR profile kitti        // KITTI's camera, measured (docs/sensors.md): its noise, blur, clipping",
-           "AUTOEXPOSURE                // exposure follows the scene, as KITTI's dynamic shutter"]
+           "SENSOR profile kitti        // KITTI's camera, measured (docs/sensors.md): its noise, blur, clipping"]
     road_mat = paving_mat = ""
     if v.road is not None:
         out += ["", "// this seed's asphalt and paving (library materials with its own tone and wear)",

@@ -128,9 +128,8 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
            + " (edit that, not this file). Y up, metres.",
            f"CAMERA resolution {rig['resolution'][0]} {rig['resolution'][1]} focal {num(rig['fu'])} "
            f"principal {num(rig['cu'])} {num(rig['cv'])} baseline {num(rig['baseline'], 4)} near 0.05 far 200",
-           *var.lighting.lines(), "LOOK exposure auto", "RENDER samples 16 denoise on",
-           "SENSOR profile euroc        // EuRoC's MT9V034, measured (docs/sensors.md)",
-           "AUTOEXPOSURE                // exposure follows the scene, as the VI-Sensor's", ""]
+           *var.lighting.lines(), "LOOK exposure auto",
+           "SENSOR profile euroc        // EuRoC's MT9V034, measured (docs/sensors.md)", ""]
     clad = rng.choice(["0.3 0.33 0.36", "0.45 0.46 0.45", "0.2 0.27 0.33"])
     out += ["// materials derived from the library (colour replaces the library's)",
             # power-trowelled: a faint sheen that mirrors lamps and windows, blurred

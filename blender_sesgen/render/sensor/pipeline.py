@@ -1,5 +1,5 @@
 """The per-frame camera chain: linear render -> optics -> electrons -> noise -> CFA ->
-quantised raw -> demosaic -> response -> 8-bit RGB (numpy only; runs at render time).
+quantised raw -> demosaic (a mono sensor: luminance, one channel) -> response -> 8-bit RGB (numpy only; runs at render time).
 
 The EXR beauty and every ground-truth pass stay clean: this chain only writes the sensor
 images (docs/output-format.md, "Sensor images").
@@ -13,11 +13,12 @@ import numpy as np
 
 from ...contract import cfa
 from . import optics, raw
+from .autoexposure import LUMA
 
 
 @dataclass(frozen=True)
 class SensorFrame:
-    raw_dn: np.ndarray            # (H, W) mosaic or (H, W, 3), uint16, values 0 .. 2^bits - 1
+    raw_dn: np.ndarray            # (H, W) mosaic or grey, or (H, W, 3); uint16, values 0 .. 2^bits - 1
     rgb8: np.ndarray              # (H, W, 3) uint8 after demosaic and response
     exposure_s: float
     gain: float
@@ -71,7 +72,9 @@ def process(linear_rgb: np.ndarray, camera: Camera, shot: Shot, fpn_cache: Optio
     img = optical_image(linear_rgb, lens, sensor, camera.rays, camera.cx, camera.cy)
     ratio = exposure_s / nominal_exposure_s if nominal_exposure_s > 0 else 1.0
     signal = np.clip(img, 0.0, None) * (sensor.full_well_e / sensor.saturation * ratio)
-    if sensor.cfa:
+    if sensor.mono:
+        signal = signal @ LUMA
+    elif sensor.cfa:
         signal = cfa.mosaic(signal, sensor.cfa)
     key = (view_index, signal.shape)
     cache = fpn_cache if fpn_cache is not None else {}
@@ -85,5 +88,7 @@ def process(linear_rgb: np.ndarray, camera: Camera, shot: Shot, fpn_cache: Optio
     x = (dn.astype(np.float64) - sensor.black_level_dn) / (full - sensor.black_level_dn)
     if sensor.cfa:
         x = raw.demosaic_mhc(x, sensor.cfa)
+    elif sensor.mono:
+        x = np.repeat(x[..., None], 3, axis=-1)
     rgb8 = raw.quantise(raw.response(x, sensor.response, sensor.gamma), 8)
     return SensorFrame(dn, rgb8, float(exposure_s), float(gain))

@@ -248,6 +248,7 @@ class SensorPlan:
                 {kind: {v: [self.sensor_relpath(kind, v, k) for k in range(n_frames)] for v in self.views}
                  for kind in self.sensor_kinds()},
                 raw_layout=("PNG16, values 0..2^bits-1 (not scaled), CFA mosaic" if self.sensor.cfa
+                            else "PNG16 grey, values 0..2^bits-1 (not scaled)" if self.sensor.mono
                             else "PNG16 RGB, values 0..2^bits-1 (not scaled)"),
                 autoexposure=None if self.autoexposure is None else dataclasses.asdict(self.autoexposure),
                 exposure_s=none, gain=none, metered=none)

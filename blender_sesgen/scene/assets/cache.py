@@ -1,0 +1,109 @@
+"""A disk cache of generated asset meshes, shared by the render processes of a machine.
+
+Generating the procedural meshes is the largest part of a big scene's build (city_kitti:
+~10 of its ~27 CPU s before the first sample, 78 trees of ~30k triangles each), and every
+render process pays it again: each farm chunk, each study variant, each resumed render.
+``generate`` returns exactly what :func:`blender_sesgen.assets.generate` returns (the same
+arrays, bit for bit: the file holds them uncompressed, unchanged), read from
+``FOLDER/v-VERSION/KIND-KEY.npz`` when an earlier process wrote it.
+
+``VERSION`` hashes the asset generators' source and numpy's version, so editing a
+generator never serves an old mesh. The folder is ``$SESGEN_ASSET_CACHE``, else
+``$XDG_CACHE_HOME/blender-sesgen/assets`` (``~/.cache/...``); ``SESGEN_ASSET_CACHE=off``
+switches the cache off. Files are written atomically (a reader never sees half a file); a
+file that cannot be read is generated again and replaced; a folder that cannot be written
+only costs the time. The newest ``KEEP_VERSIONS`` version folders are kept, older ones
+removed (delete the folder to reclaim all of it: it is only a cache).
+"""
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import os
+import shutil
+import zipfile
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from ..contract.atomic import replacing
+from .. import assets as _package
+from .mesh import MeshData, Surface
+
+ENV = "SESGEN_ASSET_CACHE"
+KEEP_VERSIONS = 3
+
+
+def folder() -> Optional[Path]:
+    """The cache's root folder, or None when ``SESGEN_ASSET_CACHE=off``."""
+    value = os.environ.get(ENV)
+    if value is not None:
+        return None if value.strip().lower() in ("", "off", "0", "no") else Path(value)
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "blender-sesgen" / "assets"
+
+
+@functools.lru_cache(maxsize=1)
+def version() -> str:
+    """The generators' source (every module of this package) and numpy's version, hashed."""
+    h = hashlib.sha256(np.__version__.encode())
+    for p in sorted(Path(__file__).resolve().parent.glob("*.py")):
+        h.update(p.name.encode() + b"\0" + p.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def _key(kind: str, size, seed: int, bend, offset: float) -> str:
+    args = [kind, [float(v) for v in size], int(seed), [float(v) for v in np.atleast_1d(bend)], float(offset)]
+    return hashlib.sha256(json.dumps(args).encode()).hexdigest()[:24]
+
+
+def generate(kind: str, size, seed: int, bend=(0.0,), offset: float = 0.0) -> MeshData:
+    """``blender_sesgen.assets.generate(kind, size, seed, bend, offset)``, through the cache."""
+    root = folder()
+    if root is None:
+        return _package.generate(kind, size, seed, bend, offset)
+    path = root / f"v-{version()}" / f"{kind}-{_key(kind, size, seed, bend, offset)}.npz"
+    data = _read(path)
+    if data is None:
+        data = _package.generate(kind, size, seed, bend, offset)
+        _write(path, data)
+    return data
+
+
+def _read(path: Path) -> Optional[MeshData]:
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            surfaces = tuple(Surface(m, None if c is None else tuple(c)) for m, c in json.loads(str(z["surfaces"])))
+            data = MeshData(vertices=z["vertices"], faces=z["faces"], face_surface=z["face_surface"],
+                            smooth=z["smooth"], surfaces=surfaces)
+    except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile, EOFError):
+        return None
+    m = len(data.faces)
+    if data.faces.shape != (m, 3) or data.face_surface.shape != (m,) or data.smooth.shape != (m,) \
+            or data.vertices.ndim != 2 or (m and int(data.faces.max()) >= len(data.vertices)):
+        return None
+    return data
+
+
+def _write(path: Path, data: MeshData) -> None:
+    surfaces = json.dumps([[s.material, None if s.colour is None else list(s.colour)] for s in data.surfaces])
+    try:
+        fresh = not path.parent.is_dir()
+        with replacing(path) as tmp:
+            with open(tmp, "wb") as f:
+                np.savez(f, vertices=data.vertices, faces=data.faces, face_surface=data.face_surface,
+                         smooth=data.smooth, surfaces=np.array(surfaces))
+        if fresh:
+            _prune(path.parent.parent, keep=path.parent)
+    except OSError:
+        pass   # a read-only or full disk: the mesh was generated, only the cache is lost
+
+
+def _prune(root: Path, keep: Path) -> None:
+    """Remove all but the newest KEEP_VERSIONS version folders (``keep`` always stays)."""
+    versions = sorted((p for p in root.glob("v-*") if p.is_dir() and p != keep),
+                      key=lambda p: p.stat().st_mtime, reverse=True)
+    for old in versions[KEEP_VERSIONS - 1:]:
+        shutil.rmtree(old, ignore_errors=True)
