@@ -1,4 +1,4 @@
-"""What the disk cache of asset meshes (blender_sesgen/assets/cache.py) saves a render
+"""What the disk cache of asset meshes (blender_sesgen/scene/assets/cache.py) saves a render
 process's build: every distinct ASSET of a scene made three ways in one run, CPU seconds each.
 
     PYTHONPATH=. .venv/bin/python bench/bench_asset_cache.py [--scenes city_kitti forest hall office]
@@ -32,8 +32,8 @@ def cpu_s() -> float:
 
 
 def child(scene: str, folder: str) -> None:
-    from blender_sesgen.assets import cache
-    from blender_sesgen.model import Asset
+    from blender_sesgen.scene.assets import cache
+    from blender_sesgen.scene.model import Asset
     from blender_sesgen.ses import parse_file
     keys = {}
     for o in parse_file(scene).objects:

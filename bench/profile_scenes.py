@@ -190,14 +190,14 @@ class CyclesLog:
 def child(a) -> int:
     import bpy  # noqa: F401
     c_import = cpu_s()
-    from blender_sesgen import assets
+    from blender_sesgen.scene import assets
     try:
-        from blender_sesgen.assets import cache as asset_cache
+        from blender_sesgen.scene.assets import cache as asset_cache
     except ImportError:   # a revision before the disk cache of asset meshes
         asset_cache = None
     from blender_sesgen.blender import assets as bassets, builder, exposure, materials
-    from blender_sesgen.job import RenderJob
-    from blender_sesgen.plan import RenderOptions, RenderPlan
+    from blender_sesgen.render.job import RenderJob
+    from blender_sesgen.render.plan import RenderOptions, RenderPlan
     log = CyclesLog()
     bpy.app.handlers.render_stats.append(log)
     stages = Stages(log)

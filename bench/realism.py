@@ -2,7 +2,7 @@
 
 Renders frames of scenes/city_kitti.ses (KITTI's rig) and scenes/hall.ses (EuRoC's rig)
 at their full resolution and the scripts' own quality, and prints, in one run, the same image
-statistics (vo_reference.realism) for them and for the real sequences in
+statistics (vo_reference.evaluate.realism) for them and for the real sequences in
 ../shared/data: the KITTI odometry excerpt (kitti/sequence_1) and the EuRoC V1_01 excerpt
 (euroc/mav0), plus the OpenCV baseline stereo VO's end-point drift where ground truth
 exists (KITTI and our renders; the EuRoC excerpt carries none), and the seconds per
@@ -14,7 +14,7 @@ EuRoC frames are raw (radial-tangential distortion); single-image statistics and
 them as they are, SGBM uses pairs rectified with OpenCV from the two sensor.yaml files.
 
 Each render is measured twice: as rendered (the scene alone: the display image of the
-script's LOOK) and through the sensor model of issue 18 (blender_sesgen.sensor.pipeline:
+script's LOOK) and through the sensor model of issue 18 (blender_sesgen.render.sensor.pipeline:
 lens MTF, shot/read/dark noise, fixed patterns, 8-bit quantisation, sRGB response) with one
 documented parameter set, ``SENSOR_MODEL`` and ``LENS_MODEL`` below, the same for every
 scene: a machine-vision global-shutter camera like KITTI's and EuRoC's (their pixels are
@@ -38,7 +38,7 @@ import cv2
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-from vo_reference.realism import ImageStats, sequence_stats
+from vo_reference.evaluate.realism import ImageStats, sequence_stats
 from vo_reference.io.sequence import open_sequence
 
 DATA = Path(os.environ.get("SESGEN_SHARED_DATA", REPO.parent / "shared" / "data"))
@@ -128,8 +128,8 @@ def render_frames(out: Path, frames: int):
 
 def sensor_frames(seq, frames: int):
     """The render's scene-linear beauty through the sensor model (grey, 8-bit), both views."""
-    from blender_sesgen.model import Lens, Sensor
-    from blender_sesgen.sensor.pipeline import Camera, Shot, process
+    from blender_sesgen.scene.model import Lens, Sensor
+    from blender_sesgen.render.sensor.pipeline import Camera, Shot, process
     from vo_reference.io.color import rgb8_to_gray8
     sensor, lens = Sensor(**SENSOR_MODEL), Lens(**LENS_MODEL)
     K = np.asarray(seq.K, float)
@@ -162,7 +162,7 @@ def vo_drift_pct(seq, frames: int) -> float:
     """End-point drift (% of the path) of the OpenCV baseline stereo VO over the frames."""
     from vo_reference.io.trajectory import Trajectory
     from vo_reference.stereo.pipeline import run_stereo_vo
-    from vo_reference.stereo.run_cli import shape_errors
+    from vo_reference.commands.run import shape_errors
     last = min(frames, seq.num_frames) - 1
     res = run_stereo_vo(seq, "opencv-baseline", frames=(0, last))
     T = seq.T_world_cam("left")[: last + 1]

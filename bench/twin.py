@@ -196,10 +196,10 @@ def resensor(out: Path, n: int) -> Frames:
     """Frames 0..n-1 of the render in ``out`` through today's camera chain again (its EXRs,
     each frame's recorded exposure and gain, the scene.ses of the folder parsed with today's
     profiles): the chain runs after Cycles, so a changed profile needs no new render."""
-    from blender_sesgen.plan import RenderOptions, RenderSettings
-    from blender_sesgen.sensor import pipeline
-    from blender_sesgen.sensor.outputs import _rays, state_relpath
-    from blender_sesgen.sensor.render_plan import SensorPlan
+    from blender_sesgen.render.plan import RenderOptions, RenderSettings
+    from blender_sesgen.render.sensor import pipeline
+    from blender_sesgen.render.sensor.outputs import _rays, state_relpath
+    from blender_sesgen.render.sensor.render_plan import SensorPlan
     from blender_sesgen.ses.parser import parse_text
     from vo_reference.io.color import rgb8_to_gray8
     seq = open_sequence(out)

@@ -1,12 +1,12 @@
-"""The disk cache of generated asset meshes (blender_sesgen/assets/cache.py): what it serves
+"""The disk cache of generated asset meshes (blender_sesgen/scene/assets/cache.py): what it serves
 is what the generator makes, bit for bit; a damaged file is made again; off means off."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from blender_sesgen import assets
-from blender_sesgen.assets import cache
+from blender_sesgen.scene import assets
+from blender_sesgen.scene.assets import cache
 
 CASES = [("tree", (4.0, 6.0, 4.0), 3, (0.0,), 0.0), ("car", (1.8, 1.5, 4.3), 11, (0.0,), 0.0),
          ("road", (7.0, 0.1, 30.0), 2, (4.0, -3.0), 1.5), ("building", (14.0, 12.0, 10.0), 5, (0.0,), 0.0)]

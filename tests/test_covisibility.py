@@ -211,7 +211,7 @@ def test_a_selection_of_stretches_gives_the_same_pairs(render, tmp_path):
     """``--frames 0:3,5:7``: the pairs among the chosen frames are the whole sequence's, and
     the files say which frames were computed."""
     import shutil
-    from vo_reference.cli import main as vo
+    from vo_reference.commands.main import main as vo
     whole = compute_covisibility(RenderSequence(render), CovisibilityParams(stride=2, threshold=0.05))
     r = tmp_path / "r"
     shutil.copytree(render, r)

@@ -104,7 +104,7 @@ def test_resolution_scale_bins_the_profile_in_the_render_plan():
 def test_a_mono_sensor_has_one_channel_and_the_noise_of_a_grey_pixel():
     """A grey camera's noise is per pixel: the same flat patch through a colour sensor
     without CFA, turned grey, has 0.75x less (three independent channels averaged)."""
-    from blender_sesgen.sensor.autoexposure import LUMA
+    from blender_sesgen.render.sensor.autoexposure import LUMA
     mono = scene("SENSOR profile kitti bits 12 response linear seed 1\n").sensor
     assert mono.mono and mono.cfa is None
     colour = dataclasses.replace(mono, mono=False)

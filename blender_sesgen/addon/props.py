@@ -5,8 +5,8 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
 from ..contract.timing import DEFAULT_FPS
-from ..lighting_data import BUILTIN_HDRIS
-from ..sensor.profiles import PROFILES
+from ..scene.lighting import BUILTIN_HDRIS
+from ..scene.camera_profiles import PROFILES
 from ..study.factors import FACTORS
 from ..study.systems import BUILTIN as BUILTIN_SYSTEMS
 from .export_job import TARGETS
@@ -144,7 +144,7 @@ def abspath(path: str) -> str:
 def render_options(values: dict):
     """RenderOptions from a settings snapshot (None = the script's value)."""
     from ..contract.timing import FrameSelection
-    from ..plan import RenderOptions
+    from ..render.plan import RenderOptions
     o, t = values["override_render"], values.get("override_timing", False)
     q = values.get("quality", "script")
     return RenderOptions(

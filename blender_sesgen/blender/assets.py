@@ -1,5 +1,5 @@
 """ASSET objects -> Blender: the pure generator's triangles become one mesh object with one
-material slot per surface (blender_sesgen.assets does all the geometry; nothing here
+material slot per surface (blender_sesgen.scene.assets does all the geometry; nothing here
 computes any). Importing this module registers the ASSET builder with ``shapes.build_shape``."""
 from __future__ import annotations
 
@@ -9,12 +9,12 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from .. import assets, material_library
-from ..assets import cache as asset_cache
+from ..scene import assets, materials as material_library
+from ..scene.assets import cache as asset_cache
 from ..ses.materials import library_material
 from ..contract.frames import object_pose, ses_to_blender_world
 from ..errors import SesgenError
-from ..model import Asset, Material
+from ..scene.model import Asset, Material
 from .datablocks import tag
 from .shapes import ShapeContext, build_shape
 

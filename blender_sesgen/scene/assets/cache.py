@@ -3,7 +3,7 @@
 Generating the procedural meshes is the largest part of a big scene's build (city_kitti:
 ~10 of its ~27 CPU s before the first sample, 78 trees of ~30k triangles each), and every
 render process pays it again: each farm chunk, each study variant, each resumed render.
-``generate`` returns exactly what :func:`blender_sesgen.assets.generate` returns (the same
+``generate`` returns exactly what :func:`blender_sesgen.scene.assets.generate` returns (the same
 arrays, bit for bit: the file holds them uncompressed, unchanged), read from
 ``FOLDER/v-VERSION/KIND-KEY.npz`` when an earlier process wrote it.
 
@@ -28,7 +28,7 @@ from typing import Optional
 
 import numpy as np
 
-from ..contract.atomic import replacing
+from ...contract.atomic import replacing
 from .. import assets as _package
 from .mesh import MeshData, Surface
 
@@ -60,7 +60,7 @@ def _key(kind: str, size, seed: int, bend, offset: float) -> str:
 
 
 def generate(kind: str, size, seed: int, bend=(0.0,), offset: float = 0.0) -> MeshData:
-    """``blender_sesgen.assets.generate(kind, size, seed, bend, offset)``, through the cache."""
+    """``blender_sesgen.scene.assets.generate(kind, size, seed, bend, offset)``, through the cache."""
     root = folder()
     if root is None:
         return _package.generate(kind, size, seed, bend, offset)
