@@ -135,8 +135,12 @@ def assert_same_as_single(root: Path, name: str, ref: Path) -> None:
     got, want = exr_bytes(out), exr_bytes(ref)
     assert len(want) == 10 and got == want, f"{name}: EXRs differ from the single render"
     assert manifest(out) == manifest(ref), f"{name}: manifest differs"
-    shown = sum(len(v) for v in ((manifest(out).get("display") or {}).get("files") or {}).values())
-    assert all(manifest(out)["frames_complete"]) and len(manifest(out)["checksums"]) == 10 + shown  # EXRs + PNGs
+    from blender_sesgen.contract.manifest import Manifest
+    m = Manifest.read(out)
+    listed = {f for k in range(m.frames) for f in m.frame_files(k)} | set(m.static_files())
+    # every file the manifest lists is sealed: each frame's EXRs and PNGs, the trajectories
+    assert all(manifest(out)["frames_complete"]) and set(manifest(out)["checksums"]) == listed
+    assert sum(f.endswith(".exr") for f in listed) == 10
     state = out / ".sesgen"
     assert not list(state.glob("lock-*")) and not list(state.glob("done-*")), "locks or completion logs left"
     assert not [f for f in out.rglob(".*tmp-*")], "temporary files left"
