@@ -401,6 +401,9 @@ def plant(size, seed: int) -> MeshData:
         d = rng.normal(size=3) * np.array([0.4, 0, 0.4]) + np.array([0, 1, 0])
         d /= np.linalg.norm(d)
         top = np.array([0, ph, 0]) + d * (H - ph) * rng.uniform(0.6, 1.0)
+        reach = np.hypot(top[0] / (W / 2), top[2] / (D / 2))   # stems stay over the footprint (culling boxes rely on it)
+        if reach > 1.0:
+            top[[0, 2]] /= reach
         b.tube([(0, ph - 0.03, 0), tuple(top)], 0.006, 4, stem)
         t = rng.uniform(0.3, 1.0, 30)
         q = np.array([0, ph, 0]) + np.outer(t, top - np.array([0, ph, 0]))

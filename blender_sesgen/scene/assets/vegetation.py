@@ -57,9 +57,11 @@ class _Branches:
         for i in range(segs):
             d = _unit(d + rng.normal(size=3) * 0.18 + [0, up, 0])
             q = pts[-1] + step * d
-            if level > 0 and self.inside(q) > 1.0:       # bend back towards the crown
+            if self.inside(q) > 1.0:       # bend back towards the crown
                 d = _unit(d + 0.8 * _unit(self.c - q))
                 q = pts[-1] + step * d
+                if self.inside(q) > 1.0:   # and never leave it: the kind's size bounds the tree (culling boxes rely on it)
+                    q = self.c + (q - self.c) / np.sqrt(self.inside(q))
             pts.append(q)
             rad.append(radius * (1 - 0.55 * (i + 1) / segs))
         pts, rad = np.array(pts), np.array(rad)
