@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from render_support import run_render
+from render_support import load_manifest, run_render
 
 SCENE = """CAMERA resolution 64 48 focal 50 baseline 0.1
 POSE 0 1 3 0 0 0
@@ -172,20 +172,43 @@ def test_flow_of_a_distorted_render_follows_the_lens(render):
     assert same >= same_pinhole
 
 
-def test_resumed_render_continues_the_same_auto_exposure(render, tmp_path):
-    """Frames 0:2, then --resume: the same sensor images and exposure schedule as one run;
-    starting after frame 0 with auto-exposure is refused before anything is written."""
-    script = render.root.parent / "s.ses"
-    out = tmp_path / "resumed"
-    assert run_render(script, "--out", out, "--samples", "2", "--frames", "0:2", "--quiet").returncode == 0
-    assert run_render(script, "--out", out, "--samples", "2", "--resume", "--quiet").returncode == 0
-    from vo_reference.io.render import RenderSequence
-    again = RenderSequence(out)
-    assert again.manifest["sensor"]["exposure_s"] == render.manifest["sensor"]["exposure_s"]
+def _same_frames(render, out, frames):
+    """The sensor images of ``frames`` in ``out`` are byte-identical to the one-run render's,
+    with the same exposure, gain and metered brightness."""
+    m = load_manifest(out)
+    for key in ("exposure_s", "gain", "metered"):
+        assert [m["sensor"][key][k] for k in frames] == [render.manifest["sensor"][key][k] for k in frames], key
+    assert m["sensor"]["metered"] == render.manifest["sensor"]["metered"]
     for kind in ("raw", "rgb"):
         for view in ("left", "right"):
-            for rel in render.manifest["sensor"]["files"][kind][view]:
+            for k in frames:
+                rel = render.manifest["sensor"]["files"][kind][view][k]
                 assert (out / rel).read_bytes() == (render.root / rel).read_bytes(), rel
-    late = tmp_path / "late"
-    r = run_render(script, "--out", late, "--samples", "2", "--frames", "1:3", "--quiet")
-    assert r.returncode == 2 and "AUTOEXPOSURE" in r.stderr and not late.exists()
+
+
+def test_auto_exposure_does_not_depend_on_how_the_frames_are_split(render, tmp_path):
+    """The metering pass fixes every frame's exposure before the frames render: frames 0:2
+    then --resume, frame 2 alone in a new folder, and two chunks rendering at the same time
+    into one folder (what a farm does) give the exposures and the bytes of one run."""
+    import os
+    import subprocess
+    from render_support import REPO, render_cmd
+    script = render.root.parent / "s.ses"
+    assert all(v is not None and v > 0 for v in render.manifest["sensor"]["metered"])
+    assert "metering pass" in render.manifest["sensor"]["autoexposure"]["metering"]
+    resumed = tmp_path / "resumed"
+    assert run_render(script, "--out", resumed, "--samples", "2", "--frames", "0:2", "--quiet").returncode == 0
+    assert run_render(script, "--out", resumed, "--samples", "2", "--resume", "--quiet").returncode == 0
+    _same_frames(render, resumed, range(4))
+    alone = tmp_path / "alone"
+    r = run_render(script, "--out", alone, "--samples", "2", "--frames", "2:3", "--quiet")
+    assert r.returncode == 0, r.stderr
+    _same_frames(render, alone, [2])
+    chunks = tmp_path / "chunks"
+    env = dict(os.environ, PYTHONPATH=str(REPO))
+    procs = [subprocess.Popen(render_cmd(script, "--out", chunks, "--samples", "2", "--frames", f, "--resume",
+                                         "--quiet"), cwd=REPO, env=env, stderr=subprocess.PIPE, text=True)
+             for f in ("0:2", "2:4")]
+    for proc in procs:
+        assert proc.wait(timeout=900) == 0, proc.stderr.read()
+    _same_frames(render, chunks, range(4))

@@ -198,3 +198,33 @@ def test_effects_off_render_is_pixel_identical_and_sensor_images_are_reproducibl
     left = cv2.imread(str(out_b / m_b["sensor"]["files"]["raw"]["left"][0]), cv2.IMREAD_UNCHANGED)
     right = cv2.imread(str(out_b / m_b["sensor"]["files"]["raw"]["right"][0]), cv2.IMREAD_UNCHANGED)
     assert not np.array_equal(left, right)
+
+
+def test_auto_exposure_answers_a_step_in_brightness_as_documented(tmp_path):
+    """The camera slides from a glowing wall of radiance 1 to one of 0.1 after frame 4 (film
+    exposure fixed at 1, nothing else in view): the metering pass reads each frame's radiance
+    (the oracle: the wall's emission, the whole image), and log(t*g) moves towards
+    log(target * saturation * t_nom / m) by 1 - exp(-speed / rate) per frame, one frame late
+    (docs/sensors.md, Optics, exposure and the raw sensor)."""
+    n, step, rate, speed, target, t_nom = 12, 5, 20.0, 3.0, 0.18, 0.004
+    poses = [f"POSE {-10 if k < step else 10} 0 0 0 0 0" for k in range(n)]
+    lines = ["CAMERA resolution 32 24 focal 20 baseline 0", "LOOK exposure 0", "WORLD colour 0 0 0",
+             "RENDER samples 1",
+             "MATERIAL name bright colour 0 0 0 emission 1 1 1 emission_strength 1 roughness 1 specular 0",
+             "MATERIAL name dim colour 0 0 0 emission 1 1 1 emission_strength 0.1 roughness 1 specular 0",
+             "QUAD id 1 material bright vertices -30 -20 -5  0 -20 -5  0 20 -5  -30 20 -5",
+             "QUAD id 2 material dim vertices 0 -20 -5  30 -20 -5  30 20 -5  0 20 -5",
+             f"TIMING rate {rate:g} exposure {t_nom} blur off", "SENSOR seed 1",
+             f"AUTOEXPOSURE target {target} speed {speed}"] + poses
+    out, m = _render(tmp_path, "step", lines)
+    metered = np.array(m["sensor"]["metered"])
+    radiance = np.where(np.arange(n) < step, 1.0, 0.1)
+    assert np.allclose(metered, radiance, rtol=0.01), metered
+    E = np.array(m["sensor"]["exposure_s"]) * np.array(m["sensor"]["gain"])
+    alpha = 1 - np.exp(-speed / rate)
+    logE = [np.log(t_nom)]
+    for k in range(1, n):     # frame k answers frame k-1's metering; none of these clip at 1/rate
+        logE.append(logE[-1] + alpha * (np.log(target * t_nom / radiance[k - 1]) - logE[-1]))
+    assert np.allclose(np.log(E), logE, atol=0.01 * alpha), (np.log(E), logE)
+    assert E[step] == pytest.approx(E[step - 1] * (target * t_nom / E[step - 1]) ** alpha, rel=0.01)
+    assert E[step] < E[step - 1] < E[step + 1]   # frame 5 still answers the bright wall: one frame late

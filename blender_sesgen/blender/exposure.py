@@ -14,10 +14,12 @@ from __future__ import annotations
 
 import os
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
+from ..render.sensor.autoexposure import METERING_SAMPLES, METERING_WIDTH_PX, meter
 from ..scene.lighting import EXPOSURE_TARGET as TARGET
 
 PREVIEW_WIDTH = 96      # px; the preview keeps the aspect ratio
@@ -40,42 +42,83 @@ def remove_stale_previews(folder=None) -> None:
             continue
 
 
+@contextmanager
+def _preview_render(bscene, width_px: int, samples: int, film_exposure: float):
+    """The scene set to render small previews (``width_px`` wide, ``samples``, no denoiser,
+    no motion blur, film exposure ``film_exposure``) and a temporary EXR path for them;
+    everything restored and the file removed afterwards.
+
+    The preview goes to the system's temporary folder under a name with this process's pid,
+    so that a later render removes it if this one is killed (``remove_stale_previews``)."""
+    remove_stale_previews()
+    r, c = bscene.render, bscene.cycles
+    saved = (r.resolution_percentage, c.samples, c.use_denoising, c.film_exposure, r.use_motion_blur)
+    r.resolution_percentage = max(1, min(100, int(100 * width_px / max(r.resolution_x, 1))))
+    c.samples, c.use_denoising, c.film_exposure, r.use_motion_blur = samples, False, film_exposure, False
+    fd, path = tempfile.mkstemp(suffix=".exr", prefix=f"{PREVIEW_PREFIX}{os.getpid()}-")
+    os.close(fd)
+    try:
+        yield path
+    finally:
+        r.resolution_percentage, c.samples, c.use_denoising, c.film_exposure, r.use_motion_blur = saved
+        if os.path.exists(path):
+            os.remove(path)
+
+
+def _beauty(path: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The R, G, B planes of a preview EXR."""
+    from ..files.exr import read_exr
+    ch = read_exr(path)
+    return tuple(next(v for k, v in ch.items() if k.endswith(f"Combined.{c}")) for c in "RGB")
+
+
 def measure_exposure(bscene, camera, frame: int, cameras=None) -> float:
     """The film exposure that brings the preview's 90th-percentile luminance to TARGET.
 
     ``cameras`` ({view: camera}, the left one ``camera``): render the preview the fast way
     (``render.render_views``) in the scene's persistent Cycles session, which the frames
     then reuse (the scene is synchronised and its BVH built once, not twice); without it a
-    plain render of ``camera``.
-
-    The preview goes to the system's temporary folder under a name with this process's pid,
-    so that a later render removes it if this one is killed (``remove_stale_previews``)."""
-    from ..files.exr import read_exr
+    plain render of ``camera``."""
     from .render import render_view, render_views
 
-    remove_stale_previews()
-    r, c = bscene.render, bscene.cycles
-    saved = (r.resolution_percentage, c.samples, c.use_denoising, c.film_exposure)
-    pct = max(1, min(100, int(100 * PREVIEW_WIDTH / max(r.resolution_x, 1))))
-    r.resolution_percentage, c.samples, c.use_denoising, c.film_exposure = pct, PREVIEW_SAMPLES, False, 1.0
-    fd, path = tempfile.mkstemp(suffix=".exr", prefix=f"{PREVIEW_PREFIX}{os.getpid()}-")
-    os.close(fd)
-    try:
+    with _preview_render(bscene, PREVIEW_WIDTH, PREVIEW_SAMPLES, 1.0) as path:
         if cameras is not None:
             render_views(bscene, cameras, ("left",), frame, 0, {"left": path})
         else:
             render_view(bscene, camera, frame, seed=0, filepath=path)
-        ch = read_exr(path)
-    finally:
-        r.resolution_percentage, c.samples, c.use_denoising, c.film_exposure = saved
-        if os.path.exists(path):
-            os.remove(path)
-    r, g, b = (next(v for k, v in ch.items() if k.endswith(f"Combined.{c}")) for c in "RGB")
+        r, g, b = _beauty(path)
     lum = 0.2126 * r + 0.7152 * g + 0.0722 * b
     p90 = float(np.percentile(lum, 90))
     if not np.isfinite(p90) or p90 <= 1e-6:
         return 1.0  # nothing lit in view: leave the exposure alone
     return float(np.clip(TARGET / p90, 1e-4, 1e4))
+
+
+def meter_frames(bscene, camera, frames, film_exposure: float, progress=None) -> list[float]:
+    """The sensor auto-exposure's metering pass: the mean linear luminance (``autoexposure.
+    meter``) of a small preview of each of ``frames`` through ``camera`` (the left view),
+    rendered in order in one persistent Cycles session with the film exposure of the
+    frames (the values are those of the frames' linear beauty). Deterministic: seed 0,
+    ``METERING_WIDTH_PX`` wide, ``METERING_SAMPLES`` samples, no denoiser, no motion blur;
+    whoever runs it (one render, a chunk of a farm) gets the same numbers.
+    ``progress(i, n)`` after each frame."""
+    from .render import render_view
+
+    r = bscene.render
+    persistent = r.use_persistent_data
+    r.use_persistent_data = True       # one synchronisation and BVH for the whole pass
+    frames = list(frames)
+    out = []
+    try:
+        with _preview_render(bscene, METERING_WIDTH_PX, METERING_SAMPLES, film_exposure) as path:
+            for i, frame in enumerate(frames):
+                render_view(bscene, camera, frame, seed=0, filepath=path)
+                out.append(meter(np.stack(_beauty(path), axis=-1)))
+                if progress is not None:
+                    progress(i + 1, len(frames))
+    finally:
+        r.use_persistent_data = persistent
+    return out
 
 
 def set_exposure(bscene, exposure: float) -> None:

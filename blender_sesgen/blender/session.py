@@ -32,15 +32,19 @@ EXPOSURE_RULE_FLAT = "1 (gt: flat shading, no lights)"
 class BlenderSession:
     """The built scene of one plan (see the module docstring)."""
 
-    def __init__(self, plan: RenderPlan, known_exposure: Optional[float] = None, fast: bool = True):
+    def __init__(self, plan: RenderPlan, known_exposure: Optional[float] = None, fast: bool = True,
+                 known_metering: Optional[list] = None):
         """``known_exposure``: the exposure of frames already rendered for this plan (resume),
         reused so that resumed frames match; measured when None (default lighting only).
-        ``fast``: persistent Cycles data and multiview (same pixels, less time)."""
+        ``fast``: persistent Cycles data and multiview (same pixels, less time).
+        ``known_metering``: the sensor auto-exposure's metered brightness of every frame,
+        stored in the folder by an earlier writer; the metering pass runs when None."""
         self.plan = plan
         s = plan.settings
         self.flat = s.preset.shading == "flat"
-        self.culling, self._exposure_ids = None, None
+        self.culling, self._exposure_ids, self._metering_ids = None, None, None
         scene = plan.scene
+        meters = plan.sensor.autoexposure is not None and known_metering is None
         if plan.options.cull:   # only what the frames can see (and, to meter, what frame 0 sees)
             from ..render.culling import culled_scene, visible_objects
             self.culling = visible_objects(plan, plan.frames)
@@ -48,6 +52,9 @@ class BlenderSession:
             if self._measures_exposure(known_exposure):
                 self._exposure_ids = visible_objects(plan, [0]).keep
                 keep |= self._exposure_ids
+            if meters:   # the metering pass sees what every frame of the sequence sees, in every chunk
+                self._metering_ids = visible_objects(plan, range(plan.scene.frames)).keep
+                keep |= set(self._metering_ids)
             scene = culled_scene(plan.scene, keep)
         self.built = builder.build_scene(scene, width=s.width, height=s.height, K=s.K,
                                          view_poses=plan.view_poses)
@@ -70,8 +77,10 @@ class BlenderSession:
                          and render.can_render_multiview(self.built.cameras))
         self._configure["persistent"] = self.fast
         self.exposure = self._exposure(known_exposure)
-        if self._exposure_ids is not None:   # what only frame 0's metering needed stays out of the frames
-            self._show(self.culling.keep)
+        self.metering_s = None      # seconds the metering pass took (None: not run here)
+        self.metering = self._metering(known_metering)
+        if self._exposure_ids is not None or self._metering_ids is not None:
+            self._show(self.culling.keep)    # what only the metering needed stays out of the frames
         render.configure(self.built.scene, s.preset, **self._configure)
         exposure.set_exposure(self.built.scene, self.exposure)
         if self.flat:
@@ -119,6 +128,25 @@ class BlenderSession:
             self._show(self._exposure_ids)
         return exposure.measure_exposure(self.built.scene, self.built.cameras["left"], rig.blender_frame(0),
                                          self.built.cameras if share else None)
+
+    def _metering(self, known: Optional[list]) -> Optional[list]:
+        """The sensor auto-exposure's metered brightness of every frame of the sequence (None
+        without AUTOEXPOSURE): ``known`` when the folder holds it, else the metering pass
+        (blender/exposure.py: ``meter_frames``), which does not depend on which frames this
+        render has, so chunks and resumed renders agree."""
+        if self.plan.sensor.autoexposure is None:
+            return None
+        if known is not None:
+            return [float(v) for v in known]
+        import time
+        t0 = time.perf_counter()
+        render.configure(self.built.scene, EXPOSURE_PREVIEW, **{**self._configure, "persistent": False})
+        if self._metering_ids is not None:
+            self._show(self._metering_ids)
+        frames = [rig.blender_frame(k) for k in range(self.plan.scene.frames)]
+        metered = exposure.meter_frames(self.built.scene, self.built.cameras["left"], frames, self.exposure)
+        self.metering_s = time.perf_counter() - t0
+        return metered
 
     @property
     def channels(self) -> dict:

@@ -33,6 +33,7 @@ from typing import Optional
 from ..contract import atomic
 from ..contract.errors import ContractError
 from ..contract.inputs import read_bytes
+from ..contract.manifest_sections import SENSOR_STATE
 from ..contract.pixel_settings import TIMING_KEYS, PixelSettings
 from ..contract.manifest import (DISPLAY_DIR, DONE_LOG_GLOB, EXR_DIR, FORMAT, MANIFEST, POSES_DIR, SCENE_COPY, SEAL,
                                 STATE_DIR, Manifest, completed_in_logs, display_relpath, exr_relpath,
@@ -355,6 +356,7 @@ class OutputFolder:
             if on_disk.get("scene_sha256") == self.manifest.scene_sha256 and len(done) == self.manifest.frames:
                 self.manifest.frames_complete = [a or bool(b) for a, b in zip(self.manifest.frames_complete, done)]
                 self.checksums = {**dict(on_disk.get("checksums") or {}), **self.checksums}
+                self._merge_frame_state(on_disk)
         except ContractError:
             pass
         for k, files in completed_in_logs(self.root).items():
@@ -362,6 +364,17 @@ class OutputFolder:
                 self.manifest.frames_complete[k] = True
                 self.checksums.update(files)
         self._write_manifest(dead_logs_only=False)
+
+    def _merge_frame_state(self, on_disk: dict) -> None:
+        """The per-frame sensor state (exposure, gain, metered brightness) of frames another
+        chunk rendered, from the manifest it wrote: ours has None there."""
+        mine, theirs = self.manifest.extra.get("sensor"), on_disk.get("sensor")
+        if not isinstance(mine, dict) or not isinstance(theirs, dict):
+            return
+        for key in SENSOR_STATE:
+            a, b = mine.get(key), theirs.get(key)
+            if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+                mine[key] = [x if x is not None else y for x, y in zip(a, b)]
 
     def _write_manifest(self, dead_logs_only: bool) -> None:
         if self.checksums:

@@ -66,8 +66,6 @@ class RenderJob:
     def of(cls, plan: RenderPlan, out_dir, *, resume: bool = False, force: bool = False) -> "RenderJob":
         folder = OutputFolder(out_dir)
         folder.check(plan, force)
-        from .sensor.outputs import check_resumable
-        check_resumable(plan.sensor, folder.previous(), list(plan.frames), resume, force)
         if plan.options.reuse_exr:
             from .reuse import check_reusable
             check_reusable(plan, plan.options.reuse_exr)
@@ -120,9 +118,11 @@ class RenderJob:
             self.session = ReusedSession(self.plan, self.plan.options.reuse_exr)
             return
         from ..blender.session import BlenderSession
+        from .sensor.outputs import stored_metering
         kept = self.folder.resumable(self.plan)
         self.session = BlenderSession(self.plan, known_exposure=(kept or {}).get("render", {}).get("exposure"),
-                                      fast=self.plan.options.fast_pipeline)
+                                      fast=self.plan.options.fast_pipeline,
+                                      known_metering=stored_metering(self.plan.sensor, kept))
 
     def new_manifest(self) -> Manifest:
         """This job's manifest with no frame complete (needs the built session)."""
@@ -130,7 +130,8 @@ class RenderJob:
                                blender_version=self.session.blender_version)
         m.objects = m.objects + self.session.imported_objects   # BLEND files: ids given when loaded
         from .sensor.outputs import prepare_manifest
-        prepare_manifest(self.plan.sensor, m, self.folder.resumable(self.plan), self.out_dir)
+        prepare_manifest(self.plan.sensor, m, self.folder.resumable(self.plan), self.out_dir,
+                         metering=self.session.metering)
         return m
 
     def begin(self) -> None:

@@ -1,7 +1,13 @@
 """Auto-exposure that adapts over time like a camera's (one frame of latency).
 
 The metered brightness of frame j is the mean Rec. 709 luminance m_j of its linear render
-(independent of the exposure: the render is radiance). The exposure product E = t * g
+(independent of the exposure: the render is radiance), taken by a **metering pass** before
+any frame renders: a small, deterministic preview of every frame of the sequence
+(``METERING_WIDTH_PX`` wide, ``METERING_SAMPLES`` samples, seed 0, no denoiser, no motion
+blur; ``blender/exposure.py: meter_frames``). The values are stored in the manifest
+(``sensor.metered``) and every later writer of the folder reads them, so a frame's exposure
+is the same whether it is rendered alone (``--frames A:B``), in a farm's chunk or after
+``--resume``. The exposure product E = t * g
 (exposure time times analog gain) that would bring the normalised signal
 ``m * E / (t_nom * saturation)`` to ``target`` is ``E*_j = target * saturation * t_nom / m_j``.
 Frame k uses
@@ -18,6 +24,10 @@ from dataclasses import dataclass
 import numpy as np
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])
+METERING_WIDTH_PX = 96     # the metering preview's width (its aspect ratio is the render's)
+METERING_SAMPLES = 8
+METERING_RULE = (f"metering pass before the frames: mean linear luminance of a {METERING_WIDTH_PX} px wide, "
+                 f"{METERING_SAMPLES}-sample left-view preview of every frame (seed 0, no denoiser, no motion blur)")
 
 
 def meter(linear_rgb: np.ndarray) -> float:

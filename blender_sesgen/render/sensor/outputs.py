@@ -1,6 +1,7 @@
 """The sensor path's share of a render folder (pure): manifest entries and the files
-written once at the start, the per-frame exposure (auto-exposure state lives in the
-manifest, so --resume continues it), and the sensor images of each frame."""
+written once at the start, the per-frame exposure (auto-exposure follows the metering
+pass's values, stored in the manifest, so any split of the frames gives the same exposures),
+and the sensor images of each frame."""
 from __future__ import annotations
 
 import hashlib
@@ -17,17 +18,16 @@ from .render_plan import SENSOR_DIR, SensorPlan
 EXR_LAYOUT = "single part holding every pass (beauty of the sensor render, ground truth of the sharp render)"
 
 
-def check_resumable(plan: SensorPlan, previous: Optional[dict], frames: list[int], resume: bool, force: bool) -> None:
-    """Before anything is written: auto-exposure needs the brightness of every earlier
-    frame (a folder rendered with other timing is refused with the other pixel-affecting
-    settings: ``OutputFolder.check``)."""
-    if plan.autoexposure is None or not frames or frames[0] == 0:
-        return
-    metered = ((previous or {}).get("sensor") or {}).get("metered") or []
-    missing = [j for j in range(frames[0]) if j >= len(metered) or metered[j] is None]
-    if missing:
-        raise SesgenError(f"AUTOEXPOSURE: frame {frames[0]}'s exposure depends on the brightness of frames "
-                          f"0..{frames[0] - 1}, and frame(s) {missing[:5]} are not rendered: render from frame 0")
+def stored_metering(plan: SensorPlan, kept: Optional[dict]) -> Optional[list]:
+    """The metering pass's values in ``kept`` (the folder's manifest, when it may be
+    resumed): every frame's metered brightness, or None (not stored: meter)."""
+    if plan.autoexposure is None or not kept:
+        return None
+    metered = (kept.get("sensor") or {}).get("metered") or []
+    n = kept.get("frames")
+    if len(metered) != n or any(v is None for v in metered):
+        return None
+    return list(metered)
 
 
 STATE_KEYS = ("exposure_s", "gain", "metered")
@@ -39,16 +39,22 @@ def state_relpath(k: int) -> str:
     return f"{SENSOR_DIR}/state/{k:06d}.json"
 
 
-def prepare_manifest(plan: SensorPlan, m, kept: Optional[dict], out: Optional[Path] = None) -> None:
+def prepare_manifest(plan: SensorPlan, m, kept: Optional[dict], out: Optional[Path] = None,
+                     metering: Optional[list] = None) -> None:
     """Finish a new manifest ``m`` (a ``contract.manifest.Manifest`` holding the plan's
-    entries in ``extra``): the EXR layout of the sensor path, and the per-frame exposure
-    state of frames kept from ``kept`` (the previous manifest when resuming) and from the
-    per-frame state files in ``out``."""
+    entries in ``extra``): the EXR layout of the sensor path, the metering pass's values
+    (``metering``: every frame's metered brightness, with AUTOEXPOSURE), and the per-frame
+    exposure state of frames kept from ``kept`` (the previous manifest when resuming) and
+    from the per-frame state files in ``out``."""
     if not plan.active:
         return
     if plan.changes_rendering:
         m.render.setdefault("exr", {})["layout"] = EXR_LAYOUT
-    if "sensor" not in m.extra or kept is None:
+    if "sensor" not in m.extra:
+        return
+    if kept is None:
+        if metering is not None:
+            m.extra["sensor"]["metered"] = [float(v) for v in metering]
         return
     prev = kept.get("sensor") or {}
     for key in STATE_KEYS:
@@ -65,6 +71,8 @@ def prepare_manifest(plan: SensorPlan, m, kept: Optional[dict], out: Optional[Pa
                         m.extra["sensor"][key][k] = st[key]
                 except (OSError, ValueError, KeyError):
                     pass
+    if metering is not None:
+        m.extra["sensor"]["metered"] = [float(v) for v in metering]
 
 
 def make_folders(plan: SensorPlan, out: Path) -> None:
@@ -80,14 +88,15 @@ def make_folders(plan: SensorPlan, out: Path) -> None:
 
 
 def exposure_for(plan: SensorPlan, extra: Optional[dict], k: int) -> tuple[float, float]:
-    """(exposure_s, gain) of frame k: nominal, or auto-exposure from frames 0..k-1
-    (``extra``: the manifest's extra entries, where the sensor's per-frame state lives)."""
+    """(exposure_s, gain) of frame k: nominal, or auto-exposure from the metering pass's
+    values of frames 0..k-1 (``extra``: the manifest's extra entries)."""
     if plan.autoexposure is None:
         return plan.exposures([])[0]
     metered = ((extra or {}).get("sensor") or {}).get("metered") or []
     have = [metered[j] if j < len(metered) else None for j in range(k)]
     if any(v is None for v in have):
-        raise SesgenError(f"AUTOEXPOSURE: frames before {k} have no recorded brightness; render from frame 0")
+        raise SesgenError(f"AUTOEXPOSURE: the metering pass's values of frames before {k} are missing from the "
+                          "manifest; render again with --force")
     return plan.exposures(have)[k]
 
 
@@ -107,8 +116,10 @@ def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: floa
                         exrs: dict, jpeg_writer: Optional[Callable] = None) -> dict[str, str]:
     """Run the camera chain on frame k's EXRs (``exrs[view]``: their paths) and write raw /
     RGB / JPEG images; record the exposure, gain and metered brightness of the frame in the
-    manifest ``m`` (a Manifest) and in the frame's state file. Returns {relative path:
-    SHA-256} of the images written (recorded with the frame, checked by ``verify``)."""
+    manifest ``m`` (a Manifest) and in the frame's state file (without AUTOEXPOSURE the
+    metered brightness is the frame's own mean; with it, the metering pass's value).
+    Returns {relative path: SHA-256} of the images written (recorded with the frame, checked
+    by ``verify``)."""
     from ...files.exr import read_exr
     from . import pipeline
     from .autoexposure import meter
@@ -136,7 +147,9 @@ def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: floa
             jpeg_writer(str(Path(out) / written[-1]), f.rgb8, plan.sensor.jpeg_quality)
         sums.update({rel: hashlib.sha256((Path(out) / rel).read_bytes()).hexdigest() for rel in written})
     s = m.extra["sensor"]
-    s["exposure_s"][k], s["gain"][k], s["metered"][k] = float(exposure_s), float(gain), metered
+    s["exposure_s"][k], s["gain"][k] = float(exposure_s), float(gain)
+    if plan.autoexposure is None:
+        s["metered"][k] = metered
     from ...contract import atomic
     atomic.write_json(Path(out) / state_relpath(k), {key: s[key][k] for key in STATE_KEYS})
     return sums

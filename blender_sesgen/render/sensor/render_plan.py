@@ -20,7 +20,7 @@ from . import imu as imu_mod
 from ...scene import camera_profiles as profiles
 from ...contract import timing as timing_mod
 from ...contract.timing import DEFAULT_FPS
-from .autoexposure import ExposureControl, exposure_schedule
+from .autoexposure import METERING_RULE, ExposureControl, exposure_schedule
 from ...contract.lens import Lens, opencv_calibration_yaml, robotcar_lut_bytes, undistortion_maps
 from ...contract import rig
 from ...contract.manifest_sections import (ImuSection, LensSection, RigMotionSection, Sections, SensorSection,
@@ -250,7 +250,8 @@ class SensorPlan:
                 raw_layout=("PNG16, values 0..2^bits-1 (not scaled), CFA mosaic" if self.sensor.cfa
                             else "PNG16 grey, values 0..2^bits-1 (not scaled)" if self.sensor.mono
                             else "PNG16 RGB, values 0..2^bits-1 (not scaled)"),
-                autoexposure=None if self.autoexposure is None else dataclasses.asdict(self.autoexposure),
+                autoexposure=None if self.autoexposure is None else {**dataclasses.asdict(self.autoexposure),
+                                                                     "metering": METERING_RULE},
                 exposure_s=none, gain=none, metered=none)
         if self.imu is not None:
             imu = self.imu_section()
