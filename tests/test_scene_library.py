@@ -76,6 +76,41 @@ def test_city_kitti_is_kittis_rig_and_drive(scenes):
     assert np.degrees(turn).max() < 1.5 and np.ptp(cam_heading) > 3     # gentle curves, but curves
 
 
+def test_city_kitti_has_moving_traffic_in_the_lanes(scenes):
+    """Moving cars by default (MOVE keyframes): at every frame each is on the road in a lane
+    (checked against the road asset's own centreline), heading along it, and clear of the
+    camera's car (9 m in its lane; oncoming cars pass beside it); some drive ahead with the
+    camera, some come towards it."""
+    s = scenes["city_kitti"]
+    moving = [o for o in s.objects if s.motion_of(o.id) is not None]
+    assert len(moving) >= 6 and all(isinstance(o, Asset) and o.kind == "car" for o in moving)
+    road = next(o for o in s.objects if isinstance(o, Asset) and o.kind == "road")
+    from blender_sesgen.scene.assets.street import arc_frame
+    ss = np.linspace(0, road.size[2], 40001)
+    c, n, h = arc_frame(ss, road.size[2], road.bend)
+    T_road = object_pose(road.position, road.rotation_deg)
+    c, n = c @ T_road[:3, :3].T + T_road[:3, 3], n @ T_road[:3, :3].T
+    cam = s.timeline.left()[:, :3, 3]
+    ways = set()
+    for o in moving:
+        T = np.asarray(s.motion_of(o.id).T_world_obj)
+        assert len(T) == s.frames
+        p = T[:, :3, 3]
+        idx = np.argmin(np.linalg.norm(p[:, None, [0, 2]] - c[None, :, [0, 2]], axis=2), axis=1)
+        lateral = np.einsum("ij,ij->i", (p - c[idx])[:, [0, 2]], n[idx][:, [0, 2]])
+        assert np.all((np.abs(lateral) > 1.2) & (np.abs(lateral) < 2.3)), (o.id, lateral)    # a lane, not the kerb
+        assert np.all(np.sign(lateral) == np.sign(lateral[0]))
+        nose = T[:, [0, 2], 2]                                         # the car's +z axis: its nose
+        along = np.einsum("ij,ij->i", nose, np.stack([-np.sin(h[idx]), -np.cos(h[idx])], axis=1))
+        assert np.all(np.abs(along) > np.cos(np.radians(8))), o.id    # heading along the road
+        moved = np.einsum("ij,ij->i", np.diff(p, axis=0)[:, [0, 2]], nose[:-1])
+        assert np.all(moved > 0.3), o.id                               # driving forwards
+        ahead = lateral[0] > 0                                         # in the camera's lane: keeps its distance
+        assert np.linalg.norm(p - cam, axis=1).min() > (9.0 if ahead else 2.5), o.id
+        ways.add(int(np.sign(lateral[0])))
+    assert ways == {1, -1}
+
+
 def test_office_is_a_handheld_tum_like_walk(scenes):
     s = scenes["office"]
     assert (s.rig.width, s.rig.height, s.rig.focal_px) == (640, 480, 525)

@@ -6,7 +6,10 @@ roofs) alternating with green strips; street trees, hedges and bushes; parked ca
 the kerbs; street lights, signs on poles, bins and bollards; a sun and a physical sky.
 The rig is KITTI's (1226 x 370 px, f = 707 px, baseline 0.54 m, camera 1.65 m above the
 road) and drives in the right lane at ~1.2 m per frame (KITTI's 10 Hz at ~43 km/h),
-keeping its lane with small steering, speed, pitch and roll variations.
+keeping its lane with small steering, speed, pitch and roll variations. Moving traffic
+(``traffic`` cars, MOVE keyframes along the street's curves): cars ahead in the rig's lane
+driving on at about its speed and oncoming cars in the other lane, never within 10 m of the
+rig's car or 8 m of each other; the camera's auto-exposure follows the scene (AUTOEXPOSURE).
 
     python -m blender_sesgen.generators.builtin.city_kitti [--seed N] [--frames N] > scenes/city_kitti.ses
 
@@ -17,7 +20,8 @@ time in three, a bundled daylight HDRI (city, courtyard, forest, sunrise, sunset
 strength and rotation, haze one time in four, the asphalt (tone, wear) and the paving, and
 the drive: 0.8-1.5 m per frame, 1-3 curves of 5-18 deg, the lane position and weave.
 ``frames`` sets the sequence length; ``step_m``, ``sun_elevation``, ``sun_azimuth`` override
-the seed's (a sun given replaces an HDRI).
+the seed's (a sun given replaces an HDRI); ``traffic`` the number of moving cars (0: a
+static street).
 """
 from __future__ import annotations
 
@@ -27,6 +31,7 @@ from typing import Optional
 import numpy as np
 
 from ...scene.assets.street import arc_frame
+from .city_grid import _keyframes as keyframes
 from .sesgen_layout import (KITTI_CAMERA_HEIGHT, Ids, Lighting, asset, command_line, derived_material, draw_lighting, kerb_cars, kitti_rig, line_street_side, num, nums,
                            script_with_poses, smooth_noise, street_lights, variation_rng)
 
@@ -35,6 +40,8 @@ CAMERA_HEIGHT = KITTI_CAMERA_HEIGHT
 PIECE = 20.0                 # centreline pieces (m)
 ASPHALT = (0.085, 0.085, 0.082)
 PAVING = ((0.30, 0.29, 0.27), (0.34, 0.33, 0.31), (0.26, 0.25, 0.24), (0.31, 0.22, 0.18))
+LANE_M = 1.75                # moving cars' centre from the centreline (parked ones stand further out)
+TRAFFIC_GAP_M = (10.0, 8.0)  # least distance along the street to the rig's car, and between two cars of a lane
 
 
 @dataclass(frozen=True)
@@ -72,12 +79,44 @@ def _centre(street_pos, street_yaw, s, L, bends):
     return (c @ R.T + street_pos, n @ R.T, np.degrees(h) + street_yaw)
 
 
+def _traffic(rng, centre, s_cam: np.ndarray, step_m: float, L: float, n_cars: int, ids: Ids) -> list[str]:
+    """Moving cars (ASSET car + MOVE keyframes): alternately one ahead in the rig's lane,
+    driving on at 0.95-1.15x the rig's speed, and one oncoming in the other lane at
+    0.7-1.2x; each on the street for the whole sequence, at least TRAFFIC_GAP_M from the rig's
+    car and from the other cars of its lane (a car that finds no such place after 40 tries
+    is left out). ``centre(s)``: the centreline's points, right normals and headings."""
+    k = np.arange(len(s_cam))
+    lanes = {1: [(s_cam, TRAFFIC_GAP_M[0])], -1: []}          # (positions along the street, least gap)
+    out = ["", "// moving traffic: cars ahead in the rig's lane and oncoming ones (keyframes along the curves)"]
+    for j in range(n_cars):
+        side = 1 if j % 2 == 0 else -1
+        for _try in range(40):
+            if side > 0:
+                s_k = s_cam[0] + rng.uniform(15.0, 70.0) + step_m * rng.uniform(0.95, 1.15) * k
+            else:
+                s_k = rng.uniform(s_cam[0] + 20.0, L - 5.0) - step_m * rng.uniform(0.7, 1.2) * k
+            if s_k.min() > 3.0 and s_k.max() < L - 3.0 and all(np.abs(s_k - o).min() >= g for o, g in lanes[side]):
+                break
+        else:
+            continue
+        lanes[side].append((s_k, TRAFFIC_GAP_M[1]))
+        c, n, h = centre(s_k)
+        xz = (c + side * LANE_M * n)[:, [0, 2]]
+        yaw = np.round(h + (180.0 if side > 0 else 0.0), 3)    # the car's nose (+z) along its way
+        i = ids("car")
+        out.append(asset("car", i, (xz[0, 0], 0.0, xz[0, 1]), yaw[0], seed=int(rng.integers(1e6))))
+        for f in keyframes(xz, yaw)[1:]:
+            out.append(f"MOVE id {i} frame {f} position {nums((xz[f, 0], 0.0, xz[f, 1]))} 0 {num(yaw[f], 3)} 0")
+    return out
+
+
 def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, sun_elevation: Optional[float] = None,
-             sun_azimuth: Optional[float] = None) -> str:
+             sun_azimuth: Optional[float] = None, traffic: int = 8) -> str:
     """The SES script of the city street for ``seed`` (layout, buildings, trees, cars and
     drive all follow from it; see the module docstring)."""
-    if int(seed) < 0 or int(frames) < 2:
-        raise ValueError(f"seed must be >= 0 and frames >= 2, got seed {seed}, frames {frames}")
+    if int(seed) < 0 or int(frames) < 2 or int(traffic) < 0:
+        raise ValueError(f"seed must be >= 0, frames >= 2 and traffic >= 0, got seed {seed}, frames {frames}, "
+                         f"traffic {traffic}")
     v = Variation.of(int(seed))
     step_m = v.step_m if step_m is None else float(step_m)
     lighting = v.lighting
@@ -114,7 +153,8 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
            KITTI_RIG,
            *lighting.lines(),
            "RENDER samples 16 denoise on",
-           "SENSOR profile kitti        // KITTI's camera, measured (docs/sensors.md): its noise, blur, clipping"]
+           "SENSOR profile kitti        // KITTI's camera, measured (docs/sensors.md): its noise, blur, clipping",
+           "AUTOEXPOSURE                // its exposure follows the scene (metered before the frames render)"]
     road_mat = paving_mat = ""
     if v.road is not None:
         out += ["", "// this seed's asphalt and paving (library materials with its own tone and wear)",
@@ -228,6 +268,8 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     yaw = h - np.degrees(drift) + 0.25 * smooth_noise(rng, frames, 1.0, (3.0, 7.0))
     pitch = 0.3 * smooth_noise(rng, frames, 1.0, (5.0, 11.0, 23.0))
     roll = 0.2 * smooth_noise(rng, frames, 1.0, (4.0, 9.0, 19.0))
+    out += _traffic(np.random.default_rng([seed, 0x7AF]), lambda s_: _centre(street_pos, street_yaw, s_, L, bends),
+                    s_cam, step_m, L, int(traffic), ids)
     return script_with_poses(out, f"the drive: {frames} poses of the left camera (KITTI: 1.65 m above the road, right lane)",
                              pos, yaw, pitch, roll)
 

@@ -129,7 +129,8 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
            f"CAMERA resolution {rig['resolution'][0]} {rig['resolution'][1]} focal {num(rig['fu'])} "
            f"principal {num(rig['cu'])} {num(rig['cv'])} baseline {num(rig['baseline'], 4)} near 0.05 far 200",
            *var.lighting.lines(), "LOOK exposure auto",
-           "SENSOR profile euroc        // EuRoC's MT9V034, measured (docs/sensors.md)", ""]
+           "SENSOR profile euroc        // EuRoC's MT9V034, measured (docs/sensors.md)",
+           "AUTOEXPOSURE                // its exposure follows the scene (metered before the frames render)", ""]
     clad = rng.choice(["0.3 0.33 0.36", "0.45 0.46 0.45", "0.2 0.27 0.33"])
     out += ["// materials derived from the library (colour replaces the library's)",
             # power-trowelled: a faint sheen that mirrors lamps and windows, blurred
