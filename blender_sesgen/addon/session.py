@@ -181,7 +181,7 @@ def build_scene(context, values: dict) -> str:
     """The Build Scene button (no output folder involved): returns a one-line report."""
     from ..blender.session import BlenderSession
     the_plan = plan(values)
-    built = build(context, values, lambda: BlenderSession(the_plan), the_plan.scene).built
+    built = build(context, values, lambda: BlenderSession(the_plan, meter=False), the_plan.scene).built
     n = sum(len(v) for v in built.objects.values())
     msg = (f"built {n} objects, {len(built.cameras)} camera(s) keyed over {the_plan.scene.frames} frames "
            f"in scene '{built.scene.name}'")

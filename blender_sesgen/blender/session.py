@@ -33,18 +33,20 @@ class BlenderSession:
     """The built scene of one plan (see the module docstring)."""
 
     def __init__(self, plan: RenderPlan, known_exposure: Optional[float] = None, fast: bool = True,
-                 known_metering: Optional[list] = None):
+                 known_metering: Optional[list] = None, meter: bool = True):
         """``known_exposure``: the exposure of frames already rendered for this plan (resume),
         reused so that resumed frames match; measured when None (default lighting only).
         ``fast``: persistent Cycles data and multiview (same pixels, less time).
         ``known_metering``: the sensor auto-exposure's metered brightness of every frame,
-        stored in the folder by an earlier writer; the metering pass runs when None."""
+        stored in the folder by an earlier writer; the metering pass runs when None and
+        ``meter`` (False: a scene built to look at, not to render)."""
         self.plan = plan
         s = plan.settings
         self.flat = s.preset.shading == "flat"
         self.culling, self._exposure_ids, self._metering_ids = None, None, None
         scene = plan.scene
-        meters = plan.sensor.autoexposure is not None and known_metering is None
+        meters = meter and plan.sensor.autoexposure is not None and known_metering is None
+        self._meter = meter
         if plan.options.cull:   # only what the frames can see (and, to meter, what frame 0 sees)
             from ..render.culling import culled_scene, visible_objects
             self.culling = visible_objects(plan, plan.frames)
@@ -134,7 +136,7 @@ class BlenderSession:
         without AUTOEXPOSURE): ``known`` when the folder holds it, else the metering pass
         (blender/exposure.py: ``meter_frames``), which does not depend on which frames this
         render has, so chunks and resumed renders agree."""
-        if self.plan.sensor.autoexposure is None:
+        if self.plan.sensor.autoexposure is None or not self._meter:
             return None
         if known is not None:
             return [float(v) for v in known]
