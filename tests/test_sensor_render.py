@@ -205,7 +205,8 @@ def test_auto_exposure_answers_a_step_in_brightness_as_documented(tmp_path):
     exposure fixed at 1, nothing else in view): the metering pass reads each frame's radiance
     (the oracle: the wall's emission, the whole image), and log(t*g) moves towards
     log(target * saturation * t_nom / m) by 1 - exp(-speed / rate) per frame, one frame late
-    (docs/sensors.md, Optics, exposure and the raw sensor)."""
+    (docs/sensors.md, Optics, exposure and the raw sensor). A culled render of three later
+    frames alone meters the same."""
     n, step, rate, speed, target, t_nom = 12, 5, 20.0, 3.0, 0.18, 0.004
     poses = [f"POSE {-10 if k < step else 10} 0 0 0 0 0" for k in range(n)]
     lines = ["CAMERA resolution 32 24 focal 20 baseline 0", "LOOK exposure 0", "WORLD colour 0 0 0",
@@ -228,3 +229,7 @@ def test_auto_exposure_answers_a_step_in_brightness_as_documented(tmp_path):
     assert np.allclose(np.log(E), logE, atol=0.01 * alpha), (np.log(E), logE)
     assert E[step] == pytest.approx(E[step - 1] * (target * t_nom / E[step - 1]) ** alpha, rel=0.01)
     assert E[step] < E[step - 1] < E[step + 1]   # frame 5 still answers the bright wall: one frame late
+    # frames 6-8 alone and culled (built: what any frame sees, for the metering pass): the same schedule
+    _, mc = _render(tmp_path, "step_culled", lines, "--cull", "--frames", "6:9")
+    assert mc["sensor"]["metered"] == m["sensor"]["metered"]
+    assert mc["sensor"]["exposure_s"][6:9] == m["sensor"]["exposure_s"][6:9]
