@@ -16,6 +16,7 @@ bench/identical_renders.py); ``fast=False`` renders that plain way.
 """
 from __future__ import annotations
 
+import time
 from pathlib import Path
 from typing import Callable, Optional
 
@@ -140,7 +141,6 @@ class BlenderSession:
             return None
         if known is not None:
             return [float(v) for v in known]
-        import time
         t0 = time.perf_counter()
         render.configure(self.built.scene, EXPOSURE_PREVIEW, **{**self._configure, "persistent": False})
         if self._metering_ids is not None:

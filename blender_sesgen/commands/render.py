@@ -160,7 +160,7 @@ def run(args: argparse.Namespace) -> int:
             job.build()
             if job.session.culling is not None and not args.quiet:
                 print(f"culling: {job.session.culling.summary()} built for {len(todo)} frame(s)", flush=True)
-            if getattr(job.session, "metering_s", None) is not None and not args.quiet:
+            if job.session.metering_s is not None and not args.quiet:
                 print(f"auto-exposure: metered {len(job.session.metering)} frame(s) in "
                       f"{_fmt(job.session.metering_s)}", flush=True)
         except SesgenError:

@@ -83,7 +83,7 @@ class ReusedSession:
         self.culling = None      # nothing is built here (the base's render culled, if it did)
         r = self.base_manifest.render
         self.exposure = r.get("exposure")
-        self.metering = None     # AUTOEXPOSURE is refused here (check_reusable)
+        self.metering, self.metering_s = None, None     # AUTOEXPOSURE is refused here (check_reusable)
 
     @property
     def channels(self) -> dict:
