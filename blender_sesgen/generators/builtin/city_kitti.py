@@ -4,6 +4,8 @@ A two-lane street of gentle curves (a chain of arcs) with kerbs, a tree lawn, si
 and front yards; blocks of buildings (real window openings, balconies, gable or flat
 roofs) alternating with green strips; street trees, hedges and bushes; parked cars along
 the kerbs; street lights, signs on poles, bins and bollards; a sun and a physical sky.
+Trees, bushes, cars, street lights and bins are a few variants per kind (``POOLS``), so
+that Blender shares their meshes and Cycles instances them (docs/rendering.md#speed).
 The rig is KITTI's (1226 x 370 px, f = 707 px, baseline 0.54 m, camera 1.65 m above the
 road) and drives in the right lane at ~1.2 m per frame (KITTI's 10 Hz at ~43 km/h),
 keeping its lane with small steering, speed, pitch and roll variations.
@@ -28,13 +30,21 @@ import numpy as np
 
 from ...scene.assets.street import arc_frame
 from .sesgen_layout import (KITTI_CAMERA_HEIGHT, Ids, Lighting, asset, command_line, derived_material, draw_lighting, kerb_cars, kitti_rig, line_street_side, num, nums,
-                           script_with_poses, smooth_noise, street_lights, variation_rng)
+                           script_with_poses, smooth_noise, street_lights, variation_rng, VariantPool)
 
 KITTI_RIG = kitti_rig(far=600)
 CAMERA_HEIGHT = KITTI_CAMERA_HEIGHT
 PIECE = 20.0                 # centreline pieces (m)
 ASPHALT = (0.085, 0.085, 0.082)
 PAVING = ((0.30, 0.29, 0.27), (0.34, 0.33, 0.31), (0.26, 0.25, 0.24), (0.31, 0.22, 0.18))
+# asset variants per kind (VariantPool: identical assets share one mesh, Cycles instances it);
+# buildings, hedges, fences, poles and signs keep their own sizes (they follow the lots)
+POOLS = {"tree": 6, "lawn_tree": 5, "young_tree": 4, "conifer": 3, "bush": 6, "car": 8, "streetlight": 2, "bin": 3}
+POOL_SIZES = {   # the street trees' sizes (m: crown width, height, crown depth)
+    "lawn_tree": lambda r: (round(float(r.uniform(3.0, 5.5)), 2), round(float(r.uniform(6, 11)), 2),
+                            round(float(r.uniform(3.0, 5.5)), 2)),
+    "young_tree": lambda r: (round(float(r.uniform(2.5, 4.0)), 2), round(float(r.uniform(5, 8)), 2),
+                             round(float(r.uniform(2.5, 4.0)), 2))}
 
 
 @dataclass(frozen=True)
@@ -106,6 +116,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     yard = 60.0
     ids = Ids({"street": 1, "building": 100, "car": 400, "tree": 600, "veg": 900, "furniture": 1200,
                "grass": 2000})
+    pool = VariantPool(rng, POOLS, POOL_SIZES, variants_rng=variation_rng(seed, 0x7EE))
 
     out = ["// city_kitti.ses - an urban street seen by the KITTI odometry rig (1226x370, f 707 px,",
            "// baseline 0.54 m), ~1.2 m per frame, lane keeping along gentle curves.",
@@ -156,32 +167,30 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     # --- buildings and green blocks on both sides -------------------------------------
     out += ["", "// buildings (front facades towards the street) and green blocks"]
     for side in (1, -1):
-        out += line_street_side(rng, place, L - 12, side, right_edge if side > 0 else -left_edge, ids)
+        out += line_street_side(rng, place, L - 12, side, right_edge if side > 0 else -left_edge, ids, seed_of=pool)
 
     # a building across the far end of the street closes the view
     p_end, h_end = place(L + 12.0, 0.0)
     out.append(asset("building", ids("building"), p_end, h_end, (2 * (right_edge + 10), 16.0, 12.0), seed=seed + 77))
 
     # --- street trees in the tree lawn, lights, signs, bollards --------------------------
-    out += ["", "// street trees (tree lawn, right), street lights, signs"]
+    out += ["", "// street trees (tree lawn, right), street lights, signs (trees, cars, lights: a few variants, instanced)"]
     s = float(rng.uniform(3, 8))
     while s < L - 5:
         p, _ = place(s, 0.5 * (lawn[0] + lawn[1]))
-        out.append(asset("tree", ids("tree"), p, rng.uniform(0, 360),
-                         (round(float(rng.uniform(3.0, 5.5)), 2), round(float(rng.uniform(6, 11)), 2),
-                          round(float(rng.uniform(3.0, 5.5)), 2)), seed=int(rng.integers(1e6))))
+        seed_, size = pool.pick("lawn_tree")
+        out.append(asset("tree", ids("tree"), p, rng.uniform(0, 360), size, seed=seed_))
         s += float(rng.uniform(8, 13))
     s = float(rng.uniform(3, 8))
     while s < L - 5:                       # young trees along the left sidewalk's outer edge
         p, _ = place(s, left_edge - 1.2)
-        out.append(asset("tree", ids("tree"), p + np.array([0.0, kerb_h, 0.0]), rng.uniform(0, 360),
-                         (round(float(rng.uniform(2.5, 4.0)), 2), round(float(rng.uniform(5, 8)), 2),
-                          round(float(rng.uniform(2.5, 4.0)), 2)), seed=int(rng.integers(1e6))))
+        seed_, size = pool.pick("young_tree")
+        out.append(asset("tree", ids("tree"), p + np.array([0.0, kerb_h, 0.0]), rng.uniform(0, 360), size, seed=seed_))
         s += float(rng.uniform(9, 15))
     for side in (1, -1):
         s = float(rng.uniform(5, 25)) + (0 if side > 0 else 14)
         kerb_out = r_kerb + kerb_w / 2
-        out += street_lights(rng, place, s, L - 5, side, kerb_out + (lawn_w * 0.5 + 0.8 if side > 0 else 0.5), ids)
+        out += street_lights(rng, place, s, L - 5, side, kerb_out + (lawn_w * 0.5 + 0.8 if side > 0 else 0.5), ids, seed_of=pool)
     for _ in range(int(L / 45)):
         side = int(rng.choice([1, -1]))
         s = float(rng.uniform(10, L - 10))
@@ -215,7 +224,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     out += ["", "// parked cars along the kerbs (right side facing the drive)"]
     for side in (1, -1):
         s = behind + float(rng.uniform(12, 20)) if side > 0 else float(rng.uniform(5, 15))
-        out += kerb_cars(rng, place, s, L - 8, side, half_road - 0.95, 0.5 if side > 0 else 0.3, ids)
+        out += kerb_cars(rng, place, s, L - 8, side, half_road - 0.95, 0.5 if side > 0 else 0.3, ids, pool)
 
     # --- the drive: right lane, ~1.2 m per frame -----------------------------------------
     speed = step_m * (1 + 0.06 * smooth_noise(rng, frames, 1.0, (0.7, 1.6)))
