@@ -39,7 +39,9 @@ per stereo frame and in the build):
 - in a process of its own, the script edited: ``trees`` (the trees, conifers, bushes,
   hedges, grass tufts, ferns and plants with their leaves), ``lights`` (the script's
   point, spot and area lamps; the sky's sun stays), ``bevels`` (CUBOID ``bevel``), ``fog``
-  (FOG). A feature the scene does not have is listed as absent.
+  (FOG), ``sensor`` (the camera model: SENSOR, TIMING, LENS and AUTOEXPOSURE, i.e. the
+  sensor path's shutter and lens renders and the sensor images). A feature the scene does
+  not have is listed as absent.
 
 ``--base REV`` renders the baseline row of every scene again with revision REV's code
 (checked out into a temporary git worktree), in the same run: today's figures beside the
@@ -63,7 +65,8 @@ T0 = time.perf_counter()
 REPO = Path(__file__).resolve().parents[1]
 SCENES = ("city_kitti", "hall", "office", "forest", "paper_room")
 IN_PROCESS = ("denoiser", "glass", "relief")
-EDITED = ("trees", "lights", "bevels", "fog")
+EDITED = ("trees", "lights", "bevels", "fog", "sensor")
+SENSOR_STATEMENTS = ("SENSOR", "TIMING", "LENS", "AUTOEXPOSURE")
 VEGETATION = ("tree", "conifer", "bush", "hedge", "grass_tuft", "fern", "plant")
 BUILD_STAGES = ("import", "parse", "assets", "meshes", "materials", "scene", "exposure")
 CYCLES_STAGES = ("sync", "shaders", "bvh", "images", "lights", "kernels", "other")
@@ -71,9 +74,10 @@ CYCLES_STAGES = ("sync", "shaders", "bvh", "images", "lights", "kernels", "other
 STATUS_STAGES = (("Synchronizing", "sync"), ("Updating Shaders", "shaders"), ("Updating Meshes", "bvh"),
                  ("Building BVH", "bvh"), ("Copying BVH", "bvh"), ("Computing attributes", "bvh"),
                  ("Copying Attributes", "bvh"), ("Computing normals", "bvh"), ("Copying Mesh", "bvh"),
-                 ("Applying Static", "bvh"), ("Updating Images", "images"), ("Loading", "images"),
-                 ("Updating Lights", "lights"), ("Importance map", "lights"), ("Computing tree", "lights"),
-                 ("Loading render kernels", "kernels"), ("Loading denoising kernels", "kernels"))
+                 ("Applying Static", "bvh"), ("Updating Geometry BVH", "bvh"), ("Updating Scene BVH", "bvh"),
+                 ("Loading render kernels", "kernels"), ("Loading denoising kernels", "kernels"),
+                 ("Updating Images", "images"), ("Loading", "images"),   # images: the physical sky's table too
+                 ("Updating Lights", "lights"), ("Importance map", "lights"), ("Computing tree", "lights"))
 MEM_RE = re.compile(r"Mem:\s*([\d.]+)([KMG])")
 
 
@@ -97,6 +101,9 @@ def edit_script(text: str, feature: str) -> tuple[str, int]:
             n += 1
             continue
         if feature == "fog" and key == "FOG":
+            n += 1
+            continue
+        if feature == "sensor" and key in SENSOR_STATEMENTS:
             n += 1
             continue
         if feature == "bevels" and key == "CUBOID" and " bevel " in f" {line} ":
