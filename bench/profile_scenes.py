@@ -197,14 +197,19 @@ class CyclesLog:
 def child(a) -> int:
     import bpy  # noqa: F401
     c_import = cpu_s()
-    from blender_sesgen.scene import assets
-    try:
-        from blender_sesgen.scene.assets import cache as asset_cache
-    except ImportError:   # a revision before the disk cache of asset meshes
-        asset_cache = None
+    import importlib
+    import blender_sesgen
+    # a revision before the subpackages (tools/relayout.py) has its modules at the old paths
+    old = (Path(blender_sesgen.__file__).parent / "job.py").is_file()
+    assets = importlib.import_module("blender_sesgen.assets" if old else "blender_sesgen.scene.assets")
+    # (the old layout predates the disk cache of asset meshes; the check goes by file, since an
+    # editable install may resolve a module the revision lacks to another source tree)
+    has_cache = (Path(blender_sesgen.__file__).parent / "scene" / "assets" / "cache.py").is_file()
+    asset_cache = importlib.import_module("blender_sesgen.scene.assets.cache") if has_cache else None
     from blender_sesgen.blender import assets as bassets, builder, exposure, materials
-    from blender_sesgen.render.job import RenderJob
-    from blender_sesgen.render.plan import RenderOptions, RenderPlan
+    RenderJob = importlib.import_module("blender_sesgen.job" if old else "blender_sesgen.render.job").RenderJob
+    plan_mod = importlib.import_module("blender_sesgen.plan" if old else "blender_sesgen.render.plan")
+    RenderOptions, RenderPlan = plan_mod.RenderOptions, plan_mod.RenderPlan
     log = CyclesLog()
     bpy.app.handlers.render_stats.append(log)
     stages = Stages(log)

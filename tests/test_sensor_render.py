@@ -198,3 +198,24 @@ def test_effects_off_render_is_pixel_identical_and_sensor_images_are_reproducibl
     left = cv2.imread(str(out_b / m_b["sensor"]["files"]["raw"]["left"][0]), cv2.IMREAD_UNCHANGED)
     right = cv2.imread(str(out_b / m_b["sensor"]["files"]["raw"]["right"][0]), cv2.IMREAD_UNCHANGED)
     assert not np.array_equal(left, right)
+
+
+@pytest.mark.parametrize("extra", [
+    ["TIMING rate 20 exposure 0.02"],                                   # motion blur
+    ["TIMING rate 20 exposure 0.004 readout 0.03", BROWN + " fnumber 4 vignetting 1"]],   # rolling shutter, lens
+    ids=["blur", "rolling-lens"])
+def test_sensor_path_in_the_persistent_session_renders_the_plain_pixels(tmp_path, extra):
+    """The sensor path's renders in one persistent multiview session (the scene synchronised
+    once, the sharp ground truth of both views in one render) give every channel of every
+    EXR exactly as a fresh Cycles session per render (``--plain-pipeline``)."""
+    from render_support import oracle_script
+    lines = oracle_script(width=64, height=48, focal=44.0, principal=(32.1, 23.4)).splitlines() + extra
+    out_a, m_a = _render(tmp_path, "plain", lines, "--samples", "2", "--plain-pipeline")
+    out_b, m_b = _render(tmp_path, "fast", lines, "--samples", "2")
+    assert m_a["render"]["pipeline"]["persistent_data"] is False and m_b["render"]["pipeline"]["persistent_data"] is True
+    for view in m_a["views"]:
+        for k in range(m_a["frames"]):
+            a, b = read_exr(out_a / m_a["files"][view][k]), read_exr(out_b / m_b["files"][view][k])
+            assert a.keys() == b.keys()
+            for name in a:
+                assert np.array_equal(a[name], b[name], equal_nan=True), (view, k, name)
