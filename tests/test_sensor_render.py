@@ -219,3 +219,24 @@ def test_sensor_path_in_the_persistent_session_renders_the_plain_pixels(tmp_path
             assert a.keys() == b.keys()
             for name in a:
                 assert np.array_equal(a[name], b[name], equal_nan=True), (view, k, name)
+
+
+def test_gt_preset_with_a_shutter_is_the_sharp_frame(tmp_path):
+    """``--quality gt`` (one flat sample: no shutter to integrate) renders the sharp frame once
+    for both views: every channel equals the render without the shutter, and its ground truth
+    is the blurred preset's."""
+    from render_support import oracle_script
+    base = oracle_script(width=64, height=48, focal=44.0, principal=(32.1, 23.4)).splitlines()
+    out_a, m_a = _render(tmp_path, "sharp", base + ["TIMING rate 20"], "--quality", "gt")
+    out_b, m_b = _render(tmp_path, "shutter", base + ["TIMING rate 20 exposure 0.02"], "--quality", "gt")
+    out_c, m_c = _render(tmp_path, "blurred", base + ["TIMING rate 20 exposure 0.02"], "--samples", "2")
+    assert m_b["render"]["pipeline"]["views_per_render"] == 2
+    for view in m_a["views"]:
+        for k in range(m_a["frames"]):
+            a, b = read_exr(out_a / m_a["files"][view][k]), read_exr(out_b / m_b["files"][view][k])
+            c = read_exr(out_c / m_c["files"][view][k])
+            assert a.keys() == b.keys()
+            for name in a:
+                assert np.array_equal(a[name], b[name], equal_nan=True), (view, k, name)
+                if "Combined" not in name and "Noisy" not in name and name in c:
+                    assert np.array_equal(b[name], c[name], equal_nan=True), (view, k, name)

@@ -56,7 +56,8 @@ class SensorSession:
         synchronised scene, its BVH and the sky from render to render instead of building
         them again for each of a frame's renders), and the sharp ground-truth render draws
         both views at once (its beauty is dropped: the ground-truth passes come from sample 0
-        through the pixel centre, whatever the seed)."""
+        through the pixel centre, whatever the seed). With the ``gt`` preset that sharp render
+        of both views is the frame."""
         s = self.sensor
         shutter, duration = s.shutter(exposure_s)
         gt_shutter = s.shutter(0.0)[0] if s.rolling_shutter else 0.0
@@ -78,14 +79,23 @@ class SensorSession:
         tmp = {v: temp_path(Path(paths[v]).with_name("beauty-" + Path(paths[v]).name)) for v in views}
         tmp_gt = {v: temp_path(Path(paths[v]).with_name("gt-" + Path(paths[v]).name)) for v in views}
         stats = {}
+        # one flat sample through the pixel centre (gt) integrates no shutter: the sharp render
+        # of both views is the whole frame, its ground truth that of the other presets
+        sharp_only = self.fast and self.plan.settings.preset.deterministic_rgb
         try:
-            sensor.set_shutter(self.scene, shutter, s.rolling_shutter, duration)
-            for vi, view in enumerate(views):
+            if sharp_only:
+                if stop():
+                    raise KeyboardInterrupt
+                with sensor.ground_truth_settings(self.scene, gt_shutter, s.rolling_shutter):
+                    stats = draw(views, render_seed(self.plan.settings.seed, 0, 0), tmp, display_paths)
+            else:
+                sensor.set_shutter(self.scene, shutter, s.rolling_shutter, duration)
+            for vi, view in enumerate(() if sharp_only else views):
                 if stop():
                     raise KeyboardInterrupt
                 stats.update(draw((view,), render_seed(self.plan.settings.seed, k, vi), tmp,
                                   {view: display_paths[view]} if display_paths else None))
-            if s.shutter_effects:
+            if s.shutter_effects and not sharp_only:
                 with sensor.ground_truth_settings(self.scene, gt_shutter, s.rolling_shutter):
                     gt_stats = {}
                     for vi, group in enumerate([views] if self.fast else [(v,) for v in views]):
@@ -96,7 +106,7 @@ class SensorSession:
                                       else st["cycles_s"] + st_gt["cycles_s"])
             for view in views:
                 channels = read_exr(tmp[view])
-                if s.shutter_effects:
+                if s.shutter_effects and not sharp_only:
                     for n, a in read_exr(tmp_gt[view]).items():
                         if n not in beauty and ".Noisy Image." not in n:
                             channels[n] = a
