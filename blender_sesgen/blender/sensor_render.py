@@ -105,6 +105,9 @@ class SensorSession:
                     st["cycles_s"] = (None if st_gt["cycles_s"] is None or st["cycles_s"] is None
                                       else st["cycles_s"] + st_gt["cycles_s"])
             for view in views:
+                if sharp_only and s.lens is None:   # Blender's file is the frame, as on the plain path
+                    os.replace(tmp[view], paths[view])
+                    continue
                 channels = read_exr(tmp[view])
                 if s.shutter_effects and not sharp_only:
                     for n, a in read_exr(tmp_gt[view]).items():
