@@ -17,8 +17,8 @@ rendered the plain way (a fresh Cycles session per view) against the fast path:
     bench/identical_renders.py --base HEAD --base-args "--plain-pipeline --quality gt" --head-args "--quality gt"
 
 Manifest keys a side does not write (added by a later revision: ``render.quality``,
-``render.sampling``) and the record of how it was rendered (``render.pipeline``) are not
-compared; every other key is.
+``render.sampling``) and the record of how it was rendered (``render.pipeline``; and the
+``seal``, a hash over it, when the two records differ) are not compared; every other key is.
 """
 from __future__ import annotations
 
@@ -75,7 +75,8 @@ def comparable(manifest: dict, other: dict) -> dict:
     """``manifest`` without the keys not compared (see the module docstring)."""
     m = {k: v for k, v in manifest.items() if k not in VOLATILE}
     r = dict(m.get("render") or {})
-    r.pop("pipeline", None)
+    if r.pop("pipeline", None) != (other.get("render") or {}).get("pipeline"):
+        m.pop("seal", None)    # the seal hashes the rest of the manifest, the pipeline's record too
     for k in ("quality", "quality_overridden", "sampling"):
         if k not in (other.get("render") or {}):
             r.pop(k, None)

@@ -39,7 +39,9 @@ per stereo frame and in the build):
 - in a process of its own, the script edited: ``trees`` (the trees, conifers, bushes,
   hedges, grass tufts, ferns and plants with their leaves), ``lights`` (the script's
   point, spot and area lamps; the sky's sun stays), ``bevels`` (CUBOID ``bevel``), ``fog``
-  (FOG). A feature the scene does not have is listed as absent.
+  (FOG), ``sensor`` (the camera model: SENSOR, TIMING, LENS and AUTOEXPOSURE, i.e. the
+  sensor path's shutter and lens renders and the sensor images). A feature the scene does
+  not have is listed as absent.
 
 ``--base REV`` renders the baseline row of every scene again with revision REV's code
 (checked out into a temporary git worktree), in the same run: today's figures beside the
@@ -63,7 +65,8 @@ T0 = time.perf_counter()
 REPO = Path(__file__).resolve().parents[1]
 SCENES = ("city_kitti", "hall", "office", "forest", "paper_room")
 IN_PROCESS = ("denoiser", "glass", "relief")
-EDITED = ("trees", "lights", "bevels", "fog")
+EDITED = ("trees", "lights", "bevels", "fog", "sensor")
+SENSOR_STATEMENTS = ("SENSOR", "TIMING", "LENS", "AUTOEXPOSURE")
 VEGETATION = ("tree", "conifer", "bush", "hedge", "grass_tuft", "fern", "plant")
 BUILD_STAGES = ("import", "parse", "assets", "meshes", "materials", "scene", "exposure")
 CYCLES_STAGES = ("sync", "shaders", "bvh", "images", "lights", "kernels", "other")
@@ -71,9 +74,10 @@ CYCLES_STAGES = ("sync", "shaders", "bvh", "images", "lights", "kernels", "other
 STATUS_STAGES = (("Synchronizing", "sync"), ("Updating Shaders", "shaders"), ("Updating Meshes", "bvh"),
                  ("Building BVH", "bvh"), ("Copying BVH", "bvh"), ("Computing attributes", "bvh"),
                  ("Copying Attributes", "bvh"), ("Computing normals", "bvh"), ("Copying Mesh", "bvh"),
-                 ("Applying Static", "bvh"), ("Updating Images", "images"), ("Loading", "images"),
-                 ("Updating Lights", "lights"), ("Importance map", "lights"), ("Computing tree", "lights"),
-                 ("Loading render kernels", "kernels"), ("Loading denoising kernels", "kernels"))
+                 ("Applying Static", "bvh"), ("Updating Geometry BVH", "bvh"), ("Updating Scene BVH", "bvh"),
+                 ("Loading render kernels", "kernels"), ("Loading denoising kernels", "kernels"),
+                 ("Updating Images", "images"), ("Loading", "images"),   # images: the physical sky's table too
+                 ("Updating Lights", "lights"), ("Importance map", "lights"), ("Computing tree", "lights"))
 MEM_RE = re.compile(r"Mem:\s*([\d.]+)([KMG])")
 
 
@@ -97,6 +101,9 @@ def edit_script(text: str, feature: str) -> tuple[str, int]:
             n += 1
             continue
         if feature == "fog" and key == "FOG":
+            n += 1
+            continue
+        if feature == "sensor" and key in SENSOR_STATEMENTS:
             n += 1
             continue
         if feature == "bevels" and key == "CUBOID" and " bevel " in f" {line} ":
@@ -190,14 +197,19 @@ class CyclesLog:
 def child(a) -> int:
     import bpy  # noqa: F401
     c_import = cpu_s()
-    from blender_sesgen.scene import assets
-    try:
-        from blender_sesgen.scene.assets import cache as asset_cache
-    except ImportError:   # a revision before the disk cache of asset meshes
-        asset_cache = None
+    import importlib
+    import blender_sesgen
+    # a revision before the subpackages (tools/relayout.py) has its modules at the old paths
+    old = (Path(blender_sesgen.__file__).parent / "job.py").is_file()
+    assets = importlib.import_module("blender_sesgen.assets" if old else "blender_sesgen.scene.assets")
+    # (the old layout predates the disk cache of asset meshes; the check goes by file, since an
+    # editable install may resolve a module the revision lacks to another source tree)
+    has_cache = (Path(blender_sesgen.__file__).parent / "scene" / "assets" / "cache.py").is_file()
+    asset_cache = importlib.import_module("blender_sesgen.scene.assets.cache") if has_cache else None
     from blender_sesgen.blender import assets as bassets, builder, exposure, materials
-    from blender_sesgen.render.job import RenderJob
-    from blender_sesgen.render.plan import RenderOptions, RenderPlan
+    RenderJob = importlib.import_module("blender_sesgen.job" if old else "blender_sesgen.render.job").RenderJob
+    plan_mod = importlib.import_module("blender_sesgen.plan" if old else "blender_sesgen.render.plan")
+    RenderOptions, RenderPlan = plan_mod.RenderOptions, plan_mod.RenderPlan
     log = CyclesLog()
     bpy.app.handlers.render_stats.append(log)
     stages = Stages(log)

@@ -28,6 +28,13 @@ to a shared machine) and Cycles' own time; dB/s = PSNR / s per stereo frame; and
 ratios to the BlenderProc configuration measured in the same run. Every configuration
 uses the same film exposure (the automatic exposure is measured once).
 
+``--explain``: where each configuration's error lies, to find what keeps a scene below a
+floor: the share of the squared error carried by the 0.1 % and 1 % worst pixels, by the
+pixels the reference shows clipped white (highlights brighter than the display: sun glints),
+and by each kind of object (the ASSET kind or statement of the object each pixel sees, from
+a ``gt`` render's object index), beside the share of pixels each covers; and the PSNR of
+the 5 × 5 box-filtered images (the error left once fine detail is averaged out).
+
 Configurations: the presets (``blender_sesgen.scene.presets``); ``blender``: a new Blender
 scene's Cycles settings (4096 samples, adaptive threshold 0.01, OpenImageDenoise, 12
 bounces, indirect clamp 10, caustics); ``blenderproc``: BlenderProc 2's defaults
@@ -186,6 +193,40 @@ class Bench:
         return r
 
 
+def object_kinds(bench) -> np.ndarray:
+    """Per pixel of the left view, the kind of object it sees ('sky' for none): a ``gt``
+    render's object index mapped through the script's objects."""
+    from blender_sesgen.scene.model import Asset
+    bench.render(PRESETS["gt"], 1)
+    ch = read_exr(bench.tmp / "left.exr")
+    index = next(a for n, a in ch.items() if n.endswith(("Object Index.X", "IndexOB.X")))
+    names = {o.id: (o.kind if isinstance(o, Asset) else type(o).__name__.lower()) for o in bench.plan.scene.objects}
+    return np.vectorize(lambda i: names.get(int(i), "sky" if i == 0 else "other"), otypes=[object])(index)
+
+
+def explain(bench, rows: dict, ref: dict) -> None:
+    from scipy.ndimage import uniform_filter
+    kinds = object_kinds(bench)
+    R = ref["images"]["left"].astype(float)
+    clipped = (R >= 0.999).all(-1)
+    print(f"# where the error lies (left view; reference clipped white: {clipped.mean():.2%} of the pixels)")
+    for name, r in rows.items():
+        img = r["images"]["left"].astype(float)
+        e = ((img - R) ** 2).mean(-1)
+        worst = np.sort(e.ravel())[::-1].cumsum() / e.sum()
+        blur = uniform_filter(img, (5, 5, 1)) - uniform_filter(R, (5, 5, 1))
+        share = {k: (e[kinds == k].sum() / e.sum(), (kinds == k).mean()) for k in np.unique(kinds)}
+        top = sorted(share.items(), key=lambda kv: -kv[1][0])[:6]
+        print(f"{name:14s} worst 0.1 %/1 % of pixels: {worst[max(int(e.size / 1000) - 1, 0)]:.0%}/"
+              f"{worst[max(int(e.size / 100) - 1, 0)]:.0%} of the error; clipped highlights {e[clipped].sum() / e.sum():.0%} "
+              f"(PSNR without them {psnr_mse(e[~clipped].mean()):.2f} dB); 5x5-averaged PSNR {psnr_mse((blur ** 2).mean()):.2f} dB")
+        print(f"{'':14s} by object: " + ", ".join(f"{k} {v:.0%} ({px:.0%} of px)" for k, (v, px) in top))
+
+
+def psnr_mse(mse: float) -> float:
+    return float(10 * np.log10(1.0 / max(mse, 1e-12)))
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--scene", default=str(REPO / "scenes" / "paper_room.ses"))
@@ -209,6 +250,8 @@ def main(argv=None) -> int:
                    help="Cycles device of every render (a cached reference serves either device)")
     p.add_argument("--cache", default=str(REPO / "out" / "bench-cache"))
     p.add_argument("--json", metavar="FILE", help="also write the results as JSON")
+    p.add_argument("--explain", action="store_true", help="where each configuration's error lies (worst pixels, "
+                                                              "clipped highlights, object kinds)")
     a = p.parse_args(argv)
     configs = {}
     for name in a.configs:
@@ -252,6 +295,8 @@ def main(argv=None) -> int:
         for name, r in rows.items():
             print(f"#   {name:14s} time x{r['s_stereo'] / bp['s_stereo']:.3f} (cpu x{r['cpu_stereo'] / bp['cpu_stereo']:.3f})"
                   f"  PSNR {r['psnr'] - bp['psnr']:+.2f} dB  SSIM {r['ssim'] - bp['ssim']:+.4f}")
+    if a.explain:
+        explain(bench, rows, ref)
     print(f"# {time.perf_counter() - t0:.0f} s in all; load {os.getloadavg()[0]:.1f} at the end")
     if a.json:
         out = {n: {k: v for k, v in r.items() if k not in ("images", "preset")} | {"preset": r["preset"].pixel_settings(),

@@ -50,6 +50,25 @@ def test_generators_are_deterministic_and_seeded(name):
     assert a == b and a != gen.generate(4, frames=12)
 
 
+@pytest.mark.parametrize("name, pooled", [
+    ("city_kitti", ("tree", "conifer", "bush", "car", "streetlight", "bin", "grass_tuft")),
+    ("forest", ("tree", "conifer", "bush", "fern", "grass_tuft", "rock"))])
+def test_repeated_assets_are_a_few_instanced_variants(scenes, name, pooled):
+    """Trees, cars, lights, rocks... are a few variants per kind (equal kind, size and seed:
+    one mesh in Blender, instanced by Cycles), while every object keeps its own id."""
+    objs = [o for o in scenes[name].objects if isinstance(o, Asset)]
+    assert len({o.id for o in objs}) == len(objs)
+    gen = _generator(name)
+    for kind in pooled:
+        of_kind = [o for o in objs if o.kind == kind]
+        meshes = {assets.mesh_key(o) for o in of_kind}
+        assert len(of_kind) >= 3 and len(meshes) <= 16 and len(meshes) < len(of_kind) / 2, (kind, len(of_kind), len(meshes))
+    if name == "city_kitti":   # a tree variant is kind, size and seed together (the street trees have sizes)
+        trees = [o for o in objs if o.kind == "tree"]
+        assert len({assets.mesh_key(o) for o in trees}) == len({(o.seed, tuple(o.size)) for o in trees}) <= sum(
+            gen.POOLS[p] for p in ("tree", "lawn_tree", "young_tree"))
+
+
 def test_city_kitti_is_kittis_rig_and_drive(scenes):
     s = scenes["city_kitti"]
     assert (s.rig.width, s.rig.height, s.rig.focal_px, s.rig.baseline) == (1226, 370, 707, 0.54)

@@ -45,6 +45,16 @@ def _board_scene(width=320, height=240, focal=240, extra=(), motion=PAN, samples
              "WORLD colour 0 0 0", f"RENDER samples {samples}"] + list(extra) + checkerboard_lines() + list(motion))
 
 
+def _assert_same_exrs(out_a: Path, m_a: dict, out_b: Path, m_b: dict) -> None:
+    """Every channel of every EXR of render a equals render b's."""
+    for view in m_a["views"]:
+        for k in range(m_a["frames"]):
+            a, b = read_exr(out_a / m_a["files"][view][k]), read_exr(out_b / m_b["files"][view][k])
+            assert a.keys() == b.keys()
+            for name in a:
+                assert np.array_equal(a[name], b[name], equal_nan=True), (view, k, name)
+
+
 def _psnr(a, b, peak=1.0):
     return 10 * np.log10(peak**2 / np.mean((np.asarray(a, float) - np.asarray(b, float)) ** 2))
 
@@ -179,12 +189,7 @@ def test_effects_off_render_is_pixel_identical_and_sensor_images_are_reproducibl
     extra = ["TIMING rate 30", "LENS fnumber 4 vignetting 1 chromatic 0.3",
              "SENSOR cfa gbrg bits 10 readnoise 2 prnu 0.01 dsnu 1 rownoise 0.3 dark 5 seed 4", "IMU"]
     out_b, m_b = _render(tmp_path, "sensor", base + extra, "--samples", "2")
-    for view in m_a["views"]:
-        for k in range(m_a["frames"]):
-            a, b = read_exr(out_a / m_a["files"][view][k]), read_exr(out_b / m_b["files"][view][k])
-            assert a.keys() == b.keys()
-            for name in a:
-                assert np.array_equal(a[name], b[name], equal_nan=True), (view, k, name)
+    _assert_same_exrs(out_a, m_a, out_b, m_b)
     assert m_b["timestamps"] == [k / 30 for k in range(m_b["frames"])] and "timing" not in m_a
     # sensor images: listed in the manifest, 10-bit values, the same seed gives the same noise
     out_c, m_c = _render(tmp_path, "again", base + extra, "--samples", "2")
@@ -233,3 +238,40 @@ def test_auto_exposure_answers_a_step_in_brightness_as_documented(tmp_path):
     _, mc = _render(tmp_path, "step_culled", lines, "--cull", "--frames", "6:9")
     assert mc["sensor"]["metered"] == m["sensor"]["metered"]
     assert mc["sensor"]["exposure_s"][6:9] == m["sensor"]["exposure_s"][6:9]
+
+
+@pytest.mark.parametrize("extra", [
+    ["TIMING rate 20 exposure 0.02"],                                   # motion blur
+    ["TIMING rate 20 exposure 0.004 readout 0.03", BROWN + " fnumber 4 vignetting 1"]],   # rolling shutter, lens
+    ids=["blur", "rolling-lens"])
+def test_sensor_path_in_the_persistent_session_renders_the_plain_pixels(tmp_path, extra):
+    """The sensor path's renders in one persistent multiview session (the scene synchronised
+    once, the sharp ground truth of both views in one render) give every channel of every
+    EXR exactly as a fresh Cycles session per render (``--plain-pipeline``)."""
+    from render_support import oracle_script
+    lines = oracle_script(width=64, height=48, focal=44.0, principal=(32.1, 23.4)).splitlines() + extra
+    out_a, m_a = _render(tmp_path, "plain", lines, "--samples", "2", "--plain-pipeline")
+    out_b, m_b = _render(tmp_path, "fast", lines, "--samples", "2")
+    assert m_a["render"]["pipeline"]["persistent_data"] is False and m_b["render"]["pipeline"]["persistent_data"] is True
+    _assert_same_exrs(out_a, m_a, out_b, m_b)
+
+
+def test_gt_preset_with_a_shutter_is_the_sharp_frame(tmp_path):
+    """``--quality gt`` (one flat sample: no shutter to integrate) renders the sharp frame once
+    for both views: every channel equals the render without the shutter, and its ground truth
+    is the blurred preset's."""
+    from render_support import oracle_script
+    base = oracle_script(width=64, height=48, focal=44.0, principal=(32.1, 23.4)).splitlines()
+    out_a, m_a = _render(tmp_path, "sharp", base + ["TIMING rate 20"], "--quality", "gt")
+    out_b, m_b = _render(tmp_path, "shutter", base + ["TIMING rate 20 exposure 0.02"], "--quality", "gt")
+    out_c, m_c = _render(tmp_path, "blurred", base + ["TIMING rate 20 exposure 0.02"], "--samples", "2")
+    assert m_b["render"]["pipeline"]["views_per_render"] == 2
+    for view in m_a["views"]:
+        for k in range(m_a["frames"]):
+            a, b = read_exr(out_a / m_a["files"][view][k]), read_exr(out_b / m_b["files"][view][k])
+            c = read_exr(out_c / m_c["files"][view][k])
+            assert a.keys() == b.keys()
+            for name in a:
+                assert np.array_equal(a[name], b[name], equal_nan=True), (view, k, name)
+                if "Combined" not in name and "Noisy" not in name and name in c:
+                    assert np.array_equal(b[name], c[name], equal_nan=True), (view, k, name)

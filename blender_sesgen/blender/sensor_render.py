@@ -20,8 +20,9 @@ from . import compat, object_motion, render, rig, sensor
 class SensorSession:
     """The Blender side of a plan's sensor path (cameras re-keyed per frame, lens applied)."""
 
-    def __init__(self, plan, built):
+    def __init__(self, plan, built, fast: bool = False):
         self.plan = plan
+        self.fast = fast
         self.sensor = plan.sensor
         self.built = built
         self.scene = built.scene
@@ -48,7 +49,15 @@ class SensorSession:
                      display_paths: Optional[dict] = None) -> dict[str, dict]:
         """Every view of frame k into ``paths[view]`` (and the beauty's display-referred PNG
         into ``display_paths[view]``); {view: render stats}. ``stop()`` is asked before each
-        view (KeyboardInterrupt when it says yes)."""
+        view (KeyboardInterrupt when it says yes).
+
+        ``fast`` (the session's): the renders go through the persistent multiview session
+        (``render.render_views``: the active camera never changes, so Cycles keeps the
+        synchronised scene, its BVH and the sky from render to render instead of building
+        them again for each of a frame's renders), and the sharp ground-truth render draws
+        both views at once (its beauty is dropped: the ground-truth passes come from sample 0
+        through the pixel centre, whatever the seed). With the ``gt`` preset that sharp render
+        of both views is the frame."""
         s = self.sensor
         shutter, duration = s.shutter(exposure_s)
         gt_shutter = s.shutter(0.0)[0] if s.rolling_shutter else 0.0
@@ -57,32 +66,60 @@ class SensorSession:
         names = compat.exr_channel_names()
         beauty = set(names["rgb"])
         quiet = not self.plan.options.verbose
+        bframe = rig.blender_frame(k)
+
+        def draw(views, seed: int, targets: dict, display=None) -> dict:
+            if self.fast:
+                return render.render_views(self.scene, self.cameras, views, bframe, seed, targets, quiet, display)
+            (v,) = views
+            return {v: render.render_view(self.scene, self.cameras[v], bframe, seed, str(targets[v]), quiet=quiet,
+                                          display_path=str(display[v]) if display else None)}
+
+        views = tuple(self.plan.views)
+        tmp = {v: temp_path(Path(paths[v]).with_name("beauty-" + Path(paths[v]).name)) for v in views}
+        tmp_gt = {v: temp_path(Path(paths[v]).with_name("gt-" + Path(paths[v]).name)) for v in views}
         stats = {}
-        for vi, view in enumerate(self.plan.views):
-            if stop():
-                raise KeyboardInterrupt
-            final = Path(paths[view])
-            tmp, tmp_gt = temp_path(final.with_name("beauty-" + final.name)), temp_path(final.with_name("gt-" + final.name))
-            seed = render_seed(self.plan.settings.seed, k, vi)
-            sensor.set_shutter(self.scene, shutter, s.rolling_shutter, duration)
-            st = render.render_view(self.scene, self.cameras[view], rig.blender_frame(k), seed, str(tmp), quiet=quiet,
-                                    display_path=str(display_paths[view]) if display_paths else None)
-            channels = read_exr(tmp)
-            if s.shutter_effects:
+        # one flat sample through the pixel centre (gt) integrates no shutter: the sharp render
+        # of both views is the whole frame, its ground truth that of the other presets
+        sharp_only = self.fast and self.plan.settings.preset.deterministic_rgb
+        try:
+            if sharp_only:
+                if stop():
+                    raise KeyboardInterrupt
                 with sensor.ground_truth_settings(self.scene, gt_shutter, s.rolling_shutter):
-                    st_gt = render.render_view(self.scene, self.cameras[view], rig.blender_frame(k), seed,
-                                               str(tmp_gt), quiet=quiet)
-                for n, a in read_exr(tmp_gt).items():
-                    if n not in beauty and ".Noisy Image." not in n:
-                        channels[n] = a
-                os.remove(tmp_gt)
-                if st_gt["cycles_s"] is not None and st["cycles_s"] is not None:
-                    st["cycles_s"] += st_gt["cycles_s"]
-            if s.lens is not None:   # a custom camera's Depth pass is the distance along the ray
-                z = channels[names["depth"]]
-                channels[names["depth"]] = np.where(z >= BACKGROUND_THRESHOLD, z, z * self._ray_z)
-            write_exr(final, channels)
-            os.remove(tmp)
-            stats[view] = st
-        sensor.set_shutter(self.scene, 0.0, False, 0.0)
+                    stats = draw(views, render_seed(self.plan.settings.seed, 0, 0), tmp, display_paths)
+            else:
+                sensor.set_shutter(self.scene, shutter, s.rolling_shutter, duration)
+            for vi, view in enumerate(() if sharp_only else views):
+                if stop():
+                    raise KeyboardInterrupt
+                stats.update(draw((view,), render_seed(self.plan.settings.seed, k, vi), tmp,
+                                  {view: display_paths[view]} if display_paths else None))
+            if s.shutter_effects and not sharp_only:
+                with sensor.ground_truth_settings(self.scene, gt_shutter, s.rolling_shutter):
+                    gt_stats = {}
+                    for vi, group in enumerate([views] if self.fast else [(v,) for v in views]):
+                        gt_stats.update(draw(group, render_seed(self.plan.settings.seed, k, vi), tmp_gt))
+                for view in views:
+                    st, st_gt = stats[view], gt_stats[view]
+                    st["cycles_s"] = (None if st_gt["cycles_s"] is None or st["cycles_s"] is None
+                                      else st["cycles_s"] + st_gt["cycles_s"])
+            for view in views:
+                if sharp_only and s.lens is None:   # Blender's file is the frame, as on the plain path
+                    os.replace(tmp[view], paths[view])
+                    continue
+                channels = read_exr(tmp[view])
+                if s.shutter_effects and not sharp_only:
+                    for n, a in read_exr(tmp_gt[view]).items():
+                        if n not in beauty and ".Noisy Image." not in n:
+                            channels[n] = a
+                if s.lens is not None:   # a custom camera's Depth pass is the distance along the ray
+                    z = channels[names["depth"]]
+                    channels[names["depth"]] = np.where(z >= BACKGROUND_THRESHOLD, z, z * self._ray_z)
+                write_exr(Path(paths[view]), channels)
+        finally:
+            for f in (*tmp.values(), *tmp_gt.values()):
+                if os.path.exists(f):
+                    os.remove(f)
+            sensor.set_shutter(self.scene, 0.0, False, 0.0)
         return stats

@@ -75,9 +75,7 @@ class BlenderSession:
                                position_pass=plan.options.position_pass,
                                view_transform=VIEW_TRANSFORMS[plan.scene.look.view],
                                look=AGX_LOOKS[plan.scene.look.look])
-        # the sensor path re-keys the cameras and renders twice per view: it renders the plain way
-        self.fast = bool(fast and not plan.sensor.changes_rendering
-                         and render.can_render_multiview(self.built.cameras))
+        self.fast = bool(fast and render.can_render_multiview(self.built.cameras))
         self._configure["persistent"] = self.fast
         self.exposure = self._exposure(known_exposure)
         self.metering_s = None      # seconds the metering pass took (None: not run here)
@@ -91,7 +89,7 @@ class BlenderSession:
         self.sensor = None          # the sensor path (motion blur, rolling shutter, lens), if any
         if plan.sensor.changes_rendering:
             from .sensor_render import SensorSession
-            self.sensor = SensorSession(plan, self.built)
+            self.sensor = SensorSession(plan, self.built, self.fast)
         self.views_per_render = len(plan.views) if self.fast and s.preset.deterministic_rgb else 1
 
     def _measures_exposure(self, known: Optional[float]) -> bool:

@@ -37,7 +37,7 @@ import numpy as np
 from . import road_network as rn
 from .sesgen_layout import (HAZE, KITTI_CAMERA_HEIGHT, Frontage, Ids, Lighting, asset, command_line,
                            derived_material, draw_lighting, kerb_cars, kitti_rig, line_street_side, num, nums,
-                           script_with_poses, smooth_noise, street_lights, variation_rng)
+                           script_with_poses, smooth_noise, street_lights, variation_rng, VariantPool)
 
 RATE_HZ = 10.0                   # KITTI odometry's frame rate
 ASPHALT = (0.085, 0.085, 0.082)
@@ -88,18 +88,6 @@ def _blocks_for(route_m: float, block_m) -> int:
     while 2 * n * (n + 1) * float(np.mean(block_m)) < 3.0 * route_m:
         n += 1
     return n
-
-
-class _Seeds:
-    """Asset seeds from a pool per kind (identical assets share one mesh in Blender)."""
-
-    def __init__(self, rng: np.random.Generator):
-        self.rng = rng
-        self.pools = {k: [int(x) for x in rng.integers(1, 10 ** 6, n)] for k, n in POOLS.items()}
-
-    def __call__(self, kind: str) -> int:
-        pool = self.pools.get(kind)
-        return int(self.rng.integers(10 ** 6)) if pool is None else pool[int(self.rng.integers(len(pool)))]
 
 
 def _line_place(p0, h, y: float):
@@ -173,7 +161,7 @@ def _block_sides(x0, x1, z0, z1, hr):
             ((X1, Z1), (-1.0, 0.0), X1 - X0), ((X0, Z1), (0.0, -1.0), Z1 - Z0)]
 
 
-def _block(rect, style: str, rng, ids: Ids, seeds: _Seeds, paving_mat: str, strip_seed: int) -> list[str]:
+def _block(rect, style: str, rng, ids: Ids, seeds: VariantPool, paving_mat: str, strip_seed: int) -> list[str]:
     """One block: kerbs and sidewalks around it, its lots (paving or lawn) and what stands on
     them in its ``style``, street lights, street trees, bins and benches on its sidewalks."""
     x0, x1, z0, z1 = rect
@@ -240,7 +228,7 @@ def _block(rect, style: str, rng, ids: Ids, seeds: _Seeds, paving_mat: str, stri
     return out
 
 
-def _park(rect, rng, ids: Ids, seeds: _Seeds) -> list[str]:
+def _park(rect, rng, ids: Ids, seeds: VariantPool) -> list[str]:
     """A park: gravel paths crossing the lawn, benches beside them, trees and bushes."""
     X0, X1, Z0, Z1 = rect
     cx, cz = (X0 + X1) / 2 + rng.uniform(-5, 5), (Z0 + Z1) / 2 + rng.uniform(-5, 5)
@@ -260,7 +248,7 @@ def _park(rect, rng, ids: Ids, seeds: _Seeds) -> list[str]:
     return out
 
 
-def _commercial(rect, rng, ids: Ids, seeds: _Seeds) -> list[str]:
+def _commercial(rect, rng, ids: Ids, seeds: VariantPool) -> list[str]:
     """A large low building at the back of its lot, a car park in front (towards -z)."""
     X0, X1, Z0, Z1 = rect
     W = min(float(rng.uniform(25, 45)), X1 - X0 - 6)
@@ -298,7 +286,7 @@ def _styles(blocks, rng) -> list[str]:
     return out
 
 
-def _outer_ring(bg: rn.BlockGrid, rng, ids: Ids, seeds: _Seeds, paving_mat: str) -> list[str]:
+def _outer_ring(bg: rn.BlockGrid, rng, ids: Ids, seeds: VariantPool, paving_mat: str) -> list[str]:
     """Beyond the outer streets: a sidewalk and a row of buildings facing the city."""
     out = ["", "// around the city: sidewalks and buildings facing the outer streets"]
     xs, zs, hr = bg.xs, bg.zs, bg.half_road
@@ -335,7 +323,7 @@ def _outer_ring(bg: rn.BlockGrid, rng, ids: Ids, seeds: _Seeds, paving_mat: str)
     return out
 
 
-def _junction_furniture(g: rn.RoadGraph, rng, ids: Ids, seeds: _Seeds) -> list[str]:
+def _junction_furniture(g: rn.RoadGraph, rng, ids: Ids, seeds: VariantPool) -> list[str]:
     """Traffic lights at some crossings, stop signs at some other junctions, facing the
     traffic that arrives; bollards at the corners of a few."""
     out = ["", "// junctions: traffic lights, stop signs, bollards"]
@@ -365,7 +353,7 @@ def _junction_furniture(g: rn.RoadGraph, rng, ids: Ids, seeds: _Seeds) -> list[s
     return out
 
 
-def _parked(g: rn.RoadGraph, bg: rn.BlockGrid, rng, ids: Ids, seeds: _Seeds) -> list[str]:
+def _parked(g: rn.RoadGraph, bg: rn.BlockGrid, rng, ids: Ids, seeds: VariantPool) -> list[str]:
     """Cars parked along both kerbs of every street segment, clear of the junctions."""
     out = ["", "// parked cars along the kerbs, facing the way their lane drives"]
     hr = g.half_road
@@ -400,7 +388,7 @@ def _keyframes(xz: np.ndarray, yaw: np.ndarray, tol_m: float = 0.03, tol_deg: fl
     return keys
 
 
-def _traffic(g: rn.RoadGraph, ego: rn.Drive, n_cars: int, rng, ids: Ids, seeds: _Seeds, p: rn.DriveParams) -> list[str]:
+def _traffic(g: rn.RoadGraph, ego: rn.Drive, n_cars: int, rng, ids: Ids, seeds: VariantPool, p: rn.DriveParams) -> list[str]:
     """Cars driving their own random routes (no U-turns, in their lanes) during the whole
     sequence, never within 8 m of the camera car nor 6 m of each other: an ASSET car each with
     MOVE keyframes."""
@@ -501,7 +489,7 @@ def generate(seed: int = 0, route_m: float = 1000.0, closures: int = 3, gap_s: f
     if len(events) != closures:
         raise rn.RouteError(f"the drive has {len(events)} loop closures, {closures} planned")
     ids = Ids(ID_STARTS)
-    seeds = _Seeds(rng)
+    seeds = VariantPool(rng, POOLS)
 
     length_driven = float(ego.s[-1] - ego.s[0])
     out = ["// city_loop.ses - a city of blocks driven by the KITTI odometry rig (1226x370, f 707 px, baseline",

@@ -4,6 +4,8 @@ A two-lane street of gentle curves (a chain of arcs) with kerbs, a tree lawn, si
 and front yards; blocks of buildings (real window openings, balconies, gable or flat
 roofs) alternating with green strips; street trees, hedges and bushes; parked cars along
 the kerbs; street lights, signs on poles, bins and bollards; a sun and a physical sky.
+Trees, bushes, cars, street lights and bins are a few variants per kind (``POOLS``), so
+that Blender shares their meshes and Cycles instances them (docs/rendering.md#speed).
 The rig is KITTI's (1226 x 370 px, f = 707 px, baseline 0.54 m, camera 1.65 m above the
 road) and drives in the right lane at ~1.2 m per frame (KITTI's 10 Hz at ~43 km/h),
 keeping its lane with small steering, speed, pitch and roll variations. Moving traffic
@@ -33,7 +35,7 @@ import numpy as np
 from ...scene.assets.street import arc_frame
 from .city_grid import _keyframes as keyframes
 from .sesgen_layout import (KITTI_CAMERA_HEIGHT, Ids, Lighting, asset, command_line, derived_material, draw_lighting, kerb_cars, kitti_rig, line_street_side, num, nums,
-                           script_with_poses, smooth_noise, street_lights, variation_rng)
+                           script_with_poses, smooth_noise, street_lights, variation_rng, VariantPool)
 
 KITTI_RIG = kitti_rig(far=600)
 CAMERA_HEIGHT = KITTI_CAMERA_HEIGHT
@@ -42,6 +44,14 @@ ASPHALT = (0.085, 0.085, 0.082)
 PAVING = ((0.30, 0.29, 0.27), (0.34, 0.33, 0.31), (0.26, 0.25, 0.24), (0.31, 0.22, 0.18))
 LANE_M = 1.75                # moving cars' centre from the centreline (parked ones stand further out)
 TRAFFIC_GAP_M = (10.0, 8.0)  # least distance along the street to the rig's car, and between two cars of a lane
+# asset variants per kind (VariantPool: identical assets share one mesh, Cycles instances it);
+# buildings, hedges, fences, poles and signs keep their own sizes (they follow the lots)
+POOLS = {"tree": 6, "lawn_tree": 5, "young_tree": 4, "conifer": 3, "bush": 6, "car": 8, "streetlight": 2, "bin": 3}
+POOL_SIZES = {   # the street trees' sizes (m: crown width, height, crown depth)
+    "lawn_tree": lambda r: (round(float(r.uniform(3.0, 5.5)), 2), round(float(r.uniform(6, 11)), 2),
+                            round(float(r.uniform(3.0, 5.5)), 2)),
+    "young_tree": lambda r: (round(float(r.uniform(2.5, 4.0)), 2), round(float(r.uniform(5, 8)), 2),
+                             round(float(r.uniform(2.5, 4.0)), 2))}
 
 
 @dataclass(frozen=True)
@@ -79,12 +89,13 @@ def _centre(street_pos, street_yaw, s, L, bends):
     return (c @ R.T + street_pos, n @ R.T, np.degrees(h) + street_yaw)
 
 
-def _traffic(rng, centre, s_cam: np.ndarray, step_m: float, L: float, n_cars: int, ids: Ids) -> list[str]:
+def _traffic(rng, centre, s_cam: np.ndarray, step_m: float, L: float, n_cars: int, ids: Ids, seed_of) -> list[str]:
     """Moving cars (ASSET car + MOVE keyframes): alternately one ahead in the rig's lane,
     driving on at 0.95-1.15x the rig's speed, and one oncoming in the other lane at
     0.7-1.2x; each on the street for the whole sequence, at least TRAFFIC_GAP_M from the rig's
     car and from the other cars of its lane (a car that finds no such place after 40 tries
-    is left out). ``centre(s)``: the centreline's points, right normals and headings."""
+    is left out). ``centre(s)``: the centreline's points, right normals and headings; ``seed_of``
+    the car variants (the parked cars' pool: moving cars share their meshes too)."""
     k = np.arange(len(s_cam))
     lanes = {1: [(s_cam, TRAFFIC_GAP_M[0])], -1: []}          # (positions along the street, least gap)
     out = ["", "// moving traffic: cars ahead in the rig's lane and oncoming ones (keyframes along the curves)"]
@@ -104,7 +115,7 @@ def _traffic(rng, centre, s_cam: np.ndarray, step_m: float, L: float, n_cars: in
         xz = (c + side * LANE_M * n)[:, [0, 2]]
         yaw = np.round(h + (180.0 if side > 0 else 0.0), 3)    # the car's nose (+z) along its way
         i = ids("car")
-        out.append(asset("car", i, (xz[0, 0], 0.0, xz[0, 1]), yaw[0], seed=int(rng.integers(1e6))))
+        out.append(asset("car", i, (xz[0, 0], 0.0, xz[0, 1]), yaw[0], seed=seed_of("car")))
         for f in keyframes(xz, yaw)[1:]:
             out.append(f"MOVE id {i} frame {f} position {nums((xz[f, 0], 0.0, xz[f, 1]))} 0 {num(yaw[f], 3)} 0")
     return out
@@ -145,6 +156,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     yard = 60.0
     ids = Ids({"street": 1, "building": 100, "car": 400, "tree": 600, "veg": 900, "furniture": 1200,
                "grass": 2000})
+    pool = VariantPool(rng, POOLS, POOL_SIZES, variants_rng=variation_rng(seed, 0x7EE))
 
     out = ["// city_kitti.ses - an urban street seen by the KITTI odometry rig (1226x370, f 707 px,",
            "// baseline 0.54 m), ~1.2 m per frame, lane keeping along gentle curves.",
@@ -196,32 +208,30 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     # --- buildings and green blocks on both sides -------------------------------------
     out += ["", "// buildings (front facades towards the street) and green blocks"]
     for side in (1, -1):
-        out += line_street_side(rng, place, L - 12, side, right_edge if side > 0 else -left_edge, ids)
+        out += line_street_side(rng, place, L - 12, side, right_edge if side > 0 else -left_edge, ids, seed_of=pool)
 
     # a building across the far end of the street closes the view
     p_end, h_end = place(L + 12.0, 0.0)
     out.append(asset("building", ids("building"), p_end, h_end, (2 * (right_edge + 10), 16.0, 12.0), seed=seed + 77))
 
     # --- street trees in the tree lawn, lights, signs, bollards --------------------------
-    out += ["", "// street trees (tree lawn, right), street lights, signs"]
+    out += ["", "// street trees (tree lawn, right), street lights, signs (trees, cars, lights: a few variants, instanced)"]
     s = float(rng.uniform(3, 8))
     while s < L - 5:
         p, _ = place(s, 0.5 * (lawn[0] + lawn[1]))
-        out.append(asset("tree", ids("tree"), p, rng.uniform(0, 360),
-                         (round(float(rng.uniform(3.0, 5.5)), 2), round(float(rng.uniform(6, 11)), 2),
-                          round(float(rng.uniform(3.0, 5.5)), 2)), seed=int(rng.integers(1e6))))
+        seed_, size = pool.pick("lawn_tree")
+        out.append(asset("tree", ids("tree"), p, rng.uniform(0, 360), size, seed=seed_))
         s += float(rng.uniform(8, 13))
     s = float(rng.uniform(3, 8))
     while s < L - 5:                       # young trees along the left sidewalk's outer edge
         p, _ = place(s, left_edge - 1.2)
-        out.append(asset("tree", ids("tree"), p + np.array([0.0, kerb_h, 0.0]), rng.uniform(0, 360),
-                         (round(float(rng.uniform(2.5, 4.0)), 2), round(float(rng.uniform(5, 8)), 2),
-                          round(float(rng.uniform(2.5, 4.0)), 2)), seed=int(rng.integers(1e6))))
+        seed_, size = pool.pick("young_tree")
+        out.append(asset("tree", ids("tree"), p + np.array([0.0, kerb_h, 0.0]), rng.uniform(0, 360), size, seed=seed_))
         s += float(rng.uniform(9, 15))
     for side in (1, -1):
         s = float(rng.uniform(5, 25)) + (0 if side > 0 else 14)
         kerb_out = r_kerb + kerb_w / 2
-        out += street_lights(rng, place, s, L - 5, side, kerb_out + (lawn_w * 0.5 + 0.8 if side > 0 else 0.5), ids)
+        out += street_lights(rng, place, s, L - 5, side, kerb_out + (lawn_w * 0.5 + 0.8 if side > 0 else 0.5), ids, seed_of=pool)
     for _ in range(int(L / 45)):
         side = int(rng.choice([1, -1]))
         s = float(rng.uniform(10, L - 10))
@@ -255,7 +265,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     out += ["", "// parked cars along the kerbs (right side facing the drive)"]
     for side in (1, -1):
         s = behind + float(rng.uniform(12, 20)) if side > 0 else float(rng.uniform(5, 15))
-        out += kerb_cars(rng, place, s, L - 8, side, half_road - 0.95, 0.5 if side > 0 else 0.3, ids)
+        out += kerb_cars(rng, place, s, L - 8, side, half_road - 0.95, 0.5 if side > 0 else 0.3, ids, pool)
 
     # --- the drive: right lane, ~1.2 m per frame -----------------------------------------
     speed = step_m * (1 + 0.06 * smooth_noise(rng, frames, 1.0, (0.7, 1.6)))
@@ -269,7 +279,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     pitch = 0.3 * smooth_noise(rng, frames, 1.0, (5.0, 11.0, 23.0))
     roll = 0.2 * smooth_noise(rng, frames, 1.0, (4.0, 9.0, 19.0))
     out += _traffic(np.random.default_rng([seed, 0x7AF]), lambda s_: _centre(street_pos, street_yaw, s_, L, bends),
-                    s_cam, step_m, L, int(traffic), ids)
+                    s_cam, step_m, L, int(traffic), ids, pool)
     return script_with_poses(out, f"the drive: {frames} poses of the left camera (KITTI: 1.65 m above the road, right lane)",
                              pos, yaw, pitch, roll)
 

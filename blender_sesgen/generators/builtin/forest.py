@@ -2,7 +2,7 @@
 
 Rolling terrain with a worn trail, broadleaf trees and conifers at natural spacing (a
 dozen variants each, instanced), undergrowth of bushes and ferns, grass tufts along the
-trail's edges, rocks, fallen logs and stumps; sun and sky through the canopy. A
+trail's edges, rocks (a dozen variants, instanced), fallen logs and stumps; sun and sky through the canopy. A
 hand-held stereo camera (640 x 480, f = 400 px, baseline 0.12 m) walks the trail at
 ~1.4 m/s, 10 frames per second, 1.6 m above the ground with a walker's bob and sway,
 looking along the trail and glancing aside.
@@ -25,7 +25,7 @@ from typing import Optional
 import numpy as np
 
 from .sesgen_layout import (script_with_poses, Ids, Lighting, asset, command_line, derived_material, draw_lighting, num,
-                           sky_and_sun, smooth_noise, variation_rng)
+                           sky_and_sun, smooth_noise, variation_rng, VariantPool)
 from ...scene.assets.nature import terrain_height, trail_x
 
 RATE_HZ = 10.0
@@ -108,6 +108,7 @@ def generate(seed: int = 0, frames: int = 150, speed: Optional[float] = None) ->
     bushes = [int(rng.integers(1e6)) for _ in range(6)]
     ferns = [int(rng.integers(1e6)) for _ in range(5)]
     tufts = [int(rng.integers(1e6)) for _ in range(5)]
+    rocks = VariantPool(rng, {"rock": 12}, {"rock": lambda r: float(r.uniform(0.4, 1.6))})   # instanced variants
     for _ in range(int(4.0 * (z_hi - z_lo))):
         pz = rng.uniform(z_lo, z_hi)
         xt = float(trail_x(size, tseed, pz))
@@ -125,9 +126,9 @@ def generate(seed: int = 0, frames: int = 150, speed: Optional[float] = None) ->
             out.append(asset("grass_tuft", ids("under"), (px, y, pz), rng.uniform(0, 360), (0.5, 0.35, 0.5),
                              seed=tufts[rng.integers(len(tufts))]))
         elif r < 0.9:
-            s = rng.uniform(0.4, 1.6)
+            sd, s = rocks.pick("rock")
             out.append(asset("rock", ids("rock"), (px, y - 0.1 * s, pz), rng.uniform(0, 360),
-                             (round(s * 1.2, 2), round(s * 0.7, 2), round(s, 2)), seed=int(rng.integers(1e6))))
+                             (round(s * 1.2, 2), round(s * 0.7, 2), round(s, 2)), seed=sd))
         elif r < 0.96 and abs(d) > 2.5:
             out.append(asset("log", ids("rock"), (px, y - 0.08, pz), rng.uniform(0, 360),
                              (round(float(rng.uniform(3, 7)), 2), round(float(rng.uniform(0.25, 0.5)), 2), 0.4),

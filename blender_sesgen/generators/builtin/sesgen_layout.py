@@ -194,6 +194,35 @@ def random_seed(rng: np.random.Generator):
     return lambda kind: int(rng.integers(1e6))
 
 
+class VariantPool:
+    """A few variants (seed, and a size where ``sizes`` draws one) per pool, drawn once; every
+    asset of a pooled kind picks one of them. Assets with equal kind, size and seed share one
+    mesh in Blender (``scene.assets.mesh_key``) and Cycles instances it, so a street of
+    trees costs a pool's few meshes to generate, build and hold, not one per tree. Object
+    ids stay per object. A pool name not in ``counts``: a fresh seed (and no size) per asset.
+    Called as ``pool(kind)`` it is the lining helpers' ``seed_of``. Picks draw from ``rng``
+    (one draw each, as a fresh seed would); the variants from ``variants_rng`` (default
+    ``rng``): a stream of their own leaves the layout drawn after them as it was."""
+
+    def __init__(self, rng: np.random.Generator, counts: dict, sizes: Optional[dict] = None,
+                 variants_rng: Optional[np.random.Generator] = None):
+        self.rng = rng
+        v = rng if variants_rng is None else variants_rng
+        self.seeds = {k: [int(x) for x in v.integers(1, 10 ** 6, n)] for k, n in counts.items()}
+        self.sizes = {k: [size_of(v) for _ in range(counts[k])] for k, size_of in (sizes or {}).items()}
+
+    def __call__(self, kind: str) -> int:
+        return self.pick(kind)[0]
+
+    def pick(self, name: str) -> tuple:
+        """(seed, size or None) of one variant of pool ``name``."""
+        seeds = self.seeds.get(name)
+        if seeds is None:
+            return int(self.rng.integers(10 ** 6)), None
+        i = int(self.rng.integers(len(seeds)))
+        return seeds[i], (self.sizes[name][i] if name in self.sizes else None)
+
+
 def line_street_side(rng: np.random.Generator, place, s_end: float, side: int, edge: float, ids: Ids,
                      style: Frontage = Frontage(), seed_of=None, limit: Optional[float] = None) -> list[str]:
     """Buildings (front facades towards the street) and green stretches along one side of a
