@@ -198,3 +198,27 @@ def test_effects_off_render_is_pixel_identical_and_sensor_images_are_reproducibl
     left = cv2.imread(str(out_b / m_b["sensor"]["files"]["raw"]["left"][0]), cv2.IMREAD_UNCHANGED)
     right = cv2.imread(str(out_b / m_b["sensor"]["files"]["raw"]["right"][0]), cv2.IMREAD_UNCHANGED)
     assert not np.array_equal(left, right)
+
+
+@pytest.mark.parametrize("timing", ["TIMING rate 20 exposure 0.03", "TIMING rate 20 exposure 0.02 readout 0.03"])
+def test_sensor_path_fast_pipeline_renders_the_plain_pipelines_pixels(tmp_path, timing):
+    """The sensor path's persistent Cycles session (beauty per view, then both views' sharp
+    ground truth in one multiview render) writes the bytes of a fresh session per render:
+    motion blur, a rolling shutter and a moving object, over frames whose keys change; ``draft``'s
+    samples and denoiser (a session whose sample count went down renders other noise)."""
+    from render_support import oracle_script
+    lines = oracle_script(width=64, height=48, focal=44.0, principal=(32.1, 23.4)).splitlines()
+    lines += [timing, "MOVE id 5 twist 0.04 0 0.02 0 4 0"]
+    out_a, m_a = _render(tmp_path, "plain", lines, "--quality", "draft", "--plain-pipeline")
+    out_b, m_b = _render(tmp_path, "fast", lines, "--quality", "draft")
+    assert m_a["render"]["pipeline"]["persistent_data"] is False
+    assert m_b["render"]["pipeline"]["persistent_data"] is True
+    assert m_b["timing"]["motion_blur"] and m_a["files"] == m_b["files"]
+    for view in m_a["views"]:
+        for k in range(m_a["frames"]):
+            a, b = read_exr(out_a / m_a["files"][view][k]), read_exr(out_b / m_b["files"][view][k])
+            assert a.keys() == b.keys()
+            for name in a:
+                assert np.array_equal(a[name], b[name], equal_nan=True), (view, k, name)
+    blurred = read_exr(out_b / m_b["files"]["left"][1])
+    assert np.ptp(blurred["ViewLayer.Combined.R"]) > 0

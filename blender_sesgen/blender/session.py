@@ -65,9 +65,9 @@ class BlenderSession:
                                position_pass=plan.options.position_pass,
                                view_transform=VIEW_TRANSFORMS[plan.scene.look.view],
                                look=AGX_LOOKS[plan.scene.look.look])
-        # the sensor path re-keys the cameras and renders twice per view: it renders the plain way
-        self.fast = bool(fast and not plan.sensor.changes_rendering
-                         and render.can_render_multiview(self.built.cameras))
+        # the sensor path too: it re-keys only the cameras (and moving objects) per frame, and
+        # its beauty and ground-truth renders reuse one synchronised scene (sensor_render.py)
+        self.fast = bool(fast and render.can_render_multiview(self.built.cameras))
         self._configure["persistent"] = self.fast
         self.exposure = self._exposure(known_exposure)
         if self._exposure_ids is not None:   # what only frame 0's metering needed stays out of the frames
@@ -79,8 +79,9 @@ class BlenderSession:
         self.sensor = None          # the sensor path (motion blur, rolling shutter, lens), if any
         if plan.sensor.changes_rendering:
             from .sensor_render import SensorSession
-            self.sensor = SensorSession(plan, self.built)
-        self.views_per_render = len(plan.views) if self.fast and s.preset.deterministic_rgb else 1
+            self.sensor = SensorSession(plan, self.built, fast=self.fast)
+        self.views_per_render = len(plan.views) if self.fast and s.preset.deterministic_rgb and self.sensor is None \
+            else 1
 
     def _measures_exposure(self, known: Optional[float]) -> bool:
         return not self.flat and self.auto_exposure and known is None
@@ -112,8 +113,11 @@ class BlenderSession:
         # fast: the preview renders in the persistent Cycles session that the frames then reuse
         # (synchronised and its BVH built once) - if they take at least the preview's samples:
         # a persistent session whose sample count goes down renders other pixels than a fresh
-        # one (bpy 5.0.1, its default blue-noise pattern), and resumed frames start fresh
-        share = self.fast and self.plan.settings.preset.samples >= EXPOSURE_PREVIEW.samples
+        # one (bpy 5.0.1, its default blue-noise pattern), and resumed frames start fresh; not
+        # on the sensor path: a session synchronised without motion blur renders the blurred
+        # frames with other pixels than a fresh one
+        share = self.fast and self.plan.settings.preset.samples >= EXPOSURE_PREVIEW.samples \
+            and not self.plan.sensor.changes_rendering
         render.configure(self.built.scene, EXPOSURE_PREVIEW, **{**self._configure, "persistent": share})
         if self._exposure_ids is not None:   # culled: frame 0 metered with what frame 0 sees, in every chunk
             self._show(self._exposure_ids)
