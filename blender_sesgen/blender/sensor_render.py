@@ -1,15 +1,7 @@
 """Rendering one frame through the sensor path: the beauty render with Cycles' shutter
 (motion blur, rolling shutter) and lens, the sharp ground-truth render, and one EXR holding
 the beauty of the first and the ground truth of the second (planar depth restored for a
-distorting lens).
-
-``fast`` (the session's fast path, ``render.render_views``): every render of the sequence
-reuses one persistent Cycles session -- per frame only the keyed cameras and moving objects
-change -- and the sharp ground truth of both views is one multiview render (its passes come
-from sample 0 through the pixel centre: no random numbers). A fresh session per render cost
-a whole scene synchronisation, shader and image load and BVH build four times per stereo
-frame (~3/4 of a frame of the city street at 306 x 92). The pixels are those of the plain
-way (``--plain-pipeline``; tests/test_sensor_render.py)."""
+distorting lens)."""
 from __future__ import annotations
 
 import os
@@ -29,7 +21,8 @@ class SensorSession:
     """The Blender side of a plan's sensor path (cameras re-keyed per frame, lens applied)."""
 
     def __init__(self, plan, built, fast: bool = False):
-        self.plan, self.fast = plan, fast
+        self.plan = plan
+        self.fast = fast
         self.sensor = plan.sensor
         self.built = built
         self.scene = built.scene
@@ -56,7 +49,14 @@ class SensorSession:
                      display_paths: Optional[dict] = None) -> dict[str, dict]:
         """Every view of frame k into ``paths[view]`` (and the beauty's display-referred PNG
         into ``display_paths[view]``); {view: render stats}. ``stop()`` is asked before each
-        view (KeyboardInterrupt when it says yes)."""
+        view (KeyboardInterrupt when it says yes).
+
+        ``fast`` (the session's): the renders go through the persistent multiview session
+        (``render.render_views``: the active camera never changes, so Cycles keeps the
+        synchronised scene, its BVH and the sky from render to render instead of building
+        them again for each of a frame's renders), and the sharp ground-truth render draws
+        both views at once (its beauty is dropped: the ground-truth passes come from sample 0
+        through the pixel centre, whatever the seed)."""
         s = self.sensor
         shutter, duration = s.shutter(exposure_s)
         gt_shutter = s.shutter(0.0)[0] if s.rolling_shutter else 0.0
@@ -65,53 +65,48 @@ class SensorSession:
         names = compat.exr_channel_names()
         beauty = set(names["rgb"])
         quiet = not self.plan.options.verbose
-        bframe, views = rig.blender_frame(k), self.plan.views
-        finals = {view: Path(paths[view]) for view in views}
-        tmp = {v: temp_path(f.with_name("beauty-" + f.name)) for v, f in finals.items()}
-        tmp_gt = {v: temp_path(f.with_name("gt-" + f.name)) for v, f in finals.items()}
+        bframe = rig.blender_frame(k)
+
+        def draw(views, seed: int, targets: dict, display=None) -> dict:
+            if self.fast:
+                return render.render_views(self.scene, self.cameras, views, bframe, seed, targets, quiet, display)
+            (v,) = views
+            return {v: render.render_view(self.scene, self.cameras[v], bframe, seed, str(targets[v]), quiet=quiet,
+                                          display_path=str(display[v]) if display else None)}
+
+        views = tuple(self.plan.views)
+        tmp = {v: temp_path(Path(paths[v]).with_name("beauty-" + Path(paths[v]).name)) for v in views}
+        tmp_gt = {v: temp_path(Path(paths[v]).with_name("gt-" + Path(paths[v]).name)) for v in views}
         stats = {}
         try:
             sensor.set_shutter(self.scene, shutter, s.rolling_shutter, duration)
             for vi, view in enumerate(views):
                 if stop():
                     raise KeyboardInterrupt
-                seed = render_seed(self.plan.settings.seed, k, vi)
-                display = {view: display_paths[view]} if display_paths else None
-                if self.fast:
-                    stats.update(render.render_views(self.scene, self.cameras, (view,), bframe, seed,
-                                                     {view: tmp[view]}, quiet, display))
-                else:
-                    stats[view] = render.render_view(self.scene, self.cameras[view], bframe, seed, str(tmp[view]),
-                                                     quiet=quiet,
-                                                     display_path=str(display[view]) if display else None)
+                stats.update(draw((view,), render_seed(self.plan.settings.seed, k, vi), tmp,
+                                  {view: display_paths[view]} if display_paths else None))
             if s.shutter_effects:
-                if stop():
-                    raise KeyboardInterrupt
                 with sensor.ground_truth_settings(self.scene, gt_shutter, s.rolling_shutter):
-                    seed = render_seed(self.plan.settings.seed, k, 0)
-                    if self.fast:
-                        gt_stats = render.render_views(self.scene, self.cameras, views, bframe, seed, tmp_gt, quiet)
-                    else:
-                        gt_stats = {v: render.render_view(self.scene, self.cameras[v], bframe,
-                                                          render_seed(self.plan.settings.seed, k, vi),
-                                                          str(tmp_gt[v]), quiet=quiet)
-                                    for vi, v in enumerate(views)}
+                    gt_stats = {}
+                    for vi, group in enumerate([views] if self.fast else [(v,) for v in views]):
+                        gt_stats.update(draw(group, render_seed(self.plan.settings.seed, k, vi), tmp_gt))
+                for view in views:
+                    st, st_gt = stats[view], gt_stats[view]
+                    st["cycles_s"] = (None if st_gt["cycles_s"] is None or st["cycles_s"] is None
+                                      else st["cycles_s"] + st_gt["cycles_s"])
             for view in views:
                 channels = read_exr(tmp[view])
                 if s.shutter_effects:
                     for n, a in read_exr(tmp_gt[view]).items():
                         if n not in beauty and ".Noisy Image." not in n:
                             channels[n] = a
-                    st, st_gt = stats[view], gt_stats[view]
-                    if st_gt["cycles_s"] is not None and st["cycles_s"] is not None:
-                        st["cycles_s"] += st_gt["cycles_s"]
                 if s.lens is not None:   # a custom camera's Depth pass is the distance along the ray
                     z = channels[names["depth"]]
                     channels[names["depth"]] = np.where(z >= BACKGROUND_THRESHOLD, z, z * self._ray_z)
-                write_exr(finals[view], channels)
+                write_exr(Path(paths[view]), channels)
         finally:
             for f in (*tmp.values(), *tmp_gt.values()):
-                if f.exists():
+                if os.path.exists(f):
                     os.remove(f)
             sensor.set_shutter(self.scene, 0.0, False, 0.0)
         return stats

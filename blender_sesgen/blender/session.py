@@ -65,8 +65,6 @@ class BlenderSession:
                                position_pass=plan.options.position_pass,
                                view_transform=VIEW_TRANSFORMS[plan.scene.look.view],
                                look=AGX_LOOKS[plan.scene.look.look])
-        # the sensor path too: it re-keys only the cameras (and moving objects) per frame, and
-        # its beauty and ground-truth renders reuse one synchronised scene (sensor_render.py)
         self.fast = bool(fast and render.can_render_multiview(self.built.cameras))
         self._configure["persistent"] = self.fast
         self.exposure = self._exposure(known_exposure)
@@ -79,9 +77,8 @@ class BlenderSession:
         self.sensor = None          # the sensor path (motion blur, rolling shutter, lens), if any
         if plan.sensor.changes_rendering:
             from .sensor_render import SensorSession
-            self.sensor = SensorSession(plan, self.built, fast=self.fast)
-        self.views_per_render = len(plan.views) if self.fast and s.preset.deterministic_rgb and self.sensor is None \
-            else 1
+            self.sensor = SensorSession(plan, self.built, self.fast)
+        self.views_per_render = len(plan.views) if self.fast and s.preset.deterministic_rgb else 1
 
     def _measures_exposure(self, known: Optional[float]) -> bool:
         return not self.flat and self.auto_exposure and known is None
@@ -115,7 +112,7 @@ class BlenderSession:
         # a persistent session whose sample count goes down renders other pixels than a fresh
         # one (bpy 5.0.1, its default blue-noise pattern), and resumed frames start fresh; not
         # on the sensor path: a session synchronised without motion blur renders the blurred
-        # frames with other pixels than a fresh one
+        # frames with other pixels than a fresh one (the city street, draft: every pixel)
         share = self.fast and self.plan.settings.preset.samples >= EXPOSURE_PREVIEW.samples \
             and not self.plan.sensor.changes_rendering
         render.configure(self.built.scene, EXPOSURE_PREVIEW, **{**self._configure, "persistent": share})
