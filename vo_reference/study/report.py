@@ -67,6 +67,8 @@ def factor_plot(factor: dict, curves: dict, base: dict, systems: list, metric: s
         b = base.get(s["name"]) or {}
         if b.get("mean") is not None:
             ax.axhline(b["mean"], color=c, lw=0.8, ls=":")
+            if b.get("std"):          # the base's own spread: what a level must clear to count
+                ax.axhspan(b["mean"] - b["std"], b["mean"] + b["std"], color=c, alpha=0.08, lw=0)
     top = top or 1.0
     for i, s in enumerate(systems):
         rows = curves.get(s["name"], [])
@@ -77,7 +79,7 @@ def factor_plot(factor: dict, curves: dict, base: dict, systems: list, metric: s
         ax.axvline(factor["base_level"], color="0.6", lw=0.8, ls="--")
     if not numeric:
         ax.set_xticks(xs, names)
-    return _finish(ax, fig, factor, metric, "mean ± spread (trials × world seeds); × = failed; dotted: the base")
+    return _finish(ax, fig, factor, metric, "mean ± spread (trials × world seeds); × = failed; dotted, band: the base ± its spread")
 
 
 def _finish(ax, fig, factor: dict, metric: str, title: str) -> str:
