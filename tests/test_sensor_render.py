@@ -45,6 +45,16 @@ def _board_scene(width=320, height=240, focal=240, extra=(), motion=PAN, samples
              "WORLD colour 0 0 0", f"RENDER samples {samples}"] + list(extra) + checkerboard_lines() + list(motion))
 
 
+def _assert_same_exrs(out_a, m_a, out_b, m_b) -> None:
+    """Every channel of every frame's EXR of two renders, bit for bit."""
+    for view in m_a["views"]:
+        for k in range(m_a["frames"]):
+            a, b = read_exr(out_a / m_a["files"][view][k]), read_exr(out_b / m_b["files"][view][k])
+            assert a.keys() == b.keys()
+            for name in a:
+                assert np.array_equal(a[name], b[name], equal_nan=True), (view, k, name)
+
+
 def _psnr(a, b, peak=1.0):
     return 10 * np.log10(peak**2 / np.mean((np.asarray(a, float) - np.asarray(b, float)) ** 2))
 
@@ -62,12 +72,7 @@ def test_sensor_path_with_an_exposure_preview_renders_the_plain_pixels(tmp_path,
     assert m_a["render"]["pipeline"]["persistent_data"] is False
     assert m_b["render"]["pipeline"]["persistent_data"] is True
     assert m_b["timing"]["motion_blur"] and m_a["files"] == m_b["files"]
-    for view in m_a["views"]:
-        for k in range(m_a["frames"]):
-            a, b = read_exr(out_a / m_a["files"][view][k]), read_exr(out_b / m_b["files"][view][k])
-            assert a.keys() == b.keys()
-            for name in a:
-                assert np.array_equal(a[name], b[name], equal_nan=True), (view, k, name)
+    _assert_same_exrs(out_a, m_a, out_b, m_b)
     blurred = read_exr(out_b / m_b["files"]["left"][1])
     assert np.ptp(blurred["ViewLayer.Combined.R"]) > 0
 
@@ -202,12 +207,7 @@ def test_effects_off_render_is_pixel_identical_and_sensor_images_are_reproducibl
     extra = ["TIMING rate 30", "LENS fnumber 4 vignetting 1 chromatic 0.3",
              "SENSOR cfa gbrg bits 10 readnoise 2 prnu 0.01 dsnu 1 rownoise 0.3 dark 5 seed 4", "IMU"]
     out_b, m_b = _render(tmp_path, "sensor", base + extra, "--samples", "2")
-    for view in m_a["views"]:
-        for k in range(m_a["frames"]):
-            a, b = read_exr(out_a / m_a["files"][view][k]), read_exr(out_b / m_b["files"][view][k])
-            assert a.keys() == b.keys()
-            for name in a:
-                assert np.array_equal(a[name], b[name], equal_nan=True), (view, k, name)
+    _assert_same_exrs(out_a, m_a, out_b, m_b)
     assert m_b["timestamps"] == [k / 30 for k in range(m_b["frames"])] and "timing" not in m_a
     # sensor images: listed in the manifest, 10-bit values, the same seed gives the same noise
     out_c, m_c = _render(tmp_path, "again", base + extra, "--samples", "2")
