@@ -58,6 +58,24 @@ def _assert_same_exrs(out_a: Path, m_a: dict, out_b: Path, m_b: dict) -> None:
 def _psnr(a, b, peak=1.0):
     return 10 * np.log10(peak**2 / np.mean((np.asarray(a, float) - np.asarray(b, float)) ** 2))
 
+@pytest.mark.parametrize("timing", ["TIMING rate 20 exposure 0.03", "TIMING rate 20 exposure 0.02 readout 0.03"])
+def test_sensor_path_with_an_exposure_preview_renders_the_plain_pixels(tmp_path, timing):
+    """The sensor path's persistent session with ``draft``'s samples (enough to share the
+    exposure preview's session on the plain path) and an automatic exposure: the preview
+    must not share it (synchronised without motion blur, it changed every blurred pixel);
+    motion blur, a rolling shutter and a moving object, every channel as a fresh session."""
+    from render_support import oracle_script
+    lines = oracle_script(width=64, height=48, focal=44.0, principal=(32.1, 23.4)).splitlines()
+    lines += [timing, "MOVE id 5 twist 0.04 0 0.02 0 4 0"]
+    out_a, m_a = _render(tmp_path, "plain", lines, "--quality", "draft", "--plain-pipeline")
+    out_b, m_b = _render(tmp_path, "fast", lines, "--quality", "draft")
+    assert m_a["render"]["pipeline"]["persistent_data"] is False
+    assert m_b["render"]["pipeline"]["persistent_data"] is True
+    assert m_b["timing"]["motion_blur"] and m_a["files"] == m_b["files"]
+    _assert_same_exrs(out_a, m_a, out_b, m_b)
+    blurred = read_exr(out_b / m_b["files"]["left"][1])
+    assert np.ptp(blurred["ViewLayer.Combined.R"]) > 0
+
 
 def test_rolling_shutter_corners_land_where_the_row_poses_project_them(tmp_path):
     readout = 0.04

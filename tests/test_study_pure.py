@@ -391,6 +391,33 @@ def test_breaking_points_and_compare(tmp_path):
     assert rc == 0
 
 
+def test_breaking_points_weigh_the_spread_over_world_seeds(tmp_path):
+    """Broken only when the mean exceeds the multiple by more than break_sigmas x the spread
+    of that difference, sqrt(std^2 + (multiple x std_base)^2) (hand-computed here)."""
+    from blender_sesgen.study.results import aggregate, curves_and_breaks
+    body = ('[world]\nscript = "scene.ses"\nseeds = [0, 1]\n[factors.exposure_time]\nlevels = [0.01, 0.02, 0.04]\n'
+            '[[systems]]\nname = "s"\ncmd = "x {out}"\nlayout = "tum"\nformat = "tum"\n')
+    # base 1.0 +- 0.283 (0.8, 1.2): 0.01 at 3.0 +- 1.414: margin hypot(1.414, 0.566) = 1.523 > 3.0 - 2.0;
+    # 0.02 at 2.4 +- 0.141: margin hypot(0.141, 0.566) = 0.583 > 0.4; 0.04 at 4.0 +- 0: 0.566 < 2.0, broken
+    runs = _runs([({}, [0.8, 1.2]), ({"exposure_time": 0.01}, [2.0, 4.0]), ({"exposure_time": 0.02}, [2.3, 2.5]),
+                  ({"exposure_time": 0.04}, [4.0, 4.0])])
+    curves, _, breaks = curves_and_breaks(load(tmp_path, body), aggregate(runs, "ape_trans_rmse"), "ape_trans_rmse")
+    cells = curves["exposure_time"]["s"]
+    assert cells[0]["margin"] == pytest.approx(np.hypot(np.sqrt(2), 2 * np.std([0.8, 1.2], ddof=1)))
+    assert [c["broken"] for c in cells] == [False, False, True]
+    assert [c["within_spread"] for c in cells] == [True, True, False]
+    assert breaks["exposure_time"]["s"]["level"] == 0.04
+    # no spread weighing (break_sigmas = 0): the plain multiple, broken at the first level
+    study0 = load(tmp_path, body + "[evaluation]\nbreak_sigmas = 0\n")
+    assert curves_and_breaks(study0, aggregate(runs, "ape_trans_rmse"),
+                             "ape_trans_rmse")[2]["exposure_time"]["s"]["level"] == 0.01
+    # everything within the spread: no breaking point, and the reason says where it came close
+    held = _runs([({}, [0.8, 1.2]), ({"exposure_time": 0.01}, [2.0, 4.0]), ({"exposure_time": 0.02}, [1.0, 1.1]),
+                  ({"exposure_time": 0.04}, [1.5, 3.5])])
+    b = curves_and_breaks(load(tmp_path, body), aggregate(held, "ape_trans_rmse"), "ape_trans_rmse")[2]
+    assert b["exposure_time"]["s"]["level"] is None and "within the spread at 0.01, 0.04" in b["exposure_time"]["s"]["reason"]
+
+
 def test_the_docs_list_every_factor():
     from blender_sesgen.study.factors import FACTORS
     text = (REPO / "docs" / "studies.md").read_text(encoding="utf-8")

@@ -332,6 +332,25 @@ levels = [0.01, 0.03]
     assert all(r["status"] == "ok" and r["metrics"]["ape_trans_rmse"] < 1e-5 for r in doc["runs"])
 
 
+
+def test_sigterm_stops_a_study_as_ctrl_c_does(tmp_path):
+    """SIGTERM once Ray runs (ray.init installs its own handler, which aborted the study with
+    a stack dump, exit -6): the study stops consistently, says so and exits 130."""
+    study = study_file(tmp_path, f"{world(frames=5, quality='draft', samples=2)}[factors.exposure_time]\n"
+                                 "levels = [0.01]\n" + PERFECT_SYSTEM, ROOM)
+    out = tmp_path / "out"
+    env = {**os.environ, "PYTHONPATH": str(REPO), "RAY_USAGE_STATS_ENABLED": "0"}
+    proc = subprocess.Popen([sys.executable, "-m", "blender_sesgen", "study", "run", str(study), "--out", str(out),
+                             "--progress", "plain"], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True)
+    for line in proc.stdout:                                        # Ray is up once the renders start
+        if line.startswith("study: renders:"):
+            break
+    proc.send_signal(signal.SIGTERM)
+    rest = proc.stdout.read()
+    assert proc.wait(timeout=300) == 130, rest
+    assert "SIGTERM received" not in rest and "interrupted:" in rest
+
 # --- each sensor factor's effect, measured on the image ---------------------------------------------
 
 @pytest.fixture(scope="module")

@@ -39,11 +39,16 @@ def main() -> None:
     print("|---|" + "---|" * len(names))
     rows = [("base", r["base"])] + [(lv, {s: r["curves"][f["name"]][s][i] for s in names})
                                     for i, lv in enumerate(f["levels"])]
+    metric = r["study"]["metric"]
     for lv, cells in rows:
         out = []
+        point = {} if lv == "base" else {f["name"]: lv}
         for s in names:
             c = cells[s]
-            text = "failed" if c["mean"] is None else f"{c['mean']:.3f}"
+            per_seed = ", ".join("×" if x["status"] != "ok" else f"{x['metrics'][metric]:.2f}"
+                                 for x in sorted(r["runs"], key=lambda x: (x["world_seed"], x["trial"]))
+                                 if x["system"] == s and x["point"] == point)
+            text = "failed" if c["mean"] is None else f"{c['mean']:.3f} ± {c['std'] or 0:.3f} ({per_seed})"
             if c.get("n_failed"):
                 text += f" ({c['n_failed']}/{c['n']} failed)"
             out.append(f"**{text}**" if c.get("broken") else text)

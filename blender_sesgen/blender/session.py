@@ -122,8 +122,11 @@ class BlenderSession:
         # fast: the preview renders in the persistent Cycles session that the frames then reuse
         # (synchronised and its BVH built once) - if they take at least the preview's samples:
         # a persistent session whose sample count goes down renders other pixels than a fresh
-        # one (bpy 5.0.1, its default blue-noise pattern), and resumed frames start fresh
-        share = self.fast and self.plan.settings.preset.samples >= EXPOSURE_PREVIEW.samples
+        # one (bpy 5.0.1, its default blue-noise pattern), and resumed frames start fresh; not
+        # on the sensor path: a session synchronised without motion blur renders the blurred
+        # frames with other pixels than a fresh one (the city street, draft: every pixel)
+        share = self.fast and self.plan.settings.preset.samples >= EXPOSURE_PREVIEW.samples \
+            and not self.plan.sensor.changes_rendering
         render.configure(self.built.scene, EXPOSURE_PREVIEW, **{**self._configure, "persistent": share})
         if self._exposure_ids is not None:   # culled: frame 0 metered with what frame 0 sees, in every chunk
             self._show(self._exposure_ids)

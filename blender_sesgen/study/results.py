@@ -9,7 +9,11 @@ breaking points; and ``study compare`` (pure: numpy and the standard library).
   deviation; 0 for one value), min and max of the runs that did not fail.
 - The **breaking point** of a factor for a system (one-factor-at-a-time designs): the first
   level, in the order the study file lists them, at which at least half the runs fail or
-  the mean error exceeds ``break_multiple`` times the base's.
+  the mean error exceeds ``break_multiple`` times the base's by more than ``break_sigmas``
+  times the spread of that difference, sqrt(std_level^2 + (break_multiple * std_base)^2),
+  the stds over trials and world seeds. With one run per point the spread is 0 and the rule is
+  the plain multiple; a level above the multiple but within the spread is marked
+  ``within_spread`` (not broken: its scatter does not separate it from the base's).
 - **compare** OLD NEW: per factor, level and system, NEW is *worse* when it fails more
   often, or when its mean error exceeds OLD's by more than ``sigmas`` times the larger of
   the two spreads (and by more than 1e-9 relative: a deterministic system run twice is
@@ -87,7 +91,7 @@ def curves_and_breaks(study, aggs: dict, metric: str) -> tuple[dict, dict, dict]
     curves, breaks = {}, {}
     if study.design.kind != "oat":
         return curves, base, breaks
-    mult = study.evaluation.break_multiple
+    mult, k = study.evaluation.break_multiple, study.evaluation.break_sigmas
     for f in study.factors:
         curves[f.name], breaks[f.name] = {}, {}
         for s in study.systems:
@@ -95,11 +99,18 @@ def curves_and_breaks(study, aggs: dict, metric: str) -> tuple[dict, dict, dict]
             cells, found = [], None
             for lv in f.levels:
                 c = _cell(aggs.get((label({f.name: lv}), s.name)), metric)
-                why = None
+                why, c["within_spread"] = None, False
                 if _failed(c):
                     why = f"{c['n_failed']} of {c['n']} runs failed"
                 elif c["mean"] is not None and b["mean"] is not None and c["mean"] > mult * b["mean"]:
-                    why = f"{metric} {c['mean']:.3g} > {mult:g} x the base's {b['mean']:.3g}"
+                    margin = k * math.hypot(c["std"] or 0.0, mult * (b["std"] or 0.0))
+                    c["margin"] = margin
+                    if c["mean"] - mult * b["mean"] > margin:
+                        why = (f"{metric} {c['mean']:.3g} ± {c['std'] or 0:.2g} > {mult:g} x the base's "
+                               f"{b['mean']:.3g} ± {b['std'] or 0:.2g}" + (f" by more than {k:g} spread(s)"
+                                                                         if margin > 0 else ""))
+                    else:
+                        c["within_spread"] = True
                 c["broken"] = why is not None
                 if why and found is None:
                     found = {"level": lv, "reason": why}
@@ -107,7 +118,12 @@ def curves_and_breaks(study, aggs: dict, metric: str) -> tuple[dict, dict, dict]
             if _failed(b):
                 found = {"level": "base", "reason": f"fails at the base ({b['n_failed']} of {b['n']} runs)"}
             curves[f.name][s.name] = cells
-            breaks[f.name][s.name] = found or {"level": None, "reason": f"holds up to {f.levels[-1]}"}
+            if found is None:
+                near = [lv for lv, c in zip(f.levels, cells) if c["within_spread"]]
+                found = {"level": None, "reason": f"holds up to {f.levels[-1]}" + (
+                    f" (above {mult:g} x the base's but within the spread at {', '.join(map(str, near))})"
+                    if near else "")}
+            breaks[f.name][s.name] = found
     return curves, base, breaks
 
 
@@ -148,6 +164,7 @@ def results(study, plan, runs: list, controls: dict, cost: dict) -> dict:
                   "seeds": list(w.seeds),
                   "design": {"kind": study.design.kind, "samples": study.design.samples, "seed": study.design.seed},
                   "metric": metric, "break_multiple": study.evaluation.break_multiple,
+                  "break_sigmas": study.evaluation.break_sigmas,
                   "min_coverage": study.evaluation.min_coverage, "jump_factor": study.evaluation.jump_factor,
                   "regression_sigmas": study.evaluation.regression_sigmas},
         "factors": factors,

@@ -27,8 +27,10 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import signal
 import subprocess
 import sys
+import threading
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -157,7 +159,10 @@ class StudyRun:
                  f"{len(plan.renders)} render(s), {len(plan.develops)} developed from another's EXRs, "
                  f"{len(s.systems)} system(s), {sum(x.trials for x in s.systems)} run(s) per variant -> {self.out}")
         from ..farm.cluster import Cluster
+        ours = signal.getsignal(signal.SIGTERM)
         cluster = Cluster(self.address, num_cpus=self.num_cpus).start()
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGTERM, ours)   # ray.init put in its own: an abort with a stack dump
         try:
             if self.address is not None:
                 cluster.check_shared(self.out, [self.out / "scripts" / f"{k}.ses" for k in plan.renders])

@@ -80,6 +80,7 @@ class Evaluation:
     min_coverage: float = 0.5                  # a trajectory with poses for fewer frames is a failure
     jump_factor: float = 5.0                   # a step this many times the median step is a tracking loss
     regression_sigmas: float = 1.0             # compare: worse by more than this many spreads
+    break_sigmas: float = 1.0                  # broken: above the multiple by more than this many spreads
 
 
 @dataclass(frozen=True)
@@ -405,7 +406,8 @@ def _systems(c: _Checker, systems) -> tuple[SystemSpec, ...]:
 
 
 def _evaluation(c: _Checker, e: dict) -> Evaluation:
-    c.keys(e, "evaluation", ("metric", "break_multiple", "min_coverage", "jump_factor", "regression_sigmas"))
+    c.keys(e, "evaluation", ("metric", "break_multiple", "min_coverage", "jump_factor", "regression_sigmas",
+                             "break_sigmas"))
     metric = e.get("metric", "ape_trans_rmse")
     if metric not in METRICS:
         c.fail("evaluation.metric", f"expected one of {', '.join(METRICS)}")
@@ -417,4 +419,5 @@ def _evaluation(c: _Checker, e: dict) -> Evaluation:
         c.fail("evaluation.min_coverage", "a fraction of the frames, 0..1")
     jump = float(c.number(e.get("jump_factor", 5.0), "evaluation.jump_factor", positive=True))
     sig = float(c.number(e.get("regression_sigmas", 1.0), "evaluation.regression_sigmas", lo=0))
-    return Evaluation(metric, mult, cov, jump, sig)
+    brk = float(c.number(e.get("break_sigmas", 1.0), "evaluation.break_sigmas", lo=0))
+    return Evaluation(metric, mult, cov, jump, sig, brk)

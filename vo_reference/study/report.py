@@ -67,6 +67,8 @@ def factor_plot(factor: dict, curves: dict, base: dict, systems: list, metric: s
         b = base.get(s["name"]) or {}
         if b.get("mean") is not None:
             ax.axhline(b["mean"], color=c, lw=0.8, ls=":")
+            if b.get("std"):          # the base's own spread: what a level must clear to count
+                ax.axhspan(b["mean"] - b["std"], b["mean"] + b["std"], color=c, alpha=0.08, lw=0)
     top = top or 1.0
     for i, s in enumerate(systems):
         rows = curves.get(s["name"], [])
@@ -77,7 +79,7 @@ def factor_plot(factor: dict, curves: dict, base: dict, systems: list, metric: s
         ax.axvline(factor["base_level"], color="0.6", lw=0.8, ls="--")
     if not numeric:
         ax.set_xticks(xs, names)
-    return _finish(ax, fig, factor, metric, "mean ± spread (trials × world seeds); × = failed; dotted: the base")
+    return _finish(ax, fig, factor, metric, "mean ± spread (trials × world seeds); × = failed; dotted, band: the base ± its spread")
 
 
 def _finish(ax, fig, factor: dict, metric: str, title: str) -> str:
@@ -223,7 +225,7 @@ class Report:
                 ("frames, size, quality", f"{w.get('frames')}, {w.get('resolution')}, {w.get('quality')}"),
                 ("design", st["design"]["kind"] + (f" ({st['design']['samples']} samples, seed {st['design']['seed']})"
                                                    if st["design"]["kind"] == "lhs" else "")),
-                ("metric", f"{self.metric}; broken: > {st['break_multiple']:g} × the base's, or half the runs failed"),
+                ("metric", f"{self.metric}; broken: {self.broken_rule()}"),
                 ("systems", "; ".join(f"{s['name']} ({s.get('builtin') or 'command'}, {s['layout']}, {s['format']}"
                                       f"{', mono' if s['mono'] else ''}, {s['trials']} trial(s))" for s in self.systems)),
                 ("variants", f"{c.get('variants')} ({c.get('distinct_scripts')} distinct scripts)"),
@@ -323,9 +325,15 @@ class Report:
                 cells.append(f"<td>{'—' if lv is None else html.escape(str(lv)) + ' ' + html.escape(f['unit'])}"
                              f"<br><small>{html.escape(b.get('reason') or '')}</small></td>")
             rows.append(f"<tr><td>{html.escape(f['name'])}</td>{''.join(cells)}</tr>")
-        return ("<h2>Breaking points</h2><p>The first level (in the order given) at which the mean error exceeds "
-                f"{self.r['study']['break_multiple']:g} × the base's, or at least half the runs fail; — : none "
-                f"within the levels.</p><table><tr><th>factor</th>{head}</tr>{''.join(rows)}</table>")
+        return ("<h2>Breaking points</h2><p>The first level (in the order given) at which "
+                f"{self.broken_rule()}; — : none within the levels. Errors as mean ± spread (sample standard "
+                f"deviation over trials and world seeds).</p><table><tr><th>factor</th>{head}</tr>{''.join(rows)}</table>")
+
+    def broken_rule(self) -> str:
+        st = self.r["study"]
+        mult, k = st["break_multiple"], st.get("break_sigmas", 0.0)
+        spread = (f" by more than {k:g} × the spread of the difference (√(σ² + ({mult:g} σ_base)²))" if k else "")
+        return f"the mean error exceeds {mult:g} × the base's{spread}, or at least half the runs fail"
 
     def runs_table(self) -> str:
         rows = []
