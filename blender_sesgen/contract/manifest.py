@@ -384,14 +384,18 @@ def load_json(path: Path) -> dict:
         raise ContractError("no manifest.json (not a render folder)" if path.name == MANIFEST else "no such file",
                             str(path.parent if path.name == MANIFEST else path))
     text = read_text(path, what="JSON file")
-    try:
-        data = json.loads(text, parse_constant=_not_json, parse_float=_finite_float)
+    try:   # a number beyond a double (300 digits, a 3-digit exponent) is rare: only then each float is checked
+        data = json.loads(text, parse_constant=_not_json,
+                          parse_float=_finite_float if _MAYBE_HUGE.search(text) else None)
     except _NonFinite as e:
         raise ContractError(f"{e.args[0]} is not a JSON number", str(path), _line_of_constant(text, e.args[0])) \
             from None
     except (ValueError, RecursionError) as e:
         raise ContractError(f"not valid JSON ({e})", str(path), getattr(e, "lineno", None)) from None
     return data
+
+
+_MAYBE_HUGE = re.compile(r"[0-9]{300}|[eE]\+?0*[1-9][0-9]{2}")
 
 
 class _NonFinite(ValueError):
