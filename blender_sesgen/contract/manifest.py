@@ -395,7 +395,7 @@ def load_json(path: Path) -> dict:
     return data
 
 
-_MAYBE_HUGE = re.compile(r"[0-9]{300}|[eE]\+?0*[1-9][0-9]{2}")
+_MAYBE_HUGE = re.compile(r"[0-9]{300}|[0-9.][eE]\+?0*[1-9][0-9]{2,}(?=[\s,\]}]|$)")   # not in hex digests
 
 
 class _NonFinite(ValueError):
