@@ -231,7 +231,11 @@ class OutputFolder:
             done = self.manifest.frames_complete
         elif resume and self.resumable(plan) is not None:
             kept = self.resumable(plan)   # a frame recorded complete whose files are gone is rendered again
-            done = [d and self._files_exist(kept, k) for k, d in enumerate(self._completed(kept))]
+            try:                          # validated once (a long route's manifest: 0.2 s), not once per frame
+                m = Manifest.from_json(kept, str(self.root / MANIFEST))
+            except ContractError:         # an earlier manifest that does not describe this render
+                m = None
+            done = [d and m is not None and self._files_exist(m, k) for k, d in enumerate(self._completed(kept))]
         else:
             return list(plan.frames)
         return [k for k in plan.frames if not (k < len(done) and done[k])]
@@ -373,13 +377,11 @@ class OutputFolder:
             if writer not in live or (not dead_logs_only and writer == self.locks.writer):
                 log.unlink(missing_ok=True)
 
-    def _files_exist(self, m, k: int) -> bool:
-        """Every file of frame ``k`` that manifest ``m`` (a Manifest, or an earlier one's dict)
-        lists is in the folder."""
+    def _files_exist(self, m: Manifest, k: int) -> bool:
+        """Every file of frame ``k`` that manifest ``m`` lists is in the folder."""
         try:
-            m = m if isinstance(m, Manifest) else Manifest.from_json(m, str(self.root / MANIFEST))
             return all((self.root / rel).is_file() for rel in m.frame_files(k))
-        except (ContractError, IndexError):   # an earlier manifest that does not describe this render
+        except IndexError:   # an earlier manifest that does not describe this render
             return False
 
     @staticmethod
