@@ -37,7 +37,7 @@ WRAPPER = ("import resource, subprocess, sys, json, time; t = time.perf_counter(
            "'maxrss_kib': resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, "
            "'cpu_s': resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime "
            "+ resource.getrusage(resource.RUSAGE_CHILDREN).ru_stime, "
-           "'out': p.stdout[-4000:], 'err': p.stderr[-2000:]}))")
+           "'out': p.stdout[:4000], 'err': p.stderr[-2000:]}))")
 _ID = re.compile(r"\bid (\d+)\b")
 _FRAME = re.compile(r"^MOVE id \d+ frame (\d+)\b")
 
