@@ -37,7 +37,7 @@ WRAPPER = ("import resource, subprocess, sys, json, time; t = time.perf_counter(
            "'maxrss_kib': resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, "
            "'cpu_s': resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime "
            "+ resource.getrusage(resource.RUSAGE_CHILDREN).ru_stime, "
-           "'out': p.stdout[-4000:], 'err': p.stderr[-2000:]}))")
+           "'out': p.stdout[:4000], 'err': p.stderr[-2000:]}))")
 _ID = re.compile(r"\bid (\d+)\b")
 _FRAME = re.compile(r"^MOVE id \d+ frame (\d+)\b")
 
@@ -85,7 +85,7 @@ def short_world(text: str, short_m: float, margin_m: float) -> tuple[str, int]:
 
 def render_chunk(script: Path, out: Path, a: int, b: int, args, cull: bool) -> dict:
     cmd = [sys.executable, "-m", "blender_sesgen", "render", str(script), "--out", str(out), "--frames", f"{a}:{b}",
-           "--quality", args.quality, "--resolution-scale", str(args.scale), "--threads", "1", "--progress", "off"]
+           "--quality", args.quality, "--resolution-scale", str(args.scale), "--threads", "1", "--progress", "plain"]
     if cull:
         cmd.append("--cull")
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (str(REPO), os.environ.get("PYTHONPATH")) if p))

@@ -173,3 +173,29 @@ def test_a_missing_display_png_is_never_replaced_by_another_image(tmp_path):
     assert export(root, tmp_path / "E2", "png").returncode == 2
     assert np.array_equal(seq.image_rgb(1, "left"),
                           __import__("cv2").imread(str(root / display_relpath("left", 1)))[..., ::-1])
+
+
+def test_the_written_seal_is_the_seal_of_what_the_file_holds():
+    """The writer makes the manifest's text and its seal's canonical JSON from one encoding
+    (contract.atomic.dumps_json_sealed); seal_of, what verify recomputes, is json's own
+    canonical form: the two must agree on any document, not only on manifests."""
+    from hypothesis import given, settings, strategies as st
+
+    from blender_sesgen.contract.atomic import dumps_json, dumps_json_sealed
+    from blender_sesgen.contract.manifest import SEAL, _sha256_hex
+
+    leaf = st.one_of(st.none(), st.booleans(), st.integers(-10**20, 10**20),
+                     st.floats(allow_nan=False, allow_infinity=False), st.text(max_size=6))
+    doc = st.recursive(leaf, lambda inner: st.one_of(st.lists(inner, max_size=20),
+                                                     st.dictionaries(st.text(max_size=5), inner, max_size=6)),
+                       max_leaves=60)
+
+    @settings(max_examples=300, deadline=None)
+    @given(st.dictionaries(st.text(max_size=5).filter(lambda k: k != SEAL), doc, max_size=8))
+    def check(m):
+        text, seal = dumps_json_sealed(m, SEAL, _sha256_hex)
+        back = json.loads(text)
+        assert back.pop(SEAL) == seal == seal_of(m)
+        assert back == json.loads(json.dumps(m)) == json.loads(dumps_json(m))
+
+    check()

@@ -360,13 +360,75 @@ def write_text(path, text: str, durable: bool = False) -> Path:
     return write_bytes(path, text.encode("utf-8"), durable)
 
 
+_INLINE_MAX = 16     # items of a list written on one line: a vector, a 4x4 matrix, a short list of names
+_SCALARS = (str, int, float, bool, type(None))
+_ENCODER = json.JSONEncoder(allow_nan=False, sort_keys=True, separators=(",", ":"))
+try:           # json's C encoder made once (JSONEncoder.encode makes one per call)
+    from json.encoder import c_make_encoder, encode_basestring_ascii
+    _C_ENCODE = c_make_encoder(None, _ENCODER.default, encode_basestring_ascii, None, ":", ",", True, False, False)
+except (ImportError, TypeError):   # pragma: no cover - Pythons without the C accelerator
+    _C_ENCODE = None
+
+
 def dumps_json(obj, source: str | None = None) -> str:
-    """JSON text with one space of indent; NaN and infinities are refused (they are not JSON)."""
+    """JSON text, one item a line with one space of indent per level, a short list of scalars
+    or of such lists (a vector, a matrix) compact on one line; NaN and infinities are refused
+    (they are not JSON)."""
+    return _text_and_canonical(obj, source)[0] + "\n"
+
+
+def dumps_json_sealed(obj: dict, seal_key: str, seal, source: str | None = None) -> tuple[str, str]:
+    """(:func:`dumps_json` of ``obj`` with ``seal_key: S`` added last, S): S = ``seal(C)``, C ``obj``'s
+    canonical JSON (``json.dumps(obj, sort_keys=True, separators=(",", ":"))``, what a seal
+    hashes). Both texts come from one encoding, each short list by json's C encoder: a long
+    route's manifest, which holds every frame's poses and which every chunk of a farm writes,
+    is written in under half the time it took json (indented: its pure-Python encoder) and
+    the canonical JSON again."""
+    text, canonical = _text_and_canonical(obj, source)
+    if canonical is None:   # keys that are not strings: json sorts them its own way
+        canonical = json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    value = seal(canonical)
+    entry = _ENCODER.encode(seal_key) + ": " + _ENCODER.encode(value)
+    return ((text[:-2] + ",\n " + entry + "\n}\n") if obj else "{\n " + entry + "\n}\n"), value
+
+
+def _text_and_canonical(obj, source: str | None) -> tuple[str, str | None]:
     try:
-        return json.dumps(obj, indent=1, allow_nan=False) + "\n"
+        return _dumps(obj, 0)
     except ValueError:
         raise ContractError(f"refusing to write non-finite numbers into JSON ({_first_non_finite(obj)})",
                             source) from None
+
+
+def _encode(obj) -> str:
+    return "".join(_C_ENCODE(obj, 0)) if _C_ENCODE is not None and isinstance(obj, (list, tuple, dict)) \
+        else _ENCODER.encode(obj)
+
+
+def _short(v) -> bool:
+    return len(v) <= _INLINE_MAX and all(isinstance(x, _SCALARS) for x in v)
+
+
+def _dumps(obj, level: int) -> tuple[str, str | None]:
+    """(text, canonical JSON or None where a dict has keys other than strings)."""
+    if isinstance(obj, dict) and obj:
+        pad = "\n" + " " * (level + 1)
+        items = [(k, _ENCODER.encode(k if isinstance(k, str) else {k: 0}), *_dumps(v, level + 1))
+                 for k, v in obj.items()]
+        text = "{" + pad + ("," + pad).join(f"{key}: {t}" if isinstance(k, str) else f"{key[1:-3]}: {t}"
+                                            for k, key, t, _ in items) + "\n" + " " * level + "}"
+        if not all(isinstance(k, str) and c is not None for k, _, _, c in items):
+            return text, None
+        return text, "{" + ",".join(f"{key}:{c}" for _, key, _, c in sorted(items, key=lambda i: i[0])) + "}"
+    if isinstance(obj, (list, tuple)) and obj and not (
+            len(obj) <= _INLINE_MAX and all(isinstance(x, _SCALARS) or isinstance(x, (list, tuple)) and _short(x)
+                                            for x in obj)):
+        pad = "\n" + " " * (level + 1)
+        items = [_dumps(v, level + 1) for v in obj]
+        text = "[" + pad + ("," + pad).join(t for t, _ in items) + "\n" + " " * level + "]"
+        return text, (None if any(c is None for _, c in items) else "[" + ",".join(c for _, c in items) + "]")
+    text = _encode(obj)    # a scalar, {} or [], a short list (no dicts in it): the same both ways
+    return text, text
 
 
 def write_json(path, obj, durable: bool = False) -> Path:

@@ -33,7 +33,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from . import rig
-from .atomic import write_json
+from .atomic import dumps_json_sealed, write_text
 from .camera import K_problem
 from .depth import DEPTH_BACKGROUND
 from .errors import ContractError
@@ -184,12 +184,17 @@ class Manifest:
         m.update(self.extra)
         return m
 
-    def write(self, root, durable: bool = True) -> Path:
+    def write(self, root, durable: bool = True, on_disk: Optional[dict] = None) -> Path:
         """Write ``root/manifest.json`` atomically (NaN or infinities are refused), sealed
-        (:func:`seal_of`)."""
+        (:func:`seal_of`); not at all when it would hold ``on_disk`` (what was just read from
+        there), seal included."""
         m = self.to_json()
-        m[SEAL] = seal_of(m)
-        return write_json(Path(root) / MANIFEST, m, durable)
+        m.pop(SEAL, None)
+        path = Path(root) / MANIFEST
+        text, seal = dumps_json_sealed(m, SEAL, _sha256_hex, str(path))
+        if on_disk is not None and on_disk.get(SEAL) == seal and {k: v for k, v in on_disk.items() if k != SEAL} == m:
+            return path
+        return write_text(path, text, durable)
 
     def frame_files(self, k: int) -> list[str]:
         """Every file of frame ``k`` the manifest lists: each view's EXR (``files``), display
@@ -340,8 +345,11 @@ def seal_of(m: dict) -> str:
     itself left out). Every write seals (:meth:`Manifest.write`), so a manifest whose
     values were changed afterwards (K, baseline, poses, checksums...) no longer matches."""
     body = {k: v for k, v in m.items() if k != SEAL}
-    text = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)
-    return hashlib.sha256(text.encode("ascii")).hexdigest()
+    return _sha256_hex(json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False))
+
+
+def _sha256_hex(canonical: str) -> str:
+    return hashlib.sha256(canonical.encode("ascii")).hexdigest()
 
 
 def seal_problem(m: dict) -> str:
@@ -384,14 +392,18 @@ def load_json(path: Path) -> dict:
         raise ContractError("no manifest.json (not a render folder)" if path.name == MANIFEST else "no such file",
                             str(path.parent if path.name == MANIFEST else path))
     text = read_text(path, what="JSON file")
-    try:
-        data = json.loads(text, parse_constant=_not_json, parse_float=_finite_float)
+    try:   # a number beyond a double (300 digits, a 3-digit exponent) is rare: only then each float is checked
+        data = json.loads(text, parse_constant=_not_json,
+                          parse_float=_finite_float if _MAYBE_HUGE.search(text) else None)
     except _NonFinite as e:
         raise ContractError(f"{e.args[0]} is not a JSON number", str(path), _line_of_constant(text, e.args[0])) \
             from None
     except (ValueError, RecursionError) as e:
         raise ContractError(f"not valid JSON ({e})", str(path), getattr(e, "lineno", None)) from None
     return data
+
+
+_MAYBE_HUGE = re.compile(r"[0-9]{300}|[0-9.][eE]\+?0*[1-9][0-9]{2,}(?=[\s,\]}]|$)")   # not in hex digests
 
 
 class _NonFinite(ValueError):

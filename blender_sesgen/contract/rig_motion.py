@@ -31,12 +31,6 @@ from .se3 import R_to_quat_xyzw, invert, se3_exp, se3_log, skew
 KINDS = ("static", "ego_twist", "c2_spline")
 
 
-def _quat_from_R(R: np.ndarray) -> np.ndarray:
-    """(w, x, y, z) of a rotation matrix, w >= 0 (Shepperd)."""
-    x, y, z, w = R_to_quat_xyzw(R)
-    return np.array([w, x, y, z])
-
-
 def _quat_bilinear(q: np.ndarray, r: np.ndarray) -> np.ndarray:
     """Symmetric bilinear B(q, r) with B(q, q) = |q|^2 R(q/|q|) (q, r: (..., 4) w first)."""
     w, x, y, z = (q[..., i] for i in range(4))
@@ -111,7 +105,7 @@ class RigMotion:
             self._twists = np.array([np.concatenate(se3_log(invert(T[k]) @ T[k + 1]))
                                      for k in range(self.n - 1)])     # (omega, v) per frame step
         elif kind == "c2_spline":
-            q = np.array([_quat_from_R(Tk[:3, :3]) for Tk in T])
+            q = R_to_quat_xyzw(T[:, :3, :3])[:, [3, 0, 1, 2]]           # (w, x, y, z), w >= 0
             for k in range(1, self.n):
                 if np.dot(q[k], q[k - 1]) < 0:
                     q[k] = -q[k]

@@ -232,9 +232,18 @@ def interpolate_pose(T_world_a: np.ndarray, T_world_b: np.ndarray, s: float) -> 
     R = R_a @ exp(s * log(R_a^T R_b)), t = (1 - s) t_a + s t_b.
 
     s = 0 gives T_a, s = 1 gives T_b (to rounding). The rotation from a to b must be < 180 deg.
-    ``s`` may be an array of fractions: (len(s), 4, 4). See also :func:`interpolate_twist`.
+    ``s`` may be an array of fractions: (len(s), 4, 4); with stacks of poses (n, 4, 4) it holds
+    one fraction per pair. See also :func:`interpolate_twist`.
     """
     T_a, T_b = np.asarray(T_world_a, dtype=float), np.asarray(T_world_b, dtype=float)
+    if T_a.ndim == 3:         # stacks of pairs (n, 4, 4), one fraction each (n,): (n, 4, 4)
+        s = np.asarray(s, dtype=float)[:, None]
+        w = so3_log(np.swapaxes(T_a[:, :3, :3], 1, 2) @ T_b[:, :3, :3])
+        out = np.zeros(T_a.shape)
+        out[:, :3, :3] = T_a[:, :3, :3] @ so3_exp(s * w)
+        out[:, :3, 3] = (1.0 - s) * T_a[:, :3, 3] + s * T_b[:, :3, 3]
+        out[:, 3, 3] = 1.0
+        return out
     w = so3_log(T_a[:3, :3].T @ T_b[:3, :3])
     if np.ndim(s):            # many fractions at once: (n, 4, 4)
         s = np.asarray(s, dtype=float)

@@ -26,6 +26,7 @@ import hashlib
 import json
 import os
 import re
+import stat
 from dataclasses import replace
 from pathlib import Path
 from typing import Optional
@@ -47,6 +48,16 @@ from .plan import RenderPlan, RenderSettings
 
 _OWN_EXR = re.compile(r"^\d{6}\.exr$")
 _OWN_PNG = re.compile(r"^\d{6}\.png$")
+
+
+def _file_key(path: Path) -> Optional[tuple]:
+    """What tells one version of a regular file from another (None: no such file): every
+    write of the manifest replaces the file (``contract.atomic``), so a new inode and times."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns) if stat.S_ISREG(st.st_mode) else None
 
 
 class RenderWriteError(RuntimeError):
@@ -137,6 +148,8 @@ class OutputFolder:
         self.state = self.root / STATE_DIR
         self._previous: Optional[dict] = None
         self._loaded = False
+        self._read: tuple = (None, None)      # (file key, dict) of the manifest last read here
+        self._written_key = None              # the file key of the manifest this render last wrote
         self._kept: Optional[dict] = None
         self._kept_for: Optional[RenderPlan] = None
         self.manifest: Optional[Manifest] = None    # this render's manifest, once begun
@@ -148,10 +161,21 @@ class OutputFolder:
     def previous(self) -> Optional[dict]:
         """The manifest found in the folder (raw dict, read once), or None."""
         if not self._loaded:
-            path = self.root / MANIFEST
-            self._previous = load_json(path) if path.is_file() else None
+            self._previous = self._read_manifest()
             self._loaded = True
         return self._previous
+
+    def _read_manifest(self) -> Optional[dict]:
+        """manifest.json as a dict (None if there is none), read again only if the file changed
+        since this object last read it: a long route's manifest takes ~0.3 s to read, and
+        check, begin and release all look at it."""
+        path = self.root / MANIFEST
+        key = _file_key(path)
+        if key is None:
+            return None
+        if key != self._read[0]:
+            self._read = (key, load_json(path))
+        return self._read[1]
 
     @staticmethod
     def same_settings(manifest: Optional[dict], settings: RenderSettings) -> bool:
@@ -232,7 +256,11 @@ class OutputFolder:
             done = self.manifest.frames_complete
         elif resume and self.resumable(plan) is not None:
             kept = self.resumable(plan)   # a frame recorded complete whose files are gone is rendered again
-            done = [d and self._files_exist(kept, k) for k, d in enumerate(self._completed(kept))]
+            try:                          # validated once (a long route's manifest: 0.2 s), not once per frame
+                m = Manifest.from_json(kept, str(self.root / MANIFEST))
+            except ContractError:         # an earlier manifest that does not describe this render
+                m = None
+            done = [d and m is not None and self._files_exist(m, k) for k, d in enumerate(self._completed(kept))]
         else:
             return list(plan.frames)
         return [k for k in plan.frames if not (k < len(done) and done[k])]
@@ -300,7 +328,7 @@ class OutputFolder:
             files = {**self._pose_files(plan, manifest), **(static_files or {})}
             self.checksums.update({rel: hashlib.sha256(data).hexdigest() for rel, data in files.items()})
             self.manifest = manifest
-            self._write_manifest(dead_logs_only=True)
+            self._write_manifest(dead_logs_only=True, on_disk=prev)   # resuming: often what is there
         atomic.write_text(out / SCENE_COPY, plan.scene_text, durable=True)
         for view in plan.views:
             (out / EXR_DIR / view).mkdir(parents=True, exist_ok=True)
@@ -350,8 +378,9 @@ class OutputFolder:
     def _merge_logs(self) -> None:
         """Under the mutex: what the manifest on disk holds now (other chunks may have merged
         theirs) and the logs' completions, into the manifest; own and dead logs removed."""
-        try:
-            on_disk = load_json(self.root / MANIFEST)
+        try:   # the manifest this render wrote last is still there: nothing to take from it
+            on_disk = {} if self._written_key and _file_key(self.root / MANIFEST) == self._written_key \
+                else load_json(self.root / MANIFEST)
             done = on_disk.get("frames_complete") or []
             if on_disk.get("scene_sha256") == self.manifest.scene_sha256 and len(done) == self.manifest.frames:
                 self.manifest.frames_complete = [a or bool(b) for a, b in zip(self.manifest.frames_complete, done)]
@@ -376,23 +405,21 @@ class OutputFolder:
             if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
                 mine[key] = [x if x is not None else y for x, y in zip(a, b)]
 
-    def _write_manifest(self, dead_logs_only: bool) -> None:
+    def _write_manifest(self, dead_logs_only: bool, on_disk: Optional[dict] = None) -> None:
         if self.checksums:
             self.manifest.extra["checksums"] = dict(sorted(self.checksums.items()))
-        self.manifest.write(self.root)
+        self._written_key = _file_key(self.manifest.write(self.root, on_disk=on_disk))
         live = self.locks.live_writers()
         for log in self.state.glob(DONE_LOG_GLOB):
             writer = log.stem.replace("done-", "", 1)
             if writer not in live or (not dead_logs_only and writer == self.locks.writer):
                 log.unlink(missing_ok=True)
 
-    def _files_exist(self, m, k: int) -> bool:
-        """Every file of frame ``k`` that manifest ``m`` (a Manifest, or an earlier one's dict)
-        lists is in the folder."""
+    def _files_exist(self, m: Manifest, k: int) -> bool:
+        """Every file of frame ``k`` that manifest ``m`` lists is in the folder."""
         try:
-            m = m if isinstance(m, Manifest) else Manifest.from_json(m, str(self.root / MANIFEST))
             return all((self.root / rel).is_file() for rel in m.frame_files(k))
-        except (ContractError, IndexError):   # an earlier manifest that does not describe this render
+        except IndexError:   # an earlier manifest that does not describe this render
             return False
 
     @staticmethod

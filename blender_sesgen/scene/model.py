@@ -23,7 +23,7 @@ Mat4 = tuple[tuple[float, float, float, float], ...]  # 4 rows of 4, row-major
 
 
 def mat4(T: np.ndarray) -> Mat4:
-    return tuple(tuple(float(x) for x in row) for row in np.asarray(T, dtype=float))
+    return tuple(map(tuple, np.asarray(T, dtype=float).tolist()))
 
 
 # --- materials and textures -------------------------------------------------------------

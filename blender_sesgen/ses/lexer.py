@@ -85,8 +85,16 @@ def _stray(ch: str, in_string: bool) -> str | None:
     return None
 
 
+_PLAIN_RE = re.compile(r"[\t\x20-\x21\x23-\x7e]*")    # printable ASCII and tabs, no '"': nothing to check
+_WORD_RE = re.compile(r"[^ \t]+")
+
+
 def _tokenize_line(raw: str, lineno: int, diags: Diagnostics) -> list[Token]:
     """The line's tokens; a line with a lexical error yields none (its errors are recorded)."""
+    code = raw.split("//", 1)[0]
+    if _PLAIN_RE.fullmatch(code):   # the common line, at a fraction of the cost: generated cities are long
+        return [Token("number" if NUMBER_RE.fullmatch(m.group()) else "word", m.group(), lineno, m.start() + 1)
+                for m in _WORD_RE.finditer(code)]
     tokens: list[Token] = []
     bad = False
     i, n = 0, len(raw)

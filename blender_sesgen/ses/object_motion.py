@@ -127,9 +127,12 @@ def _motion(obj: model.SceneObject, group: list[tuple[str, ParsedStatement]], fr
 
 
 def _keys(obj, stmts, T_rest, frames, check):
+    poses = [object_pose(p[:3], p[3:] or (0.0, 0.0, 0.0)) for p in (vec(stmt, "position") for stmt in stmts)]
+    # each key's turn from the key before it, all at once (the loop recomputes it after a key it left out)
+    turns = np.degrees(rotation_angle_rad(relative(np.stack([T_rest] + poses[:-1]), np.stack(poses))[..., :3, :3]))
     keys, knots, seen = [], [], {}
-    T_prev, f_prev = T_rest, 0
-    for stmt in stmts:
+    T_prev, f_prev, i_prev = T_rest, 0, -1
+    for i, stmt in enumerate(stmts):
         f = _frame_in(stmt, "frame", 1, frames - 1, frames, check, " (frame 0 is the object's own position)")
         if f is None:
             continue
@@ -142,9 +145,8 @@ def _keys(obj, stmts, T_rest, frames, check):
                            f"list an object's keyframes in increasing frame order")
             continue
         seen[f] = stmt.token.line
-        p = vec(stmt, "position")
-        T = object_pose(p[:3], p[3:] or (0.0, 0.0, 0.0))
-        angle = float(np.degrees(rotation_angle_rad(relative(T_prev, T)[:3, :3])))
+        p, T = vec(stmt, "position"), poses[i]
+        angle = float(turns[i]) if i_prev == i - 1 else float(np.degrees(rotation_angle_rad(relative(T_prev, T)[:3, :3])))
         if angle > MAX_STEP_DEG:
             check.err(stmt.tags["position"].tag, f"object {obj.id} turns by {angle:.1f} degrees between frames "
                                                  f"{f_prev} and {f}: add a keyframe in between (each below "
@@ -152,7 +154,7 @@ def _keys(obj, stmts, T_rest, frames, check):
             continue
         keys.append((float(f), *p[:3], *(p[3:] or (0.0, 0.0, 0.0))))
         knots.append((f, T))
-        T_prev, f_prev = T, f
+        T_prev, f_prev, i_prev = T, f, i
     return dict(keys=tuple(keys)), dynamics.keyed_poses(T_rest, knots, frames)
 
 
