@@ -5,6 +5,9 @@
 Prints the files by CPU seconds (worker + waited-for children) with wall seconds and the worker,
 each worker's busy span, and with ``--base`` the CPU seconds of an earlier run beside them;
 ``--order N`` prints the N costliest files as tests/conftest.py's SLOWEST_FIRST list.
+``--workers W`` adds a model of the schedule: W workers each taking the next whole file when
+free (xdist --dist loadfile), a file taking its CPU seconds; the finish time with xdist's default
+order (most tests first) and with the longest files first.
 """
 from __future__ import annotations
 
@@ -27,12 +30,22 @@ def load(path: str) -> dict[str, dict]:
     return files
 
 
+def makespan(durations: list[float], workers: int) -> float:
+    """When the last of ``durations`` ends, each taken in order by the first worker free."""
+    free = [0.0] * workers
+    for d in durations:
+        i = free.index(min(free))
+        free[i] += d
+    return max(free)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("times")
     ap.add_argument("--base", help="an earlier run's file, shown beside")
     ap.add_argument("--top", type=int, default=40)
     ap.add_argument("--order", type=int, metavar="N", help="print the N costliest files as SLOWEST_FIRST")
+    ap.add_argument("--workers", type=int, metavar="W", help="model the schedule on W workers")
     args = ap.parse_args()
     files = load(args.times)
     if args.order:
@@ -58,6 +71,12 @@ def main() -> None:
         s[2] = max(s[2], r["end"] - t0)
     for worker, (cpu, wall, end) in sorted(spans.items()):
         print(f"worker {worker}: cpu {cpu:.0f} s, busy {wall:.0f} s, last test ended at {end:.0f} s")
+    if args.workers:
+        by_name = [files[path] for path in sorted(files)]   # collection order, then sorted (stable)
+        for label, key in (("most tests first (xdist's default)", lambda r: -r["tests"]),
+                           ("longest first", lambda r: -r["cpu_s"])):
+            print(f"model, {args.workers} workers, {label}: the last file ends at "
+                  f"{makespan([r['cpu_s'] for r in sorted(by_name, key=key)], args.workers):.0f} s")
     total = sum(r["cpu_s"] for r in files.values())
     print(f"all files: {total:.0f} CPU s" + (f" (base {sum(r['cpu_s'] for r in base.values()):.0f})" if base else ""))
 
