@@ -19,14 +19,16 @@ $(STAMP): pyproject.toml
 setup: $(STAMP)
 
 # The whole suite on parallel workers (pytest-xdist; TEST_WORKERS=0 runs it in one process);
-# each test file stays on one worker, so its module fixtures (renders, the Ray cluster) are made once.
+# each test file stays on one worker, so its module fixtures (renders, the Ray cluster) are made once;
+# the files start in collection order, the longest first (tests/conftest.py: SLOWEST_FIRST).
 TEST_WORKERS ?= auto
+XDIST := --dist loadfile --no-loadscope-reorder
 test: $(STAMP)
-	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile
+	$(PY) -m pytest -q -n $(TEST_WORKERS) $(XDIST)
 
 # The pure tier: no Blender render, no long end-to-end run.
 test-fast: $(STAMP)
-	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile -m "not render and not slow"
+	$(PY) -m pytest -q -n $(TEST_WORKERS) $(XDIST) -m "not render and not slow"
 
 # The main job: a photoreal street (3 frames of the scene library's city_kitti.ses, half size) and
 # the SESGen paper room: script -> render (half resolution, the draft preset at 4 denoised samples)

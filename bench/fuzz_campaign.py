@@ -46,51 +46,48 @@ def _worker(conn, name: str, folder: str):
     folder = Path(folder)
     if name in EXPORT_FAULTS:
         trials = ExportTrials(folder)
-        conn.send("ready")
-        while True:
-            job = conn.recv()
-            if job is None:
-                return
-            try:
-                conn.send(trials.run(name, *job))
-            except BaseException as e:  # noqa: BLE001 - a finding
-                conn.send(("finding", _where(e)))
+        return _serve(conn, lambda job: trials.run(name, *job))
     if name == "parser":
         from blender_sesgen.errors import SesgenError
         from blender_sesgen.ses import parse_bytes
         scenes = [p.read_bytes() for p in sorted((REPO / "scenes").glob("*.ses"))]
-        conn.send("ready")
-        while True:
-            job = conn.recv()
-            if job is None:
-                return
+
+        def parse(job):
             index, ops = job
             data = ft.mutate(scenes[index % len(scenes)], ops)
             try:
                 parse_bytes(data, source="fuzz.ses", base_dir=str(REPO / "scenes"))
-                conn.send(("ok", ""))
+                return "ok", ""
             except SesgenError as e:
-                conn.send(("user-error", "") if "\n" not in str(e) else ("finding", f"multi-line error {e!s:.300}"))
-            except BaseException as e:  # noqa: BLE001 - a finding
-                conn.send(("finding", _where(e)))
+                return ("user-error", "") if "\n" not in str(e) else ("finding", f"multi-line error {e!s:.300}")
+        return _serve(conn, parse)
     target = ft.TARGETS[name]
     path, seed = ft.setup_target(target, folder)
+
+    def mutant(job):
+        kind, payload = job
+        if kind == "fault":
+            ft.restore(path, seed)
+            outcome = _fault(target, folder, path, payload)
+            ft.restore(path, seed)
+        else:
+            ops, json_seed = payload
+            outcome = ft.run_mutant(target, folder, path, seed, ops,
+                                    random.Random(json_seed) if json_seed is not None else None)
+        return outcome, ""
+    _serve(conn, mutant)
+
+
+def _serve(conn, answer) -> None:
+    """Answer the driver's jobs until it sends None: ``answer(job)``, or the exception it
+    raised as a finding."""
     conn.send("ready")
     while True:
         job = conn.recv()
         if job is None:
             return
-        kind, payload = job
         try:
-            if kind == "fault":
-                ft.restore(path, seed)
-                outcome = _fault(target, folder, path, payload)
-                ft.restore(path, seed)
-            else:
-                ops, json_seed = payload
-                outcome = ft.run_mutant(target, folder, path, seed, ops,
-                                        random.Random(json_seed) if json_seed is not None else None)
-            conn.send((outcome, ""))
+            conn.send(answer(job))
         except BaseException as e:  # noqa: BLE001 - a finding
             conn.send(("finding", _where(e)))
 

@@ -48,7 +48,7 @@ from vo_reference.io.base import Sequence
 from vo_reference.io.sequence import open_sequence
 from vo_reference.io.trajectory import Trajectory
 from vo_reference.evaluate.realism import sequence_stats
-from vo_reference.stereo.opencv_comparison import sgbm_disparity
+from vo_reference.evaluate.sgbm import sgbm_disparity
 from vo_reference.stereo.pipeline import run_stereo_vo
 from vo_reference.stereo.report import shape_errors
 
@@ -248,7 +248,7 @@ def resensor(out: Path, n: int) -> Frames:
     """Frames 0..n-1 of the render in ``out`` through today's camera chain again (its EXRs,
     each frame's recorded exposure and gain, the scene.ses of the folder parsed with today's
     profiles): the chain runs after Cycles, so a changed profile needs no new render."""
-    from blender_sesgen.render.plan import RenderOptions, RenderSettings
+    from blender_sesgen.render.plan import RenderOptions, EffectiveSettings
     from blender_sesgen.render.sensor import pipeline
     from blender_sesgen.render.sensor.outputs import _rays, state_relpath
     from blender_sesgen.render.sensor.render_plan import SensorPlan
@@ -257,7 +257,7 @@ def resensor(out: Path, n: int) -> Frames:
     seq = open_sequence(out)
     scene = parse_text((out / "scene.ses").read_text(), str(out / "scene.ses"), str(out))
     scale = json.loads((out / "manifest.json").read_text())["render"]["resolution_scale"]
-    plan = SensorPlan.create(scene, RenderSettings.of(scene, RenderOptions(resolution_scale=scale)))
+    plan = SensorPlan.create(scene, EffectiveSettings.of(scene, RenderOptions(resolution_scale=scale)))
     camera = pipeline.Camera(plan.sensor, plan.lens_spec, _rays(plan), plan.K[0, 2], plan.K[1, 2],
                              plan.nominal_exposure_s())
     imgs, fpn = {"left": [], "right": []}, {}

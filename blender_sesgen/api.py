@@ -19,7 +19,7 @@ from typing import Callable, Optional, Sequence
 
 import numpy as np
 
-from .commands.check import summary
+from .scene.summary import summary
 from .contract.progress import Progress
 from .errors import ScriptError, SesgenError
 from .scene.model import (Asset, Cuboid, Cylinder, Fog, Light, Material, Mesh, Motion, Noise, Quad, Rig, Scene, Sphere,

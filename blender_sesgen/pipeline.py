@@ -6,7 +6,7 @@ command line and the add-on render with (they import them from ``plan`` and ``jo
     >>> job.run(progress=lambda i, n, result, elapsed_s: print(f"{i}/{n}"))
 
 What lives where: :mod:`~blender_sesgen.render.plan` decides what to render (RenderPlan,
-RenderOptions, RenderSettings, Device), :mod:`~blender_sesgen.render.folder` owns the output
+RenderOptions, EffectiveSettings, Device), :mod:`~blender_sesgen.render.folder` owns the output
 folder, :mod:`~blender_sesgen.blender.session` the Blender side, :mod:`~blender_sesgen.render.job`
 puts them together. This module only names the public ones.
 """
@@ -14,6 +14,9 @@ from __future__ import annotations
 
 from .contract.timing import FrameSelection
 from .render.job import FrameResult, RenderJob
-from .render.plan import Device, RenderOptions, RenderPlan, RenderSettings
+from .render.plan import Device, EffectiveSettings, RenderOptions, RenderPlan
 
-__all__ = ["Device", "FrameResult", "FrameSelection", "RenderJob", "RenderOptions", "RenderPlan", "RenderSettings"]
+RenderSettings = EffectiveSettings   # its earlier public name, kept for scripts that use it
+
+__all__ = ["Device", "EffectiveSettings", "FrameResult", "FrameSelection", "RenderJob", "RenderOptions", "RenderPlan",
+           "RenderSettings"]

@@ -47,3 +47,56 @@ def layout_render(request, tmp_path_factory) -> Path:
 @pytest.fixture(scope="session")
 def repo() -> Path:
     return REPO
+
+
+# Where the suite's time goes: SESGEN_TEST_TIMES=FILE appends a JSON line as each test file ends
+# (CPU seconds of the worker and of the children it waited for, wall seconds, start and end);
+# tools/test_times.py sums them.
+_TIMES_PATH = os.environ.get("SESGEN_TEST_TIMES")
+
+
+def _cpu_s() -> float:
+    import resource
+    own, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+if _TIMES_PATH:
+    _file: dict = {}
+
+    @pytest.hookimpl(hookwrapper=True)
+    def pytest_runtest_protocol(item, nextitem):
+        import json
+        import time
+        path = item.location[0]
+        if _file.get("file") != path:
+            _file.clear()
+            _file.update(file=path, cpu0=_cpu_s(), start=time.time(), tests=0)
+        yield
+        _file["tests"] += 1
+        if nextitem is None or nextitem.location[0] != path:   # the file's module fixtures are torn down
+            end = time.time()
+            rec = {"file": path, "worker": os.environ.get("PYTEST_XDIST_WORKER", "main"), "tests": _file["tests"],
+                   "cpu_s": _cpu_s() - _file["cpu0"], "wall_s": end - _file["start"], "start": _file["start"],
+                   "end": end}
+            with open(_TIMES_PATH, "a") as f:
+                f.write(json.dumps(rec) + "\n")
+            _file.clear()
+
+
+# The test files that take longest, longest first (CPU seconds of a whole run on the 2-core machine,
+# 6a23fd5; re-measure with SESGEN_TEST_TIMES and `tools/test_times.py --order N`). `make test` hands whole files to whichever worker is free,
+# in collection order (pytest-xdist --dist loadfile --no-loadscope-reorder): these start first,
+# so that the short files fill in at the end instead of one long file running alone on one worker.
+SLOWEST_FIRST = [
+    "test_render_reliability.py", "test_sensor_render.py", "test_study_render.py", "test_addon_blender.py",
+    "test_render_cli.py", "test_render_photoreal.py", "test_render_integrity.py", "test_stereo_dynamic.py",
+    "test_farm_ray.py", "test_culling_render.py", "test_culling.py", "test_ses_property.py",
+    "test_sensor_exports.py", "test_scene_variations.py", "test_quality_presets.py", "test_evaluate_evo.py",
+    "test_mono_pipeline.py", "test_render_oracle.py", "test_check_bounds.py", "test_mono_render.py",
+]
+
+
+def pytest_collection_modifyitems(session, config, items):
+    rank = {name: i for i, name in enumerate(SLOWEST_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))   # stable: the rest keep their order

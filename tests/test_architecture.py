@@ -226,19 +226,9 @@ LAYERS = {
 }
 NEVER = {"vo_reference.groundtruth": ("vo_reference.exporters", "vo_reference.commands")}
 COMMANDS = ("blender_sesgen.commands", "vo_reference.commands")   # imported by nothing but the packages' __main__
-# Edges the layer rules allow by name. A program that runs the command line: the farm's child
-# process runs `sesgen render`. Debts of the move (issue 27: functions not split yet): the
-# façade re-exports `summary`, the text `sesgen check` prints, from commands.check; the
-# export options `background_depth` and `stride` are parsed (lazily) by the ground truth
-# that uses them, with the exporters' `pop_number`. The study's runner renders with the
-# render and farm commands' options and helpers (sigterm_as_interrupt, prepare_scene, ...). The realism statistics (evaluate, below
-# stereo) measure SGBM's valid share with the stereo package's matcher, lazily.
-EXCEPTIONS = {"vo_reference.evaluate.realism": {"vo_reference.stereo.opencv_comparison"},
-              "blender_sesgen.farm.child": {"blender_sesgen.commands.main"},
-              "blender_sesgen.api": {"blender_sesgen.commands.check"},
-              "blender_sesgen.study.runner": {"blender_sesgen.commands"},
-              "vo_reference.groundtruth.dense": {"vo_reference.exporters.driver"},
-              "vo_reference.groundtruth.sparse_points": {"vo_reference.exporters.driver"}}
+# Edges the layer rules allow by name, each with its reason: none. (A program that runs the
+# command line is a command itself: the farm's child is commands.farm_child.)
+EXCEPTIONS: dict[str, set[str]] = {}
 
 
 def within(name: str, prefixes) -> bool:

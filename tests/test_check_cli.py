@@ -53,7 +53,7 @@ def test_minimal_summary():
      "hdri studio, strength 1, rotation 0 deg"),
 ])
 def test_check_labels_the_lighting_the_renderer_uses(statements, lights, world):
-    from blender_sesgen.commands.check import summary
+    from blender_sesgen.scene.summary import summary
     from blender_sesgen.ses import parse_string
     text = "CAMERA resolution 64 48 focal 40\nCUBOID id 1 position 0 0 -5 dim 1 1 1\n" + statements
     lines = {line[:10].strip(): line[10:] for line in summary(parse_string(text, source="s.ses")).splitlines()}

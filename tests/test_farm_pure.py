@@ -134,10 +134,11 @@ def test_scenes_are_prepared_before_ray_with_each_user_error_on_its_scene(tmp_pa
 
 
 def test_cpus_per_task_share_the_machine():
-    assert farm_cli.auto_cpus_per_task(2, 10) == 1          # more chunks than CPUs: one CPU each
-    assert farm_cli.auto_cpus_per_task(16, 3) == 5          # few chunks: no CPU left idle (3 x 5 of 16)
-    assert farm_cli.auto_cpus_per_task(8, 1) == 8
-    assert farm_cli.auto_cpus_per_task(0, 4) == 1
+    from blender_sesgen.farm.work import auto_cpus_per_task
+    assert auto_cpus_per_task(2, 10) == 1          # more chunks than CPUs: one CPU each
+    assert auto_cpus_per_task(16, 3) == 5          # few chunks: no CPU left idle (3 x 5 of 16)
+    assert auto_cpus_per_task(8, 1) == 8
+    assert auto_cpus_per_task(0, 4) == 1
 
 
 # --- one task's subprocess ---------------------------------------------------------------------
@@ -474,7 +475,7 @@ def test_a_sigint_sent_while_the_render_process_starts_stops_it(tmp_path):
     script.write_text((REPO / "scenes" / "minimal.ses").read_text() + "// pad\n" * 200_000)
     old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
-        proc = subprocess.Popen([sys.executable, "-m", "blender_sesgen.farm.child", "check", str(script)], cwd=REPO,
+        proc = subprocess.Popen([sys.executable, "-m", "blender_sesgen.commands.farm_child", "check", str(script)], cwd=REPO,
                                 env={**os.environ, "PYTHONPATH": str(REPO), chunk_mod.PARENT_ENV: str(os.getpid())},
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         os.kill(proc.pid, signal.SIGINT)   # pending: the child has not unblocked it yet

@@ -89,10 +89,10 @@ def test_a_half_size_render_has_the_noise_of_the_sensor_binned_2x2(name):
 
 
 def test_resolution_scale_bins_the_profile_in_the_render_plan():
-    from blender_sesgen.render.plan import RenderOptions, RenderSettings
+    from blender_sesgen.render.plan import RenderOptions, EffectiveSettings
     from blender_sesgen.render.sensor.render_plan import SensorPlan
     sc = scene("SENSOR profile kitti native 256\n")
-    plans = [SensorPlan.create(sc, RenderSettings.of(sc, RenderOptions(resolution_scale=r))) for r in (1.0, 0.5)]
+    plans = [SensorPlan.create(sc, EffectiveSettings.of(sc, RenderOptions(resolution_scale=r))) for r in (1.0, 0.5)]
     assert [p.width for p in plans] == [256, 128]
     assert plans[1].sensor.full_well_e == pytest.approx(4 * plans[0].sensor.full_well_e)
     assert plans[1].lens_spec.defocus_px == pytest.approx(plans[0].lens_spec.defocus_px / 2)

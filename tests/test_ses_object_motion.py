@@ -198,7 +198,7 @@ def test_move_of_a_faulty_object_reports_only_the_object():
 
 
 def test_check_summary_names_the_movers():
-    from blender_sesgen.commands.check import summary
+    from blender_sesgen.scene.summary import summary
     s = parse_string(STILL + BOX + BALL + "MOVE id 2 twist 0.5 0 0 0 0 0\n")
     line = next(ln for ln in summary(s).splitlines() if ln.startswith("moving"))
     assert line.split(None, 1)[1] == "2 (twist, 5)"

@@ -9,8 +9,8 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from ..scene import assets, materials as material_library
-from ..scene.assets import cache as asset_cache
+from ..scene import assets, materials
+from ..scene.assets import cache
 from ..ses.materials import library_material
 from ..contract.frames import object_pose, ses_to_blender_world
 from ..errors import SesgenError
@@ -23,7 +23,7 @@ def library_or_stand_in(name: str) -> Material:
     name (``assets.ASSET_MATERIALS``)."""
     if name in assets.ASSET_MATERIALS:
         return assets.ASSET_MATERIALS[name]
-    if not material_library.is_library_name(name):
+    if not materials.is_library_name(name):
         raise SesgenError(f"asset surface material '{name}' is neither a library material nor an asset material")
     return library_material(name)
 
@@ -78,7 +78,7 @@ def build_asset(o: Asset, collection, surface_material_of, meshes: dict) -> obje
     key = assets.mesh_key(o)
     me = meshes.get(key)
     if me is None:
-        data = asset_cache.generate(o.kind, o.size, o.seed, o.bend, o.offset)   # what an earlier process made
+        data = cache.generate(o.kind, o.size, o.seed, o.bend, o.offset)   # what an earlier process made
         me = mesh_from_triangles(f"{o.kind}_{o.seed}", data.vertices, data.faces, tag)
         for i, s in enumerate(data.surfaces):
             me.materials.append(surface_material_of(s, i))

@@ -1,6 +1,6 @@
 """LIGHT, WORLD and FOG -> Blender lights, world shader and per-material fog.
 
-Worlds (``lighting_data`` holds the numbers):
+Worlds (``lighting`` holds the numbers):
 - ``WORLD colour``: a uniform background;
 - ``WORLD sky``: Blender's physical sky (multiple scattering, 5.0) *without* its sun disc,
   plus a sun lamp of the disc's direction, colour and measured irradiance (a lamp is
@@ -10,7 +10,7 @@ Worlds (``lighting_data`` holds the numbers):
   ``bpy.utils.system_resource``, or the user's .exr/.hdr), turned about the vertical.
 
 Default lighting (a script with neither LIGHT nor WORLD, e.g. every SESGen script): a
-clear-sky day (``lighting_data.DEFAULT_SKY``: sky + sun), plus, when the rig starts inside
+clear-sky day (``lighting.DEFAULT_SKY``: sky + sun), plus, when the rig starts inside
 a closed space (rays from START hit geometry in >= 90 % of directions), a ceiling light:
 a downward area light just under whatever is above START (or a point light at START when
 nothing is), of power giving ~1.5 W/m^2 at half the scene's extent. No ambient term: every
@@ -28,7 +28,7 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from ..scene import lighting as lighting_data
+from ..scene import lighting
 from ..contract.frames import R_BLENDER_SES
 from ..errors import SesgenError
 from ..scene.model import Fog, Light, Scene, World
@@ -57,7 +57,7 @@ def add_light(bscene, collection, light: Light, name: str):
     data.color = light.colour
     data.energy = float(light.strength)
     if light.kind == "sun":
-        data.angle = math.radians(lighting_data.SUN_ANGLE_DEG)
+        data.angle = math.radians(lighting.SUN_ANGLE_DEG)
     elif light.kind in ("point", "spot"):
         data.shadow_soft_size = float(light.size)
         if light.kind == "spot":
@@ -89,7 +89,7 @@ def scene_lights(scene: Scene, bscene, file_lamps: bool = False) -> list[Light]:
     lights = list(scene.lights)
     world = effective_world(scene, file_lamps)
     if world.kind == "sky" and _sky_without_disc():
-        sun = lighting_data.sky_sun_light(world)
+        sun = lighting.sky_sun_light(world)
         if sun is not None:
             lights.append(sun)
     if not scene.lights and not file_lamps and scene.world is None:
@@ -100,7 +100,7 @@ def scene_lights(scene: Scene, bscene, file_lamps: bool = False) -> list[Light]:
 def effective_world(scene: Scene, file_lamps: bool = False) -> World:
     """The script's WORLD; without one, the default sky (no LIGHT either) or, for a script
     with its own LIGHTs (or a BLEND file's lamps), the soft uniform ``LIGHTS_ONLY_WORLD``."""
-    return lighting_data.effective_world(scene.world, bool(scene.lights) or file_lamps)
+    return lighting.effective_world(scene.world, bool(scene.lights) or file_lamps)
 
 
 def _start_position(scene: Scene) -> np.ndarray:
@@ -114,14 +114,14 @@ def _enclosure_lights(scene: Scene, bscene) -> list[Light]:
     start = _start_position(scene)
     origin = ses_vec_to_blender(start)
     hits = 0
-    dirs = lighting_data.fibonacci_directions(64)
+    dirs = lighting.fibonacci_directions(64)
     for d in dirs:
         hit = bscene.ray_cast(depsgraph, origin, ses_vec_to_blender(d), distance=1e6)
         hits += bool(hit[0])
-    if hits < lighting_data.ENCLOSED_HIT_FRACTION * len(dirs):
+    if hits < lighting.ENCLOSED_HIT_FRACTION * len(dirs):
         return []
     half_extent = max(scene_extent(scene) / 2.0, 0.5)
-    power = 4.0 * math.pi * half_extent**2 * lighting_data.DEFAULT_FILL_IRRADIANCE
+    power = 4.0 * math.pi * half_extent**2 * lighting.DEFAULT_FILL_IRRADIANCE
     up = bscene.ray_cast(depsgraph, origin, ses_vec_to_blender((0.0, 1.0, 0.0)), distance=1e6)
     if up[0] and up[1].z - origin.z > 0.3:
         height = (up[1].z - origin.z) - 0.05
@@ -188,7 +188,7 @@ def build_world(bscene, w: World, fog: Fog | None, name: str, tag=lambda x: x):
     nt.nodes.clear()
     out = nt.nodes.new("ShaderNodeOutputWorld")
     bg = nt.nodes.new("ShaderNodeBackground")
-    bg.inputs["Strength"].default_value = float(w.strength) / (lighting_data.SKY_EXPOSURE if w.kind == "sky" else 1.0)
+    bg.inputs["Strength"].default_value = float(w.strength) / (lighting.SKY_EXPOSURE if w.kind == "sky" else 1.0)
     if w.kind == "sky":
         sky = nt.nodes.new("ShaderNodeTexSky")
         sky.sky_type = compat.sky_type_for()

@@ -64,10 +64,10 @@ class BlenderSession:
         if self.culling is not None:     # meshes shared in the full scene stay instanced (exact depth)
             from collections import Counter
 
-            from ..scene import assets as asset_kinds
+            from ..scene.assets import mesh_key
             from ..scene.model import Asset
             from .assets import keep_instanced
-            full = Counter(asset_kinds.mesh_key(o) for o in plan.scene.objects if isinstance(o, Asset))
+            full = Counter(mesh_key(o) for o in plan.scene.objects if isinstance(o, Asset))
             keep_instanced(self.built, scene.objects, full)
         gpu = s.device is Device.GPU
         self.gpu = render.enable_gpu() if gpu else None

@@ -9,15 +9,12 @@ a folder holding something else: if every scene that failed failed for such a re
 from __future__ import annotations
 
 import argparse
-import contextlib
-import signal
 import sys
-import threading
 from pathlib import Path
 
 from ..contract.cli import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, EXIT_USER_ERROR
 from ..contract.progress import add_progress_argument, progress_mode
-from ..errors import ScriptError, SesgenError
+from ..errors import SesgenError
 
 # render options the farm sets itself (per chunk) or that make no sense for a farm
 CONTROLLED = {"scene", "out", "frames", "resume", "force", "contact_sheet", "progress", "quiet", "verbose",
@@ -29,10 +26,10 @@ DEFAULT_RETRIES = 3
 def render_actions() -> list[argparse.Action]:
     """The render command's options a farm passes on to every chunk (``--quality``,
     ``--samples``, ``--denoise``, ``--seed``, ``--resolution-scale``, ``--device``, ...):
-    declared once, by the render command (``render_cli.add_arguments``), so that a new render
+    declared once, by the render command (``render.add_arguments``), so that a new render
     option is a farm option too."""
-    from . import render as render_cli
-    return render_cli.add_arguments(argparse.ArgumentParser(add_help=False), forwarded_only=True)
+    from . import render
+    return render.add_arguments(argparse.ArgumentParser(add_help=False), forwarded_only=True)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -56,26 +53,26 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="GPUs each task reserves (fractions share a GPU); > 0 renders with --device gpu")
     p.add_argument("--num-cpus", type=int, metavar="N", help="local Ray only: the CPUs it may use (default all)")
     add_progress_argument(p)
-    from . import render as render_cli
-    render_cli.add_arguments(p.add_argument_group("render options", "as for `render`, for every scene"),
+    from . import render
+    render.add_arguments(p.add_argument_group("render options", "as for `render`, for every scene"),
                              forwarded_only=True)
 
 
 def forwarded_argv(args: argparse.Namespace) -> list[str]:
     """The render options given on the farm's command line, as render arguments."""
-    from . import render as render_cli
-    return render_cli.render_argv(render_options(args))
+    from ..render.plan import render_argv
+    return render_argv(render_options(args))
 
 
 def render_options(args: argparse.Namespace):
     """The RenderOptions every chunk renders with (the render command's reading of them)."""
-    from . import render as render_cli
-    return render_cli.forwarded_options(args)
+    from . import render
+    return render.forwarded_options(args)
 
 
 def prepare(args: argparse.Namespace) -> tuple[Path, list]:
     """ROOT and the farm's scenes, each with its plan and pending frames or its user error."""
-    from ..farm.work import FarmScene, find_scripts, unique_names
+    from ..farm.work import FarmScene, find_scripts, prepare_scene, unique_names
     root = Path(args.out).absolute()
     if root.exists() and not root.is_dir():
         raise SesgenError(f"--out {args.out}: exists and is not a folder")
@@ -88,31 +85,6 @@ def prepare(args: argparse.Namespace) -> tuple[Path, list]:
     scenes = [prepare_scene(FarmScene(name=name, script=script, out=root / name, meta=meta), options)
               for (script, meta), name in zip(found, unique_names(s for s, _ in found))]
     return root, scenes
-
-
-def prepare_scene(sc, options):
-    """``sc`` (a FarmScene) with its plan and pending frames, or its user error line."""
-    from ..render.folder import OutputFolder
-    from ..render.plan import RenderPlan
-    from ..farm.work import folder_problem
-    if folder_problem(sc.name):
-        sc.error = f"{sc.script}: error: {folder_problem(sc.name)}; rename the script"
-        return sc
-    try:
-        sc.plan = RenderPlan.from_file(sc.script, options)
-        folder = OutputFolder(sc.out)
-        folder.check(sc.plan, force=False)
-        if options.reuse_exr:
-            from ..render.reuse import check_reusable
-            check_reusable(sc.plan, options.reuse_exr)
-        sc.pending = folder.pending(sc.plan, resume=True)
-    except ScriptError as e:
-        sc.error = str(e)
-    except SesgenError as e:
-        sc.error = f"{sc.script}: error: {e}" if not str(e).startswith(str(sc.script)) else str(e)
-        if "--force" in sc.error:   # render's advice; a farm has no --force (chunks would undo each other)
-            sc.error += f" (farm: remove {sc.out} or render into another --out)"
-    return sc
 
 
 def run(args: argparse.Namespace) -> int:
@@ -139,7 +111,8 @@ def run(args: argparse.Namespace) -> int:
     from ..files.dataset import write_render_index
     from ..farm.cluster import Cluster
     from ..farm.driver import Farm
-    from ..farm.work import frame_ranges
+    from ..farm.work import auto_cpus_per_task, frame_ranges
+    from ..render.interrupt import sigterm_as_interrupt
     cluster = Cluster(args.address, num_cpus=args.num_cpus).start()
     try:
         if args.address is not None:
@@ -172,30 +145,6 @@ def run(args: argparse.Namespace) -> int:
         cluster.stop()
     write_render_index(root, result.states)
     return report(root, result, quiet)
-
-
-@contextlib.contextmanager
-def sigterm_as_interrupt():
-    """SIGTERM stops the farm like Ctrl-C: every render stops between views (main thread)."""
-    def handler(signum, frame):
-        raise KeyboardInterrupt
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    saved = signal.signal(signal.SIGTERM, handler)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, saved)
-
-
-def auto_cpus_per_task(cpus: float, n_chunks: int) -> float:
-    """The cluster's CPUs shared among the chunks: 1 each when there are at least as many
-    chunks as CPUs (one single-threaded Cycles per CPU: the least overhead per frame), more
-    when there are fewer, so that no CPU idles while the chunks run."""
-    if n_chunks <= 0 or cpus <= 0:
-        return 1.0
-    return float(max(1, int(cpus // min(cpus, n_chunks))))
 
 
 def report(root: Path, result, quiet: bool) -> int:

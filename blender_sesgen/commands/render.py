@@ -106,32 +106,6 @@ def render_options(args: argparse.Namespace) -> RenderOptions:
                                reuse_exr=args.reuse_exr)
 
 
-def render_argv(o: RenderOptions) -> list[str]:
-    """The render arguments that give the forwarded options of ``o`` (the inverse of
-    :func:`forwarded_options`; options at their default are left out): what a farm adds to
-    every chunk's render command."""
-    out = []
-    for flag, value in (("--quality", o.quality), ("--samples", o.samples)):
-        if value is not None:
-            out += [flag, str(value)]
-    if o.denoise is not None:
-        out.append("--denoise" if o.denoise else "--no-denoise")
-    if o.seed is not None:
-        out += ["--seed", str(o.seed)]
-    if o.resolution_scale != 1.0:
-        out += ["--resolution-scale", str(o.resolution_scale)]
-    if o.device is not Device.CPU:
-        out += ["--device", o.device.value]
-    out += [flag for flag, on in (("--plain-pipeline", not o.fast_pipeline), ("--normal-pass", o.normal_pass),
-                                  ("--position-pass", o.position_pass), ("--cull", o.cull)) if on]
-    for flag, value in (("--rate", o.rate_hz), ("--exposure", o.exposure_s), ("--readout", o.readout_s)):
-        if value is not None:
-            out += [flag, str(value)]
-    if o.motion_blur is not None:
-        out.append("--motion-blur" if o.motion_blur else "--no-motion-blur")
-    return out
-
-
 def run(args: argparse.Namespace) -> int:
     from ..render.job import RenderJob, frame_progress, have_bpy
     t_start = time.perf_counter()

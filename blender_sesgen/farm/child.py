@@ -1,5 +1,5 @@
-"""``python -m blender_sesgen.farm.child render ...``: the render command, bound to the life
-of the process that started it (a farm task in a Ray worker).
+"""A child process bound to the life of the process that started it (a farm task's render,
+run by ``python -m blender_sesgen.commands.farm_child render ...``; a study's VO runs).
 
 When a Ray worker dies (killed, out of memory, its node lost) the render it started must
 die with it: an orphaned render would keep its lock on the frames and render them again
@@ -7,7 +7,7 @@ beside the retried task. On Linux the kernel sends SIGKILL when the parent goes
 (``PR_SET_PDEATHSIG``); elsewhere a thread polls the parent once a second. A render killed
 that way leaves a folder that ``--resume`` completes (every frame is written atomically).
 
-It also gives the render back its Ctrl-C: a Ray worker blocks SIGINT, and a child inherits
+It also gives the child back its Ctrl-C: a Ray worker blocks SIGINT, and a child inherits
 the blocked signal, so a cancelled task's SIGINT would never arrive; here SIGINT and SIGTERM
 are unblocked and back to Python's defaults, and the render stops between views as usual.
 """
@@ -60,19 +60,3 @@ def restore_interrupts() -> None:
     if hasattr(signal, "pthread_sigmask"):
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
 
-
-def main(argv=None) -> int:
-    from ..contract.cli import EXIT_INTERRUPTED
-    try:
-        parent = os.environ.get(PARENT_ENV)
-        bind_to_parent(int(parent) if parent else os.getppid())
-        restore_interrupts()
-        from ..commands.main import main as cli_main
-    except KeyboardInterrupt:   # interrupted before the command began: nothing was written
-        print("interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    return cli_main(sys.argv[1:] if argv is None else argv)
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -114,7 +114,7 @@ def task(args: list[str], key: str, out: str, inbox=None, scene: Optional[str] =
         def report(msg: dict) -> None:
             inbox.put.remote(msg)
     with _cancellable():
-        return run_chunk([sys.executable, "-m", "blender_sesgen.farm.child", *args], key, out, report)
+        return run_chunk([sys.executable, "-m", "blender_sesgen.commands.farm_child", *args], key, out, report)
 
 
 @contextlib.contextmanager

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Iterable, Optional, Sequence
 
 from ..files.dataset import read_index
-from ..errors import SesgenError
+from ..errors import ScriptError, SesgenError
 
 SCRIPT_SUFFIX = ".ses"
 ERROR_TAIL = 20                      # non-event output lines a task keeps for its report
@@ -118,9 +118,42 @@ def frame_ranges(frames: Iterable[int], size: int) -> list[tuple[int, int]]:
     return out
 
 
+def auto_cpus_per_task(cpus: float, n_chunks: int) -> float:
+    """The cluster's CPUs shared among the chunks: 1 each when there are at least as many
+    chunks as CPUs (one single-threaded Cycles per CPU: the least overhead per frame), more
+    when there are fewer, so that no CPU idles while the chunks run."""
+    if n_chunks <= 0 or cpus <= 0:
+        return 1.0
+    return float(max(1, int(cpus // min(cpus, n_chunks))))
+
+
+def prepare_scene(sc, options):
+    """``sc`` (a FarmScene) with its plan and pending frames, or its user error line."""
+    from ..render.folder import OutputFolder
+    from ..render.plan import RenderPlan
+    if folder_problem(sc.name):
+        sc.error = f"{sc.script}: error: {folder_problem(sc.name)}; rename the script"
+        return sc
+    try:
+        sc.plan = RenderPlan.from_file(sc.script, options)
+        folder = OutputFolder(sc.out)
+        folder.check(sc.plan, force=False)
+        if options.reuse_exr:
+            from ..render.reuse import check_reusable
+            check_reusable(sc.plan, options.reuse_exr)
+        sc.pending = folder.pending(sc.plan, resume=True)
+    except ScriptError as e:
+        sc.error = str(e)
+    except SesgenError as e:
+        sc.error = f"{sc.script}: error: {e}" if not str(e).startswith(str(sc.script)) else str(e)
+        if "--force" in sc.error:   # render's advice; a farm has no --force (chunks would undo each other)
+            sc.error += f" (farm: remove {sc.out} or render into another --out)"
+    return sc
+
+
 def render_args(scene: FarmScene, a: int, b: int, threads: int, forwarded: Sequence[str]) -> list[str]:
     """The render command's arguments for frames ``a:b`` of ``scene`` (the task runs them as
-    ``python -m blender_sesgen.farm.child render ...`` with its own node's Python)."""
+    ``python -m blender_sesgen.commands.farm_child render ...`` with its own node's Python)."""
     return ["render", str(scene.script), "--out", str(scene.out), "--frames", f"{a}:{b}", "--resume",
             "--progress", "json", "--threads", str(int(threads)), *forwarded, *scene.args]
 

@@ -44,7 +44,7 @@ from ..errors import SesgenError
 from ..files.image_check import ImageFileError, check_image_bytes
 from ..files.exr import ExrError, check_complete, decode, read_layout, strip_volatile_attributes
 from .locks import FolderLocks
-from .plan import RenderPlan, RenderSettings
+from .plan import RenderPlan, EffectiveSettings
 
 _OWN_EXR = re.compile(r"^\d{6}\.exr$")
 _OWN_PNG = re.compile(r"^\d{6}\.png$")
@@ -178,13 +178,13 @@ class OutputFolder:
         return self._read[1]
 
     @staticmethod
-    def same_settings(manifest: Optional[dict], settings: RenderSettings) -> bool:
+    def same_settings(manifest: Optional[dict], settings: EffectiveSettings) -> bool:
         """True when ``manifest``'s frames were rendered with the pixel-affecting ``settings``
         (``contract.pixel_settings``: device aside, the same output is expected on any device)."""
         return bool(manifest) and PixelSettings.from_manifest(manifest) == settings.pixel
 
     @staticmethod
-    def settings_key(settings: RenderSettings) -> str:
+    def settings_key(settings: EffectiveSettings) -> str:
         """The pixel-affecting settings as one string (what the locks compare)."""
         return settings.pixel.key()
 

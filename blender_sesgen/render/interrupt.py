@@ -5,7 +5,8 @@ raised in such a callback is printed and swallowed by Blender, and the render ca
 So, for the length of a render, SIGINT (and SIGTERM) only *record* the request; the render
 loop asks :attr:`StopRequest.requested` between views and stops cleanly there: the frame in
 progress is dropped (its temporary files removed), every completed frame stays, the folder
-is resumable, and the command exits 130.
+is resumable, and the command exits 130. Around a farm or a study (renders in child processes),
+:func:`sigterm_as_interrupt` makes SIGTERM a Ctrl-C.
 """
 from __future__ import annotations
 
@@ -40,3 +41,18 @@ def deferred_interrupts():
     finally:
         for s, handler in saved.items():
             signal.signal(s, handler)
+
+
+@contextlib.contextmanager
+def sigterm_as_interrupt():
+    """SIGTERM stops a farm or a study like Ctrl-C: every render stops between views (main thread)."""
+    def handler(signum, frame):
+        raise KeyboardInterrupt
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    saved = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, saved)

@@ -1,7 +1,7 @@
 """What to render, decided and validated once (pure: no bpy, writes nothing).
 
 A :class:`RenderPlan` holds the parsed scene, its script text and hash, the effective
-:class:`RenderSettings` (script values overridden by :class:`RenderOptions`), the frames
+:class:`EffectiveSettings` (script values overridden by :class:`RenderOptions`), the frames
 asked for and the per-view camera poses. Everything a user can get wrong is checked here,
 before any file exists: the script, the options, and the limits Blender would otherwise
 apply silently (image sizes, ids, files that must exist).
@@ -99,9 +99,36 @@ class RenderOptions:
                 raise SesgenError(str(e)) from None
 
 
+def render_argv(o: RenderOptions) -> list[str]:
+    """The render arguments that give the forwarded options of ``o`` (the inverse of
+    ``commands.render.forwarded_options``; options at their default are left out): what a farm adds to
+    every chunk's render command, what a study renders with."""
+    out = []
+    for flag, value in (("--quality", o.quality), ("--samples", o.samples)):
+        if value is not None:
+            out += [flag, str(value)]
+    if o.denoise is not None:
+        out.append("--denoise" if o.denoise else "--no-denoise")
+    if o.seed is not None:
+        out += ["--seed", str(o.seed)]
+    if o.resolution_scale != 1.0:
+        out += ["--resolution-scale", str(o.resolution_scale)]
+    if o.device is not Device.CPU:
+        out += ["--device", o.device.value]
+    out += [flag for flag, on in (("--plain-pipeline", not o.fast_pipeline), ("--normal-pass", o.normal_pass),
+                                  ("--position-pass", o.position_pass), ("--cull", o.cull)) if on]
+    for flag, value in (("--rate", o.rate_hz), ("--exposure", o.exposure_s), ("--readout", o.readout_s)):
+        if value is not None:
+            out += [flag, str(value)]
+    if o.motion_blur is not None:
+        out.append("--motion-blur" if o.motion_blur else "--no-motion-blur")
+    return out
+
+
 @dataclass(frozen=True)
-class RenderSettings:
-    """The settings actually used: what the manifest records; :attr:`pixel` is what resume
+class EffectiveSettings:
+    """The settings a render runs with: the script's RENDER statement (``scene.model.RenderSettings``)
+    and the rest of the script, overridden by the :class:`RenderOptions`; what the manifest records; :attr:`pixel` is what resume
     and the folder lock compare. ``preset``: the effective sampling and light-path settings
     (``presets.Preset``); ``timing``: the manifest's timing values (None without one: set
     by :class:`RenderPlan` from its sensor plan)."""
@@ -118,7 +145,7 @@ class RenderSettings:
     cull: bool = False
 
     @classmethod
-    def of(cls, scene: Scene, options: RenderOptions) -> "RenderSettings":
+    def of(cls, scene: Scene, options: RenderOptions) -> "EffectiveSettings":
         rig = scene.rig
         s = float(options.resolution_scale)
         if not (s > 0.0 and np.isfinite(s)):
@@ -213,7 +240,7 @@ class RenderPlan:
     scene: Scene
     scene_text: str
     options: RenderOptions
-    settings: RenderSettings
+    settings: EffectiveSettings
     frames: tuple[int, ...]
     scene_sha256: str = field(default="")
 
@@ -241,7 +268,7 @@ class RenderPlan:
         """A plan for a Scene built in Python (``scene_text``: its script, if it has one)."""
         text = scene_text if scene_text is not None else scene_text_for(scene)
         validate_scene(scene)
-        settings = RenderSettings.of(scene, options)
+        settings = EffectiveSettings.of(scene, options)
         N = scene.frames
         try:
             frames = tuple((options.frames or FrameSelection()).resolve(N))
@@ -343,7 +370,7 @@ def generator_version() -> str:
         return str(tomllib.load(f)["version"])
 
 
-def _sensor_plan(scene: Scene, settings: RenderSettings, o: RenderOptions):
+def _sensor_plan(scene: Scene, settings: EffectiveSettings, o: RenderOptions):
     from .sensor.render_plan import SensorPlan, TimingOverrides
     return SensorPlan.create(scene, settings, TimingOverrides(o.rate_hz, o.exposure_s, o.readout_s, o.motion_blur))
 

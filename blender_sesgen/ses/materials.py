@@ -12,7 +12,8 @@ from __future__ import annotations
 import os
 from typing import Optional
 
-from ..scene import materials as material_library, model
+from ..scene import model
+from ..scene.materials import LIBRARY, OVERRIDES, entry, is_library_name
 from ..files.image_check import ImageFileError, check_image
 from ..scene.textures import BUILTIN_TEXTURES, NAME_TO_NUMBER
 from .checks import Checks, scalar, vec
@@ -88,30 +89,30 @@ def _library(stmt: ParsedStatement, check: Checks) -> Optional[model.LibraryPara
     """``library L`` and its tags (None if absent or wrong: then with an error)."""
     tv = stmt.tags["library"]
     name = str(tv.values[0])
-    if not material_library.is_library_name(name):
+    if not is_library_name(name):
         check.err(tv.tokens[0], f"MATERIAL 'library' '{name}' is not a library material"
-                                f"{did_you_mean(name, material_library.LIBRARY)} "
-                                f"(library: {', '.join(material_library.LIBRARY)})")
+                                f"{did_you_mean(name, LIBRARY)} "
+                                f"(library: {', '.join(LIBRARY)})")
         return None
     for tag in ("texture", "specular", "emission", "emission_strength", "albedo_map", "normal_map",
                 "roughness_map", "map_size"):
         if tag in stmt.tags:
             check.err(stmt.tags[tag].tag, f"MATERIAL '{tag}' cannot be combined with 'library' "
-                                          f"(a library material takes {', '.join(material_library.OVERRIDES)})")
+                                          f"(a library material takes {', '.join(OVERRIDES)})")
             return None
-    entry = material_library.entry(name)
+    lib = entry(name)
     return model.LibraryParams(
-        name=entry.name, scale=float(scalar(stmt, "texture_scale", 1.0)),
-        wear=float(scalar(stmt, "wear", entry.wear)), bump=float(scalar(stmt, "bump", 1.0)),
-        variation=float(scalar(stmt, "variation", entry.variation)), seed=int(scalar(stmt, "seed", 0)))
+        name=lib.name, scale=float(scalar(stmt, "texture_scale", 1.0)),
+        wear=float(scalar(stmt, "wear", lib.wear)), bump=float(scalar(stmt, "bump", 1.0)),
+        variation=float(scalar(stmt, "variation", lib.variation)), seed=int(scalar(stmt, "seed", 0)))
 
 
 def library_material(name: str) -> model.Material:
     """The material an object gets from ``material NAME`` when NAME is a library entry and
     no MATERIAL defines it: the entry with its documented defaults."""
-    entry = material_library.entry(name)
-    return model.Material(name=name, colour=entry.colour, roughness=entry.roughness, metallic=entry.metallic,
-                          library=model.LibraryParams(name=entry.name, wear=entry.wear, variation=entry.variation))
+    lib = entry(name)
+    return model.Material(name=name, colour=lib.colour, roughness=lib.roughness, metallic=lib.metallic,
+                          library=model.LibraryParams(name=lib.name, wear=lib.wear, variation=lib.variation))
 
 
 def materials(statements: list[ParsedStatement], check: Checks) -> dict[str, model.Material]:
@@ -154,11 +155,11 @@ def materials(statements: list[ParsedStatement], check: Checks) -> dict[str, mod
         tex = None if library is not None else texture(stmt, check)
         if len(check.diags.items) != before:
             continue
-        entry = material_library.entry(library.name) if library is not None else None
+        lib = entry(library.name) if library is not None else None
         found[name] = model.Material(
-            name=name, colour=vec(stmt, "colour", entry.colour if entry else (0.8, 0.8, 0.8)), texture=tex,
-            roughness=float(scalar(stmt, "roughness", entry.roughness if entry else 0.5)),
-            metallic=float(scalar(stmt, "metallic", entry.metallic if entry else 0.0)),
+            name=name, colour=vec(stmt, "colour", lib.colour if lib else (0.8, 0.8, 0.8)), texture=tex,
+            roughness=float(scalar(stmt, "roughness", lib.roughness if lib else 0.5)),
+            metallic=float(scalar(stmt, "metallic", lib.metallic if lib else 0.0)),
             specular=float(scalar(stmt, "specular", 0.5)),
             emission=vec(stmt, "emission", (0.0, 0.0, 0.0)),
             emission_strength=float(scalar(stmt, "emission_strength", 0.0)),

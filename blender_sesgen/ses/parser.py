@@ -33,7 +33,7 @@ from .lexer import decode, tokenize
 from .materials import library_material, materials, texture
 from .mesh_content import content_problems
 from .mesh_files import reference_problems
-from ..scene import materials as material_library
+from ..scene.materials import LIBRARY, entry, is_library_name
 from ..contract import semantics
 from .motion import rig_motion
 from .object_motion import object_motions
@@ -158,7 +158,7 @@ def _with_class(o: model.SceneObject, materials: dict[str, model.Material]) -> m
         return dataclasses.replace(o, semantic_class=semantics.object_class(
             o.semantic_class, assets.KINDS[o.kind].semantic_class))
     m = materials.get(o.material) if o.material else None
-    from_material = material_library.entry(m.library.name).semantic_class if m and m.library else None
+    from_material = entry(m.library.name).semantic_class if m and m.library else None
     return dataclasses.replace(o, semantic_class=semantics.object_class(o.semantic_class, from_material))
 
 
@@ -202,13 +202,13 @@ class _Objects:
                 names[name] = stmt
             check.unit_range(stmt, "colour")
             material = stmt.get("material")
-            if material is not None and material not in defined and not material_library.is_library_name(material):
+            if material is not None and material not in defined and not is_library_name(material):
                 tok = stmt.tags["material"].tokens[0]
                 known = f"defined: {', '.join(defined)}; " if defined else "no MATERIAL is defined; "
-                candidates = [*defined, *material_library.LIBRARY]
+                candidates = [*defined, *LIBRARY]
                 check.err(tok, f"{stmt.keyword} 'material' '{material}' is not defined and is not a library "
                                f"material{did_you_mean(material, candidates)} "
-                               f"({known}library: {', '.join(material_library.LIBRARY)})")
+                               f"({known}library: {', '.join(LIBRARY)})")
             common = dict(id=obj_id, name=name, colour=vec(stmt, "colour", (1.0, 1.0, 1.0)),
                           texture=texture(stmt, check), material=material,
                           semantic_class=self._class(stmt), line=stmt.token.line)

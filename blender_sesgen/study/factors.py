@@ -26,7 +26,7 @@ from typing import Any, Callable, Optional
 
 import numpy as np
 
-from ..scene import materials as material_library
+from ..scene import materials
 from ..contract.camera import scaled_K, scaled_size
 from ..contract.timing import DEFAULT_FPS
 from ..errors import SesgenError
@@ -316,7 +316,7 @@ def _texture_richness(s: Script, level, e: Edit) -> None:
     script_materials = {m.name.lower(): m for m in scene.materials}
     textured = [("object", o.id) for o in scene.objects if o.texture is not None]
     sources = sorted([("material", n) for n in script_materials]
-                     + [("library", n) for n in material_library.LIBRARY if n not in script_materials]
+                     + [("library", n) for n in materials.LIBRARY if n not in script_materials]
                      + textured, key=str)
     rng = np.random.default_rng([int(e.options["seed"]), int(e.seed), 0x7E27])
     order = [sources[i] for i in rng.permutation(len(sources))]
@@ -328,7 +328,7 @@ def _texture_richness(s: Script, level, e: Edit) -> None:
     lines = []
     for kind, name in sorted(plain):
         if kind == "library":
-            entry = material_library.LIBRARY[name]
+            entry = materials.LIBRARY[name]
             lines.append(statement_line("MATERIAL", [("name", [name]), ("colour", entry.colour),
                                                      ("roughness", [entry.roughness]),
                                                      ("metallic", [entry.metallic])]))

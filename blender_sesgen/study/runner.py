@@ -24,7 +24,6 @@ only new trajectories are evaluated. A changed study file reuses whatever is sti
 """
 from __future__ import annotations
 
-import argparse
 import hashlib
 import json
 import signal
@@ -41,7 +40,7 @@ from ..contract.cli import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK
 from ..contract.progress import Progress
 from ..errors import SesgenError
 from .spec import Study, StudyError
-from .variants import Plan, make_plan
+from .variants import Plan, make_plan, render_options
 
 MARKER = "plan.json"
 
@@ -84,13 +83,6 @@ def check_folder(out: Path, study_file: Optional[Path] = None) -> None:
     if out.is_dir() and any(p.resolve() not in own for p in out.iterdir()) and not (out / MARKER).is_file():
         raise SesgenError(f"--out {out}: a folder that holds something else than a study (no {MARKER}); "
                          "choose a new or empty folder")
-
-
-def render_options(args: list[str]):
-    from ..commands import render as render_cli
-    p = argparse.ArgumentParser(add_help=False)
-    render_cli.add_arguments(p)
-    return render_cli.render_options(p.parse_args(["SCENE", "--out", "OUT", *args]))
 
 
 class StudyRun:
@@ -147,7 +139,7 @@ class StudyRun:
                               "or stop it (it resumes when run again)") from None
 
     def run(self) -> int:
-        from ..commands.farm import sigterm_as_interrupt
+        from ..render.interrupt import sigterm_as_interrupt
         with sigterm_as_interrupt():     # SIGTERM stops a study as Ctrl-C does: consistent, resumable
             return self._run()
 
@@ -183,9 +175,8 @@ class StudyRun:
 
     # --- renders --------------------------------------------------------------------------------
     def _farm(self, cluster, scenes: list, chunk: int, developed: bool = False):
-        from ..commands.farm import auto_cpus_per_task
         from ..farm.driver import Farm
-        from ..farm.work import frame_ranges
+        from ..farm.work import auto_cpus_per_task, frame_ranges
         good = [sc for sc in scenes if sc.error is None]
         for sc in scenes:
             if sc.error is not None:
@@ -208,14 +199,13 @@ class StudyRun:
             self.failures.append(f"render {st.scene.name}: {st.failed}")
 
     def _scene(self, key: str, options, args=()):
-        from ..commands.farm import prepare_scene
-        from ..farm.work import FarmScene
+        from ..farm.work import FarmScene, prepare_scene
         sc = FarmScene(name=key, script=self.out / "scripts" / f"{key}.ses", out=self.out / "renders" / key,
                        args=list(args))
         return prepare_scene(sc, options)
 
     def render(self, cluster, plan: Plan) -> None:
-        options = render_options(plan.render_args)
+        options = render_options(self.study)
         scenes = [self._scene(k, options, plan.render_args) for k in plan.renders]
         todo = sum(len(sc.pending) for sc in scenes if sc.error is None)
         self.say(f"study: renders: {len(scenes)} ({todo} frame(s) to render, the rest done)")
@@ -224,7 +214,7 @@ class StudyRun:
     def develop(self, cluster, plan: Plan) -> None:
         if not plan.develops:
             return
-        options = render_options(plan.render_args)
+        options = render_options(self.study)
         scenes = []
         for key, (_, base) in plan.develops.items():
             if base in self.render_failed:

@@ -93,12 +93,16 @@ class Plan:
                 "render_args": self.render_args}
 
 
+def render_options(study: Study):
+    """What every render of the study renders with: the world's quality and samples."""
+    from ..render.plan import RenderOptions
+    return RenderOptions(quality=study.world.quality, samples=study.world.samples)
+
+
 def render_args(study: Study) -> list[str]:
-    w = study.world
-    args = ["--quality", w.quality] if w.quality else []
-    if w.samples:
-        args += ["--samples", str(w.samples)]
-    return args
+    """:func:`render_options` as the render command's arguments (a farm task's)."""
+    from ..render.plan import render_argv
+    return render_argv(render_options(study))
 
 
 def make_plan(study: Study, scripts_dir: Path) -> Plan:

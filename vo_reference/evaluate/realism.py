@@ -19,6 +19,8 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from .sgbm import sgbm_disparity
+
 CORNER_QUALITY, CORNER_MIN_DISTANCE, CORNER_CAP = 0.01, 7, 2000
 LK_PARAMS = dict(winSize=(21, 21), maxLevel=3,
                  criteria=(cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 0.01))
@@ -86,7 +88,6 @@ def klt_fb_error(img0, img1) -> float:
 
 def sgbm_valid_fraction(left, right, num_disp: int = 128) -> float:
     """Share of pixels with a valid (> 0) SGBM disparity: the matcher of the OpenCV baseline VO."""
-    from ..stereo.opencv_comparison import sgbm_disparity
     d = sgbm_disparity(_gray(left), _gray(right), num_disp)
     return float(np.mean(d > 0))
 

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract import atomic
-from blender_sesgen.contract import rig as rig_frames
+from blender_sesgen.contract.rig import T_left_right
 from blender_sesgen.contract.se3 import R_to_quat_xyzw, invert
 
 from ..errors import VoError
@@ -116,7 +116,7 @@ def write_colmap_text(folder: Path, seq, images: list[tuple[int, str]], names: l
     # the rig: camera 1 is the reference; camera 2's pose is cam2_from_cam1 (contract.rig)
     sensors = "CAMERA 1"
     if "right" in views:
-        q, t = cam_from_world(rig_frames.T_left_right(seq.baseline_m))
+        q, t = cam_from_world(T_left_right(seq.baseline_m))
         sensors += " CAMERA 2 1 " + " ".join(_num(x) for x in (*q, *t))
     atomic.write_text(folder / "rigs.txt", "# Rig calib list with one line of data per calib:\n"
                       "#   RIG_ID, NUM_SENSORS, REF_SENSOR_TYPE, REF_SENSOR_ID, SENSORS[] as (SENSOR_TYPE, "

@@ -48,6 +48,7 @@ from ..errors import VoError, as_vo_error
 from ..io.color import rgb8_to_gray8
 from ..io.sequence import require_complete
 from ..groundtruth.noise import add_gaussian_noise
+from ..groundtruth.options import pop_number
 
 __all__ = ["EXPORTERS", "ExportOptions", "export", "register_exporter", "get_exporter", "parse_frames",
            "sequence_folder", "check_replaceable", "progress_bar", "image_rgb", "image_gray",
@@ -337,21 +338,6 @@ def image_gray(seq, k: int, view: str, opts: ExportOptions) -> np.ndarray:
     if opts.noise is None:
         return g
     return add_gaussian_noise(g, opts.noise[0], opts.noise[1], (k, VIEW_INDEX[view], GREY))
-
-
-def pop_number(extra: dict, key: str, kind: type = float, default=None, what: str = "a number"):
-    """Take a positive number ``key`` out of an export's ``--opt`` options (``default`` when
-    absent); VoError naming the option otherwise."""
-    text = extra.pop(key, None)
-    if text is None:
-        return default
-    try:
-        value = kind(text)
-    except ValueError:
-        raise VoError(f"{key}={text!r}: expected {what}") from None
-    if not value > 0:
-        raise VoError(f"{key}={text!r}: must be > 0")
-    return value
 
 
 def check_replaceable(folder: Path) -> None:

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract import atomic
-from blender_sesgen.contract import rig as rig_frames
+from blender_sesgen.contract.rig import T_left_view, T_right_left
 from blender_sesgen.contract.lens import opencv_matrix_text, real_text
 from blender_sesgen.contract.se3 import R_to_quat_xyzw, invert
 from blender_sesgen.contract.sensor_yaml import YAML_HEADER
@@ -48,7 +48,7 @@ def T_body_cam(seq, cam: int) -> np.ndarray:
     """Camera ``cam``'s pose in the rig's body frame: the IMU where the render has one
     (T_imu_cam = inv(T_cam_imu), the right camera ``contract.rig``'s T_left_right further),
     else the left camera (the body of the EuRoC export and of every settings file here)."""
-    T_cam_left = rig_frames.T_left_view("right" if cam == 1 else "left", seq.baseline_m)
+    T_cam_left = T_left_view("right" if cam == 1 else "left", seq.baseline_m)
     imu = seq.imu_calibration()
     if imu is None:
         return T_cam_left
@@ -71,7 +71,7 @@ class Rig:
         # camera i in the body frame (the IMU, else the left camera) and the IMU in camera i
         self.T_body_cam = [T_body_cam(seq, i) for i in self.cams]
         self.T_cam_body = [invert(T) for T in self.T_body_cam]
-        self.T_cam1_cam0 = rig_frames.T_right_left(self.baseline_m)
+        self.T_cam1_cam0 = T_right_left(self.baseline_m)
         self.offset_s = self.imu.time_offset_s if self.imu is not None else 0.0
 
     @property

@@ -25,6 +25,7 @@ from blender_sesgen.contract.se3 import invert
 
 from ..errors import VoError
 from .flow import object_transforms, sequence_flow, sequence_object_poses, warp_depth
+from .options import pop_number
 
 __all__ = ["DenseFlow", "dense_flow", "flow_at_infinity", "disparity_change", "pop_background_depth",
            "DEFAULT_BACKGROUND_DEPTH"]
@@ -113,5 +114,4 @@ def disparity_change(seq, k_src: int, k_tgt: int, view: str = "left") -> np.ndar
 def pop_background_depth(extra: dict, default: float = DEFAULT_BACKGROUND_DEPTH) -> float:
     """Take ``background_depth`` (``--opt background_depth=M``, metres or inf: the depth
     written where a pixel sees nothing) out of an export's options."""
-    from ..exporters.driver import pop_number
     return pop_number(extra, "background_depth", float, default, "metres (a number or inf)")

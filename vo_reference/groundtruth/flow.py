@@ -34,11 +34,10 @@ import numpy as np
 
 from blender_sesgen.contract import atomic
 from blender_sesgen.contract import rig
-from blender_sesgen.contract.inputs import BINARY_LIMIT, read_bytes
 from blender_sesgen.contract.se3 import invert
 
-from ..errors import VoError, as_vo_error
-from ..io.files import read_image, write_image_atomic
+from ..errors import VoError
+from ..io.files import read_binary, read_image, write_image_atomic
 
 FLO_MAGIC = 202021.25
 FLO_UNKNOWN = 1e10
@@ -269,10 +268,7 @@ def write_flo(path, flow: np.ndarray) -> Path:
 def read_flo(path) -> np.ndarray:
     """(H, W, 2) float32, NaN where unknown (|value| > 1e9)."""
     path = Path(path)
-    if not path.exists():
-        raise VoError(f"{path}: no such .flo file")
-    with as_vo_error():
-        raw = read_bytes(path, BINARY_LIMIT, ".flo file")
+    raw = read_binary(path, ".flo file")
     if len(raw) < 12 or np.frombuffer(raw[:4], "<f4")[0] != np.float32(FLO_MAGIC):
         raise VoError(f"{path}: not a Middlebury .flo file (bad magic)")
     W, H = (int(x) for x in np.frombuffer(raw[4:12], "<i4"))

@@ -27,6 +27,7 @@ from blender_sesgen.contract.se3 import invert
 
 from ..errors import VoError
 from .flow import surface_inverse_depth
+from .options import pop_number
 
 __all__ = ["SparsePoints", "sparse_points", "default_stride", "pop_stride", "camera_lens", "observe"]
 
@@ -58,7 +59,6 @@ def default_stride(width: int, height: int) -> int:
 def pop_stride(extra: dict) -> int | None:
     """Take ``stride`` (the grid step in pixels, ``--opt stride=PX``) out of an export's
     options; None when not given."""
-    from ..exporters.driver import pop_number
     return pop_number(extra, "stride", int, None, "a whole number of pixels")
 
 

@@ -1,4 +1,4 @@
-"""Image files: read with a clear error, written atomically (``blender_sesgen.contract.atomic``:
+"""Input and image files: read with a clear error, written atomically (``blender_sesgen.contract.atomic``:
 a reader, or a crashed export, never sees a half-written file under the final name).
 """
 from __future__ import annotations
@@ -14,6 +14,16 @@ from blender_sesgen.contract.inputs import BINARY_LIMIT, check_regular, read_byt
 
 from ..errors import VoError, as_vo_error
 from .native import captured_stderr, first_complaint
+
+
+def read_binary(path, what: str) -> bytes:
+    """The bytes of the input file ``path`` (a ``what``: "PFM file"); VoError when it is absent,
+    not a regular file or larger than the input limit."""
+    path = Path(path)
+    if not path.exists():
+        raise VoError(f"{path}: no such {what}")
+    with as_vo_error():
+        return read_bytes(path, BINARY_LIMIT, what)
 
 
 def write_image_atomic(path, image: np.ndarray, params: list[int] | None = None) -> Path:

@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 
 from blender_sesgen.contract import atomic
-from blender_sesgen.contract.inputs import BINARY_LIMIT, read_bytes
 
-from ..errors import VoError, as_vo_error
+from ..errors import VoError
+from .files import read_binary
 
 
 def write_pfm(path, image: np.ndarray) -> Path:
@@ -30,10 +30,7 @@ def write_pfm(path, image: np.ndarray) -> Path:
 
 def read_pfm(path) -> np.ndarray:
     path = Path(path)
-    if not path.exists():
-        raise VoError(f"{path}: no such PFM file")
-    with as_vo_error():
-        raw = read_bytes(path, BINARY_LIMIT, "PFM file")
+    raw = read_binary(path, "PFM file")
     # magic, width, height, scale; the data starts after the one whitespace ending the scale
     m = re.match(rb"(P[fF])\s+(\d+)\s+(\d+)\s+([-+0-9.eE]+)\s", raw[:256])
     if m is None:

@@ -14,19 +14,9 @@ from blender_sesgen.contract.depth import depth_from_disparity
 from blender_sesgen.contract.se3 import invert, se3
 
 from ..errors import VoError
+from ..evaluate.sgbm import sgbm_disparity
 from .motion_field import T_to_twist
 from .paper import StepResult
-
-
-def sgbm_disparity(left: np.ndarray, right: np.ndarray, num_disp: int = 128, block: int = 5) -> np.ndarray:
-    """Left disparity (float px, <= 0 invalid) by OpenCV's semi-global block matching. The
-    range is at most half the image width (SGBM fails on an image narrower than its range)."""
-    num_disp = max(16, min(int(num_disp), left.shape[1] // 2 // 16 * 16))
-    sgbm = cv2.StereoSGBM_create(minDisparity=0, numDisparities=num_disp, blockSize=block,
-                                 P1=8 * block * block, P2=32 * block * block, disp12MaxDiff=1,
-                                 uniquenessRatio=10, speckleWindowSize=100, speckleRange=2,
-                                 mode=cv2.STEREO_SGBM_MODE_SGBM_3WAY)
-    return sgbm.compute(left, right).astype(np.float32) / 16.0
 
 
 def baseline_step(left0, right0, left1, K: np.ndarray, baseline_m: float, num_disp: int = 128,

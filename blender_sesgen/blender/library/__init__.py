@@ -3,7 +3,7 @@
 
 Coordinates: the object's own coordinates (``Texture Coordinate > Object``) times the
 object's scale (custom property ``sesgen_scale``) are metres on the object; the per-object
-offset (``sesgen_offset``, from ``material_library.object_variation``) moves the pattern so
+offset (``sesgen_offset``, from ``materials.object_variation``) moves the pattern so
 that no two objects repeat each other, and ``sesgen_rand`` gives each object its colour,
 roughness and wear shifts. The builder sets these three properties on every object
 (:func:`object_properties`); one material serves every object using it.
@@ -17,7 +17,7 @@ from __future__ import annotations
 from typing import Callable
 
 
-from ...scene import materials as material_library
+from ...scene import materials
 from ...scene.model import ImageMaps, Material
 from .. import compat
 from ..datablocks import load_image
@@ -26,14 +26,14 @@ from .graph import Ctx, G, Surface, box_uv
 
 RECIPES: dict[str, Callable[[Ctx], Surface]] = {**built.RECIPES, **interior.RECIPES, **metal_glass.RECIPES,
                                                  **nature.RECIPES}
-assert set(RECIPES) == set(material_library.LIBRARY), set(RECIPES) ^ set(material_library.LIBRARY)
+assert set(RECIPES) == set(materials.LIBRARY), set(RECIPES) ^ set(materials.LIBRARY)
 
 OFFSET_PROP, RAND_PROP, SCALE_PROP = "sesgen_offset", "sesgen_rand", "sesgen_scale"
 
 
 def object_properties(obj, seed: int, object_id: int) -> None:
     """Set the per-object variation properties the library shaders read."""
-    var = material_library.object_variation(seed, object_id)
+    var = materials.object_variation(seed, object_id)
     obj[OFFSET_PROP] = list(var.offset_m)
     obj[RAND_PROP] = list(var.rand)
     s = obj.matrix_world.to_scale()
@@ -91,7 +91,7 @@ def build_shader(nt, m: Material, colour, *, fog_mix=None):
     held by the one RGB node named ``COLOUR_NODE`` (``set_colour`` changes it in a copy)."""
     g = G(nt)
     lib = m.library
-    entry = material_library.entry(lib.name)
+    entry = materials.entry(lib.name)
     p, n, rand = _coordinates(g, lib.scale)
     uv, _, _ = box_uv(g, p, n)
     rgb = g.node("ShaderNodeRGB")

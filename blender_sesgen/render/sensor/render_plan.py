@@ -17,7 +17,7 @@ import numpy as np
 
 from ...scene import model
 from . import imu as imu_mod
-from ...scene import camera_profiles as profiles
+from ...scene import camera_profiles
 from ...contract import timing as timing_mod
 from ...contract.timing import DEFAULT_FPS
 from .autoexposure import METERING_RULE, ExposureControl, exposure_schedule
@@ -96,7 +96,7 @@ class SensorPlan:
             raise SesgenError(f"--rate {rate:g}: {problem}")
         motion = RigMotion.for_motion_kind(scene.timeline.left(), rate, start, scene.motion.kind)
         # a profile's sensor is the physical one: bin it to the render's pixels
-        sensor, lens_spec = profiles.at_width(scene.sensor, scene.lens, settings.width)
+        sensor, lens_spec = camera_profiles.at_width(scene.sensor, scene.lens, settings.width)
         return cls(t, lens_spec, lens, sensor, scene.autoexposure, scene.imu, motion, settings.width,
                    settings.height, K, tuple(scene.rig.views), float(scene.rig.baseline))
 

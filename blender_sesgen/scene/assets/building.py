@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import palette
-from .mesh import MeshBuilder, MeshData, pose
+from .mesh import MeshData, pose, start
 from .palette import pick
 
 @dataclass
@@ -66,9 +66,7 @@ def _sides(W, D):
 
 
 def generate(size, seed: int) -> MeshData:
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(s) for s in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     brick = rng.random() < 0.25
     wall = b.surface("brick", pick(rng, palette.BRICK)) if brick else b.surface("plaster", pick(rng, palette.PLASTER))
     base = b.surface("concrete", pick(rng, palette.STONE))

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import palette
-from .mesh import MeshBuilder, MeshData, pose
+from .mesh import MeshBuilder, MeshData, pose, start
 from .palette import pick, scaled
 from .vegetation import add_leaves
 
@@ -29,9 +29,7 @@ def _legs(b, W, D, h, t, s, inset=0.04, round_=False):
 
 
 def table(size, seed: int) -> MeshData:
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     top = b.surface("wood_planks", pick(rng, palette.WOOD)) if rng.random() < 0.6 else \
         b.surface("plastic", (0.65, 0.64, 0.6))
     leg = b.surface("metal_painted", (0.05, 0.05, 0.05)) if rng.random() < 0.5 else b.surface("metal_brushed")
@@ -43,9 +41,7 @@ def table(size, seed: int) -> MeshData:
 
 
 def desk(size, seed: int) -> MeshData:
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     top = b.surface("wood_planks", pick(rng, palette.WOOD)) if rng.random() < 0.5 else \
         b.surface("plastic", (0.55, 0.55, 0.52))
     body = b.surface("plastic", pick(rng, ((0.55, 0.55, 0.52), (0.08, 0.08, 0.08), (0.5, 0.45, 0.38))))
@@ -98,9 +94,7 @@ def _desk_clutter(b, rng, W, H, D):
 def chair(size, seed: int) -> MeshData:
     """A four-legged chair (wood or plastic seat and back) or an office chair (five-star
     base, gas column, upholstered seat and back)."""
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     seat_y = 0.46
     if rng.random() < 0.5:
         fabric = b.surface("fabric", pick(rng, palette.FABRIC))
@@ -131,9 +125,7 @@ def chair(size, seed: int) -> MeshData:
 def shelf(size, seed: int) -> MeshData:
     """A bookcase open towards +z: sides, top, bottom, back, shelves filled with books of
     varied size and colour (some leaning, some gaps), boxes and a few lying stacks."""
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     wood = b.surface("wood_planks", pick(rng, palette.WOOD)) if rng.random() < 0.6 else \
         b.surface("plastic", pick(rng, ((0.65, 0.64, 0.6), (0.05, 0.05, 0.05))))
     books = [b.surface("fabric", c) for c in BOOK_COLOURS]
@@ -197,9 +189,7 @@ def shelf(size, seed: int) -> MeshData:
 
 
 def cabinet(size, seed: int) -> MeshData:
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     body = b.surface("plastic", pick(rng, ((0.65, 0.64, 0.6), (0.35, 0.36, 0.37), (0.06, 0.06, 0.06))))
     front = b.surface("wood_planks", pick(rng, palette.WOOD)) if rng.random() < 0.5 else body
     handle = b.surface("metal_brushed")
@@ -249,9 +239,7 @@ def _soft_block(b, lo, hi, r, s, axis=0, segs=3):
 
 
 def sofa(size, seed: int) -> MeshData:
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     fabric = b.surface("fabric", pick(rng, palette.FABRIC))
     foot = b.surface("wood_planks", (0.1, 0.06, 0.03))
     arm = rng.uniform(0.15, 0.25)
@@ -277,9 +265,7 @@ def sofa(size, seed: int) -> MeshData:
 def door(size, seed: int) -> MeshData:
     """A door leaf in its frame (architraves on both faces), centred in the x-y plane of
     the wall opening it fills: size = (opening width, opening height, wall thickness)."""
-    rng = np.random.default_rng(seed)
-    W, H, T = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, T, b = start(size, seed)
     leaf = b.surface("wood_planks", pick(rng, palette.WOOD)) if rng.random() < 0.5 else \
         b.surface("plastic", pick(rng, ((0.68, 0.67, 0.64), (0.35, 0.36, 0.37))))
     frame = b.surface("plastic", (0.68, 0.67, 0.64))
@@ -338,9 +324,7 @@ def ceiling_light(size, seed: int) -> MeshData:
     """A recessed or suspended light panel whose diffuser faces down (-y), its top at
     y = 0 (hang it from the ceiling: position = the ceiling point). The diffuser's material
     is ``light_panel`` (emissive)."""
-    rng = np.random.default_rng(seed)
-    W, Hh, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, Hh, D, b = start(size, seed)
     housing = b.surface("metal_painted", pick(rng, ((0.7, 0.7, 0.7), (0.05, 0.05, 0.05), (0.4, 0.41, 0.42))))
     diffuser = b.surface("light_panel")
     louvres = int(rng.integers(0, 4))
@@ -362,9 +346,7 @@ def window_frame(size, seed: int) -> MeshData:
     """A window for a wall opening seen from inside: frame, mullion/transom bars, a sill
     board; open (no pane), so daylight comes in. size = (opening width, opening height,
     wall thickness); the opening's bottom centre is the origin, the room side +z."""
-    rng = np.random.default_rng(seed)
-    W, H, T = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, T, b = start(size, seed)
     frame = b.surface("metal_painted", pick(rng, palette.FRAME))
     sill = b.surface("plastic", (0.7, 0.69, 0.66))
     fw, fd = 0.07, 0.07
@@ -384,9 +366,7 @@ def window_frame(size, seed: int) -> MeshData:
 
 
 def plant(size, seed: int) -> MeshData:
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     pot = b.surface("plastic", pick(rng, ((0.35, 0.15, 0.08), (0.6, 0.6, 0.58), (0.05, 0.05, 0.05))))
     soil = b.surface("soil")
     stem = b.surface("bark", (0.08, 0.1, 0.04))
@@ -415,9 +395,7 @@ def plant(size, seed: int) -> MeshData:
 
 
 def monitor(size, seed: int) -> MeshData:
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     body = b.surface("plastic", (0.03, 0.03, 0.03) if rng.random() < 0.7 else (0.5, 0.5, 0.5))
     screen = b.surface("glass_window", (0.01, 0.012, 0.015))
     sh = W * 0.6
@@ -430,9 +408,7 @@ def monitor(size, seed: int) -> MeshData:
 
 
 def rug(size, seed: int) -> MeshData:
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     base = pick(rng, palette.FABRIC)
     border = b.surface("fabric", scaled(base, 0.6))
     field = b.surface("fabric", base)
@@ -445,9 +421,7 @@ def rug(size, seed: int) -> MeshData:
 def radiator(size, seed: int) -> MeshData:
     """A panel radiator on two brackets, its back at z = 0 (hang it on a wall), fins on top,
     a valve. size = (width, height of its top, depth)."""
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     paint = b.surface("metal_painted", pick(rng, ((0.72, 0.72, 0.70), (0.65, 0.65, 0.62), (0.35, 0.36, 0.37))))
     chrome = b.surface("chrome")
     h = min(rng.uniform(0.4, 0.6), H - 0.12)

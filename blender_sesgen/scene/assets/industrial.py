@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .mesh import MeshBuilder, MeshData, pose, rot_z
+from .mesh import MeshData, pose, rot_z, start
 from .palette import pick, scaled
 
 STEEL_PAINT = ((0.30, 0.31, 0.32), (0.02, 0.06, 0.18), (0.40, 0.12, 0.02), (0.35, 0.30, 0.02),
@@ -21,9 +21,7 @@ PALLET_WOOD = ((0.40, 0.30, 0.18), (0.33, 0.25, 0.15))
 
 def column(size, seed: int) -> MeshData:
     """A steel H-section column on a base plate, or a concrete column with a plinth."""
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     if rng.random() < 0.7:
         steel = b.surface("metal_painted", pick(rng, STEEL_PAINT))
         tf, tw = 0.02, 0.012
@@ -46,9 +44,7 @@ def column(size, seed: int) -> MeshData:
 def girder(size, seed: int) -> MeshData:
     """An I-beam along x: size = (length, depth, flange width); origin at the middle of
     the bottom flange."""
-    rng = np.random.default_rng(seed)
-    L, Hd, Wf = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, L, Hd, Wf, b = start(size, seed)
     steel = b.surface("metal_painted", pick(rng, STEEL_PAINT))
     tf, tw = 0.018, 0.01
     b.box((-L / 2, 0, -Wf / 2), (L / 2, tf, Wf / 2), steel)
@@ -71,9 +67,7 @@ def _pallet(b, x0, z0, w, d, y0, wood):
 
 
 def pallet(size, seed: int) -> MeshData:
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     _pallet(b, -W / 2, -D / 2, W, D, 0.0, b.surface("wood_planks", pick(rng, PALLET_WOOD)))
     return b.build()
 
@@ -81,9 +75,7 @@ def pallet(size, seed: int) -> MeshData:
 def rack(size, seed: int) -> MeshData:
     """A pallet rack open towards +z and -z: upright frames with bracing, beam levels,
     pallets with cardboard loads (some shrink-wrapped, some empty slots)."""
-    rng = np.random.default_rng(seed)
-    L, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, L, H, D, b = start(size, seed)
     upright = b.surface("metal_painted", (0.03, 0.10, 0.35) if rng.random() < 0.6 else (0.30, 0.31, 0.32))
     beam = b.surface("metal_painted", (0.50, 0.18, 0.02))
     wood = b.surface("wood_planks", pick(rng, PALLET_WOOD))
@@ -128,9 +120,7 @@ def rack(size, seed: int) -> MeshData:
 def machine(size, seed: int) -> MeshData:
     """An industrial machine: plinth, main housing with access panels and a window, a
     control cabinet with buttons, a motor, ducting, warning stripes on the plinth."""
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     paint = b.surface("metal_painted", pick(rng, MACHINE_PAINT))
     dark = b.surface("metal_painted", (0.03, 0.03, 0.03))
     steel = b.surface("metal_brushed")
@@ -182,9 +172,7 @@ def machine(size, seed: int) -> MeshData:
 
 
 def tank(size, seed: int) -> MeshData:
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     shell = b.surface("metal_brushed") if rng.random() < 0.5 else b.surface("metal_painted", pick(rng, MACHINE_PAINT))
     legs = b.surface("metal_painted", (0.05, 0.05, 0.05))
     r = min(W, D) / 2
@@ -204,9 +192,7 @@ def tank(size, seed: int) -> MeshData:
 
 
 def crate(size, seed: int) -> MeshData:
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     wood = b.surface("wood_planks", pick(rng, PALLET_WOOD))
     frame = b.surface("wood_planks", scaled(pick(rng, PALLET_WOOD), 0.8))
     b.box((-W / 2 + 0.02, 0, -D / 2 + 0.02), (W / 2 - 0.02, H - 0.02, D / 2 - 0.02), wood)
@@ -221,9 +207,7 @@ def crate(size, seed: int) -> MeshData:
 
 
 def barrel(size, seed: int) -> MeshData:
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     paint = b.surface("metal_painted", pick(rng, STEEL_PAINT + ((0.35, 0.02, 0.02),)))
     r = min(W, D) / 2
     prof = [(0, 0), (r * 0.95, 0), (r, 0.02), (r, H * 0.3), (r * 1.02, H * 0.32), (r, H * 0.34), (r, H * 0.66),
@@ -234,9 +218,7 @@ def barrel(size, seed: int) -> MeshData:
 
 def stairs(size, seed: int) -> MeshData:
     """A steel stair rising towards -z: stringers, treads, a handrail on each side."""
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     steel = b.surface("metal_painted", pick(rng, STEEL_PAINT))
     tread = b.surface("metal_rusty")
     n = max(int(round(H / 0.18)), 2)
@@ -257,9 +239,7 @@ def stairs(size, seed: int) -> MeshData:
 
 
 def railing(size, seed: int) -> MeshData:
-    rng = np.random.default_rng(seed)
-    L, H, _ = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, L, H, _, b = start(size, seed)
     paint = b.surface("metal_painted", (0.55, 0.42, 0.02) if rng.random() < 0.6 else pick(rng, STEEL_PAINT))
     n = max(int(L / 1.5), 1)
     for i in range(n + 1):
@@ -274,9 +254,7 @@ def railing(size, seed: int) -> MeshData:
 def pipe(size, seed: int) -> MeshData:
     """A pipe run along x with flanges every few metres and floor supports: size =
     (length, height of its axis, diameter)."""
-    rng = np.random.default_rng(seed)
-    L, Hc, d = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, L, Hc, d, b = start(size, seed)
     paint = b.surface("metal_painted", pick(rng, STEEL_PAINT)) if rng.random() < 0.6 else b.surface("metal_brushed")
     support = b.surface("metal_painted", (0.05, 0.05, 0.05))
     R = pose(rot_z(90), (0, Hc, 0))

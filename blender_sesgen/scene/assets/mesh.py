@@ -384,3 +384,9 @@ class MeshBuilder:
             s = np.concatenate([fs, fs])
         self.add(G.reshape(-1, 3), tris, s, smooth=smooth, facing=facing)
 
+
+def start(size, seed: int) -> tuple[np.random.Generator, float, float, float, MeshBuilder]:
+    """What an asset generator begins with: its seeded random stream, the three numbers of its
+    size (floats) and an empty builder."""
+    a, b, c = (float(x) for x in size)
+    return np.random.default_rng(seed), a, b, c, MeshBuilder()

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import palette
-from .mesh import MeshBuilder, MeshData
+from .mesh import MeshBuilder, MeshData, start
 from .palette import pick, scaled
 from .vegetation import _unit, add_leaves
 
@@ -135,9 +135,7 @@ def _fallen_leaves(b, rng, P, surfs) -> None:
 def rock(size, seed: int) -> MeshData:
     """A boulder: a subdivided icosahedron displaced by seeded noise at several scales
     (rounded mass, facets, cracks' roughness), flattened below, moss on its top faces."""
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     stone = b.surface("concrete", pick(rng, ROCK))
     moss = b.surface("grass", (0.04, 0.06, 0.02))
     V, F = _icosphere(4)
@@ -157,9 +155,7 @@ def rock(size, seed: int) -> MeshData:
 def litter(size, seed: int) -> MeshData:
     """Fallen leaves and twigs lying on the ground over a patch (size = width, -, depth):
     flat leaves of browns and yellows, slightly tilted, a few twigs."""
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     browns = [b.surface("leaves", c) for c in LITTER]
     bark = b.surface("bark", pick(rng, palette.BARK))
     n = int(180 * W * D) + 20
@@ -206,9 +202,7 @@ def _icosphere(levels: int):
 
 def log(size, seed: int) -> MeshData:
     """A fallen log along x: a slightly bent, tapering trunk with bark, cut ends in wood."""
-    rng = np.random.default_rng(seed)
-    L, dia, _ = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, L, dia, _, b = start(size, seed)
     bark = b.surface("bark", pick(rng, palette.BARK))
     xs = np.linspace(-L / 2, L / 2, 9)
     bend = rng.normal(size=3) * 0.05
@@ -223,9 +217,7 @@ def log(size, seed: int) -> MeshData:
 
 
 def stump(size, seed: int) -> MeshData:
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     bark = b.surface("bark", pick(rng, palette.BARK))
     wood = b.surface("wood_planks", (0.35, 0.25, 0.14))
     r = min(W, D) / 2
@@ -239,9 +231,7 @@ def stump(size, seed: int) -> MeshData:
 
 def fern(size, seed: int) -> MeshData:
     """Arching fronds of small leaflets from a centre (ground cover)."""
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     greens = [b.surface("leaves", scaled((0.06, 0.11, 0.03), f)) for f in (0.8, 1.0, 1.25)]
     pts, outs, lens = [], [], []
     for k in range(int(rng.integers(8, 16))):
@@ -260,9 +250,7 @@ def fern(size, seed: int) -> MeshData:
 
 def grass_tuft(size, seed: int) -> MeshData:
     """A clump of grass blades (thin curved triangles) over a small patch."""
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     greens = [b.surface("grass", scaled((0.06, 0.1, 0.03), f)) for f in (0.8, 1.0, 1.3, 1.6)]
     n = int(200 * W * D / 0.25) + 30
     base = np.column_stack([rng.uniform(-W / 2, W / 2, n), np.full(n, -0.02), rng.uniform(-D / 2, D / 2, n)])

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import palette
-from .mesh import MeshBuilder, MeshData, pose, rot_x
+from .mesh import MeshBuilder, MeshData, pose, rot_x, start
 from .palette import pick, scaled
 
 ASPHALT = (0.085, 0.085, 0.082)
@@ -126,9 +126,7 @@ def _slab(b: MeshBuilder, s, offsets, top_y, bottom_y, length, bend, cell_surf, 
 
 
 def road(size, seed: int, bend, offset: float = 0.0) -> MeshData:
-    rng = np.random.default_rng(seed)
-    W, depth, L = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, depth, L, b = start(size, seed)
     asphalt = b.surface("asphalt", scaled(ASPHALT, float(rng.choice([0.9, 1.0, 1.1]))))
     paint = b.surface("lane_marking")
     patch = b.surface("asphalt", scaled(ASPHALT, float(rng.choice([0.7, 0.8]))))
@@ -244,9 +242,7 @@ def verge(size, seed: int, bend, offset: float = 0.0) -> MeshData:
 
 def pole(size, seed: int) -> MeshData:
     """A plain round post (for signs): size = (diameter, height, diameter)."""
-    rng = np.random.default_rng(seed)
-    d, H, _ = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, d, H, _, b = start(size, seed)
     metal = b.surface("metal_painted", pick(rng, palette.METAL_PAINT))
     b.cylinder(d / 2, -0.05, H, 12, metal)
     b.cylinder(d / 2 + 0.004, H - 0.01, H + 0.02, 12, metal)    # cap
@@ -256,9 +252,7 @@ def pole(size, seed: int) -> MeshData:
 def streetlight(size, seed: int) -> MeshData:
     """A street lamp: tapered mast, an arm curving over the road (towards -x), a luminaire
     with a glass underside. size = (reach of the arm, height, base diameter)."""
-    rng = np.random.default_rng(seed)
-    reach, H, dia = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, reach, H, dia, b = start(size, seed)
     metal = b.surface("metal_painted", pick(rng, palette.METAL_PAINT))
     lamp_glass = b.surface("plastic", (0.7, 0.7, 0.66))
     b.frustum(dia / 2, dia / 4, -0.05, H - 0.3, 14, metal)
@@ -281,9 +275,7 @@ def sign(size, seed: int) -> MeshData:
     it on a pole): a red-bordered triangle, a red-bordered disc, a blue disc or a blue
     rectangle with a white border; a grey back and a clamp. size = (width, height of the
     centre, thickness)."""
-    rng = np.random.default_rng(seed)
-    Wd, yc, th = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, Wd, yc, th, b = start(size, seed)
     white = b.surface("metal_painted", (0.75, 0.75, 0.73))
     red = b.surface("metal_painted", (0.45, 0.02, 0.02))
     blue = b.surface("metal_painted", (0.02, 0.08, 0.35))
@@ -332,9 +324,7 @@ def sign(size, seed: int) -> MeshData:
 def traffic_light(size, seed: int) -> MeshData:
     """A traffic light: post with a three-lamp head facing +z. size = (head width, height
     of the head's top, post diameter)."""
-    rng = np.random.default_rng(seed)
-    w, H, dia = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, w, H, dia, b = start(size, seed)
     body = b.surface("metal_painted", (0.03, 0.03, 0.03) if rng.random() < 0.5 else (0.30, 0.31, 0.32))
     post = b.surface("metal_painted", (0.30, 0.31, 0.32))
     lens = [b.surface("plastic", c) for c in ((0.3, 0.02, 0.01), (0.3, 0.18, 0.01), (0.01, 0.18, 0.06))]
@@ -350,9 +340,7 @@ def traffic_light(size, seed: int) -> MeshData:
 
 def bin_(size, seed: int) -> MeshData:
     """A wheelie bin (box body, lid, wheels) or a round litter bin on a post."""
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     col = pick(rng, palette.PLASTIC_BIN)
     shell = b.surface("plastic", col)
     lid = b.surface("plastic", scaled(col, 0.8))
@@ -372,9 +360,7 @@ def bin_(size, seed: int) -> MeshData:
 
 
 def bollard(size, seed: int) -> MeshData:
-    rng = np.random.default_rng(seed)
-    d, H, _ = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, d, H, _, b = start(size, seed)
     metal = b.surface("metal_painted", pick(rng, palette.METAL_PAINT))
     band = b.surface("metal_painted", (0.75, 0.75, 0.73))
     b.cylinder(d / 2, -0.05, H - 0.1, 16, metal)
@@ -384,9 +370,7 @@ def bollard(size, seed: int) -> MeshData:
 
 
 def bench(size, seed: int) -> MeshData:
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     wood = b.surface("wood_planks", pick(rng, palette.WOOD))
     metal = b.surface("metal_painted", (0.05, 0.05, 0.05))
     seat_y = 0.45
@@ -408,9 +392,7 @@ def fence(size, seed: int) -> MeshData:
     """A garden fence along x: wooden pickets on two rails, or steel bars between a top and
     a bottom rail, or a low wall with a coping; posts every ~2 m. size = (length, height,
     thickness)."""
-    rng = np.random.default_rng(seed)
-    L, H, T = (float(x) for x in size)
-    b = MeshBuilder()
+    rng, L, H, T, b = start(size, seed)
     style = int(rng.integers(3))
     n_posts = max(int(round(L / 2.0)), 1)
     xs = np.linspace(-L / 2, L / 2, n_posts + 1)

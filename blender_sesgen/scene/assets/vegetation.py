@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import palette
-from .mesh import MeshBuilder, MeshData, cross3
+from .mesh import cross3, MeshBuilder, MeshData, start
 from .palette import pick, scaled
 
 def _unit(v):
@@ -94,9 +94,7 @@ def _tube_sides(radius: float) -> int:
 def tree(size, seed: int) -> MeshData:
     """A broadleaf tree: trunk, 3 levels of branches, leaf clusters along the outer twigs
     (~40-100 thousand leaves)."""
-    rng = np.random.default_rng(seed)
-    Wc, H, Dc = (float(s) for s in size)
-    b = MeshBuilder()
+    rng, Wc, H, Dc, b = start(size, seed)
     bark = b.surface("bark", pick(rng, palette.BARK))
     base_green = pick(rng, palette.LEAVES)
     greens = [b.surface("leaves", scaled(base_green, f)) for f in (0.8, 1.0, 1.2)]
@@ -143,9 +141,7 @@ def tree(size, seed: int) -> MeshData:
 def conifer(size, seed: int) -> MeshData:
     """A spruce-like conifer: a straight trunk, whorls of drooping branches carrying flat
     needle sprays, a narrow cone."""
-    rng = np.random.default_rng(seed)
-    Wc, H, Dc = (float(s) for s in size)
-    b = MeshBuilder()
+    rng, Wc, H, Dc, b = start(size, seed)
     bark = b.surface("bark", scaled(pick(rng, palette.BARK), 0.8))
     base_green = pick(rng, palette.NEEDLES)
     greens = [b.surface("leaves", scaled(base_green, f)) for f in (0.8, 1.0, 1.2)]
@@ -187,9 +183,7 @@ def conifer(size, seed: int) -> MeshData:
 
 def bush(size, seed: int) -> MeshData:
     """A shrub: stems fanning out from the ground, dense leaf clusters in an ellipsoid."""
-    rng = np.random.default_rng(seed)
-    Wc, H, Dc = (float(s) for s in size)
-    b = MeshBuilder()
+    rng, Wc, H, Dc, b = start(size, seed)
     bark = b.surface("bark", pick(rng, palette.BARK))
     base_green = pick(rng, palette.LEAVES)
     greens = [b.surface("leaves", scaled(base_green, f)) for f in (0.7, 0.85, 1.0, 1.2)]
@@ -211,9 +205,7 @@ def bush(size, seed: int) -> MeshData:
 
 def hedge(size, seed: int) -> MeshData:
     """A clipped hedge: a dark leafy core box wrapped in a layer of leaves."""
-    rng = np.random.default_rng(seed)
-    W, H, D = (float(s) for s in size)
-    b = MeshBuilder()
+    rng, W, H, D, b = start(size, seed)
     base_green = pick(rng, palette.LEAVES)
     core = b.surface("leaves", scaled(base_green, 0.4))
     greens = [b.surface("leaves", scaled(base_green, f)) for f in (0.7, 0.85, 1.0, 1.2)]

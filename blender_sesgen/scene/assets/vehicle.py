@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import palette
-from .mesh import MeshBuilder, MeshData, pose, rot_x, rot_z
+from .mesh import MeshData, pose, rot_x, rot_z, start
 from .palette import pick
 
 def _smoothstep(x):
@@ -18,9 +18,7 @@ def _smoothstep(x):
 
 
 def generate(size, seed: int) -> MeshData:
-    rng = np.random.default_rng(seed)
-    W, H, L = (float(s) for s in size)
-    b = MeshBuilder()
+    rng, W, H, L, b = start(size, seed)
     paint = b.surface("car_paint", pick(rng, palette.CAR_PAINT))
     glass = b.surface("glass_window")
     trim = b.surface("plastic", (0.03, 0.03, 0.03))
