@@ -18,7 +18,8 @@ cache of asset meshes off, as a machine's first render finds it: bench/bench_ass
 measures what it saves the others), ``meshes`` (their Blender
 meshes), ``materials`` (node graphs), ``scene`` (the rest of the builder: objects, lights,
 world, cameras), ``exposure`` (the automatic exposure's preview render, Cycles set-up
-included when it pays it), and the Cycles set-up of the render sessions before frame 0's
+included when it pays it), ``metering`` (the sensor auto-exposure's metering pass: a preview of
+each frame up to the render's last), and the Cycles set-up of the render sessions before frame 0's
 first sample, split by Cycles' own status: ``sync`` (Blender objects to Cycles), ``shaders``,
 ``bvh`` (meshes, BVH), ``images`` (textures, the sky), ``lights`` (the world's importance
 map, the light tree), ``kernels``; ``total`` = script start to frame 0's first sample.
@@ -68,7 +69,7 @@ IN_PROCESS = ("denoiser", "glass", "relief")
 EDITED = ("trees", "lights", "bevels", "fog", "sensor")
 SENSOR_STATEMENTS = ("SENSOR", "TIMING", "LENS", "AUTOEXPOSURE")
 VEGETATION = ("tree", "conifer", "bush", "hedge", "grass_tuft", "fern", "plant")
-BUILD_STAGES = ("import", "parse", "assets", "meshes", "materials", "scene", "exposure")
+BUILD_STAGES = ("import", "parse", "assets", "meshes", "materials", "scene", "exposure", "metering")
 CYCLES_STAGES = ("sync", "shaders", "bvh", "images", "lights", "kernels", "other")
 # Cycles' status text -> the set-up stage it belongs to (first match; the rest: other)
 STATUS_STAGES = (("Synchronizing", "sync"), ("Updating Shaders", "shaders"), ("Updating Meshes", "bvh"),
@@ -220,6 +221,7 @@ def child(a) -> int:
     stages.wrap(materials.MaterialFactory, "_make", "materials")
     stages.wrap(builder, "build_scene", "scene")
     stages.wrap(exposure, "measure_exposure", "exposure")
+    stages.wrap(exposure, "meter_frames", "metering")
 
     c = cpu_s()
     edit = (lambda text: edit_script(text, a.feature)[0]) if a.feature in EDITED else None
@@ -240,9 +242,10 @@ def child(a) -> int:
     # frame 0's first sample: the first 'Sample' status after the job started rendering
     first = log.first("Sample", start["mark"])
     setup = log.setup(0, log.events.index(first))
-    # the exposure preview's own Cycles set-up is in the set-up stages, not twice
-    for m0, m1 in stages.spans.get("exposure", []):
-        stages.cpu["exposure"] -= sum(log.setup(m0, m1).values())
+    # the previews' own Cycles set-up is in the set-up stages, not twice
+    for stage in ("exposure", "metering"):
+        for m0, m1 in stages.spans.get(stage, []):
+            stages.cpu[stage] -= sum(log.setup(m0, m1).values())
     s = plan.settings
     views = len(plan.views)
     rows = []

@@ -148,3 +148,20 @@ def test_auto_exposure_darkens_then_recovers_at_its_speed():
     assert np.allclose(err[1:] / err[:-1], np.exp(-speed / rate), rtol=1e-6)
     t, g = sched[-1]
     assert t == pytest.approx(0.04) and g > 1.0                       # exposure maxed, then gain
+
+
+@pytest.mark.parametrize("frames", [[0], [0, 1], [2], [5, 6, 7], list(range(100)), [99]])
+def test_a_render_meters_what_its_frames_exposures_follow(frames):
+    """A render meters the frames up to its last one (``metered_frames``): every one of its
+    frames gets the exposure of the whole sequence's schedule (the oracle: the schedule from
+    every frame metered), and a whole render's list is complete."""
+    rng = np.random.default_rng(3)
+    metered = list(np.exp(rng.normal(-1.5, 1.0, 100)))
+    c = autoexposure.ExposureControl(nominal_exposure_s=0.002, nominal_gain=1.0, rate_hz=20.0, readout_s=0.0,
+                                     target=0.2, speed=4.0, saturation=1.0, max_exposure_s=0.04, max_gain=8.0,
+                                     min_exposure_s=1e-5)
+    whole = autoexposure.exposure_schedule(metered, c)
+    upto = autoexposure.metered_frames(frames, len(metered))
+    part = autoexposure.exposure_schedule(metered[:upto], c)
+    assert [part[k] for k in frames] == [whole[k] for k in frames]
+    assert upto == max(frames) + 1 and (upto == 100) == (99 in frames)

@@ -58,20 +58,29 @@ def _assert_same_exrs(out_a: Path, m_a: dict, out_b: Path, m_b: dict) -> None:
 def _psnr(a, b, peak=1.0):
     return 10 * np.log10(peak**2 / np.mean((np.asarray(a, float) - np.asarray(b, float)) ** 2))
 
-@pytest.mark.parametrize("timing", ["TIMING rate 20 exposure 0.03", "TIMING rate 20 exposure 0.02 readout 0.03"])
+@pytest.mark.parametrize("timing", [["TIMING rate 20 exposure 0.03"], ["TIMING rate 20 exposure 0.02 readout 0.03"],
+                                    ["TIMING rate 20 exposure 0.03", "SENSOR seed 1", "AUTOEXPOSURE"]],
+                         ids=["blur", "rolling", "metering"])
 def test_sensor_path_with_an_exposure_preview_renders_the_plain_pixels(tmp_path, timing):
     """The sensor path's persistent session with ``draft``'s samples (enough to share the
     exposure preview's session on the plain path) and an automatic exposure: the preview
     must not share it (synchronised without motion blur, it changed every blurred pixel);
-    motion blur, a rolling shutter and a moving object, every channel as a fresh session."""
+    motion blur, a rolling shutter and a moving object, every channel as a fresh session.
+    With a sensor auto-exposure the metering pass reuses the preview's session: the same
+    exposure, the same metered brightness of every frame, the same pixels."""
     from render_support import oracle_script
     lines = oracle_script(width=64, height=48, focal=44.0, principal=(32.1, 23.4)).splitlines()
-    lines += [timing, "MOVE id 5 twist 0.04 0 0.02 0 4 0"]
+    lines += [*timing, "MOVE id 5 twist 0.04 0 0.02 0 4 0"]
     out_a, m_a = _render(tmp_path, "plain", lines, "--quality", "draft", "--plain-pipeline")
     out_b, m_b = _render(tmp_path, "fast", lines, "--quality", "draft")
     assert m_a["render"]["pipeline"]["persistent_data"] is False
     assert m_b["render"]["pipeline"]["persistent_data"] is True
     assert m_b["timing"]["motion_blur"] and m_a["files"] == m_b["files"]
+    assert m_a["render"]["exposure"] == m_b["render"]["exposure"]
+    if "AUTOEXPOSURE" in timing:
+        assert len(m_b["sensor"]["metered"]) == m_b["frames"] > 1
+        assert m_a["sensor"]["metered"] == m_b["sensor"]["metered"]
+        assert m_a["sensor"]["exposure_s"] == m_b["sensor"]["exposure_s"]
     _assert_same_exrs(out_a, m_a, out_b, m_b)
     blurred = read_exr(out_b / m_b["files"]["left"][1])
     assert np.ptp(blurred["ViewLayer.Combined.R"]) > 0
@@ -252,9 +261,11 @@ def test_auto_exposure_answers_a_step_in_brightness_as_documented(tmp_path):
     assert np.allclose(np.log(E), logE, atol=0.01 * alpha), (np.log(E), logE)
     assert E[step] == pytest.approx(E[step - 1] * (target * t_nom / E[step - 1]) ** alpha, rel=0.01)
     assert E[step] < E[step - 1] < E[step + 1]   # frame 5 still answers the bright wall: one frame late
-    # frames 6-8 alone and culled (built: what any frame sees, for the metering pass): the same schedule
+    # frames 6-8 alone and culled (built: what any frame sees, for the metering pass): the same
+    # schedule; the frames after the last rendered one are not metered
     _, mc = _render(tmp_path, "step_culled", lines, "--cull", "--frames", "6:9")
-    assert mc["sensor"]["metered"] == m["sensor"]["metered"]
+    assert mc["sensor"]["metered"][:9] == m["sensor"]["metered"][:9]
+    assert mc["sensor"]["metered"][9:] == [None] * (n - 9)
     assert mc["sensor"]["exposure_s"][6:9] == m["sensor"]["exposure_s"][6:9]
 
 

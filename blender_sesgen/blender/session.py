@@ -23,6 +23,7 @@ from typing import Callable, Optional
 from ..contract.manifest import render_seed
 from ..scene.lighting import AGX_LOOKS, EXPOSURE_TARGET, VIEW_TRANSFORMS
 from ..render.plan import Device, RenderPlan
+from ..render.sensor.autoexposure import metered_frames
 from ..scene.presets import EXPOSURE_PREVIEW
 from . import builder, compat, exposure, render, rig, shading
 
@@ -45,6 +46,7 @@ class BlenderSession:
         s = plan.settings
         self.flat = s.preset.shading == "flat"
         self.culling, self._exposure_ids, self._metering_ids = None, None, None
+        self._preview_session = False   # the metering pass reuses the exposure preview's session
         scene = plan.scene
         meters = meter and plan.sensor.autoexposure is not None and known_metering is None
         self._meter = meter
@@ -77,7 +79,7 @@ class BlenderSession:
                                look=AGX_LOOKS[plan.scene.look.look])
         self.fast = bool(fast and render.can_render_multiview(self.built.cameras))
         self._configure["persistent"] = self.fast
-        self.exposure = self._exposure(known_exposure)
+        self.exposure = self._exposure(known_exposure, then_meters=meters)
         self.metering_s = None      # seconds the metering pass took (None: not run here)
         self.metering = self._metering(known_metering)
         if self._exposure_ids is not None or self._metering_ids is not None:
@@ -109,10 +111,12 @@ class BlenderSession:
             return look.auto_exposure
         return not any(light.kind != "portal" for light in self.plan.scene.lights)
 
-    def _exposure(self, known: Optional[float]) -> float:
+    def _exposure(self, known: Optional[float], then_meters: bool = False) -> float:
         """One film exposure for the whole sequence: 1 for the flat ``gt`` shading, else
         automatic (blender/exposure.py, measured with the same preview settings whatever the
-        preset; the value of frames already rendered when resuming) or the LOOK's fixed 2^EV."""
+        preset; the value of frames already rendered when resuming) or the LOOK's fixed 2^EV.
+        ``then_meters``: the metering pass follows, whose previews (the same size, samples and
+        objects) may then reuse the exposure preview's Cycles session."""
         if self.flat:
             return 1.0
         if not self.auto_exposure:
@@ -127,27 +131,40 @@ class BlenderSession:
         # frames with other pixels than a fresh one (the city street, draft: every pixel)
         share = self.fast and self.plan.settings.preset.samples >= EXPOSURE_PREVIEW.samples \
             and not self.plan.sensor.changes_rendering
-        render.configure(self.built.scene, EXPOSURE_PREVIEW, **{**self._configure, "persistent": share})
+        # else the metering pass may reuse the preview's session: the same preview settings and
+        # objects (not when culling shows the two other object sets), the first metered
+        # frame that of the preview, so its pixels are a fresh session's
+        self._preview_session = self.fast and then_meters and not share and self._exposure_ids is None \
+            and self._metering_ids is None
+        render.configure(self.built.scene, EXPOSURE_PREVIEW,
+                         **{**self._configure, "persistent": share or self._preview_session})
         if self._exposure_ids is not None:   # culled: frame 0 metered with what frame 0 sees, in every chunk
             self._show(self._exposure_ids)
         return exposure.measure_exposure(self.built.scene, self.built.cameras["left"], rig.blender_frame(0),
                                          self.built.cameras if share else None)
 
     def _metering(self, known: Optional[list]) -> Optional[list]:
-        """The sensor auto-exposure's metered brightness of every frame of the sequence (None
-        without AUTOEXPOSURE): ``known`` when the folder holds it, else the metering pass
-        (blender/exposure.py: ``meter_frames``), which does not depend on which frames this
-        render has, so chunks and resumed renders agree."""
+        """The sensor auto-exposure's metered brightness of the frames up to this render's last
+        (None without AUTOEXPOSURE; None for the frames after it): ``known`` when the folder
+        holds them, else the metering pass (blender/exposure.py: ``meter_frames``), whose value
+        of a frame does not depend on which frames this render has, so chunks and resumed
+        renders agree."""
         if self.plan.sensor.autoexposure is None or not self._meter:
             return None
         if known is not None:
-            return [float(v) for v in known]
+            return [None if v is None else float(v) for v in known]
         t0 = time.perf_counter()
-        render.configure(self.built.scene, EXPOSURE_PREVIEW, **{**self._configure, "persistent": False})
+        render.configure(self.built.scene, EXPOSURE_PREVIEW, **{**self._configure, "persistent": self._preview_session})
         if self._metering_ids is not None:
             self._show(self._metering_ids)
-        frames = [rig.blender_frame(k) for k in range(self.plan.scene.frames)]
+        # frame k's exposure follows frames 0..k-1: meter up to this render's last frame (every
+        # frame of a whole render; a chunk's or --frames A:B's prefix), the rest left unknown
+        upto = metered_frames(self.plan.frames, self.plan.scene.frames)
+        frames = [rig.blender_frame(k) for k in range(upto)]
         metered = exposure.meter_frames(self.built.scene, self.built.cameras["left"], frames, self.exposure)
+        metered = metered + [None] * (self.plan.scene.frames - upto)
+        # switching persistence off frees the previews' session: the frames start their own
+        render.configure(self.built.scene, EXPOSURE_PREVIEW, **{**self._configure, "persistent": False})
         self.metering_s = time.perf_counter() - t0
         return metered
 

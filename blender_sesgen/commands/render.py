@@ -135,7 +135,7 @@ def run(args: argparse.Namespace) -> int:
             if job.session.culling is not None and not args.quiet:
                 print(f"culling: {job.session.culling.summary()} built for {len(todo)} frame(s)", flush=True)
             if job.session.metering_s is not None and not args.quiet:
-                print(f"auto-exposure: metered {len(job.session.metering)} frame(s) in "
+                print(f"auto-exposure: metered {sum(v is not None for v in job.session.metering)} frame(s) in "
                       f"{_fmt(job.session.metering_s)}", flush=True)
         except SesgenError:
             raise

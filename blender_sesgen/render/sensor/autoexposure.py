@@ -2,7 +2,7 @@
 
 The metered brightness of frame j is the mean Rec. 709 luminance m_j of its linear render
 (independent of the exposure: the render is radiance), taken by a **metering pass** before
-any frame renders: a small, deterministic preview of every frame of the sequence
+any frame renders: a small, deterministic preview of every frame up to the render's last one
 (``METERING_WIDTH_PX`` wide, ``METERING_SAMPLES`` samples, seed 0, no denoiser, no motion
 blur; ``blender/exposure.py: meter_frames``). The values are stored in the manifest
 (``sensor.metered``) and every later writer of the folder reads them, so a frame's exposure
@@ -27,7 +27,7 @@ LUMA = np.array([0.2126, 0.7152, 0.0722])
 METERING_WIDTH_PX = 96     # the metering preview's width (its aspect ratio is the render's)
 METERING_SAMPLES = 8
 METERING_RULE = (f"metering pass before the frames: mean linear luminance of a {METERING_WIDTH_PX} px wide, "
-                 f"{METERING_SAMPLES}-sample left-view preview of every frame (seed 0, no denoiser, no motion blur)")
+                 f"{METERING_SAMPLES}-sample left-view preview of each frame up to the render's last (seed 0, no denoiser, no motion blur)")
 
 
 def meter(linear_rgb: np.ndarray) -> float:
@@ -54,6 +54,13 @@ class ExposureControl:
     max_exposure_s: float          # 0: the frame period minus the readout
     max_gain: float
     min_exposure_s: float
+
+
+def metered_frames(frames, n: int) -> int:
+    """How many leading frames of an ``n``-frame sequence a render of ``frames`` meters: up to
+    its last frame (frame k's exposure follows frames 0..k-1; the last one's value makes a whole
+    render's list complete), so a render of frames 0:2 of a long sequence meters two."""
+    return min(n, max(frames, default=-1) + 1)
 
 
 def exposure_schedule(metered: list[float], c: ExposureControl) -> list[tuple[float, float]]:

@@ -18,14 +18,15 @@ from .render_plan import SENSOR_DIR, SensorPlan
 EXR_LAYOUT = "single part holding every pass (beauty of the sensor render, ground truth of the sharp render)"
 
 
-def stored_metering(plan: SensorPlan, kept: Optional[dict]) -> Optional[list]:
+def stored_metering(plan: SensorPlan, kept: Optional[dict], upto: Optional[int] = None) -> Optional[list]:
     """The metering pass's values in ``kept`` (the folder's manifest, when it may be
-    resumed): every frame's metered brightness, or None (not stored: meter)."""
+    resumed): every frame's metered brightness (None for frames not metered yet), or None
+    when any of the first ``upto`` (default: all) is missing (not stored: meter)."""
     if plan.autoexposure is None or not kept:
         return None
     metered = (kept.get("sensor") or {}).get("metered") or []
     n = kept.get("frames")
-    if len(metered) != n or any(v is None for v in metered):
+    if len(metered) != n or any(v is None for v in metered[:upto]):
         return None
     return list(metered)
 
@@ -54,7 +55,7 @@ def prepare_manifest(plan: SensorPlan, m, kept: Optional[dict], out: Optional[Pa
         return
     if kept is None:
         if metering is not None:
-            m.extra["sensor"]["metered"] = [float(v) for v in metering]
+            m.extra["sensor"]["metered"] = [None if v is None else float(v) for v in metering]
         return
     prev = kept.get("sensor") or {}
     for key in STATE_KEYS:
@@ -71,8 +72,9 @@ def prepare_manifest(plan: SensorPlan, m, kept: Optional[dict], out: Optional[Pa
                         m.extra["sensor"][key][k] = st[key]
                 except (OSError, ValueError, KeyError):
                     pass
-    if metering is not None:
-        m.extra["sensor"]["metered"] = [float(v) for v in metering]
+    if metering is not None:   # a frame this render did not meter keeps the folder's value
+        m.extra["sensor"]["metered"] = [float(v) if v is not None else old for v, old in
+                                        zip(metering, m.extra["sensor"]["metered"])]
 
 
 def make_folders(plan: SensorPlan, out: Path) -> None:

@@ -8,6 +8,7 @@ on the origin, ground at y = 0, the front (street) facade facing +z.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,6 +27,14 @@ class Opening:
     recess: float
 
 
+def _round6(x: float) -> float:
+    """``np.round(x, 6)`` bit for bit (x * 1e6 rounded half to even, over 1e6, a zero keeping
+    the sign of x * 1e6), without numpy's per-call cost (the shell welds ~10^5 points)."""
+    y = x * 1e6
+    r = round(y) / 1e6
+    return r if r != 0.0 else math.copysign(0.0, y)
+
+
 class _Shell:
     """The building's outer walls as one welded surface: four facade grids sharing the
     global height breakpoints, with openings cut out, reveals and the glass/door planes."""
@@ -38,7 +47,7 @@ class _Shell:
         self.surf: list = []
 
     def vid(self, p) -> int:
-        key = tuple(np.round(np.asarray(p, float), 6))
+        key = tuple(_round6(float(x)) for x in p)
         if key not in self.verts:
             self.verts[key] = len(self.V)
             self.V.append(key)
@@ -152,8 +161,11 @@ def generate(size, seed: int) -> MeshData:
             us |= {o.u0, o.u1}
         us = np.array(sorted(round(u, 6) for u in us))
 
-        def P(u, v, w=0.0, origin=origin, e_u=e_u, n=n):
-            return origin + u * e_u + v * np.array([0, 1.0, 0]) - w * n
+        def P(u, v, w=0.0, o=tuple(map(float, origin)), e=tuple(map(float, e_u)), n=tuple(map(float, n))):
+            # origin + u e_u + v (0, 1, 0) - w n in Python floats: numpy's operations in its order
+            u, v, w = float(u), float(v), float(w)
+            return (o[0] + u * e[0] + v * 0.0 - w * n[0], o[1] + u * e[1] + v * 1.0 - w * n[1],
+                    o[2] + u * e[2] + v * 0.0 - w * n[2])
 
         for i in range(len(us) - 1):
             for j in range(len(ys) - 1):
