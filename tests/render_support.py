@@ -5,6 +5,7 @@ import os
 import re
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -89,6 +90,28 @@ def render_cmd(*args) -> list[str]:
     return [sys.executable, "-m", "blender_sesgen", "render", *map(str, args)]
 
 
+def run_loaded(cmd, timeout: float, poll_s: float = 1.0, **popen) -> subprocess.CompletedProcess:
+    """``subprocess.run(cmd, capture_output=True, text=True)`` whose ``timeout`` counts seconds of a
+    core's fair share, not of the wall clock: each second waited counts 1 / (load per core) while
+    the machine runs more processes than it has cores (a render that takes 60 s alone takes ~25
+    times that at load 50 on 2 cores), so a loaded machine is not a hung child; a hung child still
+    times out, later on a loaded machine (subprocess.TimeoutExpired, the child killed)."""
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **popen)
+    share_s, last = 0.0, time.monotonic()
+    while True:
+        try:
+            out, err = proc.communicate(timeout=poll_s)
+            return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
+        except subprocess.TimeoutExpired:
+            now = time.monotonic()
+            share_s += (now - last) / max(1.0, os.getloadavg()[0] / (os.cpu_count() or 1))
+            last = now
+            if share_s > timeout:
+                proc.kill()
+                out, err = proc.communicate()
+                raise subprocess.TimeoutExpired(proc.args, timeout, out, err) from None
+
+
 def run_render(*args, timeout=300) -> subprocess.CompletedProcess:
-    env = dict(os.environ, PYTHONPATH=str(REPO))
-    return subprocess.run(render_cmd(*args), cwd=REPO, env=env, capture_output=True, text=True, timeout=timeout)
+    """``sesgen render ARGS`` in a child process; ``timeout``: see ``run_loaded``."""
+    return run_loaded(render_cmd(*args), timeout, cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO)))

@@ -24,6 +24,7 @@ from blender_sesgen.contract import manifest as contract
 from blender_sesgen.render.plan import RenderPlan
 from blender_sesgen.addon import package
 from blender_sesgen.ses import parse_file
+from render_support import run_loaded
 from raycast import euler_xyz_deg as R_xyz_deg  # the SES rule R = Rz @ Ry @ Rx, written independently
 
 pytestmark = [pytest.mark.render,
@@ -82,7 +83,7 @@ def run_child(body: str, zip_path: Path, tmp: Path) -> dict:
     script = tmp / "child.py"
     script.write_text(PRELUDE + textwrap.dedent(body) + '\nprint("SESGEN_RESULT " + json.dumps(RESULT))\n')
     env = dict(os.environ, BLENDER_USER_RESOURCES=str(user), SESGEN_TEST_ZIP=str(zip_path))
-    r = subprocess.run([sys.executable, str(script)], cwd=tmp, env=env, capture_output=True, text=True, timeout=600)
+    r = run_loaded([sys.executable, str(script)], 600, cwd=tmp, env=env)
     lines = [l for l in r.stdout.splitlines() if l.startswith("SESGEN_RESULT ")]
     assert r.returncode == 0 and lines, f"child failed (rc {r.returncode}):\n{r.stdout[-4000:]}\n{r.stderr[-4000:]}"
     return json.loads(lines[-1][len("SESGEN_RESULT "):])
