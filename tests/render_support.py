@@ -115,3 +115,11 @@ def run_loaded(cmd, timeout: float, poll_s: float = 1.0, **popen) -> subprocess.
 def run_render(*args, timeout=300) -> subprocess.CompletedProcess:
     """``sesgen render ARGS`` in a child process; ``timeout``: see ``run_loaded``."""
     return run_loaded(render_cmd(*args), timeout, cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO)))
+
+
+def rendered(script, out, *args, timeout=300) -> Path:
+    """``sesgen render SCRIPT --out OUT ARGS --quiet`` that must succeed (a failed render fails the
+    test with its stderr); returns ``out``."""
+    r = run_render(script, "--out", out, *args, "--quiet", timeout=timeout)
+    assert r.returncode == 0, r.stderr
+    return Path(out)

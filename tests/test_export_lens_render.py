@@ -10,7 +10,7 @@ import json
 import numpy as np
 import pytest
 
-from render_support import run_render
+from render_support import rendered
 
 pytestmark = pytest.mark.render
 
@@ -33,8 +33,7 @@ def render(tmp_path_factory):
     pytest.importorskip("OpenEXR")
     d = tmp_path_factory.mktemp("lensrender")
     (d / "s.ses").write_text(SCENE)
-    r = run_render(d / "s.ses", "--out", d / "out", "--samples", "1", "--quiet")
-    assert r.returncode == 0, r.stderr
+    rendered(d / "s.ses", d / "out", "--samples", "1")
     return d / "out"
 
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from markers import needs
-from render_support import REPO, run_render
+from render_support import REPO, rendered
 
 pytestmark = [pytest.mark.render, needs("bpy", "OpenEXR")]
 
@@ -54,8 +54,7 @@ def reference(request, tmp_path_factory):
     s = tmp / "s.ses"
     s.write_text(PLAIN if request.param == "plain" else SENSORS)
     out = tmp / "ref"
-    r = run_render(s, "--out", out, "--samples", "1", "--quiet")
-    assert r.returncode == 0, r.stderr
+    rendered(s, out, "--samples", "1")
     assert cli("blender_sesgen", "verify", out).returncode == 0
     return request.param, s, out
 
@@ -69,8 +68,7 @@ def damaged(reference, tmp_path, damage) -> tuple[Path, Path]:
 
 
 def repaired_by_resume(s: Path, out: Path, ref: Path) -> None:
-    r = run_render(s, "--out", out, "--samples", "1", "--resume", "--quiet")
-    assert r.returncode == 0, r.stderr
+    rendered(s, out, "--samples", "1", "--resume")
     assert files_of(out) == files_of(ref)
     v = cli("blender_sesgen", "verify", out)
     assert v.returncode == 0, v.stdout + v.stderr
