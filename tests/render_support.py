@@ -123,3 +123,19 @@ def rendered(script, out, *args, timeout=300) -> Path:
     r = run_render(script, "--out", out, *args, "--quiet", timeout=timeout)
     assert r.returncode == 0, r.stderr
     return Path(out)
+
+
+def render_text(folder, text: str, *args, timeout=300) -> Path:
+    """``text`` written to FOLDER/s.ses and rendered into FOLDER/out (``rendered``); returns the out folder."""
+    (Path(folder) / "s.ses").write_text(text)
+    return rendered(Path(folder) / "s.ses", Path(folder) / "out", *args, timeout=timeout)
+
+
+def render_paper_room(folder, frames: int, scale: float, extra: str = "") -> Path:
+    """The first ``frames`` of scenes/paper_room.ses (``extra`` lines added) at ``scale``, rendered
+    into FOLDER/out denoised: under the physically based default lighting (no ambient glow)
+    2 noisy samples leave the dim room as noise, and a VO finds its corners on lit things only."""
+    script = Path(folder) / "paper_room.ses"
+    script.write_text((REPO / "scenes" / "paper_room.ses").read_text() + extra)
+    return rendered(script, Path(folder) / "out", "--frames", f"0:{frames}", "--samples", "4", "--denoise",
+                    "--resolution-scale", str(scale))

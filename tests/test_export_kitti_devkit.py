@@ -13,7 +13,7 @@ from vo_reference.io.render import RenderSequence
 from vo_reference.io.sequence import open_sequence
 from vo_reference.exporters.driver import export
 
-from layout_scene import B, K, write_layout_render
+from layout_scene import B, K, export_layout, write_layout_render
 
 cv2 = pytest.importorskip("cv2")
 pytest.importorskip("OpenEXR")
@@ -22,9 +22,7 @@ N = 4
 
 @pytest.fixture(scope="module")
 def dataset(layout_render, tmp_path_factory):
-    out = tmp_path_factory.mktemp("kd_out")
-    assert cli_main(["export", str(layout_render), str(out), "--to", "kitti-odometry", "--sequence", "7", "--noise", "0", "-q"]) == 0
-    return out / "dataset"
+    return export_layout(layout_render, tmp_path_factory.mktemp("kd_out"), "kitti-odometry", "--sequence", "7") / "dataset"
 
 
 def test_pykitti_reads_the_tree(layout_render, dataset):

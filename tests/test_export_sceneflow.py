@@ -21,8 +21,7 @@ SEQ = "TRAIN/A/0000"
 
 @pytest.fixture(scope="module")
 def exported(layout_render, tmp_path_factory):
-    out = tmp_path_factory.mktemp("sf_out") / "FlyingThings3D"
-    return export_layout(layout_render, out, "sceneflow")
+    return export_layout(layout_render, tmp_path_factory.mktemp("sf_out") / "FlyingThings3D", "sceneflow")
 
 
 def test_tree_and_names(exported, layout_render):

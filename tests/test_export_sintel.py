@@ -17,9 +17,7 @@ N = 4
 
 @pytest.fixture(scope="module")
 def exported(layout_render, tmp_path_factory):
-    root = tmp_path_factory.mktemp("sintel")
-    export_layout(layout_render, root, "sintel")
-    return root / "training"
+    return export_layout(layout_render, tmp_path_factory.mktemp("sintel"), "sintel") / "training"
 
 
 def test_raft_loader_pairs_frames_with_their_flow(exported):

@@ -22,8 +22,7 @@ N = 4
 
 @pytest.fixture(scope="module")
 def exported(layout_render, tmp_path_factory):
-    out = tmp_path_factory.mktemp("ta_out") / "P000"
-    return export_layout(layout_render, out, "tartanair")
+    return export_layout(layout_render, tmp_path_factory.mktemp("ta_out") / "P000", "tartanair")
 
 
 def test_file_names_and_types(layout_render, exported):

@@ -23,9 +23,7 @@ TRAJ = "sesgen/Data_easy/P000"
 
 @pytest.fixture(scope="module")
 def exported(layout_render, tmp_path_factory):
-    root = tmp_path_factory.mktemp("ta2")
-    export_layout(layout_render, root, "tartanair-v2")
-    return root
+    return export_layout(layout_render, tmp_path_factory.mktemp("ta2"), "tartanair-v2")
 
 
 def test_iterator_walk_finds_every_modality_of_both_cameras(exported):

@@ -20,7 +20,7 @@ import pytest
 
 import raycast
 from render_support import (ORACLE_PRIMS, depth_and_ids, load_manifest, oracle_script, read_exr,
-                            rendered, run_render)
+                            render_text, rendered, run_render)
 from markers import needs
 
 pytestmark = [pytest.mark.render, needs("bpy")]
@@ -144,12 +144,10 @@ def test_display_images_are_the_view_transform_and_what_vo_reads(tmp_path):
     cv2 = pytest.importorskip("cv2")
     from blender_sesgen.contract.colour import linear_to_srgb8
     from vo_reference.io.render import RenderSequence
-    script = tmp_path / "s.ses"
-    script.write_text("CAMERA resolution 64 48 focal 50 baseline 0.1\nSTART position 0 1.5 3 -15 0 0\n"
-                      "QUAD id 1 material concrete vertices -5 0 5  5 0 5  5 0 -5  -5 0 -5\n"
-                      "CUBOID id 2 material brick position 0 0.5 0 dim 1 1 1\n"
-                      "SPHERE id 3 material chrome position 1.2 0.4 0.5 dim 0.4\n")
-    rendered(script, tmp_path / "out", "--samples", "4")
+    render_text(tmp_path, "CAMERA resolution 64 48 focal 50 baseline 0.1\nSTART position 0 1.5 3 -15 0 0\n"
+                "QUAD id 1 material concrete vertices -5 0 5  5 0 5  5 0 -5  -5 0 -5\n"
+                "CUBOID id 2 material brick position 0 0.5 0 dim 1 1 1\n"
+                "SPHERE id 3 material chrome position 1.2 0.4 0.5 dim 0.4\n", "--samples", "4")
     m = load_manifest(tmp_path / "out")
     assert m["display"]["view_transform"] == "AgX"
     seq = RenderSequence(tmp_path / "out")
@@ -168,14 +166,12 @@ def test_cityscapes_export_of_classes(tmp_path):
     from blender_sesgen.contract import semantics
     from vo_reference.io.render import RenderSequence
     from vo_reference.exporters.driver import export
-    script = tmp_path / "s.ses"
-    script.write_text("CAMERA resolution 64 48 focal 40 baseline 0.2\nSTART position 0 1.2 4 -10 0 0\n"
-                      "QUAD id 1 material asphalt vertices -6 0 6  6 0 6  6 0 -6  -6 0 -6\n"
-                      "CUBOID id 5 class car position -0.8 0.5 0 dim 1.5 1 1\n"
-                      "CUBOID id 9 class car position 1.2 0.5 -1 dim 1 1 1\n"
-                      "CYLINDER id 12 class traffic_light position 0 1 -2 dim 0.1 2\n"
-                      "SPHERE id 20 position 0.2 1.8 -0.5 dim 0.2\n")
-    rendered(script, tmp_path / "out", "--samples", "1")
+    render_text(tmp_path, "CAMERA resolution 64 48 focal 40 baseline 0.2\nSTART position 0 1.2 4 -10 0 0\n"
+                "QUAD id 1 material asphalt vertices -6 0 6  6 0 6  6 0 -6  -6 0 -6\n"
+                "CUBOID id 5 class car position -0.8 0.5 0 dim 1.5 1 1\n"
+                "CUBOID id 9 class car position 1.2 0.5 -1 dim 1 1 1\n"
+                "CYLINDER id 12 class traffic_light position 0 1 -2 dim 0.1 2\n"
+                "SPHERE id 20 position 0.2 1.8 -0.5 dim 0.2\n", "--samples", "1")
     out = export(tmp_path / "out", "cityscapes", tmp_path / "cs", progress=False)
     seq = RenderSequence(tmp_path / "out")
     expected_label = {0: 23, 1: 7, 5: 26, 9: 26, 12: 19, 20: 4}    # sky, road, car, car, traffic light, static

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from render_support import load_manifest, rendered, run_render
+from render_support import load_manifest, render_text, rendered, run_render
 
 SCENE = """CAMERA resolution 64 48 focal 50 baseline 0.1
 POSE 0 1 3 0 0 0
@@ -29,11 +29,8 @@ IMU rate 200 position 0.1 0 0.02 0 0 90 offset 0.001 seed 1
 def render(tmp_path_factory):
     pytest.importorskip("bpy")
     pytest.importorskip("OpenEXR")
-    d = tmp_path_factory.mktemp("sensors")
-    (d / "s.ses").write_text(SCENE)
-    rendered(d / "s.ses", d / "out", "--samples", "2")
     from vo_reference.io.render import RenderSequence
-    return RenderSequence(d / "out")
+    return RenderSequence(render_text(tmp_path_factory.mktemp("sensors"), SCENE, "--samples", "2"))
 
 
 pytestmark = pytest.mark.render
