@@ -13,16 +13,14 @@ from vo_reference.io.render import RenderSequence
 from vo_reference.io.sequence import open_sequence
 from vo_reference.exporters.driver import export
 
-from layout_scene import B, K, export_layout, write_layout_render
+from layout_scene import B, K, export_fixture, write_layout_render
 
 cv2 = pytest.importorskip("cv2")
 pytest.importorskip("OpenEXR")
 N = 4
 
 
-@pytest.fixture(scope="module")
-def dataset(layout_render, tmp_path_factory):
-    return export_layout(layout_render, tmp_path_factory.mktemp("kd_out"), "kitti-odometry", "--sequence", "7") / "dataset"
+dataset = export_fixture("kitti-odometry", ".", "--sequence", "7", part="dataset", name="dataset")
 
 
 def test_pykitti_reads_the_tree(layout_render, dataset):

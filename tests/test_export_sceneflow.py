@@ -11,7 +11,7 @@ from vo_reference.commands.main import main as cli_main
 from vo_reference.io.render import RenderSequence
 
 from format_readers import read_pfm
-from layout_scene import B, H, K, W, export_layout, raycast, view_pose
+from layout_scene import B, H, K, W, export_fixture, export_layout, raycast, view_pose
 
 cv2 = pytest.importorskip("cv2")
 pytest.importorskip("OpenEXR")
@@ -19,9 +19,7 @@ N = 3
 SEQ = "TRAIN/A/0000"
 
 
-@pytest.fixture(scope="module")
-def exported(layout_render, tmp_path_factory):
-    return export_layout(layout_render, tmp_path_factory.mktemp("sf_out") / "FlyingThings3D", "sceneflow")
+exported = export_fixture("sceneflow", "FlyingThings3D")
 
 
 def test_tree_and_names(exported, layout_render):

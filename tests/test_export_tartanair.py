@@ -12,7 +12,7 @@ from vo_reference.commands.main import main as cli_main
 from vo_reference.io.render import RenderSequence
 
 from format_readers import read_tartanair_poses, tartanair_files
-from layout_scene import (B, H, K, OBJECTS, STEP_M, W, YAW_DEG, analytic_flow, export_layout, raycast, rig_poses,
+from layout_scene import (B, H, K, OBJECTS, STEP_M, W, YAW_DEG, analytic_flow, export_fixture, raycast, rig_poses,
                           write_layout_render)
 
 cv2 = pytest.importorskip("cv2")
@@ -20,9 +20,7 @@ pytest.importorskip("OpenEXR")
 N = 4
 
 
-@pytest.fixture(scope="module")
-def exported(layout_render, tmp_path_factory):
-    return export_layout(layout_render, tmp_path_factory.mktemp("ta_out") / "P000", "tartanair")
+exported = export_fixture("tartanair", "P000")
 
 
 def test_file_names_and_types(layout_render, exported):
