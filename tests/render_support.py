@@ -139,3 +139,17 @@ def render_paper_room(folder, frames: int, scale: float, extra: str = "") -> Pat
     script.write_text((REPO / "scenes" / "paper_room.ses").read_text() + extra)
     return rendered(script, Path(folder) / "out", "--frames", f"0:{frames}", "--samples", "4", "--denoise",
                     "--resolution-scale", str(scale))
+
+
+def cli_in_process(package: str, *args) -> subprocess.CompletedProcess:
+    """``python -m PACKAGE ARGS`` (blender_sesgen or vo_reference) run in this process: its
+    ``commands.main.main`` with stdout and stderr captured; what a child would exit with and
+    print, without a Python started (and the package imported) for each check."""
+    import contextlib
+    import importlib
+    import io
+    main = importlib.import_module(f"{package}.commands.main").main
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        rc = main([str(a) for a in args])
+    return subprocess.CompletedProcess([package, *map(str, args)], rc, out.getvalue(), err.getvalue())

@@ -21,8 +21,12 @@ from markers import needs
 
 pytestmark = [pytest.mark.render, needs("bpy")]
 
+# not denoised: what these tests check (locks, kills, resumes, verify, limits) does not depend on
+# it, and the denoiser costs as much as the rest of each of these tiny frames (the denoised
+# pixels' reproducibility across kill and resume: test_render_cli.py, resume after kill)
 SCRIPT = """\
 CAMERA resolution 96 72 focal 60 baseline 0.1
+RENDER denoise off
 START position 0 1 3
 QUAD id 1 texture 3 vertices -3 0 -3  3 0 -3  3 3 -3  -3 3 -3
 QUAD id 2 texture 8 vertices -3 0 3  3 0 3  3 0 -3  -3 0 -3
@@ -85,13 +89,13 @@ def test_a_second_render_into_a_busy_folder_is_refused(reference, tmp_path):
     text, _ = reference
     s = script(tmp_path, text)
     out = tmp_path / "busy"
-    first = start_render(s, out, "--samples", "16")
+    first = start_render(s, out, "--samples", "16", "--denoise")      # denoised: busy while the others try
     try:
         wait_for(lambda: any((out / ".sesgen").glob("lock-*.json")) if (out / ".sesgen").is_dir() else False)
-        second = run_render(s, "--out", out, "--samples", "16", "--seed", "8", "--quiet")
+        second = run_render(s, "--out", out, "--samples", "16", "--denoise", "--seed", "8", "--quiet")
         assert second.returncode == 2, second.stderr
         assert f"being rendered by pid {first.pid}" in second.stderr and "Traceback" not in second.stderr
-        resume = run_render(s, "--out", out, "--samples", "16", "--resume", "--quiet")   # same plan, same frames
+        resume = run_render(s, "--out", out, "--samples", "16", "--denoise", "--resume", "--quiet")   # same plan, same frames
         assert resume.returncode == 2 and "being rendered" in resume.stderr
     finally:
         assert first.wait(600) == 0, first.stderr.read()
