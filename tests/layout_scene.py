@@ -59,6 +59,17 @@ def export_layout(render, out, target: str, *extra: str) -> Path:
     return Path(out)
 
 
+def export_fixture(target: str, into: str = ".", *extra: str, part: str = "", name: str = "exported"):
+    """A module fixture ``name``: the shared ``layout_render`` (tests/conftest.py) exported ``--to
+    TARGET`` into the folder ``into`` of a fresh one (``export_layout``); its ``part`` is returned."""
+    import pytest
+
+    @pytest.fixture(scope="module", name=name)
+    def exported(layout_render, tmp_path_factory) -> Path:
+        return export_layout(layout_render, tmp_path_factory.mktemp(target) / into, target, *extra) / part
+    return exported
+
+
 def raycast(T_world_cam: np.ndarray, lens=None) -> tuple[np.ndarray, np.ndarray]:
     """(planar depth float32 with +inf for sky, ids int32) of one camera at its pixel
     centres (through ``lens``, a ``contract.lens.Lens``, for a distorted camera)."""

@@ -5,6 +5,7 @@ import os
 import re
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -89,6 +90,66 @@ def render_cmd(*args) -> list[str]:
     return [sys.executable, "-m", "blender_sesgen", "render", *map(str, args)]
 
 
+def run_loaded(cmd, timeout: float, poll_s: float = 1.0, **popen) -> subprocess.CompletedProcess:
+    """``subprocess.run(cmd, capture_output=True, text=True)`` whose ``timeout`` counts seconds of a
+    core's fair share, not of the wall clock: each second waited counts 1 / (load per core) while
+    the machine runs more processes than it has cores (a render that takes 60 s alone takes ~25
+    times that at load 50 on 2 cores), so a loaded machine is not a hung child; a hung child still
+    times out, later on a loaded machine (subprocess.TimeoutExpired, the child killed)."""
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **popen)
+    share_s, last = 0.0, time.monotonic()
+    while True:
+        try:
+            out, err = proc.communicate(timeout=poll_s)
+            return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
+        except subprocess.TimeoutExpired:
+            now = time.monotonic()
+            share_s += (now - last) / max(1.0, os.getloadavg()[0] / (os.cpu_count() or 1))
+            last = now
+            if share_s > timeout:
+                proc.kill()
+                out, err = proc.communicate()
+                raise subprocess.TimeoutExpired(proc.args, timeout, out, err) from None
+
+
 def run_render(*args, timeout=300) -> subprocess.CompletedProcess:
-    env = dict(os.environ, PYTHONPATH=str(REPO))
-    return subprocess.run(render_cmd(*args), cwd=REPO, env=env, capture_output=True, text=True, timeout=timeout)
+    """``sesgen render ARGS`` in a child process; ``timeout``: see ``run_loaded``."""
+    return run_loaded(render_cmd(*args), timeout, cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO)))
+
+
+def rendered(script, out, *args, timeout=300) -> Path:
+    """``sesgen render SCRIPT --out OUT ARGS --quiet`` that must succeed (a failed render fails the
+    test with its stderr); returns ``out``."""
+    r = run_render(script, "--out", out, *args, "--quiet", timeout=timeout)
+    assert r.returncode == 0, r.stderr
+    return Path(out)
+
+
+def render_text(folder, text: str, *args, timeout=300) -> Path:
+    """``text`` written to FOLDER/s.ses and rendered into FOLDER/out (``rendered``); returns the out folder."""
+    (Path(folder) / "s.ses").write_text(text)
+    return rendered(Path(folder) / "s.ses", Path(folder) / "out", *args, timeout=timeout)
+
+
+def render_paper_room(folder, frames: int, scale: float, extra: str = "") -> Path:
+    """The first ``frames`` of scenes/paper_room.ses (``extra`` lines added) at ``scale``, rendered
+    into FOLDER/out denoised: under the physically based default lighting (no ambient glow)
+    2 noisy samples leave the dim room as noise, and a VO finds its corners on lit things only."""
+    script = Path(folder) / "paper_room.ses"
+    script.write_text((REPO / "scenes" / "paper_room.ses").read_text() + extra)
+    return rendered(script, Path(folder) / "out", "--frames", f"0:{frames}", "--samples", "4", "--denoise",
+                    "--resolution-scale", str(scale))
+
+
+def cli_in_process(package: str, *args) -> subprocess.CompletedProcess:
+    """``python -m PACKAGE ARGS`` (blender_sesgen or vo_reference) run in this process: its
+    ``commands.main.main`` with stdout and stderr captured; what a child would exit with and
+    print, without a Python started (and the package imported) for each check."""
+    import contextlib
+    import importlib
+    import io
+    main = importlib.import_module(f"{package}.commands.main").main
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        rc = main([str(a) for a in args])
+    return subprocess.CompletedProcess([package, *map(str, args)], rc, out.getvalue(), err.getvalue())

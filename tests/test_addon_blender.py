@@ -24,6 +24,7 @@ from blender_sesgen.contract import manifest as contract
 from blender_sesgen.render.plan import RenderPlan
 from blender_sesgen.addon import package
 from blender_sesgen.ses import parse_file
+from render_support import run_loaded
 from raycast import euler_xyz_deg as R_xyz_deg  # the SES rule R = Rz @ Ry @ Rx, written independently
 
 pytestmark = [pytest.mark.render,
@@ -54,6 +55,7 @@ import json, os, sys
 import bpy
 import numpy as np
 ZIP = os.environ["SESGEN_TEST_ZIP"]
+SESGEN_REPO = os.environ["SESGEN_TEST_REPO"]
 r = bpy.ops.extensions.package_install_files(filepath=ZIP, repo="user_default", enable_on_install=True)
 assert r == {"FINISHED"}, r
 MODULE = "bl_ext.user_default.blender_sesgen"
@@ -65,6 +67,14 @@ def call(op, **kw):
         return {"result": sorted(op(**kw)), "error": None}
     except RuntimeError as e:
         return {"result": None, "error": str(e)}
+def panel(script=None, **values):   # the panel's settings: the script first (it may replace the scene), then values
+    if script is not None:
+        S().script_path = script
+    s = S()
+    for name, value in values.items():
+        setattr(s, name, value)
+    return s
+MINIMAL = SESGEN_REPO + "/scenes/minimal.ses"
 def counts():
     return {k: len(getattr(bpy.data, k)) for k in ("scenes", "objects", "meshes", "materials", "curves",
             "cameras", "lights", "node_groups", "collections", "worlds", "images", "actions")}
@@ -81,8 +91,8 @@ def run_child(body: str, zip_path: Path, tmp: Path) -> dict:
     user.mkdir(exist_ok=True)
     script = tmp / "child.py"
     script.write_text(PRELUDE + textwrap.dedent(body) + '\nprint("SESGEN_RESULT " + json.dumps(RESULT))\n')
-    env = dict(os.environ, BLENDER_USER_RESOURCES=str(user), SESGEN_TEST_ZIP=str(zip_path))
-    r = subprocess.run([sys.executable, str(script)], cwd=tmp, env=env, capture_output=True, text=True, timeout=600)
+    env = dict(os.environ, BLENDER_USER_RESOURCES=str(user), SESGEN_TEST_ZIP=str(zip_path), SESGEN_TEST_REPO=str(REPO))
+    r = run_loaded([sys.executable, str(script)], 600, cwd=tmp, env=env)
     lines = [l for l in r.stdout.splitlines() if l.startswith("SESGEN_RESULT ")]
     assert r.returncode == 0 and lines, f"child failed (rc {r.returncode}):\n{r.stdout[-4000:]}\n{r.stderr[-4000:]}"
     return json.loads(lines[-1][len("SESGEN_RESULT "):])
@@ -180,50 +190,63 @@ def test_the_three_headless_lines_of_the_docs_install_enable_and_keep_the_addon(
 
 # --- Build --------------------------------------------------------------------------------
 
-BUILD_BODY = """
-S().script_path = SCRIPT
-RESULT["build1"] = call(bpy.ops.sesgen.build)
-RESULT["counts1"] = counts()
-RESULT["build2"] = call(bpy.ops.sesgen.build)
-RESULT["counts2"] = counts()
-RESULT["window_scene"] = bpy.context.scene.name
-RESULT["panel_script"] = bpy.context.scene.sesgen.script_path
-sc = bpy.data.scenes["SESGen"]
-RESULT["frame_range"] = [sc.frame_start, sc.frame_end]
-RESULT["names"] = sorted(o.name for o in bpy.data.objects)
-objs = []
-for o in sc.objects:
-    d = {"name": o.name, "type": o.type, "pass_index": o.pass_index, "hide_render": o.hide_render,
-         "collections": [c.name for c in o.users_collection],
-         "matrix_world": [list(r) for r in o.matrix_world]}
-    if o.type == "MESH" and len(o.data.vertices):
-        mw = np.array(o.matrix_world)
-        v = np.array([tuple(x.co) for x in o.data.vertices])
-        d["world_vertices"] = (v @ mw[:3, :3].T + mw[:3, 3]).tolist()
-    if o.type == "MESH" and not len(o.data.vertices):   # a sphere: one point of a point cloud
-        from importlib import import_module
-        pts = import_module(MODULE + ".blender.compat").evaluated_points(o)  # 4.2+ and 5.0
-        d["points"] = [list(c) for c, _ in pts]
-        d["radius"] = [r for _, r in pts]
-    if o.type == "CURVE":
-        d["curve_points"] = [list(o.matrix_world @ p.co.xyz) for s in o.data.splines for p in s.points]
-    if o.type == "CAMERA":
-        poses = []
-        for f in range(sc.frame_start, sc.frame_end + 1):
-            sc.frame_set(f)
-            poses.append([list(r) for r in o.matrix_world])
-        d["poses"] = poses
-        from importlib import import_module
-        compat = import_module(MODULE + ".blender.compat")
-        d["keys"] = [len(fc.keyframe_points) for fc in compat.object_fcurves(o)]
-    objs.append(d)
-RESULT["objects"] = objs
+# The facts of building one script twice (a function of the child: one Blender builds every
+# script in turn, as a user builds one after another; each build replaces the one before).
+BUILD_FACTS = """
+def build_facts(SCRIPT):
+    RESULT = {}
+    S().script_path = SCRIPT
+    RESULT["build1"] = call(bpy.ops.sesgen.build)
+    RESULT["counts1"] = counts()
+    RESULT["build2"] = call(bpy.ops.sesgen.build)
+    RESULT["counts2"] = counts()
+    RESULT["window_scene"] = bpy.context.scene.name
+    RESULT["panel_script"] = bpy.context.scene.sesgen.script_path
+    sc = bpy.data.scenes["SESGen"]
+    RESULT["frame_range"] = [sc.frame_start, sc.frame_end]
+    RESULT["names"] = sorted(o.name for o in bpy.data.objects)
+    objs = []
+    for o in sc.objects:
+        d = {"name": o.name, "type": o.type, "pass_index": o.pass_index, "hide_render": o.hide_render,
+             "collections": [c.name for c in o.users_collection],
+             "matrix_world": [list(r) for r in o.matrix_world]}
+        if o.type == "MESH" and len(o.data.vertices):
+            mw = np.array(o.matrix_world)
+            v = np.array([tuple(x.co) for x in o.data.vertices])
+            d["world_vertices"] = (v @ mw[:3, :3].T + mw[:3, 3]).tolist()
+        if o.type == "MESH" and not len(o.data.vertices):   # a sphere: one point of a point cloud
+            from importlib import import_module
+            pts = import_module(MODULE + ".blender.compat").evaluated_points(o)  # 4.2+ and 5.0
+            d["points"] = [list(c) for c, _ in pts]
+            d["radius"] = [r for _, r in pts]
+        if o.type == "CURVE":
+            d["curve_points"] = [list(o.matrix_world @ p.co.xyz) for s in o.data.splines for p in s.points]
+        if o.type == "CAMERA":
+            poses = []
+            for f in range(sc.frame_start, sc.frame_end + 1):
+                sc.frame_set(f)
+                poses.append([list(r) for r in o.matrix_world])
+            d["poses"] = poses
+            from importlib import import_module
+            compat = import_module(MODULE + ".blender.compat")
+            d["keys"] = [len(fc.keyframe_points) for fc in compat.object_fcurves(o)]
+        objs.append(d)
+    RESULT["objects"] = objs
+    return RESULT
 """
 
 
+@pytest.fixture(scope="module")
+def builds(addon_zip, tmp_path_factory) -> dict:
+    """{script path: the facts of building it twice}, every script of SCENES in one child."""
+    scripts = [str(p) for p in SCENES]
+    return run_child(BUILD_FACTS + f"RESULT = {{s: build_facts(s) for s in {scripts!r}}}\n", addon_zip,
+                     tmp_path_factory.mktemp("builds"))
+
+
 @pytest.mark.parametrize("script", SCENES, ids=[p.name for p in SCENES])
-def test_build_creates_the_model_objects_rig_and_path(addon_zip, tmp_path, script):
-    res = run_child(f"SCRIPT = {str(script)!r}\n" + BUILD_BODY, addon_zip, tmp_path)
+def test_build_creates_the_model_objects_rig_and_path(builds, script):
+    res = builds[str(script)]
     model = parse_file(script)
     N = model.frames
     assert res["build1"]["error"] is None and res["build2"]["error"] is None
@@ -356,11 +379,7 @@ def test_verify_operator_names_a_damaged_frame_and_resume_renders_it_again(addon
     out = tmp_path / "out"
     res = run_child(f"""
         import pathlib
-        S().script_path = {str(REPO / 'scenes' / 'minimal.ses')!r}
-        s = S()
-        s.output_dir = {str(out)!r}
-        s.override_render, s.samples = True, 1
-        s.resolution_scale = 0.5
+        panel(MINIMAL, output_dir={str(out)!r}, override_render=True, samples=1, resolution_scale=0.5)
         RESULT["render"] = call(bpy.ops.sesgen.render)
         RESULT["clean"] = (call(bpy.ops.sesgen.verify), S().status)
         f = pathlib.Path({str(out)!r}) / "exr" / "left" / "000001.exr"
@@ -383,12 +402,8 @@ def test_verify_operator_names_a_damaged_frame_and_resume_renders_it_again(addon
 def test_render_operator_writes_the_output_contract_and_preview(addon_zip, tmp_path):
     out = tmp_path / "out"
     res = run_child(f"""
-        S().script_path = {str(REPO / 'scenes' / 'minimal.ses')!r}
-        s = S()
-        s.output_dir = {str(out)!r}
-        s.use_frame_range, s.frame_first, s.frame_stop = True, 0, 2
-        s.override_render, s.samples, s.seed = True, 1, 3
-        s.resolution_scale = 0.5
+        panel(MINIMAL, output_dir={str(out)!r}, use_frame_range=True, frame_first=0, frame_stop=2, override_render=True,
+              samples=1, seed=3, resolution_scale=0.5)
         RESULT["render"] = call(bpy.ops.sesgen.render)
         RESULT["status"] = S().status
         RESULT["progress"] = S().progress
@@ -490,12 +505,8 @@ def test_export_operator_writes_a_dataset_layout_through_vo_reference(addon_zip,
     Python, which has vo_reference) and reports its result; a missing tool is a clear error."""
     out, ds = tmp_path / "out", tmp_path / "dataset"
     res = run_child(f"""
-        S().script_path = {str(REPO / 'scenes' / 'minimal.ses')!r}
-        s = S()
-        s.output_dir = {str(out)!r}
-        s.use_frame_range, s.frame_first, s.frame_stop = True, 0, 2
-        s.override_render, s.samples = True, 1
-        s.resolution_scale = 0.5
+        panel(MINIMAL, output_dir={str(out)!r}, use_frame_range=True, frame_first=0, frame_stop=2, override_render=True,
+              samples=1, resolution_scale=0.5)
         RESULT["render"] = call(bpy.ops.sesgen.render)
         s = S()
         s.export_target, s.export_dir, s.export_sequence = "tartanair", {str(ds)!r}, "room/Easy/P000"
@@ -552,11 +563,7 @@ def test_cancel_leaves_a_resumable_folder_and_resume_completes_it(addon_zip, tmp
     res = run_child(f"""
         from importlib import import_module
         session = import_module(MODULE + ".addon.session")
-        S().script_path = {str(REPO / 'scenes' / 'minimal.ses')!r}
-        s = S()
-        s.output_dir = {str(out)!r}
-        s.override_render, s.samples = True, 1
-        s.resolution_scale = 0.5
+        panel(MINIMAL, output_dir={str(out)!r}, override_render=True, samples=1, resolution_scale=0.5)
         # what the modal operator does: one step per timer tick, then ESC
         run = session.RenderSession.start(bpy.context, session.read_settings(bpy.context))
         RESULT["todo"] = list(run.todo)

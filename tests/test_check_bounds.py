@@ -2,31 +2,30 @@
 stream (frames x rate x duration), the timestamps, mesh vertex counts and buffer sizes,
 the values of HDRIs and float textures (finite, in range), vertex coordinates of model files
 (finite), and ``generate``'s count. Each is a one-line ``file:line:col`` error naming the
-limit (docs/ses-language.md, *Limits*), from the real command line.
+limit (docs/ses-language.md, *Limits*), from the command line's main (in this process; the
+render command's refusals from a child process).
 """
 from __future__ import annotations
 
 import base64
 import json
-import os
 import struct
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 from markers import needs
+from render_support import cli_in_process, run_render
 
-REPO = Path(__file__).resolve().parents[1]
 CAMERA = "CAMERA resolution 64 48 focal 50\nSTART position 0 1 3\n"
 QUAD = "QUAD id 1 vertices -1 0 -1 1 0 -1 1 1 -1 -1 1 -1\n"
 
 
-def cli(*args, timeout=120) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "blender_sesgen", *map(str, args)], capture_output=True, text=True,
-                          timeout=timeout, cwd=REPO, env={**os.environ, "PYTHONPATH": str(REPO)})
+def cli(*args) -> subprocess.CompletedProcess:
+    """``sesgen ARGS`` (check, generate) through the command line's main, in this process."""
+    return cli_in_process("blender_sesgen", *args)
 
 
 def refused(script: Path, *words: str, line: int | None = None) -> str:
@@ -67,7 +66,7 @@ def test_timestamps_beyond_the_manifests_limit_are_refused(tmp_path):
 def test_the_render_commands_rate_override_is_bounded_too(tmp_path):
     s = write(tmp_path, CAMERA + QUAD + "EGO 0 0 -0.1 0 0 0\nIMU rate 200\n")
     out = tmp_path / "out"
-    r = cli("render", s, "--out", out, "--rate", "1e-9")
+    r = run_render(s, "--out", out, "--rate", "1e-9")
     assert r.returncode == 2 and "IMU" in r.stderr and "2000000 samples" in r.stderr, r.stderr
     assert not out.exists()
 
@@ -76,7 +75,7 @@ def test_the_render_commands_rate_override_is_bounded_too(tmp_path):
 
 def test_generate_refuses_a_count_beyond_its_limit_at_once(tmp_path):
     t0 = time.time()
-    r = cli("generate", "street", "--count", "10000001", "--out", tmp_path / "g", timeout=60)
+    r = cli("generate", "street", "--count", "10000001", "--out", tmp_path / "g")
     assert r.returncode == 2 and "--count" in r.stderr and "1000000" in r.stderr, r.stderr
     assert time.time() - t0 < 30 and not (tmp_path / "g").exists()
 
@@ -213,7 +212,7 @@ def test_the_renderer_checks_float_images_check_cannot_decode(tmp_path, use):
     s = write(tmp_path, CAMERA + QUAD.replace("id 1", "id 2") + stmt)
     assert cli("check", s).returncode == 0
     out = tmp_path / "out"
-    r = cli("render", s, "--out", out, "--samples", "1", timeout=300)
+    r = run_render(s, "--out", out, "--samples", "1")
     assert r.returncode == 2 and "bad.exr" in r.stderr and "finite" in r.stderr, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and not out.exists(), r.stderr
 

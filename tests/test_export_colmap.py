@@ -10,7 +10,8 @@ import json
 import numpy as np
 import pytest
 
-from layout_scene import B, H, OBJECTS, PLANES, W, export_layout, raycast_pixels, view_pose, write_layout_render
+from layout_scene import (B, H, OBJECTS, PLANES, W, export_fixture, export_layout, raycast_pixels, view_pose,
+                          write_layout_render)
 
 pycolmap = pytest.importorskip("pycolmap", reason="pycolmap (PyPI) is the reader under test")
 pytest.importorskip("cv2")
@@ -18,9 +19,7 @@ pytest.importorskip("OpenEXR")
 N = 4
 
 
-@pytest.fixture(scope="module")
-def exported(layout_render, tmp_path_factory):
-    return export_layout(layout_render, tmp_path_factory.mktemp("colmap") / "out", "colmap")
+exported = export_fixture("colmap", "out")
 
 
 def _reprojection_errors(rec) -> np.ndarray:

@@ -10,7 +10,7 @@ import json
 import numpy as np
 import pytest
 
-from render_support import run_render
+from render_support import render_text
 
 pytestmark = pytest.mark.render
 
@@ -31,11 +31,7 @@ PLANES = ((np.array([0.0, 0.0, 1.0]), -2.0), (np.array([0.0, 1.0, 0.0]), 0.0))  
 def render(tmp_path_factory):
     pytest.importorskip("bpy")
     pytest.importorskip("OpenEXR")
-    d = tmp_path_factory.mktemp("lensrender")
-    (d / "s.ses").write_text(SCENE)
-    r = run_render(d / "s.ses", "--out", d / "out", "--samples", "1", "--quiet")
-    assert r.returncode == 0, r.stderr
-    return d / "out"
+    return render_text(tmp_path_factory.mktemp("lensrender"), SCENE, "--samples", "1")
 
 
 def _export(render, out, target, *extra) -> int:

@@ -14,16 +14,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from layout_scene import H, K, OBJECTS, PLANES, W, export_layout, raycast_pixels, view_pose, write_layout_render
+from layout_scene import (H, K, OBJECTS, PLANES, W, export_fixture, export_layout, raycast_pixels, view_pose,
+                          write_layout_render)
 
 cv2 = pytest.importorskip("cv2")
 pytest.importorskip("OpenEXR")
 N = 4
 
 
-@pytest.fixture(scope="module")
-def exported(layout_render, tmp_path_factory):
-    return export_layout(layout_render, tmp_path_factory.mktemp("ns") / "out", "nerfstudio")
+exported = export_fixture("nerfstudio", "out")
 
 
 def load_dataparser(root: Path, depth_unit_scale_factor: float = 1e-3) -> list[dict]:

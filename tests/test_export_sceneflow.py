@@ -11,7 +11,7 @@ from vo_reference.commands.main import main as cli_main
 from vo_reference.io.render import RenderSequence
 
 from format_readers import read_pfm
-from layout_scene import B, H, K, W, export_layout, raycast, view_pose
+from layout_scene import B, H, K, W, export_fixture, export_layout, raycast, view_pose
 
 cv2 = pytest.importorskip("cv2")
 pytest.importorskip("OpenEXR")
@@ -19,19 +19,11 @@ N = 3
 SEQ = "TRAIN/A/0000"
 
 
-@pytest.fixture(scope="module")
-def render(layout_render):
-    return layout_render
+exported = export_fixture("sceneflow", "FlyingThings3D")
 
 
-@pytest.fixture(scope="module")
-def exported(render, tmp_path_factory):
-    out = tmp_path_factory.mktemp("sf_out") / "FlyingThings3D"
-    return export_layout(render, out, "sceneflow")
-
-
-def test_tree_and_names(exported, render):
-    seq = RenderSequence(render)
+def test_tree_and_names(exported, layout_render):
+    seq = RenderSequence(layout_render)
     for view, L in (("left", "L"), ("right", "R")):
         assert sorted(p.name for p in (exported / "frames_cleanpass" / SEQ / view).iterdir()) == ["0000.png", "0001.png", "0002.png"]
         assert sorted(p.name for p in (exported / "disparity" / SEQ / view).iterdir()) == ["0000.pfm", "0001.pfm", "0002.pfm"]
@@ -123,11 +115,11 @@ def test_loaders_that_pair_files_by_position_get_the_right_flow(exported, camera
             assert np.abs(read_pfm(flo)[..., :2] - exp).max() < 1e-3, (direction, img1, img2, flo)
 
 
-def test_boundary_files_flow_to_the_rendered_neighbour_or_hold_nan(render, tmp_path):
+def test_boundary_files_flow_to_the_rendered_neighbour_or_hold_nan(layout_render, tmp_path):
     """The last exported frame flows into the next rendered frame (not exported, as
     FlyingThings3D's own boundary files); at the ends of the render there is no frame:
     NaN (never read by position-indexed loaders)."""
-    out = export_layout(render, tmp_path / "ft", "sceneflow", "--frames", "0:2")
+    out = export_layout(layout_render, tmp_path / "ft", "sceneflow", "--frames", "0:2")
     fut = read_pfm(out / "optical_flow" / SEQ / "into_future/left/OpticalFlowIntoFuture_0001_L.pfm")
     exp, _, _ = closed_form_flow(1, 2, "left")
     assert np.abs(fut[..., :2] - exp).max() < 1e-3
@@ -138,20 +130,20 @@ def test_boundary_files_flow_to_the_rendered_neighbour_or_hold_nan(render, tmp_p
     assert np.isfinite(dc).all()
 
 
-def test_several_sequences_share_one_tree(render, exported, tmp_path, capsys):
+def test_several_sequences_share_one_tree(layout_render, exported, tmp_path, capsys):
     out = tmp_path / "ft"
-    assert cli_main(["export", str(render), str(out), "--to", "sceneflow", "-q"]) == 0
+    assert cli_main(["export", str(layout_render), str(out), "--to", "sceneflow", "-q"]) == 0
     before = (out / "disparity" / SEQ / "left/0000.pfm").read_bytes()
-    assert cli_main(["export", str(render), str(out), "--to", "sceneflow", "--sequence", "TRAIN/A/0001",
+    assert cli_main(["export", str(layout_render), str(out), "--to", "sceneflow", "--sequence", "TRAIN/A/0001",
                      "--frames", "1:", "-q"]) == 0
     assert (out / "disparity" / SEQ / "left/0000.pfm").read_bytes() == before
     assert len(list((out / "disparity/TRAIN/A/0001/left").iterdir())) == 2
     # exporting the same slot again replaces it; a foreign folder in a slot is refused
-    assert cli_main(["export", str(render), str(out), "--to", "sceneflow", "--frames", "0:2", "-q"]) == 0
+    assert cli_main(["export", str(layout_render), str(out), "--to", "sceneflow", "--frames", "0:2", "-q"]) == 0
     assert len(list((out / "disparity" / SEQ / "left").iterdir())) == 2
     (out / "disparity/TRAIN/B/0000/left").mkdir(parents=True)
     (out / "disparity/TRAIN/B/0000/left/0006.pfm").write_bytes(b"real data")
-    assert cli_main(["export", str(render), str(out), "--to", "sceneflow", "--sequence", "TRAIN/B/0000", "-q"]) == 2
+    assert cli_main(["export", str(layout_render), str(out), "--to", "sceneflow", "--sequence", "TRAIN/B/0000", "-q"]) == 2
     assert "not an export of ours" in capsys.readouterr().err
     assert (out / "disparity/TRAIN/B/0000/left/0006.pfm").read_bytes() == b"real data"
     assert not (out / "frames_cleanpass/TRAIN/B/0000").exists()

@@ -8,18 +8,15 @@ import numpy as np
 import pytest
 
 from format_readers import read_sintel_cam, read_sintel_dpt
-from layout_scene import H, K, W, analytic_flow, export_layout, raycast, rig_poses, write_layout_render
+from layout_scene import (H, K, W, analytic_flow, export_fixture, export_layout, raycast, rig_poses,
+                          write_layout_render)
 
 cv2 = pytest.importorskip("cv2")
 pytest.importorskip("OpenEXR")
 N = 4
 
 
-@pytest.fixture(scope="module")
-def exported(layout_render, tmp_path_factory):
-    root = tmp_path_factory.mktemp("sintel")
-    export_layout(layout_render, root, "sintel")
-    return root / "training"
+exported = export_fixture("sintel", part="training")
 
 
 def test_raft_loader_pairs_frames_with_their_flow(exported):

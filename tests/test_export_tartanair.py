@@ -12,7 +12,7 @@ from vo_reference.commands.main import main as cli_main
 from vo_reference.io.render import RenderSequence
 
 from format_readers import read_tartanair_poses, tartanair_files
-from layout_scene import (B, H, K, OBJECTS, STEP_M, W, YAW_DEG, analytic_flow, export_layout, raycast, rig_poses,
+from layout_scene import (B, H, K, OBJECTS, STEP_M, W, YAW_DEG, analytic_flow, export_fixture, raycast, rig_poses,
                           write_layout_render)
 
 cv2 = pytest.importorskip("cv2")
@@ -20,19 +20,11 @@ pytest.importorskip("OpenEXR")
 N = 4
 
 
-@pytest.fixture(scope="module")
-def render(layout_render):
-    return layout_render
+exported = export_fixture("tartanair", "P000")
 
 
-@pytest.fixture(scope="module")
-def exported(render, tmp_path_factory):
-    out = tmp_path_factory.mktemp("ta_out") / "P000"
-    return export_layout(render, out, "tartanair")
-
-
-def test_file_names_and_types(render, exported):
-    seq = RenderSequence(render)
+def test_file_names_and_types(layout_render, exported):
+    seq = RenderSequence(layout_render)
     for kind, dtype, shape in (("depth_left", np.float32, (H, W)), ("depth_right", np.float32, (H, W)),
                                ("seg_left", np.uint8, (H, W)), ("seg_right", np.uint8, (H, W)),
                                ("flow", np.float32, (H, W, 2)), ("mask", np.uint8, (H, W))):
@@ -66,7 +58,7 @@ def test_depth_metres_and_segmentation(exported):
     assert np.nanmax(K[0, 0] * B / d) > 0
 
 
-def test_poses_are_ned_as_documented(render, exported):
+def test_poses_are_ned_as_documented(layout_render, exported):
     """Level rig looking along -Z (north), driving forward and yawing right by YAW_DEG per frame:
     in NED that is +x translation, a pure +yaw about z (down), and z = -height."""
     from scipy.spatial.transform import Rotation
@@ -81,7 +73,7 @@ def test_poses_are_ned_as_documented(render, exported):
     heading = np.degrees(np.arctan2(steps[:, 1], steps[:, 0]))           # east of north
     assert np.allclose(heading, YAW_DEG * np.arange(N - 1), atol=1e-7)
     # each camera's NED body axes: x forward = its optical axis, y = its x (right), z = its y (down)
-    T = RenderSequence(render).T_world_cam("left")
+    T = RenderSequence(layout_render).T_world_cam("left")
     A = np.array([[0, 0, -1], [1, 0, 0], [0, -1, 0.0]])                  # north, east, down in SES axes
     for k in range(N):
         assert np.allclose(P[k, :3, 0], A @ T[k, :3, 2], atol=1e-9)
@@ -121,13 +113,13 @@ def test_flow_and_mask_against_the_closed_form_scene(exported):
     assert sum(int((m == 1).sum()) for m in masks) > 0 and sum(int((m == 100).sum()) for m in masks) > 0
 
 
-def test_options_sequence_slot_and_errors(render, tmp_path, capsys):
+def test_options_sequence_slot_and_errors(layout_render, tmp_path, capsys):
     out = tmp_path / "tartan"
-    assert cli_main(["export", str(render), str(out), "--to", "tartanair", "--sequence", "office/Easy/P001",
+    assert cli_main(["export", str(layout_render), str(out), "--to", "tartanair", "--sequence", "office/Easy/P001",
                      "--opt", "background_depth=inf", "-q"]) == 0
     d = np.load(out / "office/Easy/P001/depth_left/000000_left_depth.npy")
     assert np.isinf(d).any() and (out / "office/Easy/P001/export.json").is_file()
-    assert cli_main(["export", str(render), str(out), "--to", "tartanair", "--opt", "colour=1", "-q"]) == 2
+    assert cli_main(["export", str(layout_render), str(out), "--to", "tartanair", "--opt", "colour=1", "-q"]) == 2
     assert "unknown option" in capsys.readouterr().err
     big = write_layout_render(tmp_path / "big", n=2, objects=[dict(o, id=o["id"] + 300) for o in OBJECTS])
     assert cli_main(["export", str(big), str(tmp_path / "b"), "--to", "tartanair", "-q"]) == 2

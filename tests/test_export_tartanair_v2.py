@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from format_readers import read_tartanair_poses, read_tartanair_v2, tartanair_v2_entries
-from layout_scene import H, OBJECTS, W, YAW_DEG, analytic_flow, export_layout, raycast, rig_poses, \
-    view_pose, write_layout_render
+from layout_scene import (H, OBJECTS, W, YAW_DEG, analytic_flow, export_fixture, export_layout, raycast,
+                          rig_poses, view_pose, write_layout_render)
 
 cv2 = pytest.importorskip("cv2")
 pytest.importorskip("OpenEXR")
@@ -21,11 +21,7 @@ N = 4
 TRAJ = "sesgen/Data_easy/P000"
 
 
-@pytest.fixture(scope="module")
-def exported(layout_render, tmp_path_factory):
-    root = tmp_path_factory.mktemp("ta2")
-    export_layout(layout_render, root, "tartanair-v2")
-    return root
+exported = export_fixture("tartanair-v2")
 
 
 def test_iterator_walk_finds_every_modality_of_both_cameras(exported):

@@ -261,12 +261,11 @@ def test_a_cycles_lens_render_undistorts_to_the_pinhole_ray_cast(tmp_path):
     (80x60, 1 sample), exported with --undistort: depth and disparity against the scene
     ray-cast through the pinhole camera, on every face away from silhouettes and creases."""
     pytest.importorskip("bpy")
-    from render_support import oracle_script, run_render
+    from render_support import oracle_script, rendered
     script = tmp_path / "lens.ses"
     script.write_text(oracle_script(80, 60, F, (K[0, 2], K[1, 2]), B, extra_lines=[
         "LENS brown " + " ".join(str(c) for c in BARREL[1][:4])]))
-    r = run_render(script, "--out", tmp_path / "r", "--samples", "1", "--frames", "0:2", "--quiet")
-    assert r.returncode == 0, r.stderr
+    rendered(script, tmp_path / "r", "--samples", "1", "--frames", "0:2")
     assert _export(tmp_path / "r", tmp_path / "ta", "tartanair", "--undistort", "--frames", "0:2") == 0
     assert _export(tmp_path / "r", tmp_path / "sf", "sceneflow", "--undistort", "--frames", "0:2") == 0
     m = json.loads((tmp_path / "r/manifest.json").read_text())

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from render_support import REPO, run_render
+from render_support import REPO, rendered
 from markers import needs
 
 pytestmark = [pytest.mark.render, needs("bpy", "ray")]
@@ -50,8 +50,7 @@ def scenes(tmp_path_factory):
         script.parent.mkdir(exist_ok=True)
         script.write_text(SCENE.format(floor=floor, x=x))
         ref = tmp / "single" / name
-        r = run_render(script, "--out", ref, *RENDER, "--quiet")
-        assert r.returncode == 0, r.stderr
+        rendered(script, ref, *RENDER)
         out[name] = (script, ref)
     return tmp, out
 

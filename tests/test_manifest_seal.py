@@ -12,9 +12,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -26,20 +24,17 @@ pytest.importorskip("OpenEXR")
 from synthetic_render import COMPLETE_SCRIPT as SCRIPT, complete_render  # noqa: E402
 
 from blender_sesgen.contract.manifest import display_relpath, seal_of  # noqa: E402
+from markers import examples  # noqa: E402
+from render_support import cli_in_process  # noqa: E402
 
-REPO = Path(__file__).resolve().parents[1]
 
 
 def verify(root: Path, *args) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "blender_sesgen", "verify", str(root), *args], cwd=REPO,
-                          capture_output=True, text=True, env=dict(os.environ, PYTHONPATH=os.environ.get(
-                              "PYTHONPATH", str(REPO))))
+    return cli_in_process("blender_sesgen", "verify", root, *args)
 
 
 def export(root: Path, out: Path, target: str = "kitti-folder") -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "vo_reference", "export", str(root), str(out), "--to", target,
-                           "--progress", "off"], cwd=REPO, capture_output=True, text=True,
-                          env=dict(os.environ, PYTHONPATH=os.environ.get("PYTHONPATH", str(REPO))))
+    return cli_in_process("vo_reference", "export", root, out, "--to", target, "--progress", "off")
 
 
 def edit_manifest(root: Path, change) -> None:
@@ -190,7 +185,7 @@ def test_the_written_seal_is_the_seal_of_what_the_file_holds():
                                                      st.dictionaries(st.text(max_size=5), inner, max_size=6)),
                        max_leaves=60)
 
-    @settings(max_examples=300, deadline=None)
+    @settings(max_examples=examples(300), deadline=None)
     @given(st.dictionaries(st.text(max_size=5).filter(lambda k: k != SEAL), doc, max_size=8))
     def check(m):
         text, seal = dumps_json_sealed(m, SEAL, _sha256_hex)

@@ -13,7 +13,7 @@ import json
 import numpy as np
 import pytest
 
-from render_support import run_render
+from render_support import rendered
 
 from vo_reference.commands.main import main as cli_main
 from markers import needs
@@ -42,8 +42,7 @@ def test_mono_vo_on_a_rendered_corridor(tmp_path, capsys):
     script = tmp_path / "corridor.ses"
     script.write_text(CORRIDOR, encoding="utf-8")
     out = tmp_path / "render"
-    r = run_render(script, "--out", out, "--samples", "8", "--no-denoise", "--quiet")
-    assert r.returncode == 0, r.stderr
+    rendered(script, out, "--samples", "8", "--no-denoise")
     rc = cli_main(["mono-vo", str(out), "--scale", "gt", "--compare-opencv", "--out", str(tmp_path / "est.txt"),
                    "--report", str(tmp_path / "plots"), "-q"])
     assert rc == 0

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import raycast
-from render_support import depth_and_ids, load_manifest, read_exr, run_render
+from render_support import depth_and_ids, load_manifest, read_exr, rendered, run_render
 from markers import needs
 
 pytestmark = [pytest.mark.render, needs("bpy")]
@@ -54,8 +54,7 @@ def _halves(tmp_path, mesh_line: str, start: str = "0 0 3") -> tuple[np.ndarray,
     script = tmp_path / "s.ses"
     script.write_text(f"CAMERA resolution 40 20 focal 30 baseline 0\nSTART position {start}\n"
                       "WORLD colour 1 1 1\nLOOK exposure 0\n" + mesh_line + "\n")
-    r = run_render(script, "--out", tmp_path / "out", "--samples", "4", "--quiet")
-    assert r.returncode == 0, r.stderr
+    rendered(script, tmp_path / "out", "--samples", "4")
     m = load_manifest(tmp_path / "out")
     ch = read_exr(tmp_path / "out" / m["files"]["left"][0])
     rgb = np.stack([ch[c] for c in m["channels"]["rgb"][:3]], -1)
@@ -177,8 +176,7 @@ def test_blend_images_outside_its_folder_are_refused_unless_allowed(tmp_path):
     assert r.returncode == 2 and "lies outside the file's folder" in r.stderr and "allow_external" in r.stderr, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and not (tmp_path / "out").exists()
     script.write_text("CAMERA resolution 16 12 focal 12\nBLEND file env/env.blend id 1 allow_external\n")
-    r = run_render(script, "--out", tmp_path / "out", "--samples", "1", "--quiet")
-    assert r.returncode == 0, r.stderr
+    rendered(script, tmp_path / "out", "--samples", "1")
     (tmp_path / "outside" / "tex.png").write_bytes((tmp_path / "outside" / "tex.png").read_bytes()[:40])
     r = run_render(script, "--out", tmp_path / "out2", "--samples", "1", "--quiet")
     assert r.returncode == 2 and "is not a usable image" in r.stderr, r.stderr

@@ -5,27 +5,28 @@ the repaired folder equals an undamaged render byte for byte."""
 from __future__ import annotations
 
 import json
-import os
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from markers import needs
-from render_support import REPO, run_render
+from render_support import cli_in_process, rendered
 
 pytestmark = [pytest.mark.render, needs("bpy", "OpenEXR")]
 
+# not denoised (RENDER denoise off): verify and resume do not depend on it, and the denoiser costs
+# as much as the rest of these tiny frames
 PLAIN = """\
 CAMERA resolution 64 48 focal 44 baseline 0.1
+RENDER denoise off
 START position 0 1 3
 QUAD id 1 texture 3 vertices -3 0 -3  3 0 -3  3 3 -3  -3 3 -3
 SPHERE id 3 texture 9 position 0.5 0.6 0 dim 0.4
 """ + "EGO 0 0 -0.05 0 0.5 0\n" * 3
 SENSORS = """\
 CAMERA resolution 64 48 focal 50 baseline 0.1
+RENDER denoise off
 POSE 0 1 3 0 0 0
 POSE 0.05 1.02 2.9 1 3 0.5
 POSE 0.12 1.01 2.82 2 5 1
@@ -43,20 +44,14 @@ def files_of(out: Path) -> dict[str, bytes]:
             if p.is_file() and ".sesgen" not in p.parts and p.name != "manifest.json"}
 
 
-def cli(*args) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", *map(str, args)], cwd=REPO, capture_output=True, text=True,
-                          env=dict(os.environ, PYTHONPATH=str(REPO)))
-
-
 @pytest.fixture(scope="module", params=["plain", "sensors"])
 def reference(request, tmp_path_factory):
     tmp = tmp_path_factory.mktemp(request.param)
     s = tmp / "s.ses"
     s.write_text(PLAIN if request.param == "plain" else SENSORS)
     out = tmp / "ref"
-    r = run_render(s, "--out", out, "--samples", "1", "--quiet")
-    assert r.returncode == 0, r.stderr
-    assert cli("blender_sesgen", "verify", out).returncode == 0
+    rendered(s, out, "--samples", "1")
+    assert cli_in_process("blender_sesgen", "verify", out).returncode == 0
     return request.param, s, out
 
 
@@ -69,10 +64,9 @@ def damaged(reference, tmp_path, damage) -> tuple[Path, Path]:
 
 
 def repaired_by_resume(s: Path, out: Path, ref: Path) -> None:
-    r = run_render(s, "--out", out, "--samples", "1", "--resume", "--quiet")
-    assert r.returncode == 0, r.stderr
+    rendered(s, out, "--samples", "1", "--resume")
     assert files_of(out) == files_of(ref)
-    v = cli("blender_sesgen", "verify", out)
+    v = cli_in_process("blender_sesgen", "verify", out)
     assert v.returncode == 0, v.stdout + v.stderr
 
 
@@ -83,9 +77,9 @@ def test_a_deleted_image_fails_verify_and_the_first_resume_renders_it_again(refe
         listed = m["display"]["files"]["left"] if kind == "plain" else m["sensor"]["files"]["rgb"]["left"]
         (out / listed[2]).unlink()
     s, out = damaged(reference, tmp_path, delete)
-    v = cli("blender_sesgen", "verify", out, "--dry-run")
+    v = cli_in_process("blender_sesgen", "verify", out, "--dry-run")
     assert v.returncode == 1 and "frame 2:" in v.stdout and "missing" in v.stdout, v.stdout
-    e = cli("vo_reference", "export", out, tmp_path / "E", "--to", "kitti-folder", "--progress", "off")
+    e = cli_in_process("vo_reference", "export", out, tmp_path / "E", "--to", "kitti-folder", "--progress", "off")
     assert e.returncode == 2 and "(2)" in e.stderr, e.stderr          # never substituted
     repaired_by_resume(s, out, ref)                                     # no verify in between
 
@@ -106,7 +100,7 @@ def test_the_folders_own_files_are_checked_and_written_again_by_resume(reference
             with open(out / rel, "a") as f:
                 f.write("0\n")
     s, out = damaged(reference, tmp_path, damage)
-    v = cli("blender_sesgen", "verify", out)
+    v = cli_in_process("blender_sesgen", "verify", out)
     assert v.returncode == 1, v.stdout
     assert {"K": "manifest.json", "scene.ses": "scene.ses", "static": "SHA-256"}[what] in v.stdout, v.stdout
     repaired_by_resume(s, out, ref)
@@ -125,6 +119,6 @@ def test_verify_checks_the_lens_table_and_sensor_images_of_a_sensor_render(refer
         data[-20] ^= 0xFF
         raw.write_bytes(bytes(data))
     s, out = damaged(reference, tmp_path, damage)
-    v = cli("blender_sesgen", "verify", out)
+    v = cli_in_process("blender_sesgen", "verify", out)
     assert v.returncode == 1 and "undistort_lut.bin" in v.stdout and "frame 1:" in v.stdout, v.stdout
     repaired_by_resume(s, out, ref)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from blender_sesgen.pipeline import RenderOptions
-from render_support import load_manifest, read_exr, run_render
+from render_support import load_manifest, read_exr, rendered
 
 pytestmark = pytest.mark.render
 
@@ -21,8 +21,7 @@ LOOK_DOWN = "CAMERA resolution 32 24 focal 20 baseline 0\nSTART position 0 2 0 -
 
 def _mean_linear_rgb(tmp_path, script: str) -> np.ndarray:
     (tmp_path / "s.ses").write_text(script)
-    r = run_render(str(tmp_path / "s.ses"), "--out", str(tmp_path / "out"), "--samples", "4", "--quiet")
-    assert r.returncode == 0, r.stderr
+    rendered(str(tmp_path / "s.ses"), str(tmp_path / "out"), "--samples", "4")
     m = load_manifest(tmp_path / "out")
     exr = read_exr(tmp_path / "out" / m["files"]["left"][0])
     rgb = np.stack([exr[c] for c in m["channels"]["rgb"][:3]], -1)

@@ -20,7 +20,7 @@ import pytest
 
 import raycast
 from render_support import (ORACLE_PRIMS, depth_and_ids, load_manifest, oracle_script, read_exr,
-                            run_render)
+                            render_text, rendered, run_render)
 from markers import needs
 
 pytestmark = [pytest.mark.render, needs("bpy")]
@@ -33,8 +33,7 @@ def test_library_materials_under_an_hdri_keep_depth_and_ids_exact(tmp_path):
     script = tmp_path / "oracle.ses"
     script.write_text(oracle_script(materials=LIBRARY_ORACLE, extra_lines=["WORLD hdri city rotation 40"]))
     out = tmp_path / "out"
-    r = run_render(script, "--out", out, "--samples", "1", "--quiet")
-    assert r.returncode == 0, r.stderr
+    rendered(script, out, "--samples", "1")
     m = load_manifest(out)
     W, H = m["resolution"]
     spheres = {p.id for p in ORACLE_PRIMS if isinstance(p, raycast.SphereP)}
@@ -83,8 +82,7 @@ def library_swatches(tmp_path_factory):
     lum = {}
     for seed in (0, 1):
         out = base / f"out{seed}"
-        r = run_render(base / "lib.ses", "--out", out, "--samples", "16", "--seed", seed, "--quiet")
-        assert r.returncode == 0, r.stderr
+        rendered(base / "lib.ses", out, "--samples", "16", "--seed", seed)
         m = load_manifest(out)
         for view in ("left", "right"):
             ch = read_exr(out / m["files"][view][0])
@@ -126,8 +124,7 @@ def _background(tmp_path, name, rotation, yaw) -> np.ndarray:
                       f"START position 0 1 0 10 {yaw} 0\n"
                       "CUBOID id 1 position 0 -50 0 dim 1 1 1\n"       # out of view
                       f"WORLD hdri sunset rotation {rotation}\nLOOK exposure 0\n")
-    r = run_render(script, "--out", tmp_path / name, "--samples", "1", "--quiet")
-    assert r.returncode == 0, r.stderr
+    rendered(script, tmp_path / name, "--samples", "1")
     m = load_manifest(tmp_path / name)
     ch = read_exr(tmp_path / name / m["files"]["left"][0])
     return np.stack([ch[c] for c in m["channels"]["rgb"][:3]], -1)
@@ -147,13 +144,10 @@ def test_display_images_are_the_view_transform_and_what_vo_reads(tmp_path):
     cv2 = pytest.importorskip("cv2")
     from blender_sesgen.contract.colour import linear_to_srgb8
     from vo_reference.io.render import RenderSequence
-    script = tmp_path / "s.ses"
-    script.write_text("CAMERA resolution 64 48 focal 50 baseline 0.1\nSTART position 0 1.5 3 -15 0 0\n"
-                      "QUAD id 1 material concrete vertices -5 0 5  5 0 5  5 0 -5  -5 0 -5\n"
-                      "CUBOID id 2 material brick position 0 0.5 0 dim 1 1 1\n"
-                      "SPHERE id 3 material chrome position 1.2 0.4 0.5 dim 0.4\n")
-    r = run_render(script, "--out", tmp_path / "out", "--samples", "4", "--quiet")
-    assert r.returncode == 0, r.stderr
+    render_text(tmp_path, "CAMERA resolution 64 48 focal 50 baseline 0.1\nSTART position 0 1.5 3 -15 0 0\n"
+                "QUAD id 1 material concrete vertices -5 0 5  5 0 5  5 0 -5  -5 0 -5\n"
+                "CUBOID id 2 material brick position 0 0.5 0 dim 1 1 1\n"
+                "SPHERE id 3 material chrome position 1.2 0.4 0.5 dim 0.4\n", "--samples", "4")
     m = load_manifest(tmp_path / "out")
     assert m["display"]["view_transform"] == "AgX"
     seq = RenderSequence(tmp_path / "out")
@@ -172,15 +166,12 @@ def test_cityscapes_export_of_classes(tmp_path):
     from blender_sesgen.contract import semantics
     from vo_reference.io.render import RenderSequence
     from vo_reference.exporters.driver import export
-    script = tmp_path / "s.ses"
-    script.write_text("CAMERA resolution 64 48 focal 40 baseline 0.2\nSTART position 0 1.2 4 -10 0 0\n"
-                      "QUAD id 1 material asphalt vertices -6 0 6  6 0 6  6 0 -6  -6 0 -6\n"
-                      "CUBOID id 5 class car position -0.8 0.5 0 dim 1.5 1 1\n"
-                      "CUBOID id 9 class car position 1.2 0.5 -1 dim 1 1 1\n"
-                      "CYLINDER id 12 class traffic_light position 0 1 -2 dim 0.1 2\n"
-                      "SPHERE id 20 position 0.2 1.8 -0.5 dim 0.2\n")
-    r = run_render(script, "--out", tmp_path / "out", "--samples", "1", "--quiet")
-    assert r.returncode == 0, r.stderr
+    render_text(tmp_path, "CAMERA resolution 64 48 focal 40 baseline 0.2\nSTART position 0 1.2 4 -10 0 0\n"
+                "QUAD id 1 material asphalt vertices -6 0 6  6 0 6  6 0 -6  -6 0 -6\n"
+                "CUBOID id 5 class car position -0.8 0.5 0 dim 1.5 1 1\n"
+                "CUBOID id 9 class car position 1.2 0.5 -1 dim 1 1 1\n"
+                "CYLINDER id 12 class traffic_light position 0 1 -2 dim 0.1 2\n"
+                "SPHERE id 20 position 0.2 1.8 -0.5 dim 0.2\n", "--samples", "1")
     out = export(tmp_path / "out", "cityscapes", tmp_path / "cs", progress=False)
     seq = RenderSequence(tmp_path / "out")
     expected_label = {0: 23, 1: 7, 5: 26, 9: 26, 12: 19, 20: 4}    # sky, road, car, car, traffic light, static
@@ -213,8 +204,7 @@ def test_bevelled_cuboid_is_real_geometry(tmp_path):
                       "CUBOID id 2 material plastic position -0.4 0.5 0 20 35 10 dim 1 0.8 0.6 bevel 0.15\n"
                       "CUBOID id 3 material brick position 0.9 0.45 -0.8 0 -25 0 dim 0.6 0.9 0.7 bevel 0.3\n"
                       "EGO 0 0 0.2 0 2 0\n")
-    r = run_render(script, "--out", tmp_path / "out", "--samples", "1", "--quiet")
-    assert r.returncode == 0, r.stderr
+    rendered(script, tmp_path / "out", "--samples", "1")
     m = load_manifest(tmp_path / "out")
     W, H = m["resolution"]
     prims = [raycast.QuadP(1, np.array([[-3, 0, -3], [3, 0, -3], [3, 0, 4], [-3, 0, 4]], dtype=float)),

@@ -16,13 +16,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from render_support import REPO, run_render
+from render_support import REPO, rendered, run_render
 from markers import needs
 
 pytestmark = [pytest.mark.render, needs("bpy")]
 
+# not denoised: what these tests check (locks, kills, resumes, verify, limits) does not depend on
+# it, and the denoiser costs as much as the rest of each of these tiny frames (the denoised
+# pixels' reproducibility across kill and resume: test_render_cli.py, resume after kill)
 SCRIPT = """\
 CAMERA resolution 96 72 focal 60 baseline 0.1
+RENDER denoise off
 START position 0 1 3
 QUAD id 1 texture 3 vertices -3 0 -3  3 0 -3  3 3 -3  -3 3 -3
 QUAD id 2 texture 8 vertices -3 0 3  3 0 3  3 0 -3  -3 0 -3
@@ -64,8 +68,7 @@ def reference(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("ref")
     s = script(tmp)
     out = tmp / "out"
-    r = run_render(s, "--out", out, "--samples", "2", "--quiet")
-    assert r.returncode == 0, r.stderr
+    rendered(s, out, "--samples", "2")
     return s.read_text(), out
 
 
@@ -86,13 +89,13 @@ def test_a_second_render_into_a_busy_folder_is_refused(reference, tmp_path):
     text, _ = reference
     s = script(tmp_path, text)
     out = tmp_path / "busy"
-    first = start_render(s, out, "--samples", "16")
+    first = start_render(s, out, "--samples", "16", "--denoise")      # denoised: busy while the others try
     try:
         wait_for(lambda: any((out / ".sesgen").glob("lock-*.json")) if (out / ".sesgen").is_dir() else False)
-        second = run_render(s, "--out", out, "--samples", "16", "--seed", "8", "--quiet")
+        second = run_render(s, "--out", out, "--samples", "16", "--denoise", "--seed", "8", "--quiet")
         assert second.returncode == 2, second.stderr
         assert f"being rendered by pid {first.pid}" in second.stderr and "Traceback" not in second.stderr
-        resume = run_render(s, "--out", out, "--samples", "16", "--resume", "--quiet")   # same plan, same frames
+        resume = run_render(s, "--out", out, "--samples", "16", "--denoise", "--resume", "--quiet")   # same plan, same frames
         assert resume.returncode == 2 and "being rendered" in resume.stderr
     finally:
         assert first.wait(600) == 0, first.stderr.read()
@@ -123,8 +126,7 @@ def test_a_stale_lock_of_a_dead_process_is_taken_over(reference, tmp_path):
     import socket
     lock.write_text(json.dumps({"host": socket.gethostname(), "pid": int(dead.stdout), "frames": [0, 11],
                                 "started": 0, "scene_sha256": "?", "settings": "?"}))
-    r = run_render(s, "--out", out, "--samples", "2", "--quiet")
-    assert r.returncode == 0, r.stderr
+    rendered(s, out, "--samples", "2")
     assert not lock.exists() and exr_bytes(out) == exr_bytes(ref)
 
 
@@ -138,8 +140,7 @@ def test_kill_9_at_random_points_then_resume_gives_the_uninterrupted_files(refer
         time.sleep(rng.uniform(0.3, 4.0) if trial else 0.05)   # trial 0: during the very first writes
         p.send_signal(signal.SIGKILL)
         p.wait()
-        r = run_render(s, "--out", out, "--samples", "2", "--resume", "--quiet")
-        assert r.returncode == 0, r.stderr
+        rendered(s, out, "--samples", "2", "--resume")
         assert exr_bytes(out) == exr_bytes(ref), f"trial {trial}"
         assert not [f for f in out.rglob(".*tmp-*")], "temporary files left behind"
 
@@ -157,8 +158,7 @@ def test_ctrl_c_stops_cleanly_with_130_and_the_folder_resumes(reference, tmp_pat
     m = json.loads((out / "manifest.json").read_text())
     assert 2 <= sum(m["frames_complete"]) < m["frames"]           # stopped early, progress kept
     assert not list((out / ".sesgen").glob("lock-*"))
-    r = run_render(s, "--out", out, "--samples", "2", "--resume", "--quiet")
-    assert r.returncode == 0, r.stderr
+    rendered(s, out, "--samples", "2", "--resume")
     assert exr_bytes(out) == exr_bytes(ref)
 
 
@@ -188,8 +188,7 @@ def test_a_full_disk_is_an_error_and_keeps_the_previous_files(reference, tmp_pat
         assert "Traceback" not in r.stderr and ("not written completely" in r.stderr or "No space" in r.stderr)
         assert exr_bytes(out) == before                             # nothing good was replaced
         filler.unlink()
-        r = run_render(s, "--out", out, "--samples", "2", "--resume", "--quiet")
-        assert r.returncode == 0, r.stderr
+        rendered(s, out, "--samples", "2", "--resume")
         assert exr_bytes(out) == exr_bytes(ref)
         assert subprocess.run([sys.executable, "-m", "blender_sesgen", "verify", str(out), "--quiet"], cwd=REPO,
                               env=dict(os.environ, PYTHONPATH=str(REPO))).returncode == 0
@@ -215,8 +214,7 @@ def test_verify_names_damaged_frames_and_resume_renders_them_again(reference, tm
     m = json.loads((out / "manifest.json").read_text())
     assert [k for k, d in enumerate(m["frames_complete"]) if not d] == [3, 7, 9]
     assert f"3 of the sequence's {m['frames']} frames not rendered yet" in r.stdout, r.stdout
-    r = run_render(s, "--out", out, "--samples", "2", "--resume", "--quiet")
-    assert r.returncode == 0, r.stderr
+    rendered(s, out, "--samples", "2", "--resume")
     assert exr_bytes(out) == exr_bytes(ref)
     r = subprocess.run(cmd, cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO)), capture_output=True, text=True)
     assert r.returncode == 0 and f"all {m['frames']} frames of the sequence are rendered" in r.stdout, r.stdout
@@ -234,8 +232,7 @@ def test_a_focal_below_blenders_lens_clamp_renders_with_the_scripts_K(tmp_path):
     s = script(tmp_path, f"CAMERA resolution {W} {H} focal {f}\nSTART position 0 0 0\n"
                          "QUAD id 1 vertices -1 -1 -2  1 -1 -2  1 1 -2  -1 1 -2\n")
     out = tmp_path / "wide"
-    r = run_render(s, "--out", out, "--samples", "1", "--quiet")
-    assert r.returncode == 0, r.stderr
+    rendered(s, out, "--samples", "1")
     from vo_reference.io.render import RenderSequence
     seq = RenderSequence(out)
     assert seq.K[0, 0] == f

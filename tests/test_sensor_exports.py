@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from render_support import load_manifest, run_render
+from render_support import load_manifest, render_text, rendered, run_render
 
 SCENE = """CAMERA resolution 64 48 focal 50 baseline 0.1
 POSE 0 1 3 0 0 0
@@ -29,12 +29,8 @@ IMU rate 200 position 0.1 0 0.02 0 0 90 offset 0.001 seed 1
 def render(tmp_path_factory):
     pytest.importorskip("bpy")
     pytest.importorskip("OpenEXR")
-    d = tmp_path_factory.mktemp("sensors")
-    (d / "s.ses").write_text(SCENE)
-    r = run_render(d / "s.ses", "--out", d / "out", "--samples", "2", "--quiet")
-    assert r.returncode == 0, r.stderr
     from vo_reference.io.render import RenderSequence
-    return RenderSequence(d / "out")
+    return RenderSequence(render_text(tmp_path_factory.mktemp("sensors"), SCENE, "--samples", "2"))
 
 
 pytestmark = pytest.mark.render
@@ -204,8 +200,7 @@ def test_auto_exposure_does_not_depend_on_how_the_frames_are_split(render, tmp_p
     assert run_render(script, "--out", resumed, "--samples", "2", "--resume", "--quiet").returncode == 0
     _same_frames(render, resumed, range(4))
     alone = tmp_path / "alone"
-    r = run_render(script, "--out", alone, "--samples", "2", "--frames", "2:3", "--quiet")
-    assert r.returncode == 0, r.stderr
+    rendered(script, alone, "--samples", "2", "--frames", "2:3")
     _same_frames(render, alone, [2])
     chunks = tmp_path / "chunks"
     env = dict(os.environ, PYTHONPATH=str(REPO))

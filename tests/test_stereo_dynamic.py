@@ -34,17 +34,8 @@ BOARD = ("CUBOID id 99 texture camouflage colour 1 0.9 0.8 position -0.7 1.3 1.5
 
 @pytest.fixture(scope="module")
 def render(tmp_path_factory):
-    from render_support import REPO, run_render
-    d = tmp_path_factory.mktemp("stereo_dynamic")
-    script = d / "room_board.ses"
-    script.write_text((REPO / "scenes" / "paper_room.ses").read_text() + BOARD)
-    out = d / "out"
-    # denoised: under the physically based default lighting (no ambient glow) 2 noisy samples
-    # leave the dim room as noise, and the VO would find its corners on the lit board only
-    r = run_render(script, "--out", out, "--frames", f"0:{FRAMES}", "--samples", "4", "--denoise",
-                   "--resolution-scale", "0.5", "--quiet")
-    assert r.returncode == 0, r.stderr
-    return out
+    from render_support import render_paper_room
+    return render_paper_room(tmp_path_factory.mktemp("stereo_dynamic"), FRAMES, 0.5, BOARD)
 
 
 @pytest.fixture(scope="module")

@@ -31,14 +31,8 @@ FRAMES = 5
 
 @pytest.fixture(scope="module")
 def render(tmp_path_factory):
-    from render_support import REPO, run_render
-    out = tmp_path_factory.mktemp("stereo_render") / "paper_room"
-    # denoised: under the physically based default lighting (no ambient glow) 2 noisy samples
-    # leave the dim room as noise
-    r = run_render(REPO / "scenes" / "paper_room.ses", "--out", out, "--frames", f"0:{FRAMES}",
-                   "--samples", "4", "--denoise", "--resolution-scale", "0.25", "--quiet")
-    assert r.returncode == 0, r.stderr
-    return out
+    from render_support import render_paper_room
+    return render_paper_room(tmp_path_factory.mktemp("stereo_render"), FRAMES, 0.25)
 
 
 @pytest.fixture(scope="module")

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from render_support import run_loaded
 from study_scenes import NOISY, PERFECT, ROOM, WALL, WALL_FOCAL, WALL_SPEED, WALL_Z, study_file, world, write
 
 pytestmark = [pytest.mark.render, pytest.mark.slow]
@@ -130,8 +131,8 @@ format = "kitti"
 
 def run_study(study: Path, out: Path, *extra, timeout=1500) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": str(REPO), "RAY_USAGE_STATS_ENABLED": "0"}
-    return subprocess.run([sys.executable, "-m", "blender_sesgen", "study", "run", str(study), "--out", str(out),
-                           "--progress", "plain", *extra], capture_output=True, text=True, env=env, timeout=timeout)
+    return run_loaded([sys.executable, "-m", "blender_sesgen", "study", "run", str(study), "--out", str(out),
+                       "--progress", "plain", *extra], timeout, env=env)
 
 
 def results(out: Path) -> dict:
