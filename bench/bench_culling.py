@@ -3,7 +3,7 @@ a drive through a 1 km route's city against the same chunks in the world of its 
 (the goal: within 10 %), and without culling for contrast.
 
     PYTHONPATH=. python bench/bench_culling.py [--route-m 1000] [--short-m 100] [--chunk 20]
-        [--chunks 3] [--scale 0.5] [--quality gt] [--far 150] [--no-full]
+        [--chunks 3] [--scale 0.5] [--quality gt] [--far 150] [--no-full] [--overhead [--repeat 5]]
 
 The city generator (blender_sesgen/generators/builtin/city_grid.py, seed 0, no loop closures) writes the long
 route's script: its city grows with the route (5 x 5 blocks, ~2700 objects for 1 km). The
@@ -129,6 +129,58 @@ def rgb_difference(a) -> int:
     return 0
 
 
+CHANNELS = {"rgb": ["ViewLayer.Combined.R", "ViewLayer.Combined.G", "ViewLayer.Combined.B", "ViewLayer.Combined.A"],
+            "depth": "ViewLayer.Depth.Z", "object_index": "ViewLayer.Object Index.X"}
+
+
+def route_overhead(a, scripts: dict, start: int) -> int:
+    """``--overhead``: the CPU seconds of what every chunk does for the whole route rather than
+    for its frames (no Blender): parsing and checking the script, culling (every object
+    against the chunk's views), the manifest (every frame's poses and the movers' at every
+    frame) built, written (twice a chunk: when it begins and when it ends) and read back
+    (what a resumed or later farm chunk does), the pose files; for the short and the long
+    script, each step ``--repeat`` times (min and max: the load's noise)."""
+    import time
+
+    from blender_sesgen.contract.manifest import Manifest
+    from blender_sesgen.render.culling import visible_objects
+    from blender_sesgen.render.folder import OutputFolder
+    from blender_sesgen.render.plan import RenderOptions, RenderPlan
+    opts = RenderOptions(frames=f"{start}:{start + a.chunk}", quality=a.quality, resolution_scale=a.scale, cull=True)
+    steps = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for world, script in scripts.items():
+            out = Path(tmp) / world
+            out.mkdir()
+            plan = RenderPlan.from_file(script, opts)
+            m = plan.manifest(channels=CHANNELS, render_extra={}, blender_version="bench")
+            todo = {"parse and check the script": lambda: RenderPlan.from_file(script, opts),
+                    "cull (every object)": lambda: visible_objects(plan, plan.frames),
+                    "build the manifest": lambda: plan.manifest(channels=CHANNELS, render_extra={},
+                                                                blender_version="bench"),
+                    "write the manifest (x2)": lambda: (m.write(out), m.write(out)),
+                    "read the manifest": lambda: Manifest.read(out, sealed=False),
+                    "pose files": lambda: OutputFolder._pose_files(plan, m)}
+            for name, step in todo.items():
+                times = []
+                for _ in range(a.repeat):
+                    t0 = time.process_time()
+                    step()
+                    times.append(time.process_time() - t0)
+                steps.setdefault(name, {})[world] = (min(times), max(times))
+    print(f"\n| per chunk, CPU s (min-max of {a.repeat}) | first {a.short_m:g} m | {a.route_m:g} m route | more |")
+    print("|---|---|---|---|")
+    total = {"short": 0.0, "long": 0.0}
+    for name, r in steps.items():
+        for w in total:
+            total[w] += r[w][0]
+        print(f"| {name} | {r['short'][0]:.3f}-{r['short'][1]:.3f} | {r['long'][0]:.3f}-{r['long'][1]:.3f} | "
+              f"+{r['long'][0] - r['short'][0]:.3f} |")
+    print(f"| all (the minima) | {total['short']:.3f} | {total['long']:.3f} | +{total['long'] - total['short']:.3f} |")
+    print(f"# load after: {' '.join(Path('/proc/loadavg').read_text().split()[:3])}")
+    return 0
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--route-m", type=float, default=1000.0)
@@ -141,6 +193,9 @@ def main(argv=None) -> int:
     p.add_argument("--no-full", action="store_true", help="skip the renders with the whole world built")
     p.add_argument("--rgb-frames", metavar="A:B", help="instead: render these frames of the long route at --quality "
                    "(e.g. draft) culled and with the whole world, and print the PSNR of their images")
+    p.add_argument("--overhead", action="store_true", help="instead: time (CPU s, --repeat times) the steps "
+                   "every chunk does for the whole route, without Blender")
+    p.add_argument("--repeat", type=int, default=5)
     a = p.parse_args(argv)
     if a.rgb_frames:
         return rgb_difference(a)
@@ -154,6 +209,12 @@ def main(argv=None) -> int:
           f"alone and in the {a.route_m:g} m route's city ({n_obj[1]} objects); chunks {starts} of {a.chunk} "
           f"frames; quality {a.quality}, scale {a.scale}, far {a.far:g} m; 1 Cycles thread per render")
     print(f"# load before: {' '.join(Path('/proc/loadavg').read_text().split()[:3])}", flush=True)
+    if a.overhead:
+        with tempfile.TemporaryDirectory() as tmp:
+            scripts = {"short": Path(tmp) / "short.ses", "long": Path(tmp) / "long.ses"}
+            scripts["short"].write_text(short_text)
+            scripts["long"].write_text(long_text)
+            return route_overhead(a, scripts, starts[0])
     rows = {"short": [], "long": []}
     full = {}
     with tempfile.TemporaryDirectory() as tmp:

@@ -65,6 +65,27 @@ def test_hall_laps_pass_the_same_places_lap_after_lap(hall_laps):
     assert 0.6 < np.median(speed) < 1.8 and speed.max() < 2.5
 
 
+@pytest.mark.parametrize("seed, laps", [(0, 3), (2, 2), (5, 2)])
+def test_hall_laps_look_again_where_they_looked(seed, laps):
+    """A revisit for place recognition: every pose after the first lap has a pose at least 0.7
+    laps earlier within 1.5 m whose optical axis is within 30 deg of its own (before the
+    look-around followed the place on the loop, a fifth of the second lap's poses had one
+    for some seeds)."""
+    s = parse_string(_generator("hall").generate(seed, flight="laps", laps=laps, speed=1.0), source="laps.ses")
+    T = s.timeline.left()
+    P, axis = T[:, :3, 3], T[:, :3, 2]
+    ground = P[:, [0, 2]]
+    dist = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(ground, axis=0), axis=1))])
+    L = dist[-1] / laps
+    yaw = np.degrees(np.arctan2(axis[:, 0], axis[:, 2]))
+    assert np.ptp(yaw[dist < L]) > 300                        # it still looks all around the hall
+    for k in np.flatnonzero(dist > L + 1.0)[::5]:
+        near = np.flatnonzero((dist <= dist[k] - 0.7 * L) & (np.linalg.norm(P - P[k], axis=1) < 1.5))
+        assert len(near), k
+        angle = np.degrees(np.arccos(np.clip(axis[near] @ axis[k], -1.0, 1.0))).min()
+        assert angle < 30.0, (k, angle)
+
+
 def test_hall_laps_touch_nothing_and_see_surfaces(hall_laps):
     s = hall_laps
     P = s.timeline.left()[:, :3, 3]

@@ -2,7 +2,8 @@
 the camera's route coloured by time and its loop closures: the frames where the camera
 passes within ``--radius`` metres of where it was at least ``--gap`` seconds before (drawn
 thick, joined to where it was then); with ``--covisibility RENDER`` the ground truth's
-loop-closure pairs of that render instead (vo_reference.groundtruth.covisibility).
+loop-closure pairs of that render instead (vo_reference.groundtruth.covisibility): every query
+frame, each 10th joined to its most covisible match (docs/img/city_loop_covisibility_map.png).
 
     python tools/make_city_map.py scenes/city_loop.ses [--covisibility out/city_loop] [--out PNG]
 """
@@ -55,6 +56,15 @@ def geometric_closures(P: np.ndarray, t: np.ndarray, radius: float, gap: float) 
     return out
 
 
+def best_matches(loops: np.ndarray, c) -> list[tuple[int, int]]:
+    """(query, match) of each query frame's most covisible match among the loop-closure pairs."""
+    best: dict[int, tuple[float, int]] = {}
+    for (q, m), cq in zip(loops, c):
+        if cq > best.get(int(q), (-1.0, 0))[0]:
+            best[int(q)] = (cq, int(m))
+    return [(q, best[q][1]) for q in sorted(best)]
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("script")
@@ -91,16 +101,24 @@ def main(argv=None) -> None:
     ax.add_collection(lc)
     if a.covisibility:
         from vo_reference.groundtruth.covisibility import read_covisibility
-        pairs = [(int(i), int(j)) for i, j in read_covisibility(a.covisibility).loop_closures[:, :2]]
-        label = "loop-closure pairs (ground truth)"
+        cov = read_covisibility(a.covisibility)
+        loops = cov.loop_closures
+        pairs = best_matches(loops, [cov.c(q, m) for q, m in loops])
+        label = (f"the {len(pairs)} query frames of {len(loops)} loop-closure pairs\n(ground truth: "
+                 f"c >= {cov.params.loop_threshold:g}, >= {cov.params.min_gap_s:g} s apart)")
+        step, line_label = 10, "each 10th query frame to its most covisible match"
+        dots = dict(s=30, alpha=0.35, edgecolors="none", zorder=1.5)      # under the route: many frames
     else:
         pairs = geometric_closures(P, t, a.radius, a.gap)
         label = f"passes within {a.radius:g} m of a place >= {a.gap:g} s earlier"
+        step, line_label = max(len(pairs) // 40, 1), None
+        dots = dict(s=7, zorder=3)
     if pairs:
         k = np.array(sorted({p[0] for p in pairs}))
-        ax.scatter(P[k, 0], P[k, 1], s=7, c="#e8262b", zorder=3, label=label)
-        for i, j in pairs[::max(len(pairs) // 40, 1)]:
-            ax.plot([P[i, 0], P[j, 0]], [P[i, 1], P[j, 1]], color="#e8262b", lw=0.6, alpha=0.6)
+        ax.scatter(P[k, 0], P[k, 1], c="#e8262b", label=label, **dots)
+        for n, (i, j) in enumerate(pairs[::step]):
+            ax.plot([P[i, 0], P[j, 0]], [P[i, 1], P[j, 1]], color="#e8262b", lw=0.6, alpha=0.6,
+                    label=line_label if n == 0 else None)
     ax.plot(*P[0], marker="o", color="white", mec="black", ms=8, zorder=4, label="start")
     ax.plot(*P[-1], marker="s", color="white", mec="black", ms=8, zorder=4, label="end")
     span = np.ptp(P, axis=0).max() / 2 + 60

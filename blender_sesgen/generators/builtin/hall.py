@@ -240,8 +240,8 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
             out.append(asset(kind, ids("clutter"), (x, 0, z), rng.uniform(0, 360), seed=int(rng.integers(1e6))))
     # --- the flight ------------------------------------------------------------------------
     if flight == "laps":
-        P, tt = _laps_path(frames, laps, speed, variation_rng(seed, 0x1A9))
-        yaw, pitch, roll = _attitude(P, tt, rng, var.look)
+        P, tt, lap = _laps_path(frames, laps, speed, variation_rng(seed, 0x1A9))
+        yaw, pitch, roll = _attitude(P, tt, rng, var.look, lap)
         comment = (f"the flight: {laps} laps of a {num(LAP_M, 1)} m loop through the middle of the hall, "
                    f"{frames} poses of cam0 at {num(RATE_HZ, 0)} Hz")
     else:
@@ -259,15 +259,22 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
     return script_with_poses(out, comment, P, yaw, pitch, roll)
 
 
-def _attitude(P: np.ndarray, tt: np.ndarray, rng, look: float):
+def _attitude(P: np.ndarray, tt: np.ndarray, rng, look: float, lap: Optional[np.ndarray] = None):
     """Yaw, pitch, roll (deg) of a multirotor flying the positions P at the times tt: heading
     along its velocity, yawing ``look`` degrees about it to look around, tilting into its
-    accelerations (pitch forward to speed up, roll into turns)."""
+    accelerations (pitch forward to speed up, roll into turns). ``lap``: the laps flown at
+    each pose (a laps flight): the look-around then follows the place on the loop, the same
+    lap after lap but for a slow wander, so that a revisit looks where the last pass looked."""
     n = len(P)
     vel = np.gradient(P, tt, axis=0)
     acc = np.gradient(vel, tt, axis=0)
     heading = np.degrees(np.unwrap(np.arctan2(-vel[:, 0], -vel[:, 2])))
-    yaw = heading + look * smooth_noise(rng, n, 1.0, (0.9, 1.7))          # looks around, not only ahead
+    if lap is None:
+        yaw = heading + look * smooth_noise(rng, n, 1.0, (0.9, 1.7))      # looks around, not only ahead
+    else:   # whole cycles per lap: continuous from one lap into the next
+        phase = 2 * np.pi * np.asarray(lap)
+        per_place = sum(np.sin(c * phase + rng.uniform(0, 2 * np.pi)) for c in (1, 2))
+        yaw = heading + look * (per_place + 0.25 * smooth_noise(rng, n, 1.0, (0.9, 1.7)))
     pitch = -8.0 + np.degrees(np.clip(-(acc[:, 2] * np.cos(np.radians(yaw)) + acc[:, 0] * np.sin(np.radians(yaw))) / 9.81, -0.1, 0.1)) \
         + 0.5 * smooth_noise(rng, n, 1.0, (9.0, 17.0))
     roll = np.degrees(np.clip((acc[:, 0] * np.cos(np.radians(yaw)) - acc[:, 2] * np.sin(np.radians(yaw))) / 9.81, -0.1, 0.1)) \
@@ -284,8 +291,8 @@ def _laps_frames(laps: int, speed: float) -> int:
     return int(round(laps * LAP_M / speed * RATE_HZ)) + 1
 
 
-def _laps_path(frames: int, laps: int, speed: float, rng) -> tuple[np.ndarray, np.ndarray]:
-    """Positions (frames, 3) and times of a drone flying ``laps`` laps of a stadium-shaped loop
+def _laps_path(frames: int, laps: int, speed: float, rng) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Positions (frames, 3), times and laps flown (0..laps) of a drone flying ``laps`` laps of a stadium-shaped loop
     (straights along z, half circles at the ends) counter-clockwise seen from above, at about
     ``speed`` m/s (+-20 %), each lap at its own height (1.2-2.2 m) and a little wider or
     narrower, so that it passes the same places again and again, never exactly the same way."""
@@ -317,7 +324,7 @@ def _laps_path(frames: int, laps: int, speed: float, rng) -> tuple[np.ndarray, n
     y = heights[k] + (heights[k + 1] - heights[k]) * ease + 0.1 * smooth_noise(rng, frames, 1.0, (11.0, 23.0))
     w = 1.0 + (widen[k] + (widen[k + 1] - widen[k]) * ease) / a
     P = np.stack([LAP_CENTRE[0] + w * x, y, LAP_CENTRE[1] + z * (1.0 + 0.04 * (w - 1.0))], axis=1)
-    return P, tt
+    return P, tt, lap
 
 
 if __name__ == "__main__":
