@@ -42,7 +42,7 @@ CAMERA_HEIGHT = KITTI_CAMERA_HEIGHT
 PIECE = 20.0                 # centreline pieces (m)
 # the sky's haze (WORLD sky aerosol): KITTI's summer sky over Karlsruhe is hazier than the sky
 # model's default (1): at 4 the sun lights the ground 4.5x as much as the sky at a 40 deg sun
-# where the default gives 6.4 (bench/calibrate_sky_sun.py), so shadows are less deep and the
+# where the default gives 6.8 (bench/calibrate_sky_sun.py), so shadows are less deep and the
 # sky brighter, as in KITTI's frames (docs/sensors.md, Camera twins)
 HAZE_AEROSOL = 4.0
 ASPHALT = (0.085, 0.085, 0.082)
