@@ -1,4 +1,4 @@
-"""Recipes of the built environment: asphalt, lane_marking, concrete, brick, plaster,
+"""Recipes of the built environment: asphalt, lane_marking, concrete, paving, brick, plaster,
 roof_tiles. Lengths in metres (the coordinates are metric); ``ctx.entry.scale_m`` is the
 documented size of each one's main element."""
 from __future__ import annotations
@@ -90,6 +90,23 @@ def concrete(ctx: Ctx) -> Surface:
     return Surface(col, rough, height)
 
 
+def paving(ctx: Ctx) -> Surface:
+    g, p, C = ctx.g, ctx.p, ctx.colour
+    length = ctx.entry.scale_m                     # 20 x 10 cm pavers, 4 mm sand joints
+    rand, joint = g.bricks(ctx.uv, length + 0.004, 0.5 * length + 0.004, 0.004, smooth=0.3)
+    value = g.remap(rand, 0.0, 1.0, 0.8, 1.2)      # each paver its own cast and weathering
+    speckle = g.remap(g.noise(p, 1 / 0.015, detail=3.0, roughness=0.7), 0.25, 0.75, 0.85, 1.15)
+    stains = g.remap(g.noise(p, 1 / 0.8, detail=3.0), 0.3, 0.7, 0.85, 1.12)
+    col = g.cmul(C, g.mul(g.mul(value, speckle), stains))
+    sand = g.cmul((0.16, 0.15, 0.13), g.lerp(1.0, 0.5, ctx.wear))   # darker with dirt and moss
+    col = g.cmix(col, sand, joint)
+    chips = g.remap(g.noise(p, 1 / 0.02, detail=3.0), 0.64, 0.72, 0.0, 1.0)
+    rough = g.lerp(ctx.roughness, 0.95, joint)
+    height = g.sub(g.sub(g.mul(g.noise(p, 1 / 0.008, detail=2.0), 0.0004), g.mul(joint, 0.003)),
+                   g.mul(chips, 0.001))
+    return Surface(col, rough, height)
+
+
 def brick(ctx: Ctx) -> Surface:
     g, C = ctx.g, ctx.colour
     length = ctx.entry.scale_m                     # 24 cm bricks, 1 cm mortar, 7.1 cm courses
@@ -149,5 +166,5 @@ def roof_tiles(ctx: Ctx) -> Surface:
     return Surface(col, rough, height)
 
 
-RECIPES = {"asphalt": asphalt, "lane_marking": lane_marking, "concrete": concrete, "brick": brick,
+RECIPES = {"asphalt": asphalt, "lane_marking": lane_marking, "concrete": concrete, "paving": paving, "brick": brick,
            "plaster": plaster, "roof_tiles": roof_tiles}
