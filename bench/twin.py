@@ -209,10 +209,18 @@ def corners_on_depth_edges(out: Path, frames: Frames, n: int) -> dict:
 
 # --- the render -----------------------------------------------------------------------------
 
-def twin_script(script: str, profile: str, out: Path) -> Path:
+def twin_script(script: str, profile: str, out: Path, frames: int | None = None) -> Path:
     """The library script with its camera profile and AUTOEXPOSURE (both the library's
-    default today; added if a script lacks them)."""
+    default today; added if a script lacks them). A script of POSE lines without moving
+    objects keeps only its first ``frames`` poses: the metering pass then meters only the
+    frames the bench renders, and their exposures and images are those of the whole
+    sequence (the auto-exposure looks back, never ahead). MOVE keyframes tie a script to
+    its length: such a script (city_kitti) stays whole."""
     lines = (REPO / script).read_text().splitlines()
+    if frames is not None and not any(ln.startswith("MOVE") for ln in lines):
+        poses = [i for i, ln in enumerate(lines) if ln.startswith("POSE")]
+        drop = set(poses[frames:]) if len(poses) > frames else set()
+        lines = [ln for i, ln in enumerate(lines) if i not in drop]
     if not any(ln.startswith("SENSOR") for ln in lines):
         lines.append(f"SENSOR profile {profile}")
     if not any(ln.startswith("AUTOEXPOSURE") for ln in lines):
@@ -323,8 +331,8 @@ def main(argv=None) -> int:
     script, profile = SCENES[a.scene]
     out = REPO / a.out / a.scene
     t0 = time.perf_counter()
-    secs = float("nan") if a.no_render else render(twin_script(script, profile, REPO / a.out), out, a.frames,
-                                                   a.scale, a.quality)
+    secs = float("nan") if a.no_render else render(twin_script(script, profile, REPO / a.out, a.frames), out,
+                                                   a.frames, a.scale, a.quality)
     seq = open_sequence(out)
     n = 0
     while n < min(a.frames, seq.num_frames) and seq.frame_complete(n):

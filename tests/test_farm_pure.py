@@ -337,6 +337,37 @@ def test_lost_chunks_are_retried_until_they_succeed(tmp_path):
     assert res.frames_rendered == 5
 
 
+@pytest.mark.parametrize("meters", [True, False])
+def test_a_scene_to_meter_starts_with_one_chunk_and_the_others_read_its_metering(tmp_path, meters):
+    """AUTOEXPOSURE's metering pass runs in whichever render finds none in the folder: the
+    farm holds a metering scene's other chunks until the first has written a frame (the
+    metering is then in the manifest), so that the pass runs once, not once per chunk."""
+    seen_when_run = {}
+
+    def plan(scene, frames, n):
+        seen_when_run[frames] = len(ray.submitted)
+        return {"rc": 0}
+    ray = FakeRay(plan, lambda out: {"missing": [], "bad": []})
+    scenes = _scenes(tmp_path, ("a", 5))
+    scenes[0].meters = meters
+    res = _farm(ray, scenes).run()
+    assert [s.complete for s in res.states] == [True] and res.frames_rendered == 5
+    assert sorted(ray.submitted) == [("a", "0:2"), ("a", "2:4"), ("a", "4:5")]
+    # metering: the first chunk ran while it was the only one submitted; otherwise all at once
+    assert seen_when_run["0:2"] == (1 if meters else 3)
+
+
+def test_a_scene_prepared_for_a_farm_meters_only_with_autoexposure_and_none_stored(tmp_path):
+    from blender_sesgen.farm.work import prepare_scene
+    from blender_sesgen.render.plan import RenderOptions
+    base = "CAMERA resolution 16 12 focal 10 baseline 0.1\nCUBOID id 1 position 0 0 -3 dim 1 1 1\nFRAMES 3\n"
+    for name, extra, expected in (("plain", "", False), ("auto", "SENSOR profile kitti\nAUTOEXPOSURE\n", True)):
+        (tmp_path / f"{name}.ses").write_text(base + extra)
+        sc = prepare_scene(FarmScene(name=name, script=tmp_path / f"{name}.ses", out=tmp_path / "root" / name),
+                           RenderOptions())
+        assert sc.error is None and sc.pending == [0, 1, 2] and sc.meters is expected, (name, sc.error)
+
+
 def test_a_chunk_lost_too_often_fails_its_scene_only(tmp_path, capsys):
     def plan(scene, frames, n):
         return {"rc": 1, "tail": ["error: render failed: disk on fire"]} if (scene, frames) == ("b", "0:2") \

@@ -45,13 +45,14 @@ def test_a_script_without_lights_is_lit_not_black(tmp_path):
 def test_sky_sun_lamp_delivers_the_sky_models_own_sun(tmp_path):
     """WORLD sky renders the sky without its sun disc plus a lamp (lighting_data's measured
     table): a white ground lit that way matches the same ground under the sky model's own
-    disc (disc back on, lamp removed), per channel, at two elevations and azimuths."""
+    disc (disc back on, lamp removed), per channel, at two elevations and azimuths, and in a
+    hazy sky whose aerosol density lies between the table's measured rows."""
     import bpy
     from blender_sesgen.blender import render
     from blender_sesgen.pipeline import RenderJob
-    for elevation, azimuth in ((35, 20), (12, -120)):
+    for elevation, azimuth, aerosol in ((35, 20, 1), (12, -120, 1), (47, 70, 6)):
         script = tmp_path / f"sky{elevation}.ses"
-        script.write_text(LOOK_DOWN + f"WORLD sky strength 1 elevation {elevation} azimuth {azimuth}\n"
+        script.write_text(LOOK_DOWN + f"WORLD sky strength 1 elevation {elevation} azimuth {azimuth} aerosol {aerosol}\n"
                           "LOOK exposure 0\n" + GROUND +
                           "CUBOID id 2 position 0 0.5 -1.5 dim 0.6 1 0.6\n")   # casts a shadow
         job = RenderJob.prepare(script, tmp_path / f"out{elevation}", RenderOptions(samples=64))

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import re
 
+import numpy as np
 import pytest
 
 from blender_sesgen.scene import materials as material_library, model
@@ -163,6 +164,19 @@ def test_builtin_hdris(name):
     assert (w.kind, w.hdri, w.hdri_path, w.strength, w.rotation_deg) == ("hdri", name, None, 0.8, 90.0)
 
 
+def test_sky_aerosol_and_the_sun_it_leaves():
+    """``WORLD sky aerosol a``: the model's value; the sun lamp's irradiance between the
+    measured densities (1 and 4) is log-linear in the density. Oracle: the sky model's sun at
+    aerosol 2 and a 42 deg sun measured separately by bench/calibrate_sky_sun.py
+    (--aerosol 2 --elevations 42: 153.8, 129.2, 97.2), a value not in the table."""
+    from blender_sesgen.scene.lighting import sky_sun_irradiance
+    w = parse_string(OBJ + "WORLD sky elevation 42 aerosol 2.5\n").world
+    assert (w.kind, w.aerosol) == ("sky", 2.5)
+    assert parse_string(OBJ + "WORLD sky\n").world.aerosol == 1.0
+    np.testing.assert_allclose(sky_sun_irradiance(42, 2.0), (153.78, 129.22, 97.21), rtol=0.005)
+    assert (sky_sun_irradiance(42, 8.0) < sky_sun_irradiance(42, 1.0)).all()   # haze dims the sun
+
+
 def _radiance_hdr(width=8, height=2) -> bytes:
     """A flat (uncompressed) Radiance RGBE file."""
     head = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n" + f"-Y {height} +X {width}\n".encode()
@@ -181,7 +195,9 @@ def test_hdri_files_and_errors(tmp_path):
              ("WORLD hdri photo.png", "photo.png", r"is not an image \(\.exr, \.hdr\)"),
              ("WORLD hdri fake.exr", "fake.exr", r"not a usable image: not an image"),
              ("WORLD hdri city elevation 30", "elevation", r"'elevation' is only for 'WORLD sky'"),
-             ("WORLD sky rotation 30", "rotation", r"'rotation' is only for 'WORLD hdri'")]
+             ("WORLD sky rotation 30", "rotation", r"'rotation' is only for 'WORLD hdri'"),
+             ("WORLD hdri city aerosol 2", "aerosol", r"'aerosol' is only for 'WORLD sky'"),
+             ("WORLD sky aerosol 11", "11", r"'aerosol' must lie in 0\.\.10")]
     for line, marker, pattern in cases:
         text = OBJ + line + "\n"
         err = error_of(text, tmp_path)

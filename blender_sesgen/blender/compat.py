@@ -7,7 +7,8 @@
   needs ``use_nodes = True``;
 - pass names in multilayer EXR channels: ``Object Index`` (5.0) vs ``IndexOB`` (4.x);
 - Principled BSDF: ``Specular IOR Level`` (4.0+) vs ``Specular`` (3.x);
-- physical sky: ``MULTIPLE_SCATTERING`` (5.0) vs ``NISHITA`` (4.x) (``sky_type_for``);
+- physical sky: ``MULTIPLE_SCATTERING`` (5.0) vs ``NISHITA`` (4.x) (``sky_type_for``); its
+  aerosols: ``aerosol_density`` (5.0) vs ``dust_density`` (4.x) (``set_sky_aerosol``);
 - evaluated geometry: ``Object.evaluated_geometry()`` (4.5+) vs the point cloud of a
   geometry-nodes object appearing as a depsgraph instance (4.2-4.4) (``evaluated_points``);
 - the deflate level of ZIP EXRs: not in Blender's API; set in the OpenEXR library Blender
@@ -143,6 +144,14 @@ def sky_type_for(preferred: tuple[str, ...] = ("MULTIPLE_SCATTERING", "NISHITA",
         if p in items:
             return p
     return items[0]
+
+
+def set_sky_aerosol(sky, density: float) -> None:
+    """The physical sky's aerosol density (1 = Blender's default, a city's clear day)."""
+    for name in ("aerosol_density", "dust_density"):
+        if hasattr(sky, name):
+            setattr(sky, name, float(density))
+            return
 
 
 def evaluated_points(obj, depsgraph=None) -> list[tuple]:

@@ -195,6 +195,7 @@ def build_world(bscene, w: World, fog: Fog | None, name: str, tag=lambda x: x):
         if hasattr(sky, "sun_elevation"):
             sky.sun_elevation = math.radians(w.sun_elevation_deg)
             sky.sun_rotation = math.radians(w.sun_azimuth_deg)
+        compat.set_sky_aerosol(sky, w.aerosol)
         if hasattr(sky, "sun_disc") and _sky_without_disc():
             sky.sun_disc = False  # the sun is a lamp (scene_lights)
         nt.links.new(sky.outputs["Color"], bg.inputs["Color"])

@@ -10,6 +10,10 @@ tasks, verification of every finished folder, and the summary.
 - When every chunk of a scene has ended, a verify task takes the completion logs into the
   manifest and checks every frame against its checksum (``verify --quick``); frames still
   missing or bad are rendered again (within the same retry budget).
+- A scene whose auto-exposure still has to be metered (``AUTOEXPOSURE``, no metering in its
+  folder yet) starts with its first chunk alone; the others are held until that chunk has
+  written a frame (the metering is then in the manifest, where every later chunk reads it)
+  or has ended: the metering pass runs once per scene, not once per chunk.
 - Progress: every render prints ``--progress json`` events; each ``progress`` event (a frame
   written) counts one frame of the farm's total, and the verify step corrects the count.
 """
@@ -57,6 +61,7 @@ class SceneState:
     user_error: bool = False
     complete: bool = False
     missing: list = field(default_factory=list)
+    held: list = field(default_factory=list)     # chunks waiting for the first chunk's metering
 
 
 @dataclass
@@ -113,7 +118,10 @@ class Farm:
                 continue
             ranges = frame_ranges(st.scene.pending, self.chunk)
             st.open_chunks = len(ranges)
-            self.queue.extend(Chunk(st.scene, a, b) for a, b in ranges)
+            chunks = [Chunk(st.scene, a, b) for a, b in ranges]
+            if st.scene.meters:
+                chunks, st.held = chunks[:1], chunks[1:]
+            self.queue.extend(chunks)
             if not ranges:
                 self._submit_verify(st)
         total = sum(len(st.scene.pending) for st in self.states if not st.scene.error)
@@ -192,6 +200,7 @@ class Farm:
             elif msg.get("kind") == "event" and msg["event"].get("event") == "progress":
                 st = by_name.get(key.rsplit("[", 1)[0])
                 if st is not None and st.failed is None:
+                    self._release_held(st)
                     st.counted += 1
                     self.frames_rendered += 1
                     ev = msg["event"]
@@ -209,8 +218,16 @@ class Farm:
         return ", ".join(parts) + (f"; {last}" if last else "")
 
     # --- results ------------------------------------------------------------------------
+    def _release_held(self, st: SceneState) -> None:
+        """The scene's metering is in its folder (a frame was written) or its first chunk
+        ended (at worst each held chunk meters for itself, as without holding)."""
+        if st.held and st.failed is None:
+            self.queue.extend(st.held)
+            st.held = []
+
     def _chunk_ended(self, ref, c: Chunk) -> None:
         st = self._state(c.scene)
+        self._release_held(st)
         self.rendering.discard(c.task_id)
         self.live_ids.discard(c.task_id)
         try:

@@ -32,6 +32,7 @@ class FarmScene:
     pending: list = field(default_factory=list)   # frames to render
     error: Optional[str] = None      # why the scene cannot be rendered (a user error line)
     args: list = field(default_factory=list)      # render arguments of this scene only (e.g. --reuse-exr BASE)
+    meters: bool = False             # its renders would meter the auto-exposure (none stored yet)
 
     @property
     def frames(self) -> int:
@@ -142,6 +143,9 @@ def prepare_scene(sc, options):
             from ..render.reuse import check_reusable
             check_reusable(sc.plan, options.reuse_exr)
         sc.pending = folder.pending(sc.plan, resume=True)
+        from ..render.sensor.outputs import stored_metering
+        sc.meters = (bool(sc.pending) and sc.plan.sensor.autoexposure is not None and not options.reuse_exr
+                     and stored_metering(sc.plan.sensor, folder.resumable(sc.plan)) is None)
     except ScriptError as e:
         sc.error = str(e)
     except SesgenError as e:

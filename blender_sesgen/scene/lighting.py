@@ -21,27 +21,58 @@ SKY_EXPOSURE = 50.0
 SUN_ANGLE_DEG = 0.545        # the sky model's (and the real) sun disc diameter
 
 # Irradiance (W/m^2 per channel, linear RGB, sky strength 1) of the physical sky's sun
-# disc on a surface facing the sun, per sun elevation (deg): measured on Blender 5.0's
-# MULTIPLE_SCATTERING sky by bench/calibrate_sky_sun.py. ``WORLD sky`` renders the sky
-# without its disc plus a sun lamp delivering this: a lamp is sampled directly, which
-# halves the noise of sunlit surfaces at a given sample count.
-SKY_SUN_IRRADIANCE: tuple[tuple[float, tuple[float, float, float]], ...] = (
-    (1, (18.46, 4.264, 0.07569)),
-    (2, (34.09, 10.74, 0.09561)),
-    (3, (48.56, 19.01, 1.656)),
-    (5, (72.24, 36.82, 8.399)),
-    (7, (89.79, 52.98, 17.79)),
-    (10, (108.2, 72.19, 32.48)),
-    (15, (126.7, 93.65, 53.01)),
-    (20, (137.5, 107.1, 68.04)),
-    (25, (144.6, 116.2, 79.01)),
-    (30, (149.4, 122.5, 87.18)),
-    (40, (155.5, 130.7, 98.28)),
-    (50, (159.1, 135.7, 105.2)),
-    (60, (161.3, 138.7, 109.6)),
-    (70, (162.7, 140.6, 112.3)),
-    (80, (163.4, 141.6, 113.8)),
-    (90, (163.9, 142.2, 114.5)),
+# disc on a surface facing the sun, per aerosol density (``WORLD sky aerosol``) and sun
+# elevation (deg): measured on Blender 5.0's MULTIPLE_SCATTERING sky by
+# bench/calibrate_sky_sun.py. ``WORLD sky`` renders the sky without its disc plus a sun lamp
+# delivering this: a lamp is sampled directly, which halves the noise of sunlit surfaces at
+# a given sample count.
+AEROSOL_RANGE = (0.0, 10.0)  # Blender's aerosol_density
+SKY_SUN_IRRADIANCE: tuple[tuple[float, tuple[tuple[float, tuple[float, float, float]], ...]], ...] = (
+    (0, (
+        (10, (115.8, 78.5, 36.39)),
+        (20, (142.2, 111.6, 71.84)),
+        (30, (152.8, 125.9, 90.44)),
+        (40, (158.2, 133.6, 101.1)),
+        (50, (161.4, 138.1, 107.7)),
+        (70, (164.6, 142.7, 114.5)),
+        (90, (165.5, 144, 116.5)),
+    )),
+    (1, (
+        (1, (18.46, 4.264, 0.07569)),
+        (2, (34.09, 10.74, 0.09561)),
+        (3, (48.56, 19.01, 1.656)),
+        (5, (72.24, 36.82, 8.399)),
+        (7, (89.79, 52.98, 17.79)),
+        (10, (108.2, 72.19, 32.48)),
+        (15, (126.7, 93.65, 53.01)),
+        (20, (137.5, 107.1, 68.04)),
+        (25, (144.6, 116.2, 79.01)),
+        (30, (149.4, 122.5, 87.18)),
+        (40, (155.5, 130.7, 98.28)),
+        (50, (159.1, 135.7, 105.2)),
+        (60, (161.3, 138.7, 109.6)),
+        (70, (162.7, 140.6, 112.3)),
+        (80, (163.4, 141.6, 113.8)),
+        (90, (163.9, 142.2, 114.5)),
+    )),
+    (4, (
+        (10, (88.06, 56.19, 23.17)),
+        (20, (124.4, 94.67, 57.69)),
+        (30, (139.6, 112.7, 77.98)),
+        (40, (147.6, 122.6, 90.18)),
+        (50, (152.3, 128.5, 97.89)),
+        (70, (157, 134.6, 106)),
+        (90, (161.1, 138.6, 110.1)),
+    )),
+    (8, (
+        (10, (66.8, 40.16, 14.67)),
+        (20, (108.9, 80.33, 46.31)),
+        (30, (127.5, 100.8, 67.21)),
+        (40, (137.6, 112.4, 80.34)),
+        (50, (143.6, 119.5, 88.91)),
+        (70, (149.8, 126.9, 98.05)),
+        (90, (150.7, 128.3, 100.1)),
+    )),
 )
 
 # the default lighting of a script with neither LIGHT nor WORLD: a clear-sky day
@@ -71,13 +102,23 @@ def direction_towards_sun(elevation_deg: float, azimuth_deg: float) -> np.ndarra
     return np.array([math.cos(el) * math.sin(az), math.sin(el), -math.cos(el) * math.cos(az)])
 
 
-def sky_sun_irradiance(elevation_deg: float) -> np.ndarray:
-    """The sky model's sun irradiance (RGB, W/m^2 at sky strength 1) at this elevation
-    (linear interpolation in the measured table; 0 below the horizon)."""
+def sky_sun_irradiance(elevation_deg: float, aerosol: float = 1.0) -> np.ndarray:
+    """The sky model's sun irradiance (RGB, W/m^2 at sky strength 1) at this elevation and
+    aerosol density: linear in elevation, log-linear in aerosol density (the aerosol's
+    extinction is exponential in its density) between the measured rows; 0 below the horizon."""
     if elevation_deg <= 0:
         return np.zeros(3)
-    el = np.array([e for e, _ in SKY_SUN_IRRADIANCE], dtype=float)
-    E = np.array([rgb for _, rgb in SKY_SUN_IRRADIANCE], dtype=float)
+    densities = np.array([a for a, _ in SKY_SUN_IRRADIANCE], dtype=float)
+    per_density = np.array([_irradiance_at(rows, elevation_deg) for _, rows in SKY_SUN_IRRADIANCE])
+    if len(densities) == 1:
+        return per_density[0]
+    log_E = np.log(np.maximum(per_density, 1e-12))
+    return np.exp([np.interp(aerosol, densities, log_E[:, c]) for c in range(3)])
+
+
+def _irradiance_at(rows, elevation_deg: float) -> np.ndarray:
+    el = np.array([e for e, _ in rows], dtype=float)
+    E = np.array([rgb for _, rgb in rows], dtype=float)
     if elevation_deg < el[0]:
         return E[0] * elevation_deg / el[0]
     return np.array([np.interp(elevation_deg, el, E[:, c]) for c in range(3)])
@@ -93,7 +134,7 @@ def effective_world(world: World | None, has_lights: bool) -> World:
 
 def sky_sun_light(world: World) -> Light | None:
     """The sun lamp that stands in for the sky's sun disc (None below the horizon)."""
-    E = sky_sun_irradiance(world.sun_elevation_deg) * world.strength / SKY_EXPOSURE
+    E = sky_sun_irradiance(world.sun_elevation_deg, world.aerosol) * world.strength / SKY_EXPOSURE
     peak = float(E.max())
     if peak <= 0:
         return None

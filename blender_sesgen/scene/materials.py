@@ -67,6 +67,10 @@ LIBRARY: dict[str, LibraryEntry] = _entries(
     LibraryEntry("concrete", "cast concrete: sand speckle, stains, pores; scuffs and dirt with wear",
                  (0.38, 0.37, 0.35), 0.85, scale_m=1.0, bump_m=0.0015, variation=0.3, wear=0.3,
                  semantic_class="wall"),
+    LibraryEntry("paving", "concrete pavers of a sidewalk (20 x 10 cm, running bond) with 4 mm sand joints, "
+                           "per-paver tone, sand speckle, chipped edges, dirt in the joints with wear",
+                 (0.30, 0.29, 0.27), 0.85, scale_m=0.2, bump_m=0.003, variation=0.25, wear=0.3,
+                 semantic_class="sidewalk"),
     LibraryEntry("brick", "brick wall, stretcher bond: 24 x 7.1 cm bricks with 1 cm recessed mortar, "
                           "per-brick colour, chipped faces", (0.26, 0.10, 0.06), 0.85, scale_m=0.24,
                  bump_m=0.004, variation=0.35, wear=0.2, semantic_class="building"),

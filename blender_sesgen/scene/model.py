@@ -221,8 +221,11 @@ class Light:
 
 @dataclass(frozen=True, kw_only=True)
 class World:
-    """``WORLD colour r g b [strength s]``, ``WORLD sky [strength s] [elevation e] [azimuth a]``
-    or ``WORLD hdri NAME|FILE [strength s] [rotation deg]``.
+    """``WORLD colour r g b [strength s]``, ``WORLD sky [strength s] [elevation e] [azimuth a]
+    [aerosol a]`` or ``WORLD hdri NAME|FILE [strength s] [rotation deg]``.
+
+    sky: ``aerosol`` is the sky model's aerosol density (Blender's ``aerosol_density``: 0 none,
+    1 a city's clear day, more is hazier: a dimmer sun, a brighter, whiter sky, softer shadows).
 
     hdri: ``hdri`` is a built-in name (``blender_sesgen.scene.lighting.BUILTIN_HDRIS``) or
     None with ``hdri_path`` an absolute file path (``hdri_source`` as written);
@@ -233,6 +236,7 @@ class World:
     strength: float = 1.0
     sun_elevation_deg: float = 45.0
     sun_azimuth_deg: float = 0.0
+    aerosol: float = 1.0
     hdri: Optional[str] = None
     hdri_path: Optional[str] = None
     hdri_source: Optional[str] = None

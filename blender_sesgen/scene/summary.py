@@ -69,7 +69,8 @@ def summary(scene: Scene) -> str:
 
 def _world_text(w) -> str:
     if w.kind == "sky":
-        return f"sky, strength {w.strength:g}, sun at elevation {w.sun_elevation_deg:g} azimuth {w.sun_azimuth_deg:g} deg"
+        haze = f", aerosol {w.aerosol:g}" if w.aerosol != 1.0 else ""
+        return f"sky, strength {w.strength:g}, sun at elevation {w.sun_elevation_deg:g} azimuth {w.sun_azimuth_deg:g} deg{haze}"
     if w.kind == "hdri":
         return f"hdri {w.hdri or w.hdri_source}, strength {w.strength:g}, rotation {w.rotation_deg:g} deg"
     return f"colour {' '.join(f'{c:g}' for c in w.colour)}, strength {w.strength:g}"

@@ -11,7 +11,7 @@ from typing import Optional
 import numpy as np
 
 from ..scene import model
-from ..scene.lighting import BUILTIN_HDRIS, HDRI_SUFFIXES
+from ..scene.lighting import AEROSOL_RANGE, BUILTIN_HDRIS, HDRI_SUFFIXES
 from .checks import Checks, scalar, vec
 from .materials import image_file_ok
 from .statements import ParsedStatement, did_you_mean
@@ -74,7 +74,7 @@ def world(stmt: Optional[ParsedStatement], check: Checks) -> Optional[model.Worl
         check.err(stmt.token, "WORLD needs exactly one of 'colour r g b', 'sky' or 'hdri NAME|FILE'")
         return None
     kind = kinds[0]
-    only = {"elevation": "sky", "azimuth": "sky", "rotation": "hdri"}
+    only = {"elevation": "sky", "azimuth": "sky", "aerosol": "sky", "rotation": "hdri"}
     for tag, owner in only.items():
         if tag in stmt.tags and kind != owner:
             check.err(stmt.tags[tag].tag, f"WORLD '{tag}' is only for 'WORLD {owner}'")
@@ -83,11 +83,16 @@ def world(stmt: Optional[ParsedStatement], check: Checks) -> Optional[model.Worl
     elevation = scalar(stmt, "elevation", model.World.sun_elevation_deg)
     if not -90.0 <= elevation <= 90.0:
         check.err(stmt.tags["elevation"].tokens[0], f"WORLD 'elevation' must lie in -90..90 degrees, got {elevation:g}")
+    aerosol = scalar(stmt, "aerosol", model.World.aerosol)
+    if not AEROSOL_RANGE[0] <= aerosol <= AEROSOL_RANGE[1]:
+        check.err(stmt.tags["aerosol"].tokens[0], f"WORLD 'aerosol' must lie in "
+                  f"{AEROSOL_RANGE[0]:g}..{AEROSOL_RANGE[1]:g} (1 = a city's clear day), got {aerosol:g}")
     hdri = _hdri(stmt, check) if kind == "hdri" else (None, None, None)
     return model.World(kind=kind, colour=vec(stmt, "colour", model.World.colour),
                        strength=float(scalar(stmt, "strength", 1.0)),
                        sun_elevation_deg=float(elevation),
                        sun_azimuth_deg=float(scalar(stmt, "azimuth", 0.0)),
+                       aerosol=float(aerosol),
                        hdri=hdri[0], hdri_path=hdri[1], hdri_source=hdri[2],
                        rotation_deg=float(scalar(stmt, "rotation", 0.0)))
 

@@ -121,6 +121,7 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
                              _num("strength", usage="strength s"),
                              _num("elevation", usage="elevation deg"),
                              _num("azimuth", usage="azimuth deg"),
+                             _num("aerosol", usage="aerosol a"),
                              _num("rotation", usage="rotation deg"))),
     Statement("MATERIAL", _tags(Tag("name", "text", required=True, usage="name N"),
                                 _num("colour", (3,), usage="colour r g b"),

@@ -1,4 +1,4 @@
-"""Recipes of the built environment: asphalt, lane_marking, concrete, brick, plaster,
+"""Recipes of the built environment: asphalt, lane_marking, concrete, paving, brick, plaster,
 roof_tiles. Lengths in metres (the coordinates are metric); ``ctx.entry.scale_m`` is the
 documented size of each one's main element."""
 from __future__ import annotations
@@ -28,7 +28,12 @@ def asphalt(ctx: Ctx) -> Surface:
     grit = g.remap(g.noise(p, 1 / 0.05, detail=5.0, roughness=0.7), 0.25, 0.75, 0.55, 1.45)
     mottle = g.remap(g.noise(p, 1 / 0.35, detail=3.0), 0.3, 0.7, 0.84, 1.16)
     large = g.remap(g.noise(p, 1 / 4.0, detail=2.0), 0.3, 0.7, 0.85, 1.15)
-    f = g.mul(g.mul(g.mul(tone, grit), mottle), large)
+    # the worn surface's light and dark spots at 1-3 cm: single stones polished bright or
+    # binder-filled, the scale one KITTI pixel covers 5-20 m ahead (the stones alone, 11 mm,
+    # average out within a pixel there)
+    spots = g.voronoi(p, 1 / 0.022)
+    spot = g.remap(g.sep(spots.outputs["Color"])[2], 0.0, 1.0, 0.7, 1.35)
+    f = g.mul(g.mul(g.mul(g.mul(tone, grit), mottle), large), spot)
     col = g.cmul(C, f)
     # oil drips and tyre stains: dark blotches, more of them with wear
     stain = g.remap(g.noise(p, 1 / 0.6, detail=4.0, roughness=0.6), 0.66 - 0.08 * ctx.wear, 0.74 - 0.08 * ctx.wear,
@@ -46,7 +51,7 @@ def asphalt(ctx: Ctx) -> Surface:
     crack = g.mul(g.mul(line, where), g.sub(1.0, patch))
     col = g.cmix(col, (0.025, 0.025, 0.025), crack)
     rough = g.lerp(g.lerp(ctx.roughness, ctx.roughness - 0.08, patch), 0.55, crack)
-    height = g.sub(g.mul(dome, 0.0015), g.mul(crack, 0.003))
+    height = g.sub(g.add(g.mul(dome, 0.0015), g.mul(spots.outputs["Distance"], -0.002)), g.mul(crack, 0.003))
     return Surface(col, rough, height)
 
 
@@ -85,6 +90,23 @@ def concrete(ctx: Ctx) -> Surface:
     return Surface(col, rough, height)
 
 
+def paving(ctx: Ctx) -> Surface:
+    g, p, C = ctx.g, ctx.p, ctx.colour
+    length = ctx.entry.scale_m                     # 20 x 10 cm pavers, 4 mm sand joints
+    rand, joint = g.bricks(ctx.uv, length + 0.004, 0.5 * length + 0.004, 0.004, smooth=0.3)
+    value = g.remap(rand, 0.0, 1.0, 0.8, 1.2)      # each paver its own cast and weathering
+    speckle = g.remap(g.noise(p, 1 / 0.015, detail=3.0, roughness=0.7), 0.25, 0.75, 0.85, 1.15)
+    stains = g.remap(g.noise(p, 1 / 0.8, detail=3.0), 0.3, 0.7, 0.85, 1.12)
+    col = g.cmul(C, g.mul(g.mul(value, speckle), stains))
+    sand = g.cmul((0.16, 0.15, 0.13), g.lerp(1.0, 0.5, ctx.wear))   # darker with dirt and moss
+    col = g.cmix(col, sand, joint)
+    chips = g.remap(g.noise(p, 1 / 0.02, detail=3.0), 0.64, 0.72, 0.0, 1.0)
+    rough = g.lerp(ctx.roughness, 0.95, joint)
+    height = g.sub(g.sub(g.mul(g.noise(p, 1 / 0.008, detail=2.0), 0.0004), g.mul(joint, 0.003)),
+                   g.mul(chips, 0.001))
+    return Surface(col, rough, height)
+
+
 def brick(ctx: Ctx) -> Surface:
     g, C = ctx.g, ctx.colour
     length = ctx.entry.scale_m                     # 24 cm bricks, 1 cm mortar, 7.1 cm courses
@@ -93,7 +115,7 @@ def brick(ctx: Ctx) -> Surface:
     value = g.remap(rand, 0.0, 1.0, 0.72, 1.22)
     burnt = g.math("GREATER_THAN", r2, 0.92)       # a few dark over-fired bricks
     value = g.lerp(value, 0.55, burnt)
-    face = g.remap(g.noise(ctx.p, 1 / 0.03, detail=3.0), 0.3, 0.7, 0.92, 1.06)
+    face = g.remap(g.noise(ctx.p, 1 / 0.03, detail=3.0), 0.3, 0.7, 0.84, 1.12)   # fired clay's blotches
     tint = g.hsv(g.cmul(C, g.mul(value, face)), g.madd(r2, 0.02, 0.49), g.madd(rand, 0.15, 0.85), 1.0)
     mortar_col = g.cmul((0.42, 0.40, 0.37), g.remap(g.noise(ctx.p, 1 / 0.05, detail=2.0), 0.3, 0.7, 0.85, 1.1))
     col = g.cmix(tint, mortar_col, mortar)
@@ -110,13 +132,19 @@ def plaster(ctx: Ctx) -> Surface:
     mid = g.remap(g.noise(p, 1 / 0.3, detail=3.0), 0.3, 0.7, 0.96, 1.04)
     # the render's sand grain: a faint speckle at millimetres to centimetres
     grain = g.remap(g.noise(p, 1 / 0.01, detail=3.0, roughness=0.7), 0.25, 0.75, 0.94, 1.06)
-    mid = g.mul(mid, grain)
+    # weathering: dust held in the render's pores, washed off unevenly, a mottle at 3-10 cm
+    # (what a KITTI pixel sees of a facade 10-30 m away; the sand grain is sub-pixel there)
+    mottle = g.remap(g.noise(p, 1 / 0.05, detail=4.0, roughness=0.65), 0.3, 0.7, 0.86, 1.1)
+    mid = g.mul(g.mul(mid, grain), mottle)
     # grime running down the wall (object y is up): streaks stretched vertically
     streak_p = g.vmath("MULTIPLY", p, (6.0, 0.35, 6.0))
     streaks = g.remap(g.noise(streak_p, 1.0, detail=4.0), 0.5, 0.75, smooth=True)
     col = g.cmul(C, g.mul(g.mul(patches, mid), g.lerp(1.0, 0.8, g.mul(streaks, ctx.wear))))
     rough = g.remap(g.noise(p, 1 / 0.5, detail=2.0), 0.3, 0.7, ctx.roughness - 0.05, ctx.roughness + 0.05)
-    height = g.add(g.mul(g.noise(p, 1 / 0.004, detail=2.0), 0.0003), g.mul(g.noise(p, 1 / 0.25, detail=2.0), 0.0008))
+    # roughcast: 1-2 mm grains at 5 mm (the sun rakes them), over the trowel's waves
+    roughcast = g.remap(g.voronoi(p, 1 / 0.005).outputs["Distance"], 0.0, 0.6, 1.0, 0.0)
+    height = g.add(g.add(g.mul(roughcast, 0.0012), g.mul(g.noise(p, 1 / 0.004, detail=2.0), 0.0003)),
+                   g.mul(g.noise(p, 1 / 0.25, detail=2.0), 0.0008))
     return Surface(col, rough, height)
 
 
@@ -138,5 +166,5 @@ def roof_tiles(ctx: Ctx) -> Surface:
     return Surface(col, rough, height)
 
 
-RECIPES = {"asphalt": asphalt, "lane_marking": lane_marking, "concrete": concrete, "brick": brick,
+RECIPES = {"asphalt": asphalt, "lane_marking": lane_marking, "concrete": concrete, "paving": paving, "brick": brick,
            "plaster": plaster, "roof_tiles": roof_tiles}

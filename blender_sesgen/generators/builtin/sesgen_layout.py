@@ -89,9 +89,11 @@ def sun_travel(elevation_deg: float, azimuth_deg: float) -> np.ndarray:
     return -np.array([np.cos(el) * np.sin(az), np.sin(el), -np.cos(el) * np.cos(az)])
 
 
-def sky_and_sun(elevation_deg: float, azimuth_deg: float, sky_strength: float = 1.0) -> list[str]:
-    """A physical sky with its sun (the renderer adds the sun as a calibrated lamp)."""
-    return [f"WORLD sky strength {num(sky_strength)} elevation {num(elevation_deg)} azimuth {num(azimuth_deg)}"]
+def sky_and_sun(elevation_deg: float, azimuth_deg: float, sky_strength: float = 1.0, aerosol: float = 1.0) -> list[str]:
+    """A physical sky with its sun (the renderer adds the sun as a calibrated lamp); ``aerosol``
+    above 1 is a hazier sky than the sky model's default."""
+    haze = f" aerosol {num(aerosol)}" if aerosol != 1.0 else ""
+    return [f"WORLD sky strength {num(sky_strength)} elevation {num(elevation_deg)} azimuth {num(azimuth_deg)}{haze}"]
 
 
 # --- what a seed varies besides the layout: light, time of day, fog -------------------------
@@ -111,9 +113,11 @@ class Lighting:
     """A scene's natural light: a physical sky with its sun at ``sun`` = (elevation, azimuth)
     in degrees (the time of day), or a bundled HDRI ``hdri`` = (name, strength, rotation deg;
     the sun is then unused);
-    optional distance fog ``fog`` = (start m, end m, colour)."""
+    optional distance fog ``fog`` = (start m, end m, colour); ``aerosol``: the sky's haze
+    (``WORLD sky aerosol``)."""
     sun: tuple = (45.0, 0.0)
     sky_strength: float = 1.0
+    aerosol: float = 1.0
     hdri: Optional[tuple] = None
     fog: Optional[tuple] = None
 
@@ -122,7 +126,7 @@ class Lighting:
             name, strength, rotation = self.hdri
             out = [f"WORLD hdri {name} strength {num(strength)} rotation {num(rotation)}"]
         else:
-            out = sky_and_sun(self.sun[0], self.sun[1], self.sky_strength)
+            out = sky_and_sun(self.sun[0], self.sun[1], self.sky_strength, self.aerosol)
         if self.fog is not None:
             start, end, colour = self.fog
             out.append(f"FOG start {num(start, 1)} end {num(end, 1)} colour {nums(colour)}")

@@ -64,7 +64,7 @@ def _kinds() -> dict[str, Kind]:
         Kind("kerb", "street", "sidewalk", "kerb stones (road side at -x), chamfered edge",
              ((0.15, 0.25), (0.12, 0.15), (20, 20)), "width, height above the road, length", street.kerb,
              strip=True),
-        Kind("sidewalk", "street", "sidewalk", "paving slabs with per-slab tone, slight cross fall",
+        Kind("sidewalk", "street", "sidewalk", "concrete pavers (paving) in slabs of per-slab tone, slight cross fall",
              ((2.0, 3.5), (0.12, 0.15), (20, 20)), "width, height, length", street.sidewalk, strip=True),
         Kind("verge", "street", "terrain", "grass strip with a gentle relief and worn patches",
              ((2, 5), (0.1, 0.14), (20, 20)), "width, height, length", street.verge, strip=True),
