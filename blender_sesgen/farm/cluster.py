@@ -105,7 +105,7 @@ class Cluster:
                     ray.shutdown()  # whatever part of it did start
                 except Exception:  # noqa: BLE001 - nothing more to end
                     pass
-                why = (str(e).strip().splitlines() or [type(e).__name__])[0]
+                why = (str(e).strip().splitlines() or [type(e).__name__])[0].rstrip(".")
                 raise ClusterStartError(f"cannot start a local Ray: {why}") from None
             self.started_local = True
             return self
