@@ -33,7 +33,7 @@ def snapshot() -> dict:
         name = raw[raw.index("(") + 1:raw.rindex(")")]
         rest = raw[raw.rindex(")") + 2:].split()
         ppid, utime, stime, start = int(rest[1]), int(rest[11]), int(rest[12]), int(rest[19])
-        out[int(d)] = (ppid, (utime + stime) / TICK, start, cmd or name)
+        out[int(d)] = (ppid, (utime + stime) / TICK, start, cmd or f"({name})")
     return out
 
 
@@ -59,7 +59,10 @@ def main() -> None:
                     changed = True
         for pid in tree & snap.keys():
             _, cpu, start, cmd = snap[pid]
-            seen[(pid, start)] = (cpu, cmd)
+            old = seen.get((pid, start))
+            # a process that has exited but is not yet reaped has no command line (only its short
+            # name, "python"): it keeps the command it was seen with before
+            seen[(pid, start)] = (cpu, old[1] if old and cmd.startswith("(") else cmd)
         time.sleep(a.every)
     by = {}
     for cpu, cmd in seen.values():

@@ -319,3 +319,16 @@ def test_a_local_farm_renders_a_generated_folder_reports_a_bad_script_and_leaves
         assert e["render"]["samples"] == 1 and e["render"]["resolution"] == [64, 48]
         assert subprocess.run([sys.executable, "-m", "blender_sesgen", "verify", str(root / e["folder"]), "--quiet"],
                               cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO))).returncode == 0
+
+
+def test_a_local_ray_that_cannot_start_is_one_line_and_exit_1(tmp_path):
+    """Ray's own start failing (here its temporary folder is a file; on an overloaded
+    machine its node times out) is a failure of the run: one line, exit 1, nothing written."""
+    script = tmp_path / "s.ses"
+    script.write_text(SCENE.format(floor=4, x=0.5))
+    not_a_folder = tmp_path / "file"
+    not_a_folder.write_text("")
+    r = farm(script, "--out", tmp_path / "root", env={"RAY_TMPDIR": str(not_a_folder)}, timeout=300)
+    assert r.returncode == 1, r.stderr
+    assert "Traceback" not in r.stderr and "error: cannot start a local Ray: " in r.stderr, r.stderr
+    assert not (tmp_path / "root").exists()

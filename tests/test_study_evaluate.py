@@ -2,6 +2,7 @@
 on synthetic trajectories whose answers are known, and the report of a non-OAT design."""
 from __future__ import annotations
 
+import html
 import json
 
 import numpy as np
@@ -113,7 +114,8 @@ def test_the_report_of_a_grid_design_plots_every_point(tmp_path):
     pts = [{"label": f"a={a},b={b}", "point": {"a": a, "b": b}, "system": "s", "n": 1, "n_failed": 0,
             "metrics": {"ape_trans_rmse": {"mean": a + b, "std": 0.0}}} for a in (1, 2) for b in (0.1, 0.2)]
     doc = {"format": "sesgen-study-results/1",
-           "study": {"name": "g", "description": "", "world": {"script": "x.ses"}, "seeds": [0],
+           "study": {"name": "g", "description": "", "seeds": [0],
+                     "world": {"script": "x.ses", "frames": 6, "resolution": ["scale", 0.25], "quality": "draft"},
                      "design": {"kind": "grid", "samples": 0, "seed": 0}, "metric": "ape_trans_rmse",
                      "break_multiple": 2.0},
            "factors": [{"name": n, "unit": "u", "doc": "", "stage": "image", "levels": lv, "base_level": None}
@@ -123,3 +125,4 @@ def test_the_report_of_a_grid_design_plots_every_point(tmp_path):
     (tmp_path / "results.json").write_text(json.dumps(doc))
     page = write_report(tmp_path).read_text()
     assert page.count("data:image/png;base64,") == 2 and "Every point of the design" in page
+    assert "the first 6 frames, 0.25 × the script's size, draft" in html.unescape(page)   # not "6, ['scale', 0.25]"

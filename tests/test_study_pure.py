@@ -438,6 +438,26 @@ def test_one_study_run_per_folder(tmp_path):
     assert rc == 2 and "another `study run` is writing into it" in err
 
 
+def test_a_local_ray_that_cannot_start_is_one_line_exit_1_and_the_folder_resumable(tmp_path):
+    """Ray's own start failing (its temporary folder a file here; an overloaded machine's node
+    timing out in the wild) is a failure of the run: one line, exit 1, no traceback, and the
+    folder holds the plan only (the same command runs it later)."""
+    import os
+    import subprocess
+    pytest.importorskip("ray")
+    path = study_file(tmp_path, '[world]\nscript = "scene.ses"\n[factors.gain]\nlevels = [2.0]\n' + SYSTEM)
+    not_a_folder = tmp_path / "file"
+    not_a_folder.write_text("")
+    out = tmp_path / "out"
+    r = subprocess.run([sys.executable, "-m", "blender_sesgen", "study", "run", str(path), "--out", str(out)],
+                       capture_output=True, text=True, timeout=300, cwd=REPO,
+                       env=dict(os.environ, PYTHONPATH=str(REPO), RAY_TMPDIR=str(not_a_folder)))
+    assert r.returncode == 1, r.stderr
+    assert "Traceback" not in r.stderr and "error: cannot start a local Ray: " in r.stderr, r.stderr
+    assert "run the same command again" in r.stderr
+    assert (out / "plan.json").is_file() and not any((out / "renders").iterdir())
+
+
 def test_a_fixed_exposure_drops_the_scripts_autoexposure(tmp_path):
     from blender_sesgen.study.variants import make_variant
     auto = ROOM + "TIMING exposure 0.002\nSENSOR readnoise 2\nAUTOEXPOSURE target 0.3\n"

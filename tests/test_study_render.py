@@ -362,6 +362,10 @@ def wall(tmp_path_factory):
 levels = [0.02]
 [factors.read_noise]
 levels = [20.0]
+[factors.full_well]
+levels = [1000.0]
+[factors.vignetting]
+levels = [1.0]
 """ + PERFECT_SYSTEM
     out = folder / "out"
     p = run_study(study_file(folder, body, WALL), out)
@@ -395,27 +399,68 @@ def test_motion_blur_length_is_image_speed_times_exposure(wall):
     assert measured == pytest.approx(expected, rel=0.10), (measured, expected)
 
 
-def test_read_noise_sigma_matches_the_sensor_model(wall):
-    """Raw values against the model from the render's own linear values: mean K S and
-    variance K^2 (S + r^2) + 1/12 (S electrons, K DN per electron): the normalised residual
-    has unit spread, and the read noise adds K r in quadrature (each within 10 %)."""
+def _raw_and_signal(render: Path, full_well: float, saturation: float = 1.2):
+    """(raw DN, the signal S in electrons the sensor model must have seen) of frame 0's left
+    view: S from the render's own linear values (the wall's EXR, shared by the developed variants)."""
     import cv2
     from vo_reference.io.render import RenderSequence
+    seq = RenderSequence(render)
+    L = seq.rgb_linear(0).astype(float)
+    raw = cv2.imread(str(seq.root / seq.sensor_file("raw", 0)), cv2.IMREAD_UNCHANGED)[..., ::-1].astype(float)
+    return raw, full_well * L / saturation
+
+
+@pytest.mark.parametrize("name, full_well, read", [("base", 4000.0, 0.0), ("read_noise", 4000.0, 20.0),
+                                                   ("full_well", 1000.0, 0.0)])
+def test_sensor_noise_sigma_matches_the_sensor_model(wall, name, full_well, read):
+    """Raw values against the model from the render's own linear values: mean K S and
+    variance K^2 (S + r^2) + 1/12 (S electrons, K = (2^12 - 1) / full well DN per electron):
+    the normalised residual has unit spread (within 10 %) -- a full well the chain ignored
+    would leave the spread at 1/2 (the shot noise of 4000 e- instead of 1000 e-)."""
     _, renders = wall
-    full_well, bits, saturation, r = 4000.0, 12, 1.2, 20.0
-    K = (2 ** bits - 1) / full_well
-    spreads = {}
-    for name, read in (("base", 0.0), ("read_noise", r)):
-        seq = RenderSequence(renders[name])
-        L = seq.rgb_linear(0).astype(float)
-        raw = cv2.imread(str(seq.root / seq.sensor_file("raw", 0)), cv2.IMREAD_UNCHANGED)[..., ::-1].astype(float)
-        S = full_well * L / saturation
-        use = (S < 0.9 * full_well) & (S > 50)
-        z = (raw - K * S) / np.sqrt(K ** 2 * (S + read ** 2) + 1 / 12)
-        assert use.sum() > 1000
-        assert z[use].std() == pytest.approx(1.0, rel=0.10), name
-        spreads[name] = ((raw - K * S)[use] ** 2 - K ** 2 * S[use]).mean()
-    assert np.sqrt(spreads["read_noise"] - spreads["base"]) / K == pytest.approx(r, rel=0.10)
+    K = (2 ** 12 - 1) / full_well
+    raw, S = _raw_and_signal(renders[name], full_well)
+    use = (S < 0.9 * full_well) & (S > 50)
+    z = (raw - K * S) / np.sqrt(K ** 2 * (S + read ** 2) + 1 / 12)
+    assert use.sum() > 1000
+    assert z[use].std() == pytest.approx(1.0, rel=0.10), name
+
+
+def test_read_noise_adds_in_quadrature_to_the_shot_noise(wall):
+    """The read noise's sigma, measured as the excess variance over the base's: r within 10 %."""
+    _, renders = wall
+    K = (2 ** 12 - 1) / 4000.0
+    excess = {}
+    for name in ("base", "read_noise"):
+        raw, S = _raw_and_signal(renders[name], 4000.0)
+        use = (S < 0.9 * 4000.0) & (S > 50)
+        excess[name] = ((raw - K * S)[use] ** 2 - K ** 2 * S[use]).mean()
+    assert np.sqrt(excess["read_noise"] - excess["base"]) / K == pytest.approx(20.0, rel=0.10)
+
+
+def test_vignetting_falls_off_as_cos4_of_the_field_angle(wall):
+    """The vignetting variant (developed from the base's EXRs): its raw values over the
+    model's K S without vignetting follow cos^4 of each pixel's angle off the optical axis
+    (from the focal length alone), per ring of the field within 5 %, down to ~0.6 in the corners."""
+    from scipy.ndimage import binary_erosion
+    _, renders = wall
+    K = (2 ** 12 - 1) / 4000.0
+    raw, S = _raw_and_signal(renders["vignetting"], 4000.0)
+    H, W = S.shape[:2]
+    y, x = np.mgrid[0:H, 0:W] + 0.5
+    cos4 = (1.0 / np.sqrt(1.0 + ((x - W / 2) ** 2 + (y - H / 2) ** 2) / WALL_FOCAL ** 2)) ** 4
+    g = S[..., 1]                                   # the plain wall, away from the bars' edges
+    plain = binary_erosion((g > 0.7 * np.median(g)) & (g < 0.9 * 4000.0), iterations=2)
+    rings = np.digitize(cos4, [0.7, 0.8, 0.9, 0.95])
+    measured = []
+    for ring in range(5):
+        m = plain & (rings == ring)
+        assert m.sum() > 30, ring
+        falloff = raw[m].sum() / (K * S[m].sum())
+        expected = (cos4[m][:, None] * S[m]).sum() / S[m].sum()
+        assert falloff == pytest.approx(expected, rel=0.05), ring
+        measured.append(falloff)
+    assert measured[0] < 0.72 and measured[-1] > 0.95
 
 
 # --- a third-party estimator from PyPI --------------------------------------------------------------

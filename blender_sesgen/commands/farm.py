@@ -109,11 +109,15 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_USER_ERROR
 
     from ..files.dataset import write_render_index
-    from ..farm.cluster import Cluster
+    from ..farm.cluster import Cluster, ClusterStartError
     from ..farm.driver import Farm
     from ..farm.work import auto_cpus_per_task, frame_ranges
     from ..render.interrupt import sigterm_as_interrupt
-    cluster = Cluster(args.address, num_cpus=args.num_cpus).start()
+    try:
+        cluster = Cluster(args.address, num_cpus=args.num_cpus).start()
+    except ClusterStartError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return EXIT_FAILURE
     try:
         if args.address is not None:
             cluster.check_shared(root, [s.script for s in good])

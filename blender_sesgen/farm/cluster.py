@@ -28,6 +28,12 @@ PROBE_TIMEOUT_S = 120.0
 CONNECT_TIMEOUT_S = 10.0
 
 
+class ClusterStartError(RuntimeError):
+    """A local Ray that did not start (its temporary folder unusable, or its raylet or GCS
+    timed out on an overloaded machine): a failure of the run, not of the user's input --
+    one line, exit 1; nothing was rendered, so the same command may be run again."""
+
+
 def import_ray():
     try:
         import ray
@@ -90,8 +96,17 @@ class Cluster:
         ray = self.ray
         if self.address is None:
             os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
-            ray.init(address="local", num_cpus=self.num_cpus or local_cpus(), include_dashboard=False,
-                     log_to_driver=False, logging_level=logging.ERROR, object_store_memory=LOCAL_OBJECT_STORE_BYTES)
+            try:
+                ray.init(address="local", num_cpus=self.num_cpus or local_cpus(), include_dashboard=False,
+                         log_to_driver=False, logging_level=logging.ERROR,
+                         object_store_memory=LOCAL_OBJECT_STORE_BYTES)
+            except Exception as e:  # noqa: BLE001 - Ray raises bare Exceptions (a node that timed out) and OSErrors
+                try:
+                    ray.shutdown()  # whatever part of it did start
+                except Exception:  # noqa: BLE001 - nothing more to end
+                    pass
+                why = (str(e).strip().splitlines() or [type(e).__name__])[0].rstrip(".")
+                raise ClusterStartError(f"cannot start a local Ray: {why}") from None
             self.started_local = True
             return self
         _check_reachable(self.address)

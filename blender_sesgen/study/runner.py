@@ -390,8 +390,12 @@ def _read(path: Path) -> Optional[dict]:
 def run_study(study: Study, out, **kw) -> int:
     """Run ``study`` into ``out``; the exit code (0 done, 1 a step of the study itself failed,
     130 interrupted: run again to continue)."""
+    from ..farm.cluster import ClusterStartError
     try:
         return StudyRun(study, out, **kw).run()
+    except ClusterStartError as e:
+        print(f"error: {e}; {out} is consistent: run the same command again", file=sys.stderr)
+        return EXIT_FAILURE
     except KeyboardInterrupt:
         print(f"interrupted: {out} is consistent; run the same command again to continue", file=sys.stderr)
         return EXIT_INTERRUPTED

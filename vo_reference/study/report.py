@@ -49,6 +49,15 @@ def _xs(levels) -> tuple[list, list, bool]:
     return (list(levels) if numeric else list(range(len(levels)))), [str(v) for v in levels], numeric
 
 
+def _world_size(w: dict) -> str:
+    """The base world's frames, image size and quality as the study file set them."""
+    res = w.get("resolution")
+    size = ("the script's size" if not res else f"{res[1]:g} × the script's size" if res[0] == "scale"
+            else f"{res[1]} × {res[2]} px")
+    frames = "every frame" if w.get("frames") is None else f"the first {w['frames']} frames"
+    return f"{frames}, {size}, {w.get('quality') or 'the script’s quality'}"
+
+
 def factor_plot(factor: dict, curves: dict, base: dict, systems: list, metric: str) -> str:
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.2, 3.6))
@@ -222,7 +231,7 @@ class Report:
         w = st["world"]
         world = w.get("script") or f"generator {w.get('generator')} {w.get('options') or ''}"
         rows = [("world", world), ("world seeds", ", ".join(map(str, st["seeds"]))),
-                ("frames, size, quality", f"{w.get('frames')}, {w.get('resolution')}, {w.get('quality')}"),
+                ("frames, size, quality", _world_size(w)),
                 ("design", st["design"]["kind"] + (f" ({st['design']['samples']} samples, seed {st['design']['seed']})"
                                                    if st["design"]["kind"] == "lhs" else "")),
                 ("metric", f"{self.metric}; broken: {self.broken_rule()}"),
