@@ -35,13 +35,11 @@ from typing import Optional
 import numpy as np
 
 from . import road_network as rn
-from .sesgen_layout import (HAZE, KITTI_CAMERA_HEIGHT, Frontage, Ids, Lighting, asset, command_line,
-                           derived_material, draw_lighting, kerb_cars, kitti_rig, line_street_side, num, nums,
+from .sesgen_layout import (ASPHALT, HAZE, KITTI_CAMERA_HEIGHT, Frontage, Ids, Lighting, asset, command_line,
+                           derived_material, draw_lighting, draw_street_surfaces, kerb_cars, kitti_rig, line_street_side, num, nums,
                            script_with_poses, smooth_noise, street_lights, variation_rng, VariantPool)
 
 RATE_HZ = 10.0                   # KITTI odometry's frame rate
-ASPHALT = (0.085, 0.085, 0.082)
-PAVING = ((0.30, 0.29, 0.27), (0.34, 0.33, 0.31), (0.26, 0.25, 0.24), (0.31, 0.22, 0.18))
 HALF_ROAD, LANE = 5.0, 1.75      # asphalt half width; the lane's centre right of the axis (m)
 KERB_W, KERB_H, WALK_W = 0.2, 0.13, 3.0
 LOT_Y = 0.14                     # top of a block's lots (1 cm above the sidewalks)
@@ -77,8 +75,7 @@ class Variation:
         rng = variation_rng(seed, 0xC1D)
         tone = float(rng.uniform(0.8, 1.35))
         return cls(lighting=draw_lighting(rng, elevation=(15.0, 65.0), p_hdri=1 / 3),
-                   road=(tuple(round(c * tone, 3) for c in ASPHALT), round(float(rng.uniform(0.1, 0.8)), 2)),
-                   paving=(PAVING[int(rng.integers(len(PAVING)))], round(float(rng.uniform(0.0, 0.6)), 2)),
+                   **draw_street_surfaces(rng, tone),
                    v_max=round(float(rng.uniform(9.0, 13.0)), 2), p_stop=round(float(rng.uniform(0.15, 0.4)), 2))
 
 

@@ -34,7 +34,8 @@ import numpy as np
 
 from ...scene.assets.street import arc_frame
 from .city_grid import _keyframes as keyframes
-from .sesgen_layout import (KITTI_CAMERA_HEIGHT, Ids, Lighting, asset, command_line, derived_material, draw_lighting, kerb_cars, kitti_rig, line_street_side, num, nums,
+from .sesgen_layout import (KITTI_CAMERA_HEIGHT, Ids, Lighting, asset, command_line, derived_material, draw_lighting,
+                           draw_street_surfaces, kerb_cars, kitti_rig, line_street_side, num, nums,
                            script_with_poses, smooth_noise, street_lights, variation_rng, VariantPool)
 
 KITTI_RIG = kitti_rig(far=600)
@@ -45,8 +46,6 @@ PIECE = 20.0                 # centreline pieces (m)
 # where the default gives 6.8 (bench/calibrate_sky_sun.py), so shadows are less deep and the
 # sky brighter, as in KITTI's frames (docs/sensors.md, Camera twins)
 HAZE_AEROSOL = 4.0
-ASPHALT = (0.085, 0.085, 0.082)
-PAVING = ((0.30, 0.29, 0.27), (0.34, 0.33, 0.31), (0.26, 0.25, 0.24), (0.31, 0.22, 0.18))
 LANE_M = 1.75                # moving cars' centre from the centreline (parked ones stand further out)
 TRAFFIC_GAP_M = (10.0, 8.0)  # least distance along the street to the rig's car, and between two cars of a lane
 # asset variants per kind (VariantPool: identical assets share one mesh, Cycles instances it);
@@ -82,8 +81,7 @@ class Variation:
                    step_m=round(float(rng.uniform(0.8, 1.5)), 3), curves=int(rng.integers(1, 4)),
                    curve_deg=(5.0, 18.0), lane=round(float(rng.uniform(1.35, 1.9)), 2),
                    weave=round(float(rng.uniform(0.04, 0.15)), 3),
-                   road=(tuple(round(c * tone, 3) for c in ASPHALT), round(float(rng.uniform(0.1, 0.8)), 2)),
-                   paving=(PAVING[int(rng.integers(len(PAVING)))], round(float(rng.uniform(0.0, 0.6)), 2)))
+                   **draw_street_surfaces(rng, tone))
 
 
 def _centre(street_pos, street_yaw, s, L, bends):

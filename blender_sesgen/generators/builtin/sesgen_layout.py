@@ -100,12 +100,22 @@ def sky_and_sun(elevation_deg: float, azimuth_deg: float, sky_strength: float = 
 
 OUTDOOR_HDRIS = ("city", "courtyard", "forest", "sunrise", "sunset")   # bundled, daylight (not night/studio)
 HAZE = ((0.72, 0.75, 0.8), (0.78, 0.78, 0.78), (0.66, 0.68, 0.7))    # fog colours (linear): blue-grey haze, mist
+ASPHALT = (0.085, 0.085, 0.082)                                      # the city streets' asphalt (linear albedo)
+PAVING = ((0.30, 0.29, 0.27), (0.34, 0.33, 0.31), (0.26, 0.25, 0.24), (0.31, 0.22, 0.18))   # sidewalk tones
 
 
 def variation_rng(seed: int, salt: int) -> np.random.Generator:
     """The random stream of a seed's variation (light, materials, trajectory), apart from its
     layout stream ``default_rng(seed)``: drawing variations never shifts the layout."""
     return np.random.default_rng([int(seed), int(salt)])
+
+
+def draw_street_surfaces(rng: np.random.Generator, tone: float) -> dict:
+    """A city variation's road (asphalt at ``tone``, wear) and sidewalk paving (tone, wear),
+    as ``Variation`` fields: the asphalt's wear, then the paving's tone and wear, drawn in
+    that order."""
+    road = (tuple(round(c * tone, 3) for c in ASPHALT), round(float(rng.uniform(0.1, 0.8)), 2))
+    return {"road": road, "paving": (PAVING[int(rng.integers(len(PAVING)))], round(float(rng.uniform(0.0, 0.6)), 2))}
 
 
 @dataclass(frozen=True)
