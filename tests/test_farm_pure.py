@@ -339,9 +339,10 @@ def test_lost_chunks_are_retried_until_they_succeed(tmp_path):
 
 @pytest.mark.parametrize("meters", [True, False])
 def test_a_scene_to_meter_starts_with_one_chunk_and_the_others_read_its_metering(tmp_path, meters):
-    """AUTOEXPOSURE's metering pass runs in whichever render finds none in the folder: the
-    farm holds a metering scene's other chunks until the first has written a frame (the
-    metering is then in the manifest), so that the pass runs once, not once per chunk."""
+    """AUTOEXPOSURE's metering pass runs in whichever render finds none in the folder, over
+    frames 0 up to its last: the farm holds a metering scene's other chunks until the last
+    chunk (whose pass covers them all) has written a frame (the metering is then in the
+    manifest), so that the pass runs once, not once per chunk."""
     seen_when_run = {}
 
     def plan(scene, frames, n):
@@ -353,8 +354,8 @@ def test_a_scene_to_meter_starts_with_one_chunk_and_the_others_read_its_metering
     res = _farm(ray, scenes).run()
     assert [s.complete for s in res.states] == [True] and res.frames_rendered == 5
     assert sorted(ray.submitted) == [("a", "0:2"), ("a", "2:4"), ("a", "4:5")]
-    # metering: the first chunk ran while it was the only one submitted; otherwise all at once
-    assert seen_when_run["0:2"] == (1 if meters else 3)
+    # metering: the last chunk ran while it was the only one submitted; otherwise all at once
+    assert seen_when_run["4:5"] == (1 if meters else 3)
 
 
 def test_a_scene_prepared_for_a_farm_meters_only_with_autoexposure_and_none_stored(tmp_path):

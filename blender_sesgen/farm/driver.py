@@ -11,9 +11,10 @@ tasks, verification of every finished folder, and the summary.
   manifest and checks every frame against its checksum (``verify --quick``); frames still
   missing or bad are rendered again (within the same retry budget).
 - A scene whose auto-exposure still has to be metered (``AUTOEXPOSURE``, no metering in its
-  folder yet) starts with its first chunk alone; the others are held until that chunk has
-  written a frame (the metering is then in the manifest, where every later chunk reads it)
-  or has ended: the metering pass runs once per scene, not once per chunk.
+  folder yet) starts with its last chunk alone (a render meters frames 0 up to its last, so
+  the last chunk's pass holds every frame any other chunk needs); the others are held until
+  that chunk has written a frame (the metering is then in the manifest, where every other
+  chunk reads it) or has ended: the metering pass runs once per scene, not once per chunk.
 - Progress: every render prints ``--progress json`` events; each ``progress`` event (a frame
   written) counts one frame of the farm's total, and the verify step corrects the count.
 """
@@ -119,8 +120,8 @@ class Farm:
             ranges = frame_ranges(st.scene.pending, self.chunk)
             st.open_chunks = len(ranges)
             chunks = [Chunk(st.scene, a, b) for a, b in ranges]
-            if st.scene.meters:
-                chunks, st.held = chunks[:1], chunks[1:]
+            if st.scene.meters:   # the last chunk meters every frame the others need
+                chunks, st.held = chunks[-1:], chunks[:-1]
             self.queue.extend(chunks)
             if not ranges:
                 self._submit_verify(st)
@@ -219,7 +220,7 @@ class Farm:
 
     # --- results ------------------------------------------------------------------------
     def _release_held(self, st: SceneState) -> None:
-        """The scene's metering is in its folder (a frame was written) or its first chunk
+        """The scene's metering is in its folder (a frame was written) or its last chunk
         ended (at worst each held chunk meters for itself, as without holding)."""
         if st.held and st.failed is None:
             self.queue.extend(st.held)
