@@ -57,8 +57,8 @@ class BlenderSession:
             if self._measures_exposure(known_exposure):
                 self._exposure_ids = visible_objects(plan, [0]).keep
                 keep |= self._exposure_ids
-            if meters:   # the metering pass sees what every frame of the sequence sees, in every chunk
-                self._metering_ids = visible_objects(plan, range(plan.scene.frames)).keep
+            if meters:   # the metering pass sees what every frame it meters sees, in every chunk
+                self._metering_ids = visible_objects(plan, range(metered_frames(plan.frames, plan.scene.frames))).keep
                 keep |= set(self._metering_ids)
             scene = culled_scene(plan.scene, keep)
         self.built = builder.build_scene(scene, width=s.width, height=s.height, K=s.K,

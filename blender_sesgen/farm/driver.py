@@ -62,7 +62,7 @@ class SceneState:
     user_error: bool = False
     complete: bool = False
     missing: list = field(default_factory=list)
-    held: list = field(default_factory=list)     # chunks waiting for the first chunk's metering
+    held: list = field(default_factory=list)     # chunks waiting for the last chunk's metering
 
 
 @dataclass
