@@ -104,3 +104,15 @@ def test_display_pngs_lose_blenders_wall_clock_text_chunks():
     assert strip_png_text(stamped) == png
     assert np.array_equal(cv2.imdecode(np.frombuffer(strip_png_text(stamped), np.uint8), cv2.IMREAD_UNCHANGED), rgb)
     assert strip_png_text(stamped[:-5]) == stamped[:-5]   # not a whole chunk list: left for the image check
+
+
+def test_temporary_names_include_those_blender_makes_for_each_view():
+    """A multiview save puts the view's suffix after our pid (before the extension, or at the
+    end when there is none); a resumed render must recognise those leftovers of a killed one."""
+    from blender_sesgen.contract.atomic import is_temp_name, temp_path
+    ours = temp_path(Path("rgb/left/000000.png")).name                 # .000000.tmp-PID.png
+    blender = ours.replace(".png", "_left.png")                         # .000000.tmp-PID_left.png
+    for name in (ours, blender, ".000003_left.tmp-27333", ".000003.tmp-27333_right.exr"):
+        assert is_temp_name(name), name
+    for name in ("000000.png", "000000_left.png", ".hidden.png", ".000000.tmp-x_left.png"):
+        assert not is_temp_name(name), name

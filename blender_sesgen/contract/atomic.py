@@ -3,7 +3,9 @@
 Every writer in both packages goes through :func:`temp_path` + ``os.replace``: the data is
 written to ``.NAME.tmp-PID.EXT`` in the same folder (the extension stays last, because
 OpenCV and OpenEXR pick the codec from it), then renamed. :func:`is_temp_name` recognises
-those names, so a resumed job can remove the leftovers of an interrupted one.
+those names, and the ones Blender makes of them for a multiview render (the view's suffix
+after the pid: ``.000003.tmp-PID_left.png``, ``.000003_left.tmp-PID``), so a resumed job can
+remove the leftovers of an interrupted one.
 """
 from __future__ import annotations
 
@@ -23,7 +25,7 @@ try:
 except ImportError:  # pragma: no cover - Windows
     fcntl = None
 
-_TEMP = re.compile(r"^\..+\.tmp-\d+(\.[A-Za-z0-9]+)?$")
+_TEMP = re.compile(r"^\..+\.tmp-\d+(_[A-Za-z0-9]+)?(\.[A-Za-z0-9]+)?$")
 
 
 def temp_path(path: Path) -> Path:
