@@ -95,11 +95,12 @@ def test_png_encoder_round_trips_through_opencv(tmp_path):
     rng = np.random.default_rng(0)
     for img in (rng.integers(0, 256, (7, 9, 3)).astype(np.uint8), rng.integers(0, 65536, (7, 9)).astype(np.uint16),
                 rng.integers(0, 65536, (5, 6, 3)).astype(np.uint16)):
-        p = tmp_path / "x.png"
-        p.write_bytes(encode_png(img))
-        back = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
-        back = back[..., ::-1] if back.ndim == 3 else back
-        assert back.dtype == img.dtype and np.array_equal(back, img)
+        for level in (0, 1, 6, 9):      # the sensor images' fast level decodes to the same pixels
+            p = tmp_path / "x.png"
+            p.write_bytes(encode_png(img, level))
+            back = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
+            back = back[..., ::-1] if back.ndim == 3 else back
+            assert back.dtype == img.dtype and np.array_equal(back, img)
 
 
 def test_bessel_j1_and_the_mtf():
@@ -114,6 +115,15 @@ def test_bessel_j1_and_the_mtf():
     expected = 2 / np.pi * (np.arccos(x) - x * np.sqrt(1 - x * x))
     contrast = (out[32, 64:192].max() - out[32, 64:192].min()) / 0.5
     assert contrast == pytest.approx(expected, rel=0.01)
+    # the stored OTFs of later images: the values of an OTF made afresh for each
+    params = dict(pixel_um=2.0, f_number=8.0, defocus_px=1.5, fill_factor=0.9)
+    rgb = np.random.default_rng(1).random((20, 30, 3))
+    for _ in range(2):
+        got = optics.apply_mtf(rgb, margin=4, **params)
+        for c, lam in enumerate(optics.WAVELENGTH_NM):
+            p = np.pad(rgb[..., c], 4, mode="reflect")
+            T = optics.otf(p.shape, **params, wavelength_nm=lam)
+            assert np.array_equal(got[..., c], np.fft.irfft2(np.fft.rfft2(p) * T, s=p.shape)[4:24, 4:34])
     # defocus disc: the OTF at its first zero (pi d nu = 3.8317) vanishes
     T = optics.otf((1, 512), defocus_px=6.0)
     k = int(round(3.8317 / (np.pi * 6.0) * 512))
