@@ -15,6 +15,7 @@ two triangles with opposite directions), which ``edge_report`` checks.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Optional, Sequence
 
@@ -145,6 +146,24 @@ def triangulate_polygon(poly: np.ndarray) -> np.ndarray:
     return np.array(tris, dtype=np.int64)
 
 
+@functools.lru_cache(maxsize=None)
+def _box_triangles(skip: tuple) -> np.ndarray:
+    """A box's triangles (vertex 4ix + 2iy + iz), two per face in -x, +x, -y, +y, -z, +z
+    order, without the faces named in ``skip``."""
+    quads = {"-x": (0, 1, 3, 2), "+x": (4, 6, 7, 5), "-y": (0, 4, 5, 1),
+             "+y": (2, 3, 7, 6), "-z": (0, 2, 6, 4), "+z": (1, 5, 7, 3)}
+    tris = [t for name, (a, b, c, d) in quads.items() if name not in skip for t in ((a, b, c), (a, c, d))]
+    out = np.array(tris, dtype=np.int64).reshape(-1, 3)
+    out.setflags(write=False)
+    return out
+
+
+def _per_triangle(value, dtype, n: int) -> np.ndarray:
+    """``value`` (one for all or one per triangle) as an array of n (what broadcasting gives)."""
+    a = np.asarray(value, dtype=dtype)
+    return np.full(n, a, dtype=dtype) if a.ndim == 0 else np.broadcast_to(a, (n,)).copy()
+
+
 # --- the builder ------------------------------------------------------------------------
 
 class MeshBuilder:
@@ -185,8 +204,8 @@ class MeshBuilder:
                 F = F[:, [0, 2, 1]]
         self._V.append(V)
         self._F.append(F + self._count)
-        self._S.append(np.broadcast_to(np.asarray(surf, dtype=np.int64), (len(F),)).copy())
-        self._smooth.append(np.broadcast_to(np.asarray(smooth, dtype=bool), (len(F),)).copy())
+        self._S.append(_per_triangle(surf, np.int64, len(F)))
+        self._smooth.append(_per_triangle(smooth, bool, len(F)))
         self._count += len(V)
 
     def merge(self, other: "MeshBuilder", T: Optional[np.ndarray] = None) -> None:
@@ -219,13 +238,7 @@ class MeshBuilder:
         ('-x', '+x', '-y', '+y', '-z', '+z'): the box is then open there."""
         (x0, y0, z0), (x1, y1, z1) = lo, hi
         V = [(x, y, z) for x in (x0, x1) for y in (y0, y1) for z in (z0, z1)]  # 4ix + 2iy + iz
-        quads = {"-x": (0, 1, 3, 2), "+x": (4, 6, 7, 5), "-y": (0, 4, 5, 1),
-                 "+y": (2, 3, 7, 6), "-z": (0, 2, 6, 4), "+z": (1, 5, 7, 3)}
-        tris = []
-        for name, (a, b, c, d) in quads.items():
-            if name not in skip:
-                tris += [(a, b, c), (a, c, d)]
-        self.add(V, tris, surf, T=T)
+        self.add(V, _box_triangles(tuple(skip)), surf, T=T)
 
     def oriented_box(self, origin, a1, a2, a3, surf) -> None:
         """The parallelepiped origin + [0,1]a1 + [0,1]a2 + [0,1]a3 (any handedness)."""
