@@ -138,7 +138,7 @@ def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: floa
     rgb_names = m.channels["rgb"][:3]
     metered, sums = None, {}
     for vi, view in enumerate(plan.views):
-        ch = read_exr(exrs[view])
+        ch = read_exr(exrs[view], rgb_names)
         lin = np.stack([ch[n] for n in rgb_names], axis=-1).astype(np.float64)
         if vi == 0:
             metered = meter(lin)
