@@ -46,6 +46,21 @@ def test_same_seed_same_noise_and_ground_truth_untouched():
     assert not np.array_equal(a.raw_dn, d.raw_dn)
 
 
+@pytest.mark.parametrize("kw", [dict(mono=True, bits=8, black_level_dn=16, response="srgb"),
+                                dict(cfa=None, bits=12, black_level_dn=64, response="gamma", gamma=1.8),
+                                dict(cfa=None, bits=10, response="linear")])
+def test_rgb_of_a_sensor_without_mosaic_is_the_response_of_each_raw_value(kw):
+    """Without a colour filter array each RGB value follows from one raw value: the chain's
+    response and quantisation applied to every pixel's normalised raw value directly."""
+    s = model.Sensor(read_noise_e=4, prnu=0.01, seed=3, **kw)
+    lin = np.random.default_rng(2).uniform(0, 1, (19, 23, 3))
+    f = pipeline.process(lin, pipeline.Camera(s, nominal_exposure_s=0.01), pipeline.Shot(0.02, 2.0, 1, 0))
+    x = (f.raw_dn.astype(np.float64) - s.black_level_dn) / (2 ** s.bits - 1 - s.black_level_dn)
+    x = np.repeat(x[..., None], 3, axis=-1) if s.mono else x
+    assert len(np.unique(f.raw_dn)) > 20
+    assert np.array_equal(f.rgb8, raw.quantise(raw.response(x, s.response, s.gamma), 8))
+
+
 def test_fixed_pattern_noise_is_fixed_and_temporal_noise_is_not():
     s = model.Sensor(prnu=0.02, dsnu_e=5, full_well_e=1e9, cfa=None, bits=16, seed=2)
     lin = np.full((64, 64, 3), 0.5)
