@@ -106,6 +106,40 @@ def test_builder_primitives_are_closed_with_exact_volumes():
     assert np.isclose(signed_volume(d.vertices, d.faces), 6.0 + 3.0)
 
 
+def test_tubes_made_in_one_pass_are_each_tube_made_alone_and_round_their_paths():
+    """``tubes`` groups paths of equal shape into vectorised passes: every tube must come out
+    as it does alone, bit for bit and in order, and be a closed outward tube whose rings lie
+    at their radius, perpendicular to the path (checked from the geometry, not the code)."""
+    rng = np.random.default_rng(3)
+    paths = []
+    for k in range(40):
+        p, n = int(rng.integers(2, 8)), int(rng.choice([4, 5, 7, 10]))
+        d = [0.0, 0.5, 0.0] if k % 3 else [0.5, 0.0, 0.0]      # the frame's two helper axes
+        pts = rng.normal(size=3) + np.concatenate([np.zeros((1, 3)),
+                                                   np.cumsum(rng.normal(size=(p - 1, 3)) * 0.2 + d, axis=0)])
+        paths.append((pts, np.linspace(0.1, 0.02, p) * rng.uniform(0.5, 2), n))
+    together, alone = MeshBuilder(), MeshBuilder()
+    together.tubes(paths, together.surface("bark"))
+    for pts, rad, n in paths:
+        alone.tube(pts, rad, n, alone.surface("bark"))
+    a, b = together.build(), alone.build()
+    for x, y in ((a.vertices, b.vertices), (a.faces, b.faces), (a.face_surface, b.face_surface), (a.smooth, b.smooth)):
+        assert x.dtype == y.dtype and x.tobytes() == y.tobytes()
+    start = 0
+    for pts, rad, n in paths:
+        p = len(pts)
+        V = a.vertices[start:start + p * n + 2]
+        F = a.faces[(a.faces >= start).all(axis=1) & (a.faces < start + len(V)).all(axis=1)] - start
+        start += len(V)
+        assert len(F) == 2 * n * p and edge_report(F) == {"boundary": 0, "nonmanifold": 0, "flipped": 0}
+        assert signed_volume(V - V.mean(axis=0), F) > 0
+        rings = V[:p * n].reshape(p, n, 3) - pts[:, None, :]
+        assert np.allclose(np.linalg.norm(rings, axis=-1), rad[:, None], rtol=1e-12, atol=0)
+        tang = np.gradient(pts, axis=0)
+        assert np.abs(np.einsum("pnj,pj->pn", rings, tang)).max() < 1e-12
+        assert np.allclose(V[p * n:], [V[:n].mean(axis=0), V[(p - 1) * n:p * n].mean(axis=0)])
+
+
 # --- strips -----------------------------------------------------------------------------
 
 def test_arc_frame_is_an_arc_length_parametrised_chain_of_arcs():

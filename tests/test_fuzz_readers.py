@@ -105,6 +105,28 @@ def test_fuzz_pure_exr_reader(fixtures, mutations):
         assert channels and all(a.ndim == 2 for a in channels.values())
 
 
+def test_pure_exr_reader_channels_asked_for_and_the_predictor(fixtures):
+    """``names`` returns exactly those channels, equal to a whole decode; the ZIP predictor
+    undone as OpenEXR's spec writes it (a running byte sum, minus 128 each, modulo 256, then the
+    two halves interleaved), byte by byte in Python."""
+    import numpy as np
+
+    from blender_sesgen.files.exr import _unpredict, read_exr
+    folder, path, seed = fixtures("exr")
+    whole = read_exr(path)
+    names = [n for n in whole if ".Combined." in n][:3] + ["ViewLayer.Depth.Z"]
+    part = read_exr(path, names)
+    assert sorted(part) == sorted(names) and all(np.array_equal(part[n], whole[n]) for n in names)
+    raw = np.random.default_rng(5).integers(0, 256, 1001).astype(np.uint8)
+    t, acc = [], 0
+    for i, b in enumerate(raw.tolist()):
+        acc = b if i == 0 else (acc + b - 128) % 256
+        t.append(acc)
+    half = (len(t) + 1) // 2
+    expected = bytes(x for pair in zip(t[:half], t[half:] + [None]) for x in pair if x is not None)
+    assert _unpredict(raw) == expected
+
+
 # --- the SES front end: line numbers and columns whatever the characters ----------------------
 
 SCENE = "CAMERA resolution 64 48 focal 60\nQUAD id 1 vertices 0 0 0 1 0 0 1 1 0 0 1 0\nSPHERE id 2 position 0 1 -3 dim 1\n"

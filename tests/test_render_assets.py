@@ -86,3 +86,33 @@ def test_asset_depth_and_ids_match_ray_casting_their_meshes(tmp_path):
             assert np.all(depth[(id_true == 0) & ~near] == m["depth"]["background"])
             seen |= set(np.unique(id_true[hit]).tolist())
     assert seen == {1, 2, 3, 4, 5, 6, 7, 8}, seen
+
+
+def test_asset_meshes_hold_the_generators_triangles_surfaces_and_smooth_flags():
+    """Asset meshes are written through the mesh's attribute arrays: read back through the
+    element properties (Blender's other path to them), they hold the generator's vertices,
+    triangles, each triangle's surface and smooth flag, and the edges of those triangles."""
+    import bpy
+    from blender_sesgen.blender.assets import mesh_from_triangles
+    d = assets.generate("bush", (1.2, 1.0, 1.1), 4)       # smooth stems, flat leaves, 5 surfaces
+    assert d.smooth.any() and not d.smooth.all() and len(d.surfaces) > 2
+    me = mesh_from_triangles("sesgen_test_bush", d.vertices, d.faces, lambda x: x, d.face_surface, d.smooth)
+    try:
+        nv, nf = len(d.vertices), len(d.faces)
+        assert len(me.vertices) == nv and len(me.polygons) == nf
+
+        def read(elements, prop, n, dtype):
+            out = np.empty(n, dtype)
+            getattr(me, elements).foreach_get(prop, out)
+            return out
+        assert np.array_equal(read("vertices", "co", 3 * nv, np.float32), d.vertices.astype(np.float32).ravel())
+        assert np.array_equal(read("loops", "vertex_index", 3 * nf, np.int32), d.faces.ravel())
+        assert np.array_equal(read("polygons", "loop_total", nf, np.int32), np.full(nf, 3))
+        assert np.array_equal(read("polygons", "material_index", nf, np.int32), d.face_surface)
+        assert np.array_equal(read("polygons", "use_smooth", nf, bool), d.smooth)
+        edges = {tuple(sorted(e)) for f in d.faces.tolist() for e in ((f[0], f[1]), (f[1], f[2]), (f[2], f[0]))}
+        assert {tuple(sorted(e)) for e in read("edges", "vertices", 2 * len(me.edges), np.int32).reshape(-1, 2).tolist()} \
+            == edges and len(me.edges) == len(edges)
+        assert not me.validate()                            # nothing for Blender to repair
+    finally:
+        bpy.data.meshes.remove(me)

@@ -46,6 +46,21 @@ def test_same_seed_same_noise_and_ground_truth_untouched():
     assert not np.array_equal(a.raw_dn, d.raw_dn)
 
 
+@pytest.mark.parametrize("kw", [dict(mono=True, bits=8, black_level_dn=16, response="srgb"),
+                                dict(cfa=None, bits=12, black_level_dn=64, response="gamma", gamma=1.8),
+                                dict(cfa=None, bits=10, response="linear")])
+def test_rgb_of_a_sensor_without_mosaic_is_the_response_of_each_raw_value(kw):
+    """Without a colour filter array each RGB value follows from one raw value: the chain's
+    response and quantisation applied to every pixel's normalised raw value directly."""
+    s = model.Sensor(read_noise_e=4, prnu=0.01, seed=3, **kw)
+    lin = np.random.default_rng(2).uniform(0, 1, (19, 23, 3))
+    f = pipeline.process(lin, pipeline.Camera(s, nominal_exposure_s=0.01), pipeline.Shot(0.02, 2.0, 1, 0))
+    x = (f.raw_dn.astype(np.float64) - s.black_level_dn) / (2 ** s.bits - 1 - s.black_level_dn)
+    x = np.repeat(x[..., None], 3, axis=-1) if s.mono else x
+    assert len(np.unique(f.raw_dn)) > 20
+    assert np.array_equal(f.rgb8, raw.quantise(raw.response(x, s.response, s.gamma), 8))
+
+
 def test_fixed_pattern_noise_is_fixed_and_temporal_noise_is_not():
     s = model.Sensor(prnu=0.02, dsnu_e=5, full_well_e=1e9, cfa=None, bits=16, seed=2)
     lin = np.full((64, 64, 3), 0.5)
@@ -95,11 +110,12 @@ def test_png_encoder_round_trips_through_opencv(tmp_path):
     rng = np.random.default_rng(0)
     for img in (rng.integers(0, 256, (7, 9, 3)).astype(np.uint8), rng.integers(0, 65536, (7, 9)).astype(np.uint16),
                 rng.integers(0, 65536, (5, 6, 3)).astype(np.uint16)):
-        p = tmp_path / "x.png"
-        p.write_bytes(encode_png(img))
-        back = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
-        back = back[..., ::-1] if back.ndim == 3 else back
-        assert back.dtype == img.dtype and np.array_equal(back, img)
+        for level in (0, 1, 6, 9):      # the sensor images' fast level decodes to the same pixels
+            p = tmp_path / "x.png"
+            p.write_bytes(encode_png(img, level))
+            back = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
+            back = back[..., ::-1] if back.ndim == 3 else back
+            assert back.dtype == img.dtype and np.array_equal(back, img)
 
 
 def test_bessel_j1_and_the_mtf():
@@ -114,6 +130,15 @@ def test_bessel_j1_and_the_mtf():
     expected = 2 / np.pi * (np.arccos(x) - x * np.sqrt(1 - x * x))
     contrast = (out[32, 64:192].max() - out[32, 64:192].min()) / 0.5
     assert contrast == pytest.approx(expected, rel=0.01)
+    # the stored OTFs of later images: the values of an OTF made afresh for each
+    params = dict(pixel_um=2.0, f_number=8.0, defocus_px=1.5, fill_factor=0.9)
+    rgb = np.random.default_rng(1).random((20, 30, 3))
+    for _ in range(2):
+        got = optics.apply_mtf(rgb, margin=4, **params)
+        for c, lam in enumerate(optics.WAVELENGTH_NM):
+            p = np.pad(rgb[..., c], 4, mode="reflect")
+            T = optics.otf(p.shape, **params, wavelength_nm=lam)
+            assert np.array_equal(got[..., c], np.fft.irfft2(np.fft.rfft2(p) * T, s=p.shape)[4:24, 4:34])
     # defocus disc: the OTF at its first zero (pi d nu = 3.8317) vanishes
     T = optics.otf((1, 512), defocus_px=6.0)
     k = int(round(3.8317 / (np.pi * 6.0) * 512))

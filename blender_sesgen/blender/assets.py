@@ -15,6 +15,7 @@ from ..ses.materials import library_material
 from ..contract.frames import object_pose, ses_to_blender_world
 from ..errors import SesgenError
 from ..scene.model import Asset, Material
+from . import compat
 from .datablocks import tag
 from .shapes import ShapeContext, build_shape
 
@@ -28,18 +29,23 @@ def library_or_stand_in(name: str) -> Material:
     return library_material(name)
 
 
-def mesh_from_triangles(name: str, vertices: np.ndarray, faces: np.ndarray, tag=tag):
+def mesh_from_triangles(name: str, vertices: np.ndarray, faces: np.ndarray, tag=tag, face_surface=None,
+                        smooth=None):
     """A Blender mesh holding exactly these triangles, in this order (no clean-up that
-    could drop or reorder faces)."""
+    could drop or reorder faces), with each triangle's material slot and smooth flag if given."""
     V = np.ascontiguousarray(vertices, dtype=np.float32)
     F = np.ascontiguousarray(faces, dtype=np.int32)
     me = tag(bpy.data.meshes.new(name))
     me.vertices.add(len(V))
-    me.vertices.foreach_set("co", V.ravel())
+    compat.set_mesh_array(me, "vertices", "co", V.ravel())
     me.loops.add(3 * len(F))
-    me.loops.foreach_set("vertex_index", F.ravel())
+    compat.set_mesh_array(me, "loops", "vertex_index", F.ravel())
     me.polygons.add(len(F))
     me.polygons.foreach_set("loop_start", np.arange(0, 3 * len(F), 3, dtype=np.int32))
+    if face_surface is not None:
+        compat.set_mesh_array(me, "polygons", "material_index", np.ascontiguousarray(face_surface, dtype=np.int32))
+    if smooth is not None:
+        compat.set_mesh_array(me, "polygons", "use_smooth", np.ascontiguousarray(smooth, dtype=bool))
     me.update(calc_edges=True)
     if len(me.polygons) != len(F):
         raise SesgenError(f"{name}: Blender kept {len(me.polygons)} of {len(F)} triangles")
@@ -79,11 +85,9 @@ def build_asset(o: Asset, collection, surface_material_of, meshes: dict) -> obje
     me = meshes.get(key)
     if me is None:
         data = cache.generate(o.kind, o.size, o.seed, o.bend, o.offset)   # what an earlier process made
-        me = mesh_from_triangles(f"{o.kind}_{o.seed}", data.vertices, data.faces, tag)
+        me = mesh_from_triangles(f"{o.kind}_{o.seed}", data.vertices, data.faces, tag, data.face_surface, data.smooth)
         for i, s in enumerate(data.surfaces):
             me.materials.append(surface_material_of(s, i))
-        me.polygons.foreach_set("material_index", data.face_surface.astype(np.int32))
-        me.polygons.foreach_set("use_smooth", data.smooth.astype(bool))
         me.update()
         meshes[key] = me
     obj = tag(bpy.data.objects.new(o.name, me))

@@ -107,6 +107,26 @@ def exr_channel_names() -> dict:
                                     exr_format.LAYOUT_PARTS if new else exr_format.LAYOUT_SINGLE)
 
 
+# the mesh arrays behind the element properties (Blender 4.0+): writing an attribute's values
+# is one copy; ``foreach_set`` on the element collection's property goes element by element
+# (a 40k-triangle tree: material index and smooth flags 21 ms that way, 0.3 ms as attributes)
+_MESH_ATTRIBUTES = {("vertices", "co"): ("position", "vector", "FLOAT_VECTOR", "POINT", False),
+                    ("loops", "vertex_index"): (".corner_vert", "value", "INT", "CORNER", False),
+                    ("polygons", "material_index"): ("material_index", "value", "INT", "FACE", False),
+                    ("polygons", "use_smooth"): ("sharp_face", "value", "BOOLEAN", "FACE", True)}
+
+
+def set_mesh_array(me, elements: str, prop: str, values) -> None:
+    """``me.<elements>.foreach_set(prop, values)``, through the attribute that holds the values
+    where this Blender has one (``use_smooth`` is stored negated, as ``sharp_face``)."""
+    name, key, kind, domain, negated = _MESH_ATTRIBUTES[elements, prop]
+    if version() < (4, 0, 0):
+        getattr(me, elements).foreach_set(prop, values)
+        return
+    attr = me.attributes.get(name) or me.attributes.new(name, kind, domain)
+    attr.data.foreach_set(key, ~values if negated else values)
+
+
 def node_tree(idblock):
     """The shader node tree of a material or world, creating it on 4.x."""
     if getattr(idblock, "node_tree", None) is None:

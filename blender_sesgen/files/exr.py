@@ -41,10 +41,11 @@ def _unzip(data: bytes, expected: int) -> bytes:
 
 
 def _unpredict(raw: np.ndarray) -> bytes:
-    """Undo the byte predictor and interleaving of ZIP and RLE blocks."""
-    x = raw.astype(np.int64)
-    x[1:] -= 128
-    t = (np.cumsum(x) & 0xFF).astype(np.uint8)
+    """Undo the byte predictor and interleaving of ZIP and RLE blocks (sums modulo 256: bytes
+    that wrap)."""
+    x = raw.copy()
+    x[1:] -= np.uint8(128)
+    t = np.cumsum(x, dtype=np.uint8)
     out = np.empty_like(t)
     half = (len(t) + 1) // 2
     out[0::2] = t[:half]
@@ -137,23 +138,28 @@ def check_complete(buf: bytes, path="<exr>", required: tuple = (), layout: ExrLa
     return layout
 
 
-def read_exr(path) -> dict[str, np.ndarray]:
-    """All channels of all parts: {channel name: (H, W) array} (row 0 = top)."""
+def read_exr(path, names=None) -> dict[str, np.ndarray]:
+    """All channels of all parts: {channel name: (H, W) array} (row 0 = top); with ``names``,
+    only those channels (the parts holding none of them are not decoded)."""
     try:  # a regular file only: a FIFO must not block the contact sheet or the add-on's preview
         buf = read_bytes(path, 16 << 30, "EXR file")
     except ContractError as e:
         raise ExrError(str(e)) from None
-    return decode(buf, path)
+    return decode(buf, path, names)
 
 
-def decode(buf: bytes, path="<exr>") -> dict[str, np.ndarray]:
+def decode(buf: bytes, path="<exr>", names=None) -> dict[str, np.ndarray]:
     """:func:`read_exr` of the bytes of a file."""
     layout = check_complete(buf, path)
+    wanted = None if names is None else set(names)
+    parts = None if wanted is None else \
+        {i for i, p in enumerate(layout.parts) if any(c[0] in wanted for c in p[0]["channels"])}
     out: dict[str, np.ndarray] = {}
     arrays: dict[int, dict[str, np.ndarray]] = {}
-    for part, h, W, H, r, rows in _blocks(buf, path, layout):
+    for part, h, W, H, r, rows in _blocks(buf, path, layout, parts):
         if part not in arrays:
-            arrays[part] = {name: np.empty((H, W), dtype=_PIXEL_DTYPES[pt]) for name, pt, _, _ in h["channels"]}
+            arrays[part] = {name: np.empty((H, W), dtype=_PIXEL_DTYPES[pt]) for name, pt, _, _ in h["channels"]
+                            if wanted is None or name in wanted}
         for name, a in arrays[part].items():
             a[r:r + rows[name].shape[0]] = rows[name]
     for part in arrays.values():
@@ -180,10 +186,13 @@ def value_problem(buf: bytes, limit: float, path="<exr>") -> str:
     return ""
 
 
-def _blocks(buf: bytes, path, layout: ExrLayout):
+def _blocks(buf: bytes, path, layout: ExrLayout, parts=None):
     """Each decoded block: (part index, header, W, H, first row, rows) with ``rows`` a
-    structured array (n_lines,) whose fields are the channels ((W,) each)."""
+    structured array (n_lines,) whose fields are the channels ((W,) each); only the parts
+    whose indices are in ``parts`` when given."""
     for part, (h, W, H, y0, lpb, offs) in enumerate(layout.parts):
+        if parts is not None and part not in parts:
+            continue
         chans = h["channels"]
         if any(xs != 1 or ys != 1 for _, _, xs, ys in chans):
             raise ExrError(f"{path}: subsampled channels not supported")

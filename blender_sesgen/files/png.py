@@ -28,7 +28,7 @@ def encode_png(image: np.ndarray, level: int = 6) -> bytes:
             + chunk(b"IDAT", zlib.compress(raw, level)) + chunk(b"IEND", b""))
 
 
-def write_png(path, image: np.ndarray) -> None:
-    """Write ``image`` (see :func:`encode_png`) to ``path`` atomically."""
+def write_png(path, image: np.ndarray, level: int = 6) -> None:
+    """Write ``image`` (see :func:`encode_png`, deflate ``level``) to ``path`` atomically."""
     from ..contract import atomic
-    atomic.write_bytes(Path(path), encode_png(image))
+    atomic.write_bytes(Path(path), encode_png(image, level))

@@ -15,6 +15,8 @@ the principal point so that the corner moves by +-c px.
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 WAVELENGTH_NM = (610.0, 540.0, 465.0)   # R, G, B
@@ -62,6 +64,15 @@ def otf(shape, *, pixel_um: float = 3.0, f_number: float = 0.0, wavelength_nm: f
     return out
 
 
+@functools.lru_cache(maxsize=8)
+def _stored_otf(shape: tuple, params: tuple) -> np.ndarray:
+    """``otf`` kept for the next image of the same size and optics (every view and frame of a
+    render: a KITTI view's three OTFs cost a fifth of its camera model); read-only."""
+    T = otf(shape, **dict(params))
+    T.setflags(write=False)
+    return T
+
+
 def apply_mtf(rgb: np.ndarray, margin: int = 16, **params) -> np.ndarray:
     """Filter each channel of a linear (H, W, 3) image with its channel's OTF."""
     rgb = np.asarray(rgb, dtype=np.float64)
@@ -71,7 +82,7 @@ def apply_mtf(rgb: np.ndarray, margin: int = 16, **params) -> np.ndarray:
     for c in range(rgb.shape[2]):
         p = np.pad(rgb[..., c], m, mode="reflect")
         lam = params.get("wavelength_nm") or WAVELENGTH_NM[c % 3]
-        T = otf(p.shape, **{**params, "wavelength_nm": lam})
+        T = _stored_otf(p.shape, tuple(sorted({**params, "wavelength_nm": lam}.items())))
         out[..., c] = np.fft.irfft2(np.fft.rfft2(p) * T, s=p.shape)[m:m + H, m:m + W]
     return out
 

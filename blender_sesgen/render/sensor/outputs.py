@@ -16,6 +16,10 @@ from ...files.png import write_png
 from .render_plan import SENSOR_DIR, SensorPlan
 
 EXR_LAYOUT = "single part holding every pass (beauty of the sensor render, ground truth of the sharp render)"
+# deflate level of the sensor images' PNGs, as the EXRs' and display PNGs': a KITTI view's raw
+# and RGB images cost 0.17 CPU s at zlib's default 6 and 0.03 at 1 (bench/profile_scenes.py,
+# the gt frame), files ~10 % larger; the decoded pixels are the same at every level
+PNG_LEVEL = 1
 
 
 def stored_metering(plan: SensorPlan, kept: Optional[dict], upto: Optional[int] = None) -> Optional[list]:
@@ -134,7 +138,7 @@ def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: floa
     rgb_names = m.channels["rgb"][:3]
     metered, sums = None, {}
     for vi, view in enumerate(plan.views):
-        ch = read_exr(exrs[view])
+        ch = read_exr(exrs[view], rgb_names)
         lin = np.stack([ch[n] for n in rgb_names], axis=-1).astype(np.float64)
         if vi == 0:
             metered = meter(lin)
@@ -142,8 +146,8 @@ def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: floa
                                  plan.nominal_exposure_s())
         f = pipeline.process(lin, camera, pipeline.Shot(exposure_s, gain, k, vi), fpn_cache=fpn)
         written = [plan.sensor_relpath("raw", view, k), plan.sensor_relpath("rgb", view, k)]
-        write_png(Path(out) / written[0], f.raw_dn)
-        write_png(Path(out) / written[1], f.rgb8)
+        write_png(Path(out) / written[0], f.raw_dn, PNG_LEVEL)
+        write_png(Path(out) / written[1], f.rgb8, PNG_LEVEL)
         if plan.sensor.jpeg_quality and jpeg_writer is not None:
             written.append(plan.sensor_relpath("jpeg", view, k))
             jpeg_writer(str(Path(out) / written[-1]), f.rgb8, plan.sensor.jpeg_quality)

@@ -85,10 +85,12 @@ def process(linear_rgb: np.ndarray, camera: Camera, shot: Shot, fpn_cache: Optio
     dn = raw.capture(signal, sensor, gain=gain, exposure_s=exposure_s, rng=rng,
                      fixed_pattern=(prnu_map if sensor.prnu else None, dsnu_map if sensor.dsnu_e else None))
     full = 2 ** sensor.bits - 1
-    x = (dn.astype(np.float64) - sensor.black_level_dn) / (full - sensor.black_level_dn)
     if sensor.cfa:
-        x = raw.demosaic_mhc(x, sensor.cfa)
-    elif sensor.mono:
-        x = np.repeat(x[..., None], 3, axis=-1)
-    rgb8 = raw.quantise(raw.response(x, sensor.response, sensor.gamma), 8)
+        x = (dn.astype(np.float64) - sensor.black_level_dn) / (full - sensor.black_level_dn)
+        rgb8 = raw.quantise(raw.response(raw.demosaic_mhc(x, sensor.cfa), sensor.response, sensor.gamma), 8)
+    else:   # each output value follows from one raw value: the chain run once per level, looked up
+        levels = (np.arange(full + 1, dtype=np.float64) - sensor.black_level_dn) / (full - sensor.black_level_dn)
+        rgb8 = raw.quantise(raw.response(levels, sensor.response, sensor.gamma), 8)[dn]
+        if sensor.mono:
+            rgb8 = np.repeat(rgb8[..., None], 3, axis=-1)
     return SensorFrame(dn, rgb8, float(exposure_s), float(gain))

@@ -15,6 +15,7 @@ two triangles with opposite directions), which ``edge_report`` checks.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Optional, Sequence
 
@@ -107,16 +108,6 @@ def cross3(a, b) -> np.ndarray:
     return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 
-def frame_from_z(z_axis, up=(0.0, 1.0, 0.0)) -> np.ndarray:
-    """A rotation whose local +Y is ``z_axis`` (a tube's direction), the others orthogonal."""
-    y = np.asarray(z_axis, float) / np.linalg.norm(z_axis)
-    helper = np.array([1.0, 0.0, 0.0]) if abs(y[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
-    x = cross3(y, helper)
-    x /= np.linalg.norm(x)
-    z = cross3(x, y)
-    return np.column_stack([x, y, z])
-
-
 # --- polygon helpers --------------------------------------------------------------------
 
 def polygon_area2(poly: np.ndarray) -> float:
@@ -153,6 +144,24 @@ def triangulate_polygon(poly: np.ndarray) -> np.ndarray:
             raise ValueError("polygon is not simple or not counter-clockwise")
     tris.append(tuple(idx))
     return np.array(tris, dtype=np.int64)
+
+
+@functools.lru_cache(maxsize=None)
+def _box_triangles(skip: tuple) -> np.ndarray:
+    """A box's triangles (vertex 4ix + 2iy + iz), two per face in -x, +x, -y, +y, -z, +z
+    order, without the faces named in ``skip``."""
+    quads = {"-x": (0, 1, 3, 2), "+x": (4, 6, 7, 5), "-y": (0, 4, 5, 1),
+             "+y": (2, 3, 7, 6), "-z": (0, 2, 6, 4), "+z": (1, 5, 7, 3)}
+    tris = [t for name, (a, b, c, d) in quads.items() if name not in skip for t in ((a, b, c), (a, c, d))]
+    out = np.array(tris, dtype=np.int64).reshape(-1, 3)
+    out.setflags(write=False)
+    return out
+
+
+def _per_triangle(value, dtype, n: int) -> np.ndarray:
+    """``value`` (one for all or one per triangle) as an array of n (what broadcasting gives)."""
+    a = np.asarray(value, dtype=dtype)
+    return np.full(n, a, dtype=dtype) if a.ndim == 0 else np.broadcast_to(a, (n,)).copy()
 
 
 # --- the builder ------------------------------------------------------------------------
@@ -195,8 +204,8 @@ class MeshBuilder:
                 F = F[:, [0, 2, 1]]
         self._V.append(V)
         self._F.append(F + self._count)
-        self._S.append(np.broadcast_to(np.asarray(surf, dtype=np.int64), (len(F),)).copy())
-        self._smooth.append(np.broadcast_to(np.asarray(smooth, dtype=bool), (len(F),)).copy())
+        self._S.append(_per_triangle(surf, np.int64, len(F)))
+        self._smooth.append(_per_triangle(smooth, bool, len(F)))
         self._count += len(V)
 
     def merge(self, other: "MeshBuilder", T: Optional[np.ndarray] = None) -> None:
@@ -229,13 +238,7 @@ class MeshBuilder:
         ('-x', '+x', '-y', '+y', '-z', '+z'): the box is then open there."""
         (x0, y0, z0), (x1, y1, z1) = lo, hi
         V = [(x, y, z) for x in (x0, x1) for y in (y0, y1) for z in (z0, z1)]  # 4ix + 2iy + iz
-        quads = {"-x": (0, 1, 3, 2), "+x": (4, 6, 7, 5), "-y": (0, 4, 5, 1),
-                 "+y": (2, 3, 7, 6), "-z": (0, 2, 6, 4), "+z": (1, 5, 7, 3)}
-        tris = []
-        for name, (a, b, c, d) in quads.items():
-            if name not in skip:
-                tris += [(a, b, c), (a, c, d)]
-        self.add(V, tris, surf, T=T)
+        self.add(V, _box_triangles(tuple(skip)), surf, T=T)
 
     def oriented_box(self, origin, a1, a2, a3, surf) -> None:
         """The parallelepiped origin + [0,1]a1 + [0,1]a2 + [0,1]a3 (any handedness)."""
@@ -284,21 +287,13 @@ class MeshBuilder:
         L = np.asarray(loops, dtype=float)
         s, k = L.shape[:2]
         V = [L.reshape(-1, 3)]
-        # band quads in loop order, each as (a, b, c), (a, c, d)
-        i, j = np.meshgrid(np.arange(s - 1), np.arange(k), indexing="ij")
-        a, b = i * k + j, i * k + (j + 1) % k
-        c, d = (i + 1) * k + (j + 1) % k, (i + 1) * k + j
-        tris = [np.stack([np.stack([a, b, c], -1), np.stack([a, c, d], -1)], axis=2).reshape(-1, 3)]
+        band, cap = _loft_triangles(s, k)
+        tris = [band]
         surfs = [np.repeat(np.asarray(face_surf, dtype=np.int64).reshape(-1), 2)]
         smooth_flags = [np.full(len(tris[0]), bool(smooth))]
         if caps:
-            n0 = s * k
             V += [L[0].mean(axis=0, keepdims=True), L[-1].mean(axis=0, keepdims=True)]
-            j = np.arange(k)
-            jn = (j + 1) % k
-            tris.append(np.stack([np.stack([np.full(k, n0), jn, j], -1),
-                                  np.stack([np.full(k, n0 + 1), (s - 1) * k + j, (s - 1) * k + jn], -1)],
-                                 axis=1).reshape(-1, 3))
+            tris.append(cap)
             surfs.append(np.full(2 * k, cap_surf, dtype=np.int64))
             smooth_flags.append(np.zeros(2 * k, bool))
         self.add(np.concatenate(V), np.concatenate(tris), np.concatenate(surfs), smooth=np.concatenate(smooth_flags),
@@ -349,23 +344,47 @@ class MeshBuilder:
 
     def tube(self, points, radii, n: int, surf, smooth=True) -> None:
         """A closed generalised cylinder along the polyline ``points`` (p, 3) with ``radii``
-        (p,): rings perpendicular to the path's (central-difference) tangent, the frame
-        carried along without twist, both ends capped."""
-        P = np.asarray(points, dtype=float)
-        R = np.broadcast_to(np.asarray(radii, dtype=float), (len(P),))
-        tang = np.gradient(P, axis=0)
-        tang /= np.linalg.norm(tang, axis=1, keepdims=True)
-        x = frame_from_z(tang[0])[:, 0]
-        ang = 2 * np.pi * np.arange(n) / n
-        X, Z = np.empty((len(P), 3)), np.empty((len(P), 3))
-        for i in range(len(P)):      # the frame carried along the path (sequential)
-            t = tang[i]
-            x = x - (x @ t) * t
-            x /= np.linalg.norm(x)
-            X[i], Z[i] = x, cross3(x, t)
-        cos, sin = np.cos(ang)[None, :, None], np.sin(ang)[None, :, None]
-        loops = P[:, None, :] + R[:, None, None] * (cos * X[:, None, :] + sin * Z[:, None, :])
-        self.loft(loops, np.full((len(P) - 1, n), surf), surf, smooth=smooth)
+        (p,) and ``n`` sides (see :meth:`tubes`)."""
+        self.tubes([(points, radii, n)], surf, smooth)
+
+    def tubes(self, paths, surf, smooth=True) -> None:
+        """Closed generalised cylinders, one per (points (p, 3), radii (p,), sides) of
+        ``paths``, added in that order: rings perpendicular to the path's (central-difference)
+        tangent, the frame carried along without twist, both ends capped (a :meth:`loft`
+        each), turned outwards. Tubes of equal points and sides are made in one vectorised
+        pass (a tree's hundreds of branches cost a few passes, not hundreds): every value is
+        the one a tube made alone gets, bit for bit (dot products and norms through stacked
+        ``matmul``, which rounds as the 1-D ``@``/``norm`` of a lone tube do)."""
+        groups: dict = {}
+        where = []                                   # (group, index in it) of each path
+        for points, radii, n in paths:
+            P = np.asarray(points, dtype=float)
+            key = (len(P), int(n))
+            g = groups.setdefault(key, ([], []))
+            where.append((key, len(g[0])))
+            g[0].append(P)
+            g[1].append(np.broadcast_to(np.asarray(radii, dtype=float), (len(P),)))
+        made = {key: _tube_vertices(np.stack(Ps), np.stack(Rs), key[1]) for key, (Ps, Rs) in groups.items()}
+        tris = {}
+        for (p, n), V in made.items():
+            band, cap = _loft_triangles(p, n)
+            F = np.concatenate([band, cap])
+            a, b, c = (V - V.mean(axis=1, keepdims=True))[:, F].transpose(2, 0, 1, 3)
+            inward = np.einsum("mij,mij->m", a, np.cross(b, c)) < 0      # add(closed=True)'s test
+            tris[p, n] = (F, F[:, [0, 2, 1]], inward, len(band))
+        Vs, Fs, Ss, smooths = [], [], [], []
+        for key, i in where:
+            F, flipped, inward, n_band = tris[key]
+            Vs.append(made[key][i])
+            Fs.append((flipped if inward[i] else F) + self._count)
+            Ss.append(np.full(len(F), surf, dtype=np.int64))
+            smooths.append(np.arange(len(F)) < n_band if smooth else np.zeros(len(F), bool))
+            self._count += len(Vs[-1])
+        if Vs:
+            self._V.append(np.concatenate(Vs))
+            self._F.append(np.concatenate(Fs))
+            self._S.append(np.concatenate(Ss))
+            self._smooth.append(np.concatenate(smooths))
 
     def sheet(self, grid, surf, facing=(0.0, 1.0, 0.0), smooth=False, cell_surf=None) -> None:
         """An open surface through the vertex grid (r, c, 3), each cell two triangles
@@ -383,6 +402,51 @@ class MeshBuilder:
             fs = np.asarray(cell_surf).ravel()
             s = np.concatenate([fs, fs])
         self.add(G.reshape(-1, 3), tris, s, smooth=smooth, facing=facing)
+
+
+def _loft_triangles(s: int, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The triangles of a loft of ``s`` loops of ``k`` points: the band quads in loop order,
+    each as (a, b, c), (a, c, d), and the two end caps' fans from the centroids that follow
+    the loops' points (vertices s*k and s*k + 1)."""
+    i, j = np.meshgrid(np.arange(s - 1), np.arange(k), indexing="ij")
+    a, b = i * k + j, i * k + (j + 1) % k
+    c, d = (i + 1) * k + (j + 1) % k, (i + 1) * k + j
+    band = np.stack([np.stack([a, b, c], -1), np.stack([a, c, d], -1)], axis=2).reshape(-1, 3)
+    n0, j = s * k, np.arange(k)
+    jn = (j + 1) % k
+    cap = np.stack([np.stack([np.full(k, n0), jn, j], -1),
+                    np.stack([np.full(k, n0 + 1), (s - 1) * k + j, (s - 1) * k + jn], -1)], axis=1).reshape(-1, 3)
+    return band, cap
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Dot products of the 3-vectors along the last axis, each rounded as numpy's 1-D
+    ``a @ b`` rounds it (BLAS, fused multiply-adds: not the rounding of ``(a * b).sum()``)."""
+    return np.matmul(a[..., None, :], b[..., :, None])[..., 0, 0]
+
+
+def _tube_vertices(P: np.ndarray, R: np.ndarray, n: int) -> np.ndarray:
+    """The vertices of m tubes of n sides along the paths ``P`` (m, p, 3) with radii ``R``
+    (m, p): each tube's p rings of n points, then its two end centroids (m, p*n + 2, 3)."""
+    m, p = P.shape[:2]
+    tang = np.gradient(P, axis=1)
+    tang /= np.linalg.norm(tang, axis=-1, keepdims=True)
+    # frame_from_z of each first tangent, row by row
+    y = tang[:, 0] / np.sqrt(_dot(tang[:, 0], tang[:, 0]))[:, None]
+    helper = np.where((np.abs(y[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0])
+    x = np.cross(y, helper)
+    x /= np.sqrt(_dot(x, x))[:, None]
+    X, Z = np.empty((m, p, 3)), np.empty((m, p, 3))
+    for i in range(p):      # the frame carried along the paths (sequential along each)
+        t = tang[:, i]
+        x = x - _dot(x, t)[:, None] * t
+        x /= np.sqrt(_dot(x, x))[:, None]
+        X[:, i], Z[:, i] = x, np.cross(x, t)
+    ang = 2 * np.pi * np.arange(n) / n
+    cos, sin = np.cos(ang)[None, None, :, None], np.sin(ang)[None, None, :, None]
+    loops = P[:, :, None, :] + R[:, :, None, None] * (cos * X[:, :, None, :] + sin * Z[:, :, None, :])
+    return np.concatenate([loops.reshape(m, p * n, 3), loops[:, 0].mean(axis=1, keepdims=True),
+                           loops[:, -1].mean(axis=1, keepdims=True)], axis=1)
 
 
 def start(size, seed: int) -> tuple[np.random.Generator, float, float, float, MeshBuilder]:

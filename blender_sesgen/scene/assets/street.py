@@ -105,24 +105,29 @@ def _slab(b: MeshBuilder, s, offsets, top_y, bottom_y, length, bend, cell_surf, 
     t_idx = lambda i, j: i * O + j                        # noqa: E731
     bl = lambda i: S * O + i                              # noqa: E731
     br = lambda i: S * O + S + i                          # noqa: E731
-    tris, surfs = [], []
-    for i in range(S - 1):
-        for j in range(O - 1):   # top, normal +y: stations run along -z, offsets along +x
-            a, bq, cq, d = t_idx(i, j), t_idx(i, j + 1), t_idx(i + 1, j + 1), t_idx(i + 1, j)
-            tris += [(a, bq, cq), (a, cq, d)]
-            surfs += [cell_surf[i][j]] * 2
-        # left side (offset o[0]), right side (o[-1]), bottom
-        tris += [(t_idx(i, 0), t_idx(i + 1, 0), bl(i + 1)), (t_idx(i, 0), bl(i + 1), bl(i))]
-        tris += [(t_idx(i, O - 1), br(i), br(i + 1)), (t_idx(i, O - 1), br(i + 1), t_idx(i + 1, O - 1))]
-        tris += [(bl(i), bl(i + 1), br(i + 1)), (bl(i), br(i + 1), br(i))]
-        surfs += [side_surf] * 6
+    # per station interval i: its top cells (normal +y: stations run along -z, offsets along
+    # +x), then the left side (offset o[0]), the right side (o[-1]) and the bottom
+    i, j = np.arange(S - 1)[:, None], np.arange(O - 1)[None, :]
+    a, bq, cq, d = t_idx(i, j), t_idx(i, j + 1), t_idx(i + 1, j + 1), t_idx(i + 1, j)
+    top = np.stack([np.stack(np.broadcast_arrays(a, bq, cq), -1), np.stack(np.broadcast_arrays(a, cq, d), -1)],
+                   axis=2).reshape(S - 1, 2 * (O - 1), 3)
+    i = i[:, 0]
+    sides = np.stack([np.stack(v, -1) for v in (
+        (t_idx(i, 0), t_idx(i + 1, 0), bl(i + 1)), (t_idx(i, 0), bl(i + 1), bl(i)),
+        (t_idx(i, O - 1), br(i), br(i + 1)), (t_idx(i, O - 1), br(i + 1), t_idx(i + 1, O - 1)),
+        (bl(i), bl(i + 1), br(i + 1)), (bl(i), br(i + 1), br(i)))], axis=1)
+    body = np.concatenate([top, sides], axis=1).reshape(-1, 3)
+    cells = np.repeat(np.asarray(cell_surf, dtype=np.int64).reshape(S - 1, O - 1), 2, axis=1)
+    body_surfs = np.concatenate([cells, np.full((S - 1, 6), side_surf, dtype=np.int64)], axis=1).ravel()
+    ends, end_surfs = [], []
     for i, sign in ((0, 1), (S - 1, -1)):   # end faces: a fan over the top edge and the two bottom corners
         ring = [bl(i)] + [t_idx(i, j) for j in range(O)] + [br(i)]
         for j in range(1, len(ring) - 1):
             tri = (ring[0], ring[j], ring[j + 1])
-            tris.append(tri[::-1] if sign > 0 else tri)
-            surfs.append(side_surf)
-    b.add(V, tris, surfs, closed=True)
+            ends.append(tri[::-1] if sign > 0 else tri)
+            end_surfs.append(side_surf)
+    b.add(V, np.concatenate([body, np.array(ends, dtype=np.int64).reshape(-1, 3)]),
+          np.concatenate([body_surfs, np.array(end_surfs, dtype=np.int64)]), closed=True)
 
 
 def road(size, seed: int, bend, offset: float = 0.0) -> MeshData:

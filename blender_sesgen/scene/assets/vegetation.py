@@ -114,9 +114,8 @@ def tree(size, seed: int) -> MeshData:
     n_main = int(rng.integers(5, 9))
     sk.grow(trunk[-1], [0, 1, 0], (H - clear) * 0.85, r0 * 0.8, 0, 3, (n_main, 4, 3), segs=6, up=0.0)
     leaf_pts, leaf_out = [], []
+    b.tubes([(pts, rad, _tube_sides(float(rad[0]))) for pts, rad, _ in sk.paths], bark, smooth=True)
     for pts, rad, level in sk.paths:
-        n = _tube_sides(float(rad[0]))
-        b.tube(pts, rad, n, bark, smooth=True)
         if level >= 1:   # twigs on the outer parts of the main branches and everything finer
             seg_len = np.linalg.norm(np.diff(pts, axis=0), axis=1)
             tot = seg_len.sum()
@@ -149,7 +148,7 @@ def conifer(size, seed: int) -> MeshData:
     r0 = float(np.clip(0.015 * H, 0.06, 0.35))
     b.frustum(r0, 0.01, -0.1, H, 9, bark)
     y = clear
-    sprays, outs, lens = [], [], []
+    branches, sprays, outs, lens = [], [], [], []
     while y < H - 0.3:
         frac = (H - y) / (H - clear)
         R = 0.5 * min(Wc, Dc) * frac ** 0.9
@@ -162,7 +161,7 @@ def conifer(size, seed: int) -> MeshData:
             m = 5
             s = np.linspace(0, 1, m)
             pts = np.array([0, y, 0]) + np.outer(s * L, dirn) + np.outer(-0.25 * L * s ** 2 + 0.05 * L * s, [0, 1, 0])
-            b.tube(pts, np.linspace(max(r0 * frac * 0.3, 0.008), 0.004, m), 4, bark, smooth=True)
+            branches.append((pts, np.linspace(max(r0 * frac * 0.3, 0.008), 0.004, m), 4))
             cnt = max(int(L / 0.05), 2)
             t = rng.uniform(0.05, 1.0, cnt)
             q = np.array([0, y, 0]) + np.outer(t * L, dirn) + np.outer(-0.25 * L * t ** 2 + 0.05 * L * t, [0, 1, 0])
@@ -171,6 +170,7 @@ def conifer(size, seed: int) -> MeshData:
             outs.append(np.outer(np.ones(cnt), dirn) + [0, -0.3, 0])
             lens.append(rng.uniform(0.18, 0.3, cnt) * (0.6 + 0.4 * frac))
         y += rng.uniform(0.28, 0.45)
+    b.tubes(branches, bark, smooth=True)
     P, O, Lp = np.concatenate(sprays), np.concatenate(outs), np.concatenate(lens)
     reps = 3
     add_leaves(b, rng, np.repeat(P, reps, axis=0) + rng.normal(size=(len(P) * reps, 3)) * 0.05,
@@ -189,11 +189,13 @@ def bush(size, seed: int) -> MeshData:
     greens = [b.surface("leaves", scaled(base_green, f)) for f in (0.7, 0.85, 1.0, 1.2)]
     c = np.array([0.0, H / 2, 0.0])
     r = np.array([Wc / 2, H / 2, Dc / 2])
+    stems = []
     for k in range(int(rng.integers(5, 10))):
         phi = rng.uniform(0, 2 * np.pi)
         top = c + r * 0.7 * np.array([np.cos(phi) * rng.uniform(0.3, 1), rng.uniform(-0.1, 0.8), np.sin(phi) * rng.uniform(0.3, 1)])
         pts = np.linspace([0, -0.05, 0], top, 4) + np.outer(np.sin(np.linspace(0, np.pi, 4)), rng.normal(size=3) * 0.08)
-        b.tube(pts, np.linspace(0.025, 0.008, 4), 5, bark)
+        stems.append((pts, np.linspace(0.025, 0.008, 4), 5))
+    b.tubes(stems, bark)
     n = int(2200 * Wc * H * Dc / 1.0 ** 3 * rng.uniform(0.8, 1.2)) + 200
     u = _unit(rng.normal(size=(n, 3)))
     rad = rng.uniform(0.55, 1.0, n) ** 0.5
