@@ -180,9 +180,8 @@ class LocalRay:
                 raise failed
             result = t.fn(*[a.future.result() if isinstance(a, Ref) else a for a in t.args])
         except BaseException as e:  # noqa: BLE001 - a KeyboardInterrupt here is this task's cancel
-            if isinstance(e, KeyboardInterrupt):
-                e = TaskCancelledError(f"task {t.ref.label} cancelled")
-            self._finish(t, lambda: t.ref.future.set_exception(e))
+            error = TaskCancelledError(f"task {t.ref.label} cancelled") if isinstance(e, KeyboardInterrupt) else e
+            self._finish(t, lambda: t.ref.future.set_exception(error))
         else:
             self._finish(t, lambda: t.ref.future.set_result(result))
 
