@@ -90,22 +90,10 @@ def test_cancel_stops_a_queued_task_and_interrupts_a_running_one():
     assert len(ready) == 1 and not left and ray.get(ready[0]) == "ab"   # the CPU is free again
 
 
-def test_an_actor_runs_its_calls_one_at_a_time():
+def test_the_farms_progress_inbox_runs_its_calls_one_at_a_time():
+    from blender_sesgen.farm.driver import _make_inbox
     ray = LocalRay(2)
-
-    @ray.remote(num_cpus=0)
-    class Box:
-        def __init__(self):
-            self.items = []
-
-        def put(self, x):
-            self.items.append(x)
-
-        def take(self):
-            out, self.items = self.items, []
-            return out
-
-    box = Box.remote()
+    box = _make_inbox(ray)                       # the farm driver's actor, as the farm makes it
     threads = [threading.Thread(target=lambda i=i: [box.put.remote((i, k)) for k in range(200)]) for i in range(4)]
     got = []
     for t in threads:
