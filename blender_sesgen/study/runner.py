@@ -15,7 +15,9 @@ Steps, on a local Ray or a cluster (``--address``): the distinct renders as farm
 (``farm.driver.Farm``: chunks, retries, verification); the sensor-only variants developed
 from them (``render --reuse-exr``, farm tasks too); every export and every trial of every
 system as Ray tasks chained by their results (``farm.tasks.TaskGraph``); then the
-evaluation and the report (``vo_reference study ...``, child processes).
+evaluation and the report (``vo_reference study ...``, child processes). With ``--no-ray``,
+and whenever nothing is left to render, export or run, the same tasks run from this process
+(``farm.local``) and no Ray is started.
 
 Every step's output is content-addressed and written atomically, so a study killed at any
 moment resumes where it stopped when the same command runs again: renders resume frame by
