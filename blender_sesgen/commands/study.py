@@ -102,8 +102,6 @@ def run(args: argparse.Namespace) -> int:
     study = load(args.study)
     if args.chunk < 1 or args.retries < 0:
         raise SesgenError("--chunk must be >= 1 and --retries >= 0")
-    if args.no_ray and args.address:
-        raise SesgenError("--no-ray runs on this machine alone: leave out --address")
     if args.plan:
         from ..study.runner import check_folder
         from ..study.variants import make_plan

@@ -96,6 +96,8 @@ class StudyRun:
         self.study, self.out = study, Path(out).absolute()
         self.address, self.num_cpus = address, num_cpus
         self.no_ray = bool(no_ray)           # every task from this process (farm.local), no Ray started
+        if self.no_ray and address is not None:
+            raise SesgenError("--no-ray runs on this machine alone: leave out --address")
         self._prepared: dict = {}            # key -> FarmScene prepared by _work_left
         self.mode, self.chunk, self.retries = progress, int(chunk), int(retries)
         self.stream = stream if stream is not None else sys.stderr
