@@ -145,9 +145,10 @@ class Study:
         return make_plan(self.spec, Path(out).absolute() / "scripts")
 
     def run(self, out: "str | os.PathLike", *, address: Optional[str] = None, num_cpus: Optional[int] = None,
-            progress: str = "off", rerun: Sequence[str] = ()) -> dict:
+            progress: str = "off", rerun: Sequence[str] = (), no_ray: bool = False) -> dict:
         from .study.runner import StudyRun
-        StudyRun(self.spec, out, address=address, num_cpus=num_cpus, progress=progress, rerun=rerun).run()
+        StudyRun(self.spec, out, address=address, num_cpus=num_cpus, progress=progress, rerun=rerun,
+                 no_ray=no_ray).run()
         return self.results(out)
 
     @staticmethod

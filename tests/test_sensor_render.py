@@ -157,7 +157,8 @@ FISHEYE = "LENS fisheye -0.02 0.01 -0.004 0.0005"
 @pytest.mark.parametrize("lens_line", [BROWN, FISHEYE], ids=["brown", "fisheye"])
 def test_distorted_render_matches_the_lens_model(tmp_path, lens_line):
     still = ["EGO 0 0 0 0 0 0"]
-    out, m = _render(tmp_path, "lens", _board_scene(extra=[lens_line], motion=still, samples=32, start="0 1 -1.2"))
+    out, m = _render(tmp_path, "lens", _board_scene(extra=[lens_line], motion=still, samples=32, start="0 1 -1.2"),
+                     "--frames", "0:1")                              # a still camera: frame 0 is all it shows
     lens = Lens.from_K(m["lens"]["model"], m["lens"]["coeffs"], np.array(m["K"]))
     W, H = m["resolution"]
     T = np.array(m["poses"]["left"][0])
@@ -193,8 +194,8 @@ def test_lookup_table_undistorts_to_the_pinhole_render(tmp_path):
     extra = ["MATERIAL name tex colour 0 0 0 texture 4 emission 1 1 1 emission_strength 1",
              "CUBOID id 90 material tex position 0.6 0.9 -2 20 30 0 dim 0.5 0.5 0.5"]
     scene = _board_scene(samples=64, motion=still, start="0 1 -1.2") + extra
-    out_p, m_p = _render(tmp_path, "pinhole", scene)
-    out_d, m_d = _render(tmp_path, "distorted", scene + [BROWN])
+    out_p, m_p = _render(tmp_path, "pinhole", scene, "--frames", "0:1")       # a still camera: frame 0
+    out_d, m_d = _render(tmp_path, "distorted", scene + [BROWN], "--frames", "0:1")
     W, H = m_d["resolution"]
     names = [f"ViewLayer.Combined.{c}" for c in "RGB"]
     pin = np.clip(np.stack([read_exr(out_p / m_p["files"]["left"][0])[n] for n in names], -1), 0, 1)

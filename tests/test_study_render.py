@@ -1,8 +1,10 @@
-"""Verification studies end to end, with real renders, a real local Ray and real systems as
-child processes (docs/studies.md): controlled variants, render reuse, failing systems,
-an external OpenCV stereo VO reading the KITTI layout, compare, the report, a study killed
-and resumed, the sensor factors' physics measured on the images, and a third-party
-estimator from PyPI (pycolmap) run through the harness."""
+"""Verification studies end to end, with real renders and real systems as child processes
+(docs/studies.md): controlled variants, render reuse, failing systems, an external OpenCV
+stereo VO reading the KITTI layout, compare, the report, a study killed and resumed, the
+sensor factors' physics measured on the images, and a third-party estimator from PyPI
+(pycolmap) run through the harness. The harness, the kill and the SIGTERM run on a real
+local Ray; the physics, pycolmap and compare's second version run ``--no-ray`` (the tasks
+from the study's process: no Ray start-up), and a finished study run again starts none."""
 from __future__ import annotations
 
 import hashlib
@@ -264,13 +266,14 @@ def test_a_resumed_study_renders_nothing_and_compare_flags_a_regression(room):
     old.write_bytes((out / "results.json").read_bytes())
     p = run_study(room_study(folder, sigma=0.01), out)          # the same study again: all done
     assert p.returncode == 0, p.stderr
+    assert "Ray not started" in p.stderr and "local Ray" not in p.stderr   # nothing left to run: no Ray
     assert results(out)["cost"]["frames_rendered"] == 0 and results(out)["cost"]["frames_developed"] == 0
     same = subprocess.run([sys.executable, "-m", "blender_sesgen", "study", "compare", str(old),
                            str(out / "results.json")], capture_output=True, text=True,
                           env={**os.environ, "PYTHONPATH": str(REPO)})
     assert same.returncode == 0, same.stdout + same.stderr
     assert "WORSE" not in same.stdout
-    p = run_study(room_study(folder, sigma=0.2), out)           # a new version of "noisy": worse
+    p = run_study(room_study(folder, sigma=0.2), out, "--no-ray")   # a new version of "noisy": worse
     assert p.returncode == 0, p.stderr
     assert results(out)["cost"]["frames_rendered"] == 0
     worse = subprocess.run([sys.executable, "-m", "blender_sesgen", "study", "compare", str(old),
@@ -334,16 +337,18 @@ levels = [0.01, 0.03]
 
 
 
-def test_sigterm_stops_a_study_as_ctrl_c_does(tmp_path):
+@pytest.mark.parametrize("extra", [(), ("--no-ray",)], ids=["ray", "no-ray"])
+def test_sigterm_stops_a_study_as_ctrl_c_does(tmp_path, extra):
     """SIGTERM once Ray runs (ray.init installs its own handler, which aborted the study with
-    a stack dump, exit -6): the study stops consistently, says so and exits 130."""
+    a stack dump, exit -6): the study stops consistently, says so and exits 130; the same
+    without Ray (its running tasks interrupted in their threads, farm.local)."""
     study = study_file(tmp_path, f"{world(frames=5, quality='draft', samples=2)}[factors.exposure_time]\n"
                                  "levels = [0.01]\n" + PERFECT_SYSTEM, ROOM)
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": str(REPO), "RAY_USAGE_STATS_ENABLED": "0"}
     proc = subprocess.Popen([sys.executable, "-m", "blender_sesgen", "study", "run", str(study), "--out", str(out),
-                             "--progress", "plain"], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True)
+                             "--progress", "plain", *extra], env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
     for line in proc.stdout:                                        # Ray is up once the renders start
         if line.startswith("study: renders:"):
             break
@@ -358,7 +363,7 @@ def test_sigterm_stops_a_study_as_ctrl_c_does(tmp_path):
 def wall(tmp_path_factory):
     folder = tmp_path_factory.mktemp("wall")
     body = f"""
-{world(quality="draft", samples=64)}[factors.exposure_time]
+{world(frames=2, quality="draft", samples=64)}[factors.exposure_time]
 levels = [0.02]
 [factors.read_noise]
 levels = [20.0]
@@ -368,7 +373,7 @@ levels = [1000.0]
 levels = [1.0]
 """ + PERFECT_SYSTEM
     out = folder / "out"
-    p = run_study(study_file(folder, body, WALL), out)
+    p = run_study(study_file(folder, body, WALL), out, "--no-ray")
     assert p.returncode == 0, p.stdout + p.stderr
     doc = results(out)
     return out, {(tuple(v["point"].items()) or (("base", 0),))[0][0]: out / v["render"] for v in doc["variants"]}
@@ -518,7 +523,7 @@ mono = true
 timeout_s = 600
 """
     out = tmp_path / "out"
-    p = run_study(study_file(tmp_path, body, ROOM), out)
+    p = run_study(study_file(tmp_path, body, ROOM), out, "--no-ray")
     assert p.returncode == 0, p.stdout + p.stderr
     doc = results(out)
     rs = runs_of(doc, "pycolmap")

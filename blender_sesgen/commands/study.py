@@ -63,7 +63,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="the study's folder: renders, exports, runs, results.json, report.html")
     r.add_argument("--address", metavar="auto|HOST:PORT",
                    help="join this Ray cluster (DIR on a filesystem every node shares); default: a local Ray")
-    r.add_argument("--num-cpus", type=int, metavar="N", help="local Ray only: the CPUs it may use (default all)")
+    r.add_argument("--num-cpus", type=int, metavar="N", help="this machine only: the CPUs it may use (default all)")
+    r.add_argument("--no-ray", action="store_true",
+                   help="run every task from this process, without Ray (no start-up: for a small study, or where "
+                        "Ray is not installed); a study with nothing left to run starts no Ray anyway")
     r.add_argument("--chunk", type=int, default=50, metavar="N",
                    help="frames per render task (default 50: a study's short sequence renders in one task, its "
                         "scene built once)")
@@ -118,7 +121,8 @@ def run(args: argparse.Namespace) -> int:
         if name != "all" and name not in names:
             raise SesgenError(f"--rerun {name}: the study has no such system (systems: {', '.join(names)})")
     return run_study(study, args.out, address=args.address, num_cpus=args.num_cpus, progress=progress_mode(args),
-                     chunk=args.chunk, retries=args.retries, rerun=names if "all" in rerun else rerun)
+                     chunk=args.chunk, retries=args.retries, rerun=names if "all" in rerun else rerun,
+                     no_ray=args.no_ray)
 
 
 def compare(args: argparse.Namespace) -> int:

@@ -15,7 +15,9 @@ Steps, on a local Ray or a cluster (``--address``): the distinct renders as farm
 (``farm.driver.Farm``: chunks, retries, verification); the sensor-only variants developed
 from them (``render --reuse-exr``, farm tasks too); every export and every trial of every
 system as Ray tasks chained by their results (``farm.tasks.TaskGraph``); then the
-evaluation and the report (``vo_reference study ...``, child processes).
+evaluation and the report (``vo_reference study ...``, child processes). With ``--no-ray``,
+and whenever nothing is left to render, export or run, the same tasks run from this process
+(``farm.local``) and no Ray is started.
 
 Every step's output is content-addressed and written atomically, so a study killed at any
 moment resumes where it stopped when the same command runs again: renders resume frame by
@@ -89,9 +91,14 @@ class StudyRun:
     """One ``study run`` (see the module docstring)."""
 
     def __init__(self, study: Study, out, *, address: Optional[str] = None, num_cpus: Optional[int] = None,
-                 progress: str = "auto", chunk: int = 50, retries: int = 2, rerun=(), stream=None):
+                 progress: str = "auto", chunk: int = 50, retries: int = 2, rerun=(), stream=None,
+                 no_ray: bool = False):
         self.study, self.out = study, Path(out).absolute()
         self.address, self.num_cpus = address, num_cpus
+        self.no_ray = bool(no_ray)           # every task from this process (farm.local), no Ray started
+        if self.no_ray and address is not None:
+            raise SesgenError("--no-ray runs on this machine alone: leave out --address")
+        self._prepared: dict = {}            # key -> FarmScene prepared by _work_left
         self.mode, self.chunk, self.retries = progress, int(chunk), int(retries)
         self.stream = stream if stream is not None else sys.stderr
         self.vo = vo_command(study)
@@ -150,11 +157,18 @@ class StudyRun:
         self.say(f"sesgen study {s.name}: {len(plan.variants)} variant(s) ({len(s.world.seeds)} world seed(s)), "
                  f"{len(plan.renders)} render(s), {len(plan.develops)} developed from another's EXRs, "
                  f"{len(s.systems)} system(s), {sum(x.trials for x in s.systems)} run(s) per variant -> {self.out}")
-        from ..farm.cluster import Cluster
-        ours = signal.getsignal(signal.SIGTERM)
-        cluster = Cluster(self.address, num_cpus=self.num_cpus).start()
-        if threading.current_thread() is threading.main_thread():
-            signal.signal(signal.SIGTERM, ours)   # ray.init put in its own: an abort with a stack dump
+        self._forget_reruns(plan)
+        if self.address is None and (self.no_ray or not self._work_left(plan)):
+            from ..farm.local import LocalCluster
+            if not self.no_ray:
+                self.say("study: nothing left to render, export or run: Ray not started")
+            cluster = LocalCluster(self.num_cpus)
+        else:
+            from ..farm.cluster import Cluster
+            ours = signal.getsignal(signal.SIGTERM)
+            cluster = Cluster(self.address, num_cpus=self.num_cpus).start()
+            if threading.current_thread() is threading.main_thread():
+                signal.signal(signal.SIGTERM, ours)   # ray.init put in its own: an abort with a stack dump
         try:
             if self.address is not None:
                 cluster.check_shared(self.out, [self.out / "scripts" / f"{k}.ses" for k in plan.renders])
@@ -200,6 +214,8 @@ class StudyRun:
 
     def _scene(self, key: str, options, args=()):
         from ..farm.work import FarmScene, prepare_scene
+        if key in self._prepared:          # by _work_left, just before
+            return self._prepared.pop(key)
         sc = FarmScene(name=key, script=self.out / "scripts" / f"{key}.ses", out=self.out / "renders" / key,
                        args=list(args))
         return prepare_scene(sc, options)
@@ -232,15 +248,43 @@ class StudyRun:
     def run_dir(self, key: str, system, trial: int) -> Path:
         return self.out / "runs" / key / system_dir(system) / f"t{trial}"
 
-    def tasks(self, cluster, plan: Plan) -> None:
-        from ..farm.tasks import After, TaskGraph
-        from .work import export_variant, run_trial
+    def _forget_reruns(self, plan: Plan) -> None:
+        """``--rerun``: a new version of a system behind the same command runs again."""
         from .systems import remove_tree
-        for v in plan.variants:            # --rerun: a new version of a system behind the same command
+        for v in plan.variants:
             for s in self.study.systems:
                 if s.name in self.rerun:
                     for t in range(s.trials):
                         remove_tree(self.run_dir(v.key, s, t))
+
+    def _work_left(self, plan: Plan) -> bool:
+        """Whether a render, a development, an export or a system run is left to do (a
+        folder that cannot be rendered counts: the farm records why). Without, the study
+        needs no Ray: the farm verifies the finished renders and the task graph gathers the
+        finished tasks' records in this process (``farm.local``)."""
+        options = render_options(self.study)
+        for key in plan.renders:
+            sc = self._prepared[key] = self._scene(key, options, plan.render_args)
+            if sc.error is not None or sc.pending:
+                return True
+        for key, (_, base) in plan.develops.items():
+            where = str(self.out / "renders" / base)
+            sc = self._prepared[key] = self._scene(key, replace(options, reuse_exr=where),
+                                                   [*plan.render_args, "--reuse-exr", where])
+            if sc.error is not None or sc.pending:
+                return True
+        from .work import export_done
+        for v in plan.variants:
+            render_dir = str(self.out / "renders" / v.key)
+            for s in self.study.systems:
+                if not export_done(self.out / "exports" / v.key / s.layout, render_dir) or \
+                        any(not (self.run_dir(v.key, s, t) / "run.json").is_file() for t in range(s.trials)):
+                    return True
+        return False
+
+    def tasks(self, cluster, plan: Plan) -> None:
+        from ..farm.tasks import After, TaskGraph
+        from .work import export_variant, run_trial
         graph = TaskGraph(cluster)
         labels = {}
         seen = set()

@@ -33,12 +33,18 @@ def _read(path: Path) -> Optional[dict]:
         return None
 
 
+def export_done(out_dir, render_dir: str) -> Optional[dict]:
+    """The record of the finished export of ``render_dir`` in ``out_dir`` (None: not done)."""
+    done = _read(Path(out_dir) / DONE)
+    return done if done is not None and done.get("render") == str(render_dir) else None
+
+
 def export_variant(vo: list, render_dir: str, out_dir: str, layout: str) -> dict:
     """``vo_reference export RENDER OUT --to LAYOUT`` into a fresh ``out_dir/data``, then
     made read-only; ``out_dir/done.json`` records it (and is returned by a rerun)."""
     out = Path(out_dir)
-    done = _read(out / DONE)
-    if done is not None and done.get("render") == render_dir:
+    done = export_done(out, render_dir)
+    if done is not None:
         return done
     data = out / "data"
     systems.remove_tree(data)

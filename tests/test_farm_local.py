@@ -1,0 +1,104 @@
+"""The farm without Ray (blender_sesgen/farm/local.py): the task graph's and the farm driver's
+scheduling on threads of this process -- inputs before the tasks that take them, CPUs shared,
+errors passed on, cancel of a queued and of a running task -- with real child processes."""
+from __future__ import annotations
+
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+
+from blender_sesgen.farm.local import LocalCluster, LocalRay, TaskCancelledError
+from blender_sesgen.farm.tasks import After, TaskError, TaskGraph
+
+
+def _sleep_child(seconds: float, log: list, name: str, lock: threading.Lock) -> str:
+    with lock:
+        log.append(("start", name, time.monotonic()))
+    subprocess.run([sys.executable, "-c", f"import time; time.sleep({seconds})"], check=True)
+    with lock:
+        log.append(("end", name, time.monotonic()))
+    return name
+
+
+def _concat(a: str, b: str) -> str:
+    return a + b
+
+
+def _boom(_x=None):
+    raise ValueError("boom in a task")
+
+
+def test_a_task_graph_runs_inputs_first_and_keeps_to_its_cpus():
+    log, lock = [], threading.Lock()
+    graph = TaskGraph(LocalCluster(num_cpus=2))
+    for name in "abc":
+        graph.add(name, _sleep_child, 0.3, log, name, lock)
+    graph.add("ab", _concat, After("a"), After("b"))
+    graph.add("abc", _concat, After("ab"), After("c"))
+    seen = []
+    results = graph.run(lambda key, res: seen.append(key))
+    assert results["abc"] == "abc" and results["ab"] == "ab"
+    assert seen.index("ab") > max(seen.index("a"), seen.index("b")) and seen[-1] == "abc"
+    running, most = 0, 0                       # never more than 2 children at once on 2 CPUs
+    for kind, _, _ in sorted(log, key=lambda e: (e[2], e[0] == "start")):
+        running += 1 if kind == "start" else -1
+        most = max(most, running)
+    assert most == 2
+
+
+def test_an_error_reaches_the_tasks_that_need_its_result():
+    graph = TaskGraph(LocalCluster(num_cpus=2))
+    graph.add("bad", _boom)
+    graph.add("after", _concat, After("bad"), "x")
+    graph.add("fine", _concat, "x", "y")
+    res = graph.run()
+    assert isinstance(res["bad"], TaskError) and "boom in a task" in res["bad"].message
+    assert isinstance(res["after"], TaskError) and "boom in a task" in res["after"].message
+    assert res["fine"] == "xy"
+
+
+def _run_child(seconds: float, started: threading.Event, box: dict) -> int:
+    proc = subprocess.Popen([sys.executable, "-c", f"import time; time.sleep({seconds})"])
+    box["proc"] = proc
+    started.set()
+    try:
+        return proc.wait(timeout=seconds + 30)
+    except BaseException:                      # cancelled: its child goes with it (as the farm's tasks do)
+        proc.kill()
+        proc.wait()
+        raise
+
+
+def test_cancel_stops_a_queued_task_and_interrupts_a_running_one():
+    ray = LocalRay(1)
+    started, box = threading.Event(), {}
+    running = ray.remote(_run_child).remote(60, started, box)
+    queued = ray.remote(_concat).remote("never", "run")          # waits for the only CPU
+    assert started.wait(30)
+    ray.cancel(queued)
+    with pytest.raises(TaskCancelledError):
+        ray.get(queued, timeout=5)
+    t0 = time.monotonic()
+    ray.cancel(running)
+    with pytest.raises(TaskCancelledError):
+        ray.get(running, timeout=30)
+    assert time.monotonic() - t0 < 20 and box["proc"].poll() is not None
+    ready, left = ray.wait([ray.remote(_concat).remote("a", "b")], num_returns=1, timeout=30)
+    assert len(ready) == 1 and not left and ray.get(ready[0]) == "ab"   # the CPU is free again
+
+
+def test_the_farms_progress_inbox_runs_its_calls_one_at_a_time():
+    from blender_sesgen.farm.driver import _make_inbox
+    ray = LocalRay(2)
+    box = _make_inbox(ray)                       # the farm driver's actor, as the farm makes it
+    threads = [threading.Thread(target=lambda i=i: [box.put.remote((i, k)) for k in range(200)]) for i in range(4)]
+    got = []
+    for t in threads:
+        t.start()
+    while any(t.is_alive() for t in threads):
+        got += ray.get(box.take.remote())
+    got += ray.get(box.take.remote())
+    assert sorted(got) == [(i, k) for i in range(4) for k in range(200)]
