@@ -85,16 +85,22 @@ if _TIMES_PATH:
 
 
 # The test files that take longest, longest first (CPU seconds of a whole run on the 2-core machine,
-# 6a23fd5, with the files made cheaper since measured alone: bench/RESULTS.md "Test suite"; re-measure
-# with SESGEN_TEST_TIMES and `tools/test_times.py --order N`). `make test` hands whole files to whichever worker is free,
-# in collection order (pytest-xdist --dist loadfile --no-loadscope-reorder): these start first,
-# so that the short files fill in at the end instead of one long file running alone on one worker.
+# 801d8f6 with reno5's changes measured alone, test_sensor_render and test_study_render at suite5's
+# ~55 CPU s target: bench/RESULTS.md "Test suite"; re-measure with SESGEN_TEST_TIMES and
+# `tools/test_times.py --order N`), except that the farm's file goes first: it waits most (the Ray
+# cluster's start, its tasks' kills and cancels), and the other worker's renders can use the idle core.
+# `make test` hands whole files to whichever worker is free, in collection order (pytest-xdist
+# --dist loadfile --no-loadscope-reorder): these start first, so that the short files fill in at the
+# end instead of one long file running alone on one worker.
 SLOWEST_FIRST = [
-    "test_sensor_render.py", "test_study_render.py", "test_render_reliability.py", "test_render_cli.py",
-    "test_addon_blender.py", "test_render_photoreal.py", "test_stereo_dynamic.py", "test_farm_ray.py",
-    "test_culling_render.py", "test_culling.py", "test_ses_property.py", "test_sensor_exports.py",
-    "test_scene_variations.py", "test_quality_presets.py", "test_evaluate_evo.py", "test_mono_pipeline.py",
-    "test_render_integrity.py", "test_render_oracle.py", "test_check_bounds.py", "test_mono_render.py",
+    "test_farm_ray.py",
+    "test_addon_blender.py", "test_render_reliability.py", "test_render_cli.py", "test_render_photoreal.py",
+    "test_sensor_render.py", "test_study_render.py", "test_stereo_dynamic.py", "test_culling_render.py",
+    "test_culling.py", "test_scene_variations.py", "test_quality_presets.py", "test_mono_pipeline.py",
+    "test_sensor_exports.py",
+    "test_evaluate_evo.py", "test_render_integrity.py", "test_scene_library.py", "test_ses_property.py",
+    "test_render_byo.py", "test_render_assets.py", "test_render_oracle.py", "test_mono_render.py",
+    "test_render_textures.py", "test_render_lighting.py",
 ]
 
 

@@ -131,13 +131,13 @@ def render_text(folder, text: str, *args, timeout=300) -> Path:
     return rendered(Path(folder) / "s.ses", Path(folder) / "out", *args, timeout=timeout)
 
 
-def render_paper_room(folder, frames: int, scale: float, extra: str = "") -> Path:
+def render_paper_room(folder, frames: int, scale: float, extra: str = "", samples: int = 4) -> Path:
     """The first ``frames`` of scenes/paper_room.ses (``extra`` lines added) at ``scale``, rendered
     into FOLDER/out denoised: under the physically based default lighting (no ambient glow)
     2 noisy samples leave the dim room as noise, and a VO finds its corners on lit things only."""
     script = Path(folder) / "paper_room.ses"
     script.write_text((REPO / "scenes" / "paper_room.ses").read_text() + extra)
-    return rendered(script, Path(folder) / "out", "--frames", f"0:{frames}", "--samples", "4", "--denoise",
+    return rendered(script, Path(folder) / "out", "--frames", f"0:{frames}", "--samples", str(samples), "--denoise",
                     "--resolution-scale", str(scale))
 
 

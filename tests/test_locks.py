@@ -1,4 +1,5 @@
-"""Whether a lock's holder is gone, on this host (pure: no render)."""
+"""Whether a lock's holder is gone, on this host, and what a render killed during its first
+writes leaves (pure: no render)."""
 import socket
 import subprocess
 import sys
@@ -29,3 +30,27 @@ def test_a_holder_that_ended_but_was_not_reaped_is_gone(tmp_path):
         live.wait()
         ended.wait()
     assert _stale(host, ended.pid, lock), "a reaped process holds no lock"
+
+
+def test_a_folder_left_by_a_render_killed_during_its_first_writes_is_still_its_own(tmp_path):
+    """Killed between taking its lock and renaming its first manifest into place, a render leaves
+    only its state folder and the manifest's temporary: ``--resume`` must take the folder up (the
+    kill -9 trials of test_render_reliability.py hit it); a user's file there is still refused."""
+    from blender_sesgen.errors import SesgenError
+    from blender_sesgen.render.folder import OutputFolder
+    from blender_sesgen.render.plan import RenderOptions, RenderPlan
+    script = tmp_path / "s.ses"
+    script.write_text("CAMERA resolution 64 48 focal 50\nQUAD id 1 vertices -1 -1 -2  1 -1 -2  1 1 -2  -1 1 -2\n")
+    plan = RenderPlan.from_file(script, RenderOptions())
+    out = tmp_path / "out"
+    (out / ".sesgen").mkdir(parents=True)
+    (out / ".sesgen" / "lock-host-999999.json").write_text("{}")
+    (out / ".manifest.tmp-999999.json").write_text('{"format": "sesgen-')
+    OutputFolder(out).check(plan, force=False)
+    (out / ".scene.tmp-999999.ses").write_text("CAMERA")
+    OutputFolder(out).check(plan, force=False)
+    for name in ("notes.txt", ".notes.tmp-999999.txt"):
+        (out / name).write_text("mine")
+        with pytest.raises(SesgenError, match="holds no render"):
+            OutputFolder(out).check(plan, force=False)
+        (out / name).unlink()

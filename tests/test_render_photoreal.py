@@ -33,7 +33,7 @@ def test_library_materials_under_an_hdri_keep_depth_and_ids_exact(tmp_path):
     script = tmp_path / "oracle.ses"
     script.write_text(oracle_script(materials=LIBRARY_ORACLE, extra_lines=["WORLD hdri city rotation 40"]))
     out = tmp_path / "out"
-    rendered(script, out, "--samples", "1")
+    rendered(script, out, "--samples", "1", "--no-denoise")    # depth and ids: the denoiser does not touch them
     m = load_manifest(out)
     W, H = m["resolution"]
     spheres = {p.id for p in ORACLE_PRIMS if isinstance(p, raycast.SphereP)}
@@ -174,7 +174,7 @@ def test_cityscapes_export_of_classes(tmp_path):
                 "CUBOID id 5 class car position -0.8 0.5 0 dim 1.5 1 1\n"
                 "CUBOID id 9 class car position 1.2 0.5 -1 dim 1 1 1\n"
                 "CYLINDER id 12 class traffic_light position 0 1 -2 dim 0.1 2\n"
-                "SPHERE id 20 position 0.2 1.8 -0.5 dim 0.2\n", "--samples", "1")
+                "SPHERE id 20 position 0.2 1.8 -0.5 dim 0.2\n", "--samples", "1", "--no-denoise")   # ids and labels
     out = export(tmp_path / "out", "cityscapes", tmp_path / "cs", progress=False)
     seq = RenderSequence(tmp_path / "out")
     expected_label = {0: 23, 1: 7, 5: 26, 9: 26, 12: 19, 20: 4}    # sky, road, car, car, traffic light, static
@@ -207,7 +207,7 @@ def test_bevelled_cuboid_is_real_geometry(tmp_path):
                       "CUBOID id 2 material plastic position -0.4 0.5 0 20 35 10 dim 1 0.8 0.6 bevel 0.15\n"
                       "CUBOID id 3 material brick position 0.9 0.45 -0.8 0 -25 0 dim 0.6 0.9 0.7 bevel 0.3\n"
                       "EGO 0 0 0.2 0 2 0\n")
-    rendered(script, tmp_path / "out", "--samples", "1")
+    rendered(script, tmp_path / "out", "--samples", "1", "--no-denoise")   # depth and ids only
     m = load_manifest(tmp_path / "out")
     W, H = m["resolution"]
     prims = [raycast.QuadP(1, np.array([[-3, 0, -3], [3, 0, -3], [3, 0, 4], [-3, 0, 4]], dtype=float)),

@@ -54,7 +54,7 @@ def frames_logged(out: Path) -> int:
     return sum(len(p.read_text().splitlines()) for p in (out / ".sesgen").glob("done-*.jsonl"))
 
 
-def wait_for(cond, timeout=120.0):
+def wait_for(cond, timeout=600.0):   # wall clock: only a hung render reaches it
     t0 = time.time()
     while not cond():
         if time.time() - t0 > timeout:
@@ -85,18 +85,39 @@ def test_the_same_seed_gives_byte_identical_files(reference, tmp_path):
     assert m1 == m2 and len(frame_sums) == per_frame * m1["frames"]
 
 
+def stopped_holding_its_lock(p: subprocess.Popen, out: Path) -> None:
+    """``p`` (a render into ``out``) stopped (SIGSTOP) once it holds its lock and not while it
+    holds the folder's mutex (the others would wait on it): busy for as long as a test needs,
+    however fast the machine renders; SIGCONT lets it go on."""
+    import fcntl
+    wait_for(lambda: any((out / ".sesgen").glob("lock-*.json")) if (out / ".sesgen").is_dir() else False)
+    while True:
+        p.send_signal(signal.SIGSTOP)
+        with open(out / ".sesgen" / "mutex", "a+") as f:
+            try:
+                fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+                fcntl.flock(f.fileno(), fcntl.LOCK_UN)
+                return
+            except BlockingIOError:
+                p.send_signal(signal.SIGCONT)
+        time.sleep(0.01)
+
+
 def test_a_second_render_into_a_busy_folder_is_refused(reference, tmp_path):
     text, _ = reference
     s = script(tmp_path, text)
     out = tmp_path / "busy"
-    first = start_render(s, out, "--samples", "16", "--denoise")      # denoised: busy while the others try
+    first = start_render(s, out, "--samples", "2")
     try:
-        wait_for(lambda: any((out / ".sesgen").glob("lock-*.json")) if (out / ".sesgen").is_dir() else False)
-        second = run_render(s, "--out", out, "--samples", "16", "--denoise", "--seed", "8", "--quiet")
-        assert second.returncode == 2, second.stderr
-        assert f"being rendered by pid {first.pid}" in second.stderr and "Traceback" not in second.stderr
-        resume = run_render(s, "--out", out, "--samples", "16", "--denoise", "--resume", "--quiet")   # same plan, same frames
-        assert resume.returncode == 2 and "being rendered" in resume.stderr
+        stopped_holding_its_lock(first, out)        # busy while the others try
+        try:
+            second = run_render(s, "--out", out, "--samples", "2", "--seed", "8", "--quiet")
+            assert second.returncode == 2, second.stderr
+            assert f"being rendered by pid {first.pid}" in second.stderr and "Traceback" not in second.stderr
+            resume = run_render(s, "--out", out, "--samples", "2", "--resume", "--quiet")   # same plan, same frames
+            assert resume.returncode == 2 and "being rendered" in resume.stderr
+        finally:
+            first.send_signal(signal.SIGCONT)
     finally:
         assert first.wait(600) == 0, first.stderr.read()
     m = json.loads((out / "manifest.json").read_text())
@@ -137,7 +158,15 @@ def test_kill_9_at_random_points_then_resume_gives_the_uninterrupted_files(refer
     for trial in range(4):
         out = tmp_path / f"kill{trial}"
         p = start_render(s, out, "--samples", "2")
-        time.sleep(rng.uniform(0.3, 4.0) if trial else 0.05)   # trial 0: during the very first writes
+        # a random point of the render's progress, not of the wall clock (a fast machine would
+        # finish before a late kill, a slow one not reach the writes): trial 0 as it starts
+        # writing (its lock taken), the others after a random number of frames, a random
+        # fraction of a frame later
+        logged = rng.randrange(0, 11) if trial else None
+        wait_for(lambda: p.poll() is not None or (
+            (out / ".sesgen").is_dir() and (any((out / ".sesgen").glob("lock-*.json")) if logged is None
+                                            else frames_logged(out) >= logged)), timeout=600)
+        time.sleep(rng.uniform(0.0, 0.3) if trial else 0.0)
         p.send_signal(signal.SIGKILL)
         p.wait()
         rendered(s, out, "--samples", "2", "--resume")

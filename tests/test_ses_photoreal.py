@@ -84,10 +84,22 @@ def test_object_variation_is_a_pure_function_of_seed_and_id():
     ("MATERIAL name m wear 0.5", "wear", r"'wear' needs 'library L'"),
     ("MATERIAL name m library brick seed -3", "-3", r"'seed' must lie in 0\.\."),
     ("MATERIAL name m map_size 2", "map_size", r"'map_size' needs an image map"),
+    # worlds: the files (tests/image_files; _radiance_hdr) are written beside the script
+    ("WORLD hdri citty", "citty", r"neither a built-in HDRI .* did you mean 'city'\?"),
+    ("WORLD hdri cut.hdr", "cut.hdr", r"not a usable image: Radiance HDR truncated"),
+    ("WORLD hdri photo.png", "photo.png", r"is not an image \(\.exr, \.hdr\)"),
+    ("WORLD hdri fake.exr", "fake.exr", r"not a usable image: not an image"),
+    ("WORLD hdri city elevation 30", "elevation", r"'elevation' is only for 'WORLD sky'"),
+    ("WORLD sky rotation 30", "rotation", r"'rotation' is only for 'WORLD hdri'"),
+    ("WORLD hdri city aerosol 2", "aerosol", r"'aerosol' is only for 'WORLD sky'"),
+    ("WORLD sky aerosol 11", "11", r"'aerosol' must lie in 0\.\.10"),
 ])
-def test_material_errors(line, marker, pattern):
+def test_material_and_world_errors(tmp_path, line, marker, pattern):
+    (tmp_path / "cut.hdr").write_bytes(_radiance_hdr()[:-10])
+    (tmp_path / "photo.png").write_bytes(png_bytes())
+    (tmp_path / "fake.exr").write_text("not an exr")
     text = OBJ + line + "\n"
-    err = error_of(text)
+    err = error_of(text, tmp_path)
     assert re.search(pattern, err.message), err.message
     assert at(err, 2, text, marker), str(err)
 
@@ -183,26 +195,11 @@ def _radiance_hdr(width=8, height=2) -> bytes:
     return head + bytes([128, 64, 32, 129]) * (width * height)
 
 
-def test_hdri_files_and_errors(tmp_path):
+def test_hdri_files(tmp_path):
     (tmp_path / "sky.hdr").write_bytes(_radiance_hdr())
     w = parse_string(OBJ + "WORLD hdri sky.hdr\n", base_dir=str(tmp_path)).world
     assert w.hdri is None and w.hdri_path == str(tmp_path / "sky.hdr") and w.hdri_source == "sky.hdr"
-    (tmp_path / "cut.hdr").write_bytes(_radiance_hdr()[:-10])
-    (tmp_path / "photo.png").write_bytes(png_bytes())
-    (tmp_path / "fake.exr").write_text("not an exr")
-    cases = [("WORLD hdri citty", "citty", r"neither a built-in HDRI .* did you mean 'city'\?"),
-             ("WORLD hdri cut.hdr", "cut.hdr", r"not a usable image: Radiance HDR truncated"),
-             ("WORLD hdri photo.png", "photo.png", r"is not an image \(\.exr, \.hdr\)"),
-             ("WORLD hdri fake.exr", "fake.exr", r"not a usable image: not an image"),
-             ("WORLD hdri city elevation 30", "elevation", r"'elevation' is only for 'WORLD sky'"),
-             ("WORLD sky rotation 30", "rotation", r"'rotation' is only for 'WORLD hdri'"),
-             ("WORLD hdri city aerosol 2", "aerosol", r"'aerosol' is only for 'WORLD sky'"),
-             ("WORLD sky aerosol 11", "11", r"'aerosol' must lie in 0\.\.10")]
-    for line, marker, pattern in cases:
-        text = OBJ + line + "\n"
-        err = error_of(text, tmp_path)
-        assert re.search(pattern, err.message), err.message
-        assert at(err, 2, text, marker), str(err)
+    # the errors a WORLD hdri can raise: test_material_and_world_errors
 
 
 def test_spot_area_and_portal_lights():

@@ -83,6 +83,14 @@ _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 _PNG_TEXT_CHUNKS = {b"tEXt", b"iTXt", b"zTXt", b"tIME"}
 
 
+def _first_write(name: str) -> bool:
+    """The temporary of the manifest or the script's copy (``.manifest.tmp-PID.json``): what a
+    render killed during its first writes leaves beside its state folder (``begin`` removes it);
+    the folder is ours all the same, and ``--resume`` completes it."""
+    stem = name.split(".tmp-", 1)[0]
+    return atomic.is_temp_name(name) and stem in {"." + Path(f).stem for f in (MANIFEST, SCENE_COPY)}
+
+
 def strip_png_text(buf: bytes) -> bytes:
     """The PNG without its text and time chunks: Blender writes its render metadata there
     (date, render time, memory: wall-clock values), so two renders of one frame would
@@ -227,7 +235,7 @@ class OutputFolder:
                     from None
             return
         if previous is None:
-            if any(p.name != STATE_DIR for p in out.iterdir()) and not force:
+            if any(p.name != STATE_DIR and not _first_write(p.name) for p in out.iterdir()) and not force:
                 raise SesgenError(f"--out {out}: folder is not empty and holds no render (no manifest.json); "
                                   "use --force to write into it anyway")
             return

@@ -37,7 +37,7 @@ import numpy as np
 from . import road_network as rn
 from .sesgen_layout import (ASPHALT, HAZE, KITTI_CAMERA_HEIGHT, Frontage, Ids, Lighting, asset, command_line,
                            derived_material, draw_lighting, draw_street_surfaces, kerb_cars, kitti_rig, line_street_side, num, nums,
-                           script_with_poses, smooth_noise, street_lights, variation_rng, VariantPool)
+                           script_with_poses, SeededVariation, smooth_noise, street_lights, VariantPool)
 
 RATE_HZ = 10.0                   # KITTI odometry's frame rate
 HALF_ROAD, LANE = 5.0, 1.75      # asphalt half width; the lane's centre right of the axis (m)
@@ -60,7 +60,7 @@ STYLES = {   # how each kind of block lines its sides (sesgen_layout.Frontage)
 
 
 @dataclass(frozen=True)
-class Variation:
+class Variation(SeededVariation, salt=0xC1D):
     """What a seed changes besides the layout and route; the defaults are city_loop.ses's (seed 0)."""
     lighting: Lighting = Lighting(sun=(40.0, 140.0))
     road: Optional[tuple] = None         # (colour, wear) of the asphalt; None: the library's
@@ -69,10 +69,7 @@ class Variation:
     p_stop: float = 0.25                 # the share of junctions where it stops
 
     @classmethod
-    def of(cls, seed: int) -> "Variation":
-        if seed == 0:
-            return cls()
-        rng = variation_rng(seed, 0xC1D)
+    def draw(cls, rng: np.random.Generator) -> "Variation":
         tone = float(rng.uniform(0.8, 1.35))
         return cls(lighting=draw_lighting(rng, elevation=(15.0, 65.0), p_hdri=1 / 3),
                    **draw_street_surfaces(rng, tone),

@@ -36,7 +36,7 @@ from ...scene.assets.street import arc_frame
 from .city_grid import _keyframes as keyframes
 from .sesgen_layout import (KITTI_CAMERA_HEIGHT, Ids, Lighting, asset, command_line, derived_material, draw_lighting,
                            draw_street_surfaces, kerb_cars, kitti_rig, line_street_side, num, nums,
-                           script_with_poses, smooth_noise, street_lights, variation_rng, VariantPool)
+                           script_with_poses, SeededVariation, smooth_noise, street_lights, variation_rng, VariantPool)
 
 KITTI_RIG = kitti_rig(far=600)
 CAMERA_HEIGHT = KITTI_CAMERA_HEIGHT
@@ -59,7 +59,7 @@ POOL_SIZES = {   # the street trees' sizes (m: crown width, height, crown depth)
 
 
 @dataclass(frozen=True)
-class Variation:
+class Variation(SeededVariation, salt=0xC17):
     """What a seed changes besides the layout; the defaults are city_kitti.ses's (seed 0)."""
     lighting: Lighting = Lighting(sun=(42.0, 35.0))
     step_m: float = 1.2                  # metres per frame (KITTI: ~1.2)
@@ -71,10 +71,7 @@ class Variation:
     paving: Optional[tuple] = None       # (colour, wear) of the sidewalks' concrete
 
     @classmethod
-    def of(cls, seed: int) -> "Variation":
-        if seed == 0:
-            return cls()
-        rng = variation_rng(seed, 0xC17)
+    def draw(cls, rng: np.random.Generator) -> "Variation":
         tone = float(rng.uniform(0.8, 1.35))
         return cls(lighting=draw_lighting(rng, p_hdri=1 / 3, p_fog=0.25, fog_start=(25.0, 80.0),
                                           fog_depth=(150.0, 450.0)),

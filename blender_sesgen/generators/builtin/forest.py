@@ -25,7 +25,7 @@ from typing import Optional
 import numpy as np
 
 from .sesgen_layout import (script_with_poses, Ids, Lighting, asset, command_line, derived_material, draw_lighting, num,
-                           sky_and_sun, smooth_noise, variation_rng, VariantPool)
+                           SeededVariation, sky_and_sun, smooth_noise, VariantPool)
 from ...scene.assets.nature import terrain_height, trail_x
 
 RATE_HZ = 10.0
@@ -33,7 +33,7 @@ TRAIL = {"soil": (0.16, 0.12, 0.08), "gravel": (0.3, 0.28, 0.25)}
 
 
 @dataclass(frozen=True)
-class Variation:
+class Variation(SeededVariation, salt=0xF0E):
     """What a seed changes besides the layout; the defaults are forest.ses's (seed 0)."""
     lighting: Optional[Lighting] = None  # None: the sun the layout stream draws (forest.ses's)
     speed: float = 1.4                   # walking speed (m/s)
@@ -44,10 +44,7 @@ class Variation:
     trail: Optional[tuple] = None        # (library, colour, wear) of the trail; None: the terrain's
 
     @classmethod
-    def of(cls, seed: int) -> "Variation":
-        if seed == 0:
-            return cls()
-        rng = variation_rng(seed, 0xF0E)
+    def draw(cls, rng: np.random.Generator) -> "Variation":
         lib = str(rng.choice(list(TRAIL)))
         tone = float(rng.uniform(0.8, 1.25))
         return cls(lighting=draw_lighting(rng, elevation=(20.0, 65.0), hdris=("forest", "courtyard", "sunrise", "sunset"),

@@ -32,7 +32,7 @@ from typing import Optional
 import numpy as np
 
 from .sesgen_layout import (REPO, Ids, Lighting, asset, command_line, draw_lighting, num, nums, script_with_poses,
-                           smooth_noise, variation_rng)
+                           SeededVariation, smooth_noise, variation_rng)
 
 # EuRoC MAV cam0/cam1 (../shared/data/euroc/mav0/*/sensor.yaml): used when the data folder is absent
 EUROC_DEFAULT = {"resolution": (752, 480), "fu": 458.654, "cu": 367.215, "cv": 248.375, "baseline": 0.110078}
@@ -44,7 +44,7 @@ DOOR_PAINTS = ((0.35, 0.3, 0.05), (0.05, 0.12, 0.3), (0.3, 0.31, 0.32), (0.35, 0
 
 
 @dataclass(frozen=True)
-class Variation:
+class Variation(SeededVariation, salt=0x4A1):
     """What a seed changes besides the layout; the defaults are hall.ses's (seed 0)."""
     lighting: Lighting = Lighting(sun=(35.0, 120.0))
     lamps: tuple = (250.0, None)         # hanging lamps: (strength W, colour or None = white)
@@ -58,10 +58,7 @@ class Variation:
     look: float = 35.0                   # yawing to look around (deg)
 
     @classmethod
-    def of(cls, seed: int) -> "Variation":
-        if seed == 0:
-            return cls()
-        rng = variation_rng(seed, 0x4A1)
+    def draw(cls, rng: np.random.Generator) -> "Variation":
         tone = float(rng.uniform(0.75, 1.3))
         return cls(lighting=draw_lighting(rng, elevation=(10.0, 65.0), p_hdri=1 / 3),
                    lamps=(round(float(rng.uniform(120.0, 350.0)), 1), LAMP_COLOURS[int(rng.integers(3))]),

@@ -26,7 +26,7 @@ from typing import Optional
 import numpy as np
 
 from .sesgen_layout import (Ids, Lighting, asset, command_line, derived_material, draw_lighting, num, nums,
-                           script_with_poses, sky_and_sun, smooth_noise, variation_rng)
+                           script_with_poses, sky_and_sun, SeededVariation, smooth_noise, variation_rng)
 
 RATE_HZ = 30.0
 WALKS = ("aisle", "loop")        # up the aisle (office.ses), or around the desks and back to the start
@@ -38,7 +38,7 @@ LOOKS = ((0.0, 0.8, 0.2), (0.3, 0.8, -1.2), (1.0, 1.5, -4.5), (-2.5, 0.9, -2.0),
 
 
 @dataclass(frozen=True)
-class Variation:
+class Variation(SeededVariation, salt=0x0FF):
     """What a seed changes besides the layout; the defaults are office.ses's (seed 0)."""
     lighting: Optional[Lighting] = None  # None: the sun the layout stream draws (office.ses's)
     lamps: tuple = (60.0, None)          # ceiling area lights: (strength W, colour or None = white)
@@ -50,10 +50,7 @@ class Variation:
     shake: float = 1.0                   # hand shake, relative to office.ses's
 
     @classmethod
-    def of(cls, seed: int) -> "Variation":
-        if seed == 0:
-            return cls()
-        rng = variation_rng(seed, 0x0FF)
+    def draw(cls, rng: np.random.Generator) -> "Variation":
         lighting = draw_lighting(rng, elevation=(10.0, 60.0), p_hdri=1 / 3)
         lamps = (round(float(rng.uniform(25.0, 90.0)), 1), LAMP_COLOURS[int(rng.integers(len(LAMP_COLOURS)))])
         floor = (int(rng.integers(4)), round(float(rng.uniform(0.0, 0.5)), 2))

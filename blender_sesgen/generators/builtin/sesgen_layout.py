@@ -110,6 +110,26 @@ def variation_rng(seed: int, salt: int) -> np.random.Generator:
     return np.random.default_rng([int(seed), int(salt)])
 
 
+class SeededVariation:
+    """Base of a generator's ``Variation`` (a frozen dataclass of what a seed changes besides the
+    layout), declared ``class Variation(SeededVariation, salt=0xC1D)``: ``Variation.of(0)`` is
+    the defaults (the checked-in script), any other seed is what the class's ``draw(rng)`` draws
+    from the seed's own stream ``variation_rng(seed, salt)``."""
+    salt: int
+
+    def __init_subclass__(cls, salt: int, **kwargs):
+        super().__init_subclass__(**kwargs)
+        cls.salt = salt
+
+    @classmethod
+    def of(cls, seed: int):
+        return cls() if seed == 0 else cls.draw(variation_rng(seed, cls.salt))
+
+    @classmethod
+    def draw(cls, rng: np.random.Generator):
+        raise NotImplementedError
+
+
 def draw_street_surfaces(rng: np.random.Generator, tone: float) -> dict:
     """A city variation's road (asphalt at ``tone``, wear) and sidewalk paving (tone, wear),
     as ``Variation`` fields: the asphalt's wear, then the paving's tone and wear, drawn in
