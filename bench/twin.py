@@ -164,19 +164,63 @@ def vo_errors(seq: Frames, method: str, n: int) -> dict:
 
 # --- causes -------------------------------------------------------------------------------------
 
-def brightness_spread(frames: Frames, profile: str, n: int) -> float:
-    """Median over mean of the linear signal (the 8-bit grey frames through the inverse of the
-    profile's black level and response), the median over the frames."""
+def _linear(img, profile: str) -> np.ndarray:
+    """An 8-bit grey frame through the inverse of the profile's black level and response."""
     from blender_sesgen.scene.camera_profiles import PROFILES
     sensor = PROFILES[profile].sensor
     black, gamma = float(sensor.get("black", 0.0)), float(sensor.get("gamma", 1.0))
     if sensor.get("response") == "linear":
         gamma = 1.0
+    return np.clip((img.astype(float) - black) / (255.0 - black), 0, 1) ** gamma
+
+
+def brightness_spread(frames: Frames, profile: str, n: int) -> float:
+    """Median over mean of the linear signal (``_linear``), the median over the frames."""
     out = []
     for k in range(n):
-        lin = np.clip((frames.image_gray(k).astype(float) - black) / (255.0 - black), 0, 1) ** gamma
+        lin = _linear(frames.image_gray(k), profile)
         out.append(np.median(lin) / max(lin.mean(), 1e-9))
     return float(np.median(out))
+
+
+# KITTI sequence_1's frames marked by hand (x0, y0, x1, y1 at 1226 x 370): sunlit regions of each
+# kind (docs/sensors.md, Near infrared); the render's kinds come from its object ids
+KITTI_REGIONS = {
+    0: {"road": (480, 300, 780, 365), "lawn": (20, 290, 330, 360), "tree": (390, 60, 470, 130),
+        "hedge": (860, 185, 960, 225), "facade": (800, 100, 900, 160), "sky": (560, 0, 640, 50)},
+    20: {"road": (500, 280, 700, 365), "lawn": (20, 260, 300, 360), "tree": (1060, 20, 1200, 120),
+         "facade": (668, 30, 698, 170), "sky": (560, 30, 640, 100)},
+    40: {"road": (470, 335, 750, 368), "lawn": (0, 240, 260, 300), "tree": (200, 20, 400, 80),
+         "facade": (710, 100, 790, 200), "sky": (600, 20, 690, 100)}}
+RENDER_KINDS = {"road": ("road",), "lawn": ("terrain",), "tree": ("vegetation",), "facade": ("building",), "sky": ()}
+
+
+def kinds_brightness(out: Path, frames: Frames, real_frames: Frames, n: int) -> tuple[str, str]:
+    """Median linear signal of each kind over the frame's mean (KITTI: the hand-marked sunlit
+    regions; the render: all pixels of the kind's classes, by object id, sun and shade), the
+    median over frames, and the share of pixels darker than 0.3 x the frame mean."""
+    real = {}
+    for k, regions in KITTI_REGIONS.items():
+        L = _linear(cv2.imread(str(DATA / "kitti" / "sequence_1" / "image_l" / f"{k:06d}.png"), 0), "kitti")
+        med = {name: np.median(L[y0:y1, x0:x1]) for name, (x0, y0, x1, y1) in regions.items()}
+        for name, v in med.items():
+            real.setdefault(name, []).append(v / L.mean())
+    seq, man = open_sequence(out), json.loads((out / "manifest.json").read_text())
+    cls = {o["id"]: o["class"] for o in man["objects"]}
+    ours, dark = {}, []
+    for k in range(n):
+        L = _linear(frames.image_gray(k), "kitti")
+        ids = np.asarray(seq.ids(k, "left")).astype(int)
+        names = np.vectorize(lambda i: cls.get(i, "sky"))(ids)
+        dark.append(np.mean(L < 0.3 * L.mean()))
+        med = {kind: np.median(L[np.isin(names, c or ("sky",))]) if np.isin(names, c or ("sky",)).any() else np.nan
+               for kind, c in RENDER_KINDS.items()}
+        for name, v in med.items():
+            ours.setdefault(name, []).append(v / L.mean())
+    real_dark = [np.mean(L < 0.3 * L.mean()) for L in (_linear(real_frames.image_gray(k), "kitti") for k in range(n))]
+    fmt = lambda d: ", ".join(f"{k} {np.nanmedian(v):.2f}" for k, v in d.items())  # noqa: E731
+    return (fmt(real) + f"; pixels < 0.3 x mean {100 * np.median(real_dark):.0f} %",
+            fmt(ours) + f"; pixels < 0.3 x mean {100 * np.median(dark):.0f} %")
 
 
 def corners_on_depth_edges(out: Path, frames: Frames, n: int) -> dict:
@@ -354,6 +398,10 @@ def main(argv=None) -> int:
     print("\n".join(table(name, real, ours, n, with_vo=profile == "kitti")))
     print(f"\nbrightness spread (median / mean of the linear signal): {name} {brightness_spread(real, profile, n):.2f}, "
           f"render {brightness_spread(ours, profile, n):.2f}")
+    if profile == "kitti":
+        kr, ko = kinds_brightness(out, ours, real, n)
+        print(f"brightness over the frame mean (median): real KITTI sequence_1 (hand-marked sunlit regions, frames "
+              f"0, 20, 40) {kr}; render (by object id, sun and shade) {ko}")
     c = corners_on_depth_edges(out, ours, n)
     print(f"render: {100 * c['edge_share']:.0f} % of the OpenCV VO's corners on depth edges; SGBM disparity error "
           f"there {c['edge_err_pct']:+.2f} %, on surfaces {c['surface_err_pct']:+.2f} % (median, of the true disparity)")

@@ -116,3 +116,58 @@ def test_a_mono_sensor_has_one_channel_and_the_noise_of_a_grey_pixel():
     assert grey_of_colour.std() / outs[0].raw_dn.std() == pytest.approx(np.linalg.norm(LUMA), rel=0.08)
     with pytest.raises(ScriptError, match="'mono on' is a sensor without colour filters"):
         scene("SENSOR profile kitti cfa rggb\n")
+
+
+def test_nir_share_is_a_sensor_tag_and_kittis_grey_camera_has_no_ir_cut_filter():
+    assert scene("SENSOR profile kitti\n").sensor.nir_share == PROFILES["kitti"].sensor["nir"] > 0
+    assert scene("SENSOR profile kitti nir 0\n").sensor.nir_share == 0.0
+    assert scene("SENSOR profile euroc\n").sensor.nir_share == 0.0 == scene("SENSOR\n").sensor.nir_share
+    with pytest.raises(ScriptError, match="SENSOR 'nir' is the share of the signal the sensor takes from 700-1000 nm"):
+        scene("SENSOR nir 1.5\n")
+
+
+def test_band_colour_mixes_the_entrys_nir_reflectance_in():
+    """The sensor's band: (1 - s) visible + s NIR per channel (hand-computed for leaves, whose
+    NIR reflectance is ~6x its visible luminance); a darker variant is darker in the NIR too;
+    s = 0 and entries without a NIR value are untouched."""
+    from blender_sesgen.scene.materials import LIBRARY, band_colour
+    leaves = LIBRARY["leaves"]
+    out = band_colour(leaves.colour, "leaves", 0.2)
+    assert out == pytest.approx(tuple(0.8 * c + 0.2 * leaves.nir for c in leaves.colour))
+    dark = band_colour(tuple(0.5 * c for c in leaves.colour), "leaves", 0.2)
+    assert dark == pytest.approx(tuple(0.8 * 0.5 * c + 0.2 * 0.5 * leaves.nir for c in leaves.colour))
+    assert band_colour(leaves.colour, "leaves", 0.0) == leaves.colour
+    assert band_colour((0.1, 0.2, 0.3), "car_paint", 0.5) == (0.1, 0.2, 0.3)
+    assert band_colour((0.1, 0.2, 0.3), "not_in_the_library", 0.5) == (0.1, 0.2, 0.3)
+
+
+@pytest.mark.render
+def test_a_sensor_without_ir_cut_filter_sees_foliage_brighter_and_plain_materials_unchanged(tmp_path):
+    """Rendered: a patch of library leaves, one of the same material in black (what stays is the
+    Principled BSDF's specular layer, which no albedo changes) and a plain grey (non-library)
+    patch under the same sky, through SENSOR mono on (visible) and with nir 0.5. The leaves'
+    diffuse part relative to grey, (leaves - black) / grey in the EXR beauty, must grow by the
+    hand-computed band factor 0.5 + 0.5 NIR / luminance, within 6 %."""
+    from render_support import load_manifest, read_exr, render_text
+    from blender_sesgen.scene.materials import LIBRARY
+    body = ("CAMERA resolution 64 32 focal 40 baseline 0\nSTART position 0 3 0 -90 0 0\n"
+            "WORLD sky strength 1 elevation 50 azimuth 30\nLOOK exposure 0\n"
+            "MATERIAL name grey colour 0.18 0.18 0.18 roughness 0.9\n"
+            "CUBOID id 1 material grey position 0 -0.05 0 dim 20 0.1 20\n"
+            "MATERIAL name black_leaves library leaves colour 0 0 0\n"
+            "CUBOID id 2 material leaves position -1.6 0.01 0 dim 1.2 0.02 1.2\n"
+            "CUBOID id 3 material grey position 1.6 0.01 0 dim 1.2 0.02 1.2\n"
+            "CUBOID id 4 material black_leaves position 0 0.01 0 dim 1.2 0.02 1.2\n")
+    ratio = []
+    for tag in ("", " nir 0.5"):
+        folder = tmp_path / f"r{len(ratio)}"
+        folder.mkdir()
+        out = render_text(folder, body + f"SENSOR mono on{tag}\n", "--samples", "16")
+        m = load_manifest(out)
+        exr = read_exr(out / m["files"]["left"][0])
+        Y = np.stack([exr[c] for c in m["channels"]["rgb"][:3]], -1) @ np.array([0.2126, 0.7152, 0.0722])
+        ids = exr[m["channels"]["object_index"]].astype(int)
+        ratio.append((Y[ids == 2].mean() - Y[ids == 4].mean()) / Y[ids == 3].mean())
+    c, nir = LIBRARY["leaves"].colour, LIBRARY["leaves"].nir
+    lum = 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+    assert ratio[1] / ratio[0] == pytest.approx(0.5 + 0.5 * nir / lum, rel=0.06)

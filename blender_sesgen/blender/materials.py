@@ -15,6 +15,7 @@ import bpy
 import numpy as np
 
 from ..errors import SesgenError
+from ..scene.materials import band_colour
 from ..scene.model import Material, Scene, SceneObject, Sphere, TextureRef
 from . import compat, library, lighting, textures
 from .datablocks import tag
@@ -27,6 +28,8 @@ class MaterialFactory:
         self.scene = scene
         self.cache: dict = {}
         self._library: dict = {}   # library material (colour aside) -> the first one built
+        # a sensor without an IR-cut filter sees library materials in its own band
+        self.nir_share = scene.sensor.nir_share if scene.sensor is not None else 0.0
 
     def get(self, obj: SceneObject):
         mat_model: Optional[Material] = None
@@ -45,6 +48,7 @@ class MaterialFactory:
 
     def _make(self, name: str, colour, tex: Optional[TextureRef], m: Optional[Material], spherical: bool = False):
         if m is not None and m.library is not None:
+            colour = band_colour(colour, m.library.name, self.nir_share)
             # a library material's graph depends on its colour only through one RGB node: the
             # same material in another colour is a copy of the first (a node graph built
             # through bpy costs ~0.05 s per material: every socket write updates the tree)

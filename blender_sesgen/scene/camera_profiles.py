@@ -42,7 +42,7 @@ PROFILES: dict[str, Profile] = {p.name: p for p in (
     Profile("kitti", "KITTI: Point Grey Flea2 FL2-14S3M (Sony ICX267 CCD, greyscale, global shutter), "
             "rectified 8-bit images as distributed", 1226, 370,
             sensor=dict(fullwell=4500.0, readnoise=0.0, black=7.0, bits=8, response="gamma", gamma=1.3,
-                        pixel=4.65, mono="on"),
+                        pixel=4.65, mono="on", nir=0.2),
             lens=dict(defocus=2.25, vignetting=0.35),
             timing=dict(rate=10.0, exposure=0.002, readout=0.0),
             autoexposure=dict(target=0.25), edge_spread_px=0.60),

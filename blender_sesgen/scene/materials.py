@@ -49,6 +49,7 @@ class LibraryEntry:
     variation: float = 0.3         # per-object colour variation (0..1)
     wear: float = 0.2              # default wear/dirt (0..1)
     semantic_class: Optional[str] = None  # default ``class`` of objects using it
+    nir: Optional[float] = None    # reflectance at 700-1000 nm (None: as in the visible); see band_colour
 
 
 def _entries(*entries: LibraryEntry) -> dict[str, LibraryEntry]:
@@ -60,40 +61,40 @@ LIBRARY: dict[str, LibraryEntry] = _entries(
     LibraryEntry("asphalt", "road asphalt: light AC 11 stones in dark binder, ravelling, oil stains, tonal "
                             "patches, sealed cracks",
                  (0.085, 0.085, 0.082), 0.88, scale_m=2.0, bump_m=0.0015, variation=0.25, wear=0.3,
-                 semantic_class="road"),
+                 semantic_class="road", nir=0.12),
     LibraryEntry("lane_marking", "white road paint, worn where tyres pass (colour for yellow lines)",
                  (0.72, 0.72, 0.70), 0.55, scale_m=0.5, bump_m=0.0008, variation=0.1, wear=0.3,
-                 semantic_class="road"),
+                 semantic_class="road", nir=0.75),
     LibraryEntry("concrete", "cast concrete: sand speckle, stains, pores; scuffs and dirt with wear",
                  (0.38, 0.37, 0.35), 0.85, scale_m=1.0, bump_m=0.0015, variation=0.3, wear=0.3,
-                 semantic_class="wall"),
+                 semantic_class="wall", nir=0.4),
     LibraryEntry("paving", "concrete pavers of a sidewalk (20 x 10 cm, running bond) with 4 mm sand joints, "
                            "per-paver tone, sand speckle, chipped edges, dirt in the joints with wear",
                  (0.30, 0.29, 0.27), 0.85, scale_m=0.2, bump_m=0.003, variation=0.25, wear=0.3,
-                 semantic_class="sidewalk"),
+                 semantic_class="sidewalk", nir=0.35),
     LibraryEntry("brick", "brick wall, stretcher bond: 24 x 7.1 cm bricks with 1 cm recessed mortar, "
                           "per-brick colour, chipped faces", (0.26, 0.10, 0.06), 0.85, scale_m=0.24,
-                 bump_m=0.004, variation=0.35, wear=0.2, semantic_class="building"),
+                 bump_m=0.004, variation=0.35, wear=0.2, semantic_class="building", nir=0.45),
     LibraryEntry("plaster", "painted render/plaster wall: orange-peel relief, faint patches, grime streaks",
                  (0.62, 0.58, 0.52), 0.8, scale_m=1.0, bump_m=0.0008, variation=0.25, wear=0.2,
-                 semantic_class="building"),
+                 semantic_class="building", nir=0.65),
     LibraryEntry("roof_tiles", "clay roof tiles in overlapping rows (33 x 20 cm), per-tile colour, moss with wear",
                  (0.28, 0.085, 0.045), 0.75, scale_m=0.33, bump_m=0.012, variation=0.3, wear=0.3,
-                 semantic_class="building"),
+                 semantic_class="building", nir=0.45),
     # --- indoor / built ---------------------------------------------------------------------
     LibraryEntry("wood_planks", "varnished wooden planks (14 cm x 1.2-2 m), grain and per-plank tone",
                  (0.33, 0.19, 0.09), 0.45, scale_m=0.14, bump_m=0.002, variation=0.35, wear=0.15,
-                 semantic_class="floor"),
+                 semantic_class="floor", nir=0.5),
     LibraryEntry("ceramic_tiles", "glazed ceramic tiles (30 cm) with 3 mm grout, per-tile tint",
                  (0.62, 0.62, 0.60), 0.12, scale_m=0.30, bump_m=0.0015, variation=0.15, wear=0.15,
-                 semantic_class="floor"),
+                 semantic_class="floor", nir=0.65),
     LibraryEntry("fabric", "woven upholstery fabric: sheen, soft folds in tone, faint weave",
                  (0.18, 0.20, 0.26), 0.9, scale_m=0.004, bump_m=0.0003, variation=0.3, wear=0.1,
                  semantic_class="furniture"),
     LibraryEntry("plastic", "moulded plastic: glossy with faint texture, smudges with wear",
                  (0.55, 0.55, 0.55), 0.35, scale_m=0.05, bump_m=0.00005, variation=0.2, wear=0.1),
     LibraryEntry("rubber", "black rubber (tyres, seals): matte, dusty with wear",
-                 (0.035, 0.035, 0.035), 0.85, scale_m=0.02, bump_m=0.0002, variation=0.1, wear=0.3),
+                 (0.035, 0.035, 0.035), 0.85, scale_m=0.02, bump_m=0.0002, variation=0.1, wear=0.3, nir=0.04),
     # --- metals and glass -------------------------------------------------------------------
     LibraryEntry("metal_painted", "painted steel: orange-peel paint, chips showing primer and steel with wear",
                  (0.12, 0.22, 0.16), 0.4, scale_m=0.5, bump_m=0.0002, variation=0.2, wear=0.2,
@@ -114,18 +115,18 @@ LIBRARY: dict[str, LibraryEntry] = _entries(
     # --- nature -----------------------------------------------------------------------------
     LibraryEntry("grass", "lawn seen from a few metres: clumps, dry and lush patches, fine blade relief",
                  (0.06, 0.10, 0.03), 0.9, scale_m=0.3, bump_m=0.006, variation=0.3, wear=0.2,
-                 semantic_class="terrain"),
+                 semantic_class="terrain", nir=0.45),
     LibraryEntry("leaves", "foliage mass: leaf clusters catching the light, dark gaps, yellowed leaves with wear",
                  (0.05, 0.09, 0.025), 0.6, scale_m=0.08, bump_m=0.05, variation=0.35, wear=0.15,
-                 semantic_class="vegetation"),
+                 semantic_class="vegetation", nir=0.45),
     LibraryEntry("bark", "tree bark: vertical ridges along the object's y axis, lichen with wear",
                  (0.13, 0.10, 0.08), 0.9, scale_m=0.05, bump_m=0.01, variation=0.3, wear=0.3,
-                 semantic_class="vegetation"),
+                 semantic_class="vegetation", nir=0.3),
     LibraryEntry("soil", "bare earth: clods, small stones, damp patches", (0.14, 0.10, 0.07), 0.95,
-                 scale_m=0.1, bump_m=0.004, variation=0.3, wear=0.3, semantic_class="terrain"),
+                 scale_m=0.1, bump_m=0.004, variation=0.3, wear=0.3, semantic_class="terrain", nir=0.3),
     LibraryEntry("gravel", "loose gravel: rounded 2-4 cm stones of varied tone with dark gaps",
                  (0.30, 0.28, 0.25), 0.85, scale_m=0.03, bump_m=0.008, variation=0.25, wear=0.2,
-                 semantic_class="terrain"),
+                 semantic_class="terrain", nir=0.35),
 )
 
 # the tags of ``MATERIAL ... library L`` and what they change (docs/ses-language.md)
@@ -139,6 +140,23 @@ def entry(name: str) -> LibraryEntry:
 
 def is_library_name(name: str) -> bool:
     return name.lower() in LIBRARY
+
+
+def _luminance(c) -> float:
+    return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+
+
+def band_colour(colour: Vec3, name: str, nir_share: float) -> Vec3:
+    """The albedo of library material ``name`` in ``colour`` as a sensor sees it that takes
+    ``nir_share`` of a spectrally flat surface's signal from 700-1000 nm (a camera without an
+    IR-cut filter, docs/sensors.md "Near infrared"): (1 - s) colour + s NIR, per channel, the
+    entry's NIR reflectance scaled with the colour's luminance over the entry's own (a darker
+    variant is darker in the NIR too). Unchanged for s = 0 and for entries without ``nir``."""
+    e = LIBRARY.get(name.lower())
+    if nir_share <= 0 or e is None or e.nir is None:
+        return tuple(colour)
+    nir = min(e.nir * _luminance(colour) / max(_luminance(e.colour), 1e-6), 0.95)
+    return tuple((1.0 - nir_share) * float(c) + nir_share * nir for c in colour)
 
 
 @dataclass(frozen=True)

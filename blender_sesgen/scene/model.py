@@ -350,6 +350,8 @@ class Sensor:
     seed: int = 0
     profile: Optional[str] = None  # the camera profile the defaults came from (sensor/profiles.py)
     native_width_px: int = 0       # the values are per pixel of a sensor this wide (0: per render pixel)
+    nir_share: float = 0.0         # share of a spectrally flat surface's signal from 700-1000 nm (0: IR-cut
+                                   # filter); > 0 renders library materials in the sensor's band
 
 
 @dataclass(frozen=True, kw_only=True)

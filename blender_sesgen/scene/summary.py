@@ -118,7 +118,8 @@ def _sensor_text(scene: Scene) -> str:
         s = scene.sensor
         parts.append("sensor" + (f" profile {s.profile} (per pixel of {s.native_width_px} px, binned to the render)"
                                  if s.profile else "")
-                     + f" {s.bits}-bit" + (f" {s.cfa.upper()}" if s.cfa else " mono" if s.mono else "") + f" seed {s.seed}"
+                     + f" {s.bits}-bit" + (f" {s.cfa.upper()}" if s.cfa else " mono" if s.mono else "")
+                     + (f" (near infrared {s.nir_share:g} of its signal)" if s.nir_share else "") + f" seed {s.seed}"
                      + (f" jpeg {s.jpeg_quality}" if s.jpeg_quality else ""))
     if scene.autoexposure is not None:
         parts.append(f"auto-exposure speed {scene.autoexposure.speed:g}/s")

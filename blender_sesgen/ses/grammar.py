@@ -165,6 +165,7 @@ STATEMENTS: dict[str, Statement] = {s.keyword: s for s in (
                               Tag("cfa", "choice", usage="cfa rggb|bggr|grbg|gbrg",
                                   choices=("rggb", "bggr", "grbg", "gbrg")),
                               Tag("mono", "choice", usage="mono on|off", choices=("on", "off")),
+                              _num("nir", usage="nir F"),
                               Tag("bits", "int", usage="bits N"), _num("gain", usage="gain G"),
                               _num("black", usage="black DN"), _num("saturation", usage="saturation L"),
                               Tag("response", "choice", usage="response srgb|linear|gamma",

@@ -101,10 +101,12 @@ def sensor(stmt: Optional[ParsedStatement], check: Checks) -> Optional[model.Sen
     jpeg = stmt.tags.get("jpeg")
     if jpeg is not None and not 1 <= jpeg.values[0] <= 100:
         check.err(jpeg.tokens[0], f"SENSOR 'jpeg' quality must lie in 1..100, got {jpeg.tokens[0].text}")
-    fill = stmt.tags.get("fill")
-    if fill is not None and not 0 <= fill.values[0] <= 1:
-        check.err(fill.tokens[0], f"SENSOR 'fill' is the pixel aperture as a fraction of the pitch (0..1), "
-                                  f"got {fill.tokens[0].text}")
+    for n in ("fill", "nir"):
+        t = stmt.tags.get(n)
+        if t is not None and not 0 <= t.values[0] <= 1:
+            what = ("the pixel aperture as a fraction of the pitch" if n == "fill" else
+                    "the share of the signal the sensor takes from 700-1000 nm")
+            check.err(t.tokens[0], f"SENSOR '{n}' is {what} (0..1), got {t.tokens[0].text}")
     nbits = int(val("bits", model.Sensor.bits))
     black = float(val("black", 0.0))
     if black >= 2 ** nbits - 1:
@@ -130,7 +132,8 @@ def sensor(stmt: Optional[ParsedStatement], check: Checks) -> Optional[model.Sen
         gamma=float(val("gamma", d.gamma)), pixel_um=float(val("pixel", d.pixel_um)),
         fill_factor=float(val("fill", 0.0)), olpf_px=float(val("olpf", 0.0)),
         jpeg_quality=int(val("jpeg", 0)), seed=_seed(stmt, check), profile=prof.name if prof else None,
-        native_width_px=int(scalar(stmt, "native", prof.native_width_px if prof else 0)))
+        native_width_px=int(scalar(stmt, "native", prof.native_width_px if prof else 0)),
+        nir_share=float(val("nir", 0.0)))
 
 
 def autoexposure(stmt: Optional[ParsedStatement], check: Checks, profile: dict = {}) -> Optional[model.AutoExposure]:

@@ -46,6 +46,13 @@ PIECE = 20.0                 # centreline pieces (m)
 # where the default gives 6.8 (bench/calibrate_sky_sun.py), so shadows are less deep and the
 # sky brighter, as in KITTI's frames (docs/sensors.md, Camera twins)
 HAZE_AEROSOL = 4.0
+# KITTI sequence_1's sun, measured from its shadows on the road (frame 40: a street tree's crown
+# shadow lies 4.4 m from its trunk, 76 deg right of straight ahead and slightly away; frame 0: the
+# car ahead throws its shadow to the right): the sun stands left of the drive and a little behind
+# (azimuth -104 deg from the rig's first heading, elevation ~40 deg), so the camera sees the lit
+# sides of trees, lawns and right-hand facades, not their shaded ones against the light
+# (docs/sensors.md, Camera twins)
+KITTI_S1_SUN = (40.0, -104.0)
 LANE_M = 1.75                # moving cars' centre from the centreline (parked ones stand further out)
 TRAFFIC_GAP_M = (10.0, 8.0)  # least distance along the street to the rig's car, and between two cars of a lane
 # asset variants per kind (VariantPool: identical assets share one mesh, Cycles instances it);
@@ -61,7 +68,7 @@ POOL_SIZES = {   # the street trees' sizes (m: crown width, height, crown depth)
 @dataclass(frozen=True)
 class Variation(SeededVariation, salt=0xC17):
     """What a seed changes besides the layout; the defaults are city_kitti.ses's (seed 0)."""
-    lighting: Lighting = Lighting(sun=(42.0, 35.0))
+    lighting: Lighting = Lighting(sun=KITTI_S1_SUN)
     step_m: float = 1.2                  # metres per frame (KITTI: ~1.2)
     curves: int = 2                      # gentle curves along the street
     curve_deg: tuple = (6.0, 14.0)       # the range of each curve's total turn
