@@ -13,6 +13,10 @@ Rows, each a fresh process, run ``--repeat`` times interleaved (median and faste
   frame of 64x48 pixels, sealing, manifest); ``render @REV``: the same with revision REV's
   code (a temporary git worktree), in the same run.
 
+Python's bytecode is cached (``__pycache__``, as an installed package has it; a warm-up render of
+each side writes it first); ``--no-bytecode`` keeps ``PYTHONDONTWRITEBYTECODE`` if set, and
+every process then compiles each module it imports (~0.25 CPU s here).
+
 CPU seconds are the process tree's user + system time (``os.wait4``: the process and the
 children it reaped), robust on a shared machine; wall seconds beside them. ``--profile N``
 prints the N functions with the most cumulative CPU time of one render of the working tree
@@ -33,9 +37,14 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 
 
+BYTECODE = {"keep": True}   # False: the children compile every module from source (PYTHONDONTWRITEBYTECODE)
+
+
 def run(cmd: list[str], code_root: Path) -> tuple[float, float]:
     """(CPU s, wall s) of ``cmd`` run with ``code_root``'s package; exits on failure."""
     env = dict(os.environ, PYTHONPATH=str(code_root), SESGEN_ASSET_CACHE="off")
+    if BYTECODE["keep"]:
+        env.pop("PYTHONDONTWRITEBYTECODE", None)
     t0 = time.perf_counter()
     proc = subprocess.Popen(cmd, cwd=code_root, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     _, status, ru = os.wait4(proc.pid, 0)
@@ -79,7 +88,9 @@ def main(argv=None) -> int:
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--base", help="also render with this git revision's code (same run)")
     p.add_argument("--profile", type=int, default=0, metavar="N", help="print a cProfile's top N functions")
+    p.add_argument("--no-bytecode", action="store_true", help="keep PYTHONDONTWRITEBYTECODE (compile every import)")
     a = p.parse_args(argv)
+    BYTECODE["keep"] = not a.no_bytecode
     print(f"# startup: {a.scene} at scale {a.scale}, {a.samples} sample(s), frame 0, quality {a.quality}; "
           f"{os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f}", flush=True)
     tmp = Path(tempfile.mkdtemp(prefix="sesgen-startup-"))
@@ -90,6 +101,9 @@ def main(argv=None) -> int:
                        capture_output=True)
     rows: dict[str, list] = {}
     try:
+        for root in ([base] if base is not None else []) + [REPO]:   # warm-up: the bytecode caches
+            run(render_cmd(a, tmp / "warm"), root)
+            shutil.rmtree(tmp / "warm", ignore_errors=True)
         n = 0
         for _ in range(a.repeat):
             todo = [("python", [sys.executable, "-c", "pass"], REPO),
