@@ -25,9 +25,11 @@ first sample, split by Cycles' own status: ``sync`` (Blender objects to Cycles),
 map, the light tree), ``kernels``; ``total`` = script start to frame 0's first sample.
 
 Per stereo frame (the frames after frame 0, which pays the Cycles set-up; frame 0 when it is
-the only one): ``trace`` (Cycles' sampling, the denoiser included: Cycles denoises inside
+the only one): ``c:setup`` (Cycles' set-up inside the frame's renders before their first
+sample: the moved cameras and objects synchronised, their BVHs updated; by Cycles' status, as
+the build's stages), ``trace`` (Cycles' sampling, the denoiser included: Cycles denoises inside
 its last sample), ``write`` (Blender writing the EXRs after Cycles finished), ``other``
-(frame set-up, the display PNGs, the sealing hand-off: the rest of the frame), ``frame``
+(frame set-up, the sensor images, the display PNGs, the sealing hand-off: the rest of the frame), ``frame``
 (all of it); ``Mpath/s``: camera paths (pixels x samples, both views) per CPU second of
 ``trace``; ``peak MiB``: the process's peak resident set; ``Cycles MiB``: Cycles' own peak.
 
@@ -252,11 +254,14 @@ def child(a) -> int:
     for k in range(len(frames)):
         prev = frames[k - 1] if k else start
         renders = log.renders(prev["mark"], frames[k]["mark"])
+        setup = log.setup(prev["mark"], frames[k]["mark"])
         rows.append({"frame": frames[k]["cpu"] - prev["cpu"], "wall": frames[k]["wall"] - prev["wall"],
-                     "trace": sum(r["trace"] for r in renders), "write": sum(r["write"] for r in renders)})
+                     "trace": sum(r["trace"] for r in renders), "write": sum(r["write"] for r in renders),
+                     "setup": sum(setup.values()), "setup_bvh": setup["bvh"], "setup_sync": setup["sync"]})
     steady = rows[1:] or rows
-    per = {key: sum(r[key] for r in steady) / len(steady) for key in ("frame", "wall", "trace", "write")}
-    per["other"] = per["frame"] - per["trace"] - per["write"]
+    per = {key: sum(r[key] for r in steady) / len(steady)
+           for key in ("frame", "wall", "trace", "write", "setup", "setup_bvh", "setup_sync")}
+    per["other"] = per["frame"] - per["trace"] - per["write"] - per["setup"]
     paths = s.width * s.height * views * s.preset.samples
     out = {"scene": Path(a.scene).stem, "feature": a.feature, "size": [s.width, s.height],
            "samples": s.preset.samples, "denoise": s.preset.denoise, "build": stages.cpu, "cycles_setup": setup,
@@ -374,13 +379,20 @@ def print_build(rows: list[tuple[str, dict]]) -> None:
 
 def print_frames(rows: list[tuple[str, dict]]) -> None:
     print("\n# per stereo frame (CPU s; frames after the first)")
-    print(f"{'scene':24s}{'size':>11s}{'samples':>8s}{'trace':>9s}{'write':>8s}{'other':>8s}{'frame':>9s}"
-          f"{'wall':>8s}{'Mpath/s':>9s}{'peak MiB':>9s}{'Cycles MiB':>11s}")
+    print(f"{'scene':24s}{'size':>11s}{'samples':>8s}{'c:setup':>9s}{'trace':>9s}{'write':>8s}{'other':>8s}"
+          f"{'frame':>9s}{'wall':>8s}{'Mpath/s':>9s}{'peak MiB':>9s}{'Cycles MiB':>11s}")
     for label, r in rows:
         p = r["per_frame"]
         size = "x".join(map(str, r["size"]))
-        print(f"{label:24s}{size:>11s}{r['samples']:8d}{p['trace']:9.2f}{p['write']:8.2f}{p['other']:8.2f}"
-              f"{p['frame']:9.2f}{p['wall']:8.1f}{r['mpaths_per_s']:9.3f}{r['peak_mib']:9.0f}{r['cycles_mib']:11.0f}")
+        setup = p.get("setup", 0.0)   # (rows of a --json file written before the column)
+        print(f"{label:24s}{size:>11s}{r['samples']:8d}{setup:9.2f}{p['trace']:9.2f}{p['write']:8.2f}"
+              f"{p['other']:8.2f}{p['frame']:9.2f}{p['wall']:8.1f}{r['mpaths_per_s']:9.3f}{r['peak_mib']:9.0f}"
+              f"{r['cycles_mib']:11.0f}")
+    if any(r["per_frame"].get("setup", 0.0) > 0.05 for _, r in rows):
+        print("# c:setup: Cycles' own set-up inside the frame's renders before their first sample (the moved "
+              "cameras and objects synchronised, BVHs updated), " + ", ".join(
+                  f"{label}: sync {r['per_frame']['setup_sync']:.2f} bvh {r['per_frame']['setup_bvh']:.2f}"
+                  for label, r in rows if r["per_frame"].get("setup", 0.0) > 0.05))
 
 
 def main(argv=None) -> int:
