@@ -626,12 +626,12 @@ def test_bad_script_reports_its_line_and_creates_nothing(addon_zip, tmp_path):
     assert res["out_files"] == ["notes.txt"]
 
 
-def test_panels_draw_with_real_properties_and_operators(addon_zip, tmp_path):
-    """Each panel's draw() runs against a recording layout that checks every property and
-    operator it names exists (no window needed)."""
-    bad = tmp_path / "bad.ses"
-    bad.write_text(BAD)
-    res = run_child(f"""
+# The two UI-only tests draw the panels (a recording layout, no window) in one Blender child:
+# they test what is drawn, not the process (which the tests above start afresh each time).
+# The labels are recorded after the panel checks, each with its own recording layout.
+
+def _panels_body(bad: Path) -> str:
+    return f"""
         from importlib import import_module
         ui = import_module(MODULE + ".addon.ui")
         problems, drawn = [], []
@@ -664,18 +664,10 @@ def test_panels_draw_with_real_properties_and_operators(addon_zip, tmp_path):
         S().script_path = {str(bad)!r}
         draw_all("error")
         RESULT["problems"] = problems
-    """, addon_zip, tmp_path)
-    assert res["problems"] == []
-    assert "Choose an .ses script" in res["empty"]
-    assert "Script OK" in res["ok"] and any(t.startswith("Objects: 5") for t in res["ok"])
-    assert any(t.startswith("line 3:") and "dim" in t for t in res["error"])
+    """
 
 
-def test_every_label_the_panels_show_is_in_the_addon_docs(addon_zip, tmp_path):
-    """Panels, headings, checkboxes, fields and buttons as drawn (a recording layout, no window)
-    each appear in docs/addon.md as **Label** (a panel as its section's heading); every choice
-    of a drop-down appears there too."""
-    res = run_child("""
+LABELS_BODY = """
         from importlib import import_module
         ui = import_module(MODULE + ".addon.ui")
         labels, choices = set(), set()
@@ -706,7 +698,34 @@ def test_every_label_the_panels_show_is_in_the_addon_docs(addon_zip, tmp_path):
             cls.draw(me, bpy.context)
         labels.add(bpy.ops.sesgen.import_ses.get_rna_type().name)
         RESULT["labels"], RESULT["choices"] = sorted(labels - {""}), sorted(choices)
-    """, addon_zip, tmp_path)
+"""
+
+
+@pytest.fixture(scope="module")
+def drawn(addon_zip, tmp_path_factory) -> dict:
+    """What the panels draw (``_panels_body``), then the labels and choices they show
+    (``LABELS_BODY``), from one child."""
+    tmp = tmp_path_factory.mktemp("ui")
+    bad = tmp / "bad.ses"
+    bad.write_text(BAD)
+    return run_child(textwrap.dedent(_panels_body(bad)) + textwrap.dedent(LABELS_BODY), addon_zip, tmp)
+
+
+def test_panels_draw_with_real_properties_and_operators(drawn):
+    """Each panel's draw() runs against a recording layout that checks every property and
+    operator it names exists (no window needed)."""
+    res = drawn
+    assert res["problems"] == []
+    assert "Choose an .ses script" in res["empty"]
+    assert "Script OK" in res["ok"] and any(t.startswith("Objects: 5") for t in res["ok"])
+    assert any(t.startswith("line 3:") and "dim" in t for t in res["error"])
+
+
+def test_every_label_the_panels_show_is_in_the_addon_docs(drawn):
+    """Panels, headings, checkboxes, fields and buttons as drawn (a recording layout, no window)
+    each appear in docs/addon.md as **Label** (a panel as its section's heading); every choice
+    of a drop-down appears there too."""
+    res = drawn
     doc = " ".join((REPO / "docs" / "addon.md").read_text(encoding="utf-8").split())  # line breaks are spaces
     assert {"SES Scene", "Render", "Render Sequence", "Stop", "Layout"} <= set(res["labels"])
     missing = [x for x in res["labels"] if f"**{x}**" not in doc and f"### {x} " not in doc]
