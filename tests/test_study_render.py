@@ -512,7 +512,7 @@ def test_a_third_party_estimator_from_pypi_runs_through_the_harness(tmp_path):
     pytest.importorskip("pycolmap")
     write(tmp_path, "colmap_vo.py", COLMAP)
     body = f"""
-{world(frames=6, resolution=2.0, quality="draft", samples=4)}[factors.exposure_time]
+{world(frames=6, resolution=3.0, quality="draft", samples=4)}[factors.exposure_time]
 levels = [0.03]
 [[systems]]
 name = "pycolmap"
