@@ -94,7 +94,7 @@ def test_sensor_path_with_an_exposure_preview_renders_the_plain_pixels(tmp_path,
 
 def test_rolling_shutter_corners_land_where_the_row_poses_project_them(tmp_path):
     readout = 0.04
-    out, m = _render(tmp_path, "rs", _board_scene(extra=[f"TIMING rate 20 readout {readout}"], samples=16))
+    out, m = _render(tmp_path, "rs", _board_scene(extra=[f"TIMING rate 20 readout {readout}"], samples=32))
     K = np.array(m["K"])
     W, H = m["resolution"]
     assert m["timing"]["rolling_shutter"] and len(m["timing"]["row_offsets_s"]) == H
@@ -148,6 +148,8 @@ def test_motion_blur_equals_the_average_of_sharp_subframes(tmp_path):
     # ... and much further from the sharp frame at mid-exposure
     out_m, m_m = _render(tmp_path, "mid", sharp_scene + _pose_lines(motion.T_world_cam([t1])), "--samples", str(M * base))
     sharp_mid = read_exr(out_m / m_m["files"]["left"][0])
+    print(f"sharp frame at mid-exposure vs the blurred: PSNR "
+          f"{_psnr(np.clip(np.stack([sharp_mid[n] for n in names], -1), 0, 1), np.clip(blurred, 0, 1)):.1f} dB")
     assert _psnr(np.clip(np.stack([sharp_mid[n] for n in names], -1), 0, 1), np.clip(blurred, 0, 1)) < psnr - 8
     # ground truth of the blurred frame = the sharp render at mid-exposure (depth and ids)
     gt = read_exr(out / m["files"]["left"][1])
@@ -163,7 +165,7 @@ FISHEYE = "LENS fisheye -0.02 0.01 -0.004 0.0005"
 @pytest.mark.parametrize("lens_line", [BROWN, FISHEYE], ids=["brown", "fisheye"])
 def test_distorted_render_matches_the_lens_model(tmp_path, lens_line):
     still = ["EGO 0 0 0 0 0 0"]
-    out, m = _render(tmp_path, "lens", _board_scene(extra=[lens_line], motion=still, samples=16, start="0 1 -1.2"),
+    out, m = _render(tmp_path, "lens", _board_scene(extra=[lens_line], motion=still, samples=32, start="0 1 -1.2"),
                      "--frames", "0:1")                              # a still camera: frame 0 is all it shows
     lens = Lens.from_K(m["lens"]["model"], m["lens"]["coeffs"], np.array(m["K"]))
     W, H = m["resolution"]
@@ -199,7 +201,7 @@ def test_lookup_table_undistorts_to_the_pinhole_render(tmp_path):
     # measures the lens and the table, not path-tracing noise
     extra = ["MATERIAL name tex colour 0 0 0 texture 4 emission 1 1 1 emission_strength 1",
              "CUBOID id 90 material tex position 0.6 0.9 -2 20 30 0 dim 0.5 0.5 0.5"]
-    scene = _board_scene(samples=16, motion=still, start="0 1 -1.2") + extra
+    scene = _board_scene(samples=32, motion=still, start="0 1 -1.2") + extra
     out_p, m_p = _render(tmp_path, "pinhole", scene, "--frames", "0:1")       # a still camera: frame 0
     out_d, m_d = _render(tmp_path, "distorted", scene + [BROWN], "--frames", "0:1")
     W, H = m_d["resolution"]
