@@ -531,6 +531,12 @@ def test_export_operator_writes_a_dataset_layout_through_vo_reference(addon_zip,
     assert res["no_slot"]["result"] is None and "no sequence slot" in res["no_slot"]["error"]
 
 
+# The study command the Study panel runs here: `sesgen study run ... --no-ray` (its tasks from the
+# study's own process, farm.local): the panel's part is the same, and the study on a local Ray is
+# tests/test_study_render.py's (a Ray start costs ~10 CPU s).
+NO_RAY_STUDY = f"sh -c 'exec \"$0\" -m blender_sesgen \"$@\" --no-ray' {sys.executable}"
+
+
 @pytest.mark.slow
 def test_study_operator_runs_a_one_factor_study_and_finds_its_report(addon_zip, tmp_path):
     """The Study panel: a factor and its levels for the open script, Run Study (the add-on runs
@@ -542,7 +548,7 @@ def test_study_operator_runs_a_one_factor_study_and_finds_its_report(addon_zip, 
         s = S()
         s.study_factor, s.study_levels, s.study_systems = "gain", "4", "accurate-stereo"
         s.study_resolution, s.study_dir = 1.0, {str(out)!r}
-        s.study_command = {f"{sys.executable} -m blender_sesgen"!r}
+        s.study_command = {NO_RAY_STUDY!r}
         RESULT["run"] = call(bpy.ops.sesgen.study_run)
         RESULT["status"], RESULT["progress"] = S().status, S().progress
         RESULT["report_ready"] = bpy.ops.sesgen.study_report.poll()
