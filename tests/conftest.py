@@ -84,23 +84,21 @@ if _TIMES_PATH:
             _file.clear()
 
 
-# The test files that take longest, longest first (CPU seconds of a whole run on the 2-core machine,
-# 801d8f6 with reno5's changes measured alone, test_sensor_render and test_study_render at suite5's
-# ~55 CPU s target: bench/RESULTS.md "Test suite"; re-measure with SESGEN_TEST_TIMES and
-# `tools/test_times.py --order N`), except that the farm's file goes first: it waits most (the Ray
-# cluster's start, its tasks' kills and cancels), and the other worker's renders can use the idle core.
-# `make test` hands whole files to whichever worker is free, in collection order (pytest-xdist
-# --dist loadfile --no-loadscope-reorder): these start first, so that the short files fill in at the
-# end instead of one long file running alone on one worker.
+# The test files that take longest, longest first: wall seconds of the whole suite on the idle 2-core
+# machine (aa11b9f, bench/RESULTS.md "Test suite"), with the cuts measured since ("Session 7: suite6").
+# Ray's workers are not the worker's waited-for children, so SESGEN_TEST_TIMES counts little of the
+# Ray files' CPU (test_farm_ray: 29 of 110 CPU s, test_study_render: ~2/3): order by wall seconds,
+# not by that figure. `make test` hands whole files to whichever worker is free, in collection order
+# (pytest-xdist --dist loadfile --no-loadscope-reorder): these start first, so that the short files
+# fill in at the end instead of one long file running alone on one worker.
 SLOWEST_FIRST = [
-    "test_farm_ray.py",
-    "test_addon_blender.py", "test_render_reliability.py", "test_render_cli.py", "test_render_photoreal.py",
-    "test_sensor_render.py", "test_study_render.py", "test_stereo_dynamic.py", "test_culling_render.py",
-    "test_culling.py", "test_scene_variations.py", "test_quality_presets.py", "test_mono_pipeline.py",
-    "test_sensor_exports.py",
-    "test_evaluate_evo.py", "test_render_integrity.py", "test_scene_library.py", "test_ses_property.py",
-    "test_render_byo.py", "test_render_assets.py", "test_render_oracle.py", "test_mono_render.py",
-    "test_render_textures.py", "test_render_lighting.py",
+    "test_study_render.py", "test_farm_ray.py", "test_sensor_render.py", "test_addon_blender.py",
+    "test_render_cli.py", "test_render_reliability.py", "test_render_photoreal.py", "test_culling_render.py",
+    "test_culling.py", "test_quality_presets.py", "test_scene_variations.py", "test_evaluate_evo.py",
+    "test_stereo_dynamic.py", "test_mono_pipeline.py", "test_render_oracle.py", "test_render_integrity.py",
+    "test_scene_library.py", "test_ses_property.py", "test_sensor_exports.py", "test_render_byo.py",
+    "test_render_textures.py", "test_render_assets.py", "test_sensor_motion_imu.py", "test_mono_render.py",
+    "test_render_lighting.py",
 ]
 
 

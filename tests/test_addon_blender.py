@@ -531,6 +531,12 @@ def test_export_operator_writes_a_dataset_layout_through_vo_reference(addon_zip,
     assert res["no_slot"]["result"] is None and "no sequence slot" in res["no_slot"]["error"]
 
 
+# The study command the Study panel runs here: `sesgen study run ... --no-ray` (its tasks from the
+# study's own process, farm.local): the panel's part is the same, and the study on a local Ray is
+# tests/test_study_render.py's (a Ray start costs ~10 CPU s).
+NO_RAY_STUDY = f"sh -c 'exec \"$0\" -m blender_sesgen \"$@\" --no-ray' {sys.executable}"
+
+
 @pytest.mark.slow
 def test_study_operator_runs_a_one_factor_study_and_finds_its_report(addon_zip, tmp_path):
     """The Study panel: a factor and its levels for the open script, Run Study (the add-on runs
@@ -542,7 +548,7 @@ def test_study_operator_runs_a_one_factor_study_and_finds_its_report(addon_zip, 
         s = S()
         s.study_factor, s.study_levels, s.study_systems = "gain", "4", "accurate-stereo"
         s.study_resolution, s.study_dir = 1.0, {str(out)!r}
-        s.study_command = {f"{sys.executable} -m blender_sesgen"!r}
+        s.study_command = {NO_RAY_STUDY!r}
         RESULT["run"] = call(bpy.ops.sesgen.study_run)
         RESULT["status"], RESULT["progress"] = S().status, S().progress
         RESULT["report_ready"] = bpy.ops.sesgen.study_report.poll()
@@ -626,12 +632,12 @@ def test_bad_script_reports_its_line_and_creates_nothing(addon_zip, tmp_path):
     assert res["out_files"] == ["notes.txt"]
 
 
-def test_panels_draw_with_real_properties_and_operators(addon_zip, tmp_path):
-    """Each panel's draw() runs against a recording layout that checks every property and
-    operator it names exists (no window needed)."""
-    bad = tmp_path / "bad.ses"
-    bad.write_text(BAD)
-    res = run_child(f"""
+# The two UI-only tests draw the panels (a recording layout, no window) in one Blender child:
+# they test what is drawn, not the process (which the tests above start afresh each time).
+# The labels are recorded after the panel checks, each with its own recording layout.
+
+def _panels_body(bad: Path) -> str:
+    return f"""
         from importlib import import_module
         ui = import_module(MODULE + ".addon.ui")
         problems, drawn = [], []
@@ -664,18 +670,10 @@ def test_panels_draw_with_real_properties_and_operators(addon_zip, tmp_path):
         S().script_path = {str(bad)!r}
         draw_all("error")
         RESULT["problems"] = problems
-    """, addon_zip, tmp_path)
-    assert res["problems"] == []
-    assert "Choose an .ses script" in res["empty"]
-    assert "Script OK" in res["ok"] and any(t.startswith("Objects: 5") for t in res["ok"])
-    assert any(t.startswith("line 3:") and "dim" in t for t in res["error"])
+    """
 
 
-def test_every_label_the_panels_show_is_in_the_addon_docs(addon_zip, tmp_path):
-    """Panels, headings, checkboxes, fields and buttons as drawn (a recording layout, no window)
-    each appear in docs/addon.md as **Label** (a panel as its section's heading); every choice
-    of a drop-down appears there too."""
-    res = run_child("""
+LABELS_BODY = """
         from importlib import import_module
         ui = import_module(MODULE + ".addon.ui")
         labels, choices = set(), set()
@@ -706,7 +704,34 @@ def test_every_label_the_panels_show_is_in_the_addon_docs(addon_zip, tmp_path):
             cls.draw(me, bpy.context)
         labels.add(bpy.ops.sesgen.import_ses.get_rna_type().name)
         RESULT["labels"], RESULT["choices"] = sorted(labels - {""}), sorted(choices)
-    """, addon_zip, tmp_path)
+"""
+
+
+@pytest.fixture(scope="module")
+def drawn(addon_zip, tmp_path_factory) -> dict:
+    """What the panels draw (``_panels_body``), then the labels and choices they show
+    (``LABELS_BODY``), from one child."""
+    tmp = tmp_path_factory.mktemp("ui")
+    bad = tmp / "bad.ses"
+    bad.write_text(BAD)
+    return run_child(textwrap.dedent(_panels_body(bad)) + textwrap.dedent(LABELS_BODY), addon_zip, tmp)
+
+
+def test_panels_draw_with_real_properties_and_operators(drawn):
+    """Each panel's draw() runs against a recording layout that checks every property and
+    operator it names exists (no window needed)."""
+    res = drawn
+    assert res["problems"] == []
+    assert "Choose an .ses script" in res["empty"]
+    assert "Script OK" in res["ok"] and any(t.startswith("Objects: 5") for t in res["ok"])
+    assert any(t.startswith("line 3:") and "dim" in t for t in res["error"])
+
+
+def test_every_label_the_panels_show_is_in_the_addon_docs(drawn):
+    """Panels, headings, checkboxes, fields and buttons as drawn (a recording layout, no window)
+    each appear in docs/addon.md as **Label** (a panel as its section's heading); every choice
+    of a drop-down appears there too."""
+    res = drawn
     doc = " ".join((REPO / "docs" / "addon.md").read_text(encoding="utf-8").split())  # line breaks are spaces
     assert {"SES Scene", "Render", "Render Sequence", "Stop", "Layout"} <= set(res["labels"])
     missing = [x for x in res["labels"] if f"**{x}**" not in doc and f"### {x} " not in doc]

@@ -512,7 +512,7 @@ def test_a_third_party_estimator_from_pypi_runs_through_the_harness(tmp_path):
     pytest.importorskip("pycolmap")
     write(tmp_path, "colmap_vo.py", COLMAP)
     body = f"""
-{world(frames=6, resolution=4.0, quality="draft", samples=4)}[factors.exposure_time]
+{world(frames=6, resolution=3.0, quality="draft", samples=4)}[factors.exposure_time]
 levels = [0.03]
 [[systems]]
 name = "pycolmap"
@@ -530,5 +530,7 @@ timeout_s = 600
     assert len(rs) == 2 and all(r["status"] == "ok" for r in rs), [(r["failure"], r["stderr_tail"]) for r in rs]
     for r in rs:
         m = r["metrics"]
+        print(f"pycolmap {r['variant']}: coverage {m['coverage']:.2f} (bound 0.5), APE {m['ape_trans_rmse']:.4f} m "
+              f"(bound {0.05 * m['gt_path_length_m'] + 0.02:.4f} m)")
         assert m["coverage"] >= 0.5 and m["alignment"].startswith("sim3") and m["scale"] > 0
         assert m["ape_trans_rmse"] < 0.05 * m["gt_path_length_m"] + 0.02
