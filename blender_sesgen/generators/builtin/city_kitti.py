@@ -269,6 +269,17 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
                          (round(float(rng.uniform(0.6, 0.8)), 2), round(height, 2), 0.025),
                          seed=int(rng.integers(1e6))))
 
+    # public litter bins at the sidewalks' outer edge, every 40-80 m on either side (a stream of
+    # their own: the layout drawn before and after them stays as it is)
+    rng_bins = np.random.default_rng([seed, 0xB17])
+    s = float(rng_bins.uniform(10, 40))
+    while s < L - 10:
+        side = 1 if rng_bins.random() < 0.5 else -1
+        p, h = place(s, walk_r_span[1] - 0.4 if side > 0 else walk_l_span[0] + 0.4)
+        out.append(asset("bin", ids("furniture"), p + np.array([0.0, kerb_h, 0.0]), h - 90 if side > 0 else h + 90,
+                         seed=pool.seeds["bin"][int(rng_bins.integers(POOLS["bin"]))]))
+        s += float(rng_bins.uniform(40, 80))
+
     # --- grass (real blades) on the tree lawn and the first metres of the yards and fields --
     out += ["", "// grass: patches of blades on the lawns near the road (a few variants, instanced)"]
     tufts = [int(rng.integers(1e6)) for _ in range(6)]
