@@ -23,7 +23,8 @@ SGBM valid share within 25 %, clipped share within 2 points, slope within 0.2.
 Causes (printed under the table): the **brightness spread** of both (median / mean of the
 linear signal, the 8-bit images linearised with the profile's black level and response: a
 mean-metering auto-exposure puts the sky at saturation only when the scene's median is
-high enough relative to its mean), and, on the render (it has depth), the **SGBM error at
+high enough relative to its mean), for city the brightness of each kind of surface and the
+**sunlit road's pixel-scale contrast** (``road_grain``), and, on the render (it has depth), the **SGBM error at
 the OpenCV VO's corners** (Shi-Tomasi 1000/0.01/8, its detector): the share of corners on a
 depth edge (the ground-truth disparity spans > 15 % in the 7 x 7 window) and the median
 SGBM disparity error there and on smooth surfaces, in % of the true disparity.
@@ -223,6 +224,39 @@ def kinds_brightness(out: Path, frames: Frames, real_frames: Frames, n: int) -> 
             fmt(ours) + f"; pixels < 0.3 x mean {100 * np.median(dark):.0f} %")
 
 
+def _grain(L: np.ndarray, mask: np.ndarray) -> float:
+    """Pixel-scale contrast: the robust deviation (1.4826 MAD) of the linear signal over its
+    5 x 5 box mean, minus one, on ``mask``."""
+    x = (L / np.maximum(cv2.blur(L, (5, 5)), 1e-3) - 1.0)[mask]
+    return float(1.4826 * np.median(np.abs(x - np.median(x)))) if x.size else float("nan")
+
+
+def road_grain(out: Path, frames: Frames, n: int) -> tuple[float, float]:
+    """The sunlit road's pixel-scale contrast (``_grain``), the median over frames: KITTI
+    sequence_1 in its hand-marked road regions (frames 0, 20, 40, at the render's size); the
+    render on its road pixels (object ids; 7 x 7 in from the class's edges) brighter than half
+    their median (the sunlit road)."""
+    W, H = frames.resolution
+    real = []
+    for k, regions in KITTI_REGIONS.items():
+        img = cv2.imread(str(DATA / "kitti" / "sequence_1" / "image_l" / f"{k:06d}.png"), 0)
+        sx, sy = W / img.shape[1], H / img.shape[0]
+        L = _linear(cv2.resize(img, (W, H), interpolation=cv2.INTER_AREA), "kitti")
+        x0, y0, x1, y1 = regions["road"]
+        m = np.zeros(L.shape, bool)
+        m[int(y0 * sy) + 2:int(y1 * sy) - 2, int(x0 * sx) + 2:int(x1 * sx) - 2] = True
+        real.append(_grain(L, m))
+    seq, man = open_sequence(out), json.loads((out / "manifest.json").read_text())
+    road = [o["id"] for o in man["objects"] if o["class"] == "road"]
+    ours = []
+    for k in range(n):
+        L = _linear(frames.image_gray(k), "kitti")
+        m = cv2.erode(np.isin(np.asarray(seq.ids(k, "left")).astype(int), road).astype(np.uint8), np.ones((7, 7))) > 0
+        if m.sum() >= 200:
+            ours.append(_grain(L, m & (L > 0.5 * np.median(L[m]))))
+    return float(np.median(real)), float(np.nanmedian(ours)) if ours else float("nan")
+
+
 def corners_on_depth_edges(out: Path, frames: Frames, n: int) -> dict:
     """The OpenCV VO's corners on the render: the share on a depth edge and the median SGBM
     disparity error (% of the true disparity) at edge and surface corners."""
@@ -402,6 +436,9 @@ def main(argv=None) -> int:
         kr, ko = kinds_brightness(out, ours, real, n)
         print(f"brightness over the frame mean (median): real KITTI sequence_1 (hand-marked sunlit regions, frames "
               f"0, 20, 40) {kr}; render (by object id, sun and shade) {ko}")
+        gr, go = road_grain(out, ours, n)
+        print(f"sunlit road's pixel-scale contrast (robust deviation over the 5 x 5 mean): real KITTI sequence_1 "
+              f"{gr:.3f}, render {go:.3f}")
     c = corners_on_depth_edges(out, ours, n)
     print(f"render: {100 * c['edge_share']:.0f} % of the OpenCV VO's corners on depth edges; SGBM disparity error "
           f"there {c['edge_err_pct']:+.2f} %, on surfaces {c['surface_err_pct']:+.2f} % (median, of the true disparity)")

@@ -23,16 +23,18 @@ def _aggregate(ctx: Ctx, stone_m: float = 0.011):
 def asphalt(ctx: Ctx) -> Surface:
     g, p, C = ctx.g, ctx.p, ctx.colour
     tone, dome = _aggregate(ctx)
-    # segregation and ravelling: clusters of stones and binder-rich spots at 2-10 cm, the
+    # segregation and ravelling: clusters of stones and binder-rich spots at 2-10 cm (octaves of 10 cm), the
     # texture still resolved tens of metres ahead (a pixel there covers centimetres)
-    grit = g.remap(g.noise(p, 1 / 0.05, detail=5.0, roughness=0.7), 0.25, 0.75, 0.55, 1.45)
+    grit = g.remap(g.noise(p, 1 / 0.1, detail=6.0, roughness=0.7), 0.3, 0.7, 0.5, 1.5)
     mottle = g.remap(g.noise(p, 1 / 0.35, detail=3.0), 0.3, 0.7, 0.84, 1.16)
     large = g.remap(g.noise(p, 1 / 4.0, detail=2.0), 0.3, 0.7, 0.85, 1.15)
     # the worn surface's light and dark spots at 1-3 cm: single stones polished bright or
     # binder-filled, the scale one KITTI pixel covers 5-20 m ahead (the stones alone, 11 mm,
-    # average out within a pixel there)
+    # average out within a pixel there). Grit and spots together give sunlit asphalt KITTI's
+    # pixel-scale contrast (docs/sensors.md, Camera twins: the relative high-pass deviation of
+    # its sunlit road at half size, 0.06-0.07)
     spots = g.voronoi(p, 1 / 0.022)
-    spot = g.remap(g.sep(spots.outputs["Color"])[2], 0.0, 1.0, 0.7, 1.35)
+    spot = g.remap(g.sep(spots.outputs["Color"])[2], 0.0, 1.0, 0.45, 1.6)
     f = g.mul(g.mul(g.mul(g.mul(tone, grit), mottle), large), spot)
     col = g.cmul(C, f)
     # oil drips and tyre stains: dark blotches, more of them with wear

@@ -1,8 +1,9 @@
 """Writes scenes/city_kitti.ses: an urban street seen by the KITTI odometry rig.
 
-A two-lane street of gentle curves (a chain of arcs) with kerbs, a tree lawn, sidewalks
-and front yards; blocks of buildings (real window openings, balconies, gable or flat
-roofs) alternating with green strips; street trees, hedges and bushes; parked cars along
+A two-lane street of gentle curves (a chain of arcs) with kerbs, a tree lawn and sidewalks;
+each side a residential cross-section (``FRONTAGES``: blocks behind front yards, houses
+behind hedged yards, or an open lawn before low houses) of buildings (real window openings,
+balconies, gable or flat roofs) alternating with green strips; street trees, hedges and bushes; parked cars along
 the kerbs; street lights, signs on poles, bins and bollards; a sun and a physical sky.
 Trees, bushes, cars, street lights and bins are a few variants per kind (``POOLS``), so
 that Blender shares their meshes and Cycles instances them (docs/rendering.md#speed).
@@ -20,9 +21,10 @@ lays out its own street (curves, widths, buildings, trees, cars); a seed other t
 varies (:class:`Variation`) the time of day (sun elevation 12-65 deg, any azimuth) or, one
 time in three, a bundled daylight HDRI (city, courtyard, forest, sunrise, sunset) at a random
 strength and rotation, haze one time in four, the asphalt (tone, wear) and the paving, and
-the drive: 0.8-1.5 m per frame, 1-3 curves of 5-18 deg, the lane position and weave.
+the drive: 0.8-1.5 m per frame, 1-3 curves of 5-18 deg, the lane position and weave, and
+each side's cross-section (seed 0: KITTI sequence_1's, an open lawn left and blocks right).
 ``frames`` sets the sequence length; ``step_m``, ``sun_elevation``, ``sun_azimuth`` override
-the seed's (a sun given replaces an HDRI); ``traffic`` the number of moving cars (0: a
+the seed's (a sun given replaces an HDRI); ```traffic`` the number of moving cars (0: a
 static street).
 """
 from __future__ import annotations
@@ -34,7 +36,7 @@ import numpy as np
 
 from ...scene.assets.street import arc_frame
 from .city_grid import _keyframes as keyframes
-from .sesgen_layout import (KITTI_CAMERA_HEIGHT, Ids, Lighting, asset, command_line, derived_material, draw_lighting,
+from .sesgen_layout import (KITTI_CAMERA_HEIGHT, Frontage, Ids, Lighting, asset, command_line, derived_material, draw_lighting,
                            draw_street_surfaces, kerb_cars, kitti_rig, line_street_side, num, nums,
                            script_with_poses, SeededVariation, smooth_noise, street_lights, variation_rng, VariantPool)
 
@@ -63,6 +65,18 @@ POOL_SIZES = {   # the street trees' sizes (m: crown width, height, crown depth)
                             round(float(r.uniform(3.0, 5.5)), 2)),
     "young_tree": lambda r: (round(float(r.uniform(2.5, 4.0)), 2), round(float(r.uniform(5, 8)), 2),
                              round(float(r.uniform(2.5, 4.0)), 2))}
+# the cross-sections of residential streets, per side (what lies between the sidewalk and the
+# facades decides whether the sun reaches the road): ``block`` - 3-6 storeys behind front yards
+# of 4-12 m; ``yards`` - 2-4 storey houses behind hedged front yards of 5-12 m; ``open`` - a
+# public lawn of 14-28 m before low houses (KITTI sequence_1's left side: its frames 0-45)
+FRONTAGES = {
+    "block": Frontage(),
+    "yards": Frontage(p_green=0.25, width=(10.0, 18.0), depth=(9.0, 13.0), height_low=(6.0, 9.5),
+                      height_high=(9.5, 13.0), p_high=0.35, setback=(5.0, 12.0), p_second_row=0.4, p_yard_edge=0.9),
+    "open": Frontage(p_green=0.3, green_depth=(8.0, 26.0), width=(10.0, 16.0), depth=(9.0, 12.0),
+                     height_low=(6.0, 9.0), height_high=(9.0, 11.0), p_high=0.15, setback=(14.0, 28.0),
+                     gap=(3.0, 10.0), p_second_row=0.2, p_yard_edge=0.0)}
+FRONTAGE_ODDS = {"block": 0.35, "yards": 0.45, "open": 0.2}
 
 
 @dataclass(frozen=True)
@@ -76,6 +90,7 @@ class Variation(SeededVariation, salt=0xC17):
     weave: float = 0.1                   # lane keeping: amplitude of the lateral wander (m)
     road: Optional[tuple] = None         # (colour, wear) of the asphalt; None: as the road asset picks it
     paving: Optional[tuple] = None       # (colour, wear) of the sidewalks' concrete
+    frontage: tuple = ("open", "block")  # the left and right side's cross-section (FRONTAGES): KITTI sequence_1's
 
     @classmethod
     def draw(cls, rng: np.random.Generator) -> "Variation":
@@ -85,7 +100,8 @@ class Variation(SeededVariation, salt=0xC17):
                    step_m=round(float(rng.uniform(0.8, 1.5)), 3), curves=int(rng.integers(1, 4)),
                    curve_deg=(5.0, 18.0), lane=round(float(rng.uniform(1.35, 1.9)), 2),
                    weave=round(float(rng.uniform(0.04, 0.15)), 3),
-                   **draw_street_surfaces(rng, tone))
+                   **draw_street_surfaces(rng, tone),
+                   frontage=tuple(str(k) for k in rng.choice(list(FRONTAGE_ODDS), 2, p=list(FRONTAGE_ODDS.values()))))
 
 
 def _centre(street_pos, street_yaw, s, L, bends):
@@ -214,7 +230,8 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     # --- buildings and green blocks on both sides -------------------------------------
     out += ["", "// buildings (front facades towards the street) and green blocks"]
     for side in (1, -1):
-        out += line_street_side(rng, place, L - 12, side, right_edge if side > 0 else -left_edge, ids, seed_of=pool)
+        out += line_street_side(rng, place, L - 12, side, right_edge if side > 0 else -left_edge, ids,
+                                FRONTAGES[v.frontage[0 if side < 0 else 1]], seed_of=pool)
 
     # a building across the far end of the street closes the view
     p_end, h_end = place(L + 12.0, 0.0)
@@ -251,6 +268,17 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
         out.append(asset("sign", ids("furniture"), p + 0.07 * front, yaw_sign,
                          (round(float(rng.uniform(0.6, 0.8)), 2), round(height, 2), 0.025),
                          seed=int(rng.integers(1e6))))
+
+    # public litter bins at the sidewalks' outer edge, every 40-80 m on either side (a stream of
+    # their own: the layout drawn before and after them stays as it is)
+    rng_bins = np.random.default_rng([seed, 0xB17])
+    s = float(rng_bins.uniform(10, 40))
+    while s < L - 10:
+        side = 1 if rng_bins.random() < 0.5 else -1
+        p, h = place(s, walk_r_span[1] - 0.4 if side > 0 else walk_l_span[0] + 0.4)
+        out.append(asset("bin", ids("furniture"), p + np.array([0.0, kerb_h, 0.0]), h - 90 if side > 0 else h + 90,
+                         seed=pool.seeds["bin"][int(rng_bins.integers(POOLS["bin"]))]))
+        s += float(rng_bins.uniform(40, 80))
 
     # --- grass (real blades) on the tree lawn and the first metres of the yards and fields --
     out += ["", "// grass: patches of blades on the lawns near the road (a few variants, instanced)"]

@@ -207,8 +207,8 @@ class Frontage:
     """How a street side is lined: green stretches (trees, bushes in a lawn) with probability
     ``p_green``, else buildings of ``width`` x ``depth`` and a height drawn from ``height_low``
     or (probability ``p_high``) ``height_high``, set back ``setback`` from the edge, with front
-    yards (hedge or fence, bushes), bins and (``p_second_row``) a taller building behind.
-    The defaults are city_kitti's."""
+    yards (a hedge or fence along the edge with probability ``p_yard_edge``, bushes), bins and
+    (``p_second_row``) a taller building behind. The defaults are city_kitti's ``block``."""
     start: tuple = (2.0, 10.0)
     p_green: float = 0.4
     green_length: tuple = (25.0, 45.0)
@@ -221,6 +221,7 @@ class Frontage:
     setback: tuple = (4.0, 12.0)
     gap: tuple = (1.5, 7.0)
     p_second_row: float = 0.7
+    p_yard_edge: float = 0.75     # yards closed along the edge: a hedge (probability 0.45), else a fence
 
 
 def random_seed(rng: np.random.Generator):
@@ -296,7 +297,7 @@ def line_street_side(rng: np.random.Generator, place, s_end: float, side: int, e
                          seed=seed_of("building")))
         # front yard: a hedge or a fence along the sidewalk (length along the street), bushes
         r = rng.random()
-        if setback > 2.6 and r < 0.75:
+        if setback > 2.6 and r < style.p_yard_edge:
             kind = "hedge" if r < 0.45 else "fence"
             hp, hh = place(centre_s, side * (edge + (0.6 if kind == "hedge" else 0.25)))
             size = ((round(W * rng.uniform(0.6, 0.95), 2), round(float(rng.uniform(0.8, 1.5)), 2), 0.7)
