@@ -75,6 +75,7 @@ class TriangleScene:
     def __init__(self, leaf: int = 256):
         self.leaf = leaf
         self.parts: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = []   # (id, tris, lo, hi)
+        self._boxes = None                                                      # (LO, HI) of the parts
 
     def add(self, obj_id: int, vertices: np.ndarray, faces: np.ndarray, T_world: np.ndarray = None) -> None:
         V = np.asarray(vertices, float)
@@ -82,15 +83,26 @@ class TriangleScene:
             V = V @ T_world[:3, :3].T + T_world[:3, 3]
         for tris, lo, hi in _leaves(V[np.asarray(faces)], self.leaf):
             self.parts.append((int(obj_id), tris, lo, hi))
+        self._boxes = None
 
-    def cast(self, o, d):
+    def cast(self, o, d, block: int = 4_000_000):
+        """Closest hit (distance, id; inf and 0 for a miss) of each ray; any number of rays,
+        in blocks of at most ``block`` ray-part box tests."""
         o, d = np.asarray(o, float), np.asarray(d, float)
+        if self._boxes is None and self.parts:
+            self._boxes = (np.array([p[2] for p in self.parts]), np.array([p[3] for p in self.parts]))
+        step = max(1, block // max(1, len(self.parts)))
+        if len(o) <= step:
+            return self._cast(o, d)
+        hits = [self._cast(o[s:s + step], d[s:s + step]) for s in range(0, len(o), step)]
+        return np.concatenate([h[0] for h in hits]), np.concatenate([h[1] for h in hits])
+
+    def _cast(self, o, d):
         t_best = np.full(len(o), np.inf)
         id_best = np.zeros(len(o), dtype=np.int64)
         if not self.parts:
             return t_best, id_best
-        LO = np.array([p[2] for p in self.parts])
-        HI = np.array([p[3] for p in self.parts])
+        LO, HI = self._boxes
         with np.errstate(divide="ignore", invalid="ignore"):
             t1 = (LO[None, :, :] - o[:, None, :]) / d[:, None, :]
             t2 = (HI[None, :, :] - o[:, None, :]) / d[:, None, :]
