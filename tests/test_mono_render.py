@@ -1,5 +1,5 @@
 """End to end on a real Cycles render: a tiny textured corridor (forward motion with small
-turns) rendered by the render CLI, then ``mono-vo --scale gt --compare-opencv``.
+turns) rendered with the render command's options, then ``mono-vo --scale gt --compare-opencv``.
 
 One camera (``baseline 0``: a mono render, what mono VO reads). The images are tiny (240x180) and have
 Monte Carlo noise (8 samples, no denoising), so
@@ -43,7 +43,7 @@ def test_mono_vo_on_a_rendered_corridor(tmp_path, capsys):
     script = tmp_path / "corridor.ses"
     script.write_text(CORRIDOR, encoding="utf-8")
     out = tmp_path / "render"
-    rendered(script, out, "--samples", "8", "--no-denoise")
+    rendered(script, out, "--samples", "8", "--no-denoise", here=True)
     rc = cli_main(["mono-vo", str(out), "--scale", "gt", "--compare-opencv", "--out", str(tmp_path / "est.txt"),
                    "--report", str(tmp_path / "plots"), "-q"])
     assert rc == 0

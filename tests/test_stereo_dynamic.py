@@ -37,7 +37,7 @@ BOARD = ("CUBOID id 99 texture camouflage colour 1 0.9 0.8 position -0.7 1.3 1.5
 @pytest.fixture(scope="module")
 def render(tmp_path_factory):
     from render_support import render_paper_room
-    return render_paper_room(tmp_path_factory.mktemp("stereo_dynamic"), FRAMES, 0.5, BOARD, samples=2)
+    return render_paper_room(tmp_path_factory.mktemp("stereo_dynamic"), FRAMES, 0.5, BOARD, samples=2, here=True)
 
 
 @pytest.fixture(scope="module")
