@@ -29,6 +29,10 @@ def needs(*modules: str, reason: str = "") -> pytest.MarkDecorator:
     return pytest.mark.skipif(bool(missing), reason=f"needs {', '.join(missing)}{' (' + reason + ')' if reason else ''}")
 
 
-def examples(full: int) -> int:
-    """``full`` examples under the fuzz profile; the default profile's share of it (>= 5)."""
-    return max(5, round(full * settings.default.max_examples / FULL_EXAMPLES))
+def examples(full: int, quick_most: int | None = None) -> int:
+    """``full`` examples under the fuzz profile; the default profile's share of it (>= 5), at
+    most ``quick_most`` (a property whose every example costs a whole parse of a large scene)."""
+    share = max(5, round(full * settings.default.max_examples / FULL_EXAMPLES))
+    if quick_most is not None and settings.default.max_examples < FULL_EXAMPLES:
+        share = min(share, max(5, quick_most))
+    return share

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 
-def rays_hit_triangles(o: np.ndarray, d: np.ndarray, tris: np.ndarray, chunk: int = 2_000_000):
+def rays_hit_triangles(o: np.ndarray, d: np.ndarray, tris: np.ndarray, chunk: int = 60_000):
     """Closest positive hit of rays (o (n,3), d (n,3)) with triangles (m,3,3):
     (t (n,) with inf for a miss, index of the triangle (n,) with -1 for a miss)."""
     o, d = np.asarray(o, float), np.asarray(d, float)
@@ -52,20 +52,20 @@ def box_hit(o, d, lo, hi) -> np.ndarray:
 
 def _leaves(tris: np.ndarray, leaf: int):
     """Split triangles by median cuts along the longest axis until each part has at most
-    ``leaf`` of them: a flat list of (triangles, lo, hi) - a one-level bounding-box tree."""
-    out, stack = [], [tris]
+    ``leaf`` of them: a flat list of (triangles, lo, hi) - a one-level bounding-box tree.
+    (Index arrays and a partition, not a sort, per cut: the same parts, ties at the median aside.)"""
+    centre, t_lo, t_hi = tris.mean(axis=1), tris.min(axis=1), tris.max(axis=1)
+    out, stack = [], [np.arange(len(tris))]
     while stack:
-        t = stack.pop()
-        pts = t.reshape(-1, 3)
-        lo, hi = pts.min(0) - 1e-9, pts.max(0) + 1e-9
-        if len(t) <= leaf:
-            out.append((t, lo, hi))
+        idx = stack.pop()
+        lo, hi = t_lo[idx].min(0) - 1e-9, t_hi[idx].max(0) + 1e-9
+        if len(idx) <= leaf:
+            out.append((tris[idx], lo, hi))
             continue
-        c = t.mean(axis=1)
         axis = int(np.argmax(hi - lo))
-        order = np.argsort(c[:, axis], kind="stable")
-        half = len(t) // 2
-        stack += [t[order[:half]], t[order[half:]]]
+        half = len(idx) // 2
+        order = np.argpartition(centre[idx, axis], half)
+        stack += [idx[order[:half]], idx[order[half:]]]
     return out
 
 
@@ -75,6 +75,7 @@ class TriangleScene:
     def __init__(self, leaf: int = 256):
         self.leaf = leaf
         self.parts: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = []   # (id, tris, lo, hi)
+        self._boxes = None                                                      # (LO, HI) of the parts
 
     def add(self, obj_id: int, vertices: np.ndarray, faces: np.ndarray, T_world: np.ndarray = None) -> None:
         V = np.asarray(vertices, float)
@@ -82,22 +83,36 @@ class TriangleScene:
             V = V @ T_world[:3, :3].T + T_world[:3, 3]
         for tris, lo, hi in _leaves(V[np.asarray(faces)], self.leaf):
             self.parts.append((int(obj_id), tris, lo, hi))
+        self._boxes = None
 
-    def cast(self, o, d):
+    def cast(self, o, d, block: int = 4_000_000):
+        """Closest hit (distance, id; inf and 0 for a miss) of each ray; any number of rays,
+        in blocks of at most ``block`` ray-part box tests."""
         o, d = np.asarray(o, float), np.asarray(d, float)
+        if self._boxes is None and self.parts:
+            self._boxes = (np.array([p[2] for p in self.parts]), np.array([p[3] for p in self.parts]))
+        step = max(1, block // max(1, len(self.parts)))
+        if len(o) <= step:
+            return self._cast(o, d)
+        hits = [self._cast(o[s:s + step], d[s:s + step]) for s in range(0, len(o), step)]
+        return np.concatenate([h[0] for h in hits]), np.concatenate([h[1] for h in hits])
+
+    def _cast(self, o, d):
         t_best = np.full(len(o), np.inf)
         id_best = np.zeros(len(o), dtype=np.int64)
         if not self.parts:
             return t_best, id_best
-        LO = np.array([p[2] for p in self.parts])
-        HI = np.array([p[3] for p in self.parts])
+        LO, HI = self._boxes
         with np.errstate(divide="ignore", invalid="ignore"):
             t1 = (LO[None, :, :] - o[:, None, :]) / d[:, None, :]
             t2 = (HI[None, :, :] - o[:, None, :]) / d[:, None, :]
         tn = np.nanmax(np.minimum(t1, t2), axis=2)
         tf = np.nanmin(np.maximum(t1, t2), axis=2)
         meets = tf >= np.maximum(tn, 0.0)                          # (rays, parts)
-        for j in np.flatnonzero(meets.any(axis=0)):
+        # nearest parts first: once a ray has hit something, the parts behind it are skipped
+        entry = np.where(meets, np.maximum(tn, 0.0), np.inf).min(axis=0)
+        order = np.argsort(entry, kind="stable")
+        for j in order[np.isfinite(entry[order])]:
             sel = np.flatnonzero(meets[:, j] & (tn[:, j] < t_best))
             if len(sel) == 0:
                 continue

@@ -117,28 +117,47 @@ def run_render(*args, timeout=300) -> subprocess.CompletedProcess:
     return run_loaded(render_cmd(*args), timeout, cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO)))
 
 
-def rendered(script, out, *args, timeout=300) -> Path:
+def rendered(script, out, *args, timeout=300, here=False) -> Path:
     """``sesgen render SCRIPT --out OUT ARGS --quiet`` that must succeed (a failed render fails the
-    test with its stderr); returns ``out``."""
+    test with its stderr); returns ``out``. ``here``: in this process (``render_here``)."""
+    if here:
+        return render_here(script, out, *args)
     r = run_render(script, "--out", out, *args, "--quiet", timeout=timeout)
     assert r.returncode == 0, r.stderr
     return Path(out)
 
 
-def render_text(folder, text: str, *args, timeout=300) -> Path:
+def render_here(script, out, *args) -> Path:
+    """``sesgen render SCRIPT --out OUT ARGS`` in this process: the command's own options
+    (its parser and ``render_options``) through the Python API (``blender_sesgen.api.render``),
+    the same folder without a Python and a Blender started for it (~1 CPU s of a small render).
+    For tests whose subject is what a render holds; the command's process (exit codes, output,
+    signals, locks, resume after a kill) is tested through children (test_render_cli.py,
+    test_render_reliability.py, test_render_integrity.py, ...)."""
+    import argparse
+    from blender_sesgen.api import render
+    from blender_sesgen.commands.render import add_arguments, render_options
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    a = parser.parse_args([str(script), "--out", str(out), *map(str, args)])
+    render(a.scene, a.out, render_options(a), resume=a.resume, force=a.force)
+    return Path(out)
+
+
+def render_text(folder, text: str, *args, timeout=300, here=False) -> Path:
     """``text`` written to FOLDER/s.ses and rendered into FOLDER/out (``rendered``); returns the out folder."""
     (Path(folder) / "s.ses").write_text(text)
-    return rendered(Path(folder) / "s.ses", Path(folder) / "out", *args, timeout=timeout)
+    return rendered(Path(folder) / "s.ses", Path(folder) / "out", *args, timeout=timeout, here=here)
 
 
-def render_paper_room(folder, frames: int, scale: float, extra: str = "", samples: int = 4) -> Path:
+def render_paper_room(folder, frames: int, scale: float, extra: str = "", samples: int = 4, here=False) -> Path:
     """The first ``frames`` of scenes/paper_room.ses (``extra`` lines added) at ``scale``, rendered
     into FOLDER/out denoised: under the physically based default lighting (no ambient glow)
     2 noisy samples leave the dim room as noise, and a VO finds its corners on lit things only."""
     script = Path(folder) / "paper_room.ses"
     script.write_text((REPO / "scenes" / "paper_room.ses").read_text() + extra)
     return rendered(script, Path(folder) / "out", "--frames", f"0:{frames}", "--samples", str(samples), "--denoise",
-                    "--resolution-scale", str(scale))
+                    "--resolution-scale", str(scale), here=here)
 
 
 def cli_in_process(package: str, *args) -> subprocess.CompletedProcess:

@@ -24,7 +24,22 @@ CASES = {
 }
 
 
+_LOADED: dict = {}
+
+
 def _load_pair(shared_data, case):
+    """Both readers' trajectories of ``case``, read once per module: ours read-only (shared by
+    the tests), evo's deep copies (its ``align`` works in place)."""
+    if case not in _LOADED:
+        ours, evo_pair = _read_pair(shared_data, case)
+        for traj in ours:
+            traj.T_world_cam.flags.writeable = traj.timestamps_s.flags.writeable = False
+        _LOADED[case] = ours, evo_pair
+    ours, evo_pair = _LOADED[case]
+    return ours, copy.deepcopy(evo_pair)
+
+
+def _read_pair(shared_data, case):
     gt_name, est_name, fmt = CASES[case]
     d = shared_data / "trajectories"
     ours = (read_trajectory(d / gt_name, fmt), read_trajectory(d / est_name, fmt))

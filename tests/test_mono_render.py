@@ -1,7 +1,8 @@
 """End to end on a real Cycles render: a tiny textured corridor (forward motion with small
-turns) rendered by the render CLI, then ``mono-vo --scale gt --compare-opencv``.
+turns) rendered with the render command's options, then ``mono-vo --scale gt --compare-opencv``.
 
-The images are tiny (240x180) and have Monte Carlo noise (8 samples, no denoising), so
+One camera (``baseline 0``: a mono render, what mono VO reads). The images are tiny (240x180) and have
+Monte Carlo noise (8 samples, no denoising), so
 the bounds are looser than the noise-free 640x480 targets of docs/mono-vo.md: measured
 (ours and OpenCV alike) rotation ~0.15 deg, direction ~1.4 deg, RMSE after Sim3 ~0.2 %.
 A wrong convention (inverse motion, wrong K, lost scale) fails them by far.
@@ -24,7 +25,7 @@ pytest.importorskip("cv2")
 # open to the sky (lit by the default lighting); coarse textures, so 240x180 keeps corners
 CORRIDOR = """\
 // textured corridor for tests/test_mono_render.py: forward 0.5 m/frame, small turns
-CAMERA resolution 240 180 focal 165 baseline 0.2 near 0.05 far 100
+CAMERA resolution 240 180 focal 165 baseline 0 near 0.05 far 100
 START position 0 1.2 0
 QUAD id 1 texture 4 vertices -2 0 2  2 0 2  2 0 -30  -2 0 -30
 QUAD id 2 texture 9 vertices -2 0 2  -2 0 -30  -2 3 -30  -2 3 2
@@ -42,7 +43,7 @@ def test_mono_vo_on_a_rendered_corridor(tmp_path, capsys):
     script = tmp_path / "corridor.ses"
     script.write_text(CORRIDOR, encoding="utf-8")
     out = tmp_path / "render"
-    rendered(script, out, "--samples", "8", "--no-denoise")
+    rendered(script, out, "--samples", "8", "--no-denoise", here=True)
     rc = cli_main(["mono-vo", str(out), "--scale", "gt", "--compare-opencv", "--out", str(tmp_path / "est.txt"),
                    "--report", str(tmp_path / "plots"), "-q"])
     assert rc == 0

@@ -54,7 +54,7 @@ def _halves(tmp_path, mesh_line: str, start: str = "0 0 3") -> tuple[np.ndarray,
     script = tmp_path / "s.ses"
     script.write_text(f"CAMERA resolution 40 20 focal 30 baseline 0\nSTART position {start}\n"
                       "WORLD colour 1 1 1\nLOOK exposure 0\n" + mesh_line + "\n")
-    rendered(script, tmp_path / "out", "--samples", "4")
+    rendered(script, tmp_path / "out", "--samples", "4", here=True)
     m = load_manifest(tmp_path / "out")
     ch = read_exr(tmp_path / "out" / m["files"]["left"][0])
     rgb = np.stack([ch[c] for c in m["channels"]["rgb"][:3]], -1)

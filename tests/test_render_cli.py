@@ -135,7 +135,7 @@ def test_refuses_a_folder_with_another_scene(tmp_path):
 def test_resume_after_kill_is_identical(tmp_path):
     script = small_script(tmp_path, steps=7)
     ref, out = tmp_path / "ref", tmp_path / "out"
-    args = ["--samples", "2", "--resolution-scale", "1.5"]   # denoised (the default preset): its pixels too
+    args = ["--samples", "2"]   # denoised (the default preset): its pixels too
     env = dict(os.environ, PYTHONPATH=str(REPO))
     proc = subprocess.Popen(render_cmd(script, "--out", out, *args, "--quiet"), cwd=REPO, env=env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

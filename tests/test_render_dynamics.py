@@ -79,7 +79,7 @@ def dyn_render(tmp_path_factory):
     script = d / "dyn.ses"
     script.write_text(SCRIPT)
     out = d / "out"
-    rendered(script, out, "--samples", "1")
+    rendered(script, out, "--samples", "1", here=True)
     return out, load_manifest(out)
 
 
@@ -195,7 +195,7 @@ def test_sensor_motion_blur_smears_a_moving_object_and_keeps_its_ground_truth_sh
     script = tmp_path / "blur.ses"
     script.write_text(_blur_script("TIMING rate 10 exposure 0.1\n"))
     out = tmp_path / "out"
-    rendered(script, out, "--samples", "32")
+    rendered(script, out, "--samples", "32", here=True)
     m = load_manifest(out)
     exr = read_exr(out / m["files"]["left"][1])
     lum = exr["ViewLayer.Combined.R"][24]
@@ -218,7 +218,7 @@ def test_sensor_rolling_shutter_sees_a_moving_object_row_by_row(tmp_path):
     script = tmp_path / "rolling.ses"
     script.write_text(_blur_script("TIMING rate 10 readout 0.1\n"))
     out = tmp_path / "out"
-    rendered(script, out, "--samples", "1")
+    rendered(script, out, "--samples", "1", here=True)
     m = load_manifest(out)
     W, H = m["resolution"]
     _, ids = depth_and_ids(read_exr(out / m["files"]["left"][1]), m)

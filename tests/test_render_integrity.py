@@ -50,7 +50,7 @@ def reference(request, tmp_path_factory):
     s = tmp / "s.ses"
     s.write_text(PLAIN if request.param == "plain" else SENSORS)
     out = tmp / "ref"
-    rendered(s, out, "--samples", "1")
+    rendered(s, out, "--samples", "1", here=True)   # the resumes below: children
     assert cli_in_process("blender_sesgen", "verify", out).returncode == 0
     return request.param, s, out
 

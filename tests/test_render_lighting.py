@@ -21,7 +21,7 @@ LOOK_DOWN = "CAMERA resolution 32 24 focal 20 baseline 0\nSTART position 0 2 0 -
 
 def _mean_linear_rgb(tmp_path, script: str) -> np.ndarray:
     (tmp_path / "s.ses").write_text(script)
-    rendered(str(tmp_path / "s.ses"), str(tmp_path / "out"), "--samples", "4")
+    rendered(str(tmp_path / "s.ses"), str(tmp_path / "out"), "--samples", "4", here=True)
     m = load_manifest(tmp_path / "out")
     exr = read_exr(tmp_path / "out" / m["files"]["left"][0])
     rgb = np.stack([exr[c] for c in m["channels"]["rgb"][:3]], -1)

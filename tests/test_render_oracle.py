@@ -38,7 +38,7 @@ def oracle_render(tmp_path_factory):
     script = d / "oracle.ses"
     script.write_text(oracle_script())
     out = d / "out"
-    rendered(script, out, *GT_RENDER)
+    rendered(script, out, *GT_RENDER, here=True)
     return out, load_manifest(out)
 
 
@@ -168,7 +168,7 @@ def test_cylinder_silhouette_within_quarter_pixel_and_depth_exact(tmp_path):
     script = tmp_path / "cyl.ses"
     script.write_text(CYLINDER_SCRIPT)
     out = tmp_path / "out"
-    rendered(script, out, *GT_RENDER)
+    rendered(script, out, *GT_RENDER, here=True)
     m = load_manifest(out)
     W, H = m["resolution"]
     prims = [raycast.QuadP(1, np.array([[-3, 0, -3], [3, 0, -3], [3, 0, 4], [-3, 0, 4]], dtype=float)),
@@ -241,7 +241,7 @@ def test_imported_meshes_are_placed_exactly(tmp_path):
     script = tmp_path / "meshes.ses"
     script.write_text("\n".join(lines) + "\n")
     out = tmp_path / "out"
-    rendered(script, out, *GT_RENDER)
+    rendered(script, out, *GT_RENDER, here=True)
     m = load_manifest(out)
     W, H = m["resolution"]
     for view in m["views"]:
@@ -263,7 +263,7 @@ def test_camera_inside_a_sphere_sees_its_inner_surface(tmp_path):
                       "SPHERE id 7 texture 2 position 0 0 0 dim 10\n"
                       "EGO 0.5 0 1 5 -10 0\n")
     out = tmp_path / "out"
-    rendered(script, out, *GT_RENDER)
+    rendered(script, out, *GT_RENDER, here=True)
     m = load_manifest(out)
     W, H = m["resolution"]
     prims = [raycast.SphereP(7, np.array([0.0, 0.0, 0.0]), 10.0)]

@@ -33,7 +33,7 @@ def test_library_materials_under_an_hdri_keep_depth_and_ids_exact(tmp_path):
     script = tmp_path / "oracle.ses"
     script.write_text(oracle_script(materials=LIBRARY_ORACLE, extra_lines=["WORLD hdri city rotation 40"]))
     out = tmp_path / "out"
-    rendered(script, out, "--samples", "1", "--no-denoise")    # depth and ids: the denoiser does not touch them
+    rendered(script, out, "--samples", "1", "--no-denoise", here=True)    # depth and ids: the denoiser does not touch them
     m = load_manifest(out)
     W, H = m["resolution"]
     spheres = {p.id for p in ORACLE_PRIMS if isinstance(p, raycast.SphereP)}
@@ -85,7 +85,7 @@ def library_swatches(tmp_path_factory):
     lum = {}
     for seed in (0, 1):
         out = base / f"out{seed}"
-        rendered(base / "lib.ses", out, "--samples", "16", "--seed", seed)
+        rendered(base / "lib.ses", out, "--samples", "8", "--seed", seed, here=True)   # margins as at 16 (half the CPU)
         m = load_manifest(out)
         for view in ("left", "right"):
             ch = read_exr(out / m["files"][view][0])
@@ -127,7 +127,7 @@ def _background(tmp_path, name, rotation, yaw) -> np.ndarray:
                       f"START position 0 1 0 10 {yaw} 0\n"
                       "CUBOID id 1 position 0 -50 0 dim 1 1 1\n"       # out of view
                       f"WORLD hdri sunset rotation {rotation}\nLOOK exposure 0\n")
-    rendered(script, tmp_path / name, "--samples", "1")
+    rendered(script, tmp_path / name, "--samples", "1", here=True)
     m = load_manifest(tmp_path / name)
     ch = read_exr(tmp_path / name / m["files"]["left"][0])
     return np.stack([ch[c] for c in m["channels"]["rgb"][:3]], -1)
@@ -150,7 +150,7 @@ def test_display_images_are_the_view_transform_and_what_vo_reads(tmp_path):
     render_text(tmp_path, "CAMERA resolution 64 48 focal 50 baseline 0.1\nSTART position 0 1.5 3 -15 0 0\n"
                 "QUAD id 1 material concrete vertices -5 0 5  5 0 5  5 0 -5  -5 0 -5\n"
                 "CUBOID id 2 material brick position 0 0.5 0 dim 1 1 1\n"
-                "SPHERE id 3 material chrome position 1.2 0.4 0.5 dim 0.4\n", "--samples", "4")
+                "SPHERE id 3 material chrome position 1.2 0.4 0.5 dim 0.4\n", "--samples", "4", here=True)
     m = load_manifest(tmp_path / "out")
     assert m["display"]["view_transform"] == "AgX"
     seq = RenderSequence(tmp_path / "out")
@@ -174,7 +174,7 @@ def test_cityscapes_export_of_classes(tmp_path):
                 "CUBOID id 5 class car position -0.8 0.5 0 dim 1.5 1 1\n"
                 "CUBOID id 9 class car position 1.2 0.5 -1 dim 1 1 1\n"
                 "CYLINDER id 12 class traffic_light position 0 1 -2 dim 0.1 2\n"
-                "SPHERE id 20 position 0.2 1.8 -0.5 dim 0.2\n", "--samples", "1", "--no-denoise")   # ids and labels
+                "SPHERE id 20 position 0.2 1.8 -0.5 dim 0.2\n", "--samples", "1", "--no-denoise", here=True)   # ids and labels
     out = export(tmp_path / "out", "cityscapes", tmp_path / "cs", progress=False)
     seq = RenderSequence(tmp_path / "out")
     expected_label = {0: 23, 1: 7, 5: 26, 9: 26, 12: 19, 20: 4}    # sky, road, car, car, traffic light, static
@@ -207,7 +207,7 @@ def test_bevelled_cuboid_is_real_geometry(tmp_path):
                       "CUBOID id 2 material plastic position -0.4 0.5 0 20 35 10 dim 1 0.8 0.6 bevel 0.15\n"
                       "CUBOID id 3 material brick position 0.9 0.45 -0.8 0 -25 0 dim 0.6 0.9 0.7 bevel 0.3\n"
                       "EGO 0 0 0.2 0 2 0\n")
-    rendered(script, tmp_path / "out", "--samples", "1", "--no-denoise")   # depth and ids only
+    rendered(script, tmp_path / "out", "--samples", "1", "--no-denoise", here=True)   # depth and ids only
     m = load_manifest(tmp_path / "out")
     W, H = m["resolution"]
     prims = [raycast.QuadP(1, np.array([[-3, 0, -3], [3, 0, -3], [3, 0, 4], [-3, 0, 4]], dtype=float)),

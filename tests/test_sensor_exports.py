@@ -30,7 +30,7 @@ def render(tmp_path_factory):
     pytest.importorskip("bpy")
     pytest.importorskip("OpenEXR")
     from vo_reference.io.render import RenderSequence
-    return RenderSequence(render_text(tmp_path_factory.mktemp("sensors"), SCENE, "--samples", "2"))
+    return RenderSequence(render_text(tmp_path_factory.mktemp("sensors"), SCENE, "--samples", "2", here=True))
 
 
 pytestmark = pytest.mark.render

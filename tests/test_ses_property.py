@@ -90,8 +90,9 @@ def mutated_scene(draw):
     return "\n".join(lines)
 
 
+# each example parses a whole checked-in scene (city_loop.ses: 0.5 MB): fewer by default, all 300 under fuzz
 @pytest.mark.slow
-@FUZZ
+@settings(FUZZ, max_examples=examples(300, quick_most=20))
 @given(mutated_scene())
 def test_mutated_scenes(tmp_path, text):
     _check(text, tmp_path)

@@ -32,7 +32,7 @@ FRAMES = 5
 @pytest.fixture(scope="module")
 def render(tmp_path_factory):
     from render_support import render_paper_room
-    return render_paper_room(tmp_path_factory.mktemp("stereo_render"), FRAMES, 0.25)
+    return render_paper_room(tmp_path_factory.mktemp("stereo_render"), FRAMES, 0.25, here=True)
 
 
 @pytest.fixture(scope="module")

@@ -52,9 +52,7 @@ def clear_previous() -> None:
             if w.scene == old:
                 w.scene = others[0]
         bpy.data.scenes.remove(old)
-    for coll_name in _ID_COLLECTIONS:
-        coll = getattr(bpy.data, coll_name, None)
-        if coll is None:
-            continue
-        for idb in [i for i in coll if i.get(TAG)]:
-            coll.remove(idb)
+    # in one batch: removing them one by one remaps every other data-block's users each time
+    # (quadratic: 10 s for a built city)
+    bpy.data.batch_remove([idb for coll_name in _ID_COLLECTIONS for idb in getattr(bpy.data, coll_name, ())
+                           if idb.get(TAG)])
