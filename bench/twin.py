@@ -196,18 +196,28 @@ KITTI_REGIONS = {
 RENDER_KINDS = {"road": ("road",), "lawn": ("terrain",), "tree": ("vegetation",), "facade": ("building",), "sky": ()}
 
 
+def kitti_marked_frame(k: int) -> np.ndarray:
+    """KITTI sequence_1's left frame ``k`` (one of ``KITTI_REGIONS``'), grey, at its own size."""
+    return cv2.imread(str(DATA / "kitti" / "sequence_1" / "image_l" / f"{k:06d}.png"), 0)
+
+
+def render_classes(out: Path):
+    """The render's sequence and its object classes by id (the manifest's objects)."""
+    man = json.loads((out / "manifest.json").read_text())
+    return open_sequence(out), {o["id"]: o["class"] for o in man["objects"]}
+
+
 def kinds_brightness(out: Path, frames: Frames, real_frames: Frames, n: int) -> tuple[str, str]:
     """Median linear signal of each kind over the frame's mean (KITTI: the hand-marked sunlit
     regions; the render: all pixels of the kind's classes, by object id, sun and shade), the
     median over frames, and the share of pixels darker than 0.3 x the frame mean."""
     real = {}
     for k, regions in KITTI_REGIONS.items():
-        L = _linear(cv2.imread(str(DATA / "kitti" / "sequence_1" / "image_l" / f"{k:06d}.png"), 0), "kitti")
+        L = _linear(kitti_marked_frame(k), "kitti")
         med = {name: np.median(L[y0:y1, x0:x1]) for name, (x0, y0, x1, y1) in regions.items()}
         for name, v in med.items():
             real.setdefault(name, []).append(v / L.mean())
-    seq, man = open_sequence(out), json.loads((out / "manifest.json").read_text())
-    cls = {o["id"]: o["class"] for o in man["objects"]}
+    seq, cls = render_classes(out)
     ours, dark = {}, []
     for k in range(n):
         L = _linear(frames.image_gray(k), "kitti")
@@ -239,15 +249,15 @@ def road_grain(out: Path, frames: Frames, n: int) -> tuple[float, float]:
     W, H = frames.resolution
     real = []
     for k, regions in KITTI_REGIONS.items():
-        img = cv2.imread(str(DATA / "kitti" / "sequence_1" / "image_l" / f"{k:06d}.png"), 0)
+        img = kitti_marked_frame(k)
         sx, sy = W / img.shape[1], H / img.shape[0]
         L = _linear(cv2.resize(img, (W, H), interpolation=cv2.INTER_AREA), "kitti")
         x0, y0, x1, y1 = regions["road"]
         m = np.zeros(L.shape, bool)
         m[int(y0 * sy) + 2:int(y1 * sy) - 2, int(x0 * sx) + 2:int(x1 * sx) - 2] = True
         real.append(_grain(L, m))
-    seq, man = open_sequence(out), json.loads((out / "manifest.json").read_text())
-    road = [o["id"] for o in man["objects"] if o["class"] == "road"]
+    seq, cls = render_classes(out)
+    road = [i for i, c in cls.items() if c == "road"]
     ours = []
     for k in range(n):
         L = _linear(frames.image_gray(k), "kitti")

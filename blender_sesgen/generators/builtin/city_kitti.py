@@ -24,7 +24,7 @@ strength and rotation, haze one time in four, the asphalt (tone, wear) and the p
 the drive: 0.8-1.5 m per frame, 1-3 curves of 5-18 deg, the lane position and weave, and
 each side's cross-section (seed 0: KITTI sequence_1's, an open lawn left and blocks right).
 ``frames`` sets the sequence length; ``step_m``, ``sun_elevation``, ``sun_azimuth`` override
-the seed's (a sun given replaces an HDRI); ```traffic`` the number of moving cars (0: a
+the seed's (a sun given replaces an HDRI); ``traffic`` the number of moving cars (0: a
 static street).
 """
 from __future__ import annotations
