@@ -33,6 +33,7 @@ from ..contract.frames import R_BLENDER_SES
 from ..errors import SesgenError
 from ..scene.model import Fog, Light, Scene, World
 from . import compat
+from . import sky as sky_table
 from .datablocks import load_image
 
 
@@ -198,7 +199,9 @@ def build_world(bscene, w: World, fog: Fog | None, name: str, tag=lambda x: x):
         compat.set_sky_aerosol(sky, w.aerosol)
         if hasattr(sky, "sun_disc") and _sky_without_disc():
             sky.sun_disc = False  # the sun is a lamp (scene_lights)
-        nt.links.new(sky.outputs["Color"], bg.inputs["Color"])
+        # 5.0's sky from its table baked once, not computed in every Cycles session (sky.py)
+        colour = sky_table.lookup(nt, sky, tag) if sky_table.available() else sky.outputs["Color"]
+        nt.links.new(colour, bg.inputs["Color"])
         _importance_map(wd, SKY_MAP_WIDTH)
     elif w.kind == "hdri":
         img = tag(load_image(hdri_path(w)))

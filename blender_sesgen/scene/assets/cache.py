@@ -14,6 +14,9 @@ switches the cache off. Files are written atomically (a reader never sees half a
 file that cannot be read is generated again and replaced; a folder that cannot be written
 only costs the time. The newest ``KEEP_VERSIONS`` version folders are kept, older ones
 removed (delete the folder to reclaim all of it: it is only a cache).
+
+``cached_array`` keeps other things a render process would compute again (the physical sky's
+table, ``blender/sky.py``) under ``FOLDER/KIND/KEY.npy``, the newest ``KEEP_ARRAYS`` of a kind.
 """
 from __future__ import annotations
 
@@ -24,7 +27,7 @@ import os
 import shutil
 import zipfile
 from pathlib import Path
-from typing import Optional
+from typing import Callable, Optional
 
 import numpy as np
 
@@ -34,6 +37,7 @@ from .mesh import MeshData, Surface
 
 ENV = "SESGEN_ASSET_CACHE"
 KEEP_VERSIONS = 3
+KEEP_ARRAYS = 64
 
 
 def folder() -> Optional[Path]:
@@ -107,3 +111,30 @@ def _prune(root: Path, keep: Path) -> None:
                       key=lambda p: p.stat().st_mtime, reverse=True)
     for old in versions[KEEP_VERSIONS - 1:]:
         shutil.rmtree(old, ignore_errors=True)
+
+
+def cached_array(kind: str, key, make: Callable[[], np.ndarray],
+                 valid: Callable[[np.ndarray], bool] = lambda a: True) -> np.ndarray:
+    """``make()``, kept in the cache under ``kind`` and the JSON of ``key`` (what it depends
+    on, versions included): read back when an earlier process wrote it and ``valid`` says it
+    is whole, made (and written) otherwise; always made when the cache is off."""
+    root = folder()
+    if root is None:
+        return make()
+    path = root / kind / f"{hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:24]}.npy"
+    try:
+        array = np.load(path, allow_pickle=False)
+        if valid(array):
+            return array
+    except (OSError, ValueError, EOFError):
+        pass
+    array = make()
+    try:
+        with replacing(path) as tmp:
+            np.save(tmp, array)
+        kept = sorted((p for p in path.parent.glob("*.npy") if not p.name.startswith(".")), key=lambda p: p.stat().st_mtime, reverse=True)
+        for old in kept[KEEP_ARRAYS:]:
+            old.unlink(missing_ok=True)
+    except OSError:
+        pass   # a read-only or full disk: only the cache is lost
+    return array

@@ -1,0 +1,168 @@
+"""Blender 5.0's physical sky (``MULTIPLE_SCATTERING``) read from a table baked once.
+
+Cycles draws that sky from a 512 x 256 table (XYZ; columns: azimuth from the sun, rows:
+elevation through a square root, nadir to zenith) that it computes in every render session
+that uses the sky node: ~0.55 CPU s each, and a render process has two (the exposure preview,
+the frames). The table depends only on the sun's elevation and the atmosphere, so it is
+baked once: a render of a plane whose emission is the sky node evaluated at each table
+cell's centre (a Cycles render, so it holds Cycles' own values, RGB), kept in the asset
+cache (``scene/assets/cache.py: cached_array``; baked per process when the cache is off).
+The world then reads it with the sky kernel's own mapping (``lookup``): the same bilinear
+interpolation of the same cells, so the background is the sky node's to float rounding
+(tests/test_sky_table.py), and so is its importance map.
+"""
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+
+import bpy
+import numpy as np
+
+from ..scene.assets.cache import cached_array
+from . import compat
+
+WIDTH, HEIGHT = 512, 256          # Cycles' table (intern/cycles/scene/image_sky.cpp)
+TYPE = "MULTIPLE_SCATTERING"      # the one sky whose kernel mapping ``lookup`` repeats
+# what the table depends on (the sun's azimuth only turns the lookup)
+PARAMETERS = ("sun_elevation", "altitude", "air_density", "aerosol_density", "ozone_density")
+TABLE_FORMAT = 1                  # bump when the bake or the lookup changes
+
+
+def available() -> bool:
+    return compat.sky_type_for() == TYPE
+
+
+def _math(nt, op: str, *inputs):
+    node = nt.nodes.new("ShaderNodeMath")
+    node.operation = op
+    for socket, value in zip(node.inputs, inputs):
+        if isinstance(value, (int, float)):
+            socket.default_value = float(value)
+        else:
+            nt.links.new(value, socket)
+    return node.outputs[0]
+
+
+def _kernel_uv(nt, direction, sun_rotation: float):
+    """(x, y) of the sky kernel's table lookup for a unit ``direction`` socket (Cycles'
+    ``sky_radiance_nishita``): x = fract((azimuth + rotation - 3/2 pi) / 2 pi), y =
+    0.5 + 0.5 sign(e) sqrt(|e| / (pi/2)) for the elevation e (measured: 1e-5 of the node)."""
+    sep = nt.nodes.new("ShaderNodeSeparateXYZ")
+    nt.links.new(direction, sep.inputs[0])
+    dx, dy, dz = sep.outputs
+    elevation = _math(nt, "SUBTRACT", math.pi / 2, _math(nt, "ARCCOSINE", dz))
+    root = _math(nt, "SQRT", _math(nt, "DIVIDE", _math(nt, "ABSOLUTE", elevation), math.pi / 2))
+    y = _math(nt, "MULTIPLY_ADD", _math(nt, "MULTIPLY", root, _math(nt, "SIGN", elevation)), 0.5, 0.5)
+    x = _math(nt, "FRACT", _math(nt, "DIVIDE", _math(nt, "ADD", _math(nt, "ARCTAN2", dy, dx),
+                                                       sun_rotation - 1.5 * math.pi), 2 * math.pi))
+    uv = nt.nodes.new("ShaderNodeCombineXYZ")
+    nt.links.new(x, uv.inputs[0])
+    nt.links.new(y, uv.inputs[1])
+    return uv.outputs[0]
+
+
+def lookup(nt, sky_node, tag=lambda x: x):
+    """The colour socket of the world's sky, read from the baked table of ``sky_node``'s
+    sky (the node stays in the tree, unlinked: Cycles computes nothing for it)."""
+    table = table_of(sky_node)
+    image = bpy.data.images.new("sesgen_sky_table", WIDTH, HEIGHT, alpha=False, float_buffer=True)
+    tag(image)
+    image.colorspace_settings.name = "Non-Color"
+    rgba = np.ones((HEIGHT, WIDTH, 4), dtype=np.float32)
+    rgba[..., :3] = table
+    image.pixels.foreach_set(rgba.ravel())
+    image.pack()   # a saved .blend keeps it
+    coords = nt.nodes.new("ShaderNodeTexCoord")
+    tex = nt.nodes.new("ShaderNodeTexImage")
+    tex.image, tex.interpolation, tex.extension = image, "Linear", "EXTEND"   # as Cycles' table
+    nt.links.new(_kernel_uv(nt, coords.outputs["Generated"], float(sky_node.sun_rotation)), tex.inputs["Vector"])
+    return tex.outputs["Color"]
+
+
+def table_of(sky_node) -> np.ndarray:
+    """(HEIGHT, WIDTH, 3) float32 RGB of ``sky_node``'s table, row 0 at the nadir."""
+    params = {p: float(getattr(sky_node, p)) for p in PARAMETERS}
+    key = [TABLE_FORMAT, compat.version_string(), TYPE, params]
+
+    def valid(a: np.ndarray) -> bool:
+        return a.shape == (HEIGHT, WIDTH, 3) and a.dtype == np.float32 and bool(np.isfinite(a).all())
+    return cached_array("sky", key, lambda: bake(params), valid)
+
+
+def bake(params: dict) -> np.ndarray:
+    """The table of the sky of ``params`` (``PARAMETERS``), rendered: an orthographic camera
+    looks at a plane whose emission is the sky node at the direction of each cell's centre
+    (snapped to it, whatever the pixel filter), one sample, no denoiser."""
+    from ..files.exr import read_exr
+    from .datablocks import tag
+    from .render import _render
+    made = []
+
+    def new(collection, *args, **kw):
+        block = tag(getattr(bpy.data, collection).new(*args, **kw))
+        made.append(block)
+        return block
+    scene = new("scenes", "sesgen_sky_bake")
+    scene.render.engine = "CYCLES"
+    c = scene.cycles
+    c.device, c.samples, c.use_denoising, c.use_adaptive_sampling = "CPU", 1, False, False
+    c.filter_width, c.max_bounces = 0.01, 0
+    r = scene.render
+    r.resolution_x, r.resolution_y, r.resolution_percentage = WIDTH, HEIGHT, 100
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+    scene.world = new("worlds", "sesgen_sky_bake")
+    cam = new("objects", "sesgen_sky_bake_camera", new("cameras", "sesgen_sky_bake_camera"))
+    cam.data.type, cam.data.ortho_scale = "ORTHO", 1.0     # x in [0, 1], y in [0.25, 0.75]
+    cam.location = (0.5, 0.5, 1.0)
+    mesh = new("meshes", "sesgen_sky_bake_plane")
+    mesh.from_pydata([(-1, -1, 0), (2, -1, 0), (2, 2, 0), (-1, 2, 0)], [], [(0, 1, 2, 3)])
+    plane = new("objects", "sesgen_sky_bake_plane", mesh)
+    for o in (cam, plane):
+        scene.collection.objects.link(o)
+    scene.camera = cam
+    mat = new("materials", "sesgen_sky_bake")
+    mesh.materials.append(mat)
+    nt = compat.node_tree(mat)
+    nt.nodes.clear()
+    emit = nt.nodes.new("ShaderNodeEmission")
+    nt.links.new(emit.outputs[0], nt.nodes.new("ShaderNodeOutputMaterial").inputs["Surface"])
+    sep = nt.nodes.new("ShaderNodeSeparateXYZ")
+    nt.links.new(nt.nodes.new("ShaderNodeTexCoord").outputs["Object"], sep.inputs[0])
+
+    def centre(value, scale, offset=0.0, count=1):   # the centre of the cell holding the pixel
+        cell = _math(nt, "FLOOR", _math(nt, "MULTIPLY", _math(nt, "SUBTRACT", value, offset), scale * count))
+        return _math(nt, "DIVIDE", _math(nt, "ADD", cell, 0.5), count)
+    x = centre(sep.outputs[0], 1.0, count=WIDTH)
+    y = centre(sep.outputs[1], 2.0, offset=0.25, count=HEIGHT)
+    # the inverse of ``_kernel_uv`` with rotation 0
+    s = _math(nt, "SUBTRACT", y, 0.5)
+    a = _math(nt, "MULTIPLY", _math(nt, "ABSOLUTE", s), 2.0)
+    elevation = _math(nt, "MULTIPLY", _math(nt, "MULTIPLY", _math(nt, "MULTIPLY", a, a), math.pi / 2),
+                      _math(nt, "SIGN", s))
+    azimuth = _math(nt, "MULTIPLY_ADD", x, 2 * math.pi, -math.pi / 2)
+    ce = _math(nt, "COSINE", elevation)
+    direction = nt.nodes.new("ShaderNodeCombineXYZ")
+    nt.links.new(_math(nt, "MULTIPLY", ce, _math(nt, "COSINE", azimuth)), direction.inputs[0])
+    nt.links.new(_math(nt, "MULTIPLY", ce, _math(nt, "SINE", azimuth)), direction.inputs[1])
+    nt.links.new(_math(nt, "SINE", elevation), direction.inputs[2])
+    sky = nt.nodes.new("ShaderNodeTexSky")
+    sky.sky_type, sky.sun_disc, sky.sun_rotation = TYPE, False, 0.0
+    for p, v in params.items():
+        setattr(sky, p, v)
+    nt.links.new(direction.outputs[0], sky.inputs["Vector"])
+    nt.links.new(sky.outputs["Color"], emit.inputs["Color"])
+    ims = r.image_settings
+    ims.file_format, ims.color_depth = "OPEN_EXR", "32"
+    fd, path = tempfile.mkstemp(suffix=".exr", prefix=f"sesgen-sky-{os.getpid()}-")
+    os.close(fd)
+    try:
+        r.filepath = path
+        _render(scene, quiet=True)
+        ch = read_exr(path)
+    finally:
+        os.remove(path)
+        bpy.data.batch_remove(made)
+    return np.ascontiguousarray(np.stack([ch[k] for k in "RGB"], axis=-1)[::-1], dtype=np.float32)
