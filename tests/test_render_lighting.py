@@ -61,8 +61,10 @@ def test_sky_sun_lamp_delivers_the_sky_models_own_sun(tmp_path):
         means = []
         for disc in (False, True):
             if disc:
-                sky = next(n for n in bscene.world.node_tree.nodes if n.bl_idname == "ShaderNodeTexSky")
-                sky.sun_disc = True
+                nt = bscene.world.node_tree
+                sky = next(n for n in nt.nodes if n.bl_idname == "ShaderNodeTexSky")
+                sky.sun_disc = True   # linked: the world reads the disc-less sky's baked table (sky.py)
+                nt.links.new(sky.outputs["Color"], next(n for n in nt.nodes if n.bl_idname == "ShaderNodeBackground").inputs["Color"])
                 for o in [o for o in bscene.objects if o.type == "LIGHT"]:
                     bpy.data.objects.remove(o)
             path = tmp_path / f"e{elevation}{disc}.exr"

@@ -16,6 +16,7 @@ import os
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Optional
 
 import numpy as np
 
@@ -72,8 +73,11 @@ def _beauty(path: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return tuple(next(v for k, v in ch.items() if k.endswith(f"Combined.{c}")) for c in "RGB")
 
 
-def measure_exposure(bscene, camera, frame: int, cameras=None) -> float:
-    """The film exposure that brings the preview's 90th-percentile luminance to TARGET.
+def measure_exposure(bscene, camera, frame: int, cameras=None) -> tuple[float, float]:
+    """(film exposure, luminance): the film exposure that brings the preview's 90th-percentile
+    luminance to TARGET, and the preview's mean linear luminance (``autoexposure.meter`` at
+    film exposure 1: the metering pass's value of ``frame`` before its film exposure, when
+    the metering preview is this one, see ``meter_frames``).
 
     ``cameras`` ({view: camera}, the left one ``camera``): render the preview the fast way
     (``render.render_views``) in the scene's persistent Cycles session, which the frames
@@ -89,31 +93,40 @@ def measure_exposure(bscene, camera, frame: int, cameras=None) -> float:
         r, g, b = _beauty(path)
     lum = 0.2126 * r + 0.7152 * g + 0.0722 * b
     p90 = float(np.percentile(lum, 90))
+    metered = meter(np.stack((r, g, b), axis=-1))
     if not np.isfinite(p90) or p90 <= 1e-6:
-        return 1.0  # nothing lit in view: leave the exposure alone
-    return float(np.clip(TARGET / p90, 1e-4, 1e4))
+        return 1.0, metered  # nothing lit in view: leave the exposure alone
+    return float(np.clip(TARGET / p90, 1e-4, 1e4)), metered
 
 
-def meter_frames(bscene, camera, frames, film_exposure: float, progress=None) -> list[float]:
+# The exposure preview is the metering preview of its frame (same size, samples, seed, no
+# denoiser, no motion blur, film exposure 1): the metering pass takes that frame's value from it.
+PREVIEW_IS_METERING = (PREVIEW_WIDTH, PREVIEW_SAMPLES) == (METERING_WIDTH_PX, METERING_SAMPLES)
+
+
+def meter_frames(bscene, camera, frames, film_exposure: float, progress=None,
+                 first: Optional[float] = None) -> list[float]:
     """The sensor auto-exposure's metering pass: the mean linear luminance (``autoexposure.
     meter``) of a small preview of each of ``frames`` through ``camera`` (the left view),
-    rendered in order in one persistent Cycles session with the film exposure of the
-    frames (the values are those of the frames' linear beauty). Deterministic: seed 0,
-    ``METERING_WIDTH_PX`` wide, ``METERING_SAMPLES`` samples, no denoiser, no motion blur;
-    whoever runs it (one render, a chunk of a farm) gets the same numbers.
-    ``progress(i, n)`` after each frame."""
+    rendered in order in one persistent Cycles session at film exposure 1, times the film
+    exposure of the frames (the values are those of the frames' linear beauty).
+    Deterministic: seed 0, ``METERING_WIDTH_PX`` wide, ``METERING_SAMPLES`` samples, no
+    denoiser, no motion blur; whoever runs it (one render, a chunk of a farm) gets the same
+    numbers. ``first``: the luminance of ``frames[0]``'s preview already rendered (the
+    exposure preview, ``measure_exposure``), not rendered again. ``progress(i, n)`` after
+    each frame."""
     from .render import render_view
 
     r = bscene.render
     persistent = r.use_persistent_data
     r.use_persistent_data = True       # one synchronisation and BVH for the whole pass
     frames = list(frames)
-    out = []
+    out = [] if first is None else [film_exposure * first]
     try:
-        with _preview_render(bscene, METERING_WIDTH_PX, METERING_SAMPLES, film_exposure) as path:
-            for i, frame in enumerate(frames):
+        with _preview_render(bscene, METERING_WIDTH_PX, METERING_SAMPLES, 1.0) as path:
+            for i, frame in enumerate(frames[len(out):], start=len(out)):
                 render_view(bscene, camera, frame, seed=0, filepath=path)
-                out.append(meter(np.stack(_beauty(path), axis=-1)))
+                out.append(film_exposure * meter(np.stack(_beauty(path), axis=-1)))
                 if progress is not None:
                     progress(i + 1, len(frames))
     finally:

@@ -47,6 +47,7 @@ class BlenderSession:
         self.flat = s.preset.shading == "flat"
         self.culling, self._exposure_ids, self._metering_ids = None, None, None
         self._preview_session = False   # the metering pass reuses the exposure preview's session
+        self._preview_luminance = None  # ... and takes frame 0's value from its preview
         scene = plan.scene
         meters = meter and plan.sensor.autoexposure is not None and known_metering is None
         self._meter = meter
@@ -132,16 +133,21 @@ class BlenderSession:
         share = self.fast and self.plan.settings.preset.samples >= EXPOSURE_PREVIEW.samples \
             and not self.plan.sensor.changes_rendering
         # else the metering pass may reuse the preview's session: the same preview settings and
-        # objects (not when culling shows the two other object sets), the first metered
-        # frame that of the preview, so its pixels are a fresh session's
+        # objects (not when culling shows the two other object sets); frame 0's value is the
+        # preview's, the pass goes on from frame 1 as a fresh pass would after frame 0
         self._preview_session = self.fast and then_meters and not share and self._exposure_ids is None \
             and self._metering_ids is None
         render.configure(self.built.scene, EXPOSURE_PREVIEW,
                          **{**self._configure, "persistent": share or self._preview_session})
         if self._exposure_ids is not None:   # culled: frame 0 metered with what frame 0 sees, in every chunk
             self._show(self._exposure_ids)
-        return exposure.measure_exposure(self.built.scene, self.built.cameras["left"], rig.blender_frame(0),
-                                         self.built.cameras if share else None)
+        value, luminance = exposure.measure_exposure(self.built.scene, self.built.cameras["left"],
+                                                     rig.blender_frame(0), self.built.cameras if share else None)
+        # the metering pass's frame 0 is this preview (a plain render of the same objects)
+        if then_meters and exposure.PREVIEW_IS_METERING and not share and self._exposure_ids is None \
+                and self._metering_ids is None:
+            self._preview_luminance = luminance
+        return value
 
     def _metering(self, known: Optional[list]) -> Optional[list]:
         """The sensor auto-exposure's metered brightness of the frames up to this render's last
@@ -161,7 +167,8 @@ class BlenderSession:
         # frame of a whole render; a chunk's or --frames A:B's prefix), the rest left unknown
         upto = metered_frames(self.plan.frames, self.plan.scene.frames)
         frames = [rig.blender_frame(k) for k in range(upto)]
-        metered = exposure.meter_frames(self.built.scene, self.built.cameras["left"], frames, self.exposure)
+        metered = exposure.meter_frames(self.built.scene, self.built.cameras["left"], frames, self.exposure,
+                                        first=self._preview_luminance)
         metered = metered + [None] * (self.plan.scene.frames - upto)
         # switching persistence off frees the previews' session: the frames start their own
         render.configure(self.built.scene, EXPOSURE_PREVIEW, **{**self._configure, "persistent": False})

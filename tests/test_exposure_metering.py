@@ -1,0 +1,47 @@
+"""The sensor auto-exposure's metering pass takes frame 0 from the automatic exposure's preview.
+
+The exposure preview is the metering preview of frame 0 (same size, samples, seed, objects; no
+denoiser, no motion blur; film exposure 1), so the pass does not render it again
+(blender/exposure.py: ``meter_frames(first=...)``). Oracles: an independent metering pass of
+every frame, rendered in a fresh session after the build (the values must be equal, float for
+float), and the metering rule as it was (each preview rendered at the frames' film exposure):
+equal to float rounding.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from render_support import oracle_script
+
+pytestmark = pytest.mark.render
+
+
+def test_metering_takes_frame_0_from_the_exposure_preview(tmp_path, monkeypatch):
+    from blender_sesgen.blender import exposure, render, rig
+    from blender_sesgen.pipeline import RenderJob, RenderOptions
+    from blender_sesgen.render.sensor.autoexposure import meter
+    from blender_sesgen.scene.presets import EXPOSURE_PREVIEW
+    script = tmp_path / "m.ses"
+    script.write_text(oracle_script(width=64, height=48, focal=44.0, principal=(32.1, 23.4), baseline=0,
+                                    extra_lines=["TIMING rate 20 exposure 0.02 blur off", "SENSOR seed 1",
+                                                 "AUTOEXPOSURE", "MOVE id 5 twist 0.04 0 0.02 0 4 0"]))
+    renders = []
+    real = render.render_view
+    monkeypatch.setattr(render, "render_view", lambda *a, **k: renders.append(a[2]) or real(*a, **k))
+    job = RenderJob.prepare(script, tmp_path / "out", RenderOptions(samples=1, frames="0:3"))
+    job.build()
+    s = job.session
+    metered = s.metering[:3]
+    assert len(s.metering) == job.plan.scene.frames and all(v > 0 for v in metered)
+    # the build rendered the exposure preview of frame 0, then the pass only frames 1 and 2
+    assert renders == [rig.blender_frame(k) for k in (0, 1, 2)]
+    bscene, camera = s.built.scene, s.built.cameras["left"]
+    render.configure(bscene, EXPOSURE_PREVIEW, persistent=False)   # the pass starts a fresh session
+    again = exposure.meter_frames(bscene, camera, [rig.blender_frame(k) for k in range(3)], s.exposure)
+    assert again == metered                      # a pass of every frame: the same numbers
+    # the rule before: frame 0's preview rendered at the frames' film exposure
+    with exposure._preview_render(bscene, exposure.METERING_WIDTH_PX, exposure.METERING_SAMPLES, s.exposure) as p:
+        real(bscene, camera, rig.blender_frame(0), seed=0, filepath=p)
+        before = meter(np.stack(exposure._beauty(p), axis=-1))
+    assert metered[0] == pytest.approx(before, rel=1e-5) and metered[0] != pytest.approx(metered[1], rel=1e-6)
