@@ -3,12 +3,13 @@ revision and by the working tree, must give the same pixels in every channel of 
 and the same manifest (timing and version fields aside).
 
     .venv/bin/python bench/identical_renders.py [--base REV] [--scenes scenes/*.ses]
-                                                [--scale 0.25] [--samples 2] [--keep DIR]
+                                                [--scale 0.25] [--samples 2] [--keep DIR] [--no-last]
                                                 [--base-args "..."] [--head-args "..."]
 
 The base revision is checked out into a temporary git worktree and run with the same
-Python; each scene renders frames 0, 1 and its last frame (both views) at ``--scale`` with
-``--samples`` samples in a fresh process per side. Exit code 0 when everything is
+Python; each scene renders frames 0, 1 and its last frame (both views; ``--no-last``: not the
+last) at ``--scale`` with ``--samples`` samples in a fresh process per side; a channel that
+differs is listed with its largest difference and PSNR (peak: the base's largest value). Exit code 0 when everything is
 identical, 1 otherwise (the differing files and channels are listed). ``--keep DIR`` keeps
 the base renders there and reuses them on the next run (same base commit and settings).
 ``--base-args`` / ``--head-args`` add render options to one side, e.g. the same revision
@@ -67,7 +68,7 @@ def render(code_root: Path, scene: Path, out: Path, frames: str, args, extra: st
 
 def render_scene(code_root: Path, scene: Path, out: Path, args, extra: str = "") -> None:
     n = frame_count(code_root, scene)  # scene: relative to code_root
-    for frames in sorted({"0:2" if n > 1 else "0:1", f"{n - 1}:{n}"}):
+    for frames in sorted({"0:2" if n > 1 else "0:1"} | (set() if args.no_last else {f"{n - 1}:{n}"})):
         render(code_root, scene, out, frames, args, extra)
 
 
@@ -103,8 +104,10 @@ def compare(base: Path, head: Path) -> list[str]:
             continue
         for name in sorted(a):
             if a[name].dtype != b[name].dtype or not np.array_equal(a[name], b[name], equal_nan=True):
-                diff = np.nanmax(np.abs(a[name].astype(float) - b[name].astype(float)))
-                problems.append(f"{exr.relative_to(base)}: channel {name} differs (max |diff| {diff:.3g})")
+                d = np.abs(a[name].astype(float) - b[name].astype(float))
+                mse, peak = np.nanmean(d ** 2), np.nanmax(np.abs(a[name].astype(float)))
+                psnr = f", PSNR {10 * np.log10(peak ** 2 / mse):.1f} dB (peak {peak:.3g})" if mse > 0 and peak > 0 else ""
+                problems.append(f"{exr.relative_to(base)}: channel {name} differs (max |diff| {np.nanmax(d):.3g}{psnr})")
     return problems
 
 
@@ -114,6 +117,8 @@ def main(argv=None) -> int:
     p.add_argument("--scenes", nargs="*", type=Path, default=sorted((REPO / "scenes").glob("*.ses")))
     p.add_argument("--scale", type=float, default=0.25)
     p.add_argument("--samples", type=int, default=2)
+    p.add_argument("--no-last", action="store_true",
+                   help="frames 0 and 1 only (a scene's last frame makes an AUTOEXPOSURE render meter every frame)")
     p.add_argument("--keep", type=Path, help="keep (and reuse) the base renders in this folder")
     p.add_argument("--base-args", default="", help="extra render options for the base revision")
     p.add_argument("--head-args", default="", help="extra render options for the working tree")
