@@ -3,6 +3,7 @@ around its one frame (every test render, farm chunk and study variant pays it).
 
     PYTHONPATH=. .venv/bin/python bench/bench_startup.py [--scene scenes/paper_room.ses]
         [--scale 0.1] [--samples 1] [--quality final] [--repeat 3] [--base REV] [--profile N]
+        [--asset-cache off|warm] [--no-bytecode]
 
 Rows, each a fresh process, run ``--repeat`` times interleaved (median and fastest CPU s):
 - ``python``: the interpreter alone (``python -c pass``);
@@ -12,6 +13,10 @@ Rows, each a fresh process, run ``--repeat`` times interleaved (median and faste
   nearly all of it is start-up: plan, scene build, exposure preview, Cycles set-up, one
   frame of 64x48 pixels, sealing, manifest); ``render @REV``: the same with revision REV's
   code (a temporary git worktree), in the same run.
+
+The children's asset cache (``SESGEN_ASSET_CACHE``) is off: each builds everything, as a
+machine's first render; ``--asset-cache warm``: a fresh cache shared by the children, filled by
+the warm-up renders, as every later render of a machine finds it (the sky's baked table).
 
 Python's bytecode is cached (``__pycache__``, as an installed package has it; a warm-up render of
 each side writes it first); ``--no-bytecode`` keeps ``PYTHONDONTWRITEBYTECODE`` if set, and
@@ -38,11 +43,12 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 BYTECODE = {"keep": True}   # False: the children compile every module from source (PYTHONDONTWRITEBYTECODE)
+ASSET_CACHE = {"value": "off"}   # SESGEN_ASSET_CACHE of the children (--asset-cache warm: a folder)
 
 
 def run(cmd: list[str], code_root: Path) -> tuple[float, float]:
     """(CPU s, wall s) of ``cmd`` run with ``code_root``'s package; exits on failure."""
-    env = dict(os.environ, PYTHONPATH=str(code_root), SESGEN_ASSET_CACHE="off")
+    env = dict(os.environ, PYTHONPATH=str(code_root), SESGEN_ASSET_CACHE=ASSET_CACHE["value"])
     if BYTECODE["keep"]:
         env.pop("PYTHONDONTWRITEBYTECODE", None)
     t0 = time.perf_counter()
@@ -89,11 +95,16 @@ def main(argv=None) -> int:
     p.add_argument("--base", help="also render with this git revision's code (same run)")
     p.add_argument("--profile", type=int, default=0, metavar="N", help="print a cProfile's top N functions")
     p.add_argument("--no-bytecode", action="store_true", help="keep PYTHONDONTWRITEBYTECODE (compile every import)")
+    p.add_argument("--asset-cache", choices=("off", "warm"), default="off",
+                   help="warm: the children share a fresh asset cache, filled by the warm-up renders")
     a = p.parse_args(argv)
     BYTECODE["keep"] = not a.no_bytecode
     print(f"# startup: {a.scene} at scale {a.scale}, {a.samples} sample(s), frame 0, quality {a.quality}; "
           f"{os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f}", flush=True)
     tmp = Path(tempfile.mkdtemp(prefix="sesgen-startup-"))
+    if a.asset_cache == "warm":
+        ASSET_CACHE["value"] = str(tmp / "asset-cache")
+    print(f"# asset cache: {a.asset_cache}", flush=True)
     base = None
     if a.base:
         base = tmp / "base-src"

@@ -73,7 +73,8 @@ def _beauty(path: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return tuple(next(v for k, v in ch.items() if k.endswith(f"Combined.{c}")) for c in "RGB")
 
 
-def measure_exposure(bscene, camera, frame: int, cameras=None) -> tuple[float, float]:
+def measure_exposure(bscene, camera, frame: int, cameras=None, width_px: int = PREVIEW_WIDTH,
+                     samples: int = PREVIEW_SAMPLES) -> tuple[float, float]:
     """(film exposure, luminance): the film exposure that brings the preview's 90th-percentile
     luminance to TARGET, and the preview's mean linear luminance (``autoexposure.meter`` at
     film exposure 1: the metering pass's value of ``frame`` before its film exposure, when
@@ -82,10 +83,11 @@ def measure_exposure(bscene, camera, frame: int, cameras=None) -> tuple[float, f
     ``cameras`` ({view: camera}, the left one ``camera``): render the preview the fast way
     (``render.render_views``) in the scene's persistent Cycles session, which the frames
     then reuse (the scene is synchronised and its BVH built once, not twice); without it a
-    plain render of ``camera``."""
+    plain render of ``camera``. ``width_px``, ``samples``: another preview's (bench/
+    bench_exposure_preview.py)."""
     from .render import render_view, render_views
 
-    with _preview_render(bscene, PREVIEW_WIDTH, PREVIEW_SAMPLES, 1.0) as path:
+    with _preview_render(bscene, width_px, samples, 1.0) as path:
         if cameras is not None:
             render_views(bscene, cameras, ("left",), frame, 0, {"left": path})
         else:
