@@ -254,10 +254,10 @@ def child(a) -> int:
     for k in range(len(frames)):
         prev = frames[k - 1] if k else start
         renders = log.renders(prev["mark"], frames[k]["mark"])
-        setup = log.setup(prev["mark"], frames[k]["mark"])
+        in_frame = log.setup(prev["mark"], frames[k]["mark"])   # (``setup``: the build's, kept for the table)
         rows.append({"frame": frames[k]["cpu"] - prev["cpu"], "wall": frames[k]["wall"] - prev["wall"],
                      "trace": sum(r["trace"] for r in renders), "write": sum(r["write"] for r in renders),
-                     "setup": sum(setup.values()), "setup_bvh": setup["bvh"], "setup_sync": setup["sync"]})
+                     "setup": sum(in_frame.values()), "setup_bvh": in_frame["bvh"], "setup_sync": in_frame["sync"]})
     steady = rows[1:] or rows
     per = {key: sum(r[key] for r in steady) / len(steady)
            for key in ("frame", "wall", "trace", "write", "setup", "setup_bvh", "setup_sync")}

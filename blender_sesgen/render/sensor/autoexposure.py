@@ -27,7 +27,8 @@ LUMA = np.array([0.2126, 0.7152, 0.0722])
 METERING_WIDTH_PX = 96     # the metering preview's width (its aspect ratio is the render's)
 METERING_SAMPLES = 8
 METERING_RULE = (f"metering pass before the frames: mean linear luminance of a {METERING_WIDTH_PX} px wide, "
-                 f"{METERING_SAMPLES}-sample left-view preview of each frame up to the render's last (seed 0, no denoiser, no motion blur)")
+                 f"{METERING_SAMPLES}-sample left-view preview of each frame up to the render's last (seed 0, no denoiser, "
+                 "no motion blur; at film exposure 1, times the frames'; frame 0's from the automatic exposure's preview where there is one)")
 
 
 def meter(linear_rgb: np.ndarray) -> float:
