@@ -4,7 +4,7 @@ costs, measured by switching it off in the same run.
 
     PYTHONPATH=. .venv/bin/python bench/profile_scenes.py [--scenes city_kitti hall office forest paper_room]
         [--quality final] [--samples N] [--scale 0.5] [--frames 2] [--features all|none|NAME ...]
-        [--base REV] [--json FILE]
+        [--base REV] [--json FILE] [--asset-cache off|warm]
 
 Each row is one fresh render process (the real job: ``RenderJob.build`` and ``run``, EXRs
 written and sealed) rendering frames 0..N-1 of the scene at ``--scale`` times its own size.
@@ -15,7 +15,8 @@ Build, up to frame 0's first sample (what every render process pays before its f
 a farm chunk or a study variant pays it again): ``import`` (bpy), ``parse`` (the script and
 the plan), ``assets`` (the procedural assets' numpy generators; the rows switch the disk
 cache of asset meshes off, as a machine's first render finds it: bench/bench_asset_cache.py
-measures what it saves the others), ``meshes`` (their Blender
+measures what it saves the others; ``--asset-cache warm``: on, filled by a warm-up row, as the
+later renders find it), ``meshes`` (their Blender
 meshes), ``materials`` (node graphs), ``scene`` (the rest of the builder: objects, lights,
 world, cameras), ``exposure`` (the automatic exposure's preview render, Cycles set-up
 included when it pays it), ``metering`` (the sensor auto-exposure's metering pass: a preview of
@@ -244,8 +245,8 @@ def child(a) -> int:
     # frame 0's first sample: the first 'Sample' status after the job started rendering
     first = log.first("Sample", start["mark"])
     setup = log.setup(0, log.events.index(first))
-    # the previews' own Cycles set-up is in the set-up stages, not twice
-    for stage in ("exposure", "metering"):
+    # the previews' (and the builder's: the sky's bake) own Cycles set-up is in the set-up stages, not twice
+    for stage in ("scene", "exposure", "metering"):
         for m0, m1 in stages.spans.get(stage, []):
             stages.cpu[stage] -= sum(log.setup(m0, m1).values())
     s = plan.settings
@@ -357,8 +358,9 @@ def run_child(a, scene: Path, feature: str, code_root: Path, in_process=()) -> d
            "--quality", a.quality, "--scale", str(a.scale), "--frames", str(a.frames),
            *(["--samples", str(a.samples)] if a.samples else []),
            *(["--in-process", *in_process] if in_process else [])]
-    # every row builds its assets the way a machine's first render process does
-    env = dict(os.environ, PYTHONPATH=str(code_root), SESGEN_ASSET_CACHE="off")
+    # every row builds its assets the way a machine's first render process does (--asset-cache
+    # warm: as every later one, from a cache the warm-up rows filled)
+    env = dict(os.environ, PYTHONPATH=str(code_root), SESGEN_ASSET_CACHE=a.cache_folder or "off")
     proc = subprocess.run(cmd, cwd=code_root, env=env, capture_output=True, text=True)
     line = next((ln for ln in proc.stdout.splitlines() if ln.startswith("PROFILE ")), None)
     if proc.returncode != 0 or line is None:
@@ -406,11 +408,14 @@ def main(argv=None) -> int:
                    ", ".join(IN_PROCESS + EDITED))
     p.add_argument("--base", help="also render the baseline rows with this git revision's code")
     p.add_argument("--json", help="write every row as JSON")
+    p.add_argument("--asset-cache", choices=("off", "warm"), default="off",
+                   help="warm: the rows share a fresh asset cache (meshes, the sky's table), filled by a warm-up row")
     p.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     p.add_argument("--scene", help=argparse.SUPPRESS)
     p.add_argument("--feature", default="baseline", help=argparse.SUPPRESS)
     p.add_argument("--in-process", nargs="*", default=[], help=argparse.SUPPRESS)
     a = p.parse_args(argv)
+    a.cache_folder = None
     if a.child:
         return child(a)
     features = list(IN_PROCESS + EDITED) if a.features == ["all"] else [] if a.features == ["none"] else a.features
@@ -425,10 +430,16 @@ def main(argv=None) -> int:
         subprocess.run(["git", "worktree", "add", "--detach", str(worktree), a.base], cwd=REPO, check=True,
                        capture_output=True)
     results = []
+    if a.asset_cache == "warm":
+        a.cache_folder = tempfile.mkdtemp(prefix="sesgen-profile-cache-")
+    print(f"# asset cache: {a.asset_cache}", flush=True)
     try:
         for name in a.scenes:
             scene = Path(name if name.endswith(".ses") else f"scenes/{name}.ses")
             label = scene.stem
+            roots = [r for r in (worktree, REPO) if r is not None]
+            for root in roots if a.cache_folder else []:
+                run_child(a, scene, "baseline", root)    # the warm-up row: fills the cache
             if worktree is not None:
                 r = run_child(a, scene, "baseline", worktree)
                 results.append((f"{label} @{a.base}", r))
@@ -456,6 +467,8 @@ def main(argv=None) -> int:
     finally:
         if worktree is not None:
             subprocess.run(["git", "worktree", "remove", "--force", str(worktree)], cwd=REPO, capture_output=True)
+        if a.cache_folder:
+            shutil.rmtree(a.cache_folder, ignore_errors=True)
     print_build(results)
     print_frames(results)
     if features:
