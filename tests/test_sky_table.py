@@ -40,12 +40,22 @@ def test_cached_array_is_made_once_read_back_and_remade_when_damaged(tmp_path, m
     assert len(made) == 5
 
 
-def test_cached_array_keeps_the_newest_of_a_kind(tmp_path, monkeypatch):
+def test_cached_array_keeps_the_ones_used_last(tmp_path, monkeypatch):
+    import os
     monkeypatch.setenv(cache.ENV, str(tmp_path))
     monkeypatch.setattr(cache, "KEEP_ARRAYS", 3)
-    for i in range(5):
-        cache.cached_array("t", [i], lambda: np.zeros(2))
-    assert len(list((tmp_path / "t").glob("*.npy"))) == 3
+    made = []
+    for i in range(3):
+        cache.cached_array("t", [i], lambda: made.append(1) or np.zeros(2))
+    for age, f in enumerate(sorted((tmp_path / "t").glob("*.npy"))):   # all written long ago
+        os.utime(f, (1e9 + age, 1e9 + age))
+    cache.cached_array("t", [0], lambda: made.append(1) or np.zeros(2))    # read: used now
+    for i in (3, 4):
+        cache.cached_array("t", [i], lambda: made.append(1) or np.zeros(2))
+    assert len(list((tmp_path / "t").glob("*.npy"))) == 3 and len(made) == 5
+    cache.cached_array("t", [0], lambda: made.append(1) or np.zeros(2))    # kept
+    cache.cached_array("t", [1], lambda: made.append(1) or np.zeros(2))    # removed: made again
+    assert len(made) == 6
 
 
 def _render_sky(bpy, world, path):

@@ -16,7 +16,7 @@ only costs the time. The newest ``KEEP_VERSIONS`` version folders are kept, olde
 removed (delete the folder to reclaim all of it: it is only a cache).
 
 ``cached_array`` keeps other things a render process would compute again (the physical sky's
-table, ``blender/sky.py``) under ``FOLDER/KIND/KEY.npy``, the newest ``KEEP_ARRAYS`` of a kind.
+table, ``blender/sky.py``) under ``FOLDER/KIND/KEY.npy``, the ``KEEP_ARRAYS`` of a kind used last.
 """
 from __future__ import annotations
 
@@ -125,6 +125,10 @@ def cached_array(kind: str, key, make: Callable[[], np.ndarray],
     try:
         array = np.load(path, allow_pickle=False)
         if valid(array):
+            try:
+                os.utime(path)   # recently used: kept when the kind's oldest are removed
+            except OSError:
+                pass
             return array
     except (OSError, ValueError, EOFError):
         pass
