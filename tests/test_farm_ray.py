@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from render_support import REPO, cli_in_process, rendered
+from render_support import REPO, cli_in_process, processes_mentioning, rendered
 from markers import needs
 
 pytestmark = [pytest.mark.render, needs("bpy", "ray")]
@@ -58,23 +58,6 @@ def scenes(tmp_path_factory):
 def _marker_dir() -> str:
     # short: Ray's socket paths live under it (a Unix socket path has ~107 characters)
     return tempfile.mkdtemp(prefix="sg-ray-", dir="/tmp")
-
-
-def processes_mentioning(marker: str) -> list[str]:
-    """Command lines of live processes whose command line or environment names ``marker``."""
-    found = []
-    for d in Path("/proc").iterdir():
-        if not d.name.isdigit() or int(d.name) == os.getpid():
-            continue
-        try:
-            cmd = (d / "cmdline").read_bytes()
-            env = (d / "environ").read_bytes()
-            state = (d / "stat").read_text().rsplit(")", 1)[-1].split()[0]
-        except OSError:
-            continue
-        if state != "Z" and (marker.encode() in cmd or marker.encode() in env):
-            found.append(cmd.replace(b"\0", b" ").decode(errors="replace")[:160])
-    return found
 
 
 def assert_none_left(marker: str, timeout: float = 30.0) -> None:

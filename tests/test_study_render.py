@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from render_support import cli_in_process, run_loaded
+from render_support import cli_in_process, processes_mentioning, run_loaded
 from study_scenes import NOISY, PERFECT, ROOM, WALL, WALL_FOCAL, WALL_SPEED, WALL_Z, study_file, world, write
 
 pytestmark = [pytest.mark.render, pytest.mark.slow]
@@ -323,6 +323,12 @@ levels = [0.01, 0.03]
         before = _complete_frames(out) if (out / "renders").is_dir() else {}
     proc.send_signal(signal.SIGKILL)                                # at any moment: mid-render
     proc.wait()
+    # its renders end with its Ray's workers (farm.child), seconds later; until then they hold their
+    # folders' locks (a new Ray's start-up once hid that wait)
+    t0 = time.monotonic()
+    while processes_mentioning(str(out)):
+        assert time.monotonic() - t0 < 120, processes_mentioning(str(out))
+        time.sleep(0.2)
     before = _complete_frames(out)
     assert 8 <= len(before) < 3 * 5 * 2
     p = run_study(study, out, "--no-ray")          # killed on Ray, resumed without (no second Ray start)
