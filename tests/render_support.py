@@ -160,6 +160,23 @@ def render_paper_room(folder, frames: int, scale: float, extra: str = "", sample
                     "--resolution-scale", str(scale), here=here)
 
 
+def processes_mentioning(marker: str) -> list[str]:
+    """Command lines of live processes whose command line or environment names ``marker``."""
+    found = []
+    for d in Path("/proc").iterdir():
+        if not d.name.isdigit() or int(d.name) == os.getpid():
+            continue
+        try:
+            cmd = (d / "cmdline").read_bytes()
+            env = (d / "environ").read_bytes()
+            state = (d / "stat").read_text().rsplit(")", 1)[-1].split()[0]
+        except OSError:
+            continue
+        if state != "Z" and (marker.encode() in cmd or marker.encode() in env):
+            found.append(cmd.replace(b"\0", b" ").decode(errors="replace")[:160])
+    return found
+
+
 def cli_in_process(package: str, *args) -> subprocess.CompletedProcess:
     """``python -m PACKAGE ARGS`` (blender_sesgen or vo_reference) run in this process: its
     ``commands.main.main`` with stdout and stderr captured; what a child would exit with and

@@ -222,15 +222,16 @@ def build_facts(SCRIPT):
         if o.type == "CURVE":
             d["curve_points"] = [list(o.matrix_world @ p.co.xyz) for s in o.data.splines for p in s.points]
         if o.type == "CAMERA":
-            poses = []
-            for f in range(sc.frame_start, sc.frame_end + 1):
-                sc.frame_set(f)
-                poses.append([list(r) for r in o.matrix_world])
-            d["poses"] = poses
+            d["poses"] = []                  # filled below: every camera's pose at each frame
             from importlib import import_module
             compat = import_module(MODULE + ".blender.compat")
             d["keys"] = [len(fc.keyframe_points) for fc in compat.object_fcurves(o)]
         objs.append(d)
+    cameras = [(o, d) for o, d in zip(sc.objects, objs) if o.type == "CAMERA"]
+    for f in range(sc.frame_start, sc.frame_end + 1):     # one pass over the frames for all cameras
+        sc.frame_set(f)
+        for o, d in cameras:
+            d["poses"].append([list(r) for r in o.matrix_world])
     RESULT["objects"] = objs
     return RESULT
 """

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from render_support import REPO, rendered
+from render_support import REPO, cli_in_process, processes_mentioning, rendered
 from markers import needs
 
 pytestmark = [pytest.mark.render, needs("bpy", "ray")]
@@ -50,7 +50,7 @@ def scenes(tmp_path_factory):
         script.parent.mkdir(exist_ok=True)
         script.write_text(SCENE.format(floor=floor, x=x))
         ref = tmp / "single" / name
-        rendered(script, ref, *RENDER)
+        rendered(script, ref, *RENDER, here=True)      # in this process: the farm's renders are the children
         out[name] = (script, ref)
     return tmp, out
 
@@ -58,23 +58,6 @@ def scenes(tmp_path_factory):
 def _marker_dir() -> str:
     # short: Ray's socket paths live under it (a Unix socket path has ~107 characters)
     return tempfile.mkdtemp(prefix="sg-ray-", dir="/tmp")
-
-
-def processes_mentioning(marker: str) -> list[str]:
-    """Command lines of live processes whose command line or environment names ``marker``."""
-    found = []
-    for d in Path("/proc").iterdir():
-        if not d.name.isdigit() or int(d.name) == os.getpid():
-            continue
-        try:
-            cmd = (d / "cmdline").read_bytes()
-            env = (d / "environ").read_bytes()
-            state = (d / "stat").read_text().rsplit(")", 1)[-1].split()[0]
-        except OSError:
-            continue
-        if state != "Z" and (marker.encode() in cmd or marker.encode() in env):
-            found.append(cmd.replace(b"\0", b" ").decode(errors="replace")[:160])
-    return found
 
 
 def assert_none_left(marker: str, timeout: float = 30.0) -> None:
@@ -143,8 +126,7 @@ def assert_same_as_single(root: Path, name: str, ref: Path) -> None:
     state = out / ".sesgen"
     assert not list(state.glob("lock-*")) and not list(state.glob("done-*")), "locks or completion logs left"
     assert not [f for f in out.rglob(".*tmp-*")], "temporary files left"
-    assert subprocess.run([sys.executable, "-m", "blender_sesgen", "verify", str(out), "--quiet"], cwd=REPO,
-                          env=dict(os.environ, PYTHONPATH=str(REPO))).returncode == 0
+    assert cli_in_process("blender_sesgen", "verify", out, "--quiet").returncode == 0
 
 
 def test_chunks_of_two_frames_equal_single_machine_renders(scenes, cluster):
@@ -291,9 +273,8 @@ def test_a_task_cancelled_while_its_render_starts_ends_cleanly(scenes, cluster):
 
 def test_a_local_farm_renders_a_generated_folder_reports_a_bad_script_and_leaves_no_ray(tmp_path):
     gen = tmp_path / "gen"
-    r = subprocess.run([sys.executable, "-m", "blender_sesgen", "generate", "street", "--count", "2", "--seed", "3",
-                        "--out", str(gen), "-o", "steps=1", "-q"], cwd=REPO, capture_output=True, text=True,
-                       env=dict(os.environ, PYTHONPATH=str(REPO)))
+    r = cli_in_process("blender_sesgen", "generate", "street", "--count", "2", "--seed", "3", "--out", gen,
+                       "-o", "steps=1", "-q")
     assert r.returncode == 0, r.stderr
     bad = tmp_path / "bad.ses"
     bad.write_text(BAD)
@@ -317,8 +298,7 @@ def test_a_local_farm_renders_a_generated_folder_reports_a_bad_script_and_leaves
         assert e["complete"] and e["split"] == s["split"] and e["seed"] == s["seed"]
         assert e["frames"] == s["frames"] == 2 and e["path_length_m"] == s["path_length_m"] > 0
         assert e["render"]["samples"] == 1 and e["render"]["resolution"] == [64, 48]
-        assert subprocess.run([sys.executable, "-m", "blender_sesgen", "verify", str(root / e["folder"]), "--quiet"],
-                              cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO))).returncode == 0
+        assert cli_in_process("blender_sesgen", "verify", root / e["folder"], "--quiet").returncode == 0
 
 
 def test_a_local_ray_that_cannot_start_is_one_line_and_exit_1(tmp_path):

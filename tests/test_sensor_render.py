@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from render_support import read_exr, run_render
+from render_support import read_exr, render_here
 from sensor_scenes import checkerboard_lines, grey, inner_corners, project_rows, refine_corners
 
 from blender_sesgen.contract import se3
@@ -32,11 +32,12 @@ PAN = ["EGO 0.05 0.01 0 1 6 0", "EGO 0.05 0.01 0 1 6 0"]      # fast pan: 120 de
 
 
 def _render(tmp: Path, name: str, lines: list[str], *args) -> tuple[Path, dict]:
+    """``sesgen render`` of ``lines`` in this process (``render_here``: the subject is what the
+    render holds; the render command's process is test_render_cli's and test_render_reliability's)."""
     script = tmp / f"{name}.ses"
     script.write_text("\n".join(lines) + "\n")
     out = tmp / name
-    r = run_render(script, "--out", out, "--quiet", *args, timeout=900)
-    assert r.returncode == 0, r.stderr
+    render_here(script, out, "--quiet", *args)
     return out, json.loads((out / "manifest.json").read_text())
 
 

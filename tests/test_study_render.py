@@ -3,8 +3,9 @@
 stereo VO reading the KITTI layout, compare, the report, a study killed and resumed, the
 sensor factors' physics measured on the images, and a third-party estimator from PyPI
 (pycolmap) run through the harness. The harness, the kill and the SIGTERM run on a real
-local Ray; the physics, pycolmap and compare's second version run ``--no-ray`` (the tasks
-from the study's process: no Ray start-up), and a finished study run again starts none."""
+local Ray; the physics, pycolmap, compare's second version and the resume after the kill run
+``--no-ray`` (the tasks from the study's process: no Ray start-up), and a finished study run
+again starts none."""
 from __future__ import annotations
 
 import hashlib
@@ -19,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from render_support import run_loaded
+from render_support import cli_in_process, processes_mentioning, run_loaded
 from study_scenes import NOISY, PERFECT, ROOM, WALL, WALL_FOCAL, WALL_SPEED, WALL_Z, study_file, world, write
 
 pytestmark = [pytest.mark.render, pytest.mark.slow]
@@ -268,17 +269,13 @@ def test_a_resumed_study_renders_nothing_and_compare_flags_a_regression(room):
     assert p.returncode == 0, p.stderr
     assert "Ray not started" in p.stderr and "local Ray" not in p.stderr   # nothing left to run: no Ray
     assert results(out)["cost"]["frames_rendered"] == 0 and results(out)["cost"]["frames_developed"] == 0
-    same = subprocess.run([sys.executable, "-m", "blender_sesgen", "study", "compare", str(old),
-                           str(out / "results.json")], capture_output=True, text=True,
-                          env={**os.environ, "PYTHONPATH": str(REPO)})
+    same = cli_in_process("blender_sesgen", "study", "compare", old, out / "results.json")
     assert same.returncode == 0, same.stdout + same.stderr
     assert "WORSE" not in same.stdout
     p = run_study(room_study(folder, sigma=0.2), out, "--no-ray")   # a new version of "noisy": worse
     assert p.returncode == 0, p.stderr
     assert results(out)["cost"]["frames_rendered"] == 0
-    worse = subprocess.run([sys.executable, "-m", "blender_sesgen", "study", "compare", str(old),
-                            str(out / "results.json")], capture_output=True, text=True,
-                           env={**os.environ, "PYTHONPATH": str(REPO)})
+    worse = cli_in_process("blender_sesgen", "study", "compare", old, out / "results.json")
     assert worse.returncode == 1, worse.stdout + worse.stderr
     bad = [ln for ln in worse.stdout.splitlines() if ln.startswith("WORSE")]
     assert bad and all("/ noisy" in ln for ln in bad)
@@ -313,8 +310,10 @@ levels = [0.01, 0.03]
     study = study_file(tmp_path, body, ROOM)
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": str(REPO), "RAY_USAGE_STATS_ENABLED": "0"}
+    # one chunk per render (the default): 3 render processes; the kill finds frames of a render
+    # complete and others not, and the resume renders the rest frame by frame
     proc = subprocess.Popen([sys.executable, "-m", "blender_sesgen", "study", "run", str(study), "--out", str(out),
-                             "--progress", "plain", "--chunk", "2"], env=env, stdout=subprocess.DEVNULL,
+                             "--progress", "plain"], env=env, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + 600
     before = {}
@@ -324,9 +323,15 @@ levels = [0.01, 0.03]
         before = _complete_frames(out) if (out / "renders").is_dir() else {}
     proc.send_signal(signal.SIGKILL)                                # at any moment: mid-render
     proc.wait()
+    # its renders end with its Ray's workers (farm.child), seconds later; until then they hold their
+    # folders' locks (a new Ray's start-up once hid that wait)
+    t0 = time.monotonic()
+    while processes_mentioning(str(out)):
+        assert time.monotonic() - t0 < 120, processes_mentioning(str(out))
+        time.sleep(0.2)
     before = _complete_frames(out)
     assert 8 <= len(before) < 3 * 5 * 2
-    p = run_study(study, out)
+    p = run_study(study, out, "--no-ray")          # killed on Ray, resumed without (no second Ray start)
     assert p.returncode == 0, p.stdout + p.stderr
     after = _complete_frames(out)
     assert len(after) == 3 * 5 * 2
