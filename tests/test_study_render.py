@@ -486,12 +486,19 @@ seq, out, work = Path(sys.argv[1]), Path(sys.argv[2]), Path(sys.argv[3])
 P0 = [np.array(l.split()[1:], float).reshape(3, 4) for l in open(seq / "calib.txt") if l.startswith("P0")][0]
 times = np.loadtxt(seq / "times.txt", ndmin=1)
 db = work / "db.db"
+pycolmap.set_random_seed(0)   # RANSAC's draws and one thread each: the same map on every run
 reader = pycolmap.ImageReaderOptions()
 reader.camera_model = "PINHOLE"
 reader.camera_params = ",".join(str(x) for x in (P0[0, 0], P0[1, 1], P0[0, 2], P0[1, 2]))
-pycolmap.extract_features(db, seq / "image_0", camera_mode=pycolmap.CameraMode.SINGLE, reader_options=reader)
-pycolmap.match_exhaustive(db)
+extraction = pycolmap.FeatureExtractionOptions()
+extraction.num_threads = 1
+pycolmap.extract_features(db, seq / "image_0", camera_mode=pycolmap.CameraMode.SINGLE, reader_options=reader,
+                          extraction_options=extraction, device=pycolmap.Device.cpu)
+matching = pycolmap.FeatureMatchingOptions()
+matching.num_threads = 1
+pycolmap.match_exhaustive(db, matching_options=matching, device=pycolmap.Device.cpu)
 opts = pycolmap.IncrementalPipelineOptions()
+opts.num_threads = 1
 opts.ba_refine_focal_length = False
 opts.ba_refine_principal_point = False
 opts.ba_refine_extra_params = False
