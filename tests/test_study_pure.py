@@ -478,3 +478,30 @@ def test_a_sensor_variant_with_autoexposure_is_rendered_not_developed(tmp_path):
     auto = make_variant(load(tmp_path, body, ROOM + "TIMING exposure 0.002\nSENSOR readnoise 2\nAUTOEXPOSURE\n"),
                         {"gain": 4.0}, 0, tmp_path)
     assert not auto.developed and auto.stage == "sensor" and "gain 4" in auto.script
+
+
+def test_a_render_folder_held_by_another_writer_fails_the_study(tmp_path):
+    """A variant's folder that a live process is writing into (a render of the killed run still
+    ending, another study) cannot be rendered: the study says which and why, and exits 1 — its
+    results are not a finished study's. Nothing renders here: every render folder is held (the
+    gain variant is developed from the base's)."""
+    import os
+    import socket
+    from blender_sesgen.study.spec import load as load_study
+    from blender_sesgen.study.variants import make_plan
+    path = study_file(tmp_path, '[world]\nscript = "scene.ses"\n[factors.gain]\nlevels = [2.0]\n' + SYSTEM)
+    out = tmp_path / "out"
+    renders = make_plan(load_study(path), tmp_path / "scripts").renders
+    assert renders
+    for key in renders:
+        state = out / "renders" / key / ".sesgen"
+        state.mkdir(parents=True)
+        (state / f"lock-{socket.gethostname()}-{os.getpid()}.json").write_text(json.dumps(
+            {"host": socket.gethostname(), "pid": os.getpid(), "frames": [0, 99], "started": 0,
+             "scene_sha256": "another", "settings": "other"}))
+    (out / "plan.json").write_text("{}")                   # the killed run's folder
+    rc, stdout, err = cli("study", "run", str(path), "--out", str(out), "--no-ray")
+    assert rc == 1, stdout + err
+    assert f"being rendered by pid {os.getpid()}" in stdout + err, stdout + err
+    doc = json.loads((out / "results.json").read_text())
+    assert doc["runs"] and all(r["status"] == "failed" for r in doc["runs"])

@@ -192,9 +192,10 @@ class StudyRun:
         from ..farm.driver import Farm
         from ..farm.work import auto_cpus_per_task, frame_ranges
         good = [sc for sc in scenes if sc.error is None]
-        for sc in scenes:
+        for sc in scenes:   # a folder that cannot be rendered (held by a live writer, ...) fails the study
             if sc.error is not None:
                 self.render_failed[sc.name] = sc.error
+                self.failures.append(f"render {sc.name}: {sc.error}")
         if not good:
             return
         cpus, _ = cluster.totals()
