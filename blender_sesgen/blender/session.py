@@ -35,14 +35,18 @@ class BlenderSession:
     """The built scene of one plan (see the module docstring)."""
 
     def __init__(self, plan: RenderPlan, known_exposure: Optional[float] = None, fast: bool = True,
-                 known_metering: Optional[list] = None, meter: bool = True):
+                 known_metering: Optional[list] = None, meter: bool = True,
+                 stop: Callable[[], bool] = lambda: False):
         """``known_exposure``: the exposure of frames already rendered for this plan (resume),
         reused so that resumed frames match; measured when None (default lighting only).
         ``fast``: persistent Cycles data and multiview (same pixels, less time).
         ``known_metering``: the sensor auto-exposure's metered brightness of every frame,
         stored in the folder by an earlier writer; the metering pass runs when None and
-        ``meter`` (False: a scene built to look at, not to render)."""
+        ``meter`` (False: a scene built to look at, not to render). ``stop()`` is asked between
+        the build's steps and the metering pass's frames: KeyboardInterrupt when it says so
+        (a long metering pass stops on SIGTERM as the frames do)."""
         self.plan = plan
+        self._stop = stop
         s = plan.settings
         self.flat = s.preset.shading == "flat"
         self.culling, self._exposure_ids, self._metering_ids = None, None, None
@@ -80,7 +84,9 @@ class BlenderSession:
                                look=AGX_LOOKS[plan.scene.look.look])
         self.fast = bool(fast and render.can_render_multiview(self.built.cameras))
         self._configure["persistent"] = self.fast
+        self._check_stop()
         self.exposure = self._exposure(known_exposure, then_meters=meters)
+        self._check_stop()
         self.metering_s = None      # seconds the metering pass took (None: not run here)
         self.metering = self._metering(known_metering)
         if self._exposure_ids is not None or self._metering_ids is not None:
@@ -149,6 +155,10 @@ class BlenderSession:
             self._preview_luminance = luminance
         return value
 
+    def _check_stop(self) -> None:
+        if self._stop():
+            raise KeyboardInterrupt
+
     def _metering(self, known: Optional[list]) -> Optional[list]:
         """The sensor auto-exposure's metered brightness of the frames up to this render's last
         (None without AUTOEXPOSURE; None for the frames after it): ``known`` when the folder
@@ -168,7 +178,7 @@ class BlenderSession:
         upto = metered_frames(self.plan.frames, self.plan.scene.frames)
         frames = [rig.blender_frame(k) for k in range(upto)]
         metered = exposure.meter_frames(self.built.scene, self.built.cameras["left"], frames, self.exposure,
-                                        first=self._preview_luminance)
+                                        first=self._preview_luminance, progress=lambda i, n: self._check_stop())
         metered = metered + [None] * (self.plan.scene.frames - upto)
         # switching persistence off frees the previews' session: the frames start their own
         render.configure(self.built.scene, EXPOSURE_PREVIEW, **{**self._configure, "persistent": False})

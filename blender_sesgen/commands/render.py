@@ -131,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
               f"{' + denoise' if s.denoise else ''}, seed {s.seed}, {s.device.value.upper()}{gpu}", flush=True)
     with deferred_interrupts() as stop:
         try:
-            job.build()
+            job.build(stop=lambda: stop.requested)
             if job.session.culling is not None and not args.quiet:
                 print(f"culling: {job.session.culling.summary()} built for {len(todo)} frame(s)", flush=True)
             if job.session.metering_s is not None and not args.quiet:
@@ -139,6 +139,10 @@ def run(args: argparse.Namespace) -> int:
                       f"{_fmt(job.session.metering_s)}", flush=True)
         except SesgenError:
             raise
+        except KeyboardInterrupt:   # the build writes nothing into the folder
+            print(f"interrupted{f' ({stop.signal_name})' if stop.signal_name else ''} before frame 0 was rendered: "
+                  f"{args.out} is as it was; render again to start", file=sys.stderr)
+            return EXIT_INTERRUPTED
         except Exception as e:  # noqa: BLE001 - a Blender failure while building
             print(f"error: building the Blender scene failed: {one_line(e)}", file=sys.stderr)
             return EXIT_FAILURE

@@ -110,9 +110,10 @@ class RenderJob:
         return self.folder.pending(self.plan, self.resume)
 
     # --- doing it -----------------------------------------------------------------------
-    def build(self) -> None:
+    def build(self, stop: Callable[[], bool] = lambda: False) -> None:
         """Build the scene in Blender (a dedicated scene 'SESGen'; rebuilding replaces).
-        Writes nothing into the output folder."""
+        Writes nothing into the output folder. ``stop()`` asked between the build's steps and
+        the metering pass's frames (KeyboardInterrupt)."""
         if self.plan.options.reuse_exr:   # another render's EXRs: no Blender (blender_sesgen.render.reuse)
             from .reuse import ReusedSession
             self.session = ReusedSession(self.plan, self.plan.options.reuse_exr)
@@ -125,7 +126,8 @@ class RenderJob:
                                       fast=self.plan.options.fast_pipeline,
                                       known_metering=stored_metering(
                                           self.plan.sensor, kept,
-                                          metered_frames(self.plan.frames, self.plan.scene.frames)))
+                                          metered_frames(self.plan.frames, self.plan.scene.frames)),
+                                      stop=stop)
 
     def new_manifest(self) -> Manifest:
         """This job's manifest with no frame complete (needs the built session)."""
