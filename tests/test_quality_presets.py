@@ -127,12 +127,29 @@ def _render(tmp_path, name, **options):
     return m, {(v, k): read_exr(out / rel) for v in m["views"] for k, rel in enumerate(m["files"][v])}
 
 
+@pytest.fixture(scope="module")
+def shared_render(tmp_path_factory):
+    """``_render`` once per set of options in this module: (folder, manifest, channels); the presets'
+    gt and draft renders are the fast pipeline's."""
+    done = {}
+
+    def get(**options):
+        key = tuple(sorted(options.items()))
+        if key not in done:
+            tmp = tmp_path_factory.mktemp("quality")
+            done[key] = (tmp / "out", *_render(tmp, "out", **options))
+        return done[key]
+    return get
+
+
 @pytest.mark.render
-def test_presets_change_only_the_rgb(tmp_path):
+def test_presets_change_only_the_rgb(shared_render):
     # reference and final at their own light paths, denoisers and clamps but with few
     # samples (the sample count cannot matter: ground truth is the first sample's)
     runs = {"gt": {}, "draft": {}, "final": {"samples": 2}, "reference": {"samples": 3}}
-    results = {q: _render(tmp_path, q, quality=q, **o) for q, o in runs.items()}
+    folders, results = {}, {}
+    for q, o in runs.items():
+        folders[q], *results[q] = shared_render(quality=q, **o)
     m, base = results["gt"]
     ch = m["channels"]
     # Depth, Object Index and Position come from the first sample (the pixel centre). The
@@ -150,11 +167,11 @@ def test_presets_change_only_the_rgb(tmp_path):
             assert not np.array_equal(exrs[("left", 0)][rgb], base[("left", 0)][rgb])
         # display PNGs for the photographs; gt's flat picture stays in its EXR, and readers
         # encode that with the sRGB curve (docs/output-format.md)
-        assert ("display" in mq) == (q != "gt") and (tmp_path / q / "rgb").exists() == (q != "gt")
+        assert ("display" in mq) == (q != "gt") and (folders[q] / "rgb").exists() == (q != "gt")
     from vo_reference.io.sequence import open_sequence
     c = np.clip(np.stack([base[("left", 0)][n] for n in ch["rgb"][:3]], -1).astype(np.float64), 0, 1)
     srgb = np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055)   # IEC 61966-2-1
-    diff = open_sequence(tmp_path / "gt").image_rgb(0).astype(int) - np.rint(255 * srgb).astype(int)
+    diff = open_sequence(folders["gt"]).image_rgb(0).astype(int) - np.rint(255 * srgb).astype(int)
     assert np.abs(diff).max() <= 1   # rounding at a half only
     # gt's normals are the exact ones: on the sphere (id 4, centre (0.6, 0.5, 0) in the SES
     # world = (0.6, 0, 0.5) in Blender's Z-up world) normal = (position - centre) / |...|
@@ -175,11 +192,11 @@ def test_presets_change_only_the_rgb(tmp_path):
 @pytest.mark.render
 @pytest.mark.parametrize("quality,options", [("gt", {}), ("draft", {"samples": 2}), ("draft", {}),
                                              ("final", {"samples": 12})])
-def test_fast_pipeline_gives_the_plain_pixels(tmp_path, quality, options):
+def test_fast_pipeline_gives_the_plain_pixels(shared_render, tmp_path, quality, options):
     """Persistent data (+ multiview for gt) vs a fresh render per view: every channel equal.
     With at least the exposure preview's 8 samples the fast path renders the preview in the
     session the frames reuse (fewer samples: a fresh session, as the plain path)."""
-    mf, fast = _render(tmp_path, "fast", quality=quality, **options)
+    _, mf, fast = shared_render(quality=quality, **options)
     mp, plain = _render(tmp_path, "plain", quality=quality, fast_pipeline=False, **options)
     assert mf["render"]["pipeline"] == {"persistent_data": True, "views_per_render": 2 if quality == "gt" else 1}
     assert mp["render"]["pipeline"] == {"persistent_data": False, "views_per_render": 1}

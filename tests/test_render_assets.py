@@ -12,7 +12,7 @@ from blender_sesgen.contract.frames import object_pose
 from blender_sesgen.ses import parse_file
 
 import mesh_raycast
-from render_support import depth_and_ids, load_manifest, read_exr, run_render
+from render_support import cli_in_process, depth_and_ids, load_manifest, read_exr
 from markers import needs
 
 pytestmark = [pytest.mark.render, needs("bpy")]
@@ -67,7 +67,7 @@ def test_asset_depth_and_ids_match_ray_casting_their_meshes(tmp_path):
     script = tmp_path / "assets.ses"
     script.write_text(SCRIPT)
     out = tmp_path / "out"
-    r = run_render(script, "--out", out, "--samples", "1", "--quiet", timeout=900)
+    r = cli_in_process("blender_sesgen", "render", script, "--out", out, "--samples", "1", "--quiet")
     assert r.returncode == 0, r.stderr
     m = load_manifest(out)
     W, H = m["resolution"]

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from render_support import REPO, load_manifest, read_exr, render_cmd, run_render
+from render_support import REPO, cli_in_process, load_manifest, read_exr, render_cmd, render_here, run_render
 from markers import needs
 
 pytestmark = [pytest.mark.render, needs("bpy")]
@@ -95,7 +95,7 @@ def test_bad_script_exits_2_and_creates_nothing(tmp_path, bad, pattern):
     script = tmp_path / "bad.ses"
     script.write_text(SMALL + bad)
     out = tmp_path / "out"
-    r = run_render(script, "--out", out)
+    r = cli_in_process("blender_sesgen", "render", script, "--out", out)   # bad options' exit 2: children below
     assert r.returncode == 2, (r.stdout, r.stderr)
     assert re.search(pattern, r.stderr), r.stderr
     assert not out.exists()
@@ -114,7 +114,7 @@ def test_bad_options_exit_2(tmp_path):
 def test_refuses_a_folder_with_another_scene(tmp_path):
     out = tmp_path / "out"
     a = small_script(tmp_path, steps=0, name="a.ses")
-    assert run_render(a, "--out", out, "--samples", "1", "--quiet").returncode == 0
+    render_here(a, out, "--samples", "1")
     before = {p: p.stat().st_mtime_ns for p in out.rglob("*")}
     b = small_script(tmp_path, steps=1, name="b.ses")
     r = run_render(b, "--out", out, "--samples", "1")
@@ -124,9 +124,9 @@ def test_refuses_a_folder_with_another_scene(tmp_path):
     foreign = tmp_path / "foreign"
     foreign.mkdir()
     (foreign / "notes.txt").write_text("mine")
-    assert run_render(a, "--out", foreign).returncode == 2
+    assert cli_in_process("blender_sesgen", "render", a, "--out", foreign).returncode == 2
     # --force replaces it
-    r = run_render(b, "--out", out, "--samples", "1", "--quiet", "--force")
+    r = cli_in_process("blender_sesgen", "render", b, "--out", out, "--samples", "1", "--quiet", "--force")
     assert r.returncode == 0, r.stderr
     m = load_manifest(out)
     assert m["frames"] == 2 and m["frames_complete"] == [True, True]
@@ -159,7 +159,7 @@ def test_resume_after_kill_is_identical(tmp_path):
     r = run_render(script, "--out", out, *args, "--resume")
     assert r.returncode == 0, r.stderr
     assert f"{8 - sum(done)} of 8 frames to render" in r.stdout
-    assert run_render(script, "--out", ref, *args, "--quiet").returncode == 0
+    render_here(script, ref, *args)   # the resume above: a child
     m = load_manifest(out)
     assert m["frames_complete"] == [True] * 8
     same_exrs(out, ref, m)
@@ -169,9 +169,9 @@ def test_resume_after_kill_is_identical(tmp_path):
 def test_frames_range_and_resume_fill_in(tmp_path):
     script = small_script(tmp_path, steps=3)
     out = tmp_path / "out"
-    assert run_render(script, "--out", out, "--samples", "1", "--frames", "1:3", "--quiet").returncode == 0
+    render_here(script, out, "--samples", "1", "--frames", "1:3")
     assert load_manifest(out)["frames_complete"] == [False, True, True, False]
-    r = run_render(script, "--out", out, "--samples", "1", "--resume")
+    r = cli_in_process("blender_sesgen", "render", script, "--out", out, "--samples", "1", "--resume")
     assert r.returncode == 0 and "2 of 4 frames to render" in r.stdout
     assert load_manifest(out)["frames_complete"] == [True] * 4
 
@@ -184,7 +184,7 @@ def test_render_py_shim_matches_the_cli(tmp_path):
     r = subprocess.run([sys.executable, str(REPO / "render.py"), "--", str(script), "--out", str(a),
                         "--samples", "2", "--quiet"], cwd=tmp_path, env=env, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
-    assert run_render(script, "--out", b, "--samples", "2", "--quiet").returncode == 0
+    render_here(script, b, "--samples", "2")
     ma, mb = load_manifest(a), load_manifest(b)
     assert ma["poses"] == mb["poses"] and ma["render"] == mb["render"]
     same_exrs(a, b, ma)

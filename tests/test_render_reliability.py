@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from render_support import REPO, rendered, run_render
+from render_support import REPO, cli_in_process, rendered, run_render
 from markers import needs
 
 pytestmark = [pytest.mark.render, needs("bpy")]
@@ -68,7 +68,7 @@ def reference(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("ref")
     s = script(tmp)
     out = tmp / "out"
-    rendered(s, out, "--samples", "2")
+    rendered(s, out, "--samples", "2", here=True)   # the same bytes as a child's (the next test)
     return s.read_text(), out
 
 
@@ -111,10 +111,12 @@ def test_a_second_render_into_a_busy_folder_is_refused(reference, tmp_path):
     try:
         stopped_holding_its_lock(first, out)        # busy while the others try
         try:
-            second = run_render(s, "--out", out, "--samples", "2", "--seed", "8", "--quiet")
+            second = cli_in_process("blender_sesgen", "render", s, "--out", out, "--samples", "2", "--seed", "8",
+                                    "--quiet")
             assert second.returncode == 2, second.stderr
             assert f"being rendered by pid {first.pid}" in second.stderr and "Traceback" not in second.stderr
-            resume = run_render(s, "--out", out, "--samples", "2", "--resume", "--quiet")   # same plan, same frames
+            resume = cli_in_process("blender_sesgen", "render", s, "--out", out, "--samples", "2", "--resume",
+                                    "--quiet")   # same plan, same frames
             assert resume.returncode == 2 and "being rendered" in resume.stderr
         finally:
             first.send_signal(signal.SIGCONT)
@@ -147,7 +149,7 @@ def test_a_stale_lock_of_a_dead_process_is_taken_over(reference, tmp_path):
     import socket
     lock.write_text(json.dumps({"host": socket.gethostname(), "pid": int(dead.stdout), "frames": [0, 11],
                                 "started": 0, "scene_sha256": "?", "settings": "?"}))
-    rendered(s, out, "--samples", "2")
+    rendered(s, out, "--samples", "2", here=True)
     assert not lock.exists() and exr_bytes(out) == exr_bytes(ref)
 
 
@@ -169,7 +171,7 @@ def test_kill_9_at_random_points_then_resume_gives_the_uninterrupted_files(refer
         time.sleep(rng.uniform(0.0, 0.3) if trial else 0.0)
         p.send_signal(signal.SIGKILL)
         p.wait()
-        rendered(s, out, "--samples", "2", "--resume")
+        rendered(s, out, "--samples", "2", "--resume", here=True)
         assert exr_bytes(out) == exr_bytes(ref), f"trial {trial}"
         assert not [f for f in out.rglob(".*tmp-*")], "temporary files left behind"
 
@@ -187,7 +189,7 @@ def test_ctrl_c_stops_cleanly_with_130_and_the_folder_resumes(reference, tmp_pat
     m = json.loads((out / "manifest.json").read_text())
     assert 2 <= sum(m["frames_complete"]) < m["frames"]           # stopped early, progress kept
     assert not list((out / ".sesgen").glob("lock-*"))
-    rendered(s, out, "--samples", "2", "--resume")
+    rendered(s, out, "--samples", "2", "--resume", here=True)
     assert exr_bytes(out) == exr_bytes(ref)
 
 
@@ -217,10 +219,9 @@ def test_a_full_disk_is_an_error_and_keeps_the_previous_files(reference, tmp_pat
         assert "Traceback" not in r.stderr and ("not written completely" in r.stderr or "No space" in r.stderr)
         assert exr_bytes(out) == before                             # nothing good was replaced
         filler.unlink()
-        rendered(s, out, "--samples", "2", "--resume")
+        rendered(s, out, "--samples", "2", "--resume", here=True)
         assert exr_bytes(out) == exr_bytes(ref)
-        assert subprocess.run([sys.executable, "-m", "blender_sesgen", "verify", str(out), "--quiet"], cwd=REPO,
-                              env=dict(os.environ, PYTHONPATH=str(REPO))).returncode == 0
+        assert cli_in_process("blender_sesgen", "verify", out, "--quiet").returncode == 0
     finally:
         subprocess.run(["umount", str(disk)], capture_output=True)
 
@@ -243,9 +244,9 @@ def test_verify_names_damaged_frames_and_resume_renders_them_again(reference, tm
     m = json.loads((out / "manifest.json").read_text())
     assert [k for k, d in enumerate(m["frames_complete"]) if not d] == [3, 7, 9]
     assert f"3 of the sequence's {m['frames']} frames not rendered yet" in r.stdout, r.stdout
-    rendered(s, out, "--samples", "2", "--resume")
+    rendered(s, out, "--samples", "2", "--resume", here=True)
     assert exr_bytes(out) == exr_bytes(ref)
-    r = subprocess.run(cmd, cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO)), capture_output=True, text=True)
+    r = cli_in_process("blender_sesgen", *cmd[3:])
     assert r.returncode == 0 and f"all {m['frames']} frames of the sequence are rendered" in r.stdout, r.stdout
 
 
@@ -261,7 +262,7 @@ def test_a_focal_below_blenders_lens_clamp_renders_with_the_scripts_K(tmp_path):
     s = script(tmp_path, f"CAMERA resolution {W} {H} focal {f}\nSTART position 0 0 0\n"
                          "QUAD id 1 vertices -1 -1 -2  1 -1 -2  1 1 -2  -1 1 -2\n")
     out = tmp_path / "wide"
-    rendered(s, out, "--samples", "1")
+    rendered(s, out, "--samples", "1", here=True)
     from vo_reference.io.render import RenderSequence
     seq = RenderSequence(out)
     assert seq.K[0, 0] == f
@@ -291,6 +292,6 @@ def test_values_blender_would_change_are_refused_before_anything_is_written(tmp_
         (tmp_path / "t.txt").write_text("0 0 0 0 0 0 0 1\n1 1e308 0 0 0 0 0 1\n")
         s = script(tmp_path, "QUAD id 1 vertices 0 0 -1 1 0 -1 1 1 -1 0 1 -1\nTRAJECTORY file t.txt format tum\n")
         where = "s.ses:2:"
-    r = run_render(s, "--out", out, *args, "--quiet")
+    r = cli_in_process("blender_sesgen", "render", s, "--out", out, *args, "--quiet")
     assert r.returncode == 2 and where in r.stderr and "Traceback" not in r.stderr, r.stderr
     assert not out.exists()

@@ -21,28 +21,37 @@ SIZE, F, Z, SHIFT = 64, 64.0, 1.5, 4
 
 @pytest.fixture(scope="module")
 def swatches(tmp_path_factory):
+    return render_swatches(tmp_path_factory.mktemp("tex"))
+
+
+def render_swatches(base) -> dict:
+    """{texture: {view: luminance}}: every built-in texture on its own quad, the quads 20 m apart
+    in one plane (none shadows or lights another), the camera facing quad k at frame k (nothing
+    else in its view): one render job for all of them."""
     from blender_sesgen.contract.frames import start_pose
     from blender_sesgen.render.plan import RenderOptions
     from blender_sesgen.scene.model import Quad, Rig, Scene, TextureRef, Timeline, mat4
     from blender_sesgen.render.job import RenderJob
     from blender_sesgen.scene.textures import BUILTIN_TEXTURES
-    base = tmp_path_factory.mktemp("tex")
-    out = {}
     B = SHIFT * Z / F  # disparity f B / Z = SHIFT px
-    for number, (name, _) in BUILTIN_TEXTURES.items():
-        scene = Scene(
-            source=f"<{name}>",
-            objects=(Quad(id=1, name="q", texture=TextureRef(kind="builtin", name=name, number=number),
-                          vertices=((-2, -1, -Z), (2, -1, -Z), (2, 3, -Z), (-2, 3, -Z))),),
-            rig=Rig(width=SIZE, height=SIZE, focal_px=F, cx=(SIZE - 1) / 2, cy=(SIZE - 1) / 2, baseline=B),
-            timeline=Timeline(T_world_left=(mat4(start_pose((0.0, 1.0, 0.0))),)),
-        )
-        job = RenderJob.from_scene(scene, base / name, RenderOptions(samples=16))
-        job.build()
-        job.render_frame(0)
+    textures = list(BUILTIN_TEXTURES.items())
+    xs = [20.0 * k for k in range(len(textures))]
+    scene = Scene(
+        source="<textures>",
+        objects=tuple(Quad(id=k + 1, name=f"q{k}", texture=TextureRef(kind="builtin", name=name, number=number),
+                           vertices=((x - 2, -1, -Z), (x + 2, -1, -Z), (x + 2, 3, -Z), (x - 2, 3, -Z)))
+                      for k, ((number, (name, _)), x) in enumerate(zip(textures, xs))),
+        rig=Rig(width=SIZE, height=SIZE, focal_px=F, cx=(SIZE - 1) / 2, cy=(SIZE - 1) / 2, baseline=B),
+        timeline=Timeline(T_world_left=tuple(mat4(start_pose((x, 1.0, 0.0))) for x in xs)),
+    )
+    job = RenderJob.from_scene(scene, base / "swatches", RenderOptions(samples=16))
+    job.build()
+    job.run()
+    out = {}
+    for k, (_, (name, _)) in enumerate(textures):
         lum = {}
         for view in ("left", "right"):
-            ch = read_exr(base / name / f"exr/{view}/000000.exr")
+            ch = read_exr(base / "swatches" / f"exr/{view}/{k:06d}.exr")
             rgb = np.stack([ch[f"ViewLayer.Combined.{c}"] for c in "RGB"], -1)
             lum[view] = rgb @ np.array([0.2126, 0.7152, 0.0722])
         out[name] = lum

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from render_support import load_manifest, render_text, rendered, run_render
+from render_support import cli_in_process, load_manifest, render_text, rendered
 
 SCENE = """CAMERA resolution 64 48 focal 50 baseline 0.1
 POSE 0 1 3 0 0 0
@@ -196,11 +196,14 @@ def test_auto_exposure_does_not_depend_on_how_the_frames_are_split(render, tmp_p
     assert all(v is not None and v > 0 for v in render.manifest["sensor"]["metered"])
     assert "metering pass" in render.manifest["sensor"]["autoexposure"]["metering"]
     resumed = tmp_path / "resumed"
-    assert run_render(script, "--out", resumed, "--samples", "2", "--frames", "0:2", "--quiet").returncode == 0
-    assert run_render(script, "--out", resumed, "--samples", "2", "--resume", "--quiet").returncode == 0
+    # split and resumed in this process (the render command's own code); the concurrent chunks below: children
+    assert cli_in_process("blender_sesgen", "render", script, "--out", resumed, "--samples", "2", "--frames", "0:2",
+                          "--quiet").returncode == 0
+    assert cli_in_process("blender_sesgen", "render", script, "--out", resumed, "--samples", "2", "--resume",
+                          "--quiet").returncode == 0
     _same_frames(render, resumed, range(4))
     alone = tmp_path / "alone"
-    rendered(script, alone, "--samples", "2", "--frames", "2:3")
+    rendered(script, alone, "--samples", "2", "--frames", "2:3", here=True)
     _same_frames(render, alone, [2])
     chunks = tmp_path / "chunks"
     env = dict(os.environ, PYTHONPATH=str(REPO))

@@ -25,9 +25,11 @@ def allan_deviation(x: np.ndarray, rate_hz: float, taus_s=None, points: int = 40
         ms = ms[2 * ms < n]
     taus = ms / rate_hz
     adev = np.empty((len(ms), x.shape[1]))
+    theta = np.ascontiguousarray(theta.T)          # one row per column: hours of samples stream through once
     for i, m in enumerate(ms):
-        d = theta[2 * m:] - 2 * theta[m:-m] + theta[:-2 * m]
-        adev[i] = np.sqrt(np.sum(d * d, axis=0) / (2 * taus[i] ** 2 * (n + 1 - 2 * m)))
+        lag = theta[:, m:] - theta[:, :-m]          # theta_{k+m} - theta_k
+        d = lag[:, m:] - lag[:, :-m]                # theta_{k+2m} - 2 theta_{k+m} + theta_k
+        adev[i] = np.sqrt(np.einsum("ij,ij->i", d, d) / (2 * taus[i] ** 2 * (n + 1 - 2 * m)))
     return taus, (adev[:, 0] if squeeze else adev)
 
 
