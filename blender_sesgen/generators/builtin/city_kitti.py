@@ -22,7 +22,8 @@ varies (:class:`Variation`) the time of day (sun elevation 12-65 deg, any azimut
 time in three, a bundled daylight HDRI (city, courtyard, forest, sunrise, sunset) at a random
 strength and rotation, haze one time in four, the asphalt (tone, wear) and the paving, and
 the drive: 0.8-1.5 m per frame, 1-3 curves of 5-18 deg, the lane position and weave, and
-each side's cross-section (seed 0: KITTI sequence_1's, an open lawn left and blocks right).
+each side's cross-section and how full its kerb is parked (seed 0: KITTI sequence_1's, an
+open lawn left and blocks right, a parked car every ~35 m on the right, none on the left).
 ``frames`` sets the sequence length; ``step_m``, ``sun_elevation``, ``sun_azimuth`` override
 the seed's (a sun given replaces an HDRI); ``traffic`` the number of moving cars (0: a
 static street).
@@ -95,6 +96,10 @@ class Variation(SeededVariation, salt=0xC17):
     road: Optional[tuple] = None         # (colour, wear) of the asphalt; None: as the road asset picks it
     paving: Optional[tuple] = None       # (colour, wear) of the sidewalks' concrete
     frontage: tuple = ("open", "block")  # the left and right side's cross-section (FRONTAGES): KITTI sequence_1's
+    # the chance that a kerb slot holds a parked car, right and left side: KITTI sequence_1's are
+    # sparse (2-3 cars at the right kerb over the ~90 m its frames 0-45 see, one per ~35 m; none
+    # along the lawn on the left); residential streets range from that to kerbs parked full
+    parking: tuple = (0.24, 0.0)
 
     @classmethod
     def draw(cls, rng: np.random.Generator) -> "Variation":
@@ -105,7 +110,8 @@ class Variation(SeededVariation, salt=0xC17):
                    curve_deg=(5.0, 18.0), lane=round(float(rng.uniform(1.35, 1.9)), 2),
                    weave=round(float(rng.uniform(0.04, 0.15)), 3),
                    **draw_street_surfaces(rng, tone),
-                   frontage=tuple(str(k) for k in rng.choice(list(FRONTAGE_ODDS), 2, p=list(FRONTAGE_ODDS.values()))))
+                   frontage=tuple(str(k) for k in rng.choice(list(FRONTAGE_ODDS), 2, p=list(FRONTAGE_ODDS.values()))),
+                   parking=(round(float(rng.uniform(0.15, 0.75)), 2), round(float(rng.uniform(0.0, 0.5)), 2)))
 
 
 def _centre(street_pos, street_yaw, s, L, bends):
@@ -303,7 +309,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     out += ["", "// parked cars along the kerbs (right side facing the drive)"]
     for side in (1, -1):
         s = behind + float(rng.uniform(12, 20)) if side > 0 else float(rng.uniform(5, 15))
-        out += kerb_cars(rng, place, s, L - 8, side, half_road - 0.95, 0.5 if side > 0 else 0.3, ids, pool)
+        out += kerb_cars(rng, place, s, L - 8, side, half_road - 0.95, v.parking[0 if side > 0 else 1], ids, pool)
 
     # --- the drive: right lane, ~1.2 m per frame -----------------------------------------
     speed = step_m * (1 + 0.06 * smooth_noise(rng, frames, 1.0, (0.7, 1.6)))
