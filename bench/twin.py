@@ -240,8 +240,8 @@ def kinds_brightness(out: Path, frames: Frames, real_frames: Frames, n: int) -> 
 
 
 def slope_by_reduction(real_seq, n: int, size: tuple[int, int]) -> str:
-    """The real excerpt's spectrum slope (left frames, their mean as in the table) when brought to ``size`` in three
-    ways: area averaging (the table's: the camera binned to that size, a box pixel aperture,
+    """The real excerpt's spectrum slope (left frames, their mean as in the table) when
+    brought to ``size`` in three ways: area averaging (the table's: the camera binned to that size, a box pixel aperture,
     which keeps the power that folds back from above the new Nyquist), a Gaussian pyramid
     (cv2.pyrDown's 5-tap binomial low-pass per halving: little aliasing) and Lanczos
     (cv2.INTER_LANCZOS4: sharp, aliasing). The render's slope has no reduction: how far the
