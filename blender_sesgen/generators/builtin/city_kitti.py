@@ -44,14 +44,13 @@ from .sesgen_layout import (KITTI_CAMERA_HEIGHT, Frontage, Ids, Lighting, asset,
 KITTI_RIG = kitti_rig(far=600)
 CAMERA_HEIGHT = KITTI_CAMERA_HEIGHT
 PIECE = 20.0                 # centreline pieces (m)
-# the sky's haze (WORLD sky aerosol), set by the sun-to-shadow ratio the KITTI camera sees:
-# sunlit over shadowed asphalt (car and tree shadows, sequence_1 frames 0-40) is 4.6-6.3,
-# median 5.5, in its grey frames; the camera sees 400-1000 nm (``nir 0.2``), where the sky
-# is far darker than in the visible (Rayleigh ~ lambda^-4: ~0.4x the visible's share at
-# 800 nm), so its sun-to-sky ratio is ~1.15x that of the RGB sky model. At aerosol 4 (sun
-# 4.5x the sky on open ground at a 40 deg sun) the render's road shadows gave 4.8; at 2.5 the
-# model gives 5.2 (bench/calibrate_sky_sun.py's table; the default clear sky, 1: 6.8), so the
-# render's road ~5.5 as KITTI's (docs/sensors.md, Camera twins)
+# the sky's haze (WORLD sky aerosol) in the KITTI camera's band: it sees 400-1000 nm (``nir 0.2``),
+# where the sky is far darker than in the visible (Rayleigh ~ lambda^-4), so its sun-to-sky
+# ratio is ~1.15x the RGB sky model's; at 2.5 the model's sun lights open ground 5.2x as much as
+# the sky at a 40 deg sun (bench/calibrate_sky_sun.py's table; 4.5 at 4, 6.8 at the default 1).
+# KITTI sequence_1's sunlit over shadowed asphalt is 4.6-6.3, median 5.5 (frames 0-40, car and
+# tree shadows); the render's like shadows gave 4.8 at 4 and about the same at 2.5: their light
+# is more the surroundings' than the sky's (docs/sensors.md, Camera twins)
 HAZE_AEROSOL = 2.5
 # KITTI sequence_1's sun, measured from its shadows on the road (frame 40: a street tree's crown
 # shadow lies 4.4 m from its trunk, 76 deg right of straight ahead and slightly away; frame 0: the
