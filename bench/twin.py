@@ -48,7 +48,7 @@ from blender_sesgen.contract.se3 import invert, se3
 from vo_reference.io.base import Sequence
 from vo_reference.io.sequence import open_sequence
 from vo_reference.io.trajectory import Trajectory
-from vo_reference.evaluate.realism import sequence_stats
+from vo_reference.evaluate.realism import sequence_stats, spectrum_slope
 from vo_reference.evaluate.sgbm import sgbm_disparity
 from vo_reference.stereo.pipeline import run_stereo_vo
 from vo_reference.stereo.report import shape_errors
@@ -60,9 +60,11 @@ VOS = ("opencv-baseline", "orb", "accurate")
 
 
 class Frames(Sequence):
-    """A stereo sequence held in memory (grey frames, K, baseline, poses or None)."""
+    """A stereo sequence held in memory (grey frames, K, baseline, poses or None);
+    ``black_in_image``: the 8-bit frames hold the camera's black level (a real camera's files)."""
 
-    def __init__(self, left, right, K, baseline_m, T_world_cam=None, timestamps_s=None):
+    def __init__(self, left, right, K, baseline_m, T_world_cam=None, timestamps_s=None, black_in_image=True):
+        self.black_in_image = bool(black_in_image)
         self._img = {"left": list(left), "right": list(right)}
         self.K, self.baseline_m = np.asarray(K, float), float(baseline_m)
         self.num_frames = len(self._img["left"])
@@ -165,11 +167,14 @@ def vo_errors(seq: Frames, method: str, n: int) -> dict:
 
 # --- causes -------------------------------------------------------------------------------------
 
-def _linear(img, profile: str) -> np.ndarray:
-    """An 8-bit grey frame through the inverse of the profile's black level and response."""
+def _linear(img, profile: str, black_in_image: bool = True) -> np.ndarray:
+    """An 8-bit grey frame through the inverse of the profile's response and, where the image
+    holds it (the real camera's files: KITTI's darkest pixels are 6-8, EuRoC's ~13), its black
+    level; the render's sensor/rgb holds none (the chain's response starts at 0)."""
     from blender_sesgen.scene.camera_profiles import PROFILES
     sensor = PROFILES[profile].sensor
-    black, gamma = float(sensor.get("black", 0.0)), float(sensor.get("gamma", 1.0))
+    black = float(sensor.get("black", 0.0)) if black_in_image else 0.0
+    gamma = float(sensor.get("gamma", 1.0))
     if sensor.get("response") == "linear":
         gamma = 1.0
     return np.clip((img.astype(float) - black) / (255.0 - black), 0, 1) ** gamma
@@ -179,7 +184,7 @@ def brightness_spread(frames: Frames, profile: str, n: int) -> float:
     """Median over mean of the linear signal (``_linear``), the median over the frames."""
     out = []
     for k in range(n):
-        lin = _linear(frames.image_gray(k), profile)
+        lin = _linear(frames.image_gray(k), profile, frames.black_in_image)
         out.append(np.median(lin) / max(lin.mean(), 1e-9))
     return float(np.median(out))
 
@@ -220,7 +225,7 @@ def kinds_brightness(out: Path, frames: Frames, real_frames: Frames, n: int) -> 
     seq, cls = render_classes(out)
     ours, dark = {}, []
     for k in range(n):
-        L = _linear(frames.image_gray(k), "kitti")
+        L = _linear(frames.image_gray(k), "kitti", frames.black_in_image)
         ids = np.asarray(seq.ids(k, "left")).astype(int)
         names = np.vectorize(lambda i: cls.get(i, "sky"))(ids)
         dark.append(np.mean(L < 0.3 * L.mean()))
@@ -228,10 +233,33 @@ def kinds_brightness(out: Path, frames: Frames, real_frames: Frames, n: int) -> 
                for kind, c in RENDER_KINDS.items()}
         for name, v in med.items():
             ours.setdefault(name, []).append(v / L.mean())
-    real_dark = [np.mean(L < 0.3 * L.mean()) for L in (_linear(real_frames.image_gray(k), "kitti") for k in range(n))]
+    real_dark = [np.mean(L < 0.3 * L.mean()) for L in (_linear(real_frames.image_gray(k), "kitti", real_frames.black_in_image) for k in range(n))]
     fmt = lambda d: ", ".join(f"{k} {np.nanmedian(v):.2f}" for k, v in d.items())  # noqa: E731
     return (fmt(real) + f"; pixels < 0.3 x mean {100 * np.median(real_dark):.0f} %",
             fmt(ours) + f"; pixels < 0.3 x mean {100 * np.median(dark):.0f} %")
+
+
+def slope_by_reduction(real_seq, n: int, size: tuple[int, int]) -> str:
+    """The real excerpt's spectrum slope (left frames, their mean as in the table) when
+    brought to ``size`` in three ways: area averaging (the table's: the camera binned to that size, a box pixel aperture,
+    which keeps the power that folds back from above the new Nyquist), a Gaussian pyramid
+    (cv2.pyrDown's 5-tap binomial low-pass per halving: little aliasing) and Lanczos
+    (cv2.INTER_LANCZOS4: sharp, aliasing). The render's slope has no reduction: how far the
+    real figure moves with the reduction alone says how much of a slope gap is the
+    comparison's."""
+    W0 = real_seq.resolution[0]
+    if size[0] == W0:
+        return "no reduction (the real frames at their own size)"
+
+    def pyramid(img):
+        while img.shape[1] >= 2 * size[0]:
+            img = cv2.pyrDown(img)
+        return cv2.resize(img, size, interpolation=cv2.INTER_AREA)
+
+    ways = {"area": lambda im: cv2.resize(im, size, interpolation=cv2.INTER_AREA), "Gaussian pyramid": pyramid,
+            "Lanczos": lambda im: cv2.resize(im, size, interpolation=cv2.INTER_LANCZOS4)}
+    return ", ".join(f"{name} {np.mean([spectrum_slope(f(real_seq.image_gray(k))) for k in range(n)]):.2f}"
+                     for name, f in ways.items())
 
 
 def _grain(L: np.ndarray, mask: np.ndarray) -> float:
@@ -260,7 +288,7 @@ def road_grain(out: Path, frames: Frames, n: int) -> tuple[float, float]:
     road = [i for i, c in cls.items() if c == "road"]
     ours = []
     for k in range(n):
-        L = _linear(frames.image_gray(k), "kitti")
+        L = _linear(frames.image_gray(k), "kitti", frames.black_in_image)
         m = cv2.erode(np.isin(np.asarray(seq.ids(k, "left")).astype(int), road).astype(np.uint8), np.ones((7, 7))) > 0
         if m.sum() >= 200:
             ours.append(_grain(L, m & (L > 0.5 * np.median(L[m]))))
@@ -433,10 +461,11 @@ def main(argv=None) -> int:
         real_seq = open_sequence(DATA / "kitti" / "sequence_1")
         n = min(n, real_seq.num_frames)
         real, name = resized(real_seq, n, tuple(seq.resolution)), "real KITTI sequence_1"
+        reductions = slope_by_reduction(real_seq, n, tuple(seq.resolution))
     else:
         real, name = euroc_rectified(n, tuple(seq.resolution)), "real EuRoC V1_01"
     ours = Frames(ours._img["left"][:n], ours._img["right"][:n], ours.K, ours.baseline_m, ours.T_world_cam(),
-                  ours.timestamps_s)
+                  ours.timestamps_s, black_in_image=False)
     print(f"\n### {script} + SENSOR profile {profile} (--resolution-scale {a.scale:g}, --quality {a.quality}) "
           f"vs {name}\n")
     print("\n".join(table(name, real, ours, n, with_vo=profile == "kitti")))
@@ -446,6 +475,7 @@ def main(argv=None) -> int:
         kr, ko = kinds_brightness(out, ours, real, n)
         print(f"brightness over the frame mean (median): real KITTI sequence_1 (hand-marked sunlit regions, frames "
               f"0, 20, 40) {kr}; render (by object id, sun and shade) {ko}")
+        print(f"spectrum slope of {name} by how it is brought to {seq.resolution[0]} px wide (mean): {reductions}")
         gr, go = road_grain(out, ours, n)
         print(f"sunlit road's pixel-scale contrast (robust deviation over the 5 x 5 mean): real KITTI sequence_1 "
               f"{gr:.3f}, render {go:.3f}")

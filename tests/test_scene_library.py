@@ -291,3 +291,28 @@ def test_manifest_rows_of_assets_say_how_to_regenerate_them():
     assert (car["shape"], car["kind"], car["seed"], car["class"]) == ("asset", "car", 5, "car")
     assert car["size"] == list(s.objects[0].size) and "bend" not in car
     assert (road["kind"], road["bend"], road["offset"], road["class"]) == ("road", [3.0, -2.0], 0.5, "sidewalk")
+
+
+def test_city_kitti_parks_its_kerbs_as_kitti_sequence_1_and_seeds_vary_it(scenes):
+    """Parked cars (static car assets) along the drive's street: KITTI sequence_1 shows 2-3 at
+    the right kerb over the ~90 m its frames 0-45 see (one per 30-45 m) and none on the lawn
+    side, so seed 0 parks the right kerb at one car per 25-70 m over the street ahead and leaves
+    the left one empty; another seed parks its own kerbs (seed 2: the left one too)."""
+    from blender_sesgen.generators.builtin import city_kitti
+    from blender_sesgen.ses.parser import parse_text
+
+    def parked(s):
+        T0 = s.timeline.left()[0]
+        out = {"left": [], "right": []}
+        for o in s.objects:
+            if isinstance(o, Asset) and o.kind == "car" and s.motion_of(o.id) is None:
+                d = np.asarray(o.position, float) - T0[:3, 3]
+                if d @ T0[:3, 2] > 0:
+                    out["right" if d @ T0[:3, 0] > 0 else "left"].append(float(d @ T0[:3, 2]))
+        return out
+
+    p0 = parked(scenes["city_kitti"])
+    assert not p0["left"], p0
+    metres_per_car = max(p0["right"]) / len(p0["right"])
+    assert 25.0 <= metres_per_car <= 70.0, p0
+    assert parked(parse_text(city_kitti.generate(2)))["left"], "seed 2 parks its left kerb"

@@ -171,3 +171,27 @@ def test_a_sensor_without_ir_cut_filter_sees_foliage_brighter_and_plain_material
     c, nir = LIBRARY["leaves"].colour, LIBRARY["leaves"].nir
     lum = 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
     assert ratio[1] / ratio[0] == pytest.approx(0.5 + 0.5 * nir / lum, rel=0.06)
+
+
+def test_auto_exposure_meters_the_vignetted_image_the_sensor_receives():
+    """A camera's auto-exposure meters its own image, so the lens's vignetting darkens what it
+    meters: on a uniform scene held still the schedule settles where the mean of the image the
+    chain forms (optics.vignetting applied by pipeline.process, read back from the raw) is the
+    target, with and without vignetting (the metered level alone would leave the vignetted
+    image darker than the target)."""
+    from blender_sesgen.render.plan import RenderOptions, EffectiveSettings
+    from blender_sesgen.render.sensor.render_plan import SensorPlan
+    level = 0.05
+    for vignetting in (0.0, 0.8):
+        sc = scene(f"SENSOR profile kitti native 256 readnoise 0 fullwell 1e9\nLENS vignetting {vignetting}\n"
+                   "AUTOEXPOSURE target 0.25 speed 100\n")
+        plan = SensorPlan.create(sc, EffectiveSettings.of(sc, RenderOptions()))
+        exposure_s, gain = plan.exposures([level] * 20)[-1]
+        cam = pipeline.Camera(sensor=plan.sensor, lens=plan.lens_spec, rays=plan.pixel_rays(),
+                              cx=plan.K[0, 2], cy=plan.K[1, 2], nominal_exposure_s=plan.nominal_exposure_s())
+        out = pipeline.process(np.full((plan.height, plan.width, 3), level), cam, pipeline.Shot(exposure_s, gain, 0, 0))
+        full = 2 ** plan.sensor.bits - 1
+        signal = (out.raw_dn.astype(np.float64) - plan.sensor.black_level_dn) / (full - plan.sensor.black_level_dn)
+        assert signal.mean() == pytest.approx(0.25, abs=0.01)
+        if vignetting:
+            assert plan.metering_illumination < 0.9      # the test's lens does vignette

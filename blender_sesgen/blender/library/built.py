@@ -130,18 +130,20 @@ def brick(ctx: Ctx) -> Surface:
 
 def plaster(ctx: Ctx) -> Surface:
     g, p, C = ctx.g, ctx.p, ctx.colour
-    patches = g.remap(g.noise(p, 1 / 2.0, detail=3.0), 0.3, 0.7, 0.95, 1.04)
-    mid = g.remap(g.noise(p, 1 / 0.3, detail=3.0), 0.3, 0.7, 0.96, 1.04)
+    # weathered render: its tone wanders by +-5-10 % over metres and decimetres (repairs, damp,
+    # uneven dust), which a camera resolves on every facade in the sun (docs/sensors.md, Camera twins)
+    patches = g.remap(g.noise(p, 1 / 2.0, detail=3.0), 0.3, 0.7, 0.9, 1.08)
+    mid = g.remap(g.noise(p, 1 / 0.3, detail=3.0), 0.3, 0.7, 0.92, 1.07)
     # the render's sand grain: a faint speckle at millimetres to centimetres
     grain = g.remap(g.noise(p, 1 / 0.01, detail=3.0, roughness=0.7), 0.25, 0.75, 0.94, 1.06)
     # weathering: dust held in the render's pores, washed off unevenly, a mottle at 3-10 cm
     # (what a KITTI pixel sees of a facade 10-30 m away; the sand grain is sub-pixel there)
-    mottle = g.remap(g.noise(p, 1 / 0.05, detail=4.0, roughness=0.65), 0.3, 0.7, 0.86, 1.1)
+    mottle = g.remap(g.noise(p, 1 / 0.05, detail=4.0, roughness=0.65), 0.3, 0.7, 0.78, 1.14)
     mid = g.mul(g.mul(mid, grain), mottle)
     # grime running down the wall (object y is up): streaks stretched vertically
     streak_p = g.vmath("MULTIPLY", p, (6.0, 0.35, 6.0))
     streaks = g.remap(g.noise(streak_p, 1.0, detail=4.0), 0.5, 0.75, smooth=True)
-    col = g.cmul(C, g.mul(g.mul(patches, mid), g.lerp(1.0, 0.8, g.mul(streaks, ctx.wear))))
+    col = g.cmul(C, g.mul(g.mul(patches, mid), g.lerp(1.0, 0.72, g.mul(streaks, ctx.wear))))
     rough = g.remap(g.noise(p, 1 / 0.5, detail=2.0), 0.3, 0.7, ctx.roughness - 0.05, ctx.roughness + 0.05)
     # roughcast: 1-2 mm grains at 5 mm (the sun rakes them), over the trowel's waves
     roughcast = g.remap(g.voronoi(p, 1 / 0.005).outputs["Distance"], 0.0, 0.6, 1.0, 0.0)

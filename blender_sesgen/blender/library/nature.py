@@ -7,7 +7,7 @@ from .graph import Ctx, Surface
 def grass(ctx: Ctx) -> Surface:
     g, p, C = ctx.g, ctx.p, ctx.colour
     tufts = g.voronoi(p, 1 / 0.035)
-    tuft = g.remap(g.sep(tufts.outputs["Color"])[0], 0.0, 1.0, 0.8, 1.22)
+    tuft = g.remap(g.sep(tufts.outputs["Color"])[0], 0.0, 1.0, 0.7, 1.32)
     lush = g.remap(g.noise(p, 1 / ctx.entry.scale_m, detail=3.0), 0.3, 0.7, 0.82, 1.15)
     col = g.cmul(C, g.mul(tuft, lush))
     dry = g.remap(g.noise(p, 1 / 2.5, detail=3.0), 0.58 - 0.15 * ctx.wear, 0.7 - 0.15 * ctx.wear, smooth=True)
@@ -25,7 +25,9 @@ def leaves(ctx: Ctx) -> Surface:
     small = g.voronoi(p, 1 / (0.4 * size))
     r_big = g.sep(big.outputs["Color"])[0]
     r_small = g.sep(small.outputs["Color"])[1]
-    value = g.mul(g.remap(r_big, 0.0, 1.0, 0.65, 1.45), g.remap(r_small, 0.0, 1.0, 0.85, 1.15))
+    # clusters facing the light, older and younger leaves: a lit crown is a mosaic of light and
+    # dark clusters at the scale one pixel covers 5-20 m away (docs/sensors.md, Camera twins)
+    value = g.mul(g.remap(r_big, 0.0, 1.0, 0.5, 1.6), g.remap(r_small, 0.0, 1.0, 0.75, 1.25))
     col = g.cmul(C, value)
     yellow = g.math("GREATER_THAN", r_small, 0.97 - 0.2 * ctx.wear)
     col = g.cmix(col, g.cmul((0.13, 0.12, 0.045), value), g.mul(yellow, 0.7))

@@ -22,7 +22,8 @@ varies (:class:`Variation`) the time of day (sun elevation 12-65 deg, any azimut
 time in three, a bundled daylight HDRI (city, courtyard, forest, sunrise, sunset) at a random
 strength and rotation, haze one time in four, the asphalt (tone, wear) and the paving, and
 the drive: 0.8-1.5 m per frame, 1-3 curves of 5-18 deg, the lane position and weave, and
-each side's cross-section (seed 0: KITTI sequence_1's, an open lawn left and blocks right).
+each side's cross-section and how full its kerb is parked (seed 0: KITTI sequence_1's, an
+open lawn left and blocks right, a parked car every ~35 m on the right, none on the left).
 ``frames`` sets the sequence length; ``step_m``, ``sun_elevation``, ``sun_azimuth`` override
 the seed's (a sun given replaces an HDRI); ``traffic`` the number of moving cars (0: a
 static street).
@@ -43,11 +44,14 @@ from .sesgen_layout import (KITTI_CAMERA_HEIGHT, Frontage, Ids, Lighting, asset,
 KITTI_RIG = kitti_rig(far=600)
 CAMERA_HEIGHT = KITTI_CAMERA_HEIGHT
 PIECE = 20.0                 # centreline pieces (m)
-# the sky's haze (WORLD sky aerosol): KITTI's summer sky over Karlsruhe is hazier than the sky
-# model's default (1): at 4 the sun lights the ground 4.5x as much as the sky at a 40 deg sun
-# where the default gives 6.8 (bench/calibrate_sky_sun.py), so shadows are less deep and the
-# sky brighter, as in KITTI's frames (docs/sensors.md, Camera twins)
-HAZE_AEROSOL = 4.0
+# the sky's haze (WORLD sky aerosol) in the KITTI camera's band: it sees 400-1000 nm (``nir 0.2``),
+# where the sky is far darker than in the visible (Rayleigh ~ lambda^-4), so its sun-to-sky
+# ratio is ~1.15x the RGB sky model's; at 2.5 the model's sun lights open ground 5.2x as much as
+# the sky at a 40 deg sun (bench/calibrate_sky_sun.py's table; 4.5 at 4, 6.8 at the default 1).
+# KITTI sequence_1's sunlit over shadowed asphalt is 4.6-6.3, median 5.5 (frames 0-40, car and
+# tree shadows); the render's like shadows gave 4.8 at 4 and about the same at 2.5: their light
+# is more the surroundings' than the sky's (docs/sensors.md, Camera twins)
+HAZE_AEROSOL = 2.5
 # KITTI sequence_1's sun, measured from its shadows on the road (frame 40: a street tree's crown
 # shadow lies 4.4 m from its trunk, 76 deg right of straight ahead and slightly away; frame 0: the
 # car ahead throws its shadow to the right): the sun stands left of the drive and a little behind
@@ -91,6 +95,10 @@ class Variation(SeededVariation, salt=0xC17):
     road: Optional[tuple] = None         # (colour, wear) of the asphalt; None: as the road asset picks it
     paving: Optional[tuple] = None       # (colour, wear) of the sidewalks' concrete
     frontage: tuple = ("open", "block")  # the left and right side's cross-section (FRONTAGES): KITTI sequence_1's
+    # the chance that a kerb slot holds a parked car, right and left side: KITTI sequence_1's are
+    # sparse (2-3 cars at the right kerb over the ~90 m its frames 0-45 see, one per ~35 m; none
+    # along the lawn on the left); residential streets range from that to kerbs parked full
+    parking: tuple = (0.24, 0.0)
 
     @classmethod
     def draw(cls, rng: np.random.Generator) -> "Variation":
@@ -101,7 +109,8 @@ class Variation(SeededVariation, salt=0xC17):
                    curve_deg=(5.0, 18.0), lane=round(float(rng.uniform(1.35, 1.9)), 2),
                    weave=round(float(rng.uniform(0.04, 0.15)), 3),
                    **draw_street_surfaces(rng, tone),
-                   frontage=tuple(str(k) for k in rng.choice(list(FRONTAGE_ODDS), 2, p=list(FRONTAGE_ODDS.values()))))
+                   frontage=tuple(str(k) for k in rng.choice(list(FRONTAGE_ODDS), 2, p=list(FRONTAGE_ODDS.values()))),
+                   parking=(round(float(rng.uniform(0.15, 0.75)), 2), round(float(rng.uniform(0.0, 0.5)), 2)))
 
 
 def _centre(street_pos, street_yaw, s, L, bends):
@@ -299,7 +308,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     out += ["", "// parked cars along the kerbs (right side facing the drive)"]
     for side in (1, -1):
         s = behind + float(rng.uniform(12, 20)) if side > 0 else float(rng.uniform(5, 15))
-        out += kerb_cars(rng, place, s, L - 8, side, half_road - 0.95, 0.5 if side > 0 else 0.3, ids, pool)
+        out += kerb_cars(rng, place, s, L - 8, side, half_road - 0.95, v.parking[0 if side > 0 else 1], ids, pool)
 
     # --- the drive: right lane, ~1.2 m per frame -----------------------------------------
     speed = step_m * (1 + 0.06 * smooth_noise(rng, frames, 1.0, (0.7, 1.6)))

@@ -106,15 +106,6 @@ def exposure_for(plan: SensorPlan, extra: Optional[dict], k: int) -> tuple[float
     return plan.exposures(have)[k]
 
 
-def _rays(plan: SensorPlan) -> np.ndarray:
-    if plan.lens is not None:
-        return plan.lens.pixel_rays(plan.width, plan.height)
-    K = plan.K
-    v, u = np.mgrid[0:plan.height, 0:plan.width].astype(float)
-    r = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=-1)
-    return r / np.linalg.norm(r, axis=-1, keepdims=True)
-
-
 _CACHE: dict = {}
 
 
@@ -132,7 +123,7 @@ def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: floa
     key = (id(plan), "rays")
     if key not in _CACHE:
         _CACHE.clear()
-        _CACHE[key] = _rays(plan)
+        _CACHE[key] = plan.pixel_rays()
         _CACHE[(id(plan), "fpn")] = {}
     rays, fpn = _CACHE[key], _CACHE[(id(plan), "fpn")]
     rgb_names = m.channels["rgb"][:3]

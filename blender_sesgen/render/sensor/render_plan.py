@@ -10,6 +10,7 @@ statement and no override the plan is inactive and the render path is the plain 
 from __future__ import annotations
 
 import dataclasses
+import functools
 from dataclasses import dataclass
 from typing import Optional
 
@@ -30,6 +31,7 @@ from ...contract.rig_motion import RigMotion
 SENSOR_DIR = "sensor"
 LENS_DIR = "lens"
 IMU_DIR = "imu"
+METERING_LENS = "; times the lens's mean relative illumination (vignetting), as the sensor receives it"
 GROUND_TRUTH_RULE = {
     "global": "sharp, at the frame stamp (the middle of the exposure)",
     "rolling": "sharp, each row at its own capture time (timing.row_offsets_s after the frame stamp); "
@@ -143,12 +145,31 @@ class SensorPlan:
         r = self.timing.readout_s if self.rolling_shutter else 0.0
         return timing_mod.cycles_shutter(e, r, self.rate_hz)
 
+    def pixel_rays(self) -> np.ndarray:
+        """(H, W, 3) unit ray of each pixel: the lens model's, else the pinhole K's."""
+        if self.lens is not None:
+            return self.lens.pixel_rays(self.width, self.height)
+        K = self.K
+        v, u = np.mgrid[0:self.height, 0:self.width].astype(float)
+        r = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=-1)
+        return r / np.linalg.norm(r, axis=-1, keepdims=True)
+
+    @functools.cached_property
+    def metering_illumination(self) -> float:
+        """The image's mean relative illumination (the lens's vignetting; 1 without): a camera
+        meters the image its sensor receives, so the metered scene luminance is scaled by it."""
+        if self.lens_spec is None or not self.lens_spec.vignetting:
+            return 1.0
+        from .optics import vignetting
+        return float(np.mean(vignetting(self.pixel_rays(), self.lens_spec.vignetting)))
+
     def exposures(self, metered: list) -> list[tuple[float, float]]:
         """(exposure_s, gain) for frames 0..len(metered) (auto-exposure or the nominal values)."""
         gain = self.sensor.gain if self.sensor else 1.0
         if self.autoexposure is None:
             return [(self.nominal_exposure_s(), gain)] * (len(metered) + 1)
         a = self.autoexposure
+        metered = [m * self.metering_illumination for m in metered]
         return exposure_schedule(metered, ExposureControl(
             nominal_exposure_s=self.nominal_exposure_s(), nominal_gain=gain, rate_hz=self.rate_hz,
             readout_s=self.timing.readout_s, target=a.target, speed=a.speed, saturation=self.sensor.saturation,
@@ -251,7 +272,7 @@ class SensorPlan:
                             else "PNG16 grey, values 0..2^bits-1 (not scaled)" if self.sensor.mono
                             else "PNG16 RGB, values 0..2^bits-1 (not scaled)"),
                 autoexposure=None if self.autoexposure is None else {**dataclasses.asdict(self.autoexposure),
-                                                                     "metering": METERING_RULE},
+                                                                     "metering": METERING_RULE + METERING_LENS},
                 exposure_s=none, gain=none, metered=none)
         if self.imu is not None:
             imu = self.imu_section()
