@@ -18,18 +18,13 @@ from __future__ import annotations
 
 import argparse
 import os
-import resource
 import statistics
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-
-
-def cpu_s() -> float:
-    r = resource.getrusage(resource.RUSAGE_SELF)
-    return r.ru_utime + r.ru_stime
 
 
 def main(argv=None) -> int:
@@ -59,9 +54,9 @@ def main(argv=None) -> int:
         for width, samples in previews:
             got, cpu = [], []
             for _ in range(2):
-                c = cpu_s()
+                c = time.process_time()   # this process's user + sys CPU s
                 got.append(exposure.measure_exposure(bscene, camera, rig.blender_frame(0), None, width, samples))
-                cpu.append(cpu_s() - c)
+                cpu.append(time.process_time() - c)
             value, lum = got[0]
             ref = ref or (value, lum)
             print(f"{name:12s}{f'{width}x{samples}':>10s}{value:10.4f}{value / ref[0]:8.3f}{lum:10.4f}"

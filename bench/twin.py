@@ -80,6 +80,10 @@ class Frames(Sequence):
     def image_rgb(self, k, view="left"):
         return cv2.cvtColor(self._img[view][k], cv2.COLOR_GRAY2RGB)
 
+    def linear(self, k, profile: str) -> np.ndarray:
+        """Frame k's left image as linear signal (``_linear``), its black level where it holds one."""
+        return _linear(self.image_gray(k), profile, self.black_in_image)
+
     def T_world_cam(self, view="left"):
         return self._T
 
@@ -184,7 +188,7 @@ def brightness_spread(frames: Frames, profile: str, n: int) -> float:
     """Median over mean of the linear signal (``_linear``), the median over the frames."""
     out = []
     for k in range(n):
-        lin = _linear(frames.image_gray(k), profile, frames.black_in_image)
+        lin = frames.linear(k, profile)
         out.append(np.median(lin) / max(lin.mean(), 1e-9))
     return float(np.median(out))
 
@@ -225,7 +229,7 @@ def kinds_brightness(out: Path, frames: Frames, real_frames: Frames, n: int) -> 
     seq, cls = render_classes(out)
     ours, dark = {}, []
     for k in range(n):
-        L = _linear(frames.image_gray(k), "kitti", frames.black_in_image)
+        L = frames.linear(k, "kitti")
         ids = np.asarray(seq.ids(k, "left")).astype(int)
         names = np.vectorize(lambda i: cls.get(i, "sky"))(ids)
         dark.append(np.mean(L < 0.3 * L.mean()))
@@ -233,7 +237,7 @@ def kinds_brightness(out: Path, frames: Frames, real_frames: Frames, n: int) -> 
                for kind, c in RENDER_KINDS.items()}
         for name, v in med.items():
             ours.setdefault(name, []).append(v / L.mean())
-    real_dark = [np.mean(L < 0.3 * L.mean()) for L in (_linear(real_frames.image_gray(k), "kitti", real_frames.black_in_image) for k in range(n))]
+    real_dark = [np.mean(L < 0.3 * L.mean()) for L in (real_frames.linear(k, "kitti") for k in range(n))]
     fmt = lambda d: ", ".join(f"{k} {np.nanmedian(v):.2f}" for k, v in d.items())  # noqa: E731
     return (fmt(real) + f"; pixels < 0.3 x mean {100 * np.median(real_dark):.0f} %",
             fmt(ours) + f"; pixels < 0.3 x mean {100 * np.median(dark):.0f} %")
@@ -288,7 +292,7 @@ def road_grain(out: Path, frames: Frames, n: int) -> tuple[float, float]:
     road = [i for i, c in cls.items() if c == "road"]
     ours = []
     for k in range(n):
-        L = _linear(frames.image_gray(k), "kitti", frames.black_in_image)
+        L = frames.linear(k, "kitti")
         m = cv2.erode(np.isin(np.asarray(seq.ids(k, "left")).astype(int), road).astype(np.uint8), np.ones((7, 7))) > 0
         if m.sum() >= 200:
             ours.append(_grain(L, m & (L > 0.5 * np.median(L[m]))))

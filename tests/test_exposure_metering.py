@@ -51,20 +51,19 @@ def test_sigterm_stops_a_render_during_its_metering_pass(tmp_path):
     """SIGTERM while the build meters a long sequence stops the render there (exit 130, the
     folder as it was), not after the pass: the pass asks the render's stop request between
     frames as the frames do between views."""
+    import os
     import signal
     import subprocess
-    import sys
     import time
-    from render_support import REPO
+    from render_support import REPO, render_cmd
     script = tmp_path / "long.ses"
     script.write_text(oracle_script(width=64, height=48, focal=44.0, principal=(32.1, 23.4), baseline=0,
                                     extra_lines=["TIMING rate 20 exposure 0.02 blur off", "SENSOR seed 1", "AUTOEXPOSURE",
                                                  *["EGO 0 0 0.0005 0 0.01 0"] * 3000]))
     out = tmp_path / "out"
     # the last frame: its exposure follows every frame before it, so the build meters ~3000 frames
-    p = subprocess.Popen([sys.executable, "-m", "blender_sesgen", "render", str(script), "--out", str(out),
-                          "--samples", "1", "--frames", "3000:3001", "--progress", "plain"],
-                         cwd=REPO, env={**__import__("os").environ, "PYTHONPATH": str(REPO)},
+    p = subprocess.Popen(render_cmd(script, "--out", out, "--samples", 1, "--frames", "3000:3001", "--progress", "plain"),
+                         cwd=REPO, env={**os.environ, "PYTHONPATH": str(REPO)},
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     assert p.stdout.readline().startswith("sesgen render:")    # the build starts now
     time.sleep(6.0)                                              # well into the metering pass

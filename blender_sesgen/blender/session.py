@@ -141,8 +141,8 @@ class BlenderSession:
         # else the metering pass may reuse the preview's session: the same preview settings and
         # objects (not when culling shows the two other object sets); frame 0's value is the
         # preview's, the pass goes on from frame 1 as a fresh pass would after frame 0
-        self._preview_session = self.fast and then_meters and not share and self._exposure_ids is None \
-            and self._metering_ids is None
+        previews_alike = then_meters and not share and self._exposure_ids is None and self._metering_ids is None
+        self._preview_session = self.fast and previews_alike
         render.configure(self.built.scene, EXPOSURE_PREVIEW,
                          **{**self._configure, "persistent": share or self._preview_session})
         if self._exposure_ids is not None:   # culled: frame 0 metered with what frame 0 sees, in every chunk
@@ -150,8 +150,7 @@ class BlenderSession:
         value, luminance = exposure.measure_exposure(self.built.scene, self.built.cameras["left"],
                                                      rig.blender_frame(0), self.built.cameras if share else None)
         # the metering pass's frame 0 is this preview (a plain render of the same objects)
-        if then_meters and exposure.PREVIEW_IS_METERING and not share and self._exposure_ids is None \
-                and self._metering_ids is None:
+        if previews_alike and exposure.PREVIEW_IS_METERING:
             self._preview_luminance = luminance
         return value
 

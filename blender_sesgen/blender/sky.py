@@ -22,6 +22,7 @@ import numpy as np
 
 from ..scene.assets.cache import cached_array
 from . import compat
+from .library.graph import G
 
 WIDTH, HEIGHT = 512, 256          # Cycles' table (intern/cycles/scene/image_sky.cpp)
 TYPE = "MULTIPLE_SCATTERING"      # the one sky whose kernel mapping ``lookup`` repeats
@@ -34,33 +35,17 @@ def available() -> bool:
     return compat.sky_type_for() == TYPE
 
 
-def _math(nt, op: str, *inputs):
-    node = nt.nodes.new("ShaderNodeMath")
-    node.operation = op
-    for socket, value in zip(node.inputs, inputs):
-        if isinstance(value, (int, float)):
-            socket.default_value = float(value)
-        else:
-            nt.links.new(value, socket)
-    return node.outputs[0]
-
-
-def _kernel_uv(nt, direction, sun_rotation: float):
+def _kernel_uv(g: G, direction, sun_rotation: float):
     """(x, y) of the sky kernel's table lookup for a unit ``direction`` socket (Cycles'
     ``sky_radiance_nishita``): x = fract((azimuth + rotation - 3/2 pi) / 2 pi), y =
     0.5 + 0.5 sign(e) sqrt(|e| / (pi/2)) for the elevation e (measured: 1e-5 of the node)."""
-    sep = nt.nodes.new("ShaderNodeSeparateXYZ")
-    nt.links.new(direction, sep.inputs[0])
-    dx, dy, dz = sep.outputs
-    elevation = _math(nt, "SUBTRACT", math.pi / 2, _math(nt, "ARCCOSINE", dz))
-    root = _math(nt, "SQRT", _math(nt, "DIVIDE", _math(nt, "ABSOLUTE", elevation), math.pi / 2))
-    y = _math(nt, "MULTIPLY_ADD", _math(nt, "MULTIPLY", root, _math(nt, "SIGN", elevation)), 0.5, 0.5)
-    x = _math(nt, "FRACT", _math(nt, "DIVIDE", _math(nt, "ADD", _math(nt, "ARCTAN2", dy, dx),
-                                                       sun_rotation - 1.5 * math.pi), 2 * math.pi))
-    uv = nt.nodes.new("ShaderNodeCombineXYZ")
-    nt.links.new(x, uv.inputs[0])
-    nt.links.new(y, uv.inputs[1])
-    return uv.outputs[0]
+    dx, dy, dz = g.sep(direction)
+    elevation = g.sub(math.pi / 2, g.math("ARCCOSINE", dz))
+    root = g.math("SQRT", g.math("DIVIDE", g.math("ABSOLUTE", elevation), math.pi / 2))
+    y = g.madd(g.mul(root, g.math("SIGN", elevation)), 0.5, 0.5)
+    x = g.math("FRACT", g.math("DIVIDE", g.add(g.math("ARCTAN2", dy, dx), sun_rotation - 1.5 * math.pi),
+                                 2 * math.pi))
+    return g.comb(x, y, 0.0)
 
 
 def lookup(nt, sky_node, tag=lambda x: x):
@@ -74,11 +59,11 @@ def lookup(nt, sky_node, tag=lambda x: x):
     rgba[..., :3] = table
     image.pixels.foreach_set(rgba.ravel())
     image.pack()   # a saved .blend keeps it
-    coords = nt.nodes.new("ShaderNodeTexCoord")
-    tex = nt.nodes.new("ShaderNodeTexImage")
-    tex.image, tex.interpolation, tex.extension = image, "Linear", "EXTEND"   # as Cycles' table
-    nt.links.new(_kernel_uv(nt, coords.outputs["Generated"], float(sky_node.sun_rotation)), tex.inputs["Vector"])
-    return tex.outputs["Color"]
+    g = G(nt)
+    uv = _kernel_uv(g, g.node("ShaderNodeTexCoord").outputs["Generated"], float(sky_node.sun_rotation))
+    # linear and clamped at the edges, as Cycles reads its table
+    return g.node("ShaderNodeTexImage", {"Vector": uv}, image=image, interpolation="Linear",
+                  extension="EXTEND").outputs["Color"]
 
 
 def table_of(sky_node) -> np.ndarray:
@@ -127,33 +112,27 @@ def bake(params: dict) -> np.ndarray:
     mesh.materials.append(mat)
     nt = compat.node_tree(mat)
     nt.nodes.clear()
-    emit = nt.nodes.new("ShaderNodeEmission")
-    nt.links.new(emit.outputs[0], nt.nodes.new("ShaderNodeOutputMaterial").inputs["Surface"])
-    sep = nt.nodes.new("ShaderNodeSeparateXYZ")
-    nt.links.new(nt.nodes.new("ShaderNodeTexCoord").outputs["Object"], sep.inputs[0])
+    g = G(nt)
+    emit = g.node("ShaderNodeEmission")
+    g.set(g.node("ShaderNodeOutputMaterial").inputs["Surface"], emit.outputs[0])
+    px, py, _ = g.sep(g.node("ShaderNodeTexCoord").outputs["Object"])
 
     def centre(value, scale, offset=0.0, count=1):   # the centre of the cell holding the pixel
-        cell = _math(nt, "FLOOR", _math(nt, "MULTIPLY", _math(nt, "SUBTRACT", value, offset), scale * count))
-        return _math(nt, "DIVIDE", _math(nt, "ADD", cell, 0.5), count)
-    x = centre(sep.outputs[0], 1.0, count=WIDTH)
-    y = centre(sep.outputs[1], 2.0, offset=0.25, count=HEIGHT)
+        cell = g.math("FLOOR", g.mul(g.sub(value, offset), scale * count))
+        return g.math("DIVIDE", g.add(cell, 0.5), count)
+    x = centre(px, 1.0, count=WIDTH)
+    y = centre(py, 2.0, offset=0.25, count=HEIGHT)
     # the inverse of ``_kernel_uv`` with rotation 0
-    s = _math(nt, "SUBTRACT", y, 0.5)
-    a = _math(nt, "MULTIPLY", _math(nt, "ABSOLUTE", s), 2.0)
-    elevation = _math(nt, "MULTIPLY", _math(nt, "MULTIPLY", _math(nt, "MULTIPLY", a, a), math.pi / 2),
-                      _math(nt, "SIGN", s))
-    azimuth = _math(nt, "MULTIPLY_ADD", x, 2 * math.pi, -math.pi / 2)
-    ce = _math(nt, "COSINE", elevation)
-    direction = nt.nodes.new("ShaderNodeCombineXYZ")
-    nt.links.new(_math(nt, "MULTIPLY", ce, _math(nt, "COSINE", azimuth)), direction.inputs[0])
-    nt.links.new(_math(nt, "MULTIPLY", ce, _math(nt, "SINE", azimuth)), direction.inputs[1])
-    nt.links.new(_math(nt, "SINE", elevation), direction.inputs[2])
-    sky = nt.nodes.new("ShaderNodeTexSky")
-    sky.sky_type, sky.sun_disc, sky.sun_rotation = TYPE, False, 0.0
-    for p, v in params.items():
-        setattr(sky, p, v)
-    nt.links.new(direction.outputs[0], sky.inputs["Vector"])
-    nt.links.new(sky.outputs["Color"], emit.inputs["Color"])
+    s = g.sub(y, 0.5)
+    a = g.mul(g.math("ABSOLUTE", s), 2.0)
+    elevation = g.mul(g.mul(g.mul(a, a), math.pi / 2), g.math("SIGN", s))
+    azimuth = g.madd(x, 2 * math.pi, -math.pi / 2)
+    ce = g.math("COSINE", elevation)
+    direction = g.comb(g.mul(ce, g.math("COSINE", azimuth)), g.mul(ce, g.math("SINE", azimuth)),
+                       g.math("SINE", elevation))
+    sky = g.node("ShaderNodeTexSky", {"Vector": direction}, sky_type=TYPE, sun_disc=False, sun_rotation=0.0,
+                 **params)
+    g.set(emit.inputs["Color"], sky.outputs["Color"])
     ims = r.image_settings
     ims.file_format, ims.color_depth = "OPEN_EXR", "32"
     fd, path = tempfile.mkstemp(suffix=".exr", prefix=f"sesgen-sky-{os.getpid()}-")

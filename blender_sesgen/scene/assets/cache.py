@@ -58,9 +58,13 @@ def version() -> str:
     return h.hexdigest()[:16]
 
 
+def _digest(key) -> str:
+    """A file name for ``key`` (JSON: what the cached thing depends on)."""
+    return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:24]
+
+
 def _key(kind: str, size, seed: int, bend, offset: float) -> str:
-    args = [kind, [float(v) for v in size], int(seed), [float(v) for v in np.atleast_1d(bend)], float(offset)]
-    return hashlib.sha256(json.dumps(args).encode()).hexdigest()[:24]
+    return _digest([kind, [float(v) for v in size], int(seed), [float(v) for v in np.atleast_1d(bend)], float(offset)])
 
 
 def generate(kind: str, size, seed: int, bend=(0.0,), offset: float = 0.0) -> MeshData:
@@ -121,7 +125,7 @@ def cached_array(kind: str, key, make: Callable[[], np.ndarray],
     root = folder()
     if root is None:
         return make()
-    path = root / kind / f"{hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:24]}.npy"
+    path = root / kind / f"{_digest(key)}.npy"
     try:
         array = np.load(path, allow_pickle=False)
         if valid(array):
