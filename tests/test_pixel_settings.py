@@ -70,3 +70,43 @@ def test_timing_is_part_of_the_key(tmp_path):
     b = _plan(tmp_path, TIMED, exposure_s=0.01)
     assert a.settings.pixel != b.settings.pixel
     assert OutputFolder.settings_key(a.settings) != OutputFolder.settings_key(b.settings)
+
+
+def _written_folder(tmp_path, plan: RenderPlan, edit=None):
+    """A folder holding ``plan``'s manifest (frame 0 recorded complete), as an earlier render
+    left it; ``edit(manifest)`` changes it first (what another version of the package wrote)."""
+    channels = {"rgb": ["R", "G", "B", "A"], "depth": "Z", "object_index": "X"}
+    written = json.loads(json.dumps(plan.manifest(channels=channels, render_extra={},
+                                                  blender_version=None).to_json()))
+    written["frames_complete"][0] = True
+    if edit is not None:
+        edit(written)
+    out = tmp_path / "out"
+    out.mkdir(exist_ok=True)
+    (out / "manifest.json").write_text(json.dumps(written))
+    return out
+
+
+PROFILED = SCRIPT + "SENSOR profile kitti\nAUTOEXPOSURE\n"
+
+
+@pytest.mark.parametrize("edit, said", [
+    (lambda m: m["sensor"].update(full_well_e=m["sensor"]["full_well_e"] * 1.25), "sensor.full_well_e"),
+    (lambda m: m["sensor"]["autoexposure"].update(metering="an older metering rule"), "sensor.autoexposure"),
+    (lambda m: m["lens"].update(vignetting=0.5), "lens.vignetting"),
+])
+def test_resume_refuses_frames_made_by_another_camera_model(tmp_path, edit, said):
+    """The script and the settings alone do not fix a render's pixels: ``SENSOR profile kitti``
+    takes its numbers, and AUTOEXPOSURE its metering rule, from this package's code. Frames
+    made with other values (an older version of the package) are not resumed into a folder
+    whose new frames would be made differently; the error names the first difference."""
+    plan = _plan(tmp_path, PROFILED, frames="0:3")
+    same = _written_folder(tmp_path, plan)
+    assert OutputFolder(same).resumable(plan) is not None      # the same camera: resumed
+    OutputFolder(same).check(plan, force=False)
+    (same / "manifest.json").unlink()
+    other = _written_folder(tmp_path, plan, edit)
+    assert OutputFolder(other).resumable(plan) is None
+    with pytest.raises(SesgenError, match=f"another camera model \\({said}"):
+        OutputFolder(other).check(plan, force=False)
+    OutputFolder(other).check(plan, force=True)                # --force re-renders

@@ -32,6 +32,19 @@ IMU_STREAMS = ("noisy", "ideal", "groundtruth")
 SENSOR_STATE = ("exposure_s", "gain", "metered")     # per frame, filled in while rendering
 
 
+def camera_record(m: dict) -> dict:
+    """The camera model a manifest's frames were made with: its ``lens`` and ``sensor``
+    sections without the per-frame state and the file lists. The same script renders
+    another camera when a profile's numbers or the metering rule change between versions of
+    this package, so resume compares these too, not only the script and the settings."""
+    rec = {}
+    for key in ("lens", "sensor"):
+        section = m.get(key) if isinstance(m, dict) else None
+        if isinstance(section, dict):
+            rec[key] = {k: v for k, v in section.items() if k not in SENSOR_STATE + ("files",)}
+    return rec
+
+
 def _is_number(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 

@@ -4,8 +4,9 @@ write into it (pure: numpy + stdlib; the files' layout is ``contract.manifest``'
 Rules that keep a folder's data safe:
 
 - **The one comparison of settings** (:meth:`OutputFolder.same_settings`): frames of the
-  same scene rendered with the same pixel-affecting settings can be resumed; anything else
-  is refused unless the user forces it.
+  same scene rendered with the same pixel-affecting settings and the same camera model
+  (:meth:`OutputFolder.same_camera`: a profile's numbers, the metering rule) can be resumed;
+  anything else is refused unless the user forces it.
 - **A lock per frame range** (``locks``): a second render of overlapping frames, or of
   another scene or settings, is refused with the holder's host and pid; disjoint chunks of
   the same plan (a render farm) may write concurrently; stale locks are taken over.
@@ -34,7 +35,7 @@ from typing import Optional
 from ..contract import atomic
 from ..contract.errors import ContractError
 from ..contract.inputs import read_bytes
-from ..contract.manifest_sections import SENSOR_STATE
+from ..contract.manifest_sections import SENSOR_STATE, camera_record
 from ..contract.pixel_settings import TIMING_KEYS, PixelSettings
 from ..contract.manifest import (DISPLAY_DIR, DONE_LOG_GLOB, EXR_DIR, FORMAT, MANIFEST, POSES_DIR, SCENE_COPY, SEAL,
                                 STATE_DIR, Manifest, completed_in_logs, display_relpath, exr_relpath,
@@ -81,6 +82,22 @@ def display_view(key: str) -> str:
 
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 _PNG_TEXT_CHUNKS = {b"tEXt", b"iTXt", b"zTXt", b"tIME"}
+
+
+def camera_change(manifest: dict, plan: RenderPlan) -> Optional[str]:
+    """The first difference between the camera model ``manifest`` records and ``plan``'s
+    (``contract.manifest_sections.camera_record``), as "key: old -> new"; None when equal."""
+    old = camera_record(manifest)
+    new = camera_record(json.loads(json.dumps(plan.sensor.manifest_entries(plan.scene.frames))))
+    for section in sorted(set(old) | set(new)):
+        a, b = old.get(section), new.get(section)
+        if a == b:
+            continue
+        if not (isinstance(a, dict) and isinstance(b, dict)):
+            return f"{section}: {'none' if a is None else 'present'} -> {'none' if b is None else 'present'}"
+        key = next(k for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k))
+        return f"{section}.{key}: {a.get(key)!r} -> {b.get(key)!r}"
+    return None
 
 
 def _first_write(name: str) -> bool:
@@ -192,6 +209,13 @@ class OutputFolder:
         return bool(manifest) and PixelSettings.from_manifest(manifest) == settings.pixel
 
     @staticmethod
+    def same_camera(manifest: Optional[dict], plan: RenderPlan) -> bool:
+        """True when ``manifest``'s frames were made by the camera model ``plan`` describes
+        (its lens and sensor sections, the per-frame state aside): a newer version of this
+        package may give the same script another profile or metering rule."""
+        return bool(manifest) and camera_change(manifest, plan) is None
+
+    @staticmethod
     def settings_key(settings: EffectiveSettings) -> str:
         """The pixel-affecting settings as one string (what the locks compare)."""
         return settings.pixel.key()
@@ -201,7 +225,8 @@ class OutputFolder:
         settings), else None. Decided once per plan."""
         if self._kept_for is not plan:
             prev = self.previous()
-            same = prev and prev.get("scene_sha256") == plan.scene_sha256 and self.same_settings(prev, plan.settings)
+            same = (prev and prev.get("scene_sha256") == plan.scene_sha256 and self.same_settings(prev, plan.settings)
+                    and self.same_camera(prev, plan))
             self._kept, self._kept_for = (prev if same else None), plan
         return self._kept
 
@@ -257,6 +282,12 @@ class OutputFolder:
                               f"(quality {r.get('quality')}, samples {r.get('samples')}, denoise {r.get('denoise')}, "
                               f"seed {r.get('seed')}, "
                               f"resolution {previous.get('resolution')}); use --force to re-render")
+
+        change = camera_change(previous, plan)
+        if change and any(self._completed(previous)) and not force:
+            raise SesgenError(f"--out {out}: holds frames made by another camera model ({change}; a profile's "
+                              "numbers or the metering rule, e.g. rendered by another version of blender-sesgen); "
+                              "use --force to re-render")
 
     def pending(self, plan: RenderPlan, resume: bool) -> list[int]:
         """The plan's frames still to render (all of them unless resuming)."""
