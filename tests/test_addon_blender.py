@@ -562,6 +562,9 @@ def test_study_operator_runs_a_one_factor_study_and_finds_its_report(addon_zip, 
     assert res["report_ready"] and (out / "report.html").is_file()
     doc = json.loads((out / "results.json").read_text())
     assert [v["point"] for v in doc["variants"]] == [{}, {"gain": 4}] and doc["cost"]["developed"] == 1
+    # the system really ran on both variants: a study whose runs all failed also writes its report
+    assert len(doc["runs"]) == 2 and all(r["status"] == "ok" and r["metrics"]["ape_trans_rmse"] < 0.05
+                                         for r in doc["runs"]), [(r["status"], r.get("metrics")) for r in doc["runs"]]
     assert res["bad"]["result"] is None and "numbers" in res["bad"]["error"] and res["bad_status"].startswith("Error")
 
 
