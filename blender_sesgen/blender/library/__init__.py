@@ -119,6 +119,7 @@ def build_shader(nt, m: Material, colour, *, fog_mix=None):
             coat = g.node("ShaderNodeBump", {"Strength": 1.0, "Distance": 0.1 * float(lib.bump),
                                              "Height": s.height})
             g.set(bsdf.inputs["Coat Normal"], coat.outputs["Normal"])
+    g.layout()
     return bsdf.outputs["BSDF"]
 
 
@@ -163,4 +164,5 @@ def build_image_maps(nt, maps: ImageMaps, colour, roughness: float, tag_image):
         world = g.node("ShaderNodeVectorTransform", {"Vector": g.vmath("NORMALIZE", v)},
                        vector_type="NORMAL", convert_from="OBJECT", convert_to="WORLD")
         g.set(bsdf.inputs["Normal"], world.outputs[0])
+    g.layout()
     return bsdf
