@@ -26,7 +26,7 @@ def _same(current, value) -> bool:
         return type(current) is type(value) and current == value
     if isinstance(current, (int, float)):
         return isinstance(value, (int, float)) and not isinstance(value, bool) and \
-            np.float32(current) == np.float32(value)
+            bool(np.float32(current) == np.float32(value))
     try:
         cur = tuple(current)
     except TypeError:
@@ -47,13 +47,13 @@ class G:
     def __init__(self, nt):
         self.nt = nt
         self._count = 0
-        self._placed: dict[str, tuple[float, float]] = {}
+        self._placed: dict[int, tuple[float, float]] = {}   # node (its pointer: names change) -> location
 
     # --- plumbing ----------------------------------------------------------------------
 
     def node(self, kind: str, inputs: Optional[dict] = None, **props):
         n = self.nt.nodes.new(kind)
-        self._placed[n.name] = (-200.0 * (self._count % 12), -180.0 * (self._count // 12))
+        self._placed[n.as_pointer()] = (-200.0 * (self._count % 12), -180.0 * (self._count // 12))
         self._count += 1
         for k, v in props.items():
             if not _same(getattr(n, k), v):
@@ -70,7 +70,7 @@ class G:
         loc = np.zeros(2 * len(nodes), dtype=np.float32)
         nodes.foreach_get("location", loc)
         for i, n in enumerate(nodes):
-            xy = self._placed.get(n.name)
+            xy = self._placed.get(n.as_pointer())
             if xy is not None:
                 loc[2 * i:2 * i + 2] = xy
         nodes.foreach_set("location", loc)
