@@ -9,6 +9,8 @@ each rock gets arrays of its own.
 """
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -92,19 +94,27 @@ BUILTINS = sorted({name for name, _ in textures.BUILTIN_TEXTURES.values()})
 
 
 def test_library_graphs_equal_the_graphs_built_with_every_write(monkeypatch):
+    def groups():
+        return [g for g in bpy.data.node_groups if g.name.startswith(library.COORDINATES_GROUP)]
+    for g in groups():
+        bpy.data.node_groups.remove(g)
     fast = {name: dump(_library_tree(name)) for name in materials.LIBRARY}
     fast.update({f"tex {t}": dump(_texture_tree(t)) for t in BUILTINS})
+    assert len(groups()) == 1        # the coordinates' group: built once, used by every material
+    fast["group"] = dump(groups()[0])
+    bpy.data.node_groups.remove(groups()[0])
     with monkeypatch.context() as mp:
         every_write(mp)
         slow = {name: dump(_library_tree(name)) for name in materials.LIBRARY}
         slow.update({f"tex {t}": dump(_texture_tree(t)) for t in BUILTINS})
+        slow["group"] = dump(groups()[0])
     assert set(fast) == set(slow)
     for name in fast:
         assert fast[name] == slow[name], name
     # the oracle is not vacuous: the graphs have their nodes placed apart and constants set
     concrete = fast["concrete"]["nodes"]
     assert len({loc for _, _, loc, _, _ in concrete.values()}) > 10
-    assert len(concrete) > 50
+    assert len(concrete) > 30 and len(fast["group"]["nodes"]) > 30
 
 
 @pytest.mark.parametrize("current, value, same", [
@@ -125,3 +135,64 @@ def test_rocks_get_an_icosphere_of_their_own():
     F[:] = 0
     V2, F2 = nature._icosphere(4)
     assert np.allclose(np.linalg.norm(V2, axis=1), 1.0) and F2.max() == 2561
+
+
+def _render_library(tmp_path, shared: bool) -> np.ndarray:
+    """Every library material on a cube of its own (per-object variation on), lit by a sun,
+    2 samples at 96 x 64: the EXR's channels stacked."""
+    from blender_sesgen.files.exr import read_exr
+    scene = bpy.data.scenes.new(f"graph_test_{shared}")
+    scene.render.engine = "CYCLES"
+    c = scene.cycles
+    c.device, c.samples, c.use_denoising, c.seed = "CPU", 2, False, 7
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 96, 64, 100
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+    world = bpy.data.worlds.new(f"graph_test_{shared}")
+    world.color = (0.3, 0.35, 0.4)
+    scene.world = world
+    sun = bpy.data.objects.new(f"sun_{shared}", bpy.data.lights.new(f"sun_{shared}", "SUN"))
+    sun.rotation_euler = (0.7, 0.2, 0.5)
+    sun.data.energy = 3.0
+    scene.collection.objects.link(sun)
+    names = sorted(materials.LIBRARY)
+    cols = int(np.ceil(np.sqrt(len(names))))
+    mesh = bpy.data.meshes.new(f"cube_{shared}")
+    mesh.from_pydata([(x, y, z) for x in (-0.45, 0.45) for y in (-0.45, 0.45) for z in (-0.45, 0.45)], [],
+                     [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)])
+    for i, name in enumerate(names):
+        mat = bpy.data.materials.new(f"lib_{name}_{shared}")
+        nt = mat.node_tree
+        nt.nodes.clear()
+        out = nt.nodes.new("ShaderNodeOutputMaterial")
+        m = library_material(name)   # its texture scale and relief away from their defaults
+        m = dataclasses.replace(m, library=dataclasses.replace(m.library, scale=1.0 + 0.15 * (i % 4), bump=1.5))
+        nt.links.new(library.build_shader(nt, m, (0.6, 0.5, 0.4), shared_coordinates=shared), out.inputs["Surface"])
+        me = mesh.copy()
+        me.materials.append(mat)
+        obj = bpy.data.objects.new(f"cube_{name}_{shared}", me)
+        obj.location = (i % cols - cols / 2, i // cols - cols / 2, 0.0)
+        obj.rotation_euler = (0.3, 0.4, 0.1 * i)
+        obj.scale = (1.0, 1.0 + 0.1 * (i % 3), 1.0)
+        scene.collection.objects.link(obj)
+        library.object_properties(obj, seed=3, object_id=i + 1)
+    cam = bpy.data.objects.new(f"cam_{shared}", bpy.data.cameras.new(f"cam_{shared}"))
+    cam.location = (0.0, -1.5, 1.2 * cols)
+    cam.rotation_euler = (0.25, 0.0, 0.0)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    scene.render.filepath = str(tmp_path / f"library_{shared}.exr")
+    with bpy.context.temp_override(scene=scene):
+        bpy.ops.render.render(write_still=True, scene=scene.name)
+    ch = read_exr(scene.render.filepath)
+    bpy.data.scenes.remove(scene)
+    return np.stack([ch[k] for k in sorted(ch)])
+
+
+@pytest.mark.render
+def test_the_shared_coordinates_group_renders_the_graph_written_inline(tmp_path):
+    grouped = _render_library(tmp_path, True)
+    inline = _render_library(tmp_path, False)
+    assert grouped.shape == inline.shape and np.isfinite(grouped).all()
+    assert float(grouped.std()) > 0.01            # the materials are seen, not a flat frame
+    assert np.array_equal(grouped, inline)

@@ -16,11 +16,12 @@ from __future__ import annotations
 
 from typing import Callable
 
+import bpy
 
 from ...scene import materials
 from ...scene.model import ImageMaps, Material
 from .. import compat
-from ..datablocks import load_image
+from ..datablocks import TAG, load_image, tag
 from . import built, interior, metal_glass, nature
 from .graph import Ctx, G, Surface, box_uv
 
@@ -44,8 +45,9 @@ def _attribute(g: G, name: str):
     return g.node("ShaderNodeAttribute", attribute_type="OBJECT", attribute_name=name).outputs["Vector"]
 
 
-def _coordinates(g: G, texture_scale: float, with_offset: bool = True):
-    """(metric pattern coordinates, object-space normal, (r0, r1, r2))."""
+def _coordinates(g: G, texture_scale, with_offset: bool = True):
+    """(metric pattern coordinates, object-space normal, (r0, r1, r2)); ``texture_scale`` a
+    number or a socket."""
     tc = g.node("ShaderNodeTexCoord")
     scale = _attribute(g, SCALE_PROP)
     # an object without the property reads (0, 0, 0): fall back to 1 (unscaled)
@@ -55,9 +57,38 @@ def _coordinates(g: G, texture_scale: float, with_offset: bool = True):
     p = g.vmath("MULTIPLY", tc.outputs["Object"], scale)
     if with_offset:
         p = g.vmath("ADD", p, _attribute(g, OFFSET_PROP))
-    p = g.vscale(p, float(texture_scale))
+    p = g.vscale(p, texture_scale if isinstance(texture_scale, bpy.types.NodeSocket) else float(texture_scale))
     rand = g.sep(_attribute(g, RAND_PROP))
     return p, tc.outputs["Normal"], rand
+
+
+COORDINATES_GROUP = "sesgen_library_coordinates"
+_COORDINATE_OUTPUTS = (("p", "NodeSocketVector"), ("n", "NodeSocketVector"), ("r0", "NodeSocketFloat"),
+                       ("r1", "NodeSocketFloat"), ("r2", "NodeSocketFloat"), ("uv", "NodeSocketVector"))
+
+
+def _coordinates_group():
+    """The node group of every library material's coordinates (``_coordinates`` and its box
+    mapping; input: the texture scale), built once per scene: half of a library graph's nodes
+    (~45 of ~90), and bpy's cost of a write to a tree grows with its size. Cycles expands the
+    group when it synchronises the material: the same nodes as written inline, the same pixels."""
+    for group in bpy.data.node_groups:     # (a BLEND file's group may hold the name)
+        if group.get(TAG) and group.get(COORDINATES_GROUP):
+            return group
+    group = tag(bpy.data.node_groups.new(COORDINATES_GROUP, "ShaderNodeTree"))
+    group[COORDINATES_GROUP] = 1
+    group.interface.new_socket("scale", in_out="INPUT", socket_type="NodeSocketFloat")
+    for name, kind in _COORDINATE_OUTPUTS:
+        group.interface.new_socket(name, in_out="OUTPUT", socket_type=kind)
+    g = G(group)
+    into = g.node("NodeGroupInput")
+    p, n, rand = _coordinates(g, into.outputs["scale"])
+    uv, _, _ = box_uv(g, p, n)
+    out = g.node("NodeGroupOutput")
+    for name, socket in zip([name for name, _ in _COORDINATE_OUTPUTS], (p, n, *rand, uv)):
+        g.set(out.inputs[name], socket)
+    g.layout()
+    return group
 
 
 def _variation(g: G, colour, rand, amount: float):
@@ -85,15 +116,22 @@ def _grime(g: G, ctx: Ctx, colour, roughness, amount: float):
 COLOUR_NODE = "sesgen_colour"
 
 
-def build_shader(nt, m: Material, colour, *, fog_mix=None):
+def build_shader(nt, m: Material, colour, *, fog_mix=None, shared_coordinates: bool = True):
     """The library material ``m`` (its ``library`` params) in node tree ``nt``; returns the
     output shader socket. ``colour``: the main albedo (material colour times object colour),
-    held by the one RGB node named ``COLOUR_NODE`` (``set_colour`` changes it in a copy)."""
+    held by the one RGB node named ``COLOUR_NODE`` (``set_colour`` changes it in a copy).
+    ``shared_coordinates``: the coordinates through the scene's one node group (False: written
+    into the tree, as the group expands: tests/test_material_graph.py renders both)."""
     g = G(nt)
     lib = m.library
     entry = materials.entry(lib.name)
-    p, n, rand = _coordinates(g, lib.scale)
-    uv, _, _ = box_uv(g, p, n)
+    if shared_coordinates:
+        coords = g.node("ShaderNodeGroup", {"scale": float(lib.scale)}, node_tree=_coordinates_group())
+        p, n, uv = coords.outputs["p"], coords.outputs["n"], coords.outputs["uv"]
+        rand = (coords.outputs["r0"], coords.outputs["r1"], coords.outputs["r2"])
+    else:
+        p, n, rand = _coordinates(g, lib.scale)
+        uv, _, _ = box_uv(g, p, n)
     rgb = g.node("ShaderNodeRGB")
     rgb.name = COLOUR_NODE
     set_colour(nt, colour)
