@@ -4,7 +4,7 @@ costs, measured by switching it off in the same run.
 
     PYTHONPATH=. .venv/bin/python bench/profile_scenes.py [--scenes city_kitti hall office forest paper_room]
         [--quality final] [--samples N] [--scale 0.5] [--frames 2] [--features all|none|NAME ...]
-        [--base REV] [--json FILE] [--asset-cache off|warm]
+        [--base REV] [--json FILE] [--asset-cache off|warm] [--cprofile FILE]
 
 Each row is one fresh render process (the real job: ``RenderJob.build`` and ``run``, EXRs
 written and sealed) rendering frames 0..N-1 of the scene at ``--scale`` times its own size.
@@ -46,6 +46,10 @@ per stereo frame and in the build):
   (FOG), ``sensor`` (the camera model: SENSOR, TIMING, LENS and AUTOEXPOSURE, i.e. the
   sensor path's shutter and lens renders and the sensor images). A feature the scene does
   not have is listed as absent.
+
+``--cprofile FILE`` writes a cProfile of each scene's build (``job.build``: the scene, the
+exposure preview, the metering pass; CPU clock, so Cycles' threads count inside the render
+calls) in the working tree's baseline row to ``FILE`` with the scene's name before its suffix.
 
 ``--base REV`` renders the baseline row of every scene again with revision REV's code
 (checked out into a temporary git worktree), in the same run: today's figures beside the
