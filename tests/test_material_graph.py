@@ -95,26 +95,28 @@ BUILTINS = sorted({name for name, _ in textures.BUILTIN_TEXTURES.values()})
 
 def test_library_graphs_equal_the_graphs_built_with_every_write(monkeypatch):
     def groups():
-        return [g for g in bpy.data.node_groups if g.name.startswith(library.COORDINATES_GROUP)]
+        return [g for g in bpy.data.node_groups if g.name.startswith(library.GROUPS)]
     for g in groups():
         bpy.data.node_groups.remove(g)
     fast = {name: dump(_library_tree(name)) for name in materials.LIBRARY}
     fast.update({f"tex {t}": dump(_texture_tree(t)) for t in BUILTINS})
-    assert len(groups()) == 1        # the coordinates' group: built once, used by every material
-    fast["group"] = dump(groups()[0])
-    bpy.data.node_groups.remove(groups()[0])
+    # the shared parts' groups: each built once, used by every material
+    assert sorted(g.name for g in groups()) == sorted(library.GROUPS)
+    fast.update({g.name: dump(g) for g in groups()})
+    for g in groups():
+        bpy.data.node_groups.remove(g)
     with monkeypatch.context() as mp:
         every_write(mp)
         slow = {name: dump(_library_tree(name)) for name in materials.LIBRARY}
         slow.update({f"tex {t}": dump(_texture_tree(t)) for t in BUILTINS})
-        slow["group"] = dump(groups()[0])
+        slow.update({g.name: dump(g) for g in groups()})
     assert set(fast) == set(slow)
     for name in fast:
         assert fast[name] == slow[name], name
     # the oracle is not vacuous: the graphs have their nodes placed apart and constants set
     concrete = fast["concrete"]["nodes"]
     assert len({loc for _, _, loc, _, _ in concrete.values()}) > 10
-    assert len(concrete) > 30 and len(fast["group"]["nodes"]) > 30
+    assert len(concrete) > 20 and len(fast[library.COORDINATES_GROUP]["nodes"]) > 30
 
 
 @pytest.mark.parametrize("current, value, same", [

@@ -63,52 +63,92 @@ def _coordinates(g: G, texture_scale, with_offset: bool = True):
 
 
 COORDINATES_GROUP = "sesgen_library_coordinates"
-_COORDINATE_OUTPUTS = (("p", "NodeSocketVector"), ("n", "NodeSocketVector"), ("r0", "NodeSocketFloat"),
-                       ("r1", "NodeSocketFloat"), ("r2", "NodeSocketFloat"), ("uv", "NodeSocketVector"))
+VARIATION_GROUP = "sesgen_library_variation"
+GRIME_GROUP = "sesgen_library_grime"
+GROUPS = (COORDINATES_GROUP, VARIATION_GROUP, GRIME_GROUP)
 
 
-def _coordinates_group():
-    """The node group of every library material's coordinates (``_coordinates`` and its box
-    mapping; input: the texture scale), built once per scene: half of a library graph's nodes
-    (~45 of ~90), and bpy's cost of a write to a tree grows with its size. Cycles expands the
-    group when it synchronises the material: the same nodes as written inline, the same pixels."""
+def _group(name: str, inputs, outputs, build):
+    """The library's node group ``name`` (``inputs``/``outputs``: (name, socket type) pairs;
+    ``build(g, {input: socket})`` returns the output sockets), built once per scene. The parts
+    every library graph shares live in groups: bpy's cost of a write to a tree grows with the
+    tree's size, and Cycles expands a group when it synchronises the material (the same nodes
+    as written inline: the same pixels, tests/test_material_graph.py)."""
     for group in bpy.data.node_groups:     # (a BLEND file's group may hold the name)
-        if group.get(TAG) and group.get(COORDINATES_GROUP):
+        if group.get(TAG) and group.get(name):
             return group
-    group = tag(bpy.data.node_groups.new(COORDINATES_GROUP, "ShaderNodeTree"))
-    group[COORDINATES_GROUP] = 1
-    group.interface.new_socket("scale", in_out="INPUT", socket_type="NodeSocketFloat")
-    for name, kind in _COORDINATE_OUTPUTS:
-        group.interface.new_socket(name, in_out="OUTPUT", socket_type=kind)
+    group = tag(bpy.data.node_groups.new(name, "ShaderNodeTree"))
+    group[name] = 1
+    for socket, kind in inputs:
+        group.interface.new_socket(socket, in_out="INPUT", socket_type=kind)
+    for socket, kind in outputs:
+        group.interface.new_socket(socket, in_out="OUTPUT", socket_type=kind)
     g = G(group)
     into = g.node("NodeGroupInput")
-    p, n, rand = _coordinates(g, into.outputs["scale"])
-    uv, _, _ = box_uv(g, p, n)
+    made = build(g, {socket: into.outputs[socket] for socket, _ in inputs})
     out = g.node("NodeGroupOutput")
-    for name, socket in zip([name for name, _ in _COORDINATE_OUTPUTS], (p, n, *rand, uv)):
-        g.set(out.inputs[name], socket)
+    for (socket, _), value in zip(outputs, made):
+        g.set(out.inputs[socket], value)
     g.layout()
     return group
 
 
-def _variation(g: G, colour, rand, amount: float):
+def _coordinates_group():
+    """``_coordinates`` and its box mapping (input: the texture scale): ~45 of a library
+    graph's ~90 nodes."""
+    def build(g, i):
+        p, n, rand = _coordinates(g, i["scale"])
+        uv, _, _ = box_uv(g, p, n)
+        return (p, n, *rand, uv)
+    return _group(COORDINATES_GROUP, [("scale", "NodeSocketFloat")],
+                  [("p", "NodeSocketVector"), ("n", "NodeSocketVector"), ("r0", "NodeSocketFloat"),
+                   ("r1", "NodeSocketFloat"), ("r2", "NodeSocketFloat"), ("uv", "NodeSocketVector")], build)
+
+
+def _variation(g: G, colour, rand, amount: float, shared: bool = False):
     """The object's own shift of hue, saturation and value (scaled by ``variation``)."""
     if amount <= 0:
         return colour
+    scales = (0.5 * amount, 0.06 * amount, 0.4 * amount)
+    if shared:
+        node = g.node("ShaderNodeGroup", node_tree=_group(
+            VARIATION_GROUP, [("colour", "NodeSocketColor"), ("r0", "NodeSocketFloat"), ("r1", "NodeSocketFloat"),
+                              ("r2", "NodeSocketFloat"), ("value", "NodeSocketFloat"), ("hue", "NodeSocketFloat"),
+                              ("saturation", "NodeSocketFloat")], [("colour", "NodeSocketColor")],
+            lambda g, i: (_shift(g, i["colour"], (i["r0"], i["r1"], i["r2"]), (i["value"], i["hue"], i["saturation"])),)))
+        for name, value in zip(("colour", "r0", "r1", "r2", "value", "hue", "saturation"), (colour, *rand, *scales)):
+            g.set(node.inputs[name], value)
+        return node.outputs["colour"]
+    return _shift(g, colour, rand, scales)
+
+
+def _shift(g: G, colour, rand, scales):
     r0, r1, r2 = rand
-    value = g.madd(g.sub(r0, 0.5), 0.5 * amount, 1.0)           # +-25 % at variation 1
-    hue = g.madd(g.sub(r1, 0.5), 0.06 * amount, 0.5)            # +-0.03 of the hue circle
-    sat = g.madd(g.sub(r2, 0.5), 0.4 * amount, 1.0)             # +-20 %
+    value = g.madd(g.sub(r0, 0.5), scales[0], 1.0)           # +-25 % at variation 1
+    hue = g.madd(g.sub(r1, 0.5), scales[1], 0.5)             # +-0.03 of the hue circle
+    sat = g.madd(g.sub(r2, 0.5), scales[2], 1.0)             # +-20 %
     return g.hsv(colour, hue, sat, value)
 
 
-def _grime(g: G, ctx: Ctx, colour, roughness, amount: float):
+def _grime(g: G, ctx: Ctx, colour, roughness, amount: float, shared: bool = False):
     """Generic dirt: large soft patches with fine breakup, darker and browner, rougher."""
     if amount <= 0:
         return colour, roughness
-    big = g.remap(g.noise(ctx.p, 0.7, detail=3.0), 0.45, 0.72, smooth=True)
-    fine = g.remap(g.noise(ctx.p, 12.0, detail=3.0), 0.35, 0.65)
-    mask = g.mul(g.mul(big, g.lerp(0.6, 1.0, fine)), min(amount, 1.0))
+    if shared:
+        node = g.node("ShaderNodeGroup", node_tree=_group(
+            GRIME_GROUP, [("p", "NodeSocketVector"), ("colour", "NodeSocketColor"), ("roughness", "NodeSocketFloat"),
+                          ("amount", "NodeSocketFloat")], [("colour", "NodeSocketColor"), ("roughness", "NodeSocketFloat")],
+            lambda g, i: _dirt(g, i["p"], i["colour"], i["roughness"], i["amount"])))
+        for name, value in zip(("p", "colour", "roughness", "amount"), (ctx.p, colour, roughness, min(amount, 1.0))):
+            g.set(node.inputs[name], value)
+        return node.outputs["colour"], node.outputs["roughness"]
+    return _dirt(g, ctx.p, colour, roughness, min(amount, 1.0))
+
+
+def _dirt(g: G, p, colour, roughness, amount):
+    big = g.remap(g.noise(p, 0.7, detail=3.0), 0.45, 0.72, smooth=True)
+    fine = g.remap(g.noise(p, 12.0, detail=3.0), 0.35, 0.65)
+    mask = g.mul(g.mul(big, g.lerp(0.6, 1.0, fine)), amount)
     dirty = g.cmul(colour, (0.62, 0.58, 0.52))
     return g.cmix(colour, dirty, mask), g.lerp(roughness, 0.95, g.mul(mask, 0.6))
 
@@ -120,8 +160,9 @@ def build_shader(nt, m: Material, colour, *, fog_mix=None, shared_coordinates: b
     """The library material ``m`` (its ``library`` params) in node tree ``nt``; returns the
     output shader socket. ``colour``: the main albedo (material colour times object colour),
     held by the one RGB node named ``COLOUR_NODE`` (``set_colour`` changes it in a copy).
-    ``shared_coordinates``: the coordinates through the scene's one node group (False: written
-    into the tree, as the group expands: tests/test_material_graph.py renders both)."""
+    ``shared_coordinates``: the coordinates, the per-object variation and the dirt through the
+    scene's node groups (False: written into the tree, as the groups expand:
+    tests/test_material_graph.py renders both)."""
     g = G(nt)
     lib = m.library
     entry = materials.entry(lib.name)
@@ -138,9 +179,9 @@ def build_shader(nt, m: Material, colour, *, fog_mix=None, shared_coordinates: b
     ctx = Ctx(g=g, p=p, uv=uv, n=n, rand=rand, colour=rgb.outputs[0], roughness=float(m.roughness),
               metallic=float(m.metallic), wear=float(lib.wear), entry=entry)
     s = RECIPES[entry.name](ctx)
-    col = _variation(g, s.colour, rand, lib.variation)
+    col = _variation(g, s.colour, rand, lib.variation, shared_coordinates)
     rough = s.roughness
-    col, rough = _grime(g, ctx, col, rough, lib.wear * s.grime)
+    col, rough = _grime(g, ctx, col, rough, lib.wear * s.grime, shared_coordinates)
     # the object's own small roughness shift
     rough = g.math("MULTIPLY_ADD", g.sub(rand[1], 0.5), 0.1 * lib.variation, rough, clamp=True) \
         if lib.variation > 0 else rough
