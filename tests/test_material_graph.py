@@ -1,11 +1,14 @@
-"""The library's node graphs (blender/library/graph.py: ``G``) as bpy builds them.
+"""The library's node graphs (blender/library/graph.py: ``G``; blender/library: its groups) as
+bpy builds them.
 
 ``G`` skips the writes that would change nothing (Blender updates the whole tree on every
 write) and places the nodes in one ``foreach_set``. Oracle: the same graphs built with every
 write done (``_same`` never true) and each node placed as it is made: every node's type,
 properties, socket values, enabled sockets, location and every link must be equal, for every
-library material and every procedural texture. The rocks' icosphere is made once per process:
-each rock gets arrays of its own.
+library material, procedural texture and shared group. The shared parts of the library graphs
+(coordinates, per-object variation, dirt) are node groups built once per scene; oracle: every
+library material rendered with the parts written inline, every EXR channel equal. The rocks'
+icosphere is made once per process: each rock gets arrays of its own.
 """
 from __future__ import annotations
 
@@ -169,7 +172,7 @@ def _render_library(tmp_path, shared: bool) -> np.ndarray:
         out = nt.nodes.new("ShaderNodeOutputMaterial")
         m = library_material(name)   # its texture scale and relief away from their defaults
         m = dataclasses.replace(m, library=dataclasses.replace(m.library, scale=1.0 + 0.15 * (i % 4), bump=1.5))
-        nt.links.new(library.build_shader(nt, m, (0.6, 0.5, 0.4), shared_coordinates=shared), out.inputs["Surface"])
+        nt.links.new(library.build_shader(nt, m, (0.6, 0.5, 0.4), shared_parts=shared), out.inputs["Surface"])
         me = mesh.copy()
         me.materials.append(mat)
         obj = bpy.data.objects.new(f"cube_{name}_{shared}", me)
@@ -192,7 +195,7 @@ def _render_library(tmp_path, shared: bool) -> np.ndarray:
 
 
 @pytest.mark.render
-def test_the_shared_coordinates_group_renders_the_graph_written_inline(tmp_path):
+def test_the_shared_groups_render_the_graph_written_inline(tmp_path):
     grouped = _render_library(tmp_path, True)
     inline = _render_library(tmp_path, False)
     assert grouped.shape == inline.shape and np.isfinite(grouped).all()

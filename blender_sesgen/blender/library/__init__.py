@@ -10,7 +10,10 @@ roughness and wear shifts. The builder sets these three properties on every obje
 
 Every recipe returns a :class:`Surface`; :func:`build_shader` adds what all share: the
 per-object colour variation, the generic dirt layer scaled by ``wear``, the relief through a
-Bump node (shading only: geometry, depth and ids never change) and the Principled BSDF.
+Bump node (shading only: geometry, depth and ids never change) and the Principled BSDF. The
+coordinates, the variation and the dirt are node groups made once per scene (``GROUPS``): a
+write to a node tree through bpy updates the whole tree, so small trees build faster; Cycles
+expands the groups (the pixels of the graph written inline).
 """
 from __future__ import annotations
 
@@ -156,17 +159,17 @@ def _dirt(g: G, p, colour, roughness, amount):
 COLOUR_NODE = "sesgen_colour"
 
 
-def build_shader(nt, m: Material, colour, *, fog_mix=None, shared_coordinates: bool = True):
+def build_shader(nt, m: Material, colour, *, fog_mix=None, shared_parts: bool = True):
     """The library material ``m`` (its ``library`` params) in node tree ``nt``; returns the
     output shader socket. ``colour``: the main albedo (material colour times object colour),
     held by the one RGB node named ``COLOUR_NODE`` (``set_colour`` changes it in a copy).
-    ``shared_coordinates``: the coordinates, the per-object variation and the dirt through the
+    ``shared_parts``: the coordinates, the per-object variation and the dirt through the
     scene's node groups (False: written into the tree, as the groups expand:
     tests/test_material_graph.py renders both)."""
     g = G(nt)
     lib = m.library
     entry = materials.entry(lib.name)
-    if shared_coordinates:
+    if shared_parts:
         coords = g.node("ShaderNodeGroup", {"scale": float(lib.scale)}, node_tree=_coordinates_group())
         p, n, uv = coords.outputs["p"], coords.outputs["n"], coords.outputs["uv"]
         rand = (coords.outputs["r0"], coords.outputs["r1"], coords.outputs["r2"])
@@ -179,9 +182,9 @@ def build_shader(nt, m: Material, colour, *, fog_mix=None, shared_coordinates: b
     ctx = Ctx(g=g, p=p, uv=uv, n=n, rand=rand, colour=rgb.outputs[0], roughness=float(m.roughness),
               metallic=float(m.metallic), wear=float(lib.wear), entry=entry)
     s = RECIPES[entry.name](ctx)
-    col = _variation(g, s.colour, rand, lib.variation, shared_coordinates)
+    col = _variation(g, s.colour, rand, lib.variation, shared_parts)
     rough = s.roughness
-    col, rough = _grime(g, ctx, col, rough, lib.wear * s.grime, shared_coordinates)
+    col, rough = _grime(g, ctx, col, rough, lib.wear * s.grime, shared_parts)
     # the object's own small roughness shift
     rough = g.math("MULTIPLY_ADD", g.sub(rand[1], 0.5), 0.1 * lib.variation, rough, clamp=True) \
         if lib.variation > 0 else rough
