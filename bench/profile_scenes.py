@@ -4,7 +4,7 @@ costs, measured by switching it off in the same run.
 
     PYTHONPATH=. .venv/bin/python bench/profile_scenes.py [--scenes city_kitti hall office forest paper_room]
         [--quality final] [--samples N] [--scale 0.5] [--frames 2] [--features all|none|NAME ...]
-        [--base REV] [--json FILE] [--asset-cache off|warm]
+        [--base REV] [--json FILE] [--asset-cache off|warm] [--cprofile FILE]
 
 Each row is one fresh render process (the real job: ``RenderJob.build`` and ``run``, EXRs
 written and sealed) rendering frames 0..N-1 of the scene at ``--scale`` times its own size.
@@ -46,6 +46,10 @@ per stereo frame and in the build):
   (FOG), ``sensor`` (the camera model: SENSOR, TIMING, LENS and AUTOEXPOSURE, i.e. the
   sensor path's shutter and lens renders and the sensor images). A feature the scene does
   not have is listed as absent.
+
+``--cprofile FILE`` writes a cProfile of each scene's build (``job.build``: the scene, the
+exposure preview, the metering pass; CPU clock, so Cycles' threads count inside the render
+calls) in the working tree's baseline row to ``FILE`` with the scene's name before its suffix.
 
 ``--base REV`` renders the baseline row of every scene again with revision REV's code
 (checked out into a temporary git worktree), in the same run: today's figures beside the
@@ -233,7 +237,15 @@ def child(a) -> int:
     stages.cpu["parse"] = cpu_s() - c
     tmp = Path(tempfile.mkdtemp(prefix="sesgen-profile-"))
     job = RenderJob.of(plan, tmp / "out")
+    prof = None
+    if a.cprofile:   # our Python's share of the build (CPU clock: Cycles' threads count in the C calls)
+        import cProfile
+        prof = cProfile.Profile(time.process_time)
+        prof.enable()
     job.build()
+    if prof is not None:
+        prof.disable()
+        prof.dump_stats(a.cprofile)
     # the builder's own work without the stages inside it
     stages.cpu["scene"] -= stages.cpu["assets"] + stages.cpu["meshes"] + stages.cpu["materials"]
     frames = []
@@ -357,7 +369,9 @@ def run_child(a, scene: Path, feature: str, code_root: Path, in_process=()) -> d
     cmd = [sys.executable, str(Path(__file__).resolve()), "--child", "--scene", str(scene), "--feature", feature,
            "--quality", a.quality, "--scale", str(a.scale), "--frames", str(a.frames),
            *(["--samples", str(a.samples)] if a.samples else []),
-           *(["--in-process", *in_process] if in_process else [])]
+           *(["--in-process", *in_process] if in_process else []),
+           *(["--cprofile", str(Path(a.cprofile).resolve().with_suffix(f".{scene.stem}.prof"))]
+             if a.cprofile and code_root == REPO and feature == "baseline" else [])]
     # every row builds its assets the way a machine's first render process does (--asset-cache
     # warm: as every later one, from a cache the warm-up rows filled)
     env = dict(os.environ, PYTHONPATH=str(code_root), SESGEN_ASSET_CACHE=a.cache_folder or "off")
@@ -410,6 +424,8 @@ def main(argv=None) -> int:
     p.add_argument("--json", help="write every row as JSON")
     p.add_argument("--asset-cache", choices=("off", "warm"), default="off",
                    help="warm: the rows share a fresh asset cache (meshes, the sky's table), filled by a warm-up row")
+    p.add_argument("--cprofile", help="FILE: cProfile (CPU clock) of each scene's build in this tree's baseline "
+                   "row, written to FILE with the scene's name before its suffix (FILE.office.prof)")
     p.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     p.add_argument("--scene", help=argparse.SUPPRESS)
     p.add_argument("--feature", default="baseline", help=argparse.SUPPRESS)

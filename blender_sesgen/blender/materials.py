@@ -50,8 +50,8 @@ class MaterialFactory:
         if m is not None and m.library is not None:
             colour = band_colour(colour, m.library.name, self.nir_share)
             # a library material's graph depends on its colour only through one RGB node: the
-            # same material in another colour is a copy of the first (a node graph built
-            # through bpy costs ~0.05 s per material: every socket write updates the tree)
+            # same material in another colour is a copy of the first (a library graph built
+            # through bpy costs ~15 ms: every write to a tree updates all of it)
             key = dataclasses.replace(m, colour=(1.0, 1.0, 1.0))
             first = self._library.get(key)
             if first is not None:

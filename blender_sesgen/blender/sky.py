@@ -62,8 +62,10 @@ def lookup(nt, sky_node, tag=lambda x: x):
     g = G(nt)
     uv = _kernel_uv(g, g.node("ShaderNodeTexCoord").outputs["Generated"], float(sky_node.sun_rotation))
     # linear and clamped at the edges, as Cycles reads its table
-    return g.node("ShaderNodeTexImage", {"Vector": uv}, image=image, interpolation="Linear",
-                  extension="EXTEND").outputs["Color"]
+    colour = g.node("ShaderNodeTexImage", {"Vector": uv}, image=image, interpolation="Linear",
+                    extension="EXTEND").outputs["Color"]
+    g.layout()
+    return colour
 
 
 def table_of(sky_node) -> np.ndarray:

@@ -141,6 +141,12 @@ def texture_colour(nt, ref, spherical: bool = False):
     UVs) a spherical projection of the object-local direction.
     """
     g = G(nt)
+    colour = _texture_colour(g, ref, spherical)
+    g.layout()
+    return colour
+
+
+def _texture_colour(g: G, ref, spherical: bool):
     coords = g.node("ShaderNodeTexCoord")
     if ref.kind == "image":
         img = load_image(ref.path)

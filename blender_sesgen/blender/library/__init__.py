@@ -10,17 +10,21 @@ roughness and wear shifts. The builder sets these three properties on every obje
 
 Every recipe returns a :class:`Surface`; :func:`build_shader` adds what all share: the
 per-object colour variation, the generic dirt layer scaled by ``wear``, the relief through a
-Bump node (shading only: geometry, depth and ids never change) and the Principled BSDF.
+Bump node (shading only: geometry, depth and ids never change) and the Principled BSDF. The
+coordinates, the variation and the dirt are node groups made once per scene (``GROUPS``): a
+write to a node tree through bpy updates the whole tree, so small trees build faster; Cycles
+expands the groups (the pixels of the graph written inline).
 """
 from __future__ import annotations
 
 from typing import Callable
 
+import bpy
 
 from ...scene import materials
 from ...scene.model import ImageMaps, Material
 from .. import compat
-from ..datablocks import load_image
+from ..datablocks import TAG, load_image, tag
 from . import built, interior, metal_glass, nature
 from .graph import Ctx, G, Surface, box_uv
 
@@ -44,8 +48,9 @@ def _attribute(g: G, name: str):
     return g.node("ShaderNodeAttribute", attribute_type="OBJECT", attribute_name=name).outputs["Vector"]
 
 
-def _coordinates(g: G, texture_scale: float, with_offset: bool = True):
-    """(metric pattern coordinates, object-space normal, (r0, r1, r2))."""
+def _coordinates(g: G, texture_scale, with_offset: bool = True):
+    """(metric pattern coordinates, object-space normal, (r0, r1, r2)); ``texture_scale`` a
+    number or a socket."""
     tc = g.node("ShaderNodeTexCoord")
     scale = _attribute(g, SCALE_PROP)
     # an object without the property reads (0, 0, 0): fall back to 1 (unscaled)
@@ -55,29 +60,98 @@ def _coordinates(g: G, texture_scale: float, with_offset: bool = True):
     p = g.vmath("MULTIPLY", tc.outputs["Object"], scale)
     if with_offset:
         p = g.vmath("ADD", p, _attribute(g, OFFSET_PROP))
-    p = g.vscale(p, float(texture_scale))
+    p = g.vscale(p, texture_scale if isinstance(texture_scale, bpy.types.NodeSocket) else float(texture_scale))
     rand = g.sep(_attribute(g, RAND_PROP))
     return p, tc.outputs["Normal"], rand
 
 
-def _variation(g: G, colour, rand, amount: float):
+COORDINATES_GROUP = "sesgen_library_coordinates"
+VARIATION_GROUP = "sesgen_library_variation"
+GRIME_GROUP = "sesgen_library_grime"
+GROUPS = (COORDINATES_GROUP, VARIATION_GROUP, GRIME_GROUP)
+
+
+def _group(name: str, inputs, outputs, build):
+    """The library's node group ``name`` (``inputs``/``outputs``: (name, socket type) pairs;
+    ``build(g, {input: socket})`` returns the output sockets), built once per scene. The parts
+    every library graph shares live in groups: bpy's cost of a write to a tree grows with the
+    tree's size, and Cycles expands a group when it synchronises the material (the same nodes
+    as written inline: the same pixels, tests/test_material_graph.py)."""
+    for group in bpy.data.node_groups:     # (a BLEND file's group may hold the name)
+        if group.get(TAG) and group.get(name):
+            return group
+    group = tag(bpy.data.node_groups.new(name, "ShaderNodeTree"))
+    group[name] = 1
+    for socket, kind in inputs:
+        group.interface.new_socket(socket, in_out="INPUT", socket_type=kind)
+    for socket, kind in outputs:
+        group.interface.new_socket(socket, in_out="OUTPUT", socket_type=kind)
+    g = G(group)
+    into = g.node("NodeGroupInput")
+    made = build(g, {socket: into.outputs[socket] for socket, _ in inputs})
+    out = g.node("NodeGroupOutput")
+    for (socket, _), value in zip(outputs, made):
+        g.set(out.inputs[socket], value)
+    g.layout()
+    return group
+
+
+def _coordinates_group():
+    """``_coordinates`` and its box mapping (input: the texture scale): ~45 of a library
+    graph's ~90 nodes."""
+    def build(g, i):
+        p, n, rand = _coordinates(g, i["scale"])
+        uv, _, _ = box_uv(g, p, n)
+        return (p, n, *rand, uv)
+    return _group(COORDINATES_GROUP, [("scale", "NodeSocketFloat")],
+                  [("p", "NodeSocketVector"), ("n", "NodeSocketVector"), ("r0", "NodeSocketFloat"),
+                   ("r1", "NodeSocketFloat"), ("r2", "NodeSocketFloat"), ("uv", "NodeSocketVector")], build)
+
+
+def _variation(g: G, colour, rand, amount: float, shared: bool = False):
     """The object's own shift of hue, saturation and value (scaled by ``variation``)."""
     if amount <= 0:
         return colour
+    scales = (0.5 * amount, 0.06 * amount, 0.4 * amount)
+    if shared:
+        node = g.node("ShaderNodeGroup", node_tree=_group(
+            VARIATION_GROUP, [("colour", "NodeSocketColor"), ("r0", "NodeSocketFloat"), ("r1", "NodeSocketFloat"),
+                              ("r2", "NodeSocketFloat"), ("value", "NodeSocketFloat"), ("hue", "NodeSocketFloat"),
+                              ("saturation", "NodeSocketFloat")], [("colour", "NodeSocketColor")],
+            lambda g, i: (_shift(g, i["colour"], (i["r0"], i["r1"], i["r2"]), (i["value"], i["hue"], i["saturation"])),)))
+        for name, value in zip(("colour", "r0", "r1", "r2", "value", "hue", "saturation"), (colour, *rand, *scales)):
+            g.set(node.inputs[name], value)
+        return node.outputs["colour"]
+    return _shift(g, colour, rand, scales)
+
+
+def _shift(g: G, colour, rand, scales):
     r0, r1, r2 = rand
-    value = g.madd(g.sub(r0, 0.5), 0.5 * amount, 1.0)           # +-25 % at variation 1
-    hue = g.madd(g.sub(r1, 0.5), 0.06 * amount, 0.5)            # +-0.03 of the hue circle
-    sat = g.madd(g.sub(r2, 0.5), 0.4 * amount, 1.0)             # +-20 %
+    value = g.madd(g.sub(r0, 0.5), scales[0], 1.0)           # +-25 % at variation 1
+    hue = g.madd(g.sub(r1, 0.5), scales[1], 0.5)             # +-0.03 of the hue circle
+    sat = g.madd(g.sub(r2, 0.5), scales[2], 1.0)             # +-20 %
     return g.hsv(colour, hue, sat, value)
 
 
-def _grime(g: G, ctx: Ctx, colour, roughness, amount: float):
+def _grime(g: G, ctx: Ctx, colour, roughness, amount: float, shared: bool = False):
     """Generic dirt: large soft patches with fine breakup, darker and browner, rougher."""
     if amount <= 0:
         return colour, roughness
-    big = g.remap(g.noise(ctx.p, 0.7, detail=3.0), 0.45, 0.72, smooth=True)
-    fine = g.remap(g.noise(ctx.p, 12.0, detail=3.0), 0.35, 0.65)
-    mask = g.mul(g.mul(big, g.lerp(0.6, 1.0, fine)), min(amount, 1.0))
+    if shared:
+        node = g.node("ShaderNodeGroup", node_tree=_group(
+            GRIME_GROUP, [("p", "NodeSocketVector"), ("colour", "NodeSocketColor"), ("roughness", "NodeSocketFloat"),
+                          ("amount", "NodeSocketFloat")], [("colour", "NodeSocketColor"), ("roughness", "NodeSocketFloat")],
+            lambda g, i: _dirt(g, i["p"], i["colour"], i["roughness"], i["amount"])))
+        for name, value in zip(("p", "colour", "roughness", "amount"), (ctx.p, colour, roughness, min(amount, 1.0))):
+            g.set(node.inputs[name], value)
+        return node.outputs["colour"], node.outputs["roughness"]
+    return _dirt(g, ctx.p, colour, roughness, min(amount, 1.0))
+
+
+def _dirt(g: G, p, colour, roughness, amount):
+    big = g.remap(g.noise(p, 0.7, detail=3.0), 0.45, 0.72, smooth=True)
+    fine = g.remap(g.noise(p, 12.0, detail=3.0), 0.35, 0.65)
+    mask = g.mul(g.mul(big, g.lerp(0.6, 1.0, fine)), amount)
     dirty = g.cmul(colour, (0.62, 0.58, 0.52))
     return g.cmix(colour, dirty, mask), g.lerp(roughness, 0.95, g.mul(mask, 0.6))
 
@@ -85,24 +159,32 @@ def _grime(g: G, ctx: Ctx, colour, roughness, amount: float):
 COLOUR_NODE = "sesgen_colour"
 
 
-def build_shader(nt, m: Material, colour, *, fog_mix=None):
+def build_shader(nt, m: Material, colour, *, fog_mix=None, shared_parts: bool = True):
     """The library material ``m`` (its ``library`` params) in node tree ``nt``; returns the
     output shader socket. ``colour``: the main albedo (material colour times object colour),
-    held by the one RGB node named ``COLOUR_NODE`` (``set_colour`` changes it in a copy)."""
+    held by the one RGB node named ``COLOUR_NODE`` (``set_colour`` changes it in a copy).
+    ``shared_parts``: the coordinates, the per-object variation and the dirt through the
+    scene's node groups (False: written into the tree, as the groups expand:
+    tests/test_material_graph.py renders both)."""
     g = G(nt)
     lib = m.library
     entry = materials.entry(lib.name)
-    p, n, rand = _coordinates(g, lib.scale)
-    uv, _, _ = box_uv(g, p, n)
+    if shared_parts:
+        coords = g.node("ShaderNodeGroup", {"scale": float(lib.scale)}, node_tree=_coordinates_group())
+        p, n, uv = coords.outputs["p"], coords.outputs["n"], coords.outputs["uv"]
+        rand = (coords.outputs["r0"], coords.outputs["r1"], coords.outputs["r2"])
+    else:
+        p, n, rand = _coordinates(g, lib.scale)
+        uv, _, _ = box_uv(g, p, n)
     rgb = g.node("ShaderNodeRGB")
     rgb.name = COLOUR_NODE
     set_colour(nt, colour)
     ctx = Ctx(g=g, p=p, uv=uv, n=n, rand=rand, colour=rgb.outputs[0], roughness=float(m.roughness),
               metallic=float(m.metallic), wear=float(lib.wear), entry=entry)
     s = RECIPES[entry.name](ctx)
-    col = _variation(g, s.colour, rand, lib.variation)
+    col = _variation(g, s.colour, rand, lib.variation, shared_parts)
     rough = s.roughness
-    col, rough = _grime(g, ctx, col, rough, lib.wear * s.grime)
+    col, rough = _grime(g, ctx, col, rough, lib.wear * s.grime, shared_parts)
     # the object's own small roughness shift
     rough = g.math("MULTIPLY_ADD", g.sub(rand[1], 0.5), 0.1 * lib.variation, rough, clamp=True) \
         if lib.variation > 0 else rough
@@ -119,6 +201,7 @@ def build_shader(nt, m: Material, colour, *, fog_mix=None):
             coat = g.node("ShaderNodeBump", {"Strength": 1.0, "Distance": 0.1 * float(lib.bump),
                                              "Height": s.height})
             g.set(bsdf.inputs["Coat Normal"], coat.outputs["Normal"])
+    g.layout()
     return bsdf.outputs["BSDF"]
 
 
@@ -163,4 +246,5 @@ def build_image_maps(nt, maps: ImageMaps, colour, roughness: float, tag_image):
         world = g.node("ShaderNodeVectorTransform", {"Vector": g.vmath("NORMALIZE", v)},
                        vector_type="NORMAL", convert_from="OBJECT", convert_to="WORLD")
         g.set(bsdf.inputs["Normal"], world.outputs[0])
+    g.layout()
     return bsdf
