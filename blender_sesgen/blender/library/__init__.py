@@ -119,7 +119,22 @@ def build_shader(nt, m: Material, colour, *, fog_mix=None):
             coat = g.node("ShaderNodeBump", {"Strength": 1.0, "Distance": 0.1 * float(lib.bump),
                                              "Height": s.height})
             g.set(bsdf.inputs["Coat Normal"], coat.outputs["Normal"])
+    if entry.transmittance > 0:
+        return _translucent(g, bsdf.outputs["BSDF"], col, entry)
     return bsdf.outputs["BSDF"]
+
+
+def _translucent(g: G, shader, colour, entry):
+    """Diffusing glazing: the Principled BSDF (no diffuse transmission of its own) plus a
+    Translucent BSDF passing light evenly into the other side: materials.transmitted_colour
+    of the pane's own colour at each point (variation and dirt included)."""
+    k = materials.transmission_gain(entry)
+    passed = g.vmath("MINIMUM", g.cmul(colour, k), g.vmath("SUBTRACT", (1.0, 1.0, 1.0), colour))
+    tr = g.node("ShaderNodeBsdfTranslucent", {"Color": passed})
+    add = g.node("ShaderNodeAddShader")
+    g.set(add.inputs[0], shader)
+    g.set(add.inputs[1], tr.outputs["BSDF"])
+    return add.outputs["Shader"]
 
 
 def set_colour(nt, colour) -> None:
