@@ -44,7 +44,7 @@ def _floor_luminance(tmp_path, name: str, ceiling: str) -> np.ndarray:
 
 def test_transmitted_colour_conserves_energy():
     e = entry("frosted_glass")
-    assert transmitted_colour(e.colour, e) == pytest.approx((e.transmittance,) * 3, rel=0.02)
+    assert transmitted_colour(e.colour, e) == pytest.approx((e.transmittance,) * 3, rel=0.03)
     for c in ((0.9, 0.9, 0.9), (0.05, 0.5, 0.85)):               # reflected + passed never exceed 1
         assert all(r + t <= 1.0 + 1e-12 for r, t in zip(c, transmitted_colour(c, e)))
     assert transmitted_colour((0.2, 0.2, 0.195), e)[0] == pytest.approx(e.transmittance / 2, rel=0.02)
