@@ -1,9 +1,10 @@
 """Writes scenes/hall.ses: a large machine hall flown through by a drone, EuRoC-style.
 
 A 30 x 40 m steel-framed hall: concrete floor with painted aisle lines, a brick or
-concrete plinth wall with profiled metal cladding above, strip windows letting in
-daylight, H columns carrying roof girders, hanging lamps; machines, pallet racks, tanks,
-pipe runs, crates, pallets and barrels, a steel stair and railings. The rig is the EuRoC
+concrete plinth wall with profiled metal cladding above, strip windows of diffusing glazing
+(``frosted_glass``) letting in daylight evenly, H columns carrying roof girders, hanging lamps;
+machines, pallet racks, tanks, pipe runs, crates, pallets and barrels, painted pallet bays
+beside the open middle, a steel stair and railings. The rig is the EuRoC
 MAV's VI-sensor (752 x 480 px, focal and principal point of cam0, baseline from the two
 cameras' T_BS in ``../shared/data/euroc/mav0/cam0|cam1/sensor.yaml``, read by
 :func:`euroc_rig`; undistorted pinhole); it flies at 20 Hz like EuRoC's Machine Hall
@@ -25,9 +26,10 @@ The lamps and the daylight are in the same proportion as in a real hall: a lamp'
 its luminous flux (20 000 lm, an LED high-bay; 10 000-30 000 lm by seed) at 683 lm/W, divided
 by the scale ``WORLD sky`` applies to Blender's physical sky (``SKY_EXPOSURE``: the sky is in
 real units, ~100 000 lx of sunlight, before it). So the hall is lit mostly by daylight, a few
-per cent of the outdoor level, and a camera exposed for the hall sees its windows and sun
-patches burnt out and its lamps' diffusers glowing, as in EuRoC's machine hall (lamps of
-250 W each outshone such a sky some 400-fold).
+per cent of the outdoor level, and a camera exposed for the hall sees its glazing burnt out
+and its lamps' diffusers glowing (lamps of 250 W each outshone such a sky some 400-fold). The
+glazing scatters the daylight: no sun patches on the floor, which under a mean-metering
+auto-exposure left the rest of the hall dark (docs/sensors.md, Camera twins).
 """
 from __future__ import annotations
 
@@ -136,7 +138,7 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
     rig = euroc_rig()
     W, D, H = width, depth, height
     ids = Ids({"shell": 1, "structure": 100, "window": 300, "light": 400, "machine": 500, "rack": 700,
-               "clutter": 800, "glazing": 900})
+               "clutter": 800, "glazing": 900, "marking": 1000})
     t = 0.3
     plinth = 3.0
     out = ["// hall.ses - a machine hall flown through by a drone, EuRoC style: the MAV's stereo rig",
@@ -265,6 +267,7 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
                          seed=int(rng.integers(1e6))))
     out.append(asset("stairs", ids("structure"), (W / 2 - 3.0, 0, -D / 2 + 11), 0.0, (1.2, 3.5, 4.5), seed=5))
     out.append(asset("railing", ids("structure"), (-W / 2 + 6.5, 0, 6), 90.0, (8, 1.05, 0.05), seed=6))
+    placed = []                  # (x, z) of the clutter: the pallet bays keep clear of it
     for _ in range(7):           # clutter in groups: stacked crates, pallets with loads, barrels
         gx = float(rng.choice([-1, 1])) * rng.uniform(6.0, W / 2 - 4.5)
         gz = rng.uniform(-D / 2 + 10, D / 2 - 3)
@@ -272,6 +275,8 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
             kind = str(rng.choice(["crate", "pallet", "barrel"], p=[0.45, 0.3, 0.25]))
             x, z = gx + rng.uniform(-1.5, 1.5), gz + rng.uniform(-1.5, 1.5)
             out.append(asset(kind, ids("clutter"), (x, 0, z), rng.uniform(0, 360), seed=int(rng.integers(1e6))))
+            placed.append((x, z))
+    out += _pallet_bays(ids, D, placed, variation_rng(seed, 0xBA5))
     # --- the flight ------------------------------------------------------------------------
     if flight == "laps":
         P, tt, lap = _laps_path(frames, laps, speed, variation_rng(seed, 0x1A9))
@@ -291,6 +296,43 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
         yaw, pitch, roll = _attitude(P, tt, rng, var.look)
         comment = f"the flight: {n} poses of cam0 at {num(RATE_HZ, 0)} Hz"
     return script_with_poses(out, comment, P, yaw, pitch, roll)
+
+
+BAY = (1.4, 1.2, 0.05)           # a pallet bay's inside (x, z) and its painted line's width (m)
+BAY_ROWS_X = (3.6, 5.3)          # |x| of the two rows of bays each side of the open middle
+
+
+def _pallet_bays(ids, D: float, placed, rng) -> list[str]:
+    """Floor storage bays marked in paint beside the open middle (halls over 1000 m2 mark their
+    traffic routes and storage areas with lines >= 5 cm wide, yellow or white: ASR A1.8,
+    SUVA 44036), half of them holding a pallet, some loaded with a crate: the floor near the
+    flight has the paint edges, corners and low loads of a working hall. Each bay is four
+    strips (long sides whole, short ones between them: no two overlap), 5 mm high, above the
+    joints (2-3 mm) and aisle lines (4 mm), so no two faces are coplanar; a bay where clutter
+    (``placed``: its (x, z)) stands is left out."""
+    w, d, lw = BAY
+    h = 0.005
+    out = ["", "// pallet bays: painted storage areas beside the open middle, pallets and loads on some"]
+    paint = "floor_paint" if rng.random() < 0.5 else "lane_marking"
+    for side in (-1, 1):
+        for xc in BAY_ROWS_X:
+            x = side * xc
+            for z in np.arange(-D / 2 + 9.0, D / 2 - 5.0, d + 2 * lw + 0.25):
+                if rng.random() < 0.25 or any(abs(px - x) < 1.7 and abs(pz - z) < 1.6 for px, pz in placed):
+                    continue                     # a gap in the row (a crossing), or clutter stands there
+                for sx in (-1, 1):
+                    out.append(f"CUBOID id {ids('marking')} material {paint} class floor position "
+                               f"{nums((x + sx * (w + lw) / 2, h / 2, z))} dim {nums((lw, h, d + 2 * lw))}")
+                for sz in (-1, 1):
+                    out.append(f"CUBOID id {ids('marking')} material {paint} class floor position "
+                               f"{nums((x, h / 2, z + sz * (d + lw) / 2))} dim {nums((w, h, lw))}")
+                if rng.random() < 0.5:
+                    yaw = float(rng.normal(0, 3))
+                    out.append(asset("pallet", ids("marking"), (x, h, z), yaw, seed=int(rng.integers(1e6))))
+                    if rng.random() < 0.5:
+                        out.append(asset("crate", ids("marking"), (x, h + 0.144, z), yaw + float(rng.normal(0, 4)),
+                                         seed=int(rng.integers(1e6))))
+    return out
 
 
 def _attitude(P: np.ndarray, tt: np.ndarray, rng, look: float, lap: Optional[np.ndarray] = None):
