@@ -234,6 +234,35 @@ def test_hall_daylight_enters_only_through_diffusing_glazing(scenes):
     assert np.isin(hit_id, list(panes)).mean() > 0.02         # the panes are what the windows show
 
 
+def test_hall_pallet_bays_stay_clear_of_the_flight_and_the_clutter(scenes):
+    """The painted bays' pallets and crates (ids from 1000) stand on the floor beside the open
+    middle: every vertex of their meshes is at least 1 m from every pose of both cameras of
+    hall.ses and of its laps flight (the loop passes |x| <= 3.3 m), and none stands within
+    0.1 m of the layout's clutter (crates, pallets, barrels)."""
+    from blender_sesgen.ses.parser import parse_text
+    s = scenes["hall"]
+    laps = parse_text(_generator("hall").generate(0, flight="laps"), "laps.ses", str(SCENES))
+    loads = [o for o in s.objects if isinstance(o, Asset) and o.id >= 1000]
+    clutter = [o for o in s.objects if isinstance(o, Asset) and 800 <= o.id < 900]
+    assert len(loads) >= 10 and len(clutter) >= 10
+    cams = np.concatenate([f(t) for t in (s.timeline, laps.timeline)
+                           for f in (lambda t: t.left()[:, :3, 3], lambda t: t.right(s.rig.baseline)[:, :3, 3])])
+
+    def vertices(o):
+        d = assets.generate(o.kind, o.size, o.seed)
+        T = object_pose(o.position, o.rotation_deg)
+        return np.asarray(d.vertices) @ T[:3, :3].T + T[:3, 3]
+    for o in loads:
+        V = vertices(o)
+        assert V[:, 1].min() > -1e-6 and V[:, 1].max() < 1.6, o.id           # on the floor, low
+        assert np.linalg.norm(V[:, None] - cams[None], axis=2).min() > 1.0, o.id
+        for c in clutter:
+            W = vertices(c)[:, [0, 2]]
+            lo, hi = W.min(axis=0) - 0.1, W.max(axis=0) + 0.1
+            inside = np.all((V[:, [0, 2]] > lo) & (V[:, [0, 2]] < hi), axis=1)
+            assert not inside.any(), (o.id, c.id)
+
+
 def test_forest_walk_follows_the_trail(scenes):
     from blender_sesgen.scene.assets.nature import terrain_height, trail_x
     s = scenes["forest"]

@@ -299,13 +299,13 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
 
 
 BAY = (1.4, 1.2, 0.05)           # a pallet bay's inside (x, z) and its painted line's width (m)
-BAY_ROWS_X = (3.6, 5.3)          # |x| of the two rows of bays each side of the open middle
+BAY_ROWS_X = (5.2, 6.9)          # |x| of the two rows of bays each side of the open middle (the laps fly |x| <= 3.3)
 
 
 def _pallet_bays(ids, D: float, placed, rng) -> list[str]:
     """Floor storage bays marked in paint beside the open middle (halls over 1000 m2 mark their
-    traffic routes and storage areas with lines >= 5 cm wide, yellow or white: ASR A1.8,
-    SUVA 44036), half of them holding a pallet, some loaded with a crate: the floor near the
+    traffic routes and storage areas with lines >= 5 cm wide, yellow or white: the German
+    workplace rule ASR A1.8), half of them holding a pallet, some loaded with a crate: the floor near the
     flight has the paint edges, corners and low loads of a working hall. Each bay is four
     strips (long sides whole, short ones between them: no two overlap), 5 mm high, above the
     joints (2-3 mm) and aisle lines (4 mm), so no two faces are coplanar; a bay where clutter
@@ -318,7 +318,7 @@ def _pallet_bays(ids, D: float, placed, rng) -> list[str]:
         for xc in BAY_ROWS_X:
             x = side * xc
             for z in np.arange(-D / 2 + 9.0, D / 2 - 5.0, d + 2 * lw + 0.25):
-                if rng.random() < 0.25 or any(abs(px - x) < 1.7 and abs(pz - z) < 1.6 for px, pz in placed):
+                if rng.random() < 0.25 or any(abs(px - x) < 1.9 and abs(pz - z) < 1.8 for px, pz in placed):
                     continue                     # a gap in the row (a crossing), or clutter stands there
                 for sx in (-1, 1):
                     out.append(f"CUBOID id {ids('marking')} material {paint} class floor position "
