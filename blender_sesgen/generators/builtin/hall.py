@@ -305,11 +305,12 @@ BAY_ROWS_X = (5.2, 6.9)          # |x| of the two rows of bays each side of the 
 def _pallet_bays(ids, D: float, placed, rng) -> list[str]:
     """Floor storage bays marked in paint beside the open middle (halls over 1000 m2 mark their
     traffic routes and storage areas with lines >= 5 cm wide, yellow or white: the German
-    workplace rule ASR A1.8), half of them holding a pallet, some loaded with a crate: the floor near the
-    flight has the paint edges, corners and low loads of a working hall. Each bay is four
+    workplace rule ASR A1.8), half of them holding a pallet, some loaded with a crate: the
+    floor beside the flight has the paint edges, corners and low loads of a working hall. Each bay is four
     strips (long sides whole, short ones between them: no two overlap), 5 mm high, above the
     joints (2-3 mm) and aisle lines (4 mm), so no two faces are coplanar; a bay where clutter
-    (``placed``: its (x, z)) stands is left out."""
+    (``placed``: its (x, z)) stands within its largest footprint (a 1.6 x 1.4 m crate: 1.06 m
+    from its centre) of the bay's (0.75 x 0.65 m) is left out."""
     w, d, lw = BAY
     h = 0.005
     out = ["", "// pallet bays: painted storage areas beside the open middle, pallets and loads on some"]
