@@ -80,12 +80,11 @@ def glass_window(ctx: Ctx) -> Surface:
 
 
 def frosted_glass(ctx: Ctx) -> Surface:
-    """Diffusing glazing, seen lit from behind: a faint cloudiness (+-3 % over 5-30 cm) and
-    a fine matte grain; what it passes (library ``transmittance``) build_shader adds."""
+    """Diffusing glazing: a faint cloudiness (+-3 % over 5-30 cm), no relief (its matte face
+    is the roughness); what it passes (library ``transmittance``) build_shader adds."""
     g, C = ctx.g, ctx.colour
     cloud = g.remap(g.noise(ctx.p, 1 / 0.15, detail=3.0), 0.3, 0.7, 0.97, 1.03)
-    height = g.mul(g.noise(ctx.p, 1 / 0.001, detail=1.0), 0.00005)
-    return Surface(g.cmul(C, cloud), ctx.roughness, height, grime=0.3)
+    return Surface(g.cmul(C, cloud), ctx.roughness, None, grime=0.3)
 
 
 RECIPES = {"metal_painted": metal_painted, "metal_brushed": metal_brushed, "metal_rusty": metal_rusty,
