@@ -3,13 +3,16 @@ camera profile and prints, in one run and at the same image size, the image and 
 figures and three stereo VOs' errors on the render and on the real excerpt, with ratios.
 
     python bench/twin.py [--scene city] [--frames 45] [--scale 0.5] [--quality draft] [--out out/twin]
-                         [--no-render]
+                         [--no-render] [--start K]
 
 Scenes: ``city`` = scenes/city_kitti.ses (``SENSOR profile kitti``) beside KITTI sequence_1
 (../shared/data/kitti); ``hall`` = scenes/hall.ses (``SENSOR profile euroc``) beside the EuRoC
 V1_01 excerpt (rectified with its sensor.yaml; it has no ground truth: image and tracking
 figures only); both with their ``AUTOEXPOSURE`` (the script is written to OUT/<scene>_twin.ses). The real frames are
 brought to the render's size with area averaging (cv2.INTER_AREA; K scaled like ``--resolution-scale``).
+``--start K`` (hall only) compares frames K..K+N-1 of both: the render's auto-exposure starts
+from the profile's nominal exposure and settles over ~1 s (20 frames at ``speed 3``), where
+the real camera had long been running; the metering pass still meters frames 0..K+N-1.
 
 Figures (issue 28): power-spectrum slope, KLT forward-backward error (median), pixels at 0
 or 255, SGBM valid share (vo_reference.evaluate.realism); per VO - the OpenCV KLT+SGBM+PnP VO
@@ -88,19 +91,21 @@ class Frames(Sequence):
         return self._T
 
 
-def resized(seq, n: int, size: tuple[int, int]) -> Frames:
-    """The first n frames of ``seq`` at ``size`` (W, H), area-averaged, K scaled."""
+def resized(seq, n: int, size: tuple[int, int], start: int = 0) -> Frames:
+    """Frames start..start+n-1 of ``seq`` at ``size`` (W, H), area-averaged, K scaled."""
     W0, H0 = seq.resolution
     imgs = {v: [cv2.resize(seq.image_gray(k, v), size, interpolation=cv2.INTER_AREA) if size != (W0, H0)
-                else seq.image_gray(k, v) for k in range(n)] for v in ("left", "right")}
+                else seq.image_gray(k, v) for k in range(start, start + n)] for v in ("left", "right")}
+    T = seq.T_world_cam("left")
     return Frames(imgs["left"], imgs["right"], scaled_K(np.asarray(seq.K, float), W0, H0, *size), seq.baseline_m,
-                  seq.T_world_cam("left"), seq.timestamps_s)
+                  None if T is None else T[start:], np.asarray(seq.timestamps_s)[start:])
 
 
-def euroc_rectified(n: int, size) -> Frames:
-    """The EuRoC excerpt rectified with its two sensor.yaml files (no poses)."""
+def euroc_rectified(n: int, size, start: int = 0) -> Frames:
+    """Frames start..start+n-1 of the EuRoC excerpt rectified with its two sensor.yaml files (no poses)."""
     from realism import euroc_frames        # bench/realism.py, beside this script
-    _, L, R = euroc_frames(n)
+    _, L, R = euroc_frames(start + n)
+    L, R = L[start:], R[start:]
     if size != (L[0].shape[1], L[0].shape[0]):
         L = [cv2.resize(x, size, interpolation=cv2.INTER_AREA) for x in L]
         R = [cv2.resize(x, size, interpolation=cv2.INTER_AREA) for x in R]
@@ -299,7 +304,7 @@ def road_grain(out: Path, frames: Frames, n: int) -> tuple[float, float]:
     return float(np.median(real)), float(np.nanmedian(ours)) if ours else float("nan")
 
 
-def corners_on_depth_edges(out: Path, frames: Frames, n: int) -> dict:
+def corners_on_depth_edges(out: Path, frames: Frames, n: int, start: int = 0) -> dict:
     """The OpenCV VO's corners on the render: the share on a depth edge and the median SGBM
     disparity error (% of the true disparity) at edge and surface corners."""
     seq = open_sequence(out)
@@ -307,7 +312,7 @@ def corners_on_depth_edges(out: Path, frames: Frames, n: int) -> dict:
     err = {True: [], False: []}
     share = []
     for k in range(n - 1):
-        z = seq.depth(k, "left")
+        z = seq.depth(start + k, "left")
         d_gt = np.where(np.isfinite(z), fB / z, 0.0).astype(np.float32)
         box = np.ones((7, 7), np.uint8)
         hi, lo = cv2.dilate(d_gt, box), cv2.erode(d_gt, box)
@@ -351,9 +356,10 @@ def twin_script(script: str, profile: str, out: Path, frames: int | None = None)
     return path
 
 
-def render(script: Path, out: Path, n: int, scale: float, quality: str) -> float:
-    """Render frames 0..n-1 (resuming); mean seconds per stereo frame rendered in this run."""
-    cmd = [sys.executable, "-m", "blender_sesgen", "render", str(script), "--out", str(out), "--frames", f"0:{n}",
+def render(script: Path, out: Path, n: int, scale: float, quality: str, start: int = 0) -> float:
+    """Render frames start..start+n-1 (resuming); mean seconds per stereo frame rendered in this run."""
+    cmd = [sys.executable, "-m", "blender_sesgen", "render", str(script), "--out", str(out), "--frames",
+           f"{start}:{start + n}",
            "--resume", "--resolution-scale", str(scale), "--quality", quality, "--progress", "json"]
     proc = subprocess.Popen(cmd, cwd=REPO, env=dict(os.environ, PYTHONPATH=str(REPO)), stderr=subprocess.PIPE,
                             text=True)
@@ -442,6 +448,7 @@ def main(argv=None) -> int:
     ap.add_argument("--quality", default="draft")
     ap.add_argument("--out", default="out/twin")
     ap.add_argument("--no-render", action="store_true", help="use the frames already rendered in --out")
+    ap.add_argument("--start", type=int, default=0, help="compare frames K.. of both (hall; default 0)")
     ap.add_argument("--resensor", action="store_true",
                     help="run today's camera chain again on the rendered EXRs (after a profile changed)")
     a = ap.parse_args(argv)
@@ -449,29 +456,33 @@ def main(argv=None) -> int:
         print(f"real data not found at {DATA} (set SESGEN_SHARED_DATA)", file=sys.stderr)
         return 2
     script, profile = SCENES[a.scene]
+    if a.start < 0 or (a.start and (profile != "euroc" or a.resensor)):
+        print("--start: 0 or more, for --scene hall only, without --resensor", file=sys.stderr)
+        return 2
     out = REPO / a.out / a.scene
     t0 = time.perf_counter()
-    secs = float("nan") if a.no_render else render(twin_script(script, profile, REPO / a.out, a.frames), out,
-                                                   a.frames, a.scale, a.quality)
+    secs = float("nan") if a.no_render else render(twin_script(script, profile, REPO / a.out, a.start + a.frames),
+                                                   out, a.frames, a.scale, a.quality, a.start)
     seq = open_sequence(out)
     n = 0
-    while n < min(a.frames, seq.num_frames) and seq.frame_complete(n):
+    while n < min(a.frames, seq.num_frames - a.start) and seq.frame_complete(a.start + n):
         n += 1
     if n < 3:
         print(f"{out}: only {n} frame(s) rendered completely; render more (without --no-render)", file=sys.stderr)
         return 2
-    ours = resensor(out, n) if a.resensor else resized(seq, n, tuple(seq.resolution))
+    ours = resensor(out, n) if a.resensor else resized(seq, n, tuple(seq.resolution), a.start)
     if profile == "kitti":
         real_seq = open_sequence(DATA / "kitti" / "sequence_1")
         n = min(n, real_seq.num_frames)
         real, name = resized(real_seq, n, tuple(seq.resolution)), "real KITTI sequence_1"
         reductions = slope_by_reduction(real_seq, n, tuple(seq.resolution))
     else:
-        real, name = euroc_rectified(n, tuple(seq.resolution)), "real EuRoC V1_01"
+        real, name = euroc_rectified(n, tuple(seq.resolution), a.start), "real EuRoC V1_01"
+        n = min(n, real.num_frames)
     ours = Frames(ours._img["left"][:n], ours._img["right"][:n], ours.K, ours.baseline_m, ours.T_world_cam(),
                   ours.timestamps_s, black_in_image=False)
     print(f"\n### {script} + SENSOR profile {profile} (--resolution-scale {a.scale:g}, --quality {a.quality}) "
-          f"vs {name}\n")
+          f"vs {name}" + (f", frames {a.start}-{a.start + n - 1} of both" if a.start else "") + "\n")
     print("\n".join(table(name, real, ours, n, with_vo=profile == "kitti")))
     print(f"\nbrightness spread (median / mean of the linear signal): {name} {brightness_spread(real, profile, n):.2f}, "
           f"render {brightness_spread(ours, profile, n):.2f}")
@@ -483,7 +494,7 @@ def main(argv=None) -> int:
         gr, go = road_grain(out, ours, n)
         print(f"sunlit road's pixel-scale contrast (robust deviation over the 5 x 5 mean): real KITTI sequence_1 "
               f"{gr:.3f}, render {go:.3f}")
-    c = corners_on_depth_edges(out, ours, n)
+    c = corners_on_depth_edges(out, ours, n, a.start)
     print(f"render: {100 * c['edge_share']:.0f} % of the OpenCV VO's corners on depth edges; SGBM disparity error "
           f"there {c['edge_err_pct']:+.2f} %, on surfaces {c['surface_err_pct']:+.2f} % (median, of the true disparity)")
     print(f"\nseconds per stereo frame rendered: {secs:.0f}; bench wall time {time.perf_counter() - t0:.0f} s; "

@@ -50,6 +50,7 @@ class LibraryEntry:
     wear: float = 0.2              # default wear/dirt (0..1)
     semantic_class: Optional[str] = None  # default ``class`` of objects using it
     nir: Optional[float] = None    # reflectance at 700-1000 nm (None: as in the visible); see band_colour
+    transmittance: float = 0.0     # share of light passed through, scattered evenly (diffusing glazing); 0: opaque
 
 
 def _entries(*entries: LibraryEntry) -> dict[str, LibraryEntry]:
@@ -112,6 +113,14 @@ LIBRARY: dict[str, LibraryEntry] = _entries(
     LibraryEntry("glass_window", "window glass: mirror-like reflections over a dark interior (curtains, rooms); "
                                  "opaque, so depth is the glass", (0.035, 0.038, 0.04), 0.03, scale_m=1.5,
                  bump_m=0.0003, variation=0.5, wear=0.1, semantic_class="window"),
+    # opal (diffusing) glazing: 3 mm opal acrylic/polycarbonate or a white sheer curtain passes
+    # 40-60 % of daylight and reflects 30-45 %, both nearly Lambertian; 0.40 + 0.45 leaves 15 %
+    # absorbed. Light passes, the view does not: lit from behind it glows evenly, and a camera
+    # exposed for the room sees it burnt out (EuRoC V1_01's curtained window, docs/sensors.md)
+    LibraryEntry("frosted_glass", "diffusing glazing (opal glass or polycarbonate, a white curtain): reflects "
+                                  "and transmits diffusely, light passes, the view does not; depth is the pane",
+                 (0.40, 0.40, 0.39), 0.6, scale_m=0.5, bump_m=0.0002, variation=0.1, wear=0.1,
+                 semantic_class="window", transmittance=0.45),
     # --- nature -----------------------------------------------------------------------------
     LibraryEntry("grass", "lawn seen from a few metres: clumps, dry and lush patches, fine blade relief",
                  (0.06, 0.10, 0.03), 0.9, scale_m=0.3, bump_m=0.006, variation=0.3, wear=0.2,
@@ -144,6 +153,20 @@ def is_library_name(name: str) -> bool:
 
 def _luminance(c) -> float:
     return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+
+
+def transmission_gain(e: LibraryEntry) -> float:
+    """Passed over reflected light of entry ``e`` at its own colour (0 for opaque entries)."""
+    return e.transmittance / max(_luminance(e.colour), 1e-6)
+
+
+def transmitted_colour(colour: Vec3, e: LibraryEntry) -> Vec3:
+    """What a pane of entry ``e`` in reflected ``colour`` passes to its other side, per
+    channel: ``transmittance`` scaled with the colour's luminance over the entry's own (a
+    darker, dirtier pane passes less) and at most 1 - colour (reflected plus passed never
+    exceed what falls on it). The recipe builds the same in nodes (blender/library)."""
+    k = transmission_gain(e)
+    return tuple(min(k * float(c), 1.0 - float(c)) for c in colour)
 
 
 def band_colour(colour: Vec3, name: str, nir_share: float) -> Vec3:

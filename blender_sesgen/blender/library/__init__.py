@@ -201,8 +201,24 @@ def build_shader(nt, m: Material, colour, *, fog_mix=None, shared_parts: bool = 
             coat = g.node("ShaderNodeBump", {"Strength": 1.0, "Distance": 0.1 * float(lib.bump),
                                              "Height": s.height})
             g.set(bsdf.inputs["Coat Normal"], coat.outputs["Normal"])
+    out = bsdf.outputs["BSDF"]
+    if entry.transmittance > 0:
+        out = _translucent(g, out, col, entry)
     g.layout()
-    return bsdf.outputs["BSDF"]
+    return out
+
+
+def _translucent(g: G, shader, colour, entry):
+    """Diffusing glazing: the Principled BSDF (no diffuse transmission of its own) plus a
+    Translucent BSDF passing light evenly into the other side: materials.transmitted_colour
+    of the pane's own colour at each point (variation and dirt included)."""
+    k = materials.transmission_gain(entry)
+    passed = g.vmath("MINIMUM", g.cmul(colour, k), g.vmath("SUBTRACT", (1.0, 1.0, 1.0), colour))
+    tr = g.node("ShaderNodeBsdfTranslucent", {"Color": passed})
+    add = g.node("ShaderNodeAddShader")
+    g.set(add.inputs[0], shader)
+    g.set(add.inputs[1], tr.outputs["BSDF"])
+    return add.outputs["Shader"]
 
 
 def set_colour(nt, colour) -> None:

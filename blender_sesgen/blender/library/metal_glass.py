@@ -1,5 +1,5 @@
 """Recipes for metals, paints and glass: metal_painted, metal_brushed, metal_rusty, chrome,
-car_paint, glass_window."""
+car_paint, glass_window, frosted_glass."""
 from __future__ import annotations
 
 from .graph import Ctx, Surface
@@ -79,5 +79,14 @@ def glass_window(ctx: Ctx) -> Surface:
     return Surface(interior, ctx.roughness, wave, grime=0.3, extra={"IOR": 1.52, "Specular IOR Level": 0.5})
 
 
+def frosted_glass(ctx: Ctx) -> Surface:
+    """Diffusing glazing: a faint cloudiness (+-3 % over 5-30 cm), no relief (its matte face
+    is the roughness); what it passes (library ``transmittance``) build_shader adds."""
+    g, C = ctx.g, ctx.colour
+    cloud = g.remap(g.noise(ctx.p, 1 / 0.15, detail=3.0), 0.3, 0.7, 0.97, 1.03)
+    return Surface(g.cmul(C, cloud), ctx.roughness, None, grime=0.3)
+
+
 RECIPES = {"metal_painted": metal_painted, "metal_brushed": metal_brushed, "metal_rusty": metal_rusty,
-           "chrome": chrome, "car_paint": car_paint, "glass_window": glass_window}
+           "chrome": chrome, "car_paint": car_paint, "glass_window": glass_window,
+           "frosted_glass": frosted_glass}

@@ -1,9 +1,10 @@
 """Writes scenes/hall.ses: a large machine hall flown through by a drone, EuRoC-style.
 
 A 30 x 40 m steel-framed hall: concrete floor with painted aisle lines, a brick or
-concrete plinth wall with profiled metal cladding above, strip windows letting in
-daylight, H columns carrying roof girders, hanging lamps; machines, pallet racks, tanks,
-pipe runs, crates, pallets and barrels, a steel stair and railings. The rig is the EuRoC
+concrete plinth wall with profiled metal cladding above, strip windows of diffusing glazing
+(``frosted_glass``) letting in daylight evenly, H columns carrying roof girders, hanging lamps;
+machines, pallet racks, tanks, pipe runs, crates, pallets and barrels, painted pallet bays
+beside the open middle, a steel stair and railings. The rig is the EuRoC
 MAV's VI-sensor (752 x 480 px, focal and principal point of cam0, baseline from the two
 cameras' T_BS in ``../shared/data/euroc/mav0/cam0|cam1/sensor.yaml``, read by
 :func:`euroc_rig`; undistorted pinhole); it flies at 20 Hz like EuRoC's Machine Hall
@@ -17,9 +18,18 @@ checked-in file is seed 0). Every seed fits out the hall its own way (machines, 
 clutter, cladding colour, brick or concrete plinth); a seed other than 0 also varies
 (:class:`Variation`) the daylight through the windows (sun elevation 10-65 deg, any azimuth,
 or one time in three a bundled HDRI outside: city, courtyard, forest, sunrise, sunset), the
-lamps' power and colour temperature, the finishes (floor concrete tone and wear, the aisle
+lamps' luminous flux and colour temperature, the finishes (floor concrete tone and wear, the aisle
 paint, the door) and the flight: how far it goes (4-10 m) and in which direction, its
 sideways swing, height and bobbing, and how much it yaws to look around.
+
+The lamps and the daylight are in the same proportion as in a real hall: a lamp's power is
+its luminous flux (20 000 lm, an LED high-bay; 10 000-30 000 lm by seed) at 683 lm/W, divided
+by the scale ``WORLD sky`` applies to Blender's physical sky (``SKY_EXPOSURE``: the sky is in
+real units, ~100 000 lx of sunlight, before it). So the hall is lit mostly by daylight, a few
+per cent of the outdoor level, and a camera exposed for the hall sees its glazing burnt out
+and its lamps' diffusers glowing (lamps of 250 W each outshone such a sky some 400-fold). The
+glazing scatters the daylight: no sun patches on the floor, which under a mean-metering
+auto-exposure left the rest of the hall dark (docs/sensors.md, Camera twins).
 """
 from __future__ import annotations
 
@@ -31,6 +41,7 @@ from typing import Optional
 
 import numpy as np
 
+from ...scene.lighting import SKY_EXPOSURE
 from .sesgen_layout import (REPO, Ids, Lighting, asset, command_line, draw_lighting, num, nums, script_with_poses,
                            SeededVariation, smooth_noise, variation_rng)
 
@@ -38,6 +49,7 @@ from .sesgen_layout import (REPO, Ids, Lighting, asset, command_line, draw_light
 EUROC_DEFAULT = {"resolution": (752, 480), "fu": 458.654, "cu": 367.215, "cv": 248.375, "baseline": 0.110078}
 RATE_HZ = 20.0
 FLIGHTS = ("sweep", "laps")      # one pass through the middle (hall.ses), or laps that pass the same places
+LUMENS_PER_WATT = 683.0         # Blender's lamps and sky: radiant W at 555 nm (glTF's conversion too)
 LAMP_COLOURS = ((1.0, 0.86, 0.7), (1.0, 0.95, 0.88), (0.92, 0.96, 1.0))   # warm, neutral, cool white
 AISLE_PAINTS = ((0.55, 0.45, 0.03), (0.7, 0.7, 0.68), (0.06, 0.3, 0.12), (0.6, 0.12, 0.04))
 DOOR_PAINTS = ((0.35, 0.3, 0.05), (0.05, 0.12, 0.3), (0.3, 0.31, 0.32), (0.35, 0.05, 0.03))
@@ -47,7 +59,7 @@ DOOR_PAINTS = ((0.35, 0.3, 0.05), (0.05, 0.12, 0.3), (0.3, 0.31, 0.32), (0.35, 0
 class Variation(SeededVariation, salt=0x4A1):
     """What a seed changes besides the layout; the defaults are hall.ses's (seed 0)."""
     lighting: Lighting = Lighting(sun=(35.0, 120.0))
-    lamps: tuple = (250.0, None)         # hanging lamps: (strength W, colour or None = white)
+    lamps: tuple = (20000.0, None)       # hanging lamps: (luminous flux lm, colour or None = white)
     floor: tuple = ((0.3, 0.3, 0.29), 0.6)            # (colour, wear) of the concrete floor
     aisle_paint: tuple = (0.55, 0.45, 0.03)
     door_paint: tuple = (0.35, 0.3, 0.05)
@@ -61,7 +73,7 @@ class Variation(SeededVariation, salt=0x4A1):
     def draw(cls, rng: np.random.Generator) -> "Variation":
         tone = float(rng.uniform(0.75, 1.3))
         return cls(lighting=draw_lighting(rng, elevation=(10.0, 65.0), p_hdri=1 / 3),
-                   lamps=(round(float(rng.uniform(120.0, 350.0)), 1), LAMP_COLOURS[int(rng.integers(3))]),
+                   lamps=(round(float(rng.uniform(10000.0, 30000.0)), -2), LAMP_COLOURS[int(rng.integers(3))]),
                    floor=(tuple(round(0.3 * tone * c, 3) for c in (1, 1, 0.97)), round(float(rng.uniform(0.2, 0.9)), 2)),
                    aisle_paint=AISLE_PAINTS[int(rng.integers(len(AISLE_PAINTS)))],
                    door_paint=DOOR_PAINTS[int(rng.integers(len(DOOR_PAINTS)))],
@@ -69,6 +81,18 @@ class Variation(SeededVariation, salt=0x4A1):
                    swing=round(float(rng.uniform(0.6, 2.6)), 2),
                    height=(round(float(rng.uniform(1.25, 2.1)), 2), round(float(rng.uniform(0.2, 0.6)), 2)),
                    look=round(float(rng.uniform(15.0, 55.0)), 1))
+
+
+LAMP = (0.6, 1.6, 0.3)           # ceiling_light: width, hanging length, depth (m)
+LAMP_LIGHT_M = 0.5               # the area LIGHT just under its diffuser (edge, m)
+
+
+def lamp_luminance(lumens: float) -> float:
+    """The radiance (Blender units, in the scale of ``WORLD sky``) of a lamp of this luminous
+    flux whose light leaves through its diffuser and the area LIGHT under it (both
+    Lambertian, so flux = pi x radiance x area): the diffuser glows as bright as the lamp."""
+    diffuser_m2 = (LAMP[0] - 0.04) * (LAMP[2] - 0.04)       # indoor.ceiling_light's panel
+    return lumens / LUMENS_PER_WATT / SKY_EXPOSURE / (np.pi * (diffuser_m2 + LAMP_LIGHT_M ** 2))
 
 
 def _sensor(path: Path) -> dict:
@@ -114,7 +138,7 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
     rig = euroc_rig()
     W, D, H = width, depth, height
     ids = Ids({"shell": 1, "structure": 100, "window": 300, "light": 400, "machine": 500, "rack": 700,
-               "clutter": 800})
+               "clutter": 800, "glazing": 900, "marking": 1000})
     t = 0.3
     plinth = 3.0
     out = ["// hall.ses - a machine hall flown through by a drone, EuRoC style: the MAV's stereo rig",
@@ -137,7 +161,10 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
             f"MATERIAL name cladding library metal_painted colour {clad}",
             "MATERIAL name roof_steel library metal_painted colour 0.3 0.31 0.32",
             f"MATERIAL name floor_paint library lane_marking colour {nums(var.aisle_paint)}",
-            f"MATERIAL name door_paint library metal_painted colour {nums(var.door_paint)}", "",
+            f"MATERIAL name door_paint library metal_painted colour {nums(var.door_paint)}",
+            "// the lamps' diffusers glow at the lamps' own luminance (with the LIGHT under each: its flux)",
+            f"MATERIAL name light_panel colour 0.85 0.85 0.83 roughness 0.3 emission {nums(var.lamps[1] or (1, 0.97, 0.92))} "
+            f"emission_strength {num(lamp_luminance(var.lamps[0]), 4)}", "",
             "// the shell: floor, plinth walls, cladding between strip windows, roof"]
     out.append(f"CUBOID id {ids('shell')} name floor material hall_floor class floor "
                f"position 0 -0.1 0 dim {nums((W + 2 * t, 0.2, D + 2 * t))}")
@@ -150,12 +177,15 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
                                                    ("south", W, (0, 0, D / 2 + t / 2), True, (0, 0, -1)),
                                                    ("west", D, (-W / 2 - t / 2, 0, 0), False, (1, 0, 0)),
                                                    ("east", D, (W / 2 + t / 2, 0, 0), False, (-1, 0, 0))):
+        L2 = length / 2
+
         def box(u0, u1, y0, y1, mat, c=centre, ax=along_x):
+            if ax:    # the end walls reach over the side walls' thickness: closed corners
+                u0, u1 = u0 - (t if u0 <= -L2 else 0.0), u1 + (t if u1 >= L2 else 0.0)
             cu = 0.5 * (u0 + u1)
             pos = (c[0] + cu, 0.5 * (y0 + y1), c[2]) if ax else (c[0], 0.5 * (y0 + y1), c[2] + cu)
-            dim = (u1 - u0 + (2 * t if ax else 0), y1 - y0, t) if ax else (t, y1 - y0, u1 - u0)
+            dim = (u1 - u0, y1 - y0, t) if ax else (t, y1 - y0, u1 - u0)
             return f"CUBOID id {ids('shell')} material {mat} class wall position {nums(pos)} dim {nums(dim)}"
-        L2 = length / 2
         out.append(box(-L2, L2, 0, plinth, wall_mat))
         out.append(box(-L2, L2, plinth, win_y0, "cladding"))
         out.append(box(-L2, L2, win_y1, H, "cladding"))
@@ -163,7 +193,9 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
         edges = np.linspace(-L2, L2, n + 1)
         for i in range(n):
             a, b_ = edges[i] + 0.4, edges[i + 1] - 0.4
-            out.append(box(edges[i], a, win_y0, win_y1, "cladding"))
+            # the pier left of the opening, from the last opening's edge (closed: no daylight
+            # slit between the bays)
+            out.append(box(edges[i] - (0.4 if i else 0.0), a, win_y0, win_y1, "cladding"))
             if i == n - 1:
                 out.append(box(b_, edges[i + 1], win_y0, win_y1, "cladding"))
             # the window in the opening [a, b_] x [win_y0, win_y1]; its room side faces inwards
@@ -172,6 +204,12 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
             yaw = {(0, 0, 1): 0.0, (0, 0, -1): 180.0, (1, 0, 0): 90.0, (-1, 0, 0): -90.0}[inward]
             out.append(asset("window_frame", ids("window"), pos, yaw, (round(b_ - a, 3), win_y1 - win_y0, t),
                              seed=int(rng.integers(1e6))))
+            # diffusing glazing in the wall's middle plane (inside the frame's bars): daylight
+            # comes in evenly, never as sun patches, and the pane burns out in a camera exposed
+            # for the room, as EuRoC V1_01's curtained window (docs/sensors.md, Camera twins)
+            corners = [(a, win_y0), (b_, win_y0), (b_, win_y1), (a, win_y1)]
+            quad = [(centre[0] + u, y, centre[2]) if along_x else (centre[0], y, centre[2] + u) for u, y in corners]
+            out.append(f"QUAD id {ids('glazing')} material frosted_glass vertices {nums(np.ravel(quad))}")
         if name == "south":  # a big loading door (closed, steel) in the plinth
             out.append(f"CUBOID id {ids('shell')} name loading_door material door_paint class door "
                        f"position {nums((rng.uniform(-W / 4, W / 4), 2.4, D / 2 - 0.02))} dim 4.5 4.8 0.1")
@@ -185,9 +223,10 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
             out.append(asset("column", ids("structure"), (x, 0, z), 90.0, (0.4, H - 0.9, 0.4), seed=col_seed))
         out.append(asset("girder", ids("structure"), (0, H - 0.9, z), 0.0, (W, 0.9, 0.3), seed=gir_seed))
         for x in np.linspace(-W / 3, W / 3, 3):
-            out.append(asset("ceiling_light", ids("light"), (x, H - 0.9, z), 0.0, (0.6, 1.6, 0.3), seed=7))
-            out.append(f"LIGHT area position {nums((x, H - 2.55, z))} direction 0 -1 0 size 0.5 "
-                       f"strength {num(var.lamps[0])}" + (f" colour {nums(var.lamps[1])}" if var.lamps[1] else ""))
+            out.append(asset("ceiling_light", ids("light"), (x, H - 0.9, z), 0.0, LAMP, seed=7))
+            out.append(f"LIGHT area position {nums((x, H - 2.55, z))} direction 0 -1 0 size {num(LAMP_LIGHT_M)} "
+                       f"strength {num(np.pi * lamp_luminance(var.lamps[0]) * LAMP_LIGHT_M ** 2, 4)}"
+                       + (f" colour {nums(var.lamps[1])}" if var.lamps[1] else ""))
     out.append(asset("girder", ids("structure"), (-W / 2 + 0.35, H - 0.9, 0), 90.0, (D, 0.5, 0.3), seed=gir_seed))
     out.append(asset("girder", ids("structure"), (W / 2 - 0.35, H - 0.9, 0), 90.0, (D, 0.5, 0.3), seed=gir_seed))
 
@@ -228,6 +267,7 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
                          seed=int(rng.integers(1e6))))
     out.append(asset("stairs", ids("structure"), (W / 2 - 3.0, 0, -D / 2 + 11), 0.0, (1.2, 3.5, 4.5), seed=5))
     out.append(asset("railing", ids("structure"), (-W / 2 + 6.5, 0, 6), 90.0, (8, 1.05, 0.05), seed=6))
+    placed = []                  # (x, z) of the clutter: the pallet bays keep clear of it
     for _ in range(7):           # clutter in groups: stacked crates, pallets with loads, barrels
         gx = float(rng.choice([-1, 1])) * rng.uniform(6.0, W / 2 - 4.5)
         gz = rng.uniform(-D / 2 + 10, D / 2 - 3)
@@ -235,6 +275,8 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
             kind = str(rng.choice(["crate", "pallet", "barrel"], p=[0.45, 0.3, 0.25]))
             x, z = gx + rng.uniform(-1.5, 1.5), gz + rng.uniform(-1.5, 1.5)
             out.append(asset(kind, ids("clutter"), (x, 0, z), rng.uniform(0, 360), seed=int(rng.integers(1e6))))
+            placed.append((x, z))
+    out += _pallet_bays(ids, D, placed, variation_rng(seed, 0xBA5))
     # --- the flight ------------------------------------------------------------------------
     if flight == "laps":
         P, tt, lap = _laps_path(frames, laps, speed, variation_rng(seed, 0x1A9))
@@ -254,6 +296,44 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
         yaw, pitch, roll = _attitude(P, tt, rng, var.look)
         comment = f"the flight: {n} poses of cam0 at {num(RATE_HZ, 0)} Hz"
     return script_with_poses(out, comment, P, yaw, pitch, roll)
+
+
+BAY = (1.4, 1.2, 0.05)           # a pallet bay's inside (x, z) and its painted line's width (m)
+BAY_ROWS_X = (5.2, 6.9)          # |x| of the two rows of bays each side of the open middle (the laps fly |x| <= 3.3)
+
+
+def _pallet_bays(ids, D: float, placed, rng) -> list[str]:
+    """Floor storage bays marked in paint beside the open middle (halls over 1000 m2 mark their
+    traffic routes and storage areas with lines >= 5 cm wide, yellow or white: the German
+    workplace rule ASR A1.8), half of them holding a pallet, some loaded with a crate: the
+    floor beside the flight has the paint edges, corners and low loads of a working hall. Each bay is four
+    strips (long sides whole, short ones between them: no two overlap), 5 mm high, above the
+    joints (2-3 mm) and aisle lines (4 mm), so no two faces are coplanar; a bay where clutter
+    (``placed``: its (x, z)) stands within its largest footprint (a 1.6 x 1.4 m crate: 1.06 m
+    from its centre) of the bay's (0.75 x 0.65 m) is left out."""
+    w, d, lw = BAY
+    h = 0.005
+    out = ["", "// pallet bays: painted storage areas beside the open middle, pallets and loads on some"]
+    paint = "floor_paint" if rng.random() < 0.5 else "lane_marking"
+    for side in (-1, 1):
+        for xc in BAY_ROWS_X:
+            x = side * xc
+            for z in np.arange(-D / 2 + 9.0, D / 2 - 5.0, d + 2 * lw + 0.25):
+                if rng.random() < 0.25 or any(abs(px - x) < 1.9 and abs(pz - z) < 1.8 for px, pz in placed):
+                    continue                     # a gap in the row (a crossing), or clutter stands there
+                for sx in (-1, 1):
+                    out.append(f"CUBOID id {ids('marking')} material {paint} class floor position "
+                               f"{nums((x + sx * (w + lw) / 2, h / 2, z))} dim {nums((lw, h, d + 2 * lw))}")
+                for sz in (-1, 1):
+                    out.append(f"CUBOID id {ids('marking')} material {paint} class floor position "
+                               f"{nums((x, h / 2, z + sz * (d + lw) / 2))} dim {nums((w, h, lw))}")
+                if rng.random() < 0.5:
+                    yaw = float(rng.normal(0, 3))
+                    out.append(asset("pallet", ids("marking"), (x, h, z), yaw, seed=int(rng.integers(1e6))))
+                    if rng.random() < 0.5:
+                        out.append(asset("crate", ids("marking"), (x, h + 0.144, z), yaw + float(rng.normal(0, 4)),
+                                         seed=int(rng.integers(1e6))))
+    return out
 
 
 def _attitude(P: np.ndarray, tt: np.ndarray, rng, look: float, lap: Optional[np.ndarray] = None):
