@@ -103,14 +103,15 @@ class NearField:
 # KITTI sequence_1's street, measured in its frames (ground plane 1.65 m under the camera, f 707
 # px; SGBM for the cars; docs/sensors.md, Camera twins): the left kerb 1.84 m left of the left
 # camera and the edge of a cobbled parking bay 2.17 m right of it (frame 12, row 360: a 4.0 m
-# carriageway without markings, the camera 0.17 m right of its middle); the lawn starts at the
+# carriageway without markings, the camera 0.17 m left of its middle); the lawn starts at the
 # left kerb (no sidewalk), its young trees ~4 m left of the camera (frame 12); two cars parked
 # in the bay, 3.3 m right of the camera, their rears 13.3 m and 38.0 m ahead in frame 0 (passed
 # at frames ~10 and ~28), and no other at the right kerb through frame 50 (~60 m further); no
 # moving car in its 51 frames: none ahead in the lane in the ~100 m its frames see, none
-# oncoming (a street too narrow for two cars to pass at speed)
-KITTI_S1_NEAR = NearField(half_road=2.0, bay=2.5, walk_left=0.0, car_offset=3.45, parked_ahead=(15.4, 40.1),
-                          parked_clear=100.0, traffic_lane=1.0, traffic_ahead=(100.0, 130.0), oncoming=False)
+# oncoming (a street too narrow for two cars to pass at speed); the cars far ahead drive its middle
+# as the rig does (its car's centre ~0.27 m right of the left camera)
+KITTI_S1_NEAR = NearField(half_road=2.0, bay=2.5, walk_left=0.0, car_offset=3.13, parked_ahead=(15.4, 40.1),
+                          parked_clear=100.0, traffic_lane=0.1, traffic_ahead=(100.0, 130.0), oncoming=False)
 
 
 @dataclass(frozen=True)
@@ -120,7 +121,7 @@ class Variation(SeededVariation, salt=0xC17):
     step_m: float = 1.2                  # metres per frame (KITTI: ~1.2)
     curves: int = 2                      # gentle curves along the street
     curve_deg: tuple = (6.0, 14.0)       # the range of each curve's total turn
-    lane: float = 0.17                   # the left camera right of the centreline (m; KITTI sequence_1's)
+    lane: float = -0.17                  # the left camera right of the centreline (m; KITTI sequence_1: left of its middle)
     weave: float = 0.1                   # lane keeping: amplitude of the lateral wander (m)
     road: Optional[tuple] = None         # (colour, wear) of the asphalt; None: as the road asset picks it
     paving: Optional[tuple] = None       # (colour, wear) of the sidewalks' concrete
