@@ -13,6 +13,9 @@ keeping its lane with small steering, speed, pitch and roll variations. Moving t
 (``traffic`` cars, MOVE keyframes along the street's curves): cars ahead in the rig's lane
 driving on at about its speed and oncoming cars in the other lane, never within 10 m of the
 rig's car or 8 m of each other; the camera's auto-exposure follows the scene (AUTOEXPOSURE).
+Seed 0 scripts its near field after KITTI sequence_1's frames (``KITTI_S1_NEAR``): a 4 m
+carriageway driven near its middle, the lawn from the left kerb, a parking bay on the right
+with the two cars where sequence_1 shows them, and its traffic 100-130 m ahead, none oncoming.
 
     python -m blender_sesgen.generators.builtin.city_kitti [--seed N] [--frames N] > scenes/city_kitti.ses
 
@@ -23,7 +26,8 @@ time in three, a bundled daylight HDRI (city, courtyard, forest, sunrise, sunset
 strength and rotation, haze one time in four, the asphalt (tone, wear) and the paving, and
 the drive: 0.8-1.5 m per frame, 1-3 curves of 5-18 deg, the lane position and weave, and
 each side's cross-section and how full its kerb is parked (seed 0: KITTI sequence_1's, an
-open lawn left and blocks right, a parked car every ~35 m on the right, none on the left).
+open lawn left and blocks right, two cars parked 15 and 40 m ahead, the right kerb parked at
+0.24 of its slots from 100 m on, none on the left).
 ``frames`` sets the sequence length; ``step_m``, ``sun_elevation``, ``sun_azimuth`` override
 the seed's (a sun given replaces an HDRI); ``traffic`` the number of moving cars (0: a
 static street).
