@@ -137,6 +137,7 @@ class Variation(SeededVariation, salt=0xC17):
     # seed 0's carriageway, parking bay and near traffic as KITTI sequence_1's (KITTI_S1_NEAR);
     # None: drawn (two lanes, cars at the road's edges, traffic both ways)
     near: Optional[NearField] = KITTI_S1_NEAR
+    grass_m: float = 0.08                # the lawns' blades (their tallest; m): KITTI sequence_1's public lawn is mown
 
     @classmethod
     def draw(cls, rng: np.random.Generator) -> "Variation":
@@ -149,7 +150,7 @@ class Variation(SeededVariation, salt=0xC17):
                    **draw_street_surfaces(rng, tone),
                    frontage=tuple(str(k) for k in rng.choice(list(FRONTAGE_ODDS), 2, p=list(FRONTAGE_ODDS.values()))),
                    parking=(round(float(rng.uniform(0.15, 0.75)), 2), round(float(rng.uniform(0.0, 0.5)), 2)),
-                   near=None)
+                   near=None, grass_m=0.16)
 
 
 def _centre(street_pos, street_yaw, s, L, bends):
@@ -350,7 +351,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
                 off = o0 + (j + 0.5) * (o1 - o0) / n_o
                 p, h = place(s_ + rng.uniform(-0.3, 0.3), off + rng.uniform(-0.2, 0.2))
                 out.append(asset("grass_tuft", ids("grass"), p + np.array([0.0, kerb_h - 0.02, 0.0]),
-                                 float(rng.choice([0, 90, 180, 270])), (patch * 1.15, 0.16, patch * 1.15),
+                                 float(rng.choice([0, 90, 180, 270])), (patch * 1.15, v.grass_m, patch * 1.15),
                                  seed=tufts[rng.integers(len(tufts))]))
 
     # --- parked cars along both kerbs (none beside the start: the rig needs a clear view) --
