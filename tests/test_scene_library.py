@@ -371,3 +371,17 @@ def test_city_kitti_parks_its_kerbs_as_kitti_sequence_1_and_seeds_vary_it(scenes
     metres_per_car = max(p0["right"]) / len(p0["right"])
     assert 25.0 <= metres_per_car <= 70.0, p0
     assert parked(parse_text(city_kitti.generate(2)))["left"], "seed 2 parks its left kerb"
+
+
+@pytest.mark.parametrize("seed", [0, 2])
+def test_city_kitti_short_drive_is_a_stretch_of_the_long_one(seed):
+    """The drive's wander and body motion are cycles per distance, not per sequence: the
+    studies' 10 frames turn less than 1 deg a frame, as KITTI's rig (cycles per sequence gave
+    them yaw steps of 3-9 deg, 30-90 deg/s at 45 km/h)."""
+    from blender_sesgen.generators.builtin import city_kitti
+    from blender_sesgen.ses.parser import parse_text
+    from blender_sesgen.contract.se3 import relative, rotation_angle_rad
+    for frames in (10, 30):
+        T = parse_text(city_kitti.generate(seed, frames=frames, step_m=1.25)).timeline.left()
+        turn = np.degrees([float(rotation_angle_rad(relative(T[k], T[k + 1])[:3, :3])) for k in range(len(T) - 1)])
+        assert turn.max() < 1.0, (frames, np.round(turn, 2))
