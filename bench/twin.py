@@ -332,6 +332,34 @@ def corners_on_depth_edges(out: Path, frames: Frames, n: int, start: int = 0) ->
             "surface_err_pct": float(np.median(err[False]))}
 
 
+def corners_on_sgbm_edges(frames: Frames, n: int) -> dict:
+    """The same corners on either sequence, judged by SGBM's own disparity (no ground truth:
+    real and render alike): the share of the corners with a valid disparity that lie on a
+    disparity discontinuity (valid disparities span > 15 % in the 7 x 7 window, the rule of
+    ``corners_on_depth_edges``), and of those nearer than 15 m (fB / d: the near field that
+    decides a step's scale) the share on one."""
+    fB = frames.K[0, 0] * frames.baseline_m
+    share, near = [], []
+    box = np.ones((7, 7), np.uint8)
+    for k in range(n - 1):
+        left = frames.image_gray(k)
+        d = sgbm_disparity(left, frames.image_gray(k, "right"))
+        valid = d > 1
+        hi = cv2.dilate(np.where(valid, d, 0.0).astype(np.float32), box)
+        lo = cv2.erode(np.where(valid, d, 1e6).astype(np.float32), box)
+        edge = (hi - lo) > 0.15 * np.maximum(hi, 1e-3)
+        pts = cv2.goodFeaturesToTrack(left, 1000, 0.01, 8)
+        if pts is None:
+            continue
+        x, y = np.rint(pts.reshape(-1, 2)).astype(int).T
+        ok = valid[y, x]
+        share.append(np.mean(edge[y, x][ok]))
+        close = ok & (fB / np.maximum(d[y, x], 1e-3) < 15.0)
+        if close.any():
+            near.append(np.mean(edge[y, x][close]))
+    return {"edge_share": float(np.mean(share)), "near_edge_share": float(np.mean(near)) if near else float("nan")}
+
+
 # --- the render -----------------------------------------------------------------------------
 
 def twin_script(script: str, profile: str, out: Path, frames: int | None = None) -> Path:
@@ -497,6 +525,10 @@ def main(argv=None) -> int:
     c = corners_on_depth_edges(out, ours, n, a.start)
     print(f"render: {100 * c['edge_share']:.0f} % of the OpenCV VO's corners on depth edges; SGBM disparity error "
           f"there {c['edge_err_pct']:+.2f} %, on surfaces {c['surface_err_pct']:+.2f} % (median, of the true disparity)")
+    er, eo = corners_on_sgbm_edges(real, n), corners_on_sgbm_edges(ours, n)
+    print(f"corners on SGBM disparity discontinuities (both, the same rule): {name} {100 * er['edge_share']:.0f} % "
+          f"({100 * er['near_edge_share']:.0f} % of those nearer than 15 m), render {100 * eo['edge_share']:.0f} % "
+          f"({100 * eo['near_edge_share']:.0f} %)")
     print(f"\nseconds per stereo frame rendered: {secs:.0f}; bench wall time {time.perf_counter() - t0:.0f} s; "
           f"load {open('/proc/loadavg').read().split()[0]}")
     return 0

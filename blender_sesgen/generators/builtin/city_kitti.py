@@ -13,6 +13,9 @@ keeping its lane with small steering, speed, pitch and roll variations. Moving t
 (``traffic`` cars, MOVE keyframes along the street's curves): cars ahead in the rig's lane
 driving on at about its speed and oncoming cars in the other lane, never within 10 m of the
 rig's car or 8 m of each other; the camera's auto-exposure follows the scene (AUTOEXPOSURE).
+Seed 0 scripts its near field after KITTI sequence_1's frames (``KITTI_S1_NEAR``): a 4 m
+carriageway driven near its middle, the lawn from the left kerb, a parking bay on the right
+with the two cars where sequence_1 shows them, and its traffic 100-130 m ahead, none oncoming.
 
     python -m blender_sesgen.generators.builtin.city_kitti [--seed N] [--frames N] > scenes/city_kitti.ses
 
@@ -23,7 +26,8 @@ time in three, a bundled daylight HDRI (city, courtyard, forest, sunrise, sunset
 strength and rotation, haze one time in four, the asphalt (tone, wear) and the paving, and
 the drive: 0.8-1.5 m per frame, 1-3 curves of 5-18 deg, the lane position and weave, and
 each side's cross-section and how full its kerb is parked (seed 0: KITTI sequence_1's, an
-open lawn left and blocks right, a parked car every ~35 m on the right, none on the left).
+open lawn left and blocks right, two cars parked 15 and 40 m ahead, the right kerb parked at
+0.24 of its slots from 100 m on, none on the left).
 ``frames`` sets the sequence length; ``step_m``, ``sun_elevation``, ``sun_azimuth`` override
 the seed's (a sun given replaces an HDRI); ``traffic`` the number of moving cars (0: a
 static street).
@@ -84,13 +88,44 @@ FRONTAGE_ODDS = {"block": 0.35, "yards": 0.45, "open": 0.2}
 
 
 @dataclass(frozen=True)
+class NearField:
+    """A street's carriageway, kerbs and what stands and drives near the camera, scripted from
+    a real sequence's frames (seed 0: KITTI sequence_1's) where other seeds draw theirs (two
+    lanes of 4.7-5 m, cars parked at the road's edges, traffic both ways). Distances in metres
+    from the street's centreline (+ right) or ahead of the first camera along the street."""
+    half_road: float        # half the carriageway
+    bay: float              # a paved parking bay, flush with the road, right of the carriageway
+    walk_left: float        # the left sidewalk's width (0: the lawn starts at the kerb)
+    car_offset: float       # the parked cars' centres in the bay
+    parked_ahead: tuple     # the right kerb's parked cars (their centres) ahead of the first camera ...
+    parked_clear: float     # ... and none other up to this far ahead
+    traffic_lane: float     # the moving cars' centre off the centreline
+    traffic_ahead: tuple    # the nearest car ahead in the rig's lane at frame 0 (range drawn)
+    oncoming: bool          # whether cars come the other way
+
+
+# KITTI sequence_1's street, measured in its frames (ground plane 1.65 m under the camera, f 707
+# px; SGBM for the cars; docs/sensors.md, Camera twins): the left kerb 1.84 m left of the left
+# camera and the edge of a cobbled parking bay 2.17 m right of it (frame 12, row 360: a 4.0 m
+# carriageway without markings, the camera 0.17 m left of its middle); the lawn starts at the
+# left kerb (no sidewalk), its young trees ~4 m left of the camera (frame 12); two cars parked
+# in the bay, 3.3 m right of the camera, their rears 13.3 m and 38.0 m ahead in frame 0 (passed
+# at frames ~10 and ~28), and no other at the right kerb through frame 50 (~60 m further); no
+# moving car in its 51 frames: none ahead in the lane in the ~100 m its frames see, none
+# oncoming (a street too narrow for two cars to pass at speed); the cars far ahead drive its middle
+# as the rig does (its car's centre ~0.27 m right of the left camera)
+KITTI_S1_NEAR = NearField(half_road=2.0, bay=2.5, walk_left=0.0, car_offset=3.13, parked_ahead=(15.4, 40.1),
+                          parked_clear=100.0, traffic_lane=0.1, traffic_ahead=(100.0, 130.0), oncoming=False)
+
+
+@dataclass(frozen=True)
 class Variation(SeededVariation, salt=0xC17):
     """What a seed changes besides the layout; the defaults are city_kitti.ses's (seed 0)."""
     lighting: Lighting = Lighting(sun=KITTI_S1_SUN)
     step_m: float = 1.2                  # metres per frame (KITTI: ~1.2)
     curves: int = 2                      # gentle curves along the street
     curve_deg: tuple = (6.0, 14.0)       # the range of each curve's total turn
-    lane: float = 1.7                    # the left camera right of the centreline (m)
+    lane: float = -0.17                  # the left camera right of the centreline (m; KITTI sequence_1: left of its middle)
     weave: float = 0.1                   # lane keeping: amplitude of the lateral wander (m)
     road: Optional[tuple] = None         # (colour, wear) of the asphalt; None: as the road asset picks it
     paving: Optional[tuple] = None       # (colour, wear) of the sidewalks' concrete
@@ -99,6 +134,10 @@ class Variation(SeededVariation, salt=0xC17):
     # sparse (2-3 cars at the right kerb over the ~90 m its frames 0-45 see, one per ~35 m; none
     # along the lawn on the left); residential streets range from that to kerbs parked full
     parking: tuple = (0.24, 0.0)
+    # seed 0's carriageway, parking bay and near traffic as KITTI sequence_1's (KITTI_S1_NEAR);
+    # None: drawn (two lanes, cars at the road's edges, traffic both ways)
+    near: Optional[NearField] = KITTI_S1_NEAR
+    grass_m: float = 0.08                # the lawns' blades (their tallest; m): KITTI sequence_1's public lawn is mown
 
     @classmethod
     def draw(cls, rng: np.random.Generator) -> "Variation":
@@ -110,7 +149,8 @@ class Variation(SeededVariation, salt=0xC17):
                    weave=round(float(rng.uniform(0.04, 0.15)), 3),
                    **draw_street_surfaces(rng, tone),
                    frontage=tuple(str(k) for k in rng.choice(list(FRONTAGE_ODDS), 2, p=list(FRONTAGE_ODDS.values()))),
-                   parking=(round(float(rng.uniform(0.15, 0.75)), 2), round(float(rng.uniform(0.0, 0.5)), 2)))
+                   parking=(round(float(rng.uniform(0.15, 0.75)), 2), round(float(rng.uniform(0.0, 0.5)), 2)),
+                   near=None, grass_m=0.16)
 
 
 def _centre(street_pos, street_yaw, s, L, bends):
@@ -121,21 +161,24 @@ def _centre(street_pos, street_yaw, s, L, bends):
     return (c @ R.T + street_pos, n @ R.T, np.degrees(h) + street_yaw)
 
 
-def _traffic(rng, centre, s_cam: np.ndarray, step_m: float, L: float, n_cars: int, ids: Ids, seed_of) -> list[str]:
+def _traffic(rng, centre, s_cam: np.ndarray, step_m: float, L: float, n_cars: int, ids: Ids, seed_of,
+             lane_m: float = LANE_M, ahead_m: tuple = (15.0, 70.0), oncoming: bool = True) -> list[str]:
     """Moving cars (ASSET car + MOVE keyframes): alternately one ahead in the rig's lane,
-    driving on at 0.95-1.15x the rig's speed, and one oncoming in the other lane at
-    0.7-1.2x; each on the street for the whole sequence, at least TRAFFIC_GAP_M from the rig's
-    car and from the other cars of its lane (a car that finds no such place after 40 tries
-    is left out). ``centre(s)``: the centreline's points, right normals and headings; ``seed_of``
-    the car variants (the parked cars' pool: moving cars share their meshes too)."""
+    starting ``ahead_m`` ahead of the rig (15-70 m: a headway of 1.3-6 s at KITTI's 12 m/s) and
+    driving on at 0.95-1.15x the rig's speed, and one oncoming in the other lane at 0.7-1.2x
+    (without ``oncoming`` all drive ahead); ``lane_m`` off the centreline, each on the street
+    for the whole sequence, at least TRAFFIC_GAP_M from the rig's car and from the other cars of
+    its lane (a car that finds no such place after 40 tries is left out). ``centre(s)``: the
+    centreline's points, right normals and headings; ``seed_of`` the car variants (the parked
+    cars' pool: moving cars share their meshes too)."""
     k = np.arange(len(s_cam))
     lanes = {1: [(s_cam, TRAFFIC_GAP_M[0])], -1: []}          # (positions along the street, least gap)
     out = ["", "// moving traffic: cars ahead in the rig's lane and oncoming ones (keyframes along the curves)"]
     for j in range(n_cars):
-        side = 1 if j % 2 == 0 else -1
+        side = 1 if j % 2 == 0 or not oncoming else -1
         for _try in range(40):
             if side > 0:
-                s_k = s_cam[0] + rng.uniform(15.0, 70.0) + step_m * rng.uniform(0.95, 1.15) * k
+                s_k = s_cam[0] + rng.uniform(*ahead_m) + step_m * rng.uniform(0.95, 1.15) * k
             else:
                 s_k = rng.uniform(s_cam[0] + 20.0, L - 5.0) - step_m * rng.uniform(0.7, 1.2) * k
             if s_k.min() > 3.0 and s_k.max() < L - 3.0 and all(np.abs(s_k - o).min() >= g for o, g in lanes[side]):
@@ -144,7 +187,7 @@ def _traffic(rng, centre, s_cam: np.ndarray, step_m: float, L: float, n_cars: in
             continue
         lanes[side].append((s_k, TRAFFIC_GAP_M[1]))
         c, n, h = centre(s_k)
-        xz = (c + side * LANE_M * n)[:, [0, 2]]
+        xz = (c + side * lane_m * n)[:, [0, 2]]
         yaw = np.round(h + (180.0 if side > 0 else 0.0), 3)    # the car's nose (+z) along its way
         i = ids("car")
         out.append(asset("car", i, (xz[0, 0], 0.0, xz[0, 1]), yaw[0], seed=seed_of("car")))
@@ -184,6 +227,10 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     lawn_w = round(float(rng.uniform(1.8, 3.0)), 2)          # tree lawn, right side
     walk_r = round(float(rng.uniform(2.2, 3.0)), 2)
     walk_l = round(float(rng.uniform(2.0, 3.0)), 2)
+    near = v.near
+    bay = 0.0
+    if near is not None:       # a scripted near field (drawn above all the same: the layout's stream stays)
+        half_road, bay, walk_l = near.half_road, near.bay, near.walk_left
     yard = 60.0
     ids = Ids({"street": 1, "building": 100, "car": 400, "tree": 600, "veg": 900, "furniture": 1200,
                "grass": 2000})
@@ -214,9 +261,11 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
 
     r_kerb = half_road + kerb_w / 2 - 0.05            # kerbs overlap the road edge by 5 cm
     out.append(strip("road", 2 * half_road, 0.3, 0.0, seed * 10 + 1, road_mat))
-    out.append(strip("kerb", kerb_w, kerb_h, r_kerb, seed * 10 + 2))
+    if bay:                                           # paved, flush with the road (its slabs 1 cm up)
+        out.append(strip("sidewalk", bay, 0.01, half_road + bay / 2, seed * 10 + 9, paving_mat))
+    out.append(strip("kerb", kerb_w, kerb_h, r_kerb + bay, seed * 10 + 2))
     out.append(strip("kerb", kerb_w, kerb_h, -r_kerb, seed * 10 + 3))
-    o = r_kerb + kerb_w / 2
+    o = r_kerb + bay + kerb_w / 2
     lawn = (o, o + lawn_w)
     out.append(strip("verge", lawn_w, kerb_h, o + lawn_w / 2, seed * 10 + 4))
     o += lawn_w
@@ -227,7 +276,8 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     out.append(strip("verge", yard, kerb_h, o + yard / 2, seed * 10 + 6))
     o = r_kerb + kerb_w / 2
     walk_l_span = (-(o + walk_l), -o)
-    out.append(strip("sidewalk", walk_l, kerb_h, -(o + walk_l / 2), seed * 10 + 7, paving_mat))
+    if walk_l:
+        out.append(strip("sidewalk", walk_l, kerb_h, -(o + walk_l / 2), seed * 10 + 7, paving_mat))
     o += walk_l
     left_edge = -o
     out.append(strip("verge", yard, kerb_h, -(o + yard / 2), seed * 10 + 8))
@@ -284,7 +334,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     s = float(rng_bins.uniform(10, 40))
     while s < L - 10:
         side = 1 if rng_bins.random() < 0.5 else -1
-        p, h = place(s, walk_r_span[1] - 0.4 if side > 0 else walk_l_span[0] + 0.4)
+        p, h = place(s, walk_r_span[1] - 0.4 if side > 0 else (walk_l_span[0] + 0.4 if walk_l else left_edge - 0.6))
         out.append(asset("bin", ids("furniture"), p + np.array([0.0, kerb_h, 0.0]), h - 90 if side > 0 else h + 90,
                          seed=pool.seeds["bin"][int(rng_bins.integers(POOLS["bin"]))]))
         s += float(rng_bins.uniform(40, 80))
@@ -301,28 +351,45 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
                 off = o0 + (j + 0.5) * (o1 - o0) / n_o
                 p, h = place(s_ + rng.uniform(-0.3, 0.3), off + rng.uniform(-0.2, 0.2))
                 out.append(asset("grass_tuft", ids("grass"), p + np.array([0.0, kerb_h - 0.02, 0.0]),
-                                 float(rng.choice([0, 90, 180, 270])), (patch * 1.15, 0.16, patch * 1.15),
+                                 float(rng.choice([0, 90, 180, 270])), (patch * 1.15, v.grass_m, patch * 1.15),
                                  seed=tufts[rng.integers(len(tufts))]))
 
     # --- parked cars along both kerbs (none beside the start: the rig needs a clear view) --
     out += ["", "// parked cars along the kerbs (right side facing the drive)"]
     for side in (1, -1):
         s = behind + float(rng.uniform(12, 20)) if side > 0 else float(rng.uniform(5, 15))
-        out += kerb_cars(rng, place, s, L - 8, side, half_road - 0.95, v.parking[0 if side > 0 else 1], ids, pool)
+        offset = half_road - 0.95
+        if near is not None and side > 0:   # the real sequence's cars where its frames show them, then drawn on
+            offset = near.car_offset
+            for a in near.parked_ahead:
+                p, h = place(behind + a, offset)
+                out.append(asset("car", ids("car"), p, h + 180 + rng.uniform(-2, 2), seed=pool("car")))
+            s = behind + near.parked_clear
+        out += kerb_cars(rng, place, s, L - 8, side, offset, v.parking[0 if side > 0 else 1], ids, pool)
 
     # --- the drive: right lane, ~1.2 m per frame -----------------------------------------
-    speed = step_m * (1 + 0.06 * smooth_noise(rng, frames, 1.0, (0.7, 1.6)))
+    # the drive's wander, speed and body motion: cycles per 100 frames (~120 m), so a short sequence
+    # is a stretch of the same drive; cycles per sequence gave 10 frames yaw steps of 3-9 deg (the
+    # studies' fragile frame 5->6 step: docs/studies.md), where KITTI's are below 1 deg
+    per_100 = (frames - 1) / 100.0
+
+    def noise(cycles):
+        return smooth_noise(rng, frames, 1.0, tuple(c * per_100 for c in cycles))
+
+    speed = step_m * (1 + 0.06 * noise((0.7, 1.6)))
     s_cam = behind + np.concatenate([[0.0], np.cumsum(speed[:-1])])
-    lane = v.lane + v.weave * smooth_noise(rng, frames, 1.0, (0.8, 1.7, 3.1))
+    lane = v.lane + v.weave * noise((0.8, 1.7, 3.1))
     c, n, h = _centre(street_pos, street_yaw, s_cam, L, bends)
     pos = c + lane[:, None] * n + [0.0, CAMERA_HEIGHT, 0.0]
-    pos[:, 1] += 0.01 * smooth_noise(rng, frames, 1.0, (9.0, 17.0))            # suspension
+    pos[:, 1] += 0.01 * noise((9.0, 17.0))            # suspension
     drift = np.gradient(lane, s_cam)                                          # steering follows lane changes
-    yaw = h - np.degrees(drift) + 0.25 * smooth_noise(rng, frames, 1.0, (3.0, 7.0))
-    pitch = 0.3 * smooth_noise(rng, frames, 1.0, (5.0, 11.0, 23.0))
-    roll = 0.2 * smooth_noise(rng, frames, 1.0, (4.0, 9.0, 19.0))
+    yaw = h - np.degrees(drift) + 0.25 * noise((3.0, 7.0))
+    pitch = 0.3 * noise((5.0, 11.0, 23.0))
+    roll = 0.2 * noise((4.0, 9.0, 19.0))
+    traffic_kw = {} if near is None else {"lane_m": near.traffic_lane, "ahead_m": near.traffic_ahead,
+                                          "oncoming": near.oncoming}
     out += _traffic(np.random.default_rng([seed, 0x7AF]), lambda s_: _centre(street_pos, street_yaw, s_, L, bends),
-                    s_cam, step_m, L, int(traffic), ids, pool)
+                    s_cam, step_m, L, int(traffic), ids, pool, **traffic_kw)
     return script_with_poses(out, f"the drive: {frames} poses of the left camera (KITTI: 1.65 m above the road, right lane)",
                              pos, yaw, pitch, roll)
 
