@@ -378,7 +378,7 @@ def resensor(out: Path, n: int) -> Frames:
     profiles): the chain runs after Cycles, so a changed profile needs no new render."""
     from blender_sesgen.render.plan import RenderOptions, EffectiveSettings
     from blender_sesgen.render.sensor import pipeline
-    from blender_sesgen.render.sensor.outputs import _rays, state_relpath
+    from blender_sesgen.render.sensor.outputs import state_relpath
     from blender_sesgen.render.sensor.render_plan import SensorPlan
     from blender_sesgen.ses.parser import parse_text
     from vo_reference.io.color import rgb8_to_gray8
@@ -386,7 +386,7 @@ def resensor(out: Path, n: int) -> Frames:
     scene = parse_text((out / "scene.ses").read_text(), str(out / "scene.ses"), str(out))
     scale = json.loads((out / "manifest.json").read_text())["render"]["resolution_scale"]
     plan = SensorPlan.create(scene, EffectiveSettings.of(scene, RenderOptions(resolution_scale=scale)))
-    camera = pipeline.Camera(plan.sensor, plan.lens_spec, _rays(plan), plan.K[0, 2], plan.K[1, 2],
+    camera = pipeline.Camera(plan.sensor, plan.lens_spec, plan.pixel_rays(), plan.K[0, 2], plan.K[1, 2],
                              plan.nominal_exposure_s())
     imgs, fpn = {"left": [], "right": []}, {}
     for k in range(n):
