@@ -210,7 +210,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--camera", default="kitti,euroc,robotcar")
     args = ap.parse_args(argv)
-    from blender_sesgen.scene.camera_profiles import PROFILES
+    from blender_sesgen.scene.camera_profiles import PROFILES, black_8bit
     if not DATA.is_dir():
         print(f"no real data at {DATA} (set SESGEN_SHARED_DATA)", file=sys.stderr)
         return 2
@@ -220,7 +220,7 @@ def main(argv=None) -> int:
         print(f"\n== {cam}: {m['frames']} frames {m['size']}")
         print("  noise by level (level DN: sigma DN [pixels]): " + ", ".join(
             f"{lv:.0f}: {sg:.2f} [{n}]" for lv, sg, n in m["nlf"]))
-        rows = (("black level (DN)", m["black_dn"], p.sensor["black"]),
+        rows = (("black level (DN of the 8-bit files)", m["black_dn"], black_8bit(p.sensor)),
                 ("response exponent (gamma)", m["gamma"], p.sensor.get("gamma", 1.0)),
                 ("full well (e-, at its gain)", m["full_well_e"], p.sensor["fullwell"]),
                 ("read noise (e-)", m["read_noise_e"], p.sensor["readnoise"]),

@@ -173,11 +173,11 @@ def vo_errors(seq: Frames, method: str, n: int) -> dict:
 
 def _linear(img, profile: str, black_in_image: bool = True) -> np.ndarray:
     """An 8-bit grey frame through the inverse of the profile's response and, where the image
-    holds it (the real camera's files: KITTI's darkest pixels are 6-8, EuRoC's ~13), its black
-    level; the render's sensor/rgb holds none (the chain's response starts at 0)."""
-    from blender_sesgen.scene.camera_profiles import PROFILES
+    holds it, its black level: the real camera's files (KITTI's darkest pixels are 6-8, EuRoC's
+    ~13) and the render's sensor/rgb (the chain's 8-bit output keeps the black level)."""
+    from blender_sesgen.scene.camera_profiles import PROFILES, black_8bit
     sensor = PROFILES[profile].sensor
-    black = float(sensor.get("black", 0.0)) if black_in_image else 0.0
+    black = black_8bit(sensor) if black_in_image else 0.0
     gamma = float(sensor.get("gamma", 1.0))
     if sensor.get("response") == "linear":
         gamma = 1.0
@@ -469,7 +469,7 @@ def main(argv=None) -> int:
     else:
         real, name = euroc_rectified(n, tuple(seq.resolution)), "real EuRoC V1_01"
     ours = Frames(ours._img["left"][:n], ours._img["right"][:n], ours.K, ours.baseline_m, ours.T_world_cam(),
-                  ours.timestamps_s, black_in_image=False)
+                  ours.timestamps_s)
     print(f"\n### {script} + SENSOR profile {profile} (--resolution-scale {a.scale:g}, --quality {a.quality}) "
           f"vs {name}\n")
     print("\n".join(table(name, real, ours, n, with_vo=profile == "kitti")))

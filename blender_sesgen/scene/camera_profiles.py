@@ -47,7 +47,9 @@ def defocus_for(edge_spread_px: float) -> float:
 PROFILES: dict[str, Profile] = {p.name: p for p in (
     Profile("kitti", "KITTI: Point Grey Flea2 FL2-14S3M (Sony ICX267 CCD, greyscale, global shutter), "
             "rectified 8-bit images as distributed", 1226, 370,
-            sensor=dict(fullwell=4500.0, readnoise=0.0, black=7.0, bits=8, response="gamma", gamma=1.3,
+            # the raw at 12 bits (the Flea2's ADC; assumed), the 8-bit files after the response: no
+            # unused codes, as in KITTI's; black 112 DN of 4095 = the files' 7 of 255
+            sensor=dict(fullwell=4500.0, readnoise=0.0, black=112.0, bits=12, response="gamma", gamma=1.3,
                         pixel=4.65, mono="on", nir=0.2),
             lens=dict(defocus=defocus_for(0.60), vignetting=0.35),
             timing=dict(rate=10.0, exposure=0.002, readout=0.0),
@@ -77,6 +79,11 @@ PROFILES: dict[str, Profile] = {p.name: p for p in (
             timing=dict(rate=30.0, exposure=0.008, readout=0.025),
             autoexposure=dict(target=0.18)),
 )}
+
+
+def black_8bit(sensor: dict) -> float:
+    """A profile's black level in the 8-bit output's DN (where its files hold it)."""
+    return float(sensor.get("black", 0.0)) * 255.0 / (2 ** int(sensor.get("bits", 8)) - 1)
 
 
 def at_width(sensor, lens, width_px: int):
