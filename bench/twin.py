@@ -193,6 +193,12 @@ def brightness_spread(frames: Frames, profile: str, n: int) -> float:
     return float(np.median(out))
 
 
+def headroom(frames: Frames, profile: str, n: int) -> float:
+    """Full scale over the frame mean of the linear signal (``_linear``), the median over the
+    frames: how far above the mean a surface may be before it clips (a sunlit white wall)."""
+    return float(np.median([1.0 / max(frames.linear(k, profile).mean(), 1e-9) for k in range(n)]))
+
+
 # KITTI sequence_1's frames marked by hand (x0, y0, x1, y1 at 1226 x 370): sunlit regions of each
 # kind (docs/sensors.md, Near infrared); the render's kinds come from its object ids
 KITTI_REGIONS = {
@@ -475,6 +481,8 @@ def main(argv=None) -> int:
     print("\n".join(table(name, real, ours, n, with_vo=profile == "kitti")))
     print(f"\nbrightness spread (median / mean of the linear signal): {name} {brightness_spread(real, profile, n):.2f}, "
           f"render {brightness_spread(ours, profile, n):.2f}")
+    print(f"headroom (full scale over the frame mean of the linear signal, median): {name} "
+          f"{headroom(real, profile, n):.2f}, render {headroom(ours, profile, n):.2f}")
     if profile == "kitti":
         kr, ko = kinds_brightness(out, ours, real, n)
         print(f"brightness over the frame mean (median): real KITTI sequence_1 (hand-marked sunlit regions, frames "
