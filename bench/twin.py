@@ -379,9 +379,10 @@ def render(script: Path, out: Path, n: int, scale: float, quality: str) -> float
 
 
 def resensor(out: Path, n: int) -> Frames:
-    """Frames 0..n-1 of the render in ``out`` through today's camera chain again (its EXRs,
-    each frame's recorded exposure and gain, the scene.ses of the folder parsed with today's
-    profiles): the chain runs after Cycles, so a changed profile needs no new render."""
+    """Frames 0..n-1 of the render in ``out`` through today's camera chain again (its EXRs, the
+    scene.ses of the folder parsed with today's profiles, each frame's exposure and gain from
+    today's auto-exposure on the recorded metering): the chain runs after Cycles, so a changed
+    profile needs no new render."""
     from blender_sesgen.render.plan import RenderOptions, EffectiveSettings
     from blender_sesgen.render.sensor import pipeline
     from blender_sesgen.render.sensor.outputs import state_relpath
@@ -394,12 +395,15 @@ def resensor(out: Path, n: int) -> Frames:
     plan = SensorPlan.create(scene, EffectiveSettings.of(scene, RenderOptions(resolution_scale=scale)))
     camera = pipeline.Camera(plan.sensor, plan.lens_spec, plan.pixel_rays(), plan.K[0, 2], plan.K[1, 2],
                              plan.nominal_exposure_s())
+    # each frame's exposure from today's schedule on the brightness the render metered (a changed
+    # auto-exposure target needs no new render; the EXRs' motion blur keeps the rendered length)
+    states = [json.loads((out / state_relpath(k)).read_text()) for k in range(n)]
+    schedule = plan.exposures([st["metered"] for st in states[:-1]]) if plan.autoexposure is not None else \
+        [(st["exposure_s"], st["gain"]) for st in states]
     imgs, fpn = {"left": [], "right": []}, {}
     for k in range(n):
-        st = json.loads((out / state_relpath(k)).read_text())
         for vi, view in enumerate(("left", "right")):
-            f = pipeline.process(seq.rgb_linear(k, view), camera, pipeline.Shot(st["exposure_s"], st["gain"], k, vi),
-                                 fpn_cache=fpn)
+            f = pipeline.process(seq.rgb_linear(k, view), camera, pipeline.Shot(*schedule[k], k, vi), fpn_cache=fpn)
             imgs[view].append(rgb8_to_gray8(f.rgb8))
     return Frames(imgs["left"], imgs["right"], seq.K, seq.baseline_m, seq.T_world_cam("left"), seq.timestamps_s)
 

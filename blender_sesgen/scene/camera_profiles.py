@@ -53,7 +53,7 @@ PROFILES: dict[str, Profile] = {p.name: p for p in (
                         pixel=4.65, mono="on", nir=0.2),
             lens=dict(defocus=defocus_for(0.60), vignetting=0.35),
             timing=dict(rate=10.0, exposure=0.002, readout=0.0),
-            autoexposure=dict(target=0.25), edge_spread_px=0.60),
+            autoexposure=dict(target=0.28), edge_spread_px=0.60),
     Profile("euroc", "EuRoC MAV: VI-Sensor, Aptina MT9V034 (greyscale, global shutter), raw 752x480", 752, 480,
             sensor=dict(fullwell=8400.0, readnoise=15.6, black=13.0, bits=8, response="linear", pixel=6.0, mono="on"),
             lens=dict(defocus=defocus_for(0.83), vignetting=0.30),
