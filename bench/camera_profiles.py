@@ -21,8 +21,8 @@ Measured per camera (docs/sensors.md, "Camera profiles", says how each number en
   0.01th percentile (the black level);
 - **vignetting**: the column means of all frames (rows 20-80 %), fitted with
   a * cos(theta)^(4 v) over the horizontal ray angle (f from the calibration);
-- **metering**: the median frame mean, linearised with the fitted exponent (the target a
-  scene-following auto-exposure holds);
+- **metering**: the median over the frames of the mean of the pixels linearised with the fitted
+  exponent (the mean linear signal, the target a scene-following auto-exposure holds);
 - **frame rate**: the median step of the excerpt's time stamps (EuRoC data.csv, RobotCar
   stereo.timestamps; KITTI's excerpt has none).
 RobotCar frames are raw Bayer GBRG: noise and edges are measured on the first green plane
@@ -195,8 +195,10 @@ def measure(camera: str, spread_scale: float = 1.0) -> dict:
     nlf = noise_by_level(imgs)
     g, fw, rn, rms = fit_response(nlf, black)
     spread, n_edges = edge_spread(imgs, min_len=24 if spread_scale == 1 else 14)
-    means = np.array([im.mean() for im in imgs])
-    target = float(np.median(np.clip((means - black) / (255 - black), 0, 1) ** g))
+    # what the auto-exposure holds: the mean of the linear signal (the mean of the linearised
+    # pixels; linearising the mean DN instead gave KITTI 0.255 for 0.276)
+    target = float(np.median([np.mean(np.clip((im.astype(np.float64) - black) / (255 - black), 0, 1) ** g)
+                              for im in imgs]))
     return {"frames": len(imgs), "size": f"{imgs[0].shape[1]}x{imgs[0].shape[0]}", "black_dn": black,
             "clipped_255": float((allpx == 255).mean()), "at_black": float((allpx <= black).mean()),
             "nlf": nlf, "gamma": g, "full_well_e": fw, "read_noise_e": rn, "nlf_rms_dn": rms,
@@ -210,7 +212,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--camera", default="kitti,euroc,robotcar")
     args = ap.parse_args(argv)
-    from blender_sesgen.scene.camera_profiles import PROFILES
+    from blender_sesgen.scene.camera_profiles import PROFILES, black_8bit
     if not DATA.is_dir():
         print(f"no real data at {DATA} (set SESGEN_SHARED_DATA)", file=sys.stderr)
         return 2
@@ -220,7 +222,7 @@ def main(argv=None) -> int:
         print(f"\n== {cam}: {m['frames']} frames {m['size']}")
         print("  noise by level (level DN: sigma DN [pixels]): " + ", ".join(
             f"{lv:.0f}: {sg:.2f} [{n}]" for lv, sg, n in m["nlf"]))
-        rows = (("black level (DN)", m["black_dn"], p.sensor["black"]),
+        rows = (("black level (DN of the 8-bit files)", m["black_dn"], black_8bit(p.sensor)),
                 ("response exponent (gamma)", m["gamma"], p.sensor.get("gamma", 1.0)),
                 ("full well (e-, at its gain)", m["full_well_e"], p.sensor["fullwell"]),
                 ("read noise (e-)", m["read_noise_e"], p.sensor["readnoise"]),

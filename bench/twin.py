@@ -178,11 +178,11 @@ def vo_errors(seq: Frames, method: str, n: int) -> dict:
 
 def _linear(img, profile: str, black_in_image: bool = True) -> np.ndarray:
     """An 8-bit grey frame through the inverse of the profile's response and, where the image
-    holds it (the real camera's files: KITTI's darkest pixels are 6-8, EuRoC's ~13), its black
-    level; the render's sensor/rgb holds none (the chain's response starts at 0)."""
-    from blender_sesgen.scene.camera_profiles import PROFILES
+    holds it, its black level: the real camera's files (KITTI's darkest pixels are 6-8, EuRoC's
+    ~13) and the render's sensor/rgb (the chain's 8-bit output keeps the black level)."""
+    from blender_sesgen.scene.camera_profiles import PROFILES, black_8bit
     sensor = PROFILES[profile].sensor
-    black = float(sensor.get("black", 0.0)) if black_in_image else 0.0
+    black = black_8bit(sensor) if black_in_image else 0.0
     gamma = float(sensor.get("gamma", 1.0))
     if sensor.get("response") == "linear":
         gamma = 1.0
@@ -196,6 +196,12 @@ def brightness_spread(frames: Frames, profile: str, n: int) -> float:
         lin = frames.linear(k, profile)
         out.append(np.median(lin) / max(lin.mean(), 1e-9))
     return float(np.median(out))
+
+
+def headroom(frames: Frames, profile: str, n: int) -> float:
+    """Full scale over the frame mean of the linear signal (``_linear``), the median over the
+    frames: how far above the mean a surface may be before it clips (a sunlit white wall)."""
+    return float(np.median([1.0 / max(frames.linear(k, profile).mean(), 1e-9) for k in range(n)]))
 
 
 # KITTI sequence_1's frames marked by hand (x0, y0, x1, y1 at 1226 x 370): sunlit regions of each
@@ -407,12 +413,13 @@ def render(script: Path, out: Path, n: int, scale: float, quality: str, start: i
 
 
 def resensor(out: Path, n: int) -> Frames:
-    """Frames 0..n-1 of the render in ``out`` through today's camera chain again (its EXRs,
-    each frame's recorded exposure and gain, the scene.ses of the folder parsed with today's
-    profiles): the chain runs after Cycles, so a changed profile needs no new render."""
+    """Frames 0..n-1 of the render in ``out`` through today's camera chain again (its EXRs, the
+    scene.ses of the folder parsed with today's profiles, each frame's exposure and gain from
+    today's auto-exposure on the recorded metering): the chain runs after Cycles, so a changed
+    profile needs no new render."""
     from blender_sesgen.render.plan import RenderOptions, EffectiveSettings
     from blender_sesgen.render.sensor import pipeline
-    from blender_sesgen.render.sensor.outputs import _rays, state_relpath
+    from blender_sesgen.render.sensor.outputs import state_relpath
     from blender_sesgen.render.sensor.render_plan import SensorPlan
     from blender_sesgen.ses.parser import parse_text
     from vo_reference.io.color import rgb8_to_gray8
@@ -420,14 +427,17 @@ def resensor(out: Path, n: int) -> Frames:
     scene = parse_text((out / "scene.ses").read_text(), str(out / "scene.ses"), str(out))
     scale = json.loads((out / "manifest.json").read_text())["render"]["resolution_scale"]
     plan = SensorPlan.create(scene, EffectiveSettings.of(scene, RenderOptions(resolution_scale=scale)))
-    camera = pipeline.Camera(plan.sensor, plan.lens_spec, _rays(plan), plan.K[0, 2], plan.K[1, 2],
+    camera = pipeline.Camera(plan.sensor, plan.lens_spec, plan.pixel_rays(), plan.K[0, 2], plan.K[1, 2],
                              plan.nominal_exposure_s())
+    # each frame's exposure from today's schedule on the brightness the render metered (a changed
+    # auto-exposure target needs no new render; the EXRs' motion blur keeps the rendered length)
+    states = [json.loads((out / state_relpath(k)).read_text()) for k in range(n)]
+    schedule = plan.exposures([st["metered"] for st in states[:-1]]) if plan.autoexposure is not None else \
+        [(st["exposure_s"], st["gain"]) for st in states]
     imgs, fpn = {"left": [], "right": []}, {}
     for k in range(n):
-        st = json.loads((out / state_relpath(k)).read_text())
         for vi, view in enumerate(("left", "right")):
-            f = pipeline.process(seq.rgb_linear(k, view), camera, pipeline.Shot(st["exposure_s"], st["gain"], k, vi),
-                                 fpn_cache=fpn)
+            f = pipeline.process(seq.rgb_linear(k, view), camera, pipeline.Shot(*schedule[k], k, vi), fpn_cache=fpn)
             imgs[view].append(rgb8_to_gray8(f.rgb8))
     return Frames(imgs["left"], imgs["right"], seq.K, seq.baseline_m, seq.T_world_cam("left"), seq.timestamps_s)
 
@@ -508,12 +518,14 @@ def main(argv=None) -> int:
         real, name = euroc_rectified(n, tuple(seq.resolution), a.start), "real EuRoC V1_01"
         n = min(n, real.num_frames)
     ours = Frames(ours._img["left"][:n], ours._img["right"][:n], ours.K, ours.baseline_m, ours.T_world_cam(),
-                  ours.timestamps_s, black_in_image=False)
+                  ours.timestamps_s)
     print(f"\n### {script} + SENSOR profile {profile} (--resolution-scale {a.scale:g}, --quality {a.quality}) "
           f"vs {name}" + (f", frames {a.start}-{a.start + n - 1} of both" if a.start else "") + "\n")
     print("\n".join(table(name, real, ours, n, with_vo=profile == "kitti")))
     print(f"\nbrightness spread (median / mean of the linear signal): {name} {brightness_spread(real, profile, n):.2f}, "
           f"render {brightness_spread(ours, profile, n):.2f}")
+    print(f"headroom (full scale over the frame mean of the linear signal, median): {name} "
+          f"{headroom(real, profile, n):.2f}, render {headroom(ours, profile, n):.2f}")
     if profile == "kitti":
         kr, ko = kinds_brightness(out, ours, real, n)
         print(f"brightness over the frame mean (median): real KITTI sequence_1 (hand-marked sunlit regions, frames "

@@ -51,14 +51,16 @@ def test_same_seed_same_noise_and_ground_truth_untouched():
                                 dict(cfa=None, bits=10, response="linear")])
 def test_rgb_of_a_sensor_without_mosaic_is_the_response_of_each_raw_value(kw):
     """Without a colour filter array each RGB value follows from one raw value: the chain's
-    response and quantisation applied to every pixel's normalised raw value directly."""
+    response and quantisation applied to every pixel's normalised raw value directly, above
+    the black level, which the 8-bit output keeps (black / (2^bits - 1) of full scale)."""
     s = model.Sensor(read_noise_e=4, prnu=0.01, seed=3, **kw)
     lin = np.random.default_rng(2).uniform(0, 1, (19, 23, 3))
     f = pipeline.process(lin, pipeline.Camera(s, nominal_exposure_s=0.01), pipeline.Shot(0.02, 2.0, 1, 0))
     x = (f.raw_dn.astype(np.float64) - s.black_level_dn) / (2 ** s.bits - 1 - s.black_level_dn)
     x = np.repeat(x[..., None], 3, axis=-1) if s.mono else x
     assert len(np.unique(f.raw_dn)) > 20
-    assert np.array_equal(f.rgb8, raw.quantise(raw.response(x, s.response, s.gamma), 8))
+    b = s.black_level_dn / (2 ** s.bits - 1)
+    assert np.array_equal(f.rgb8, raw.quantise(b + (1 - b) * raw.response(x, s.response, s.gamma), 8))
 
 
 def test_fixed_pattern_noise_is_fixed_and_temporal_noise_is_not():
@@ -190,3 +192,23 @@ def test_a_render_meters_what_its_frames_exposures_follow(frames):
     part = autoexposure.exposure_schedule(metered[:upto], c)
     assert [part[k] for k in frames] == [whole[k] for k in frames]
     assert upto == max(frames) + 1 and (upto == 100) == (99 in frames)
+
+
+def test_a_flat_field_ramp_through_the_kitti_camera_uses_every_8_bit_code_above_its_black_level():
+    """KITTI's files hold the camera's black level (their darkest pixels at 6-8) and no unused
+    codes above it: the Flea2 digitises finer than 8 bits and applies its response before the
+    8-bit output. A ramp from dark to past saturation through the profile's chain, at native
+    size and binned to half size, must do the same: no code below the black level's 7, every
+    code from 7 to 255 in use. (A raw of 8 bits through the gamma-1.3 response leaves 27 codes
+    unused, the darkest ones; an output without the black level starts at 0.)"""
+    from blender_sesgen.scene.camera_profiles import at_width
+    from blender_sesgen.ses.parser import parse_text
+    sc = parse_text("CAMERA resolution 1226 370 focal 707\nQUAD id 1 texture 1 vertices 0 0 0  1 0 0  1 0 1  0 0 1\n"
+                    "SENSOR profile kitti\n")
+    for width in (1226, 613):
+        sensor, _ = at_width(sc.sensor, None, width)
+        lin = np.tile(np.linspace(0.0, 1.1 * sensor.saturation, 4 * width)[None, :, None], (24, 1, 3))
+        f = pipeline.process(lin, pipeline.Camera(sensor, nominal_exposure_s=0.0), pipeline.Shot(0.0, 1.0, 0, 0))
+        codes = np.bincount(f.rgb8[..., 0].ravel(), minlength=256)
+        assert codes[:7].sum() == 0 and codes[7] > 0, (width, np.nonzero(codes)[0][:3])
+        assert np.all(codes[7:] > 0), (width, np.nonzero(codes[7:] == 0)[0] + 7)

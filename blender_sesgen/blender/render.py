@@ -27,6 +27,19 @@ from .runtime import activate, probing_devices, quiet_stdout
 # larger and costs less CPU to write; every level decodes to the same values.
 EXR_ZIP_LEVEL = 1
 
+# The ideal camera's pixel filter (and every render's ground truth): Blackman-Harris of width
+# 1.5, which Cycles spans over +-1.5 px (its filter table doubles the width): a Gaussian-
+# equivalent edge spread of 0.416 px, MTF 0.41 at the Nyquist frequency.
+PIXEL_FILTER = ("BLACKMAN_HARRIS", 1.5)
+# A sensor's pixel aperture: each pixel integrates the light over its own square (a photosite,
+# or the s x s photosites of a render s times smaller than the sensor: a binned pixel), a box
+# of one pixel (edge spread 1/sqrt(12) = 0.289 px, MTF 0.64 at Nyquist). The sensor path's
+# beauty only (blender/sensor.py: pixel_aperture), whose ground truth is a render of its own:
+# sample 0 goes through the pixel centre with either filter, but the two filter tables put it
+# there with other float round-off (depth differs in the 6th digit), so the ground truth keeps
+# PIXEL_FILTER and its bytes (docs/sensors.md, "Optics, exposure and the raw sensor").
+SENSOR_PIXEL_FILTER = ("BOX", 1.0)
+
 _TIME_RE = re.compile(r"Time:\s*(?:(\d+):)?(\d+):(\d+(?:\.\d+)?)")
 
 
@@ -98,8 +111,7 @@ def configure(bscene, preset: Preset, *, gpu: bool = False, threads: int = 0,
     c.use_light_tree = bool(preset.light_tree)
     if hasattr(c, "use_guiding"):  # CPU path guiding (Cycles ignores it on a GPU)
         c.use_guiding = bool(preset.path_guiding)
-    c.pixel_filter_type = "BLACKMAN_HARRIS"
-    c.filter_width = 1.5
+    c.pixel_filter_type, c.filter_width = PIXEL_FILTER
     r.use_motion_blur = False
     r.film_transparent = False
     _set(r, "use_persistent_data", bool(persistent))

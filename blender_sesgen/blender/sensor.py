@@ -27,7 +27,7 @@ from mathutils import Matrix
 
 from ..contract.frames import camera_matrix_world
 from ..errors import SesgenError
-from . import compat
+from . import compat, render
 
 MOTION_STEPS = 4          # Cycles' camera motion steps: 2^4 + 1 = 17 instants per shutter
 
@@ -107,6 +107,19 @@ def set_shutter(bscene, shutter_frames: float, rolling: bool, duration: float) -
         r.motion_blur_position = "CENTER"
     bscene.cycles.rolling_shutter_type = "TOP" if rolling else "NONE"
     bscene.cycles.rolling_shutter_duration = float(duration) if rolling else 0.0
+
+
+@contextlib.contextmanager
+def pixel_aperture(bscene):
+    """The beauty render through the sensor's pixel aperture (render.SENSOR_PIXEL_FILTER, a box
+    of one pixel) instead of the ideal camera's filter; the ground truth is rendered apart."""
+    c = bscene.cycles
+    saved = (c.pixel_filter_type, c.filter_width)
+    try:
+        c.pixel_filter_type, c.filter_width = render.SENSOR_PIXEL_FILTER
+        yield
+    finally:
+        c.pixel_filter_type, c.filter_width = saved
 
 
 @contextlib.contextmanager

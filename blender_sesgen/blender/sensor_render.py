@@ -4,6 +4,7 @@ the beauty of the first and the ground truth of the second (planar depth restore
 distorting lens)."""
 from __future__ import annotations
 
+import contextlib
 import os
 from pathlib import Path
 from typing import Callable, Optional
@@ -90,11 +91,14 @@ class SensorSession:
                     stats = draw(views, render_seed(self.plan.settings.seed, 0, 0), tmp, display_paths)
             else:
                 sensor.set_shutter(self.scene, shutter, s.rolling_shutter, duration)
-            for vi, view in enumerate(() if sharp_only else views):
-                if stop():
-                    raise KeyboardInterrupt
-                stats.update(draw((view,), render_seed(self.plan.settings.seed, k, vi), tmp,
-                                  {view: display_paths[view]} if display_paths else None))
+            # the beauty through the sensor's pixel aperture where the ground truth is a render of its own
+            aperture = sensor.pixel_aperture(self.scene) if s.shutter_effects else contextlib.nullcontext()
+            with aperture:
+                for vi, view in enumerate(() if sharp_only else views):
+                    if stop():
+                        raise KeyboardInterrupt
+                    stats.update(draw((view,), render_seed(self.plan.settings.seed, k, vi), tmp,
+                                      {view: display_paths[view]} if display_paths else None))
             if s.shutter_effects and not sharp_only:
                 with sensor.ground_truth_settings(self.scene, gt_shutter, s.rolling_shutter):
                     gt_stats = {}

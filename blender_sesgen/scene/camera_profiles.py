@@ -33,22 +33,30 @@ class Profile:
     edge_spread_px: float = 0.0      # measured Gaussian-equivalent edge spread (-> LENS defocus)
 
 
-# The render's own pixel filter (Blackman-Harris, 1.5 px; blender/render.py) has a Gaussian-
-# equivalent spread of 0.208 px; a defocus disc of diameter d adds d / 4. The profiles' defocus
-# is 4 sqrt(s_measured^2 - 0.208^2) (docs/sensors.md).
-RENDER_EDGE_SPREAD_PX = 0.208
+# The render's pixel is a box of one pixel (blender/render.py: PIXEL_FILTER), a Gaussian-equivalent
+# edge spread of 1/sqrt(12) px at any render size (a binned pixel is a box too); a defocus disc
+# of diameter d adds d / 4. So a profile's defocus is 4 sqrt(s_measured^2 - 1/12), s measured at
+# the native width (docs/sensors.md, "sharpness").
+PIXEL_EDGE_SPREAD_PX = 12 ** -0.5
+
+
+def defocus_for(edge_spread_px: float) -> float:
+    """LENS defocus (px, disc diameter) that gives the render a measured edge spread (px, native)."""
+    return round(4 * max(edge_spread_px ** 2 - PIXEL_EDGE_SPREAD_PX ** 2, 0.0) ** 0.5, 2)
 
 PROFILES: dict[str, Profile] = {p.name: p for p in (
     Profile("kitti", "KITTI: Point Grey Flea2 FL2-14S3M (Sony ICX267 CCD, greyscale, global shutter), "
             "rectified 8-bit images as distributed", 1226, 370,
-            sensor=dict(fullwell=4500.0, readnoise=0.0, black=7.0, bits=8, response="gamma", gamma=1.3,
+            # the raw at 12 bits (the Flea2's ADC; assumed), the 8-bit files after the response: no
+            # unused codes, as in KITTI's; black 112 DN of 4095 = the files' 7 of 255
+            sensor=dict(fullwell=4500.0, readnoise=0.0, black=112.0, bits=12, response="gamma", gamma=1.3,
                         pixel=4.65, mono="on", nir=0.2),
-            lens=dict(defocus=2.25, vignetting=0.35),
+            lens=dict(defocus=defocus_for(0.60), vignetting=0.35),
             timing=dict(rate=10.0, exposure=0.002, readout=0.0),
-            autoexposure=dict(target=0.25), edge_spread_px=0.60),
+            autoexposure=dict(target=0.28), edge_spread_px=0.60),
     Profile("euroc", "EuRoC MAV: VI-Sensor, Aptina MT9V034 (greyscale, global shutter), raw 752x480", 752, 480,
             sensor=dict(fullwell=8400.0, readnoise=15.6, black=13.0, bits=8, response="linear", pixel=6.0, mono="on"),
-            lens=dict(defocus=3.25, vignetting=0.30),
+            lens=dict(defocus=defocus_for(0.83), vignetting=0.30),
             timing=dict(rate=20.0, exposure=0.005, readout=0.0),
             autoexposure=dict(target=0.52), edge_spread_px=0.83),
     Profile("tum", "TUM RGB-D: Microsoft Kinect v1 RGB (Aptina MT9M112, Bayer, rolling shutter), 640x480", 640, 480,
@@ -71,6 +79,11 @@ PROFILES: dict[str, Profile] = {p.name: p for p in (
             timing=dict(rate=30.0, exposure=0.008, readout=0.025),
             autoexposure=dict(target=0.18)),
 )}
+
+
+def black_8bit(sensor: dict) -> float:
+    """A profile's black level in the 8-bit output's DN (where its files hold it)."""
+    return float(sensor.get("black", 0.0)) * 255.0 / (2 ** int(sensor.get("bits", 8)) - 1)
 
 
 def at_width(sensor, lens, width_px: int):

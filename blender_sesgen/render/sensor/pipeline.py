@@ -16,6 +16,15 @@ from . import optics, raw
 from .autoexposure import LUMA
 
 
+def output8(x: np.ndarray, sensor) -> np.ndarray:
+    """The camera's 8-bit output of normalised linear values x (0 at the black level, 1 at
+    white): the response curve above the black level, which the output keeps (as the files of
+    KITTI, EuRoC and RobotCar hold it: their darkest pixels sit there), quantised to 8 bits.
+    The response runs on the raw values, so a raw of more bits than 8 leaves no unused codes."""
+    pedestal = sensor.black_level_dn / (2 ** sensor.bits - 1)
+    return raw.quantise(pedestal + (1.0 - pedestal) * raw.response(x, sensor.response, sensor.gamma), 8)
+
+
 @dataclass(frozen=True)
 class SensorFrame:
     raw_dn: np.ndarray            # (H, W) mosaic or grey, or (H, W, 3); uint16, values 0 .. 2^bits - 1
@@ -87,10 +96,10 @@ def process(linear_rgb: np.ndarray, camera: Camera, shot: Shot, fpn_cache: Optio
     full = 2 ** sensor.bits - 1
     if sensor.cfa:
         x = (dn.astype(np.float64) - sensor.black_level_dn) / (full - sensor.black_level_dn)
-        rgb8 = raw.quantise(raw.response(raw.demosaic_mhc(x, sensor.cfa), sensor.response, sensor.gamma), 8)
+        rgb8 = output8(raw.demosaic_mhc(x, sensor.cfa), sensor)
     else:   # each output value follows from one raw value: the chain run once per level, looked up
         levels = (np.arange(full + 1, dtype=np.float64) - sensor.black_level_dn) / (full - sensor.black_level_dn)
-        rgb8 = raw.quantise(raw.response(levels, sensor.response, sensor.gamma), 8)[dn]
+        rgb8 = output8(levels, sensor)[dn]
         if sensor.mono:
             rgb8 = np.repeat(rgb8[..., None], 3, axis=-1)
     return SensorFrame(dn, rgb8, float(exposure_s), float(gain))
