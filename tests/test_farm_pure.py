@@ -166,6 +166,31 @@ def test_a_task_relays_the_render_events_and_keeps_its_error_lines(tmp_path):
     assert [m["event"]["frame"] for m in got[1:]] == [4, 5]
 
 
+def test_a_cancel_that_came_before_the_interrupt_could_be_raised_stops_the_render(tmp_path):
+    """A Ray cancel arriving while the worker still ignored SIGINT raises nothing (it was lost,
+    and the render ran to its end with exit 0: test_farm_ray's cancel test, now and then);
+    Ray's flag still says so, and run_chunk asks it once the render has started: the render
+    gets SIGINT and stops like a Ctrl-C'd one, well before its end."""
+    argv = _fake_render(tmp_path, """
+        import sys, time
+        from blender_sesgen.farm.child import restore_interrupts
+        try:
+            restore_interrupts()          # what the farm's render child does first
+            time.sleep(60)
+        except KeyboardInterrupt:
+            sys.exit(130)
+    """)
+    t0 = time.monotonic()
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})   # as in a Ray worker: the child inherits it
+    try:
+        res = chunk_mod.run_chunk(argv, "s[0:2]#1", str(tmp_path / "out"), cancelled=lambda: True)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
+    assert res["cancelled"] and res["rc"] == 130 and time.monotonic() - t0 < 30, res
+    assert not chunk_mod._cancel_requested()     # outside a Ray task: never, and no Ray started
+    assert "ray" not in sys.modules or not sys.modules["ray"].is_initialized()
+
+
 def test_a_killed_render_leaves_no_lock_behind(tmp_path):
     from blender_sesgen.render.locks import _safe
     out = tmp_path / "out"

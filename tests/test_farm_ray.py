@@ -77,8 +77,10 @@ def cluster():
     marker = _marker_dir()
     saved = signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
+        from blender_sesgen.farm.chunk import WORKER_SETUP    # as the farm starts its Ray
         ctx = ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False,
-                       object_store_memory=100 * 1024 * 1024, _temp_dir=os.path.join(marker, "ray"))
+                       object_store_memory=100 * 1024 * 1024, _temp_dir=os.path.join(marker, "ray"),
+                       runtime_env=dict(WORKER_SETUP))
     finally:
         signal.signal(signal.SIGINT, saved)
     try:

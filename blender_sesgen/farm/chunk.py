@@ -12,7 +12,6 @@ worker) the render gets SIGINT and stops between views like a Ctrl-C'd render.
 """
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import signal
@@ -32,9 +31,10 @@ INTERRUPT_GRACE_S = 60.0   # after SIGINT, how long a render may take to finish 
 
 
 def run_chunk(argv: list[str], key: str, out: str, report: Optional[Callable[[dict], None]] = None,
-              env: Optional[dict] = None) -> dict:
+              env: Optional[dict] = None, cancelled: Callable[[], bool] = lambda: False) -> dict:
     """Run one chunk's render ``argv`` (the key names the chunk in reports; ``out`` is its
-    render folder) and return its result dict (see the module docstring)."""
+    render folder) and return its result dict (see the module docstring). ``cancelled()``:
+    asked once the render has started, for a cancel that came before it could be raised."""
     send = report or (lambda msg: None)
     host = socket.gethostname()
     t0 = time.monotonic()
@@ -47,6 +47,8 @@ def run_chunk(argv: list[str], key: str, out: str, report: Optional[Callable[[di
                             text=True, errors="replace", env=proc_env)
     interrupted = False
     try:   # at once: a cancel from here on reaches the render (before, there is none to stop)
+        if cancelled():
+            raise KeyboardInterrupt
         send({"kind": "started", "key": key, "host": host, "pid": proc.pid})
         for line in proc.stdout:
             event = _event(line)
@@ -113,27 +115,47 @@ def task(args: list[str], key: str, out: str, inbox=None, scene: Optional[str] =
     if inbox is not None:
         def report(msg: dict) -> None:
             inbox.put.remote(msg)
-    with _cancellable():
-        return run_chunk([sys.executable, "-m", "blender_sesgen.commands.farm_child", *args], key, out, report)
+    _cancellable()
+    return run_chunk([sys.executable, "-m", "blender_sesgen.commands.farm_child", *args], key, out, report,
+                     cancelled=_cancel_requested)
 
 
-@contextlib.contextmanager
-def _cancellable():
-    """Ray cancels a running task with ``_thread.interrupt_main()``, which does nothing while
-    SIGINT is ignored -- as it is in every worker of a Ray started by a process that ignores
-    it (a farm or a test run started in the background: a shell's ``&`` ignores SIGINT). The
-    cancel then never reached the render, which rendered to its end and exited 0. So while
-    the task runs, SIGINT has Python's handler (the worker still blocks the real signal:
-    only Ray's cancel raises KeyboardInterrupt here)."""
-    if threading.current_thread() is not threading.main_thread() or \
-            signal.getsignal(signal.SIGINT) not in (signal.SIG_IGN, signal.SIG_DFL, None):
-        yield
-        return
-    saved = signal.signal(signal.SIGINT, signal.default_int_handler)
+# The farm's Ray workers run sigint_raises() as they start (farm.cluster's ray.init).
+WORKER_SETUP = {"worker_process_setup_hook": "blender_sesgen.farm.chunk.sigint_raises"}
+
+
+def sigint_raises() -> None:
+    """A Ray worker's set-up (the farm's ``runtime_env`` ``worker_process_setup_hook``): SIGINT
+    raises KeyboardInterrupt, as in a worker of a Ray started in the foreground. In a worker
+    that ignores it, Ray's own cancel of a task still deserialising its arguments calls the
+    saved handler -- ``Handlers.SIG_IGN`` -- and fails with TypeError instead of cancelling."""
+    _cancellable()
+
+
+def _cancellable() -> None:
+    """Ray cancels a running task by raising KeyboardInterrupt in its worker's main thread,
+    which does nothing while SIGINT is ignored -- as it is in every worker of a Ray started by
+    a process that ignores it (a farm or a test run started in the background: a shell's
+    ``&`` ignores SIGINT). The cancel then never reached the render, which rendered to its end
+    and exited 0. So a task gives its worker Python's SIGINT handler, as a worker of a Ray
+    started in the foreground has, and keeps it: restoring "ignored" as the task ends let a
+    cancel that arrived just before fail in the worker (``'Handlers' object is not callable``).
+    A cancel that came before this is seen by :func:`_cancel_requested`."""
+    if threading.current_thread() is threading.main_thread() and \
+            signal.getsignal(signal.SIGINT) in (signal.SIG_IGN, signal.SIG_DFL, None):
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+def _cancel_requested() -> bool:
+    """Whether Ray was asked to cancel this task (its flag; also set when the interrupt itself
+    was lost because SIGINT was still ignored). False outside a Ray task."""
+    ray = sys.modules.get("ray")    # never imported here, nor started: get_runtime_context() would start a Ray
+    if ray is None or not ray.is_initialized():
+        return False
     try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, saved)
+        return bool(ray.get_runtime_context().is_canceled())
+    except Exception:  # noqa: BLE001 - not a Ray worker (a driver's thread: farm.local)
+        return False
 
 
 def verify_task(out: str) -> dict:

@@ -22,6 +22,7 @@ from typing import Optional, Sequence
 
 from ..errors import SesgenError
 from ..render.plan import generator_version
+from .chunk import WORKER_SETUP
 
 LOCAL_OBJECT_STORE_BYTES = 128 * 1024 * 1024
 PROBE_TIMEOUT_S = 120.0
@@ -99,7 +100,7 @@ class Cluster:
             try:
                 ray.init(address="local", num_cpus=self.num_cpus or local_cpus(), include_dashboard=False,
                          log_to_driver=False, logging_level=logging.ERROR,
-                         object_store_memory=LOCAL_OBJECT_STORE_BYTES)
+                         object_store_memory=LOCAL_OBJECT_STORE_BYTES, runtime_env=dict(WORKER_SETUP))
             except Exception as e:  # noqa: BLE001 - Ray raises bare Exceptions (a node that timed out) and OSErrors
                 try:
                     ray.shutdown()  # whatever part of it did start
@@ -112,7 +113,7 @@ class Cluster:
         _check_reachable(self.address)
         pythonpath = os.pathsep.join([str(package_root())] + [p for p in os.environ.get("PYTHONPATH", "").split(
             os.pathsep) if p])
-        self.runtime_env = {"env_vars": {"PYTHONPATH": pythonpath}}
+        self.runtime_env = {"env_vars": {"PYTHONPATH": pythonpath}, **WORKER_SETUP}
         try:
             ray.init(address=self.address, log_to_driver=False, logging_level=logging.ERROR,
                      runtime_env=self.runtime_env)
