@@ -34,7 +34,8 @@ def run_chunk(argv: list[str], key: str, out: str, report: Optional[Callable[[di
               env: Optional[dict] = None, cancelled: Callable[[], bool] = lambda: False) -> dict:
     """Run one chunk's render ``argv`` (the key names the chunk in reports; ``out`` is its
     render folder) and return its result dict (see the module docstring). ``cancelled()``:
-    asked once the render has started, for a cancel that came before it could be raised."""
+    asked once the render has started and at each line it prints, for a cancel whose
+    interrupt was not raised (it came before the task could take it)."""
     send = report or (lambda msg: None)
     host = socket.gethostname()
     t0 = time.monotonic()
@@ -51,6 +52,8 @@ def run_chunk(argv: list[str], key: str, out: str, report: Optional[Callable[[di
             raise KeyboardInterrupt
         send({"kind": "started", "key": key, "host": host, "pid": proc.pid})
         for line in proc.stdout:
+            if cancelled():   # each line: a cancel whose interrupt Ray could not raise (not yet executing)
+                raise KeyboardInterrupt
             event = _event(line)
             if event is None:
                 if line.strip():
