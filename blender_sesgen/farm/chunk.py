@@ -118,7 +118,7 @@ def task(args: list[str], key: str, out: str, inbox=None, scene: Optional[str] =
     if inbox is not None:
         def report(msg: dict) -> None:
             inbox.put.remote(msg)
-    _cancellable()
+    sigint_raises()
     return run_chunk([sys.executable, "-m", "blender_sesgen.commands.farm_child", *args], key, out, report,
                      cancelled=_cancel_requested)
 
@@ -128,22 +128,16 @@ WORKER_SETUP = {"worker_process_setup_hook": "blender_sesgen.farm.chunk.sigint_r
 
 
 def sigint_raises() -> None:
-    """A Ray worker's set-up (the farm's ``runtime_env`` ``worker_process_setup_hook``): SIGINT
-    raises KeyboardInterrupt, as in a worker of a Ray started in the foreground. In a worker
-    that ignores it, Ray's own cancel of a task still deserialising its arguments calls the
-    saved handler -- ``Handlers.SIG_IGN`` -- and fails with TypeError instead of cancelling."""
-    _cancellable()
-
-
-def _cancellable() -> None:
-    """Ray cancels a running task by raising KeyboardInterrupt in its worker's main thread,
-    which does nothing while SIGINT is ignored -- as it is in every worker of a Ray started by
-    a process that ignores it (a farm or a test run started in the background: a shell's
-    ``&`` ignores SIGINT). The cancel then never reached the render, which rendered to its end
-    and exited 0. So a task gives its worker Python's SIGINT handler, as a worker of a Ray
-    started in the foreground has, and keeps it: restoring "ignored" as the task ends let a
-    cancel that arrived just before fail in the worker (``'Handlers' object is not callable``).
-    A cancel that came before this is seen by :func:`_cancel_requested`."""
+    """SIGINT raises KeyboardInterrupt in this Ray worker, as in a worker of a Ray started in the
+    foreground; run by every task and, as they start, by the farm's workers (``WORKER_SETUP``).
+    Ray cancels a running task by raising KeyboardInterrupt in its worker's main thread, which
+    does nothing while SIGINT is ignored -- as it is in every worker of a Ray started by a
+    process that ignores it (a farm or a test run started in the background: a shell's ``&``
+    ignores SIGINT): the render then rendered to its end and exited 0. And Ray's own deferral of
+    a cancel while a task deserialises its arguments calls the saved handler -- then
+    ``Handlers.SIG_IGN`` -- and fails with TypeError instead of cancelling. The handler is kept
+    after the task (restoring "ignored" raced a late cancel the same way); a cancel that came
+    before it is seen by :func:`_cancel_requested`."""
     if threading.current_thread() is threading.main_thread() and \
             signal.getsignal(signal.SIGINT) in (signal.SIG_IGN, signal.SIG_DFL, None):
         signal.signal(signal.SIGINT, signal.default_int_handler)

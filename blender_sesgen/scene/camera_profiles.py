@@ -33,7 +33,7 @@ class Profile:
     edge_spread_px: float = 0.0      # measured Gaussian-equivalent edge spread (-> LENS defocus)
 
 
-# The render's pixel is a box of one pixel (blender/render.py: PIXEL_FILTER), a Gaussian-equivalent
+# The sensor path's pixel is a box of one pixel (blender/render.py: SENSOR_PIXEL_FILTER), a Gaussian-equivalent
 # edge spread of 1/sqrt(12) px at any render size (a binned pixel is a box too); a defocus disc
 # of diameter d adds d / 4. So a profile's defocus is 4 sqrt(s_measured^2 - 1/12), s measured at
 # the native width (docs/sensors.md, "sharpness").

@@ -60,7 +60,7 @@ def _coordinates(g: G, texture_scale, with_offset: bool = True):
     p = g.vmath("MULTIPLY", tc.outputs["Object"], scale)
     if with_offset:
         p = g.vmath("ADD", p, _attribute(g, OFFSET_PROP))
-    p = g.vscale(p, texture_scale if isinstance(texture_scale, bpy.types.NodeSocket) else float(texture_scale))
+    p = g.vscale(p, texture_scale)
     rand = g.sep(_attribute(g, RAND_PROP))
     return p, tc.outputs["Normal"], rand
 
