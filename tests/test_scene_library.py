@@ -459,3 +459,18 @@ def test_city_kitti_short_drive_is_a_stretch_of_the_long_one(seed):
         T = parse_text(city_kitti.generate(seed, frames=frames, step_m=1.25)).timeline.left()
         turn = np.degrees([float(rotation_angle_rad(relative(T[k], T[k + 1])[:3, :3])) for k in range(len(T) - 1)])
         assert turn.max() < 1.0, (frames, np.round(turn, 2))
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_forest_walk_turns_as_a_walker_at_any_length(seed):
+    """The walker faces along the trail, not along the body's sway, and the wander is cycles
+    per 15 s, not per sequence: the camera turns at most 6 deg a frame (60 deg/s at 10 Hz),
+    1-2.5 deg typically, for a 10-frame walk as for the 150-frame one (the sway's heading swung
+    +-10 deg at the step rate; a 10-frame walk turned up to 80 deg a frame)."""
+    from blender_sesgen.generators.builtin import forest
+    from blender_sesgen.ses.parser import parse_text
+    from blender_sesgen.contract.se3 import relative, rotation_angle_rad
+    for frames in (10, 30, 150):
+        T = parse_text(forest.generate(seed, frames=frames)).timeline.left()
+        turn = np.degrees([float(rotation_angle_rad(relative(T[k], T[k + 1])[:3, :3])) for k in range(len(T) - 1)])
+        assert turn.max() < 6.0 and np.median(turn) < 2.5, (frames, np.round(turn, 2))

@@ -136,19 +136,27 @@ def generate(seed: int = 0, frames: int = 150, speed: Optional[float] = None) ->
     # --- the walk ----------------------------------------------------------------------------
     n = frames
     tt = np.arange(n) / RATE_HZ
-    z = z0 - speed * tt * (1 + 0.05 * smooth_noise(rng, n, 1.0, (0.5, 1.1)))
-    x = trail_x(size, tseed, z) + var.wander * smooth_noise(rng, n, 1.0, (0.7, 1.5))
+    # the wander, pace and body motion: cycles per 150 frames (15 s), so a short walk is a stretch
+    # of the same kind of walk; cycles per sequence turned a 10-frame walk up to 70 deg a frame
+    per_150 = (n - 1) / 149.0
+
+    def noise(*cycles):
+        return smooth_noise(rng, n, 1.0, tuple(c * per_150 for c in cycles))
+    z = z0 - speed * tt * (1 + 0.05 * noise(0.5, 1.1))
+    x = trail_x(size, tseed, z) + var.wander * noise(0.7, 1.5)
     ground = np.array([H(xi, zi) for xi, zi in zip(x, z)])
     step_hz = 1.9
-    y = ground + var.eye + 0.025 * np.sin(2 * np.pi * 2 * step_hz * tt) + 0.02 * smooth_noise(rng, n, 1.0, (1.0, 2.0))
+    y = ground + var.eye + 0.025 * np.sin(2 * np.pi * 2 * step_hz * tt) + 0.02 * noise(1.0, 2.0)
+    # the walker faces along the path, not along the sway: the sway's 0.24 m/s sideways turned
+    # the heading +-10 deg at the step rate (120 deg/s), which a walker's head does not do
+    v = np.gradient(np.stack([x, z], axis=1), tt, axis=0)
+    heading = np.degrees(np.arctan2(-v[:, 0], -v[:, 1]))
     x = x + 0.02 * np.sin(2 * np.pi * step_hz * tt)                              # side-to-side sway
     P = np.stack([x, y, z], axis=1)
-    v = np.gradient(P, tt, axis=0)
-    heading = np.degrees(np.arctan2(-v[:, 0], -v[:, 2]))
-    yaw = heading + var.glance * smooth_noise(rng, n, 1.0, (0.35, 0.8))
+    yaw = heading + var.glance * noise(0.35, 0.8)
     slope = np.degrees(np.arctan2(np.gradient(ground, tt), speed))
-    pitch = var.tilt + 0.5 * slope + 3 * smooth_noise(rng, n, 1.0, (0.4, 0.9)) + 0.4 * np.sin(2 * np.pi * 2 * step_hz * tt + 0.5)
-    roll = 0.8 * np.sin(2 * np.pi * step_hz * tt) + 0.5 * smooth_noise(rng, n, 1.0, (0.6, 1.3))
+    pitch = var.tilt + 0.5 * slope + 3 * noise(0.4, 0.9) + 0.4 * np.sin(2 * np.pi * 2 * step_hz * tt + 0.5)
+    roll = 0.8 * np.sin(2 * np.pi * step_hz * tt) + 0.5 * noise(0.6, 1.3)
     return script_with_poses(out, f"the walk: {n} poses of the left camera at {num(RATE_HZ, 0)} Hz along the trail", P, yaw, pitch, roll)
 
 
