@@ -474,3 +474,16 @@ def test_forest_walk_turns_as_a_walker_at_any_length(seed):
         T = parse_text(forest.generate(seed, frames=frames)).timeline.left()
         turn = np.degrees([float(rotation_angle_rad(relative(T[k], T[k + 1])[:3, :3])) for k in range(len(T) - 1)])
         assert turn.max() < 6.0 and np.median(turn) < 2.5, (frames, np.round(turn, 2))
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_office_short_aisle_walk_is_the_start_of_the_long_one(seed):
+    """A shorter aisle walk is the first frames of office.ses's 12 s walk at its pace and hand
+    shake (the whole aisle squeezed into 60 frames walked it at ~2 m/s)."""
+    from blender_sesgen.generators.builtin import office
+    from blender_sesgen.ses.parser import parse_text
+    full = parse_text(office.generate(seed)).timeline.left()
+    for frames in (10, 60):
+        short = parse_text(office.generate(seed, frames=frames)).timeline.left()
+        assert len(short) == frames
+        np.testing.assert_allclose(short, full[:frames], atol=1e-4)

@@ -68,13 +68,14 @@ class Variation(SeededVariation, salt=0x0FF):
 
 def generate(seed: int = 0, frames: Optional[int] = None, walk: str = "aisle") -> str:
     """The SES script of the office walk for ``seed`` (see the module docstring); ``walk``:
-    ``aisle`` (office.ses: up the aisle to the windows, 360 frames by default) or ``loop``
+    ``aisle`` (office.ses: up the aisle to the windows, 360 frames by default; fewer frames are
+    the first ones of that walk, more walk it slower) or ``loop``
     (once around the desks and back to the start at 0.6 m/s; frames by default as long as
     that takes)."""
     if walk not in WALKS:
         raise ValueError(f"walk must be one of {', '.join(WALKS)}, got {walk!r}")
     if frames is None:
-        frames = 360 if walk == "aisle" else int(round(_loop_length() / WALK_SPEED * RATE_HZ)) + 1
+        frames = AISLE_FRAMES if walk == "aisle" else int(round(_loop_length() / WALK_SPEED * RATE_HZ)) + 1
     if int(seed) < 0 or int(frames) < 2:
         raise ValueError(f"seed must be >= 0 and frames >= 2, got seed {seed}, frames {frames}")
     var = Variation.of(int(seed))
@@ -201,7 +202,9 @@ def generate(seed: int = 0, frames: Optional[int] = None, walk: str = "aisle") -
         P, yaw, pitch, roll = _loop_walk(frames, var, variation_rng(seed, 0x100))
         return script_with_poses(out, f"the walk: once around the desks and back to where it began, {frames} poses "
                                  f"of the left camera at {num(RATE_HZ, 0)} Hz", P, yaw, pitch, roll)
-    n = frames
+    # a shorter walk is the first frames of the 12 s one (~0.4 m/s, the same hand shake), not the
+    # whole aisle squeezed into them (60 frames walked it at 2 m/s); a longer one walks it slower
+    n = max(int(frames), AISLE_FRAMES)
     tt = np.arange(n) / RATE_HZ
     s = np.linspace(0, 1, n)
     # through the aisle between the desks and the shelves, then turning towards the windows
@@ -219,7 +222,9 @@ def generate(seed: int = 0, frames: Optional[int] = None, walk: str = "aisle") -
     # windows, the sofa corner), as a person filming the room would
     target = _smooth_targets(np.array(var.looks), s, k)
     yaw, pitch, roll = _handheld_view(P, target, rng, var.shake, n)
-    return script_with_poses(out, f"the walk: {n} poses of the left camera at {num(RATE_HZ, 0)} Hz", P, yaw, pitch, roll)
+    n = int(frames)
+    return script_with_poses(out, f"the walk: {n} poses of the left camera at {num(RATE_HZ, 0)} Hz",
+                             P[:n], yaw[:n], pitch[:n], roll[:n])
 
 
 def _smooth_targets(looks: np.ndarray, s: np.ndarray, k: int) -> np.ndarray:
@@ -256,6 +261,7 @@ LOOP_WAY = ((2.75, 1.3), (2.75, -1.0), (2.3, -3.0), (-2.85, -3.1), (-2.9, 0.9), 
 LOOP_LOOKS = ((1.0, 1.5, -4.5), (3.5, 1.2, -1.5), (-2.0, 1.2, -4.0), (0.0, 0.9, -1.2), (-3.5, 1.3, 0.8),
               (1.8, 1.4, 4.5), (3.5, 1.2, 0.0), (1.0, 1.5, -4.5))
 WALK_SPEED = 0.6                 # m/s along the loop
+AISLE_FRAMES = 360               # the aisle walk's 12 s at 30 Hz
 
 
 def _loop_length() -> float:
