@@ -138,10 +138,12 @@ class Variation(SeededVariation, salt=0xC17):
     # None: drawn (two lanes, cars at the road's edges, traffic both ways)
     near: Optional[NearField] = KITTI_S1_NEAR
     grass_m: float = 0.08                # the lawns' blades (their tallest; m): KITTI sequence_1's public lawn is mown
-    # the car body's pitch and roll about the drive (RMS, deg): KITTI sequence_1's poses turn 0.019 deg
-    # (pitch) and 0.034 deg (roll) a frame (median); 0.3 / 0.2 turned the rig 8x / 3x that, and the
-    # rotation's change from frame to frame (0.26 vs 0.036 deg) broke constant-velocity predictions
-    body: tuple = (0.03, 0.05)
+    # the car body's pitch and roll about the drive (RMS, deg) and its heave (RMS, m): KITTI
+    # sequence_1's poses turn 0.019 deg (pitch) and 0.034 deg (roll) a frame and their vertical step
+    # changes 0.7 mm from frame to frame (medians); 0.3 deg / 0.2 deg / 1 cm moved the rig 8x / 3x /
+    # 6x that, and the rotation's change from frame to frame (0.26 vs 0.036 deg) broke
+    # constant-velocity predictions
+    body: tuple = (0.03, 0.05, 0.0015)
 
     @classmethod
     def draw(cls, rng: np.random.Generator) -> "Variation":
@@ -155,9 +157,9 @@ class Variation(SeededVariation, salt=0xC17):
                    frontage=tuple(str(k) for k in rng.choice(list(FRONTAGE_ODDS), 2, p=list(FRONTAGE_ODDS.values()))),
                    parking=(round(float(rng.uniform(0.15, 0.75)), 2), round(float(rng.uniform(0.0, 0.5)), 2)),
                    near=None, grass_m=0.16,
-                   # up to KITTI sequence 00's ground truth (0.11 / 0.10 deg a frame, its OXTS noise included)
-                   body=(round(float(np.exp(rng.uniform(np.log(0.03), np.log(0.17)))), 3),
-                         round(float(np.exp(rng.uniform(np.log(0.05), np.log(0.15)))), 3)))
+                   # up to KITTI sequence 00's ground truth (0.11 / 0.10 deg a frame, 2.3 mm, its OXTS noise included)
+                   body=tuple(round(float(np.exp(rng.uniform(np.log(lo), np.log(hi)))), 4)
+                              for lo, hi in ((0.03, 0.17), (0.05, 0.15), (0.0015, 0.005))))
 
 
 def _centre(street_pos, street_yaw, s, L, bends):
@@ -388,7 +390,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     lane = v.lane + v.weave * noise((0.8, 1.7, 3.1))
     c, n, h = _centre(street_pos, street_yaw, s_cam, L, bends)
     pos = c + lane[:, None] * n + [0.0, CAMERA_HEIGHT, 0.0]
-    pos[:, 1] += 0.01 * noise((9.0, 17.0))            # suspension
+    pos[:, 1] += v.body[2] * noise((9.0, 17.0))       # suspension
     drift = np.gradient(lane, s_cam)                                          # steering follows lane changes
     yaw = h - np.degrees(drift) + 0.25 * noise((3.0, 7.0))
     pitch = v.body[0] * noise((5.0, 11.0, 23.0))
