@@ -20,7 +20,7 @@ later renders find it), ``meshes`` (their Blender
 meshes), ``materials`` (node graphs), ``scene`` (the rest of the builder: objects, lights,
 world, cameras), ``exposure`` (the automatic exposure's preview render, Cycles set-up
 included when it pays it), ``metering`` (the sensor auto-exposure's metering pass: a preview of
-each frame up to the render's last), and the Cycles set-up of the render sessions before frame 0's
+each frame before the render's last), and the Cycles set-up of the render sessions before frame 0's
 first sample, split by Cycles' own status: ``sync`` (Blender objects to Cycles), ``shaders``,
 ``bvh`` (meshes, BVH), ``images`` (textures, the sky), ``lights`` (the world's importance
 map, the light tree), ``kernels``; ``total`` = script start to frame 0's first sample.

@@ -365,7 +365,7 @@ def test_lost_chunks_are_retried_until_they_succeed(tmp_path):
 @pytest.mark.parametrize("meters", [True, False])
 def test_a_scene_to_meter_starts_with_one_chunk_and_the_others_read_its_metering(tmp_path, meters):
     """AUTOEXPOSURE's metering pass runs in whichever render finds none in the folder, over
-    frames 0 up to its last: the farm holds a metering scene's other chunks until the last
+    the frames before its last: the farm holds a metering scene's other chunks until the last
     chunk (whose pass covers them all) has written a frame (the metering is then in the
     manifest), so that the pass runs once, not once per chunk."""
     seen_when_run = {}
