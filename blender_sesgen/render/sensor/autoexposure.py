@@ -7,8 +7,8 @@ any frame renders: a small, deterministic preview of every frame before the rend
 blur; ``blender/exposure.py: meter_frames``). The values are stored in the manifest
 (``sensor.metered``; the sequence's last frame's stays null: no exposure follows it) and
 every later writer of the folder reads them, so a frame's exposure is the same whether it is
-rendered alone (``--frames A:B``), in a farm's chunk or after ``--resume``. The exposure product E = t * g
-(exposure time times analog gain) that would bring the normalised signal
+rendered alone (``--frames A:B``), in a farm's chunk or after ``--resume``. The exposure
+product E = t * g (exposure time times analog gain) that would bring the normalised signal
 ``m * E / (t_nom * saturation)`` to ``target`` is ``E*_j = target * saturation * t_nom / m_j``.
 Frame k uses
 ``log E_k = log E_{k-1} + (1 - exp(-speed / rate)) (log E*_{k-1} - log E_{k-1})``,
