@@ -59,7 +59,8 @@ working tree's.
 (``compileall``) before the rows, as a pip install leaves the package and as Python leaves it
 after its first import wherever ``PYTHONDONTWRITEBYTECODE`` is unset; ``source``: their
 ``__pycache__`` folders removed, every row compiling our modules (~0.12 CPU s) as a machine
-with that variable set does (this one; the rows before session 10).
+with that variable set does (this one; the rows before session 10). bench_startup.py caches
+bytecode by default too.
 """
 from __future__ import annotations
 
