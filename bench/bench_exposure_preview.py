@@ -45,7 +45,7 @@ def main(argv=None) -> int:
     print(f"{'scene':12s}{'preview':>10s}{'exposure':>10s}{'ratio':>8s}{'mean lum':>10s}{'ratio':>8s}{'cpu s':>8s}")
     for name in a.scenes:
         job = RenderJob.prepare(REPO / "scenes" / f"{name}.ses", Path(tempfile.mkdtemp(prefix="sesgen-preview-")),
-                                RenderOptions(frames="0:1", samples=1, resolution_scale=a.scale))
+                                RenderOptions(frames="0:2", samples=1, resolution_scale=a.scale))
         job.build()
         s = job.session
         bscene, camera = s.built.scene, s.built.cameras["left"]

@@ -4,7 +4,7 @@ costs, measured by switching it off in the same run.
 
     PYTHONPATH=. .venv/bin/python bench/profile_scenes.py [--scenes city_kitti hall office forest paper_room]
         [--quality final] [--samples N] [--scale 0.5] [--frames 2] [--features all|none|NAME ...]
-        [--base REV] [--json FILE] [--asset-cache off|warm] [--cprofile FILE]
+        [--base REV] [--json FILE] [--asset-cache off|warm] [--cprofile FILE] [--bytecode compiled|source]
 
 Each row is one fresh render process (the real job: ``RenderJob.build`` and ``run``, EXRs
 written and sealed) rendering frames 0..N-1 of the scene at ``--scale`` times its own size.
@@ -20,7 +20,7 @@ later renders find it), ``meshes`` (their Blender
 meshes), ``materials`` (node graphs), ``scene`` (the rest of the builder: objects, lights,
 world, cameras), ``exposure`` (the automatic exposure's preview render, Cycles set-up
 included when it pays it), ``metering`` (the sensor auto-exposure's metering pass: a preview of
-each frame up to the render's last), and the Cycles set-up of the render sessions before frame 0's
+each frame before the render's last), and the Cycles set-up of the render sessions before frame 0's
 first sample, split by Cycles' own status: ``sync`` (Blender objects to Cycles), ``shaders``,
 ``bvh`` (meshes, BVH), ``images`` (textures, the sky), ``lights`` (the world's importance
 map, the light tree), ``kernels``; ``total`` = script start to frame 0's first sample.
@@ -54,6 +54,13 @@ calls) in the working tree's baseline row to ``FILE`` with the scene's name befo
 ``--base REV`` renders the baseline row of every scene again with revision REV's code
 (checked out into a temporary git worktree), in the same run: today's figures beside the
 working tree's.
+
+``--bytecode compiled`` (the default): both trees' ``blender_sesgen`` compiled to ``.pyc``
+(``compileall``) before the rows, as a pip install leaves the package and as Python leaves it
+after its first import wherever ``PYTHONDONTWRITEBYTECODE`` is unset; ``source``: their
+``__pycache__`` folders removed, every row compiling our modules (~0.12 CPU s) as a machine
+with that variable set does (this one; the rows before session 10). bench_startup.py caches
+bytecode by default too.
 """
 from __future__ import annotations
 
@@ -382,6 +389,15 @@ def run_child(a, scene: Path, feature: str, code_root: Path, in_process=()) -> d
     return json.loads(line[len("PROFILE "):])
 
 
+def bytecode(package: Path, compiled: bool) -> None:
+    """``package``'s modules compiled to .pyc beside them (``__pycache__``), or those removed."""
+    if compiled:
+        subprocess.run([sys.executable, "-m", "compileall", "-q", str(package)], check=True, capture_output=True)
+    else:
+        for folder in package.rglob("__pycache__"):
+            shutil.rmtree(folder, ignore_errors=True)
+
+
 def print_build(rows: list[tuple[str, dict]]) -> None:
     print("\n# build (CPU s): script start to frame 0's first sample")
     head = "".join(f"{s:>10s}" for s in BUILD_STAGES + tuple("c:" + s for s in CYCLES_STAGES) + ("rest",))
@@ -426,6 +442,8 @@ def main(argv=None) -> int:
                    help="warm: the rows share a fresh asset cache (meshes, the sky's table), filled by a warm-up row")
     p.add_argument("--cprofile", help="FILE: cProfile (CPU clock) of each scene's build in this tree's baseline "
                    "row, written to FILE with the scene's name before its suffix (FILE.office.prof)")
+    p.add_argument("--bytecode", choices=("compiled", "source"), default="compiled",
+                   help="compiled: both trees' modules compiled to .pyc first (an installed package); source: none")
     p.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     p.add_argument("--scene", help=argparse.SUPPRESS)
     p.add_argument("--feature", default="baseline", help=argparse.SUPPRESS)
@@ -448,8 +466,10 @@ def main(argv=None) -> int:
     results = []
     if a.asset_cache == "warm":
         a.cache_folder = tempfile.mkdtemp(prefix="sesgen-profile-cache-")
-    print(f"# asset cache: {a.asset_cache}", flush=True)
+    print(f"# asset cache: {a.asset_cache}; bytecode: {a.bytecode}", flush=True)
     try:
+        for root in (r for r in (worktree, REPO) if r is not None):
+            bytecode(root / "blender_sesgen", a.bytecode == "compiled")
         for name in a.scenes:
             scene = Path(name if name.endswith(".ses") else f"scenes/{name}.ses")
             label = scene.stem

@@ -69,3 +69,25 @@ def test_old_versions_are_pruned(root):
     cache.generate(*CASES[1])
     assert len([p for p in root.iterdir() if p.name.startswith("v-")]) == cache.KEEP_VERSIONS
     assert (root / f"v-{cache.version()}").is_dir()
+
+
+@pytest.mark.parametrize("mode", ["off", "on"])
+def test_a_box_of_a_mesh_made_in_this_process_is_not_generated_again(tmp_path, monkeypatch, mode):
+    """The manifest's object boxes (scene/bounds.py) of the meshes the builder made: their
+    vertices' [min, max], equal to the generator's (the oracle: a mesh generated apart), read
+    from what ``generate`` kept (no second generation; before, every thing asset was made twice)."""
+    from blender_sesgen.scene.bounds import object_box
+    from blender_sesgen.scene.model import Asset
+    monkeypatch.setenv(cache.ENV, "off" if mode == "off" else str(tmp_path / "cache"))
+    case = ("car", (1.8, 1.5, 4.3), 12, (0.0,), 0.0)
+    V = assets.generate(*case).vertices
+    made = []
+    real = assets.generate
+    monkeypatch.setattr(assets, "generate", lambda *a: made.append(a) or real(*a))
+    cache._BOXES.clear()
+    cache.generate(*case)                              # the builder's
+    car = Asset(id=1, name="car", kind="car", size=case[1], seed=case[2], semantic_class="car", position=(0, 0, 0))
+    box = object_box(car)
+    assert len(made) == 1 and box.tolist() == [V.min(axis=0).tolist(), V.max(axis=0).tolist()]
+    cache._BOXES.clear()                               # a mesh this process has not made: generated
+    assert object_box(car).tolist() == box.tolist() and len(made) == 1 + (mode == "off")

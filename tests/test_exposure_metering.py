@@ -32,19 +32,41 @@ def test_metering_takes_frame_0_from_the_exposure_preview(tmp_path, monkeypatch)
     job = RenderJob.prepare(script, tmp_path / "out", RenderOptions(samples=1, frames="0:3"))
     job.build()
     s = job.session
-    metered = s.metering[:3]
-    assert len(s.metering) == job.plan.scene.frames and all(v > 0 for v in metered)
-    # the build rendered the exposure preview of frame 0, then the pass only frames 1 and 2
-    assert renders == [rig.blender_frame(k) for k in (0, 1, 2)]
+    metered = s.metering[:2]
+    assert len(s.metering) == job.plan.scene.frames == 3 and all(v > 0 for v in metered)
+    assert s.metering[2] is None              # the last frame's: no exposure follows it
+    # the build rendered the exposure preview of frame 0, then the pass only frame 1
+    assert renders == [rig.blender_frame(k) for k in (0, 1)]
     bscene, camera = s.built.scene, s.built.cameras["left"]
     render.configure(bscene, EXPOSURE_PREVIEW, persistent=False)   # the pass starts a fresh session
-    again = exposure.meter_frames(bscene, camera, [rig.blender_frame(k) for k in range(3)], s.exposure)
+    again = exposure.meter_frames(bscene, camera, [rig.blender_frame(k) for k in range(2)], s.exposure)
     assert again == metered                      # a pass of every frame: the same numbers
     # the rule before: frame 0's preview rendered at the frames' film exposure
     with exposure._preview_render(bscene, exposure.METERING_WIDTH_PX, exposure.METERING_SAMPLES, s.exposure) as p:
         real(bscene, camera, rig.blender_frame(0), seed=0, filepath=p)
         before = meter(np.stack(exposure._beauty(p), axis=-1))
     assert metered[0] == pytest.approx(before, rel=1e-5) and metered[0] != pytest.approx(metered[1], rel=1e-6)
+
+
+@pytest.mark.parametrize("frames, metered", [("0:2", 1), ("0:1", 0)])
+def test_a_render_of_the_first_frames_renders_no_metering_preview(tmp_path, monkeypatch, frames, metered):
+    """Frame k's exposure follows frames 0..k-1 only: frames 0:2 need frame 0's value, the
+    exposure preview's, and frame 0 alone none; neither renders a metering preview, so the
+    build reaches frame 0 after the exposure preview (issue 29: the build)."""
+    from blender_sesgen.blender import render, rig
+    from blender_sesgen.pipeline import RenderJob, RenderOptions
+    script = tmp_path / "m.ses"
+    script.write_text(oracle_script(width=64, height=48, focal=44.0, principal=(32.1, 23.4), baseline=0,
+                                    extra_lines=["TIMING rate 20 exposure 0.02 blur off", "SENSOR seed 1",
+                                                 "AUTOEXPOSURE", "MOVE id 5 twist 0.04 0 0.02 0 4 0"]))
+    renders = []
+    real = render.render_view
+    monkeypatch.setattr(render, "render_view", lambda *a, **k: renders.append(a[2]) or real(*a, **k))
+    job = RenderJob.prepare(script, tmp_path / "out", RenderOptions(samples=1, frames=frames))
+    job.build()
+    assert renders == [rig.blender_frame(0)]                  # the exposure preview only
+    m = job.session.metering
+    assert len(m) == 3 and all(v > 0 for v in m[:metered]) and all(v is None for v in m[metered:])
 
 
 def test_sigterm_stops_a_render_during_its_metering_pass(tmp_path):

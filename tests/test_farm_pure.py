@@ -365,7 +365,7 @@ def test_lost_chunks_are_retried_until_they_succeed(tmp_path):
 @pytest.mark.parametrize("meters", [True, False])
 def test_a_scene_to_meter_starts_with_one_chunk_and_the_others_read_its_metering(tmp_path, meters):
     """AUTOEXPOSURE's metering pass runs in whichever render finds none in the folder, over
-    frames 0 up to its last: the farm holds a metering scene's other chunks until the last
+    the frames before its last: the farm holds a metering scene's other chunks until the last
     chunk (whose pass covers them all) has written a frame (the metering is then in the
     manifest), so that the pass runs once, not once per chunk."""
     seen_when_run = {}
@@ -392,6 +392,21 @@ def test_a_scene_prepared_for_a_farm_meters_only_with_autoexposure_and_none_stor
         sc = prepare_scene(FarmScene(name=name, script=tmp_path / f"{name}.ses", out=tmp_path / "root" / name),
                            RenderOptions())
         assert sc.error is None and sc.pending == [0, 1, 2] and sc.meters is expected, (name, sc.error)
+
+
+def test_a_folder_metered_by_a_whole_render_needs_no_metering_pass(tmp_path):
+    """A whole render meters every frame but the last (no exposure follows it), so a folder
+    whose ``sensor.metered`` lacks only the last value holds the whole metering (a farm does not
+    hold its chunks for a pass; a resumed chunk meters nothing); a gap before it does not."""
+    from blender_sesgen.render.plan import RenderOptions, RenderPlan
+    from blender_sesgen.render.sensor.outputs import stored_metering
+    script = tmp_path / "auto.ses"
+    script.write_text("CAMERA resolution 16 12 focal 10 baseline 0.1\nCUBOID id 1 position 0 0 -3 dim 1 1 1\n"
+                      "FRAMES 3\nSENSOR profile kitti\nAUTOEXPOSURE\n")
+    sensor = RenderPlan.from_file(script, RenderOptions()).sensor
+    assert stored_metering(sensor, {"frames": 3, "sensor": {"metered": [0.2, 0.3, None]}}) == [0.2, 0.3, None]
+    assert stored_metering(sensor, {"frames": 3, "sensor": {"metered": [0.2, None, None]}}) is None
+    assert stored_metering(sensor, {"frames": 3, "sensor": {"metered": [0.2, None, None]}}, upto=1) == [0.2, None, None]
 
 
 def test_a_chunk_lost_too_often_fails_its_scene_only(tmp_path, capsys):

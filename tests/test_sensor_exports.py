@@ -172,12 +172,13 @@ def _same_frames(render, out, frames):
     """The sensor images of ``frames`` in ``out`` are byte-identical to the one-run render's,
     with the same exposure, gain and metered brightness."""
     m = load_manifest(out)
-    for key in ("exposure_s", "gain", "metered"):
+    for key in ("exposure_s", "gain"):
         assert [m["sensor"][key][k] for k in frames] == [render.manifest["sensor"][key][k] for k in frames], key
-    # metered up to the last frame rendered there (frame k's exposure follows 0..k-1), not after
+    # metered: the frames before the last one rendered there (frame k's exposure follows 0..k-1
+    # only), not from it on (unless another writer of the folder metered further)
     last, full, got = max(frames), render.manifest["sensor"]["metered"], m["sensor"]["metered"]
-    assert got[:last + 1] == full[:last + 1]
-    assert all(v is None or v == f for v, f in zip(got[last + 1:], full[last + 1:]))
+    assert got[:last] == full[:last]
+    assert all(v is None or v == f for v, f in zip(got[last:], full[last:]))
     for kind in ("raw", "rgb"):
         for view in ("left", "right"):
             for k in frames:
@@ -193,7 +194,8 @@ def test_auto_exposure_does_not_depend_on_how_the_frames_are_split(render, tmp_p
     import subprocess
     from render_support import REPO, render_cmd
     script = render.root.parent / "s.ses"
-    assert all(v is not None and v > 0 for v in render.manifest["sensor"]["metered"])
+    whole = render.manifest["sensor"]["metered"]     # the last frame's: no exposure follows it
+    assert all(v is not None and v > 0 for v in whole[:-1]) and whole[-1] is None
     assert "metering pass" in render.manifest["sensor"]["autoexposure"]["metering"]
     resumed = tmp_path / "resumed"
     # split and resumed in this process (the render command's own code); the concurrent chunks below: children

@@ -260,9 +260,10 @@ def test_auto_exposure_answers_a_step_in_brightness_as_documented(tmp_path):
              f"TIMING rate {rate:g} exposure {t_nom} blur off", "SENSOR seed 1",
              f"AUTOEXPOSURE target {target} speed {speed}"] + poses
     out, m = _render(tmp_path, "step", lines)
-    metered = np.array(m["sensor"]["metered"])
+    metered = np.array(m["sensor"]["metered"][:-1])     # the last frame's is not metered (null)
     radiance = np.where(np.arange(n) < step, 1.0, 0.1)
-    assert np.allclose(metered, radiance, rtol=0.01), metered
+    assert np.allclose(metered, radiance[:-1], rtol=0.01), metered
+    assert m["sensor"]["metered"][-1] is None
     E = np.array(m["sensor"]["exposure_s"]) * np.array(m["sensor"]["gain"])
     alpha = 1 - np.exp(-speed / rate)
     logE = [np.log(t_nom)]
@@ -272,10 +273,10 @@ def test_auto_exposure_answers_a_step_in_brightness_as_documented(tmp_path):
     assert E[step] == pytest.approx(E[step - 1] * (target * t_nom / E[step - 1]) ** alpha, rel=0.01)
     assert E[step] < E[step - 1] < E[step + 1]   # frame 5 still answers the bright wall: one frame late
     # frames 6-8 alone and culled (built: what any frame sees, for the metering pass): the same
-    # schedule; the frames after the last rendered one are not metered
+    # schedule; the last rendered frame and those after it are not metered
     _, mc = _render(tmp_path, "step_culled", lines, "--cull", "--frames", "6:9")
-    assert mc["sensor"]["metered"][:9] == m["sensor"]["metered"][:9]
-    assert mc["sensor"]["metered"][9:] == [None] * (n - 9)
+    assert mc["sensor"]["metered"][:8] == m["sensor"]["metered"][:8]
+    assert mc["sensor"]["metered"][8:] == [None] * (n - 8)
     assert mc["sensor"]["exposure_s"][6:9] == m["sensor"]["exposure_s"][6:9]
 
 

@@ -159,8 +159,8 @@ class BlenderSession:
             raise KeyboardInterrupt
 
     def _metering(self, known: Optional[list]) -> Optional[list]:
-        """The sensor auto-exposure's metered brightness of the frames up to this render's last
-        (None without AUTOEXPOSURE; None for the frames after it): ``known`` when the folder
+        """The sensor auto-exposure's metered brightness of the frames before this render's last
+        (None without AUTOEXPOSURE; None from its last frame on): ``known`` when the folder
         holds them, else the metering pass (blender/exposure.py: ``meter_frames``), whose value
         of a frame does not depend on which frames this render has, so chunks and resumed
         renders agree."""
@@ -169,15 +169,19 @@ class BlenderSession:
         if known is not None:
             return [None if v is None else float(v) for v in known]
         t0 = time.perf_counter()
-        render.configure(self.built.scene, EXPOSURE_PREVIEW, **{**self._configure, "persistent": self._preview_session})
-        if self._metering_ids is not None:
-            self._show(self._metering_ids)
-        # frame k's exposure follows frames 0..k-1: meter up to this render's last frame (every
-        # frame of a whole render; a chunk's or --frames A:B's prefix), the rest left unknown
+        # frame k's exposure follows frames 0..k-1: meter the frames before this render's last
+        # (a chunk's or --frames A:B's prefix; no render meters the sequence's last frame), the
+        # rest left unknown; frames 0:2 need frame 0 only: the exposure preview's, no render here
         upto = metered_frames(self.plan.frames, self.plan.scene.frames)
+        first = self._preview_luminance if upto else None
+        if upto > (first is not None):
+            render.configure(self.built.scene, EXPOSURE_PREVIEW,
+                             **{**self._configure, "persistent": self._preview_session})
+            if self._metering_ids is not None:
+                self._show(self._metering_ids)
         frames = [rig.blender_frame(k) for k in range(upto)]
         metered = exposure.meter_frames(self.built.scene, self.built.cameras["left"], frames, self.exposure,
-                                        first=self._preview_luminance, progress=lambda i, n: self._check_stop())
+                                        first=first, progress=lambda i, n: self._check_stop()) if upto else []
         metered = metered + [None] * (self.plan.scene.frames - upto)
         # switching persistence off frees the previews' session: the frames start their own
         render.configure(self.built.scene, EXPOSURE_PREVIEW, **{**self._configure, "persistent": False})

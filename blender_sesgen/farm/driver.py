@@ -11,8 +11,8 @@ tasks, verification of every finished folder, and the summary.
   manifest and checks every frame against its checksum (``verify --quick``); frames still
   missing or bad are rendered again (within the same retry budget).
 - A scene whose auto-exposure still has to be metered (``AUTOEXPOSURE``, no metering in its
-  folder yet) starts with its last chunk alone (a render meters frames 0 up to its last, so
-  the last chunk's pass holds every frame any other chunk needs); the others are held until
+  folder yet) starts with its last chunk alone (a render meters the frames before its last,
+  so the last chunk's pass holds every frame any other chunk needs); the others are held until
   that chunk has written a frame (the metering is then in the manifest, where every other
   chunk reads it) or has ended: the metering pass runs once per scene, not once per chunk.
 - Progress: every render prints ``--progress json`` events; each ``progress`` event (a frame

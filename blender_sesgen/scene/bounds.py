@@ -16,7 +16,7 @@ from typing import Optional
 
 import numpy as np
 
-from . import assets
+from .assets import cache as asset_cache
 from ..contract import semantics
 from ..contract.errors import ContractError
 from ..contract.inputs import read_text
@@ -48,9 +48,8 @@ def object_box(obj: SceneObject, cache: Optional[dict] = None) -> Optional[np.nd
         if label is None or not label.has_instances:
             return None
         key = ("asset", obj.kind, tuple(obj.size), obj.seed, tuple(obj.bend), obj.offset)
-        if key not in cache:
-            V = assets.generate(obj.kind, obj.size, obj.seed, obj.bend, obj.offset).vertices
-            cache[key] = np.stack([V.min(axis=0), V.max(axis=0)])
+        if key not in cache:   # the mesh the builder made (assets.cache keeps its box), else generated
+            cache[key] = asset_cache.box(obj.kind, obj.size, obj.seed, obj.bend, obj.offset)
         return cache[key]
     if isinstance(obj, Mesh) and obj.path.lower().endswith(".obj"):
         key = ("obj", obj.path)

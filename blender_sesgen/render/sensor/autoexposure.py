@@ -2,13 +2,13 @@
 
 The metered brightness of frame j is the mean Rec. 709 luminance m_j of its linear render
 (independent of the exposure: the render is radiance), taken by a **metering pass** before
-any frame renders: a small, deterministic preview of every frame up to the render's last one
+any frame renders: a small, deterministic preview of every frame before the render's last one
 (``METERING_WIDTH_PX`` wide, ``METERING_SAMPLES`` samples, seed 0, no denoiser, no motion
 blur; ``blender/exposure.py: meter_frames``). The values are stored in the manifest
-(``sensor.metered``) and every later writer of the folder reads them, so a frame's exposure
-is the same whether it is rendered alone (``--frames A:B``), in a farm's chunk or after
-``--resume``. The exposure product E = t * g
-(exposure time times analog gain) that would bring the normalised signal
+(``sensor.metered``; the sequence's last frame's stays null: no exposure follows it) and
+every later writer of the folder reads them, so a frame's exposure is the same whether it is
+rendered alone (``--frames A:B``), in a farm's chunk or after ``--resume``. The exposure
+product E = t * g (exposure time times analog gain) that would bring the normalised signal
 ``m * E / (t_nom * saturation)`` to ``target`` is ``E*_j = target * saturation * t_nom / m_j``.
 Frame k uses
 ``log E_k = log E_{k-1} + (1 - exp(-speed / rate)) (log E*_{k-1} - log E_{k-1})``,
@@ -27,7 +27,7 @@ LUMA = np.array([0.2126, 0.7152, 0.0722])
 METERING_WIDTH_PX = 96     # the metering preview's width (its aspect ratio is the render's)
 METERING_SAMPLES = 8
 METERING_RULE = (f"metering pass before the frames: mean linear luminance of a {METERING_WIDTH_PX} px wide, "
-                 f"{METERING_SAMPLES}-sample left-view preview of each frame up to the render's last (seed 0, no denoiser, "
+                 f"{METERING_SAMPLES}-sample left-view preview of each frame before the render's last (seed 0, no denoiser, "
                  "no motion blur; at film exposure 1, times the frames'; frame 0's from the automatic exposure's preview where there is one)")
 
 
@@ -58,10 +58,11 @@ class ExposureControl:
 
 
 def metered_frames(frames, n: int) -> int:
-    """How many leading frames of an ``n``-frame sequence a render of ``frames`` meters: up to
-    its last frame (frame k's exposure follows frames 0..k-1; the last one's value makes a whole
-    render's list complete), so a render of frames 0:2 of a long sequence meters two."""
-    return min(n, max(frames, default=-1) + 1)
+    """How many leading frames of an ``n``-frame sequence a render of ``frames`` meters: those
+    before its last frame (frame k's exposure follows frames 0..k-1 only), so a render of frames
+    0:2 meters frame 0 (the exposure preview's, no pass before frame 0) and no render meters the
+    sequence's last frame (no exposure follows it)."""
+    return max(0, min(n - 1, max(frames, default=0)))
 
 
 def exposure_schedule(metered: list[float], c: ExposureControl) -> list[tuple[float, float]]:

@@ -13,6 +13,7 @@ import numpy as np
 
 from ...errors import SesgenError
 from ...files.png import write_png
+from .autoexposure import metered_frames
 from .render_plan import SENSOR_DIR, SensorPlan
 
 EXR_LAYOUT = "single part holding every pass (beauty of the sensor render, ground truth of the sharp render)"
@@ -25,11 +26,14 @@ PNG_LEVEL = 1
 def stored_metering(plan: SensorPlan, kept: Optional[dict], upto: Optional[int] = None) -> Optional[list]:
     """The metering pass's values in ``kept`` (the folder's manifest, when it may be
     resumed): every frame's metered brightness (None for frames not metered yet), or None
-    when any of the first ``upto`` (default: all) is missing (not stored: meter)."""
+    when any of the first ``upto`` is missing (not stored: meter); default: every frame a
+    whole render meters (``metered_frames``: all but the last)."""
     if plan.autoexposure is None or not kept:
         return None
     metered = (kept.get("sensor") or {}).get("metered") or []
     n = kept.get("frames")
+    if upto is None:
+        upto = metered_frames(range(n or 0), n or 0)
     if len(metered) != n or any(v is None for v in metered[:upto]):
         return None
     return list(metered)

@@ -71,13 +71,36 @@ def generate(kind: str, size, seed: int, bend=(0.0,), offset: float = 0.0) -> Me
     """``blender_sesgen.scene.assets.generate(kind, size, seed, bend, offset)``, through the cache."""
     root = folder()
     if root is None:
-        return _package.generate(kind, size, seed, bend, offset)
-    path = root / f"v-{version()}" / f"{kind}-{_key(kind, size, seed, bend, offset)}.npz"
-    data = _read(path)
-    if data is None:
         data = _package.generate(kind, size, seed, bend, offset)
-        _write(path, data)
+    else:
+        path = root / f"v-{version()}" / f"{kind}-{_key(kind, size, seed, bend, offset)}.npz"
+        data = _read(path)
+        if data is None:
+            data = _package.generate(kind, size, seed, bend, offset)
+            _write(path, data)
+    if len(data.vertices):
+        _BOXES[_box_key(kind, size, seed, bend, offset)] = np.stack([data.vertices.min(axis=0),
+                                                                    data.vertices.max(axis=0)])
     return data
+
+
+# [min, max] of the vertices of every mesh ``generate`` made or read in this process: the
+# manifest's boxes (scene/bounds.py) of the meshes the builder just made, not generated again
+_BOXES: dict = {}
+
+
+def _box_key(kind: str, size, seed: int, bend, offset: float) -> tuple:
+    return kind, tuple(map(float, size)), int(seed), tuple(map(float, np.atleast_1d(bend))), float(offset)
+
+
+def box(kind: str, size, seed: int, bend=(0.0,), offset: float = 0.0) -> np.ndarray:
+    """(2, 3) [min, max] of the vertices of ``generate(kind, size, seed, bend, offset)``'s mesh
+    (asset frame): the mesh this process already made, else ``generate``'s."""
+    found = _BOXES.get(_box_key(kind, size, seed, bend, offset))
+    if found is not None:
+        return found
+    V = generate(kind, size, seed, bend, offset).vertices
+    return np.stack([V.min(axis=0), V.max(axis=0)])
 
 
 def _read(path: Path) -> Optional[MeshData]:
