@@ -3,7 +3,7 @@ camera profile and prints, in one run and at the same image size, the image and 
 figures and three stereo VOs' errors on the render and on the real excerpt, with ratios.
 
     python bench/twin.py [--scene city] [--frames 45] [--scale 0.5] [--quality draft] [--out out/twin]
-                         [--no-render] [--start K]
+                         [--no-render] [--start K] [--resensor] [--draws N]
 
 Scenes: ``city`` = scenes/city_kitti.ses (``SENSOR profile kitti``) beside KITTI sequence_1
 (../shared/data/kitti); ``hall`` = scenes/hall.ses (``SENSOR profile euroc``) beside the EuRoC
@@ -13,6 +13,11 @@ brought to the render's size with area averaging (cv2.INTER_AREA; K scaled like 
 ``--start K`` (hall only) compares frames K..K+N-1 of both: the render's auto-exposure starts
 from the profile's nominal exposure and settles over ~1 s (20 frames at ``speed 3``), where
 the real camera had long been running; the metering pass still meters frames 0..K+N-1.
+``--draws N`` (default 9) develops the rendered EXRs N times through today's camera chain, draw
+d with the sensor's noise seed + d (its fixed pattern and temporal noise), computes every
+figure on each, and prints the render's median, the comparison's range over the draws and
+each target judged on the median: one draw's VO ratios move with the noise (the OpenCV VO's
+Sim(3) ratio 0.77-1.9 over ten draws of one render), and real KITTI is one draw of its own.
 
 Figures (issue 28): power-spectrum slope, KLT forward-backward error (median), pixels at 0
 or 255, SGBM valid share (vo_reference.evaluate.realism); per VO - the OpenCV KLT+SGBM+PnP VO
@@ -35,8 +40,10 @@ SGBM disparity error there and on smooth surfaces, in % of the true disparity.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
+import resource
 import subprocess
 import sys
 import time
@@ -412,11 +419,13 @@ def render(script: Path, out: Path, n: int, scale: float, quality: str, start: i
     return float(np.mean(secs)) if secs else float("nan")
 
 
-def resensor(out: Path, n: int) -> Frames:
-    """Frames 0..n-1 of the render in ``out`` through today's camera chain again (its EXRs, the
-    scene.ses of the folder parsed with today's profiles, each frame's exposure and gain from
-    today's auto-exposure on the recorded metering): the chain runs after Cycles, so a changed
-    profile needs no new render."""
+def resensor(out: Path, n: int, start: int = 0, draw: int = 0) -> Frames:
+    """Frames start..start+n-1 of the render in ``out`` through today's camera chain again (its
+    EXRs, the scene.ses of the folder parsed with today's profiles, each frame's exposure and
+    gain from today's auto-exposure on the recorded metering): the chain runs after Cycles, so a
+    changed profile needs no new render. ``draw`` d develops them with the sensor's noise seed
+    + d (``--draws``): another draw of the same camera's fixed-pattern and temporal noise; draw 0
+    is the rendered sensor images while the chain is unchanged."""
     from blender_sesgen.render.plan import RenderOptions, EffectiveSettings
     from blender_sesgen.render.sensor import pipeline
     from blender_sesgen.render.sensor.outputs import state_relpath
@@ -427,54 +436,110 @@ def resensor(out: Path, n: int) -> Frames:
     scene = parse_text((out / "scene.ses").read_text(), str(out / "scene.ses"), str(out))
     scale = json.loads((out / "manifest.json").read_text())["render"]["resolution_scale"]
     plan = SensorPlan.create(scene, EffectiveSettings.of(scene, RenderOptions(resolution_scale=scale)))
-    camera = pipeline.Camera(plan.sensor, plan.lens_spec, plan.pixel_rays(), plan.K[0, 2], plan.K[1, 2],
+    sensor = dataclasses.replace(plan.sensor, seed=plan.sensor.seed + draw)
+    camera = pipeline.Camera(sensor, plan.lens_spec, plan.pixel_rays(), plan.K[0, 2], plan.K[1, 2],
                              plan.nominal_exposure_s())
     # each frame's exposure from today's schedule on the brightness the render metered (a changed
     # auto-exposure target needs no new render; the EXRs' motion blur keeps the rendered length)
-    states = [json.loads((out / state_relpath(k)).read_text()) for k in range(n)]
+    states = [json.loads((out / state_relpath(k)).read_text()) for k in range(start + n)]
     schedule = plan.exposures([st["metered"] for st in states[:-1]]) if plan.autoexposure is not None else \
         [(st["exposure_s"], st["gain"]) for st in states]
     imgs, fpn = {"left": [], "right": []}, {}
-    for k in range(n):
+    for k in range(start, start + n):
         for vi, view in enumerate(("left", "right")):
             f = pipeline.process(seq.rgb_linear(k, view), camera, pipeline.Shot(*schedule[k], k, vi), fpn_cache=fpn)
             imgs[view].append(rgb8_to_gray8(f.rgb8))
-    return Frames(imgs["left"], imgs["right"], seq.K, seq.baseline_m, seq.T_world_cam("left"), seq.timestamps_s)
+    T = seq.T_world_cam("left")
+    return Frames(imgs["left"], imgs["right"], seq.K, seq.baseline_m, None if T is None else T[start:],
+                  np.asarray(seq.timestamps_s)[start:])
 
 
 # --- the table ------------------------------------------------------------------------------
+
+# --draws' default: a draw of 45 city frames costs ~10 CPU s (develop 3.3, image figures 1.7, VOs 5.4;
+# docs/sensors.md), 9 of them ~8 % of a 45-frame render's ~1100 CPU s; an odd count has one median draw
+DEFAULT_DRAWS = 9
+
+
+def _cpu_s() -> float:
+    """This process's user + system CPU seconds (the draws run in it; the render is a child)."""
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def _sensor_seed(out: Path) -> int:
+    """The noise seed of the render's sensor (draw 0's; draw d adds d)."""
+    from blender_sesgen.ses.parser import parse_text
+    scene = parse_text((out / "scene.ses").read_text(), str(out / "scene.ses"), str(out))
+    return int(scene.sensor.seed) if scene.sensor is not None else 0
+
 
 def _ratio(a, b):
     return a / b if np.isfinite(a) and np.isfinite(b) and b != 0 else float("nan")
 
 
-def table(real_name: str, real: Frames, ours: Frames, n: int, with_vo: bool) -> list[str]:
-    rs, os_ = sequence_stats(real._img["left"], real._img["right"]), sequence_stats(ours._img["left"],
-                                                                                    ours._img["right"])
-    rows = [f"| figure ({n} frames, {ours.resolution[0]}x{ours.resolution[1]}) | {real_name} | render | "
-            "render / real | target |", "|---|---|---|---|---|"]
-    ok = lambda c: "met" if c else "missed"  # noqa: E731
-    rows.append(f"| power-spectrum slope | {rs.slope:.2f} | {os_.slope:.2f} | {os_.slope - rs.slope:+.2f} | "
-                f"within 0.2: {ok(abs(os_.slope - rs.slope) <= 0.2)} |")
-    r = _ratio(os_.klt_fb_median, rs.klt_fb_median)
-    rows.append(f"| KLT forward-backward error (px) | {rs.klt_fb_median:.3f} | {os_.klt_fb_median:.3f} | {r:.2f} | "
-                f"within 25 %: {ok(abs(r - 1) <= 0.25)} |")
-    rows.append(f"| pixels at 0 or 255 | {100 * rs.clipped:.1f} % | {100 * os_.clipped:.1f} % | "
-                f"{100 * (os_.clipped - rs.clipped):+.1f} pt | within 2 pt: {ok(abs(os_.clipped - rs.clipped) <= 0.02)} |")
-    r = _ratio(os_.sgbm_valid, rs.sgbm_valid)
-    rows.append(f"| SGBM valid share | {rs.sgbm_valid:.2f} | {os_.sgbm_valid:.2f} | {r:.2f} | "
-                f"within 25 %: {ok(abs(r - 1) <= 0.25)} |")
-    rows.append(f"| Shi-Tomasi corners | {rs.corners:.0f} | {os_.corners:.0f} | {_ratio(os_.corners, rs.corners):.2f} | |")
+VO_FIGURES = (("t_rpe_pct", "translation RPE (median, % of step)", "0.67-1.5"),
+              ("r_rpe_deg", "rotation RPE (median, deg/step)", "compare VO against VO"),
+              ("drift_pct", "end-point drift (% of path)", ""),
+              ("sim3_pct", "Sim(3) position RMSE (% of path)", "0.67-1.5"))
+
+
+def figures(frames: Frames, n: int, with_vo: bool) -> dict[str, float]:
+    """The table's figures of one sequence (one draw of the render, or the real excerpt)."""
+    st = sequence_stats(frames._img["left"], frames._img["right"])
+    out = {"slope": st.slope, "klt": st.klt_fb_median, "clipped": st.clipped, "sgbm": st.sgbm_valid,
+           "corners": st.corners}
     if with_vo:
         for vo in VOS:
-            er, eo = vo_errors(real, vo, n), vo_errors(ours, vo, n)
-            for key, label, target in (("t_rpe_pct", "translation RPE (median, % of step)", True),
-                                       ("r_rpe_deg", "rotation RPE (median, deg/step)", "compare VO against VO"),
-                                       ("drift_pct", "end-point drift (% of path)", ""),
-                                       ("sim3_pct", "Sim(3) position RMSE (% of path)", True)):
-                r = _ratio(eo[key], er[key])
-                rows.append(f"| {vo}: {label} | {er[key]:.3f} | {eo[key]:.3f} | {r:.2f} | "
-                            + (f"0.67-1.5: {ok(0.67 <= r <= 1.5)} |" if target is True else f"{target} |"))
+            out.update({f"{vo}/{k}": v for k, v in vo_errors(frames, vo, n).items()})
+    return out
+
+
+def _rows_spec(with_vo: bool) -> list[tuple]:
+    """(key, label, value format, comparison 'diff'|'pt'|'ratio', its format, target or '' ,
+    the target's test on the comparison)."""
+    spec = [("slope", "power-spectrum slope", "{:.2f}", "diff", "{:+.2f}", "within 0.2", lambda c: abs(c) <= 0.2),
+            ("klt", "KLT forward-backward error (px)", "{:.3f}", "ratio", "{:.2f}", "within 25 %",
+             lambda c: abs(c - 1) <= 0.25),
+            ("clipped", "pixels at 0 or 255", "pct", "pt", "{:+.1f} pt", "within 2 pt", lambda c: abs(c) <= 2.0),
+            ("sgbm", "SGBM valid share", "{:.2f}", "ratio", "{:.2f}", "within 25 %", lambda c: abs(c - 1) <= 0.25),
+            ("corners", "Shi-Tomasi corners", "{:.0f}", "ratio", "{:.2f}", "", None)]
+    if with_vo:
+        for vo in VOS:
+            for key, label, target in VO_FIGURES:
+                spec.append((f"{vo}/{key}", f"{vo}: {label}", "{:.3f}", "ratio", "{:.2f}", target,
+                             (lambda c: 0.67 <= c <= 1.5) if target == "0.67-1.5" else None))
+    return spec
+
+
+def _compare(kind: str, ours: float, real: float) -> float:
+    if kind == "diff":
+        return ours - real
+    if kind == "pt":
+        return 100 * (ours - real)
+    return _ratio(ours, real)
+
+
+def table(real_name: str, real: dict, draws: list[dict], size: tuple[int, int], n: int) -> list[str]:
+    """The markdown table: per figure the real value, the render's median over the draws
+    (``figures`` of each), the comparison of the median draw and, for several draws, the
+    comparison's range over them; each target judged on the median comparison (real is one
+    draw of its own camera's noise, the render's spread is the draws')."""
+    many = len(draws) > 1
+    rows = [f"| figure ({n} frames, {size[0]}x{size[1]}) | {real_name} | render"
+            + (f" (median of {len(draws)} draws)" if many else "") + " | render / real | "
+            + ("range over the draws | " if many else "") + "target |",
+            "|---|---|---|---|---|" + ("---|" if many else "")]
+    ok = lambda c: "met" if c else "missed"  # noqa: E731
+    for key, label, fmt, kind, cfmt, target, test in _rows_spec("orb/t_rpe_pct" in real):
+        vals = np.array([d[key] for d in draws], float)
+        comps = np.array([_compare(kind, v, real[key]) for v in vals], float)
+        comp = float(np.median(comps)) if np.isfinite(comps).all() else float("nan")
+        show = (lambda v: f"{100 * v:.1f} %") if fmt == "pct" else fmt.format
+        cell = f"{target}: {ok(test(comp))}" if test is not None else target
+        rng = f" {cfmt.format(np.nanmin(comps))} to {cfmt.format(np.nanmax(comps))} |" if many else ""
+        rows.append(f"| {label} | {show(real[key])} | {show(float(np.median(vals)))} | {cfmt.format(comp)} |{rng}"
+                    f" {cell} |".replace("|  |", "| |"))
     return rows
 
 
@@ -489,13 +554,19 @@ def main(argv=None) -> int:
     ap.add_argument("--start", type=int, default=0, help="compare frames K.. of both (hall; default 0)")
     ap.add_argument("--resensor", action="store_true",
                     help="run today's camera chain again on the rendered EXRs (after a profile changed)")
+    ap.add_argument("--draws", type=int, default=DEFAULT_DRAWS,
+                    help=f"develop the EXRs with N sensor-noise seeds (today's chain, as --resensor) and judge "
+                         f"the median over them (default {DEFAULT_DRAWS}; 1: the rendered images alone)")
     a = ap.parse_args(argv)
     if not DATA.is_dir():
         print(f"real data not found at {DATA} (set SESGEN_SHARED_DATA)", file=sys.stderr)
         return 2
     script, profile = SCENES[a.scene]
-    if a.start < 0 or (a.start and (profile != "euroc" or a.resensor)):
-        print("--start: 0 or more, for --scene hall only, without --resensor", file=sys.stderr)
+    if a.start < 0 or (a.start and profile != "euroc"):
+        print("--start: 0 or more, for --scene hall only", file=sys.stderr)
+        return 2
+    if a.draws < 1:
+        print(f"--draws: 1 or more, got {a.draws}", file=sys.stderr)
         return 2
     out = REPO / a.out / a.scene
     t0 = time.perf_counter()
@@ -508,7 +579,6 @@ def main(argv=None) -> int:
     if n < 3:
         print(f"{out}: only {n} frame(s) rendered completely; render more (without --no-render)", file=sys.stderr)
         return 2
-    ours = resensor(out, n) if a.resensor else resized(seq, n, tuple(seq.resolution), a.start)
     if profile == "kitti":
         real_seq = open_sequence(DATA / "kitti" / "sequence_1")
         n = min(n, real_seq.num_frames)
@@ -517,11 +587,27 @@ def main(argv=None) -> int:
     else:
         real, name = euroc_rectified(n, tuple(seq.resolution), a.start), "real EuRoC V1_01"
         n = min(n, real.num_frames)
-    ours = Frames(ours._img["left"][:n], ours._img["right"][:n], ours.K, ours.baseline_m, ours.T_world_cam(),
-                  ours.timestamps_s)
+    with_vo = profile == "kitti"
+    draw_figs, cpu_s = [], []
+    for d in range(a.draws):
+        c0 = _cpu_s()
+        frames = (resensor(out, n, a.start, d) if a.resensor or a.draws > 1
+                  else resized(seq, n, tuple(seq.resolution), a.start))
+        draw_figs.append(figures(frames, n, with_vo))
+        cpu_s.append(_cpu_s() - c0)
+        if d == 0:
+            ours = frames     # the cause lines below: draw 0
+    seed0 = _sensor_seed(out)
     print(f"\n### {script} + SENSOR profile {profile} (--resolution-scale {a.scale:g}, --quality {a.quality}) "
           f"vs {name}" + (f", frames {a.start}-{a.start + n - 1} of both" if a.start else "") + "\n")
-    print("\n".join(table(name, real, ours, n, with_vo=profile == "kitti")))
+    print("\n".join(table(name, figures(real, n, with_vo), draw_figs, tuple(seq.resolution), n)))
+    if a.draws > 1:
+        print(f"\nrender: the same EXRs developed {a.draws} times through the camera chain, sensor noise seeds "
+              f"{seed0}..{seed0 + a.draws - 1} (fixed pattern and temporal noise); each target is judged on the "
+              f"median draw's figure. {name} is one draw of its own camera's noise: its figures would move as much, "
+              f"which one excerpt cannot show. Lines below: draw 0.")
+    print(f"sensor-noise draws: {a.draws}, {np.mean(cpu_s):.1f} CPU s each (develop + figures"
+          + (" + three VOs" if with_vo else "") + f", {n} frames)")
     print(f"\nbrightness spread (median / mean of the linear signal): {name} {brightness_spread(real, profile, n):.2f}, "
           f"render {brightness_spread(ours, profile, n):.2f}")
     print(f"headroom (full scale over the frame mean of the linear signal, median): {name} "
