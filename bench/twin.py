@@ -54,7 +54,7 @@ import numpy as np
 
 from blender_sesgen.contract.camera import backproject, scaled_K
 from blender_sesgen.contract.depth import depth_from_disparity
-from blender_sesgen.contract.se3 import invert, se3
+from blender_sesgen.contract.se3 import invert, rotation_angle_rad, se3
 from vo_reference.io.base import Sequence
 from vo_reference.io.sequence import open_sequence
 from vo_reference.io.trajectory import Trajectory
@@ -121,9 +121,10 @@ def euroc_rectified(n: int, size, start: int = 0) -> Frames:
 
 # --- an ORB-matching stereo VO --------------------------------------------------------------
 
-def orb_steps(seq: Frames, n: int) -> list[np.ndarray]:
+def orb_steps(seq: Frames, n: int, inliers: list | None = None) -> list[np.ndarray]:
     """T_k_k1 per step: ORB (2000) matched k -> k+1 (Hamming, cross-check), SGBM depth at k,
-    solvePnPRansac + LM refinement; a failed step keeps the previous motion."""
+    solvePnPRansac + LM refinement; a failed step keeps the previous motion. ``inliers``: a list
+    that gets each step's (inlier count, their median depth in m; 0 and nan when it failed)."""
     orb = cv2.ORB_create(2000)
     bf = cv2.BFMatcher(cv2.NORM_HAMMING, crossCheck=True)
     K, steps = seq.K, []
@@ -131,7 +132,7 @@ def orb_steps(seq: Frames, n: int) -> list[np.ndarray]:
         a, b = seq.image_gray(k), seq.image_gray(k + 1)
         ka, da = orb.detectAndCompute(a, None)
         kb, db = orb.detectAndCompute(b, None)
-        T = steps[-1] if steps else np.eye(4)
+        T, used = (steps[-1] if steps else np.eye(4)), (0, float("nan"))
         if da is not None and db is not None:
             m = bf.match(da, db)
             p0 = np.array([ka[x.queryIdx].pt for x in m]).reshape(-1, 2)
@@ -147,13 +148,16 @@ def orb_steps(seq: Frames, n: int) -> list[np.ndarray]:
                     inl = inl.ravel()
                     rvec, tvec = cv2.solvePnPRefineLM(P[inl], p1[ok][inl], K, None, rvec, tvec)
                     T = invert(se3(cv2.Rodrigues(rvec)[0], tvec.ravel()))
+                    used = (len(inl), float(np.median(P[inl, 2])))
         steps.append(T)
+        if inliers is not None:
+            inliers.append(used)
     return steps
 
 
-def vo_steps(seq: Frames, method: str, n: int) -> list[np.ndarray]:
+def vo_steps(seq: Frames, method: str, n: int, inliers: list | None = None) -> list[np.ndarray]:
     if method == "orb":
-        return orb_steps(seq, n)
+        return orb_steps(seq, n, inliers)
     res = run_stereo_vo(seq, method, frames=range(0, n))
     return [np.asarray(T) for T in _steps_of(res.trajectory.T_world_cam)]
 
@@ -162,23 +166,51 @@ def _steps_of(poses) -> list[np.ndarray]:
     return [invert(poses[k]) @ poses[k + 1] for k in range(len(poses) - 1)]
 
 
+BAD_STEP_PCT = 10.0     # a step whose translation error exceeds this share of the true step: a broken step
+
+
 def vo_errors(seq: Frames, method: str, n: int) -> dict:
     """Translation RPE (% of the true step), rotation RPE (deg/step), end-point drift and
-    Sim(3) RMSE (% of the path) of one VO against the sequence's ground truth."""
+    Sim(3) RMSE (% of the path) of one VO against the sequence's ground truth; and the
+    causes' figures: the steps whose translation error exceeds ``BAD_STEP_PCT`` and, for the
+    ORB VO, its inliers' count and median depth (median over the steps)."""
     T_gt = seq.T_world_cam("left")[:n]
-    est_steps = vo_steps(seq, method, n)
+    used = []
+    est_steps = vo_steps(seq, method, n, used)
     poses = [T_gt[0]]
     for T in est_steps:
         poses.append(poses[-1] @ T)
-    t_rpe, r_rpe = [], []
-    for Tg, Te in zip(_steps_of(T_gt), est_steps):
-        E = invert(Tg) @ Te
-        t_rpe.append(100 * np.linalg.norm(E[:3, 3]) / max(np.linalg.norm(Tg[:3, 3]), 1e-9))
-        r_rpe.append(np.degrees(np.arccos(np.clip((np.trace(E[:3, :3]) - 1) / 2, -1, 1))))
+    t_rpe, r_rpe = step_errors(T_gt, est_steps)
     ts = np.asarray(seq.timestamps_s, float)[:n]
     shape = shape_errors(Trajectory(np.asarray(T_gt), ts), Trajectory(np.asarray(poses), ts))
-    return {"t_rpe_pct": float(np.median(t_rpe)), "r_rpe_deg": float(np.median(r_rpe)),
-            "drift_pct": shape["end_point_drift_pct"], "sim3_pct": shape.get("sim3_position_rmse_pct", np.nan)}
+    out = {"t_rpe_pct": float(np.median(t_rpe)), "r_rpe_deg": float(np.median(r_rpe)),
+           "drift_pct": shape["end_point_drift_pct"], "sim3_pct": shape.get("sim3_position_rmse_pct", np.nan),
+           "bad_steps": int(np.sum(np.asarray(t_rpe) > BAD_STEP_PCT))}
+    if used:
+        count, depth = np.array(used, float).T
+        out.update(inliers=float(np.median(count)), inlier_depth_m=float(np.nanmedian(depth)))
+    return out
+
+
+def step_errors(T_gt, est_steps) -> tuple[np.ndarray, np.ndarray]:
+    """Per step: translation error (% of the true step) and rotation error (deg) of the
+    estimated steps T_k_k1 against the ground-truth poses T_world_cam."""
+    t, r = [], []
+    for Tg, Te in zip(_steps_of(np.asarray(T_gt)), est_steps):
+        E = invert(Tg) @ Te
+        t.append(100 * np.linalg.norm(E[:3, 3]) / max(np.linalg.norm(Tg[:3, 3]), 1e-9))
+        # the angle through the quaternion: the arccos of the trace reads KITTI's 7-digit poses.txt
+        # (|R R^T - I| up to 1.5e-7) as up to ~0.03 deg of rotation
+        r.append(float(np.degrees(rotation_angle_rad(E[:3, :3]))))
+    return np.array(t), np.array(r)
+
+
+def rotation_change_deg(T_world_cam: np.ndarray, n: int) -> np.ndarray:
+    """The rig's rotation change between consecutive steps (deg; n - 2 values): the angle of
+    R(k, k+1) R(k-1, k)^T, what a constant-velocity prediction of step k misses."""
+    T = np.asarray(T_world_cam)[:n]
+    R = [(invert(T[k]) @ T[k + 1])[:3, :3] for k in range(len(T) - 1)]
+    return np.degrees([rotation_angle_rad(R[k] @ R[k - 1].T) for k in range(1, len(R))])
 
 
 # --- causes -------------------------------------------------------------------------------------
@@ -371,6 +403,26 @@ def corners_on_sgbm_edges(frames: Frames, n: int) -> dict:
         if close.any():
             near.append(np.mean(edge[y, x][close]))
     return {"edge_share": float(np.mean(share)), "near_edge_share": float(np.mean(near)) if near else float("nan")}
+
+
+def vo_cause_lines(name: str, real: Frames, ours: Frames, real_figs: dict, draw_figs: list[dict], n: int) -> list[str]:
+    """What the VOs' errors come from (docs/sensors.md, "Camera twins"): broken steps per VO, the
+    ORB VO's inliers (a PnP's translation error on points at depth Z, measured to a fixed pixel
+    precision, grows as Z / sqrt(points)) and the rig's rotation change between steps (what the
+    accurate VO's constant-velocity prediction, which picks the camera's motion from two rigid
+    motions, misses)."""
+    med = lambda key: float(np.median([d[key] for d in draw_figs]))  # noqa: E731
+    bad = ", ".join(f"{vo} {real_figs[f'{vo}/bad_steps']} / {med(f'{vo}/bad_steps'):.0f} "
+                    f"(max {max(d[f'{vo}/bad_steps'] for d in draw_figs)})" for vo in VOS)
+    zr, nr, zo, no = real_figs["orb/inlier_depth_m"], real_figs["orb/inliers"], med("orb/inlier_depth_m"), med("orb/inliers")
+    cr, co = rotation_change_deg(real.T_world_cam(), n), rotation_change_deg(ours.T_world_cam(), n)
+    return [f"steps with translation error > {BAD_STEP_PCT:.0f} % of the step, {name} / render (median over the draws): "
+            + bad,
+            f"ORB VO's inliers (median over the steps; SGBM depth): {name} {nr:.0f} at {zr:.1f} m, render {no:.0f} at "
+            f"{zo:.1f} m; depth / sqrt(inliers) render / real {_ratio(zo / np.sqrt(no), zr / np.sqrt(nr)):.2f}",
+            f"rig rotation change between consecutive steps (ground truth; what a constant-velocity prediction misses): "
+            f"{name} median {np.median(cr):.3f} deg (p90 {np.percentile(cr, 90):.3f}), render median {np.median(co):.3f} "
+            f"deg (p90 {np.percentile(co, 90):.3f})"]
 
 
 # --- the render -----------------------------------------------------------------------------
@@ -600,7 +652,8 @@ def main(argv=None) -> int:
     seed0 = _sensor_seed(out)
     print(f"\n### {script} + SENSOR profile {profile} (--resolution-scale {a.scale:g}, --quality {a.quality}) "
           f"vs {name}" + (f", frames {a.start}-{a.start + n - 1} of both" if a.start else "") + "\n")
-    print("\n".join(table(name, figures(real, n, with_vo), draw_figs, tuple(seq.resolution), n)))
+    real_figs = figures(real, n, with_vo)
+    print("\n".join(table(name, real_figs, draw_figs, tuple(seq.resolution), n)))
     if a.draws > 1:
         print(f"\nrender: the same EXRs developed {a.draws} times through the camera chain, sensor noise seeds "
               f"{seed0}..{seed0 + a.draws - 1} (fixed pattern and temporal noise); each target is judged on the "
@@ -608,6 +661,9 @@ def main(argv=None) -> int:
               f"which one excerpt cannot show. Lines below: draw 0.")
     print(f"sensor-noise draws: {a.draws}, {np.mean(cpu_s):.1f} CPU s each (develop + figures"
           + (" + three VOs" if with_vo else "") + f", {n} frames)")
+    if with_vo:
+        for line in vo_cause_lines(name, real, ours, real_figs, draw_figs, n):
+            print(line)
     print(f"\nbrightness spread (median / mean of the linear signal): {name} {brightness_spread(real, profile, n):.2f}, "
           f"render {brightness_spread(ours, profile, n):.2f}")
     print(f"headroom (full scale over the frame mean of the linear signal, median): {name} "

@@ -94,3 +94,37 @@ def test_one_draw_prints_the_single_run_table():
 def test_bad_draws_exit_2(shared_data, capsys):
     assert twin.main(["--draws", "0", "--no-render"]) == 2
     assert "--draws" in capsys.readouterr().err
+
+
+def _rig(pitch_deg_per_step, step_m: float = 1.2) -> np.ndarray:
+    """T_world_cam of a rig driving along its z, pitching by the given angle each step."""
+    from blender_sesgen.contract.se3 import se3
+    import cv2
+    T = [np.eye(4)]
+    for a in pitch_deg_per_step:
+        T.append(T[-1] @ se3(cv2.Rodrigues(np.array([np.radians(a), 0.0, 0.0]))[0], np.array([0.0, 0.0, step_m])))
+    return np.array(T)
+
+
+def _kitti_digits(T: np.ndarray) -> np.ndarray:
+    """Poses as KITTI's poses.txt holds them: 7 significant digits (its rotations are off
+    orthonormal by up to 1.5e-7)."""
+    return np.vectorize(lambda x: float(f"{x:.6e}"))(T)
+
+
+def test_rotation_change_is_what_constant_velocity_misses():
+    assert np.allclose(twin.rotation_change_deg(_rig([0.3] * 6), 7), 0.0, atol=1e-9)     # a steady turn: none
+    assert np.allclose(twin.rotation_change_deg(_rig([0.2, -0.2] * 3), 7), 0.4)         # a sway: twice its step
+    # KITTI's 7-digit poses of a steady turn: ~0, where the trace's arccos reads ~0.02 deg
+    assert twin.rotation_change_deg(_kitti_digits(_rig([0.04] * 20)), 21).max() < 2e-3
+
+
+def test_step_errors_on_exact_and_broken_steps():
+    T = _kitti_digits(_rig([0.1, -0.05, 0.02, 0.0, 0.1]))
+    steps = [np.linalg.inv(T[k]) @ T[k + 1] for k in range(5)]
+    t, r = twin.step_errors(T, steps)
+    assert t.max() < 1e-3 and r.max() < 2e-3                   # the ground truth itself: no error
+    steps[2] = steps[2].copy()
+    steps[2][:3, 3] *= 1.12                                    # one step 12 % long
+    t, r = twin.step_errors(T, steps)
+    assert np.isclose(t[2], 12.0, atol=1e-3) and np.sum(t > twin.BAD_STEP_PCT) == 1
