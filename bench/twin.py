@@ -414,15 +414,16 @@ def vo_cause_lines(name: str, real: Frames, ours: Frames, real_figs: dict, draw_
     med = lambda key: float(np.median([d[key] for d in draw_figs]))  # noqa: E731
     bad = ", ".join(f"{vo} {real_figs[f'{vo}/bad_steps']} / {med(f'{vo}/bad_steps'):.0f} "
                     f"(max {max(d[f'{vo}/bad_steps'] for d in draw_figs)})" for vo in VOS)
-    zr, nr, zo, no = real_figs["orb/inlier_depth_m"], real_figs["orb/inliers"], med("orb/inlier_depth_m"), med("orb/inliers")
+    zr, nr = real_figs["orb/inlier_depth_m"], real_figs["orb/inliers"]
+    zo, no = med("orb/inlier_depth_m"), med("orb/inliers")
     cr, co = rotation_change_deg(real.T_world_cam(), n), rotation_change_deg(ours.T_world_cam(), n)
-    return [f"steps with translation error > {BAD_STEP_PCT:.0f} % of the step, {name} / render (median over the draws): "
-            + bad,
+    return [f"steps with translation error > {BAD_STEP_PCT:.0f} % of the step, {name} / render (median over the "
+            "draws): " + bad,
             f"ORB VO's inliers (median over the steps; SGBM depth): {name} {nr:.0f} at {zr:.1f} m, render {no:.0f} at "
             f"{zo:.1f} m; depth / sqrt(inliers) render / real {_ratio(zo / np.sqrt(no), zr / np.sqrt(nr)):.2f}",
-            f"rig rotation change between consecutive steps (ground truth; what a constant-velocity prediction misses): "
-            f"{name} median {np.median(cr):.3f} deg (p90 {np.percentile(cr, 90):.3f}), render median {np.median(co):.3f} "
-            f"deg (p90 {np.percentile(co, 90):.3f})"]
+            "rig rotation change between consecutive steps (ground truth; what a constant-velocity prediction misses): "
+            f"{name} median {np.median(cr):.3f} deg (p90 {np.percentile(cr, 90):.3f}), render median "
+            f"{np.median(co):.3f} deg (p90 {np.percentile(co, 90):.3f})"]
 
 
 # --- the render -----------------------------------------------------------------------------
