@@ -494,9 +494,16 @@ def resensor(out: Path, n: int, start: int = 0, draw: int = 0) -> Frames:
                              plan.nominal_exposure_s())
     # each frame's exposure from today's schedule on the brightness the render metered (a changed
     # auto-exposure target needs no new render; the EXRs' motion blur keeps the rendered length)
-    states = [json.loads((out / state_relpath(k)).read_text()) for k in range(start + n)]
-    schedule = plan.exposures([st["metered"] for st in states[:-1]]) if plan.autoexposure is not None else \
-        [(st["exposure_s"], st["gain"]) for st in states]
+    state = lambda k: json.loads((out / state_relpath(k)).read_text())  # noqa: E731
+    if plan.autoexposure is not None:
+        # the metering pass's brightness of every frame (the manifest; a render of frames K.. holds
+        # no state before K), else the frames' own states
+        metered = (json.loads((out / "manifest.json").read_text()).get("sensor") or {}).get("metered") or []
+        if len(metered) < start + n or any(v is None for v in metered[:start + n - 1]):
+            metered = [state(k)["metered"] for k in range(start + n)]
+        schedule = plan.exposures(list(metered[:start + n - 1]))
+    else:
+        schedule = [None] * start + [(st["exposure_s"], st["gain"]) for st in map(state, range(start, start + n))]
     imgs, fpn = {"left": [], "right": []}, {}
     for k in range(start, start + n):
         for vi, view in enumerate(("left", "right")):

@@ -19,26 +19,34 @@ twin = pytest.importorskip("twin")
 N = 4
 
 
-def _folder(root: Path, sensor_line: str) -> Path:
+METERED = [0.2, 0.35, 0.15, 0.3]     # brightness per frame: the auto-exposure moves between frames
+
+
+def _folder(root: Path, sensor_line: str, first: int = 0) -> Path:
     """The layout render (tests/layout_scene.py, no Blender) with what a twin render adds: the
-    script with a camera profile and AUTOEXPOSURE, the render's scale and each frame's state."""
+    script with a camera profile and AUTOEXPOSURE, the render's scale and the state of each
+    frame from ``first`` on (a render of frames K.. holds none before K; its manifest holds the
+    metering pass's brightness of every frame)."""
     root = write_layout_render(root, n=N)
     (root / "scene.ses").write_text(f"CAMERA resolution {W} {H} focal {F} baseline {B}\nSTART position 0 0 0\n"
                                     f"CUBOID id 1 position 0 0 -5 dim 1 1 1\n{sensor_line}\nAUTOEXPOSURE\n")
     m = json.loads((root / "manifest.json").read_text())
     m["render"]["resolution_scale"] = 1.0
+    if first:
+        m["sensor"] = {"metered": METERED}
     write_manifest_dict(root, m)
-    for k in range(N):
+    for k in range(first, N):
         (root / "sensor" / "state").mkdir(parents=True, exist_ok=True)
         (root / "sensor" / "state" / f"{k:06d}.json").write_text(
-            json.dumps({"exposure_s": 0.002, "gain": 1.0, "metered": 0.2 + 0.02 * k}))
+            json.dumps({"exposure_s": 0.002, "gain": 1.0, "metered": METERED[k]}))
     return root
 
 
 @pytest.fixture(scope="module")
 def folders(tmp_path_factory):
     base = tmp_path_factory.mktemp("twin")
-    return _folder(base / "seed0", "SENSOR profile kitti"), _folder(base / "seed1", "SENSOR profile kitti seed 1")
+    return (_folder(base / "seed0", "SENSOR profile kitti"), _folder(base / "seed1", "SENSOR profile kitti seed 1"),
+            _folder(base / "from2", "SENSOR profile kitti", first=2))
 
 
 def _imgs(fr):
@@ -46,7 +54,7 @@ def _imgs(fr):
 
 
 def test_draws_are_reproducible_and_are_the_scripts_seeds(folders):
-    seed0, seed1 = folders
+    seed0, seed1, _ = folders
     d0, d1 = twin.resensor(seed0, N, draw=0), twin.resensor(seed0, N, draw=1)
     assert np.array_equal(_imgs(d0), _imgs(twin.resensor(seed0, N, draw=0)))       # reproducible
     assert np.mean(_imgs(d0) != _imgs(d1)) > 0.05     # another noise draw (48 px: the sensor binned ~25x)
@@ -61,6 +69,9 @@ def test_start_develops_the_frames_of_the_whole_run(folders):
     assert np.array_equal(_imgs(part), np.stack(whole._img["left"][2:] + whole._img["right"][2:]))
     assert np.allclose(part.T_world_cam(), whole.T_world_cam()[2:])
     assert np.allclose(part.timestamps_s, whole.timestamps_s[2:])
+    # a render of frames 2.. alone: the schedule from the manifest's metering of frames 0..
+    assert np.array_equal(_imgs(part), _imgs(twin.resensor(folders[2], 2, start=2, draw=2)))
+    assert not np.array_equal(_imgs(part), _imgs(twin.resensor(folders[0], 2, draw=2)))   # frames 0, 1
 
 
 def _figs(t_rpe: float) -> dict:
