@@ -35,7 +35,10 @@ high enough relative to its mean), for city the brightness of each kind of surfa
 **sunlit road's pixel-scale contrast** (``road_grain``), and, on the render (it has depth), the **SGBM error at
 the OpenCV VO's corners** (Shi-Tomasi 1000/0.01/8, its detector): the share of corners on a
 depth edge (the ground-truth disparity spans > 15 % in the 7 x 7 window) and the median
-SGBM disparity error there and on smooth surfaces, in % of the true disparity.
+SGBM disparity error there and on smooth surfaces, in % of the true disparity. For city, the
+VOs' causes (``vo_cause_lines``): each VO's steps off by more than 10 %, the ORB VO's inliers
+(count, median depth) and the rig's rotation change between steps (docs/sensors.md, "The VOs'
+errors, step by step").
 """
 from __future__ import annotations
 
