@@ -3,7 +3,7 @@ camera profile and prints, in one run and at the same image size, the image and 
 figures and three stereo VOs' errors on the render and on the real excerpt, with ratios.
 
     python bench/twin.py [--scene city] [--frames 45] [--scale 0.5] [--quality draft] [--out out/twin]
-                         [--no-render] [--start K]
+                         [--no-render] [--start K] [--resensor] [--draws N]
 
 Scenes: ``city`` = scenes/city_kitti.ses (``SENSOR profile kitti``) beside KITTI sequence_1
 (../shared/data/kitti); ``hall`` = scenes/hall.ses (``SENSOR profile euroc``) beside the EuRoC
@@ -13,6 +13,11 @@ brought to the render's size with area averaging (cv2.INTER_AREA; K scaled like 
 ``--start K`` (hall only) compares frames K..K+N-1 of both: the render's auto-exposure starts
 from the profile's nominal exposure and settles over ~1 s (20 frames at ``speed 3``), where
 the real camera had long been running; the metering pass still meters frames 0..K+N-1.
+``--draws N`` (default 9) develops the rendered EXRs N times through today's camera chain, draw
+d with the sensor's noise seed + d (its fixed pattern and temporal noise), computes every
+figure on each, and prints the render's median, the comparison's range over the draws and
+each target judged on the median: one draw's VO ratios move with the noise (the OpenCV VO's
+Sim(3) ratio 0.77-1.9 over ten draws of one render), and real KITTI is one draw of its own.
 
 Figures (issue 28): power-spectrum slope, KLT forward-backward error (median), pixels at 0
 or 255, SGBM valid share (vo_reference.evaluate.realism); per VO - the OpenCV KLT+SGBM+PnP VO
@@ -30,13 +35,18 @@ high enough relative to its mean), for city the brightness of each kind of surfa
 **sunlit road's pixel-scale contrast** (``road_grain``), and, on the render (it has depth), the **SGBM error at
 the OpenCV VO's corners** (Shi-Tomasi 1000/0.01/8, its detector): the share of corners on a
 depth edge (the ground-truth disparity spans > 15 % in the 7 x 7 window) and the median
-SGBM disparity error there and on smooth surfaces, in % of the true disparity.
+SGBM disparity error there and on smooth surfaces, in % of the true disparity. For city, the
+VOs' causes (``vo_cause_lines``): each VO's steps off by more than 10 %, the ORB VO's inliers
+(count, median depth) and the rig's rotation change between steps (docs/sensors.md, "The VOs'
+errors, step by step").
 """
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
+import resource
 import subprocess
 import sys
 import time
@@ -47,7 +57,7 @@ import numpy as np
 
 from blender_sesgen.contract.camera import backproject, scaled_K
 from blender_sesgen.contract.depth import depth_from_disparity
-from blender_sesgen.contract.se3 import invert, se3
+from blender_sesgen.contract.se3 import invert, rotation_angle_rad, se3
 from vo_reference.io.base import Sequence
 from vo_reference.io.sequence import open_sequence
 from vo_reference.io.trajectory import Trajectory
@@ -114,9 +124,10 @@ def euroc_rectified(n: int, size, start: int = 0) -> Frames:
 
 # --- an ORB-matching stereo VO --------------------------------------------------------------
 
-def orb_steps(seq: Frames, n: int) -> list[np.ndarray]:
+def orb_steps(seq: Frames, n: int, inliers: list | None = None) -> list[np.ndarray]:
     """T_k_k1 per step: ORB (2000) matched k -> k+1 (Hamming, cross-check), SGBM depth at k,
-    solvePnPRansac + LM refinement; a failed step keeps the previous motion."""
+    solvePnPRansac + LM refinement; a failed step keeps the previous motion. ``inliers``: a list
+    that gets each step's (inlier count, their median depth in m; 0 and nan when it failed)."""
     orb = cv2.ORB_create(2000)
     bf = cv2.BFMatcher(cv2.NORM_HAMMING, crossCheck=True)
     K, steps = seq.K, []
@@ -124,7 +135,7 @@ def orb_steps(seq: Frames, n: int) -> list[np.ndarray]:
         a, b = seq.image_gray(k), seq.image_gray(k + 1)
         ka, da = orb.detectAndCompute(a, None)
         kb, db = orb.detectAndCompute(b, None)
-        T = steps[-1] if steps else np.eye(4)
+        T, used = (steps[-1] if steps else np.eye(4)), (0, float("nan"))
         if da is not None and db is not None:
             m = bf.match(da, db)
             p0 = np.array([ka[x.queryIdx].pt for x in m]).reshape(-1, 2)
@@ -140,13 +151,16 @@ def orb_steps(seq: Frames, n: int) -> list[np.ndarray]:
                     inl = inl.ravel()
                     rvec, tvec = cv2.solvePnPRefineLM(P[inl], p1[ok][inl], K, None, rvec, tvec)
                     T = invert(se3(cv2.Rodrigues(rvec)[0], tvec.ravel()))
+                    used = (len(inl), float(np.median(P[inl, 2])))
         steps.append(T)
+        if inliers is not None:
+            inliers.append(used)
     return steps
 
 
-def vo_steps(seq: Frames, method: str, n: int) -> list[np.ndarray]:
+def vo_steps(seq: Frames, method: str, n: int, inliers: list | None = None) -> list[np.ndarray]:
     if method == "orb":
-        return orb_steps(seq, n)
+        return orb_steps(seq, n, inliers)
     res = run_stereo_vo(seq, method, frames=range(0, n))
     return [np.asarray(T) for T in _steps_of(res.trajectory.T_world_cam)]
 
@@ -155,23 +169,51 @@ def _steps_of(poses) -> list[np.ndarray]:
     return [invert(poses[k]) @ poses[k + 1] for k in range(len(poses) - 1)]
 
 
+BAD_STEP_PCT = 10.0     # a step whose translation error exceeds this share of the true step: a broken step
+
+
 def vo_errors(seq: Frames, method: str, n: int) -> dict:
     """Translation RPE (% of the true step), rotation RPE (deg/step), end-point drift and
-    Sim(3) RMSE (% of the path) of one VO against the sequence's ground truth."""
+    Sim(3) RMSE (% of the path) of one VO against the sequence's ground truth; and the
+    causes' figures: the steps whose translation error exceeds ``BAD_STEP_PCT`` and, for the
+    ORB VO, its inliers' count and median depth (median over the steps)."""
     T_gt = seq.T_world_cam("left")[:n]
-    est_steps = vo_steps(seq, method, n)
+    used = []
+    est_steps = vo_steps(seq, method, n, used)
     poses = [T_gt[0]]
     for T in est_steps:
         poses.append(poses[-1] @ T)
-    t_rpe, r_rpe = [], []
-    for Tg, Te in zip(_steps_of(T_gt), est_steps):
-        E = invert(Tg) @ Te
-        t_rpe.append(100 * np.linalg.norm(E[:3, 3]) / max(np.linalg.norm(Tg[:3, 3]), 1e-9))
-        r_rpe.append(np.degrees(np.arccos(np.clip((np.trace(E[:3, :3]) - 1) / 2, -1, 1))))
+    t_rpe, r_rpe = step_errors(T_gt, est_steps)
     ts = np.asarray(seq.timestamps_s, float)[:n]
     shape = shape_errors(Trajectory(np.asarray(T_gt), ts), Trajectory(np.asarray(poses), ts))
-    return {"t_rpe_pct": float(np.median(t_rpe)), "r_rpe_deg": float(np.median(r_rpe)),
-            "drift_pct": shape["end_point_drift_pct"], "sim3_pct": shape.get("sim3_position_rmse_pct", np.nan)}
+    out = {"t_rpe_pct": float(np.median(t_rpe)), "r_rpe_deg": float(np.median(r_rpe)),
+           "drift_pct": shape["end_point_drift_pct"], "sim3_pct": shape.get("sim3_position_rmse_pct", np.nan),
+           "bad_steps": int(np.sum(np.asarray(t_rpe) > BAD_STEP_PCT))}
+    if used:
+        count, depth = np.array(used, float).T
+        out.update(inliers=float(np.median(count)), inlier_depth_m=float(np.nanmedian(depth)))
+    return out
+
+
+def step_errors(T_gt, est_steps) -> tuple[np.ndarray, np.ndarray]:
+    """Per step: translation error (% of the true step) and rotation error (deg) of the
+    estimated steps T_k_k1 against the ground-truth poses T_world_cam."""
+    t, r = [], []
+    for Tg, Te in zip(_steps_of(np.asarray(T_gt)), est_steps):
+        E = invert(Tg) @ Te
+        t.append(100 * np.linalg.norm(E[:3, 3]) / max(np.linalg.norm(Tg[:3, 3]), 1e-9))
+        # the angle through the quaternion: the arccos of the trace reads KITTI's 7-digit poses.txt
+        # (|R R^T - I| up to 1.5e-7) as up to ~0.03 deg of rotation
+        r.append(float(np.degrees(rotation_angle_rad(E[:3, :3]))))
+    return np.array(t), np.array(r)
+
+
+def rotation_change_deg(T_world_cam: np.ndarray, n: int) -> np.ndarray:
+    """The rig's rotation change between consecutive steps (deg; n - 2 values): the angle of
+    R(k, k+1) R(k-1, k)^T, what a constant-velocity prediction of step k misses."""
+    T = np.asarray(T_world_cam)[:n]
+    R = [(invert(T[k]) @ T[k + 1])[:3, :3] for k in range(len(T) - 1)]
+    return np.degrees([rotation_angle_rad(R[k] @ R[k - 1].T) for k in range(1, len(R))])
 
 
 # --- causes -------------------------------------------------------------------------------------
@@ -366,6 +408,27 @@ def corners_on_sgbm_edges(frames: Frames, n: int) -> dict:
     return {"edge_share": float(np.mean(share)), "near_edge_share": float(np.mean(near)) if near else float("nan")}
 
 
+def vo_cause_lines(name: str, real: Frames, ours: Frames, real_figs: dict, draw_figs: list[dict], n: int) -> list[str]:
+    """What the VOs' errors come from (docs/sensors.md, "Camera twins"): broken steps per VO, the
+    ORB VO's inliers (a PnP's translation error on points at depth Z, measured to a fixed pixel
+    precision, grows as Z / sqrt(points)) and the rig's rotation change between steps (what the
+    accurate VO's constant-velocity prediction, which picks the camera's motion from two rigid
+    motions, misses)."""
+    med = lambda key: float(np.median([d[key] for d in draw_figs]))  # noqa: E731
+    bad = ", ".join(f"{vo} {real_figs[f'{vo}/bad_steps']} / {med(f'{vo}/bad_steps'):.0f} "
+                    f"(max {max(d[f'{vo}/bad_steps'] for d in draw_figs)})" for vo in VOS)
+    zr, nr = real_figs["orb/inlier_depth_m"], real_figs["orb/inliers"]
+    zo, no = med("orb/inlier_depth_m"), med("orb/inliers")
+    cr, co = rotation_change_deg(real.T_world_cam(), n), rotation_change_deg(ours.T_world_cam(), n)
+    return [f"steps with translation error > {BAD_STEP_PCT:.0f} % of the step, {name} / render (median over the "
+            "draws): " + bad,
+            f"ORB VO's inliers (median over the steps; SGBM depth): {name} {nr:.0f} at {zr:.1f} m, render {no:.0f} at "
+            f"{zo:.1f} m; depth / sqrt(inliers) render / real {_ratio(zo / np.sqrt(no), zr / np.sqrt(nr)):.2f}",
+            "rig rotation change between consecutive steps (ground truth; what a constant-velocity prediction misses): "
+            f"{name} median {np.median(cr):.3f} deg (p90 {np.percentile(cr, 90):.3f}), render median "
+            f"{np.median(co):.3f} deg (p90 {np.percentile(co, 90):.3f})"]
+
+
 # --- the render -----------------------------------------------------------------------------
 
 def twin_script(script: str, profile: str, out: Path, frames: int | None = None) -> Path:
@@ -412,11 +475,13 @@ def render(script: Path, out: Path, n: int, scale: float, quality: str, start: i
     return float(np.mean(secs)) if secs else float("nan")
 
 
-def resensor(out: Path, n: int) -> Frames:
-    """Frames 0..n-1 of the render in ``out`` through today's camera chain again (its EXRs, the
-    scene.ses of the folder parsed with today's profiles, each frame's exposure and gain from
-    today's auto-exposure on the recorded metering): the chain runs after Cycles, so a changed
-    profile needs no new render."""
+def resensor(out: Path, n: int, start: int = 0, draw: int = 0) -> Frames:
+    """Frames start..start+n-1 of the render in ``out`` through today's camera chain again (its
+    EXRs, the scene.ses of the folder parsed with today's profiles, each frame's exposure and
+    gain from today's auto-exposure on the recorded metering): the chain runs after Cycles, so a
+    changed profile needs no new render. ``draw`` d develops them with the sensor's noise seed
+    + d (``--draws``): another draw of the same camera's fixed-pattern and temporal noise; draw 0
+    is the rendered sensor images while the chain is unchanged."""
     from blender_sesgen.render.plan import RenderOptions, EffectiveSettings
     from blender_sesgen.render.sensor import pipeline
     from blender_sesgen.render.sensor.outputs import state_relpath
@@ -427,54 +492,117 @@ def resensor(out: Path, n: int) -> Frames:
     scene = parse_text((out / "scene.ses").read_text(), str(out / "scene.ses"), str(out))
     scale = json.loads((out / "manifest.json").read_text())["render"]["resolution_scale"]
     plan = SensorPlan.create(scene, EffectiveSettings.of(scene, RenderOptions(resolution_scale=scale)))
-    camera = pipeline.Camera(plan.sensor, plan.lens_spec, plan.pixel_rays(), plan.K[0, 2], plan.K[1, 2],
+    sensor = dataclasses.replace(plan.sensor, seed=plan.sensor.seed + draw)
+    camera = pipeline.Camera(sensor, plan.lens_spec, plan.pixel_rays(), plan.K[0, 2], plan.K[1, 2],
                              plan.nominal_exposure_s())
     # each frame's exposure from today's schedule on the brightness the render metered (a changed
     # auto-exposure target needs no new render; the EXRs' motion blur keeps the rendered length)
-    states = [json.loads((out / state_relpath(k)).read_text()) for k in range(n)]
-    schedule = plan.exposures([st["metered"] for st in states[:-1]]) if plan.autoexposure is not None else \
-        [(st["exposure_s"], st["gain"]) for st in states]
+    state = lambda k: json.loads((out / state_relpath(k)).read_text())  # noqa: E731
+    if plan.autoexposure is not None:
+        # the metering pass's brightness of every frame (the manifest; a render of frames K.. holds
+        # no state before K), else the frames' own states
+        metered = (json.loads((out / "manifest.json").read_text()).get("sensor") or {}).get("metered") or []
+        if len(metered) < start + n or any(v is None for v in metered[:start + n - 1]):
+            metered = [state(k)["metered"] for k in range(start + n)]
+        schedule = plan.exposures(list(metered[:start + n - 1]))
+    else:
+        schedule = [None] * start + [(st["exposure_s"], st["gain"]) for st in map(state, range(start, start + n))]
     imgs, fpn = {"left": [], "right": []}, {}
-    for k in range(n):
+    for k in range(start, start + n):
         for vi, view in enumerate(("left", "right")):
             f = pipeline.process(seq.rgb_linear(k, view), camera, pipeline.Shot(*schedule[k], k, vi), fpn_cache=fpn)
             imgs[view].append(rgb8_to_gray8(f.rgb8))
-    return Frames(imgs["left"], imgs["right"], seq.K, seq.baseline_m, seq.T_world_cam("left"), seq.timestamps_s)
+    T = seq.T_world_cam("left")
+    return Frames(imgs["left"], imgs["right"], seq.K, seq.baseline_m, None if T is None else T[start:],
+                  np.asarray(seq.timestamps_s)[start:])
 
 
 # --- the table ------------------------------------------------------------------------------
+
+# --draws' default: a draw of 45 city frames costs ~10 CPU s (develop 3.3, image figures 1.7, VOs 5.4;
+# docs/sensors.md), 9 of them ~8 % of a 45-frame render's ~1100 CPU s; an odd count has one median draw
+DEFAULT_DRAWS = 9
+
+
+def _cpu_s() -> float:
+    """This process's user + system CPU seconds (the draws run in it; the render is a child)."""
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def _sensor_seed(out: Path) -> int:
+    """The noise seed of the render's sensor (draw 0's; draw d adds d)."""
+    from blender_sesgen.ses.parser import parse_text
+    scene = parse_text((out / "scene.ses").read_text(), str(out / "scene.ses"), str(out))
+    return int(scene.sensor.seed) if scene.sensor is not None else 0
+
 
 def _ratio(a, b):
     return a / b if np.isfinite(a) and np.isfinite(b) and b != 0 else float("nan")
 
 
-def table(real_name: str, real: Frames, ours: Frames, n: int, with_vo: bool) -> list[str]:
-    rs, os_ = sequence_stats(real._img["left"], real._img["right"]), sequence_stats(ours._img["left"],
-                                                                                    ours._img["right"])
-    rows = [f"| figure ({n} frames, {ours.resolution[0]}x{ours.resolution[1]}) | {real_name} | render | "
-            "render / real | target |", "|---|---|---|---|---|"]
-    ok = lambda c: "met" if c else "missed"  # noqa: E731
-    rows.append(f"| power-spectrum slope | {rs.slope:.2f} | {os_.slope:.2f} | {os_.slope - rs.slope:+.2f} | "
-                f"within 0.2: {ok(abs(os_.slope - rs.slope) <= 0.2)} |")
-    r = _ratio(os_.klt_fb_median, rs.klt_fb_median)
-    rows.append(f"| KLT forward-backward error (px) | {rs.klt_fb_median:.3f} | {os_.klt_fb_median:.3f} | {r:.2f} | "
-                f"within 25 %: {ok(abs(r - 1) <= 0.25)} |")
-    rows.append(f"| pixels at 0 or 255 | {100 * rs.clipped:.1f} % | {100 * os_.clipped:.1f} % | "
-                f"{100 * (os_.clipped - rs.clipped):+.1f} pt | within 2 pt: {ok(abs(os_.clipped - rs.clipped) <= 0.02)} |")
-    r = _ratio(os_.sgbm_valid, rs.sgbm_valid)
-    rows.append(f"| SGBM valid share | {rs.sgbm_valid:.2f} | {os_.sgbm_valid:.2f} | {r:.2f} | "
-                f"within 25 %: {ok(abs(r - 1) <= 0.25)} |")
-    rows.append(f"| Shi-Tomasi corners | {rs.corners:.0f} | {os_.corners:.0f} | {_ratio(os_.corners, rs.corners):.2f} | |")
+VO_FIGURES = (("t_rpe_pct", "translation RPE (median, % of step)", "0.67-1.5"),
+              ("r_rpe_deg", "rotation RPE (median, deg/step)", "compare VO against VO"),
+              ("drift_pct", "end-point drift (% of path)", ""),
+              ("sim3_pct", "Sim(3) position RMSE (% of path)", "0.67-1.5"))
+
+
+def figures(frames: Frames, n: int, with_vo: bool) -> dict[str, float]:
+    """The table's figures of one sequence (one draw of the render, or the real excerpt)."""
+    st = sequence_stats(frames._img["left"], frames._img["right"])
+    out = {"slope": st.slope, "klt": st.klt_fb_median, "clipped": st.clipped, "sgbm": st.sgbm_valid,
+           "corners": st.corners}
     if with_vo:
         for vo in VOS:
-            er, eo = vo_errors(real, vo, n), vo_errors(ours, vo, n)
-            for key, label, target in (("t_rpe_pct", "translation RPE (median, % of step)", True),
-                                       ("r_rpe_deg", "rotation RPE (median, deg/step)", "compare VO against VO"),
-                                       ("drift_pct", "end-point drift (% of path)", ""),
-                                       ("sim3_pct", "Sim(3) position RMSE (% of path)", True)):
-                r = _ratio(eo[key], er[key])
-                rows.append(f"| {vo}: {label} | {er[key]:.3f} | {eo[key]:.3f} | {r:.2f} | "
-                            + (f"0.67-1.5: {ok(0.67 <= r <= 1.5)} |" if target is True else f"{target} |"))
+            out.update({f"{vo}/{k}": v for k, v in vo_errors(frames, vo, n).items()})
+    return out
+
+
+def _rows_spec(with_vo: bool) -> list[tuple]:
+    """(key, label, value format, comparison 'diff'|'pt'|'ratio', its format, target or '' ,
+    the target's test on the comparison)."""
+    spec = [("slope", "power-spectrum slope", "{:.2f}", "diff", "{:+.2f}", "within 0.2", lambda c: abs(c) <= 0.2),
+            ("klt", "KLT forward-backward error (px)", "{:.3f}", "ratio", "{:.2f}", "within 25 %",
+             lambda c: abs(c - 1) <= 0.25),
+            ("clipped", "pixels at 0 or 255", "pct", "pt", "{:+.1f} pt", "within 2 pt", lambda c: abs(c) <= 2.0),
+            ("sgbm", "SGBM valid share", "{:.2f}", "ratio", "{:.2f}", "within 25 %", lambda c: abs(c - 1) <= 0.25),
+            ("corners", "Shi-Tomasi corners", "{:.0f}", "ratio", "{:.2f}", "", None)]
+    if with_vo:
+        for vo in VOS:
+            for key, label, target in VO_FIGURES:
+                spec.append((f"{vo}/{key}", f"{vo}: {label}", "{:.3f}", "ratio", "{:.2f}", target,
+                             (lambda c: 0.67 <= c <= 1.5) if target == "0.67-1.5" else None))
+    return spec
+
+
+def _compare(kind: str, ours: float, real: float) -> float:
+    if kind == "diff":
+        return ours - real
+    if kind == "pt":
+        return 100 * (ours - real)
+    return _ratio(ours, real)
+
+
+def table(real_name: str, real: dict, draws: list[dict], size: tuple[int, int], n: int) -> list[str]:
+    """The markdown table: per figure the real value, the render's median over the draws
+    (``figures`` of each), the comparison of the median draw and, for several draws, the
+    comparison's range over them; each target judged on the median comparison (real is one
+    draw of its own camera's noise, the render's spread is the draws')."""
+    many = len(draws) > 1
+    rows = [f"| figure ({n} frames, {size[0]}x{size[1]}) | {real_name} | render"
+            + (f" (median of {len(draws)} draws)" if many else "") + " | render / real | "
+            + ("range over the draws | " if many else "") + "target |",
+            "|---|---|---|---|---|" + ("---|" if many else "")]
+    ok = lambda c: "met" if c else "missed"  # noqa: E731
+    for key, label, fmt, kind, cfmt, target, test in _rows_spec("orb/t_rpe_pct" in real):
+        vals = np.array([d[key] for d in draws], float)
+        comps = np.array([_compare(kind, v, real[key]) for v in vals], float)
+        comp = float(np.median(comps)) if np.isfinite(comps).all() else float("nan")
+        show = (lambda v: f"{100 * v:.1f} %") if fmt == "pct" else fmt.format
+        cell = f"{target}: {ok(test(comp))}" if test is not None else target
+        rng = f" {cfmt.format(np.nanmin(comps))} to {cfmt.format(np.nanmax(comps))} |" if many else ""
+        rows.append(f"| {label} | {show(real[key])} | {show(float(np.median(vals)))} | {cfmt.format(comp)} |{rng}"
+                    f" {cell} |".replace("|  |", "| |"))
     return rows
 
 
@@ -489,13 +617,19 @@ def main(argv=None) -> int:
     ap.add_argument("--start", type=int, default=0, help="compare frames K.. of both (hall; default 0)")
     ap.add_argument("--resensor", action="store_true",
                     help="run today's camera chain again on the rendered EXRs (after a profile changed)")
+    ap.add_argument("--draws", type=int, default=DEFAULT_DRAWS,
+                    help=f"develop the EXRs with N sensor-noise seeds (today's chain, as --resensor) and judge "
+                         f"the median over them (default {DEFAULT_DRAWS}; 1: the rendered images alone)")
     a = ap.parse_args(argv)
     if not DATA.is_dir():
         print(f"real data not found at {DATA} (set SESGEN_SHARED_DATA)", file=sys.stderr)
         return 2
     script, profile = SCENES[a.scene]
-    if a.start < 0 or (a.start and (profile != "euroc" or a.resensor)):
-        print("--start: 0 or more, for --scene hall only, without --resensor", file=sys.stderr)
+    if a.start < 0 or (a.start and profile != "euroc"):
+        print("--start: 0 or more, for --scene hall only", file=sys.stderr)
+        return 2
+    if a.draws < 1:
+        print(f"--draws: 1 or more, got {a.draws}", file=sys.stderr)
         return 2
     out = REPO / a.out / a.scene
     t0 = time.perf_counter()
@@ -508,7 +642,6 @@ def main(argv=None) -> int:
     if n < 3:
         print(f"{out}: only {n} frame(s) rendered completely; render more (without --no-render)", file=sys.stderr)
         return 2
-    ours = resensor(out, n) if a.resensor else resized(seq, n, tuple(seq.resolution), a.start)
     if profile == "kitti":
         real_seq = open_sequence(DATA / "kitti" / "sequence_1")
         n = min(n, real_seq.num_frames)
@@ -517,11 +650,31 @@ def main(argv=None) -> int:
     else:
         real, name = euroc_rectified(n, tuple(seq.resolution), a.start), "real EuRoC V1_01"
         n = min(n, real.num_frames)
-    ours = Frames(ours._img["left"][:n], ours._img["right"][:n], ours.K, ours.baseline_m, ours.T_world_cam(),
-                  ours.timestamps_s)
+    with_vo = profile == "kitti"
+    draw_figs, cpu_s = [], []
+    for d in range(a.draws):
+        c0 = _cpu_s()
+        frames = (resensor(out, n, a.start, d) if a.resensor or a.draws > 1
+                  else resized(seq, n, tuple(seq.resolution), a.start))
+        draw_figs.append(figures(frames, n, with_vo))
+        cpu_s.append(_cpu_s() - c0)
+        if d == 0:
+            ours = frames     # the cause lines below: draw 0
+    seed0 = _sensor_seed(out)
     print(f"\n### {script} + SENSOR profile {profile} (--resolution-scale {a.scale:g}, --quality {a.quality}) "
           f"vs {name}" + (f", frames {a.start}-{a.start + n - 1} of both" if a.start else "") + "\n")
-    print("\n".join(table(name, real, ours, n, with_vo=profile == "kitti")))
+    real_figs = figures(real, n, with_vo)
+    print("\n".join(table(name, real_figs, draw_figs, tuple(seq.resolution), n)))
+    if a.draws > 1:
+        print(f"\nrender: the same EXRs developed {a.draws} times through the camera chain, sensor noise seeds "
+              f"{seed0}..{seed0 + a.draws - 1} (fixed pattern and temporal noise); each target is judged on the "
+              f"median draw's figure. {name} is one draw of its own camera's noise: its figures would move as much, "
+              f"which one excerpt cannot show. Lines below: draw 0.")
+    print(f"sensor-noise draws: {a.draws}, {np.mean(cpu_s):.1f} CPU s each (develop + figures"
+          + (" + three VOs" if with_vo else "") + f", {n} frames)")
+    if with_vo:
+        for line in vo_cause_lines(name, real, ours, real_figs, draw_figs, n):
+            print(line)
     print(f"\nbrightness spread (median / mean of the linear signal): {name} {brightness_spread(real, profile, n):.2f}, "
           f"render {brightness_spread(ours, profile, n):.2f}")
     print(f"headroom (full scale over the frame mean of the linear signal, median): {name} "
