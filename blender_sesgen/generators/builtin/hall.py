@@ -379,8 +379,8 @@ def _takeoff_stand(ids, S: np.ndarray, yaw_deg: float) -> list[str]:
 # EuRoC V1_01's near field (its corners 1.45-2.4 m away, 71 % in the image's lower half; 38 % of
 # its clipped pixels white things on the floor): strips of black marker tape with white markers,
 # a sheet of white paper, a checkerboard calibration target standing on the floor
-TAPE = (((-1.2, 1.2), (-0.6, 3.0)), ((0.1, 1.0), (0.5, 3.2)), ((1.8, 1.4), (0.9, 2.6)))
-TAPE_W, MARKER = 0.08, (0.05, 0.02)          # tape width; a marker's length and width (m)
+TAPE = (((-1.0, 0.85), (-0.5, 2.8)), ((0.05, 0.85), (0.4, 3.2)), ((1.6, 1.2), (0.8, 2.6)))
+TAPE_W, MARKER = 0.1, (0.06, 0.025)          # tape width; a marker's length and width (m)
 SHEET = ((0.75, 1.5), (0.6, 0.8), 12.0)      # centre, (across, along), turn (deg)
 BOARD = ((1.5, 3.3), (6, 7), 0.07)           # centre, squares (rows, columns), square (m)
 
@@ -407,7 +407,7 @@ def _test_floor(ids, S: np.ndarray, yaw_deg: float, rng) -> list[str]:
         out.append(f"CUBOID id {ids('takeoff')} material tape_black class floor position "
                    f"{nums(at((u0 + u1) / 2, (w0 + w1) / 2, 0.003))} 0 {num(turn(u1 - u0, w1 - w0), 3)} 0 "
                    f"dim {nums((length, 0.006, TAPE_W))}")
-        for f in np.sort(rng.uniform(0.03, 0.97, int(length / 0.09))):
+        for f in np.sort(rng.uniform(0.03, 0.97, int(length / 0.07))):
             side = rng.uniform(-0.5, 0.5) * (TAPE_W - MARKER[1] - 0.01)
             du, dw = (u1 - u0) / length, (w1 - w0) / length
             u, w = u0 + f * (u1 - u0) - side * dw, w0 + f * (w1 - w0) + side * du
