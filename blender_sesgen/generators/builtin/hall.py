@@ -62,6 +62,8 @@ STAND_PITCH_DEG = -21.5  # cam0's axis below the horizon (stereo 21.3-21.6; the 
 STAND_ROLL_DEG = -1.5    # its roll (camera_pose_line's sense; the floor's normal leans 1.5-1.7 deg to the image's right)
 VIBRATION_DEG = (0.0156, 0.0118)   # yaw, pitch shake a frame (sd): frame-to-frame shifts 0.166 / 0.127 px sd at 436 px
 TAKEOFF_FRAMES = 40      # the climb from the stand to the flight's first pose (2 s)
+FLIGHT_PITCH_DEG = -19.5  # cam0's axis below the horizon in flight (V1_01's IMU gravity via T_BS, 1-s means over
+                          # 5.5-145 s: median 19.47, p10-p90 19.1-19.8; the MAV hovers level, its legs tilt it on the floor)
 
 
 @dataclass(frozen=True)
@@ -488,7 +490,7 @@ def _attitude(P: np.ndarray, tt: np.ndarray, rng, look: float, lap: Optional[np.
         phase = 2 * np.pi * np.asarray(lap)
         per_place = sum(np.sin(c * phase + rng.uniform(0, 2 * np.pi)) for c in (1, 2))
         yaw = heading + look * (per_place + 0.25 * smooth_noise(rng, n, 1.0, (0.9, 1.7)))
-    pitch = -8.0 + np.degrees(np.clip(-(acc[:, 2] * np.cos(np.radians(yaw)) + acc[:, 0] * np.sin(np.radians(yaw))) / 9.81, -0.1, 0.1)) \
+    pitch = FLIGHT_PITCH_DEG + np.degrees(np.clip(-(acc[:, 2] * np.cos(np.radians(yaw)) + acc[:, 0] * np.sin(np.radians(yaw))) / 9.81, -0.1, 0.1)) \
         + 0.5 * smooth_noise(rng, n, 1.0, (9.0, 17.0))
     roll = np.degrees(np.clip((acc[:, 0] * np.cos(np.radians(yaw)) - acc[:, 2] * np.sin(np.radians(yaw))) / 9.81, -0.1, 0.1)) \
         + 0.6 * smooth_noise(rng, n, 1.0, (8.0, 15.0))
