@@ -232,6 +232,9 @@ def test_hall_stands_on_its_stand_then_takes_off(scenes):
     assert np.abs(np.diff(speed[n - 1:n + climb + 5])).max() < 0.1        # no jolt (m/s per frame)
     assert pos[n + climb, 1] > pos[0, 1] + 0.2 and pos[n + climb:, 1].min() > 0.8   # up, and flying at 1-3 m
     assert np.all(speed[n + climb:n + climb + 180] > 0.02)               # and flying on
+    # a shorter script is the start of this one (the flight keeps its pace)
+    poses = lambda text: [ln for ln in text.splitlines() if ln.startswith("POSE")]  # noqa: E731
+    assert poses(hall.generate(0, frames=150)) == poses((SCENES / "hall.ses").read_text())[:150]
 
 
 def test_hall_stand_is_out_of_sight_and_the_test_floor_in_it(scenes):
