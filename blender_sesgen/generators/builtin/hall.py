@@ -62,11 +62,13 @@ STAND_FRAMES = 100       # it lifts off 5.0 s after its first frame (the IMU's |
 ROTORS_FRAMES = 6        # frames 0-5 differ by the sensor's noise only; the rotors shake it from frame 6 on
 STAND_CAMERA_M = 0.93    # cam0 above the floor (the floor plane by stereo, frames 0-94: 0.928-0.932 m)
 STAND_PITCH_DEG = -21.5  # cam0's axis below the horizon (stereo 21.3-21.6; the IMU's gravity via T_BS 21.9)
-STAND_ROLL_DEG = -1.5    # its roll (camera_pose_line's sense; the floor's normal leans 1.5-1.7 deg to the image's right)
+STAND_ROLL_DEG = -1.5    # its roll (camera_pose_line's sense; the floor's normal leans 1.5-1.7 deg to the
+                         # image's right)
 VIBRATION_DEG = (0.0156, 0.0118)   # yaw, pitch shake a frame (sd): frame-to-frame shifts 0.166 / 0.127 px sd at 436 px
 TAKEOFF_FRAMES = 40      # the climb from the stand to the flight's first pose (2 s)
-FLIGHT_PITCH_DEG = -19.5  # cam0's axis below the horizon in flight (V1_01's IMU gravity via T_BS, 1-s means over
-                          # 5.5-145 s: median 19.47, p10-p90 19.1-19.8; the MAV hovers level, its legs tilt it on the floor)
+FLIGHT_PITCH_DEG = -19.5  # cam0's axis below the horizon in flight (V1_01's IMU gravity via T_BS, 1-s means
+                          # over 5.5-145 s: median 19.47, p10-p90 19.1-19.8; the MAV hovers level, its legs
+                          # tilt it on the floor)
 
 
 @dataclass(frozen=True)
@@ -377,7 +379,8 @@ def _takeoff_stand(ids, S: np.ndarray, yaw_deg: float) -> list[str]:
     c = S + back * (TAKEOFF_STAND[1] / 2 + 0.02)
     return ["", "// the take-off stand: the MAV stands on it before the flight (EuRoC's camera 0.93 m up)",
             f"CUBOID id {ids('takeoff')} name takeoff_stand material door_paint class furniture "
-            f"position {nums((c[0], top / 2, c[2]))} 0 {num(yaw_deg, 3)} 0 dim {nums((TAKEOFF_STAND[0], top, TAKEOFF_STAND[1]))}"]
+            f"position {nums((c[0], top / 2, c[2]))} 0 {num(yaw_deg, 3)} 0 "
+            f"dim {nums((TAKEOFF_STAND[0], top, TAKEOFF_STAND[1]))}"]
 
 
 # what lies on the floor before the stand, in the camera's (right, ahead) metres on the floor:
@@ -424,7 +427,8 @@ def _test_floor(ids, S: np.ndarray, yaw_deg: float, rng) -> list[str]:
     (u, w), (rows, cols), q = BOARD
     face = yaw_deg - np.degrees(np.arctan2(m * u, w))      # the board faces the camera (left is +yaw)
     out.append(f"CUBOID id {ids('takeoff')} name checkerboard material paper_white class furniture position "
-               f"{nums(at(u, w, (rows + 1) * q / 2))} 0 {num(face, 3)} 0 dim {nums(((cols + 1) * q, (rows + 1) * q, 0.02))}")
+               f"{nums(at(u, w, (rows + 1) * q / 2))} 0 {num(face, 3)} 0 "
+               f"dim {nums(((cols + 1) * q, (rows + 1) * q, 0.02))}")
     fa = np.radians(face)
     towards = np.array([-np.sin(fa), 0.0, -np.cos(fa)]) * -1.0     # the board's normal towards the camera
     along_x = np.array([np.cos(fa), 0.0, -np.sin(fa)])
