@@ -7,11 +7,14 @@ machines, pallet racks, tanks, pipe runs, crates, pallets and barrels, painted p
 beside the open middle, a steel stair and railings. The rig is the EuRoC
 MAV's VI-sensor (752 x 480 px, focal and principal point of cam0, baseline from the two
 cameras' T_BS in ``../shared/data/euroc/mav0/cam0|cam1/sensor.yaml``, read by
-:func:`euroc_rig`; undistorted pinhole); it flies at 20 Hz like EuRoC's Machine Hall
-runs: ~0.6 m/s (at most ~1.5) at 1-2.5 m height, yawing to look around, rolling and pitching a few
-degrees with its accelerations.
+:func:`euroc_rig`; undistorted pinhole). As every EuRoC sequence it starts standing, rotors
+running (``STAND_FRAMES`` on a take-off stand, cam0 where V1_01's stands: 0.93 m above the
+floor, 21.5 deg down, shaken by the rotors; a drone test floor before it: marker tape, a white
+sheet, a checkerboard), climbs for 2 s, then flies at 20 Hz like EuRoC's Machine Hall runs:
+~0.6 m/s (at most ~1.5) at 1-2.5 m height, its camera 19.5 deg down as V1_01's in flight,
+yawing to look around, rolling and pitching a few degrees with its accelerations.
 
-    python -m blender_sesgen.generators.builtin.hall [--seed N] [--frames N] > scenes/hall.ses
+    python -m blender_sesgen.generators.builtin.hall [--seed N] [--frames N] [--stand N] > scenes/hall.ses
 
 ``generate(seed, frames=200, width=30, depth=40, height=10)`` returns the script (the
 checked-in file is seed 0). Every seed fits out the hall its own way (machines, tanks, racks,
@@ -53,6 +56,19 @@ LUMENS_PER_WATT = 683.0         # Blender's lamps and sky: radiant W at 555 nm (
 LAMP_COLOURS = ((1.0, 0.86, 0.7), (1.0, 0.95, 0.88), (0.92, 0.96, 1.0))   # warm, neutral, cool white
 AISLE_PAINTS = ((0.55, 0.45, 0.03), (0.7, 0.7, 0.68), (0.06, 0.3, 0.12), (0.6, 0.12, 0.04))
 DOOR_PAINTS = ((0.35, 0.3, 0.05), (0.05, 0.12, 0.3), (0.3, 0.31, 0.32), (0.35, 0.05, 0.03))
+# Before the flight the MAV stands, as at the start of every EuRoC sequence, measured in the
+# V1_01 excerpt (../shared/data/euroc/mav0; docs/sensors.md, Camera twins):
+STAND_FRAMES = 100       # it lifts off 5.0 s after its first frame (the IMU's |a|: 9.78 +- 0.01 m/s2 until then)
+ROTORS_FRAMES = 6        # frames 0-5 differ by the sensor's noise only; the rotors shake it from frame 6 on
+STAND_CAMERA_M = 0.93    # cam0 above the floor (the floor plane by stereo, frames 0-94: 0.928-0.932 m)
+STAND_PITCH_DEG = -21.5  # cam0's axis below the horizon (stereo 21.3-21.6; the IMU's gravity via T_BS 21.9)
+STAND_ROLL_DEG = -1.5    # its roll (camera_pose_line's sense; the floor's normal leans 1.5-1.7 deg to the
+                         # image's right)
+VIBRATION_DEG = (0.0156, 0.0118)   # yaw, pitch shake a frame (sd): frame-to-frame shifts 0.166 / 0.127 px sd at 436 px
+TAKEOFF_FRAMES = 40      # the climb from the stand to the flight's first pose (2 s)
+FLIGHT_PITCH_DEG = -19.5  # cam0's axis below the horizon in flight (V1_01's IMU gravity via T_BS, 1-s means
+                          # over 5.5-145 s: median 19.47, p10-p90 19.1-19.8; the MAV hovers level, its legs
+                          # tilt it on the floor)
 
 
 @dataclass(frozen=True)
@@ -121,24 +137,32 @@ def euroc_rig(root: Path = None) -> dict:
 
 
 def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, depth: float = 40.0,
-             height: float = 10.0, flight: str = "sweep", laps: int = 3, speed: float = 0.8) -> str:
-    """The SES script of the hall flight for ``seed`` (see the module docstring); ``frames``
-    defaults to 200 for the sweep and to ``laps`` laps at ``speed`` m/s for the laps."""
+             height: float = 10.0, flight: str = "sweep", laps: int = 3, speed: float = 0.8,
+             stand: Optional[int] = None) -> str:
+    """The SES script of the hall flight for ``seed`` (see the module docstring). ``stand``:
+    frames the MAV stands before it takes off (default ``STAND_FRAMES`` for the sweep, 0 for
+    the laps); the sweep then climbs for ``TAKEOFF_FRAMES`` and flies its course over
+    max(frames - stand - take-off, 200) frames, cut at ``frames`` (default: all of it), so a
+    shorter script is the start of the default one. The laps' ``frames`` default to ``laps``
+    laps at ``speed`` m/s."""
     if flight not in FLIGHTS:
         raise ValueError(f"flight must be one of {', '.join(FLIGHTS)}, got {flight!r}")
     if int(laps) < 1 or not speed > 0:
         raise ValueError(f"laps must be >= 1 and speed > 0, got laps {laps}, speed {speed}")
+    stand = (STAND_FRAMES if flight == "sweep" else 0) if stand is None else int(stand)
+    climb = TAKEOFF_FRAMES if stand else 0
     if frames is None:
-        frames = 200 if flight == "sweep" else _laps_frames(int(laps), float(speed))
-    if int(seed) < 0 or int(frames) < 2:
-        raise ValueError(f"seed must be >= 0 and frames >= 2, got seed {seed}, frames {frames}")
+        frames = stand + climb + (200 if flight == "sweep" else _laps_frames(int(laps), float(speed)))
+    if int(seed) < 0 or int(frames) < 2 or stand < 0:
+        raise ValueError(f"seed must be >= 0, frames >= 2 and stand >= 0, got seed {seed}, frames {frames}, "
+                         f"stand {stand}")
     laps = int(laps)
     var = Variation.of(int(seed))
     rng = np.random.default_rng(seed)
     rig = euroc_rig()
     W, D, H = width, depth, height
     ids = Ids({"shell": 1, "structure": 100, "window": 300, "light": 400, "machine": 500, "rack": 700,
-               "clutter": 800, "glazing": 900, "marking": 1000})
+               "clutter": 800, "glazing": 900, "marking": 1000, "takeoff": 2000})
     t = 0.3
     plinth = 3.0
     out = ["// hall.ses - a machine hall flown through by a drone, EuRoC style: the MAV's stereo rig",
@@ -146,6 +170,7 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
            f"{num(rig['baseline'], 4)} m from sensor.yaml), {num(RATE_HZ, 0)} Hz.",
            f"// Generated by blender_sesgen/generators/builtin/hall.py --seed {seed} --frames {frames}"
            + (f" --flight laps --laps {laps} --speed {num(speed)}" if flight == "laps" else "")
+           + (f" --stand {stand}" if stand != (STAND_FRAMES if flight == "sweep" else 0) else "")
            + " (edit that, not this file). Y up, metres.",
            f"CAMERA resolution {rig['resolution'][0]} {rig['resolution'][1]} focal {num(rig['fu'])} "
            f"principal {num(rig['cu'])} {num(rig['cv'])} baseline {num(rig['baseline'], 4)} near 0.05 far 200",
@@ -278,13 +303,15 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
             placed.append((x, z))
     out += _pallet_bays(ids, D, placed, variation_rng(seed, 0xBA5))
     # --- the flight ------------------------------------------------------------------------
+    n_flight = frames - stand - climb
     if flight == "laps":
-        P, tt, lap = _laps_path(frames, laps, speed, variation_rng(seed, 0x1A9))
+        n_flight = max(n_flight, 2)
+        P, tt, lap = _laps_path(n_flight, laps, speed, variation_rng(seed, 0x1A9))
         yaw, pitch, roll = _attitude(P, tt, rng, var.look, lap)
         comment = (f"the flight: {laps} laps of a {num(LAP_M, 1)} m loop through the middle of the hall, "
                    f"{frames} poses of cam0 at {num(RATE_HZ, 0)} Hz")
     else:
-        n = frames
+        n = n_flight if not stand else max(n_flight, 200)
         tt = np.arange(n) / RATE_HZ
         s = np.linspace(0, 1, n)
         # a loop through the open middle of the hall: forward along -z, a turn, drifting sideways
@@ -294,8 +321,126 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
         path_y = var.height[0] + var.height[1] * np.sin(2 * np.pi * (0.6 * s + rng.uniform(0, 1))) + 0.15 * smooth_noise(rng, n, 1.0, (2.0, 4.1))
         P = np.stack([path_x, path_y, path_z], axis=1)
         yaw, pitch, roll = _attitude(P, tt, rng, var.look)
-        comment = f"the flight: {n} poses of cam0 at {num(RATE_HZ, 0)} Hz"
-    return script_with_poses(out, comment, P, yaw, pitch, roll)
+        comment = f"the flight: {frames} poses of cam0 at {num(RATE_HZ, 0)} Hz"
+    if stand:
+        S = _stand_position(P[0], np.gradient(P, axis=0)[0] * RATE_HZ)
+        ahead = P[min(int(2 * RATE_HZ), len(P) - 1)] - P[0]     # it stands facing where it flies first
+        look = float(np.degrees(np.arctan2(-ahead[0], -ahead[2])))
+        out += _takeoff_stand(ids, S, look)
+        out += _test_floor(ids, S, look, variation_rng(seed, 0x7E5))
+        comment += (f": standing on the take-off stand for {stand} frames (rotors shaking it from frame "
+                    f"{min(ROTORS_FRAMES, stand)}), climbing for {climb}, then flying")
+        P, yaw, pitch, roll = _stand_and_take_off(P, yaw, pitch, roll, stand, look, variation_rng(seed, 0x57A))
+    return script_with_poses(out, comment, P[:frames], yaw[:frames], pitch[:frames], roll[:frames])
+
+
+def _stand_position(P0: np.ndarray, V0: np.ndarray) -> np.ndarray:
+    """Where cam0 stands before a take-off that meets the flight at P0 with velocity V0 (m/s):
+    STAND_CAMERA_M above the floor, V0 x the climb's time / 3 back along the flight's horizontal
+    velocity, so that the climb (:func:`_stand_and_take_off`) never backs up."""
+    back = V0 * TAKEOFF_FRAMES / RATE_HZ / 3.0
+    return np.array([P0[0] - back[0], STAND_CAMERA_M, P0[2] - back[2]])
+
+
+def _stand_and_take_off(P, yaw, pitch, roll, stand: int, look: float, rng):
+    """The flight (poses P, angles in deg) preceded by ``stand`` frames standing still at
+    :func:`_stand_position` heading ``look`` (deg), at the stand's measured pitch and roll,
+    shaken by the rotors from frame ROTORS_FRAMES on (white yaw and pitch of VIBRATION_DEG),
+    and TAKEOFF_FRAMES of climb: a cubic from rest there to the flight's first pose and
+    velocity, yaw (the short way), pitch and roll eased into the flight's."""
+    V0 = np.gradient(P, axis=0)[0] * RATE_HZ
+    S = _stand_position(P[0], V0)
+    Tc = TAKEOFF_FRAMES / RATE_HZ
+    s = (np.arange(TAKEOFF_FRAMES) / TAKEOFF_FRAMES)[:, None]          # the flight's frame 0 is s = 1
+    h01, h11 = 3 * s ** 2 - 2 * s ** 3, s ** 3 - s ** 2                # Hermite: from rest at S to (P0, V0)
+    climb = S + h01 * (P[0] - S) + h11 * V0 * Tc
+    ease = h01[:, 0]
+    shake = np.zeros((stand, 2))
+    shake[ROTORS_FRAMES:] = rng.normal(0.0, 1.0, (max(stand - ROTORS_FRAMES, 0), 2)) * VIBRATION_DEG
+    P = np.concatenate([np.tile(S, (stand, 1)), climb, P])
+    look = yaw[0] - ((yaw[0] - look + 180.0) % 360.0 - 180.0)          # the same heading, nearest the flight's
+    yaw = np.concatenate([look + shake[:, 0], look + ease * (yaw[0] - look), yaw])
+    pitch = np.concatenate([STAND_PITCH_DEG + shake[:, 1], STAND_PITCH_DEG + ease * (pitch[0] - STAND_PITCH_DEG),
+                            pitch])
+    roll = np.concatenate([np.full(stand, STAND_ROLL_DEG), STAND_ROLL_DEG + ease * (roll[0] - STAND_ROLL_DEG), roll])
+    return P, yaw, pitch, roll
+
+
+TAKEOFF_STAND = (0.6, 0.5)       # the stand's top (x, z extent, m): a steel table the MAV stands on
+MAV_FEET_M = 0.12                # cam0 above the MAV's feet (the Firefly's VI-sensor over its legs)
+
+
+def _takeoff_stand(ids, S: np.ndarray, yaw_deg: float) -> list[str]:
+    """The steel table the MAV stands on (cam0 at ``S``, STAND_CAMERA_M above the floor,
+    heading ``yaw_deg``), behind cam0 so that neither camera sees it."""
+    top = STAND_CAMERA_M - MAV_FEET_M
+    a = np.radians(yaw_deg)
+    back = np.array([np.sin(a), 0.0, np.cos(a)])       # behind the camera (it looks along -z at yaw 0)
+    c = S + back * (TAKEOFF_STAND[1] / 2 + 0.02)
+    return ["", "// the take-off stand: the MAV stands on it before the flight (EuRoC's camera 0.93 m up)",
+            f"CUBOID id {ids('takeoff')} name takeoff_stand material door_paint class furniture "
+            f"position {nums((c[0], top / 2, c[2]))} 0 {num(yaw_deg, 3)} 0 "
+            f"dim {nums((TAKEOFF_STAND[0], top, TAKEOFF_STAND[1]))}"]
+
+
+# what lies on the floor before the stand, in the camera's (right, ahead) metres on the floor:
+# EuRoC V1_01's near field (its corners 1.45-2.4 m away, 71 % in the image's lower half; 38 % of
+# its clipped pixels white things on the floor): strips of black marker tape with white markers,
+# a sheet of white paper, a checkerboard calibration target standing on the floor
+TAPE = (((-1.0, 0.85), (-0.5, 2.8)), ((0.05, 0.85), (0.4, 3.2)), ((1.6, 1.2), (0.8, 2.6)))
+TAPE_W, MARKER = 0.1, (0.06, 0.025)          # tape width; a marker's length and width (m)
+SHEET = ((0.75, 1.5), (0.6, 0.8), 12.0)      # centre, (across, along), turn (deg)
+BOARD = ((1.5, 3.3), (6, 7), 0.07)           # centre, squares (rows, columns), square (m)
+
+
+def _test_floor(ids, S: np.ndarray, yaw_deg: float, rng) -> list[str]:
+    """A drone test area's floor in front of the take-off stand (cam0 at ``S`` heading
+    ``yaw_deg``), the things EuRoC V1_01's camera sees near it (TAPE, SHEET, BOARD). Heights
+    keep every top face apart from the floor's paint (joints 2-3 mm, aisle lines 4 mm, bays
+    5 mm): tape 6 mm, its markers 7 mm, the sheet 5.5 mm."""
+    a = np.radians(yaw_deg)
+    fwd, right = np.array([-np.sin(a), 0.0, -np.cos(a)]), np.array([np.cos(a), 0.0, -np.sin(a)])
+    m = -1.0 if S[0] * right[0] > 0 else 1.0         # mirrored: the board's side towards the hall's middle
+
+    def at(u, w, y):
+        return S * np.array([1.0, 0.0, 1.0]) + m * u * right + w * fwd + np.array([0.0, y, 0.0])
+
+    def turn(du, dw):           # the yaw (deg) of an object whose local x runs along (du, dw)
+        return yaw_deg + np.degrees(np.arctan2(dw, m * du))
+    out = ["", "// a drone test area's floor before the stand: marker tape, a white sheet, a checkerboard",
+           "MATERIAL name tape_black library rubber colour 0.03 0.03 0.03 wear 0",
+           "MATERIAL name paper_white library plastic colour 0.8 0.8 0.78 wear 0 roughness 0.6"]
+    for (u0, w0), (u1, w1) in TAPE:
+        length = float(np.hypot(u1 - u0, w1 - w0))
+        out.append(f"CUBOID id {ids('takeoff')} material tape_black class floor position "
+                   f"{nums(at((u0 + u1) / 2, (w0 + w1) / 2, 0.003))} 0 {num(turn(u1 - u0, w1 - w0), 3)} 0 "
+                   f"dim {nums((length, 0.006, TAPE_W))}")
+        for f in np.sort(rng.uniform(0.03, 0.97, int(length / 0.07))):
+            side = rng.uniform(-0.5, 0.5) * (TAPE_W - MARKER[1] - 0.01)
+            du, dw = (u1 - u0) / length, (w1 - w0) / length
+            u, w = u0 + f * (u1 - u0) - side * dw, w0 + f * (w1 - w0) + side * du
+            out.append(f"CUBOID id {ids('takeoff')} material paper_white class floor position {nums(at(u, w, 0.0035))} "
+                       f"0 {num(turn(du, dw) + rng.uniform(-60, 60), 3)} 0 dim {nums((MARKER[0], 0.007, MARKER[1]))}")
+    (u, w), (across, along), t = SHEET
+    out.append(f"CUBOID id {ids('takeoff')} material paper_white class floor position {nums(at(u, w, 0.00275))} "
+               f"0 {num(yaw_deg + m * t, 3)} 0 dim {nums((across, 0.0055, along))}")
+    (u, w), (rows, cols), q = BOARD
+    face = yaw_deg - np.degrees(np.arctan2(m * u, w))      # the board faces the camera (left is +yaw)
+    out.append(f"CUBOID id {ids('takeoff')} name checkerboard material paper_white class furniture position "
+               f"{nums(at(u, w, (rows + 1) * q / 2))} 0 {num(face, 3)} 0 "
+               f"dim {nums(((cols + 1) * q, (rows + 1) * q, 0.02))}")
+    fa = np.radians(face)
+    towards = np.array([-np.sin(fa), 0.0, -np.cos(fa)]) * -1.0     # the board's normal towards the camera
+    along_x = np.array([np.cos(fa), 0.0, -np.sin(fa)])
+    centre = at(u, w, (rows + 1) * q / 2) + towards * 0.011
+    for i in range(rows):
+        for j in range(cols):
+            if (i + j) % 2:
+                continue
+            c = centre + along_x * (j - (cols - 1) / 2) * q + np.array([0.0, (i - (rows - 1) / 2) * q, 0.0])
+            out.append(f"CUBOID id {ids('takeoff')} material tape_black class furniture position {nums(c)} "
+                       f"0 {num(face, 3)} 0 dim {nums((q, q, 0.002))}")
+    return out
 
 
 BAY = (1.4, 1.2, 0.05)           # a pallet bay's inside (x, z) and its painted line's width (m)
@@ -352,7 +497,7 @@ def _attitude(P: np.ndarray, tt: np.ndarray, rng, look: float, lap: Optional[np.
         phase = 2 * np.pi * np.asarray(lap)
         per_place = sum(np.sin(c * phase + rng.uniform(0, 2 * np.pi)) for c in (1, 2))
         yaw = heading + look * (per_place + 0.25 * smooth_noise(rng, n, 1.0, (0.9, 1.7)))
-    pitch = -8.0 + np.degrees(np.clip(-(acc[:, 2] * np.cos(np.radians(yaw)) + acc[:, 0] * np.sin(np.radians(yaw))) / 9.81, -0.1, 0.1)) \
+    pitch = FLIGHT_PITCH_DEG + np.degrees(np.clip(-(acc[:, 2] * np.cos(np.radians(yaw)) + acc[:, 0] * np.sin(np.radians(yaw))) / 9.81, -0.1, 0.1)) \
         + 0.5 * smooth_noise(rng, n, 1.0, (9.0, 17.0))
     roll = np.degrees(np.clip((acc[:, 0] * np.cos(np.radians(yaw)) - acc[:, 2] * np.sin(np.radians(yaw))) / 9.81, -0.1, 0.1)) \
         + 0.6 * smooth_noise(rng, n, 1.0, (8.0, 15.0))
