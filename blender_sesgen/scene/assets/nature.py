@@ -258,11 +258,17 @@ def fern(size, seed: int) -> MeshData:
     return b.build()
 
 
+TUFT_H_M = 0.35      # the forest's tufts' blade height, at 800 blades per m^2
+
+
 def grass_tuft(size, seed: int) -> MeshData:
-    """A clump of grass blades (thin curved triangles) over a small patch."""
+    """A clump of grass blades (thin curved triangles) over a small patch. Its blades' leaf area
+    per ground area is at least that of a 35 cm tuft at 800 blades per m^2 (~1.8): shorter blades
+    stand denser (a mown lawn's ~4000 per m^2 at 8 cm: the shoots of a mown sward, whose
+    blades hide the ground at the grazing views of a street camera)."""
     rng, W, H, D, b = start(size, seed)
     greens = [b.surface("grass", scaled((0.06, 0.1, 0.03), f)) for f in (0.8, 1.0, 1.3, 1.6)]
-    n = int(200 * W * D / 0.25) + 30
+    n = int(200 * W * D / 0.25 * max(1.0, TUFT_H_M / H)) + 30
     base = np.column_stack([rng.uniform(-W / 2, W / 2, n), np.full(n, -0.02), rng.uniform(-D / 2, D / 2, n)])
     lean = _unit(rng.normal(size=(n, 3)) * [1, 0, 1]) * rng.uniform(0.05, 0.4, n)[:, None]
     h = H * rng.uniform(0.5, 1.0, n)
