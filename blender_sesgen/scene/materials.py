@@ -50,7 +50,7 @@ class LibraryEntry:
     wear: float = 0.2              # default wear/dirt (0..1)
     semantic_class: Optional[str] = None  # default ``class`` of objects using it
     nir: Optional[float] = None    # reflectance at 700-1000 nm (None: as in the visible); see band_colour
-    transmittance: float = 0.0     # share of light passed through, scattered evenly (diffusing glazing); 0: opaque
+    transmittance: float = 0.0     # share of light passed, scattered evenly (diffusing glazing, leaves); 0: opaque
 
 
 def _entries(*entries: LibraryEntry) -> dict[str, LibraryEntry]:

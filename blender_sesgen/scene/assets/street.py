@@ -28,8 +28,8 @@ ASPHALT = (0.085, 0.085, 0.082)
 GRASS = (0.06, 0.10, 0.03)
 # a verge's surface is a sward seen as a whole: its blades shade each other, so at a street
 # camera's grazing views it is about half as bright as one blade's albedo (measured on
-# city_kitti's frame 0, half size: the near lawn as the bare slab 1.67 x the sunlit road,
-# under grass_tuft's mown-lawn blades 0.86; KITTI sequence_1's lawn 0.67-0.77)
+# city_kitti's frame 0, half size, the near lawn over the sunlit road: the bare slab 1.67,
+# under grass_tuft's mown-sward blades 0.86 with the grass's former sheen; 1.18 and 0.53 without)
 SWARD = 0.5
 
 
