@@ -31,7 +31,8 @@ SGBM valid share within 25 %, clipped share within 2 points, slope within 0.2.
 Causes (printed under the table): the **brightness spread** of both (median / mean of the
 linear signal, the 8-bit images linearised with the profile's black level and response: a
 mean-metering auto-exposure puts the sky at saturation only when the scene's median is
-high enough relative to its mean), for city the brightness of each kind of surface and the
+high enough relative to its mean), for city the brightness of each kind of surface, the real
+frames' **ring power** over the render's per band of frequency (where the slope's gap lies) and the
 **sunlit road's pixel-scale contrast** (``road_grain``), and, on the render (it has depth), the **SGBM error at
 the OpenCV VO's corners** (Shi-Tomasi 1000/0.01/8, its detector): the share of corners on a
 depth edge (the ground-truth disparity spans > 15 % in the 7 x 7 window) and the median
@@ -317,6 +318,31 @@ def slope_by_reduction(real_seq, n: int, size: tuple[int, int]) -> str:
             "Lanczos": lambda im: cv2.resize(im, size, interpolation=cv2.INTER_LANCZOS4)}
     return ", ".join(f"{name} {np.mean([spectrum_slope(f(real_seq.image_gray(k))) for k in range(n)]):.2f}"
                      for name, f in ways.items())
+
+
+RING_BANDS = ((2, 8), (8, 16), (16, 32), (32, 48), (48, 64), (64, 80), (80, 92))
+
+
+def _ring_power(img) -> np.ndarray:
+    """``spectrum_slope``'s rings (mean removed, Hann window, rings one frequency step wide in
+    cycles per image height) of an 8-bit grey frame, over its mean squared (contrast power)."""
+    a = img.astype(np.float64)
+    H, W = a.shape
+    w = (a - a.mean()) * np.outer(np.hanning(H), np.hanning(W))
+    P = np.abs(np.fft.fft2(w)) ** 2
+    m = min(H, W)
+    ring = np.sqrt((np.fft.fftfreq(W)[None, :] * m) ** 2 + (np.fft.fftfreq(H)[:, None] * m) ** 2).astype(np.int64)
+    return (np.bincount(ring.ravel(), P.ravel()) / np.maximum(np.bincount(ring.ravel()), 1))[:m // 2] / a.mean() ** 2
+
+
+def ring_power_ratio(real: Frames, ours: Frames, n: int) -> str:
+    """Where the slope's gap lies: the real frames' ring power over the render's, both over
+    their frame mean squared, per band of cycles per image height (median over the frames):
+    above 1 at the top, the render lacks fine contrast; below 1 at the bottom, it has too much
+    large-scale contrast."""
+    r = [[_ring_power(real.image_gray(k))[a:b].mean() / _ring_power(ours.image_gray(k))[a:b].mean()
+          for a, b in RING_BANDS] for k in range(n)]
+    return ", ".join(f"{a}-{b}: {v:.2f}" for (a, b), v in zip(RING_BANDS, np.median(r, axis=0)))
 
 
 def _grain(L: np.ndarray, mask: np.ndarray) -> float:
@@ -684,6 +710,8 @@ def main(argv=None) -> int:
         print(f"brightness over the frame mean (median): real KITTI sequence_1 (hand-marked sunlit regions, frames "
               f"0, 20, 40) {kr}; render (by object id, sun and shade) {ko}")
         print(f"spectrum slope of {name} by how it is brought to {seq.resolution[0]} px wide (mean): {reductions}")
+        print(f"ring power over the frame mean squared, {name} over the render (cycles per image height): "
+              f"{ring_power_ratio(real, ours, n)}")
         gr, go = road_grain(out, ours, n)
         print(f"sunlit road's pixel-scale contrast (robust deviation over the 5 x 5 mean): real KITTI sequence_1 "
               f"{gr:.3f}, render {go:.3f}")

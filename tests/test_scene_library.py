@@ -493,6 +493,57 @@ def test_city_kitti_near_field_is_kitti_sequence_1s(scenes):
     assert min(abs(x) for c in parked_cars(s2).values() for _, x in c) < 3.0
 
 
+def test_city_kitti_lawns_hide_their_ground_at_the_cameras_grazing_view():
+    """A mown lawn's blades (grass_tuft, 8 cm, in clumps) stand dense enough to hide most of the
+    ground from a camera 1.65 m up and 10 m away (rays cast against the tuft's own mesh: > 75 %
+    meet a blade first, 81 % today; the tall tufts' sparse 800 per m^2 let 57 % through, and the
+    verge's bright slab made the lawn 1.7 x the sunlit road where KITTI's is 0.7); the forest's
+    35 cm tufts keep their blades; the verge under them has a sward's tone (half a blade's)."""
+    from blender_sesgen.scene.assets import street
+
+    def seen_blades(H, dist=10.0, n=400):
+        m = assets.generate("grass_tuft", (2.875, H, 2.875), 123)
+        sc = mesh_raycast.TriangleScene()
+        sc.add(1, m.vertices, m.faces)
+        g = np.column_stack([np.random.default_rng(0).uniform(-0.5, 0.5, (n, 2)), np.zeros(n)])[:, [0, 2, 1]]
+        o = np.array([0.0, 1.65, dist])
+        d = g - o
+        L = np.linalg.norm(d, axis=1)
+        t, _ = sc.cast(np.tile(o, (n, 1)), d / L[:, None])
+        return float(np.mean(t < L)), len(m.faces)
+
+    lawn, _ = seen_blades(0.08)
+    assert lawn > 0.75, lawn
+    assert seen_blades(0.35)[1] == 3 * (int(200 * 2.875 ** 2 / 0.25) + 30)    # 800 per m^2, as before
+    verge = assets.generate("verge", (3.0, 0.13, 20.0), 4)
+    tones = {s.colour for s in verge.surfaces if s.material == "grass"}
+    assert max(max(c) for c in tones) <= 0.6 * max(street.GRASS), tones
+
+
+def test_city_kitti_foliage_passes_what_it_reflects_and_seed_0s_right_blocks_are_white(scenes):
+    """Leaves and grass blades pass about as much light as they reflect, in the sensor's band
+    too (PROSPECT: a green leaf's transmittance follows its reflectance from 400 to 1000 nm),
+    so lit crowns glow from within; seed 0's front-row blocks on the right through ~60 m have
+    KITTI sequence_1's white render (its burnt-out pixels), a drawn seed's are its own."""
+    from blender_sesgen.generators.builtin import city_kitti
+    from blender_sesgen.scene.materials import band_colour, entry, transmitted_colour
+    for name in ("leaves", "grass"):
+        e = entry(name)
+        assert transmitted_colour(e.colour, e) == pytest.approx(e.colour, rel=0.01)
+        c = band_colour(e.colour, name, 0.2)
+        assert transmitted_colour(c, e) == pytest.approx(c, rel=0.01) and min(c) > 1.5 * min(e.colour)
+    s = scenes["city_kitti"]
+    T0 = s.timeline.left()[0]
+    white = s.material("white_render")
+    assert min(white.colour) >= 0.75
+    right = [(float((np.asarray(o.position) - T0[:3, 3]) @ T0[:3, 2]), o.material) for o in s.objects
+             if isinstance(o, Asset) and o.kind == "building" and (np.asarray(o.position) - T0[:3, 3]) @ T0[:3, 0] > 0
+             and abs((np.asarray(o.position) - T0[:3, 3]) @ T0[:3, 0]) < 30.0]
+    assert {m for z, m in right if -5.0 < z < 55.0} == {"white_render"}, right
+    assert all(m is None for z, m in right if z > 70.0), right
+    assert "white_render" not in city_kitti.generate(2)
+
+
 def test_city_kitti_parks_its_kerbs_as_kitti_sequence_1_and_seeds_vary_it(scenes):
     """Parked cars (static car assets) along the drive's street: KITTI sequence_1 shows 2-3 at
     the right kerb over the ~90 m its frames 0-45 see (one per 30-45 m) and none on the lawn

@@ -50,7 +50,7 @@ class LibraryEntry:
     wear: float = 0.2              # default wear/dirt (0..1)
     semantic_class: Optional[str] = None  # default ``class`` of objects using it
     nir: Optional[float] = None    # reflectance at 700-1000 nm (None: as in the visible); see band_colour
-    transmittance: float = 0.0     # share of light passed through, scattered evenly (diffusing glazing); 0: opaque
+    transmittance: float = 0.0     # share of light passed, scattered evenly (diffusing glazing, leaves); 0: opaque
 
 
 def _entries(*entries: LibraryEntry) -> dict[str, LibraryEntry]:
@@ -122,12 +122,18 @@ LIBRARY: dict[str, LibraryEntry] = _entries(
                  (0.40, 0.40, 0.39), 0.6, scale_m=0.5, bump_m=0.0002, variation=0.1, wear=0.1,
                  semantic_class="window", transmittance=0.45),
     # --- nature -----------------------------------------------------------------------------
-    LibraryEntry("grass", "lawn seen from a few metres: clumps, dry and lush patches, fine blade relief",
+    LibraryEntry("grass", "lawn seen from a few metres: clumps, dry and lush patches, fine blade relief; "
+                          "its blades pass about what they reflect (as leaves)",
                  (0.06, 0.10, 0.03), 0.9, scale_m=0.3, bump_m=0.006, variation=0.3, wear=0.2,
-                 semantic_class="terrain", nir=0.45),
-    LibraryEntry("leaves", "foliage mass: leaf clusters catching the light, dark gaps, yellowed leaves with wear",
+                 semantic_class="terrain", nir=0.45, transmittance=0.0864),
+    # a green leaf passes about as much light as it reflects, band by band (PROSPECT; Jacquemoud
+    # & Baret 1990: ~0.05-0.1 in the visible, ~0.45 in the near infrared): transmittance = the
+    # colour's luminance (gain 1), so a sensor's band colour (band_colour, NIR included) is
+    # passed too and the crowns' and hedges' inner leaves glow as real ones do
+    LibraryEntry("leaves", "foliage mass: leaf clusters catching the light, dark gaps, yellowed leaves with wear; "
+                           "passes about what it reflects",
                  (0.05, 0.09, 0.025), 0.6, scale_m=0.08, bump_m=0.05, variation=0.35, wear=0.15,
-                 semantic_class="vegetation", nir=0.45),
+                 semantic_class="vegetation", nir=0.45, transmittance=0.0768),
     LibraryEntry("bark", "tree bark: vertical ridges along the object's y axis, lichen with wear",
                  (0.13, 0.10, 0.08), 0.9, scale_m=0.05, bump_m=0.01, variation=0.3, wear=0.3,
                  semantic_class="vegetation", nir=0.3),

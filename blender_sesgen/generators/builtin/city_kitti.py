@@ -102,6 +102,7 @@ class NearField:
     traffic_lane: float     # the moving cars' centre off the centreline
     traffic_ahead: tuple    # the nearest car ahead in the rig's lane at frame 0 (range drawn)
     oncoming: bool          # whether cars come the other way
+    white_right: float = 0.0    # the right-hand buildings up to this far ahead have a white render (0: drawn)
 
 
 # KITTI sequence_1's street, measured in its frames (ground plane 1.65 m under the camera, f 707
@@ -113,9 +114,15 @@ class NearField:
 # at frames ~10 and ~28), and no other at the right kerb through frame 50 (~60 m further); no
 # moving car in its 51 frames: none ahead in the lane in the ~100 m its frames see, none
 # oncoming (a street too narrow for two cars to pass at speed); the cars far ahead drive its middle
-# as the rig does (its car's centre ~0.27 m right of the left camera)
+# as the rig does (its car's centre ~0.27 m right of the left camera); the blocks on the right
+# through frame 45 (~55 m) have white renders: the sunlit one of frames 0-15 holds almost all of
+# the sequence's burnt-out pixels, the one being built in frames 20-45 is white behind its scaffold
 KITTI_S1_NEAR = NearField(half_road=2.0, bay=2.5, walk_left=0.0, car_offset=3.13, parked_ahead=(15.4, 40.1),
-                          parked_clear=100.0, traffic_lane=0.1, traffic_ahead=(100.0, 130.0), oncoming=False)
+                          parked_clear=100.0, traffic_lane=0.1, traffic_ahead=(100.0, 130.0), oncoming=False,
+                          white_right=60.0)
+# a white silicate render (light reflectance value ~80: palette.PLASTER's whitest but one)
+WHITE_RENDER = (0.80, 0.79, 0.76)
+FRONT_ROW_M = 30.0   # a block's centre within this of the centreline: the front row (second rows stand further back)
 
 
 @dataclass(frozen=True)
@@ -168,6 +175,25 @@ def _centre(street_pos, street_yaw, s, L, bends):
     a = np.radians(street_yaw)
     R = np.array([[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]])
     return (c @ R.T + street_pos, n @ R.T, np.degrees(h) + street_yaw)
+
+
+def _white_near(lines: list[str], centre, s0: float, s1: float) -> list[str]:
+    """``lines`` with the front row's buildings (centres within ``FRONT_ROW_M`` of the
+    centreline) whose nearest centreline point lies between arc lengths ``s0`` and ``s1``
+    given the ``white_render`` material (their walls; a scripted near field's)."""
+    s = np.arange(0.0, s1 + 40.0, 0.5)
+    c = centre(s)[:, [0, 2]]
+    out = []
+    for ln in lines:
+        if ln.startswith("ASSET building"):
+            w = ln.split()
+            i = w.index("position")
+            xz = np.array([float(w[i + 1]), float(w[i + 3])])
+            d = np.linalg.norm(c - xz, axis=1)
+            if s0 <= s[int(np.argmin(d))] <= s1 and d.min() <= FRONT_ROW_M:
+                ln += " material white_render"
+        out.append(ln)
+    return out
 
 
 def _traffic(rng, centre, s_cam: np.ndarray, step_m: float, L: float, n_cars: int, ids: Ids, seed_of,
@@ -298,8 +324,13 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     # --- buildings and green blocks on both sides -------------------------------------
     out += ["", "// buildings (front facades towards the street) and green blocks"]
     for side in (1, -1):
-        out += line_street_side(rng, place, L - 12, side, right_edge if side > 0 else -left_edge, ids,
-                                FRONTAGES[v.frontage[0 if side < 0 else 1]], seed_of=pool)
+        lines = line_street_side(rng, place, L - 12, side, right_edge if side > 0 else -left_edge, ids,
+                                 FRONTAGES[v.frontage[0 if side < 0 else 1]], seed_of=pool)
+        if side > 0 and near is not None and near.white_right > 0:
+            lines = _white_near(lines, lambda s_: _centre(street_pos, street_yaw, s_, L, bends)[0],
+                                behind, behind + near.white_right)
+            out.append(derived_material("white_render", "plaster", WHITE_RENDER, seed=seed))
+        out += lines
 
     # a building across the far end of the street closes the view
     p_end, h_end = place(L + 12.0, 0.0)

@@ -258,14 +258,28 @@ def fern(size, seed: int) -> MeshData:
     return b.build()
 
 
+TUFT_H_M = 0.35      # the forest's tufts' blade height, at 800 blades per m^2
+CLUMP_M = 0.06       # a mown sward's clumps (below TUFT_H_M): blades of one clump share a height and tone
+
+
 def grass_tuft(size, seed: int) -> MeshData:
-    """A clump of grass blades (thin curved triangles) over a small patch."""
+    """A clump of grass blades (thin curved triangles) over a small patch. Its blades' leaf area
+    per ground area is at least that of a 35 cm tuft at 800 blades per m^2 (~1.8): shorter blades
+    stand denser (a mown lawn's ~4000 per m^2 at 8 cm: the shoots of a mown sward, whose
+    blades hide the ground at the grazing views of a street camera)."""
     rng, W, H, D, b = start(size, seed)
     greens = [b.surface("grass", scaled((0.06, 0.1, 0.03), f)) for f in (0.8, 1.0, 1.3, 1.6)]
-    n = int(200 * W * D / 0.25) + 30
+    n = int(200 * W * D / 0.25 * max(1.0, TUFT_H_M / H)) + 30
     base = np.column_stack([rng.uniform(-W / 2, W / 2, n), np.full(n, -0.02), rng.uniform(-D / 2, D / 2, n)])
     lean = _unit(rng.normal(size=(n, 3)) * [1, 0, 1]) * rng.uniform(0.05, 0.4, n)[:, None]
     h = H * rng.uniform(0.5, 1.0, n)
+    clump = None
+    if H < TUFT_H_M:   # a mown sward: shoots in clumps (one plant's tillers, ~6 cm), each cut and toned alike
+        crng = np.random.default_rng([seed, 0xC1])
+        cell = np.floor((base[:, [0, 2]] + [W / 2, D / 2]) / CLUMP_M).astype(int)
+        table = crng.uniform(0.0, 1.0, (*(cell.max(axis=0) + 1), 2))
+        clump = table[cell[:, 0], cell[:, 1]]
+        h *= 0.6 + 0.4 * clump[:, 0]
     w = rng.uniform(0.004, 0.008, n)
     side = _unit(np.cross(lean + [0, 1e-3, 0], [0, 1, 0]) + rng.normal(size=(n, 3)) * 0.3)
     mid = base + np.column_stack([lean[:, 0] * h * 0.3, h * 0.55, lean[:, 2] * h * 0.3])
@@ -274,6 +288,9 @@ def grass_tuft(size, seed: int) -> MeshData:
                   mid - side * (0.7 * w)[:, None], tip], axis=1).reshape(-1, 3)
     idx = (np.arange(n) * 5)[:, None]
     F = np.concatenate([idx + [0, 1, 2], idx + [0, 2, 3], idx + [3, 2, 4]])
-    s = np.asarray(greens)[rng.integers(len(greens), size=n)]
+    pick_ = rng.integers(len(greens), size=n)
+    if clump is not None:
+        pick_ = np.minimum((clump[:, 1] * len(greens)).astype(int), len(greens) - 1)
+    s = np.asarray(greens)[pick_]
     b.add(V, F, np.concatenate([s, s, s]))
     return b.build()
