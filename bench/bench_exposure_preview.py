@@ -9,7 +9,7 @@ Each scene is built once (``RenderJob.build``: its exposure measured the usual w
 preview renders frame 0's left view in a fresh Cycles session (``blender/exposure.py:
 measure_exposure`` with another width and sample count), in order, twice; the table gives the
 exposure and its ratio to today's (the first preview, ``PREVIEW_WIDTH`` x ``PREVIEW_SAMPLES``),
-the mean linear luminance (the metering pass's value of frame 0 at film exposure 1) and its
+the preview's mean linear luminance (at film exposure 1, unclipped) and its
 ratio, and the process's CPU seconds per preview (the median of the two; set-up included). For
 a scene with AUTOEXPOSURE, frame 0's metered value (taken from the exposure preview) beside the
 same preview rendered again at the frames' film exposure (how it was metered before).
@@ -57,16 +57,16 @@ def main(argv=None) -> int:
                 c = time.process_time()   # this process's user + sys CPU s
                 got.append(exposure.measure_exposure(bscene, camera, rig.blender_frame(0), None, width, samples))
                 cpu.append(time.process_time() - c)
-            value, lum = got[0]
+            value, lum = got[0][0], meter(got[0][1])   # the preview's mean linear luminance
             ref = ref or (value, lum)
             print(f"{name:12s}{f'{width}x{samples}':>10s}{value:10.4f}{value / ref[0]:8.3f}{lum:10.4f}"
                   f"{lum / ref[1]:8.3f}{statistics.median(cpu):8.2f}", flush=True)
         print(f"# {name}: the build's exposure {s.exposure:.4f} (load {os.getloadavg()[0]:.1f})", flush=True)
         if s.metering:   # AUTOEXPOSURE: frame 0's metered value, from the exposure preview and as it was
             with exposure._preview_render(bscene, exposure.METERING_WIDTH_PX, exposure.METERING_SAMPLES,
-                                          s.exposure) as path:
+                                          s.exposure, exposure.METERING_DENOISE) as path:
                 render.render_view(bscene, camera, rig.blender_frame(0), seed=0, filepath=path)
-                before = meter(np.stack(exposure._beauty(path), axis=-1))
+                before = s.plan.sensor.meter(np.stack(exposure._beauty(path), axis=-1), [])
             print(f"# {name}: metered frame 0 {s.metering[0]:.9g} (the exposure preview's x exposure), "
                   f"{before:.9g} rendered again at the frames' film exposure (before): ratio {s.metering[0] / before:.9f}",
                   flush=True)

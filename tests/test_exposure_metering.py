@@ -1,4 +1,5 @@
-"""The sensor auto-exposure's metering pass takes frame 0 from the automatic exposure's preview.
+"""The sensor auto-exposure's metering pass: frame 0 from the automatic exposure's preview, and
+what it meters (the clipped signal, as a camera meters its digitised output).
 
 The exposure preview is the metering preview of frame 0 (same size, samples, seed, objects; no
 denoiser, no motion blur; film exposure 1), so the pass does not render it again
@@ -20,7 +21,6 @@ pytestmark = pytest.mark.render
 def test_metering_takes_frame_0_from_the_exposure_preview(tmp_path, monkeypatch):
     from blender_sesgen.blender import exposure, render, rig
     from blender_sesgen.pipeline import RenderJob, RenderOptions
-    from blender_sesgen.render.sensor.autoexposure import meter
     from blender_sesgen.scene.presets import EXPOSURE_PREVIEW
     script = tmp_path / "m.ses"
     script.write_text(oracle_script(width=64, height=48, focal=44.0, principal=(32.1, 23.4), baseline=0,
@@ -35,16 +35,19 @@ def test_metering_takes_frame_0_from_the_exposure_preview(tmp_path, monkeypatch)
     metered = s.metering[:2]
     assert len(s.metering) == job.plan.scene.frames == 3 and all(v > 0 for v in metered)
     assert s.metering[2] is None              # the last frame's: no exposure follows it
-    # the build rendered the exposure preview of frame 0, then the pass only frame 1
-    assert renders == [rig.blender_frame(k) for k in (0, 1)]
+    # the build rendered the exposure preview of frame 0, then the pass only frame 1 (both
+    # frames when the metering preview is denoised and the exposure preview is not)
+    assert renders == [rig.blender_frame(k) for k in ((0, 1) if exposure.PREVIEW_IS_METERING else (0, 0, 1))]
     bscene, camera = s.built.scene, s.built.cameras["left"]
     render.configure(bscene, EXPOSURE_PREVIEW, persistent=False)   # the pass starts a fresh session
-    again = exposure.meter_frames(bscene, camera, [rig.blender_frame(k) for k in range(2)], s.exposure)
+    again = exposure.meter_frames(bscene, camera, [rig.blender_frame(k) for k in range(2)], s.exposure,
+                                  metering=job.plan.sensor.meter)
     assert again == metered                      # a pass of every frame: the same numbers
     # the rule before: frame 0's preview rendered at the frames' film exposure
-    with exposure._preview_render(bscene, exposure.METERING_WIDTH_PX, exposure.METERING_SAMPLES, s.exposure) as p:
+    with exposure._preview_render(bscene, exposure.METERING_WIDTH_PX, exposure.METERING_SAMPLES, s.exposure,
+                                  exposure.METERING_DENOISE) as p:
         real(bscene, camera, rig.blender_frame(0), seed=0, filepath=p)
-        before = meter(np.stack(exposure._beauty(p), axis=-1))
+        before = job.plan.sensor.meter(np.stack(exposure._beauty(p), axis=-1), [])
     assert metered[0] == pytest.approx(before, rel=1e-5) and metered[0] != pytest.approx(metered[1], rel=1e-6)
 
 
@@ -52,7 +55,8 @@ def test_metering_takes_frame_0_from_the_exposure_preview(tmp_path, monkeypatch)
 def test_a_render_of_the_first_frames_renders_no_metering_preview(tmp_path, monkeypatch, frames, metered):
     """Frame k's exposure follows frames 0..k-1 only: frames 0:2 need frame 0's value, the
     exposure preview's, and frame 0 alone none; neither renders a metering preview, so the
-    build reaches frame 0 after the exposure preview (issue 29: the build)."""
+    build reaches frame 0 after the exposure preview (issue 29: the build) - while the metering
+    preview is the exposure preview (a denoised metering preview of frame 0 is rendered apart)."""
     from blender_sesgen.blender import render, rig
     from blender_sesgen.pipeline import RenderJob, RenderOptions
     script = tmp_path / "m.ses"
@@ -64,9 +68,58 @@ def test_a_render_of_the_first_frames_renders_no_metering_preview(tmp_path, monk
     monkeypatch.setattr(render, "render_view", lambda *a, **k: renders.append(a[2]) or real(*a, **k))
     job = RenderJob.prepare(script, tmp_path / "out", RenderOptions(samples=1, frames=frames))
     job.build()
-    assert renders == [rig.blender_frame(0)]                  # the exposure preview only
+    from blender_sesgen.blender import exposure
+    alike = exposure.PREVIEW_IS_METERING or not metered
+    assert renders == [rig.blender_frame(0)] * (1 if alike else 2)   # the exposure preview (and frame 0's)
     m = job.session.metering
     assert len(m) == 3 and all(v > 0 for v in m[:metered]) and all(v is None for v in m[metered:])
+
+
+def test_a_burnt_out_window_is_metered_at_full_scale(tmp_path, monkeypatch):
+    """A camera meters its digitised output: a pixel burnt out counts at full scale, not at its
+    radiance. A still view whose left quarter is a glowing wall of radiance 10 (a window) and
+    the rest one of 0.1, fast auto-exposure (speed 400 at 20 Hz: each frame answers the last
+    almost fully): the metering pass settles where the clipped preview's mean brings the output
+    to the target T, E = (T - a) S t_nom / mean(L [L < S t_nom / E]) with a the share of the
+    preview's pixels at or above full scale (S t_nom / E; S = 1 here) - the closed form from the
+    preview's own pixels, independent of the code's metering; the unclipped mean (the rule
+    before) would expose 10 x shorter."""
+    from blender_sesgen.pipeline import RenderJob, RenderOptions
+    n, target, t_nom = 24, 0.5, 0.004
+    lines = ["CAMERA resolution 32 24 focal 20 baseline 0", "LOOK exposure 0", "WORLD colour 0 0 0",
+             "RENDER samples 1",
+             "MATERIAL name window colour 0 0 0 emission 1 1 1 emission_strength 10 roughness 1 specular 0",
+             "MATERIAL name wall colour 0 0 0 emission 1 1 1 emission_strength 0.1 roughness 1 specular 0",
+             "QUAD id 1 material window vertices -30 -20 -5  -2 -20 -5  -2 20 -5  -30 20 -5",
+             "QUAD id 2 material wall vertices -2 -20 -5  30 -20 -5  30 20 -5  -2 20 -5",
+             f"TIMING rate 20 exposure {t_nom} blur off", "SENSOR seed 1",
+             f"AUTOEXPOSURE target {target} speed 400"] + ["POSE 0 0 0 0 0 0"] * n
+    script = tmp_path / "window.ses"
+    script.write_text("\n".join(lines) + "\n")
+    job = RenderJob.prepare(script, tmp_path / "out", RenderOptions(frames=f"0:{n}"))
+    sensor, previews = job.plan.sensor, []
+    real = sensor.meter
+    monkeypatch.setattr(sensor, "meter", lambda image, before: previews.append(np.array(image)) or real(image, before))
+    job.build()
+    metered = job.session.metering
+    metered = metered[:n - 1]                                   # no exposure follows the last frame's
+    assert len(previews) == n - 1 and all(v is not None for v in metered)
+    w = np.array([0.2126, 0.7152, 0.0722])
+    L = previews[-1].astype(np.float64)                         # (h, w, 3): a colour sensor clips each channel
+    clipped = L > 1.0                                           # the window; then as E decides
+    for _ in range(20):
+        a = (clipped.mean(axis=(0, 1)) * w).sum()
+        E = (target - a) * t_nom / (np.where(clipped, 0.0, L).mean(axis=(0, 1)) * w).sum()
+        if np.array_equal(L >= t_nom / E, clipped):
+            break
+        clipped = L >= t_nom / E
+    assert 0.2 < a < 0.35 and L[~clipped].max() < t_nom / E     # a quarter burns out; the rest does not
+    exposure_s, gain = sensor.exposures(metered)[-1]
+    # the previews of a still view differ by the denoiser's round-off only: the schedule settles there
+    assert exposure_s * gain == pytest.approx(E, rel=1e-3)
+    E_last = np.prod(sensor.exposures(metered[:-1])[-1])       # frame n-1's: the meter's clip level
+    assert metered[-1] == pytest.approx((np.minimum(L, t_nom / E_last).mean(axis=(0, 1)) * w).sum(), rel=1e-6)
+    assert target * t_nom / (L.mean(axis=(0, 1)) * w).sum() < E / 10     # what the unclipped mean would give
 
 
 def test_sigterm_stops_a_render_during_its_metering_pass(tmp_path):

@@ -173,12 +173,30 @@ def test_a_sensor_without_ir_cut_filter_sees_foliage_brighter_and_plain_material
     assert ratio[1] / ratio[0] == pytest.approx(0.5 + 0.5 * nir / lum, rel=0.06)
 
 
+def _settle(plan, image, n=20):
+    """The metering values of ``n`` frames of a still ``image`` (each metered at its own
+    exposure, as the metering pass does) and the exposure of the frame after them."""
+    metered = []
+    for _ in range(n):
+        metered.append(plan.meter(image, metered))
+    return metered, plan.exposures(metered)[-1]
+
+
+def _signal(plan, image, exposure_s, gain):
+    """The chain's normalised raw signal (0 at black, 1 at full scale) of ``image``."""
+    cam = pipeline.Camera(sensor=plan.sensor, lens=plan.lens_spec, rays=plan.pixel_rays(),
+                          cx=plan.K[0, 2], cy=plan.K[1, 2], nominal_exposure_s=plan.nominal_exposure_s())
+    out = pipeline.process(image, cam, pipeline.Shot(exposure_s, gain, 0, 0))
+    full = 2 ** plan.sensor.bits - 1
+    return (out.raw_dn.astype(np.float64) - plan.sensor.black_level_dn) / (full - plan.sensor.black_level_dn)
+
+
 def test_auto_exposure_meters_the_vignetted_image_the_sensor_receives():
     """A camera's auto-exposure meters its own image, so the lens's vignetting darkens what it
     meters: on a uniform scene held still the schedule settles where the mean of the image the
     chain forms (optics.vignetting applied by pipeline.process, read back from the raw) is the
     target, with and without vignetting (the metered level alone would leave the vignetted
-    image darker than the target)."""
+    image darker than the target); the black level's share of the raw's range is not signal."""
     from blender_sesgen.render.plan import RenderOptions, EffectiveSettings
     from blender_sesgen.render.sensor.render_plan import SensorPlan
     level = 0.05
@@ -186,12 +204,42 @@ def test_auto_exposure_meters_the_vignetted_image_the_sensor_receives():
         sc = scene(f"SENSOR profile kitti native 256 readnoise 0 fullwell 1e9\nLENS vignetting {vignetting}\n"
                    "AUTOEXPOSURE target 0.25 speed 100\n")
         plan = SensorPlan.create(sc, EffectiveSettings.of(sc, RenderOptions()))
-        exposure_s, gain = plan.exposures([level] * 20)[-1]
-        cam = pipeline.Camera(sensor=plan.sensor, lens=plan.lens_spec, rays=plan.pixel_rays(),
-                              cx=plan.K[0, 2], cy=plan.K[1, 2], nominal_exposure_s=plan.nominal_exposure_s())
-        out = pipeline.process(np.full((plan.height, plan.width, 3), level), cam, pipeline.Shot(exposure_s, gain, 0, 0))
-        full = 2 ** plan.sensor.bits - 1
-        signal = (out.raw_dn.astype(np.float64) - plan.sensor.black_level_dn) / (full - plan.sensor.black_level_dn)
-        assert signal.mean() == pytest.approx(0.25, abs=0.01)
+        image = np.full((plan.height, plan.width, 3), level)
+        metered, (exposure_s, gain) = _settle(plan, image)
+        assert _signal(plan, image, exposure_s, gain).mean() == pytest.approx(0.25, abs=0.003)
         if vignetting:
-            assert plan.metering_illumination < 0.9      # the test's lens does vignette
+            assert metered[-1] < 0.9 * level      # the test's lens does vignette
+        else:
+            assert metered[-1] == pytest.approx(level, rel=1e-12)
+
+
+@pytest.mark.parametrize("profile", ["kitti", "euroc", "robotcar"])
+def test_auto_exposure_meters_burnt_out_pixels_at_full_scale(profile):
+    """A camera meters its digitised output, where a burnt-out pixel counts at full scale, not
+    at its radiance. A still scene a share ``a`` of which is far above full scale (radiance
+    40, a window) and the rest at level l settles where the output's mean is the target T:
+    the burnt-out pixels at 1 and the rest at (T - a) / (1 - a), so E = (T - a) S t_nom /
+    ((1 - a) l) (S: the value of full scale at t_nom and gain 1) - the closed form from the
+    image's own pixels; the rule before (the mean radiance, unclipped) exposes ~100 x shorter
+    and leaves the rest of the image black. Also for a colour sensor (each channel clips)."""
+    from blender_sesgen.render.plan import RenderOptions, EffectiveSettings
+    from blender_sesgen.render.sensor.render_plan import SensorPlan
+    sc = scene(f"SENSOR profile {profile} native 256 readnoise 0 fullwell 1e9\nLENS vignetting 0\n"
+               "AUTOEXPOSURE target 0.4 speed 100 max_gain 1\n")
+    plan = SensorPlan.create(sc, EffectiveSettings.of(sc, RenderOptions()))
+    image = np.full((plan.height, plan.width, 3), 0.02)
+    a_cols = plan.width // 4
+    image[:, :a_cols] = 40.0
+    a = a_cols / plan.width
+    metered, (exposure_s, gain) = _settle(plan, image, 40)
+    S, t_nom = plan.full_scale(plan.nominal_exposure_s(), 1.0), plan.nominal_exposure_s()
+    E = (0.4 - a) * S * t_nom / ((1 - a) * 0.02)
+    assert exposure_s * gain == pytest.approx(E, rel=1e-3)
+    x = _signal(plan, image, exposure_s, gain)
+    if x.ndim == 3:
+        x = x.mean(axis=-1)
+    assert x.mean() == pytest.approx(0.4, abs=0.01) and (x[:, :a_cols] >= 1).all()
+    # away from the edge (the lens's blur spreads the window's light a few pixels into the rest)
+    assert x[:, a_cols + 12:].mean() == pytest.approx((0.4 - a) / (1 - a), abs=0.01)
+    unclipped = 0.4 * S * t_nom / image.mean(axis=-1).mean()
+    assert E > 50 * unclipped

@@ -16,11 +16,11 @@ import os
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Optional
+from typing import Callable, Optional
 
 import numpy as np
 
-from ..render.sensor.autoexposure import METERING_SAMPLES, METERING_WIDTH_PX, meter
+from ..render.sensor.autoexposure import METERING_DENOISE, METERING_SAMPLES, METERING_WIDTH_PX, meter
 from ..scene.lighting import EXPOSURE_TARGET as TARGET
 
 PREVIEW_WIDTH = 96      # px; the preview keeps the aspect ratio
@@ -44,10 +44,11 @@ def remove_stale_previews(folder=None) -> None:
 
 
 @contextmanager
-def _preview_render(bscene, width_px: int, samples: int, film_exposure: float):
-    """The scene set to render small previews (``width_px`` wide, ``samples``, no denoiser,
-    no motion blur, film exposure ``film_exposure``) and a temporary EXR path for them;
-    everything restored and the file removed afterwards.
+def _preview_render(bscene, width_px: int, samples: int, film_exposure: float, denoise: bool = False):
+    """The scene set to render small previews (``width_px`` wide, ``samples``, no motion blur,
+    film exposure ``film_exposure``; OpenImageDenoise on the CPU with albedo and normal guides
+    when ``denoise``, else none) and a temporary EXR path for them; everything restored and the
+    file removed afterwards.
 
     The preview goes to the system's temporary folder under a name with this process's pid,
     so that a later render removes it if this one is killed (``remove_stale_previews``)."""
@@ -55,7 +56,14 @@ def _preview_render(bscene, width_px: int, samples: int, film_exposure: float):
     r, c = bscene.render, bscene.cycles
     saved = (r.resolution_percentage, c.samples, c.use_denoising, c.film_exposure, r.use_motion_blur)
     r.resolution_percentage = max(1, min(100, int(100 * width_px / max(r.resolution_x, 1))))
-    c.samples, c.use_denoising, c.film_exposure, r.use_motion_blur = samples, False, film_exposure, False
+    c.samples, c.use_denoising, c.film_exposure, r.use_motion_blur = samples, bool(denoise), film_exposure, False
+    if denoise:
+        from .render import probing_devices
+        with probing_devices():
+            c.denoiser = "OPENIMAGEDENOISE"
+        c.denoising_input_passes, c.denoising_prefilter = "RGB_ALBEDO_NORMAL", "ACCURATE"
+        if hasattr(c, "denoising_use_gpu"):
+            c.denoising_use_gpu = False
     fd, path = tempfile.mkstemp(suffix=".exr", prefix=f"{PREVIEW_PREFIX}{os.getpid()}-")
     os.close(fd)
     try:
@@ -74,11 +82,11 @@ def _beauty(path: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def measure_exposure(bscene, camera, frame: int, cameras=None, width_px: int = PREVIEW_WIDTH,
-                     samples: int = PREVIEW_SAMPLES) -> tuple[float, float]:
-    """(film exposure, luminance): the film exposure that brings the preview's 90th-percentile
-    luminance to TARGET, and the preview's mean linear luminance (``autoexposure.meter`` at
-    film exposure 1: the metering pass's value of ``frame`` before its film exposure, when
-    the metering preview is this one, see ``meter_frames``).
+                     samples: int = PREVIEW_SAMPLES) -> tuple[float, np.ndarray]:
+    """(film exposure, preview): the film exposure that brings the preview's 90th-percentile
+    luminance to TARGET, and the preview's linear RGB at film exposure 1 ((h, w, 3): the
+    metering pass's image of ``frame`` before its film exposure, when the metering preview is
+    this one, see ``meter_frames``).
 
     ``cameras`` ({view: camera}, the left one ``camera``): render the preview the fast way
     (``render.render_views``) in the scene's persistent Cycles session, which the frames
@@ -95,40 +103,47 @@ def measure_exposure(bscene, camera, frame: int, cameras=None, width_px: int = P
         r, g, b = _beauty(path)
     lum = 0.2126 * r + 0.7152 * g + 0.0722 * b
     p90 = float(np.percentile(lum, 90))
-    metered = meter(np.stack((r, g, b), axis=-1))
+    preview = np.stack((r, g, b), axis=-1)
     if not np.isfinite(p90) or p90 <= 1e-6:
-        return 1.0, metered  # nothing lit in view: leave the exposure alone
-    return float(np.clip(TARGET / p90, 1e-4, 1e4)), metered
+        return 1.0, preview  # nothing lit in view: leave the exposure alone
+    return float(np.clip(TARGET / p90, 1e-4, 1e4)), preview
 
 
 # The exposure preview is the metering preview of its frame (same size, samples, seed, no
-# denoiser, no motion blur, film exposure 1): the metering pass takes that frame's value from it.
-PREVIEW_IS_METERING = (PREVIEW_WIDTH, PREVIEW_SAMPLES) == (METERING_WIDTH_PX, METERING_SAMPLES)
+# denoiser, no motion blur, film exposure 1): the metering pass takes that frame's image from it.
+PREVIEW_IS_METERING = (PREVIEW_WIDTH, PREVIEW_SAMPLES, False) == (METERING_WIDTH_PX, METERING_SAMPLES, METERING_DENOISE)
+
+
+def _plain_meter(linear_rgb: np.ndarray, metered_before: list) -> float:
+    return meter(linear_rgb)
 
 
 def meter_frames(bscene, camera, frames, film_exposure: float, progress=None,
-                 first: Optional[float] = None) -> list[float]:
-    """The sensor auto-exposure's metering pass: the mean linear luminance (``autoexposure.
-    meter``) of a small preview of each of ``frames`` through ``camera`` (the left view),
-    rendered in order in one persistent Cycles session at film exposure 1, times the film
-    exposure of the frames (the values are those of the frames' linear beauty).
-    Deterministic: seed 0, ``METERING_WIDTH_PX`` wide, ``METERING_SAMPLES`` samples, no
-    denoiser, no motion blur; whoever runs it (one render, a chunk of a farm) gets the same
-    numbers. ``first``: the luminance of ``frames[0]``'s preview already rendered (the
-    exposure preview, ``measure_exposure``), not rendered again. ``progress(i, n)`` after
-    each frame."""
+                 first: Optional[np.ndarray] = None, metering: Callable = _plain_meter) -> list[float]:
+    """The sensor auto-exposure's metering pass: ``metering(image, values so far)`` of a small
+    preview of each of ``frames`` through ``camera`` (the left view), rendered in order in one
+    persistent Cycles session at film exposure 1, the image times the film exposure of the
+    frames (the frames' linear beauty). ``metering``: the camera's rule
+    (``SensorPlan.meter``: what the sensor receives, clipped at full scale at the frame's own
+    exposure, which the values of the frames before it decide: hence in order); default the
+    plain mean linear luminance. Deterministic: seed 0, ``METERING_WIDTH_PX`` wide,
+    ``METERING_SAMPLES`` samples, ``METERING_DENOISE``, no motion blur; whoever runs it (one render, a
+    chunk of a farm) gets the same numbers. ``first``: the preview of ``frames[0]`` already
+    rendered (the exposure preview, ``measure_exposure``, when ``PREVIEW_IS_METERING``: not
+    while the metering preview is denoised and the exposure preview not), not rendered again.
+    ``progress(i, n)`` after each frame."""
     from .render import render_view
 
     r = bscene.render
     persistent = r.use_persistent_data
     r.use_persistent_data = True       # one synchronisation and BVH for the whole pass
     frames = list(frames)
-    out = [] if first is None else [film_exposure * first]
+    out = [] if first is None else [metering(film_exposure * np.asarray(first), [])]
     try:
-        with _preview_render(bscene, METERING_WIDTH_PX, METERING_SAMPLES, 1.0) as path:
+        with _preview_render(bscene, METERING_WIDTH_PX, METERING_SAMPLES, 1.0, METERING_DENOISE) as path:
             for i, frame in enumerate(frames[len(out):], start=len(out)):
                 render_view(bscene, camera, frame, seed=0, filepath=path)
-                out.append(film_exposure * meter(np.stack(_beauty(path), axis=-1)))
+                out.append(metering(film_exposure * np.stack(_beauty(path), axis=-1), list(out)))
                 if progress is not None:
                     progress(i + 1, len(frames))
     finally:

@@ -181,7 +181,8 @@ class BlenderSession:
                 self._show(self._metering_ids)
         frames = [rig.blender_frame(k) for k in range(upto)]
         metered = exposure.meter_frames(self.built.scene, self.built.cameras["left"], frames, self.exposure,
-                                        first=first, progress=lambda i, n: self._check_stop()) if upto else []
+                                        first=first, progress=lambda i, n: self._check_stop(),
+                                        metering=self.plan.sensor.meter) if upto else []
         metered = metered + [None] * (self.plan.scene.frames - upto)
         # switching persistence off frees the previews' session: the frames start their own
         render.configure(self.built.scene, EXPOSURE_PREVIEW, **{**self._configure, "persistent": False})

@@ -1,16 +1,22 @@
 """Auto-exposure that adapts over time like a camera's (one frame of latency).
 
-The metered brightness of frame j is the mean Rec. 709 luminance m_j of its linear render
-(independent of the exposure: the render is radiance), taken by a **metering pass** before
-any frame renders: a small, deterministic preview of every frame before the render's last one
-(``METERING_WIDTH_PX`` wide, ``METERING_SAMPLES`` samples, seed 0, no denoiser, no motion
-blur; ``blender/exposure.py: meter_frames``). The values are stored in the manifest
+A real camera meters its own digitised output (the MT9V034's AEC a histogram of its pixel
+values, Point Grey's cameras the average image intensity over a region): a burnt-out pixel
+counts at full scale, not at its radiance. So the metered brightness of frame j is the mean
+m_j of the luminance its sensor receives (the render times the lens's vignetting), each pixel
+clipped where frame j's own exposure E_j = t_j * g_j brings the output to full scale
+(``full_scale``; a mono sensor clips its luminance, a colour one each channel), in the render's
+radiance units. It is taken by a **metering pass** before any frame renders: a small,
+deterministic preview of every frame before the render's last one (``METERING_WIDTH_PX`` wide,
+``METERING_SAMPLES`` samples, seed 0, denoised, no motion blur; ``blender/exposure.py:
+meter_frames``), in order, since E_j follows from m_0..m_{j-1}
+(``render_plan.SensorPlan.meter``). The values are stored in the manifest
 (``sensor.metered``; the sequence's last frame's stays null: no exposure follows it) and
 every later writer of the folder reads them, so a frame's exposure is the same whether it is
 rendered alone (``--frames A:B``), in a farm's chunk or after ``--resume``. The exposure
 product E = t * g (exposure time times analog gain) that would bring the normalised signal
-``m * E / (t_nom * saturation)`` to ``target`` is ``E*_j = target * saturation * t_nom / m_j``.
-Frame k uses
+``m * E / (t_nom * full_scale_nominal)`` (0 at the black level, 1 at full scale) to ``target``
+is ``E*_j = target * full_scale_nominal * t_nom / m_j``. Frame k uses
 ``log E_k = log E_{k-1} + (1 - exp(-speed / rate)) (log E*_{k-1} - log E_{k-1})``,
 from ``E_0 = t_nom * g_nom``; E is split into the longest exposure time allowed
 (``min(max_exposure, 1 / rate - readout)``, at least ``min_exposure``) and a gain in
@@ -26,14 +32,31 @@ import numpy as np
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 METERING_WIDTH_PX = 96     # the metering preview's width (its aspect ratio is the render's)
 METERING_SAMPLES = 8
-METERING_RULE = (f"metering pass before the frames: mean linear luminance of a {METERING_WIDTH_PX} px wide, "
-                 f"{METERING_SAMPLES}-sample left-view preview of each frame before the render's last (seed 0, no denoiser, "
-                 "no motion blur; at film exposure 1, times the frames'; frame 0's from the automatic exposure's preview where there is one)")
+# denoised: the clipped mean of a path-traced preview is biased low by its noise (a pixel's
+# fireflies clip, its misses stay dark; a camera meters converged light): the hall's 8-sample
+# preview metered 0.43 x its full-size frame's value undenoised and the exposure ran away
+METERING_DENOISE = True
+METERING_RULE = (f"metering pass before the frames, in order: mean linear luminance of a {METERING_WIDTH_PX} px wide, "
+                 f"{METERING_SAMPLES}-sample left-view preview of each frame before the render's last (seed 0, "
+                 f"{'denoised (OpenImageDenoise, albedo and normal, CPU)' if METERING_DENOISE else 'no denoiser'}, "
+                 "no motion blur; at film exposure 1, times the frames'"
+                 f"{'' if METERING_DENOISE else '; frame 0' + chr(39) + 's from the automatic exposure' + chr(39) + 's preview where there is one'}"
+                 ") as the sensor receives it (times the lens's vignetting), each pixel clipped at the "
+                 "output's full scale at that frame's own exposure and gain (a mono sensor's luminance, else each channel)")
 
 
-def meter(linear_rgb: np.ndarray) -> float:
-    """Mean linear luminance of a frame (its metered brightness)."""
-    return float(np.mean(np.asarray(linear_rgb, dtype=np.float64)[..., :3] @ LUMA))
+def meter(linear_rgb: np.ndarray, full_scale: float = np.inf, illumination=None, mono: bool = True) -> float:
+    """Mean linear luminance of a frame as its camera meters it: ``linear_rgb`` times
+    ``illumination`` (the lens's relative illumination per pixel, None: 1), each pixel clipped
+    at ``full_scale`` (the linear value that brings the output to full scale: the luminance of
+    a ``mono`` sensor, else each channel, as the sensor's pixels saturate). The defaults: the
+    plain mean linear luminance."""
+    rgb = np.asarray(linear_rgb, dtype=np.float64)[..., :3]
+    if illumination is not None:
+        rgb = rgb * np.asarray(illumination, dtype=np.float64)[..., None]
+    if mono:
+        return float(np.mean(np.minimum(rgb @ LUMA, full_scale)))
+    return float(np.mean(np.minimum(rgb, full_scale) @ LUMA))
 
 
 def split_exposure(E: float, nominal_gain: float, t_min: float, t_max: float, max_gain: float) -> tuple[float, float]:
@@ -51,7 +74,7 @@ class ExposureControl:
     readout_s: float               # rolling-shutter readout (limits the exposure)
     target: float                  # mean normalised signal to aim for
     speed: float                   # 1/s
-    saturation: float              # linear value that fills the well at t_nom
+    saturation: float              # linear value the output's full scale is at (t_nom, gain 1)
     max_exposure_s: float          # 0: the frame period minus the readout
     max_gain: float
     min_exposure_s: float
@@ -60,28 +83,28 @@ class ExposureControl:
 def metered_frames(frames, n: int) -> int:
     """How many leading frames of an ``n``-frame sequence a render of ``frames`` meters: those
     before its last frame (frame k's exposure follows frames 0..k-1 only), so a render of frames
-    0:2 meters frame 0 (the exposure preview's, no pass before frame 0) and no render meters the
+    0:2 meters frame 0 (the exposure preview's where it is the metering preview) and no render meters the
     sequence's last frame (no exposure follows it)."""
     return max(0, min(n - 1, max(frames, default=0)))
 
 
+def exposure_step(t: float, g: float, m, c: ExposureControl) -> tuple[float, float]:
+    """(exposure_s, gain) of the frame after one exposed at (t, g) that metered ``m``."""
+    t_max = 1.0 / c.rate_hz - c.readout_s
+    if c.max_exposure_s > 0:
+        t_max = min(t_max, c.max_exposure_s)
+    t_max = max(t_max, c.min_exposure_s)
+    E = t * g
+    if m is not None and m > 0 and np.isfinite(m):
+        alpha = 1.0 - np.exp(-float(c.speed) / float(c.rate_hz))
+        E_star = c.target * c.saturation * c.nominal_exposure_s / m
+        E = float(np.exp(np.log(E) + alpha * (np.log(E_star) - np.log(E))))
+    return split_exposure(E, c.nominal_gain, c.min_exposure_s, t_max, c.max_gain)
+
+
 def exposure_schedule(metered: list[float], c: ExposureControl) -> list[tuple[float, float]]:
     """(exposure_s, gain) of frames 0..len(metered): frame k depends on metered[:k]."""
-    nominal_exposure_s, nominal_gain, rate_hz = c.nominal_exposure_s, c.nominal_gain, c.rate_hz
-    readout_s, target, speed, saturation = c.readout_s, c.target, c.speed, c.saturation
-    max_exposure_s, max_gain, min_exposure_s = c.max_exposure_s, c.max_gain, c.min_exposure_s
-    t_max = 1.0 / rate_hz - readout_s
-    if max_exposure_s > 0:
-        t_max = min(t_max, max_exposure_s)
-    t_max = max(t_max, min_exposure_s)
-    alpha = 1.0 - np.exp(-float(speed) / float(rate_hz))
-    t, g = split_exposure(nominal_exposure_s * nominal_gain, nominal_gain, min_exposure_s, t_max, max_gain)
-    out = [(t, g)]
+    out = [exposure_step(c.nominal_exposure_s, c.nominal_gain, None, c)]
     for m in metered:
-        E = t * g
-        if m > 0 and np.isfinite(m):
-            E_star = target * saturation * nominal_exposure_s / m
-            E = float(np.exp(np.log(E) + alpha * (np.log(E_star) - np.log(E))))
-        t, g = split_exposure(E, nominal_gain, min_exposure_s, t_max, max_gain)
-        out.append((t, g))
+        out.append(exposure_step(*out[-1], m, c))
     return out

@@ -118,7 +118,8 @@ def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: floa
     """Run the camera chain on frame k's EXRs (``exrs[view]``: their paths) and write raw /
     RGB / JPEG images; record the exposure, gain and metered brightness of the frame in the
     manifest ``m`` (a Manifest) and in the frame's state file (without AUTOEXPOSURE the
-    metered brightness is the frame's own mean; with it, the metering pass's value).
+    metered brightness is the frame's own, by the metering rule at its exposure; with it, the
+    metering pass's value).
     Returns {relative path: SHA-256} of the images written (recorded with the frame, checked
     by ``verify``)."""
     from ...files.exr import read_exr
@@ -135,8 +136,8 @@ def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: floa
     for vi, view in enumerate(plan.views):
         ch = read_exr(exrs[view], rgb_names)
         lin = np.stack([ch[n] for n in rgb_names], axis=-1).astype(np.float64)
-        if vi == 0:
-            metered = meter(lin)
+        if vi == 0:   # what the camera meters of this frame (SensorPlan.meter's rule at its exposure)
+            metered = meter(lin, plan.full_scale(exposure_s, gain), plan.illumination_at(lin.shape), plan.sensor.mono)
         camera = pipeline.Camera(plan.sensor, plan.lens_spec, rays, plan.K[0, 2], plan.K[1, 2],
                                  plan.nominal_exposure_s())
         f = pipeline.process(lin, camera, pipeline.Shot(exposure_s, gain, k, vi), fpn_cache=fpn)

@@ -21,6 +21,7 @@ from . import imu as imu_mod
 from ...scene import camera_profiles
 from ...contract import timing as timing_mod
 from ...contract.timing import DEFAULT_FPS
+from . import autoexposure
 from .autoexposure import METERING_RULE, ExposureControl, exposure_schedule
 from ...contract.lens import Lens, opencv_calibration_yaml, robotcar_lut_bytes, undistortion_maps
 from ...contract import rig
@@ -31,7 +32,6 @@ from ...contract.rig_motion import RigMotion
 SENSOR_DIR = "sensor"
 LENS_DIR = "lens"
 IMU_DIR = "imu"
-METERING_LENS = "; times the lens's mean relative illumination (vignetting), as the sensor receives it"
 GROUND_TRUTH_RULE = {
     "global": "sharp, at the frame stamp (the middle of the exposure)",
     "rolling": "sharp, each row at its own capture time (timing.row_offsets_s after the frame stamp); "
@@ -154,26 +154,71 @@ class SensorPlan:
         r = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=-1)
         return r / np.linalg.norm(r, axis=-1, keepdims=True)
 
+    def full_scale(self, exposure_s: float, gain: float) -> float:
+        """The linear render value (a mono sensor's luminance, else a channel's) that brings
+        the output of a frame exposed at (``exposure_s``, ``gain``) to full scale: where its DN
+        clip (``raw.capture``: black + e * gain * (2^bits - 1) / full_well) or, below gain 1,
+        its full well is reached."""
+        s = self.sensor
+        t_nom = self.nominal_exposure_s()
+        ratio = exposure_s / t_nom if t_nom > 0 else 1.0
+        span = 1.0 - s.black_level_dn / (2 ** s.bits - 1)
+        return s.saturation / ratio * min(1.0, span / gain)
+
     @functools.cached_property
-    def metering_illumination(self) -> float:
-        """The image's mean relative illumination (the lens's vignetting; 1 without): a camera
-        meters the image its sensor receives, so the metered scene luminance is scaled by it."""
+    def _relative_illumination(self) -> Optional[np.ndarray]:
+        """(H, W) relative illumination of each pixel (the lens's vignetting; None without)."""
         if self.lens_spec is None or not self.lens_spec.vignetting:
-            return 1.0
+            return None
         from .optics import vignetting
-        return float(np.mean(vignetting(self.pixel_rays(), self.lens_spec.vignetting)))
+        return vignetting(self.pixel_rays(), self.lens_spec.vignetting)
+
+    def illumination_at(self, shape: tuple) -> Optional[np.ndarray]:
+        """The relative illumination at the pixel centres of an image of ``shape`` (h, w) of
+        the same view (a metering preview; nearest render pixel), None without vignetting."""
+        v = self._relative_illumination
+        if v is None:
+            return None
+        h, w = shape[:2]
+        rows = np.minimum(((np.arange(h) + 0.5) * self.height / h).astype(int), self.height - 1)
+        cols = np.minimum(((np.arange(w) + 0.5) * self.width / w).astype(int), self.width - 1)
+        return v[np.ix_(rows, cols)]
+
+    def meter(self, linear_rgb: np.ndarray, metered_before: list) -> float:
+        """The metered brightness of frame j = len(``metered_before``) from its linear image
+        (the render's radiance, any size): what its camera meters (``autoexposure.meter``), the
+        image as the sensor receives it (vignetted), each pixel clipped at the output's full
+        scale at frame j's exposure, which ``metered_before`` (frames 0..j-1) decides."""
+        exposure_s, gain = self._exposure_after(metered_before)
+        return autoexposure.meter(linear_rgb, self.full_scale(exposure_s, gain),
+                                  self.illumination_at(np.shape(linear_rgb)), self.sensor.mono)
+
+    def _exposure_after(self, metered: list) -> tuple[float, float]:
+        """``exposures(metered)[-1]``, one step from the last call's when ``metered`` extends its
+        list by one (the metering pass asks frame after frame)."""
+        cached = getattr(self, "_schedule_cache", None)
+        if cached is not None and len(metered) == len(cached[0]) + 1 and list(metered[:-1]) == cached[0] \
+                and self.autoexposure is not None:
+            t, g = autoexposure.exposure_step(*cached[1], metered[-1], self._exposure_control())
+        else:
+            t, g = self.exposures(metered)[-1]
+        self._schedule_cache = (list(metered), (t, g))
+        return t, g
+
+    def _exposure_control(self) -> ExposureControl:
+        a, s = self.autoexposure, self.sensor
+        return ExposureControl(
+            nominal_exposure_s=self.nominal_exposure_s(), nominal_gain=s.gain, rate_hz=self.rate_hz,
+            readout_s=self.timing.readout_s, target=a.target, speed=a.speed,
+            saturation=self.full_scale(self.nominal_exposure_s(), 1.0),
+            max_exposure_s=a.max_exposure_s, max_gain=a.max_gain, min_exposure_s=a.min_exposure_s)
 
     def exposures(self, metered: list) -> list[tuple[float, float]]:
         """(exposure_s, gain) for frames 0..len(metered) (auto-exposure or the nominal values)."""
         gain = self.sensor.gain if self.sensor else 1.0
         if self.autoexposure is None:
             return [(self.nominal_exposure_s(), gain)] * (len(metered) + 1)
-        a = self.autoexposure
-        metered = [m * self.metering_illumination for m in metered]
-        return exposure_schedule(metered, ExposureControl(
-            nominal_exposure_s=self.nominal_exposure_s(), nominal_gain=gain, rate_hz=self.rate_hz,
-            readout_s=self.timing.readout_s, target=a.target, speed=a.speed, saturation=self.sensor.saturation,
-            max_exposure_s=a.max_exposure_s, max_gain=a.max_gain, min_exposure_s=a.min_exposure_s))
+        return exposure_schedule(list(metered), self._exposure_control())
 
     def camera_poses(self, view: str, blender_frames: np.ndarray, frame0: int = 0) -> np.ndarray:
         """T_world_cam (OpenCV, SES world) of ``view`` at (fractional) Blender frames."""
@@ -272,7 +317,7 @@ class SensorPlan:
                             else "PNG16 grey, values 0..2^bits-1 (not scaled)" if self.sensor.mono
                             else "PNG16 RGB, values 0..2^bits-1 (not scaled)"),
                 autoexposure=None if self.autoexposure is None else {**dataclasses.asdict(self.autoexposure),
-                                                                     "metering": METERING_RULE + METERING_LENS},
+                                                                     "metering": METERING_RULE},
                 exposure_s=none, gain=none, metered=none)
         if self.imu is not None:
             imu = self.imu_section()
