@@ -1,8 +1,9 @@
 """The sensor auto-exposure's metering pass: frame 0 from the automatic exposure's preview, and
 what it meters (the clipped signal, as a camera meters its digitised output).
 
-The exposure preview is the metering preview of frame 0 (same size, samples, seed, objects; no
-denoiser, no motion blur; film exposure 1), so the pass does not render it again
+The exposure preview is the metering preview of frame 0 (same size, samples, seed, objects,
+denoiser; no motion blur; film exposure 1; its film exposure from the image before the
+denoiser), so the pass does not render it again
 (blender/exposure.py: ``meter_frames(first=...)``). Oracles: an independent metering pass of
 every frame, rendered in a fresh session after the build (the values must be equal, float for
 float), and the metering rule as it was (each preview rendered at the frames' film exposure):
@@ -43,6 +44,9 @@ def test_metering_takes_frame_0_from_the_exposure_preview(tmp_path, monkeypatch)
     again = exposure.meter_frames(bscene, camera, [rig.blender_frame(k) for k in range(2)], s.exposure,
                                   metering=job.plan.sensor.meter)
     assert again == metered                      # a pass of every frame: the same numbers
+    # and the film exposure is the undenoised preview's, as it was (the denoised preview's 90th
+    # percentile comes from its Noisy Image: the same samples before the denoiser)
+    assert exposure.measure_exposure(bscene, camera, rig.blender_frame(0))[0] == s.exposure
     # the rule before: frame 0's preview rendered at the frames' film exposure
     with exposure._preview_render(bscene, exposure.METERING_WIDTH_PX, exposure.METERING_SAMPLES, s.exposure,
                                   exposure.METERING_DENOISE) as p:
