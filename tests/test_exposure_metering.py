@@ -1,8 +1,9 @@
 """The sensor auto-exposure's metering pass: frame 0 from the automatic exposure's preview, and
 what it meters (the clipped signal, as a camera meters its digitised output).
 
-The exposure preview is the metering preview of frame 0 (same size, samples, seed, objects; no
-denoiser, no motion blur; film exposure 1), so the pass does not render it again
+The exposure preview is the metering preview of frame 0 (same size, samples, seed, objects,
+denoiser; no motion blur; film exposure 1; its film exposure from the image before the
+denoiser), so the pass does not render it again
 (blender/exposure.py: ``meter_frames(first=...)``). Oracles: an independent metering pass of
 every frame, rendered in a fresh session after the build (the values must be equal, float for
 float), and the metering rule as it was (each preview rendered at the frames' film exposure):
@@ -18,10 +19,11 @@ from render_support import oracle_script
 pytestmark = pytest.mark.render
 
 
-def test_metering_takes_frame_0_from_the_exposure_preview(tmp_path, monkeypatch):
-    from blender_sesgen.blender import exposure, render, rig
+def _built(tmp_path, monkeypatch, frames: str):
+    """A small moving-cube AUTOEXPOSURE scene built for ``frames`` (1 sample), and the frames
+    of every ``render_view`` call the build made (the previews)."""
+    from blender_sesgen.blender import render
     from blender_sesgen.pipeline import RenderJob, RenderOptions
-    from blender_sesgen.scene.presets import EXPOSURE_PREVIEW
     script = tmp_path / "m.ses"
     script.write_text(oracle_script(width=64, height=48, focal=44.0, principal=(32.1, 23.4), baseline=0,
                                     extra_lines=["TIMING rate 20 exposure 0.02 blur off", "SENSOR seed 1",
@@ -29,20 +31,30 @@ def test_metering_takes_frame_0_from_the_exposure_preview(tmp_path, monkeypatch)
     renders = []
     real = render.render_view
     monkeypatch.setattr(render, "render_view", lambda *a, **k: renders.append(a[2]) or real(*a, **k))
-    job = RenderJob.prepare(script, tmp_path / "out", RenderOptions(samples=1, frames="0:3"))
+    job = RenderJob.prepare(script, tmp_path / "out", RenderOptions(samples=1, frames=frames))
     job.build()
+    return job, renders, real
+
+
+
+def test_metering_takes_frame_0_from_the_exposure_preview(tmp_path, monkeypatch):
+    from blender_sesgen.blender import exposure, render, rig
+    from blender_sesgen.scene.presets import EXPOSURE_PREVIEW
+    job, renders, real = _built(tmp_path, monkeypatch, "0:3")
     s = job.session
     metered = s.metering[:2]
     assert len(s.metering) == job.plan.scene.frames == 3 and all(v > 0 for v in metered)
     assert s.metering[2] is None              # the last frame's: no exposure follows it
-    # the build rendered the exposure preview of frame 0, then the pass only frame 1 (both
-    # frames when the metering preview is denoised and the exposure preview is not)
-    assert renders == [rig.blender_frame(k) for k in ((0, 1) if exposure.PREVIEW_IS_METERING else (0, 0, 1))]
+    # the build rendered the exposure preview of frame 0, then the pass only frame 1
+    assert renders == [rig.blender_frame(k) for k in (0, 1)]
     bscene, camera = s.built.scene, s.built.cameras["left"]
     render.configure(bscene, EXPOSURE_PREVIEW, persistent=False)   # the pass starts a fresh session
     again = exposure.meter_frames(bscene, camera, [rig.blender_frame(k) for k in range(2)], s.exposure,
                                   metering=job.plan.sensor.meter)
     assert again == metered                      # a pass of every frame: the same numbers
+    # and the film exposure is the undenoised preview's, as it was (the denoised preview's 90th
+    # percentile comes from its Noisy Image: the same samples before the denoiser)
+    assert exposure.measure_exposure(bscene, camera, rig.blender_frame(0))[0] == s.exposure
     # the rule before: frame 0's preview rendered at the frames' film exposure
     with exposure._preview_render(bscene, exposure.METERING_WIDTH_PX, exposure.METERING_SAMPLES, s.exposure,
                                   exposure.METERING_DENOISE) as p:
@@ -56,21 +68,11 @@ def test_a_render_of_the_first_frames_renders_no_metering_preview(tmp_path, monk
     """Frame k's exposure follows frames 0..k-1 only: frames 0:2 need frame 0's value, the
     exposure preview's, and frame 0 alone none; neither renders a metering preview, so the
     build reaches frame 0 after the exposure preview (issue 29: the build) - while the metering
-    preview is the exposure preview (a denoised metering preview of frame 0 is rendered apart)."""
-    from blender_sesgen.blender import render, rig
-    from blender_sesgen.pipeline import RenderJob, RenderOptions
-    script = tmp_path / "m.ses"
-    script.write_text(oracle_script(width=64, height=48, focal=44.0, principal=(32.1, 23.4), baseline=0,
-                                    extra_lines=["TIMING rate 20 exposure 0.02 blur off", "SENSOR seed 1",
-                                                 "AUTOEXPOSURE", "MOVE id 5 twist 0.04 0 0.02 0 4 0"]))
-    renders = []
-    real = render.render_view
-    monkeypatch.setattr(render, "render_view", lambda *a, **k: renders.append(a[2]) or real(*a, **k))
-    job = RenderJob.prepare(script, tmp_path / "out", RenderOptions(samples=1, frames=frames))
-    job.build()
-    from blender_sesgen.blender import exposure
-    alike = exposure.PREVIEW_IS_METERING or not metered
-    assert renders == [rig.blender_frame(0)] * (1 if alike else 2)   # the exposure preview (and frame 0's)
+    preview is the exposure preview (same size and samples; denoised as the metering preview)."""
+    from blender_sesgen.blender import exposure, rig
+    job, renders, _ = _built(tmp_path, monkeypatch, frames)
+    assert exposure.PREVIEW_IS_METERING
+    assert renders == [rig.blender_frame(0)]                          # the exposure preview alone
     m = job.session.metering
     assert len(m) == 3 and all(v > 0 for v in m[:metered]) and all(v is None for v in m[metered:])
 

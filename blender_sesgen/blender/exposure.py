@@ -74,19 +74,22 @@ def _preview_render(bscene, width_px: int, samples: int, film_exposure: float, d
             os.remove(path)
 
 
-def _beauty(path: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The R, G, B planes of a preview EXR."""
+def _beauty(path: str, pass_name: str = "Combined") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The R, G, B planes of a preview EXR (``pass_name``: ``Combined``, denoised when the
+    preview was; ``Noisy Image``, the same render before the denoiser)."""
     from ..files.exr import read_exr
     ch = read_exr(path)
-    return tuple(next(v for k, v in ch.items() if k.endswith(f"Combined.{c}")) for c in "RGB")
+    return tuple(next(v for k, v in ch.items() if k.endswith(f"{pass_name}.{c}")) for c in "RGB")
 
 
 def measure_exposure(bscene, camera, frame: int, cameras=None, width_px: int = PREVIEW_WIDTH,
-                     samples: int = PREVIEW_SAMPLES) -> tuple[float, np.ndarray]:
+                     samples: int = PREVIEW_SAMPLES, denoise: bool = False) -> tuple[float, np.ndarray]:
     """(film exposure, preview): the film exposure that brings the preview's 90th-percentile
     luminance to TARGET, and the preview's linear RGB at film exposure 1 ((h, w, 3): the
     metering pass's image of ``frame`` before its film exposure, when the metering preview is
-    this one, see ``meter_frames``).
+    this one, see ``meter_frames``). ``denoise``: render it through the metering preview's
+    denoiser too, so that it is that preview; the 90th percentile is still the undenoised
+    image's (the EXR's Noisy Image: the same samples), so the film exposure does not change.
 
     ``cameras`` ({view: camera}, the left one ``camera``): render the preview the fast way
     (``render.render_views``) in the scene's persistent Cycles session, which the frames
@@ -95,23 +98,24 @@ def measure_exposure(bscene, camera, frame: int, cameras=None, width_px: int = P
     bench_exposure_preview.py)."""
     from .render import render_view, render_views
 
-    with _preview_render(bscene, width_px, samples, 1.0) as path:
+    with _preview_render(bscene, width_px, samples, 1.0, denoise) as path:
         if cameras is not None:
             render_views(bscene, cameras, ("left",), frame, 0, {"left": path})
         else:
             render_view(bscene, camera, frame, seed=0, filepath=path)
-        r, g, b = _beauty(path)
+        preview = np.stack(_beauty(path), axis=-1)
+        r, g, b = _beauty(path, "Noisy Image") if denoise else np.moveaxis(preview, -1, 0)
     lum = 0.2126 * r + 0.7152 * g + 0.0722 * b
     p90 = float(np.percentile(lum, 90))
-    preview = np.stack((r, g, b), axis=-1)
     if not np.isfinite(p90) or p90 <= 1e-6:
         return 1.0, preview  # nothing lit in view: leave the exposure alone
     return float(np.clip(TARGET / p90, 1e-4, 1e4)), preview
 
 
 # The exposure preview is the metering preview of its frame (same size, samples, seed, no
-# denoiser, no motion blur, film exposure 1): the metering pass takes that frame's image from it.
-PREVIEW_IS_METERING = (PREVIEW_WIDTH, PREVIEW_SAMPLES, False) == (METERING_WIDTH_PX, METERING_SAMPLES, METERING_DENOISE)
+# motion blur, film exposure 1; rendered through the metering preview's denoiser when it serves
+# as one): the metering pass takes that frame's image from it.
+PREVIEW_IS_METERING = (PREVIEW_WIDTH, PREVIEW_SAMPLES) == (METERING_WIDTH_PX, METERING_SAMPLES)
 
 
 def _plain_meter(linear_rgb: np.ndarray, metered_before: list) -> float:

@@ -23,7 +23,7 @@ from typing import Callable, Optional
 from ..contract.manifest import render_seed
 from ..scene.lighting import AGX_LOOKS, EXPOSURE_TARGET, VIEW_TRANSFORMS
 from ..render.plan import Device, RenderPlan
-from ..render.sensor.autoexposure import metered_frames
+from ..render.sensor.autoexposure import METERING_DENOISE, metered_frames
 from ..scene.presets import EXPOSURE_PREVIEW
 from . import builder, compat, exposure, render, rig, shading
 
@@ -148,7 +148,8 @@ class BlenderSession:
         if self._exposure_ids is not None:   # culled: frame 0 metered with what frame 0 sees, in every chunk
             self._show(self._exposure_ids)
         value, luminance = exposure.measure_exposure(self.built.scene, self.built.cameras["left"],
-                                                     rig.blender_frame(0), self.built.cameras if share else None)
+                                                     rig.blender_frame(0), self.built.cameras if share else None,
+                                                     denoise=previews_alike and METERING_DENOISE)
         # the metering pass's frame 0 is this preview (a plain render of the same objects)
         if previews_alike and exposure.PREVIEW_IS_METERING:
             self._preview_luminance = luminance

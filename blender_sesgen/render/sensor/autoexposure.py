@@ -39,9 +39,8 @@ METERING_DENOISE = True
 METERING_RULE = (f"metering pass before the frames, in order: mean linear luminance of a {METERING_WIDTH_PX} px wide, "
                  f"{METERING_SAMPLES}-sample left-view preview of each frame before the render's last (seed 0, "
                  f"{'denoised (OpenImageDenoise, albedo and normal, CPU)' if METERING_DENOISE else 'no denoiser'}, "
-                 "no motion blur; at film exposure 1, times the frames'"
-                 f"{'' if METERING_DENOISE else '; frame 0' + chr(39) + 's from the automatic exposure' + chr(39) + 's preview where there is one'}"
-                 ") as the sensor receives it (times the lens's vignetting), each pixel clipped at the "
+                 "no motion blur; at film exposure 1, times the frames'; frame 0's from the automatic exposure's "
+                 "preview rendered the same way where there is one) as the sensor receives it (times the lens's vignetting), each pixel clipped at the "
                  "output's full scale at that frame's own exposure and gain (a mono sensor's luminance, else each channel)")
 
 
