@@ -20,6 +20,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
+from ..contract.exr_format import PASS_COMBINED, PASS_NOISY
 from ..render.sensor.autoexposure import METERING_DENOISE, METERING_SAMPLES, METERING_WIDTH_PX, meter
 from ..scene.lighting import EXPOSURE_TARGET as TARGET
 
@@ -74,7 +75,7 @@ def _preview_render(bscene, width_px: int, samples: int, film_exposure: float, d
             os.remove(path)
 
 
-def _beauty(path: str, pass_name: str = "Combined") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _beauty(path: str, pass_name: str = PASS_COMBINED[0]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The R, G, B planes of a preview EXR (``pass_name``: ``Combined``, denoised when the
     preview was; ``Noisy Image``, the same render before the denoiser)."""
     from ..files.exr import read_exr
@@ -104,7 +105,7 @@ def measure_exposure(bscene, camera, frame: int, cameras=None, width_px: int = P
         else:
             render_view(bscene, camera, frame, seed=0, filepath=path)
         preview = np.stack(_beauty(path), axis=-1)
-        r, g, b = _beauty(path, "Noisy Image") if denoise else np.moveaxis(preview, -1, 0)
+        r, g, b = _beauty(path, PASS_NOISY[0]) if denoise else np.moveaxis(preview, -1, 0)
     lum = 0.2126 * r + 0.7152 * g + 0.0722 * b
     p90 = float(np.percentile(lum, 90))
     if not np.isfinite(p90) or p90 <= 1e-6:

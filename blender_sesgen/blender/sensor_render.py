@@ -13,6 +13,7 @@ import numpy as np
 
 from ..contract.atomic import temp_path
 from ..contract.depth import BACKGROUND_THRESHOLD
+from ..contract.exr_format import PASS_NOISY
 from ..contract.manifest import render_seed
 from ..files.exr import read_exr, write_exr
 from . import compat, object_motion, render, rig, sensor
@@ -115,7 +116,7 @@ class SensorSession:
                 channels = read_exr(tmp[view])
                 if s.shutter_effects and not sharp_only:
                     for n, a in read_exr(tmp_gt[view]).items():
-                        if n not in beauty and ".Noisy Image." not in n:
+                        if n not in beauty and f".{PASS_NOISY[0]}." not in n:
                             channels[n] = a
                 if s.lens is not None:   # a custom camera's Depth pass is the distance along the ray
                     z = channels[names["depth"]]

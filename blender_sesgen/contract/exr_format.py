@@ -13,6 +13,7 @@ import struct
 
 VIEW_LAYER = "ViewLayer"
 PASS_COMBINED = ("Combined",)
+PASS_NOISY = ("Noisy Image",)                 # the beauty before the denoiser, beside a denoised Combined
 PASS_DEPTH = ("Depth",)
 PASS_INDEX = ("Object Index", "IndexOB")      # Blender 5.0, then 4.x
 LAYOUT_PARTS = "multilayer, one part per pass"
