@@ -62,7 +62,7 @@ from blender_sesgen.contract.se3 import invert, rotation_angle_rad, se3
 from vo_reference.io.base import Sequence
 from vo_reference.io.sequence import open_sequence
 from vo_reference.io.trajectory import Trajectory
-from vo_reference.evaluate.realism import sequence_stats, spectrum_slope
+from vo_reference.evaluate.realism import ring_power, sequence_stats, spectrum_slope
 from vo_reference.evaluate.sgbm import sgbm_disparity
 from vo_reference.stereo.pipeline import run_stereo_vo
 from vo_reference.stereo.report import shape_errors
@@ -324,15 +324,9 @@ RING_BANDS = ((2, 8), (8, 16), (16, 32), (32, 48), (48, 64), (64, 80), (80, 92))
 
 
 def _ring_power(img) -> np.ndarray:
-    """``spectrum_slope``'s rings (mean removed, Hann window, rings one frequency step wide in
-    cycles per image height) of an 8-bit grey frame, over its mean squared (contrast power)."""
-    a = img.astype(np.float64)
-    H, W = a.shape
-    w = (a - a.mean()) * np.outer(np.hanning(H), np.hanning(W))
-    P = np.abs(np.fft.fft2(w)) ** 2
-    m = min(H, W)
-    ring = np.sqrt((np.fft.fftfreq(W)[None, :] * m) ** 2 + (np.fft.fftfreq(H)[:, None] * m) ** 2).astype(np.int64)
-    return (np.bincount(ring.ravel(), P.ravel()) / np.maximum(np.bincount(ring.ravel()), 1))[:m // 2] / a.mean() ** 2
+    """``spectrum_slope``'s rings (``realism.ring_power``) of an 8-bit grey frame, over its
+    mean squared (contrast power)."""
+    return ring_power(img) / float(np.mean(img, dtype=np.float64)) ** 2
 
 
 def ring_power_ratio(real: Frames, ours: Frames, n: int) -> str:

@@ -79,8 +79,11 @@ def _beauty(path: str, pass_name: str = PASS_COMBINED[0]) -> tuple[np.ndarray, n
     """The R, G, B planes of a preview EXR (``pass_name``: ``Combined``, denoised when the
     preview was; ``Noisy Image``, the same render before the denoiser)."""
     from ..files.exr import read_exr
-    ch = read_exr(path)
-    return tuple(next(v for k, v in ch.items() if k.endswith(f"{pass_name}.{c}")) for c in "RGB")
+    return _planes(read_exr(path), pass_name)
+
+
+def _planes(channels: dict, pass_name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    return tuple(next(v for k, v in channels.items() if k.endswith(f"{pass_name}.{c}")) for c in "RGB")
 
 
 def measure_exposure(bscene, camera, frame: int, cameras=None, width_px: int = PREVIEW_WIDTH,
@@ -104,8 +107,10 @@ def measure_exposure(bscene, camera, frame: int, cameras=None, width_px: int = P
             render_views(bscene, cameras, ("left",), frame, 0, {"left": path})
         else:
             render_view(bscene, camera, frame, seed=0, filepath=path)
-        preview = np.stack(_beauty(path), axis=-1)
-        r, g, b = _beauty(path, PASS_NOISY[0]) if denoise else np.moveaxis(preview, -1, 0)
+        from ..files.exr import read_exr
+        channels = read_exr(path)
+        preview = np.stack(_planes(channels, PASS_COMBINED[0]), axis=-1)
+        r, g, b = _planes(channels, PASS_NOISY[0] if denoise else PASS_COMBINED[0])
     lum = 0.2126 * r + 0.7152 * g + 0.0722 * b
     p90 = float(np.percentile(lum, 90))
     if not np.isfinite(p90) or p90 <= 1e-6:

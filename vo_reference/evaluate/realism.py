@@ -40,6 +40,16 @@ def spectrum_slope(img) -> float:
     per pixel; ring k holds k <= rho < k + 1), and log(mean power) fitted against log k by
     least squares over k = 1 .. min(H, W)/2 - 1, every ring weighted alike. (This is the
     definition behind issue 17's figures: -2.52 on the real KITTI excerpt's first frame.)"""
+    mean = ring_power(img)
+    k = np.arange(1, len(mean))
+    slope, _ = np.polyfit(np.log(k), np.log(mean[k]), 1)
+    return float(slope)
+
+
+def ring_power(img) -> np.ndarray:
+    """The radially averaged power spectrum ``spectrum_slope`` fits: the mean power of rings
+    k = 0 .. min(H, W)/2 - 1 (mean removed, 2-D Hann window, ring k holds k <= rho < k + 1,
+    rho = |f| * min(H, W) in cycles per image height for a landscape frame)."""
     a = _gray(img).astype(np.float64)
     H, W = a.shape
     a = (a - a.mean()) * np.outer(np.hanning(H), np.hanning(W))
@@ -47,10 +57,7 @@ def spectrum_slope(img) -> float:
     m = min(H, W)
     rho = np.sqrt((np.fft.fftfreq(W)[None, :] * m) ** 2 + (np.fft.fftfreq(H)[:, None] * m) ** 2)
     ring = rho.astype(np.int64).ravel()
-    mean = np.bincount(ring, P.ravel()) / np.maximum(np.bincount(ring), 1)
-    k = np.arange(1, m // 2)
-    slope, _ = np.polyfit(np.log(k), np.log(mean[k]), 1)
-    return float(slope)
+    return (np.bincount(ring, P.ravel()) / np.maximum(np.bincount(ring), 1))[:m // 2]
 
 
 def gradient_magnitude(img) -> np.ndarray:

@@ -124,7 +124,6 @@ def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: floa
     by ``verify``)."""
     from ...files.exr import read_exr
     from . import pipeline
-    from .autoexposure import meter
     key = (id(plan), "rays")
     if key not in _CACHE:
         _CACHE.clear()
@@ -137,7 +136,7 @@ def write_sensor_images(plan: SensorPlan, m, out: Path, k: int, exposure_s: floa
         ch = read_exr(exrs[view], rgb_names)
         lin = np.stack([ch[n] for n in rgb_names], axis=-1).astype(np.float64)
         if vi == 0:   # what the camera meters of this frame (SensorPlan.meter's rule at its exposure)
-            metered = meter(lin, plan.full_scale(exposure_s, gain), plan.illumination_at(lin.shape), plan.sensor.mono)
+            metered = plan.meter_at(lin, exposure_s, gain)
         camera = pipeline.Camera(plan.sensor, plan.lens_spec, rays, plan.K[0, 2], plan.K[1, 2],
                                  plan.nominal_exposure_s())
         f = pipeline.process(lin, camera, pipeline.Shot(exposure_s, gain, k, vi), fpn_cache=fpn)

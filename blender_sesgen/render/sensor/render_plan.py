@@ -189,7 +189,12 @@ class SensorPlan:
         (the render's radiance, any size): what its camera meters (``autoexposure.meter``), the
         image as the sensor receives it (vignetted), each pixel clipped at the output's full
         scale at frame j's exposure, which ``metered_before`` (frames 0..j-1) decides."""
-        exposure_s, gain = self._exposure_after(metered_before)
+        return self.meter_at(linear_rgb, *self._exposure_after(metered_before))
+
+    def meter_at(self, linear_rgb: np.ndarray, exposure_s: float, gain: float) -> float:
+        """What the camera meters of a linear image (any size) exposed at (``exposure_s``,
+        ``gain``): ``autoexposure.meter`` of the image as the sensor receives it (vignetted),
+        each pixel clipped at the output's full scale there."""
         return autoexposure.meter(linear_rgb, self.full_scale(exposure_s, gain),
                                   self.illumination_at(np.shape(linear_rgb)), self.sensor.mono)
 
