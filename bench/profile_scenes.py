@@ -5,6 +5,7 @@ costs, measured by switching it off in the same run.
     PYTHONPATH=. .venv/bin/python bench/profile_scenes.py [--scenes city_kitti hall office forest paper_room]
         [--quality final] [--samples N] [--scale 0.5] [--frames 2] [--features all|none|NAME ...]
         [--base REV] [--json FILE] [--asset-cache off|warm] [--cprofile FILE] [--bytecode compiled|source]
+        [--repeat N]
 
 Each row is one fresh render process (the real job: ``RenderJob.build`` and ``run``, EXRs
 written and sealed) rendering frames 0..N-1 of the scene at ``--scale`` times its own size.
@@ -53,7 +54,9 @@ calls) in the working tree's baseline row to ``FILE`` with the scene's name befo
 
 ``--base REV`` renders the baseline row of every scene again with revision REV's code
 (checked out into a temporary git worktree), in the same run: today's figures beside the
-working tree's.
+working tree's. ``--repeat N``: every baseline row N times, the base's and this tree's in turns
+(the load drifts between rows: a base row moved +-25 % between runs); the table shows the
+median row of each (by CPU to first sample) and the ratio of each pair.
 
 ``--bytecode compiled`` (the default): both trees' ``blender_sesgen`` compiled to ``.pyc``
 (``compileall``) before the rows, as a pip install leaves the package and as Python leaves it
@@ -389,6 +392,13 @@ def run_child(a, scene: Path, feature: str, code_root: Path, in_process=()) -> d
     return json.loads(line[len("PROFILE "):])
 
 
+def median_row(rows: list[dict]) -> dict:
+    """The row whose CPU to first sample is the median (the lower one of an even count): one
+    real process's row, its stages adding up, not a mix of several."""
+    ranked = sorted(rows, key=lambda r: r["to_first_sample"]["cpu"])
+    return ranked[(len(ranked) - 1) // 2]
+
+
 def bytecode(package: Path, compiled: bool) -> None:
     """``package``'s modules compiled to .pyc beside them (``__pycache__``), or those removed."""
     if compiled:
@@ -444,6 +454,9 @@ def main(argv=None) -> int:
                    "row, written to FILE with the scene's name before its suffix (FILE.office.prof)")
     p.add_argument("--bytecode", choices=("compiled", "source"), default="compiled",
                    help="compiled: both trees' modules compiled to .pyc first (an installed package); source: none")
+    p.add_argument("--repeat", type=int, default=1,
+                   help="N: each baseline row N times (the base's and this tree's in turns); the rows shown are the "
+                        "median ones by CPU to first sample, each pair's build ratio listed")
     p.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     p.add_argument("--scene", help=argparse.SUPPRESS)
     p.add_argument("--feature", default="baseline", help=argparse.SUPPRESS)
@@ -463,7 +476,7 @@ def main(argv=None) -> int:
         worktree = Path(tempfile.mkdtemp(prefix="sesgen-profile-base-")) / "src"
         subprocess.run(["git", "worktree", "add", "--detach", str(worktree), a.base], cwd=REPO, check=True,
                        capture_output=True)
-    results = []
+    results, pairs = [], {}
     if a.asset_cache == "warm":
         a.cache_folder = tempfile.mkdtemp(prefix="sesgen-profile-cache-")
     print(f"# asset cache: {a.asset_cache}; bytecode: {a.bytecode}", flush=True)
@@ -476,17 +489,27 @@ def main(argv=None) -> int:
             roots = [r for r in (worktree, REPO) if r is not None]
             for root in roots if a.cache_folder else []:
                 run_child(a, scene, "baseline", root)    # the warm-up row: fills the cache
-            if worktree is not None:
-                r = run_child(a, scene, "baseline", worktree)
-                results.append((f"{label} @{a.base}", r))
-                print(f"{label} @{a.base}: to first sample {r['to_first_sample']['cpu']:.1f} CPU s, "
-                      f"{r['per_frame']['frame']:.1f} CPU s per stereo frame", flush=True)
             inproc = [f for f in features if f in IN_PROCESS]
-            base = run_child(a, scene, "baseline", REPO, inproc)
+            olds, news = [], []
+            for rep in range(a.repeat):   # the two trees' rows in turns: both see the same load drift
+                if worktree is not None:
+                    r = run_child(a, scene, "baseline", worktree)
+                    olds.append(r)
+                    print(f"{label} @{a.base}: to first sample {r['to_first_sample']['cpu']:.1f} CPU s, "
+                          f"{r['per_frame']['frame']:.1f} CPU s per stereo frame", flush=True)
+                r = run_child(a, scene, "baseline", REPO, inproc if rep == 0 else ())
+                news.append(r)
+                print(f"{label}: to first sample {r['to_first_sample']['cpu']:.1f} CPU s, "
+                      f"{r['per_frame']['frame']:.1f} CPU s per stereo frame (load {os.getloadavg()[0]:.1f})",
+                      flush=True)
+            if olds:
+                results.append((f"{label} @{a.base}", median_row(olds)))
+            base = median_row(news)
+            if "in_process" in news[0]:
+                base["in_process"] = news[0]["in_process"]
+            if olds and a.repeat > 1:
+                pairs[label] = [n["to_first_sample"]["cpu"] / o["to_first_sample"]["cpu"] for o, n in zip(olds, news)]
             results.append((label, base))
-            print(f"{label}: to first sample {base['to_first_sample']['cpu']:.1f} CPU s, "
-                  f"{base['per_frame']['frame']:.1f} CPU s per stereo frame (load {os.getloadavg()[0]:.1f})",
-                  flush=True)
             for f in features:
                 if f in EDITED:
                     text = (REPO / scene).read_text()
@@ -532,7 +555,8 @@ def main(argv=None) -> int:
             old = next(r for lb, r in results if lb == f"{label} @{a.base}")
             new = next(r for lb, r in results if lb == label)
             print(f"{label:14s} build x{new['to_first_sample']['cpu'] / old['to_first_sample']['cpu']:.3f}  "
-                  f"frame x{new['per_frame']['frame'] / old['per_frame']['frame']:.3f}")
+                  f"frame x{new['per_frame']['frame'] / old['per_frame']['frame']:.3f}"
+                  + (f"  (build, each pair: {' '.join(f'x{x:.3f}' for x in pairs[label])})" if label in pairs else ""))
     print(f"# load {os.getloadavg()[0]:.1f} at the end; {time.perf_counter() - T0:.0f} s in all")
     if a.json:
         Path(a.json).write_text(json.dumps([{"label": lb, **r} for lb, r in results], indent=1))
