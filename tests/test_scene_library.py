@@ -237,6 +237,34 @@ def test_hall_stands_on_its_stand_then_takes_off(scenes):
     assert poses(hall.generate(0, frames=150)) == poses((SCENES / "hall.ses").read_text())[:150]
 
 
+def _headings_deg(T):
+    """The heading (deg, unwrapped) of each camera's axis over the floor (y up)."""
+    ahead = T[:, :3, 2]
+    return np.degrees(np.unwrap(np.arctan2(ahead[:, 0], ahead[:, 2])))
+
+
+def test_hall_turns_no_faster_than_euroc_v1_01s_mav(scenes, shared_data):
+    """The MAV's heading turns at a bounded rate in every flight (hall.ses, other seeds, the
+    laps), as V1_01's: its IMU's gyro about gravity (the accelerometer's 1-s mean), 0.25-s
+    means over the flight (from 6 s), at most ~45 deg/s. A heading that follows the velocity
+    flipped by 9-19 deg in one frame where a sweep reverses (180-380 deg/s); a shorter flight
+    is still the start of the long one (the bound is causal)."""
+    from blender_sesgen.ses.parser import parse_text
+    imu = np.loadtxt(shared_data / "euroc" / "mav0" / "imu0" / "data.csv", delimiter=",", comments="#")
+    t = (imu[:, 0] - imu[0, 0]) * 1e-9
+    up = np.stack([np.convolve(imu[:, 4 + i], np.ones(200) / 200, "same") for i in range(3)], axis=1)
+    rate = np.degrees(np.einsum("ki,ki->k", imu[:, 1:4], up / np.linalg.norm(up, axis=1, keepdims=True)))
+    euroc_max = np.abs(np.convolve(rate, np.ones(50) / 50, "same"))[(t > 6.0) & (t < t[-1] - 0.5)].max()
+    assert 35.0 < euroc_max < 50.0
+    hall = _generator("hall")
+    flights = [scenes["hall"]] + [parse_text(hall.generate(seed, **kw), "h.ses", str(SCENES))
+                                  for seed, kw in ((1, {}), (2, {}), (5, {}), (0, {"flight": "laps", "laps": 1}),
+                                                   (3, {"flight": "laps", "laps": 1}))]
+    for s in flights:
+        step = np.abs(np.diff(_headings_deg(s.timeline.left())))
+        assert step.max() * 20.0 < euroc_max * 1.05, step.max()
+
+
 def test_hall_stand_is_out_of_sight_and_the_test_floor_in_it(scenes):
     """Standing, neither camera sees the take-off stand (id 2000), and the test floor before it
     (marker tape, a white sheet, a checkerboard: ids 2001 on) holds the near field as EuRoC's
