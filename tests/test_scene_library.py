@@ -286,6 +286,33 @@ def test_hall_stand_is_out_of_sight_and_the_test_floor_in_it(scenes):
             assert 1.0 < np.median(t[near]) < 4.0
 
 
+def test_hall_stand_faces_a_curtained_window_as_euroc_v1_01s(scenes, shared_data):
+    """Standing, cam0 sees diffusing glazing (``frosted_glass``, a white curtain's 0.40/0.45)
+    in the top of the image as EuRoC V1_01's camera sees its curtained window: oracle, the
+    real frames 30-74 (rectified, full size): the share of the top quarter at 255 (the
+    window; 61 % of the clipped pixels) and the lowest row of clipped pixels in the top
+    half's middle columns. Without the low window the standing camera sees no pane."""
+    import sys
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
+    from realism import euroc_frames
+    _, left, _ = euroc_frames(75)
+    sat = np.stack(left[30:75]) >= 255
+    real_top = float(sat[:, :120].mean())
+    window_rows = np.where(sat[:, :240, 272:576].mean(axis=(0, 2)) > 0.5)[0]
+    assert 0.2 < real_top < 0.4 and 60 < window_rows.max() < 130
+    s = scenes["hall"]
+    panes = [o.id for o in s.objects if isinstance(o, Quad) and o.material == "frosted_glass"]
+    ts = _solid_scene(s)
+    W, H = s.rig.width, s.rig.height
+    pix = np.array([(u, v) for v in np.arange(4, H, 8.0) for u in np.arange(4, W, 8.0)])
+    for k in (0, 50, 99):
+        o, d = mesh_raycast.pinhole_rays(s.rig.K(), s.timeline.left()[k], pix)[:2]
+        pane = np.isin(ts.cast(o, d)[1], panes)
+        top = pix[:, 1] < H / 4
+        assert abs(pane[top].mean() - real_top) < 0.08, (k, pane[top].mean(), real_top)
+        assert abs(pix[pane, 1].max() - window_rows.max()) < 30, (k, pix[pane, 1].max(), window_rows.max())
+
+
 def test_hall_lamps_stand_to_the_daylight_as_in_a_real_hall(scenes):
     """Blender's physical sky is in real units (its sun ~155 W/m2 at 40 deg, i.e. ~100 000 lx
     at 683 lm/W) and WORLD sky divides it by SKY_EXPOSURE: the hall's lamps must be divided

@@ -65,6 +65,12 @@ STAND_PITCH_DEG = -21.5  # cam0's axis below the horizon (stereo 21.3-21.6; the 
 STAND_ROLL_DEG = -1.5    # its roll (camera_pose_line's sense; the floor's normal leans 1.5-1.7 deg to the
                          # image's right)
 VIBRATION_DEG = (0.0156, 0.0118)   # yaw, pitch shake a frame (sd): frame-to-frame shifts 0.166 / 0.127 px sd at 436 px
+# EuRoC V1_01's camera faces a window behind a white curtain, 61 % of its clipped pixels
+# (frames 30-74: the top quarter 29 % at 255, rows 0-95 of 480, -12..+24 deg across): the
+# standing MAV faces a low window in the south wall, 12 m off, behind diffusing glazing
+# (``frosted_glass``: a white sheer curtain's 0.40 reflected, 0.45 passed)
+LOW_WINDOW = ((-4.0, 4.0), (0.6, 2.6))   # its x span and sill, head heights (m), in the plinth (3 m)
+LOW_WINDOW_BAY = 2.0                     # one frame per 2 m
 TAKEOFF_FRAMES = 40      # the climb from the stand to the flight's first pose (2 s)
 # the heading turns at a bounded rate, as V1_01's MAV does in flight (its gyro about gravity,
 # ../shared/data/euroc/mav0/imu0, 5.5-145 s: 0.25-s means at most 44.6 deg/s, p99 38.4; their change
@@ -218,7 +224,19 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
             pos = (c[0] + cu, 0.5 * (y0 + y1), c[2]) if ax else (c[0], 0.5 * (y0 + y1), c[2] + cu)
             dim = (u1 - u0, y1 - y0, t) if ax else (t, y1 - y0, u1 - u0)
             return f"CUBOID id {ids('shell')} material {mat} class wall position {nums(pos)} dim {nums(dim)}"
-        out.append(box(-L2, L2, 0, plinth, wall_mat))
+        low = name == "south" and flight == "sweep" and stand > 0
+        if low:     # the curtained window the standing MAV faces: the plinth around it
+            (a, b_), (y0, y1) = LOW_WINDOW
+            out += [box(-L2, a, 0, plinth, wall_mat), box(b_, L2, 0, plinth, wall_mat),
+                    box(a, b_, 0, y0, wall_mat), box(a, b_, y1, plinth, wall_mat)]
+            for u0 in np.arange(a, b_ - 1e-6, LOW_WINDOW_BAY):
+                u1 = min(u0 + LOW_WINDOW_BAY, b_)
+                out.append(asset("window_frame", ids("window"), (centre[0] + 0.5 * (u0 + u1), y0, centre[2]), 180.0,
+                                 (round(u1 - u0, 3), y1 - y0, t), seed=int(variation_rng(seed, 0xC17).integers(1e6))))
+                quad = [(centre[0] + u, y, centre[2] - t / 2 - 0.05) for u, y in ((u0, y0), (u1, y0), (u1, y1), (u0, y1))]
+                out.append(f"QUAD id {ids('glazing')} material frosted_glass vertices {nums(np.ravel(quad))}")
+        else:
+            out.append(box(-L2, L2, 0, plinth, wall_mat))
         out.append(box(-L2, L2, plinth, win_y0, "cladding"))
         out.append(box(-L2, L2, win_y1, H, "cladding"))
         n = int(length // bay)
@@ -242,9 +260,12 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
             corners = [(a, win_y0), (b_, win_y0), (b_, win_y1), (a, win_y1)]
             quad = [(centre[0] + u, y, centre[2]) if along_x else (centre[0], y, centre[2] + u) for u, y in corners]
             out.append(f"QUAD id {ids('glazing')} material frosted_glass vertices {nums(np.ravel(quad))}")
-        if name == "south":  # a big loading door (closed, steel) in the plinth
+        if name == "south":  # a big loading door (closed, steel) in the plinth, beside the low window
+            door_x = rng.uniform(-W / 4, W / 4)
+            if low:
+                door_x = (1.0 if door_x >= 0 else -1.0) * max(abs(door_x), LOW_WINDOW[0][1] + 2.25 + 0.3)
             out.append(f"CUBOID id {ids('shell')} name loading_door material door_paint class door "
-                       f"position {nums((rng.uniform(-W / 4, W / 4), 2.4, D / 2 - 0.02))} dim 4.5 4.8 0.1")
+                       f"position {nums((door_x, 2.4, D / 2 - 0.02))} dim 4.5 4.8 0.1")
 
     out += ["", "// structure: columns along the long walls, roof girders across, lamps under them"]
     zs = np.arange(-D / 2 + bay / 2, D / 2, bay)
@@ -327,8 +348,11 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
         path_z = D / 2 - 12 - var.distance * (along[::-1] if var.reverse else along)
         path_y = var.height[0] + var.height[1] * np.sin(2 * np.pi * (0.6 * s + rng.uniform(0, 1))) + 0.15 * smooth_noise(rng, n, 1.0, (2.0, 4.1))
         P = np.stack([path_x, path_y, path_z], axis=1)
-        ahead = P[min(int(2 * RATE_HZ), len(P) - 1)] - P[0]     # it stands facing where it flies first
-        look = float(np.degrees(np.arctan2(-ahead[0], -ahead[2])))
+        # it stands facing the curtained low window in the south wall (EuRoC V1_01's camera faces its
+        # curtained window), and turns to its course after lift-off
+        S0 = _stand_position(P[0], np.gradient(P, axis=0)[0] * RATE_HZ)
+        window = np.array([0.5 * sum(LOW_WINDOW[0]), 0.0, D / 2]) - S0
+        look = float(np.degrees(np.arctan2(-window[0], -window[2])))
         climb_yaw, yaw, pitch, roll = _attitude(P, tt, rng, var.look, rest=(look, climb) if stand else None)
         comment = f"the flight: {frames} poses of cam0 at {num(RATE_HZ, 0)} Hz"
     if stand:
