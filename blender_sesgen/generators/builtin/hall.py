@@ -9,10 +9,12 @@ MAV's VI-sensor (752 x 480 px, focal and principal point of cam0, baseline from 
 cameras' T_BS in ``../shared/data/euroc/mav0/cam0|cam1/sensor.yaml``, read by
 :func:`euroc_rig`; undistorted pinhole). As every EuRoC sequence it starts standing, rotors
 running (``STAND_FRAMES`` on a take-off stand, cam0 where V1_01's stands: 0.93 m above the
-floor, 21.5 deg down, shaken by the rotors; a drone test floor before it: marker tape, a white
+floor, 21.5 deg down, shaken by the rotors, facing a low window behind diffusing glazing as
+V1_01's faces its curtained window; a drone test floor before it: marker tape, a white
 sheet, a checkerboard), climbs for 2 s, then flies at 20 Hz like EuRoC's Machine Hall runs:
 ~0.6 m/s (at most ~1.5) at 1-2.5 m height, its camera 19.5 deg down as V1_01's in flight,
-yawing to look around, rolling and pitching a few degrees with its accelerations.
+yawing to look around at most as fast as V1_01's MAV turns (``YAW_RATE_MAX_DEG_S``),
+rolling and pitching a few degrees with its accelerations.
 
     python -m blender_sesgen.generators.builtin.hall [--seed N] [--frames N] [--stand N] > scenes/hall.ses
 
