@@ -237,6 +237,34 @@ def test_hall_stands_on_its_stand_then_takes_off(scenes):
     assert poses(hall.generate(0, frames=150)) == poses((SCENES / "hall.ses").read_text())[:150]
 
 
+def _headings_deg(T):
+    """The heading (deg, unwrapped) of each camera's axis over the floor (y up)."""
+    ahead = T[:, :3, 2]
+    return np.degrees(np.unwrap(np.arctan2(ahead[:, 0], ahead[:, 2])))
+
+
+def test_hall_turns_no_faster_than_euroc_v1_01s_mav(scenes, shared_data):
+    """The MAV's heading turns at a bounded rate in every flight (hall.ses, other seeds, the
+    laps), as V1_01's: its IMU's gyro about gravity (the accelerometer's 1-s mean), 0.25-s
+    means over the flight (from 6 s), at most ~45 deg/s. A heading that follows the velocity
+    flipped by 9-19 deg in one frame where a sweep reverses (180-380 deg/s); a shorter flight
+    is still the start of the long one (the bound is causal)."""
+    from blender_sesgen.ses.parser import parse_text
+    imu = np.loadtxt(shared_data / "euroc" / "mav0" / "imu0" / "data.csv", delimiter=",", comments="#")
+    t = (imu[:, 0] - imu[0, 0]) * 1e-9
+    up = np.stack([np.convolve(imu[:, 4 + i], np.ones(200) / 200, "same") for i in range(3)], axis=1)
+    rate = np.degrees(np.einsum("ki,ki->k", imu[:, 1:4], up / np.linalg.norm(up, axis=1, keepdims=True)))
+    euroc_max = np.abs(np.convolve(rate, np.ones(50) / 50, "same"))[(t > 6.0) & (t < t[-1] - 0.5)].max()
+    assert 35.0 < euroc_max < 50.0
+    hall = _generator("hall")
+    flights = [scenes["hall"]] + [parse_text(hall.generate(seed, **kw), "h.ses", str(SCENES))
+                                  for seed, kw in ((1, {}), (2, {}), (5, {}), (0, {"flight": "laps", "laps": 1}),
+                                                   (3, {"flight": "laps", "laps": 1}))]
+    for s in flights:
+        step = np.abs(np.diff(_headings_deg(s.timeline.left())))
+        assert step.max() * 20.0 < euroc_max * 1.05, step.max()
+
+
 def test_hall_stand_is_out_of_sight_and_the_test_floor_in_it(scenes):
     """Standing, neither camera sees the take-off stand (id 2000), and the test floor before it
     (marker tape, a white sheet, a checkerboard: ids 2001 on) holds the near field as EuRoC's
@@ -256,6 +284,33 @@ def test_hall_stand_is_out_of_sight_and_the_test_floor_in_it(scenes):
             near = (hit > 2000) & (hit < 3000)
             assert near[low].mean() > 0.1, (k, near[low].mean())
             assert 1.0 < np.median(t[near]) < 4.0
+
+
+def test_hall_stand_faces_a_curtained_window_as_euroc_v1_01s(scenes, shared_data):
+    """Standing, cam0 sees diffusing glazing (``frosted_glass``, a white curtain's 0.40/0.45)
+    in the top of the image as EuRoC V1_01's camera sees its curtained window: oracle, the
+    real frames 30-74 (rectified, full size): the share of the top quarter at 255 (the
+    window; 61 % of the clipped pixels) and the lowest row of clipped pixels in the top
+    half's middle columns. Without the low window the standing camera sees no pane."""
+    import sys
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
+    from realism import euroc_frames
+    _, left, _ = euroc_frames(75)
+    sat = np.stack(left[30:75]) >= 255
+    real_top = float(sat[:, :120].mean())
+    window_rows = np.where(sat[:, :240, 272:576].mean(axis=(0, 2)) > 0.5)[0]
+    assert 0.2 < real_top < 0.4 and 60 < window_rows.max() < 130
+    s = scenes["hall"]
+    panes = [o.id for o in s.objects if isinstance(o, Quad) and o.material == "frosted_glass"]
+    ts = _solid_scene(s)
+    W, H = s.rig.width, s.rig.height
+    pix = np.array([(u, v) for v in np.arange(4, H, 8.0) for u in np.arange(4, W, 8.0)])
+    for k in (0, 50, 99):
+        o, d = mesh_raycast.pinhole_rays(s.rig.K(), s.timeline.left()[k], pix)[:2]
+        pane = np.isin(ts.cast(o, d)[1], panes)
+        top = pix[:, 1] < H / 4
+        assert abs(pane[top].mean() - real_top) < 0.08, (k, pane[top].mean(), real_top)
+        assert abs(pix[pane, 1].max() - window_rows.max()) < 30, (k, pix[pane, 1].max(), window_rows.max())
 
 
 def test_hall_lamps_stand_to_the_daylight_as_in_a_real_hall(scenes):

@@ -9,10 +9,12 @@ MAV's VI-sensor (752 x 480 px, focal and principal point of cam0, baseline from 
 cameras' T_BS in ``../shared/data/euroc/mav0/cam0|cam1/sensor.yaml``, read by
 :func:`euroc_rig`; undistorted pinhole). As every EuRoC sequence it starts standing, rotors
 running (``STAND_FRAMES`` on a take-off stand, cam0 where V1_01's stands: 0.93 m above the
-floor, 21.5 deg down, shaken by the rotors; a drone test floor before it: marker tape, a white
+floor, 21.5 deg down, shaken by the rotors, facing a low window behind diffusing glazing as
+V1_01's faces its curtained window; a drone test floor before it: marker tape, a white
 sheet, a checkerboard), climbs for 2 s, then flies at 20 Hz like EuRoC's Machine Hall runs:
 ~0.6 m/s (at most ~1.5) at 1-2.5 m height, its camera 19.5 deg down as V1_01's in flight,
-yawing to look around, rolling and pitching a few degrees with its accelerations.
+yawing to look around at most as fast as V1_01's MAV turns (``YAW_RATE_MAX_DEG_S``),
+rolling and pitching a few degrees with its accelerations.
 
     python -m blender_sesgen.generators.builtin.hall [--seed N] [--frames N] [--stand N] > scenes/hall.ses
 
@@ -65,7 +67,20 @@ STAND_PITCH_DEG = -21.5  # cam0's axis below the horizon (stereo 21.3-21.6; the 
 STAND_ROLL_DEG = -1.5    # its roll (camera_pose_line's sense; the floor's normal leans 1.5-1.7 deg to the
                          # image's right)
 VIBRATION_DEG = (0.0156, 0.0118)   # yaw, pitch shake a frame (sd): frame-to-frame shifts 0.166 / 0.127 px sd at 436 px
+# EuRoC V1_01's camera faces a window behind a white curtain, 61 % of its clipped pixels
+# (frames 30-74: the top quarter 29 % at 255, rows 0-95 of 480, -12..+24 deg across): the
+# standing MAV faces a low window in the south wall, 12 m off, behind diffusing glazing
+# (``frosted_glass``: a white sheer curtain's 0.40 reflected, 0.45 passed)
+LOW_WINDOW = ((-4.0, 4.0), (0.6, 2.6))   # its x span and sill, head heights (m), in the plinth (3 m)
+LOW_WINDOW_BAY = 2.0                     # one frame per 2 m
 TAKEOFF_FRAMES = 40      # the climb from the stand to the flight's first pose (2 s)
+# the heading turns at a bounded rate, as V1_01's MAV does in flight (its gyro about gravity,
+# ../shared/data/euroc/mav0/imu0, 5.5-145 s: 0.25-s means at most 44.6 deg/s, p99 38.4; their change
+# at most 115 deg/s2, p99 85; per 20-Hz frame median 0.31 deg, max 2.28): the heading that follows
+# the velocity flipped by 9-19 deg in one frame where the flight reverses (180-380 deg/s)
+YAW_RATE_MAX_DEG_S = 45.0
+YAW_ACCEL_MAX_DEG_S2 = 115.0
+YAW_FOLLOW_S = 0.4       # how fast it closes on the heading it wants (a time constant, s)
 FLIGHT_PITCH_DEG = -19.5  # cam0's axis below the horizon in flight (V1_01's IMU gravity via T_BS, 1-s means
                           # over 5.5-145 s: median 19.47, p10-p90 19.1-19.8; the MAV hovers level, its legs
                           # tilt it on the floor)
@@ -211,7 +226,19 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
             pos = (c[0] + cu, 0.5 * (y0 + y1), c[2]) if ax else (c[0], 0.5 * (y0 + y1), c[2] + cu)
             dim = (u1 - u0, y1 - y0, t) if ax else (t, y1 - y0, u1 - u0)
             return f"CUBOID id {ids('shell')} material {mat} class wall position {nums(pos)} dim {nums(dim)}"
-        out.append(box(-L2, L2, 0, plinth, wall_mat))
+        low = name == "south" and flight == "sweep" and stand > 0
+        if low:     # the curtained window the standing MAV faces: the plinth around it
+            (a, b_), (y0, y1) = LOW_WINDOW
+            out += [box(-L2, a, 0, plinth, wall_mat), box(b_, L2, 0, plinth, wall_mat),
+                    box(a, b_, 0, y0, wall_mat), box(a, b_, y1, plinth, wall_mat)]
+            for u0 in np.arange(a, b_ - 1e-6, LOW_WINDOW_BAY):
+                u1 = min(u0 + LOW_WINDOW_BAY, b_)
+                out.append(asset("window_frame", ids("window"), (centre[0] + 0.5 * (u0 + u1), y0, centre[2]), 180.0,
+                                 (round(u1 - u0, 3), y1 - y0, t), seed=int(variation_rng(seed, 0xC17).integers(1e6))))
+                quad = [(centre[0] + u, y, centre[2] - t / 2 - 0.05) for u, y in ((u0, y0), (u1, y0), (u1, y1), (u0, y1))]
+                out.append(f"QUAD id {ids('glazing')} material frosted_glass vertices {nums(np.ravel(quad))}")
+        else:
+            out.append(box(-L2, L2, 0, plinth, wall_mat))
         out.append(box(-L2, L2, plinth, win_y0, "cladding"))
         out.append(box(-L2, L2, win_y1, H, "cladding"))
         n = int(length // bay)
@@ -235,9 +262,12 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
             corners = [(a, win_y0), (b_, win_y0), (b_, win_y1), (a, win_y1)]
             quad = [(centre[0] + u, y, centre[2]) if along_x else (centre[0], y, centre[2] + u) for u, y in corners]
             out.append(f"QUAD id {ids('glazing')} material frosted_glass vertices {nums(np.ravel(quad))}")
-        if name == "south":  # a big loading door (closed, steel) in the plinth
+        if name == "south":  # a big loading door (closed, steel) in the plinth, beside the low window
+            door_x = rng.uniform(-W / 4, W / 4)
+            if low:
+                door_x = (1.0 if door_x >= 0 else -1.0) * max(abs(door_x), LOW_WINDOW[0][1] + 2.25 + 0.3)
             out.append(f"CUBOID id {ids('shell')} name loading_door material door_paint class door "
-                       f"position {nums((rng.uniform(-W / 4, W / 4), 2.4, D / 2 - 0.02))} dim 4.5 4.8 0.1")
+                       f"position {nums((door_x, 2.4, D / 2 - 0.02))} dim 4.5 4.8 0.1")
 
     out += ["", "// structure: columns along the long walls, roof girders across, lamps under them"]
     zs = np.arange(-D / 2 + bay / 2, D / 2, bay)
@@ -307,7 +337,7 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
     if flight == "laps":
         n_flight = max(n_flight, 2)
         P, tt, lap = _laps_path(n_flight, laps, speed, variation_rng(seed, 0x1A9))
-        yaw, pitch, roll = _attitude(P, tt, rng, var.look, lap)
+        _, yaw, pitch, roll = _attitude(P, tt, rng, var.look, lap)
         comment = (f"the flight: {laps} laps of a {num(LAP_M, 1)} m loop through the middle of the hall, "
                    f"{frames} poses of cam0 at {num(RATE_HZ, 0)} Hz")
     else:
@@ -320,17 +350,20 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
         path_z = D / 2 - 12 - var.distance * (along[::-1] if var.reverse else along)
         path_y = var.height[0] + var.height[1] * np.sin(2 * np.pi * (0.6 * s + rng.uniform(0, 1))) + 0.15 * smooth_noise(rng, n, 1.0, (2.0, 4.1))
         P = np.stack([path_x, path_y, path_z], axis=1)
-        yaw, pitch, roll = _attitude(P, tt, rng, var.look)
+        # it stands facing the curtained low window in the south wall (EuRoC V1_01's camera faces its
+        # curtained window), and turns to its course after lift-off
+        S0 = _stand_position(P[0], np.gradient(P, axis=0)[0] * RATE_HZ)
+        window = np.array([0.5 * sum(LOW_WINDOW[0]), 0.0, D / 2]) - S0
+        look = float(np.degrees(np.arctan2(-window[0], -window[2])))
+        climb_yaw, yaw, pitch, roll = _attitude(P, tt, rng, var.look, rest=(look, climb) if stand else None)
         comment = f"the flight: {frames} poses of cam0 at {num(RATE_HZ, 0)} Hz"
     if stand:
         S = _stand_position(P[0], np.gradient(P, axis=0)[0] * RATE_HZ)
-        ahead = P[min(int(2 * RATE_HZ), len(P) - 1)] - P[0]     # it stands facing where it flies first
-        look = float(np.degrees(np.arctan2(-ahead[0], -ahead[2])))
         out += _takeoff_stand(ids, S, look)
         out += _test_floor(ids, S, look, variation_rng(seed, 0x7E5))
         comment += (f": standing on the take-off stand for {stand} frames (rotors shaking it from frame "
                     f"{min(ROTORS_FRAMES, stand)}), climbing for {climb}, then flying")
-        P, yaw, pitch, roll = _stand_and_take_off(P, yaw, pitch, roll, stand, look, variation_rng(seed, 0x57A))
+        P, yaw, pitch, roll = _stand_and_take_off(P, climb_yaw, yaw, pitch, roll, stand, variation_rng(seed, 0x57A))
     return script_with_poses(out, comment, P[:frames], yaw[:frames], pitch[:frames], roll[:frames])
 
 
@@ -342,12 +375,13 @@ def _stand_position(P0: np.ndarray, V0: np.ndarray) -> np.ndarray:
     return np.array([P0[0] - back[0], STAND_CAMERA_M, P0[2] - back[2]])
 
 
-def _stand_and_take_off(P, yaw, pitch, roll, stand: int, look: float, rng):
+def _stand_and_take_off(P, climb_yaw, yaw, pitch, roll, stand: int, rng):
     """The flight (poses P, angles in deg) preceded by ``stand`` frames standing still at
-    :func:`_stand_position` heading ``look`` (deg), at the stand's measured pitch and roll,
-    shaken by the rotors from frame ROTORS_FRAMES on (white yaw and pitch of VIBRATION_DEG),
-    and TAKEOFF_FRAMES of climb: a cubic from rest there to the flight's first pose and
-    velocity, yaw (the short way), pitch and roll eased into the flight's."""
+    :func:`_stand_position` heading where ``climb_yaw`` (:func:`_attitude`'s, deg) starts from,
+    at the stand's measured pitch and roll, shaken by the rotors from frame ROTORS_FRAMES on
+    (white yaw and pitch of VIBRATION_DEG), and TAKEOFF_FRAMES of climb: a cubic from rest
+    there to the flight's first pose and velocity, turning as ``climb_yaw``, pitch and roll
+    eased into the flight's."""
     V0 = np.gradient(P, axis=0)[0] * RATE_HZ
     S = _stand_position(P[0], V0)
     Tc = TAKEOFF_FRAMES / RATE_HZ
@@ -358,8 +392,8 @@ def _stand_and_take_off(P, yaw, pitch, roll, stand: int, look: float, rng):
     shake = np.zeros((stand, 2))
     shake[ROTORS_FRAMES:] = rng.normal(0.0, 1.0, (max(stand - ROTORS_FRAMES, 0), 2)) * VIBRATION_DEG
     P = np.concatenate([np.tile(S, (stand, 1)), climb, P])
-    look = yaw[0] - ((yaw[0] - look + 180.0) % 360.0 - 180.0)          # the same heading, nearest the flight's
-    yaw = np.concatenate([look + shake[:, 0], look + ease * (yaw[0] - look), yaw])
+    look = climb_yaw[0]
+    yaw = np.concatenate([look + shake[:, 0], climb_yaw, yaw])
     pitch = np.concatenate([STAND_PITCH_DEG + shake[:, 1], STAND_PITCH_DEG + ease * (pitch[0] - STAND_PITCH_DEG),
                             pitch])
     roll = np.concatenate([np.full(stand, STAND_ROLL_DEG), STAND_ROLL_DEG + ease * (roll[0] - STAND_ROLL_DEG), roll])
@@ -481,12 +515,37 @@ def _pallet_bays(ids, D: float, placed, rng) -> list[str]:
     return out
 
 
-def _attitude(P: np.ndarray, tt: np.ndarray, rng, look: float, lap: Optional[np.ndarray] = None):
-    """Yaw, pitch, roll (deg) of a multirotor flying the positions P at the times tt: heading
-    along its velocity, yawing ``look`` degrees about it to look around, tilting into its
-    accelerations (pitch forward to speed up, roll into turns). ``lap``: the laps flown at
-    each pose (a laps flight): the look-around then follows the place on the loop, the same
-    lap after lap but for a slow wander, so that a revisit looks where the last pass looked."""
+def bounded_yaw(target_deg: np.ndarray, start_deg: float, start_rate_deg_s: float = 0.0) -> np.ndarray:
+    """The heading (deg, one a frame at RATE_HZ) of a multirotor that wants ``target_deg``
+    (unwrapped) and turns at most YAW_RATE_MAX_DEG_S, changing that rate by at most
+    YAW_ACCEL_MAX_DEG_S2, from ``start_deg`` turning at ``start_rate_deg_s`` the frame before
+    the first: it follows the target's own turning and closes on it within YAW_FOLLOW_S
+    (braking in time for it: no overshoot at the bounded rate). Causal: a shorter target
+    gives the start of a longer one's heading."""
+    dt = 1.0 / RATE_HZ
+    y, w, last = float(start_deg), float(start_rate_deg_s), float(start_deg)
+    out = np.empty(len(target_deg))
+    for i, tgt in enumerate(np.asarray(target_deg, dtype=float)):
+        e = tgt - y
+        want = (tgt - last) / dt + np.sign(e) * min(abs(e) / YAW_FOLLOW_S, np.sqrt(2.0 * YAW_ACCEL_MAX_DEG_S2 * abs(e)))
+        want = float(np.clip(want, -YAW_RATE_MAX_DEG_S, YAW_RATE_MAX_DEG_S))
+        w += float(np.clip(want - w, -YAW_ACCEL_MAX_DEG_S2 * dt, YAW_ACCEL_MAX_DEG_S2 * dt))
+        y, last = y + w * dt, float(tgt)
+        out[i] = y
+    return out
+
+
+def _attitude(P: np.ndarray, tt: np.ndarray, rng, look: float, lap: Optional[np.ndarray] = None,
+              rest: Optional[tuple] = None):
+    """Climb yaw, and yaw, pitch, roll (deg) of a multirotor flying the positions P at the
+    times tt: heading along its velocity, yawing ``look`` degrees about it to look around,
+    turning at a bounded rate (:func:`bounded_yaw`), tilting into its accelerations (pitch
+    forward to speed up, roll into turns). ``lap``: the laps flown at each pose (a laps
+    flight): the look-around then follows the place on the loop, the same lap after lap but
+    for a slow wander, so that a revisit looks where the last pass looked. ``rest``: (heading
+    deg, frames): the MAV rests at that heading (taken nearest the flight's first) and climbs
+    for those frames into the flight's first pose, wanting a heading eased from its rest into
+    the flight's; the climb yaw (its first the rest heading) is empty without ``rest``."""
     n = len(P)
     vel = np.gradient(P, tt, axis=0)
     acc = np.gradient(vel, tt, axis=0)
@@ -497,11 +556,20 @@ def _attitude(P: np.ndarray, tt: np.ndarray, rng, look: float, lap: Optional[np.
         phase = 2 * np.pi * np.asarray(lap)
         per_place = sum(np.sin(c * phase + rng.uniform(0, 2 * np.pi)) for c in (1, 2))
         yaw = heading + look * (per_place + 0.25 * smooth_noise(rng, n, 1.0, (0.9, 1.7)))
+    if rest is None:
+        climb = np.empty(0)
+        yaw = np.concatenate([yaw[:1], bounded_yaw(yaw[1:], yaw[0], np.clip((yaw[1] - yaw[0]) * RATE_HZ, -YAW_RATE_MAX_DEG_S,
+                                                                                YAW_RATE_MAX_DEG_S))])
+    else:
+        start = yaw[0] - ((yaw[0] - rest[0] + 180.0) % 360.0 - 180.0)    # the same heading, nearest the flight's
+        s = np.arange(rest[1]) / rest[1]
+        turned = bounded_yaw(np.concatenate([start + (3 * s ** 2 - 2 * s ** 3) * (yaw[0] - start), yaw])[1:], start)
+        climb, yaw = np.concatenate([[start], turned[:rest[1] - 1]]), turned[rest[1] - 1:]
     pitch = FLIGHT_PITCH_DEG + np.degrees(np.clip(-(acc[:, 2] * np.cos(np.radians(yaw)) + acc[:, 0] * np.sin(np.radians(yaw))) / 9.81, -0.1, 0.1)) \
         + 0.5 * smooth_noise(rng, n, 1.0, (9.0, 17.0))
     roll = np.degrees(np.clip((acc[:, 0] * np.cos(np.radians(yaw)) - acc[:, 2] * np.sin(np.radians(yaw))) / 9.81, -0.1, 0.1)) \
         + 0.6 * smooth_noise(rng, n, 1.0, (8.0, 15.0))
-    return yaw, pitch, roll
+    return climb, yaw, pitch, roll
 
 
 LAP_CENTRE = (0.0, 3.0)          # the loop's middle (x, z): the open floor between the clutter
