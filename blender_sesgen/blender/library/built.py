@@ -100,7 +100,8 @@ def paving(ctx: Ctx) -> Surface:
     speckle = g.remap(g.noise(p, 1 / 0.015, detail=3.0, roughness=0.7), 0.25, 0.75, 0.85, 1.15)
     stains = g.remap(g.noise(p, 1 / 0.8, detail=3.0), 0.3, 0.7, 0.85, 1.12)
     col = g.cmul(C, g.mul(g.mul(value, speckle), stains))
-    sand = g.cmul((0.16, 0.15, 0.13), g.lerp(1.0, 0.5, ctx.wear))   # darker with dirt and moss
+    # swept-in sand (light: KITTI sequence_1's sidewalk shows its joints faintly), darker with dirt and moss
+    sand = g.cmul((0.28, 0.26, 0.23), g.lerp(1.0, 0.55, ctx.wear))
     col = g.cmix(col, sand, joint)
     chips = g.remap(g.noise(p, 1 / 0.02, detail=3.0), 0.64, 0.72, 0.0, 1.0)
     rough = g.lerp(ctx.roughness, 0.95, joint)

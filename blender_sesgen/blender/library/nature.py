@@ -7,7 +7,7 @@ from .graph import Ctx, Surface
 def grass(ctx: Ctx) -> Surface:
     g, p, C = ctx.g, ctx.p, ctx.colour
     tufts = g.voronoi(p, 1 / 0.035)
-    tuft = g.remap(g.sep(tufts.outputs["Color"])[0], 0.0, 1.0, 0.7, 1.32)
+    tuft = g.remap(g.sep(tufts.outputs["Color"])[0], 0.0, 1.0, 0.6, 1.45)
     lush = g.remap(g.noise(p, 1 / ctx.entry.scale_m, detail=3.0), 0.3, 0.7, 0.82, 1.15)
     col = g.cmul(C, g.mul(tuft, lush))
     dry = g.remap(g.noise(p, 1 / 2.5, detail=3.0), 0.58 - 0.15 * ctx.wear, 0.7 - 0.15 * ctx.wear, smooth=True)
@@ -17,10 +17,10 @@ def grass(ctx: Ctx) -> Surface:
     # thatch between them (1 cm), straw-coloured dead blades and leaves (2 cm), clover patches
     # (lighter, rounder leaves), bare earth where it is worn
     blade = g.voronoi(p, 1 / 0.01)
-    lit = g.remap(blade.outputs["Distance"], 0.0, 0.7, 1.25, 0.35)
+    lit = g.remap(blade.outputs["Distance"], 0.0, 0.7, 1.45, 0.45)
     col = g.cmul(col, lit)
     dead_cells = g.voronoi(p, 1 / 0.02)
-    dead = g.mul(g.math("GREATER_THAN", g.sep(dead_cells.outputs["Color"])[1], 0.9 - 0.1 * ctx.wear),
+    dead = g.mul(g.math("GREATER_THAN", g.sep(dead_cells.outputs["Color"])[1], 0.88 - 0.1 * ctx.wear),
                  g.remap(dead_cells.outputs["Distance"], 0.2, 0.45, 1.0, 0.0))
     col = g.cmix(col, g.cmul((0.24, 0.21, 0.12), tuft), dead)
     clover = g.mul(g.remap(g.noise(p, 1 / 0.3, detail=3.0), 0.6, 0.66, smooth=True),
