@@ -134,8 +134,9 @@ LIBRARY: dict[str, LibraryEntry] = _entries(
                  (0.40, 0.40, 0.39), 0.6, scale_m=0.5, bump_m=0.0002, variation=0.1, wear=0.1,
                  semantic_class="window", transmittance=0.45),
     # --- nature -----------------------------------------------------------------------------
-    LibraryEntry("grass", "lawn seen from a few metres: clumps, dry and lush patches, fine blade relief; "
-                          "its blades pass about what they reflect (as leaves)",
+    LibraryEntry("grass", "lawn seen from a few metres: clumps, dry and lush patches, lit blade tips over shaded "
+                          "thatch, dead blades, clover, bare earth with wear; its blades pass about what they "
+                          "reflect (as leaves)",
                  (0.06, 0.10, 0.03), 0.9, scale_m=0.3, bump_m=0.006, variation=0.3, wear=0.2,
                  semantic_class="terrain", nir=0.45, transmittance=0.0864),
     # a green leaf passes about as much light as it reflects, band by band (PROSPECT; Jacquemoud
