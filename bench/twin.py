@@ -372,6 +372,69 @@ def road_grain(out: Path, frames: Frames, n: int) -> tuple[float, float]:
     return float(np.median(real)), float(np.nanmedian(ours)) if ours else float("nan")
 
 
+# KITTI sequence_1's street surfaces marked by hand (x0, y0, x1, y1 at 1226 x 370), sunlit parts:
+# frame 0 the kerb's top around the right tree lawn and the light concrete gutter before it, frame
+# 12 the dark parking bay (concrete setts, light sand joints); the render's from its asset kinds
+KITTI_STREET = {
+    0: {"road": (480, 300, 780, 365), "kerb": (800, 286, 815, 292), "gutter": (845, 335, 880, 350),
+        "sidewalk": (1000, 250, 1080, 275), "lawn": (20, 290, 330, 360)},
+    12: {"road": (520, 300, 700, 365), "gutter": (787, 302, 803, 310), "bay": (830, 290, 920, 310),
+         "sidewalk": (950, 225, 1100, 260), "lawn": (20, 260, 300, 360)}}
+
+
+def _street_kind(o: dict) -> str | None:
+    """A render object's street surface: its asset kind, the flush sidewalk strip being the bay."""
+    kind = o.get("kind")
+    if kind == "sidewalk" and o.get("size", [0, 1])[1] < 0.05:
+        return "bay"
+    return {"road": "road", "kerb": "kerb", "sidewalk": "sidewalk", "verge": "lawn"}.get(kind)
+
+
+def street_surfaces(out: Path, frames: Frames, n: int) -> tuple[str, str]:
+    """Each street surface's brightness over the sunlit road's (median linear signal) and its
+    pixel-scale contrast (``_grain``, where a region spans 10 x 10 px at the render's size), the
+    median over frames: KITTI sequence_1 in ``KITTI_STREET``'s hand-marked regions (at the
+    render's size), the render by asset kind on its sunlit pixels (3 x 3 in from the kind's
+    edges, brighter than half the kind's median)."""
+    W, H = frames.resolution
+    real: dict[str, list] = {}
+    for k, regions in KITTI_STREET.items():
+        img = kitti_marked_frame(k)
+        sx, sy = W / img.shape[1], H / img.shape[0]
+        L = _linear(cv2.resize(img, (W, H), interpolation=cv2.INTER_AREA), "kitti")
+        road = None
+        for name, (x0, y0, x1, y1) in regions.items():
+            m = np.zeros(L.shape, bool)
+            m[int(y0 * sy):int(np.ceil(y1 * sy)), int(x0 * sx):int(np.ceil(x1 * sx))] = True
+            v = float(np.median(L[m]))
+            road = v if name == "road" else road
+            ys, xs = np.nonzero(m)
+            grain = _grain(L, m) if np.ptp(ys) >= 10 and np.ptp(xs) >= 10 else float("nan")
+            real.setdefault(name, []).append((v / road, grain))
+    man = json.loads((out / "manifest.json").read_text())
+    kind_of = {o["id"]: _street_kind(o) for o in man["objects"]}
+    seq = open_sequence(out)
+    ours: dict[str, list] = {}
+    for k in range(n):
+        L = frames.linear(k, "kitti")
+        ids = np.asarray(seq.ids(k, "left")).astype(int)
+        kinds = {}
+        for name in ("road", "kerb", "gutter", "bay", "sidewalk", "lawn"):
+            m = np.isin(ids, [i for i, c in kind_of.items() if c == name])
+            m = cv2.erode(m.astype(np.uint8), np.ones((3, 3))) > 0
+            if m.sum() >= 20:
+                kinds[name] = m & (L > 0.5 * np.median(L[m]))
+        if "road" not in kinds:
+            continue
+        road = float(np.median(L[kinds["road"]]))
+        for name, m in kinds.items():
+            ours.setdefault(name, []).append((float(np.median(L[m])) / road, _grain(L, m) if m.sum() >= 100 else np.nan))
+    fmt = lambda d: ", ".join(f"{name} {np.nanmedian([v for v, _ in vs]):.2f}" + (  # noqa: E731
+        f" ({np.nanmedian([g for _, g in vs]):.3f})" if np.isfinite([g for _, g in vs]).any() else "")
+        for name, vs in d.items() if name != "road")
+    return fmt(real), fmt(ours)
+
+
 def corners_on_depth_edges(out: Path, frames: Frames, n: int, start: int = 0) -> dict:
     """The OpenCV VO's corners on the render: the share on a depth edge and the median SGBM
     disparity error (% of the true disparity) at edge and surface corners."""
@@ -709,6 +772,9 @@ def main(argv=None) -> int:
         gr, go = road_grain(out, ours, n)
         print(f"sunlit road's pixel-scale contrast (robust deviation over the 5 x 5 mean): real KITTI sequence_1 "
               f"{gr:.3f}, render {go:.3f}")
+        sr, so = street_surfaces(out, ours, n)
+        print(f"street surfaces over the sunlit road (median linear signal; in brackets the pixel-scale contrast): "
+              f"real KITTI sequence_1 (hand-marked, frames 0, 12) {sr}; render (by asset kind, sunlit) {so}")
     c = corners_on_depth_edges(out, ours, n, a.start)
     print(f"render: {100 * c['edge_share']:.0f} % of the OpenCV VO's corners on depth edges; SGBM disparity error "
           f"there {c['edge_err_pct']:+.2f} %, on surfaces {c['surface_err_pct']:+.2f} % (median, of the true disparity)")

@@ -232,3 +232,14 @@ def test_surfaces_name_library_or_asset_materials_and_kinds_known_classes():
         for s in d.surfaces:
             assert s.material in LIBRARY or s.material in assets.ASSET_MATERIALS, (kind, s.material)
             assert s.colour is None or all(0.0 <= c <= 0.86 for c in s.colour), (kind, s)   # linear albedos
+
+
+def test_a_sidewalk_strip_is_one_surface_so_an_object_material_covers_it():
+    """An object's ``material`` replaces its asset's main surface (0) only: a sidewalk strip is one
+    paving surface (the pavers' tones are the material's), so a bay given ``material setts`` is
+    setts all over; kerbs are granite."""
+    from blender_sesgen.scene.assets import street
+    for offset in (3.25, -3.25):
+        d = street.sidewalk((2.5, 0.01, 40.0), 9, [0.0, 5.0], offset)
+        assert [s.material for s in d.surfaces] == ["paving"] and set(np.unique(d.face_surface)) == {0}
+    assert {s.material for s in street.kerb((0.2, 0.13, 40.0), 2, [0.0], 4.55).surfaces} == {"granite"}

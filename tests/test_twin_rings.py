@@ -37,3 +37,22 @@ def test_ring_power_ratio_finds_the_missing_fine_contrast():
     assert np.allclose(doubled, 0.25, atol=0.03), doubled
     dimmer = parse(twin.ring_power_ratio(real, _frames([np.round(0.7 * img).astype(np.uint8)] * 2), 2))
     assert np.allclose(dimmer, 1.0, atol=0.05), dimmer
+
+
+def test_street_kinds_and_kitti_street_marks(shared_data):
+    """The render's street surfaces by asset kind (the flush sidewalk strip is the parking bay),
+    and KITTI sequence_1's hand-marked street regions lying on what they name: in each marked
+    frame the sunlit asphalt is darker than the light kerb top, gutter and sidewalk and brighter
+    than the lawn, the dark block-paved bay in between (frame 12: 1.45 x the road, the kerb tops
+    and the gutter 2.3-2.4 x)."""
+    kind = lambda k, h=0.13: twin._street_kind({"kind": k, "size": [2.5, h, 320]})  # noqa: E731
+    assert [kind("road"), kind("kerb"), kind("sidewalk"), kind("sidewalk", 0.01), kind("verge"), kind("car")] == \
+        ["road", "kerb", "sidewalk", "bay", "lawn", None]
+    for k, regions in twin.KITTI_STREET.items():
+        L = twin._linear(twin.kitti_marked_frame(k), "kitti")
+        med = {name: float(np.median(L[y0:y1, x0:x1])) for name, (x0, y0, x1, y1) in regions.items()}
+        road = med.pop("road")
+        assert med.pop("lawn") < road, (k, road)
+        bay = med.pop("bay", None)
+        assert bay is None or 1.2 * road < bay < 0.8 * min(med.values()), (k, road, bay, med)
+        assert all(v > 1.8 * road for v in med.values()), (k, road, med)

@@ -73,6 +73,18 @@ LIBRARY: dict[str, LibraryEntry] = _entries(
                            "per-paver tone, sand speckle, chipped edges, dirt in the joints with wear",
                  (0.30, 0.29, 0.27), 0.85, scale_m=0.2, bump_m=0.003, variation=0.25, wear=0.3,
                  semantic_class="sidewalk", nir=0.35),
+    # KITTI sequence_1's parking bay: dark grey concrete blocks (weathered, ~0.15) in straight
+    # rows with light sand joints, 1.2-1.45 x the sunlit asphalt beside it (docs/sensors.md, Camera twins)
+    LibraryEntry("setts", "block paving of a parking bay or square: 20 cm blocks in straight rows, 6 mm light "
+                          "sand joints, per-block tone, oil stains and litter with wear",
+                 (0.15, 0.145, 0.14), 0.8, scale_m=0.2, bump_m=0.003, variation=0.2, wear=0.3,
+                 semantic_class="sidewalk", nir=0.15),
+    # grey granite kerbs: albedo 0.2-0.35 (light grey granite ~0.35, weathered and dirty ~0.2; the
+    # sunlit kerb tops of KITTI sequence_1 are 2.4 x its asphalt, whose albedo is ~0.085-0.1)
+    LibraryEntry("granite", "grey granite (kerb stones, setts, steps): 2-6 mm grains of black mica, grey quartz "
+                            "and white feldspar, stains, tyre scuffs with wear",
+                 (0.26, 0.26, 0.25), 0.7, scale_m=0.004, bump_m=0.001, variation=0.2, wear=0.3,
+                 semantic_class="sidewalk", nir=0.3),
     LibraryEntry("brick", "brick wall, stretcher bond: 24 x 7.1 cm bricks with 1 cm recessed mortar, "
                           "per-brick colour, chipped faces", (0.26, 0.10, 0.06), 0.85, scale_m=0.24,
                  bump_m=0.004, variation=0.35, wear=0.2, semantic_class="building", nir=0.45),
@@ -122,8 +134,9 @@ LIBRARY: dict[str, LibraryEntry] = _entries(
                  (0.40, 0.40, 0.39), 0.6, scale_m=0.5, bump_m=0.0002, variation=0.1, wear=0.1,
                  semantic_class="window", transmittance=0.45),
     # --- nature -----------------------------------------------------------------------------
-    LibraryEntry("grass", "lawn seen from a few metres: clumps, dry and lush patches, fine blade relief; "
-                          "its blades pass about what they reflect (as leaves)",
+    LibraryEntry("grass", "lawn seen from a few metres: clumps, dry and lush patches, lit blade tips over shaded "
+                          "thatch, dead blades, clover, bare earth with wear; its blades pass about what they "
+                          "reflect (as leaves)",
                  (0.06, 0.10, 0.03), 0.9, scale_m=0.3, bump_m=0.006, variation=0.3, wear=0.2,
                  semantic_class="terrain", nir=0.45, transmittance=0.0864),
     # a green leaf passes about as much light as it reflects, band by band (PROSPECT; Jacquemoud

@@ -1,5 +1,5 @@
-"""Recipes of the built environment: asphalt, lane_marking, concrete, paving, brick, plaster,
-roof_tiles. Lengths in metres (the coordinates are metric); ``ctx.entry.scale_m`` is the
+"""Recipes of the built environment: asphalt, lane_marking, concrete, paving, setts, granite,
+brick, plaster, roof_tiles. Lengths in metres (the coordinates are metric); ``ctx.entry.scale_m`` is the
 documented size of each one's main element."""
 from __future__ import annotations
 
@@ -96,17 +96,62 @@ def paving(ctx: Ctx) -> Surface:
     g, p, C = ctx.g, ctx.p, ctx.colour
     length = ctx.entry.scale_m                     # 20 x 10 cm pavers, 4 mm sand joints
     rand, joint = g.bricks(ctx.uv, length + 0.004, 0.5 * length + 0.004, 0.004, smooth=0.3)
-    value = g.remap(rand, 0.0, 1.0, 0.8, 1.2)      # each paver its own cast and weathering
+    value = g.remap(rand, 0.0, 1.0, 0.88, 1.12)    # each paver its own cast and weathering (one batch: KITTI s1 0.049)
     speckle = g.remap(g.noise(p, 1 / 0.015, detail=3.0, roughness=0.7), 0.25, 0.75, 0.85, 1.15)
     stains = g.remap(g.noise(p, 1 / 0.8, detail=3.0), 0.3, 0.7, 0.85, 1.12)
     col = g.cmul(C, g.mul(g.mul(value, speckle), stains))
-    sand = g.cmul((0.16, 0.15, 0.13), g.lerp(1.0, 0.5, ctx.wear))   # darker with dirt and moss
+    # swept-in sand (light: KITTI sequence_1's sidewalk shows its joints faintly), darker with dirt and moss
+    sand = g.cmul((0.28, 0.26, 0.23), g.lerp(1.0, 0.55, ctx.wear))
     col = g.cmix(col, sand, joint)
     chips = g.remap(g.noise(p, 1 / 0.02, detail=3.0), 0.64, 0.72, 0.0, 1.0)
     rough = g.lerp(ctx.roughness, 0.95, joint)
     height = g.sub(g.sub(g.mul(g.noise(p, 1 / 0.008, detail=2.0), 0.0004), g.mul(joint, 0.003)),
                    g.mul(chips, 0.001))
     return Surface(col, rough, height)
+
+
+def setts(ctx: Ctx) -> Surface:
+    g, p, C = ctx.g, ctx.p, ctx.colour
+    size = ctx.entry.scale_m                       # 20 cm square blocks in straight rows, 6 mm sand joints
+    rand, joint = g.bricks(ctx.uv, size + 0.006, size + 0.006, 0.006, offset=0.0, smooth=0.25)
+    value = g.remap(rand, 0.0, 1.0, 0.8, 1.2)      # each block its own cast and weathering
+    # the blocks' exposed aggregate and the tyre-polished face: millimetre grains, centimetre mottle
+    grain = g.remap(g.sep(g.voronoi(p, 1 / 0.005).outputs["Color"])[0], 0.0, 1.0, 0.8, 1.2)
+    mottle = g.remap(g.noise(p, 1 / 0.04, detail=3.0, roughness=0.6), 0.3, 0.7, 0.85, 1.15)
+    col = g.cmul(C, g.mul(g.mul(value, grain), mottle))
+    # a parking bay's oil drips and tyre stains: dark blotches at decimetres, more with wear
+    stain = g.remap(g.noise(p, 1 / 0.5, detail=4.0, roughness=0.6), 0.64 - 0.08 * ctx.wear, 0.72 - 0.08 * ctx.wear,
+                    smooth=True)
+    col = g.cmix(col, g.cmul(col, 0.6), stain)
+    # light sand swept into the joints (what makes KITTI sequence_1's dark bay a grid of light lines),
+    # greyed by dirt and moss with wear
+    sand = g.cmul((0.30, 0.28, 0.24), g.lerp(1.0, 0.6, ctx.wear))
+    col = g.cmix(col, sand, joint)
+    # litter: a few light specks (leaves, paper, gravel) of 1-3 cm
+    bits = g.voronoi(p, 1 / 0.05)
+    speck = g.mul(g.math("GREATER_THAN", g.sep(bits.outputs["Color"])[2], 0.985),
+                  g.remap(bits.outputs["Distance"], 0.15, 0.3, 1.0, 0.0))
+    col = g.cmix(col, (0.45, 0.42, 0.36), speck)
+    rough = g.lerp(ctx.roughness, 0.95, joint)
+    height = g.sub(g.mul(g.noise(p, 1 / 0.01, detail=2.0), 0.0005), g.mul(joint, 0.004))
+    return Surface(col, rough, height)
+
+
+def granite(ctx: Ctx) -> Surface:
+    g, p, C = ctx.g, ctx.p, ctx.colour
+    # grey granite's grains (2-6 mm): black biotite, grey quartz, white feldspar; a sawn or
+    # flamed kerb shows them as a salt-and-pepper texture
+    grains = g.sep(g.voronoi(p, 1 / ctx.entry.scale_m).outputs["Color"])[0]
+    tone = g.ramp(grains, [(0.0, (0.35, 0.35, 0.36)), (0.14, (0.35, 0.35, 0.36)), (0.15, (0.85, 0.85, 0.86)),
+                           (0.68, (1.0, 1.0, 1.0)), (0.7, (1.3, 1.28, 1.25)), (1.0, (1.4, 1.37, 1.33))])
+    stains = g.remap(g.noise(p, 1 / 0.4, detail=3.0), 0.3, 0.7, 0.85, 1.12)
+    col = g.cmul(g.cmul(C, tone), stains)
+    # black tyre scuffs streaked along the kerb (the object's z), more with wear
+    scuff = g.mul(g.remap(g.noise(g.vmath("MULTIPLY", p, (1.0, 1.0, 0.1)), 1 / 0.05, detail=4.0), 0.62, 0.72,
+                          smooth=True), ctx.wear)
+    col = g.cmix(col, g.cmul(col, 0.4), scuff)
+    height = g.add(g.mul(grains, 0.0003), g.mul(g.noise(p, 1 / 0.02, detail=3.0), 0.0006))
+    return Surface(col, ctx.roughness, height)
 
 
 def brick(ctx: Ctx) -> Surface:
@@ -170,5 +215,6 @@ def roof_tiles(ctx: Ctx) -> Surface:
     return Surface(col, rough, height)
 
 
-RECIPES = {"asphalt": asphalt, "lane_marking": lane_marking, "concrete": concrete, "paving": paving, "brick": brick,
+RECIPES = {"asphalt": asphalt, "lane_marking": lane_marking, "concrete": concrete, "paving": paving, "setts": setts,
+           "granite": granite, "brick": brick,
            "plaster": plaster, "roof_tiles": roof_tiles}

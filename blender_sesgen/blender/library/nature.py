@@ -7,14 +7,38 @@ from .graph import Ctx, Surface
 def grass(ctx: Ctx) -> Surface:
     g, p, C = ctx.g, ctx.p, ctx.colour
     tufts = g.voronoi(p, 1 / 0.035)
-    tuft = g.remap(g.sep(tufts.outputs["Color"])[0], 0.0, 1.0, 0.7, 1.32)
-    lush = g.remap(g.noise(p, 1 / ctx.entry.scale_m, detail=3.0), 0.3, 0.7, 0.82, 1.15)
+    tuft = g.remap(g.sep(tufts.outputs["Color"])[0], 0.0, 1.0, 0.6, 1.45)
+    lush = g.remap(g.noise(p, 1 / ctx.entry.scale_m, detail=3.0), 0.3, 0.7, 0.75, 1.22)
     col = g.cmul(C, g.mul(tuft, lush))
     dry = g.remap(g.noise(p, 1 / 2.5, detail=3.0), 0.58 - 0.15 * ctx.wear, 0.7 - 0.15 * ctx.wear, smooth=True)
     col = g.cmix(col, g.cmul((0.17, 0.14, 0.065), tuft), g.mul(dry, 0.8))
+    # a mown lawn at 1-10 cm, what a street camera resolves 5-20 m away (KITTI sequence_1's lawn has
+    # about twice the render's pixel-scale contrast without it): lit blade tips over the shaded
+    # thatch between them (1 cm), straw-coloured dead blades and leaves (2 cm), clover patches
+    # (lighter, rounder leaves), bare earth where it is worn
+    blade = g.voronoi(p, 1 / 0.01)
+    lit = g.remap(blade.outputs["Distance"], 0.0, 0.7, 1.45, 0.45)
+    col = g.cmul(col, lit)
+    dead_cells = g.voronoi(p, 1 / 0.02)
+    dead = g.mul(g.math("GREATER_THAN", g.sep(dead_cells.outputs["Color"])[1], 0.88 - 0.1 * ctx.wear),
+                 g.remap(dead_cells.outputs["Distance"], 0.2, 0.45, 1.0, 0.0))
+    col = g.cmix(col, g.cmul((0.24, 0.21, 0.12), tuft), dead)
+    clover = g.mul(g.remap(g.noise(p, 1 / 0.3, detail=3.0), 0.6, 0.66, smooth=True),
+                   g.math("GREATER_THAN", g.sep(tufts.outputs["Color"])[2], 0.35))
+    col = g.cmix(col, g.cmul(C, g.mul(tuft, 1.35)), clover)
+    bare = g.remap(g.noise(p, 1 / 0.6, detail=4.0, roughness=0.6), 0.7 - 0.1 * ctx.wear, 0.74 - 0.1 * ctx.wear,
+                   smooth=True)
+    col = g.cmix(col, g.cmul((0.12, 0.09, 0.06), g.lerp(0.8, 1.2, tuft)), bare)
+    # weeds of 10-20 cm (plantain and dandelion rosettes): broad, darker leaves lying flat, the
+    # lawn's texture at the scale one pixel spans along a grazing view 5-15 m away
+    weeds = g.voronoi(p, 1 / 0.15)
+    weed = g.mul(g.math("GREATER_THAN", g.sep(weeds.outputs["Color"])[0], 0.8),
+                 g.remap(weeds.outputs["Distance"], 0.25, 0.4, 1.0, 0.0))
+    col = g.cmix(col, g.cmul(C, g.mul(tuft, 0.6)), weed)
     # blades: strong fine relief, so the sun picks out light and dark tufts
     blades = g.noise(g.vmath("MULTIPLY", p, (1.0, 0.3, 1.0)), 1 / 0.008, detail=2.0)
-    height = g.add(g.mul(blades, 0.004), g.mul(g.remap(tufts.outputs["Distance"], 0.0, 0.6, 1.0, 0.0), 0.006))
+    height = g.add(g.add(g.mul(blades, 0.004), g.mul(g.remap(tufts.outputs["Distance"], 0.0, 0.6, 1.0, 0.0), 0.006)),
+                   g.mul(g.remap(blade.outputs["Distance"], 0.0, 0.7, 1.0, 0.0), 0.003))
     # no sheen lobe (a cloth's): at a street camera's grazing view it made a lawn ~1.5 x brighter
     # (docs/sensors.md, Camera twins); the blades' own light is the library's transmittance
     return Surface(col, ctx.roughness, height)

@@ -296,8 +296,8 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
 
     r_kerb = half_road + kerb_w / 2 - 0.05            # kerbs overlap the road edge by 5 cm
     out.append(strip("road", 2 * half_road, 0.3, 0.0, seed * 10 + 1, road_mat))
-    if bay:                                           # paved, flush with the road (its slabs 1 cm up)
-        out.append(strip("sidewalk", bay, 0.01, half_road + bay / 2, seed * 10 + 9, paving_mat))
+    if bay:                                           # setts, flush with the road (1 cm up), as KITTI s1's bay
+        out.append(strip("sidewalk", bay, 0.01, half_road + bay / 2, seed * 10 + 9, " material setts"))
     out.append(strip("kerb", kerb_w, kerb_h, r_kerb + bay, seed * 10 + 2))
     out.append(strip("kerb", kerb_w, kerb_h, -r_kerb, seed * 10 + 3))
     o = r_kerb + bay + kerb_w / 2

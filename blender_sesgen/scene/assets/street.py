@@ -12,8 +12,8 @@ therefore fit side by side exactly. Each strip is a closed slab. The road side o
 or sidewalk is the side nearer the centreline.
 - road: asphalt, top at y = 0 with a 2 % camber (centre highest), lane markings as their
   own faces of the top (dashed centre line, optional edge lines), height = slab depth;
-- kerb: a kerb stone (concrete), road side at o = -width/2, top at y = height;
-- sidewalk: paving slabs (joints as slab-to-slab tone changes), top at y = height;
+- kerb: a kerb stone (granite), road side at o = -width/2, top at y = height;
+- sidewalk: paving (one surface: the pavers are the material's), top at y = height;
 - verge: grass (a sward's tone, ``SWARD``), top at y = height with a gentle bumpy relief.
 """
 from __future__ import annotations
@@ -198,7 +198,9 @@ def kerb(size, seed: int, bend, offset: float = 0.0) -> MeshData:
     W, h, L = (float(x) for x in size)
     rng = np.random.default_rng(seed)
     b = MeshBuilder()
-    stone = b.surface("concrete", scaled((0.42, 0.41, 0.39), float(rng.choice([0.9, 1.0, 1.1]))))
+    # grey granite, the library's albedo (0.26) give or take a tenth: KITTI sequence_1's sunlit kerb
+    # tops are 2.4 x its asphalt (the former concrete at 0.42 rendered 3.7 x)
+    stone = b.surface("granite", scaled((0.26, 0.26, 0.25), float(rng.choice([0.9, 1.0, 1.1]))))
     ch = min(0.03, W / 4)
     offs = np.array([-W / 2, -W / 2 + ch, W / 2])
     s = _stations(L, bend, np.arange(1.0, L, 1.0))   # one stone per metre
@@ -212,18 +214,17 @@ def sidewalk(size, seed: int, bend, offset: float = 0.0) -> MeshData:
     W, h, L = (float(x) for x in size)
     rng = np.random.default_rng(seed)
     b = MeshBuilder()
-    base = pick(rng, palette.PAVING)
-    tones = [b.surface("paving", scaled(base, f)) for f in (0.86, 0.93, 1.0, 1.07)]
+    # one surface (the pavers' tones are the paving material's own), so that an object's
+    # ``material`` (a parking bay's setts) covers the whole strip
+    paving = b.surface("paving", pick(rng, palette.PAVING))
     slab = rng.choice([0.3, 0.4, 0.5])
     n_o = max(int(round(W / slab)), 1)
     offs = np.linspace(-W / 2, W / 2, n_o + 1)
     s = _stations(L, bend, np.arange(slab, L, slab), max_step=slab)
-    cells = rng.choice(tones, size=(len(s) - 1, n_o), p=[0.2, 0.3, 0.3, 0.2])
+    cells = np.full((len(s) - 1, n_o), paving)
     # a slight cross fall (1 %) towards the road side
     offs, tops = _road_side(offs, np.tile(h - 0.01 * (W / 2 - offs), (len(s), 1)), offset)
-    if offset < 0:
-        cells = cells[:, ::-1]
-    _slab(b, s, offs, tops, -0.25, L, bend, cells, tones[1])
+    _slab(b, s, offs, tops, -0.25, L, bend, cells, paving)
     return b.build()
 
 
