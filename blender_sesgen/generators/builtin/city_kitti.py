@@ -103,6 +103,8 @@ class NearField:
     traffic_ahead: tuple    # the nearest car ahead in the rig's lane at frame 0 (range drawn)
     oncoming: bool          # whether cars come the other way
     white_right: float = 0.0    # the right-hand buildings up to this far ahead have a white render (0: drawn)
+    works_right: tuple = ()     # (from, to) ahead: the right front row's buildings there are under scaffolding
+    bikes_right: tuple = ()     # bike racks at the right sidewalk's outer edge this far ahead
 
 
 # KITTI sequence_1's street, measured in its frames (ground plane 1.65 m under the camera, f 707
@@ -119,10 +121,18 @@ class NearField:
 # the sequence's burnt-out pixels, the one being built in frames 20-45 is white behind its scaffold
 KITTI_S1_NEAR = NearField(half_road=2.0, bay=2.5, walk_left=0.0, car_offset=3.13, parked_ahead=(15.4, 40.1),
                           parked_clear=100.0, traffic_lane=0.1, traffic_ahead=(100.0, 130.0), oncoming=False,
-                          white_right=60.0)
+                          white_right=60.0, works_right=(12.0, 60.0), bikes_right=(7.0,))
 # a white silicate render (light reflectance value ~80: palette.PLASTER's whitest but one)
 WHITE_RENDER = (0.80, 0.79, 0.76)
 FRONT_ROW_M = 30.0   # a block's centre within this of the centreline: the front row (second rows stand further back)
+# near-field street detail (docs/sensors.md, Camera twins: what KITTI sequence_1 shows at 5-30 m
+# that carries its corners): KITTI sequence_1's right front row is under scaffolding with fence
+# panels along its yard through frames 15-50 (~60 m of ~90 m), its lawn's young trees all stand
+# in three stakes, bikes at an entrance (frame 10); residential streets elsewhere: a building in
+# ~8 under works, a bike rack before one front-row building in ~4, young trees staked
+P_WORKS = 0.12            # the chance that a front-row building (seed != 0) is under scaffolding
+P_BIKES = 0.25            # ... that a bike rack stands in its front yard
+SCAFFOLD_DEPTH_M = 0.9    # a facade scaffold's width (EN 12811 class 4: 0.9 m decks), 0.2 m off the wall
 
 
 @dataclass(frozen=True)
@@ -145,6 +155,9 @@ class Variation(SeededVariation, salt=0xC17):
     # None: drawn (two lanes, cars at the road's edges, traffic both ways)
     near: Optional[NearField] = KITTI_S1_NEAR
     grass_m: float = 0.08                # the lawns' blades (their tallest; m): KITTI sequence_1's public lawn is mown
+    # the share of young trees (left) and tree-lawn trees (right) standing in stakes: all of KITTI
+    # sequence_1's lawn trees are newly planted and staked (frames 0-45)
+    staked: tuple = (1.0, 0.0)
     # the car body's pitch and roll about the drive (RMS, deg) and its heave (RMS, m): KITTI
     # sequence_1's poses turn 0.019 deg (pitch) and 0.034 deg (roll) a frame and their vertical step
     # changes 0.7 mm from frame to frame (medians); 0.3 deg / 0.2 deg / 1 cm moved the rig 8x / 3x /
@@ -166,7 +179,8 @@ class Variation(SeededVariation, salt=0xC17):
                    near=None, grass_m=0.16,
                    # up to KITTI sequence 00's ground truth (0.11 / 0.10 deg a frame, 2.3 mm, its OXTS noise included)
                    body=tuple(round(float(np.exp(rng.uniform(np.log(lo), np.log(hi)))), 4)
-                              for lo, hi in ((0.03, 0.17), (0.05, 0.15), (0.0015, 0.005))))
+                              for lo, hi in ((0.03, 0.17), (0.05, 0.15), (0.0015, 0.005))),
+                   staked=(round(float(rng.uniform(0.4, 1.0)), 2), round(float(rng.uniform(0.0, 0.5)), 2)))
 
 
 def _centre(street_pos, street_yaw, s, L, bends):
@@ -193,6 +207,73 @@ def _white_near(lines: list[str], centre, s0: float, s1: float) -> list[str]:
             if s0 <= s[int(np.argmin(d))] <= s1 and d.min() <= FRONT_ROW_M:
                 ln += " material white_render"
         out.append(ln)
+    return out
+
+
+def _front_row(lines: list[str], centre, L: float) -> list[dict]:
+    """The front row's buildings of ``lines`` (centres within ``FRONT_ROW_M`` of the
+    centreline): position, yaw (deg), size, arc length ``s`` of the nearest centreline point
+    and distance ``dist`` from it."""
+    s = np.arange(0.0, L + 40.0, 0.5)
+    c = centre(s)[:, [0, 2]]
+    out = []
+    for ln in lines:
+        if not ln.startswith("ASSET building"):
+            continue
+        w = ln.split()
+        i, j = w.index("position"), w.index("size")
+        p = np.array([float(x) for x in w[i + 1:i + 4]])
+        yaw = float(w[i + 5]) if j - i == 7 else 0.0
+        d = np.linalg.norm(c - p[[0, 2]], axis=1)
+        if d.min() <= FRONT_ROW_M:
+            out.append({"p": p, "yaw": yaw, "size": tuple(float(x) for x in w[j + 1:j + 4]),
+                        "s": float(s[int(np.argmin(d))]), "dist": float(d.min())})
+    return out
+
+
+def _street_detail(rng, side_lines: dict, place, centre, L: float, behind: float, edges: dict,
+                   near: Optional[NearField], staked: tuple, trees_at: dict, ids: Ids) -> list[str]:
+    """Scaffolds on front-row buildings under works (seed 0: the right ones ``near.works_right``
+    ahead; else each with ``P_WORKS``) and a site fence along their yard, bike racks (seed 0:
+    at ``near.bikes_right``; else before a front-row building with ``P_BIKES``), stakes round
+    the young (left) and tree-lawn (right) trees with the shares ``staked``. Stakes and racks
+    are a few variants each (instanced)."""
+    stakes = [int(x) for x in rng.integers(1, 10 ** 6, 4)]
+    racks = [(int(x), (round(float(rng.uniform(2.7, 4.5)), 2), 0.85, 1.8)) for x in rng.integers(1, 10 ** 6, 3)]
+    out = []
+    for side, lines in side_lines.items():
+        for b in _front_row(lines, centre, L):
+            W, H, D = b["size"]
+            a = np.radians(b["yaw"])
+            front, along = np.array([np.sin(a), 0.0, np.cos(a)]), np.array([np.cos(a), 0.0, -np.sin(a)])
+            yard = b["dist"] - D / 2 - edges[side]          # the front yard's depth
+            if near is not None:
+                works = side > 0 and bool(near.works_right) and \
+                    near.works_right[0] <= b["s"] - behind <= near.works_right[1]
+            else:
+                works = rng.random() < P_WORKS
+            if works:   # to the eaves (a gable's ridge is ~1/4 of the height above them)
+                p = b["p"] + front * (D / 2 + 0.2 + SCAFFOLD_DEPTH_M / 2)
+                out.append(asset("scaffold", ids("furniture"), p, b["yaw"],
+                                 (round(W + 1.0, 2), round(max(0.75 * H, 4.5), 2), SCAFFOLD_DEPTH_M),
+                                 seed=int(rng.integers(1e6))))
+                if yard > 3.0:
+                    p = b["p"] + front * (D / 2 + min(yard - 1.0, 5.0))
+                    out.append(asset("site_fence", ids("furniture"), p, b["yaw"], (round(W + 3.5, 2), 2.0, 0.65),
+                                     seed=int(rng.integers(1e6))))
+            if near is None and rng.random() < P_BIKES and yard > 3.0:
+                seed_, size = racks[int(rng.integers(len(racks)))]
+                p = b["p"] + front * (D / 2 + 1.6) + along * float(rng.uniform(-W / 3, W / 3))
+                out.append(asset("bike_rack", ids("furniture"), p, b["yaw"], size, seed=seed_))
+    for a in (near.bikes_right if near is not None else ()):
+        p, h = place(behind + a, edges[1] + 1.2)
+        seed_, size = racks[0]
+        out.append(asset("bike_rack", ids("furniture"), p, h - 90, size, seed=seed_))
+    for share, where in zip(staked, ("young", "lawn")):
+        for p in trees_at[where]:
+            if rng.random() < share:
+                i = int(rng.integers(len(stakes)))
+                out.append(asset("tree_stakes", ids("furniture"), p, 0.0, (0.7, 2.2, 0.7), seed=stakes[i]))
     return out
 
 
@@ -323,6 +404,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
 
     # --- buildings and green blocks on both sides -------------------------------------
     out += ["", "// buildings (front facades towards the street) and green blocks"]
+    side_lines = {}
     for side in (1, -1):
         lines = line_street_side(rng, place, L - 12, side, right_edge if side > 0 else -left_edge, ids,
                                  FRONTAGES[v.frontage[0 if side < 0 else 1]], seed_of=pool)
@@ -331,6 +413,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
                                 behind, behind + near.white_right)
             out.append(derived_material("white_render", "plaster", WHITE_RENDER, seed=seed))
         out += lines
+        side_lines[side] = lines
 
     # a building across the far end of the street closes the view
     p_end, h_end = place(L + 12.0, 0.0)
@@ -338,17 +421,20 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
 
     # --- street trees in the tree lawn, lights, signs, bollards --------------------------
     out += ["", "// street trees (tree lawn, right), street lights, signs (trees, cars, lights: a few variants, instanced)"]
+    trees_at = {"lawn": [], "young": []}      # where the street trees stand (their stakes come below)
     s = float(rng.uniform(3, 8))
     while s < L - 5:
         p, _ = place(s, 0.5 * (lawn[0] + lawn[1]))
         seed_, size = pool.pick("lawn_tree")
         out.append(asset("tree", ids("tree"), p, rng.uniform(0, 360), size, seed=seed_))
+        trees_at["lawn"].append(p)
         s += float(rng.uniform(8, 13))
     s = float(rng.uniform(3, 8))
     while s < L - 5:                       # young trees along the left sidewalk's outer edge
         p, _ = place(s, left_edge - 1.2)
         seed_, size = pool.pick("young_tree")
         out.append(asset("tree", ids("tree"), p + np.array([0.0, kerb_h, 0.0]), rng.uniform(0, 360), size, seed=seed_))
+        trees_at["young"].append(p + np.array([0.0, kerb_h, 0.0]))
         s += float(rng.uniform(9, 15))
     for side in (1, -1):
         s = float(rng.uniform(5, 25)) + (0 if side > 0 else 14)
@@ -378,6 +464,13 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
         out.append(asset("bin", ids("furniture"), p + np.array([0.0, kerb_h, 0.0]), h - 90 if side > 0 else h + 90,
                          seed=pool.seeds["bin"][int(rng_bins.integers(POOLS["bin"]))]))
         s += float(rng_bins.uniform(40, 80))
+
+    # --- near-field detail: works (scaffold, site fence), bike racks, the young trees' stakes --
+    # (a stream of its own, ids after the furniture's: the layout and ids drawn before stay)
+    out += ["", "// near-field detail: facade scaffolding and site fences at works, bike racks, tree stakes"]
+    out += _street_detail(np.random.default_rng([seed, 0xDE7]), side_lines, place,
+                          lambda s_: _centre(street_pos, street_yaw, s_, L, bends)[0], L, behind,
+                          {1: right_edge, -1: -left_edge}, near, v.staked, trees_at, ids)
 
     # --- grass (real blades) on the tree lawn and the first metres of the yards and fields --
     out += ["", "// grass: patches of blades on the lawns near the road (a few variants, instanced)"]
