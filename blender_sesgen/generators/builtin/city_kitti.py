@@ -231,6 +231,38 @@ def _front_row(lines: list[str], centre, L: float) -> list[dict]:
     return out
 
 
+def _works_row(lines: list[str], centre, place, L: float, s_end: float, edge: float, ids: Ids,
+               rng: np.random.Generator) -> list[str]:
+    """``lines`` (one side's, right) with its front row carried on to arc length ``s_end``: where
+    the last front-row building before it ends early, the green stretch after it gives way to a
+    block being built (KITTI sequence_1's right side: one long block under scaffolding through
+    its frames 15-50), as deep and as far back as that building."""
+    row = [b for b in _front_row(lines, centre, L) if b["s"] < s_end]
+    if not row:
+        return lines
+    last = max(row, key=lambda b: b["s"])
+    W, H, D = last["size"]
+    s0 = last["s"] + W / 2 + 2.0
+    if s0 >= s_end - 6.0:
+        return lines
+    s1 = s_end + 3.0
+    s = np.arange(0.0, L + 40.0, 0.5)
+    c = centre(s)[:, [0, 2]]
+    out = []
+    for ln in lines:        # the green stretch's trees and bushes where the block goes
+        w = ln.split()
+        if w[1] in ("tree", "conifer", "bush"):
+            i = w.index("position")
+            d = np.linalg.norm(c - [float(w[i + 1]), float(w[i + 3])], axis=1)
+            if s0 - 2.0 <= s[int(np.argmin(d))] <= s1 + 2.0 and d.min() < last["dist"] + D:
+                continue
+        out.append(ln)
+    p, h = place((s0 + s1) / 2, last["dist"])
+    out.append(asset("building", ids("building"), p, h - 90, (round(s1 - s0, 2), round(float(rng.uniform(12.0, 15.0)), 2),
+                                                              round(D, 2)), seed=int(rng.integers(1e6))))
+    return out
+
+
 def _street_detail(rng, side_lines: dict, place, centre, L: float, behind: float, edges: dict,
                    near: Optional[NearField], staked: tuple, trees_at: dict, ids: Ids) -> list[str]:
     """Scaffolds on front-row buildings under works (seed 0: the right ones ``near.works_right``
@@ -408,6 +440,9 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     for side in (1, -1):
         lines = line_street_side(rng, place, L - 12, side, right_edge if side > 0 else -left_edge, ids,
                                  FRONTAGES[v.frontage[0 if side < 0 else 1]], seed_of=pool)
+        if side > 0 and near is not None and near.works_right:
+            lines = _works_row(lines, lambda s_: _centre(street_pos, street_yaw, s_, L, bends)[0], place, L,
+                               behind + near.works_right[1], right_edge, ids, np.random.default_rng([seed, 0x5CA]))
         if side > 0 and near is not None and near.white_right > 0:
             lines = _white_near(lines, lambda s_: _centre(street_pos, street_yaw, s_, L, bends)[0],
                                 behind, behind + near.white_right)
