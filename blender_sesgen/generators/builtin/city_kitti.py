@@ -104,7 +104,10 @@ class NearField:
     oncoming: bool          # whether cars come the other way
     white_right: float = 0.0    # the right-hand buildings up to this far ahead have a white render (0: drawn)
     works_right: tuple = ()     # (from, to) ahead: the right front row's buildings there are under scaffolding
-    bikes_right: tuple = ()     # bike racks at the right sidewalk's outer edge this far ahead
+    bikes_right: tuple = ()     # bike racks on the right sidewalk this far ahead
+    lawn_right: float = 0.0     # the right tree lawn's and sidewalk's widths (0: drawn) ...
+    walk_right: float = 0.0
+    setback_right: tuple = ()   # ... and the right front row's setback range behind the sidewalk (empty: drawn)
 
 
 # KITTI sequence_1's street, measured in its frames (ground plane 1.65 m under the camera, f 707
@@ -118,10 +121,15 @@ class NearField:
 # oncoming (a street too narrow for two cars to pass at speed); the cars far ahead drive its middle
 # as the rig does (its car's centre ~0.27 m right of the left camera); the blocks on the right
 # through frame 45 (~55 m) have white renders: the sunlit one of frames 0-15 holds almost all of
-# the sequence's burnt-out pixels, the one being built in frames 20-45 is white behind its scaffold
+# the sequence's burnt-out pixels, the one being built in frames 20-45 is white behind its scaffold;
+# that right front row stands 7-10 m right of the camera (SGBM, frames 0-40: the peak of the lateral
+# positions of the points above the horizon right of the image centre: 9, 9, 8, 7, 7 m), behind a
+# grass strip ~1.5 m wide from ~4 m (frame 0, rows 300-340 on the ground plane) and paving to the
+# facades; under scaffolding from ~12 m ahead to past frame 50
 KITTI_S1_NEAR = NearField(half_road=2.0, bay=2.5, walk_left=0.0, car_offset=3.13, parked_ahead=(15.4, 40.1),
                           parked_clear=100.0, traffic_lane=0.1, traffic_ahead=(100.0, 130.0), oncoming=False,
-                          white_right=60.0, works_right=(12.0, 60.0), bikes_right=(7.0,))
+                          white_right=60.0, works_right=(12.0, 60.0), bikes_right=(7.0,), lawn_right=1.3,
+                          walk_right=2.2, setback_right=(0.6, 1.2))
 # a white silicate render (light reflectance value ~80: palette.PLASTER's whitest but one)
 WHITE_RENDER = (0.80, 0.79, 0.76)
 FRONT_ROW_M = 30.0   # a block's centre within this of the centreline: the front row (second rows stand further back)
@@ -231,16 +239,55 @@ def _front_row(lines: list[str], centre, L: float) -> list[dict]:
     return out
 
 
+def _pull_front_row(lines: list[str], centre, L: float, s_end: float, edge: float, setback: tuple,
+                    rng: np.random.Generator) -> list[str]:
+    """``lines`` (one side's) with the front row's buildings up to arc length ``s_end`` moved
+    towards the street to a ``setback`` drawn in that range behind ``edge`` (a scripted near
+    field's; their front yards' hedges, fences, bushes and bins left out): done after the side
+    is drawn, so the layout's stream, and all drawn after it, stays as it was."""
+    s = np.arange(0.0, L + 40.0, 0.5)
+    c = centre(s)[:, [0, 2]]
+    moved = []                       # (arc length range, distance range) of the yards given up
+    out = []
+    for ln in lines:
+        b = _front_row([ln], centre, L)
+        if not b or b[0]["s"] - b[0]["size"][0] / 2 >= s_end:
+            out.append(ln)
+            continue
+        b = b[0]
+        W, _, D = b["size"]
+        a = np.radians(b["yaw"])
+        front = np.array([np.sin(a), 0.0, np.cos(a)])
+        new = edge + float(rng.uniform(*setback)) + D / 2
+        p = b["p"] + front * (b["dist"] - new)
+        w = ln.split()
+        i = w.index("position")
+        w[i + 1:i + 4] = nums(p).split()
+        out.append(" ".join(w))
+        moved.append((b["s"] - W / 2 - 1.0, b["s"] + W / 2 + 1.0, b["dist"] - D / 2))
+    keep = []
+    for ln in out:
+        w = ln.split()
+        if w[1] in ("hedge", "fence", "bush", "bin"):
+            i = w.index("position")
+            d = np.linalg.norm(c - [float(w[i + 1]), float(w[i + 3])], axis=1)
+            s_ = s[int(np.argmin(d))]
+            if any(s0 <= s_ <= s1 and d.min() < front_d for s0, s1, front_d in moved):
+                continue
+        keep.append(ln)
+    return keep
+
+
 def _works_row(lines: list[str], centre, place, L: float, s_end: float, edge: float, ids: Ids,
                rng: np.random.Generator) -> list[str]:
     """``lines`` (one side's, right) with its front row carried on to arc length ``s_end``: where
     the last front-row building before it ends early, the green stretch after it gives way to a
     block being built (KITTI sequence_1's right side: one long block under scaffolding through
     its frames 15-50), as deep and as far back as that building."""
-    row = [b for b in _front_row(lines, centre, L) if b["s"] < s_end]
+    row = [b for b in _front_row(lines, centre, L) if b["s"] - b["size"][0] / 2 < s_end]
     if not row:
         return lines
-    last = max(row, key=lambda b: b["s"])
+    last = max(row, key=lambda b: b["s"] + b["size"][0] / 2)
     W, H, D = last["size"]
     s0 = last["s"] + W / 2 + 2.0
     if s0 >= s_end - 6.0:
@@ -298,7 +345,7 @@ def _street_detail(rng, side_lines: dict, place, centre, L: float, behind: float
                 p = b["p"] + front * (D / 2 + 1.6) + along * float(rng.uniform(-W / 3, W / 3))
                 out.append(asset("bike_rack", ids("furniture"), p, b["yaw"], size, seed=seed_))
     for a in (near.bikes_right if near is not None else ()):
-        p, h = place(behind + a, edges[1] + 1.2)
+        p, h = place(behind + a, edges[1] - 0.95)
         seed_, size = racks[0]
         out.append(asset("bike_rack", ids("furniture"), p, h - 90, size, seed=seed_))
     for share, where in zip(staked, ("young", "lawn")):
@@ -379,6 +426,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     bay = 0.0
     if near is not None:       # a scripted near field (drawn above all the same: the layout's stream stays)
         half_road, bay, walk_l = near.half_road, near.bay, near.walk_left
+        lawn_w, walk_r = near.lawn_right or lawn_w, near.walk_right or walk_r
     yard = 60.0
     ids = Ids({"street": 1, "building": 100, "car": 400, "tree": 600, "veg": 900, "furniture": 1200,
                "grass": 2000})
@@ -440,6 +488,10 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     for side in (1, -1):
         lines = line_street_side(rng, place, L - 12, side, right_edge if side > 0 else -left_edge, ids,
                                  FRONTAGES[v.frontage[0 if side < 0 else 1]], seed_of=pool)
+        if side > 0 and near is not None and near.setback_right:
+            lines = _pull_front_row(lines, lambda s_: _centre(street_pos, street_yaw, s_, L, bends)[0], L,
+                                    behind + near.white_right + 15.0, right_edge, near.setback_right,
+                                    np.random.default_rng([seed, 0x5E7]))
         if side > 0 and near is not None and near.works_right:
             lines = _works_row(lines, lambda s_: _centre(street_pos, street_yaw, s_, L, bends)[0], place, L,
                                behind + near.works_right[1], right_edge, ids, np.random.default_rng([seed, 0x5CA]))
