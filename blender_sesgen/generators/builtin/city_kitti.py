@@ -125,10 +125,11 @@ class NearField:
 # that right front row stands 7-10 m right of the camera (SGBM, frames 0-40: the peak of the lateral
 # positions of the points above the horizon right of the image centre: 9, 9, 8, 7, 7 m), behind a
 # grass strip ~1.5 m wide from ~4 m (frame 0, rows 300-340 on the ground plane) and paving to the
-# facades; under scaffolding from ~12 m ahead to past frame 50
+# facades; under scaffolding from ~20 m ahead in frame 0 (its near end at column 876 of 1226, 8 m right:
+# 21 m) to past frame 50
 KITTI_S1_NEAR = NearField(half_road=2.0, bay=2.5, walk_left=0.0, car_offset=3.13, parked_ahead=(15.4, 40.1),
                           parked_clear=100.0, traffic_lane=0.1, traffic_ahead=(100.0, 130.0), oncoming=False,
-                          white_right=60.0, works_right=(12.0, 60.0), bikes_right=(7.0,), lawn_right=1.3,
+                          white_right=65.0, works_right=(20.0, 75.0), bikes_right=(7.0,), lawn_right=1.3,
                           walk_right=2.2, setback_right=(0.6, 1.2))
 # a white silicate render (light reflectance value ~80: palette.PLASTER's whitest but one)
 WHITE_RENDER = (0.80, 0.79, 0.76)
