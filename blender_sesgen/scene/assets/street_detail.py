@@ -26,16 +26,21 @@ def _rods(b: MeshBuilder, segments, radius: float, surf, sides: int = 6) -> None
 
 
 def scaffold(size, seed: int) -> MeshData:
-    """Facade scaffolding (tube and fitting, EN 12811 class 3-4): two rows of standards every
-    2-2.6 m along x, lifts every 2 m with ledgers, transoms and boarded decks (planks of a few
-    tones, some bays unboarded), guard rails and toe boards on the outer (+z) face, diagonal
-    braces in some bays, base plates. The wall side is -z. size = (length, height, depth)."""
+    """Facade scaffolding (system scaffold, EN 12811 class 3-4): two rows of standards, bays of
+    the systems' ledger lengths (2.07, 2.57, 3.07 m, mixed, scaled to the length), lifts every
+    2 m with ledgers, transoms and boarded decks (planks of a few tones, some bays unboarded),
+    guard rails and toe boards on the outer (+z) face, diagonal braces in some bays, an access
+    ladder per lift in a bay of its own, base plates. The wall side is -z. size = (length,
+    height, depth)."""
     rng, L, H, D, b = start(size, seed)
     steel = b.surface("metal_brushed", GALVANISED)
     woods = [b.surface("wood_planks", scaled(pick(rng, palette.WOOD), f)) for f in (0.8, 1.0, 1.25)]
     toe = b.surface("wood_planks", scaled(pick(rng, palette.WOOD), 0.9))
-    n_bays = max(int(round(L / rng.uniform(2.0, 2.6))), 1)
-    xs = np.linspace(-L / 2 + 0.1, L / 2 - 0.1, n_bays + 1)
+    bays = []
+    while sum(bays) < L - 0.2 - 1.5 or not bays:
+        bays.append(float(rng.choice([2.07, 2.57, 3.07], p=[0.25, 0.5, 0.25])))
+    xs = -L / 2 + 0.1 + np.concatenate([[0.0], np.cumsum(bays)]) * (L - 0.2) / sum(bays)
+    n_bays = len(bays)
     z_in, z_out = -D / 2 + 0.05, D / 2 - 0.05
     lift = 2.0
     decks = np.arange(lift, H - 0.9, lift)
@@ -59,6 +64,14 @@ def scaffold(size, seed: int) -> MeshData:
         for k in range(len(levels) - 1):
             a, c = (xs[i], xs[i + 1]) if k % 2 == 0 else (xs[i + 1], xs[i])
             rods.append(((a, levels[k], z_out + 0.06), (c, levels[k + 1], z_out + 0.06)))
+    for k, y in enumerate(np.concatenate([[0.0], decks[:-1]])):            # access ladders, one bay a lift
+        i = int(rng.integers(n_bays))
+        xa, xb = xs[i] + 0.35, xs[i] + 0.75
+        for x in (xa, xb):
+            rods.append(((x, y + 0.1, z_in + 0.2), (x, y + lift + 0.9, z_in + 0.55)))
+        for r_ in np.arange(0.3, lift + 0.8, 0.28):
+            t = r_ / (lift + 0.8)
+            rods.append(((xa, y + 0.1 + r_, z_in + 0.2 + 0.35 * t), (xb, y + 0.1 + r_, z_in + 0.2 + 0.35 * t)))
     _rods(b, rods, TUBE_R, steel)
     for x in xs:                                                           # base plates
         for z in (z_in, z_out):
