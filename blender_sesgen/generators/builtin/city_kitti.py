@@ -4,7 +4,8 @@ A two-lane street of gentle curves (a chain of arcs) with kerbs, a tree lawn and
 each side a residential cross-section (``FRONTAGES``: blocks behind front yards, houses
 behind hedged yards, or an open lawn before low houses) of buildings (real window openings,
 balconies, gable or flat roofs) alternating with green strips; street trees, hedges and bushes; parked cars along
-the kerbs; street lights, signs on poles, bins and bollards; a sun and a physical sky.
+the kerbs; street lights, signs on poles, bins and bollards; near-field detail (scaffolding and
+site fences at buildings under works, bike racks, young trees in stakes); a sun and a physical sky.
 Trees, bushes, cars, street lights and bins are a few variants per kind (``POOLS``), so
 that Blender shares their meshes and Cycles instances them (docs/rendering.md#speed).
 The rig is KITTI's (1226 x 370 px, f = 707 px, baseline 0.54 m, camera 1.65 m above the
@@ -15,7 +16,8 @@ driving on at about its speed and oncoming cars in the other lane, never within 
 rig's car or 8 m of each other; the camera's auto-exposure follows the scene (AUTOEXPOSURE).
 Seed 0 scripts its near field after KITTI sequence_1's frames (``KITTI_S1_NEAR``): a 4 m
 carriageway driven near its middle, the lawn from the left kerb, a parking bay on the right
-with the two cars where sequence_1 shows them, and its traffic 100-130 m ahead, none oncoming.
+with the two cars where sequence_1 shows them, its right front row 7-10 m right of the camera
+under scaffolding from ~27 m ahead, and its traffic 100-130 m ahead, none oncoming.
 
     python -m blender_sesgen.generators.builtin.city_kitti [--seed N] [--frames N] > scenes/city_kitti.ses
 
