@@ -41,6 +41,7 @@ from typing import Optional
 
 import numpy as np
 
+from ...scene.assets import generate as asset_mesh
 from ...scene.assets.street import arc_frame
 from .city_grid import _keyframes as keyframes
 from .sesgen_layout import (KITTI_CAMERA_HEIGHT, Frontage, Ids, Lighting, asset, command_line, derived_material, draw_lighting,
@@ -143,7 +144,8 @@ FRONT_ROW_M = 30.0   # a block's centre within this of the centreline: the front
 # ~8 under works, a bike rack before one front-row building in ~4, young trees staked
 P_WORKS = 0.12            # the chance that a front-row building (seed != 0) is under scaffolding
 P_BIKES = 0.25            # ... that a bike rack stands in its front yard
-SCAFFOLD_DEPTH_M = 0.9    # a facade scaffold's width (EN 12811 class 4: 0.9 m decks), 0.2 m off the wall
+SCAFFOLD_DEPTH_M = 0.9    # a facade scaffold's width (EN 12811 class 4: 0.9 m decks) ...
+SCAFFOLD_GAP_M = 0.15     # ... and its gap to the facade's foremost part below its top
 
 
 @dataclass(frozen=True)
@@ -237,7 +239,7 @@ def _front_row(lines: list[str], centre, L: float) -> list[dict]:
         yaw = float(w[i + 5]) if j - i == 7 else 0.0
         d = np.linalg.norm(c - p[[0, 2]], axis=1)
         if d.min() <= FRONT_ROW_M:
-            out.append({"p": p, "yaw": yaw, "size": tuple(float(x) for x in w[j + 1:j + 4]),
+            out.append({"p": p, "yaw": yaw, "size": tuple(float(x) for x in w[j + 1:j + 4]), "seed": int(w[w.index("seed") + 1]),
                         "s": float(s[int(np.argmin(d))]), "dist": float(d.min())})
     return out
 
@@ -313,6 +315,33 @@ def _works_row(lines: list[str], centre, place, L: float, s_end: float, edge: fl
     return out
 
 
+def _clear_footprints(lines: list[str], works: list[str], margin: float = 0.3) -> list[str]:
+    """``lines`` without the small street furniture (bins, poles, signs, bollards, bushes,
+    hedges, fences) that stands within ``margin`` of a footprint of ``works`` (scaffolds and
+    site fences stand where the sidewalk's bins and signs were: a works site clears them)."""
+    boxes = []
+    for ln in works:
+        w = ln.split()
+        i, j = w.index("position"), w.index("size")
+        yaw = np.radians(float(w[i + 5]) if j - i == 7 else 0.0)
+        boxes.append((np.array([float(w[i + 1]), float(w[i + 3])]), yaw, float(w[j + 1]) / 2 + margin,
+                      float(w[j + 3]) / 2 + margin))
+    out = []
+    for ln in lines:
+        w = ln.split()
+        if len(w) > 1 and w[0] == "ASSET" and w[1] in ("bin", "pole", "sign", "bollard", "bush", "hedge", "fence"):
+            i = w.index("position")
+            q = np.array([float(w[i + 1]), float(w[i + 3])])
+            inside = False
+            for c, yaw, hx, hz in boxes:     # the asset frame's x = (cos, -sin), z = (sin, cos) in world (x, z)
+                d = q - c
+                inside |= abs(d[0] * np.cos(yaw) - d[1] * np.sin(yaw)) < hx and abs(d[0] * np.sin(yaw) + d[1] * np.cos(yaw)) < hz
+            if inside:
+                continue
+        out.append(ln)
+    return out
+
+
 def _street_detail(rng, side_lines: dict, place, centre, L: float, behind: float, edges: dict,
                    near: Optional[NearField], staked: tuple, trees_at: dict, ids: Ids) -> list[str]:
     """Scaffolds on front-row buildings under works (seed 0: the right ones ``near.works_right``
@@ -334,14 +363,18 @@ def _street_detail(rng, side_lines: dict, place, centre, L: float, behind: float
                     near.works_right[0] <= b["s"] - behind <= near.works_right[1]
             else:
                 works = rng.random() < P_WORKS
-            if works:   # to the eaves (a gable's ridge is ~1/4 of the height above them)
-                p = b["p"] + front * (D / 2 + 0.2 + SCAFFOLD_DEPTH_M / 2)
-                out.append(asset("scaffold", ids("furniture"), p, b["yaw"],
-                                 (round(W + 1.0, 2), round(max(0.75 * H, 4.5), 2), SCAFFOLD_DEPTH_M),
+            if works:   # to the eaves (a gable's ridge is ~1/4 of the height above them), clear of
+                # what the facade carries below them (balconies, sills, steps: the building's own mesh)
+                h_s = round(max(0.75 * H, 4.5), 2)
+                V = asset_mesh("building", (W, H, D), b["seed"]).vertices
+                face = float(V[V[:, 1] < h_s, 2].max()) + SCAFFOLD_GAP_M
+                p = b["p"] + front * (face + SCAFFOLD_DEPTH_M / 2)
+                out.append(asset("scaffold", ids("furniture"), p, b["yaw"], (round(W + 1.0, 2), h_s, SCAFFOLD_DEPTH_M),
                                  seed=int(rng.integers(1e6))))
-                if yard > 3.0:
-                    p = b["p"] + front * (D / 2 + min(yard - 1.0, 5.0))
-                    out.append(asset("site_fence", ids("furniture"), p, b["yaw"], (round(W + 3.5, 2), 2.0, 0.65),
+                site = face + SCAFFOLD_DEPTH_M + 1.5            # the site fence 1.5 m before the scaffold
+                if b["dist"] - site > edges[side] + 0.3:
+                    p = b["p"] + front * site
+                    out.append(asset("site_fence", ids("furniture"), p, b["yaw"], (round(W + 0.5, 2), 2.0, 0.65),
                                      seed=int(rng.integers(1e6))))
             if near is None and rng.random() < P_BIKES and yard > 3.0:
                 seed_, size = racks[int(rng.integers(len(racks)))]
@@ -558,9 +591,10 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     # --- near-field detail: works (scaffold, site fence), bike racks, the young trees' stakes --
     # (a stream of its own, ids after the furniture's: the layout and ids drawn before stay)
     out += ["", "// near-field detail: facade scaffolding and site fences at works, bike racks, tree stakes"]
-    out += _street_detail(np.random.default_rng([seed, 0xDE7]), side_lines, place,
-                          lambda s_: _centre(street_pos, street_yaw, s_, L, bends)[0], L, behind,
-                          {1: right_edge, -1: -left_edge}, near, v.staked, trees_at, ids)
+    detail = _street_detail(np.random.default_rng([seed, 0xDE7]), side_lines, place,
+                            lambda s_: _centre(street_pos, street_yaw, s_, L, bends)[0], L, behind,
+                            {1: right_edge, -1: -left_edge}, near, v.staked, trees_at, ids)
+    out = _clear_footprints(out, [ln for ln in detail if ln.split()[1] in ("scaffold", "site_fence")]) + detail
 
     # --- grass (real blades) on the tree lawn and the first metres of the yards and fields --
     out += ["", "// grass: patches of blades on the lawns near the road (a few variants, instanced)"]
