@@ -51,7 +51,7 @@ def test_generators_are_deterministic_and_seeded(name):
 
 
 @pytest.mark.parametrize("name, pooled", [
-    ("city_kitti", ("tree", "conifer", "bush", "car", "streetlight", "bin", "grass_tuft")),
+    ("city_kitti", ("tree", "conifer", "bush", "car", "streetlight", "bin", "grass_tuft", "tree_stakes")),
     ("forest", ("tree", "conifer", "bush", "fern", "grass_tuft", "rock"))])
 def test_repeated_assets_are_a_few_instanced_variants(scenes, name, pooled):
     """Trees, cars, lights, rocks... are a few variants per kind (equal kind, size and seed:
@@ -597,6 +597,54 @@ def test_city_kitti_foliage_passes_what_it_reflects_and_seed_0s_right_blocks_are
     assert {m for z, m in right if -5.0 < z < 55.0} == {"white_render"}, right
     assert all(m is None for z, m in right if z > 70.0), right
     assert "white_render" not in city_kitti.generate(2)
+
+
+def test_city_kitti_near_field_detail_stands_where_kitti_sequence_1s_does():
+    """KITTI sequence_1's contrasty near field (docs/sensors.md, Camera twins): its right front
+    row stands ~7-10 m right of the camera (SGBM, frames 0-40, above the horizon) and is under
+    scaffolding from ~12 m to past 55 m ahead; every young tree on its lawn stands in stakes.
+    Seed 0: the right front row's facades 8.5-10.5 m right of the camera through 70 m, scaffolds
+    against them (0.1-0.3 m before the foremost part of the building's mesh below their top: its
+    balconies, sills; as wide as the facade and more) covering 20-30 to 70 m ahead,
+    stakes round each young tree; none of it on the carriageway. Drawn seeds draw their own
+    works (a site fence before those with a deep yard) and racks (seeds 1-8: some with works,
+    some without; every seed stakes some trees)."""
+    from blender_sesgen.generators.builtin import city_kitti
+    from blender_sesgen.ses.parser import parse_text
+
+    def local(s, o):            # (ahead, right) of the first camera (m)
+        T0 = s.timeline.left()[0]
+        d = np.asarray(o.position) - T0[:3, 3]
+        return float(d @ T0[:3, 2]), float(d @ T0[:3, 0])
+
+    s = parse_text(city_kitti.generate(0))     # the generator's (the file is its output: another test)
+    objs = [o for o in s.objects if isinstance(o, Asset)]
+    of = lambda k: [o for o in objs if o.kind == k]  # noqa: E731
+    scaffolds = of("scaffold")
+    assert scaffolds and all(6.5 < local(s, o)[1] < 10.0 for o in scaffolds), [local(s, o) for o in scaffolds]
+    span = [(local(s, o)[0] - o.size[0] / 2, local(s, o)[0] + o.size[0] / 2) for o in scaffolds]
+    assert 20.0 < min(a for a, _ in span) < 30.0 and max(b for _, b in span) > 70.0, span
+    buildings = of("building")
+    row = [(local(s, b)[0], local(s, b)[1] - b.size[2] / 2) for b in buildings
+           if 0.0 < local(s, b)[1] < 30.0 and -5.0 < local(s, b)[0] < 70.0]
+    assert len(row) >= 4 and all(8.5 < x < 10.5 for _, x in row), row
+    for o in scaffolds:        # against a facade: the building behind, same heading, clear of its mesh
+        b = min(buildings, key=lambda b: np.linalg.norm(np.subtract(b.position, o.position)))
+        assert b.rotation_deg == o.rotation_deg and b.size[0] < o.size[0], (o.id, b.id)
+        V = assets.generate("building", b.size, b.seed).vertices     # the facade's balconies, sills, steps
+        front = V[V[:, 1] < o.size[1], 2].max()
+        gap = np.linalg.norm(np.subtract(b.position, o.position)) - o.size[2] / 2 - front
+        assert 0.1 < gap < 0.3, (o.id, gap)
+    young = [local(s, o) for o in of("tree") if -5.0 < local(s, o)[1] < 0.0 and -40.0 < local(s, o)[0] < 100.0]
+    stakes = {tuple(np.round(local(s, o), 3)) for o in of("tree_stakes")}
+    assert len(young) >= 10 and all(tuple(np.round(y, 3)) in stakes for y in young)
+    for o in scaffolds + of("site_fence") + of("tree_stakes") + of("bike_rack"):   # off the 4 m carriageway
+        assert abs(local(s, o)[1] + 0.17) > 2.5 or not -40.0 < local(s, o)[0] < 100.0, o.id
+    kinds = [[o.kind for o in parse_text(city_kitti.generate(seed, frames=45)).objects if isinstance(o, Asset)]
+             for seed in range(1, 9)]
+    assert all(k.count("site_fence") <= k.count("scaffold") for k in kinds) and any("site_fence" in k for k in kinds)
+    assert all("tree_stakes" in k for k in kinds)
+    assert 0 < sum("scaffold" in k for k in kinds) < 8 and 0 < sum("bike_rack" in k for k in kinds) < 8
 
 
 def test_city_kitti_parks_its_kerbs_as_kitti_sequence_1_and_seeds_vary_it(scenes):

@@ -4,7 +4,8 @@ A two-lane street of gentle curves (a chain of arcs) with kerbs, a tree lawn and
 each side a residential cross-section (``FRONTAGES``: blocks behind front yards, houses
 behind hedged yards, or an open lawn before low houses) of buildings (real window openings,
 balconies, gable or flat roofs) alternating with green strips; street trees, hedges and bushes; parked cars along
-the kerbs; street lights, signs on poles, bins and bollards; a sun and a physical sky.
+the kerbs; street lights, signs on poles, bins and bollards; near-field detail (scaffolding and
+site fences at buildings under works, bike racks, young trees in stakes); a sun and a physical sky.
 Trees, bushes, cars, street lights and bins are a few variants per kind (``POOLS``), so
 that Blender shares their meshes and Cycles instances them (docs/rendering.md#speed).
 The rig is KITTI's (1226 x 370 px, f = 707 px, baseline 0.54 m, camera 1.65 m above the
@@ -15,7 +16,8 @@ driving on at about its speed and oncoming cars in the other lane, never within 
 rig's car or 8 m of each other; the camera's auto-exposure follows the scene (AUTOEXPOSURE).
 Seed 0 scripts its near field after KITTI sequence_1's frames (``KITTI_S1_NEAR``): a 4 m
 carriageway driven near its middle, the lawn from the left kerb, a parking bay on the right
-with the two cars where sequence_1 shows them, and its traffic 100-130 m ahead, none oncoming.
+with the two cars where sequence_1 shows them, its right front row 7-10 m right of the camera
+under scaffolding from ~27 m ahead, and its traffic 100-130 m ahead, none oncoming.
 
     python -m blender_sesgen.generators.builtin.city_kitti [--seed N] [--frames N] > scenes/city_kitti.ses
 
@@ -39,6 +41,7 @@ from typing import Optional
 
 import numpy as np
 
+from ...scene.assets import generate as asset_mesh
 from ...scene.assets.street import arc_frame
 from .city_grid import _keyframes as keyframes
 from .sesgen_layout import (KITTI_CAMERA_HEIGHT, Frontage, Ids, Lighting, asset, command_line, derived_material, draw_lighting,
@@ -103,6 +106,11 @@ class NearField:
     traffic_ahead: tuple    # the nearest car ahead in the rig's lane at frame 0 (range drawn)
     oncoming: bool          # whether cars come the other way
     white_right: float = 0.0    # the right-hand buildings up to this far ahead have a white render (0: drawn)
+    works_right: tuple = ()     # (from, to) ahead: the right front row's buildings there are under scaffolding
+    bikes_right: tuple = ()     # bike racks on the right sidewalk this far ahead
+    lawn_right: float = 0.0     # the right tree lawn's and sidewalk's widths (0: drawn) ...
+    walk_right: float = 0.0
+    setback_right: tuple = ()   # ... and the right front row's setback range behind the sidewalk (empty: drawn)
 
 
 # KITTI sequence_1's street, measured in its frames (ground plane 1.65 m under the camera, f 707
@@ -116,13 +124,28 @@ class NearField:
 # oncoming (a street too narrow for two cars to pass at speed); the cars far ahead drive its middle
 # as the rig does (its car's centre ~0.27 m right of the left camera); the blocks on the right
 # through frame 45 (~55 m) have white renders: the sunlit one of frames 0-15 holds almost all of
-# the sequence's burnt-out pixels, the one being built in frames 20-45 is white behind its scaffold
+# the sequence's burnt-out pixels, the one being built in frames 20-45 is white behind its scaffold;
+# that right front row stands 7-10 m right of the camera (SGBM, frames 0-40: the peak of the lateral
+# positions of the points above the horizon right of the image centre: 9, 9, 8, 7, 7 m), behind a
+# grass strip ~1.5 m wide from ~4 m (frame 0, rows 300-340 on the ground plane) and paving to the
+# facades; under scaffolding from ~20 m ahead in frame 0 (its near end at column 876 of 1226, 8 m right:
+# 21 m) to past frame 50
 KITTI_S1_NEAR = NearField(half_road=2.0, bay=2.5, walk_left=0.0, car_offset=3.13, parked_ahead=(15.4, 40.1),
                           parked_clear=100.0, traffic_lane=0.1, traffic_ahead=(100.0, 130.0), oncoming=False,
-                          white_right=60.0)
+                          white_right=65.0, works_right=(20.0, 75.0), bikes_right=(7.0,), lawn_right=1.3,
+                          walk_right=2.2, setback_right=(0.6, 1.2))
 # a white silicate render (light reflectance value ~80: palette.PLASTER's whitest but one)
 WHITE_RENDER = (0.80, 0.79, 0.76)
 FRONT_ROW_M = 30.0   # a block's centre within this of the centreline: the front row (second rows stand further back)
+# near-field street detail (docs/sensors.md, Camera twins: what KITTI sequence_1 shows at 5-30 m
+# that carries its corners): KITTI sequence_1's right front row is under scaffolding with fence
+# panels along its yard through frames 15-50 (~60 m of ~90 m), its lawn's young trees all stand
+# in three stakes, bikes at an entrance (frame 10); residential streets elsewhere: a building in
+# ~8 under works, a bike rack before one front-row building in ~4, young trees staked
+P_WORKS = 0.12            # the chance that a front-row building (seed != 0) is under scaffolding
+P_BIKES = 0.25            # ... that a bike rack stands in its front yard
+SCAFFOLD_DEPTH_M = 0.9    # a facade scaffold's width (EN 12811 class 4: 0.9 m decks) ...
+SCAFFOLD_GAP_M = 0.15     # ... and its gap to the facade's foremost part below its top
 
 
 @dataclass(frozen=True)
@@ -145,6 +168,9 @@ class Variation(SeededVariation, salt=0xC17):
     # None: drawn (two lanes, cars at the road's edges, traffic both ways)
     near: Optional[NearField] = KITTI_S1_NEAR
     grass_m: float = 0.08                # the lawns' blades (their tallest; m): KITTI sequence_1's public lawn is mown
+    # the share of young trees (left) and tree-lawn trees (right) standing in stakes: all of KITTI
+    # sequence_1's lawn trees are newly planted and staked (frames 0-45)
+    staked: tuple = (1.0, 0.0)
     # the car body's pitch and roll about the drive (RMS, deg) and its heave (RMS, m): KITTI
     # sequence_1's poses turn 0.019 deg (pitch) and 0.034 deg (roll) a frame and their vertical step
     # changes 0.7 mm from frame to frame (medians); 0.3 deg / 0.2 deg / 1 cm moved the rig 8x / 3x /
@@ -166,7 +192,8 @@ class Variation(SeededVariation, salt=0xC17):
                    near=None, grass_m=0.16,
                    # up to KITTI sequence 00's ground truth (0.11 / 0.10 deg a frame, 2.3 mm, its OXTS noise included)
                    body=tuple(round(float(np.exp(rng.uniform(np.log(lo), np.log(hi)))), 4)
-                              for lo, hi in ((0.03, 0.17), (0.05, 0.15), (0.0015, 0.005))))
+                              for lo, hi in ((0.03, 0.17), (0.05, 0.15), (0.0015, 0.005))),
+                   staked=(round(float(rng.uniform(0.4, 1.0)), 2), round(float(rng.uniform(0.0, 0.5)), 2)))
 
 
 def _centre(street_pos, street_yaw, s, L, bends):
@@ -193,6 +220,175 @@ def _white_near(lines: list[str], centre, s0: float, s1: float) -> list[str]:
             if s0 <= s[int(np.argmin(d))] <= s1 and d.min() <= FRONT_ROW_M:
                 ln += " material white_render"
         out.append(ln)
+    return out
+
+
+def _front_row(lines: list[str], centre, L: float) -> list[dict]:
+    """The front row's buildings of ``lines`` (centres within ``FRONT_ROW_M`` of the
+    centreline): position, yaw (deg), size, arc length ``s`` of the nearest centreline point
+    and distance ``dist`` from it."""
+    s = np.arange(0.0, L + 40.0, 0.5)
+    c = centre(s)[:, [0, 2]]
+    out = []
+    for ln in lines:
+        if not ln.startswith("ASSET building"):
+            continue
+        w = ln.split()
+        i, j = w.index("position"), w.index("size")
+        p = np.array([float(x) for x in w[i + 1:i + 4]])
+        yaw = float(w[i + 5]) if j - i == 7 else 0.0
+        d = np.linalg.norm(c - p[[0, 2]], axis=1)
+        if d.min() <= FRONT_ROW_M:
+            out.append({"p": p, "yaw": yaw, "size": tuple(float(x) for x in w[j + 1:j + 4]), "seed": int(w[w.index("seed") + 1]),
+                        "s": float(s[int(np.argmin(d))]), "dist": float(d.min())})
+    return out
+
+
+def _pull_front_row(lines: list[str], centre, L: float, s_end: float, edge: float, setback: tuple,
+                    rng: np.random.Generator) -> list[str]:
+    """``lines`` (one side's) with the front row's buildings up to arc length ``s_end`` moved
+    towards the street to a ``setback`` drawn in that range behind ``edge`` (a scripted near
+    field's; their front yards' hedges, fences, bushes and bins left out): done after the side
+    is drawn, so the layout's stream, and all drawn after it, stays as it was."""
+    s = np.arange(0.0, L + 40.0, 0.5)
+    c = centre(s)[:, [0, 2]]
+    moved = []                       # (arc length range, distance range) of the yards given up
+    out = []
+    for ln in lines:
+        b = _front_row([ln], centre, L)
+        if not b or b[0]["s"] - b[0]["size"][0] / 2 >= s_end:
+            out.append(ln)
+            continue
+        b = b[0]
+        W, _, D = b["size"]
+        a = np.radians(b["yaw"])
+        front = np.array([np.sin(a), 0.0, np.cos(a)])
+        new = edge + float(rng.uniform(*setback)) + D / 2
+        p = b["p"] + front * (b["dist"] - new)
+        w = ln.split()
+        i = w.index("position")
+        w[i + 1:i + 4] = nums(p).split()
+        out.append(" ".join(w))
+        moved.append((b["s"] - W / 2 - 1.0, b["s"] + W / 2 + 1.0, b["dist"] - D / 2))
+    keep = []
+    for ln in out:
+        w = ln.split()
+        if w[1] in ("hedge", "fence", "bush", "bin"):
+            i = w.index("position")
+            d = np.linalg.norm(c - [float(w[i + 1]), float(w[i + 3])], axis=1)
+            s_ = s[int(np.argmin(d))]
+            if any(s0 <= s_ <= s1 and d.min() < front_d for s0, s1, front_d in moved):
+                continue
+        keep.append(ln)
+    return keep
+
+
+def _works_row(lines: list[str], centre, place, L: float, s_end: float, edge: float, ids: Ids,
+               rng: np.random.Generator) -> list[str]:
+    """``lines`` (one side's, right) with its front row carried on to arc length ``s_end``: where
+    the last front-row building before it ends early, the green stretch after it gives way to a
+    block being built (KITTI sequence_1's right side: one long block under scaffolding through
+    its frames 15-50), as deep and as far back as that building."""
+    row = [b for b in _front_row(lines, centre, L) if b["s"] - b["size"][0] / 2 < s_end]
+    if not row:
+        return lines
+    last = max(row, key=lambda b: b["s"] + b["size"][0] / 2)
+    W, H, D = last["size"]
+    s0 = last["s"] + W / 2 + 2.0
+    if s0 >= s_end - 6.0:
+        return lines
+    s1 = s_end + 3.0
+    s = np.arange(0.0, L + 40.0, 0.5)
+    c = centre(s)[:, [0, 2]]
+    out = []
+    for ln in lines:        # the green stretch's trees and bushes where the block goes
+        w = ln.split()
+        if w[1] in ("tree", "conifer", "bush"):
+            i = w.index("position")
+            d = np.linalg.norm(c - [float(w[i + 1]), float(w[i + 3])], axis=1)
+            if s0 - 2.0 <= s[int(np.argmin(d))] <= s1 + 2.0 and d.min() < last["dist"] + D:
+                continue
+        out.append(ln)
+    p, h = place((s0 + s1) / 2, last["dist"])
+    out.append(asset("building", ids("building"), p, h - 90, (round(s1 - s0, 2), round(float(rng.uniform(12.0, 15.0)), 2),
+                                                              round(D, 2)), seed=int(rng.integers(1e6))))
+    return out
+
+
+def _clear_footprints(lines: list[str], works: list[str], margin: float = 0.3) -> list[str]:
+    """``lines`` without the small street furniture (bins, poles, signs, bollards, bushes,
+    hedges, fences) that stands within ``margin`` of a footprint of ``works`` (scaffolds and
+    site fences stand where the sidewalk's bins and signs were: a works site clears them)."""
+    boxes = []
+    for ln in works:
+        w = ln.split()
+        i, j = w.index("position"), w.index("size")
+        yaw = np.radians(float(w[i + 5]) if j - i == 7 else 0.0)
+        boxes.append((np.array([float(w[i + 1]), float(w[i + 3])]), yaw, float(w[j + 1]) / 2 + margin,
+                      float(w[j + 3]) / 2 + margin))
+    out = []
+    for ln in lines:
+        w = ln.split()
+        if len(w) > 1 and w[0] == "ASSET" and w[1] in ("bin", "pole", "sign", "bollard", "bush", "hedge", "fence"):
+            i = w.index("position")
+            q = np.array([float(w[i + 1]), float(w[i + 3])])
+            inside = False
+            for c, yaw, hx, hz in boxes:     # the asset frame's x = (cos, -sin), z = (sin, cos) in world (x, z)
+                d = q - c
+                inside |= abs(d[0] * np.cos(yaw) - d[1] * np.sin(yaw)) < hx and abs(d[0] * np.sin(yaw) + d[1] * np.cos(yaw)) < hz
+            if inside:
+                continue
+        out.append(ln)
+    return out
+
+
+def _street_detail(rng, side_lines: dict, place, centre, L: float, behind: float, edges: dict,
+                   near: Optional[NearField], staked: tuple, trees_at: dict, ids: Ids) -> list[str]:
+    """Scaffolds on front-row buildings under works (seed 0: the right ones ``near.works_right``
+    ahead; else each with ``P_WORKS``) and a site fence along their yard, bike racks (seed 0:
+    at ``near.bikes_right``; else before a front-row building with ``P_BIKES``), stakes round
+    the young (left) and tree-lawn (right) trees with the shares ``staked``. Stakes and racks
+    are a few variants each (instanced)."""
+    stakes = [int(x) for x in rng.integers(1, 10 ** 6, 4)]
+    racks = [(int(x), (round(float(rng.uniform(2.7, 4.5)), 2), 0.85, 1.8)) for x in rng.integers(1, 10 ** 6, 3)]
+    out = []
+    for side, lines in side_lines.items():
+        for b in _front_row(lines, centre, L):
+            W, H, D = b["size"]
+            a = np.radians(b["yaw"])
+            front, along = np.array([np.sin(a), 0.0, np.cos(a)]), np.array([np.cos(a), 0.0, -np.sin(a)])
+            yard = b["dist"] - D / 2 - edges[side]          # the front yard's depth
+            if near is not None:
+                works = side > 0 and bool(near.works_right) and \
+                    near.works_right[0] <= b["s"] - behind <= near.works_right[1]
+            else:
+                works = rng.random() < P_WORKS
+            if works:   # to the eaves (a gable's ridge is ~1/4 of the height above them), clear of
+                # what the facade carries below them (balconies, sills, steps: the building's own mesh)
+                h_s = round(max(0.75 * H, 4.5), 2)
+                V = asset_mesh("building", (W, H, D), b["seed"]).vertices
+                face = float(V[V[:, 1] < h_s, 2].max()) + SCAFFOLD_GAP_M
+                p = b["p"] + front * (face + SCAFFOLD_DEPTH_M / 2)
+                out.append(asset("scaffold", ids("furniture"), p, b["yaw"], (round(W + 1.0, 2), h_s, SCAFFOLD_DEPTH_M),
+                                 seed=int(rng.integers(1e6))))
+                site = face + SCAFFOLD_DEPTH_M + 1.5            # the site fence 1.5 m before the scaffold
+                if b["dist"] - site > edges[side] + 0.3:
+                    p = b["p"] + front * site
+                    out.append(asset("site_fence", ids("furniture"), p, b["yaw"], (round(W + 0.5, 2), 2.0, 0.65),
+                                     seed=int(rng.integers(1e6))))
+            if near is None and rng.random() < P_BIKES and yard > 3.0:
+                seed_, size = racks[int(rng.integers(len(racks)))]
+                p = b["p"] + front * (D / 2 + 1.6) + along * float(rng.uniform(-W / 3, W / 3))
+                out.append(asset("bike_rack", ids("furniture"), p, b["yaw"], size, seed=seed_))
+    for a in (near.bikes_right if near is not None else ()):
+        p, h = place(behind + a, edges[1] - 0.95)
+        seed_, size = racks[0]
+        out.append(asset("bike_rack", ids("furniture"), p, h - 90, size, seed=seed_))
+    for share, where in zip(staked, ("young", "lawn")):
+        for p in trees_at[where]:
+            if rng.random() < share:
+                i = int(rng.integers(len(stakes)))
+                out.append(asset("tree_stakes", ids("furniture"), p, 0.0, (0.7, 2.2, 0.7), seed=stakes[i]))
     return out
 
 
@@ -266,6 +462,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     bay = 0.0
     if near is not None:       # a scripted near field (drawn above all the same: the layout's stream stays)
         half_road, bay, walk_l = near.half_road, near.bay, near.walk_left
+        lawn_w, walk_r = near.lawn_right or lawn_w, near.walk_right or walk_r
     yard = 60.0
     ids = Ids({"street": 1, "building": 100, "car": 400, "tree": 600, "veg": 900, "furniture": 1200,
                "grass": 2000})
@@ -323,14 +520,23 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
 
     # --- buildings and green blocks on both sides -------------------------------------
     out += ["", "// buildings (front facades towards the street) and green blocks"]
+    side_lines = {}
     for side in (1, -1):
         lines = line_street_side(rng, place, L - 12, side, right_edge if side > 0 else -left_edge, ids,
                                  FRONTAGES[v.frontage[0 if side < 0 else 1]], seed_of=pool)
+        if side > 0 and near is not None and near.setback_right:
+            lines = _pull_front_row(lines, lambda s_: _centre(street_pos, street_yaw, s_, L, bends)[0], L,
+                                    behind + near.white_right + 15.0, right_edge, near.setback_right,
+                                    np.random.default_rng([seed, 0x5E7]))
+        if side > 0 and near is not None and near.works_right:
+            lines = _works_row(lines, lambda s_: _centre(street_pos, street_yaw, s_, L, bends)[0], place, L,
+                               behind + near.works_right[1], right_edge, ids, np.random.default_rng([seed, 0x5CA]))
         if side > 0 and near is not None and near.white_right > 0:
             lines = _white_near(lines, lambda s_: _centre(street_pos, street_yaw, s_, L, bends)[0],
                                 behind, behind + near.white_right)
             out.append(derived_material("white_render", "plaster", WHITE_RENDER, seed=seed))
         out += lines
+        side_lines[side] = lines
 
     # a building across the far end of the street closes the view
     p_end, h_end = place(L + 12.0, 0.0)
@@ -338,17 +544,20 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
 
     # --- street trees in the tree lawn, lights, signs, bollards --------------------------
     out += ["", "// street trees (tree lawn, right), street lights, signs (trees, cars, lights: a few variants, instanced)"]
+    trees_at = {"lawn": [], "young": []}      # where the street trees stand (their stakes come below)
     s = float(rng.uniform(3, 8))
     while s < L - 5:
         p, _ = place(s, 0.5 * (lawn[0] + lawn[1]))
         seed_, size = pool.pick("lawn_tree")
         out.append(asset("tree", ids("tree"), p, rng.uniform(0, 360), size, seed=seed_))
+        trees_at["lawn"].append(p)
         s += float(rng.uniform(8, 13))
     s = float(rng.uniform(3, 8))
     while s < L - 5:                       # young trees along the left sidewalk's outer edge
         p, _ = place(s, left_edge - 1.2)
         seed_, size = pool.pick("young_tree")
         out.append(asset("tree", ids("tree"), p + np.array([0.0, kerb_h, 0.0]), rng.uniform(0, 360), size, seed=seed_))
+        trees_at["young"].append(p + np.array([0.0, kerb_h, 0.0]))
         s += float(rng.uniform(9, 15))
     for side in (1, -1):
         s = float(rng.uniform(5, 25)) + (0 if side > 0 else 14)
@@ -378,6 +587,14 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
         out.append(asset("bin", ids("furniture"), p + np.array([0.0, kerb_h, 0.0]), h - 90 if side > 0 else h + 90,
                          seed=pool.seeds["bin"][int(rng_bins.integers(POOLS["bin"]))]))
         s += float(rng_bins.uniform(40, 80))
+
+    # --- near-field detail: works (scaffold, site fence), bike racks, the young trees' stakes --
+    # (a stream of its own, ids after the furniture's: the layout and ids drawn before stay)
+    out += ["", "// near-field detail: facade scaffolding and site fences at works, bike racks, tree stakes"]
+    detail = _street_detail(np.random.default_rng([seed, 0xDE7]), side_lines, place,
+                            lambda s_: _centre(street_pos, street_yaw, s_, L, bends)[0], L, behind,
+                            {1: right_edge, -1: -left_edge}, near, v.staked, trees_at, ids)
+    out = _clear_footprints(out, [ln for ln in detail if ln.split()[1] in ("scaffold", "site_fence")]) + detail
 
     # --- grass (real blades) on the tree lawn and the first metres of the yards and fields --
     out += ["", "// grass: patches of blades on the lawns near the road (a few variants, instanced)"]

@@ -39,7 +39,7 @@ class Kind:
 
 
 def _kinds() -> dict[str, Kind]:
-    from . import building, indoor, industrial, nature, street, vegetation, vehicle
+    from . import building, indoor, industrial, nature, street, street_detail, vegetation, vehicle
     table = [
         Kind("building", "outdoor", "building",
              "block with real window/door openings, frames, sills, balconies, cornice, flat or gable roof",
@@ -84,6 +84,18 @@ def _kinds() -> dict[str, Kind]:
              ((3, 12), (0.8, 1.3), (0.1, 0.3)), "length, height, thickness", street.fence),
         Kind("bench", "street", "static", "park bench: metal frame, wooden slats",
              ((1.6, 2.0), (0.8, 0.9), (0.55, 0.65)), "width, height, depth", street.bench),
+        Kind("scaffold", "street", "building", "facade scaffolding: tube standards, ledgers, transoms, braces, "
+             "boarded lifts every 2 m, guard rails and toe boards (wall side -z)",
+             ((6, 20), (6, 15), (0.7, 1.1)), "length, height, depth", street_detail.scaffold, overhang=0.2),
+        Kind("site_fence", "street", "fence", "mobile construction fence along x: welded-mesh panels in "
+             "concrete feet, a few with banners", ((3.5, 14), (1.9, 2.1), (0.6, 0.7)),
+             "length, height, depth of the feet", street_detail.site_fence, overhang=0.1),
+        Kind("tree_stakes", "street", "pole", "a young tree's stakes: 2-4 round posts around the trunk, "
+             "battens, ties (the tree not included)", ((0.6, 0.9), (1.8, 2.6), (0.6, 0.9)),
+             "spread, height, spread", street_detail.tree_stakes, overhang=0.2),
+        Kind("bike_rack", "street", "bicycle", "row of Sheffield stands along x with bicycles (wheels, spokes, "
+             "frame, bars, saddle) parked at some", ((1.8, 5.4), (0.8, 0.9), (1.7, 1.9)),
+             "row length, stand height, bicycle length", street_detail.bike_rack, overhang=0.4),
     ]
     table += [
         Kind("table", "indoor", "table", "table: top on four legs with an apron",
