@@ -82,7 +82,7 @@ OTHERS = {
 
 def reference_preset(samples: int) -> Preset:
     return Preset("custom", samples=samples, denoise=False, clamp_direct=0.0, clamp_indirect=0.0,
-                  **CYCLES_DEFAULT_PATHS)
+                  filter_glossy=0.0, **CYCLES_DEFAULT_PATHS)
 
 
 def parse_try(text: str) -> tuple[str, Preset]:
