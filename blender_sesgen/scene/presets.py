@@ -87,6 +87,8 @@ class Preset:
         d = asdict(self)
         for k in ("quality", "overridden", "samples", "denoise"):
             d.pop(k)
+        if d["filter_glossy"] == 1.0:  # what every folder before the field was rendered with: they resume
+            d.pop("filter_glossy")
         return d
 
 
