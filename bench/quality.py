@@ -63,6 +63,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 
 from blender_sesgen.contract.colour import linear_to_srgb
+from blender_sesgen.contract.exr_format import PASS_COMBINED, PASS_NOISY
 from blender_sesgen.files.exr import read_exr
 from blender_sesgen.scene.presets import PRESETS, Preset
 from vo_reference.evaluate.image_quality import psnr, ssim
@@ -159,14 +160,17 @@ class Bench:
             cpus.append(cpu_s() - c0)
             cyc = [st["cycles_s"] for st in stats.values()]
             cycles.append(None if None in cyc else sum(cyc))
-        images = {}
+        images, noisy = {}, {}
         for v in self.views:
             ch = read_exr(paths[v])
-            rgb = np.stack([next(a for n, a in ch.items() if n.endswith(f"Combined.{c}")) for c in "RGB"], -1)
+            rgb = np.stack([next(a for n, a in ch.items() if n.endswith(f"{PASS_COMBINED[0]}.{c}")) for c in "RGB"], -1)
             images[v] = linear_to_srgb(rgb)
+            if any(n.endswith(f"{PASS_NOISY[0]}.R") for n in ch):  # denoised: the samples before the denoiser
+                noisy[v] = linear_to_srgb(np.stack([next(a for n, a in ch.items() if n.endswith(f"{PASS_NOISY[0]}.{c}"))
+                                                    for c in "RGB"], -1))
         factor = len(self.plan.views) / len(self.views)
         med = statistics.median
-        return {"images": images, "s_stereo": med(walls) * factor, "cpu_stereo": med(cpus) * factor,
+        return {"images": images, "noisy": noisy, "s_stereo": med(walls) * factor, "cpu_stereo": med(cpus) * factor,
                 "cycles_stereo": None if None in cycles else med(cycles) * factor, "factor": factor}
 
     def reference(self) -> dict:
@@ -221,6 +225,16 @@ def explain(bench, rows: dict, ref: dict) -> None:
               f"{worst[max(int(e.size / 100) - 1, 0)]:.0%} of the error; clipped highlights {e[clipped].sum() / e.sum():.0%} "
               f"(PSNR without them {psnr_mse(e[~clipped].mean()):.2f} dB); 5x5-averaged PSNR {psnr_mse((blur ** 2).mean()):.2f} dB")
         print(f"{'':14s} by object: " + ", ".join(f"{k} {v:.0%} ({px:.0%} of px)" for k, (v, px) in top))
+        # the reference's white highlights this render shows darker: never sampled, or found by the
+        # samples (their estimate before the denoiser is white too) and taken away by the denoiser
+        lost = clipped & (img.mean(-1) < 0.9)
+        if clipped.any():
+            line = (f"{'':14s} highlights: {lost.sum() / clipped.sum():.0%} of the reference's white pixels darker "
+                    f"(< 0.9), {e[lost].sum() / e.sum():.0%} of the error")
+            if "left" in r.get("noisy", {}):
+                found = lost & (r["noisy"]["left"].mean(-1) >= 0.999)
+                line += f"; of those, white before the denoiser: {found.sum() / max(lost.sum(), 1):.0%}"
+            print(line)
 
 
 def psnr_mse(mse: float) -> float:
@@ -250,6 +264,8 @@ def main(argv=None) -> int:
                    help="Cycles device of every render (a cached reference serves either device)")
     p.add_argument("--cache", default=str(REPO / "out" / "bench-cache"))
     p.add_argument("--json", metavar="FILE", help="also write the results as JSON")
+    p.add_argument("--save", metavar="DIR", help="also write each configuration's sRGB images (and the reference's) "
+                                                 "as DIR/NAME.npz, for a closer look")
     p.add_argument("--explain", action="store_true", help="where each configuration's error lies (worst pixels, "
                                                               "clipped highlights, object kinds)")
     a = p.parse_args(argv)
@@ -289,6 +305,12 @@ def main(argv=None) -> int:
         cyc = f"{r['cycles_stereo']:9.2f}" if r["cycles_stereo"] is not None else f"{'-':>9s}"
         print(f"{name:14s} {preset.quality:9s} {samp:>10s} {r['s_stereo']:9.2f}{mark} {r['cpu_stereo']:8.2f} {cyc} "
               f"{r['psnr']:8.2f} {r['ssim']:7.4f} {r['psnr'] / r['s_stereo']:8.2f}", flush=True)
+    if a.save:
+        out = Path(a.save)
+        out.mkdir(parents=True, exist_ok=True)
+        np.savez_compressed(out / "reference.npz", **ref["images"])
+        for name, r in rows.items():
+            np.savez_compressed(out / f"{name}.npz", **r["images"], **{f"{v}_noisy": im for v, im in r["noisy"].items()})
     if "blenderproc" in rows:
         bp = rows["blenderproc"]
         print("# against blenderproc (same run):")
