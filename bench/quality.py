@@ -5,11 +5,14 @@ and BlenderProc's defaults, in one run at one resolution.
         [--views left] [--configs gt draft final reference blender blenderproc]
         [--try NAME:base=final,samples=24,adaptive_threshold=0.03 ...] [--repeat 1]
         [--reference-samples 4096] [--cache out/bench-cache] [--crop 0.25 [--crop-centre 0.5,0.5]]
+        [--explain] [--save DIR]
 
 For every configuration the frame is rendered through the real Blender session (the same
 code as ``render``) and compared with a converged reference render of the same frame:
 ``--reference-samples`` samples per pixel, no adaptive sampling, no denoiser, no clamping,
-Cycles' default light paths (12 bounces, caustics on). The reference is cached in
+Cycles' default light paths (12 bounces, caustics on), Filter Glossy off (Cycles' default
+blurs glossy seen after a blurry bounce). A reference of fewer samples is a conservative
+oracle: its own noise only adds to the error measured. The reference is cached in
 ``--cache`` (keyed by the script without its comments and RENDER statement, the seed, frame, size, crop, views and
 Blender version): it is the expensive part.
 
@@ -32,8 +35,11 @@ uses the same film exposure (the automatic exposure is measured once).
 floor: the share of the squared error carried by the 0.1 % and 1 % worst pixels, by the
 pixels the reference shows clipped white (highlights brighter than the display: sun glints),
 and by each kind of object (the ASSET kind or statement of the object each pixel sees, from
-a ``gt`` render's object index), beside the share of pixels each covers; and the PSNR of
-the 5 × 5 box-filtered images (the error left once fine detail is averaged out).
+a ``gt`` render's object index), beside the share of pixels each covers; the PSNR of
+the 5 × 5 box-filtered images (the error left once fine detail is averaged out); and how many
+of the reference's white highlights a render shows darker, and of those how many its samples
+had found (white in the noisy pass before the denoiser: the denoiser took them away).
+``--save DIR``: each configuration's sRGB images (and its noisy pass) as ``DIR/NAME.npz``.
 
 Configurations: the presets (``blender_sesgen.scene.presets``); ``blender``: a new Blender
 scene's Cycles settings (4096 samples, adaptive threshold 0.01, OpenImageDenoise, 12
