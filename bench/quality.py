@@ -11,8 +11,9 @@ For every configuration the frame is rendered through the real Blender session (
 code as ``render``) and compared with a converged reference render of the same frame:
 ``--reference-samples`` samples per pixel, no adaptive sampling, no denoiser, no clamping,
 Cycles' default light paths (12 bounces, caustics on), Filter Glossy off (Cycles' default
-blurs glossy seen after a blurry bounce). A reference of fewer samples is a conservative
-oracle: its own noise only adds to the error measured. The reference is cached in
+blurs glossy seen after a blurry bounce). A reference of fewer samples errs on the safe side
+(its own noise, independent of the render's, adds to the error measured) except for sub-pixel
+highlights far above display white, which it can miss as the render does. The reference is cached in
 ``--cache`` (keyed by the script without its comments and RENDER statement, the seed, frame, size, crop, views and
 Blender version): it is the expensive part.
 
