@@ -328,7 +328,7 @@ def main(argv=None) -> int:
         explain(bench, rows, ref)
     print(f"# {time.perf_counter() - t0:.0f} s in all; load {os.getloadavg()[0]:.1f} at the end")
     if a.json:
-        out = {n: {k: v for k, v in r.items() if k not in ("images", "preset")} | {"preset": r["preset"].pixel_settings(),
+        out = {n: {k: v for k, v in r.items() if k not in ("images", "noisy", "preset")} | {"preset": r["preset"].pixel_settings(),
                "samples": r["preset"].samples, "denoise": r["preset"].denoise} for n, r in rows.items()}
         Path(a.json).write_text(json.dumps(out, indent=1))
     return 0
