@@ -5,11 +5,15 @@ and BlenderProc's defaults, in one run at one resolution.
         [--views left] [--configs gt draft final reference blender blenderproc]
         [--try NAME:base=final,samples=24,adaptive_threshold=0.03 ...] [--repeat 1]
         [--reference-samples 4096] [--cache out/bench-cache] [--crop 0.25 [--crop-centre 0.5,0.5]]
+        [--explain] [--save DIR]
 
 For every configuration the frame is rendered through the real Blender session (the same
 code as ``render``) and compared with a converged reference render of the same frame:
 ``--reference-samples`` samples per pixel, no adaptive sampling, no denoiser, no clamping,
-Cycles' default light paths (12 bounces, caustics on). The reference is cached in
+Cycles' default light paths (12 bounces, caustics on), Filter Glossy off (Cycles' default
+blurs glossy seen after a blurry bounce). A reference of fewer samples errs on the safe side
+(its own noise, independent of the render's, adds to the error measured) except for sub-pixel
+highlights far above display white, which it can miss as the render does. The reference is cached in
 ``--cache`` (keyed by the script without its comments and RENDER statement, the seed, frame, size, crop, views and
 Blender version): it is the expensive part.
 
@@ -32,8 +36,11 @@ uses the same film exposure (the automatic exposure is measured once).
 floor: the share of the squared error carried by the 0.1 % and 1 % worst pixels, by the
 pixels the reference shows clipped white (highlights brighter than the display: sun glints),
 and by each kind of object (the ASSET kind or statement of the object each pixel sees, from
-a ``gt`` render's object index), beside the share of pixels each covers; and the PSNR of
-the 5 × 5 box-filtered images (the error left once fine detail is averaged out).
+a ``gt`` render's object index), beside the share of pixels each covers; the PSNR of
+the 5 × 5 box-filtered images (the error left once fine detail is averaged out); and how many
+of the reference's white highlights a render shows darker, and of those how many its samples
+had found (white in the noisy pass before the denoiser: the denoiser took them away).
+``--save DIR``: each configuration's sRGB images (and its noisy pass) as ``DIR/NAME.npz``.
 
 Configurations: the presets (``blender_sesgen.scene.presets``); ``blender``: a new Blender
 scene's Cycles settings (4096 samples, adaptive threshold 0.01, OpenImageDenoise, 12
@@ -63,6 +70,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 
 from blender_sesgen.contract.colour import linear_to_srgb
+from blender_sesgen.contract.exr_format import PASS_COMBINED, PASS_NOISY
 from blender_sesgen.files.exr import read_exr
 from blender_sesgen.scene.presets import PRESETS, Preset
 from vo_reference.evaluate.image_quality import psnr, ssim
@@ -82,7 +90,7 @@ OTHERS = {
 
 def reference_preset(samples: int) -> Preset:
     return Preset("custom", samples=samples, denoise=False, clamp_direct=0.0, clamp_indirect=0.0,
-                  **CYCLES_DEFAULT_PATHS)
+                  filter_glossy=0.0, **CYCLES_DEFAULT_PATHS)
 
 
 def parse_try(text: str) -> tuple[str, Preset]:
@@ -159,14 +167,17 @@ class Bench:
             cpus.append(cpu_s() - c0)
             cyc = [st["cycles_s"] for st in stats.values()]
             cycles.append(None if None in cyc else sum(cyc))
-        images = {}
+        images, noisy = {}, {}
         for v in self.views:
             ch = read_exr(paths[v])
-            rgb = np.stack([next(a for n, a in ch.items() if n.endswith(f"Combined.{c}")) for c in "RGB"], -1)
+            rgb = np.stack([next(a for n, a in ch.items() if n.endswith(f"{PASS_COMBINED[0]}.{c}")) for c in "RGB"], -1)
             images[v] = linear_to_srgb(rgb)
+            if any(n.endswith(f"{PASS_NOISY[0]}.R") for n in ch):  # denoised: the samples before the denoiser
+                noisy[v] = linear_to_srgb(np.stack([next(a for n, a in ch.items() if n.endswith(f"{PASS_NOISY[0]}.{c}"))
+                                                    for c in "RGB"], -1))
         factor = len(self.plan.views) / len(self.views)
         med = statistics.median
-        return {"images": images, "s_stereo": med(walls) * factor, "cpu_stereo": med(cpus) * factor,
+        return {"images": images, "noisy": noisy, "s_stereo": med(walls) * factor, "cpu_stereo": med(cpus) * factor,
                 "cycles_stereo": None if None in cycles else med(cycles) * factor, "factor": factor}
 
     def reference(self) -> dict:
@@ -221,6 +232,16 @@ def explain(bench, rows: dict, ref: dict) -> None:
               f"{worst[max(int(e.size / 100) - 1, 0)]:.0%} of the error; clipped highlights {e[clipped].sum() / e.sum():.0%} "
               f"(PSNR without them {psnr_mse(e[~clipped].mean()):.2f} dB); 5x5-averaged PSNR {psnr_mse((blur ** 2).mean()):.2f} dB")
         print(f"{'':14s} by object: " + ", ".join(f"{k} {v:.0%} ({px:.0%} of px)" for k, (v, px) in top))
+        # the reference's white highlights this render shows darker: never sampled, or found by the
+        # samples (their estimate before the denoiser is white too) and taken away by the denoiser
+        lost = clipped & (img.mean(-1) < 0.9)
+        if clipped.any():
+            line = (f"{'':14s} highlights: {lost.sum() / clipped.sum():.0%} of the reference's white pixels darker "
+                    f"(< 0.9), {e[lost].sum() / e.sum():.0%} of the error")
+            if "left" in r.get("noisy", {}):
+                found = lost & (r["noisy"]["left"].mean(-1) >= 0.999)
+                line += f"; of those, white before the denoiser: {found.sum() / max(lost.sum(), 1):.0%}"
+            print(line)
 
 
 def psnr_mse(mse: float) -> float:
@@ -250,6 +271,8 @@ def main(argv=None) -> int:
                    help="Cycles device of every render (a cached reference serves either device)")
     p.add_argument("--cache", default=str(REPO / "out" / "bench-cache"))
     p.add_argument("--json", metavar="FILE", help="also write the results as JSON")
+    p.add_argument("--save", metavar="DIR", help="also write each configuration's sRGB images (and the reference's) "
+                                                 "as DIR/NAME.npz, for a closer look")
     p.add_argument("--explain", action="store_true", help="where each configuration's error lies (worst pixels, "
                                                               "clipped highlights, object kinds)")
     a = p.parse_args(argv)
@@ -289,6 +312,12 @@ def main(argv=None) -> int:
         cyc = f"{r['cycles_stereo']:9.2f}" if r["cycles_stereo"] is not None else f"{'-':>9s}"
         print(f"{name:14s} {preset.quality:9s} {samp:>10s} {r['s_stereo']:9.2f}{mark} {r['cpu_stereo']:8.2f} {cyc} "
               f"{r['psnr']:8.2f} {r['ssim']:7.4f} {r['psnr'] / r['s_stereo']:8.2f}", flush=True)
+    if a.save:
+        out = Path(a.save)
+        out.mkdir(parents=True, exist_ok=True)
+        np.savez_compressed(out / "reference.npz", **ref["images"])
+        for name, r in rows.items():
+            np.savez_compressed(out / f"{name}.npz", **r["images"], **{f"{v}_noisy": im for v, im in r["noisy"].items()})
     if "blenderproc" in rows:
         bp = rows["blenderproc"]
         print("# against blenderproc (same run):")
@@ -299,7 +328,7 @@ def main(argv=None) -> int:
         explain(bench, rows, ref)
     print(f"# {time.perf_counter() - t0:.0f} s in all; load {os.getloadavg()[0]:.1f} at the end")
     if a.json:
-        out = {n: {k: v for k, v in r.items() if k not in ("images", "preset")} | {"preset": r["preset"].pixel_settings(),
+        out = {n: {k: v for k, v in r.items() if k not in ("images", "noisy", "preset")} | {"preset": r["preset"].pixel_settings(),
                "samples": r["preset"].samples, "denoise": r["preset"].denoise} for n, r in rows.items()}
         Path(a.json).write_text(json.dumps(out, indent=1))
     return 0

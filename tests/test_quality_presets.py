@@ -99,6 +99,23 @@ def test_resume_compares_what_changes_pixels(tmp_path):
     # same samples and denoise, another light path setting: not the same pixels
     other = replace(final.settings, preset=replace(final.settings.preset, max_bounces=2))
     assert not OutputFolder.same_settings(manifest, other)
+    # Filter Glossy off (the quality bench's unbiased reference) is other pixels; at Cycles'
+    # default 1.0, which every preset keeps, it is not recorded: older folders still resume
+    unfiltered = replace(final.settings, preset=replace(final.settings.preset, filter_glossy=0.0))
+    assert not OutputFolder.same_settings(manifest, unfiltered)
+    assert "filter_glossy" not in manifest["render"]["sampling"]
+    assert all(p.filter_glossy == 1.0 for p in PRESETS.values())
+
+
+def test_the_quality_bench_reference_is_unbiased():
+    """bench/quality.py's converged render: no denoiser, no clamp, no glossy filter."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("quality_bench", REPO / "bench" / "quality.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    ref = bench.reference_preset(4096)
+    assert (ref.samples, ref.adaptive, ref.denoise) == (4096, False, False)
+    assert ref.clamp_direct == ref.clamp_indirect == ref.filter_glossy == 0.0 and ref.caustics
 
 
 def test_cli_rejects_an_unknown_quality(tmp_path):

@@ -109,6 +109,7 @@ def configure(bscene, preset: Preset, *, gpu: bool = False, threads: int = 0,
     c.transparent_max_bounces = preset.transparent_bounces
     c.caustics_reflective = c.caustics_refractive = bool(preset.caustics)
     c.use_light_tree = bool(preset.light_tree)
+    c.blur_glossy = float(preset.filter_glossy)
     if hasattr(c, "use_guiding"):  # CPU path guiding (Cycles ignores it on a GPU)
         c.use_guiding = bool(preset.path_guiding)
     c.pixel_filter_type, c.filter_width = PIXEL_FILTER

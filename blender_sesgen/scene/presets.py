@@ -48,6 +48,8 @@ class Preset:
     caustics: bool = False
     light_tree: bool = True
     path_guiding: bool = False        # CPU only (Cycles ignores it on a GPU)
+    filter_glossy: float = 1.0        # Cycles' Filter Glossy (its default): sharp glossy seen after a
+    #                                   blurry bounce is blurred (less noise, biased); 0 = unbiased
     shading: str = "full"             # full | flat (gt: flat colour, no lights)
     overridden: tuple[str, ...] = ()  # which fields the user set over the preset
 
@@ -85,6 +87,8 @@ class Preset:
         d = asdict(self)
         for k in ("quality", "overridden", "samples", "denoise"):
             d.pop(k)
+        if d["filter_glossy"] == 1.0:  # what every folder before the field was rendered with: they resume
+            d.pop("filter_glossy")
         return d
 
 
