@@ -191,6 +191,39 @@ def test_a_cancel_that_came_before_the_interrupt_could_be_raised_stops_the_rende
     assert "ray" not in sys.modules or not sys.modules["ray"].is_initialized()
 
 
+def test_a_cancel_repeated_while_the_render_stops_does_not_kill_it(tmp_path):
+    """Ray repeats a cancel every 2 s (``cancellation_retry_ms``) until the task ends: a render
+    slow to stop (loading Blender under load) took the second interrupt and was killed (exit
+    -9: test_farm_ray's start-cancel test under load 12). Interrupts after the first SIGINT
+    wait for the render's own end, within the grace."""
+    import threading
+    argv = _fake_render(tmp_path, """
+        import signal, sys, time
+        def stop(*_):
+            time.sleep(1.5)              # a render finishing its view before it exits
+            sys.exit(130)
+        signal.signal(signal.SIGINT, stop)
+        print("ready", flush=True)
+        time.sleep(60)
+    """)
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().strip() == "ready"
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    timers = [threading.Timer(t, os.kill, (os.getpid(), signal.SIGINT)) for t in (0.4, 0.8)]
+    try:
+        for t in timers:
+            t.start()
+        rc = chunk_mod._stop(proc)
+    finally:
+        for t in timers:      # one not fired yet (the render already ended) fires nothing
+            t.cancel()
+            t.join()
+        signal.signal(signal.SIGINT, old)
+        if proc.poll() is None:
+            proc.kill()
+    assert rc == 130
+
+
 def test_a_killed_render_leaves_no_lock_behind(tmp_path):
     from blender_sesgen.render.locks import _safe
     out = tmp_path / "out"

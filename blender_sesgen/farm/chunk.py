@@ -84,15 +84,20 @@ def _event(line: str) -> Optional[dict]:
 
 
 def _stop(proc: subprocess.Popen) -> Optional[int]:
-    try:
-        proc.send_signal(signal.SIGINT)
-        return proc.wait(INTERRUPT_GRACE_S)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        return proc.wait()
-    except KeyboardInterrupt:
-        proc.kill()
-        return proc.wait()
+    """SIGINT to the render, then wait for it to end (its exit 130) for up to
+    INTERRUPT_GRACE_S; killed after that. Further interrupts while it stops are Ray's: Ray
+    repeats a cancel every ``cancellation_retry_ms`` (2 s) until the task ends, so under load
+    a render still loading Blender got a second one and was killed (exit -9, its chunk retried)."""
+    deadline = time.monotonic() + INTERRUPT_GRACE_S
+    proc.send_signal(signal.SIGINT)
+    while True:
+        try:
+            return proc.wait(max(deadline - time.monotonic(), 0.0))
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            return proc.wait()
+        except KeyboardInterrupt:   # a repeated cancel: the render is already stopping
+            continue
 
 
 def _drop_lock(out: str, host: str, pid: int) -> None:
