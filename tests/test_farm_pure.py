@@ -395,6 +395,21 @@ def test_lost_chunks_are_retried_until_they_succeed(tmp_path):
     assert res.frames_rendered == 5
 
 
+def test_a_render_killed_by_a_signal_is_reported_by_its_signal(tmp_path, capsys):
+    """The farm names a killed render's signal as why it was lost, not a traceback among its
+    last lines (seen under load: "killed by SIGKILL: BrokenPipeError ...")."""
+    def plan(scene, frames, n):
+        if frames == "0:2" and n == 1:
+            return {"rc": -9, "tail": ["Traceback (most recent call last):", "BrokenPipeError: [Errno 32] Broken pipe"]}
+        return {"rc": 0}
+    ray = FakeRay(plan, lambda out: {"missing": [], "bad": []})
+    cluster = SimpleNamespace(ray=ray, totals=lambda: (2.0, 0.0), here=lambda: None)
+    res = Farm(cluster, _scenes(tmp_path, ("a", 3)), chunk=2, retries=2, cpus_per_task=1, gpus_per_task=0, threads=1,
+               forwarded=["--samples", "2"], progress_mode="plain").run()
+    assert [s.complete for s in res.states] == [True] and res.retried == 1
+    assert "a[0:2] lost (killed by SIGKILL); retry 1 of 2" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("meters", [True, False])
 def test_a_scene_to_meter_starts_with_one_chunk_and_the_others_read_its_metering(tmp_path, meters):
     """AUTOEXPOSURE's metering pass runs in whichever render finds none in the folder, over

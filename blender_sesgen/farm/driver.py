@@ -234,7 +234,9 @@ class Farm:
         try:
             res = self.ray.get(ref)
             rc, why = res["rc"], describe_exit(res["rc"])
-            line = error_line(res.get("tail", []))
+            # killed by a signal, the signal is why: a traceback among its last lines is not
+            # (CI under load once read "BrokenPipeError" there for a render the test SIGKILLed)
+            line = error_line(res.get("tail", [])) if rc >= 0 else None
         except Exception as e:  # noqa: BLE001 - the worker or its node is gone, or the task was cancelled
             res, rc = None, None
             why, line = f"task lost ({type(e).__name__})", _last_line(e)
