@@ -204,62 +204,75 @@ def _centre(street_pos, street_yaw, s, L, bends):
     return (c @ R.T + street_pos, n @ R.T, np.degrees(h) + street_yaw)
 
 
-def _white_near(lines: list[str], centre, s0: float, s1: float) -> list[str]:
+class _Centreline:
+    """The street's centreline sampled every 0.5 m (``centre``: arc length -> world position):
+    the arc length and distance of the point nearest a ground position, for the placements that
+    read a drawn side back (one sampling for all of them)."""
+
+    def __init__(self, centre, length: float):
+        self.s = np.arange(0.0, length, 0.5)
+        self.xz = centre(self.s)[:, [0, 2]]
+
+    def nearest(self, xz) -> tuple[float, float]:
+        d = np.linalg.norm(self.xz - xz, axis=1)
+        k = int(np.argmin(d))
+        return float(self.s[k]), float(d[k])
+
+
+def _ground_xz(w: list[str]) -> np.ndarray:
+    """The (x, z) of an ASSET line's words ``w``."""
+    i = w.index("position")
+    return np.array([float(w[i + 1]), float(w[i + 3])])
+
+
+def _white_near(lines: list[str], centreline: _Centreline, s0: float, s1: float) -> list[str]:
     """``lines`` with the front row's buildings (centres within ``FRONT_ROW_M`` of the
     centreline) whose nearest centreline point lies between arc lengths ``s0`` and ``s1``
     given the ``white_render`` material (their walls; a scripted near field's)."""
-    s = np.arange(0.0, s1 + 40.0, 0.5)
-    c = centre(s)[:, [0, 2]]
     out = []
     for ln in lines:
         if ln.startswith("ASSET building"):
-            w = ln.split()
-            i = w.index("position")
-            xz = np.array([float(w[i + 1]), float(w[i + 3])])
-            d = np.linalg.norm(c - xz, axis=1)
-            if s0 <= s[int(np.argmin(d))] <= s1 and d.min() <= FRONT_ROW_M:
+            s, d = centreline.nearest(_ground_xz(ln.split()))
+            if s0 <= s <= s1 and d <= FRONT_ROW_M:
                 ln += " material white_render"
         out.append(ln)
     return out
 
 
-def _front_row(lines: list[str], centre, L: float) -> list[dict]:
-    """The front row's buildings of ``lines`` (centres within ``FRONT_ROW_M`` of the
-    centreline): position, yaw (deg), size, arc length ``s`` of the nearest centreline point
-    and distance ``dist`` from it."""
-    s = np.arange(0.0, L + 40.0, 0.5)
-    c = centre(s)[:, [0, 2]]
-    out = []
-    for ln in lines:
-        if not ln.startswith("ASSET building"):
-            continue
-        w = ln.split()
-        i, j = w.index("position"), w.index("size")
-        p = np.array([float(x) for x in w[i + 1:i + 4]])
-        yaw = float(w[i + 5]) if j - i == 7 else 0.0
-        d = np.linalg.norm(c - p[[0, 2]], axis=1)
-        if d.min() <= FRONT_ROW_M:
-            out.append({"p": p, "yaw": yaw, "size": tuple(float(x) for x in w[j + 1:j + 4]), "seed": int(w[w.index("seed") + 1]),
-                        "s": float(s[int(np.argmin(d))]), "dist": float(d.min())})
-    return out
+def _front_row_building(ln: str, centreline: _Centreline) -> Optional[dict]:
+    """A front-row building's line ``ln`` (centre within ``FRONT_ROW_M`` of the centreline) as
+    its position, yaw (deg), size, seed, arc length ``s`` of the nearest centreline point and
+    distance ``dist`` from it; None for any other line."""
+    if not ln.startswith("ASSET building"):
+        return None
+    w = ln.split()
+    i, j = w.index("position"), w.index("size")
+    p = np.array([float(x) for x in w[i + 1:i + 4]])
+    s, dist = centreline.nearest(p[[0, 2]])
+    if dist > FRONT_ROW_M:
+        return None
+    return {"p": p, "yaw": float(w[i + 5]) if j - i == 7 else 0.0, "size": tuple(float(x) for x in w[j + 1:j + 4]),
+            "seed": int(w[w.index("seed") + 1]), "s": s, "dist": dist}
 
 
-def _pull_front_row(lines: list[str], centre, L: float, s_end: float, edge: float, setback: tuple,
+def _front_row(lines: list[str], centreline: _Centreline) -> list[dict]:
+    """The front row's buildings of ``lines`` (:func:`_front_row_building`)."""
+    return [b for ln in lines if (b := _front_row_building(ln, centreline)) is not None]
+
+
+def _pull_front_row(lines: list[str], centreline: _Centreline, s_end: float, edge: float, setback: tuple,
                     rng: np.random.Generator) -> list[str]:
     """``lines`` (one side's) with the front row's buildings up to arc length ``s_end`` moved
     towards the street to a ``setback`` drawn in that range behind ``edge`` (a scripted near
     field's; their front yards' hedges, fences, bushes and bins left out): done after the side
     is drawn, so the layout's stream, and all drawn after it, stays as it was."""
-    s = np.arange(0.0, L + 40.0, 0.5)
-    c = centre(s)[:, [0, 2]]
     moved = []                       # (arc length range, distance range) of the yards given up
     out = []
     for ln in lines:
-        b = _front_row([ln], centre, L)
-        if not b or b[0]["s"] - b[0]["size"][0] / 2 >= s_end:
+        b = _front_row_building(ln, centreline)
+        if b is None or b["s"] - b["size"][0] / 2 >= s_end:
             out.append(ln)
             continue
-        b = b[0]
         W, _, D = b["size"]
         a = np.radians(b["yaw"])
         front = np.array([np.sin(a), 0.0, np.cos(a)])
@@ -274,22 +287,20 @@ def _pull_front_row(lines: list[str], centre, L: float, s_end: float, edge: floa
     for ln in out:
         w = ln.split()
         if w[1] in ("hedge", "fence", "bush", "bin"):
-            i = w.index("position")
-            d = np.linalg.norm(c - [float(w[i + 1]), float(w[i + 3])], axis=1)
-            s_ = s[int(np.argmin(d))]
-            if any(s0 <= s_ <= s1 and d.min() < front_d for s0, s1, front_d in moved):
+            s_, d = centreline.nearest(_ground_xz(w))
+            if any(s0 <= s_ <= s1 and d < front_d for s0, s1, front_d in moved):
                 continue
         keep.append(ln)
     return keep
 
 
-def _works_row(lines: list[str], centre, place, L: float, s_end: float, edge: float, ids: Ids,
+def _works_row(lines: list[str], centreline: _Centreline, place, s_end: float, ids: Ids,
                rng: np.random.Generator) -> list[str]:
     """``lines`` (one side's, right) with its front row carried on to arc length ``s_end``: where
     the last front-row building before it ends early, the green stretch after it gives way to a
     block being built (KITTI sequence_1's right side: one long block under scaffolding through
     its frames 15-50), as deep and as far back as that building."""
-    row = [b for b in _front_row(lines, centre, L) if b["s"] - b["size"][0] / 2 < s_end]
+    row = [b for b in _front_row(lines, centreline) if b["s"] - b["size"][0] / 2 < s_end]
     if not row:
         return lines
     last = max(row, key=lambda b: b["s"] + b["size"][0] / 2)
@@ -298,15 +309,12 @@ def _works_row(lines: list[str], centre, place, L: float, s_end: float, edge: fl
     if s0 >= s_end - 6.0:
         return lines
     s1 = s_end + 3.0
-    s = np.arange(0.0, L + 40.0, 0.5)
-    c = centre(s)[:, [0, 2]]
     out = []
     for ln in lines:        # the green stretch's trees and bushes where the block goes
         w = ln.split()
         if w[1] in ("tree", "conifer", "bush"):
-            i = w.index("position")
-            d = np.linalg.norm(c - [float(w[i + 1]), float(w[i + 3])], axis=1)
-            if s0 - 2.0 <= s[int(np.argmin(d))] <= s1 + 2.0 and d.min() < last["dist"] + D:
+            s, d = centreline.nearest(_ground_xz(w))
+            if s0 - 2.0 <= s <= s1 + 2.0 and d < last["dist"] + D:
                 continue
         out.append(ln)
     p, h = place((s0 + s1) / 2, last["dist"])
@@ -330,8 +338,7 @@ def _clear_footprints(lines: list[str], works: list[str], margin: float = 0.3) -
     for ln in lines:
         w = ln.split()
         if len(w) > 1 and w[0] == "ASSET" and w[1] in ("bin", "pole", "sign", "bollard", "bush", "hedge", "fence"):
-            i = w.index("position")
-            q = np.array([float(w[i + 1]), float(w[i + 3])])
+            q = _ground_xz(w)
             inside = False
             for c, yaw, hx, hz in boxes:     # the asset frame's x = (cos, -sin), z = (sin, cos) in world (x, z)
                 d = q - c
@@ -342,7 +349,7 @@ def _clear_footprints(lines: list[str], works: list[str], margin: float = 0.3) -
     return out
 
 
-def _street_detail(rng, side_lines: dict, place, centre, L: float, behind: float, edges: dict,
+def _street_detail(rng, side_lines: dict, place, centreline: _Centreline, behind: float, edges: dict,
                    near: Optional[NearField], staked: tuple, trees_at: dict, ids: Ids) -> list[str]:
     """Scaffolds on front-row buildings under works (seed 0: the right ones ``near.works_right``
     ahead; else each with ``P_WORKS``) and a site fence along their yard, bike racks (seed 0:
@@ -353,7 +360,7 @@ def _street_detail(rng, side_lines: dict, place, centre, L: float, behind: float
     racks = [(int(x), (round(float(rng.uniform(2.7, 4.5)), 2), 0.85, 1.8)) for x in rng.integers(1, 10 ** 6, 3)]
     out = []
     for side, lines in side_lines.items():
-        for b in _front_row(lines, centre, L):
+        for b in _front_row(lines, centreline):
             W, H, D = b["size"]
             a = np.radians(b["yaw"])
             front, along = np.array([np.sin(a), 0.0, np.cos(a)]), np.array([np.cos(a), 0.0, -np.sin(a)])
@@ -521,19 +528,17 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     # --- buildings and green blocks on both sides -------------------------------------
     out += ["", "// buildings (front facades towards the street) and green blocks"]
     side_lines = {}
+    centreline = _Centreline(lambda s_: _centre(street_pos, street_yaw, s_, L, bends)[0], L + 40.0)
     for side in (1, -1):
         lines = line_street_side(rng, place, L - 12, side, right_edge if side > 0 else -left_edge, ids,
                                  FRONTAGES[v.frontage[0 if side < 0 else 1]], seed_of=pool)
         if side > 0 and near is not None and near.setback_right:
-            lines = _pull_front_row(lines, lambda s_: _centre(street_pos, street_yaw, s_, L, bends)[0], L,
-                                    behind + near.white_right + 15.0, right_edge, near.setback_right,
+            lines = _pull_front_row(lines, centreline, behind + near.white_right + 15.0, right_edge, near.setback_right,
                                     np.random.default_rng([seed, 0x5E7]))
         if side > 0 and near is not None and near.works_right:
-            lines = _works_row(lines, lambda s_: _centre(street_pos, street_yaw, s_, L, bends)[0], place, L,
-                               behind + near.works_right[1], right_edge, ids, np.random.default_rng([seed, 0x5CA]))
+            lines = _works_row(lines, centreline, place, behind + near.works_right[1], ids, np.random.default_rng([seed, 0x5CA]))
         if side > 0 and near is not None and near.white_right > 0:
-            lines = _white_near(lines, lambda s_: _centre(street_pos, street_yaw, s_, L, bends)[0],
-                                behind, behind + near.white_right)
+            lines = _white_near(lines, centreline, behind, behind + near.white_right)
             out.append(derived_material("white_render", "plaster", WHITE_RENDER, seed=seed))
         out += lines
         side_lines[side] = lines
@@ -591,8 +596,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     # --- near-field detail: works (scaffold, site fence), bike racks, the young trees' stakes --
     # (a stream of its own, ids after the furniture's: the layout and ids drawn before stay)
     out += ["", "// near-field detail: facade scaffolding and site fences at works, bike racks, tree stakes"]
-    detail = _street_detail(np.random.default_rng([seed, 0xDE7]), side_lines, place,
-                            lambda s_: _centre(street_pos, street_yaw, s_, L, bends)[0], L, behind,
+    detail = _street_detail(np.random.default_rng([seed, 0xDE7]), side_lines, place, centreline, behind,
                             {1: right_edge, -1: -left_edge}, near, v.staked, trees_at, ids)
     out = _clear_footprints(out, [ln for ln in detail if ln.split()[1] in ("scaffold", "site_fence")]) + detail
 
