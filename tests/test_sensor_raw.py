@@ -54,7 +54,7 @@ def test_rgb_of_a_sensor_without_mosaic_is_the_response_of_each_raw_value(kw):
     response and quantisation applied to every pixel's normalised raw value directly, above
     the black level, which the 8-bit output keeps (black / (2^bits - 1) of full scale)."""
     s = model.Sensor(read_noise_e=4, prnu=0.01, seed=3, **kw)
-    lin = np.random.default_rng(2).uniform(0, 1, (19, 23, 3))
+    lin = np.random.default_rng(2).uniform(0, 1, (22, 24, 3))   # mirrored 54 x 56: fast FFT lengths
     f = pipeline.process(lin, pipeline.Camera(s, nominal_exposure_s=0.01), pipeline.Shot(0.02, 2.0, 1, 0))
     x = (f.raw_dn.astype(np.float64) - s.black_level_dn) / (2 ** s.bits - 1 - s.black_level_dn)
     x = np.repeat(x[..., None], 3, axis=-1) if s.mono else x
@@ -137,14 +137,40 @@ def test_bessel_j1_and_the_mtf():
     rgb = np.random.default_rng(1).random((20, 30, 3))
     for _ in range(2):
         got = optics.apply_mtf(rgb, margin=4, **params)
-        for c, lam in enumerate(optics.WAVELENGTH_NM):
-            p = np.pad(rgb[..., c], 4, mode="reflect")
+        for c, lam in enumerate(optics.WAVELENGTH_NM):   # mirrored to 28 x 38, padded to the fast 28 x 40
+            p = np.pad(rgb[..., c], ((4, 4), (4, 6)), mode="reflect")
             T = optics.otf(p.shape, **params, wavelength_nm=lam)
             assert np.array_equal(got[..., c], np.fft.irfft2(np.fft.rfft2(p) * T, s=p.shape)[4:24, 4:34])
     # defocus disc: the OTF at its first zero (pi d nu = 3.8317) vanishes
     T = optics.otf((1, 512), defocus_px=6.0)
     k = int(round(3.8317 / (np.pi * 6.0) * 512))
     assert abs(T[0, k]) < 0.02 and T[0, 0] == pytest.approx(1.0)
+
+
+def test_the_lens_blur_pads_to_fast_fft_lengths():
+    # the smallest length >= n without a prime factor above 7 (brute force as the oracle)
+    def smooth(k):
+        for f in (2, 3, 5, 7):
+            while k % f == 0:
+                k //= f
+        return k == 1
+    for n in range(1, 1400):
+        assert optics.fast_length(n) == next(k for k in range(n, 2 * n + 8) if smooth(k))
+    assert optics.fast_length(402) == 405 and optics.fast_length(1258) == 1260   # KITTI's view, mirrored
+    assert optics.fast_length(512) == 512 and optics.fast_length(784) == 784     # 640/752 x 480: as before
+    # the blur of an image whose mirrored size is not fast (41 x 67, primes, filtered on 42 x 70)
+    # equals the blur on the unpadded grid but for the kernel's tails beyond the margin, which
+    # each grid wraps onto other mirrored pixels (white noise at f/16, 8 px: 0.3 % of the peak
+    # at most; a pixel's shift or zero padding: ~30 %); of a mirrored size that is fast, to the bit
+    rgb = np.random.default_rng(2).random((25, 51, 3))
+    params = dict(pixel_um=2.0, f_number=16.0)
+    for margin, tol in ((8, 5e-3), (12, 0.0)):
+        got = optics.apply_mtf(rgb, margin=margin, **params)
+        for c, lam in enumerate(optics.WAVELENGTH_NM):
+            p = np.pad(rgb[..., c], margin, mode="reflect")
+            want = np.fft.irfft2(np.fft.rfft2(p) * optics.otf(p.shape, **params, wavelength_nm=lam),
+                                 s=p.shape)[margin:margin + 25, margin:margin + 51]
+            assert np.abs(got[..., c] - want).max() <= tol * np.abs(want).max()
 
 
 def test_vignetting_and_chromatic_aberration():

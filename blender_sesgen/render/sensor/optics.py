@@ -9,7 +9,7 @@ MTF (a product of optical transfer functions, frequencies nu in cycles per pixel
 - pixel aperture of width f px (fill factor): sinc(f nu_x) sinc(f nu_y) — on top of Cycles'
   own pixel filter, which the render already carries;
 - optical low-pass filter (birefringent, four spots s px apart): |cos(pi s nu_x) cos(pi s nu_y)|.
-Applied by FFT with mirrored borders. Vignetting: cos(theta)^(4 v) of each pixel's ray angle
+Applied by FFT with mirrored borders, padded to the FFT's fast lengths. Vignetting: cos(theta)^(4 v) of each pixel's ray angle
 (v = 1 is the natural cos^4 law). Chromatic aberration: red magnified and blue shrunk about
 the principal point so that the corner moves by +-c px.
 """
@@ -73,14 +73,34 @@ def _stored_otf(shape: tuple, params: tuple) -> np.ndarray:
     return T
 
 
+@functools.lru_cache(maxsize=64)
+def fast_length(n: int) -> int:
+    """The smallest length >= n without a prime factor above 7, where numpy's FFT is fast:
+    KITTI's padded 402 x 1258 (2*3*67 x 2*17*37) transforms in 1.5-2x the time of 405 x 1260;
+    a length that is one already (640 x 480 and EuRoC's 752 x 480, padded) stays."""
+    m = max(int(n), 1)
+    while True:
+        k = m
+        for f in (2, 3, 5, 7):
+            while k % f == 0:
+                k //= f
+        if k == 1:
+            return m
+        m += 1
+
+
 def apply_mtf(rgb: np.ndarray, margin: int = 16, **params) -> np.ndarray:
-    """Filter each channel of a linear (H, W, 3) image with its channel's OTF."""
+    """Filter each channel of a linear (H, W, 3) image with its channel's OTF: the image with
+    mirrored borders, ``margin`` px before it and up to the FFT's fast length after it (the
+    circular convolution's wrap-around lands in the mirror, at least ``margin`` px from the
+    image on either side)."""
     rgb = np.asarray(rgb, dtype=np.float64)
     H, W = rgb.shape[:2]
     m = int(min(margin, H - 1, W - 1))
+    Hp, Wp = fast_length(H + 2 * m), fast_length(W + 2 * m)
     out = np.empty_like(rgb)
     for c in range(rgb.shape[2]):
-        p = np.pad(rgb[..., c], m, mode="reflect")
+        p = np.pad(rgb[..., c], ((m, Hp - H - m), (m, Wp - W - m)), mode="reflect")
         lam = params.get("wavelength_nm") or WAVELENGTH_NM[c % 3]
         T = _stored_otf(p.shape, tuple(sorted({**params, "wavelength_nm": lam}.items())))
         out[..., c] = np.fft.irfft2(np.fft.rfft2(p) * T, s=p.shape)[m:m + H, m:m + W]
