@@ -98,7 +98,7 @@ def test_the_baked_table_renders_blenders_own_sky(tmp_path, monkeypatch, elevati
     monkeypatch.setenv(cache.ENV, str(tmp_path / "cache"))
     baked = []
     real_bake = sky.bake
-    monkeypatch.setattr(sky, "bake", lambda params: baked.append(1) or real_bake(params))
+    monkeypatch.setattr(sky, "bake", lambda params, threads=0: baked.append(1) or real_bake(params, threads))
     w = World(kind="sky", strength=1.0, sun_elevation_deg=elevation, sun_azimuth_deg=azimuth, aerosol=aerosol)
     holder = bpy.data.scenes.new("holder")
     table_world = lighting.build_world(holder, w, None, "table")
@@ -114,3 +114,25 @@ def test_the_baked_table_renders_blenders_own_sky(tmp_path, monkeypatch, elevati
     assert b.max() > 0.1 and np.isfinite(a).all()
     rel = np.abs(a - b) / max(float(b.max()), 1e-6)
     assert rel.max() < 1e-4, rel.max()
+
+
+@pytest.mark.render
+def test_the_sky_bake_renders_with_the_renders_threads(monkeypatch):
+    """``--threads`` reaches the sky table's bake (a farm task's render keeps to its cores
+    there too); the table does not depend on the thread count."""
+    import bpy  # noqa: F401
+    from blender_sesgen.blender import render, sky
+    if not sky.available():
+        pytest.skip("this Blender has no MULTIPLE_SCATTERING sky (4.x): nothing is baked")
+    seen = []
+    real_render = render._render
+
+    def spy(bscene, quiet):
+        seen.append((bscene.render.threads_mode, bscene.render.threads))
+        return real_render(bscene, quiet)
+    monkeypatch.setattr(render, "_render", spy)
+    params = {"sun_elevation": 0.6, "altitude": 0.0, "air_density": 1.0, "aerosol_density": 2.0, "ozone_density": 1.0}
+    one = sky.bake(params, threads=1)
+    automatic = sky.bake(params)
+    assert seen[0] == ("FIXED", 1) and seen[1][0] == "AUTO"
+    assert np.array_equal(one, automatic)

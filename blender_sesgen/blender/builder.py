@@ -33,11 +33,12 @@ class BuiltScene:
     movers: dict = field(default_factory=dict)    # moving object id -> its keyed empty (object_motion)
 
 
-def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -> BuiltScene:
+def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict, threads: int = 0) -> BuiltScene:
     """Build ``scene`` into a fresh Blender scene named SCENE_NAME (replacing any previous).
 
     ``view_poses``: {view: (N, 4, 4) T_world_cam} (OpenCV camera, SES world); ``K`` the
-    (possibly rescaled) intrinsics for ``width`` x ``height``.
+    (possibly rescaled) intrinsics for ``width`` x ``height``; ``threads``: the CPU threads of
+    the renders the build makes (the sky table's bake; 0: automatic).
     """
     clear_previous()
     bscene = bpy.data.scenes.new(SCENE_NAME)
@@ -77,7 +78,8 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict) -
         lo = lighting.add_light(bscene, coll, light, f"sesgen_light_{i}")
         tag(lo)
         tag(lo.data)
-    tag(lighting.build_world(bscene, lighting.effective_world(scene, file_lamps), scene.fog, "sesgen_world", tag))
+    tag(lighting.build_world(bscene, lighting.effective_world(scene, file_lamps), scene.fog, "sesgen_world", tag,
+                             threads))
 
     N = scene.frames
     for view, T in view_poses.items():

@@ -183,7 +183,9 @@ def _importance_map(wd, width: int) -> None:
         wd.cycles.sample_map_resolution = int(width)
 
 
-def build_world(bscene, w: World, fog: Fog | None, name: str, tag=lambda x: x):
+def build_world(bscene, w: World, fog: Fog | None, name: str, tag=lambda x: x, threads: int = 0):
+    """The world ``w`` (and the scene's ``fog``) as a Blender world named ``name``; ``threads``:
+    the CPU threads of the sky table's bake (0: automatic)."""
     wd = bpy.data.worlds.new(name)
     nt = compat.node_tree(wd)
     nt.nodes.clear()
@@ -200,7 +202,7 @@ def build_world(bscene, w: World, fog: Fog | None, name: str, tag=lambda x: x):
         if hasattr(sky, "sun_disc") and _sky_without_disc():
             sky.sun_disc = False  # the sun is a lamp (scene_lights)
         # 5.0's sky from its table baked once, not computed in every Cycles session (sky.py)
-        colour = sky_table.lookup(nt, sky, tag) if sky_table.available() else sky.outputs["Color"]
+        colour = sky_table.lookup(nt, sky, tag, threads) if sky_table.available() else sky.outputs["Color"]
         nt.links.new(colour, bg.inputs["Color"])
         _importance_map(wd, SKY_MAP_WIDTH)
     elif w.kind == "hdri":

@@ -67,7 +67,7 @@ class BlenderSession:
                 keep |= set(self._metering_ids)
             scene = culled_scene(plan.scene, keep)
         self.built = builder.build_scene(scene, width=s.width, height=s.height, K=s.K,
-                                         view_poses=plan.view_poses)
+                                         view_poses=plan.view_poses, threads=plan.options.threads)
         if self.culling is not None:     # meshes shared in the full scene stay instanced (exact depth)
             from collections import Counter
 

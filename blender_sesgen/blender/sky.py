@@ -48,10 +48,11 @@ def _kernel_uv(g: G, direction, sun_rotation: float):
     return g.comb(x, y, 0.0)
 
 
-def lookup(nt, sky_node, tag=lambda x: x):
+def lookup(nt, sky_node, tag=lambda x: x, threads: int = 0):
     """The colour socket of the world's sky, read from the baked table of ``sky_node``'s
-    sky (the node stays in the tree, unlinked: Cycles computes nothing for it)."""
-    table = table_of(sky_node)
+    sky (the node stays in the tree, unlinked: Cycles computes nothing for it); ``threads``:
+    the bake's CPU threads (0: Cycles' automatic count), as the render's ``--threads``."""
+    table = table_of(sky_node, threads)
     image = bpy.data.images.new("sesgen_sky_table", WIDTH, HEIGHT, alpha=False, float_buffer=True)
     tag(image)
     image.colorspace_settings.name = "Non-Color"
@@ -68,20 +69,22 @@ def lookup(nt, sky_node, tag=lambda x: x):
     return colour
 
 
-def table_of(sky_node) -> np.ndarray:
-    """(HEIGHT, WIDTH, 3) float32 RGB of ``sky_node``'s table, row 0 at the nadir."""
+def table_of(sky_node, threads: int = 0) -> np.ndarray:
+    """(HEIGHT, WIDTH, 3) float32 RGB of ``sky_node``'s table, row 0 at the nadir (baked with
+    ``threads`` CPU threads when not in the cache: the values do not depend on them)."""
     params = {p: float(getattr(sky_node, p)) for p in PARAMETERS}
     key = [TABLE_FORMAT, compat.version_string(), TYPE, params]
 
     def valid(a: np.ndarray) -> bool:
         return a.shape == (HEIGHT, WIDTH, 3) and a.dtype == np.float32 and bool(np.isfinite(a).all())
-    return cached_array("sky", key, lambda: bake(params), valid)
+    return cached_array("sky", key, lambda: bake(params, threads), valid)
 
 
-def bake(params: dict) -> np.ndarray:
+def bake(params: dict, threads: int = 0) -> np.ndarray:
     """The table of the sky of ``params`` (``PARAMETERS``), rendered: an orthographic camera
     looks at a plane whose emission is the sky node at the direction of each cell's centre
-    (snapped to it, whatever the pixel filter), one sample, no denoiser."""
+    (snapped to it, whatever the pixel filter), one sample, no denoiser; ``threads`` CPU threads
+    (0: automatic) for the render and Cycles' precompute of the table inside it."""
     from ..files.exr import read_exr
     from .datablocks import tag
     from .render import _render
@@ -98,6 +101,9 @@ def bake(params: dict) -> np.ndarray:
     c.filter_width, c.max_bounces = 0.01, 0
     r = scene.render
     r.resolution_x, r.resolution_y, r.resolution_percentage = WIDTH, HEIGHT, 100
+    r.threads_mode = "FIXED" if threads > 0 else "AUTO"
+    if threads > 0:
+        r.threads = int(threads)
     scene.view_settings.view_transform = "Standard"
     scene.view_settings.look = "None"
     scene.world = new("worlds", "sesgen_sky_bake")
