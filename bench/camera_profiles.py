@@ -321,6 +321,10 @@ def print_still(cam: str, p) -> None:
     black = float(p.sensor.get("black", 0.0))
     for view, stack in still.items():
         n, h, w = stack.shape
+        # no dark rows in the files: the photon-transfer line fixes K r^2 - black only, and the
+        # darkest pixel's mean over the still frames bounds the black level from above
+        print(f"  black level {view}: at most {np.mean(stack, axis=0, dtype=np.float64).min():.1f} DN "
+              f"(the darkest pixel's mean over the {n} still frames; profile {black:g})")
         half = stack[:, :h // 2 * 2, :w // 2 * 2].reshape(n, h // 2, 2, w // 2, 2).sum(axis=(2, 4), dtype=np.uint16) / 4.0
         for label, ptc, b in (("full size", temporal_noise(stack), 1), ("binned 2x2", temporal_noise(half, flat_dn=0.7), 2)):
             k, fw, rn = fit_photon_transfer(ptc, black, 1 / 12 / b ** 2)
