@@ -1,7 +1,7 @@
 """Re-measure the camera profiles (blender_sesgen/scene/camera_profiles.py) from the real frames in
 ../shared/data and print each measured number beside the profile's value.
 
-    python bench/camera_profiles.py [--camera kitti,euroc,robotcar]
+    python bench/camera_profiles.py [--camera kitti,euroc,robotcar] [--still]
 
 Measured per camera (docs/sensors.md, "Camera profiles", says how each number enters a profile):
 - **noise by level**: Immerkær's estimator (CVIU 1996: sigma = sqrt(pi/2) / 6 * mean |I * N|,
@@ -285,8 +285,8 @@ def main(argv=None) -> int:
             f"{lv:.0f}: {sg:.2f} [{n}]" for lv, sg, n in m["nlf"]))
         rows = (("black level (DN of the 8-bit files)", m["black_dn"], black_8bit(p.sensor)),
                 ("response exponent (gamma)", m["gamma"], p.sensor.get("gamma", 1.0)),
-                ("full well (e-, at its gain)", m["full_well_e"], p.sensor["fullwell"]),
-                ("read noise (e-)", m["read_noise_e"], p.sensor["readnoise"]),
+                ("full well (e-, Immerkaer; at its gain)", m["full_well_e"], p.sensor["fullwell"]),
+                ("read noise (e-, Immerkaer)", m["read_noise_e"], p.sensor["readnoise"]),
                 ("noise fit rms (DN)", m["nlf_rms_dn"], None),
                 ("edge spread (px, Gaussian sigma)", m["edge_spread_px"], p.edge_spread_px),
                 ("MTF50 (cycles/px)", m["mtf50"], None), ("edges used", m["edges"], None),
@@ -295,7 +295,7 @@ def main(argv=None) -> int:
                 ("metered mean (linear)", m["metered_target"], p.autoexposure.get("target")),
                 ("frame rate (Hz, time stamps)", m["rate_hz"], p.timing.get("rate")))
         for name, meas, prof in rows:
-            print(f"  {name:34s} measured {meas:10.4g}   profile {'' if prof is None else format(prof, '.4g')}")
+            print(f"  {name:38s} measured {meas:10.4g}   profile {'' if prof is None else format(prof, '.4g')}")
         print_still(cam, p)
     return 0
 
@@ -325,8 +325,10 @@ def print_still(cam: str, p) -> None:
         # darkest pixel's mean over the still frames bounds the black level from above
         print(f"  black level {view}: at most {np.mean(stack, axis=0, dtype=np.float64).min():.1f} DN "
               f"(the darkest pixel's mean over the {n} still frames; profile {black:g})")
-        half = stack[:, :h // 2 * 2, :w // 2 * 2].reshape(n, h // 2, 2, w // 2, 2).sum(axis=(2, 4), dtype=np.uint16) / 4.0
-        for label, ptc, b in (("full size", temporal_noise(stack), 1), ("binned 2x2", temporal_noise(half, flat_dn=0.7), 2)):
+        blocks = stack[:, :h // 2 * 2, :w // 2 * 2].reshape(n, h // 2, 2, w // 2, 2)
+        half = blocks.sum(axis=(2, 4), dtype=np.uint16) / 4.0
+        for label, ptc, b in (("full size", temporal_noise(stack), 1),
+                              ("binned 2x2", temporal_noise(half, flat_dn=0.7), 2)):
             k, fw, rn = fit_photon_transfer(ptc, black, 1 / 12 / b ** 2)
             model = profile_variance_dn2(p.sensor, [lv for lv, _, _ in ptc], b) - 1 / 12 + 1 / 12 / b ** 2
             print(f"  temporal noise {view} {label} ({n} still frames; level DN: variance DN^2 measured / profile): "
