@@ -94,7 +94,8 @@ def main(argv=None) -> int:
     lin = {k: seq.rgb_linear(k, "left") for k in frames}
     dev = {k: developed(lin[k], k, S.seed) for k in frames}
     clean = {k: noiseless(lin[k]) for k in frames}
-    print(f"{out}: {getattr(S, 'profile', None) or 'SENSOR'} at {seq.resolution[0]} px wide, exposure {exposure_s * 1e3:.2f} ms, gain {gain:g}")
+    print(f"{out}: {getattr(S, 'profile', None) or 'SENSOR'} at {seq.resolution[0]} px wide, "
+          f"exposure {exposure_s * 1e3:.2f} ms, gain {gain:g}")
     for k0, k1 in zip(frames, frames[1:]):
         print(f"frames {k0}-{k1}: developed {np.abs(dev[k0].astype(float) - dev[k1]).mean():.2f} DN "
               f"(KLT {klt_fb_error(dev[k0], dev[k1]):.4f} px); without noise {parts(clean[k0], clean[k1])}")
@@ -106,7 +107,8 @@ def main(argv=None) -> int:
             lin2 = open_sequence(a.again).rgb_linear(k, "left")
             dev2 = developed(lin2, k, S.seed + 1)
             line += (f"; path tracer alone (two Cycles seeds) without noise {parts(clean[k], noiseless(lin2))}, "
-                     f"developed {np.abs(dev[k].astype(float) - dev2).mean():.2f} (KLT {klt_fb_error(dev[k], dev2):.4f} px)")
+                     f"developed {np.abs(dev[k].astype(float) - dev2).mean():.2f} "
+                     f"(KLT {klt_fb_error(dev[k], dev2):.4f} px)")
         print(line)
     return 0
 
