@@ -1,7 +1,7 @@
 """Re-measure the camera profiles (blender_sesgen/scene/camera_profiles.py) from the real frames in
 ../shared/data and print each measured number beside the profile's value.
 
-    python bench/camera_profiles.py [--camera kitti,euroc,robotcar]
+    python bench/camera_profiles.py [--camera kitti,euroc,robotcar] [--still]
 
 Measured per camera (docs/sensors.md, "Camera profiles", says how each number enters a profile):
 - **noise by level**: Immerkær's estimator (CVIU 1996: sigma = sqrt(pi/2) / 6 * mean |I * N|,
@@ -24,7 +24,21 @@ Measured per camera (docs/sensors.md, "Camera profiles", says how each number en
 - **metering**: the median over the frames of the mean of the pixels linearised with the fitted
   exponent (the mean linear signal, the target a scene-following auto-exposure holds);
 - **frame rate**: the median step of the excerpt's time stamps (EuRoC data.csv, RobotCar
-  stereo.timestamps; KITTI's excerpt has none).
+  stereo.timestamps; KITTI's excerpt has none);
+- **temporal noise** (``--still``: EuRoC, whose MAV stands for all 95 frames of the excerpt; KITTI's
+  car and RobotCar's drive): photon transfer from still frame pairs, per camera. Each pixel's
+  temporal variance is the mean over the consecutive pairs of (difference - the pair's median
+  difference)^2 / 2 (the median takes out the lights' flicker and the auto-exposure's creep; a
+  difference of consecutive frames, not of each frame from the mean, leaves slow drifts out);
+  pixels where the mean frame is flat (gradient below 1 DN/px: a 0.1 px shake moves them by
+  under 0.1 DN) and never at 0 or 255, binned by their mean level (8 DN); the median variance of
+  a bin (texture that moves and flickering lamps only add: the median keeps them out) against
+  the level is fitted with a line, var = K (level - black) + (K r)^2 + 1/12, K the conversion
+  gain (DN per electron, so the full well at full scale is 255 / K) and r the read noise in
+  electrons at the black level above. The same on the frames binned 2 x 2 (their float mean)
+  checks the binning of docs/sensors.md: independent pixels have a quarter of the variance.
+  Immerkær's estimator on flat pixels (above) counts fine texture and fixed pattern as noise:
+  it gave the euroc profile twice the temporal variance.
 RobotCar frames are raw Bayer GBRG: noise and edges are measured on the first green plane
 (half size, so its noise is per sensor pixel) and the edge spread is doubled back to sensor
 pixels.
@@ -188,6 +202,45 @@ def frame_rate_hz(camera: str) -> float:
     return float(1.0 / np.median(np.diff(t)))
 
 
+def still_frames(camera: str) -> dict[str, np.ndarray]:
+    """{view: (N, H, W) uint8} of an excerpt whose camera stands still (EuRoC's); {} for the others."""
+    if camera != "euroc":
+        return {}
+    root = DATA / "euroc" / "mav0"
+    return {c: np.stack([cv2.imread(str(f), cv2.IMREAD_GRAYSCALE) for f in sorted((root / c / "data").glob("*.png"))])
+            for c in ("cam0", "cam1")}
+
+
+def temporal_noise(stack: np.ndarray, bin_dn: float = 8.0, flat_dn: float = 1.0, min_px: int = 200):
+    """Photon transfer of still frames ``stack`` (N, H, W): [(level DN, temporal variance DN^2,
+    pixels)] per bin of the mean level (the module docstring, "temporal noise")."""
+    mean = np.mean(stack, axis=0, dtype=np.float64)
+    gy, gx = np.gradient(mean)
+    var = np.zeros_like(mean)
+    for f0, f1 in zip(stack[:-1], stack[1:]):       # a pair at a time: the stack's memory only
+        d = f1.astype(np.float64) - f0
+        d -= np.median(d)
+        var += d * d
+    var /= 2 * (len(stack) - 1)
+    ok = (np.hypot(gx, gy) < flat_dn) & (np.max(stack, axis=0) < 255) & (np.min(stack, axis=0) > 0)
+    out = []
+    for lo in np.arange(0.0, 255.0, bin_dn):
+        sel = ok & (mean >= lo) & (mean < lo + bin_dn)
+        if sel.sum() >= min_px:
+            out.append((float(lo + bin_dn / 2), float(np.median(var[sel])), int(sel.sum())))
+    return out
+
+
+def fit_photon_transfer(ptc, black_dn: float, quantisation_dn2: float = 1 / 12):
+    """(K DN/e-, full well e- at 255 DN, read noise e- at ``black_dn``) of the line
+    var = K (level - black) + (K r)^2 + quantisation, fitted with weights sqrt(pixels)."""
+    lv, v, n = (np.array(c, dtype=np.float64) for c in zip(*ptc))
+    w = np.sqrt(n)
+    (k, c), *_ = np.linalg.lstsq(np.stack([lv, np.ones_like(lv)], 1) * w[:, None], v * w, rcond=None)
+    read_var_dn2 = c + k * black_dn - quantisation_dn2
+    return float(k), 255.0 / float(k), float(np.sqrt(max(read_var_dn2, 0.0)) / k)
+
+
 def measure(camera: str, spread_scale: float = 1.0) -> dict:
     imgs, focal_px = frames(camera)
     allpx = np.concatenate([im.ravel() for im in imgs])
@@ -211,12 +264,20 @@ def main(argv=None) -> int:
     warnings.simplefilter("ignore", OptimizeWarning)
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--camera", default="kitti,euroc,robotcar")
+    ap.add_argument("--still", action="store_true",
+                    help="only the temporal noise of the still excerpts (photon transfer; EuRoC)")
     args = ap.parse_args(argv)
     from blender_sesgen.scene.camera_profiles import PROFILES, black_8bit
     if not DATA.is_dir():
         print(f"no real data at {DATA} (set SESGEN_SHARED_DATA)", file=sys.stderr)
         return 2
     for cam in args.camera.split(","):
+        if cam not in PROFILES or cam in ("tum", "phone"):
+            print(f"unknown camera {cam!r} (kitti, euroc, robotcar)", file=sys.stderr)
+            return 2
+        if args.still:
+            print_still(cam, PROFILES[cam])
+            continue
         m = measure(cam, 2.0 if cam == "robotcar" else 1.0)
         p = PROFILES[cam]
         print(f"\n== {cam}: {m['frames']} frames {m['size']}")
@@ -224,8 +285,8 @@ def main(argv=None) -> int:
             f"{lv:.0f}: {sg:.2f} [{n}]" for lv, sg, n in m["nlf"]))
         rows = (("black level (DN of the 8-bit files)", m["black_dn"], black_8bit(p.sensor)),
                 ("response exponent (gamma)", m["gamma"], p.sensor.get("gamma", 1.0)),
-                ("full well (e-, at its gain)", m["full_well_e"], p.sensor["fullwell"]),
-                ("read noise (e-)", m["read_noise_e"], p.sensor["readnoise"]),
+                ("full well (e-, Immerkaer; at its gain)", m["full_well_e"], p.sensor["fullwell"]),
+                ("read noise (e-, Immerkaer)", m["read_noise_e"], p.sensor["readnoise"]),
                 ("noise fit rms (DN)", m["nlf_rms_dn"], None),
                 ("edge spread (px, Gaussian sigma)", m["edge_spread_px"], p.edge_spread_px),
                 ("MTF50 (cycles/px)", m["mtf50"], None), ("edges used", m["edges"], None),
@@ -234,8 +295,48 @@ def main(argv=None) -> int:
                 ("metered mean (linear)", m["metered_target"], p.autoexposure.get("target")),
                 ("frame rate (Hz, time stamps)", m["rate_hz"], p.timing.get("rate")))
         for name, meas, prof in rows:
-            print(f"  {name:34s} measured {meas:10.4g}   profile {'' if prof is None else format(prof, '.4g')}")
+            print(f"  {name:38s} measured {meas:10.4g}   profile {'' if prof is None else format(prof, '.4g')}")
+        print_still(cam, p)
     return 0
+
+
+def profile_variance_dn2(sensor: dict, level_dn, binning: int = 1) -> np.ndarray:
+    """The temporal variance (DN^2) a profile's SENSOR tags give a pixel at ``level_dn`` of its
+    8-bit output, binned ``binning`` x ``binning`` (camera_profiles.at_width; raw.py's model:
+    shot + read noise, then the 8-bit quantisation of the output)."""
+    if int(sensor.get("bits", 8)) != 8 or sensor.get("response", "linear") != "linear":
+        raise ValueError("the photon-transfer line holds for a linear 8-bit output only")
+    s = float(binning)
+    k = 255.0 / (float(sensor["fullwell"]) * s * s)
+    lv = np.asarray(level_dn, dtype=np.float64)
+    return k * (lv - float(sensor.get("black", 0.0))) + (k * float(sensor.get("readnoise", 0.0)) * s) ** 2 + 1 / 12
+
+
+def print_still(cam: str, p) -> None:
+    """The temporal noise of ``cam``'s still excerpt beside the profile's (nothing if it has none)."""
+    still = still_frames(cam)
+    if not still:
+        print(f"  temporal noise: no still frames in the {cam} excerpt (the camera moves)")
+        return
+    black = float(p.sensor.get("black", 0.0))
+    for view, stack in still.items():
+        n, h, w = stack.shape
+        # no dark rows in the files: the photon-transfer line fixes K r^2 - black only, and the
+        # darkest pixel's mean over the still frames bounds the black level from above
+        print(f"  black level {view}: at most {np.mean(stack, axis=0, dtype=np.float64).min():.1f} DN "
+              f"(the darkest pixel's mean over the {n} still frames; profile {black:g})")
+        blocks = stack[:, :h // 2 * 2, :w // 2 * 2].reshape(n, h // 2, 2, w // 2, 2)
+        half = blocks.sum(axis=(2, 4), dtype=np.uint16) / 4.0
+        for label, ptc, b in (("full size", temporal_noise(stack), 1),
+                              ("binned 2x2", temporal_noise(half, flat_dn=0.7), 2)):
+            k, fw, rn = fit_photon_transfer(ptc, black, 1 / 12 / b ** 2)
+            model = profile_variance_dn2(p.sensor, [lv for lv, _, _ in ptc], b) - 1 / 12 + 1 / 12 / b ** 2
+            print(f"  temporal noise {view} {label} ({n} still frames; level DN: variance DN^2 measured / profile): "
+                  + ", ".join(f"{lv:.0f}: {v:.2f} / {m:.2f}" for (lv, v, _), m in zip(ptc, model)))
+            # per native pixel: a binned pixel holds b^2 pixels' electrons and b times the read noise
+            print(f"    photon transfer: {k:.5f} DN/e-; per native pixel full well {fw / b ** 2:.0f} e-, read noise "
+                  f"{rn / b:.1f} e- at black {black:g} DN (profile {p.sensor['fullwell']:g} e-, "
+                  f"{p.sensor.get('readnoise', 0):g} e-)")
 
 
 if __name__ == "__main__":

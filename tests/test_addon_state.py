@@ -55,5 +55,7 @@ def test_the_camera_override_replaces_the_scripts_sensor_and_keeps_its_line_numb
     old, new = SCRIPT.splitlines(), edited.splitlines()
     assert new[: len(old)] == [("// " + ln) if ln.startswith("SENSOR") else ln for ln in old]
     scene = parse_string(edited)
-    assert (scene.sensor.profile, scene.sensor.full_well_e, scene.sensor.cfa) == ("euroc", 8400.0, None)
+    from blender_sesgen.scene.camera_profiles import PROFILES
+    assert (scene.sensor.profile, scene.sensor.full_well_e, scene.sensor.cfa) == (
+        "euroc", PROFILES["euroc"].sensor["fullwell"], None)
     assert scene.timing.rate_hz == 30      # the script's TIMING stays; the profile fills only what it leaves out

@@ -243,3 +243,33 @@ def test_auto_exposure_meters_burnt_out_pixels_at_full_scale(profile):
     assert x[:, a_cols + 12:].mean() == pytest.approx((0.4 - a) / (1 - a), abs=0.01)
     unclipped = 0.4 * S * t_nom / image.mean(axis=-1).mean()
     assert E > 50 * unclipped
+
+
+def test_the_euroc_profile_has_the_temporal_noise_of_euroc_still_frames(shared_data):
+    """Oracle: EuRoC's standing MAV (95 still frames of cam0): the variance of consecutive
+    frames' difference / 2 by level (photon transfer, bench/camera_profiles.py), at full size
+    and binned 2 x 2. The profile's chain on flat fields at those levels, 752 and 376 px wide
+    (the binning of at_width), must give it within 15 % at every level 60-200 DN."""
+    import importlib.util
+    from pathlib import Path
+    spec = importlib.util.spec_from_file_location(
+        "camera_profiles_bench", Path(__file__).resolve().parents[1] / "bench" / "camera_profiles.py")
+    cp = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(cp)
+    stack = cp.still_frames("euroc")["cam0"]
+    n, h, w = stack.shape
+    half = stack.reshape(n, h // 2, 2, w // 2, 2).sum(axis=(2, 4), dtype=np.uint16) / 4.0
+    sensor = scene("SENSOR profile euroc seed 3\n").sensor
+    # the real binned frames are float means (quantisation 1/48 DN^2); the half-size render
+    # quantises each binned pixel to 8 bits (1/12), as twin.py's INTER_AREA resize of real frames does
+    for width, frames, flat_dn, quantisation in ((752, stack, 1.0, 1 / 12), (376, half, 0.7, 1 / 48)):
+        ptc = [(lv, v) for lv, v, _ in cp.temporal_noise(frames, flat_dn=flat_dn) if 60 <= lv <= 200]
+        assert len(ptc) >= 8
+        levels = np.array([lv for lv, _ in ptc])
+        s, _ = at_width(sensor, None, width)
+        x = np.repeat((levels - s.black_level_dn) / 255.0, 64)[:, None, None] * np.ones((1, 128, 3))
+        dn = [pipeline.process(x, pipeline.Camera(sensor=s), pipeline.Shot(0.0, 1.0, f, 0)).rgb8[..., 0].astype(float)
+              for f in (0, 1)]
+        model = ((dn[0] - dn[1]) ** 2 / 2).reshape(len(levels), -1).mean(axis=1)
+        measured = np.array([v for _, v in ptc]) - quantisation + 1 / 12
+        assert model == pytest.approx(measured, rel=0.15), (width, levels, model / measured)
