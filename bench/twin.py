@@ -56,7 +56,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from blender_sesgen.contract.camera import backproject, scaled_K
+from blender_sesgen.contract.camera import backproject, project, scaled_K
 from blender_sesgen.contract.depth import depth_from_disparity
 from blender_sesgen.contract.se3 import invert, rotation_angle_rad, se3
 from vo_reference.io.base import Sequence
@@ -125,18 +125,32 @@ def euroc_rectified(n: int, size, start: int = 0) -> Frames:
 
 # --- an ORB-matching stereo VO --------------------------------------------------------------
 
-def orb_steps(seq: Frames, n: int, inliers: list | None = None) -> list[np.ndarray]:
+class OrbStep:
+    """One step of the ORB VO taken apart (``orb_steps``' ``funnel``): its keypoint and match
+    counts, the matches with an SGBM depth (P: their points in camera k, m; q: their pixels in
+    k+1) and the indices of PnP-RANSAC's inliers among them (empty when the step failed). A
+    plain class: tests load this script by path, where a dataclass finds no module."""
+
+    def __init__(self, keypoints: int, matches: int, P: np.ndarray, q: np.ndarray, inliers: np.ndarray):
+        self.keypoints, self.matches, self.P, self.q, self.inliers = keypoints, matches, P, q, inliers
+
+
+def orb_steps(seq: Frames, n: int, inliers: list | None = None, mask=None, funnel: list | None = None) -> list[np.ndarray]:
     """T_k_k1 per step: ORB (2000) matched k -> k+1 (Hamming, cross-check), SGBM depth at k,
     solvePnPRansac + LM refinement; a failed step keeps the previous motion. ``inliers``: a list
-    that gets each step's (inlier count, their median depth in m; 0 and nan when it failed)."""
+    that gets each step's (inlier count, their median depth in m; 0 and nan when it failed).
+    ``mask``: frame k -> uint8 image where ORB may detect (None: everywhere; the causes'
+    masking); ``funnel``: a list that gets each step's ``OrbStep``."""
     orb = cv2.ORB_create(2000)
     bf = cv2.BFMatcher(cv2.NORM_HAMMING, crossCheck=True)
     K, steps = seq.K, []
+    where = (lambda k: None) if mask is None else mask
     for k in range(n - 1):
         a, b = seq.image_gray(k), seq.image_gray(k + 1)
-        ka, da = orb.detectAndCompute(a, None)
-        kb, db = orb.detectAndCompute(b, None)
+        ka, da = orb.detectAndCompute(a, where(k))
+        kb, db = orb.detectAndCompute(b, where(k + 1))
         T, used = (steps[-1] if steps else np.eye(4)), (0, float("nan"))
+        rec = OrbStep(len(ka), 0, np.zeros((0, 3)), np.zeros((0, 2)), np.zeros(0, int))
         if da is not None and db is not None:
             m = bf.match(da, db)
             p0 = np.array([ka[x.queryIdx].pt for x in m]).reshape(-1, 2)
@@ -144,8 +158,9 @@ def orb_steps(seq: Frames, n: int, inliers: list | None = None) -> list[np.ndarr
             disp = sgbm_disparity(a, seq.image_gray(k, "right"))
             d = disp[np.rint(p0[:, 1]).astype(int), np.rint(p0[:, 0]).astype(int)]
             ok = d > 1.0
+            P = backproject(K, p0[ok], depth_from_disparity(d[ok], K[0, 0], seq.baseline_m))
+            rec = OrbStep(len(ka), len(m), P, p1[ok], np.zeros(0, int))
             if ok.sum() >= 6:
-                P = backproject(K, p0[ok], depth_from_disparity(d[ok], K[0, 0], seq.baseline_m))
                 okr, rvec, tvec, inl = cv2.solvePnPRansac(P, p1[ok], K, None, iterationsCount=200,
                                                           reprojectionError=1.0, confidence=0.999)
                 if okr and inl is not None and len(inl) >= 6:
@@ -153,9 +168,12 @@ def orb_steps(seq: Frames, n: int, inliers: list | None = None) -> list[np.ndarr
                     rvec, tvec = cv2.solvePnPRefineLM(P[inl], p1[ok][inl], K, None, rvec, tvec)
                     T = invert(se3(cv2.Rodrigues(rvec)[0], tvec.ravel()))
                     used = (len(inl), float(np.median(P[inl, 2])))
+                    rec.inliers = inl
         steps.append(T)
         if inliers is not None:
             inliers.append(used)
+        if funnel is not None:
+            funnel.append(rec)
     return steps
 
 
@@ -491,6 +509,107 @@ def corners_on_sgbm_edges(frames: Frames, n: int) -> dict:
     return {"edge_share": float(np.mean(share)), "near_edge_share": float(np.mean(near)) if near else float("nan")}
 
 
+MATCH_TOL_PX = 1.5      # a match the true step carries to within this of its partner: consistent
+
+
+def pnp_translation_bound(P: np.ndarray, K: np.ndarray) -> float:
+    """The Cramér-Rao bound of a PnP's translation (m, root of the trace of its covariance) from
+    points P (N, 3, camera k, m) whose pixels in k+1 carry 1 px of independent noise per
+    coordinate, rotation estimated along: how precisely the inliers' count and placement (depth,
+    spread over the image) can fix the step at all, whatever the matcher. At the identity
+    motion (a step's rotation and translation move the bound little)."""
+    X, Y, Z = np.asarray(P, float).T
+    fx, fy = K[0, 0], K[1, 1]
+    J = np.zeros((2 * len(Z), 6))
+    # d pixel / d translation, then d pixel / d rotation = (d pixel / d point) (-[P]x)
+    J[0::2, 3:] = np.stack([fx / Z, 0 * Z, -fx * X / Z**2], 1)
+    J[1::2, 3:] = np.stack([0 * Z, fy / Z, -fy * Y / Z**2], 1)
+    J[0::2, :3] = np.stack([-fx * X * Y / Z**2, fx * (1 + X**2 / Z**2), -fx * Y / Z], 1)
+    J[1::2, :3] = np.stack([-fy * (1 + Y**2 / Z**2), fy * X * Y / Z**2, fy * X / Z], 1)
+    C = np.linalg.inv(J.T @ J)
+    return float(np.sqrt(np.trace(C[3:, 3:])))
+
+
+def orb_funnel(seq: Frames, n: int, mask=None) -> dict:
+    """The ORB VO taken apart, medians over the steps: keypoints, cross-checked matches, those
+    with an SGBM depth, PnP-RANSAC's inliers; the share of the matches with depth that the true
+    step carries to within ``MATCH_TOL_PX`` of their partner (the same rule for real and render:
+    SGBM depth, ground-truth step), the inliers' translation bound (``pnp_translation_bound``,
+    % of the true step at 1 px) and the median translation error (% of the step, as
+    ``vo_errors``) with the steps over ``BAD_STEP_PCT``."""
+    T_gt = np.asarray(seq.T_world_cam("left"))[:n]
+    recs: list[OrbStep] = []
+    steps = orb_steps(seq, n, mask=mask, funnel=recs)
+    t_err, _ = step_errors(T_gt, steps)
+    cons, bound = [], []
+    for k, r in enumerate(recs):
+        T_k1_k = invert(invert(T_gt[k]) @ T_gt[k + 1])
+        step_m = float(np.linalg.norm(T_k1_k[:3, 3]))
+        if len(r.P):
+            Q = r.P @ T_k1_k[:3, :3].T + T_k1_k[:3, 3]
+            cons.append(float(np.mean(np.linalg.norm(project(seq.K, Q) - r.q, axis=1) < MATCH_TOL_PX)))
+        if len(r.inliers) >= 6:
+            bound.append(100 * pnp_translation_bound(r.P[r.inliers], seq.K) / step_m)
+    med = lambda v: float(np.median(v)) if len(v) else float("nan")  # noqa: E731
+    return {"keypoints": med([r.keypoints for r in recs]), "matches": med([r.matches for r in recs]),
+            "with_depth": med([len(r.P) for r in recs]), "inliers": med([len(r.inliers) for r in recs]),
+            "consistent": med(cons), "bound_pct": med(bound), "t_rpe_pct": med(t_err),
+            "bad_steps": int(np.sum(t_err > BAD_STEP_PCT)), "funnel": recs}
+
+
+def _kind_of_ids(out: Path) -> dict[int, str]:
+    """The render's object ids and their kind (the asset kind, else the class)."""
+    man = json.loads((out / "manifest.json").read_text())
+    return {o["id"]: o.get("kind") or o["class"] for o in man["objects"]}
+
+
+ORB_MASK_PX = 3         # keypoints this close to an object's pixels count as its (occlusion junctions)
+
+
+def orb_kind_lines(out: Path, real: Frames, ours: Frames, name: str, n: int, start: int = 0, top: int = 4) -> list[str]:
+    """The ORB VO taken apart on both (``orb_funnel``) and, on the render (object ids), where its
+    inliers lie by object kind and its error when ORB may not detect within ``ORB_MASK_PX`` of
+    one kind (the kinds holding the most inliers): a kind whose keypoints break steps (thin
+    tubes crossing a facade make corners that slide with parallax) lowers the error when
+    masked, one that carries the steps raises it. Draw 0 of the render."""
+    fr, fo = orb_funnel(real, n), orb_funnel(ours, n)
+    seq = open_sequence(out)
+    kind_of = _kind_of_ids(out)
+    kinds_at = lambda k: np.vectorize(lambda i: kind_of.get(int(i), "sky"))(seq.ids(start + k, "left"))  # noqa: E731
+    counts: dict[str, int] = {}
+    for k, r in enumerate(fo["funnel"]):
+        if len(r.inliers):
+            px = project(ours.K, r.P[r.inliers])
+            ids = np.asarray(seq.ids(start + k, "left"))
+            H, W = ids.shape
+            x = np.clip(np.rint(px[:, 0]).astype(int), 0, W - 1)
+            y = np.clip(np.rint(px[:, 1]).astype(int), 0, H - 1)
+            for i in ids[y, x]:
+                kd = kind_of.get(int(i), "sky")
+                counts[kd] = counts.get(kd, 0) + 1
+    total = max(sum(counts.values()), 1)
+    ranked = sorted(counts, key=counts.get, reverse=True)[:top]
+    box = np.ones((2 * ORB_MASK_PX + 1,) * 2, np.uint8)
+
+    def without(kind):
+        def mask(k):
+            m = (kinds_at(k) == kind).astype(np.uint8)
+            return (cv2.dilate(m, box) == 0).astype(np.uint8) * 255
+        return mask
+    masked = {kd: orb_funnel(ours, n, without(kd)) for kd in ranked if kd != "sky"}
+    f = lambda d: (f"keypoints {d['keypoints']:.0f}, cross-checked matches {d['matches']:.0f}, with SGBM depth "  # noqa: E731
+                   f"{d['with_depth']:.0f}, inliers {d['inliers']:.0f}; the true step carries "
+                   f"{100 * d['consistent']:.0f} % of the matches to within {MATCH_TOL_PX} px; the inliers' "
+                   f"translation bound {d['bound_pct']:.2f} % of the step at 1 px")
+    return [f"ORB VO taken apart (median over the steps): {name} {f(fr)}; render {f(fo)}; bound render / real "
+            f"{_ratio(fo['bound_pct'], fr['bound_pct']):.2f}, translation RPE render / real "
+            f"{_ratio(fo['t_rpe_pct'], fr['t_rpe_pct']):.2f}",
+            "render's ORB inliers by object kind: " + ", ".join(f"{kd} {100 * counts[kd] / total:.0f} %" for kd in ranked)
+            + f"; ORB VO's translation RPE (bad steps) as is {fo['t_rpe_pct']:.2f} % ({fo['bad_steps']}), without "
+            f"keypoints within {ORB_MASK_PX} px of " + ", ".join(f"{kd} {d['t_rpe_pct']:.2f} % ({d['bad_steps']})"
+                                                                 for kd, d in masked.items())]
+
+
 def vo_cause_lines(name: str, real: Frames, ours: Frames, real_figs: dict, draw_figs: list[dict], n: int) -> list[str]:
     """What the VOs' errors come from (docs/sensors.md, "Camera twins"): broken steps per VO, the
     ORB VO's inliers (a PnP's translation error on points at depth Z, measured to a fixed pixel
@@ -756,7 +875,7 @@ def main(argv=None) -> int:
     print(f"sensor-noise draws: {a.draws}, {np.mean(cpu_s):.1f} CPU s each (develop + figures"
           + (" + three VOs" if with_vo else "") + f", {n} frames)")
     if with_vo:
-        for line in vo_cause_lines(name, real, ours, real_figs, draw_figs, n):
+        for line in vo_cause_lines(name, real, ours, real_figs, draw_figs, n) + orb_kind_lines(out, real, ours, name, n):
             print(line)
     print(f"\nbrightness spread (median / mean of the linear signal): {name} {brightness_spread(real, profile, n):.2f}, "
           f"render {brightness_spread(ours, profile, n):.2f}")

@@ -139,3 +139,74 @@ def test_step_errors_on_exact_and_broken_steps():
     steps[2][:3, 3] *= 1.12                                    # one step 12 % long
     t, r = twin.step_errors(T, steps)
     assert np.isclose(t[2], 12.0, atol=1e-3) and np.sum(t > twin.BAD_STEP_PCT) == 1
+
+
+def _pnp_scatter(P, K, trials: int = 400) -> float:
+    """Monte Carlo: the root of the summed translation variances of PnP on P's exact pixels
+    plus 1 px of noise per coordinate (the oracle of the bound)."""
+    import cv2
+    rng = np.random.default_rng(3)
+    q = P[:, :2] / P[:, 2:] * [K[0, 0], K[1, 1]] + K[:2, 2]
+    ts = []
+    for _ in range(trials):
+        ok, r, t = cv2.solvePnP(P, q + rng.normal(0, 1, q.shape), K, None, np.zeros(3), np.zeros(3), True)
+        ts.append(t.ravel())
+    return float(np.sqrt(np.var(ts, axis=0).sum()))
+
+
+@pytest.mark.parametrize("spread", ["wide", "one side"])
+def test_pnp_translation_bound_is_the_scatter_of_pnp_under_pixel_noise(spread):
+    rng = np.random.default_rng(0)
+    K = np.array([[350.0, 0, 306], [0, 350.0, 92], [0, 0, 1]])
+    n = 60
+    Z = rng.uniform(8, 40, n)
+    u = rng.uniform(0, 612, n) if spread == "wide" else rng.uniform(420, 612, n)
+    v = rng.uniform(20, 170, n)
+    P = np.stack([(u - K[0, 2]) / K[0, 0] * Z, (v - K[1, 2]) / K[1, 1] * Z, Z], 1)
+    bound, mc = twin.pnp_translation_bound(P, K), _pnp_scatter(P, K)
+    assert 0.85 < bound / mc < 1.15, (bound, mc)
+    # fewer points, the same placement: the bound grows as 1 / sqrt(count)
+    assert np.isclose(twin.pnp_translation_bound(P[::4], K) / bound, 2.0, rtol=0.35)
+
+
+def _plane_sequence(n: int = 4, Z: float = 12.0, step_m: float = 0.5):
+    """A textured fronto-parallel plane Z m ahead of a stereo rig driving straight at it:
+    frame k is the texture scaled about the principal point by Z / (Z - k step), the right
+    view shifted by its disparity. Exact poses."""
+    import cv2
+    rng = np.random.default_rng(1)
+    W, H, f, B = 320, 160, 300.0, 0.5
+    tex = cv2.GaussianBlur((rng.random((H, W)) * 255).astype(np.float32), (0, 0), 1.2)
+    tex = cv2.normalize(tex, None, 0, 255, cv2.NORM_MINMAX)
+    K = np.array([[f, 0, W / 2], [0, f, H / 2], [0, 0, 1]])
+    left, right = [], []
+    for k in range(n):
+        s = Z / (Z - k * step_m)
+        A = np.array([[s, 0, (1 - s) * W / 2], [0, s, (1 - s) * H / 2]])
+        img = cv2.warpAffine(tex, A, (W, H), flags=cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT)
+        d = f * B / (Z - k * step_m)
+        right_img = cv2.warpAffine(img, np.array([[1.0, 0, -d], [0, 1, 0]]), (W, H), flags=cv2.INTER_CUBIC,
+                                   borderMode=cv2.BORDER_REFLECT)
+        left.append(np.clip(img, 0, 255).astype(np.uint8))
+        right.append(np.clip(right_img, 0, 255).astype(np.uint8))
+    T = np.array([np.block([[np.eye(3), np.array([[0], [0], [k * step_m]])], [np.zeros((1, 3)), np.ones((1, 1))]])
+                  for k in range(n)])
+    return twin.Frames(left, right, K, B, T)
+
+
+def test_orb_funnel_counts_the_matches_the_true_step_carries():
+    seq = _plane_sequence()
+    f = twin.orb_funnel(seq, 4)
+    assert f["matches"] >= f["with_depth"] >= f["inliers"] > 50
+    assert f["consistent"] > 0.6                 # a rigid plane: most matches agree with the true step
+    assert np.isfinite(f["bound_pct"]) and f["bound_pct"] > 0
+    # poses that claim the rig moved sideways by its steps: few matches agree with them
+    T = seq.T_world_cam().copy()
+    T[:, 0, 3], T[:, 2, 3] = T[:, 2, 3], 0.0
+    wrong = twin.Frames(seq._img["left"], seq._img["right"], seq.K, seq.baseline_m, T)
+    assert twin.orb_funnel(wrong, 4)["consistent"] < 0.3
+    # ORB kept to a quarter of the image: fewer inliers, a looser bound on the step
+    quarter = np.zeros((160, 320), np.uint8)
+    quarter[:80, 160:] = 255
+    g = twin.orb_funnel(seq, 4, mask=lambda k: quarter)
+    assert g["keypoints"] < f["keypoints"] and g["inliers"] < f["inliers"] and g["bound_pct"] > f["bound_pct"]
