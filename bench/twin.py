@@ -412,8 +412,9 @@ def street_surfaces(out: Path, frames: Frames, n: int) -> tuple[str, str]:
     """Each street surface's brightness over the sunlit road's (median linear signal) and its
     pixel-scale contrast (``_grain``, where a region spans 10 x 10 px at the render's size), the
     median over frames: KITTI sequence_1 in ``KITTI_STREET``'s hand-marked regions (at the
-    render's size), the render by asset kind on its sunlit pixels (3 x 3 in from the kind's
-    edges, brighter than half the kind's median)."""
+    render's size), the render by asset kind on its sunlit pixels (brighter than half the
+    sunlit road's median; the grain 3 x 3 in from the kind's edges). The sunlit road: 3 x 3 in
+    from its edges, brighter than half its median."""
     W, H = frames.resolution
     real: dict[str, list] = {}
     for k, regions in KITTI_STREET.items():
@@ -436,17 +437,20 @@ def street_surfaces(out: Path, frames: Frames, n: int) -> tuple[str, str]:
     for k in range(n):
         L = frames.linear(k, "kitti")
         ids = np.asarray(seq.ids(k, "left")).astype(int)
-        kinds = {}
-        for name in ("road", "kerb", "gutter", "bay", "sidewalk", "lawn"):
-            m = np.isin(ids, [i for i, c in kind_of.items() if c == name])
-            m = cv2.erode(m.astype(np.uint8), np.ones((3, 3))) > 0
-            if m.sum() >= 20:
-                kinds[name] = m & (L > 0.5 * np.median(L[m]))
-        if "road" not in kinds:
+        m = cv2.erode(np.isin(ids, [i for i, c in kind_of.items() if c == "road"]).astype(np.uint8), np.ones((3, 3))) > 0
+        if m.sum() < 20:
             continue
-        road = float(np.median(L[kinds["road"]]))
-        for name, m in kinds.items():
-            ours.setdefault(name, []).append((float(np.median(L[m])) / road, _grain(L, m) if m.sum() >= 100 else np.nan))
+        road = float(np.median(L[m & (L > 0.5 * np.median(L[m]))]))
+        for name in ("kerb", "gutter", "bay", "sidewalk", "lawn"):
+            # sunlit: brighter than half the sunlit road (KITTI's regions are sunlit ones); the
+            # brightness on all such pixels of the kind (a kerb's top is 1-2 px high at 8 m and
+            # half size: an erosion leaves its face, in shade), the grain 3 x 3 in from its edges
+            kind = np.isin(ids, [i for i, c in kind_of.items() if c == name])
+            lit = kind & (L > 0.5 * road)
+            if lit.sum() >= 20:
+                inner = lit & (cv2.erode(kind.astype(np.uint8), np.ones((3, 3))) > 0)
+                ours.setdefault(name, []).append((float(np.median(L[lit])) / road,
+                                                  _grain(L, inner) if inner.sum() >= 100 else np.nan))
     fmt = lambda d: ", ".join(f"{name} {np.nanmedian([v for v, _ in vs]):.2f}" + (  # noqa: E731
         f" ({np.nanmedian([g for _, g in vs]):.3f})" if np.isfinite([g for _, g in vs]).any() else "")
         for name, vs in d.items() if name != "road")

@@ -210,3 +210,26 @@ def test_orb_funnel_counts_the_matches_the_true_step_carries():
     quarter[:80, 160:] = 255
     g = twin.orb_funnel(seq, 4, mask=lambda k: quarter)
     assert g["keypoints"] < f["keypoints"] and g["inliers"] < f["inliers"] and g["bound_pct"] > f["bound_pct"]
+
+
+def test_street_surfaces_read_a_kerbs_sunlit_top_not_its_shaded_face(shared_data, tmp_path, monkeypatch):
+    """A kerb as the half-size render sees it 8 m ahead: its sunlit top 2 px high above its face
+    in shade, 6 px; the road beside it. The kerb's brightness is its top's (KITTI's marks are
+    sunlit tops), where an erosion would have kept only the face."""
+    Hh, Ww = 60, 120
+    ids = np.ones((Hh, Ww), np.int32)                 # road
+    img = np.full((Hh, Ww), 120, np.uint8)
+    ids[20:22, 10:110], img[20:22, 10:110] = 2, 200   # the kerb's top, sunlit
+    ids[22:28, 10:110], img[22:28, 10:110] = 2, 40    # its face, in shade
+    (tmp_path / "manifest.json").write_text(json.dumps({"objects": [{"id": 1, "kind": "road", "class": "road"},
+                                                                    {"id": 2, "kind": "kerb", "class": "sidewalk"}]}))
+
+    class Ids:
+        def ids(self, k, view="left"):
+            return ids
+    monkeypatch.setattr(twin, "open_sequence", lambda out: Ids())
+    frames = twin.Frames([img] * 2, [img] * 2, np.eye(3), 0.5)
+    _, ours = twin.street_surfaces(tmp_path, frames, 2)
+    L = twin._linear(np.array([200, 120], np.uint8), "kitti")
+    kerb = float(ours.split("kerb ")[1].split()[0])
+    assert np.isclose(kerb, L[0] / L[1], atol=0.01), ours
