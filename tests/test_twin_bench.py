@@ -233,3 +233,28 @@ def test_street_surfaces_read_a_kerbs_sunlit_top_not_its_shaded_face(shared_data
     L = twin._linear(np.array([200, 120], np.uint8), "kitti")
     kerb = float(ours.split("kerb ")[1].split()[0])
     assert np.isclose(kerb, L[0] / L[1], atol=0.01), ours
+
+
+def test_kinds_grain_reads_each_kinds_own_detail_not_its_edges(shared_data, tmp_path, monkeypatch):
+    """A textured facade beside a flat crown: the facade's pixel-scale contrast is its texture's,
+    the crown's none (its edge against the facade is not its detail)."""
+    rng = np.random.default_rng(2)
+    Hh, Ww = 60, 120
+    ids = np.full((Hh, Ww), 2, np.int32)                       # the crown, flat
+    img = np.full((Hh, Ww), 90, np.uint8)
+    ids[:, 60:] = 1                                            # the facade, textured
+    img[:, 60:] = np.clip(150 + rng.normal(0, 12, (Hh, 60)), 0, 255).astype(np.uint8)
+    (tmp_path / "manifest.json").write_text(json.dumps({"objects": [{"id": 1, "class": "building"},
+                                                                    {"id": 2, "class": "vegetation"}]}))
+
+    class Ids:
+        def ids(self, k, view="left"):
+            return ids
+    monkeypatch.setattr(twin, "open_sequence", lambda out: Ids())
+    frames = twin.Frames([img] * 2, [img] * 2, np.eye(3), 0.5)
+    _, ours = twin.kinds_grain(tmp_path, frames, 2)
+    got = {k: float(v) for k, v in (x.split() for x in ours.split(", "))}
+    L = twin._linear(img, "kitti")
+    inner = np.zeros(img.shape, bool)
+    inner[3:-3, 63:-3] = True
+    assert got["tree"] < 1e-6 and np.isclose(got["facade"], twin._grain(L, inner), rtol=0.05), got
