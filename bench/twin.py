@@ -441,13 +441,27 @@ def _street_kind(o: dict) -> str | None:
     return {"road": "road", "kerb": "kerb", "sidewalk": "sidewalk", "verge": "lawn"}.get(kind)
 
 
+KERB_TOP_M = 0.02      # a kerb's pixels within this of its top height: its top (its face is in view too)
+
+
+def _world_height(seq, k: int, K: np.ndarray) -> np.ndarray:
+    """World y (m, up) of every pixel of the render's left frame k (its depth, K and pose)."""
+    z = np.asarray(seq.depth(k, "left"), float)
+    H, W = z.shape
+    x, y = np.meshgrid(np.arange(W, dtype=float), np.arange(H, dtype=float))
+    P = backproject(K, np.stack([x.ravel(), y.ravel()], 1), np.where(np.isfinite(z), z, 1e6).ravel())
+    T = np.asarray(seq.T_world_cam("left"))[k]
+    return (P @ T[:3, :3].T + T[:3, 3])[:, 1].reshape(H, W)
+
+
 def street_surfaces(out: Path, frames: Frames, n: int) -> tuple[str, str]:
     """Each street surface's brightness over the sunlit road's (median linear signal) and its
     pixel-scale contrast (``_grain``, where a region spans 10 x 10 px at the render's size), the
     median over frames: KITTI sequence_1 in ``KITTI_STREET``'s hand-marked regions (at the
     render's size), the render by asset kind on its sunlit pixels (brighter than half the
-    sunlit road's median; the grain 3 x 3 in from the kind's edges). The sunlit road: 3 x 3 in
-    from its edges, brighter than half its median."""
+    sunlit road's median; the grain 3 x 3 in from the kind's edges; the kerb on its top, within
+    ``KERB_TOP_M`` of its height by the true depth: its road-facing face is in view as well). The
+    sunlit road: 3 x 3 in from its edges, brighter than half its median."""
     W, H = frames.resolution
     real: dict[str, list] = {}
     for k, regions in KITTI_STREET.items():
@@ -465,6 +479,9 @@ def street_surfaces(out: Path, frames: Frames, n: int) -> tuple[str, str]:
             real.setdefault(name, []).append((v / road, grain))
     man = json.loads((out / "manifest.json").read_text())
     kind_of = {o["id"]: _street_kind(o) for o in man["objects"]}
+    # a kerb's top (world y, m): its rest pose's height plus its own; KITTI's marks are kerb tops
+    kerb_top = [o["T_world_obj_rest"][1][3] + o["size"][1] for o in man["objects"]
+                if kind_of[o["id"]] == "kerb" and "T_world_obj_rest" in o and "size" in o]
     seq = open_sequence(out)
     ours: dict[str, list] = {}
     for k in range(n):
@@ -480,6 +497,8 @@ def street_surfaces(out: Path, frames: Frames, n: int) -> tuple[str, str]:
             # half size: an erosion leaves its face, in shade), the grain 3 x 3 in from its edges
             kind = np.isin(ids, [i for i, c in kind_of.items() if c == name])
             lit = kind & (L > 0.5 * road)
+            if name == "kerb" and kerb_top:
+                lit &= _world_height(seq, k, frames.K) > min(kerb_top) - KERB_TOP_M
             if lit.sum() >= 20:
                 inner = lit & (cv2.erode(kind.astype(np.uint8), np.ones((3, 3))) > 0)
                 ours.setdefault(name, []).append((float(np.median(L[lit])) / road,

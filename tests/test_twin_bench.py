@@ -258,3 +258,38 @@ def test_kinds_grain_reads_each_kinds_own_detail_not_its_edges(shared_data, tmp_
     inner = np.zeros(img.shape, bool)
     inner[3:-3, 63:-3] = True
     assert got["tree"] < 1e-6 and np.isclose(got["facade"], twin._grain(L, inner), rtol=0.05), got
+
+
+def test_street_surfaces_read_the_kerb_on_its_top_by_height(shared_data, tmp_path, monkeypatch):
+    """Both the kerb's top (13 cm high) and its road-facing face in the sun, the face darker:
+    the kerb's brightness is its top's, picked by the world height of its pixels (true depth,
+    the rig 1.65 m up looking level along -Z)."""
+    Hh, Ww, f, cy = 60, 120, 100.0, 10.0
+    K = np.array([[f, 0, (Ww - 1) / 2], [0, f, cy], [0, 0, 1]])
+    ids = np.ones((Hh, Ww), np.int32)
+    img = np.full((Hh, Ww), 120, np.uint8)
+    height = np.zeros((Hh, Ww))
+    ids[20:22, 10:110], img[20:22, 10:110], height[20:22] = 2, 200, 0.13      # the top
+    ids[22:28, 10:110], img[22:28, 10:110], height[22:28] = 2, 150, 0.06      # the face, sunlit too
+    v = np.arange(Hh, dtype=float)[:, None] * np.ones((1, Ww))
+    depth = np.where(v > cy, (1.65 - height) * f / np.maximum(v - cy, 1e-3), np.inf)
+    T = np.array([[1.0, 0, 0, 0], [0, -1, 0, 1.65], [0, 0, -1, 0], [0, 0, 0, 1]])
+    (tmp_path / "manifest.json").write_text(json.dumps({"objects": [
+        {"id": 1, "kind": "road", "class": "road"},
+        {"id": 2, "kind": "kerb", "class": "sidewalk", "size": [0.2, 0.13, 50.0],
+         "T_world_obj_rest": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]}]}))
+
+    class Render:
+        def ids(self, k, view="left"):
+            return ids
+
+        def depth(self, k, view="left"):
+            return depth.astype(np.float32)
+
+        def T_world_cam(self, view="left"):
+            return np.array([T, T])
+    monkeypatch.setattr(twin, "open_sequence", lambda out: Render())
+    frames = twin.Frames([img] * 2, [img] * 2, K, 0.5)
+    _, ours = twin.street_surfaces(tmp_path, frames, 2)
+    L = twin._linear(np.array([200, 120], np.uint8), "kitti")
+    assert np.isclose(float(ours.split("kerb ")[1].split()[0]), L[0] / L[1], atol=0.01), ours
