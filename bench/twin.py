@@ -38,8 +38,11 @@ the OpenCV VO's corners** (Shi-Tomasi 1000/0.01/8, its detector): the share of c
 depth edge (the ground-truth disparity spans > 15 % in the 7 x 7 window) and the median
 SGBM disparity error there and on smooth surfaces, in % of the true disparity. For city, the
 VOs' causes (``vo_cause_lines``): each VO's steps off by more than 10 %, the ORB VO's inliers
-(count, median depth) and the rig's rotation change between steps (docs/sensors.md, "The VOs'
-errors, step by step").
+(count, median depth) and the rig's rotation change between steps; the ORB VO taken apart on
+both (``orb_kind_lines``: keypoints, matches, matches with depth, inliers, the share of matches
+the true step confirms, the inliers' translation bound) and, on the render, its inliers by
+object kind and its error with ORB kept off each kind (docs/sensors.md, "The VOs' errors, step
+by step"); and each kind's pixel-scale contrast (``kinds_grain``: where the finest rings lack).
 """
 from __future__ import annotations
 
