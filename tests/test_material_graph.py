@@ -217,6 +217,7 @@ def _sphere_means(tmp_path, names_colour) -> dict:
         scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 64, 100
         scene.render.image_settings.file_format = "OPEN_EXR"
         scene.render.image_settings.color_depth = "32"
+        scene.render.film_transparent = True          # alpha 1 on the sphere only
         world = bpy.data.worlds.new(f"sphere_{key}")
         world.color = (0.03, 0.03, 0.03)
         scene.world = world
@@ -257,9 +258,9 @@ def _sphere_means(tmp_path, names_colour) -> dict:
             bpy.ops.render.render(write_still=True, scene=scene.name)
         ch = read_exr(scene.render.filepath)
         bpy.data.scenes.remove(scene)
-        rgb = [ch[k] for k in sorted(ch) if k.endswith((".R", ".G", ".B"))]
-        lum = 0.2126 * rgb[2] + 0.7152 * rgb[1] + 0.0722 * rgb[0]     # sorted: B, G, R
-        alpha = [ch[k] for k in sorted(ch) if k.endswith(".A")][0]
+        pick = lambda c: next(v for k, v in ch.items() if k == c or k.endswith("." + c))  # noqa: E731
+        lum = 0.2126 * pick("R") + 0.7152 * pick("G") + 0.0722 * pick("B")
+        alpha = pick("A")
         out[key] = float(lum[alpha > 0.99].mean())
     return out
 
