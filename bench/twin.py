@@ -38,8 +38,11 @@ the OpenCV VO's corners** (Shi-Tomasi 1000/0.01/8, its detector): the share of c
 depth edge (the ground-truth disparity spans > 15 % in the 7 x 7 window) and the median
 SGBM disparity error there and on smooth surfaces, in % of the true disparity. For city, the
 VOs' causes (``vo_cause_lines``): each VO's steps off by more than 10 %, the ORB VO's inliers
-(count, median depth) and the rig's rotation change between steps (docs/sensors.md, "The VOs'
-errors, step by step").
+(count, median depth) and the rig's rotation change between steps; the ORB VO taken apart on
+both (``orb_kind_lines``: keypoints, matches, matches with depth, inliers, the share of matches
+the true step confirms, the inliers' translation bound) and, on the render, its inliers by
+object kind and its error with ORB kept off each kind (docs/sensors.md, "The VOs' errors, step
+by step"); and each kind's pixel-scale contrast (``kinds_grain``: where the finest rings lack).
 """
 from __future__ import annotations
 
@@ -56,7 +59,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from blender_sesgen.contract.camera import backproject, scaled_K
+from blender_sesgen.contract.camera import backproject, project, scaled_K
 from blender_sesgen.contract.depth import depth_from_disparity
 from blender_sesgen.contract.se3 import invert, rotation_angle_rad, se3
 from vo_reference.io.base import Sequence
@@ -125,18 +128,32 @@ def euroc_rectified(n: int, size, start: int = 0) -> Frames:
 
 # --- an ORB-matching stereo VO --------------------------------------------------------------
 
-def orb_steps(seq: Frames, n: int, inliers: list | None = None) -> list[np.ndarray]:
+class OrbStep:
+    """One step of the ORB VO taken apart (``orb_steps``' ``funnel``): its keypoint and match
+    counts, the matches with an SGBM depth (P: their points in camera k, m; q: their pixels in
+    k+1) and the indices of PnP-RANSAC's inliers among them (empty when the step failed). A
+    plain class: tests load this script by path, where a dataclass finds no module."""
+
+    def __init__(self, keypoints: int, matches: int, P: np.ndarray, q: np.ndarray, inliers: np.ndarray):
+        self.keypoints, self.matches, self.P, self.q, self.inliers = keypoints, matches, P, q, inliers
+
+
+def orb_steps(seq: Frames, n: int, inliers: list | None = None, mask=None, funnel: list | None = None) -> list[np.ndarray]:
     """T_k_k1 per step: ORB (2000) matched k -> k+1 (Hamming, cross-check), SGBM depth at k,
     solvePnPRansac + LM refinement; a failed step keeps the previous motion. ``inliers``: a list
-    that gets each step's (inlier count, their median depth in m; 0 and nan when it failed)."""
+    that gets each step's (inlier count, their median depth in m; 0 and nan when it failed).
+    ``mask``: frame k -> uint8 image where ORB may detect (None: everywhere; the causes'
+    masking); ``funnel``: a list that gets each step's ``OrbStep``."""
     orb = cv2.ORB_create(2000)
     bf = cv2.BFMatcher(cv2.NORM_HAMMING, crossCheck=True)
     K, steps = seq.K, []
+    where = (lambda k: None) if mask is None else mask
     for k in range(n - 1):
         a, b = seq.image_gray(k), seq.image_gray(k + 1)
-        ka, da = orb.detectAndCompute(a, None)
-        kb, db = orb.detectAndCompute(b, None)
+        ka, da = orb.detectAndCompute(a, where(k))
+        kb, db = orb.detectAndCompute(b, where(k + 1))
         T, used = (steps[-1] if steps else np.eye(4)), (0, float("nan"))
+        rec = OrbStep(len(ka), 0, np.zeros((0, 3)), np.zeros((0, 2)), np.zeros(0, int))
         if da is not None and db is not None:
             m = bf.match(da, db)
             p0 = np.array([ka[x.queryIdx].pt for x in m]).reshape(-1, 2)
@@ -144,8 +161,9 @@ def orb_steps(seq: Frames, n: int, inliers: list | None = None) -> list[np.ndarr
             disp = sgbm_disparity(a, seq.image_gray(k, "right"))
             d = disp[np.rint(p0[:, 1]).astype(int), np.rint(p0[:, 0]).astype(int)]
             ok = d > 1.0
+            P = backproject(K, p0[ok], depth_from_disparity(d[ok], K[0, 0], seq.baseline_m))
+            rec = OrbStep(len(ka), len(m), P, p1[ok], np.zeros(0, int))
             if ok.sum() >= 6:
-                P = backproject(K, p0[ok], depth_from_disparity(d[ok], K[0, 0], seq.baseline_m))
                 okr, rvec, tvec, inl = cv2.solvePnPRansac(P, p1[ok], K, None, iterationsCount=200,
                                                           reprojectionError=1.0, confidence=0.999)
                 if okr and inl is not None and len(inl) >= 6:
@@ -153,9 +171,12 @@ def orb_steps(seq: Frames, n: int, inliers: list | None = None) -> list[np.ndarr
                     rvec, tvec = cv2.solvePnPRefineLM(P[inl], p1[ok][inl], K, None, rvec, tvec)
                     T = invert(se3(cv2.Rodrigues(rvec)[0], tvec.ravel()))
                     used = (len(inl), float(np.median(P[inl, 2])))
+                    rec.inliers = inl
         steps.append(T)
         if inliers is not None:
             inliers.append(used)
+        if funnel is not None:
+            funnel.append(rec)
     return steps
 
 
@@ -372,6 +393,39 @@ def road_grain(out: Path, frames: Frames, n: int) -> tuple[float, float]:
     return float(np.median(real)), float(np.nanmedian(ours)) if ours else float("nan")
 
 
+def kinds_grain(out: Path, frames: Frames, n: int) -> tuple[str, str]:
+    """Where the finest rings' deficit lies: the pixel-scale contrast (``_grain``) of each kind
+    of ``kinds_brightness``, the median over frames: KITTI sequence_1 in ``KITTI_REGIONS``'
+    hand-marked regions (sunlit; at the render's size, 2 px in from their edges), the render on
+    each kind's pixels 3 px in from the kind's edges (by object id, sun and shade; a depth edge
+    inside a kind, a crown against a wall, is not the kind's own detail)."""
+    W, H = frames.resolution
+    real: dict[str, list] = {}
+    for k, regions in KITTI_REGIONS.items():
+        img = kitti_marked_frame(k)
+        sx, sy = W / img.shape[1], H / img.shape[0]
+        L = _linear(cv2.resize(img, (W, H), interpolation=cv2.INTER_AREA), "kitti")
+        for name, (x0, y0, x1, y1) in regions.items():
+            m = np.zeros(L.shape, bool)
+            m[int(y0 * sy) + 2:int(y1 * sy) - 2, int(x0 * sx) + 2:int(x1 * sx) - 2] = True
+            if m.sum() >= 20 and name != "sky":
+                real.setdefault(name, []).append(_grain(L, m))
+    seq, cls = render_classes(out)
+    ours: dict[str, list] = {}
+    for k in range(n):
+        L = frames.linear(k, "kitti")
+        ids = np.asarray(seq.ids(k, "left")).astype(int)
+        for kind, c in RENDER_KINDS.items():
+            if not c:
+                continue
+            m = np.isin(ids, [i for i, x in cls.items() if x in c])
+            m = cv2.erode(m.astype(np.uint8), np.ones((7, 7))) > 0
+            if m.sum() >= 100:
+                ours.setdefault(kind, []).append(_grain(L, m))
+    fmt = lambda d: ", ".join(f"{k} {np.nanmedian(v):.3f}" for k, v in d.items())  # noqa: E731
+    return fmt(real), fmt(ours)
+
+
 # KITTI sequence_1's street surfaces marked by hand (x0, y0, x1, y1 at 1226 x 370), sunlit parts:
 # frame 0 the kerb's top around the right tree lawn and the light concrete gutter before it, frame
 # 12 the dark parking bay (concrete setts, light sand joints); the render's from its asset kinds
@@ -390,12 +444,27 @@ def _street_kind(o: dict) -> str | None:
     return {"road": "road", "kerb": "kerb", "sidewalk": "sidewalk", "verge": "lawn"}.get(kind)
 
 
+KERB_TOP_M = 0.02      # a kerb's pixels within this of its top height: its top (its face is in view too)
+
+
+def _world_height(seq, k: int, K: np.ndarray) -> np.ndarray:
+    """World y (m, up) of every pixel of the render's left frame k (its depth, K and pose)."""
+    z = np.asarray(seq.depth(k, "left"), float)
+    H, W = z.shape
+    x, y = np.meshgrid(np.arange(W, dtype=float), np.arange(H, dtype=float))
+    P = backproject(K, np.stack([x.ravel(), y.ravel()], 1), np.where(np.isfinite(z), z, 1e6).ravel())
+    T = np.asarray(seq.T_world_cam("left"))[k]
+    return (P @ T[:3, :3].T + T[:3, 3])[:, 1].reshape(H, W)
+
+
 def street_surfaces(out: Path, frames: Frames, n: int) -> tuple[str, str]:
     """Each street surface's brightness over the sunlit road's (median linear signal) and its
     pixel-scale contrast (``_grain``, where a region spans 10 x 10 px at the render's size), the
     median over frames: KITTI sequence_1 in ``KITTI_STREET``'s hand-marked regions (at the
-    render's size), the render by asset kind on its sunlit pixels (3 x 3 in from the kind's
-    edges, brighter than half the kind's median)."""
+    render's size), the render by asset kind on its sunlit pixels (brighter than half the
+    sunlit road's median; the grain 3 x 3 in from the kind's edges; the kerb on its top, within
+    ``KERB_TOP_M`` of its height by the true depth: its road-facing face is in view as well). The
+    sunlit road: 3 x 3 in from its edges, brighter than half its median."""
     W, H = frames.resolution
     real: dict[str, list] = {}
     for k, regions in KITTI_STREET.items():
@@ -413,22 +482,30 @@ def street_surfaces(out: Path, frames: Frames, n: int) -> tuple[str, str]:
             real.setdefault(name, []).append((v / road, grain))
     man = json.loads((out / "manifest.json").read_text())
     kind_of = {o["id"]: _street_kind(o) for o in man["objects"]}
+    # a kerb's top (world y, m): its rest pose's height plus its own; KITTI's marks are kerb tops
+    kerb_top = [o["T_world_obj_rest"][1][3] + o["size"][1] for o in man["objects"]
+                if kind_of[o["id"]] == "kerb" and "T_world_obj_rest" in o and "size" in o]
     seq = open_sequence(out)
     ours: dict[str, list] = {}
     for k in range(n):
         L = frames.linear(k, "kitti")
         ids = np.asarray(seq.ids(k, "left")).astype(int)
-        kinds = {}
-        for name in ("road", "kerb", "gutter", "bay", "sidewalk", "lawn"):
-            m = np.isin(ids, [i for i, c in kind_of.items() if c == name])
-            m = cv2.erode(m.astype(np.uint8), np.ones((3, 3))) > 0
-            if m.sum() >= 20:
-                kinds[name] = m & (L > 0.5 * np.median(L[m]))
-        if "road" not in kinds:
+        m = cv2.erode(np.isin(ids, [i for i, c in kind_of.items() if c == "road"]).astype(np.uint8), np.ones((3, 3))) > 0
+        if m.sum() < 20:
             continue
-        road = float(np.median(L[kinds["road"]]))
-        for name, m in kinds.items():
-            ours.setdefault(name, []).append((float(np.median(L[m])) / road, _grain(L, m) if m.sum() >= 100 else np.nan))
+        road = float(np.median(L[m & (L > 0.5 * np.median(L[m]))]))
+        for name in ("kerb", "gutter", "bay", "sidewalk", "lawn"):
+            # sunlit: brighter than half the sunlit road (KITTI's regions are sunlit ones); the
+            # brightness on all such pixels of the kind (a kerb's top is 1-2 px high at 8 m and
+            # half size: an erosion leaves its face, in shade), the grain 3 x 3 in from its edges
+            kind = np.isin(ids, [i for i, c in kind_of.items() if c == name])
+            lit = kind & (L > 0.5 * road)
+            if name == "kerb" and kerb_top:
+                lit &= _world_height(seq, k, frames.K) > min(kerb_top) - KERB_TOP_M
+            if lit.sum() >= 20:
+                inner = lit & (cv2.erode(kind.astype(np.uint8), np.ones((3, 3))) > 0)
+                ours.setdefault(name, []).append((float(np.median(L[lit])) / road,
+                                                  _grain(L, inner) if inner.sum() >= 100 else np.nan))
     fmt = lambda d: ", ".join(f"{name} {np.nanmedian([v for v, _ in vs]):.2f}" + (  # noqa: E731
         f" ({np.nanmedian([g for _, g in vs]):.3f})" if np.isfinite([g for _, g in vs]).any() else "")
         for name, vs in d.items() if name != "road")
@@ -489,6 +566,107 @@ def corners_on_sgbm_edges(frames: Frames, n: int) -> dict:
         if close.any():
             near.append(np.mean(edge[y, x][close]))
     return {"edge_share": float(np.mean(share)), "near_edge_share": float(np.mean(near)) if near else float("nan")}
+
+
+MATCH_TOL_PX = 1.5      # a match the true step carries to within this of its partner: consistent
+
+
+def pnp_translation_bound(P: np.ndarray, K: np.ndarray) -> float:
+    """The Cramér-Rao bound of a PnP's translation (m, root of the trace of its covariance) from
+    points P (N, 3, camera k, m) whose pixels in k+1 carry 1 px of independent noise per
+    coordinate, rotation estimated along: how precisely the inliers' count and placement (depth,
+    spread over the image) can fix the step at all, whatever the matcher. At the identity
+    motion (a step's rotation and translation move the bound little)."""
+    X, Y, Z = np.asarray(P, float).T
+    fx, fy = K[0, 0], K[1, 1]
+    J = np.zeros((2 * len(Z), 6))
+    # d pixel / d translation, then d pixel / d rotation = (d pixel / d point) (-[P]x)
+    J[0::2, 3:] = np.stack([fx / Z, 0 * Z, -fx * X / Z**2], 1)
+    J[1::2, 3:] = np.stack([0 * Z, fy / Z, -fy * Y / Z**2], 1)
+    J[0::2, :3] = np.stack([-fx * X * Y / Z**2, fx * (1 + X**2 / Z**2), -fx * Y / Z], 1)
+    J[1::2, :3] = np.stack([-fy * (1 + Y**2 / Z**2), fy * X * Y / Z**2, fy * X / Z], 1)
+    C = np.linalg.inv(J.T @ J)
+    return float(np.sqrt(np.trace(C[3:, 3:])))
+
+
+def orb_funnel(seq: Frames, n: int, mask=None) -> dict:
+    """The ORB VO taken apart, medians over the steps: keypoints, cross-checked matches, those
+    with an SGBM depth, PnP-RANSAC's inliers; the share of the matches with depth that the true
+    step carries to within ``MATCH_TOL_PX`` of their partner (the same rule for real and render:
+    SGBM depth, ground-truth step), the inliers' translation bound (``pnp_translation_bound``,
+    % of the true step at 1 px) and the median translation error (% of the step, as
+    ``vo_errors``) with the steps over ``BAD_STEP_PCT``."""
+    T_gt = np.asarray(seq.T_world_cam("left"))[:n]
+    recs: list[OrbStep] = []
+    steps = orb_steps(seq, n, mask=mask, funnel=recs)
+    t_err, _ = step_errors(T_gt, steps)
+    cons, bound = [], []
+    for k, r in enumerate(recs):
+        T_k1_k = invert(invert(T_gt[k]) @ T_gt[k + 1])
+        step_m = float(np.linalg.norm(T_k1_k[:3, 3]))
+        if len(r.P):
+            Q = r.P @ T_k1_k[:3, :3].T + T_k1_k[:3, 3]
+            cons.append(float(np.mean(np.linalg.norm(project(seq.K, Q) - r.q, axis=1) < MATCH_TOL_PX)))
+        if len(r.inliers) >= 6:
+            bound.append(100 * pnp_translation_bound(r.P[r.inliers], seq.K) / step_m)
+    med = lambda v: float(np.median(v)) if len(v) else float("nan")  # noqa: E731
+    return {"keypoints": med([r.keypoints for r in recs]), "matches": med([r.matches for r in recs]),
+            "with_depth": med([len(r.P) for r in recs]), "inliers": med([len(r.inliers) for r in recs]),
+            "consistent": med(cons), "bound_pct": med(bound), "t_rpe_pct": med(t_err),
+            "bad_steps": int(np.sum(t_err > BAD_STEP_PCT)), "funnel": recs}
+
+
+def _kind_of_ids(out: Path) -> dict[int, str]:
+    """The render's object ids and their kind (the asset kind, else the class)."""
+    man = json.loads((out / "manifest.json").read_text())
+    return {o["id"]: o.get("kind") or o["class"] for o in man["objects"]}
+
+
+ORB_MASK_PX = 3         # keypoints this close to an object's pixels count as its (occlusion junctions)
+
+
+def orb_kind_lines(out: Path, real: Frames, ours: Frames, name: str, n: int, start: int = 0, top: int = 4) -> list[str]:
+    """The ORB VO taken apart on both (``orb_funnel``) and, on the render (object ids), where its
+    inliers lie by object kind and its error when ORB may not detect within ``ORB_MASK_PX`` of
+    one kind (the kinds holding the most inliers): a kind whose keypoints break steps (thin
+    tubes crossing a facade make corners that slide with parallax) lowers the error when
+    masked, one that carries the steps raises it. Draw 0 of the render."""
+    fr, fo = orb_funnel(real, n), orb_funnel(ours, n)
+    seq = open_sequence(out)
+    kind_of = _kind_of_ids(out)
+    kinds_at = lambda k: np.vectorize(lambda i: kind_of.get(int(i), "sky"))(seq.ids(start + k, "left"))  # noqa: E731
+    counts: dict[str, int] = {}
+    for k, r in enumerate(fo["funnel"]):
+        if len(r.inliers):
+            px = project(ours.K, r.P[r.inliers])
+            ids = np.asarray(seq.ids(start + k, "left"))
+            H, W = ids.shape
+            x = np.clip(np.rint(px[:, 0]).astype(int), 0, W - 1)
+            y = np.clip(np.rint(px[:, 1]).astype(int), 0, H - 1)
+            for i in ids[y, x]:
+                kd = kind_of.get(int(i), "sky")
+                counts[kd] = counts.get(kd, 0) + 1
+    total = max(sum(counts.values()), 1)
+    ranked = sorted(counts, key=counts.get, reverse=True)[:top]
+    box = np.ones((2 * ORB_MASK_PX + 1,) * 2, np.uint8)
+
+    def without(kind):
+        def mask(k):
+            m = (kinds_at(k) == kind).astype(np.uint8)
+            return (cv2.dilate(m, box) == 0).astype(np.uint8) * 255
+        return mask
+    masked = {kd: orb_funnel(ours, n, without(kd)) for kd in ranked if kd != "sky"}
+    f = lambda d: (f"keypoints {d['keypoints']:.0f}, cross-checked matches {d['matches']:.0f}, with SGBM depth "  # noqa: E731
+                   f"{d['with_depth']:.0f}, inliers {d['inliers']:.0f}; the true step carries "
+                   f"{100 * d['consistent']:.0f} % of the matches to within {MATCH_TOL_PX} px; the inliers' "
+                   f"translation bound {d['bound_pct']:.2f} % of the step at 1 px")
+    return [f"ORB VO taken apart (median over the steps): {name} {f(fr)}; render {f(fo)}; bound render / real "
+            f"{_ratio(fo['bound_pct'], fr['bound_pct']):.2f}, translation RPE render / real "
+            f"{_ratio(fo['t_rpe_pct'], fr['t_rpe_pct']):.2f}",
+            "render's ORB inliers by object kind: " + ", ".join(f"{kd} {100 * counts[kd] / total:.0f} %" for kd in ranked)
+            + f"; ORB VO's translation RPE (bad steps) as is {fo['t_rpe_pct']:.2f} % ({fo['bad_steps']}), without "
+            f"keypoints within {ORB_MASK_PX} px of " + ", ".join(f"{kd} {d['t_rpe_pct']:.2f} % ({d['bad_steps']})"
+                                                                 for kd, d in masked.items())]
 
 
 def vo_cause_lines(name: str, real: Frames, ours: Frames, real_figs: dict, draw_figs: list[dict], n: int) -> list[str]:
@@ -756,7 +934,7 @@ def main(argv=None) -> int:
     print(f"sensor-noise draws: {a.draws}, {np.mean(cpu_s):.1f} CPU s each (develop + figures"
           + (" + three VOs" if with_vo else "") + f", {n} frames)")
     if with_vo:
-        for line in vo_cause_lines(name, real, ours, real_figs, draw_figs, n):
+        for line in vo_cause_lines(name, real, ours, real_figs, draw_figs, n) + orb_kind_lines(out, real, ours, name, n):
             print(line)
     print(f"\nbrightness spread (median / mean of the linear signal): {name} {brightness_spread(real, profile, n):.2f}, "
           f"render {brightness_spread(ours, profile, n):.2f}")
@@ -772,6 +950,9 @@ def main(argv=None) -> int:
         gr, go = road_grain(out, ours, n)
         print(f"sunlit road's pixel-scale contrast (robust deviation over the 5 x 5 mean): real KITTI sequence_1 "
               f"{gr:.3f}, render {go:.3f}")
+        qr, qo = kinds_grain(out, ours, n)
+        print(f"pixel-scale contrast by kind (robust deviation over the 5 x 5 mean): real KITTI sequence_1 "
+              f"(hand-marked sunlit regions, frames 0, 20, 40) {qr}; render (by object id, sun and shade) {qo}")
         sr, so = street_surfaces(out, ours, n)
         print(f"street surfaces over the sunlit road (median linear signal; in brackets the pixel-scale contrast): "
               f"real KITTI sequence_1 (hand-marked, frames 0, 12) {sr}; render (by asset kind, sunlit) {so}")

@@ -201,3 +201,84 @@ def test_the_shared_groups_render_the_graph_written_inline(tmp_path):
     assert grouped.shape == inline.shape and np.isfinite(grouped).all()
     assert float(grouped.std()) > 0.01            # the materials are seen, not a flat frame
     assert np.array_equal(grouped, inline)
+
+
+def _sphere_means(tmp_path, names_colour) -> dict:
+    """Mean linear luminance of a sphere per (library name or 'diffuse') in the given colour,
+    each alone under a sun from behind the camera over a dark world (the street's side of a
+    tube: lit by the sun, reflecting little), 16 samples at 64 x 64."""
+    from blender_sesgen.files.exr import read_exr
+    out = {}
+    for key, (name, colour) in names_colour.items():
+        scene = bpy.data.scenes.new(f"sphere_{key}")
+        scene.render.engine = "CYCLES"
+        c = scene.cycles
+        c.device, c.samples, c.use_denoising, c.seed = "CPU", 16, False, 7
+        scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 64, 100
+        scene.render.image_settings.file_format = "OPEN_EXR"
+        scene.render.image_settings.color_depth = "32"
+        scene.render.film_transparent = True          # alpha 1 on the sphere only
+        world = bpy.data.worlds.new(f"sphere_{key}")
+        world.color = (0.03, 0.03, 0.03)
+        scene.world = world
+        sun = bpy.data.objects.new(f"sun_{key}", bpy.data.lights.new(f"sun_{key}", "SUN"))
+        sun.rotation_euler = (0.5, 0.3, 0.0)
+        sun.data.energy = 3.0
+        scene.collection.objects.link(sun)
+        mat = bpy.data.materials.new(f"m_{key}")
+        nt = mat.node_tree
+        nt.nodes.clear()
+        o = nt.nodes.new("ShaderNodeOutputMaterial")
+        if name == "diffuse":
+            shader = nt.nodes.new("ShaderNodeBsdfDiffuse")
+            shader.inputs["Color"].default_value = (*colour, 1.0)
+            nt.links.new(shader.outputs[0], o.inputs["Surface"])
+        else:
+            m = library_material(name)
+            nt.links.new(library.build_shader(nt, m, colour, shared_parts=False), o.inputs["Surface"])
+        me = bpy.data.meshes.new(f"s_{key}")
+        import bmesh
+        bm = bmesh.new()
+        bmesh.ops.create_uvsphere(bm, u_segments=48, v_segments=24, radius=0.5)
+        bm.to_mesh(me)
+        bm.free()
+        for p in me.polygons:
+            p.use_smooth = True
+        me.materials.append(mat)
+        obj = bpy.data.objects.new(f"s_{key}", me)
+        scene.collection.objects.link(obj)
+        library.object_properties(obj, seed=3, object_id=1)
+        cam = bpy.data.objects.new(f"cam_{key}", bpy.data.cameras.new(f"cam_{key}"))
+        cam.location = (0.0, 0.0, 3.0)
+        cam.data.lens = 50
+        scene.collection.objects.link(cam)
+        scene.camera = cam
+        scene.render.filepath = str(tmp_path / f"sphere_{key}.exr")
+        with bpy.context.temp_override(scene=scene):
+            bpy.ops.render.render(write_still=True, scene=scene.name)
+        ch = read_exr(scene.render.filepath)
+        bpy.data.scenes.remove(scene)
+        pick = lambda c: next(v for k, v in ch.items() if k == c or k.endswith("." + c))  # noqa: E731
+        lum = 0.2126 * pick("R") + 0.7152 * pick("G") + 0.0722 * pick("B")
+        alpha = pick("A")
+        out[key] = float(lum[alpha > 0.99].mean())
+    return out
+
+
+@pytest.mark.render
+def test_galvanised_steel_scatters_the_sun_as_its_albedo_where_a_mirror_metal_reflects_the_world(tmp_path):
+    """Weathered galvanised tubes (scaffolds, fences) read light grey in the sun (KITTI
+    sequence_1's scaffold against its wall), as a diffuse surface of their albedo; a mirror-
+    like metal of the same colour (what the scaffold was made of) reads its dark surroundings."""
+    grey = materials.entry("galvanised").colour
+    m = _sphere_means(tmp_path, {"diffuse": ("diffuse", grey), "galvanised": ("galvanised", grey),
+                                 "brushed": ("metal_brushed", grey)})
+    assert 0.7 < m["galvanised"] / m["diffuse"] < 1.3, m
+    assert m["brushed"] / m["diffuse"] < 0.6, m       # the oracle tells the two apart
+
+
+def test_scaffolds_and_fences_are_galvanised_steel():
+    from blender_sesgen.scene.assets import street_detail
+    for make, size in ((street_detail.scaffold, (8.0, 6.0, 0.9)), (street_detail.site_fence, (7.0, 2.0, 0.3))):
+        mats = {s.material for s in make(size, 3).surfaces}
+        assert "galvanised" in mats and "metal_brushed" not in mats, (make.__name__, mats)

@@ -139,3 +139,157 @@ def test_step_errors_on_exact_and_broken_steps():
     steps[2][:3, 3] *= 1.12                                    # one step 12 % long
     t, r = twin.step_errors(T, steps)
     assert np.isclose(t[2], 12.0, atol=1e-3) and np.sum(t > twin.BAD_STEP_PCT) == 1
+
+
+def _pnp_scatter(P, K, trials: int = 400) -> float:
+    """Monte Carlo: the root of the summed translation variances of PnP on P's exact pixels
+    plus 1 px of noise per coordinate (the oracle of the bound)."""
+    import cv2
+    rng = np.random.default_rng(3)
+    q = P[:, :2] / P[:, 2:] * [K[0, 0], K[1, 1]] + K[:2, 2]
+    ts = []
+    for _ in range(trials):
+        ok, r, t = cv2.solvePnP(P, q + rng.normal(0, 1, q.shape), K, None, np.zeros(3), np.zeros(3), True)
+        ts.append(t.ravel())
+    return float(np.sqrt(np.var(ts, axis=0).sum()))
+
+
+@pytest.mark.parametrize("spread", ["wide", "one side"])
+def test_pnp_translation_bound_is_the_scatter_of_pnp_under_pixel_noise(spread):
+    rng = np.random.default_rng(0)
+    K = np.array([[350.0, 0, 306], [0, 350.0, 92], [0, 0, 1]])
+    n = 60
+    Z = rng.uniform(8, 40, n)
+    u = rng.uniform(0, 612, n) if spread == "wide" else rng.uniform(420, 612, n)
+    v = rng.uniform(20, 170, n)
+    P = np.stack([(u - K[0, 2]) / K[0, 0] * Z, (v - K[1, 2]) / K[1, 1] * Z, Z], 1)
+    bound, mc = twin.pnp_translation_bound(P, K), _pnp_scatter(P, K)
+    assert 0.85 < bound / mc < 1.15, (bound, mc)
+    # fewer points, the same placement: the bound grows as 1 / sqrt(count)
+    assert np.isclose(twin.pnp_translation_bound(P[::4], K) / bound, 2.0, rtol=0.35)
+
+
+def _plane_sequence(n: int = 4, Z: float = 12.0, step_m: float = 0.5):
+    """A textured fronto-parallel plane Z m ahead of a stereo rig driving straight at it:
+    frame k is the texture scaled about the principal point by Z / (Z - k step), the right
+    view shifted by its disparity. Exact poses."""
+    import cv2
+    rng = np.random.default_rng(1)
+    W, H, f, B = 320, 160, 300.0, 0.5
+    tex = cv2.GaussianBlur((rng.random((H, W)) * 255).astype(np.float32), (0, 0), 1.2)
+    tex = cv2.normalize(tex, None, 0, 255, cv2.NORM_MINMAX)
+    K = np.array([[f, 0, W / 2], [0, f, H / 2], [0, 0, 1]])
+    left, right = [], []
+    for k in range(n):
+        s = Z / (Z - k * step_m)
+        A = np.array([[s, 0, (1 - s) * W / 2], [0, s, (1 - s) * H / 2]])
+        img = cv2.warpAffine(tex, A, (W, H), flags=cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT)
+        d = f * B / (Z - k * step_m)
+        right_img = cv2.warpAffine(img, np.array([[1.0, 0, -d], [0, 1, 0]]), (W, H), flags=cv2.INTER_CUBIC,
+                                   borderMode=cv2.BORDER_REFLECT)
+        left.append(np.clip(img, 0, 255).astype(np.uint8))
+        right.append(np.clip(right_img, 0, 255).astype(np.uint8))
+    T = np.array([np.block([[np.eye(3), np.array([[0], [0], [k * step_m]])], [np.zeros((1, 3)), np.ones((1, 1))]])
+                  for k in range(n)])
+    return twin.Frames(left, right, K, B, T)
+
+
+def test_orb_funnel_counts_the_matches_the_true_step_carries():
+    seq = _plane_sequence()
+    f = twin.orb_funnel(seq, 4)
+    assert f["matches"] >= f["with_depth"] >= f["inliers"] > 50
+    assert f["consistent"] > 0.6                 # a rigid plane: most matches agree with the true step
+    assert np.isfinite(f["bound_pct"]) and f["bound_pct"] > 0
+    # poses that claim the rig moved sideways by its steps: few matches agree with them
+    T = seq.T_world_cam().copy()
+    T[:, 0, 3], T[:, 2, 3] = T[:, 2, 3], 0.0
+    wrong = twin.Frames(seq._img["left"], seq._img["right"], seq.K, seq.baseline_m, T)
+    assert twin.orb_funnel(wrong, 4)["consistent"] < 0.3
+    # ORB kept to a quarter of the image: fewer inliers, a looser bound on the step
+    quarter = np.zeros((160, 320), np.uint8)
+    quarter[:80, 160:] = 255
+    g = twin.orb_funnel(seq, 4, mask=lambda k: quarter)
+    assert g["keypoints"] < f["keypoints"] and g["inliers"] < f["inliers"] and g["bound_pct"] > f["bound_pct"]
+
+
+def test_street_surfaces_read_a_kerbs_sunlit_top_not_its_shaded_face(shared_data, tmp_path, monkeypatch):
+    """A kerb as the half-size render sees it 8 m ahead: its sunlit top 2 px high above its face
+    in shade, 6 px; the road beside it. The kerb's brightness is its top's (KITTI's marks are
+    sunlit tops), where an erosion would have kept only the face."""
+    Hh, Ww = 60, 120
+    ids = np.ones((Hh, Ww), np.int32)                 # road
+    img = np.full((Hh, Ww), 120, np.uint8)
+    ids[20:22, 10:110], img[20:22, 10:110] = 2, 200   # the kerb's top, sunlit
+    ids[22:28, 10:110], img[22:28, 10:110] = 2, 40    # its face, in shade
+    (tmp_path / "manifest.json").write_text(json.dumps({"objects": [{"id": 1, "kind": "road", "class": "road"},
+                                                                    {"id": 2, "kind": "kerb", "class": "sidewalk"}]}))
+
+    class Ids:
+        def ids(self, k, view="left"):
+            return ids
+    monkeypatch.setattr(twin, "open_sequence", lambda out: Ids())
+    frames = twin.Frames([img] * 2, [img] * 2, np.eye(3), 0.5)
+    _, ours = twin.street_surfaces(tmp_path, frames, 2)
+    L = twin._linear(np.array([200, 120], np.uint8), "kitti")
+    kerb = float(ours.split("kerb ")[1].split()[0])
+    assert np.isclose(kerb, L[0] / L[1], atol=0.01), ours
+
+
+def test_kinds_grain_reads_each_kinds_own_detail_not_its_edges(shared_data, tmp_path, monkeypatch):
+    """A textured facade beside a flat crown: the facade's pixel-scale contrast is its texture's,
+    the crown's none (its edge against the facade is not its detail)."""
+    rng = np.random.default_rng(2)
+    Hh, Ww = 60, 120
+    ids = np.full((Hh, Ww), 2, np.int32)                       # the crown, flat
+    img = np.full((Hh, Ww), 90, np.uint8)
+    ids[:, 60:] = 1                                            # the facade, textured
+    img[:, 60:] = np.clip(150 + rng.normal(0, 12, (Hh, 60)), 0, 255).astype(np.uint8)
+    (tmp_path / "manifest.json").write_text(json.dumps({"objects": [{"id": 1, "class": "building"},
+                                                                    {"id": 2, "class": "vegetation"}]}))
+
+    class Ids:
+        def ids(self, k, view="left"):
+            return ids
+    monkeypatch.setattr(twin, "open_sequence", lambda out: Ids())
+    frames = twin.Frames([img] * 2, [img] * 2, np.eye(3), 0.5)
+    _, ours = twin.kinds_grain(tmp_path, frames, 2)
+    got = {k: float(v) for k, v in (x.split() for x in ours.split(", "))}
+    L = twin._linear(img, "kitti")
+    inner = np.zeros(img.shape, bool)
+    inner[3:-3, 63:-3] = True
+    assert got["tree"] < 1e-6 and np.isclose(got["facade"], twin._grain(L, inner), rtol=0.05), got
+
+
+def test_street_surfaces_read_the_kerb_on_its_top_by_height(shared_data, tmp_path, monkeypatch):
+    """Both the kerb's top (13 cm high) and its road-facing face in the sun, the face darker:
+    the kerb's brightness is its top's, picked by the world height of its pixels (true depth,
+    the rig 1.65 m up looking level along -Z)."""
+    Hh, Ww, f, cy = 60, 120, 100.0, 10.0
+    K = np.array([[f, 0, (Ww - 1) / 2], [0, f, cy], [0, 0, 1]])
+    ids = np.ones((Hh, Ww), np.int32)
+    img = np.full((Hh, Ww), 120, np.uint8)
+    height = np.zeros((Hh, Ww))
+    ids[20:22, 10:110], img[20:22, 10:110], height[20:22] = 2, 200, 0.13      # the top
+    ids[22:28, 10:110], img[22:28, 10:110], height[22:28] = 2, 150, 0.06      # the face, sunlit too
+    v = np.arange(Hh, dtype=float)[:, None] * np.ones((1, Ww))
+    depth = np.where(v > cy, (1.65 - height) * f / np.maximum(v - cy, 1e-3), np.inf)
+    T = np.array([[1.0, 0, 0, 0], [0, -1, 0, 1.65], [0, 0, -1, 0], [0, 0, 0, 1]])
+    (tmp_path / "manifest.json").write_text(json.dumps({"objects": [
+        {"id": 1, "kind": "road", "class": "road"},
+        {"id": 2, "kind": "kerb", "class": "sidewalk", "size": [0.2, 0.13, 50.0],
+         "T_world_obj_rest": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]}]}))
+
+    class Render:
+        def ids(self, k, view="left"):
+            return ids
+
+        def depth(self, k, view="left"):
+            return depth.astype(np.float32)
+
+        def T_world_cam(self, view="left"):
+            return np.array([T, T])
+    monkeypatch.setattr(twin, "open_sequence", lambda out: Render())
+    frames = twin.Frames([img] * 2, [img] * 2, K, 0.5)
+    _, ours = twin.street_surfaces(tmp_path, frames, 2)
+    L = twin._linear(np.array([200, 120], np.uint8), "kitti")
+    assert np.isclose(float(ours.split("kerb ")[1].split()[0]), L[0] / L[1], atol=0.01), ours

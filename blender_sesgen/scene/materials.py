@@ -117,6 +117,15 @@ LIBRARY: dict[str, LibraryEntry] = _entries(
     LibraryEntry("metal_rusty", "weathered steel: paint and steel giving way to rust (more with wear)",
                  (0.30, 0.30, 0.29), 0.5, metallic=1.0, scale_m=0.5, bump_m=0.001, variation=0.3, wear=0.5,
                  semantic_class="pole"),
+    # hot-dip galvanised steel a few years out (scaffold tubes, fences, lamp posts): the zinc's
+    # bright spangle turns to a dull, light grey patina (zinc carbonate) that scatters rather than
+    # mirrors, albedo ~0.35-0.5; KITTI sequence_1's scaffold tubes read light grey against the wall
+    # behind them, where a mirror-like metal reflects the dark street and reads near black
+    LibraryEntry("galvanised", "weathered hot-dip galvanised steel (scaffold tubes, fences): a dull light grey "
+                               "zinc patina over spangle crystals of 1-3 cm, bright zinc where worn, white rust "
+                               "and dirt with wear",
+                 (0.40, 0.40, 0.38), 0.6, metallic=0.0, scale_m=0.02, bump_m=0.0002, variation=0.2, wear=0.3,
+                 semantic_class="pole", nir=0.4),
     LibraryEntry("chrome", "polished chrome: a near-perfect mirror with faint smudges",
                  (0.55, 0.56, 0.55), 0.05, metallic=1.0, scale_m=0.1, bump_m=0.0001, variation=0.05, wear=0.1),
     LibraryEntry("car_paint", "car paint: metallic base coat under a glossy clear coat (colour for the car's)",

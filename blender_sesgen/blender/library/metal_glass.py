@@ -1,5 +1,5 @@
-"""Recipes for metals, paints and glass: metal_painted, metal_brushed, metal_rusty, chrome,
-car_paint, glass_window, frosted_glass."""
+"""Recipes for metals, paints and glass: metal_painted, metal_brushed, metal_rusty, galvanised,
+chrome, car_paint, glass_window, frosted_glass."""
 from __future__ import annotations
 
 from .graph import Ctx, Surface
@@ -49,6 +49,24 @@ def metal_rusty(ctx: Ctx) -> Surface:
     return Surface(col, rough, height, metallic=metallic, grime=0.4)
 
 
+def galvanised(ctx: Ctx) -> Surface:
+    """The patina is a dielectric (zinc carbonate scatters); bare zinc shows as metal only where
+    handling and clamps wore it (a few %), so the surface reads by its albedo in the sun."""
+    g, C = ctx.g, ctx.colour
+    cells = g.voronoi(ctx.p, 1 / ctx.entry.scale_m)                 # spangle: zinc crystals 1-3 cm
+    spangle = g.remap(cells.outputs["Color"], 0.0, 1.0, 0.9, 1.1)
+    cloud = g.remap(g.noise(ctx.p, 1 / 0.4, detail=3.0), 0.3, 0.7, 0.88, 1.08)   # uneven weathering
+    worn = g.remap(g.noise(ctx.p, 1 / 0.05, detail=4.0, roughness=0.6), 0.7, 0.76, smooth=True)
+    white = g.mul(g.remap(g.noise(ctx.p, 1 / 0.12, detail=4.0), 0.6 - 0.2 * ctx.wear, 0.7 - 0.2 * ctx.wear,
+                          smooth=True), ctx.wear)                        # white rust blooms
+    col = g.cmix(g.cmul(C, g.mul(spangle, cloud)), (0.58, 0.58, 0.56), white)
+    col = g.cmix(col, (0.62, 0.63, 0.64), worn)
+    metallic = g.mul(worn, 0.9)
+    rough = g.lerp(g.remap(cloud, 0.88, 1.08, ctx.roughness + 0.1, ctx.roughness - 0.1), 0.35, worn)
+    height = g.mul(g.noise(ctx.p, 1 / 0.005, detail=2.0), 0.0002)
+    return Surface(col, rough, height, metallic=metallic, grime=0.5)
+
+
 def chrome(ctx: Ctx) -> Surface:
     g, C = ctx.g, ctx.colour
     smudge = g.mul(g.remap(g.noise(ctx.p, 1 / 0.03, detail=4.0), 0.5, 0.7, smooth=True), ctx.wear)
@@ -88,5 +106,5 @@ def frosted_glass(ctx: Ctx) -> Surface:
 
 
 RECIPES = {"metal_painted": metal_painted, "metal_brushed": metal_brushed, "metal_rusty": metal_rusty,
-           "chrome": chrome, "car_paint": car_paint, "glass_window": glass_window,
+           "galvanised": galvanised, "chrome": chrome, "car_paint": car_paint, "glass_window": glass_window,
            "frosted_glass": frosted_glass}

@@ -33,7 +33,7 @@ def scaffold(size, seed: int) -> MeshData:
     ladder per lift in a bay of its own, base plates. The wall side is -z. size = (length,
     height, depth)."""
     rng, L, H, D, b = start(size, seed)
-    steel = b.surface("metal_brushed", GALVANISED)
+    steel = b.surface("galvanised", GALVANISED)
     woods = [b.surface("wood_planks", scaled(pick(rng, palette.WOOD), f)) for f in (0.8, 1.0, 1.25)]
     toe = b.surface("wood_planks", scaled(pick(rng, palette.WOOD), 0.9))
     bays = []
@@ -96,7 +96,7 @@ def site_fence(size, seed: int) -> MeshData:
     joined by clamps; a seeded few carry a printed banner. size = (length, height, depth of
     the feet)."""
     rng, L, H, D, b = start(size, seed)
-    steel = b.surface("metal_brushed", GALVANISED)
+    steel = b.surface("galvanised", GALVANISED)
     foot = b.surface("concrete", (0.42, 0.41, 0.39) if rng.random() < 0.6 else (0.10, 0.10, 0.10))
     banner = b.surface("fabric", pick(rng, ((0.03, 0.08, 0.25), (0.70, 0.70, 0.68), (0.35, 0.03, 0.02),
                                             (0.05, 0.18, 0.07))))
@@ -204,7 +204,7 @@ def bike_rack(size, seed: int) -> MeshData:
     seeded few of them, each standing along z beside its stand. size = (row length, stand
     height, depth: a bicycle's length)."""
     rng, L, H, D, b = start(size, seed)
-    steel = b.surface("metal_brushed", GALVANISED) if rng.random() < 0.6 else \
+    steel = b.surface("galvanised", GALVANISED) if rng.random() < 0.6 else \
         b.surface("metal_painted", pick(rng, palette.METAL_PAINT))
     surfaces = (b.surface("rubber"), b.surface("chrome"), b.surface("rubber", (0.02, 0.02, 0.02)))
     n = max(int(L / 0.9), 1)
