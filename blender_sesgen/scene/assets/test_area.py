@@ -16,6 +16,7 @@ MAT_COVERS = (((0.42, 0.42, 0.41), 4), ((0.26, 0.27, 0.28), 3), ((0.05, 0.11, 0.
               ((0.32, 0.05, 0.04), 1), ((0.06, 0.2, 0.09), 1))
 CABLE_SHEATHS = ((0.03, 0.03, 0.03), (0.03, 0.03, 0.03), (0.5, 0.5, 0.48), (0.45, 0.15, 0.02), (0.05, 0.1, 0.3))
 QUILT_M = (0.14, 0.22)           # quilting channel pitch of a landing mat (m)
+MAT_HANDLE_M = 0.02              # how far a landing mat's handle loops stand off its long sides (m)
 
 
 def crash_mat(size, seed: int) -> MeshData:
@@ -42,7 +43,7 @@ def crash_mat(size, seed: int) -> MeshData:
             z0 = sz * D / 2
             lo, hi = sorted((z0, z0 + sz * 0.006))
             b.box((xc - hl / 2, 0.35 * H, lo), (xc + hl / 2, 0.35 * H + hw, hi), strap)
-            lo, hi = sorted((z0 + sz * 0.006, z0 + sz * 0.02))
+            lo, hi = sorted((z0 + sz * 0.006, z0 + sz * MAT_HANDLE_M))
             b.box((xc - hl / 2 + 0.02, 0.35 * H, lo), (xc + hl / 2 - 0.02, 0.35 * H + hw, hi), strap)
     lw, lh = min(0.3, 0.4 * D), min(0.12, max(H - 2 * r, 0.02))     # on the end's flat part
     zc = rng.uniform(-D / 4, D / 4)
