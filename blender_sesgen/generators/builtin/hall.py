@@ -11,10 +11,12 @@ cameras' T_BS in ``../shared/data/euroc/mav0/cam0|cam1/sensor.yaml``, read by
 running (``STAND_FRAMES`` on a take-off stand, cam0 where V1_01's stands: 0.93 m above the
 floor, 21.5 deg down, shaken by the rotors, facing a low window behind diffusing glazing as
 V1_01's faces its curtained window; a drone test floor before it: marker tape, a white
-sheet, a checkerboard), climbs for 2 s, then flies at 20 Hz like EuRoC's Machine Hall runs:
-~0.6 m/s (at most ~1.5) at 1-2.5 m height, its camera 19.5 deg down as V1_01's in flight,
-yawing to look around at most as fast as V1_01's MAV turns (``YAW_RATE_MAX_DEG_S``),
-rolling and pitching a few degrees with its accelerations.
+sheet, a checkerboard, a printed play mat, cables, crash mats standing and stacked round it
+2-4 m away), climbs for 2 s, then flies at 20 Hz like EuRoC's Machine Hall runs: ~0.6 m/s
+(at most ~1.5) at 1-2.5 m height, its camera 19.5 deg down as V1_01's in flight, looking
+around in glances as V1_01's MAV does (headings held, then turned in bursts, whichever way it
+flies: :func:`glances`) and never faster than it turns (``YAW_RATE_MAX_DEG_S``), rolling and
+pitching a few degrees with its accelerations.
 
     python -m blender_sesgen.generators.builtin.hall [--seed N] [--frames N] [--stand N] > scenes/hall.ses
 
@@ -425,7 +427,7 @@ def _takeoff_stand(ids, S: np.ndarray, yaw_deg: float) -> list[str]:
 # a sheet of white paper, a checkerboard calibration target standing on the floor
 TAPE = (((-1.0, 0.85), (-0.5, 2.8)), ((0.05, 0.85), (0.4, 3.2)), ((1.6, 1.2), (0.8, 2.6)))
 TAPE_W, MARKER = 0.1, (0.06, 0.025)          # tape width; a marker's length and width (m)
-SHEET = ((-0.25, 1.8), (0.6, 0.8), 12.0)     # centre, (across, along), turn (deg)
+SHEET = ((-0.25, 1.8), (0.297, 0.42), 12.0)  # centre, (across, along) (an A3 sheet), turn (deg)
 BOARD = ((1.5, 3.3), (6, 7), 0.07)           # centre, squares (rows, columns), square (m)
 # EuRoC V1_01's camera sees crash mats 2-4 m away round its test floor (quilted, standing on edge
 # along the walls, one leaning below the window), a printed play mat under the tape at its right,
@@ -608,14 +610,15 @@ def glances(rng, n: int, start_deg: float, look: float, course_deg: np.ndarray) 
 def _attitude(P: np.ndarray, tt: np.ndarray, rng, look: float, lap: Optional[np.ndarray] = None,
               rest: Optional[tuple] = None, glance_rng=None):
     """Climb yaw, and yaw, pitch, roll (deg) of a multirotor flying the positions P at the
-    times tt: heading along its velocity, yawing ``look`` degrees about it to look around,
-    turning at a bounded rate (:func:`bounded_yaw`), tilting into its accelerations (pitch
-    forward to speed up, roll into turns). ``lap``: the laps flown at each pose (a laps
-    flight): the look-around then follows the place on the loop, the same lap after lap but
-    for a slow wander, so that a revisit looks where the last pass looked. ``rest``: (heading
-    deg, frames): the MAV rests at that heading (taken nearest the flight's first) and climbs
-    for those frames into the flight's first pose, wanting a heading eased from its rest into
-    the flight's; the climb yaw (its first the rest heading) is empty without ``rest``."""
+    times tt: looking around in glances of about ``look`` degrees (:func:`glances`, drawn from
+    ``glance_rng``) from its start heading, wandering by HOVER_YAW_DEG, turning at a bounded
+    rate (:func:`bounded_yaw`), tilting into its accelerations (pitch forward to speed up,
+    roll into turns). ``lap``: the laps flown at each pose (a laps flight): the heading then
+    follows the velocity and a look-around that follows the place on the loop, the same lap
+    after lap but for a slow wander, so that a revisit looks where the last pass looked.
+    ``rest``: (heading deg, frames): the MAV rests at that heading (taken nearest the flight's
+    first) and climbs for those frames into the flight's first pose, its glances starting
+    there; the climb yaw (its first the rest heading) is empty without ``rest``."""
     n = len(P)
     vel = np.gradient(P, tt, axis=0)
     acc = np.gradient(vel, tt, axis=0)

@@ -28,7 +28,7 @@ def crash_mat(size, seed: int) -> MeshData:
     cover = b.surface("fabric", pick(rng, MAT_COVERS))
     strap = b.surface("fabric", (0.03, 0.03, 0.035))
     label = b.surface("plastic", (0.7, 0.7, 0.68))
-    r = min(0.45 * H, 0.06)
+    r = min(0.3 * H, 0.035)          # shallow channels: the quilting shades, not folds
     n = max(int(round(W / rng.uniform(*QUILT_M))), 1)
     edges = np.linspace(-W / 2, W / 2, n + 1)
     gap = min(0.012, 0.2 * (edges[1] - edges[0]))
