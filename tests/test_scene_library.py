@@ -359,6 +359,29 @@ def test_hall_stand_is_closed_in_within_4_m_as_euroc_v1_01s(scenes, shared_data)
         assert abs(np.median(depth) - real_median) < 0.5, (k, np.median(depth), real_median)
 
 
+def test_hall_crash_mats_stand_clear_of_the_flight(scenes):
+    """The test floor's crash mats (standing on edge, or lying stacked) stand on the floor and
+    at least 1 m from every pose of both cameras after lift-off in hall.ses and seeds 1-7 (a
+    flight towards the window passes over the test floor: a mat in its way is left out);
+    hall.ses has all six."""
+    from blender_sesgen.ses.parser import parse_text
+    hall = _generator("hall")
+    for seed, s in enumerate([scenes["hall"]] + [parse_text(hall.generate(k), "h.ses", str(SCENES)) for k in range(1, 8)]):
+        n = hall.STAND_FRAMES
+        cams = np.concatenate([s.timeline.left()[n:, :3, 3], s.timeline.right(s.rig.baseline)[n:, :3, 3]])
+        mats = [o for o in s.objects if isinstance(o, Asset) and o.kind == "crash_mat"]
+        assert len(mats) == 6 if seed == 0 else len(mats) >= 2, (seed, len(mats))
+        for o in mats:
+            T = object_pose(o.position, o.rotation_deg)
+            V = np.asarray(assets.generate(o.kind, o.size, o.seed).vertices) @ T[:3, :3].T + T[:3, 3]
+            assert V[:, 1].min() > -1e-6, (seed, o.id)
+            local = (cams - T[:3, 3]) @ T[:3, :3]
+            L, H, D = o.size
+            gap = np.linalg.norm(np.maximum(np.maximum(np.array([-L / 2, 0, -D / 2]) - local,
+                                                       local - np.array([L / 2, H, D / 2])), 0), axis=1)
+            assert gap.min() > 1.0 - 0.05, (seed, o.id, gap.min())      # the handles stand 2 cm off
+
+
 def test_hall_stand_faces_a_curtained_window_as_euroc_v1_01s(scenes, shared_data):
     """Standing, cam0 sees diffusing glazing (``frosted_glass``, a white curtain's 0.40/0.45)
     in the top of the image as EuRoC V1_01's camera sees its curtained window: oracle, the

@@ -50,6 +50,7 @@ import numpy as np
 
 from ...scene.assets.test_area import MAT_HANDLE_M
 from ...scene.lighting import SKY_EXPOSURE
+from ...contract.se3 import euler_xyz_deg_to_R
 from .sesgen_layout import (REPO, Ids, Lighting, asset, command_line, draw_lighting, num, nums, script_with_poses,
                            SeededVariation, smooth_noise, variation_rng)
 
@@ -363,10 +364,10 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
     if stand:
         S = _stand_position(P[0], np.gradient(P, axis=0)[0] * RATE_HZ)
         out += _takeoff_stand(ids, S, look)
-        out += _test_floor(ids, S, look, variation_rng(seed, 0x7E5), placed)
         comment += (f": standing on the take-off stand for {stand} frames (rotors shaking it from frame "
                     f"{min(ROTORS_FRAMES, stand)}), climbing for {climb}, then flying")
         P, yaw, pitch, roll = _stand_and_take_off(P, climb_yaw, yaw, pitch, roll, stand, variation_rng(seed, 0x57A))
+        out += _test_floor(ids, S, look, variation_rng(seed, 0x7E5), placed, P)
     out += _pallet_bays(ids, D, placed, variation_rng(seed, 0xBA5))
     return script_with_poses(out, comment, P[:frames], yaw[:frames], pitch[:frames], roll[:frames])
 
@@ -441,11 +442,25 @@ PLAY_MAT = ((1.35, 2.1), -10.0, (1.0, 0.004, 1.8))           # centre, turn, siz
 CABLES = (((-0.6, 1.4), 75.0, (2.6, 0.01, 0.5)), ((0.9, 3.0), -20.0, (1.8, 0.012, 0.4)))
 
 
-def _test_floor(ids, S: np.ndarray, yaw_deg: float, rng, placed: list) -> list[str]:
+MAT_CLEARANCE_M = 1.0            # a mat stands at least this far from every pose of the flight (the
+                                 # MAV spans ~0.6 m): else it is left out, as it would be in the flight's way
+
+
+def _clear_of(path: np.ndarray, centre, rotation_deg, lo, hi) -> bool:
+    """Whether every point of ``path`` (n, 3) lies at least MAT_CLEARANCE_M from the box
+    [lo, hi] (its own frame) placed at ``centre`` turned by ``rotation_deg`` (SES rx ry rz)."""
+    R = euler_xyz_deg_to_R(*rotation_deg)
+    local = (np.asarray(path) - np.asarray(centre)) @ R
+    gap = np.linalg.norm(np.maximum(np.maximum(np.asarray(lo) - local, local - np.asarray(hi)), 0.0), axis=1)
+    return bool(gap.min() >= MAT_CLEARANCE_M)
+
+
+def _test_floor(ids, S: np.ndarray, yaw_deg: float, rng, placed: list, path: np.ndarray) -> list[str]:
     """A drone test area's floor in front of the take-off stand (cam0 at ``S`` heading
     ``yaw_deg``), the things EuRoC V1_01's camera sees near it (TAPE, SHEET, BOARD, the
-    crash mats, a play mat, cables); the mats' footprints join ``placed`` (the pallet bays keep
-    clear). Heights keep every top face apart from the floor's paint (joints 2-3 mm, aisle
+    crash mats, a play mat, cables); a mat (the stack as one) that the flight (cam0 at
+    ``path``) would pass within MAT_CLEARANCE_M of is left out, and the footprints of those
+    placed join ``placed`` (the pallet bays keep clear). Heights keep every top face apart from the floor's paint (joints 2-3 mm, aisle
     lines 4 mm, bays 5 mm; none under the test floor): the play mat 4 mm, its prints up to
     5.5 mm, tape 6 mm, its markers 7 mm, the sheet 5.5 mm (not over the play mat)."""
     a = np.radians(yaw_deg)
@@ -478,17 +493,25 @@ def _test_floor(ids, S: np.ndarray, yaw_deg: float, rng, placed: list) -> list[s
         yaw = turn(np.cos(np.radians(t)), np.sin(np.radians(t)))
         a_ = np.radians(yaw)
         c = at(u, w, size[2] / 2 + MAT_HANDLE_M) - size[1] / 2 * np.array([np.sin(a_), 0.0, np.cos(a_)])
-        out.append(f"ASSET crash_mat id {ids('takeoff')} seed {int(rng.integers(1e6))} position {nums(c)} "
-                   f"90 {num(yaw, 3)} 0 size {nums(size)}")
-        placed += [tuple(at(u + f * size[0] * np.cos(np.radians(t)), w + f * size[0] * np.sin(np.radians(t)), 0)[[0, 2]])
-                   for f in (-0.5, 0.0, 0.5)]
+        mat_seed = int(rng.integers(1e6))
+        L, T_, Wd = size
+        if _clear_of(path, c, (90.0, yaw, 0.0), (-L / 2, 0.0, -Wd / 2), (L / 2, T_, Wd / 2)):
+            out.append(f"ASSET crash_mat id {ids('takeoff')} seed {mat_seed} position {nums(c)} "
+                       f"90 {num(yaw, 3)} 0 size {nums(size)}")
+            placed += [tuple(at(u + f * L * np.cos(np.radians(t)), w + f * L * np.sin(np.radians(t)), 0)[[0, 2]])
+                       for f in (-0.5, 0.0, 0.5)]
     (u, w), t, (length, width), layers = MAT_STACK
     yaw, y = turn(np.cos(np.radians(t)), np.sin(np.radians(t))), 0.0
+    stack = []
     for h in layers:
-        out.append(f"ASSET crash_mat id {ids('takeoff')} seed {int(rng.integers(1e6))} position {nums(at(u, w, y))} "
-                   f"0 {num(yaw + rng.normal(0, 2), 3)} 0 size {nums((length, h, width))}")
+        stack.append((int(rng.integers(1e6)), at(u, w, y), yaw + rng.normal(0, 2), (length, h, width)))
         y += h
-    placed += [tuple(at(u + f * length, w, 0)[[0, 2]]) for f in (-0.5, 0.0, 0.5)]
+    reach = np.hypot(length, width) / 2          # each layer turned a little: its circle's box
+    if _clear_of(path, at(u, w, 0), (0.0, 0.0, 0.0), (-reach, 0.0, -reach), (reach, y, reach)):
+        for mat_seed, c, a_, size in stack:
+            out.append(f"ASSET crash_mat id {ids('takeoff')} seed {mat_seed} position {nums(c)} "
+                       f"0 {num(a_, 3)} 0 size {nums(size)}")
+        placed += [tuple(at(u + f * length, w, 0)[[0, 2]]) for f in (-0.5, 0.0, 0.5)]
     (u, w), t, size = PLAY_MAT
     out.append(f"ASSET play_mat id {ids('takeoff')} seed {int(rng.integers(1e6))} position {nums(at(u, w, 0))} "
                f"0 {num(yaw_deg + m * t, 3)} 0 size {nums(size)}")
