@@ -440,8 +440,6 @@ MATS_STANDING = (((-2.1, 2.9), 88.0, (2.0, 0.25, 1.4)), ((-2.3, 4.0), -4.0, (2.0
 MAT_STACK = ((0.3, 4.3), 5.0, (2.2, 1.4), (0.3, 0.28, 0.3))   # centre, turn, (length, width), thicknesses
 PLAY_MAT = ((1.35, 2.1), -10.0, (1.0, 0.004, 1.8))           # centre, turn, size: 4 mm, its prints to 5.5 mm
 CABLES = (((-0.6, 1.4), 75.0, (2.6, 0.01, 0.5)), ((0.9, 3.0), -20.0, (1.8, 0.012, 0.4)))
-
-
 MAT_CLEARANCE_M = 1.0            # a mat stands at least this far from every pose of the flight (the
                                  # MAV spans ~0.6 m): else it is left out, as it would be in the flight's way
 
@@ -460,9 +458,10 @@ def _test_floor(ids, S: np.ndarray, yaw_deg: float, rng, placed: list, path: np.
     ``yaw_deg``), the things EuRoC V1_01's camera sees near it (TAPE, SHEET, BOARD, the
     crash mats, a play mat, cables); a mat (the stack as one) that the flight (cam0 at
     ``path``) would pass within MAT_CLEARANCE_M of is left out, and the footprints of those
-    placed join ``placed`` (the pallet bays keep clear). Heights keep every top face apart from the floor's paint (joints 2-3 mm, aisle
-    lines 4 mm, bays 5 mm; none under the test floor): the play mat 4 mm, its prints up to
-    5.5 mm, tape 6 mm, its markers 7 mm, the sheet 5.5 mm (not over the play mat)."""
+    placed join ``placed`` (the pallet bays keep clear). Heights keep every top face apart
+    from the floor's paint (joints 2-3 mm, aisle lines 4 mm, bays 5 mm; none under the test
+    floor): the play mat 4 mm, its prints up to 5.5 mm, tape 6 mm, its markers 7 mm, the
+    sheet 5.5 mm (not over the play mat)."""
     a = np.radians(yaw_deg)
     fwd, right = np.array([-np.sin(a), 0.0, -np.cos(a)]), np.array([np.cos(a), 0.0, -np.sin(a)])
     m = -1.0 if S[0] * right[0] > 0 else 1.0         # mirrored: the board's side towards the hall's middle
