@@ -102,7 +102,7 @@ class Variation(SeededVariation, salt=0x4A1):
     reverse: bool = False                # flown towards +z (south) instead of -z
     swing: float = 1.5                   # sideways swing (m)
     height: tuple = (1.6, 0.5)           # mean height and its swing (m)
-    look: float = 35.0                   # yawing to look around (deg)
+    look: float = 35.0                   # a glance's mean turn, looking around (deg)
 
     @classmethod
     def draw(cls, rng: np.random.Generator) -> "Variation":
