@@ -198,7 +198,8 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
            "AUTOEXPOSURE                // its exposure follows the scene (metered before the frames render)", ""]
     clad = rng.choice(["0.3 0.33 0.36", "0.45 0.46 0.45", "0.2 0.27 0.33"])
     out += ["// materials derived from the library (colour replaces the library's)",
-            # power-trowelled: a faint sheen that mirrors lamps and windows, blurred
+            # power-trowelled: a faint sheen that mirrors lamps and windows, blurred (the Physically
+            # Based database's concrete: roughness 0.5; docs/sensors.md, Camera twins)
             f"MATERIAL name hall_floor library concrete colour {nums(var.floor[0])} wear {num(var.floor[1], 2)} "
             "roughness 0.55",
             "MATERIAL name floor_joint library concrete colour 0.05 0.05 0.048 wear 0",
