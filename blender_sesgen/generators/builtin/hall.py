@@ -11,10 +11,12 @@ cameras' T_BS in ``../shared/data/euroc/mav0/cam0|cam1/sensor.yaml``, read by
 running (``STAND_FRAMES`` on a take-off stand, cam0 where V1_01's stands: 0.93 m above the
 floor, 21.5 deg down, shaken by the rotors, facing a low window behind diffusing glazing as
 V1_01's faces its curtained window; a drone test floor before it: marker tape, a white
-sheet, a checkerboard), climbs for 2 s, then flies at 20 Hz like EuRoC's Machine Hall runs:
-~0.6 m/s (at most ~1.5) at 1-2.5 m height, its camera 19.5 deg down as V1_01's in flight,
-yawing to look around at most as fast as V1_01's MAV turns (``YAW_RATE_MAX_DEG_S``),
-rolling and pitching a few degrees with its accelerations.
+sheet, a checkerboard, a printed play mat, cables, crash mats standing and stacked round it
+2-4 m away), climbs for 2 s, then flies at 20 Hz like EuRoC's Machine Hall runs: ~0.6 m/s
+(at most ~1.5) at 1-2.5 m height, its camera 19.5 deg down as V1_01's in flight, looking
+around in glances as V1_01's MAV does (headings held, then turned in bursts, whichever way it
+flies: :func:`glances`) and never faster than it turns (``YAW_RATE_MAX_DEG_S``), rolling and
+pitching a few degrees with its accelerations.
 
     python -m blender_sesgen.generators.builtin.hall [--seed N] [--frames N] [--stand N] > scenes/hall.ses
 
@@ -46,7 +48,9 @@ from typing import Optional
 
 import numpy as np
 
+from ...scene.assets.test_area import MAT_HANDLE_M
 from ...scene.lighting import SKY_EXPOSURE
+from ...contract.se3 import euler_xyz_deg_to_R
 from .sesgen_layout import (REPO, Ids, Lighting, asset, command_line, draw_lighting, num, nums, script_with_poses,
                            SeededVariation, smooth_noise, variation_rng)
 
@@ -98,7 +102,7 @@ class Variation(SeededVariation, salt=0x4A1):
     reverse: bool = False                # flown towards +z (south) instead of -z
     swing: float = 1.5                   # sideways swing (m)
     height: tuple = (1.6, 0.5)           # mean height and its swing (m)
-    look: float = 35.0                   # yawing to look around (deg)
+    look: float = 35.0                   # a glance's mean turn, looking around (deg)
 
     @classmethod
     def draw(cls, rng: np.random.Generator) -> "Variation":
@@ -194,7 +198,8 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
            "AUTOEXPOSURE                // its exposure follows the scene (metered before the frames render)", ""]
     clad = rng.choice(["0.3 0.33 0.36", "0.45 0.46 0.45", "0.2 0.27 0.33"])
     out += ["// materials derived from the library (colour replaces the library's)",
-            # power-trowelled: a faint sheen that mirrors lamps and windows, blurred
+            # power-trowelled: a faint sheen that mirrors lamps and windows, blurred (the Physically
+            # Based database's concrete: roughness 0.5; docs/sensors.md, Camera twins)
             f"MATERIAL name hall_floor library concrete colour {nums(var.floor[0])} wear {num(var.floor[1], 2)} "
             "roughness 0.55",
             "MATERIAL name floor_joint library concrete colour 0.05 0.05 0.048 wear 0",
@@ -331,7 +336,6 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
             x, z = gx + rng.uniform(-1.5, 1.5), gz + rng.uniform(-1.5, 1.5)
             out.append(asset(kind, ids("clutter"), (x, 0, z), rng.uniform(0, 360), seed=int(rng.integers(1e6))))
             placed.append((x, z))
-    out += _pallet_bays(ids, D, placed, variation_rng(seed, 0xBA5))
     # --- the flight ------------------------------------------------------------------------
     n_flight = frames - stand - climb
     if flight == "laps":
@@ -355,15 +359,17 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
         S0 = _stand_position(P[0], np.gradient(P, axis=0)[0] * RATE_HZ)
         window = np.array([0.5 * sum(LOW_WINDOW[0]), 0.0, D / 2]) - S0
         look = float(np.degrees(np.arctan2(-window[0], -window[2])))
-        climb_yaw, yaw, pitch, roll = _attitude(P, tt, rng, var.look, rest=(look, climb) if stand else None)
+        climb_yaw, yaw, pitch, roll = _attitude(P, tt, rng, var.look, rest=(look, climb) if stand else None,
+                                                    glance_rng=variation_rng(seed, 0x6A1))
         comment = f"the flight: {frames} poses of cam0 at {num(RATE_HZ, 0)} Hz"
     if stand:
         S = _stand_position(P[0], np.gradient(P, axis=0)[0] * RATE_HZ)
         out += _takeoff_stand(ids, S, look)
-        out += _test_floor(ids, S, look, variation_rng(seed, 0x7E5))
         comment += (f": standing on the take-off stand for {stand} frames (rotors shaking it from frame "
                     f"{min(ROTORS_FRAMES, stand)}), climbing for {climb}, then flying")
         P, yaw, pitch, roll = _stand_and_take_off(P, climb_yaw, yaw, pitch, roll, stand, variation_rng(seed, 0x57A))
+        out += _test_floor(ids, S, look, variation_rng(seed, 0x7E5), placed, P)
+    out += _pallet_bays(ids, D, placed, variation_rng(seed, 0xBA5))
     return script_with_poses(out, comment, P[:frames], yaw[:frames], pitch[:frames], roll[:frames])
 
 
@@ -423,15 +429,40 @@ def _takeoff_stand(ids, S: np.ndarray, yaw_deg: float) -> list[str]:
 # a sheet of white paper, a checkerboard calibration target standing on the floor
 TAPE = (((-1.0, 0.85), (-0.5, 2.8)), ((0.05, 0.85), (0.4, 3.2)), ((1.6, 1.2), (0.8, 2.6)))
 TAPE_W, MARKER = 0.1, (0.06, 0.025)          # tape width; a marker's length and width (m)
-SHEET = ((0.75, 1.5), (0.6, 0.8), 12.0)      # centre, (across, along), turn (deg)
+SHEET = ((-0.25, 1.8), (0.297, 0.42), 12.0)  # centre, (across, along) (an A3 sheet), turn (deg)
 BOARD = ((1.5, 3.3), (6, 7), 0.07)           # centre, squares (rows, columns), square (m)
+# EuRoC V1_01's camera sees crash mats 2-4 m away round its test floor (quilted, standing on edge
+# along the walls, one leaning below the window), a printed play mat under the tape at its right,
+# cables: most of its corners (1.45-2.4 m, 71 % in the image's lower half). Here: mats standing on
+# their long edge left and right, outside the low window's azimuth (+-18 deg at 12 m), a stack
+# lying before the window that hides the floor below it (its top under the sill's line of sight)
+MATS_STANDING = (((-2.1, 2.9), 88.0, (2.0, 0.25, 1.4)), ((-2.3, 4.0), -4.0, (2.0, 0.3, 1.2)),
+                 ((2.6, 3.7), 6.0, (1.8, 0.25, 1.4)))        # centre (u, w), turn (deg), size
+MAT_STACK = ((0.3, 4.3), 5.0, (2.2, 1.4), (0.3, 0.28, 0.3))   # centre, turn, (length, width), thicknesses
+PLAY_MAT = ((1.35, 2.1), -10.0, (1.0, 0.004, 1.8))           # centre, turn, size: 4 mm, its prints to 5.5 mm
+CABLES = (((-0.6, 1.4), 75.0, (2.6, 0.01, 0.5)), ((0.9, 3.0), -20.0, (1.8, 0.012, 0.4)))
+MAT_CLEARANCE_M = 1.0            # a mat stands at least this far from every pose of the flight (the
+                                 # MAV spans ~0.6 m): else it is left out, as it would be in the flight's way
 
 
-def _test_floor(ids, S: np.ndarray, yaw_deg: float, rng) -> list[str]:
+def _clear_of(path: np.ndarray, centre, rotation_deg, lo, hi) -> bool:
+    """Whether every point of ``path`` (n, 3) lies at least MAT_CLEARANCE_M from the box
+    [lo, hi] (its own frame) placed at ``centre`` turned by ``rotation_deg`` (SES rx ry rz)."""
+    R = euler_xyz_deg_to_R(*rotation_deg)
+    local = (np.asarray(path) - np.asarray(centre)) @ R
+    gap = np.linalg.norm(np.maximum(np.maximum(np.asarray(lo) - local, local - np.asarray(hi)), 0.0), axis=1)
+    return bool(gap.min() >= MAT_CLEARANCE_M)
+
+
+def _test_floor(ids, S: np.ndarray, yaw_deg: float, rng, placed: list, path: np.ndarray) -> list[str]:
     """A drone test area's floor in front of the take-off stand (cam0 at ``S`` heading
-    ``yaw_deg``), the things EuRoC V1_01's camera sees near it (TAPE, SHEET, BOARD). Heights
-    keep every top face apart from the floor's paint (joints 2-3 mm, aisle lines 4 mm, bays
-    5 mm): tape 6 mm, its markers 7 mm, the sheet 5.5 mm."""
+    ``yaw_deg``), the things EuRoC V1_01's camera sees near it (TAPE, SHEET, BOARD, the
+    crash mats, a play mat, cables); a mat (the stack as one) that the flight (cam0 at
+    ``path``) would pass within MAT_CLEARANCE_M of is left out, and the footprints of those
+    placed join ``placed`` (the pallet bays keep clear). Heights keep every top face apart
+    from the floor's paint (joints 2-3 mm, aisle lines 4 mm, bays 5 mm; none under the test
+    floor): the play mat 4 mm, its prints up to 5.5 mm, tape 6 mm, its markers 7 mm, the
+    sheet 5.5 mm (not over the play mat)."""
     a = np.radians(yaw_deg)
     fwd, right = np.array([-np.sin(a), 0.0, -np.cos(a)]), np.array([np.cos(a), 0.0, -np.sin(a)])
     m = -1.0 if S[0] * right[0] > 0 else 1.0         # mirrored: the board's side towards the hall's middle
@@ -458,6 +489,36 @@ def _test_floor(ids, S: np.ndarray, yaw_deg: float, rng) -> list[str]:
     (u, w), (across, along), t = SHEET
     out.append(f"CUBOID id {ids('takeoff')} material paper_white class floor position {nums(at(u, w, 0.00275))} "
                f"0 {num(yaw_deg + m * t, 3)} 0 dim {nums((across, 0.0055, along))}")
+    for (u, w), t, size in MATS_STANDING:    # on the long edge (its handles under it): the width stands up
+        yaw = turn(np.cos(np.radians(t)), np.sin(np.radians(t)))
+        a_ = np.radians(yaw)
+        c = at(u, w, size[2] / 2 + MAT_HANDLE_M) - size[1] / 2 * np.array([np.sin(a_), 0.0, np.cos(a_)])
+        mat_seed = int(rng.integers(1e6))
+        L, T_, Wd = size
+        if _clear_of(path, c, (90.0, yaw, 0.0), (-L / 2, 0.0, -Wd / 2), (L / 2, T_, Wd / 2)):
+            out.append(f"ASSET crash_mat id {ids('takeoff')} seed {mat_seed} position {nums(c)} "
+                       f"90 {num(yaw, 3)} 0 size {nums(size)}")
+            placed += [tuple(at(u + f * L * np.cos(np.radians(t)), w + f * L * np.sin(np.radians(t)), 0)[[0, 2]])
+                       for f in (-0.5, 0.0, 0.5)]
+    (u, w), t, (length, width), layers = MAT_STACK
+    yaw, y = turn(np.cos(np.radians(t)), np.sin(np.radians(t))), 0.0
+    stack = []
+    for h in layers:
+        stack.append((int(rng.integers(1e6)), at(u, w, y), yaw + rng.normal(0, 2), (length, h, width)))
+        y += h
+    reach = np.hypot(length, width) / 2          # each layer turned a little: its circle's box
+    if _clear_of(path, at(u, w, 0), (0.0, 0.0, 0.0), (-reach, 0.0, -reach), (reach, y, reach)):
+        for mat_seed, c, a_, size in stack:
+            out.append(f"ASSET crash_mat id {ids('takeoff')} seed {mat_seed} position {nums(c)} "
+                       f"0 {num(a_, 3)} 0 size {nums(size)}")
+        placed += [tuple(at(u + f * length, w, 0)[[0, 2]]) for f in (-0.5, 0.0, 0.5)]
+    (u, w), t, size = PLAY_MAT
+    out.append(f"ASSET play_mat id {ids('takeoff')} seed {int(rng.integers(1e6))} position {nums(at(u, w, 0))} "
+               f"0 {num(yaw_deg + m * t, 3)} 0 size {nums(size)}")
+    placed.append(tuple(at(u, w, 0)[[0, 2]]))
+    for (u, w), t, size in CABLES:
+        out.append(f"ASSET cable id {ids('takeoff')} seed {int(rng.integers(1e6))} position {nums(at(u, w, 0))} "
+                   f"0 {num(turn(np.cos(np.radians(t)), np.sin(np.radians(t))), 3)} 0 size {nums(size)}")
     (u, w), (rows, cols), q = BOARD
     face = yaw_deg - np.degrees(np.arctan2(m * u, w))      # the board faces the camera (left is +yaw)
     out.append(f"CUBOID id {ids('takeoff')} name checkerboard material paper_white class furniture position "
@@ -535,36 +596,71 @@ def bounded_yaw(target_deg: np.ndarray, start_deg: float, start_rate_deg_s: floa
     return out
 
 
+# V1_01's MAV looks around in glances: its heading (the gyro about gravity, 20-Hz frames over the
+# flight, 6-145 s) holds still for most frames (median turn 0.31 deg a frame, p75 1.05, p90 1.56)
+# and turns in bursts (1-s means of the rate: median 7 deg/s, p90 28), 87 deg peak to peak over
+# 10 s (median; p10-p90 45-158), whichever way it flies
+GLANCE_HOLD_S = (0.8, 3.0)       # how long it holds a heading (s)
+GLANCE_RATE_DEG_S = (12.0, 28.0)  # a glance's mean turning rate (its peak pi/2 x that, under the bound)
+HOVER_YAW_DEG = 1.0              # the heading's slow wander while holding (deg, RMS)
+
+
+def glances(rng, n: int, start_deg: float, look: float, course_deg: np.ndarray) -> np.ndarray:
+    """The heading (deg, one a frame at RATE_HZ) a MAV that looks around wants: it holds a
+    heading for GLANCE_HOLD_S, then turns by 0.5-1.5 x ``look`` degrees at GLANCE_RATE_DEG_S
+    (eased in and out), two times in three towards its course (``course_deg``, the flight's
+    heading at that frame) when that lies further than ``look`` away, else either way. Drawn
+    glance by glance from ``rng``: a shorter flight's wanted heading is the start of a longer
+    one's."""
+    want = np.empty(n)
+    y, i = float(start_deg), 0
+    while i < n:
+        hold = max(int(rng.uniform(*GLANCE_HOLD_S) * RATE_HZ), 1)
+        want[i:i + hold] = y
+        i += hold
+        if i >= n:
+            break
+        amp = look * rng.uniform(0.5, 1.5)
+        off = (course_deg[i] - y + 180.0) % 360.0 - 180.0
+        sign = np.sign(off) if abs(off) > look and rng.uniform() < 2 / 3 else (1.0 if rng.uniform() < 0.5 else -1.0)
+        dur = max(int(amp / rng.uniform(*GLANCE_RATE_DEG_S) * RATE_HZ), 2)
+        ease = 0.5 - 0.5 * np.cos(np.pi * np.arange(1, dur + 1) / dur)
+        want[i:i + dur] = (y + sign * amp * ease)[:n - i]
+        y, i = y + sign * amp, i + dur
+    return want
+
+
 def _attitude(P: np.ndarray, tt: np.ndarray, rng, look: float, lap: Optional[np.ndarray] = None,
-              rest: Optional[tuple] = None):
+              rest: Optional[tuple] = None, glance_rng=None):
     """Climb yaw, and yaw, pitch, roll (deg) of a multirotor flying the positions P at the
-    times tt: heading along its velocity, yawing ``look`` degrees about it to look around,
-    turning at a bounded rate (:func:`bounded_yaw`), tilting into its accelerations (pitch
-    forward to speed up, roll into turns). ``lap``: the laps flown at each pose (a laps
-    flight): the look-around then follows the place on the loop, the same lap after lap but
-    for a slow wander, so that a revisit looks where the last pass looked. ``rest``: (heading
-    deg, frames): the MAV rests at that heading (taken nearest the flight's first) and climbs
-    for those frames into the flight's first pose, wanting a heading eased from its rest into
-    the flight's; the climb yaw (its first the rest heading) is empty without ``rest``."""
+    times tt: looking around in glances of about ``look`` degrees (:func:`glances`, drawn from
+    ``glance_rng``) from its start heading, wandering by HOVER_YAW_DEG, turning at a bounded
+    rate (:func:`bounded_yaw`), tilting into its accelerations (pitch forward to speed up,
+    roll into turns). ``lap``: the laps flown at each pose (a laps flight): the heading then
+    follows the velocity and a look-around that follows the place on the loop, the same lap
+    after lap but for a slow wander, so that a revisit looks where the last pass looked.
+    ``rest``: (heading deg, frames): the MAV rests at that heading (taken nearest the flight's
+    first) and climbs for those frames into the flight's first pose, its glances starting
+    there; the climb yaw (its first the rest heading) is empty without ``rest``."""
     n = len(P)
     vel = np.gradient(P, tt, axis=0)
     acc = np.gradient(vel, tt, axis=0)
     heading = np.degrees(np.unwrap(np.arctan2(-vel[:, 0], -vel[:, 2])))
-    if lap is None:
-        yaw = heading + look * smooth_noise(rng, n, 1.0, (0.9, 1.7))      # looks around, not only ahead
+    if lap is None:   # glances, whichever way it flies (a multirotor need not face its course)
+        lead = rest[1] if rest is not None else 0
+        start = heading[0] if rest is None else heading[0] - ((heading[0] - rest[0] + 180.0) % 360.0 - 180.0)
+        want = glances(glance_rng, n + lead, start, look, np.concatenate([np.full(lead, heading[0]), heading]))
+        want += HOVER_YAW_DEG * smooth_noise(glance_rng, n + lead, 1.0, (3.1, 5.3, 8.9))
+        turned = bounded_yaw(want[1:], want[0])
+        climb = np.concatenate([want[:1], turned[:lead - 1]]) if lead else np.empty(0)
+        yaw = np.concatenate([want[:1], turned])[lead:]
     else:   # whole cycles per lap: continuous from one lap into the next
         phase = 2 * np.pi * np.asarray(lap)
         per_place = sum(np.sin(c * phase + rng.uniform(0, 2 * np.pi)) for c in (1, 2))
         yaw = heading + look * (per_place + 0.25 * smooth_noise(rng, n, 1.0, (0.9, 1.7)))
-    if rest is None:
         climb = np.empty(0)
         yaw = np.concatenate([yaw[:1], bounded_yaw(yaw[1:], yaw[0], np.clip((yaw[1] - yaw[0]) * RATE_HZ, -YAW_RATE_MAX_DEG_S,
                                                                                 YAW_RATE_MAX_DEG_S))])
-    else:
-        start = yaw[0] - ((yaw[0] - rest[0] + 180.0) % 360.0 - 180.0)    # the same heading, nearest the flight's
-        s = np.arange(rest[1]) / rest[1]
-        turned = bounded_yaw(np.concatenate([start + (3 * s ** 2 - 2 * s ** 3) * (yaw[0] - start), yaw])[1:], start)
-        climb, yaw = np.concatenate([[start], turned[:rest[1] - 1]]), turned[rest[1] - 1:]
     pitch = FLIGHT_PITCH_DEG + np.degrees(np.clip(-(acc[:, 2] * np.cos(np.radians(yaw)) + acc[:, 0] * np.sin(np.radians(yaw))) / 9.81, -0.1, 0.1)) \
         + 0.5 * smooth_noise(rng, n, 1.0, (9.0, 17.0))
     roll = np.degrees(np.clip((acc[:, 0] * np.cos(np.radians(yaw)) - acc[:, 2] * np.sin(np.radians(yaw))) / 9.81, -0.1, 0.1)) \
