@@ -41,7 +41,7 @@ from typing import Optional
 
 import numpy as np
 
-from ...scene.assets import generate as asset_mesh
+from ...scene.assets import default_size, generate as asset_mesh
 from ...scene.assets.street import arc_frame
 from .city_grid import _keyframes as keyframes
 from .sesgen_layout import (KITTI_CAMERA_HEIGHT, Frontage, Ids, Lighting, asset, command_line, derived_material, draw_lighting,
@@ -136,6 +136,11 @@ KITTI_S1_NEAR = NearField(half_road=2.0, bay=2.5, walk_left=0.0, car_offset=3.13
                           walk_right=2.2, setback_right=(0.6, 1.2))
 # a white silicate render (light reflectance value ~80: palette.PLASTER's whitest but one)
 WHITE_RENDER = (0.80, 0.79, 0.76)
+# a building under works has no finished render yet (it goes on last, from the scaffold): its walls
+# are bare grey concrete / masonry, the library's cast concrete (albedo ~0.37). KITTI sequence_1's
+# scaffolded block (frames 20-38, hand-marked) is 0.33-0.49 x the frame's mean with 1-6 % of it
+# burnt out, where the white render behind the scaffold gave 0.8-1.2 x and 12-19 %
+WORKS_WALL = "works_concrete"
 FRONT_ROW_M = 30.0   # a block's centre within this of the centreline: the front row (second rows stand further back)
 # near-field street detail (docs/sensors.md, Camera twins: what KITTI sequence_1 shows at 5-30 m
 # that carries its corners): KITTI sequence_1's right front row is under scaffolding with fence
@@ -252,7 +257,7 @@ def _front_row_building(ln: str, centreline: _Centreline) -> Optional[dict]:
     if dist > FRONT_ROW_M:
         return None
     return {"p": p, "yaw": float(w[i + 5]) if j - i == 7 else 0.0, "size": tuple(float(x) for x in w[j + 1:j + 4]),
-            "seed": int(w[w.index("seed") + 1]), "s": s, "dist": dist}
+            "seed": int(w[w.index("seed") + 1]), "id": int(w[w.index("id") + 1]), "s": s, "dist": dist}
 
 
 def _front_row(lines: list[str], centreline: _Centreline) -> list[dict]:
@@ -323,10 +328,23 @@ def _works_row(lines: list[str], centreline: _Centreline, place, s_end: float, i
     return out
 
 
+def _reach(w: list[str]) -> float:
+    """How far a bush of an ASSET line's words ``w`` reaches from its centre (half its larger
+    footprint side: its size, or the seeded one a line without size gets); 0 for the rest."""
+    if w[1] != "bush":
+        return 0.0
+    if "size" in w:
+        j = w.index("size")
+        return max(float(w[j + 1]), float(w[j + 3])) / 2
+    size = default_size("bush", int(w[w.index("seed") + 1]))
+    return max(size[0], size[2]) / 2
+
+
 def _clear_footprints(lines: list[str], works: list[str], margin: float = 0.3) -> list[str]:
     """``lines`` without the small street furniture (bins, poles, signs, bollards, bushes,
     hedges, fences) that stands within ``margin`` of a footprint of ``works`` (scaffolds and
-    site fences stand where the sidewalk's bins and signs were: a works site clears them)."""
+    site fences stand where the sidewalk's bins and signs were: a works site clears them) -
+    a bush within its reach (``_reach``: a yard's bush centred 0.4 m before a scaffold grew into it)."""
     boxes = []
     for ln in works:
         w = ln.split()
@@ -338,27 +356,43 @@ def _clear_footprints(lines: list[str], works: list[str], margin: float = 0.3) -
     for ln in lines:
         w = ln.split()
         if len(w) > 1 and w[0] == "ASSET" and w[1] in ("bin", "pole", "sign", "bollard", "bush", "hedge", "fence"):
-            q = _ground_xz(w)
+            q, r = _ground_xz(w), _reach(w)
             inside = False
             for c, yaw, hx, hz in boxes:     # the asset frame's x = (cos, -sin), z = (sin, cos) in world (x, z)
                 d = q - c
-                inside |= abs(d[0] * np.cos(yaw) - d[1] * np.sin(yaw)) < hx and abs(d[0] * np.sin(yaw) + d[1] * np.cos(yaw)) < hz
+                inside |= abs(d[0] * np.cos(yaw) - d[1] * np.sin(yaw)) < hx + r and \
+                    abs(d[0] * np.sin(yaw) + d[1] * np.cos(yaw)) < hz + r
             if inside:
                 continue
         out.append(ln)
     return out
 
 
+def _works_walls(lines: list[str], works_ids: set) -> list[str]:
+    """``lines`` with the buildings of ``works_ids`` (under works) given the ``WORKS_WALL``
+    material (their walls) in place of any other."""
+    out = []
+    for ln in lines:
+        w = ln.split()
+        if len(w) > 3 and w[:2] == ["ASSET", "building"] and int(w[3]) in works_ids:
+            if "material" in w:
+                i = w.index("material")
+                del w[i:i + 2]
+            ln = " ".join(w + ["material", WORKS_WALL])
+        out.append(ln)
+    return out
+
+
 def _street_detail(rng, side_lines: dict, place, centreline: _Centreline, behind: float, edges: dict,
-                   near: Optional[NearField], staked: tuple, trees_at: dict, ids: Ids) -> list[str]:
+                   near: Optional[NearField], staked: tuple, trees_at: dict, ids: Ids) -> tuple[list[str], set]:
     """Scaffolds on front-row buildings under works (seed 0: the right ones ``near.works_right``
-    ahead; else each with ``P_WORKS``) and a site fence along their yard, bike racks (seed 0:
+    ahead; else each with ``P_WORKS``; their ids are returned beside the lines) and a site fence along their yard, bike racks (seed 0:
     at ``near.bikes_right``; else before a front-row building with ``P_BIKES``), stakes round
     the young (left) and tree-lawn (right) trees with the shares ``staked``. Stakes and racks
     are a few variants each (instanced)."""
     stakes = [int(x) for x in rng.integers(1, 10 ** 6, 4)]
     racks = [(int(x), (round(float(rng.uniform(2.7, 4.5)), 2), 0.85, 1.8)) for x in rng.integers(1, 10 ** 6, 3)]
-    out = []
+    out, works_ids = [], set()
     for side, lines in side_lines.items():
         for b in _front_row(lines, centreline):
             W, H, D = b["size"]
@@ -372,6 +406,7 @@ def _street_detail(rng, side_lines: dict, place, centreline: _Centreline, behind
                 works = rng.random() < P_WORKS
             if works:   # to the eaves (a gable's ridge is ~1/4 of the height above them), clear of
                 # what the facade carries below them (balconies, sills, steps: the building's own mesh)
+                works_ids.add(b["id"])
                 h_s = round(max(0.75 * H, 4.5), 2)
                 V = asset_mesh("building", (W, H, D), b["seed"]).vertices
                 face = float(V[V[:, 1] < h_s, 2].max()) + SCAFFOLD_GAP_M
@@ -386,7 +421,9 @@ def _street_detail(rng, side_lines: dict, place, centreline: _Centreline, behind
             if near is None and rng.random() < P_BIKES and yard > 3.0:
                 seed_, size = racks[int(rng.integers(len(racks)))]
                 p = b["p"] + front * (D / 2 + 1.6) + along * float(rng.uniform(-W / 3, W / 3))
-                out.append(asset("bike_rack", ids("furniture"), p, b["yaw"], size, seed=seed_))
+                i = ids("furniture")    # drawn all the same: the ids after it stay
+                if not works:           # a site's entrance has no bike rack (it stood in the scaffold)
+                    out.append(asset("bike_rack", i, p, b["yaw"], size, seed=seed_))
     for a in (near.bikes_right if near is not None else ()):
         p, h = place(behind + a, edges[1] - 0.95)
         seed_, size = racks[0]
@@ -396,7 +433,7 @@ def _street_detail(rng, side_lines: dict, place, centreline: _Centreline, behind
             if rng.random() < share:
                 i = int(rng.integers(len(stakes)))
                 out.append(asset("tree_stakes", ids("furniture"), p, 0.0, (0.7, 2.2, 0.7), seed=stakes[i]))
-    return out
+    return out, works_ids
 
 
 def _traffic(rng, centre, s_cam: np.ndarray, step_m: float, L: float, n_cars: int, ids: Ids, seed_of,
@@ -596,9 +633,11 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     # --- near-field detail: works (scaffold, site fence), bike racks, the young trees' stakes --
     # (a stream of its own, ids after the furniture's: the layout and ids drawn before stay)
     out += ["", "// near-field detail: facade scaffolding and site fences at works, bike racks, tree stakes"]
-    detail = _street_detail(np.random.default_rng([seed, 0xDE7]), side_lines, place, centreline, behind,
-                            {1: right_edge, -1: -left_edge}, near, v.staked, trees_at, ids)
+    detail, works_ids = _street_detail(np.random.default_rng([seed, 0xDE7]), side_lines, place, centreline, behind,
+                                       {1: right_edge, -1: -left_edge}, near, v.staked, trees_at, ids)
     out = _clear_footprints(out, [ln for ln in detail if ln.split()[1] in ("scaffold", "site_fence")]) + detail
+    if works_ids:       # the buildings under works: bare concrete walls, their render not yet on
+        out = _works_walls(out, works_ids) + [derived_material(WORKS_WALL, "concrete", seed=seed)]
 
     # --- grass (real blades) on the tree lawn and the first metres of the yards and fields --
     out += ["", "// grass: patches of blades on the lawns near the road (a few variants, instanced)"]
