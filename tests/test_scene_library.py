@@ -400,7 +400,7 @@ def test_forest_walk_follows_the_trail(scenes):
 
 # --- cameras see surfaces -----------------------------------------------------------------
 
-SOLID = {"road", "kerb", "sidewalk", "verge", "terrain"}
+SOLID = {"road", "kerb", "gutter", "sidewalk", "verge", "terrain"}
 BOX_FACES = np.array([(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1), (2, 3, 7), (2, 7, 6),
                       (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)])
 
@@ -546,6 +546,26 @@ def test_city_kitti_near_field_is_kitti_sequence_1s(scenes):
     assert blades(s2) == {0.16}
     assert np.all(left_kerb_m(s2) > 5.0)
     assert min(abs(x) for c in parked_cars(s2).values() for _, x in c) < 3.0
+
+
+def test_city_kitti_has_kitti_sequence_1s_gutter_before_the_bay(scenes):
+    """KITTI sequence_1's carriageway meets its parking bay in a light concrete gutter (frame 12,
+    rows 300-360: 0.38-0.44 m wide, 2.3-2.8 m right of the camera, 2.3 x the sunlit asphalt, as
+    bright as its kerb tops): seed 0 has a 0.3-0.5 m gutter strip from the road's right edge to
+    the bay's, lighter than the asphalt, the setts and the kerb's granite; a drawn seed has none."""
+    from blender_sesgen.generators.builtin import city_kitti
+    from blender_sesgen.scene.assets.street import gutter
+    s = scenes["city_kitti"]
+    strips = {o.kind: o for o in s.objects if isinstance(o, Asset) and o.kind in ("road", "gutter")}
+    bay = next(o for o in s.objects if isinstance(o, Asset) and o.kind == "sidewalk" and o.size[1] < 0.05)
+    g, road = strips["gutter"], strips["road"]
+    assert 0.3 <= g.size[0] <= 0.5 and g.bend == road.bend
+    assert g.offset - g.size[0] / 2 == pytest.approx(road.size[0] / 2)                 # from the road's edge ...
+    assert g.offset + g.size[0] / 2 == pytest.approx(bay.offset - bay.size[0] / 2)     # ... to the bay's
+    from blender_sesgen.scene.materials import entry
+    light = min(min(surf.colour) for surf in gutter(g.size, g.seed, g.bend, g.offset).surfaces)
+    assert light > max(max(entry(m).colour) for m in ("granite", "setts", "asphalt")), light
+    assert " gutter " not in city_kitti.generate(2)
 
 
 def test_city_kitti_lawns_hide_their_ground_at_the_cameras_grazing_view():

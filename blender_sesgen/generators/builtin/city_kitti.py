@@ -111,6 +111,7 @@ class NearField:
     lawn_right: float = 0.0     # the right tree lawn's and sidewalk's widths (0: drawn) ...
     walk_right: float = 0.0
     setback_right: tuple = ()   # ... and the right front row's setback range behind the sidewalk (empty: drawn)
+    gutter_right: float = 0.0   # a light concrete gutter this wide between the carriageway and the bay
 
 
 # KITTI sequence_1's street, measured in its frames (ground plane 1.65 m under the camera, f 707
@@ -129,11 +130,12 @@ class NearField:
 # positions of the points above the horizon right of the image centre: 9, 9, 8, 7, 7 m), behind a
 # grass strip ~1.5 m wide from ~4 m (frame 0, rows 300-340 on the ground plane) and paving to the
 # facades; under scaffolding from ~20 m ahead in frame 0 (its near end at column 876 of 1226, 8 m right:
-# 21 m) to past frame 50
+# 21 m) to past frame 50; between its carriageway and the bay a light concrete gutter (frame 12, rows
+# 300-360: 0.38-0.44 m wide, 2.3-2.8 m right of the camera; 2.3 x the sunlit asphalt)
 KITTI_S1_NEAR = NearField(half_road=2.0, bay=2.5, walk_left=0.0, car_offset=3.13, parked_ahead=(15.4, 40.1),
                           parked_clear=100.0, traffic_lane=0.1, traffic_ahead=(100.0, 130.0), oncoming=False,
                           white_right=65.0, works_right=(20.0, 75.0), bikes_right=(7.0,), lawn_right=1.3,
-                          walk_right=2.2, setback_right=(0.6, 1.2))
+                          walk_right=2.2, setback_right=(0.6, 1.2), gutter_right=0.4)
 # a white silicate render (light reflectance value ~80: palette.PLASTER's whitest but one)
 WHITE_RENDER = (0.80, 0.79, 0.76)
 # a building under works has no finished render yet (it goes on last, from the scaffold): its walls
@@ -538,7 +540,8 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     r_kerb = half_road + kerb_w / 2 - 0.05            # kerbs overlap the road edge by 5 cm
     out.append(strip("road", 2 * half_road, 0.3, 0.0, seed * 10 + 1, road_mat))
     if bay:                                           # setts, flush with the road (1 cm up), as KITTI s1's bay
-        out.append(strip("sidewalk", bay, 0.01, half_road + bay / 2, seed * 10 + 9, " material setts"))
+        g = near.gutter_right if near is not None else 0.0   # ... its first decimetres a gutter (seed 0)
+        out.append(strip("sidewalk", bay - g, 0.01, half_road + g + (bay - g) / 2, seed * 10 + 9, " material setts"))
     out.append(strip("kerb", kerb_w, kerb_h, r_kerb + bay, seed * 10 + 2))
     out.append(strip("kerb", kerb_w, kerb_h, -r_kerb, seed * 10 + 3))
     o = r_kerb + bay + kerb_w / 2
@@ -557,6 +560,8 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     o += walk_l
     left_edge = -o
     out.append(strip("verge", yard, kerb_h, -(o + yard / 2), seed * 10 + 8))
+    if bay and g:                                     # the gutter last: the other strips keep their ids
+        out.append(strip("gutter", g, 0.01, half_road + g / 2, seed * 10 + 10))
 
     def place(s, offset):
         p, n, h = _centre(street_pos, street_yaw, np.atleast_1d(s), L, bends)
