@@ -125,7 +125,8 @@ class NearField:
 # oncoming (a street too narrow for two cars to pass at speed); the cars far ahead drive its middle
 # as the rig does (its car's centre ~0.27 m right of the left camera); the blocks on the right
 # through frame 45 (~55 m) have white renders: the sunlit one of frames 0-15 holds almost all of
-# the sequence's burnt-out pixels, the one being built in frames 20-45 is white behind its scaffold;
+# the sequence's burnt-out pixels; the one being built in frames 20-45 is grey behind its scaffold
+# (0.33-0.49 x the frame mean: bare walls, WORKS_WALL, which replaces the white render there);
 # that right front row stands 7-10 m right of the camera (SGBM, frames 0-40: the peak of the lateral
 # positions of the points above the horizon right of the image centre: 9, 9, 8, 7, 7 m), behind a
 # grass strip ~1.5 m wide from ~4 m (frame 0, rows 300-340 on the ground plane) and paving to the
