@@ -598,9 +598,8 @@ def test_city_kitti_lawns_hide_their_ground_at_the_cameras_grazing_view():
 def test_city_kitti_foliage_passes_what_it_reflects_and_seed_0s_right_blocks_are_white(scenes):
     """Leaves and grass blades pass about as much light as they reflect, in the sensor's band
     too (PROSPECT: a green leaf's transmittance follows its reflectance from 400 to 1000 nm),
-    so lit crowns glow from within; seed 0's front-row blocks on the right through ~25 m have
-    KITTI sequence_1's white render (its burnt-out pixels), the block under scaffolding beyond
-    them (25-70 m) bare concrete (KITTI's is 0.33-0.49 x the frame mean there), a drawn seed's are its own."""
+    so lit crowns glow from within; seed 0's front-row blocks on the right through ~60 m have
+    KITTI sequence_1's white render (its burnt-out pixels), a drawn seed's are its own."""
     from blender_sesgen.generators.builtin import city_kitti
     from blender_sesgen.scene.materials import band_colour, entry, transmitted_colour
     for name in ("leaves", "grass"):
@@ -615,8 +614,7 @@ def test_city_kitti_foliage_passes_what_it_reflects_and_seed_0s_right_blocks_are
     right = [(float((np.asarray(o.position) - T0[:3, 3]) @ T0[:3, 2]), o.material) for o in s.objects
              if isinstance(o, Asset) and o.kind == "building" and (np.asarray(o.position) - T0[:3, 3]) @ T0[:3, 0] > 0
              and abs((np.asarray(o.position) - T0[:3, 3]) @ T0[:3, 0]) < 30.0]
-    assert {m for z, m in right if -5.0 < z < 25.0} == {"white_render"}, right
-    assert {m for z, m in right if 25.0 < z < 70.0} == {"works_concrete"}, right
+    assert {m for z, m in right if -5.0 < z < 55.0} == {"white_render"}, right
     assert all(m is None for z, m in right if z > 70.0), right
     assert "white_render" not in city_kitti.generate(2)
 
@@ -669,30 +667,18 @@ def test_city_kitti_near_field_detail_stands_where_kitti_sequence_1s_does():
     assert 0 < sum("scaffold" in k for k in kinds) < 8 and 0 < sum("bike_rack" in k for k in kinds) < 8
 
 
-def test_city_kitti_works_are_bare_concrete_and_their_footprints_clear():
-    """A building under works (a scaffold before its facade) has bare concrete walls - its
-    render goes on last - and no other building has them (KITTI sequence_1's scaffolded block:
-    0.33-0.49 x the frame mean where a white render gave 0.8-1.2 x); nothing of a yard stands in
-    a scaffold's or site fence's footprint: no bike rack at a site, no bush reaching into it
-    (seeds 1, 3, 4, 5, 6, 8 and 9 had one or the other; footprints as axis boxes in each
-    works asset's frame, a bush as the circle round its footprint)."""
+def test_city_kitti_works_footprints_are_clear():
+    """Nothing of a yard stands in a scaffold's or site fence's footprint: no bike rack at a
+    site, no bush reaching into it (seeds 1, 3, 4, 5, 6, 8 and 9 had one or the other;
+    footprints as axis boxes in each works asset's frame, a bush or rack as the circle round
+    its footprint)."""
     from blender_sesgen.generators.builtin import city_kitti
     from blender_sesgen.ses.parser import parse_text
-    from blender_sesgen.scene.materials import entry
     with_works = 0
     for seed in range(10):
-        s = parse_text(city_kitti.generate(seed))
-        objs = [o for o in s.objects if isinstance(o, Asset)]
+        objs = [o for o in parse_text(city_kitti.generate(seed)).objects if isinstance(o, Asset)]
         works = [o for o in objs if o.kind in ("scaffold", "site_fence")]
-        behind = {min((b for b in objs if b.kind == "building"),
-                      key=lambda b: np.linalg.norm(np.subtract(b.position, o.position))).id
-                  for o in works if o.kind == "scaffold"}
-        concrete = {b.id for b in objs if b.kind == "building" and b.material == city_kitti.WORKS_WALL}
-        assert concrete == behind, (seed, concrete, behind)
-        if behind:
-            with_works += 1
-            m = s.material(city_kitti.WORKS_WALL)
-            assert m.library.name == "concrete" and max(m.colour) < 0.45 < min(entry("plaster").colour), m
+        with_works += bool(works)
         for w in works:
             a = np.radians(w.rotation_deg[1])
             for o in objs:

@@ -125,8 +125,10 @@ class NearField:
 # oncoming (a street too narrow for two cars to pass at speed); the cars far ahead drive its middle
 # as the rig does (its car's centre ~0.27 m right of the left camera); the blocks on the right
 # through frame 45 (~55 m) have white renders: the sunlit one of frames 0-15 holds almost all of
-# the sequence's burnt-out pixels; the one being built in frames 20-45 is grey behind its scaffold
-# (0.33-0.49 x the frame mean: bare walls, WORKS_WALL, which replaces the white render there);
+# the sequence's burnt-out pixels; the one being built in frames 20-45 is white behind its scaffold
+# where its street facade shows (frame 44, burnt out) and grey where its walls face the camera in
+# frames 20-38 (0.33-0.49 x the frame mean: grazing sun; bare concrete walls there made the bench's
+# KLT, clipped share and slope worse, docs/sensors.md);
 # that right front row stands 7-10 m right of the camera (SGBM, frames 0-40: the peak of the lateral
 # positions of the points above the horizon right of the image centre: 9, 9, 8, 7, 7 m), behind a
 # grass strip ~1.5 m wide from ~4 m (frame 0, rows 300-340 on the ground plane) and paving to the
@@ -139,11 +141,6 @@ KITTI_S1_NEAR = NearField(half_road=2.0, bay=2.5, walk_left=0.0, car_offset=3.13
                           walk_right=2.2, setback_right=(0.6, 1.2), gutter_right=0.4)
 # a white silicate render (light reflectance value ~80: palette.PLASTER's whitest but one)
 WHITE_RENDER = (0.80, 0.79, 0.76)
-# a building under works has no finished render yet (it goes on last, from the scaffold): its walls
-# are bare grey concrete / masonry, the library's cast concrete (albedo ~0.37). KITTI sequence_1's
-# scaffolded block (frames 20-38, hand-marked) is 0.33-0.49 x the frame's mean with 1-6 % of it
-# burnt out, where the white render behind the scaffold gave 0.8-1.2 x and 12-19 %
-WORKS_WALL = "works_concrete"
 FRONT_ROW_M = 30.0   # a block's centre within this of the centreline: the front row (second rows stand further back)
 # near-field street detail (docs/sensors.md, Camera twins: what KITTI sequence_1 shows at 5-30 m
 # that carries its corners): KITTI sequence_1's right front row is under scaffolding with fence
@@ -260,7 +257,7 @@ def _front_row_building(ln: str, centreline: _Centreline) -> Optional[dict]:
     if dist > FRONT_ROW_M:
         return None
     return {"p": p, "yaw": float(w[i + 5]) if j - i == 7 else 0.0, "size": tuple(float(x) for x in w[j + 1:j + 4]),
-            "seed": int(w[w.index("seed") + 1]), "id": int(w[w.index("id") + 1]), "s": s, "dist": dist}
+            "seed": int(w[w.index("seed") + 1]), "s": s, "dist": dist}
 
 
 def _front_row(lines: list[str], centreline: _Centreline) -> list[dict]:
@@ -371,31 +368,16 @@ def _clear_footprints(lines: list[str], works: list[str], margin: float = 0.3) -
     return out
 
 
-def _works_walls(lines: list[str], works_ids: set) -> list[str]:
-    """``lines`` with the buildings of ``works_ids`` (under works) given the ``WORKS_WALL``
-    material (their walls) in place of any other."""
-    out = []
-    for ln in lines:
-        w = ln.split()
-        if len(w) > 3 and w[:2] == ["ASSET", "building"] and int(w[3]) in works_ids:
-            if "material" in w:
-                i = w.index("material")
-                del w[i:i + 2]
-            ln = " ".join(w + ["material", WORKS_WALL])
-        out.append(ln)
-    return out
-
-
 def _street_detail(rng, side_lines: dict, place, centreline: _Centreline, behind: float, edges: dict,
-                   near: Optional[NearField], staked: tuple, trees_at: dict, ids: Ids) -> tuple[list[str], set]:
+                   near: Optional[NearField], staked: tuple, trees_at: dict, ids: Ids) -> list[str]:
     """Scaffolds on front-row buildings under works (seed 0: the right ones ``near.works_right``
-    ahead; else each with ``P_WORKS``; their ids are returned beside the lines) and a site fence along their yard, bike racks (seed 0:
+    ahead; else each with ``P_WORKS``) and a site fence along their yard, bike racks (seed 0:
     at ``near.bikes_right``; else before a front-row building with ``P_BIKES``), stakes round
     the young (left) and tree-lawn (right) trees with the shares ``staked``. Stakes and racks
     are a few variants each (instanced)."""
     stakes = [int(x) for x in rng.integers(1, 10 ** 6, 4)]
     racks = [(int(x), (round(float(rng.uniform(2.7, 4.5)), 2), 0.85, 1.8)) for x in rng.integers(1, 10 ** 6, 3)]
-    out, works_ids = [], set()
+    out = []
     for side, lines in side_lines.items():
         for b in _front_row(lines, centreline):
             W, H, D = b["size"]
@@ -409,7 +391,6 @@ def _street_detail(rng, side_lines: dict, place, centreline: _Centreline, behind
                 works = rng.random() < P_WORKS
             if works:   # to the eaves (a gable's ridge is ~1/4 of the height above them), clear of
                 # what the facade carries below them (balconies, sills, steps: the building's own mesh)
-                works_ids.add(b["id"])
                 h_s = round(max(0.75 * H, 4.5), 2)
                 V = asset_mesh("building", (W, H, D), b["seed"]).vertices
                 face = float(V[V[:, 1] < h_s, 2].max()) + SCAFFOLD_GAP_M
@@ -436,7 +417,7 @@ def _street_detail(rng, side_lines: dict, place, centreline: _Centreline, behind
             if rng.random() < share:
                 i = int(rng.integers(len(stakes)))
                 out.append(asset("tree_stakes", ids("furniture"), p, 0.0, (0.7, 2.2, 0.7), seed=stakes[i]))
-    return out, works_ids
+    return out
 
 
 def _traffic(rng, centre, s_cam: np.ndarray, step_m: float, L: float, n_cars: int, ids: Ids, seed_of,
@@ -639,11 +620,9 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     # --- near-field detail: works (scaffold, site fence), bike racks, the young trees' stakes --
     # (a stream of its own, ids after the furniture's: the layout and ids drawn before stay)
     out += ["", "// near-field detail: facade scaffolding and site fences at works, bike racks, tree stakes"]
-    detail, works_ids = _street_detail(np.random.default_rng([seed, 0xDE7]), side_lines, place, centreline, behind,
-                                       {1: right_edge, -1: -left_edge}, near, v.staked, trees_at, ids)
+    detail = _street_detail(np.random.default_rng([seed, 0xDE7]), side_lines, place, centreline, behind,
+                            {1: right_edge, -1: -left_edge}, near, v.staked, trees_at, ids)
     out = _clear_footprints(out, [ln for ln in detail if ln.split()[1] in ("scaffold", "site_fence")]) + detail
-    if works_ids:       # the buildings under works: bare concrete walls, their render not yet on
-        out = _works_walls(out, works_ids) + [derived_material(WORKS_WALL, "concrete", seed=seed)]
 
     # --- grass (real blades) on the tree lawn and the first metres of the yards and fields --
     out += ["", "// grass: patches of blades on the lawns near the road (a few variants, instanced)"]
