@@ -552,7 +552,8 @@ def test_city_kitti_has_kitti_sequence_1s_gutter_before_the_bay(scenes):
     """KITTI sequence_1's carriageway meets its parking bay in a light concrete gutter (frame 12,
     rows 300-360: 0.38-0.44 m wide, 2.3-2.8 m right of the camera, 2.3 x the sunlit asphalt, as
     bright as its kerb tops): seed 0 has a 0.3-0.5 m gutter strip from the road's right edge to
-    the bay's, lighter than the asphalt, the setts and the kerb's granite; a drawn seed has none."""
+    the bay's, lighter than the asphalt and the setts, no lighter than weathered concrete (fresh,
+    0.37, rendered 3.4 x the asphalt); a drawn seed has none."""
     from blender_sesgen.generators.builtin import city_kitti
     from blender_sesgen.scene.assets.street import gutter
     s = scenes["city_kitti"]
@@ -563,8 +564,8 @@ def test_city_kitti_has_kitti_sequence_1s_gutter_before_the_bay(scenes):
     assert g.offset - g.size[0] / 2 == pytest.approx(road.size[0] / 2)                 # from the road's edge ...
     assert g.offset + g.size[0] / 2 == pytest.approx(bay.offset - bay.size[0] / 2)     # ... to the bay's
     from blender_sesgen.scene.materials import entry
-    light = min(min(surf.colour) for surf in gutter(g.size, g.seed, g.bend, g.offset).surfaces)
-    assert light > max(max(entry(m).colour) for m in ("granite", "setts", "asphalt")), light
+    tones = [c for surf in gutter(g.size, g.seed, g.bend, g.offset).surfaces for c in surf.colour]
+    assert max(max(entry(m).colour) for m in ("setts", "asphalt")) < min(tones) and max(tones) <= 0.3, tones
     assert " gutter " not in city_kitti.generate(2)
 
 
