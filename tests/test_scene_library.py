@@ -496,7 +496,7 @@ def test_forest_walk_follows_the_trail(scenes):
 
 # --- cameras see surfaces -----------------------------------------------------------------
 
-SOLID = {"road", "kerb", "sidewalk", "verge", "terrain"}
+SOLID = {"road", "kerb", "gutter", "sidewalk", "verge", "terrain"}
 BOX_FACES = np.array([(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1), (2, 3, 7), (2, 7, 6),
                       (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)])
 
@@ -644,6 +644,27 @@ def test_city_kitti_near_field_is_kitti_sequence_1s(scenes):
     assert min(abs(x) for c in parked_cars(s2).values() for _, x in c) < 3.0
 
 
+def test_city_kitti_has_kitti_sequence_1s_gutter_before_the_bay(scenes):
+    """KITTI sequence_1's carriageway meets its parking bay in a light concrete gutter (frame 12,
+    rows 300-360: 0.38-0.44 m wide, 2.3-2.8 m right of the camera, 2.3 x the sunlit asphalt, as
+    bright as its kerb tops): seed 0 has a 0.3-0.5 m gutter strip from the road's right edge to
+    the bay's, lighter than the asphalt and the setts, no lighter than weathered concrete (fresh,
+    0.37, rendered 3.4 x the asphalt); a drawn seed has none."""
+    from blender_sesgen.generators.builtin import city_kitti
+    from blender_sesgen.scene.assets.street import gutter
+    s = scenes["city_kitti"]
+    strips = {o.kind: o for o in s.objects if isinstance(o, Asset) and o.kind in ("road", "gutter")}
+    bay = next(o for o in s.objects if isinstance(o, Asset) and o.kind == "sidewalk" and o.size[1] < 0.05)
+    g, road = strips["gutter"], strips["road"]
+    assert 0.3 <= g.size[0] <= 0.5 and g.bend == road.bend
+    assert g.offset - g.size[0] / 2 == pytest.approx(road.size[0] / 2)                 # from the road's edge ...
+    assert g.offset + g.size[0] / 2 == pytest.approx(bay.offset - bay.size[0] / 2)     # ... to the bay's
+    from blender_sesgen.scene.materials import entry
+    tones = [c for surf in gutter(g.size, g.seed, g.bend, g.offset).surfaces for c in surf.colour]
+    assert max(max(entry(m).colour) for m in ("setts", "asphalt")) < min(tones) and max(tones) <= 0.3, tones
+    assert " gutter " not in city_kitti.generate(2)
+
+
 def test_city_kitti_lawns_hide_their_ground_at_the_cameras_grazing_view():
     """A mown lawn's blades (grass_tuft, 8 cm, in clumps) stand dense enough to hide most of the
     ground from a camera 1.65 m up and 10 m away (rays cast against the tuft's own mesh: > 75 %
@@ -741,6 +762,30 @@ def test_city_kitti_near_field_detail_stands_where_kitti_sequence_1s_does():
     assert all(k.count("site_fence") <= k.count("scaffold") for k in kinds) and any("site_fence" in k for k in kinds)
     assert all("tree_stakes" in k for k in kinds)
     assert 0 < sum("scaffold" in k for k in kinds) < 8 and 0 < sum("bike_rack" in k for k in kinds) < 8
+
+
+def test_city_kitti_works_footprints_are_clear():
+    """Nothing of a yard stands in a scaffold's or site fence's footprint: no bike rack at a
+    site, no bush reaching into it (seeds 1, 3, 4, 5, 6, 8 and 9 had one or the other;
+    footprints as axis boxes in each works asset's frame, a bush or rack as the circle round
+    its footprint)."""
+    from blender_sesgen.generators.builtin import city_kitti
+    from blender_sesgen.ses.parser import parse_text
+    with_works = 0
+    for seed in range(10):
+        objs = [o for o in parse_text(city_kitti.generate(seed)).objects if isinstance(o, Asset)]
+        works = [o for o in objs if o.kind in ("scaffold", "site_fence")]
+        with_works += bool(works)
+        for w in works:
+            a = np.radians(w.rotation_deg[1])
+            for o in objs:
+                if o.kind not in ("bush", "bike_rack", "bin", "pole", "sign", "bollard", "tree_stakes"):
+                    continue
+                d = np.subtract(o.position, w.position)[[0, 2]]
+                u, v = d[0] * np.cos(a) - d[1] * np.sin(a), d[0] * np.sin(a) + d[1] * np.cos(a)
+                r = max(o.size[0], o.size[2]) / 2 if o.kind in ("bush", "bike_rack") else 0.0
+                assert not (abs(u) < w.size[0] / 2 + r and abs(v) < w.size[2] / 2 + r), (seed, w.kind, w.id, o.kind, o.id)
+    assert with_works >= 6
 
 
 def test_city_kitti_parks_its_kerbs_as_kitti_sequence_1_and_seeds_vary_it(scenes):

@@ -41,7 +41,7 @@ from typing import Optional
 
 import numpy as np
 
-from ...scene.assets import generate as asset_mesh
+from ...scene.assets import default_size, generate as asset_mesh
 from ...scene.assets.street import arc_frame
 from .city_grid import _keyframes as keyframes
 from .sesgen_layout import (KITTI_CAMERA_HEIGHT, Frontage, Ids, Lighting, asset, command_line, derived_material, draw_lighting,
@@ -111,6 +111,7 @@ class NearField:
     lawn_right: float = 0.0     # the right tree lawn's and sidewalk's widths (0: drawn) ...
     walk_right: float = 0.0
     setback_right: tuple = ()   # ... and the right front row's setback range behind the sidewalk (empty: drawn)
+    gutter_right: float = 0.0   # a light concrete gutter this wide between the carriageway and the bay
 
 
 # KITTI sequence_1's street, measured in its frames (ground plane 1.65 m under the camera, f 707
@@ -124,16 +125,20 @@ class NearField:
 # oncoming (a street too narrow for two cars to pass at speed); the cars far ahead drive its middle
 # as the rig does (its car's centre ~0.27 m right of the left camera); the blocks on the right
 # through frame 45 (~55 m) have white renders: the sunlit one of frames 0-15 holds almost all of
-# the sequence's burnt-out pixels, the one being built in frames 20-45 is white behind its scaffold;
+# the sequence's burnt-out pixels; the one being built in frames 20-45 is white behind its scaffold
+# where its street facade shows (frame 44, burnt out) and grey where its walls face the camera in
+# frames 20-38 (0.33-0.49 x the frame mean: grazing sun; bare concrete walls there made the bench's
+# KLT, clipped share and slope worse, docs/sensors.md);
 # that right front row stands 7-10 m right of the camera (SGBM, frames 0-40: the peak of the lateral
 # positions of the points above the horizon right of the image centre: 9, 9, 8, 7, 7 m), behind a
 # grass strip ~1.5 m wide from ~4 m (frame 0, rows 300-340 on the ground plane) and paving to the
 # facades; under scaffolding from ~20 m ahead in frame 0 (its near end at column 876 of 1226, 8 m right:
-# 21 m) to past frame 50
+# 21 m) to past frame 50; between its carriageway and the bay a light concrete gutter (frame 12, rows
+# 300-360: 0.38-0.44 m wide, 2.3-2.8 m right of the camera; 2.3 x the sunlit asphalt)
 KITTI_S1_NEAR = NearField(half_road=2.0, bay=2.5, walk_left=0.0, car_offset=3.13, parked_ahead=(15.4, 40.1),
                           parked_clear=100.0, traffic_lane=0.1, traffic_ahead=(100.0, 130.0), oncoming=False,
                           white_right=65.0, works_right=(20.0, 75.0), bikes_right=(7.0,), lawn_right=1.3,
-                          walk_right=2.2, setback_right=(0.6, 1.2))
+                          walk_right=2.2, setback_right=(0.6, 1.2), gutter_right=0.4)
 # a white silicate render (light reflectance value ~80: palette.PLASTER's whitest but one)
 WHITE_RENDER = (0.80, 0.79, 0.76)
 FRONT_ROW_M = 30.0   # a block's centre within this of the centreline: the front row (second rows stand further back)
@@ -323,10 +328,23 @@ def _works_row(lines: list[str], centreline: _Centreline, place, s_end: float, i
     return out
 
 
+def _reach(w: list[str]) -> float:
+    """How far a bush of an ASSET line's words ``w`` reaches from its centre (half its larger
+    footprint side: its size, or the seeded one a line without size gets); 0 for the rest."""
+    if w[1] != "bush":
+        return 0.0
+    if "size" in w:
+        j = w.index("size")
+        return max(float(w[j + 1]), float(w[j + 3])) / 2
+    size = default_size("bush", int(w[w.index("seed") + 1]))
+    return max(size[0], size[2]) / 2
+
+
 def _clear_footprints(lines: list[str], works: list[str], margin: float = 0.3) -> list[str]:
     """``lines`` without the small street furniture (bins, poles, signs, bollards, bushes,
     hedges, fences) that stands within ``margin`` of a footprint of ``works`` (scaffolds and
-    site fences stand where the sidewalk's bins and signs were: a works site clears them)."""
+    site fences stand where the sidewalk's bins and signs were: a works site clears them) -
+    a bush within its reach (``_reach``: a yard's bush centred 0.4 m before a scaffold grew into it)."""
     boxes = []
     for ln in works:
         w = ln.split()
@@ -338,11 +356,12 @@ def _clear_footprints(lines: list[str], works: list[str], margin: float = 0.3) -
     for ln in lines:
         w = ln.split()
         if len(w) > 1 and w[0] == "ASSET" and w[1] in ("bin", "pole", "sign", "bollard", "bush", "hedge", "fence"):
-            q = _ground_xz(w)
+            q, r = _ground_xz(w), _reach(w)
             inside = False
             for c, yaw, hx, hz in boxes:     # the asset frame's x = (cos, -sin), z = (sin, cos) in world (x, z)
                 d = q - c
-                inside |= abs(d[0] * np.cos(yaw) - d[1] * np.sin(yaw)) < hx and abs(d[0] * np.sin(yaw) + d[1] * np.cos(yaw)) < hz
+                inside |= abs(d[0] * np.cos(yaw) - d[1] * np.sin(yaw)) < hx + r and \
+                    abs(d[0] * np.sin(yaw) + d[1] * np.cos(yaw)) < hz + r
             if inside:
                 continue
         out.append(ln)
@@ -386,7 +405,9 @@ def _street_detail(rng, side_lines: dict, place, centreline: _Centreline, behind
             if near is None and rng.random() < P_BIKES and yard > 3.0:
                 seed_, size = racks[int(rng.integers(len(racks)))]
                 p = b["p"] + front * (D / 2 + 1.6) + along * float(rng.uniform(-W / 3, W / 3))
-                out.append(asset("bike_rack", ids("furniture"), p, b["yaw"], size, seed=seed_))
+                i = ids("furniture")    # drawn all the same: the ids after it stay
+                if not works:           # a site's entrance has no bike rack (it stood in the scaffold)
+                    out.append(asset("bike_rack", i, p, b["yaw"], size, seed=seed_))
     for a in (near.bikes_right if near is not None else ()):
         p, h = place(behind + a, edges[1] - 0.95)
         seed_, size = racks[0]
@@ -501,7 +522,8 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     r_kerb = half_road + kerb_w / 2 - 0.05            # kerbs overlap the road edge by 5 cm
     out.append(strip("road", 2 * half_road, 0.3, 0.0, seed * 10 + 1, road_mat))
     if bay:                                           # setts, flush with the road (1 cm up), as KITTI s1's bay
-        out.append(strip("sidewalk", bay, 0.01, half_road + bay / 2, seed * 10 + 9, " material setts"))
+        g = near.gutter_right if near is not None else 0.0   # ... its first decimetres a gutter (seed 0)
+        out.append(strip("sidewalk", bay - g, 0.01, half_road + g + (bay - g) / 2, seed * 10 + 9, " material setts"))
     out.append(strip("kerb", kerb_w, kerb_h, r_kerb + bay, seed * 10 + 2))
     out.append(strip("kerb", kerb_w, kerb_h, -r_kerb, seed * 10 + 3))
     o = r_kerb + bay + kerb_w / 2
@@ -520,6 +542,8 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     o += walk_l
     left_edge = -o
     out.append(strip("verge", yard, kerb_h, -(o + yard / 2), seed * 10 + 8))
+    if bay and g:                                     # the gutter last: the other strips keep their ids
+        out.append(strip("gutter", g, 0.01, half_road + g / 2, seed * 10 + 10))
 
     def place(s, offset):
         p, n, h = _centre(street_pos, street_yaw, np.atleast_1d(s), L, bends)

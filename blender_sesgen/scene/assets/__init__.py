@@ -7,7 +7,7 @@ bend always give the same mesh (bit for bit), so a script fully determines its g
 
 Frame conventions (docs/ses-language.md, *Assets*): the origin is the middle of the
 asset's footprint on the ground (y = 0); ``size`` = (x, y, z) extents; its front faces
-+z. Strips (road, kerb, sidewalk, verge) follow a centreline that starts at the origin,
++z. Strips (road, kerb, gutter, sidewalk, verge) follow a centreline that starts at the origin,
 runs along -z and turns by ``bend`` degrees per equal piece (positive = left), lying
 ``offset`` to its right (see ``street``), so the strips of one street fit exactly.
 """
@@ -64,6 +64,8 @@ def _kinds() -> dict[str, Kind]:
         Kind("kerb", "street", "sidewalk", "kerb stones (road side at -x), chamfered edge",
              ((0.15, 0.25), (0.12, 0.15), (20, 20)), "width, height above the road, length", street.kerb,
              strip=True),
+        Kind("gutter", "street", "road", "flush gutter of light concrete blocks (road side at -x), falling to the road",
+             ((0.3, 0.5), (0.0, 0.03), (20, 20)), "width, height above the road, length", street.gutter, strip=True),
         Kind("sidewalk", "street", "sidewalk", "concrete pavers (paving) in slabs of per-slab tone, slight cross fall",
              ((2.0, 3.5), (0.12, 0.15), (20, 20)), "width, height, length", street.sidewalk, strip=True),
         Kind("verge", "street", "terrain", "grass strip with a gentle relief and worn patches",
