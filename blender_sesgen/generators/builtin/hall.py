@@ -48,7 +48,7 @@ from typing import Optional
 
 import numpy as np
 
-from ...scene.assets.test_area import MAT_HANDLE_M
+from ...scene.assets.flight_arena import MAT_HANDLE_M
 from ...scene.lighting import SKY_EXPOSURE
 from ...contract.se3 import euler_xyz_deg_to_R
 from .sesgen_layout import (REPO, Ids, Lighting, asset, command_line, draw_lighting, num, nums, script_with_poses,

@@ -39,7 +39,7 @@ class Kind:
 
 
 def _kinds() -> dict[str, Kind]:
-    from . import building, indoor, industrial, nature, street, street_detail, test_area, vegetation, vehicle
+    from . import building, indoor, industrial, nature, street, street_detail, flight_arena, vegetation, vehicle
     table = [
         Kind("building", "outdoor", "building",
              "block with real window/door openings, frames, sills, balconies, cornice, flat or gable roof",
@@ -135,11 +135,11 @@ def _kinds() -> dict[str, Kind]:
              "width, thickness, depth", indoor.rug),
         Kind("crash_mat", "indoor", "static", "gym landing mat lying flat: foam in a vinyl cover quilted in "
              "channels across x, rounded edges, webbing handles, a label", ((1.5, 3.0), (0.2, 0.4), (1.0, 2.0)),
-             "length, thickness, width", test_area.crash_mat, overhang=0.1),
+             "length, thickness, width", flight_arena.crash_mat, overhang=0.1),
         Kind("play_mat", "indoor", "floor", "printed vinyl play mat: roads with dashed lines, blocks of colour, "
-             "a roundabout", ((1.0, 2.0), (0.003, 0.005), (1.5, 2.5)), "width, thickness, depth", test_area.play_mat),
+             "a roundabout", ((1.0, 2.0), (0.003, 0.005), (1.5, 2.5)), "width, thickness, depth", flight_arena.play_mat),
         Kind("cable", "indoor", "static", "cable lying on the floor, wandering along x, a plug at one end",
-             ((1.5, 5.0), (0.008, 0.015), (0.2, 1.0)), "length, diameter, wander", test_area.cable, overhang=0.1),
+             ((1.5, 5.0), (0.008, 0.015), (0.2, 1.0)), "length, diameter, wander", flight_arena.cable, overhang=0.1),
         Kind("column", "industrial", "building", "steel H column on a base plate (stripes) or concrete column",
              ((0.3, 0.45), (6, 12), (0.3, 0.45)), "width, height, depth", industrial.column),
         Kind("girder", "industrial", "building", "I-beam along x with stiffeners; origin mid bottom flange",
