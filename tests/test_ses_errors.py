@@ -153,7 +153,7 @@ CASES = {
     "value count says the usage": (OBJ + "CYLINDER id 2 position 0 0 0 dim 1\n", 2, "dim",
                                    r"CYLINDER 'dim' needs 2 numbers \(dim r h\), got 1"),
     "bend on a building": (OBJ + "ASSET building id 2 position 0 0 0 bend 5\n", 2, "bend",
-                           r"ASSET building takes no 'bend' \(only road, kerb, sidewalk, verge do\)"),
+                           r"ASSET building takes no 'bend' \(only road, kerb, gutter, sidewalk, verge do\)"),
     "offset on a car": (OBJ + "ASSET car id 2 position 0 0 0 offset 5\n", 2, "offset", r"ASSET car takes no 'offset'"),
     "bend piece too sharp": (OBJ + "ASSET road id 2 position 0 0 0 bend 0 95 3\n", 2, "95",
                              r"'bend' must lie in -90\.\.90 degrees per piece, got 95"),
