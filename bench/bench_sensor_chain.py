@@ -35,9 +35,7 @@ sys.path.insert(0, str(REPO))
 from blender_sesgen.files.exr import write_exr  # noqa: E402
 from blender_sesgen.files.png import write_png  # noqa: E402
 from blender_sesgen.render.plan import RenderOptions, RenderPlan  # noqa: E402
-from blender_sesgen.contract import cfa  # noqa: E402
 from blender_sesgen.render.sensor import optics, outputs, pipeline, raw  # noqa: E402
-from blender_sesgen.render.sensor.autoexposure import LUMA  # noqa: E402
 
 RGB = ["ViewLayer.Combined.R", "ViewLayer.Combined.G", "ViewLayer.Combined.B", "ViewLayer.Combined.A"]
 
@@ -62,13 +60,7 @@ def mean_dn(img: np.ndarray, sensor, exposure_s: float, nominal_s: float, gain: 
     image moves a pixel's DN by itself. (The noisy images cannot tell: the shot noise's
     Poisson draws take a varying count of random numbers, so a change in one pixel's signal
     shifts the noise of every pixel after it.)"""
-    ratio = exposure_s / nominal_s if nominal_s > 0 else 1.0
-    signal = np.clip(img, 0.0, None) * (sensor.full_well_e / sensor.saturation * ratio)
-    if sensor.mono:
-        signal = signal @ LUMA
-    elif sensor.cfa:
-        signal = cfa.mosaic(signal, sensor.cfa)
-    e = np.minimum(signal, float(sensor.full_well_e))
+    e = np.minimum(pipeline.photosite_signal(img, sensor, exposure_s, nominal_s), float(sensor.full_well_e))
     dn = np.rint(float(sensor.black_level_dn) + e * raw.conversion_gain(sensor.full_well_e, sensor.bits, gain))
     return np.clip(dn, 0, 2 ** int(sensor.bits) - 1)
 

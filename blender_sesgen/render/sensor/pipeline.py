@@ -74,17 +74,25 @@ class Shot:
     view_index: int
 
 
+def photosite_signal(img: np.ndarray, sensor, exposure_s: float, nominal_exposure_s: float) -> np.ndarray:
+    """The mean signal (electrons, before clipping at the full well) each photosite collects from
+    the optical image ``img`` (linear, the render's scale: ``sensor.saturation`` fills the well at
+    the nominal exposure): a grey sensor's luminance, a colour sensor's mosaic."""
+    ratio = exposure_s / nominal_exposure_s if nominal_exposure_s > 0 else 1.0
+    signal = np.clip(img, 0.0, None) * (sensor.full_well_e / sensor.saturation * ratio)
+    if sensor.mono:
+        return signal @ LUMA
+    if sensor.cfa:
+        return cfa.mosaic(signal, sensor.cfa)
+    return signal
+
+
 def process(linear_rgb: np.ndarray, camera: Camera, shot: Shot, fpn_cache: Optional[dict] = None) -> SensorFrame:
     """One view of one frame through the whole chain (see the module docstring)."""
     sensor, lens, nominal_exposure_s = camera.sensor, camera.lens, camera.nominal_exposure_s
     exposure_s, gain, frame, view_index = shot.exposure_s, shot.gain, shot.frame, shot.view_index
     img = optical_image(linear_rgb, lens, sensor, camera.rays, camera.cx, camera.cy)
-    ratio = exposure_s / nominal_exposure_s if nominal_exposure_s > 0 else 1.0
-    signal = np.clip(img, 0.0, None) * (sensor.full_well_e / sensor.saturation * ratio)
-    if sensor.mono:
-        signal = signal @ LUMA
-    elif sensor.cfa:
-        signal = cfa.mosaic(signal, sensor.cfa)
+    signal = photosite_signal(img, sensor, exposure_s, nominal_exposure_s)
     key = (view_index, signal.shape)
     cache = fpn_cache if fpn_cache is not None else {}
     if key not in cache:
