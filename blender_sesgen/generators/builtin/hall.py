@@ -411,7 +411,8 @@ def _stand_and_take_off(P, climb_yaw, yaw, pitch, roll, stand: int, rng):
     ease = h01[:, 0]
     look = climb_yaw[0]
     R0 = _R_body(look, STAND_PITCH_DEG, STAND_ROLL_DEG)
-    stood = np.array([_yaw_pitch_roll(R0 @ so3_exp(np.radians(w) * OPENCV_IN_BODY)) for w in stand_shake(rng, stand)]).reshape(-1, 3)
+    turns = stand_shake(rng, stand)
+    stood = np.array([_yaw_pitch_roll(R0 @ so3_exp(np.radians(w) * OPENCV_IN_BODY)) for w in turns]).reshape(-1, 3)
     P = np.concatenate([np.tile(S, (stand, 1)), climb, P])
     yaw = np.concatenate([stood[:, 0], climb_yaw, yaw])
     pitch = np.concatenate([stood[:, 1], STAND_PITCH_DEG + ease * (pitch[0] - STAND_PITCH_DEG), pitch])
