@@ -207,7 +207,7 @@ def _up_in_camera(T):
 def test_hall_stands_on_its_stand_then_takes_off(scenes):
     """Like every EuRoC sequence, hall.ses starts with the MAV standing, rotors running (the
     V1_01 excerpt, measured: cam0 0.93 m above the floor, its axis 21.5 deg below the horizon,
-    rolled 1.5 deg; frames 0-5 still, then shaken by ~0.1 px a frame; lift-off at 5.0 s): its
+    rolled 1.5 deg; frames 0-5 still, then shaken by ~0.05 px a frame; lift-off at 5.0 s): its
     first STAND_FRAMES poses stand in one place at that height and attitude, the first
     ROTORS_FRAMES exactly still, the rest shaken by hundredths of a degree; then it climbs
     (never down by more than the flight's own bobbing) and flies (poses read from the script)."""
