@@ -892,6 +892,12 @@ def main(argv=None) -> int:
     if a.draws < 1:
         print(f"--draws: 1 or more, got {a.draws}", file=sys.stderr)
         return 2
+    if profile == "euroc":
+        have = len(list((DATA / "euroc" / "mav0" / "cam0" / "data").glob("*.png")))
+        if a.start + 3 > have:
+            print(f"--start {a.start}: the EuRoC excerpt has {have} frames; compare from frame {max(have - 3, 0)} "
+                  f"at the latest (3 frames at least)", file=sys.stderr)
+            return 2
     out = REPO / a.out / a.scene
     t0 = time.perf_counter()
     secs = float("nan") if a.no_render else render(twin_script(script, profile, REPO / a.out, a.start + a.frames),

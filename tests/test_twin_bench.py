@@ -107,6 +107,13 @@ def test_bad_draws_exit_2(shared_data, capsys):
     assert "--draws" in capsys.readouterr().err
 
 
+def test_start_past_the_euroc_excerpt_exits_2(shared_data, capsys):
+    """The excerpt has 95 frames: --start 93 leaves 2 to compare (clear error, no render, no
+    IndexError); 92 passes the check and fails later only because --no-render finds no frames."""
+    assert twin.main(["--scene", "hall", "--start", "93", "--no-render", "--out", "/nonexistent"]) == 2
+    assert "the EuRoC excerpt has 95 frames" in capsys.readouterr().err
+
+
 def _rig(pitch_deg_per_step, step_m: float = 1.2) -> np.ndarray:
     """T_world_cam of a rig driving along its z, pitching by the given angle each step."""
     from blender_sesgen.contract.se3 import se3

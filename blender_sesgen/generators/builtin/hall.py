@@ -50,7 +50,7 @@ import numpy as np
 
 from ...scene.assets.flight_arena import MAT_HANDLE_M
 from ...scene.lighting import SKY_EXPOSURE
-from ...contract.se3 import euler_xyz_deg_to_R
+from ...contract.se3 import euler_xyz_deg_to_R, so3_exp
 from .sesgen_layout import (REPO, Ids, Lighting, asset, command_line, draw_lighting, num, nums, script_with_poses,
                            SeededVariation, smooth_noise, variation_rng)
 
@@ -70,7 +70,21 @@ STAND_CAMERA_M = 0.93    # cam0 above the floor (the floor plane by stereo, fram
 STAND_PITCH_DEG = -21.5  # cam0's axis below the horizon (stereo 21.3-21.6; the IMU's gravity via T_BS 21.9)
 STAND_ROLL_DEG = -1.5    # its roll (camera_pose_line's sense; the floor's normal leans 1.5-1.7 deg to the
                          # image's right)
-VIBRATION_DEG = (0.0156, 0.0118)   # yaw, pitch shake a frame (sd): frame-to-frame shifts 0.166 / 0.127 px sd at 436 px
+# The rotors' shake of the standing camera, measured on V1_01's frames 5-94 (cam0 and cam1 agree;
+# the rotation between consecutive rectified frames, ``python bench/still_split.py --motion``):
+# turns about the camera's own right, down and optical axes of s.d. 0.019, 0.018, 0.017 deg but
+# median only 0.0077, 0.0042, 0.0072 deg (0.058, 0.032, 0.055 px at 436 px; frames 0-5, rotors
+# off: 0.001): it comes in bursts, quiet for a second at a time (frames 30-50: 0.03 px s.d.),
+# loud in others (0.3 px). So each axis turns by a Gaussian of SHAKE_DEG a frame times a loudness
+# that swells and fades (exp(SHAKE_BURSTS x a smooth noise of unit RMS): s.d. over median 2.4,
+# EuRoC's 2.3-4.2, a Gaussian's 1.5), and keeps SHAKE_HOLD of its last offset: the image's turns
+# about right and down are uncorrelated from one frame to the next (lag-1 +0.07 / -0.07; a white
+# offset's are -0.5), its roll swings back (-0.66). SHAKE_DEG: EuRoC's medians over the model's
+# median per unit (0.665 held, 0.877 white, over 400 draws).
+SHAKE_DEG = (0.0116, 0.0063, 0.0082)   # about the camera's right (pitch), down (yaw), optical (roll) axes
+SHAKE_HOLD = (0.8, 0.8, 0.0)
+SHAKE_BURSTS = 0.7
+OPENCV_IN_BODY = np.array([1.0, -1.0, -1.0])   # the OpenCV camera's axes (x right, y down, z ahead) in Blender's
 # EuRoC V1_01's camera faces a window behind a white curtain, 61 % of its clipped pixels
 # (frames 30-74: the top quarter 29 % at 255, rows 0-95 of 480, -12..+24 deg across): the
 # standing MAV faces a low window in the south wall, 12 m off, behind diffusing glazing
@@ -385,7 +399,7 @@ def _stand_and_take_off(P, climb_yaw, yaw, pitch, roll, stand: int, rng):
     """The flight (poses P, angles in deg) preceded by ``stand`` frames standing still at
     :func:`_stand_position` heading where ``climb_yaw`` (:func:`_attitude`'s, deg) starts from,
     at the stand's measured pitch and roll, shaken by the rotors from frame ROTORS_FRAMES on
-    (white yaw and pitch of VIBRATION_DEG), and TAKEOFF_FRAMES of climb: a cubic from rest
+    (:func:`stand_shake`), and TAKEOFF_FRAMES of climb: a cubic from rest
     there to the flight's first pose and velocity, turning as ``climb_yaw``, pitch and roll
     eased into the flight's."""
     V0 = np.gradient(P, axis=0)[0] * RATE_HZ
@@ -395,15 +409,44 @@ def _stand_and_take_off(P, climb_yaw, yaw, pitch, roll, stand: int, rng):
     h01, h11 = 3 * s ** 2 - 2 * s ** 3, s ** 3 - s ** 2                # Hermite: from rest at S to (P0, V0)
     climb = S + h01 * (P[0] - S) + h11 * V0 * Tc
     ease = h01[:, 0]
-    shake = np.zeros((stand, 2))
-    shake[ROTORS_FRAMES:] = rng.normal(0.0, 1.0, (max(stand - ROTORS_FRAMES, 0), 2)) * VIBRATION_DEG
-    P = np.concatenate([np.tile(S, (stand, 1)), climb, P])
     look = climb_yaw[0]
-    yaw = np.concatenate([look + shake[:, 0], climb_yaw, yaw])
-    pitch = np.concatenate([STAND_PITCH_DEG + shake[:, 1], STAND_PITCH_DEG + ease * (pitch[0] - STAND_PITCH_DEG),
-                            pitch])
-    roll = np.concatenate([np.full(stand, STAND_ROLL_DEG), STAND_ROLL_DEG + ease * (roll[0] - STAND_ROLL_DEG), roll])
+    R0 = _R_body(look, STAND_PITCH_DEG, STAND_ROLL_DEG)
+    turns = stand_shake(rng, stand)
+    stood = np.array([_yaw_pitch_roll(R0 @ so3_exp(np.radians(w) * OPENCV_IN_BODY)) for w in turns]).reshape(-1, 3)
+    P = np.concatenate([np.tile(S, (stand, 1)), climb, P])
+    yaw = np.concatenate([stood[:, 0], climb_yaw, yaw])
+    pitch = np.concatenate([stood[:, 1], STAND_PITCH_DEG + ease * (pitch[0] - STAND_PITCH_DEG), pitch])
+    roll = np.concatenate([stood[:, 2], STAND_ROLL_DEG + ease * (roll[0] - STAND_ROLL_DEG), roll])
     return P, yaw, pitch, roll
+
+
+def stand_shake(rng, stand: int) -> np.ndarray:
+    """(stand, 3) turns (deg) of the standing camera about its own right, down and optical axes
+    (OpenCV's x, y, z) away from its rest: none for the first ROTORS_FRAMES, then the rotors'
+    bursty shake (SHAKE_DEG, SHAKE_HOLD, SHAKE_BURSTS)."""
+    n = max(stand - ROTORS_FRAMES, 0)
+    out = np.zeros((stand, 3))
+    for axis in range(3):
+        loud = np.exp(SHAKE_BURSTS * smooth_noise(rng, n, 1.0)) if n else np.zeros(0)
+        kick = rng.normal(0.0, SHAKE_DEG[axis], n) * loud
+        x = 0.0
+        for k in range(n):
+            x = SHAKE_HOLD[axis] * x + kick[k]
+            out[ROTORS_FRAMES + k, axis] = x
+    return out
+
+
+def _R_body(yaw_deg: float, pitch_deg: float, roll_deg: float) -> np.ndarray:
+    """The body rotation ``camera_pose_line`` writes (Blender's camera: x right, y up, z back)."""
+    return (euler_xyz_deg_to_R(0, yaw_deg, 0) @ euler_xyz_deg_to_R(pitch_deg, 0, 0)
+            @ euler_xyz_deg_to_R(0, 0, -roll_deg))
+
+
+def _yaw_pitch_roll(R: np.ndarray) -> tuple[float, float, float]:
+    """Inverse of :func:`_R_body` (R = Ry(yaw) Rx(pitch) Rz(-roll))."""
+    pitch = np.arcsin(np.clip(-R[1, 2], -1.0, 1.0))
+    return (float(np.degrees(np.arctan2(R[0, 2], R[2, 2]))), float(np.degrees(pitch)),
+            float(-np.degrees(np.arctan2(R[1, 0], R[1, 1]))))
 
 
 TAKEOFF_STAND = (0.6, 0.5)       # the stand's top (x, z extent, m): a steel table the MAV stands on
