@@ -51,8 +51,8 @@ import numpy as np
 from ...scene.assets.flight_arena import MAT_HANDLE_M
 from ...scene.lighting import SKY_EXPOSURE
 from ...contract.se3 import euler_xyz_deg_to_R, so3_exp
-from .sesgen_layout import (REPO, Ids, Lighting, asset, command_line, draw_lighting, num, nums, script_with_poses,
-                           SeededVariation, smooth_noise, variation_rng)
+from .sesgen_layout import (REPO, Ids, Lighting, asset, camera_body_R, camera_yaw_pitch_roll, command_line,
+                            draw_lighting, num, nums, script_with_poses, SeededVariation, smooth_noise, variation_rng)
 
 # EuRoC MAV cam0/cam1 (../shared/data/euroc/mav0/*/sensor.yaml): used when the data folder is absent
 EUROC_DEFAULT = {"resolution": (752, 480), "fu": 458.654, "cu": 367.215, "cv": 248.375, "baseline": 0.110078}
@@ -410,9 +410,9 @@ def _stand_and_take_off(P, climb_yaw, yaw, pitch, roll, stand: int, rng):
     climb = S + h01 * (P[0] - S) + h11 * V0 * Tc
     ease = h01[:, 0]
     look = climb_yaw[0]
-    R0 = _R_body(look, STAND_PITCH_DEG, STAND_ROLL_DEG)
+    R0 = camera_body_R(look, STAND_PITCH_DEG, STAND_ROLL_DEG)
     turns = stand_shake(rng, stand)
-    stood = np.array([_yaw_pitch_roll(R0 @ so3_exp(np.radians(w) * OPENCV_IN_BODY)) for w in turns]).reshape(-1, 3)
+    stood = np.array([camera_yaw_pitch_roll(R0 @ so3_exp(np.radians(w) * OPENCV_IN_BODY)) for w in turns]).reshape(-1, 3)
     P = np.concatenate([np.tile(S, (stand, 1)), climb, P])
     yaw = np.concatenate([stood[:, 0], climb_yaw, yaw])
     pitch = np.concatenate([stood[:, 1], STAND_PITCH_DEG + ease * (pitch[0] - STAND_PITCH_DEG), pitch])
@@ -434,19 +434,6 @@ def stand_shake(rng, stand: int) -> np.ndarray:
             x = SHAKE_HOLD[axis] * x + kick[k]
             out[ROTORS_FRAMES + k, axis] = x
     return out
-
-
-def _R_body(yaw_deg: float, pitch_deg: float, roll_deg: float) -> np.ndarray:
-    """The body rotation ``camera_pose_line`` writes (Blender's camera: x right, y up, z back)."""
-    return (euler_xyz_deg_to_R(0, yaw_deg, 0) @ euler_xyz_deg_to_R(pitch_deg, 0, 0)
-            @ euler_xyz_deg_to_R(0, 0, -roll_deg))
-
-
-def _yaw_pitch_roll(R: np.ndarray) -> tuple[float, float, float]:
-    """Inverse of :func:`_R_body` (R = Ry(yaw) Rx(pitch) Rz(-roll))."""
-    pitch = np.arcsin(np.clip(-R[1, 2], -1.0, 1.0))
-    return (float(np.degrees(np.arctan2(R[0, 2], R[2, 2]))), float(np.degrees(pitch)),
-            float(-np.degrees(np.arctan2(R[1, 0], R[1, 1]))))
 
 
 TAKEOFF_STAND = (0.6, 0.5)       # the stand's top (x, z extent, m): a steel table the MAV stands on

@@ -67,10 +67,22 @@ def camera_pose_line(position, yaw_deg: float, pitch_deg: float = 0.0, roll_deg:
     """``POSE x y z rx ry rz`` of a camera at ``position`` heading ``yaw_deg`` (left
     positive, 0 = looking along -z), pitched up by ``pitch_deg`` about its own x axis and
     rolled by ``roll_deg`` about its own optical axis."""
-    R_body = (euler_xyz_deg_to_R(0, yaw_deg, 0) @ euler_xyz_deg_to_R(pitch_deg, 0, 0)
-              @ euler_xyz_deg_to_R(0, 0, -roll_deg))
-    rx, ry, rz = R_to_euler_xyz_deg(R_body)
+    rx, ry, rz = R_to_euler_xyz_deg(camera_body_R(yaw_deg, pitch_deg, roll_deg))
     return f"POSE {nums(position, 4)} {nums((rx, ry, rz), 4)}"
+
+
+def camera_body_R(yaw_deg: float, pitch_deg: float = 0.0, roll_deg: float = 0.0) -> np.ndarray:
+    """The camera's rotation (Blender's camera axes: x right, y up, z back) that
+    :func:`camera_pose_line` writes: R = Ry(yaw) Rx(pitch) Rz(-roll)."""
+    return (euler_xyz_deg_to_R(0, yaw_deg, 0) @ euler_xyz_deg_to_R(pitch_deg, 0, 0)
+            @ euler_xyz_deg_to_R(0, 0, -roll_deg))
+
+
+def camera_yaw_pitch_roll(R: np.ndarray) -> tuple[float, float, float]:
+    """(yaw, pitch, roll) in degrees of a camera rotation: the inverse of :func:`camera_body_R`."""
+    pitch = np.arcsin(np.clip(-R[1, 2], -1.0, 1.0))
+    return (float(np.degrees(np.arctan2(R[0, 2], R[2, 2]))), float(np.degrees(pitch)),
+            float(-np.degrees(np.arctan2(R[1, 0], R[1, 1]))))
 
 
 def smooth_noise(rng, n: int, scale: float, cycles=(1.3, 2.9, 6.1)) -> np.ndarray:
