@@ -840,7 +840,7 @@ def facing_wall_share(s, frames, f: float = 707.0, cx: float = 613.0, cy: float 
             angle = np.degrees(np.arccos(min(abs(E[i] @ fwd) / np.linalg.norm(E[i]), 1.0)))
             total += rows
             facing += rows * (angle >= 60.0)
-    return facing / total
+    return facing / total if total else 0.0
 
 
 def test_city_kitti_right_walls_face_the_camera_as_kitti_sequence_1s(scenes):

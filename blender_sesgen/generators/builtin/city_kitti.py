@@ -421,6 +421,10 @@ def _street_detail(rng, side_lines: dict, place, centreline: _Centreline, behind
                     out.append(asset("scaffold", ids("furniture"), b["p"] + end * along * (face_x + SCAFFOLD_DEPTH_M / 2),
                                      b["yaw"] + 90 * end, (round(D + 1.0, 2), h_s, SCAFFOLD_DEPTH_M),
                                      seed=int(rng.integers(1e6))))
+                    # ... behind fence panels across the gap (KITTI's frames 24-36: panels and stacked
+                    # materials at the foot of that wall)
+                    out.append(asset("site_fence", ids("furniture"), b["p"] + end * along * (face_x + SCAFFOLD_DEPTH_M + 1.5),
+                                     b["yaw"] + 90 * end, (round(D + 0.5, 2), 2.0, 0.65), seed=int(rng.integers(1e6))))
                 site = face + SCAFFOLD_DEPTH_M + 1.5            # the site fence 1.5 m before the scaffold
                 if b["dist"] - site > edges[side] + 0.3:
                     p = b["p"] + front * site
