@@ -17,7 +17,8 @@ rig's car or 8 m of each other; the camera's auto-exposure follows the scene (AU
 Seed 0 scripts its near field after KITTI sequence_1's frames (``KITTI_S1_NEAR``): a 4 m
 carriageway driven near its middle, the lawn from the left kerb, a parking bay on the right
 with the two cars where sequence_1 shows them, its right front row 7-10 m right of the camera
-under scaffolding from ~27 m ahead, and its traffic 100-130 m ahead, none oncoming.
+to 37 m ahead, beyond a gap a deep block under scaffolding whose end wall faces the camera
+60 m ahead, and its traffic 100-130 m ahead, none oncoming.
 
     python -m blender_sesgen.generators.builtin.city_kitti [--seed N] [--frames N] > scenes/city_kitti.ses
 
@@ -151,8 +152,8 @@ KITTI_S1_NEAR = NearField(half_road=2.0, bay=2.5, walk_left=0.0, car_offset=3.13
 WHITE_RENDER = (0.80, 0.79, 0.76)
 FRONT_ROW_M = 30.0   # a block's centre within this of the centreline: the front row (second rows stand further back)
 # near-field street detail (docs/sensors.md, Camera twins: what KITTI sequence_1 shows at 5-30 m
-# that carries its corners): KITTI sequence_1's right front row is under scaffolding with fence
-# panels along its yard through frames 15-50 (~60 m of ~90 m), its lawn's young trees all stand
+# that carries its corners): KITTI sequence_1's deep block beyond the side street is under
+# scaffolding with fence panels at its end wall and along its yard, its lawn's young trees all stand
 # in three stakes, bikes at an entrance (frame 10); residential streets elsewhere: a building in
 # ~8 under works, a bike rack before one front-row building in ~4, young trees staked
 P_WORKS = 0.12            # the chance that a front-row building (seed != 0) is under scaffolding
