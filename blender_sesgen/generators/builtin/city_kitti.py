@@ -17,7 +17,8 @@ rig's car or 8 m of each other; the camera's auto-exposure follows the scene (AU
 Seed 0 scripts its near field after KITTI sequence_1's frames (``KITTI_S1_NEAR``): a 4 m
 carriageway driven near its middle, the lawn from the left kerb, a parking bay on the right
 with the two cars where sequence_1 shows them, its right front row 7-10 m right of the camera
-under scaffolding from ~27 m ahead, and its traffic 100-130 m ahead, none oncoming.
+to 37 m ahead, beyond a gap a deep block under scaffolding whose end wall faces the camera
+60 m ahead, and its traffic 100-130 m ahead, none oncoming.
 
     python -m blender_sesgen.generators.builtin.city_kitti [--seed N] [--frames N] > scenes/city_kitti.ses
 
@@ -106,7 +107,9 @@ class NearField:
     traffic_ahead: tuple    # the nearest car ahead in the rig's lane at frame 0 (range drawn)
     oncoming: bool          # whether cars come the other way
     white_right: float = 0.0    # the right-hand buildings up to this far ahead have a white render (0: drawn)
-    works_right: tuple = ()     # (from, to) ahead: the right front row's buildings there are under scaffolding
+    works_right: tuple = ()     # (from, to) ahead: a deep block under scaffolding on the right, its end wall facing the camera ...
+    works_depth: float = 0.0    # ... this deep (m) ...
+    open_right: float = 0.0     # ... and no front-row building from this far ahead to it (a side street's mouth)
     bikes_right: tuple = ()     # bike racks on the right sidewalk this far ahead
     lawn_right: float = 0.0     # the right tree lawn's and sidewalk's widths (0: drawn) ...
     walk_right: float = 0.0
@@ -125,26 +128,32 @@ class NearField:
 # oncoming (a street too narrow for two cars to pass at speed); the cars far ahead drive its middle
 # as the rig does (its car's centre ~0.27 m right of the left camera); the blocks on the right
 # through frame 45 (~55 m) have white renders: the sunlit one of frames 0-15 holds almost all of
-# the sequence's burnt-out pixels; the one being built in frames 20-45 is white behind its scaffold
-# where its street facade shows (frame 44, burnt out) and grey where its walls face the camera in
-# frames 20-38 (0.33-0.49 x the frame mean: grazing sun; bare concrete walls there made the bench's
-# KLT, clipped share and slope worse, docs/sensors.md);
+# the sequence's burnt-out pixels; the one being built is white behind its scaffold where its street
+# facade shows (frame 44, burnt out) and grey where its walls face the camera in frames 20-38
+# (0.33-0.49 x the frame mean: grazing sun; bare concrete walls there made the bench's KLT, clipped
+# share and slope worse, docs/sensors.md);
 # that right front row stands 7-10 m right of the camera (SGBM, frames 0-40: the peak of the lateral
 # positions of the points above the horizon right of the image centre: 9, 9, 8, 7, 7 m), behind a
 # grass strip ~1.5 m wide from ~4 m (frame 0, rows 300-340 on the ground plane) and paving to the
-# facades; under scaffolding from ~20 m ahead in frame 0 (its near end at column 876 of 1226, 8 m right:
-# 21 m) to past frame 50; between its carriageway and the bay a light concrete gutter (frame 12, rows
-# 300-360: 0.38-0.44 m wide, 2.3-2.8 m right of the camera; 2.3 x the sunlit asphalt)
+# facades, and ends ~37 m ahead; beyond a side street's mouth (its kerb's return, frame 28) the
+# block under works is deep: a map of all frames' SGBM points 2-10 m above the road (frames 0-45,
+# in frame 0's camera frame) shows its end wall across the view 60-62 m ahead, 5-28 m right, and
+# its street facade from there on past 85 m; frames 0-27 see that end wall, scaffolded, through
+# the gap (frame 24: 66-79 % of the points right of the centre 30-32 m away face the camera), so
+# half of KITTI's wall points there face the camera where a row of facades along the street gave
+# a quarter (docs/sensors.md); between its carriageway and the bay a light concrete gutter (frame
+# 12, rows 300-360: 0.38-0.44 m wide, 2.3-2.8 m right of the camera; 2.3 x the sunlit asphalt)
 KITTI_S1_NEAR = NearField(half_road=2.0, bay=2.5, walk_left=0.0, car_offset=3.13, parked_ahead=(15.4, 40.1),
                           parked_clear=100.0, traffic_lane=0.1, traffic_ahead=(100.0, 130.0), oncoming=False,
-                          white_right=65.0, works_right=(20.0, 75.0), bikes_right=(7.0,), lawn_right=1.3,
+                          white_right=65.0, works_right=(60.0, 100.0), works_depth=22.0, open_right=37.0,
+                          bikes_right=(7.0,), lawn_right=1.3,
                           walk_right=2.2, setback_right=(0.6, 1.2), gutter_right=0.4)
 # a white silicate render (light reflectance value ~80: palette.PLASTER's whitest but one)
 WHITE_RENDER = (0.80, 0.79, 0.76)
 FRONT_ROW_M = 30.0   # a block's centre within this of the centreline: the front row (second rows stand further back)
 # near-field street detail (docs/sensors.md, Camera twins: what KITTI sequence_1 shows at 5-30 m
-# that carries its corners): KITTI sequence_1's right front row is under scaffolding with fence
-# panels along its yard through frames 15-50 (~60 m of ~90 m), its lawn's young trees all stand
+# that carries its corners): KITTI sequence_1's deep block beyond the side street is under
+# scaffolding with fence panels at its end wall and along its yard, its lawn's young trees all stand
 # in three stakes, bikes at an entrance (frame 10); residential streets elsewhere: a building in
 # ~8 under works, a bike rack before one front-row building in ~4, young trees staked
 P_WORKS = 0.12            # the chance that a front-row building (seed != 0) is under scaffolding
@@ -299,32 +308,42 @@ def _pull_front_row(lines: list[str], centreline: _Centreline, s_end: float, edg
     return keep
 
 
-def _works_row(lines: list[str], centreline: _Centreline, place, s_end: float, ids: Ids,
-               rng: np.random.Generator) -> list[str]:
-    """``lines`` (one side's, right) with its front row carried on to arc length ``s_end``: where
-    the last front-row building before it ends early, the green stretch after it gives way to a
-    block being built (KITTI sequence_1's right side: one long block under scaffolding through
-    its frames 15-50), as deep and as far back as that building."""
-    row = [b for b in _front_row(lines, centreline) if b["s"] - b["size"][0] / 2 < s_end]
-    if not row:
-        return lines
-    last = max(row, key=lambda b: b["s"] + b["size"][0] / 2)
-    W, H, D = last["size"]
-    s0 = last["s"] + W / 2 + 2.0
-    if s0 >= s_end - 6.0:
-        return lines
-    s1 = s_end + 3.0
+def _works_row(lines: list[str], centreline: _Centreline, place, s_open: float, span: tuple, depth: float,
+               edge: float, setback: tuple, ids: Ids, rng: np.random.Generator) -> list[str]:
+    """``lines`` (one side's, right) with a deep block being built from arc length ``span[0]``
+    to ``span[1]``, ``depth`` deep, its front ``setback`` (drawn in that range) behind ``edge``,
+    and no front-row building from ``s_open`` to it (KITTI sequence_1's right side: a side
+    street's mouth, then a block under scaffolding whose end wall faces the camera across it).
+    A front-row building reaching past ``s_open`` is cut back to end there (left out if that
+    leaves less than 6 m); any building, tree or bush on the block's footprint is left out."""
+    s0, s1 = span
+    near = edge + float(rng.uniform(*setback))
     out = []
-    for ln in lines:        # the green stretch's trees and bushes where the block goes
+    for ln in lines:
         w = ln.split()
-        if w[1] in ("tree", "conifer", "bush"):
+        if w[1] == "building":
+            i, j = w.index("position"), w.index("size")
             s, d = centreline.nearest(_ground_xz(w))
-            if s0 - 2.0 <= s <= s1 + 2.0 and d < last["dist"] + D:
+            W, D = float(w[j + 1]), float(w[j + 3])
+            if s - W / 2 < s1 + 2.0 and s + W / 2 > s0 - 2.0 and d - D / 2 < near + depth + 2.0:
+                continue                                        # on the block's footprint
+            b = _front_row_building(ln, centreline)
+            if b is not None and s + W / 2 > s_open and s - W / 2 < s0:
+                if s_open - (s - W / 2) < 6.0:
+                    continue
+                W_new = s_open - (s - W / 2)                    # cut back to the side street
+                p, _ = place(s - W / 2 + W_new / 2, d)
+                w[i + 1:i + 4] = nums(p).split()
+                w[j + 1] = num(round(W_new, 2))
+                ln = " ".join(w)
+        elif w[1] in ("tree", "conifer", "bush"):
+            s, d = centreline.nearest(_ground_xz(w))
+            if s0 - 2.0 <= s <= s1 + 2.0 and d < near + depth + 2.0:
                 continue
         out.append(ln)
-    p, h = place((s0 + s1) / 2, last["dist"])
-    out.append(asset("building", ids("building"), p, h - 90, (round(s1 - s0, 2), round(float(rng.uniform(12.0, 15.0)), 2),
-                                                              round(D, 2)), seed=int(rng.integers(1e6))))
+    p, h = place((s0 + s1) / 2, near + depth / 2)
+    out.append(asset("building", ids("building"), p, h - 90, (round(s1 - s0, 2), round(float(rng.uniform(14.0, 16.0)), 2),
+                                                              round(depth, 2)), seed=int(rng.integers(1e6))))
     return out
 
 
@@ -397,6 +416,16 @@ def _street_detail(rng, side_lines: dict, place, centreline: _Centreline, behind
                 p = b["p"] + front * (face + SCAFFOLD_DEPTH_M / 2)
                 out.append(asset("scaffold", ids("furniture"), p, b["yaw"], (round(W + 1.0, 2), h_s, SCAFFOLD_DEPTH_M),
                                  seed=int(rng.integers(1e6))))
+                if near is not None:    # KITTI's deep block: its end wall facing the camera scaffolded too
+                    end = 1.0 if centreline.nearest((b["p"] + along * W / 2)[[0, 2]])[0] < b["s"] else -1.0
+                    face_x = float((end * V[V[:, 1] < h_s, 0]).max()) + SCAFFOLD_GAP_M
+                    out.append(asset("scaffold", ids("furniture"), b["p"] + end * along * (face_x + SCAFFOLD_DEPTH_M / 2),
+                                     b["yaw"] + 90 * end, (round(D + 1.0, 2), h_s, SCAFFOLD_DEPTH_M),
+                                     seed=int(rng.integers(1e6))))
+                    # ... behind fence panels across the gap (KITTI's frames 24-36: panels and stacked
+                    # materials at the foot of that wall)
+                    out.append(asset("site_fence", ids("furniture"), b["p"] + end * along * (face_x + SCAFFOLD_DEPTH_M + 1.5),
+                                     b["yaw"] + 90 * end, (round(D + 0.5, 2), 2.0, 0.65), seed=int(rng.integers(1e6))))
                 site = face + SCAFFOLD_DEPTH_M + 1.5            # the site fence 1.5 m before the scaffold
                 if b["dist"] - site > edges[side] + 0.3:
                     p = b["p"] + front * site
@@ -560,9 +589,11 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
             lines = _pull_front_row(lines, centreline, behind + near.white_right + 15.0, right_edge, near.setback_right,
                                     np.random.default_rng([seed, 0x5E7]))
         if side > 0 and near is not None and near.works_right:
-            lines = _works_row(lines, centreline, place, behind + near.works_right[1], ids, np.random.default_rng([seed, 0x5CA]))
-        if side > 0 and near is not None and near.white_right > 0:
-            lines = _white_near(lines, centreline, behind, behind + near.white_right)
+            lines = _works_row(lines, centreline, place, behind + near.open_right,
+                               (behind + near.works_right[0], behind + near.works_right[1]), near.works_depth,
+                               right_edge, near.setback_right, ids, np.random.default_rng([seed, 0x5CA]))
+        if side > 0 and near is not None and near.white_right > 0:    # the block under works white too (KITTI's)
+            lines = _white_near(lines, centreline, behind, behind + max(near.white_right, *near.works_right))
             out.append(derived_material("white_render", "plaster", WHITE_RENDER, seed=seed))
         out += lines
         side_lines[side] = lines
