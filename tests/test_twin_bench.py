@@ -300,3 +300,32 @@ def test_street_surfaces_read_the_kerb_on_its_top_by_height(shared_data, tmp_pat
     _, ours = twin.street_surfaces(tmp_path, frames, 2)
     L = twin._linear(np.array([200, 120], np.uint8), "kitti")
     assert np.isclose(float(ours.split("kerb ")[1].split()[0]), L[0] / L[1], atol=0.01), ours
+
+
+def test_kinds_grain_crown_holds_the_sky_seen_through_it(shared_data, tmp_path, monkeypatch):
+    """A crown of flat leaves with small sky gaps under open sky, beside a flat facade: the
+    crown's pixel-scale contrast is that of its leaves and gaps together (as KITTI's crown boxes
+    read), neither the open sky above nor the facade beside it; its leaves alone have none."""
+    Hh, Ww = 60, 120
+    ids = np.zeros((Hh, Ww), np.int32)                         # sky (no object)
+    img = np.full((Hh, Ww), 200, np.uint8)
+    ids[20:, :60], img[20:, :60] = 2, 60                      # the crown, flat leaves
+    for y in range(24, 56, 6):                                 # 2 x 2 px sky gaps through it
+        for x in range(4, 56, 6):
+            ids[y:y + 2, x:x + 2], img[y:y + 2, x:x + 2] = 0, 200
+    ids[:, 60:], img[:, 60:] = 1, 150                          # the facade, flat
+    (tmp_path / "manifest.json").write_text(json.dumps({"objects": [{"id": 1, "class": "building"},
+                                                                    {"id": 2, "class": "vegetation"}]}))
+
+    class Ids:
+        def ids(self, k, view="left"):
+            return ids
+    monkeypatch.setattr(twin, "open_sequence", lambda out: Ids())
+    frames = twin.Frames([img] * 2, [img] * 2, np.eye(3), 0.5)
+    _, ours = twin.kinds_grain(tmp_path, frames, 2)
+    got = {k: float(v) for k, v in (x.split() for x in ours.split(", "))}
+    L = twin._linear(img, "kitti")
+    inner = np.zeros(img.shape, bool)
+    inner[23:, :57] = True                                     # 3 px in (an erosion keeps the frame's borders)
+    assert got["facade"] < 1e-6, got
+    assert got["crown"] > 0.1 and np.isclose(got["crown"], twin._grain(L, inner), rtol=0.1), got

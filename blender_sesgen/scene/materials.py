@@ -88,6 +88,13 @@ LIBRARY: dict[str, LibraryEntry] = _entries(
     LibraryEntry("brick", "brick wall, stretcher bond: 24 x 7.1 cm bricks with 1 cm recessed mortar, "
                           "per-brick colour, chipped faces", (0.26, 0.10, 0.06), 0.85, scale_m=0.24,
                  bump_m=0.004, variation=0.35, wear=0.2, semantic_class="building", nir=0.45),
+    # a building site's bare masonry: sand-lime blocks (KS-Planstein 498 x 248 mm, thin-bed mortar) as
+    # KITTI sequence_1's scaffolded building shows them above its insulated ground floor (frames
+    # 15-45): a light grey grid of per-block tone and dark joint lines a pixel resolves 10-30 m away
+    LibraryEntry("blockwork", "bare masonry of sand-lime blocks (50 x 25 cm, running bond): 2 mm thin-bed joints "
+                              "between bevelled arrises, per-block tone, a few damp blocks, mortar smears and dust",
+                 (0.50, 0.49, 0.46), 0.9, scale_m=0.5, bump_m=0.003, variation=0.2, wear=0.3,
+                 semantic_class="building", nir=0.55),
     LibraryEntry("plaster", "painted render/plaster wall: orange-peel relief, faint patches, grime streaks",
                  (0.62, 0.58, 0.52), 0.8, scale_m=1.0, bump_m=0.0008, variation=0.25, wear=0.2,
                  semantic_class="building", nir=0.65),

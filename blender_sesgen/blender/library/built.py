@@ -1,5 +1,5 @@
 """Recipes of the built environment: asphalt, lane_marking, concrete, paving, setts, granite,
-brick, plaster, roof_tiles. Lengths in metres (the coordinates are metric); ``ctx.entry.scale_m`` is the
+brick, blockwork, plaster, roof_tiles. Lengths in metres (the coordinates are metric); ``ctx.entry.scale_m`` is the
 documented size of each one's main element."""
 from __future__ import annotations
 
@@ -173,6 +173,25 @@ def brick(ctx: Ctx) -> Surface:
     return Surface(col, rough, height)
 
 
+def blockwork(ctx: Ctx) -> Surface:
+    g, p, C = ctx.g, ctx.p, ctx.colour
+    length = ctx.entry.scale_m                     # 50 cm blocks in 25 cm courses
+    # the joint as the sun sees it: 2 mm of mortar between 3-4 mm bevels, a dark line ~1 cm wide
+    rand, joint = g.bricks(ctx.uv, length, 0.5 * length, 0.01, smooth=0.3)
+    r2 = g.white(g.add(rand, 0.61))
+    value = g.remap(rand, 0.0, 1.0, 0.84, 1.14)    # per-block tone: batches, dust, sun-dried or not
+    value = g.lerp(value, 0.72, g.math("GREATER_THAN", r2, 0.9))   # a few blocks still damp
+    face = g.remap(g.noise(p, 1 / 0.04, detail=3.0), 0.3, 0.7, 0.9, 1.08)   # the pressed face's pores and dust
+    col = g.cmul(C, g.mul(value, face))
+    # thin-bed mortar smeared over the joints and splashed on the faces: lighter, patchy
+    smear = g.mul(g.remap(g.noise(p, 1 / 0.15, detail=3.0), 0.6, 0.7, smooth=True), 0.5)
+    col = g.cmix(col, g.cmul(C, 1.25), smear)
+    col = g.cmix(col, g.cmul(C, 0.45), joint)
+    rough = g.lerp(ctx.roughness, 0.95, joint)
+    height = g.add(g.mul(joint, -0.003), g.mul(g.noise(p, 1 / 0.01, detail=2.0), 0.0004))
+    return Surface(col, rough, height)
+
+
 def plaster(ctx: Ctx) -> Surface:
     g, p, C = ctx.g, ctx.p, ctx.colour
     # weathered render: its tone wanders by +-5-10 % over metres and decimetres (repairs, damp,
@@ -216,5 +235,5 @@ def roof_tiles(ctx: Ctx) -> Surface:
 
 
 RECIPES = {"asphalt": asphalt, "lane_marking": lane_marking, "concrete": concrete, "paving": paving, "setts": setts,
-           "granite": granite, "brick": brick,
+           "granite": granite, "brick": brick, "blockwork": blockwork,
            "plaster": plaster, "roof_tiles": roof_tiles}
