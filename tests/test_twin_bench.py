@@ -242,15 +242,9 @@ def test_street_surfaces_read_a_kerbs_sunlit_top_not_its_shaded_face(shared_data
     assert np.isclose(kerb, L[0] / L[1], atol=0.01), ours
 
 
-def test_kinds_grain_reads_each_kinds_own_detail_not_its_edges(shared_data, tmp_path, monkeypatch):
-    """A textured facade beside a flat crown: the facade's pixel-scale contrast is its texture's,
-    the crown's none (its edge against the facade is not its detail)."""
-    rng = np.random.default_rng(2)
-    Hh, Ww = 60, 120
-    ids = np.full((Hh, Ww), 2, np.int32)                       # the crown, flat
-    img = np.full((Hh, Ww), 90, np.uint8)
-    ids[:, 60:] = 1                                            # the facade, textured
-    img[:, 60:] = np.clip(150 + rng.normal(0, 12, (Hh, 60)), 0, 255).astype(np.uint8)
+def _kinds_grain(tmp_path, monkeypatch, ids, img) -> dict:
+    """``kinds_grain``'s render figures ({kind: value}) for two frames of ``img`` whose object ids
+    are ``ids`` (1 a building, 2 vegetation, 0 sky)."""
     (tmp_path / "manifest.json").write_text(json.dumps({"objects": [{"id": 1, "class": "building"},
                                                                     {"id": 2, "class": "vegetation"}]}))
 
@@ -260,7 +254,19 @@ def test_kinds_grain_reads_each_kinds_own_detail_not_its_edges(shared_data, tmp_
     monkeypatch.setattr(twin, "open_sequence", lambda out: Ids())
     frames = twin.Frames([img] * 2, [img] * 2, np.eye(3), 0.5)
     _, ours = twin.kinds_grain(tmp_path, frames, 2)
-    got = {k: float(v) for k, v in (x.split() for x in ours.split(", "))}
+    return {k: float(v) for k, v in (x.split() for x in ours.split(", "))}
+
+
+def test_kinds_grain_reads_each_kinds_own_detail_not_its_edges(shared_data, tmp_path, monkeypatch):
+    """A textured facade beside a flat crown: the facade's pixel-scale contrast is its texture's,
+    the crown's none (its edge against the facade is not its detail)."""
+    rng = np.random.default_rng(2)
+    Hh, Ww = 60, 120
+    ids = np.full((Hh, Ww), 2, np.int32)                       # the crown, flat
+    img = np.full((Hh, Ww), 90, np.uint8)
+    ids[:, 60:] = 1                                            # the facade, textured
+    img[:, 60:] = np.clip(150 + rng.normal(0, 12, (Hh, 60)), 0, 255).astype(np.uint8)
+    got = _kinds_grain(tmp_path, monkeypatch, ids, img)
     L = twin._linear(img, "kitti")
     inner = np.zeros(img.shape, bool)
     inner[3:-3, 63:-3] = True
@@ -314,16 +320,7 @@ def test_kinds_grain_crown_holds_the_sky_seen_through_it(shared_data, tmp_path, 
         for x in range(4, 56, 6):
             ids[y:y + 2, x:x + 2], img[y:y + 2, x:x + 2] = 0, 200
     ids[:, 60:], img[:, 60:] = 1, 150                          # the facade, flat
-    (tmp_path / "manifest.json").write_text(json.dumps({"objects": [{"id": 1, "class": "building"},
-                                                                    {"id": 2, "class": "vegetation"}]}))
-
-    class Ids:
-        def ids(self, k, view="left"):
-            return ids
-    monkeypatch.setattr(twin, "open_sequence", lambda out: Ids())
-    frames = twin.Frames([img] * 2, [img] * 2, np.eye(3), 0.5)
-    _, ours = twin.kinds_grain(tmp_path, frames, 2)
-    got = {k: float(v) for k, v in (x.split() for x in ours.split(", "))}
+    got = _kinds_grain(tmp_path, monkeypatch, ids, img)
     L = twin._linear(img, "kitti")
     inner = np.zeros(img.shape, bool)
     inner[23:, :57] = True                                     # 3 px in (an erosion keeps the frame's borders)
