@@ -288,6 +288,19 @@ def kitti_marked_frame(k: int) -> np.ndarray:
     return cv2.imread(str(DATA / "kitti" / "sequence_1" / "image_l" / f"{k:06d}.png"), 0)
 
 
+def kitti_regions_at(table: dict, size: tuple):
+    """(frame, name, L, box) for each hand-marked region of ``table`` ({frame: {name: (x0, y0, x1,
+    y1)}} in KITTI's pixels): the frame area-resampled to the render's ``size`` (W, H) and made
+    linear, the box scaled to it (floats)."""
+    W, H = size
+    for k, regions in table.items():
+        img = kitti_marked_frame(k)
+        sx, sy = W / img.shape[1], H / img.shape[0]
+        L = _linear(cv2.resize(img, (W, H), interpolation=cv2.INTER_AREA), "kitti")
+        for name, (x0, y0, x1, y1) in regions.items():
+            yield k, name, L, (x0 * sx, y0 * sy, x1 * sx, y1 * sy)
+
+
 def render_classes(out: Path):
     """The render's sequence and its object classes by id (the manifest's objects)."""
     man = json.loads((out / "manifest.json").read_text())
@@ -406,15 +419,11 @@ def kinds_grain(out: Path, frames: Frames, n: int) -> tuple[str, str]:
     closed over 9 x 9 px, leaves and the sky inside, 3 px in (``tree`` has its leaves alone)."""
     W, H = frames.resolution
     real: dict[str, list] = {}
-    for k, regions in KITTI_REGIONS.items():
-        img = kitti_marked_frame(k)
-        sx, sy = W / img.shape[1], H / img.shape[0]
-        L = _linear(cv2.resize(img, (W, H), interpolation=cv2.INTER_AREA), "kitti")
-        for name, (x0, y0, x1, y1) in regions.items():
-            m = np.zeros(L.shape, bool)
-            m[int(y0 * sy) + 2:int(y1 * sy) - 2, int(x0 * sx) + 2:int(x1 * sx) - 2] = True
-            if m.sum() >= 20 and name != "sky":
-                real.setdefault(name, []).append(_grain(L, m))
+    for _, name, L, (x0, y0, x1, y1) in kitti_regions_at(KITTI_REGIONS, (W, H)):
+        m = np.zeros(L.shape, bool)
+        m[int(y0) + 2:int(y1) - 2, int(x0) + 2:int(x1) - 2] = True
+        if m.sum() >= 20 and name != "sky":
+            real.setdefault(name, []).append(_grain(L, m))
     seq, cls = render_classes(out)
     ours: dict[str, list] = {}
     for k in range(n):
@@ -477,19 +486,16 @@ def street_surfaces(out: Path, frames: Frames, n: int) -> tuple[str, str]:
     sunlit road: 3 x 3 in from its edges, brighter than half its median."""
     W, H = frames.resolution
     real: dict[str, list] = {}
-    for k, regions in KITTI_STREET.items():
-        img = kitti_marked_frame(k)
-        sx, sy = W / img.shape[1], H / img.shape[0]
-        L = _linear(cv2.resize(img, (W, H), interpolation=cv2.INTER_AREA), "kitti")
-        road = None
-        for name, (x0, y0, x1, y1) in regions.items():
-            m = np.zeros(L.shape, bool)
-            m[int(y0 * sy):int(np.ceil(y1 * sy)), int(x0 * sx):int(np.ceil(x1 * sx))] = True
-            v = float(np.median(L[m]))
-            road = v if name == "road" else road
-            ys, xs = np.nonzero(m)
-            grain = _grain(L, m) if np.ptp(ys) >= 10 and np.ptp(xs) >= 10 else float("nan")
-            real.setdefault(name, []).append((v / road, grain))
+    road: dict[int, float] = {}      # each frame's sunlit road (its table lists the road first)
+    for k, name, L, (x0, y0, x1, y1) in kitti_regions_at(KITTI_STREET, (W, H)):
+        m = np.zeros(L.shape, bool)
+        m[int(y0):int(np.ceil(y1)), int(x0):int(np.ceil(x1))] = True
+        v = float(np.median(L[m]))
+        if name == "road":
+            road[k] = v
+        ys, xs = np.nonzero(m)
+        grain = _grain(L, m) if np.ptp(ys) >= 10 and np.ptp(xs) >= 10 else float("nan")
+        real.setdefault(name, []).append((v / road[k], grain))
     man = json.loads((out / "manifest.json").read_text())
     kind_of = {o["id"]: _street_kind(o) for o in man["objects"]}
     # a kerb's top (world y, m): its rest pose's height plus its own; KITTI's marks are kerb tops
