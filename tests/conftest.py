@@ -92,7 +92,7 @@ if _TIMES_PATH:
 # (pytest-xdist --dist loadfile --no-loadscope-reorder): these start first, so that the short files
 # fill in at the end instead of one long file running alone on one worker.
 SLOWEST_FIRST = [
-    "test_study_render.py", "test_farm_ray.py", "test_sensor_render.py", "test_addon_blender.py",
+    "test_study_render.py", "test_still_split.py", "test_farm_ray.py", "test_sensor_render.py", "test_addon_blender.py",
     "test_render_cli.py", "test_render_reliability.py", "test_render_photoreal.py", "test_culling_render.py",
     "test_culling.py", "test_quality_presets.py", "test_scene_variations.py", "test_evaluate_evo.py",
     "test_stereo_dynamic.py", "test_mono_pipeline.py", "test_render_oracle.py", "test_render_integrity.py",
