@@ -72,8 +72,9 @@ def _yaml_numbers(text: str, key: str) -> np.ndarray:
     return np.array([float(x) for x in m.group(1).replace("\n", " ").split(",")])
 
 
-def euroc_frames(n: int):
-    """Raw left frames and rectified (left, right) pairs of the EuRoC excerpt."""
+def euroc_rectification():
+    """The EuRoC excerpt's two cameras (dicts of K, dist, T_BS and their frame files, cam0 then
+    cam1) and their stereo rectification at 752 x 480 (R1, R2, P1, P2 of cv2.stereoRectify)."""
     root = DATA / "euroc" / "mav0"
     cams = []
     for c in ("cam0", "cam1"):
@@ -83,10 +84,16 @@ def euroc_frames(n: int):
                      "dist": _yaml_numbers(text, "distortion_coefficients"),
                      "T_BS": _yaml_numbers(text, "T_BS").reshape(4, 4),
                      "files": sorted((root / c / "data").glob("*.png"))})
-    size = (752, 480)
     T_c1_c0 = np.linalg.inv(cams[1]["T_BS"]) @ cams[0]["T_BS"]
-    R1, R2, P1, P2, *_ = cv2.stereoRectify(cams[0]["K"], cams[0]["dist"], cams[1]["K"], cams[1]["dist"], size,
+    R1, R2, P1, P2, *_ = cv2.stereoRectify(cams[0]["K"], cams[0]["dist"], cams[1]["K"], cams[1]["dist"], (752, 480),
                                            T_c1_c0[:3, :3], T_c1_c0[:3, 3], alpha=0)
+    return cams, (R1, R2, P1, P2)
+
+
+def euroc_frames(n: int):
+    """Raw left frames and rectified (left, right) pairs of the EuRoC excerpt."""
+    cams, (R1, R2, P1, P2) = euroc_rectification()
+    size = (752, 480)
     maps = [cv2.initUndistortRectifyMap(c["K"], c["dist"], R, P, size, cv2.CV_32FC1)
             for c, R, P in ((cams[0], R1, P1), (cams[1], R2, P2))]
     n = min(n, len(cams[0]["files"]))

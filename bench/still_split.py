@@ -39,6 +39,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "bench"))
 
+from blender_sesgen.contract.se3 import so3_log  # noqa: E402
+
 
 def turns_of_images(frames: list[np.ndarray], K: np.ndarray) -> np.ndarray:
     """(n-1, 3) turns (deg) of a camera of intrinsics K between consecutive images about its own
@@ -112,11 +114,8 @@ def turns_of_poses(T_world_cam: np.ndarray) -> np.ndarray:
     """(n-1, 3) turns (deg) between consecutive camera poses (T_world_cam, OpenCV camera frame
     x right, y down, z ahead) about the camera's own right, down and optical axes; the sense
     that makes :func:`turns_of_images` of the images they take read the same."""
-    out = []
-    for A, B in zip(T_world_cam, T_world_cam[1:]):
-        r, _ = cv2.Rodrigues(np.asarray(A[:3, :3]).T @ np.asarray(B[:3, :3]))
-        out.append(np.degrees(r.ravel()))
-    return np.array(out)
+    R = np.asarray(T_world_cam, float)[:, :3, :3]
+    return np.degrees(so3_log(np.swapaxes(R[:-1], -1, -2) @ R[1:]))
 
 
 def motion_figures(turns: np.ndarray) -> dict:
@@ -139,17 +138,9 @@ def euroc_standing_turns(view: str = "left") -> tuple[np.ndarray, float]:
 
 
 def euroc_rectified_P() -> np.ndarray:
-    """The rectified left camera's 3 x 4 projection (bench/realism.py's euroc_frames' P1)."""
-    from realism import DATA, _yaml_numbers
-    root = DATA / "euroc" / "mav0"
-    cams = []
-    for c in ("cam0", "cam1"):
-        t = (root / c / "sensor.yaml").read_text()
-        fu, fv, cu, cv_ = _yaml_numbers(t, "intrinsics")
-        cams.append((np.array([[fu, 0, cu], [0, fv, cv_], [0, 0, 1.0]]), _yaml_numbers(t, "distortion_coefficients"),
-                     _yaml_numbers(t, "T_BS").reshape(4, 4)))
-    T = np.linalg.inv(cams[1][2]) @ cams[0][2]
-    return cv2.stereoRectify(cams[0][0], cams[0][1], cams[1][0], cams[1][1], (752, 480), T[:3, :3], T[:3, 3], alpha=0)[2]
+    """The rectified left camera's 3 x 4 projection (bench/realism.py's EuRoC rectification, P1)."""
+    from realism import euroc_rectification
+    return euroc_rectification()[1][2]
 
 
 def _motion_lines(script: Path) -> list[str]:

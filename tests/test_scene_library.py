@@ -352,17 +352,8 @@ def test_hall_stand_is_closed_in_within_4_m_as_euroc_v1_01s(scenes, shared_data)
     import sys
     import cv2
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
-    from realism import _yaml_numbers, euroc_frames
-    root = shared_data / "euroc" / "mav0"
-    K, dist, T_BS = [], [], []
-    for c in ("cam0", "cam1"):
-        text = (root / c / "sensor.yaml").read_text()
-        fu, fv, cu, cv = _yaml_numbers(text, "intrinsics")
-        K.append(np.array([[fu, 0, cu], [0, fv, cv], [0, 0, 1.0]]))
-        dist.append(_yaml_numbers(text, "distortion_coefficients"))
-        T_BS.append(_yaml_numbers(text, "T_BS").reshape(4, 4))
-    T = np.linalg.inv(T_BS[1]) @ T_BS[0]
-    _, _, P1, P2, *_ = cv2.stereoRectify(K[0], dist[0], K[1], dist[1], (752, 480), T[:3, :3], T[:3, 3], alpha=0)
+    from realism import euroc_frames, euroc_rectification
+    _, (_, _, _, P2) = euroc_rectification()
     fb = -P2[0, 3]                                       # focal x baseline of the rectified pair (px m)
     _, left, right = euroc_frames(75)
     sgbm = cv2.StereoSGBM_create(0, 64, 5, P1=200, P2=800, uniquenessRatio=10, speckleWindowSize=100,

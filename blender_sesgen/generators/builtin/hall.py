@@ -50,6 +50,7 @@ import numpy as np
 
 from ...scene.assets.flight_arena import MAT_HANDLE_M
 from ...scene.lighting import SKY_EXPOSURE
+from ...contract.frames import R_CV_BLENDERCAM
 from ...contract.se3 import euler_xyz_deg_to_R, so3_exp
 from .sesgen_layout import (REPO, Ids, Lighting, asset, camera_body_R, camera_yaw_pitch_roll, command_line,
                             draw_lighting, num, nums, script_with_poses, SeededVariation, smooth_noise, variation_rng)
@@ -84,7 +85,6 @@ STAND_ROLL_DEG = -1.5    # its roll (camera_pose_line's sense; the floor's norma
 SHAKE_DEG = (0.0116, 0.0063, 0.0082)   # about the camera's right (pitch), down (yaw), optical (roll) axes
 SHAKE_HOLD = (0.8, 0.8, 0.0)
 SHAKE_BURSTS = 0.7
-OPENCV_IN_BODY = np.array([1.0, -1.0, -1.0])   # the OpenCV camera's axes (x right, y down, z ahead) in Blender's
 # EuRoC V1_01's camera faces a window behind a white curtain, 61 % of its clipped pixels
 # (frames 30-74: the top quarter 29 % at 255, rows 0-95 of 480, -12..+24 deg across): the
 # standing MAV faces a low window in the south wall, 12 m off, behind diffusing glazing
@@ -412,7 +412,7 @@ def _stand_and_take_off(P, climb_yaw, yaw, pitch, roll, stand: int, rng):
     look = climb_yaw[0]
     R0 = camera_body_R(look, STAND_PITCH_DEG, STAND_ROLL_DEG)
     turns = stand_shake(rng, stand)
-    stood = np.array([camera_yaw_pitch_roll(R0 @ so3_exp(np.radians(w) * OPENCV_IN_BODY)) for w in turns]).reshape(-1, 3)
+    stood = np.array([camera_yaw_pitch_roll(R0 @ so3_exp(R_CV_BLENDERCAM @ np.radians(w))) for w in turns]).reshape(-1, 3)
     P = np.concatenate([np.tile(S, (stand, 1)), climb, P])
     yaw = np.concatenate([stood[:, 0], climb_yaw, yaw])
     pitch = np.concatenate([stood[:, 1], STAND_PITCH_DEG + ease * (pitch[0] - STAND_PITCH_DEG), pitch])
