@@ -7,7 +7,7 @@
 # rendered on the GPU unless out/bench-cache holds it).
 #
 #     bench/gpu_figures.sh [--scale 0.5] [--frames 2] [--scenes "city_kitti hall office forest paper_room"]
-#                          [--presets "gt draft final"] [--no-quality]
+#                          [--presets "gt draft final"] [--no-quality] [--no-speed]
 #
 # Every figure goes to stdout and to $OUT/gpu_figures.txt (or out/gpu_figures.txt): paste the
 # tables into docs/rendering.md with the command and the machine. The CPU side costs the most:
@@ -17,7 +17,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-$( [ -x .venv/bin/python ] && echo .venv/bin/python || command -v python3 )}
 export PYTHONPATH=$PWD${PYTHONPATH:+:$PYTHONPATH}
-SCALE=0.5 FRAMES=2 QUALITY=1
+SCALE=0.5 FRAMES=2 QUALITY=1 SPEED=1
 SCENES="city_kitti hall office forest paper_room" PRESETS="gt draft final"
 while [ $# -gt 0 ]; do
   case $1 in
@@ -26,6 +26,7 @@ while [ $# -gt 0 ]; do
     --scenes) SCENES=$2; shift 2 ;;
     --presets) PRESETS=$2; shift 2 ;;
     --no-quality) QUALITY=0; shift ;;
+    --no-speed) SPEED=0; shift ;;
     *) echo "gpu_figures.sh: unknown option $1" >&2; exit 2 ;;
   esac
 done
@@ -36,6 +37,7 @@ mkdir -p "$(dirname "$LOG")"
        "$(nvidia-smi --query-gpu=name,memory.total --format=csv,noheader 2>/dev/null || echo 'no nvidia-smi')"
   "$PY" -c "from blender_sesgen.blender.render import enable_gpu; print('# Cycles device:', enable_gpu())" || exit 2
   for s in $SCENES; do
+    [ "$SPEED" = 1 ] || break
     configs=()
     for p in $PRESETS; do configs+=("$p" "$p/gpu"); done
     "$PY" bench/bench_render.py --scene "scenes/$s.ses" --scale "$SCALE" --frames "$FRAMES" --configs "${configs[@]}" \
