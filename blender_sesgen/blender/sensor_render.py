@@ -16,6 +16,8 @@ from ..contract.depth import BACKGROUND_THRESHOLD
 from ..contract.exr_format import PASS_NOISY
 from ..contract.manifest import render_seed
 from ..files.exr import read_exr, write_exr
+from ..files.png import write_png
+from ..render.sensor import still
 from . import compat, object_motion, render, rig, sensor
 
 
@@ -64,13 +66,16 @@ class SensorSession:
         shutter, duration = s.shutter(exposure_s)
         gt_shutter = s.shutter(0.0)[0] if s.rolling_shutter else 0.0
         shift = sensor.rolling_shift_frames(s.timing.readout_s, s.height, s.rate_hz) if s.rolling_shutter else 0.0
-        self._key(k, [shutter, gt_shutter], shift)
+        # in a still stretch the beauty is the stretch's first frame's, drawn again (its poses,
+        # its seed) and reprojected to frame k below; the ground truth is frame k's own
+        ref = s.still_reference(k)
+        self._key(ref, [shutter, gt_shutter], shift)
         names = compat.exr_channel_names()
         beauty = set(names["rgb"])
         quiet = not self.plan.options.verbose
-        bframe = rig.blender_frame(k)
 
-        def draw(views, seed: int, targets: dict, display=None) -> dict:
+        def draw(views, seed: int, targets: dict, display=None, frame: int = k) -> dict:
+            bframe = rig.blender_frame(frame)
             if self.fast:
                 return render.render_views(self.scene, self.cameras, views, bframe, seed, targets, quiet, display)
             (v,) = views
@@ -98,8 +103,10 @@ class SensorSession:
                 for vi, view in enumerate(() if sharp_only else views):
                     if stop():
                         raise KeyboardInterrupt
-                    stats.update(draw((view,), render_seed(self.plan.settings.seed, k, vi), tmp,
-                                      {view: display_paths[view]} if display_paths else None))
+                    stats.update(draw((view,), render_seed(self.plan.settings.seed, ref, vi), tmp,
+                                      {view: display_paths[view]} if display_paths else None, ref))
+            if ref != k:
+                self._key(k, [shutter, gt_shutter], shift)
             if s.shutter_effects and not sharp_only:
                 with sensor.ground_truth_settings(self.scene, gt_shutter, s.rolling_shutter):
                     gt_stats = {}
@@ -121,6 +128,13 @@ class SensorSession:
                 if s.lens is not None:   # a custom camera's Depth pass is the distance along the ray
                     z = channels[names["depth"]]
                     channels[names["depth"]] = np.where(z >= BACKGROUND_THRESHOLD, z, z * self._ray_z)
+                if ref != k:
+                    T = s.camera_poses(view, np.array([rig.blender_frame(ref), rig.blender_frame(k)]), rig.FRAME0)
+                    held = [n for n in channels if n in beauty or f".{PASS_NOISY[0]}." in n]
+                    channels.update(still.reproject({n: channels[n] for n in held}, channels[names["depth"]],
+                                                    s.K, T[0], T[1]))
+                    if display_paths:   # the display-referred PNG, reprojected in display values
+                        _reproject_png(display_paths[view], channels[names["depth"]], s.K, T[0], T[1])
                 write_exr(Path(paths[view]), channels)
         finally:
             for f in (*tmp.values(), *tmp_gt.values()):
@@ -128,3 +142,19 @@ class SensorSession:
                     os.remove(f)
             sensor.set_shutter(self.scene, 0.0, False, 0.0)
         return stats
+
+
+def _reproject_png(path, depth_k, K, T_world_cam_r, T_world_cam_k) -> None:
+    """Rewrite an 8-bit RGB PNG of frame r's view as frame k's camera sees it."""
+    import bpy
+    img = bpy.data.images.load(str(path), check_existing=False)
+    try:
+        w, h = img.size
+        px = np.empty(w * h * 4, dtype=np.float32)
+        img.pixels.foreach_get(px)
+    finally:
+        bpy.data.images.remove(img)
+    rgb = px.reshape(h, w, 4)[::-1, :, :3]              # Blender's rows run bottom-up
+    out = still.reproject({c: rgb[..., c] for c in range(3)}, depth_k, K, T_world_cam_r, T_world_cam_k)
+    write_png(Path(path), np.clip(np.round(np.stack([out[c] for c in range(3)], axis=-1) * 255.0), 0, 255)
+              .astype(np.uint8), level=1)

@@ -98,6 +98,18 @@ class _Reader:
             self.bad(key, "numbers")
         return tuple(float(x) for x in v)
 
+    def frame_ranges(self, key: str) -> Optional[tuple]:
+        """A list of [first, last] frame pairs (0 <= first < last), or None."""
+        v = self.d.get(key)
+        if v is None:
+            return None
+        ok = isinstance(v, list) and all(
+            isinstance(p, list) and len(p) == 2 and all(isinstance(x, int) and not isinstance(x, bool) for x in p)
+            and 0 <= p[0] < p[1] for p in v)
+        if not ok:
+            self.bad(key, "a list of [first, last] frame pairs")
+        return tuple(tuple(p) for p in v)
+
 
 @dataclass(frozen=True)
 class RigMotionSection:
@@ -131,11 +143,15 @@ class TimingSection:
     rolling_shutter: bool
     row_offsets_s: Optional[tuple] = None
     ground_truth: str = ""
+    # [first, last] of each still stretch: frames first+1..last show frame first's beauty
+    # reprojected to their own poses (render/sensor/still.py); None: no stretch
+    still_frames: Optional[tuple] = None
 
     def pixel_values(self) -> dict:
         """The values that change pixels and poses (``contract.pixel_settings.TIMING_KEYS``)."""
         return {"rate_hz": self.rate_hz, "start_s": self.start_s, "exposure_s": self.exposure_s,
-                "readout_s": self.readout_s, "motion_blur": self.motion_blur}
+                "readout_s": self.readout_s, "motion_blur": self.motion_blur,
+                "still_frames": None if self.still_frames is None else [list(s) for s in self.still_frames]}
 
     def to_json(self) -> dict:
         return {**self.pixel_values(), "rolling_shutter": self.rolling_shutter, "stamp": STAMP_RULE,
@@ -149,7 +165,8 @@ class TimingSection:
         return cls(rate_hz=r.number("rate_hz", DEFAULT_FPS, positive=True), start_s=r.number("start_s", 0.0),
                    exposure_s=r.number("exposure_s", 0.0, low=0.0), readout_s=r.number("readout_s", 0.0, low=0.0),
                    motion_blur=r.flag("motion_blur", False), rolling_shutter=r.flag("rolling_shutter", False),
-                   row_offsets_s=r.numbers("row_offsets_s"), ground_truth=r.text("ground_truth"))
+                   row_offsets_s=r.numbers("row_offsets_s"), ground_truth=r.text("ground_truth"),
+                   still_frames=r.frame_ranges("still_frames"))
 
 
 @dataclass(frozen=True)

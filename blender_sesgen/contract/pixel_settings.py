@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from typing import Optional
 
 # the keys of the manifest's ``timing`` entry that change pixels or poses
-TIMING_KEYS = ("rate_hz", "start_s", "exposure_s", "readout_s", "motion_blur")
+TIMING_KEYS = ("rate_hz", "start_s", "exposure_s", "readout_s", "motion_blur", "still_frames")
 # the keys of the manifest's ``render`` entry that this record writes
 RENDER_KEYS = ("samples", "denoise", "sampling", "seed", "resolution_scale", "passes", "culling")
 

@@ -284,7 +284,7 @@ class RenderSettings:
 
 @dataclass(frozen=True, kw_only=True)
 class Timing:
-    """``TIMING rate HZ [start S] [exposure S] [readout S] [blur on|off]``.
+    """``TIMING rate HZ [start S] [exposure S] [readout S] [blur on|off] [still on|off]``.
 
     Frame k is stamped at the middle of its exposure, ``start_s + k / rate_hz``. ``exposure_s``
     0 = instantaneous (no motion blur); ``readout_s`` 0 = global shutter, else rows are read
@@ -294,6 +294,7 @@ class Timing:
     exposure_s: float = 0.0
     readout_s: float = 0.0
     blur: bool = True          # motion blur over the exposure (when exposure_s > 0)
+    still: bool = True         # a still camera's frames hold the path tracer's noise (render/sensor/still.py)
 
     @property
     def motion_blur(self) -> bool:

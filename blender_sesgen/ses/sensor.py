@@ -47,7 +47,7 @@ def timing(stmt: Optional[ParsedStatement], check: Checks, profile: dict = {}) -
             check.err(stmt.tags[name].tokens[0], f"TIMING '{name}' ({value:g} s) is longer than the frame "
                                                  f"period (1 / rate = {period:g} s)")
     return model.Timing(rate_hz=rate, start_s=float(scalar(stmt, "start", 0.0)), exposure_s=exposure,
-                        readout_s=readout, blur=stmt.get("blur", "on") == "on")
+                        readout_s=readout, blur=stmt.get("blur", "on") == "on", still=stmt.get("still", "on") == "on")
 
 
 def lens(stmt: Optional[ParsedStatement], check: Checks, profile: dict = {}) -> Optional[model.Lens]:

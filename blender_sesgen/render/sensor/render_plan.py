@@ -21,7 +21,7 @@ from . import imu as imu_mod
 from ...scene import camera_profiles
 from ...contract import timing as timing_mod
 from ...contract.timing import DEFAULT_FPS
-from . import autoexposure
+from . import autoexposure, still
 from .autoexposure import METERING_RULE, ExposureControl, exposure_schedule
 from ...contract.lens import Lens, opencv_calibration_yaml, robotcar_lut_bytes, undistortion_maps
 from ...contract import rig
@@ -57,7 +57,7 @@ def effective_timing(scene: model.Scene, o: TimingOverrides) -> Optional[model.T
     t = model.Timing(rate_hz=o.rate_hz if o.rate_hz is not None else t.rate_hz, start_s=t.start_s,
                      exposure_s=o.exposure_s if o.exposure_s is not None else t.exposure_s,
                      readout_s=o.readout_s if o.readout_s is not None else t.readout_s,
-                     blur=o.motion_blur if o.motion_blur is not None else t.blur)
+                     blur=o.motion_blur if o.motion_blur is not None else t.blur, still=t.still)
     if not (t.rate_hz > 0 and np.isfinite(t.rate_hz)):
         raise SesgenError(f"--rate must be a positive number, got {t.rate_hz}")
     for name, v in (("exposure", t.exposure_s), ("readout", t.readout_s)):
@@ -82,6 +82,7 @@ class SensorPlan:
     K: np.ndarray
     views: tuple[str, ...]
     baseline: float
+    still_refs: tuple[int, ...] = ()     # each frame's still-stretch reference (still.py); () = none
 
     @classmethod
     def create(cls, scene: model.Scene, settings, overrides: TimingOverrides = TimingOverrides()) -> "SensorPlan":
@@ -99,8 +100,22 @@ class SensorPlan:
         motion = RigMotion.for_motion_kind(scene.timeline.left(), rate, start, scene.motion.kind)
         # a profile's sensor is the physical one: bin it to the render's pixels
         sensor, lens_spec = camera_profiles.at_width(scene.sensor, scene.lens, settings.width)
-        return cls(t, lens_spec, lens, sensor, scene.autoexposure, scene.imu, motion, settings.width,
+        plan = cls(t, lens_spec, lens, sensor, scene.autoexposure, scene.imu, motion, settings.width,
                    settings.height, K, tuple(scene.rig.views), float(scene.rig.baseline))
+        # held noise needs the beauty drawn apart from the ground truth (a shutter), a global
+        # shutter and a pinhole (the reprojection is K's), and noise to hold (not gt's one sample)
+        if (t is not None and t.still and plan.motion_blur and not plan.rolling_shutter and lens is None
+                and not settings.preset.deterministic_rgb):
+            frames = np.arange(scene.frames, dtype=float)
+            refs = still.still_references({v: plan.camera_poses(v, frames) for v in plan.views}, K,
+                                          settings.width, settings.height, world_moves=bool(scene.object_motions))
+            if any(r != k for k, r in enumerate(refs)):
+                plan = dataclasses.replace(plan, still_refs=refs)
+        return plan
+
+    def still_reference(self, k: int) -> int:
+        """The frame whose beauty frame k shows, reprojected (itself outside a still stretch)."""
+        return self.still_refs[k] if self.still_refs else k
 
     # --- what to render ------------------------------------------------------------------
     @property
@@ -293,7 +308,8 @@ class SensorPlan:
             motion_blur=self.motion_blur, rolling_shutter=self.rolling_shutter,
             row_offsets_s=(tuple(timing_mod.row_offsets_s(self.height, t.readout_s).tolist())
                            if self.rolling_shutter else None),
-            ground_truth=GROUND_TRUTH_RULE["rolling" if self.rolling_shutter else "global"])
+            ground_truth=GROUND_TRUTH_RULE["rolling" if self.rolling_shutter else "global"],
+            still_frames=tuple(tuple(s) for s in still.stretches(self.still_refs)) or None)
 
     def timing_values(self) -> Optional[dict]:
         """The timing values that change pixels and poses (``contract.pixel_settings``)."""
