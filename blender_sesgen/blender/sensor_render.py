@@ -50,7 +50,8 @@ class SensorSession:
 
     def render_frame(self, k: int, exposure_s: float, paths: dict[str, Path],
                      stop: Callable[[], bool] = lambda: False,
-                     display_paths: Optional[dict] = None) -> dict[str, dict]:
+                     display_paths: Optional[dict] = None,
+                     still_exposure_s: Optional[float] = None) -> dict[str, dict]:
         """Every view of frame k into ``paths[view]`` (and the beauty's display-referred PNG
         into ``display_paths[view]``); {view: render stats}. ``stop()`` is asked before each
         view (KeyboardInterrupt when it says yes).
@@ -69,7 +70,9 @@ class SensorSession:
         # in a still stretch the beauty is the stretch's first frame's, drawn again (its poses,
         # its seed) and reprojected to frame k below; the ground truth is frame k's own
         ref = s.still_reference(k)
-        self._key(ref, [shutter, gt_shutter], shift)
+        beauty_shutter, beauty_duration = (shutter, duration) if ref == k else s.shutter(
+            exposure_s if still_exposure_s is None else still_exposure_s)
+        self._key(ref, [beauty_shutter, gt_shutter], shift)
         names = compat.exr_channel_names()
         beauty = set(names["rgb"])
         quiet = not self.plan.options.verbose
@@ -96,7 +99,7 @@ class SensorSession:
                 with sensor.ground_truth_settings(self.scene, gt_shutter, s.rolling_shutter):
                     stats = draw(views, render_seed(self.plan.settings.seed, 0, 0), tmp, display_paths)
             else:
-                sensor.set_shutter(self.scene, shutter, s.rolling_shutter, duration)
+                sensor.set_shutter(self.scene, beauty_shutter, s.rolling_shutter, beauty_duration)
             # the beauty through the sensor's pixel aperture where the ground truth is a render of its own
             aperture = sensor.pixel_aperture(self.scene) if s.shutter_effects else contextlib.nullcontext()
             with aperture:

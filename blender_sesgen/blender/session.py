@@ -222,14 +222,16 @@ class BlenderSession:
 
     def render_frame(self, k: int, paths: dict[str, Path], stop: Callable[[], bool] = lambda: False,
                      exposure_s: Optional[float] = None,
-                     display_paths: Optional[dict[str, Path]] = None) -> dict[str, dict]:
+                     display_paths: Optional[dict[str, Path]] = None,
+                     still_exposure_s: Optional[float] = None) -> dict[str, dict]:
         """Render frame ``k`` of each view into ``paths[view]``; {view: render stats}.
         ``stop()`` is asked before each render (KeyboardInterrupt when it says yes);
         ``exposure_s``: the frame's exposure time on the sensor path (auto-exposure);
-        ``display_paths[view]``: where the display-referred PNG goes."""
+        ``display_paths[view]``: where the display-referred PNG goes; ``still_exposure_s``:
+        the exposure of the still stretch's first frame, whose beauty frame k shows."""
         if self.sensor is not None:
             return self.sensor.render_frame(k, self.plan.sensor.nominal_exposure_s() if exposure_s is None
-                                            else exposure_s, paths, stop, display_paths)
+                                            else exposure_s, paths, stop, display_paths, still_exposure_s)
         quiet = not self.plan.options.verbose
         bframe = rig.blender_frame(k)
         seed = self.plan.settings.seed
