@@ -170,7 +170,8 @@ class RenderJob:
         from .sensor import outputs as sensor_outputs
         exposure_s, gain = sensor_outputs.exposure_for(self.plan.sensor, self.manifest.extra, k)
         ref = self.plan.sensor.still_reference(k)   # a still stretch's beauty is its first frame's
-        ref_exposure_s = sensor_outputs.exposure_for(self.plan.sensor, self.manifest.extra, ref)[0] if ref != k else None
+        ref_exposure_s = (sensor_outputs.exposure_for(self.plan.sensor, self.manifest.extra, ref)[0]
+                          if ref != k else None)
         try:
             stats = self.session.render_frame(k, temps, stop, exposure_s=exposure_s, display_paths=shown,
                                               still_exposure_s=ref_exposure_s)
