@@ -96,7 +96,7 @@ def test_every_render_option_is_a_farm_option_and_reaches_the_render_unchanged()
     own = {a.dest for a in rp._actions if a.option_strings} - farm_cli.CONTROLLED
     assert passed_on == own and {"samples", "denoise", "seed", "resolution_scale", "device"} <= passed_on
     argv = ["--samples", "3", "--no-denoise", "--seed", "9", "--resolution-scale", "0.25", "--normal-pass",
-            "--device", "gpu", "--rate", "20", "--motion-blur"]
+            "--device", "gpu", "--rate", "20", "--motion-blur", "--still", "off"]
     args = _farm_args(*argv)
     fwd = farm_cli.forwarded_argv(args)
     direct = rp.parse_args(["s.ses", "--out", "o", *argv])
@@ -107,7 +107,7 @@ def test_every_render_option_is_a_farm_option_and_reaches_the_render_unchanged()
     opts = farm_cli.render_options(args)
     assert opts == render_cli.render_options(direct)      # what every chunk's render makes of them
     assert (opts.samples, opts.denoise, opts.seed, opts.resolution_scale, opts.normal_pass, opts.rate_hz,
-            opts.motion_blur) == (3, False, 9, 0.25, True, 20.0, True)
+            opts.motion_blur, opts.still) == (3, False, 9, 0.25, True, 20.0, True, False)
 
 
 def test_scenes_are_prepared_before_ray_with_each_user_error_on_its_scene(tmp_path):

@@ -149,3 +149,24 @@ def test_a_still_camera_holds_its_noise_and_keeps_its_ground_truth(tmp_path):
     for k in (1, 2):
         for sub in (f"exr/left/{k:06d}.exr", f"exr/right/{k:06d}.exr", f"sensor/left/raw/{k:06d}.png"):
             assert (tmp_path / "part" / sub).read_bytes() == (tmp_path / "on" / sub).read_bytes(), sub
+
+
+def test_the_command_line_overrides_the_scripts_still(tmp_path):
+    """``--still on|off`` replaces the script's ``TIMING still``: a render with the flag is byte for
+    byte (every EXR, the manifest's still stretches) the render of the script that says it."""
+    pytest.importorskip("bpy")
+    from render_support import render_here
+    for name, flag in (("on", "still on"), ("off", "still off")):
+        (tmp_path / f"{name}.ses").write_text(SCENE.format(still=flag))
+    for out, script, args in (("on", "on", ()), ("off", "off", ()), ("cli_on", "off", ("--still", "on")),
+                              ("cli_off", "on", ("--still", "off"))):
+        render_here(tmp_path / f"{script}.ses", tmp_path / out, *args, "--quiet")
+    for cli, script in (("cli_on", "on"), ("cli_off", "off")):
+        stretches = [json.loads((tmp_path / n / "manifest.json").read_text())["timing"]["still_frames"]
+                     for n in (cli, script)]
+        assert stretches[0] == stretches[1] == ([[0, 2]] if script == "on" else None), (cli, stretches)
+        for k in range(3):
+            for view in ("left", "right"):
+                sub = f"exr/{view}/{k:06d}.exr"
+                assert (tmp_path / cli / sub).read_bytes() == (tmp_path / script / sub).read_bytes(), (cli, sub)
+    assert (tmp_path / "on" / "exr/left/000002.exr").read_bytes() != (tmp_path / "off" / "exr/left/000002.exr").read_bytes()

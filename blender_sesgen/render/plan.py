@@ -81,6 +81,7 @@ class RenderOptions:
     exposure_s: Optional[float] = None
     readout_s: Optional[float] = None
     motion_blur: Optional[bool] = None
+    still: Optional[bool] = None         # a still camera's held noise (TIMING still)
     fast_pipeline: bool = True           # False: a fresh Cycles render per view (same pixels, slower)
     reuse_exr: Optional[str] = None      # a render folder whose EXRs this one reuses (blender_sesgen.render.reuse)
     cull: bool = False                   # build only what the frames can see (culling.py)
@@ -122,6 +123,8 @@ def render_argv(o: RenderOptions) -> list[str]:
             out += [flag, str(value)]
     if o.motion_blur is not None:
         out.append("--motion-blur" if o.motion_blur else "--no-motion-blur")
+    if o.still is not None:
+        out += ["--still", "on" if o.still else "off"]
     return out
 
 
@@ -372,7 +375,8 @@ def generator_version() -> str:
 
 def _sensor_plan(scene: Scene, settings: EffectiveSettings, o: RenderOptions):
     from .sensor.render_plan import SensorPlan, TimingOverrides
-    return SensorPlan.create(scene, settings, TimingOverrides(o.rate_hz, o.exposure_s, o.readout_s, o.motion_blur))
+    return SensorPlan.create(scene, settings, TimingOverrides(o.rate_hz, o.exposure_s, o.readout_s, o.motion_blur,
+                                                                 o.still))
 
 
 def sha256_text(text: str) -> str:

@@ -46,6 +46,7 @@ class TimingOverrides:
     exposure_s: Optional[float] = None
     readout_s: Optional[float] = None
     motion_blur: Optional[bool] = None
+    still: Optional[bool] = None
 
 
 def effective_timing(scene: model.Scene, o: TimingOverrides) -> Optional[model.Timing]:
@@ -57,7 +58,8 @@ def effective_timing(scene: model.Scene, o: TimingOverrides) -> Optional[model.T
     t = model.Timing(rate_hz=o.rate_hz if o.rate_hz is not None else t.rate_hz, start_s=t.start_s,
                      exposure_s=o.exposure_s if o.exposure_s is not None else t.exposure_s,
                      readout_s=o.readout_s if o.readout_s is not None else t.readout_s,
-                     blur=o.motion_blur if o.motion_blur is not None else t.blur, still=t.still)
+                     blur=o.motion_blur if o.motion_blur is not None else t.blur,
+                     still=o.still if o.still is not None else t.still)
     if not (t.rate_hz > 0 and np.isfinite(t.rate_hz)):
         raise SesgenError(f"--rate must be a positive number, got {t.rate_hz}")
     for name, v in (("exposure", t.exposure_s), ("readout", t.readout_s)):
