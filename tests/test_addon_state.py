@@ -59,3 +59,38 @@ def test_the_camera_override_replaces_the_scripts_sensor_and_keeps_its_line_numb
     assert (scene.sensor.profile, scene.sensor.full_well_e, scene.sensor.cfa) == (
         "euroc", PROFILES["euroc"].sensor["fullwell"], None)
     assert scene.timing.rate_hz == 30      # the script's TIMING stays; the profile fills only what it leaves out
+
+
+def test_the_summary_says_when_the_script_holds_a_still_cameras_noise():
+    base = SCRIPT.split("MOVE")[0] + "TIMING rate 20 exposure 0.01{}\nFRAMES 3\n"
+    assert "Timing: 20 Hz, exposure 10 ms, readout 0 ms, motion blur, still camera" in summary_lines(
+        parse_string(base.format("")))
+    assert "Timing: 20 Hz, exposure 10 ms, readout 0 ms, motion blur" in summary_lines(
+        parse_string(base.format(" still off")))
+
+
+def test_the_timing_overrides_still_toggle_reaches_the_render_plan(tmp_path):
+    """The panel's Timing override carries Still Camera (default on, as TIMING's) into the
+    RenderOptions, and the render plan holds no still stretch when it is off; without the
+    override the script's TIMING still rules."""
+    import pytest
+    pytest.importorskip("bpy")
+    from blender_sesgen.addon import props, ui
+    from blender_sesgen.render.plan import RenderPlan
+    # the property group's annotations are text (``from __future__ import annotations``): evaluated there
+    defaults = {k: eval(p, vars(props)).keywords.get("default")
+                for k, p in props.SESGEN_PG_settings.__annotations__.items()}
+    assert defaults["still"] is True
+    import inspect
+    assert '"motion_blur", "still")' in inspect.getsource(ui)          # shown beside Motion Blur
+    script = tmp_path / "s.ses"
+    script.write_text(SCRIPT.split("MOVE")[0] + "TIMING rate 20 exposure 0.01\nSENSOR seed 1\n"
+                      "RENDER samples 4 denoise off\nFRAMES 3\n")
+    values = dict(defaults, quality="script", override_timing=True, rate_hz=20.0, exposure_ms=10.0, motion_blur=True)
+    refs = {}
+    for name, v in (("on", dict(values)), ("off", dict(values, still=False)),
+                    ("script", dict(values, override_timing=False, still=False))):
+        o = props.render_options(v)
+        assert o.still is {"on": True, "off": False, "script": None}[name]
+        refs[name] = RenderPlan.from_file(script, o).sensor.still_refs
+    assert refs == {"on": (0, 0, 0), "off": (), "script": (0, 0, 0)}

@@ -169,4 +169,5 @@ def test_the_command_line_overrides_the_scripts_still(tmp_path):
             for view in ("left", "right"):
                 sub = f"exr/{view}/{k:06d}.exr"
                 assert (tmp_path / cli / sub).read_bytes() == (tmp_path / script / sub).read_bytes(), (cli, sub)
-    assert (tmp_path / "on" / "exr/left/000002.exr").read_bytes() != (tmp_path / "off" / "exr/left/000002.exr").read_bytes()
+    held, fresh = ((tmp_path / n / "exr/left/000002.exr").read_bytes() for n in ("on", "off"))
+    assert held != fresh

@@ -59,8 +59,8 @@ class SESGEN_PG_settings(bpy.types.PropertyGroup):
     seed: IntProperty(name="Seed", min=0, default=0, description="Base seed (per-frame/view seeds derive from it)")
     # camera timing (the script's TIMING statement; docs/ses-language.md)
     override_timing: BoolProperty(name="Override Script Timing", default=False,
-                                  description="Use this frame rate, exposure, readout and motion blur instead of the "
-                                              "script's TIMING line")
+                                  description="Use this frame rate, exposure, readout, motion blur and still "
+                                              "camera instead of the script's TIMING line")
     rate_hz: FloatProperty(name="Frame Rate", min=0.001, soft_max=240.0, default=DEFAULT_FPS, unit="NONE",
                            description="Frames per second (frame k is stamped at the middle of its exposure)")
     exposure_ms: FloatProperty(name="Exposure (ms)", min=0.0, soft_max=100.0, default=0.0,
@@ -69,6 +69,9 @@ class SESGEN_PG_settings(bpy.types.PropertyGroup):
                               description="Rolling-shutter readout, top row to bottom row (0: global shutter)")
     motion_blur: BoolProperty(name="Motion Blur", default=False,
                               description="Blur over the exposure (ground truth stays sharp, at mid-exposure)")
+    still: BoolProperty(name="Still Camera", default=True,
+                        description="Where the camera stands still its frames hold the path tracer's noise: each "
+                                    "shows the stretch's first frame's beauty reprojected (needs motion blur)")
     resolution_scale: FloatProperty(name="Resolution Scale", min=0.01, max=4.0, soft_max=2.0, default=1.0,
                                     description="Scale the image size and K (e.g. 0.5 for a quick look)")
     device: EnumProperty(name="Device", items=(("cpu", "CPU", "Render on the CPU"),
@@ -159,4 +162,5 @@ def render_options(values: dict):
         exposure_s=values["exposure_ms"] / 1000.0 if t else None,
         readout_s=values["readout_ms"] / 1000.0 if t else None,
         motion_blur=bool(values["motion_blur"]) if t else None,
+        still=bool(values["still"]) if t else None,
     )

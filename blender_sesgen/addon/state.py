@@ -69,7 +69,8 @@ def sensor_lines(scene: Scene) -> tuple[str, ...]:
     t = scene.timing
     if t is not None:
         lines.append(f"Timing: {t.rate_hz:g} Hz, exposure {t.exposure_s * 1e3:g} ms, readout {t.readout_s * 1e3:g} ms"
-                     + (", motion blur" if t.blur and t.exposure_s > 0 else ""))
+                     + (", motion blur" if t.motion_blur else "")
+                     + (", still camera" if t.still and t.motion_blur and not t.rolling_shutter else ""))
     if scene.lens is not None:
         lens = scene.lens
         optics = [f"f/{lens.f_number:g}" if lens.f_number else "", f"vignetting {lens.vignetting:g}"

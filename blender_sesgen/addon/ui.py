@@ -96,7 +96,7 @@ class SESGEN_PT_render(_SidebarPanel, bpy.types.Panel):
             layout.prop(s, "world_rotation")
         _toggled(layout, s, "Sampling", "override_render", "Override Script", ("samples", "denoise", "seed"))
         _toggled(layout, s, "Timing", "override_timing", "Override Script",
-                 ("rate_hz", "exposure_ms", "readout_ms", "motion_blur"))
+                 ("rate_hz", "exposure_ms", "readout_ms", "motion_blur", "still"))
         layout.prop(s, "resolution_scale")
         layout.prop(s, "device")
         layout.prop(s, "output_dir")
