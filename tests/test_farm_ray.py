@@ -153,6 +153,24 @@ def test_chunks_of_two_frames_equal_single_machine_renders(scenes, cluster):
         assert exr_bytes(root / name) == exr_bytes(ref)
 
 
+# a still camera (TIMING still on, the default, with motion blur): frames 0-2 and 3-4 are two still
+# stretches; the chunk [2:4] holds frame 2, whose beauty is frame 0's, drawn again there
+STILL = (SCENE.format(floor=4, x=0.6).split("EGO")[0] + "TIMING rate 20 exposure 0.01\n"
+         + "EGO 0 0 0 0 0.01 0\n" * 2 + "EGO 0.05 0 0 0 0 0\n" + "EGO 0 0 0 0 0.01 0\n")
+
+
+def test_a_still_cameras_chunks_equal_its_single_render(cluster, tmp_path):
+    """Held noise is a function of the frame and the script: chunks of two frames, split inside
+    a still stretch, give the single render's bytes."""
+    script = tmp_path / "still.ses"
+    script.write_text(STILL)
+    ref = rendered(script, tmp_path / "single", *RENDER, here=True)
+    assert manifest(ref)["timing"]["still_frames"] == [[0, 2], [3, 4]]
+    r = farm(script, "--out", tmp_path / "farm", "--address", cluster, "--chunk", "2", *RENDER)
+    assert r.returncode == 0, r.stderr
+    assert_same_as_single(tmp_path / "farm", "still", ref)
+
+
 def _writers(out: Path) -> dict[int, int]:
     """{pid: frames logged} of the renders holding a lock on ``out`` now."""
     state = out / ".sesgen"
