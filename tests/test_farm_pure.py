@@ -96,7 +96,7 @@ def test_every_render_option_is_a_farm_option_and_reaches_the_render_unchanged()
     own = {a.dest for a in rp._actions if a.option_strings} - farm_cli.CONTROLLED
     assert passed_on == own and {"samples", "denoise", "seed", "resolution_scale", "device"} <= passed_on
     argv = ["--samples", "3", "--no-denoise", "--seed", "9", "--resolution-scale", "0.25", "--normal-pass",
-            "--device", "gpu", "--rate", "20", "--motion-blur", "--still", "off"]
+            "--device", "gpu", "--rate", "20", "--motion-blur", "--no-still"]
     args = _farm_args(*argv)
     fwd = farm_cli.forwarded_argv(args)
     direct = rp.parse_args(["s.ses", "--out", "o", *argv])

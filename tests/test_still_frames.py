@@ -152,14 +152,14 @@ def test_a_still_camera_holds_its_noise_and_keeps_its_ground_truth(tmp_path):
 
 
 def test_the_command_line_overrides_the_scripts_still(tmp_path):
-    """``--still on|off`` replaces the script's ``TIMING still``: a render with the flag is byte for
+    """``--still`` / ``--no-still`` replace the script's ``TIMING still``: a render with the flag is byte for
     byte (every EXR, the manifest's still stretches) the render of the script that says it."""
     pytest.importorskip("bpy")
     from render_support import render_here
     for name, flag in (("on", "still on"), ("off", "still off")):
         (tmp_path / f"{name}.ses").write_text(SCENE.format(still=flag))
-    for out, script, args in (("on", "on", ()), ("off", "off", ()), ("cli_on", "off", ("--still", "on")),
-                              ("cli_off", "on", ("--still", "off"))):
+    for out, script, args in (("on", "on", ()), ("off", "off", ()), ("cli_on", "off", ("--still",)),
+                              ("cli_off", "on", ("--no-still",))):
         render_here(tmp_path / f"{script}.ses", tmp_path / out, *args, "--quiet")
     for cli, script in (("cli_on", "on"), ("cli_off", "off")):
         stretches = [json.loads((tmp_path / n / "manifest.json").read_text())["timing"]["still_frames"]

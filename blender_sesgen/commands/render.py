@@ -68,7 +68,7 @@ def add_arguments(p, forwarded_only: bool = False) -> list[argparse.Action]:
                                     "global shutter)"))
     acts.append(p.add_argument("--motion-blur", action=argparse.BooleanOptionalAction, default=None,
                                help="motion blur over the exposure (overrides TIMING blur)"))
-    acts.append(p.add_argument("--still", choices=("on", "off"), default=None,
+    acts.append(p.add_argument("--still", action=argparse.BooleanOptionalAction, default=None,
                                help="a still camera holds its noise: the frames of a still stretch show its first "
                                     "frame's beauty reprojected (overrides TIMING still)"))
     if not forwarded_only:
@@ -99,7 +99,7 @@ def forwarded_options(args: argparse.Namespace) -> RenderOptions:
         quality=args.quality, samples=args.samples, denoise=args.denoise, seed=args.seed, device=args.device,
         resolution_scale=args.resolution_scale, normal_pass=args.normal_pass, position_pass=args.position_pass,
         rate_hz=args.rate, exposure_s=args.exposure, readout_s=args.readout, motion_blur=args.motion_blur,
-        still=None if args.still is None else args.still == "on",
+        still=args.still,
         fast_pipeline=not args.plain_pipeline, cull=args.cull,
     )
 

@@ -124,7 +124,7 @@ def render_argv(o: RenderOptions) -> list[str]:
     if o.motion_blur is not None:
         out.append("--motion-blur" if o.motion_blur else "--no-motion-blur")
     if o.still is not None:
-        out += ["--still", "on" if o.still else "off"]
+        out.append("--still" if o.still else "--no-still")
     return out
 
 
