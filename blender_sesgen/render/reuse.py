@@ -113,7 +113,10 @@ class ReusedSession:
         return save_jpeg
 
     def render_frame(self, k: int, paths: dict, stop: Callable[[], bool] = lambda: False,
-                     exposure_s: Optional[float] = None, display_paths: Optional[dict] = None) -> dict:
+                     exposure_s: Optional[float] = None, display_paths: Optional[dict] = None,
+                     still_exposure_s: Optional[float] = None) -> dict:
+        """Frame k's EXRs (and PNGs) copied from BASE (a still stretch's held beauty included:
+        BASE drew it, so ``still_exposure_s`` has nothing to do here)."""
         stats = {}
         for view, tmp in paths.items():
             if stop():
