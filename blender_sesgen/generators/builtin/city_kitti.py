@@ -115,6 +115,7 @@ class NearField:
     walk_right: float = 0.0
     setback_right: tuple = ()   # ... and the right front row's setback range behind the sidewalk (empty: drawn)
     gutter_right: float = 0.0   # a light concrete gutter this wide between the carriageway and the bay
+    setback_left: tuple = ()    # the left front row's setback range behind the left kerb up to LEFT_ROW_M ahead (empty: drawn)
 
 
 # KITTI sequence_1's street, measured in its frames (ground plane 1.65 m under the camera, f 707
@@ -147,7 +148,11 @@ KITTI_S1_NEAR = NearField(half_road=2.0, bay=2.5, walk_left=0.0, car_offset=3.13
                           parked_clear=100.0, traffic_lane=0.1, traffic_ahead=(100.0, 130.0), oncoming=False,
                           white_right=65.0, works_right=(60.0, 100.0), works_depth=22.0, open_right=37.0,
                           bikes_right=(7.0,), lawn_right=1.3,
-                          walk_right=2.2, setback_right=(0.6, 1.2), gutter_right=0.4)
+                          walk_right=2.2, setback_right=(0.6, 1.2), gutter_right=0.4, setback_left=(20.5, 22.5))
+# KITTI sequence_1's left houses (beyond its public lawn) face the street 25-27 m left of the camera
+# (SGBM, frames 20-36); the open frontage's drawn 14-28 m put seed 0's at 18.5-21 m, large smooth
+# walls where KITTI's upper left holds ~1.7x the corners (session 14: 76-88 vs 43-49 a frame)
+LEFT_ROW_M = 100.0
 # a white silicate render (light reflectance value ~80: palette.PLASTER's whitest but one)
 WHITE_RENDER = (0.80, 0.79, 0.76)
 FRONT_ROW_M = 30.0   # a block's centre within this of the centreline: the front row (second rows stand further back)
@@ -275,10 +280,11 @@ def _front_row(lines: list[str], centreline: _Centreline) -> list[dict]:
 
 
 def _pull_front_row(lines: list[str], centreline: _Centreline, s_end: float, edge: float, setback: tuple,
-                    rng: np.random.Generator) -> list[str]:
+                    rng: np.random.Generator, clear_yards: bool = True) -> list[str]:
     """``lines`` (one side's) with the front row's buildings up to arc length ``s_end`` moved
     towards the street to a ``setback`` drawn in that range behind ``edge`` (a scripted near
-    field's; their front yards' hedges, fences, bushes and bins left out): done after the side
+    field's; their front yards' hedges, fences, bushes and bins left out unless not
+    ``clear_yards``, for a row moved back): done after the side
     is drawn, so the layout's stream, and all drawn after it, stays as it was."""
     moved = []                       # (arc length range, distance range) of the yards given up
     out = []
@@ -296,7 +302,8 @@ def _pull_front_row(lines: list[str], centreline: _Centreline, s_end: float, edg
         i = w.index("position")
         w[i + 1:i + 4] = nums(p).split()
         out.append(" ".join(w))
-        moved.append((b["s"] - W / 2 - 1.0, b["s"] + W / 2 + 1.0, b["dist"] - D / 2))
+        if clear_yards:
+            moved.append((b["s"] - W / 2 - 1.0, b["s"] + W / 2 + 1.0, b["dist"] - D / 2))
     keep = []
     for ln in out:
         w = ln.split()
@@ -588,6 +595,9 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
         if side > 0 and near is not None and near.setback_right:
             lines = _pull_front_row(lines, centreline, behind + near.white_right + 15.0, right_edge, near.setback_right,
                                     np.random.default_rng([seed, 0x5E7]))
+        if side < 0 and near is not None and near.setback_left:
+            lines = _pull_front_row(lines, centreline, behind + LEFT_ROW_M, -left_edge, near.setback_left,
+                                    np.random.default_rng([seed, 0x5E8]), clear_yards=False)
         if side > 0 and near is not None and near.works_right:
             lines = _works_row(lines, centreline, place, behind + near.open_right,
                                (behind + near.works_right[0], behind + near.works_right[1]), near.works_depth,
