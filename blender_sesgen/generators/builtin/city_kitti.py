@@ -18,7 +18,8 @@ Seed 0 scripts its near field after KITTI sequence_1's frames (``KITTI_S1_NEAR``
 carriageway driven near its middle, the lawn from the left kerb, a parking bay on the right
 with the two cars where sequence_1 shows them, its right front row 7-10 m right of the camera
 to 37 m ahead, beyond a gap a deep block under scaffolding whose end wall faces the camera
-60 m ahead, and its traffic 100-130 m ahead, none oncoming.
+60 m ahead, on the left a loose row of young trees 10-16 m out on the lawn and the houses
+facing the street 23-24 m left, and its traffic 100-130 m ahead, none oncoming.
 
     python -m blender_sesgen.generators.builtin.city_kitti [--seed N] [--frames N] > scenes/city_kitti.ses
 
@@ -115,6 +116,8 @@ class NearField:
     walk_right: float = 0.0
     setback_right: tuple = ()   # ... and the right front row's setback range behind the sidewalk (empty: drawn)
     gutter_right: float = 0.0   # a light concrete gutter this wide between the carriageway and the bay
+    trees_left: tuple = ()      # (from, to) ahead, (near, far) left of the centreline: a loose row of young trees on the lawn
+    setback_left: tuple = ()    # the left front row's setback range behind the left kerb up to LEFT_ROW_M ahead (empty: drawn)
 
 
 # KITTI sequence_1's street, measured in its frames (ground plane 1.65 m under the camera, f 707
@@ -147,7 +150,14 @@ KITTI_S1_NEAR = NearField(half_road=2.0, bay=2.5, walk_left=0.0, car_offset=3.13
                           parked_clear=100.0, traffic_lane=0.1, traffic_ahead=(100.0, 130.0), oncoming=False,
                           white_right=65.0, works_right=(60.0, 100.0), works_depth=22.0, open_right=37.0,
                           bikes_right=(7.0,), lawn_right=1.3,
-                          walk_right=2.2, setback_right=(0.6, 1.2), gutter_right=0.4)
+                          walk_right=2.2, setback_right=(0.6, 1.2), gutter_right=0.4, setback_left=(20.5, 22.5),
+                          trees_left=((18.0, 80.0), (10.5, 15.5)))
+# KITTI sequence_1's left houses (beyond its public lawn) face the street 25-27 m left of the camera
+# (SGBM, frames 20-36); the open frontage's drawn 14-28 m put seed 0's at 18.5-21 m, large smooth
+# walls where KITTI's upper left holds ~1.7x the corners (session 14: 76-88 vs 43-49 a frame);
+# between them and the kerb's young trees its lawn holds a loose row of young trees 10-16 m left
+# (SGBM, frames 0-30: crowns 2-7 m above the road, 20-80 m ahead of frame 0), where seed 0 had none
+LEFT_ROW_M = 100.0
 # a white silicate render (light reflectance value ~80: palette.PLASTER's whitest but one)
 WHITE_RENDER = (0.80, 0.79, 0.76)
 FRONT_ROW_M = 30.0   # a block's centre within this of the centreline: the front row (second rows stand further back)
@@ -269,16 +279,46 @@ def _front_row_building(ln: str, centreline: _Centreline) -> Optional[dict]:
             "seed": int(w[w.index("seed") + 1]), "s": s, "dist": dist}
 
 
+def _lawn_trees(rng: np.random.Generator, place, behind: float, spec: tuple, lines: list[str], pool, ids: Ids) -> list[str]:
+    """A loose row of young trees on the left lawn (a scripted near field's ``trees_left``: from,
+    to ahead; near, far left of the centreline), every 7-13 m, none within 3.5 m of a tree, bush
+    or building of ``lines`` (crowns apart) nor inside a building's footprint; variants of the
+    young-tree pool picked from ``rng`` (the pool's own stream stays as it was)."""
+    (a0, a1), (d0, d1) = spec
+    taken = []
+    for ln in lines:
+        w = ln.split()
+        if len(w) > 2 and w[0] == "ASSET" and w[1] in ("tree", "bush", "building"):
+            r = 3.5
+            if w[1] == "building" and "size" in w:
+                i = w.index("size")
+                r = 0.5 * float(np.hypot(float(w[i + 1]), float(w[i + 3]))) + 3.0
+            taken.append((_ground_xz(w), r))
+    seeds, sizes = pool.seeds["young_tree"], pool.sizes["young_tree"]
+    out = []
+    a = a0 + float(rng.uniform(0, 5))
+    while a < a1:
+        p, _ = place(behind + a, -float(rng.uniform(d0, d1)))
+        k = int(rng.integers(len(seeds)))
+        yaw = float(rng.uniform(0, 360))
+        if all(np.linalg.norm(p[[0, 2]] - xz) > r for xz, r in taken):
+            out.append(asset("tree", ids("tree"), p, yaw, sizes[k], seed=seeds[k]))
+            taken.append((p[[0, 2]], 3.5))
+        a += float(rng.uniform(7, 13))
+    return out
+
+
 def _front_row(lines: list[str], centreline: _Centreline) -> list[dict]:
     """The front row's buildings of ``lines`` (:func:`_front_row_building`)."""
     return [b for ln in lines if (b := _front_row_building(ln, centreline)) is not None]
 
 
 def _pull_front_row(lines: list[str], centreline: _Centreline, s_end: float, edge: float, setback: tuple,
-                    rng: np.random.Generator) -> list[str]:
+                    rng: np.random.Generator, clear_yards: bool = True) -> list[str]:
     """``lines`` (one side's) with the front row's buildings up to arc length ``s_end`` moved
     towards the street to a ``setback`` drawn in that range behind ``edge`` (a scripted near
-    field's; their front yards' hedges, fences, bushes and bins left out): done after the side
+    field's; their front yards' hedges, fences, bushes and bins left out unless not
+    ``clear_yards``, for a row moved back): done after the side
     is drawn, so the layout's stream, and all drawn after it, stays as it was."""
     moved = []                       # (arc length range, distance range) of the yards given up
     out = []
@@ -296,7 +336,8 @@ def _pull_front_row(lines: list[str], centreline: _Centreline, s_end: float, edg
         i = w.index("position")
         w[i + 1:i + 4] = nums(p).split()
         out.append(" ".join(w))
-        moved.append((b["s"] - W / 2 - 1.0, b["s"] + W / 2 + 1.0, b["dist"] - D / 2))
+        if clear_yards:
+            moved.append((b["s"] - W / 2 - 1.0, b["s"] + W / 2 + 1.0, b["dist"] - D / 2))
     keep = []
     for ln in out:
         w = ln.split()
@@ -588,6 +629,9 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
         if side > 0 and near is not None and near.setback_right:
             lines = _pull_front_row(lines, centreline, behind + near.white_right + 15.0, right_edge, near.setback_right,
                                     np.random.default_rng([seed, 0x5E7]))
+        if side < 0 and near is not None and near.setback_left:
+            lines = _pull_front_row(lines, centreline, behind + LEFT_ROW_M, -left_edge, near.setback_left,
+                                    np.random.default_rng([seed, 0x5E8]), clear_yards=False)
         if side > 0 and near is not None and near.works_right:
             lines = _works_row(lines, centreline, place, behind + near.open_right,
                                (behind + near.works_right[0], behind + near.works_right[1]), near.works_depth,
@@ -619,6 +663,8 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
         out.append(asset("tree", ids("tree"), p + np.array([0.0, kerb_h, 0.0]), rng.uniform(0, 360), size, seed=seed_))
         trees_at["young"].append(p + np.array([0.0, kerb_h, 0.0]))
         s += float(rng.uniform(9, 15))
+    if near is not None and near.trees_left:
+        out += _lawn_trees(np.random.default_rng([seed, 0x7E5]), place, behind, near.trees_left, out, pool, ids)
     for side in (1, -1):
         s = float(rng.uniform(5, 25)) + (0 if side > 0 else 14)
         kerb_out = r_kerb + kerb_w / 2
