@@ -21,6 +21,9 @@ spec = importlib.util.spec_from_file_location("qb", f"{REPO}/bench/quality.py")
 qb = importlib.util.module_from_spec(spec); spec.loader.exec_module(qb)
 
 
+KNOWN = ("base", "sky_off", "lamps_off", "open_glazing")
+
+
 def variant(text: str, name: str) -> str:
     if name == "sky_off":      # no sky, no sun: a black world
         return re.sub(r"(?m)^WORLD .*$", "WORLD colour 0 0 0", text)
@@ -53,8 +56,18 @@ def main() -> int:
     p.add_argument("--variants", nargs="*", default=["base", "sky_off", "lamps_off", "open_glazing"])
     p.add_argument("--out", default=None)
     a = p.parse_args()
-    tmp = Path(tempfile.mkdtemp(prefix="sesgen-noise-"))
+    if a.preset is not None and a.preset not in qb.PRESETS:
+        p.error(f"--preset {a.preset!r}: one of {', '.join(qb.PRESETS)}")
+    for name in a.variants:
+        if name not in KNOWN and not re.fullmatch(r"glazing_glow(@[0-9.]+)?", name):
+            p.error(f"unknown variant {name!r}: {', '.join(KNOWN)}, glazing_glow[@STRENGTH]")
+    if not Path(a.scene).is_file():
+        p.error(f"no scene {a.scene}")
     text = Path(a.scene).read_text()
+    for name in a.variants:
+        if name != "base" and variant(text, name) == text:
+            p.error(f"variant {name!r} changes nothing in {a.scene}")
+    tmp = Path(tempfile.mkdtemp(prefix="sesgen-noise-"))
     exposure, rows = a.exposure, {}
     what = f"preset {a.preset}" if a.preset else f"{a.samples} samples, no denoiser"
     print(f"# load {os.getloadavg()[0]:.1f}; {what}, two seeds", flush=True)
