@@ -716,8 +716,9 @@ def test_city_kitti_lawns_hide_their_ground_at_the_cameras_grazing_view():
 def test_city_kitti_foliage_passes_what_it_reflects_and_seed_0s_right_blocks_are_white(scenes):
     """Leaves and grass blades pass about as much light as they reflect, in the sensor's band
     too (PROSPECT: a green leaf's transmittance follows its reflectance from 400 to 1000 nm),
-    so lit crowns glow from within; seed 0's front-row blocks on the right through ~100 m (the
-    block under works included) have KITTI sequence_1's white render (its burnt-out pixels), a drawn seed's are its own."""
+    so lit crowns glow from within; seed 0's front-row blocks on the right through ~100 m have
+    KITTI sequence_1's white render (its burnt-out pixels), the block under works its bare
+    sand-lime blockwork (frames 20 and 40), a drawn seed's are its own."""
     from blender_sesgen.generators.builtin import city_kitti
     from blender_sesgen.scene.materials import band_colour, entry, transmitted_colour
     for name in ("leaves", "grass"):
@@ -732,9 +733,12 @@ def test_city_kitti_foliage_passes_what_it_reflects_and_seed_0s_right_blocks_are
     right = [(float((np.asarray(o.position) - T0[:3, 3]) @ T0[:3, 2]), o.material) for o in s.objects
              if isinstance(o, Asset) and o.kind == "building" and (np.asarray(o.position) - T0[:3, 3]) @ T0[:3, 0] > 0
              and abs((np.asarray(o.position) - T0[:3, 3]) @ T0[:3, 0]) < 30.0]
-    assert {m for z, m in right if -5.0 < z < 100.0} == {"white_render"}, right
+    assert {m for z, m in right if -5.0 < z < 100.0} == {"white_render", "works_blocks"}, right
+    assert [m for z, m in right if m == "works_blocks"] == ["works_blocks"] and \
+        s.material("works_blocks").library.name == "blockwork", right
     assert all(m is None for z, m in right if z > 100.0), right
-    assert "white_render" not in city_kitti.generate(2)
+    drawn = city_kitti.generate(2)
+    assert "white_render" not in drawn and "works_blocks" not in drawn
 
 
 def test_city_kitti_near_field_detail_stands_where_kitti_sequence_1s_does():

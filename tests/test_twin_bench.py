@@ -326,3 +326,27 @@ def test_kinds_grain_crown_holds_the_sky_seen_through_it(shared_data, tmp_path, 
     inner[23:, :57] = True                                     # 3 px in (an erosion keeps the frame's borders)
     assert got["facade"] < 1e-6, got
     assert got["crown"] > 0.1 and np.isclose(got["crown"], twin._grain(L, inner), rtol=0.1), got
+
+
+def test_facade_brightness_reads_the_sunlit_walls_in_the_upper_quantiles(tmp_path, monkeypatch):
+    """A facade 16 % in the sun (4x the shaded part): the median and the 75th percentile read
+    its shade, the 90th percentile its sunlit wall (why the render's all-pixel facade figure sits below KITTI's
+    hand-marked sunlit boxes)."""
+    Hh, Ww = 40, 100
+    ids = np.zeros((Hh, Ww), np.int32)
+    ids[:, 50:] = 1                                            # the facade; the rest sky (id 0)
+    img = np.full((Hh, Ww), 120, np.uint8)
+    img[:, 50:92] = 60                                         # shade
+    img[:, 92:] = 240                                          # sun
+    (tmp_path / "manifest.json").write_text(json.dumps({"objects": [{"id": 1, "class": "building"}]}))
+
+    class Ids:
+        def ids(self, k, view="left"):
+            return ids
+    monkeypatch.setattr(twin, "open_sequence", lambda out: Ids())
+    frames = twin.Frames([img] * 2, [img] * 2, np.eye(3), 0.5)
+    got = dict(x.split()[:2] for x in twin.facade_brightness(tmp_path, frames, 2).split(";")[0].split(", "))
+    L = frames.linear(0, "kitti")
+    assert np.isclose(float(got["median"]), L[0, 60] / L.mean(), atol=0.01), got
+    assert np.isclose(float(got["p75"]), L[0, 60] / L.mean(), atol=0.01), got
+    assert np.isclose(float(got["p90"]), L[0, 95] / L.mean(), atol=0.01), got

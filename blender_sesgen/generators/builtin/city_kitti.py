@@ -255,7 +255,7 @@ def _white_near(lines: list[str], centreline: _Centreline, s0: float, s1: float)
     given the ``white_render`` material (their walls; a scripted near field's)."""
     out = []
     for ln in lines:
-        if ln.startswith("ASSET building"):
+        if ln.startswith("ASSET building") and " material " not in ln:    # the block under works: its blocks
             s, d = centreline.nearest(_ground_xz(ln.split()))
             if s0 <= s <= s1 and d <= FRONT_ROW_M:
                 ln += " material white_render"
@@ -384,7 +384,8 @@ def _works_row(lines: list[str], centreline: _Centreline, place, s_open: float, 
         out.append(ln)
     p, h = place((s0 + s1) / 2, near + depth / 2)
     out.append(asset("building", ids("building"), p, h - 90, (round(s1 - s0, 2), round(float(rng.uniform(14.0, 16.0)), 2),
-                                                              round(depth, 2)), seed=int(rng.integers(1e6))))
+                                                              round(depth, 2)), seed=int(rng.integers(1e6)),
+                     extra="material works_blocks"))
     return out
 
 
@@ -639,6 +640,8 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
         if side > 0 and near is not None and near.white_right > 0:    # the block under works white too (KITTI's)
             lines = _white_near(lines, centreline, behind, behind + max(near.white_right, *near.works_right))
             out.append(derived_material("white_render", "plaster", WHITE_RENDER, seed=seed))
+        if side > 0 and near is not None and near.works_right:
+            out.append(derived_material("works_blocks", "blockwork", seed=seed))
         out += lines
         side_lines[side] = lines
 
