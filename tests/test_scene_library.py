@@ -891,6 +891,31 @@ def test_city_kitti_right_walls_face_the_camera_as_kitti_sequence_1s(scenes):
     assert any(r0 < 10.0 and r1 > 25.0 for r0, r1 in ends), ends
 
 
+def kitti_s1_points(shared_data, frames):
+    """KITTI sequence_1's SGBM points at full size in the camera frame of each of ``frames``
+    (X right, Y down, Z ahead, metres), concatenated: (X, Y, Z)."""
+    from vo_reference.evaluate.sgbm import sgbm_disparity
+    from vo_reference.io.sequence import open_sequence
+    seq = open_sequence(shared_data / "kitti" / "sequence_1")
+    K = np.asarray(seq.K, float)
+    pts = []
+    for k in frames:
+        d = sgbm_disparity(seq.image_gray(k, "left"), seq.image_gray(k, "right"))
+        v, u = np.nonzero(d > 1)
+        Z = K[0, 0] * seq.baseline_m / d[v, u]
+        pts.append(((u - K[0, 2]) * Z / K[0, 0], (v - K[1, 2]) * Z / K[1, 1], Z))
+    return tuple(np.concatenate(c) for c in zip(*pts))
+
+
+def assets_ahead_right(s, kind):
+    """(asset, metres ahead, metres right) of each ASSET of ``kind``, in the first camera's frame."""
+    T0 = s.timeline.left()[0]
+    for o in s.objects:
+        if isinstance(o, Asset) and o.kind == kind:
+            d = np.asarray(o.position, float) - T0[:3, 3]
+            yield o, float(d @ T0[:3, 2]), float(d @ T0[:3, 0])
+
+
 def test_city_kitti_left_houses_stand_as_far_as_kitti_sequence_1s(scenes, shared_data):
     """KITTI sequence_1's left houses (beyond its public lawn) by SGBM at full size, frames 10 and
     20: the wall points 1-7 m above the camera, 8-45 m left and under 70 m ahead peak 22-26 m
@@ -898,29 +923,15 @@ def test_city_kitti_left_houses_stand_as_far_as_kitti_sequence_1s(scenes, shared
     frames see (5-70 m ahead of the first camera) face the street from the same band, within
     1.5 m of KITTI's peak (the open frontage's drawn setback put them at 18.5-21 m: large smooth
     walls where KITTI's upper left holds ~1.7x the render's corners, session 14)."""
-    from vo_reference.evaluate.sgbm import sgbm_disparity
-    from vo_reference.io.sequence import open_sequence
-    seq = open_sequence(shared_data / "kitti" / "sequence_1")
-    K = np.asarray(seq.K, float)
     lateral = []
     for k in (10, 20):
-        d = sgbm_disparity(seq.image_gray(k, "left"), seq.image_gray(k, "right"))
-        v, u = np.nonzero(d > 1)
-        Z = K[0, 0] * seq.baseline_m / d[v, u]
-        X, Y = (u - K[0, 2]) * Z / K[0, 0], (v - K[1, 2]) * Z / K[1, 1]
+        X, Y, Z = kitti_s1_points(shared_data, (k,))
         lateral.append(-X[(Y < -1.0) & (Y > -7.0) & (X < -8.0) & (Z < 70.0)])
     counts, edges = np.histogram(np.concatenate(lateral), np.arange(18.0, 46.0, 2.0))
     kitti_m = edges[np.argmax(counts)] + 1.0             # the houses' peak (past the trees' band)
     assert 22.0 <= kitti_m <= 26.0, (kitti_m, counts)
-    s = scenes["city_kitti"]
-    T0 = s.timeline.left()[0]
-    fronts = []
-    for o in s.objects:
-        if isinstance(o, Asset) and o.kind == "building":
-            d = np.asarray(o.position) - T0[:3, 3]
-            ahead, right = float(d @ T0[:3, 2]), float(d @ T0[:3, 0])
-            if 5.0 < ahead < 70.0 and -45.0 < right < 0.0:
-                fronts.append(-right - o.size[2] / 2)
+    fronts = [-right - o.size[2] / 2 for o, ahead, right in assets_ahead_right(scenes["city_kitti"], "building")
+              if 5.0 < ahead < 70.0 and -45.0 < right < 0.0]
     assert len(fronts) >= 2, fronts
     assert all(abs(f - kitti_m) < 1.5 for f in fronts), (fronts, kitti_m)
 
@@ -932,28 +943,15 @@ def test_city_kitti_left_lawn_holds_trees_as_kitti_sequence_1s(scenes, shared_da
     left (the crowns), in clusters ahead (no 8 m gap-free wall). Seed 0 stands at least 4 trees
     10-16 m left of the first camera 15-90 m ahead, 6+ m apart (it had none: the lawn's young
     trees stood ~4 m left, its bushes 5-15 m)."""
-    from vo_reference.evaluate.sgbm import sgbm_disparity
-    from vo_reference.io.sequence import open_sequence
-    seq = open_sequence(shared_data / "kitti" / "sequence_1")
-    K = np.asarray(seq.K, float)
     band = total = 0
     for k in (0, 10, 20, 30):
-        d = sgbm_disparity(seq.image_gray(k, "left"), seq.image_gray(k, "right"))
-        v, u = np.nonzero(d > 1)
-        Z = K[0, 0] * seq.baseline_m / d[v, u]
-        X, Y = (u - K[0, 2]) * Z / K[0, 0], (v - K[1, 2]) * Z / K[1, 1]
+        X, Y, Z = kitti_s1_points(shared_data, (k,))
         m = (Y < -1.0) & (Y > -7.0) & (X < -8.0) & (X > -45.0) & (Z < 70.0)
         band += int(np.sum(m & (X < -10.0) & (X > -16.0)))
         total += int(np.sum(m))
     assert band > 0.25 * total, (band, total)
-    T0 = scenes["city_kitti"].timeline.left()[0]
-    trees = []
-    for o in scenes["city_kitti"].objects:
-        if isinstance(o, Asset) and o.kind == "tree":
-            d = np.asarray(o.position) - T0[:3, 3]
-            ahead, left = float(d @ T0[:3, 2]), -float(d @ T0[:3, 0])
-            if 15.0 < ahead < 90.0 and 10.0 < left < 16.0:
-                trees.append(ahead)
+    trees = [ahead for _, ahead, right in assets_ahead_right(scenes["city_kitti"], "tree")
+             if 15.0 < ahead < 90.0 and 10.0 < -right < 16.0]
     assert len(trees) >= 4 and np.all(np.diff(sorted(trees)) > 6.0), trees
 
 
