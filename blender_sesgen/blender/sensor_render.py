@@ -133,11 +133,11 @@ class SensorSession:
                     channels[names["depth"]] = np.where(z >= BACKGROUND_THRESHOLD, z, z * self._ray_z)
                 if ref != k:
                     T = s.camera_poses(view, np.array([rig.blender_frame(ref), rig.blender_frame(k)]), rig.FRAME0)
+                    move = still.reprojection(channels[names["depth"]], s.K, T[0], T[1])
                     held = [n for n in channels if n in beauty or f".{PASS_NOISY[0]}." in n]
-                    channels.update(still.reproject({n: channels[n] for n in held}, channels[names["depth"]],
-                                                    s.K, T[0], T[1]))
+                    channels.update(move({n: channels[n] for n in held}))
                     if display_paths:   # the display-referred PNG, reprojected in display values
-                        _reproject_png(display_paths[view], channels[names["depth"]], s.K, T[0], T[1])
+                        _reproject_png(display_paths[view], move)
                 write_exr(Path(paths[view]), channels)
         finally:
             for f in (*tmp.values(), *tmp_gt.values()):
@@ -147,8 +147,9 @@ class SensorSession:
         return stats
 
 
-def _reproject_png(path, depth_k, K, T_world_cam_r, T_world_cam_k) -> None:
-    """Rewrite an 8-bit RGB PNG of frame r's view as frame k's camera sees it."""
+def _reproject_png(path, move) -> None:
+    """Rewrite an 8-bit RGB PNG of frame r's view as frame k's camera sees it (``move``:
+    :func:`still.reprojection` from r to k)."""
     import bpy
     img = bpy.data.images.load(str(path), check_existing=False)
     try:
@@ -158,6 +159,6 @@ def _reproject_png(path, depth_k, K, T_world_cam_r, T_world_cam_k) -> None:
     finally:
         bpy.data.images.remove(img)
     rgb = px.reshape(h, w, 4)[::-1, :, :3]              # Blender's rows run bottom-up
-    out = still.reproject({c: rgb[..., c] for c in range(3)}, depth_k, K, T_world_cam_r, T_world_cam_k)
+    out = move({c: rgb[..., c] for c in range(3)})
     write_png(Path(path), np.clip(np.round(np.stack([out[c] for c in range(3)], axis=-1) * 255.0), 0, 255)
               .astype(np.uint8), level=1)

@@ -22,7 +22,7 @@ bilinear does nor quantises the coordinates as OpenCV's warps do).
 """
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -100,13 +100,22 @@ def source_pixels(depth_k: np.ndarray, K: np.ndarray, T_world_cam_r: np.ndarray,
     return K[0, 0] * X[..., 0] / X[..., 2] + K[0, 2], K[1, 1] * X[..., 1] / X[..., 2] + K[1, 2]
 
 
+def reprojection(depth_k: np.ndarray, K: np.ndarray, T_world_cam_r: np.ndarray,
+                 T_world_cam_k: np.ndarray) -> Callable[[dict], dict]:
+    """A function taking frame r's image channels to frame k's camera (same dtype and shape);
+    the sampling positions are found once, for every image it is given (the EXR's, the PNG's)."""
+    taps = _taps(*source_pixels(depth_k, K, T_world_cam_r, T_world_cam_k), depth_k.shape)
+
+    def move(channels_r: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        return {name: _evaluate(bspline_coefficients(a.astype(np.float64)), taps).astype(a.dtype)
+                for name, a in channels_r.items()}
+    return move
+
+
 def reproject(channels_r: dict[str, np.ndarray], depth_k: np.ndarray, K: np.ndarray,
               T_world_cam_r: np.ndarray, T_world_cam_k: np.ndarray) -> dict[str, np.ndarray]:
     """Frame r's image channels as frame k's camera sees them (same dtype and shape)."""
-    x, y = source_pixels(depth_k, K, T_world_cam_r, T_world_cam_k)
-    taps = _taps(x, y, depth_k.shape)
-    return {name: _evaluate(bspline_coefficients(a.astype(np.float64)), taps).astype(a.dtype)
-            for name, a in channels_r.items()}
+    return reprojection(depth_k, K, T_world_cam_r, T_world_cam_k)(channels_r)
 
 
 def bspline_coefficients(img: np.ndarray) -> np.ndarray:
