@@ -4,7 +4,6 @@ parsing and errors, KITTI sequence_1's block under works (white insulated ground
 bare blockwork) in the city twin, and a render where the tag changes those walls alone."""
 from __future__ import annotations
 
-import re
 import subprocess
 import sys
 
