@@ -42,7 +42,10 @@ VOs' causes (``vo_cause_lines``): each VO's steps off by more than 10 %, the ORB
 both (``orb_kind_lines``: keypoints, matches, matches with depth, inliers, the share of matches
 the true step confirms, the inliers' translation bound) and, on the render, its inliers by
 object kind and its error with ORB kept off each kind (docs/sensors.md, "The VOs' errors, step
-by step"); and each kind's pixel-scale contrast (``kinds_grain``: where the finest rings lack).
+by step"); and each kind's pixel-scale contrast (``kinds_grain``: where the finest rings lack),
+the contrast power by region and band (``band_power_by_region``: KITTI's hand-marked boxes, cars
+included, against the render's regions by object id, and where the render's power sits) and the
+top band's by ninth of the frame (``band_power_by_cell``: no region's choice).
 """
 from __future__ import annotations
 
@@ -400,7 +403,7 @@ def ring_power_ratio(real: Frames, ours: Frames, n: int) -> str:
 # right, 20 the grey one, 40 the far left's parked ones): KITTI_REGIONS' boxes plus these are the
 # real side of ``band_power_by_region``
 KITTI_CARS = {0: {"car": (720, 175, 836, 242)}, 20: {"car": (726, 182, 854, 256)}, 40: {"car": (86, 182, 170, 224)}}
-REGION_BANDS = ((2, 16), (16, 48), (48, 92))
+REGION_BANDS = ((2, 16), (16, 48), (48, 72), (72, 92))
 
 
 def band_images(img, bands=REGION_BANDS) -> list[np.ndarray]:
