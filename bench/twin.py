@@ -42,7 +42,10 @@ VOs' causes (``vo_cause_lines``): each VO's steps off by more than 10 %, the ORB
 both (``orb_kind_lines``: keypoints, matches, matches with depth, inliers, the share of matches
 the true step confirms, the inliers' translation bound) and, on the render, its inliers by
 object kind and its error with ORB kept off each kind (docs/sensors.md, "The VOs' errors, step
-by step"); and each kind's pixel-scale contrast (``kinds_grain``: where the finest rings lack).
+by step"); and each kind's pixel-scale contrast (``kinds_grain``: where the finest rings lack),
+the contrast power by region and band (``band_power_by_region``: KITTI's hand-marked boxes, cars
+included, against the render's regions by object id, and where the render's power sits) and the
+top band's by ninth of the frame (``band_power_by_cell``: no region's choice).
 """
 from __future__ import annotations
 
@@ -394,6 +397,110 @@ def ring_power_ratio(real: Frames, ours: Frames, n: int) -> str:
     r = [[_ring_power(real.image_gray(k))[a:b].mean() / _ring_power(ours.image_gray(k))[a:b].mean()
           for a, b in RING_BANDS] for k in range(n)]
     return ", ".join(f"{a}-{b}: {v:.2f}" for (a, b), v in zip(RING_BANDS, np.median(r, axis=0)))
+
+
+# KITTI sequence_1's cars marked by hand (x0, y0, x1, y1 at 1226 x 370; frame 0 the dark car parked
+# right, 20 the grey one, 40 the far left's parked ones): KITTI_REGIONS' boxes plus these are the
+# real side of ``band_power_by_region``
+KITTI_CARS = {0: {"car": (720, 175, 836, 242)}, 20: {"car": (726, 182, 854, 256)}, 40: {"car": (86, 182, 170, 224)}}
+REGION_BANDS = ((2, 16), (16, 48), (48, 72), (72, 92))
+
+
+def band_images(img, bands=REGION_BANDS) -> list[np.ndarray]:
+    """An 8-bit grey frame's band-passed images, one per band of ``bands`` (cycles per image
+    height, ``ring_power``'s rings: a <= rho < b): the frame over its mean, minus one (contrast),
+    mirror-padded by 16 px against the FFT's wrap, each band kept by its ring mask. The mean of a
+    band image's square over the whole frame is the band's share of the frame's contrast power
+    (Parseval); over a region, the region's own (``band_power_by_region``)."""
+    a = np.asarray(img, np.float64)
+    H, W = a.shape
+    a = a / max(float(a.mean()), 1e-9) - 1.0
+    p = 16
+    F = np.fft.fft2(np.pad(a, p, mode="reflect"))
+    m = min(H, W)
+    Hp, Wp = H + 2 * p, W + 2 * p
+    rho = np.hypot(np.fft.fftfreq(Wp)[None, :] * m, np.fft.fftfreq(Hp)[:, None] * m)
+    return [np.real(np.fft.ifft2(F * ((rho >= lo) & (rho < hi))))[p:p + H, p:p + W] for lo, hi in bands]
+
+
+def _region_masks(ids: np.ndarray, cls: dict) -> dict[str, np.ndarray]:
+    """The render's regions by object id (``kinds_grain``'s: each kind 3 px in from its edges, the
+    crown with the sky seen through it), plus ``car`` and the open ``sky`` (no object, outside
+    the crowns)."""
+    of = lambda names: np.isin(ids, [i for i, x in cls.items() if x in names])  # noqa: E731
+    ero = lambda m: cv2.erode(m.astype(np.uint8), np.ones((7, 7))) > 0  # noqa: E731
+    veg, sky = of(("vegetation",)), ~np.isin(ids, list(cls))
+    hull = cv2.morphologyEx(veg.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((9, 9), np.uint8)) > 0
+    regions = {kind: ero(of(c)) for kind, c in RENDER_KINDS.items() if c}
+    regions["crown"] = ero(hull & (veg | sky))
+    regions["car"] = ero(of(("car", "truck", "bus")))
+    regions["sky"] = ero(sky & ~hull)
+    return regions
+
+
+def band_power_by_region(out: Path, real: Frames, ours: Frames, n: int) -> tuple[str, str]:
+    """Where the ring power's gap lies in the frame: the contrast power (``band_images``: the
+    frame over its mean) of each band of ``REGION_BANDS`` inside each region, its mean square
+    over the region's pixels, the median over frames. KITTI sequence_1 in its hand-marked boxes
+    (``KITTI_REGIONS`` and ``KITTI_CARS``, frames 0, 20, 40, at the render's size, 2 px in); the
+    render in its regions by object id (``_region_masks``), frames 0..n-1; ``frame`` is the
+    whole frame of both, frames 0..n-1. Returns (the KITTI /
+    render ratio per region and band, the render's share of each band's frame power per region
+    -- where its power sits; the shares need not sum to 1: edges between regions are left out)."""
+    W, H = ours.resolution
+    real_p: dict[str, list] = {}
+    boxes = {k: {**KITTI_REGIONS[k], **KITTI_CARS.get(k, {})} for k in KITTI_REGIONS}
+    for k, regions in boxes.items():
+        full = kitti_marked_frame(k)       # the 8-bit grey frame, as ring_power reads it
+        sx, sy = W / full.shape[1], H / full.shape[0]
+        bands = band_images(cv2.resize(full, (W, H), interpolation=cv2.INTER_AREA))
+        for name, (x0, y0, x1, y1) in regions.items():
+            m = (slice(int(y0 * sy) + 2, int(y1 * sy) - 2), slice(int(x0 * sx) + 2, int(x1 * sx) - 2))
+            if bands[0][m].size >= 20:
+                real_p.setdefault(name, []).append([float(np.mean(b[m] ** 2)) for b in bands])
+    for k in range(n):
+        real_p.setdefault("frame", []).append([float(np.mean(b ** 2)) for b in band_images(real.image_gray(k))])
+    seq, cls = render_classes(out)
+    ours_p: dict[str, list] = {}
+    share: dict[str, list] = {}
+    for k in range(n):
+        bands = band_images(ours.image_gray(k))
+        total = [float(np.mean(b ** 2)) for b in bands]
+        ours_p.setdefault("frame", []).append(total)
+        for name, m in _region_masks(np.asarray(seq.ids(k, "left")).astype(int), cls).items():
+            if m.sum() >= 50:
+                ours_p.setdefault(name, []).append([float(np.mean(b[m] ** 2)) for b in bands])
+                share.setdefault(name, []).append([float(np.sum(b[m] ** 2)) / (t * m.size) for b, t in zip(bands, total)])
+    band_names = "/".join(f"{a}-{b}" for a, b in REGION_BANDS)
+    med = lambda v: np.median(np.array(v), axis=0)  # noqa: E731
+    ratio = []
+    for name in ("frame", "facade", "road", "lawn", "crown", "car", "sky"):   # KITTI's tree boxes are crowns
+        r = real_p.get("tree" if name == "crown" else name)
+        if r is None or name not in ours_p:
+            continue
+        top = f" ({1e4 * med(r)[-1]:.1f} / {1e4 * med(ours_p[name])[-1]:.1f})"
+        ratio.append(f"{name} " + "/".join(f"{x:.2f}" for x in med(r) / med(ours_p[name])) + top)
+    shares = [f"{name} " + "/".join(f"{100 * x:.0f}" for x in med(v)) for name, v in share.items()]
+    return (f"KITTI / render ({band_names} cycles; in brackets KITTI's and the render's top band x 1e4) "
+            + ", ".join(ratio),
+            f"render's share of each band's frame power, % ({band_names}) " + ", ".join(shares))
+
+
+def band_power_by_cell(real: Frames, ours: Frames, n: int) -> tuple[str, str]:
+    """Where the top band's gap lies in the image, free of any region's choice: the top band's
+    (``REGION_BANDS[-1]``) contrast power (``band_images``) in each ninth of the frame (thirds
+    of its height and width), the median over frames 0..n-1 of both (the same views of a
+    twin street). Returns (the KITTI / render ratio by cell, top row first, left to right;
+    both's power x 1e4 by cell)."""
+    def cells(img):
+        B = band_images(img, REGION_BANDS[-1:])[0] ** 2
+        H, W = B.shape
+        return [[float(B[i * H // 3:(i + 1) * H // 3, j * W // 3:(j + 1) * W // 3].mean()) for j in range(3)]
+                for i in range(3)]
+    r = np.median([cells(real.image_gray(k)) for k in range(n)], axis=0)
+    o = np.median([cells(ours.image_gray(k)) for k in range(n)], axis=0)
+    rows = lambda a, f: " | ".join(" ".join(f.format(x) for x in row) for row in a)  # noqa: E731
+    return rows(r / o, "{:.2f}"), f"KITTI {rows(1e4 * r, '{:.0f}')}; render {rows(1e4 * o, '{:.0f}')}"
 
 
 def _grain(L: np.ndarray, mask: np.ndarray) -> float:
@@ -991,6 +1098,12 @@ def main(argv=None) -> int:
         print(f"spectrum slope of {name} by how it is brought to {seq.resolution[0]} px wide (mean): {reductions}")
         print(f"ring power over the frame mean squared, {name} over the render (cycles per image height): "
               f"{ring_power_ratio(real, ours, n)}")
+        br, bo = band_power_by_region(out, real, ours, n)
+        print(f"contrast power by region and band (the frame over its mean, band-passed; mean square in the "
+              f"region, median over frames): {br}; {bo}")
+        cr, co = band_power_by_cell(real, ours, n)
+        print(f"top band's contrast power by ninth of the frame ({REGION_BANDS[-1][0]}-{REGION_BANDS[-1][1]} "
+              f"cycles; rows top to bottom, left to right): KITTI / render {cr}; x 1e4 {co}")
         gr, go = road_grain(out, ours, n)
         print(f"sunlit road's pixel-scale contrast (robust deviation over the 5 x 5 mean): real KITTI sequence_1 "
               f"{gr:.3f}, render {go:.3f}")

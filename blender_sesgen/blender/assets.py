@@ -55,16 +55,22 @@ def mesh_from_triangles(name: str, vertices: np.ndarray, faces: np.ndarray, tag=
 def surface_material(factory, obj: Asset, surface, index: int):
     """The Blender material of an asset's surface ``index``: the script's MATERIAL of that
     name, else the library material (the surface's colour, if it has one, replacing the
-    library's); the main surface (0) takes the object's material, texture and colour."""
+    library's); the main surface (0) takes the object's material, texture and colour, and so
+    does a building's ground floor (part ``ground``) unless the object names a
+    ``ground_material``, which it then takes alone."""
     name, tex, tint = surface.material, None, (1.0, 1.0, 1.0)
-    if index == 0:
+    main = index == 0 or surface.part == "ground"
+    own = getattr(obj, "ground_material", None) if surface.part == "ground" else None
+    if own:
+        name, main = own, False
+    elif main:
         name = obj.material or name
         tint, tex = obj.colour, obj.texture
     try:
         m = factory.scene.material(name)
     except KeyError:
         m = library_or_stand_in(name)
-        if surface.colour is not None and not (index == 0 and obj.material):
+        if surface.colour is not None and not own and not (main and obj.material):
             m = dataclasses.replace(m, colour=tuple(surface.colour))
     if tex is not None and m.library is not None:
         m = dataclasses.replace(m, library=None)      # a texture tag: the plain textured material

@@ -165,6 +165,7 @@ class Asset(Placed):
     seed: int
     bend: tuple[float, ...] = (0.0,)
     offset: float = 0.0
+    ground_material: Optional[str] = None   # a building's ground-floor walls' material (else its walls')
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -82,8 +82,9 @@ def _build(source: str, statements: list[ParsedStatement], attempted_objects: bo
     named_materials = materials([s for s in statements if s.keyword == "MATERIAL"], check)
     objects = _Objects(check, named_materials).build([s for s in statements if s.keyword in OBJECT_KEYWORDS])
     for o in objects:  # library materials named directly by objects
-        if o.material is not None and o.material not in named_materials:
-            named_materials[o.material] = library_material(o.material)
+        for name in (o.material, getattr(o, "ground_material", None)):
+            if name is not None and name not in named_materials:
+                named_materials[name] = library_material(name)
     objects = [_with_class(o, named_materials) for o in objects]
     imports = [b for b in (_blend(s, check, {o.id: o for o in objects}) for s in statements if s.keyword == "BLEND") if b]
     if not attempted_objects:
@@ -167,6 +168,10 @@ def _with_class(o: model.SceneObject, materials: dict[str, model.Material]) -> m
 CLASS_WORDS = {"vehicle": "car", "automobile": "car", "pedestrian": "person", "human": "person", "people": "person",
                "bike": "bicycle", "tree": "vegetation", "plant": "vegetation", "grass": "terrain", "house": "building"}
 NOT_OBJECT_CLASSES = ("unlabeled", "ego vehicle", "rectification border", "out of roi", "license plate")
+
+
+# the asset kinds with a ground floor of their own (ASSET ... ground_material M)
+GROUND_FLOOR_KINDS = ("building",)
 
 
 class _Objects:
@@ -308,9 +313,19 @@ class _Objects:
                 if abs(value) > MAX_BEND_DEG:
                     self.check.err(tok, f"ASSET 'bend' must lie in -{MAX_BEND_DEG:g}..{MAX_BEND_DEG:g} degrees "
                                         f"per piece, got {tok.text}")
+        ground = stmt.get("ground_material")
+        if ground is not None:
+            tok = stmt.tags["ground_material"].tokens[0]
+            if kind.name not in GROUND_FLOOR_KINDS:
+                self.check.err(stmt.tags["ground_material"].tag, f"ASSET {kind.name} takes no 'ground_material' "
+                                                                 f"(only {', '.join(GROUND_FLOOR_KINDS)} assets have a ground floor)")
+            elif ground not in self.defined and not is_library_name(ground):
+                self.check.err(tok, f"ASSET 'ground_material' '{ground}' is not defined and is not a library "
+                                    f"material{did_you_mean(ground, [*self.defined, *LIBRARY])}")
         size = vec(stmt, "size") or assets.default_size(kind.name, seed)
         return model.Asset(kind=kind.name, size=size, seed=seed, bend=bend,
-                           offset=float(scalar(stmt, "offset", 0.0)), **self._placement(stmt), **common)
+                           offset=float(scalar(stmt, "offset", 0.0)), ground_material=ground,
+                           **self._placement(stmt), **common)
 
 
 def _rig(stmt: Optional[ParsedStatement], check: Checks) -> model.Rig:

@@ -252,13 +252,17 @@ def _ground_xz(w: list[str]) -> np.ndarray:
 def _white_near(lines: list[str], centreline: _Centreline, s0: float, s1: float) -> list[str]:
     """``lines`` with the front row's buildings (centres within ``FRONT_ROW_M`` of the
     centreline) whose nearest centreline point lies between arc lengths ``s0`` and ``s1``
-    given the ``white_render`` material (their walls; a scripted near field's)."""
+    given the ``white_render`` material (their walls; a scripted near field's), and the block
+    under works (``works_blocks``) its white insulated ground floor under the bare blocks
+    (KITTI sequence_1's, frames 30-45)."""
     out = []
     for ln in lines:
         if ln.startswith("ASSET building") and " material " not in ln:    # the block under works: its blocks
             s, d = centreline.nearest(_ground_xz(ln.split()))
             if s0 <= s <= s1 and d <= FRONT_ROW_M:
                 ln += " material white_render"
+        elif ln.startswith("ASSET building") and ln.endswith(" material works_blocks"):
+            ln += " ground_material white_render"
         out.append(ln)
     return out
 

@@ -203,7 +203,7 @@ def mesh_key(obj) -> tuple:
     """What makes two ASSET objects share one mesh in Blender (their geometry and the material
     tags of their main surface): equal keys, one mesh."""
     return (obj.kind, tuple(obj.size), obj.seed, tuple(obj.bend), obj.offset, obj.material, tuple(obj.colour),
-            obj.texture)
+            obj.texture, getattr(obj, "ground_material", None))
 
 
 def generate(kind: str, size, seed: int, bend=(0.0,), offset: float = 0.0) -> MeshData:

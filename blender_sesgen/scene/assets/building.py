@@ -77,7 +77,8 @@ def _sides(W, D):
 def generate(size, seed: int) -> MeshData:
     rng, W, H, D, b = start(size, seed)
     brick = rng.random() < 0.25
-    wall = b.surface("brick", pick(rng, palette.BRICK)) if brick else b.surface("plaster", pick(rng, palette.PLASTER))
+    wall_material = ("brick", pick(rng, palette.BRICK)) if brick else ("plaster", pick(rng, palette.PLASTER))
+    wall = b.surface(*wall_material)
     base = b.surface("concrete", pick(rng, palette.STONE))
     trim = b.surface("plaster", (0.70, 0.69, 0.66)) if brick or rng.random() < 0.5 else wall
     frame = b.surface("metal_painted", pick(rng, palette.FRAME))
@@ -87,6 +88,9 @@ def generate(size, seed: int) -> MeshData:
     rail = b.surface("metal_painted", (0.05, 0.05, 0.05) if rng.random() < 0.6 else (0.70, 0.70, 0.70))
     roof_s = b.surface("roof_tiles", pick(rng, palette.ROOF))
     pipe = b.surface("metal_brushed")
+    # the ground floor's walls: the walls' material in a slot of their own, which an ASSET's
+    # ``ground_material`` replaces (a white insulated ground floor under bare blockwork)
+    ground = b.surface(*wall_material, part="ground")
 
     pitched = rng.random() < 0.45 and W <= 24
     roof_h = min(0.55 * D * np.tan(np.radians(rng.uniform(28, 42))), 0.6 * H) if pitched else 0.0
@@ -149,7 +153,8 @@ def generate(size, seed: int) -> MeshData:
                          for o in ops if o.v1 - o.v0 > 0.5])
 
     # --- the shell -------------------------------------------------------------------
-    ys = {0.0, wall_h, base_h}
+    ground_top = floor_y[1] if len(floor_y) > 1 else wall_h     # the ground floor's walls end at its ceiling
+    ys = {0.0, wall_h, base_h, round(ground_top, 6)}
     for ops in openings:
         for o in ops:
             ys |= {o.v0, o.v1}
@@ -172,7 +177,7 @@ def generate(size, seed: int) -> MeshData:
                 um, vm = (us[i] + us[i + 1]) / 2, (ys[j] + ys[j + 1]) / 2
                 if any(o.u0 < um < o.u1 and o.v0 < vm < o.v1 for o in ops):
                     continue
-                s = base if vm < base_h else wall
+                s = base if vm < base_h else ground if vm < ground_top else wall
                 shell.poly([P(us[i], ys[j]), P(us[i + 1], ys[j]), P(us[i + 1], ys[j + 1]), P(us[i], ys[j + 1])], s)
         for o in ops:
             ui = [u for u in us if o.u0 <= u <= o.u1]
@@ -181,10 +186,12 @@ def generate(size, seed: int) -> MeshData:
             # reveals: bottom, right, top, left (each split where the wall grid has points)
             for a, bb in zip(ui[:-1], ui[1:]):
                 shell.poly([P(bb, o.v0), P(bb, o.v0, r), P(a, o.v0, r), P(a, o.v0)], sill if o.kind != "door" else base)
-                shell.poly([P(a, o.v1), P(a, o.v1, r), P(bb, o.v1, r), P(bb, o.v1)], wall)
+                shell.poly([P(a, o.v1), P(a, o.v1, r), P(bb, o.v1, r), P(bb, o.v1)],
+                           ground if o.v1 <= ground_top else wall)
             for a, bb in zip(vi[:-1], vi[1:]):
-                shell.poly([P(o.u1, bb), P(o.u1, bb, r), P(o.u1, a, r), P(o.u1, a)], wall)
-                shell.poly([P(o.u0, a), P(o.u0, a, r), P(o.u0, bb, r), P(o.u0, bb)], wall)
+                side = ground if (a + bb) / 2 < ground_top else wall
+                shell.poly([P(o.u1, bb), P(o.u1, bb, r), P(o.u1, a, r), P(o.u1, a)], side)
+                shell.poly([P(o.u0, a), P(o.u0, a, r), P(o.u0, bb, r), P(o.u0, bb)], side)
             # the closing plane (glass or door leaf), with the same boundary points
             ring = ([P(u, o.v0, r) for u in ui] + [P(o.u1, v, r) for v in vi[1:]] +
                     [P(u, o.v1, r) for u in ui[::-1][1:]] + [P(o.u0, v, r) for v in vi[::-1][1:-1]])

@@ -106,7 +106,8 @@ def box(kind: str, size, seed: int, bend=(0.0,), offset: float = 0.0) -> np.ndar
 def _read(path: Path) -> Optional[MeshData]:
     try:
         with np.load(path, allow_pickle=False) as z:
-            surfaces = tuple(Surface(m, None if c is None else tuple(c)) for m, c in json.loads(str(z["surfaces"])))
+            surfaces = tuple(Surface(m, None if c is None else tuple(c), *part)
+                             for m, c, *part in json.loads(str(z["surfaces"])))
             data = MeshData(vertices=z["vertices"], faces=z["faces"], face_surface=z["face_surface"],
                             smooth=z["smooth"], surfaces=surfaces)
     except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile, EOFError):
@@ -119,7 +120,8 @@ def _read(path: Path) -> Optional[MeshData]:
 
 
 def _write(path: Path, data: MeshData) -> None:
-    surfaces = json.dumps([[s.material, None if s.colour is None else list(s.colour)] for s in data.surfaces])
+    surfaces = json.dumps([[s.material, None if s.colour is None else list(s.colour)] + ([s.part] if s.part else [])
+                           for s in data.surfaces])
     try:
         fresh = not path.parent.is_dir()
         with replacing(path) as tmp:

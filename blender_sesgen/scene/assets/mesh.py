@@ -27,9 +27,12 @@ Vec3 = tuple[float, float, float]
 @dataclass(frozen=True)
 class Surface:
     """One material slot of an asset: a material name (of the built-in library unless the
-    script defines a MATERIAL of that name) and optionally the colour it takes."""
+    script defines a MATERIAL of that name) and optionally the colour it takes. ``part`` names
+    a slot an ASSET tag may re-material (``ground``: a building's ground-floor walls, which
+    ``ground_material`` replaces); "" for the rest."""
     material: str
     colour: Optional[Vec3] = None   # linear albedo replacing the material's own; None = its own
+    part: str = ""
 
 
 @dataclass
@@ -177,8 +180,8 @@ class MeshBuilder:
         self._surfaces: dict[Surface, int] = {}
         self._count = 0
 
-    def surface(self, material: str, colour: Optional[Sequence[float]] = None) -> int:
-        s = Surface(material, None if colour is None else tuple(round(float(c), 4) for c in colour))
+    def surface(self, material: str, colour: Optional[Sequence[float]] = None, part: str = "") -> int:
+        s = Surface(material, None if colour is None else tuple(round(float(c), 4) for c in colour), part)
         if s not in self._surfaces:
             self._surfaces[s] = len(self._surfaces)
         return self._surfaces[s]
@@ -210,7 +213,7 @@ class MeshBuilder:
 
     def merge(self, other: "MeshBuilder", T: Optional[np.ndarray] = None) -> None:
         data = other.build()
-        remap = np.array([self.surface(s.material, s.colour) for s in data.surfaces], dtype=np.int64)
+        remap = np.array([self.surface(s.material, s.colour, s.part) for s in data.surfaces], dtype=np.int64)
         if len(data.faces):
             self._V.append(data.vertices if T is None else
                            data.vertices @ np.asarray(T)[:3, :3].T + np.asarray(T)[:3, 3])
