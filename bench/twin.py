@@ -604,6 +604,27 @@ def corners_on_sgbm_edges(frames: Frames, n: int) -> dict:
     return {"edge_share": float(np.mean(share)), "near_edge_share": float(np.mean(near)) if near else float("nan")}
 
 
+REGIONS = ("upper left", "upper middle", "upper right", "lower left", "lower middle", "lower right")
+
+
+def corners_by_region(frames: Frames, n: int) -> np.ndarray:
+    """The OpenCV VO's corners (Shi-Tomasi 1000/0.01/8, its detector) in each sixth of the image
+    (``REGIONS``: upper and lower half, left, middle and right third), mean per frame over frames
+    0..n-1: where a render's corners lack (session 14: KITTI sequence_1's lower right 60-63 a
+    frame, the render's 36-38 - KITTI's front gardens)."""
+    counts = np.zeros(6)
+    for k in range(n):
+        img = frames.image_gray(k)
+        H, W = img.shape[:2]
+        pts = cv2.goodFeaturesToTrack(img, 1000, 0.01, 8)
+        if pts is None:
+            continue
+        x, y = pts.reshape(-1, 2).T
+        cell = np.minimum((y * 2 // H).astype(int), 1) * 3 + np.minimum((x * 3 // W).astype(int), 2)
+        counts += np.bincount(cell, minlength=6)
+    return counts / max(n, 1)
+
+
 MATCH_TOL_PX = 1.5      # a match the true step carries to within this of its partner: consistent
 
 
@@ -1007,6 +1028,9 @@ def main(argv=None) -> int:
     print(f"corners on SGBM disparity discontinuities (both, the same rule): {name} {100 * er['edge_share']:.0f} % "
           f"({100 * er['near_edge_share']:.0f} % of those nearer than 15 m), render {100 * eo['edge_share']:.0f} % "
           f"({100 * eo['near_edge_share']:.0f} %)")
+    cr, co = corners_by_region(real, n), corners_by_region(ours, n)
+    print("corners by region (the OpenCV VO's detector, mean a frame; " + ", ".join(REGIONS) + f"): {name} "
+          + " / ".join(f"{c:.0f}" for c in cr) + ", render " + " / ".join(f"{c:.0f}" for c in co))
     print(f"\nseconds per stereo frame rendered: {secs:.0f}; bench wall time {time.perf_counter() - t0:.0f} s; "
           f"load {open('/proc/loadavg').read().split()[0]}")
     return 0

@@ -350,3 +350,18 @@ def test_facade_brightness_reads_the_sunlit_walls_in_the_upper_quantiles(tmp_pat
     assert np.isclose(float(got["median"]), L[0, 60] / L.mean(), atol=0.01), got
     assert np.isclose(float(got["p75"]), L[0, 60] / L.mean(), atol=0.01), got
     assert np.isclose(float(got["p90"]), L[0, 95] / L.mean(), atol=0.01), got
+
+
+def test_corners_by_region_counts_each_sixth_of_the_image():
+    """Bright 14 px squares on a dark 240 x 120 frame, four corners each: three in the lower right
+    sixth and one in the upper left give 4 / 0 / 0 / 0 / 0 / 12 a frame in REGIONS' order (upper
+    left first, lower right last), averaged over the frames; rows and columns swapped (a mutant)
+    put them elsewhere."""
+    img = np.zeros((120, 240), np.uint8)
+    for x0, y0 in ((165, 65), (200, 65), (182, 95)):      # lower right: x >= 160, y >= 60
+        img[y0:y0 + 14, x0:x0 + 14] = 200
+    img[10:24, 10:24] = 200                                 # upper left
+    frames = twin.Frames([img, img], [img, img], np.eye(3), 0.5)
+    c = twin.corners_by_region(frames, 2)
+    assert twin.REGIONS[0] == "upper left" and twin.REGIONS[5] == "lower right"
+    assert c[0] == 4 and c[5] == 12 and c[1:5].sum() == 0, c
