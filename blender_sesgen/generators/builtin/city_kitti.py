@@ -17,9 +17,11 @@ rig's car or 8 m of each other; the camera's auto-exposure follows the scene (AU
 Seed 0 scripts its near field after KITTI sequence_1's frames (``KITTI_S1_NEAR``): a 4 m
 carriageway driven near its middle, the lawn from the left kerb, a parking bay on the right
 with the two cars where sequence_1 shows them, its right front row 7-10 m right of the camera
-to 37 m ahead, beyond a gap a deep block under scaffolding whose end wall faces the camera
-60 m ahead, on the left a loose row of young trees 10-16 m out on the lawn and the houses
-facing the street 23-24 m left, and its traffic 100-130 m ahead, none oncoming.
+to 37 m ahead behind front gardens (a hedge or shrubs along their edge, bikes, planters, bins,
+young trees between the houses; no trees on its grass strip), beyond a gap a deep block under
+scaffolding whose end wall faces the camera 60 m ahead, on the left a loose row of young trees
+10-16 m out on the lawn and the houses facing the street 23-24 m left, and its traffic 100-130 m
+ahead, none oncoming.
 
     python -m blender_sesgen.generators.builtin.city_kitti [--seed N] [--frames N] > scenes/city_kitti.ses
 
@@ -165,7 +167,7 @@ FRONT_ROW_M = 30.0   # a block's centre within this of the centreline: the front
 # near-field street detail (docs/sensors.md, Camera twins: what KITTI sequence_1 shows at 5-30 m
 # that carries its corners): KITTI sequence_1's deep block beyond the side street is under
 # scaffolding with fence panels at its end wall and along its yard, its lawn's young trees all stand
-# in three stakes, bikes at an entrance (frame 10); residential streets elsewhere: a building in
+# in three stakes, bikes in its front gardens (``GARDEN``); residential streets elsewhere: a building in
 # ~8 under works, a bike rack before one front-row building in ~4, young trees staked
 P_WORKS = 0.12            # the chance that a front-row building (seed != 0) is under scaffolding
 P_BIKES = 0.25            # ... that a bike rack stands in its front yard
@@ -182,7 +184,8 @@ GARDEN = {"line": 7.1,          # the boundary's middle, metres right of the cen
           "module": 1.2, "heights": (0.85, 0.95, 1.05),
           "p_hedge": 0.65,      # a garden's boundary a clipped hedge (else a row of shrubs)
           "gap": (1.2, 1.6),    # its entrance's width
-          "p_bikes": 1.0, "p_pots": 0.6, "p_bin": 0.4, "shrubs_per_m": 0.25}
+          "p_bikes": 1.0,       # bikes in every garden (KITTI's frames 0, 16 and 24 each pass one), ...
+          "p_pots": 0.6, "p_bin": 0.4, "shrubs_per_m": 0.25}    # ... planters, a wheelie bin, shrubs
 
 
 @dataclass(frozen=True)
