@@ -673,6 +673,24 @@ def orb_funnel(seq: Frames, n: int, mask=None) -> dict:
             "bad_steps": int(np.sum(t_err > BAD_STEP_PCT)), "funnel": recs}
 
 
+def orb_inliers_by_region(recs: list, K: np.ndarray, size: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """The ORB VO's inliers (``orb_funnel``'s ``funnel``) in each sixth of the image (``REGIONS``,
+    their pixels in frame k of size (W, H)): the mean count a step and their median SGBM depth (m,
+    nan where none): where a render's steps are fixed, near or far (session 15: KITTI
+    sequence_1's upper right holds ~96 a step at ~21 m, the render's ~43)."""
+    W, H = size
+    counts, depth = np.zeros(6), [[] for _ in range(6)]
+    for r in recs:
+        if len(r.inliers):
+            P = r.P[r.inliers]
+            px = project(K, P)
+            cell = np.clip(px[:, 1] * 2 // H, 0, 1).astype(int) * 3 + np.clip(px[:, 0] * 3 // W, 0, 2).astype(int)
+            counts += np.bincount(cell, minlength=6)
+            for c, z in zip(cell, P[:, 2]):
+                depth[c].append(z)
+    return counts / max(len(recs), 1), np.array([np.median(d) if d else np.nan for d in depth])
+
+
 def _kind_of_ids(out: Path) -> dict[int, str]:
     """The render's object ids and their kind (the asset kind, else the class)."""
     man = json.loads((out / "manifest.json").read_text())
@@ -723,7 +741,10 @@ def orb_kind_lines(out: Path, real: Frames, ours: Frames, name: str, n: int, sta
             "render's ORB inliers by object kind: " + ", ".join(f"{kd} {100 * counts[kd] / total:.0f} %" for kd in ranked)
             + f"; ORB VO's translation RPE (bad steps) as is {fo['t_rpe_pct']:.2f} % ({fo['bad_steps']}), without "
             f"keypoints within {ORB_MASK_PX} px of " + ", ".join(f"{kd} {d['t_rpe_pct']:.2f} % ({d['bad_steps']})"
-                                                                 for kd, d in masked.items())]
+                                                                 for kd, d in masked.items()),
+            "ORB VO's inliers by region (mean a step at their median depth; " + ", ".join(REGIONS) + "): "
+            + "; ".join(f"{who} " + " / ".join(f"{c:.0f} at {z:.0f} m" for c, z in zip(*orb_inliers_by_region(
+                d["funnel"], seq_.K, seq_.resolution))) for who, d, seq_ in ((name, fr, real), ("render", fo, ours)))]
 
 
 def vo_cause_lines(name: str, real: Frames, ours: Frames, real_figs: dict, draw_figs: list[dict], n: int) -> list[str]:

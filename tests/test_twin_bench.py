@@ -365,3 +365,17 @@ def test_corners_by_region_counts_each_sixth_of_the_image():
     c = twin.corners_by_region(frames, 2)
     assert twin.REGIONS[0] == "upper left" and twin.REGIONS[5] == "lower right"
     assert c[0] == 4 and c[5] == 12 and c[1:5].sum() == 0, c
+
+
+def test_orb_inliers_by_region_counts_each_sixth_and_its_depth():
+    """Hand-made ORB steps (points in camera k, K of a 600 x 200 image): two inliers 10 m ahead in
+    the lower right (pixel x >= 400, y >= 100) and one 50 m ahead in the upper left, a matched
+    point that is no inlier left out, and a failed step: 1 / 0 / 0 / 0 / 0 / 2 inliers over the
+    two steps' mean (0.5 / ... / 1) at 50 m and 10 m."""
+    K = np.array([[300.0, 0.0, 300.0], [0.0, 300.0, 100.0], [0.0, 0.0, 1.0]])
+    P = np.array([[5.0, 2.0, 10.0], [6.0, 3.0, 10.0], [-40.0, -10.0, 50.0], [0.0, 0.0, 20.0]])
+    steps = [twin.OrbStep(100, 50, P, np.zeros((4, 2)), np.array([0, 1, 2])),
+             twin.OrbStep(100, 0, np.zeros((0, 3)), np.zeros((0, 2)), np.array([], int))]
+    counts, depth = twin.orb_inliers_by_region(steps, K, (600, 200))
+    assert np.allclose(counts, [0.5, 0, 0, 0, 0, 1.0]), counts
+    assert depth[0] == 50.0 and depth[5] == 10.0 and np.isnan(depth[1:5]).all(), depth
