@@ -711,6 +711,27 @@ def corners_on_sgbm_edges(frames: Frames, n: int) -> dict:
     return {"edge_share": float(np.mean(share)), "near_edge_share": float(np.mean(near)) if near else float("nan")}
 
 
+REGIONS = ("upper left", "upper middle", "upper right", "lower left", "lower middle", "lower right")
+
+
+def corners_by_region(frames: Frames, n: int) -> np.ndarray:
+    """The OpenCV VO's corners (Shi-Tomasi 1000/0.01/8, its detector) in each sixth of the image
+    (``REGIONS``: upper and lower half, left, middle and right third), mean per frame over frames
+    0..n-1: where a render's corners lack (session 14: KITTI sequence_1's lower right 60-63 a
+    frame, the render's 36-38 - KITTI's front gardens)."""
+    counts = np.zeros(6)
+    for k in range(n):
+        img = frames.image_gray(k)
+        H, W = img.shape[:2]
+        pts = cv2.goodFeaturesToTrack(img, 1000, 0.01, 8)
+        if pts is None:
+            continue
+        x, y = pts.reshape(-1, 2).T
+        cell = np.minimum((y * 2 // H).astype(int), 1) * 3 + np.minimum((x * 3 // W).astype(int), 2)
+        counts += np.bincount(cell, minlength=6)
+    return counts / max(n, 1)
+
+
 MATCH_TOL_PX = 1.5      # a match the true step carries to within this of its partner: consistent
 
 
@@ -757,6 +778,24 @@ def orb_funnel(seq: Frames, n: int, mask=None) -> dict:
             "with_depth": med([len(r.P) for r in recs]), "inliers": med([len(r.inliers) for r in recs]),
             "consistent": med(cons), "bound_pct": med(bound), "t_rpe_pct": med(t_err),
             "bad_steps": int(np.sum(t_err > BAD_STEP_PCT)), "funnel": recs}
+
+
+def orb_inliers_by_region(recs: list, K: np.ndarray, size: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """The ORB VO's inliers (``orb_funnel``'s ``funnel``) in each sixth of the image (``REGIONS``,
+    their pixels in frame k of size (W, H)): the mean count a step and their median SGBM depth (m,
+    nan where none): where a render's steps are fixed, near or far (session 15: KITTI
+    sequence_1's upper right holds ~96 a step at ~21 m, the render's ~43)."""
+    W, H = size
+    counts, depth = np.zeros(6), [[] for _ in range(6)]
+    for r in recs:
+        if len(r.inliers):
+            P = r.P[r.inliers]
+            px = project(K, P)
+            cell = np.clip(px[:, 1] * 2 // H, 0, 1).astype(int) * 3 + np.clip(px[:, 0] * 3 // W, 0, 2).astype(int)
+            counts += np.bincount(cell, minlength=6)
+            for c, z in zip(cell, P[:, 2]):
+                depth[c].append(z)
+    return counts / max(len(recs), 1), np.array([np.median(d) if d else np.nan for d in depth])
 
 
 def _kind_of_ids(out: Path) -> dict[int, str]:
@@ -809,7 +848,10 @@ def orb_kind_lines(out: Path, real: Frames, ours: Frames, name: str, n: int, sta
             "render's ORB inliers by object kind: " + ", ".join(f"{kd} {100 * counts[kd] / total:.0f} %" for kd in ranked)
             + f"; ORB VO's translation RPE (bad steps) as is {fo['t_rpe_pct']:.2f} % ({fo['bad_steps']}), without "
             f"keypoints within {ORB_MASK_PX} px of " + ", ".join(f"{kd} {d['t_rpe_pct']:.2f} % ({d['bad_steps']})"
-                                                                 for kd, d in masked.items())]
+                                                                 for kd, d in masked.items()),
+            "ORB VO's inliers by region (mean a step at their median depth; " + ", ".join(REGIONS) + "): "
+            + "; ".join(f"{who} " + " / ".join(f"{c:.0f} at {z:.0f} m" for c, z in zip(*orb_inliers_by_region(
+                d["funnel"], seq_.K, seq_.resolution))) for who, d, seq_ in ((name, fr, real), ("render", fo, ours)))]
 
 
 def vo_cause_lines(name: str, real: Frames, ours: Frames, real_figs: dict, draw_figs: list[dict], n: int) -> list[str]:
@@ -1120,6 +1162,9 @@ def main(argv=None) -> int:
     print(f"corners on SGBM disparity discontinuities (both, the same rule): {name} {100 * er['edge_share']:.0f} % "
           f"({100 * er['near_edge_share']:.0f} % of those nearer than 15 m), render {100 * eo['edge_share']:.0f} % "
           f"({100 * eo['near_edge_share']:.0f} %)")
+    cr, co = corners_by_region(real, n), corners_by_region(ours, n)
+    print("corners by region (the OpenCV VO's detector, mean a frame; " + ", ".join(REGIONS) + f"): {name} "
+          + " / ".join(f"{c:.0f}" for c in cr) + ", render " + " / ".join(f"{c:.0f}" for c in co))
     print(f"\nseconds per stereo frame rendered: {secs:.0f}; bench wall time {time.perf_counter() - t0:.0f} s; "
           f"load {open('/proc/loadavg').read().split()[0]}")
     return 0

@@ -955,6 +955,36 @@ def test_city_kitti_left_lawn_holds_trees_as_kitti_sequence_1s(scenes, shared_da
     assert len(trees) >= 4 and np.all(np.diff(sorted(trees)) > 6.0), trees
 
 
+def test_city_kitti_right_gardens_stand_where_kitti_sequence_1s_do(scenes, shared_data):
+    """KITTI sequence_1's near right (its lower-right image quarter, frames 0-36) is a row of
+    front gardens: by SGBM at full size (frames 0-30, points 6-16 m from the camera, 3-12 m right)
+    the points 0.6-1.4 m above the road peak 7.0-7.5 m right of the camera (a clipped hedge and
+    shrubs along the gardens' edge; the 3-4.5 m points are the parked car), and under 3 % of the
+    points 2.6-6 m up lie 4.5-6.5 m right (its grass strip has no trees; the garden trees stand
+    further in). Seed 0 lines at least 60 % of 8-36 m ahead with hedges or shrubs centred
+    within 0.75 m of KITTI's peak, and stands no tree 4-6.5 m right of the first camera under
+    44 m ahead (it had a bike rack alone there, and four tree-lawn trees 5.3 m right)."""
+    X, Y, Z = kitti_s1_points(shared_data, (0, 6, 12, 18, 24, 30))
+    h = 1.65 - Y                                          # above the road (the camera 1.65 m up, Y down)
+    near = (Z > 6.0) & (Z < 16.0) & (X > 3.0) & (X < 12.0)
+    counts, edges = np.histogram(X[near & (h > 0.6) & (h < 1.4)], np.arange(3.0, 12.01, 0.5))
+    peak = edges[np.argmax(counts)] + 0.25
+    assert 6.5 < peak < 8.0, (peak, counts)
+    high = near & (h > 2.6) & (h < 6.0)
+    assert np.sum(high & (X > 4.5) & (X < 6.5)) < 0.03 * np.sum(high)
+    s = scenes["city_kitti"]
+    edge = sorted((ahead - o.size[0] / 2, ahead + o.size[0] / 2) for kind in ("hedge", "bush")
+                  for o, ahead, right in assets_ahead_right(s, kind) if abs(right - peak) < 0.75)
+    covered, reach = 0.0, 8.0                             # the union of their extents along the street, 8-36 m
+    for a0, a1 in edge:
+        a0, a1 = max(a0, reach), min(a1, 36.0)
+        if a1 > a0:
+            covered, reach = covered + a1 - a0, a1
+    assert covered > 0.6 * 28.0, (covered, edge)
+    strip = [(ahead, right) for _, ahead, right in assets_ahead_right(s, "tree") if 0.0 < ahead < 44.0 and 4.0 < right < 6.5]
+    assert not strip, strip
+
+
 def test_city_kitti_parks_its_kerbs_as_kitti_sequence_1_and_seeds_vary_it(scenes):
     """Parked cars (static car assets) along the drive's street: KITTI sequence_1 shows 2-3 at
     the right kerb over the ~90 m its frames 0-45 see (one per 30-45 m) and none on the lawn

@@ -350,3 +350,32 @@ def test_facade_brightness_reads_the_sunlit_walls_in_the_upper_quantiles(tmp_pat
     assert np.isclose(float(got["median"]), L[0, 60] / L.mean(), atol=0.01), got
     assert np.isclose(float(got["p75"]), L[0, 60] / L.mean(), atol=0.01), got
     assert np.isclose(float(got["p90"]), L[0, 95] / L.mean(), atol=0.01), got
+
+
+def test_corners_by_region_counts_each_sixth_of_the_image():
+    """Bright 14 px squares on a dark 240 x 120 frame, four corners each: three in the lower right
+    sixth and one in the upper left give 4 / 0 / 0 / 0 / 0 / 12 a frame in REGIONS' order (upper
+    left first, lower right last), averaged over the frames; rows and columns swapped (a mutant)
+    put them elsewhere."""
+    img = np.zeros((120, 240), np.uint8)
+    for x0, y0 in ((165, 65), (200, 65), (182, 95)):      # lower right: x >= 160, y >= 60
+        img[y0:y0 + 14, x0:x0 + 14] = 200
+    img[10:24, 10:24] = 200                                 # upper left
+    frames = twin.Frames([img, img], [img, img], np.eye(3), 0.5)
+    c = twin.corners_by_region(frames, 2)
+    assert twin.REGIONS[0] == "upper left" and twin.REGIONS[5] == "lower right"
+    assert c[0] == 4 and c[5] == 12 and c[1:5].sum() == 0, c
+
+
+def test_orb_inliers_by_region_counts_each_sixth_and_its_depth():
+    """Hand-made ORB steps (points in camera k, K of a 600 x 200 image): two inliers 10 m ahead in
+    the lower right (pixel x >= 400, y >= 100) and one 50 m ahead in the upper left, a matched
+    point that is no inlier left out, and a failed step: 1 / 0 / 0 / 0 / 0 / 2 inliers over the
+    two steps' mean (0.5 / ... / 1) at 50 m and 10 m."""
+    K = np.array([[300.0, 0.0, 300.0], [0.0, 300.0, 100.0], [0.0, 0.0, 1.0]])
+    P = np.array([[5.0, 2.0, 10.0], [6.0, 3.0, 10.0], [-40.0, -10.0, 50.0], [0.0, 0.0, 20.0]])
+    steps = [twin.OrbStep(100, 50, P, np.zeros((4, 2)), np.array([0, 1, 2])),
+             twin.OrbStep(100, 0, np.zeros((0, 3)), np.zeros((0, 2)), np.array([], int))]
+    counts, depth = twin.orb_inliers_by_region(steps, K, (600, 200))
+    assert np.allclose(counts, [0.5, 0, 0, 0, 0, 1.0]), counts
+    assert depth[0] == 50.0 and depth[5] == 10.0 and np.isnan(depth[1:5]).all(), depth

@@ -17,9 +17,11 @@ rig's car or 8 m of each other; the camera's auto-exposure follows the scene (AU
 Seed 0 scripts its near field after KITTI sequence_1's frames (``KITTI_S1_NEAR``): a 4 m
 carriageway driven near its middle, the lawn from the left kerb, a parking bay on the right
 with the two cars where sequence_1 shows them, its right front row 7-10 m right of the camera
-to 37 m ahead, beyond a gap a deep block under scaffolding whose end wall faces the camera
-60 m ahead, on the left a loose row of young trees 10-16 m out on the lawn and the houses
-facing the street 23-24 m left, and its traffic 100-130 m ahead, none oncoming.
+to 37 m ahead behind front gardens (a hedge or shrubs along their edge, bikes, planters, bins,
+young trees between the houses; no trees on its grass strip), beyond a gap a deep block under
+scaffolding whose end wall faces the camera 60 m ahead, on the left a loose row of young trees
+10-16 m out on the lawn and the houses facing the street 23-24 m left, and its traffic 100-130 m
+ahead, none oncoming.
 
     python -m blender_sesgen.generators.builtin.city_kitti [--seed N] [--frames N] > scenes/city_kitti.ses
 
@@ -118,6 +120,7 @@ class NearField:
     gutter_right: float = 0.0   # a light concrete gutter this wide between the carriageway and the bay
     trees_left: tuple = ()      # (from, to) ahead, (near, far) left of the centreline: a loose row of young trees on the lawn
     setback_left: tuple = ()    # the left front row's setback range behind the left kerb up to LEFT_ROW_M ahead (empty: drawn)
+    gardens_right: tuple = ()   # (from, to) ahead: front gardens before the right front row (``GARDEN``), the tree lawn treeless
 
 
 # KITTI sequence_1's street, measured in its frames (ground plane 1.65 m under the camera, f 707
@@ -149,9 +152,9 @@ class NearField:
 KITTI_S1_NEAR = NearField(half_road=2.0, bay=2.5, walk_left=0.0, car_offset=3.13, parked_ahead=(15.4, 40.1),
                           parked_clear=100.0, traffic_lane=0.1, traffic_ahead=(100.0, 130.0), oncoming=False,
                           white_right=65.0, works_right=(60.0, 100.0), works_depth=22.0, open_right=37.0,
-                          bikes_right=(7.0,), lawn_right=1.3,
+                          lawn_right=1.3,
                           walk_right=2.2, setback_right=(0.6, 1.2), gutter_right=0.4, setback_left=(20.5, 22.5),
-                          trees_left=((18.0, 80.0), (10.5, 15.5)))
+                          trees_left=((18.0, 80.0), (10.5, 15.5)), gardens_right=(0.0, 37.0))
 # KITTI sequence_1's left houses (beyond its public lawn) face the street 25-27 m left of the camera
 # (SGBM, frames 20-36); the open frontage's drawn 14-28 m put seed 0's at 18.5-21 m, large smooth
 # walls where KITTI's upper left holds ~1.7x the corners (session 14: 76-88 vs 43-49 a frame);
@@ -164,12 +167,25 @@ FRONT_ROW_M = 30.0   # a block's centre within this of the centreline: the front
 # near-field street detail (docs/sensors.md, Camera twins: what KITTI sequence_1 shows at 5-30 m
 # that carries its corners): KITTI sequence_1's deep block beyond the side street is under
 # scaffolding with fence panels at its end wall and along its yard, its lawn's young trees all stand
-# in three stakes, bikes at an entrance (frame 10); residential streets elsewhere: a building in
+# in three stakes, bikes in its front gardens (``GARDEN``); residential streets elsewhere: a building in
 # ~8 under works, a bike rack before one front-row building in ~4, young trees staked
 P_WORKS = 0.12            # the chance that a front-row building (seed != 0) is under scaffolding
 P_BIKES = 0.25            # ... that a bike rack stands in its front yard
 SCAFFOLD_DEPTH_M = 0.9    # a facade scaffold's width (EN 12811 class 4: 0.9 m decks) ...
 SCAFFOLD_GAP_M = 0.15     # ... and its gap to the facade's foremost part below its top
+# KITTI sequence_1's near right (frames 0-36, full-size SGBM in each frame's camera frame, 6-16 m
+# from the camera): points 0.6-1.4 m above the road peak 7.0-7.5 m right of the camera in every 4 m
+# of the ~40 m before its side street (a front gardens' boundary: clipped hedges, shrubs, bikes;
+# its images: a hedge, flowering shrubs, planters, bikes on their stands, wheelie bins), points
+# 2.6-6 m up stand 7.5-9.5 m right every ~12 m (young garden trees) and none 4.5-6.5 m right (its
+# grass strip has no trees); the facades ~8.5-9.5 m right: gardens ~1-1.5 m deep
+GARDEN = {"line": 7.1,          # the boundary's middle, metres right of the centreline ...
+          "thick": 0.5,         # ... its thickness (a hedge's), the hedge modules' length and heights
+          "module": 1.2, "heights": (0.85, 0.95, 1.05),
+          "p_hedge": 0.65,      # a garden's boundary a clipped hedge (else a row of shrubs)
+          "gap": (1.2, 1.6),    # its entrance's width
+          "p_bikes": 1.0,       # bikes in every garden (KITTI's frames 0, 16 and 24 each pass one), ...
+          "p_pots": 0.6, "p_bin": 0.4, "shrubs_per_m": 0.25}    # ... planters, a wheelie bin, shrubs
 
 
 @dataclass(frozen=True)
@@ -495,6 +511,100 @@ def _street_detail(rng, side_lines: dict, place, centreline: _Centreline, behind
     return out
 
 
+def _gardens(rng, lines: list[str], side_lines: list[str], place, centreline: _Centreline, span: tuple, pool,
+             ids: Ids, kerb_h: float) -> list[str]:
+    """Front gardens before the right front row's buildings whose front lies between arc lengths
+    ``span`` (a scripted near field's ``gardens_right``, KITTI sequence_1's: ``GARDEN``): along
+    each facade a boundary ``GARDEN['line']`` right of the centreline - modules of a clipped
+    hedge of one height, or a row of shrubs - broken by an entrance; between it and the facade's
+    foremost part (its steps and balconies) bicycles, planters, a wheelie bin at the entrance and
+    shrubs; in a gap of 2 m or more between two buildings a young tree (its crown clear of the
+    walls). Hedge, shrub, planter and bike variants are a few each (instanced); nothing within
+    reach of an asset of ``lines`` (poles, signs, bins, trees, lights)."""
+    g = GARDEN
+    hedges = [(int(x), (g["module"], h, g["thick"])) for x, h in zip(rng.integers(1, 10 ** 6, 3), g["heights"])]
+    shrubs = [(int(x), (round(float(rng.uniform(0.7, 1.0)), 2), round(float(rng.uniform(0.6, 1.2)), 2),
+                        round(float(rng.uniform(0.55, 0.75)), 2))) for x in rng.integers(1, 10 ** 6, 3)]
+    pots = [(int(x), (0.5, round(float(rng.uniform(0.7, 1.1)), 2), 0.5)) for x in rng.integers(1, 10 ** 6, 2)]
+    bikes = [(int(x), (n * 0.6, 1.0, 1.8)) for x, n in zip(rng.integers(1, 10 ** 6, 2), (1, 2))]
+    taken = []
+    for ln in lines:
+        w = ln.split()
+        if len(w) > 2 and w[0] == "ASSET" and w[1] in ("pole", "sign", "bin", "bollard", "tree", "streetlight",
+                                                       "bike_rack", "tree_stakes", "bush", "hedge", "fence"):
+            taken.append(_ground_xz(w))
+
+    def clear(p, r):
+        return all(np.linalg.norm(p[[0, 2]] - xz) > r + 0.3 for xz in taken)
+
+    out = []
+
+    def put(kind, a, d, yaw_off, variant, r, group="furniture"):
+        p, h = place(a, d)
+        p = p + np.array([0.0, kerb_h, 0.0])
+        if clear(p, r):
+            out.append(asset(kind, ids(group), p, h + yaw_off, variant[1], seed=variant[0]))
+
+    row = sorted((b for ln in side_lines if (b := _front_row_building(ln, centreline)) is not None),
+                 key=lambda b: b["s"])
+    ends = [(b["s"] - b["size"][0] / 2, b["s"] + b["size"][0] / 2) for b in row]
+    for i, b in enumerate(row):
+        s0, s1 = max(ends[i][0], span[0]), min(ends[i][1], span[1])
+        if s1 - s0 < 2.0:
+            continue
+        # the boundary runs on to the middle of a gap under 6 m to the next house (KITTI's is unbroken)
+        e0 = (ends[i - 1][1] + ends[i][0]) / 2 if i > 0 and 0.0 < ends[i][0] - ends[i - 1][1] < 6.0 else ends[i][0]
+        e1 = (ends[i][1] + ends[i + 1][0]) / 2 if i + 1 < len(row) and 0.0 < ends[i + 1][0] - ends[i][1] < 6.0 \
+            else ends[i][1]
+        e0, e1 = max(e0, span[0]), min(e1, span[1])
+        V = asset_mesh("building", b["size"], b["seed"]).vertices
+        front = b["dist"] - float(V[V[:, 1] < 1.5, 2].max())     # the facade's foremost part, from the centreline
+        inner = (g["line"] + g["thick"] / 2 + 0.1, front - 0.15)
+        gap = float(rng.uniform(*g["gap"]))
+        entrance = float(rng.uniform(s0 + 1.5, max(s1 - 1.5 - gap, s0 + 1.5)))
+        hedge = rng.random() < g["p_hedge"]
+        k = int(rng.integers(len(hedges)))
+        step = g["module"] if hedge else 0.8
+        for a0, a1 in ((e0 + 0.1, entrance), (entrance + gap, e1 - 0.1)):
+            if a1 - a0 < 0.6 * step:
+                continue
+            n = int(np.ceil((a1 - a0) / step))       # modules overlapping a little: the hedge unbroken
+            for a in np.linspace(a0 + step / 2, a1 - step / 2, n) if n > 1 else [(a0 + a1) / 2]:
+                if hedge:
+                    put("hedge", a, g["line"], -90.0 + 180.0 * int(rng.integers(2)), hedges[k], 0.0, "veg")
+                else:
+                    put("bush", a + float(rng.uniform(-0.1, 0.1)), g["line"], float(rng.uniform(0, 360)),
+                        shrubs[int(rng.integers(len(shrubs)))], 0.0, "veg")
+        depth = inner[1] - inner[0]
+        if depth < 0.5:
+            continue
+        mid = (inner[0] + inner[1]) / 2
+        # the garden's things, each in a 1.5 m slot of its own along the facade, the entrance's kept free
+        slots = [a for a in np.arange(s0 + 0.9, s1 - 0.6, 1.5) if not entrance - 0.8 < a < entrance + gap + 0.8]
+        rng.shuffle(slots)
+        if rng.random() < g["p_bikes"] and slots:
+            v = bikes[1 if depth >= 1.3 and rng.random() < 0.5 else 0]
+            put("bicycles", slots.pop(), mid, 0.0, v, 0.0)
+        if rng.random() < g["p_bin"]:
+            put("bin", entrance + gap + 0.5, inner[0] + 0.35, -90.0, (pool.seeds["bin"][int(rng.integers(POOLS["bin"]))], None), 0.0)
+        if rng.random() < g["p_pots"]:
+            for _ in range(int(rng.integers(1, 3))):
+                if slots:
+                    put("plant", slots.pop(), inner[1] - 0.3, float(rng.uniform(0, 360)), pots[int(rng.integers(len(pots)))], 0.0)
+        for _ in range(int(rng.poisson(g["shrubs_per_m"] * (s1 - s0)))):
+            if slots and depth >= 0.8:
+                put("bush", slots.pop(), mid, float(rng.uniform(0, 360)), shrubs[int(rng.integers(len(shrubs)))], 0.0, "veg")
+    for (_, e0), (e1, _) in zip(ends[:-1], ends[1:]):          # young trees between the houses
+        if e1 - e0 >= 2.0 and span[0] <= (e0 + e1) / 2 <= span[1]:
+            seed_, size = pool.seeds["young_tree"], pool.sizes["young_tree"]
+            k = int(rng.integers(len(seed_)))
+            p, h = place((e0 + e1) / 2, g["line"] + 0.9)
+            if clear(p, 0.5):
+                out.append(asset("tree", ids("tree"), p + np.array([0.0, kerb_h, 0.0]), float(rng.uniform(0, 360)),
+                                 size[k], seed=seed_[k]))
+    return out
+
+
 def _traffic(rng, centre, s_cam: np.ndarray, step_m: float, L: float, n_cars: int, ids: Ids, seed_of,
              lane_m: float = LANE_M, ahead_m: tuple = (15.0, 70.0), oncoming: bool = True) -> list[str]:
     """Moving cars (ASSET car + MOVE keyframes): alternately one ahead in the rig's lane,
@@ -657,11 +767,15 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     out += ["", "// street trees (tree lawn, right), street lights, signs (trees, cars, lights: a few variants, instanced)"]
     trees_at = {"lawn": [], "young": []}      # where the street trees stand (their stakes come below)
     s = float(rng.uniform(3, 8))
+    treeless = (behind + near.gardens_right[0] - 3.0, behind + near.gardens_right[1] + 8.0) \
+        if near is not None and near.gardens_right else (0.0, 0.0)
     while s < L - 5:
         p, _ = place(s, 0.5 * (lawn[0] + lawn[1]))
         seed_, size = pool.pick("lawn_tree")
-        out.append(asset("tree", ids("tree"), p, rng.uniform(0, 360), size, seed=seed_))
-        trees_at["lawn"].append(p)
+        line = asset("tree", ids("tree"), p, rng.uniform(0, 360), size, seed=seed_)   # drawn all the same: the ids stay
+        if not treeless[0] <= s <= treeless[1]:     # a scripted near field's gardens: a treeless strip past the side street
+            out.append(line)
+            trees_at["lawn"].append(p)
         s += float(rng.uniform(8, 13))
     s = float(rng.uniform(3, 8))
     while s < L - 5:                       # young trees along the left sidewalk's outer edge
@@ -707,6 +821,10 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     detail = _street_detail(np.random.default_rng([seed, 0xDE7]), side_lines, place, centreline, behind,
                             {1: right_edge, -1: -left_edge}, near, v.staked, trees_at, ids)
     out = _clear_footprints(out, [ln for ln in detail if ln.split()[1] in ("scaffold", "site_fence")]) + detail
+    if near is not None and near.gardens_right:
+        out += ["", "// front gardens before the right front row: hedges or shrubs, bikes, planters, bins, young trees"]
+        out += _gardens(np.random.default_rng([seed, 0x6A7]), out, side_lines[1], place, centreline,
+                        (behind + near.gardens_right[0], behind + near.gardens_right[1]), pool, ids, kerb_h)
 
     # --- grass (real blades) on the tree lawn and the first metres of the yards and fields --
     out += ["", "// grass: patches of blades on the lawns near the road (a few variants, instanced)"]

@@ -98,6 +98,9 @@ def _kinds() -> dict[str, Kind]:
         Kind("bike_rack", "street", "bicycle", "row of Sheffield stands along x with bicycles (wheels, spokes, "
              "frame, bars, saddle) parked at some", ((1.8, 5.4), (0.8, 0.9), (1.7, 1.9)),
              "row length, stand height, bicycle length", street_detail.bike_rack, overhang=0.4),
+        Kind("bicycles", "street", "bicycle", "bicycles on their kickstands side by side along x, each along z "
+             "(wheels, spokes, frame, bars, saddle), about half turned round", ((0.6, 3.0), (0.95, 1.1), (1.7, 1.9)),
+             "row length, handlebar height, bicycle length", street_detail.bicycles, overhang=0.45),
     ]
     table += [
         Kind("table", "indoor", "table", "table: top on four legs with an apron",

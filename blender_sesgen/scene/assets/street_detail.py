@@ -220,3 +220,24 @@ def bike_rack(size, seed: int) -> MeshData:
         if rng.random() < 0.6:
             bicycle_parts(b, rng, x + 0.15, D, surfaces)
     return b.build()
+
+
+def bicycles(size, seed: int) -> MeshData:
+    """Bicycles standing on their kickstands side by side along x, each along z (front wheel
+    towards +z), spaced evenly (0.6 m or more), about half turned round, each shifted along z by
+    up to 12 cm (as bikes stand in a front garden or by a wall, without a rack). size = (row length,
+    height: the handlebar's, a bicycle's length); a row shorter than two bikes holds one."""
+    rng, L, H, D, b = start(size, seed)
+    n = max(int(L / 0.6), 1)
+    xs = -L / 2 + (np.arange(n) + 0.5) * L / n
+    for x in xs:
+        sub = MeshBuilder()
+        parts = (sub.surface("rubber"), sub.surface("chrome"), sub.surface("rubber", (0.02, 0.02, 0.02)))
+        bicycle_parts(sub, rng, 0.0, D, parts)
+        # the kickstand: from behind the bottom bracket down and out to the ground
+        _rods(sub, [((0.0, 0.26, -0.08), (0.16, 0.0, -0.2))], 0.01, parts[1])
+        turn = -1.0 if rng.random() < 0.5 else 1.0     # half face the other way (a half turn about y)
+        T = np.diag([turn, H / 1.05, turn, 1.0])       # a bike's bar stands ~1.0-1.05 m up
+        T[:3, 3] = (x, 0.0, float(rng.uniform(-0.12, 0.12)))
+        b.merge(sub, T)
+    return b.build()
