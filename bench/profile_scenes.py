@@ -32,7 +32,9 @@ sample: the moved cameras and objects synchronised, their BVHs updated; by Cycle
 the build's stages), ``trace`` (Cycles' sampling, the denoiser included: Cycles denoises inside
 its last sample), ``write`` (Blender writing the EXRs after Cycles finished), ``other``
 (frame set-up, the sensor images, the display PNGs, the sealing hand-off: the rest of the frame), ``frame``
-(all of it); ``Mpath/s``: camera paths (pixels x samples, both views) per CPU second of
+(all of it); ``meter``: one preview of the sensor auto-exposure's metering pass (after its first;
+the build renders one for every frame of the sequence but its last: a frame of a long sequence
+costs ``seq`` = ``frame`` + ``meter``, which the ratio against ``--base`` also gives); ``Mpath/s``: camera paths (pixels x samples, both views) per CPU second of
 ``trace``; ``peak MiB``: the process's peak resident set; ``Cycles MiB``: Cycles' own peak.
 
 Features (``--features``; each measured by switching it off, reported as the CPU it costs
@@ -239,6 +241,26 @@ def child(a) -> int:
     stages.wrap(builder, "build_scene", "scene")
     stages.wrap(exposure, "measure_exposure", "exposure")
     stages.wrap(exposure, "meter_frames", "metering")
+    # the metering pass's previews one by one: a sequence pays one per frame it renders
+    render_mod = importlib.import_module("blender_sesgen.blender.render")
+    meter_renders: list[float] = []
+    metering = getattr(exposure, "meter_frames", None)
+    if metering is not None:
+        def metered(*x, **y):
+            plain = render_mod.render_view
+
+            def timed(*x2, **y2):
+                c0 = cpu_s()
+                try:
+                    return plain(*x2, **y2)
+                finally:
+                    meter_renders.append(cpu_s() - c0)
+            render_mod.render_view = timed
+            try:
+                return metering(*x, **y)
+            finally:
+                render_mod.render_view = plain
+        exposure.meter_frames = metered
 
     c = cpu_s()
     edit = (lambda text: edit_script(text, a.feature)[0]) if a.feature in EDITED else None
@@ -285,6 +307,9 @@ def child(a) -> int:
     per = {key: sum(r[key] for r in steady) / len(steady)
            for key in ("frame", "wall", "trace", "write", "setup", "setup_bvh", "setup_sync")}
     per["other"] = per["frame"] - per["trace"] - per["write"] - per["setup"]
+    # a metering preview after the pass's first (which synchronises the scene and builds its BVH:
+    # the build's); a render with AUTOEXPOSURE pays one per frame of its sequence
+    per["meter"] = sum(meter_renders[1:]) / len(meter_renders[1:]) if meter_renders[1:] else 0.0
     paths = s.width * s.height * views * s.preset.samples
     out = {"scene": Path(a.scene).stem, "feature": a.feature, "size": [s.width, s.height],
            "samples": s.preset.samples, "denoise": s.preset.denoise, "build": stages.cpu, "cycles_setup": setup,
@@ -422,14 +447,18 @@ def print_build(rows: list[tuple[str, dict]]) -> None:
 def print_frames(rows: list[tuple[str, dict]]) -> None:
     print("\n# per stereo frame (CPU s; frames after the first)")
     print(f"{'scene':24s}{'size':>11s}{'samples':>8s}{'c:setup':>9s}{'trace':>9s}{'write':>8s}{'other':>8s}"
-          f"{'frame':>9s}{'wall':>8s}{'Mpath/s':>9s}{'peak MiB':>9s}{'Cycles MiB':>11s}")
+          f"{'frame':>9s}{'meter':>8s}{'seq':>8s}{'wall':>8s}{'Mpath/s':>9s}{'peak MiB':>9s}{'Cycles MiB':>11s}")
     for label, r in rows:
         p = r["per_frame"]
         size = "x".join(map(str, r["size"]))
         setup = p.get("setup", 0.0)   # (rows of a --json file written before the column)
         print(f"{label:24s}{size:>11s}{r['samples']:8d}{setup:9.2f}{p['trace']:9.2f}{p['write']:8.2f}"
-              f"{p['other']:8.2f}{p['frame']:9.2f}{p['wall']:8.1f}{r['mpaths_per_s']:9.3f}{r['peak_mib']:9.0f}"
+              f"{p['other']:8.2f}{p['frame']:9.2f}{p.get('meter', 0.0):8.2f}{p['frame'] + p.get('meter', 0.0):8.2f}"
+              f"{p['wall']:8.1f}{r['mpaths_per_s']:9.3f}{r['peak_mib']:9.0f}"
               f"{r['cycles_mib']:11.0f}")
+    if any(r["per_frame"].get("meter", 0.0) > 0 for _, r in rows):
+        print("# meter: a metering preview of the sensor auto-exposure's pass (after its first), which the build "
+              "renders for every frame but the sequence's last; seq = frame + meter: a frame of a sequence")
     if any(r["per_frame"].get("setup", 0.0) > 0.05 for _, r in rows):
         print("# c:setup: Cycles' own set-up inside the frame's renders before their first sample (the moved "
               "cameras and objects synchronised, BVHs updated), " + ", ".join(
@@ -548,6 +577,8 @@ def main(argv=None) -> int:
             print(f"{label:14s}" + "".join(f"{c:>18s}" for c in cells))
         print("# in-process features: frame N-1 with the feature on, then off (share of that frame);"
               " edited ones: per stereo frame / build (b), against the baseline row")
+    def seq(r):   # a frame of a sequence: the frame and its metering preview
+        return r["per_frame"]["frame"] + r["per_frame"].get("meter", 0.0)
     if worktree is not None:
         print(f"\n# against {a.base} (same run): CPU to first sample and per stereo frame")
         for name in a.scenes:
@@ -555,7 +586,8 @@ def main(argv=None) -> int:
             old = next(r for lb, r in results if lb == f"{label} @{a.base}")
             new = next(r for lb, r in results if lb == label)
             print(f"{label:14s} build x{new['to_first_sample']['cpu'] / old['to_first_sample']['cpu']:.3f}  "
-                  f"frame x{new['per_frame']['frame'] / old['per_frame']['frame']:.3f}"
+                  f"frame x{new['per_frame']['frame'] / old['per_frame']['frame']:.3f}  "
+                  f"seq x{seq(new) / seq(old):.3f} ({seq(old) / seq(new):.2f}x the base's frames/s)"
                   + (f"  (build, each pair: {' '.join(f'x{x:.3f}' for x in pairs[label])})" if label in pairs else ""))
     print(f"# load {os.getloadavg()[0]:.1f} at the end; {time.perf_counter() - T0:.0f} s in all")
     if a.json:
