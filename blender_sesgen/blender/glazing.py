@@ -7,13 +7,16 @@ only by bounces: Cycles' shadow rays stop at the pane, so every pixel the daylig
 found by chance (the hall's noise, bench/quality_noise_source.py). A ``glow`` pane emits it
 instead (the library's ``_glow``: no Translucent BSDF, the light does not arrive twice) and is
 light-sampled. E is the world's (scene/lighting.py ``daylight_irradiance``: the sky's table or
-the HDRI's pixels over the outer hemisphere, unoccluded, and the sky's sun lamp by its
-incidence); the outer face is the side from which more rays over its hemisphere (from the
+the HDRI's pixels over the outer hemisphere and the sky's sun lamp by its incidence, each
+direction weighted by the share of 3 x 3 points on the pane that see the sky along it: the
+window's reveal and bars shade the pane as they would its transmitted light); the outer face is the side from which more rays over its hemisphere (from the
 pane's centre) escape the scene (a tie: the brighter side). A copy of the material per distinct
 irradiance: its Emission's strength is the pane's mean emitted luminance, so Cycles' light
 tree, which estimates a textured emission by its strength, weighs the pane by its real light.
 """
 from __future__ import annotations
+
+import logging
 
 import bpy
 import numpy as np
@@ -26,8 +29,11 @@ from . import compat, library
 from . import sky as sky_table
 from .datablocks import tag
 
+log = logging.getLogger(__name__)
 ESCAPE_M = 1e6
-OPEN_RAYS = 64      # rays a side that find the outer face (the side that sees the sky)
+OPEN_RAYS = 16      # rays a side that find the outer face (the side that sees the sky)
+POINTS = 3          # points across and up a pane whose view of the sky is traced (3 x 3)
+NEAR_M = 1.0        # what shades a pane: geometry this close to it (beyond its own extent)
 
 
 def world_arrays(bworld, world: World, threads: int = 0):
@@ -47,18 +53,123 @@ def world_arrays(bworld, world: World, threads: int = 0):
     return table, image
 
 
-def face_frame(obj) -> tuple[np.ndarray, np.ndarray]:
-    """(centre, unit normal) in Blender's world of a flat object's faces: area-weighted."""
+def face_frame(obj) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(centre, unit normal, sample points) in Blender's world of a flat object's faces: the
+    area-weighted centre and normal, and ``POINTS`` x ``POINTS`` points spread over the
+    faces' bounding rectangle in their plane (at the centres of its cells)."""
     mesh = obj.data
     n = len(mesh.polygons)
     normals, centres, areas = (np.empty(3 * n), np.empty(3 * n), np.empty(n))
     mesh.polygons.foreach_get("normal", normals)
     mesh.polygons.foreach_get("center", centres)
     mesh.polygons.foreach_get("area", areas)
+    co = np.empty(3 * len(mesh.vertices))
+    mesh.vertices.foreach_get("co", co)
     M = np.array(obj.matrix_world)
     normal = np.linalg.inv(M[:3, :3]).T @ (areas @ normals.reshape(n, 3))
+    normal /= np.linalg.norm(normal)
     centre = M[:3, :3] @ (areas @ centres.reshape(n, 3) / areas.sum()) + M[:3, 3]
-    return centre, normal / np.linalg.norm(normal)
+    verts = co.reshape(-1, 3) @ M[:3, :3].T + M[:3, 3]
+    t1 = np.cross(normal, [1.0, 0.0, 0.0] if abs(normal[0]) < 0.9 else [0.0, 1.0, 0.0])
+    t1 /= np.linalg.norm(t1)
+    t2 = np.cross(normal, t1)
+    u, v = (verts - centre) @ t1, (verts - centre) @ t2
+    f = (np.arange(POINTS) + 0.5) / POINTS
+    uu, vv = np.meshgrid(u.min() + f * (u.max() - u.min()), v.min() + f * (v.max() - v.min()))
+    points = centre + np.outer(uu.ravel(), t1) + np.outer(vv.ravel(), t2)
+    return centre, normal, points
+
+
+class _Triangles:
+    """The evaluated scene's mesh instances (bounding boxes, one pass) and their triangles in
+    the world, read from a mesh once however many instances share it."""
+
+    def __init__(self, depsgraph):
+        self.items, self.meshes = [], {}
+        for inst in depsgraph.object_instances:
+            ob = inst.object
+            if ob.type != "MESH":
+                continue
+            M = np.array(inst.matrix_world)
+            box = np.array(ob.bound_box) @ M[:3, :3].T + M[:3, 3]
+            self.items.append((ob.original, ob.data, M, box.min(axis=0), box.max(axis=0)))
+        self.lo = np.array([i[3] for i in self.items]).reshape(-1, 3)
+        self.hi = np.array([i[4] for i in self.items]).reshape(-1, 3)
+
+    def near(self, centre, radius: float, skip) -> np.ndarray:
+        """(T, 3, 3) triangles of the instances whose boxes come within ``radius`` of
+        ``centre``, ``skip`` (the pane's own objects) left out."""
+        gap = np.linalg.norm(np.maximum(np.maximum(self.lo - centre, centre - self.hi), 0.0), axis=1)
+        tris = []
+        for k in np.flatnonzero(gap <= radius):
+            original, mesh, M = self.items[k][:3]
+            if original in skip:
+                continue
+            if mesh.name not in self.meshes:
+                mesh.calc_loop_triangles()
+                co = np.empty(3 * len(mesh.vertices))
+                mesh.vertices.foreach_get("co", co)
+                idx = np.empty(3 * len(mesh.loop_triangles), dtype=np.int64)
+                mesh.loop_triangles.foreach_get("vertices", idx)
+                self.meshes[mesh.name] = co.reshape(-1, 3)[idx.reshape(-1, 3)]
+            tris.append(self.meshes[mesh.name] @ M[:3, :3].T + M[:3, 3])
+        return np.concatenate(tris) if tris else np.zeros((0, 3, 3))
+
+
+def _blocked(origins: np.ndarray, dirs: np.ndarray, tris: np.ndarray, chunk: int = 1 << 18) -> np.ndarray:
+    """Whether each ray (origins (R, 3), unit dirs (R, 3)) hits one of ``tris`` ahead of it
+    (Moller-Trumbore, vectorised over rays x triangles, component by component)."""
+    out = np.zeros(len(origins), dtype=bool)
+    if not len(tris):
+        return out
+    a = tris[:, 0].T[:, None, :]                            # (3, 1, T)
+    e1, e2 = (tris[:, 1] - tris[:, 0]).T[:, None, :], (tris[:, 2] - tris[:, 0]).T[:, None, :]
+
+    def cross(x, y):
+        return (x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2], x[0] * y[1] - x[1] * y[0])
+
+    def dot(x, y):
+        return x[0] * y[0] + x[1] * y[1] + x[2] * y[2]
+    step = max(1, chunk // len(tris))
+    for i in range(0, len(origins), step):
+        o, d = origins[i:i + step].T[:, :, None], dirs[i:i + step].T[:, :, None]   # (3, R, 1)
+        p = cross(d, e2)
+        det = dot(p, e1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = 1.0 / det
+            tv = (o[0] - a[0], o[1] - a[1], o[2] - a[2])
+            u = dot(tv, p) * inv
+            q = cross(tv, e1)
+            v = dot(d, q) * inv
+            t = dot(q, e2) * inv
+        hit = (np.abs(det) > 1e-12) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-6)
+        out[i:i + step] = hit.any(axis=1)
+    return out
+
+
+def _seen(triangles: _Triangles, points, normal, skip):
+    """The visibility function of ``daylight_irradiance``: for SES directions (K, 3), the
+    share of ``points`` (just off the face along ``normal``) whose ray meets nothing within
+    ``NEAR_M`` of the pane (the reveal, the frame's bars, an overhang; what lies farther
+    outside is not traced)."""
+    origins = points + 1e-3 * normal
+    centre = points.mean(axis=0)
+    radius = NEAR_M + float(np.max(np.linalg.norm(points - centre, axis=1)))
+    tris = triangles.near(centre, radius, skip)
+    # only what stands before the face can shade it: triangles with a corner on its outer side,
+    # within reach of its rays (the bounding boxes let through whole walls and columns)
+    ahead = ((tris - centre) @ normal).max(axis=1) > 0
+    near = np.linalg.norm(tris.mean(axis=1) - centre, axis=1) - np.linalg.norm(
+        tris - tris.mean(axis=1, keepdims=True), axis=2).max(axis=1) < radius
+    tris = tris[ahead & near]
+    log.debug("glow: %d triangles shade a pane", len(tris))
+
+    def visible(dirs_ses):
+        d = np.asarray(dirs_ses, dtype=float) @ R_BLENDER_SES.T
+        o = np.repeat(origins[None], len(d), axis=0).reshape(-1, 3)
+        dd = np.repeat(d[:, None], len(origins), axis=1).reshape(-1, 3)
+        return 1.0 - _blocked(o, dd, tris).reshape(len(d), len(origins)).mean(axis=1)
+    return visible
 
 
 def _open_share(bscene, depsgraph, centre, normal, n: int = OPEN_RAYS) -> float:
@@ -81,20 +192,24 @@ def apply(built, scene: Scene, world: World, sun: bool, threads: int = 0) -> dic
     table, image = world_arrays(bscene.world, world, threads)
     with bpy.context.temp_override(scene=bscene, view_layer=bscene.view_layers[0]):
         depsgraph = bpy.context.evaluated_depsgraph_get()
+    triangles = _Triangles(depsgraph)
     copies: dict = {}
     radiance = {}
     for o in glowing:
         m = scene.material(o.material)
         passed = np.asarray(transmitted_colour(tuple(np.multiply(o.colour, m.colour)), entry(m.library.name)))
         for b in built.objects[o.id]:
-            centre, normal = face_frame(b)
-            E = {side: pure.daylight_irradiance(world, R_BLENDER_SES.T @ (side * normal), table, image, sun)
-                 for side in (1.0, -1.0)}
+            centre, normal, points = face_frame(b)
             seen = {side: _open_share(bscene, depsgraph, centre, side * normal) for side in (1.0, -1.0)}
-            if seen[1.0] != seen[-1.0]:
-                outer = max(seen, key=seen.get)
-            else:
+            if seen[1.0] == seen[-1.0]:        # a tie: the side the open sky lights more
+                E = {side: pure.daylight_irradiance(world, R_BLENDER_SES.T @ (side * normal), table, image, sun)
+                     for side in (1.0, -1.0)}
                 outer = max(E, key=lambda s: _luminance(tuple(E[s])))
+            else:
+                outer = max(seen, key=seen.get)
+            E = {outer: pure.daylight_irradiance(world, R_BLENDER_SES.T @ (outer * normal), table, image, sun,
+                                                 n=pure.GLOW_SEEN_DIRECTIONS,
+                                                 visible=_seen(triangles, points, outer * normal, set(built.objects[o.id])))}
             L = pure.glow_radiance(E[outer], passed)
             strength = float(_luminance(tuple(L)))
             gain = np.asarray(E[outer]) / np.pi / strength if strength > 0 else np.zeros(3)

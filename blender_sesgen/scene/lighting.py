@@ -161,6 +161,7 @@ def fibonacci_directions(n: int) -> np.ndarray:
 # the sky (or HDRI, or uniform colour) over the face's hemisphere, unoccluded, plus the
 # sky's sun lamp (``sky_sun_light``) by its incidence.
 GLOW_DIRECTIONS = 20000      # Fibonacci directions of the hemisphere integral (error ~1e-3)
+GLOW_SEEN_DIRECTIONS = 256   # cosine-distributed directions when what the face sees is traced
 
 
 def sky_table_uv(d_blender: np.ndarray, sun_rotation: float) -> tuple[np.ndarray, np.ndarray]:
@@ -222,23 +223,50 @@ def world_radiance(world: World, d_ses: np.ndarray, table: np.ndarray | None = N
     return np.tile(np.asarray(world.colour, dtype=float) * world.strength, (len(d), 1))
 
 
-def daylight_irradiance(world: World, normal_ses, table: np.ndarray | None = None,
-                        image: np.ndarray | None = None, sun: bool = True,
-                        n: int = GLOW_DIRECTIONS) -> np.ndarray:
-    """RGB irradiance (Blender units) on a face whose outward normal is ``normal_ses`` under
-    ``world`` with nothing in the way: the background over the face's hemisphere (cosine
-    weighted, ``n`` directions) plus, for a sky (``sun``: its disc is a lamp), the sun lamp's
-    irradiance times the cosine of its incidence."""
+def cosine_directions(normal_ses, n: int) -> np.ndarray:
+    """``n`` unit vectors spread over the hemisphere of ``normal_ses`` with density cos/pi
+    (a Fibonacci spiral on the unit disc lifted onto the hemisphere): the mean of a radiance
+    over them times pi is its irradiance."""
     normal = np.asarray(normal_ses, dtype=float)
     normal = normal / np.linalg.norm(normal)
-    dirs = fibonacci_directions(n)
-    cos = dirs @ normal
-    keep = cos > 0
-    E = (world_radiance(world, dirs[keep], table, image) * cos[keep, None]).sum(axis=0) * 4 * np.pi / n
+    helper = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    t1 = np.cross(normal, helper)
+    t1 /= np.linalg.norm(t1)
+    t2 = np.cross(normal, t1)
+    i = np.arange(n) + 0.5
+    r = np.sqrt(i / n)
+    phi = np.pi * (3.0 - math.sqrt(5.0)) * i
+    return (np.outer(r * np.cos(phi), t1) + np.outer(r * np.sin(phi), t2)
+            + np.outer(np.sqrt(np.maximum(1.0 - r * r, 0.0)), normal))
+
+
+def daylight_irradiance(world: World, normal_ses, table: np.ndarray | None = None,
+                        image: np.ndarray | None = None, sun: bool = True,
+                        n: int = GLOW_DIRECTIONS, visible=None) -> np.ndarray:
+    """RGB irradiance (Blender units) on a face whose outward normal is ``normal_ses`` under
+    ``world``: the background over the face's hemisphere plus, for a sky (``sun``: its disc is
+    a lamp), the sun lamp's irradiance times the cosine of its incidence. ``visible``: None
+    (nothing in the way; ``n`` Fibonacci directions over the sphere) or a function of SES
+    directions (K, 3) giving the share of the face that sees the sky along each (the window's
+    reveal and bars); then ``n`` cosine-distributed directions and the sun's own share."""
+    normal = np.asarray(normal_ses, dtype=float)
+    normal = normal / np.linalg.norm(normal)
+    if visible is None:
+        dirs = fibonacci_directions(n)
+        cos = dirs @ normal
+        keep = cos > 0
+        E = (world_radiance(world, dirs[keep], table, image) * cos[keep, None]).sum(axis=0) * 4 * np.pi / n
+    else:
+        dirs = cosine_directions(normal, n)
+        share = np.asarray(visible(dirs), dtype=float)
+        E = (world_radiance(world, dirs, table, image) * share[:, None]).sum(axis=0) * np.pi / n
     if world.kind == "sky" and sun:
         lamp = sky_sun_light(world)
         if lamp is not None:
-            incidence = max(0.0, float(-np.asarray(lamp.direction) @ normal))
+            towards = -np.asarray(lamp.direction, dtype=float)
+            incidence = max(0.0, float(towards @ normal))
+            if incidence > 0 and visible is not None:
+                incidence *= float(np.asarray(visible(towards[None]), dtype=float)[0])
             E = E + np.asarray(lamp.colour) * lamp.strength * incidence
     return E
 
