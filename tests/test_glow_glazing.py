@@ -167,3 +167,26 @@ def test_a_room_lit_through_a_glowing_pane_is_less_noisy(tmp_path):
         var[glow], mean[glow] = float(((a - b) ** 2).mean() / 2), float((a.mean() + b.mean()) / 2)
     assert var[" glow"] < 0.4 * var[""], var
     assert mean[" glow"] == pytest.approx(mean[""], rel=0.15), mean
+
+
+@pytest.mark.render
+@needs("bpy")
+def test_a_glowing_pane_shows_the_shadows_cast_on_its_outer_face(tmp_path):
+    """The black room's ceiling pane under a beam 0.3 m above it (outside), the sun 70 deg up:
+    the traced pane shows the beam's sun shadow on its outer face (what it passes there is the
+    sky's light only); the glowing pane must show it in the same place (its irradiance map,
+    10 cm texels): per image column, as deep (under 0.2 of the sunlit level), as wide (the
+    shadow's area within 10 %), centred within a column, and elsewhere within 5 %."""
+    pytest.importorskip("OpenEXR")
+    beam = "CUBOID id 8 material wall position 0.4 3.3 0 dim 0.6 0.1 4.4\n"
+    text = ROOM.format(res="48 48", start="0 1.5 0 90 0 0", el=70, az=90, wall=0, glow="{glow}") + CEILING + beam
+    traced = _luminance(tmp_path, "traced", text.replace("{glow}", ""), 64)
+    glow = _luminance(tmp_path, "glow", text.replace("{glow}", " glow"), 64)
+    lit = float(np.percentile(traced[12:36], 90))
+    t, g = traced[12:36].mean(axis=0) / lit, glow[12:36].mean(axis=0) / lit   # the pane's middle rows
+    assert t.min() < 0.2 and g.min() < 0.2, np.round(np.c_[t, g], 2).T
+    assert (1 - g).sum() == pytest.approx((1 - t).sum(), rel=0.1)
+    centre = lambda p: float(((1 - p) * np.arange(len(p))).sum() / (1 - p).sum())  # noqa: E731
+    assert abs(centre(g) - centre(t)) < 1.0
+    away = np.abs(np.arange(len(t)) - centre(t)) > 10
+    assert np.abs(g - t)[away].max() < 0.05

@@ -24,7 +24,7 @@ import numpy as np
 from ..contract.frames import R_BLENDER_SES
 from ..scene import lighting as pure
 from ..scene.materials import _luminance, entry, transmitted_colour
-from ..scene.model import Scene, World
+from ..scene.model import Quad, Scene, World
 from . import compat, library
 from . import sky as sky_table
 from .datablocks import tag
@@ -32,7 +32,10 @@ from .datablocks import tag
 log = logging.getLogger(__name__)
 ESCAPE_M = 1e6
 OPEN_RAYS = 16      # rays a side that find the outer face (the side that sees the sky)
-POINTS = 3          # points across and up a pane whose view of the sky is traced (3 x 3)
+POINTS = 3          # points across and up a face (not a QUAD) whose view of the sky is traced
+SKY_POINTS = 3      # a QUAD's points whose view of the sky is traced (3 x 3)
+MAP_TEXEL_M = 0.1   # a QUAD's irradiance map: texels of at most 10 cm (the sun's shadows on it)...
+MAP_MAX = 64        # ...and at most 64 a side
 NEAR_M = 1.0        # what shades a pane: geometry this close to it (beyond its own extent)
 
 
@@ -147,11 +150,10 @@ def _blocked(origins: np.ndarray, dirs: np.ndarray, tris: np.ndarray, chunk: int
     return out
 
 
-def _seen(triangles: _Triangles, points, normal, skip):
-    """The visibility function of ``daylight_irradiance``: for SES directions (K, 3), the
-    share of ``points`` (just off the face along ``normal``) whose ray meets nothing within
-    ``NEAR_M`` of the pane (the reveal, the frame's bars, an overhang; what lies farther
-    outside is not traced)."""
+def _visibility(triangles: _Triangles, points, normal, skip):
+    """A function of SES directions (K, 3) giving (K, P): whether each of ``points`` (just off
+    the face along ``normal``) sees past what stands within ``NEAR_M`` of the pane along each
+    (the reveal, the frame's bars, an overhang; what lies farther outside is not traced)."""
     origins = points + 1e-3 * normal
     centre = points.mean(axis=0)
     radius = NEAR_M + float(np.max(np.linalg.norm(points - centre, axis=1)))
@@ -168,8 +170,47 @@ def _seen(triangles: _Triangles, points, normal, skip):
         d = np.asarray(dirs_ses, dtype=float) @ R_BLENDER_SES.T
         o = np.repeat(origins[None], len(d), axis=0).reshape(-1, 3)
         dd = np.repeat(d[:, None], len(origins), axis=1).reshape(-1, 3)
-        return 1.0 - _blocked(o, dd, tris).reshape(len(d), len(origins)).mean(axis=1)
+        return 1.0 - _blocked(o, dd, tris).reshape(len(d), len(origins))
     return visible
+
+
+def irradiance_map(world: World, normal_ses, corners, visible_at, table=None, image=None, sun: bool = True):
+    """(MV, MU, 3) irradiance over a pane's outer face, row j / column i at v = (j + 1/2) / MV,
+    u = (i + 1/2) / MU of its corners' bilinear map (Blender's world, corners 0-1-2-3 at uv
+    (0, 0), (1, 0), (1, 1), (0, 1): a QUAD's UVs; texels of at most ``MAP_TEXEL_M``): the sky
+    over the face's hemisphere seen from 3 x 3 points, read between them (it changes slowly),
+    plus the sun lamp at every texel (its shadow edges are sharp). ``visible_at(points)``:
+    the visibility function of those points."""
+    corners = np.asarray(corners, dtype=float)
+    size = [max(np.linalg.norm(corners[1] - corners[0]), np.linalg.norm(corners[2] - corners[3])),
+            max(np.linalg.norm(corners[3] - corners[0]), np.linalg.norm(corners[2] - corners[1]))]
+    MU, MV = (int(np.clip(np.ceil(x / MAP_TEXEL_M), 1, MAP_MAX)) for x in size)
+
+    def at(fu, fv):
+        u, v = np.meshgrid(fu, fv)                     # rows: v
+        u, v = u.ravel()[:, None], v.ravel()[:, None]
+        return ((1 - u) * (1 - v) * corners[0] + u * (1 - v) * corners[1] + u * v * corners[2]
+                + (1 - u) * v * corners[3])
+    coarse = (np.arange(SKY_POINTS) + 0.5) / SKY_POINTS
+    fu, fv = (np.arange(MU) + 0.5) / MU, (np.arange(MV) + 0.5) / MV
+    dirs = pure.cosine_directions(normal_ses, pure.GLOW_SEEN_DIRECTIONS)
+    L = pure.world_radiance(world, dirs, table, image)                           # (K, 3)
+    sky = np.pi / len(dirs) * visible_at(at(coarse, coarse))(dirs).T @ L       # (9, 3)
+    sky = sky.reshape(SKY_POINTS, SKY_POINTS, 3)
+    # bilinear between the 3 x 3 points (held beyond them), along u then along v
+    rows = np.stack([np.stack([np.interp(fu, coarse, sky[j, :, c]) for c in range(3)], -1)
+                     for j in range(SKY_POINTS)])                                # (3, MU, 3)
+    E = np.stack([np.stack([np.interp(fv, coarse, rows[:, i, c]) for c in range(3)], -1)
+                  for i in range(MU)], 1)                                        # (MV, MU, 3)
+    lamp = pure.sky_sun_light(world) if world.kind == "sky" and sun else None
+    if lamp is not None:
+        towards = -np.asarray(lamp.direction, dtype=float)
+        n = np.asarray(normal_ses, dtype=float) / np.linalg.norm(normal_ses)
+        incidence = float(towards @ n)
+        if incidence > 0:
+            lit = visible_at(at(fu, fv))(towards[None])[0].reshape(MV, MU)
+            E = E + np.asarray(lamp.colour) * lamp.strength * incidence * lit[..., None]
+    return E
 
 
 def _open_share(bscene, depsgraph, centre, normal, n: int = OPEN_RAYS) -> float:
@@ -180,6 +221,18 @@ def _open_share(bscene, depsgraph, centre, normal, n: int = OPEN_RAYS) -> float:
     dirs = dirs.T[dirs.T @ normal > 0.05]
     origin = tuple(centre + 1e-3 * normal)
     return float(np.mean([not bscene.ray_cast(depsgraph, origin, tuple(d), distance=ESCAPE_M)[0] for d in dirs]))
+
+
+def _map_image(name: str, gain: np.ndarray):
+    """A float image (non-colour data) of ``gain`` (H, W, 3; row 0 at v = 0)."""
+    h, w = gain.shape[:2]
+    img = tag(bpy.data.images.new(name, w, h, alpha=False, float_buffer=True))
+    img.colorspace_settings.name = "Non-Color"
+    rgba = np.ones((h, w, 4), dtype=np.float32)
+    rgba[..., :3] = gain
+    img.pixels.foreach_set(rgba.ravel())
+    img.pack()
+    return img
 
 
 def apply(built, scene: Scene, world: World, sun: bool, threads: int = 0) -> dict:
@@ -207,25 +260,32 @@ def apply(built, scene: Scene, world: World, sun: bool, threads: int = 0) -> dic
                 outer = max(E, key=lambda s: _luminance(tuple(E[s])))
             else:
                 outer = max(seen, key=seen.get)
-            E = {outer: pure.daylight_irradiance(world, R_BLENDER_SES.T @ (outer * normal), table, image, sun,
-                                                 n=pure.GLOW_SEEN_DIRECTIONS,
-                                                 visible=_seen(triangles, points, outer * normal, set(built.objects[o.id])))}
-            L = pure.glow_radiance(E[outer], passed)
+            n_ses = R_BLENDER_SES.T @ (outer * normal)
+            skip = set(built.objects[o.id])
+
+            def visible_at(pts, n=outer * normal, skip=skip):
+                return _visibility(triangles, pts, n, skip)
+            if isinstance(o, Quad):
+                corners = np.asarray(o.vertices, dtype=float) @ R_BLENDER_SES.T
+                E_map = irradiance_map(world, n_ses, corners, visible_at, table, image, sun)
+            else:                                       # one value: the mean over its points
+                E_map = pure.daylight_irradiance(world, n_ses, table, image, sun, n=pure.GLOW_SEEN_DIRECTIONS,
+                                                 visible=lambda d: visible_at(points)(d).mean(axis=1))[None, None]
+            E_mean = E_map.reshape(-1, 3).mean(axis=0)
+            L = pure.glow_radiance(E_mean, passed)
             strength = float(_luminance(tuple(L)))
-            gain = np.asarray(E[outer]) / np.pi / strength if strength > 0 else np.zeros(3)
+            gain = E_map / np.pi / strength if strength > 0 else np.zeros_like(E_map)
             for slot in b.material_slots:
                 mat = slot.material
                 if mat is None or library.GLOW_NODE not in compat.node_tree(mat).nodes:
                     continue
-                key = (mat.name, tuple(np.round(E[outer], 6)))
-                if key not in copies:
-                    copy = tag(mat.copy())
-                    copy.name = f"{mat.name}_glow{len(copies)}"
-                    nodes = compat.node_tree(copy).nodes
-                    nodes[library.GLOW_NODE].inputs["Strength"].default_value = strength
-                    nodes[library.GLOW_COLOUR_NODE].outputs[0].default_value = (*(float(x) for x in gain), 1.0)
-                    copies[key] = copy
+                copy = tag(mat.copy())
+                copy.name = f"{mat.name}_glow{len(copies)}"
+                nodes = compat.node_tree(copy).nodes
+                nodes[library.GLOW_NODE].inputs["Strength"].default_value = strength
+                nodes[library.GLOW_MAP_NODE].image = _map_image(f"{copy.name}_map", gain)
+                copies[copy.name] = copy
                 slot.link = "OBJECT"
-                slot.material = copies[key]
+                slot.material = copy
             radiance[o.id] = L
     return radiance

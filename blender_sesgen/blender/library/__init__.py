@@ -211,7 +211,7 @@ def build_shader(nt, m: Material, colour, *, fog_mix=None, shared_parts: bool = 
 
 
 GLOW_NODE = "sesgen_glow"                # the Emission node of a glowing pane (``MATERIAL ... glow``)
-GLOW_COLOUR_NODE = "sesgen_glow_colour"  # the daylight's colour over its strength (blender/glazing.py)
+GLOW_MAP_NODE = "sesgen_glow_map"        # the daylight over the pane over its strength (blender/glazing.py)
 
 
 def _passed(g: G, colour, entry):
@@ -223,12 +223,13 @@ def _passed(g: G, colour, entry):
 def _glow(g: G, shader, colour, entry):
     """Diffusing glazing that emits the daylight it passes instead of passing it (no
     Translucent BSDF: the light must not arrive twice): an Emission of the pane's passed
-    colour at each point times ``GLOW_COLOUR_NODE`` at the strength of ``GLOW_NODE``, both
-    black until blender/glazing.py sets them from the world's irradiance on the pane."""
-    rgb = g.node("ShaderNodeRGB")
-    rgb.name = GLOW_COLOUR_NODE
-    rgb.outputs[0].default_value = (0.0, 0.0, 0.0, 1.0)
-    emit = g.node("ShaderNodeEmission", {"Color": g.cmul(_passed(g, colour, entry), rgb.outputs[0]),
+    colour at each point times the image of ``GLOW_MAP_NODE`` (by the UVs: a QUAD's map of the
+    irradiance on its outer face) at the strength of ``GLOW_NODE``, both set by
+    blender/glazing.py from the world (strength 0 until then)."""
+    uv = g.node("ShaderNodeTexCoord").outputs["UV"]
+    daylight = g.node("ShaderNodeTexImage", {"Vector": uv}, interpolation="Linear", extension="EXTEND")
+    daylight.name = GLOW_MAP_NODE
+    emit = g.node("ShaderNodeEmission", {"Color": g.cmul(_passed(g, colour, entry), daylight.outputs["Color"]),
                                          "Strength": 0.0})
     emit.name = GLOW_NODE
     add = g.node("ShaderNodeAddShader")
