@@ -139,13 +139,17 @@ def _luminance(tmp_path, name, text, samples, seed=0):
 
 @pytest.mark.render
 @needs("bpy")
-def test_a_glowing_pane_is_as_bright_as_the_light_it_passes(tmp_path):
-    """A black room under a ceiling pane, the camera looking up at it (sun 80 deg up): what
-    the pane sends into the room is its transmission alone (nothing inside to reflect), so
-    the glowing pane must equal the traced one (Cycles' Translucent BSDF: t E / pi by its own
-    light paths): E from the right face, from the sky's table and the sun, and pi."""
+@pytest.mark.parametrize("world", ["WORLD sky strength 1 elevation 80 azimuth 30",
+                                   "WORLD hdri courtyard strength 1 rotation 40"])
+def test_a_glowing_pane_is_as_bright_as_the_light_it_passes(tmp_path, world):
+    """A black room under a ceiling pane, the camera looking up at it (the sky with its sun
+    80 deg up, or an HDRI with its sun in a few texels): what the pane sends into the room is
+    its transmission alone (nothing inside to reflect), so the glowing pane must equal the
+    traced one (Cycles' Translucent BSDF: t E / pi by its own light paths): E from the right
+    face, from the sky's table and the sun lamp or the HDRI's pixels, and pi."""
     pytest.importorskip("OpenEXR")
     text = ROOM.format(res="40 40", start="0 1.5 0 90 0 0", el=80, az=30, wall=0, glow="{glow}") + CEILING
+    text = text.replace("WORLD sky strength 1 elevation 80 azimuth 30", world)
     traced = _luminance(tmp_path, "traced", text.replace("{glow}", ""), 64)
     glow = _luminance(tmp_path, "glow", text.replace("{glow}", " glow"), 64)
     assert traced.mean() > 0.05

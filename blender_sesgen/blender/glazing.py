@@ -193,9 +193,8 @@ def irradiance_map(world: World, normal_ses, corners, visible_at, table=None, im
                 + (1 - u) * v * corners[3])
     coarse = (np.arange(SKY_POINTS) + 0.5) / SKY_POINTS
     fu, fv = (np.arange(MU) + 0.5) / MU, (np.arange(MV) + 0.5) / MV
-    dirs = pure.cosine_directions(normal_ses, pure.GLOW_SEEN_DIRECTIONS)
-    L = pure.world_radiance(world, dirs, table, image)                           # (K, 3)
-    sky = np.pi / len(dirs) * visible_at(at(coarse, coarse))(dirs).T @ L       # (9, 3)
+    open_sky = pure.daylight_irradiance(world, normal_ses, table, image, sun=False)
+    sky = open_sky * pure.seen_share(world, normal_ses, visible_at(at(coarse, coarse)), table, image)   # (9, 3)
     sky = sky.reshape(SKY_POINTS, SKY_POINTS, 3)
     # bilinear between the 3 x 3 points (held beyond them), along u then along v
     rows = np.stack([np.stack([np.interp(fu, coarse, sky[j, :, c]) for c in range(3)], -1)

@@ -257,9 +257,8 @@ def daylight_irradiance(world: World, normal_ses, table: np.ndarray | None = Non
         keep = cos > 0
         E = (world_radiance(world, dirs[keep], table, image) * cos[keep, None]).sum(axis=0) * 4 * np.pi / n
     else:
-        dirs = cosine_directions(normal, n)
-        share = np.asarray(visible(dirs), dtype=float)
-        E = (world_radiance(world, dirs, table, image) * share[:, None]).sum(axis=0) * np.pi / n
+        E = daylight_irradiance(world, normal, table, image, sun=False) * seen_share(
+            world, normal, lambda d: np.asarray(visible(d), dtype=float)[:, None], table, image, n)[0]
     if world.kind == "sky" and sun:
         lamp = sky_sun_light(world)
         if lamp is not None:
@@ -269,6 +268,18 @@ def daylight_irradiance(world: World, normal_ses, table: np.ndarray | None = Non
                 incidence *= float(np.asarray(visible(towards[None]), dtype=float)[0])
             E = E + np.asarray(lamp.colour) * lamp.strength * incidence
     return E
+
+
+def seen_share(world: World, normal_ses, visible, table=None, image=None,
+               n: int = GLOW_SEEN_DIRECTIONS) -> np.ndarray:
+    """(P, 3): the share of the open sky's irradiance on a face that each of P points on it
+    receives, ``visible(dirs)`` (K, P) saying whether a point sees the sky along each of ``n``
+    cosine-distributed directions: sum L V / sum L per channel (the open sky's own integral
+    comes from many more directions: an HDRI's sun is a few texels)."""
+    dirs = cosine_directions(normal_ses, n)
+    L = world_radiance(world, dirs, table, image)                     # (K, 3)
+    V = np.asarray(visible(dirs), dtype=float)                        # (K, P)
+    return (V.T @ L) / np.maximum(L.sum(axis=0), 1e-30)
 
 
 def glow_radiance(irradiance, transmitted) -> np.ndarray:
