@@ -6,13 +6,18 @@ inner face (Lambertian transmission, t its passed colour). Traced, that light re
 only by bounces: Cycles' shadow rays stop at the pane, so every pixel the daylight lights is
 found by chance (the hall's noise, bench/quality_noise_source.py). A ``glow`` pane emits it
 instead (the library's ``_glow``: no Translucent BSDF, the light does not arrive twice) and is
-light-sampled. E is the world's (scene/lighting.py ``daylight_irradiance``: the sky's table or
-the HDRI's pixels over the outer hemisphere and the sky's sun lamp by its incidence, each
-direction weighted by the share of 3 x 3 points on the pane that see the sky along it: the
-window's reveal and bars shade the pane as they would its transmitted light); the outer face is the side from which more rays over its hemisphere (from the
-pane's centre) escape the scene (a tie: the brighter side). A copy of the material per distinct
-irradiance: its Emission's strength is the pane's mean emitted luminance, so Cycles' light
-tree, which estimates a textured emission by its strength, weighs the pane by its real light.
+light-sampled. E is the world's over the pane (``irradiance_map``): the open sky's irradiance
+on the outer face (scene/lighting.py ``daylight_irradiance``: the sky's table, the HDRI's pixels
+or the uniform colour, 20 000 directions) times the share of it that each of 3 x 3 points on
+the pane sees past what stands within ``NEAR_M`` before it (reveal, frame bars; 256 cosine
+directions, read between the points), plus the sky's sun lamp by its incidence at every texel of
+at most 10 cm (its shadows there as sharp as the traced pane's). Occluders count as black: the
+light a sunlit reveal reflects onto the pane is left out. The outer face is the side from which
+more rays over its hemisphere (from the pane's centre) escape the scene (a tie: the brighter
+side). Each pane gets its own copy of the material and its map (a float image read by the
+QUAD's UVs; one value for other shapes) at the strength of its mean emitted luminance, so
+Cycles' light tree, which estimates a textured emission by its strength, weighs the pane by its
+real light.
 """
 from __future__ import annotations
 
