@@ -248,7 +248,8 @@ def daylight_irradiance(world: World, normal_ses, table: np.ndarray | None = Non
     a lamp), the sun lamp's irradiance times the cosine of its incidence. ``visible``: None
     (nothing in the way; ``n`` Fibonacci directions over the sphere) or a function of SES
     directions (K, 3) giving the share of the face that sees the sky along each (the window's
-    reveal and bars); then ``n`` cosine-distributed directions and the sun's own share."""
+    reveal and bars): then the open sky's irradiance times ``seen_share`` over ``n``
+    cosine-distributed directions, and the sun times its own share."""
     normal = np.asarray(normal_ses, dtype=float)
     normal = normal / np.linalg.norm(normal)
     if visible is None:
