@@ -14,7 +14,7 @@ import bpy
 
 from ..scene.model import Scene
 from . import assets as _assets  # noqa: F401  (registers the ASSET shape builder)
-from . import blend_import, library, lighting, object_motion, rig
+from . import blend_import, glazing, library, lighting, object_motion, rig
 from .datablocks import SCENE_NAME, TAG, clear_previous, tag
 from .materials import MaterialFactory
 from .runtime import activate
@@ -31,6 +31,7 @@ class BuiltScene:
     segments: dict = field(default_factory=dict)  # tessellated shape id -> segment count
     imported: list = field(default_factory=list)  # manifest rows of BLEND objects
     movers: dict = field(default_factory=dict)    # moving object id -> its keyed empty (object_motion)
+    glow: dict = field(default_factory=dict)      # glowing pane id -> its emitted RGB radiance (glazing)
 
 
 def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict, threads: int = 0) -> BuiltScene:
@@ -78,8 +79,10 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict, t
         lo = lighting.add_light(bscene, coll, light, f"sesgen_light_{i}")
         tag(lo)
         tag(lo.data)
-    tag(lighting.build_world(bscene, lighting.effective_world(scene, file_lamps), scene.fog, "sesgen_world", tag,
-                             threads))
+    world = lighting.effective_world(scene, file_lamps)
+    tag(lighting.build_world(bscene, world, scene.fog, "sesgen_world", tag, threads))
+    # glowing panes: their emission is the world's daylight on them (glazing.py)
+    built.glow = glazing.apply(built, scene, world, lighting.sky_sun_lamp(), threads)
 
     N = scene.frames
     for view, T in view_poses.items():

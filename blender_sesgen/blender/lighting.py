@@ -155,6 +155,11 @@ def _sky_without_disc() -> bool:
     return compat.sky_type_for() == "MULTIPLE_SCATTERING"
 
 
+def sky_sun_lamp() -> bool:
+    """Whether a ``WORLD sky``'s sun shines as a lamp (``scene.lighting.sky_sun_light``)."""
+    return _sky_without_disc()
+
+
 def hdri_path(world: World) -> str:
     """The image file of ``WORLD hdri``: the user's file, or a bundled HDRI found through
     bpy's own resource path."""

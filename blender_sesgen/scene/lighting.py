@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 
+from ..contract.frames import R_BLENDER_SES
 from .model import Light, World
 
 # Blender's bundled CC0 HDRIs (Poly Haven, 1024 x 512; bpy's datafiles/studiolights/world)
@@ -150,3 +151,139 @@ def fibonacci_directions(n: int) -> np.ndarray:
     r = np.sqrt(1.0 - y * y)
     phi = math.pi * (3.0 - math.sqrt(5.0)) * i
     return np.stack([r * np.cos(phi), y, r * np.sin(phi)], axis=1)
+
+
+# --- daylight on a pane: what a diffusing pane with ``MATERIAL ... glow`` emits -------------
+# A diffusing (Lambertian) transmitter of transmittance t lit by irradiance E on one face
+# sends t E / pi as radiance from its other face. Cycles traces that light only by bounces
+# (its shadow rays stop at the pane), so ``glow`` puts it on the pane as emission instead:
+# light-sampled, the same mean (docs/rendering.md, Lighting). The irradiance is the world's:
+# the sky (or HDRI, or uniform colour) over the face's hemisphere, unoccluded, plus the
+# sky's sun lamp (``sky_sun_light``) by its incidence.
+GLOW_DIRECTIONS = 20000      # Fibonacci directions of the hemisphere integral (error ~1e-3)
+GLOW_SEEN_DIRECTIONS = 256   # cosine-distributed directions when what the face sees is traced
+
+
+def sky_table_uv(d_blender: np.ndarray, sun_rotation: float) -> tuple[np.ndarray, np.ndarray]:
+    """(x, y) in [0, 1] of Blender directions (N, 3) in the physical sky's table, the sky
+    kernel's mapping (blender/sky.py ``_kernel_uv``): x from the azimuth turned by the sun's
+    rotation, y = 0.5 + 0.5 sign(e) sqrt(|e| / (pi/2)) of the elevation e."""
+    d = np.asarray(d_blender, dtype=float)
+    elevation = np.pi / 2 - np.arccos(np.clip(d[:, 2], -1.0, 1.0))
+    y = 0.5 + 0.5 * np.sign(elevation) * np.sqrt(np.abs(elevation) / (np.pi / 2))
+    x = np.mod((np.arctan2(d[:, 1], d[:, 0]) + sun_rotation - 1.5 * np.pi) / (2 * np.pi), 1.0)
+    return x, y
+
+
+def bilinear(image: np.ndarray, x: np.ndarray, y: np.ndarray, wrap_x: bool = False) -> np.ndarray:
+    """``image`` (H, W, C; row 0 at y = 0) read at (x, y) in [0, 1] between its pixel centres,
+    as Blender's linear image lookup: clamped at the edges (``wrap_x``: periodic across x)."""
+    H, W = image.shape[:2]
+    fx, fy = x * W - 0.5, np.clip(y * H - 0.5, 0.0, H - 1.0)
+    x0, y0 = np.floor(fx).astype(int), np.minimum(np.floor(fy).astype(int), H - 2)
+    ax, ay = (fx - x0)[:, None], (fy - y0)[:, None]
+    if wrap_x:
+        x0, x1 = np.mod(x0, W), np.mod(x0 + 1, W)
+    else:
+        ax = np.where((fx < 0)[:, None], 0.0, np.where((fx > W - 1)[:, None], 1.0, ax))
+        x0 = np.clip(x0, 0, W - 2)
+        x1 = x0 + 1
+    top = image[y0 + 1, x0] * (1 - ax) + image[y0 + 1, x1] * ax
+    bottom = image[y0, x0] * (1 - ax) + image[y0, x1] * ax
+    return bottom * (1 - ay) + top * ay
+
+
+def hdri_uv(d_blender: np.ndarray, rotation_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """(u, v) of Blender directions in an equirectangular world image turned by ``rotation_deg``
+    about the vertical (blender/lighting.py's Mapping node, then Cycles' equirectangular map)."""
+    r = math.radians(rotation_deg)
+    c, s = math.cos(r), math.sin(r)
+    d = np.asarray(d_blender, dtype=float) @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]).T
+    u = -np.arctan2(d[:, 1], d[:, 0]) / (2 * np.pi) + 0.5
+    v = np.arctan2(d[:, 2], np.hypot(d[:, 0], d[:, 1])) / np.pi + 0.5
+    return u, v
+
+
+def world_radiance(world: World, d_ses: np.ndarray, table: np.ndarray | None = None,
+                   image: np.ndarray | None = None) -> np.ndarray:
+    """The background radiance (N, 3; Blender units, the world's strength applied) towards SES
+    directions ``d_ses``: ``table`` is the physical sky's (blender/sky.py ``table_of``, row 0
+    at the nadir), ``image`` an HDRI's pixels (row 0 at the bottom)."""
+    d = np.asarray(d_ses, dtype=float) @ R_BLENDER_SES.T
+    if world.kind == "sky":
+        if table is None:
+            raise ValueError("a sky world's radiance needs its table")
+        x, y = sky_table_uv(d, math.radians(world.sun_azimuth_deg))
+        return bilinear(np.asarray(table, dtype=float), x, y) * world.strength / SKY_EXPOSURE
+    if world.kind == "hdri":
+        if image is None:
+            raise ValueError("an HDRI world's radiance needs its image")
+        u, v = hdri_uv(d, world.rotation_deg)
+        return bilinear(np.asarray(image, dtype=float)[..., :3], u, v, wrap_x=True) * world.strength
+    return np.tile(np.asarray(world.colour, dtype=float) * world.strength, (len(d), 1))
+
+
+def cosine_directions(normal_ses, n: int) -> np.ndarray:
+    """``n`` unit vectors spread over the hemisphere of ``normal_ses`` with density cos/pi
+    (a Fibonacci spiral on the unit disc lifted onto the hemisphere): the mean of a radiance
+    over them times pi is its irradiance."""
+    normal = np.asarray(normal_ses, dtype=float)
+    normal = normal / np.linalg.norm(normal)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    t1 = np.cross(normal, helper)
+    t1 /= np.linalg.norm(t1)
+    t2 = np.cross(normal, t1)
+    i = np.arange(n) + 0.5
+    r = np.sqrt(i / n)
+    phi = np.pi * (3.0 - math.sqrt(5.0)) * i
+    return (np.outer(r * np.cos(phi), t1) + np.outer(r * np.sin(phi), t2)
+            + np.outer(np.sqrt(np.maximum(1.0 - r * r, 0.0)), normal))
+
+
+def daylight_irradiance(world: World, normal_ses, table: np.ndarray | None = None,
+                        image: np.ndarray | None = None, sun: bool = True,
+                        n: int = GLOW_DIRECTIONS, visible=None) -> np.ndarray:
+    """RGB irradiance (Blender units) on a face whose outward normal is ``normal_ses`` under
+    ``world``: the background over the face's hemisphere plus, for a sky (``sun``: its disc is
+    a lamp), the sun lamp's irradiance times the cosine of its incidence. ``visible``: None
+    (nothing in the way; ``n`` Fibonacci directions over the sphere) or a function of SES
+    directions (K, 3) giving the share of the face that sees the sky along each (the window's
+    reveal and bars): then the open sky's irradiance times ``seen_share`` over ``n``
+    cosine-distributed directions, and the sun times its own share."""
+    normal = np.asarray(normal_ses, dtype=float)
+    normal = normal / np.linalg.norm(normal)
+    if visible is None:
+        dirs = fibonacci_directions(n)
+        cos = dirs @ normal
+        keep = cos > 0
+        E = (world_radiance(world, dirs[keep], table, image) * cos[keep, None]).sum(axis=0) * 4 * np.pi / n
+    else:
+        E = daylight_irradiance(world, normal, table, image, sun=False) * seen_share(
+            world, normal, lambda d: np.asarray(visible(d), dtype=float)[:, None], table, image, n)[0]
+    if world.kind == "sky" and sun:
+        lamp = sky_sun_light(world)
+        if lamp is not None:
+            towards = -np.asarray(lamp.direction, dtype=float)
+            incidence = max(0.0, float(towards @ normal))
+            if incidence > 0 and visible is not None:
+                incidence *= float(np.asarray(visible(towards[None]), dtype=float)[0])
+            E = E + np.asarray(lamp.colour) * lamp.strength * incidence
+    return E
+
+
+def seen_share(world: World, normal_ses, visible, table=None, image=None,
+               n: int = GLOW_SEEN_DIRECTIONS) -> np.ndarray:
+    """(P, 3): the share of the open sky's irradiance on a face that each of P points on it
+    receives, ``visible(dirs)`` (K, P) saying whether a point sees the sky along each of ``n``
+    cosine-distributed directions: sum L V / sum L per channel (the open sky's own integral
+    comes from many more directions: an HDRI's sun is a few texels)."""
+    dirs = cosine_directions(normal_ses, n)
+    L = world_radiance(world, dirs, table, image)                     # (K, 3)
+    V = np.asarray(visible(dirs), dtype=float)                        # (K, P)
+    return (V.T @ L) / np.maximum(L.sum(axis=0), 1e-30)
+
+
+def glow_radiance(irradiance, transmitted) -> np.ndarray:
+    """The radiance a Lambertian diffuser passing ``transmitted`` (RGB) sends from its
+    unlit face when ``irradiance`` (RGB) falls on its other one: t E / pi."""
+    return np.asarray(transmitted, dtype=float) * np.asarray(irradiance, dtype=float) / np.pi

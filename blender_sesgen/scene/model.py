@@ -90,6 +90,7 @@ class Material:
     emission_strength: float = 0.0
     library: Optional[LibraryParams] = None
     maps: Optional[ImageMaps] = None
+    glow: bool = False             # a diffusing library material emits the daylight it passes
 
 
 # --- objects ----------------------------------------------------------------------------

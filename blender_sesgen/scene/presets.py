@@ -7,8 +7,9 @@ The values are measured choices (docs/rendering.md#quality-presets, ``bench/qual
 PSNR of the sRGB image against a converged 4096-sample render, at the scene's own resolution
 (two windows each of the paper room and of the photoreal hall as it stood before its rebuild
 in sessions 11-12): draft >= 35.3 dB, final >= 38.7 dB; reference 45.4 dB on the paper room at
-160x120. The rebuilt hall reads ~37.4 dB at final (grain on its floor; the daylight through
-frosted glazing suspected, not measured: docs/rendering.md#quality-presets).
+160x120. The rebuilt hall read ~37.4 dB at final with the daylight traced through its frosted
+panes (their light found by bounces); with the panes glowing (``MATERIAL ... glow``) ~38.0 dB
+against the truth, estimated from two unbiased references (docs/rendering.md#quality-presets).
 
 - ``gt``: ground truth at primary-ray cost. One sample, no bounces, no lights: the RGB is
   each object's flat colour under a head-light (not photoreal, not a photograph of the

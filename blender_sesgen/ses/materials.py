@@ -20,6 +20,9 @@ from .checks import Checks, scalar, vec
 from .lexer import Token
 from .statements import ParsedStatement, did_you_mean
 
+# what ``glow`` takes: diffusing glazing (a pane that passes light; not foliage)
+DIFFUSING = tuple(name for name, e in LIBRARY.items() if e.transmittance > 0 and e.semantic_class == "window")
+
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tga", ".tif", ".tiff", ".exr", ".hdr", ".webp")
 
 
@@ -153,6 +156,9 @@ def materials(statements: list[ParsedStatement], check: Checks) -> dict[str, mod
             check.err(stmt.tags["map_size"].tag, "MATERIAL 'map_size' needs an image map "
                                                  "(albedo_map, normal_map or roughness_map)")
         tex = None if library is not None else texture(stmt, check)
+        if "glow" in stmt.tags and (library is None or library.name not in DIFFUSING):
+            check.err(stmt.tags["glow"].tag, "MATERIAL 'glow' needs a diffusing glazing library material "
+                                             f"(library {', '.join(DIFFUSING)})")
         if len(check.diags.items) != before:
             continue
         lib = entry(library.name) if library is not None else None
@@ -163,5 +169,5 @@ def materials(statements: list[ParsedStatement], check: Checks) -> dict[str, mod
             specular=float(scalar(stmt, "specular", 0.5)),
             emission=vec(stmt, "emission", (0.0, 0.0, 0.0)),
             emission_strength=float(scalar(stmt, "emission_strength", 0.0)),
-            library=library, maps=maps)
+            library=library, maps=maps, glow="glow" in stmt.tags)
     return found

@@ -324,7 +324,7 @@ def _texture_richness(s: Script, level, e: Edit) -> None:
     for st in s.statements("MATERIAL"):
         if ("material", str(st.get("name")).lower()) in plain:
             s.edit(st, {}, drop=("texture", "texture_scale", "library", "wear", "bump", "variation", "seed",
-                                 "albedo_map", "normal_map", "roughness_map", "map_size"))
+                                 "albedo_map", "normal_map", "roughness_map", "map_size", "glow"))
     lines = []
     for kind, name in sorted(plain):
         if kind == "library":

@@ -202,19 +202,47 @@ def build_shader(nt, m: Material, colour, *, fog_mix=None, shared_parts: bool = 
                                              "Height": s.height})
             g.set(bsdf.inputs["Coat Normal"], coat.outputs["Normal"])
     out = bsdf.outputs["BSDF"]
-    if entry.transmittance > 0:
+    if entry.transmittance > 0 and getattr(m, "glow", False):
+        out = _glow(g, out, col, entry)
+    elif entry.transmittance > 0:
         out = _translucent(g, out, col, entry)
     g.layout()
     return out
+
+
+GLOW_NODE = "sesgen_glow"                # the Emission node of a glowing pane (``MATERIAL ... glow``)
+GLOW_MAP_NODE = "sesgen_glow_map"        # the daylight over the pane over its strength (blender/glazing.py)
+
+
+def _passed(g: G, colour, entry):
+    """What the pane passes at each point: materials.transmitted_colour in nodes."""
+    k = materials.transmission_gain(entry)
+    return g.vmath("MINIMUM", g.cmul(colour, k), g.vmath("SUBTRACT", (1.0, 1.0, 1.0), colour))
+
+
+def _glow(g: G, shader, colour, entry):
+    """Diffusing glazing that emits the daylight it passes instead of passing it (no
+    Translucent BSDF: the light must not arrive twice): an Emission of the pane's passed
+    colour at each point times the image of ``GLOW_MAP_NODE`` (by the UVs: a QUAD's map of the
+    irradiance on its outer face) at the strength of ``GLOW_NODE``, both set by
+    blender/glazing.py from the world (strength 0 until then)."""
+    uv = g.node("ShaderNodeTexCoord").outputs["UV"]
+    daylight = g.node("ShaderNodeTexImage", {"Vector": uv}, interpolation="Linear", extension="EXTEND")
+    daylight.name = GLOW_MAP_NODE
+    emit = g.node("ShaderNodeEmission", {"Color": g.cmul(_passed(g, colour, entry), daylight.outputs["Color"]),
+                                         "Strength": 0.0})
+    emit.name = GLOW_NODE
+    add = g.node("ShaderNodeAddShader")
+    g.set(add.inputs[0], shader)
+    g.set(add.inputs[1], emit.outputs["Emission"])
+    return add.outputs["Shader"]
 
 
 def _translucent(g: G, shader, colour, entry):
     """Diffusing glazing: the Principled BSDF (no diffuse transmission of its own) plus a
     Translucent BSDF passing light evenly into the other side: materials.transmitted_colour
     of the pane's own colour at each point (variation and dirt included)."""
-    k = materials.transmission_gain(entry)
-    passed = g.vmath("MINIMUM", g.cmul(colour, k), g.vmath("SUBTRACT", (1.0, 1.0, 1.0), colour))
-    tr = g.node("ShaderNodeBsdfTranslucent", {"Color": passed})
+    tr = g.node("ShaderNodeBsdfTranslucent", {"Color": _passed(g, colour, entry)})
     add = g.node("ShaderNodeAddShader")
     g.set(add.inputs[0], shader)
     g.set(add.inputs[1], tr.outputs["BSDF"])

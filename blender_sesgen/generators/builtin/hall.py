@@ -36,7 +36,10 @@ real units, ~100 000 lx of sunlight, before it). So the hall is lit mostly by da
 per cent of the outdoor level, and a camera exposed for the hall sees its glazing burnt out
 and its lamps' diffusers glowing (lamps of 250 W each outshone such a sky some 400-fold). The
 glazing scatters the daylight: no sun patches on the floor, which under a mean-metering
-auto-exposure left the rest of the hall dark (docs/sensors.md, Camera twins).
+auto-exposure left the rest of the hall dark (docs/sensors.md, Camera twins). The panes
+``glow`` (``MATERIAL ... glow``: each emits 0.45 x the irradiance the WORLD gives its outer
+face / pi, mapped over it, and passes no light itself): traced through the panes, that
+daylight reached the room only by bounces and was ~87 % of the hall's noise.
 """
 from __future__ import annotations
 
@@ -223,7 +226,10 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
             f"MATERIAL name door_paint library metal_painted colour {nums(var.door_paint)}",
             "// the lamps' diffusers glow at the lamps' own luminance (with the LIGHT under each: its flux)",
             f"MATERIAL name light_panel colour 0.85 0.85 0.83 roughness 0.3 emission {nums(var.lamps[1] or (1, 0.97, 0.92))} "
-            f"emission_strength {num(lamp_luminance(var.lamps[0]), 4)}", "",
+            f"emission_strength {num(lamp_luminance(var.lamps[0]), 4)}",
+            "// the diffusing panes glow with the daylight they pass (0.45 x the irradiance on their",
+            "// outer face / pi, from the WORLD): light-sampled, not found by bounces",
+            "MATERIAL name frosted_glass library frosted_glass glow", "",
             "// the shell: floor, plinth walls, cladding between strip windows, roof"]
     out.append(f"CUBOID id {ids('shell')} name floor material hall_floor class floor "
                f"position 0 -0.1 0 dim {nums((W + 2 * t, 0.2, D + 2 * t))}")
