@@ -8,6 +8,8 @@ file is damaged or the cache is off.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -96,12 +98,14 @@ def test_the_baked_table_renders_blenders_own_sky(tmp_path, monkeypatch, elevati
     if not sky.available():
         pytest.skip("this Blender has no MULTIPLE_SCATTERING sky (4.x): the sky node is used as it is")
     monkeypatch.setenv(cache.ENV, str(tmp_path / "cache"))
+    monkeypatch.setattr(sky, "_TABLES", {})
     baked = []
     real_bake = sky.bake
     monkeypatch.setattr(sky, "bake", lambda params, threads=0: baked.append(1) or real_bake(params, threads))
     w = World(kind="sky", strength=1.0, sun_elevation_deg=elevation, sun_azimuth_deg=azimuth, aerosol=aerosol)
     holder = bpy.data.scenes.new("holder")
     table_world = lighting.build_world(holder, w, None, "table")
+    sky._TABLES.clear()                                          # as another process would
     node_world = lighting.build_world(holder, w, None, "node")   # the second build reads the cache
     assert len(baked) == 1
     nt = node_world.node_tree
@@ -114,6 +118,33 @@ def test_the_baked_table_renders_blenders_own_sky(tmp_path, monkeypatch, elevati
     assert b.max() > 0.1 and np.isfinite(a).all()
     rel = np.abs(a - b) / max(float(b.max()), 1e-6)
     assert rel.max() < 1e-4, rel.max()
+
+
+@pytest.mark.render
+def test_a_process_bakes_a_sky_once_with_the_cache_off(monkeypatch):
+    """The world's build and the glowing panes (blender/glazing.py) both read the table: with
+    the cache off a process still bakes it once (a bake is a Cycles render, ~0.5 CPU s), and
+    each reader gets its own copy."""
+    import bpy
+    from blender_sesgen.blender import sky
+    if not sky.available():
+        pytest.skip("this Blender has no MULTIPLE_SCATTERING sky (4.x): nothing is baked")
+    monkeypatch.setenv(cache.ENV, "off")
+    monkeypatch.setattr(sky, "_TABLES", {})
+    baked = []
+    real_bake = sky.bake
+    monkeypatch.setattr(sky, "bake", lambda params, threads=0: baked.append(1) or real_bake(params, threads))
+    from blender_sesgen.blender import compat
+    world = bpy.data.worlds.new("sky_once")
+    node = compat.node_tree(world).nodes.new("ShaderNodeTexSky")
+    node.sky_type = sky.TYPE
+    node.sun_elevation = math.radians(30.0)
+    first = sky.table_of(node)
+    first[:] = 0.0                                   # a reader's change stays its own
+    second = sky.table_of(node)
+    bpy.data.worlds.remove(world)
+    assert len(baked) == 1
+    assert second.max() > 0.0
 
 
 @pytest.mark.render

@@ -13,6 +13,7 @@ interpolation of the same cells, so the background is the sky node's to float ro
 """
 from __future__ import annotations
 
+import json
 import math
 import os
 import tempfile
@@ -69,15 +70,24 @@ def lookup(nt, sky_node, tag=lambda x: x, threads: int = 0):
     return colour
 
 
+# the tables this process has baked or read, by key: the world's build and the glowing panes
+# (blender/glazing.py) read one bake, also with the cache off (a bake is ~0.5 CPU s)
+_TABLES: dict[str, np.ndarray] = {}
+
+
 def table_of(sky_node, threads: int = 0) -> np.ndarray:
     """(HEIGHT, WIDTH, 3) float32 RGB of ``sky_node``'s table, row 0 at the nadir (baked with
-    ``threads`` CPU threads when not in the cache: the values do not depend on them)."""
+    ``threads`` CPU threads when not in the cache: the values do not depend on them); a copy
+    of this process's one bake or read of it."""
     params = {p: float(getattr(sky_node, p)) for p in PARAMETERS}
     key = [TABLE_FORMAT, compat.version_string(), TYPE, params]
 
     def valid(a: np.ndarray) -> bool:
         return a.shape == (HEIGHT, WIDTH, 3) and a.dtype == np.float32 and bool(np.isfinite(a).all())
-    return cached_array("sky", key, lambda: bake(params, threads), valid)
+    memo = json.dumps(key, sort_keys=True)
+    if memo not in _TABLES:
+        _TABLES[memo] = cached_array("sky", key, lambda: bake(params, threads), valid)
+    return _TABLES[memo].copy()
 
 
 def bake(params: dict, threads: int = 0) -> np.ndarray:
