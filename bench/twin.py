@@ -714,6 +714,12 @@ def corners_on_sgbm_edges(frames: Frames, n: int) -> dict:
 REGIONS = ("upper left", "upper middle", "upper right", "lower left", "lower middle", "lower right")
 
 
+def _sixth(x: np.ndarray, y: np.ndarray, W: int, H: int) -> np.ndarray:
+    """The ``REGIONS`` index (0..5) of pixels (x, y) in a W x H image (points outside it counted
+    in the nearest sixth)."""
+    return np.clip(y * 2 // H, 0, 1).astype(int) * 3 + np.clip(x * 3 // W, 0, 2).astype(int)
+
+
 def corners_by_region(frames: Frames, n: int) -> np.ndarray:
     """The OpenCV VO's corners (Shi-Tomasi 1000/0.01/8, its detector) in each sixth of the image
     (``REGIONS``: upper and lower half, left, middle and right third), mean per frame over frames
@@ -727,8 +733,7 @@ def corners_by_region(frames: Frames, n: int) -> np.ndarray:
         if pts is None:
             continue
         x, y = pts.reshape(-1, 2).T
-        cell = np.minimum((y * 2 // H).astype(int), 1) * 3 + np.minimum((x * 3 // W).astype(int), 2)
-        counts += np.bincount(cell, minlength=6)
+        counts += np.bincount(_sixth(x, y, W, H), minlength=6)
     return counts / max(n, 1)
 
 
@@ -791,7 +796,7 @@ def orb_inliers_by_region(recs: list, K: np.ndarray, size: tuple) -> tuple[np.nd
         if len(r.inliers):
             P = r.P[r.inliers]
             px = project(K, P)
-            cell = np.clip(px[:, 1] * 2 // H, 0, 1).astype(int) * 3 + np.clip(px[:, 0] * 3 // W, 0, 2).astype(int)
+            cell = _sixth(px[:, 0], px[:, 1], W, H)
             counts += np.bincount(cell, minlength=6)
             for c, z in zip(cell, P[:, 2]):
                 depth[c].append(z)

@@ -78,9 +78,7 @@ def face_frame(obj) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     normal /= np.linalg.norm(normal)
     centre = M[:3, :3] @ (areas @ centres.reshape(n, 3) / areas.sum()) + M[:3, 3]
     verts = co.reshape(-1, 3) @ M[:3, :3].T + M[:3, 3]
-    t1 = np.cross(normal, [1.0, 0.0, 0.0] if abs(normal[0]) < 0.9 else [0.0, 1.0, 0.0])
-    t1 /= np.linalg.norm(t1)
-    t2 = np.cross(normal, t1)
+    t1, t2 = pure.tangent_frame(normal)
     u, v = (verts - centre) @ t1, (verts - centre) @ t2
     f = (np.arange(POINTS) + 0.5) / POINTS
     uu, vv = np.meshgrid(u.min() + f * (u.max() - u.min()), v.min() + f * (v.max() - v.min()))

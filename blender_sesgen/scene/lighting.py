@@ -223,16 +223,21 @@ def world_radiance(world: World, d_ses: np.ndarray, table: np.ndarray | None = N
     return np.tile(np.asarray(world.colour, dtype=float) * world.strength, (len(d), 1))
 
 
+def tangent_frame(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors (t1, t2) that make (t1, t2, normal) right-handed and orthonormal, for a
+    unit ``normal`` (any frame: t1 from the axis least along it)."""
+    t1 = np.cross(normal, [1.0, 0.0, 0.0] if abs(normal[0]) < 0.9 else [0.0, 1.0, 0.0])
+    t1 /= np.linalg.norm(t1)
+    return t1, np.cross(normal, t1)
+
+
 def cosine_directions(normal_ses, n: int) -> np.ndarray:
     """``n`` unit vectors spread over the hemisphere of ``normal_ses`` with density cos/pi
     (a Fibonacci spiral on the unit disc lifted onto the hemisphere): the mean of a radiance
     over them times pi is its irradiance."""
     normal = np.asarray(normal_ses, dtype=float)
     normal = normal / np.linalg.norm(normal)
-    helper = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    t1 = np.cross(normal, helper)
-    t1 /= np.linalg.norm(t1)
-    t2 = np.cross(normal, t1)
+    t1, t2 = tangent_frame(normal)
     i = np.arange(n) + 0.5
     r = np.sqrt(i / n)
     phi = np.pi * (3.0 - math.sqrt(5.0)) * i
