@@ -11,7 +11,8 @@ truth), each configuration against the averaged reference as measured, and its C
 frame. Exposure: metered on the scene (or ``--exposure``), held for every render.
 
 Usage: ``.venv/bin/python bench/quality_unbiased.py [--scene scenes/hall.ses] [--crop 0.25]
-[--ref-samples 1024] [--configs final] [--out DIR]`` (the window and frame as bench/quality.py's;
+[--ref-samples 1024] [--configs final] [--try NAME:base=final,samples=64 ...] [--device cpu|gpu]
+[--out DIR]`` (the window, frame, ``--try`` and ``--device`` as bench/quality.py's;
 ``--out``: the images as DIR/NAME.npz and the rows as DIR/unbiased.json; an existing
 DIR/ref_*.npz of the same settings is reused). Measured in bench/RESULTS.md (session 15)."""
 import argparse, json, os, sys
@@ -43,13 +44,19 @@ def main() -> int:
     p.add_argument("--crop-centre", default="0.5,0.5")
     p.add_argument("--ref-samples", type=int, default=1024)
     p.add_argument("--configs", nargs="*", default=["final"])
+    p.add_argument("--try", dest="tries", nargs="*", default=[], metavar="NAME:key=value,...",
+                   help="more configurations: a preset's settings changed (bench/quality.py --try)")
+    p.add_argument("--device", choices=("cpu", "gpu"), default="cpu", help="Cycles device of every render")
     p.add_argument("--seeds", type=int, default=1, help="renders of each configuration under other seeds")
     p.add_argument("--exposure", type=float, default=None)
     p.add_argument("--out", default=None)
     a = p.parse_args()
+    configs = {}
     for c in a.configs:
-        if c not in qb.PRESETS:
-            p.error(f"--configs {c!r}: one of {', '.join(qb.PRESETS)}")
+        configs[c] = qb.PRESETS.get(c) or qb.OTHERS.get(c)
+        if configs[c] is None:
+            p.error(f"--configs {c!r}: one of {', '.join([*qb.PRESETS, *qb.OTHERS])}")
+    configs.update(qb.parse_try(t) for t in a.tries)
     if not Path(a.scene).is_file():
         p.error(f"no scene {a.scene}")
     if a.ref_samples < 1 or a.seeds < 1 or not 0 < a.crop <= 1:
@@ -60,14 +67,15 @@ def main() -> int:
     except (ValueError, AssertionError):
         p.error(f"--crop-centre X,Y, got {a.crop_centre!r}")
     args = argparse.Namespace(scene=a.scene, frame=a.frame, scale=a.scale, crop=a.crop, crop_centre=centre,
-                              views="left", device="cpu")
+                              views="left", device=a.device)
     b = qb.Bench(args)
     b.exposure = a.exposure
     seed0 = b.plan.settings.seed
     out = Path(a.out) if a.out else None
     if out:
         out.mkdir(parents=True, exist_ok=True)
-    print(f"# load {os.getloadavg()[0]:.1f}; {a.scene} frame {a.frame} crop {a.crop} at {centre}", flush=True)
+    print(f"# load {os.getloadavg()[0]:.1f}; {a.scene} frame {a.frame} crop {a.crop} at {centre}, device {a.device}",
+          flush=True)
     rows, refs = {}, []
     for i in range(2):                      # the two references: seeds far from the configurations'
         seed = seed0 + 1000 + i
@@ -90,10 +98,10 @@ def main() -> int:
                           "avg_ref_own_psnr": qb.psnr_mse(float(((A - B) ** 2).mean()) / 4),
                           "mean_srgb": float((A + B).mean() / 2)}
     print("references", json.dumps(rows["references"]), flush=True)
-    for c in a.configs:
+    for c, preset in configs.items():
         for k in range(a.seeds):
             b.plan = replace(b.plan, settings=replace(b.plan.settings, seed=seed0 + k))
-            r = b.render(qb.PRESETS[c], 1)
+            r = b.render(preset, 1)
             F = r["images"]["left"].astype(float)
             row = {"seed": seed0 + k, **estimate(F, A, B), "cpu_stereo": r["cpu_stereo"], "mean_srgb": float(F.mean()),
                    "load": os.getloadavg()[0]}
