@@ -18,6 +18,14 @@ side). Each pane gets its own copy of the material and its map (a float image re
 QUAD's UVs; one value for other shapes) at the strength of its mean emitted luminance, so
 Cycles' light tree, which estimates a textured emission by its strength, weighs the pane by its
 real light.
+
+The build's cost (issue 29): the rays from a pane's points are tested only against the
+triangles whose footprint along each direction can hold them (``scene/occlusion.py``, the
+same answers as every ray against every triangle), each normal's open sky once, and each map
+is kept in the asset cache (kind ``glow``) under everything it depends on (``map_key``: the
+code, the world and its sky table's or HDRI's values, the sun, the pane, the triangles that can
+shade it), so a warm build reads it; what the outer side is (rays through the whole scene)
+is found again each build.
 """
 from __future__ import annotations
 

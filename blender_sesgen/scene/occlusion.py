@@ -3,7 +3,7 @@
 ``blocked`` is the Moller-Trumbore test of every ray against every triangle (the reference).
 ``blocked_grid`` answers the same question for the rays of a set of points along a set of
 directions (a pane's sky and sun visibility), the same bit for bit at a fraction of the tests:
-per direction, a triangle whose footprint seen along it (its box in a plane across the
+per direction, a triangle whose footprint seen along it (its box on a plane across the
 direction, widened by ``PAD_M``) misses a point, or which lies wholly behind the point, cannot
 be hit by that point's ray, so only the pairs left are tested, with the same arithmetic.
 ``shading_triangles`` keeps the triangles that can stand before a face within reach.
@@ -62,69 +62,78 @@ def blocked(origins: np.ndarray, dirs: np.ndarray, tris: np.ndarray, chunk: int 
     return out
 
 
-def _across(dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors (K, 3) each across unit ``dirs`` (K, 3), and across each other."""
-    helper = np.where((np.abs(dirs[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
-    s = np.cross(dirs, helper)
-    s /= np.linalg.norm(s, axis=1, keepdims=True)
-    return s, np.cross(dirs, s)
-
-
-def candidate_pairs(points: np.ndarray, dirs: np.ndarray, tris: np.ndarray, pad: float = PAD_M,
-                    chunk: int = 1 << 22) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(k, p, t) index arrays of the (direction, point, triangle) triples whose ray (from
-    point p along direction k) can meet triangle t: the point inside the triangle's box in a
-    plane across the direction (widened by ``pad``) and not ahead of all its corners; a
-    triangle within ``GRAZING`` of the direction's line (cosine to its normal) or without an
-    area is kept for every point (there Moller-Trumbore's rounding can exceed ``pad``)."""
-    K, P, T = len(dirs), len(points), len(tris)
-    s, r = _across(dirs)
-    n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
-    size = np.linalg.norm(n, axis=1)
-    n = n / np.where(size > 0, size, 1.0)[:, None]
-    flat = tris.reshape(3 * T, 3)
-    out = ([], [], [])
-    step = max(1, chunk // max(1, P * T))
-    for k0 in range(0, K, step):
-        ks = slice(k0, k0 + step)
-        axes = np.concatenate([s[ks], r[ks], dirs[ks]])                    # (3k, 3): across, across, along
-        c = (flat @ axes.T).reshape(T, 3, 3, -1)                              # (T, corner, axis, k)
-        lo = np.minimum(np.minimum(c[:, 0], c[:, 1]), c[:, 2]).transpose(1, 2, 0)   # (axis, k, T)
-        hi = np.maximum(np.maximum(c[:, 0], c[:, 1]), c[:, 2]).transpose(1, 2, 0)
-        x = (points @ axes.T).reshape(P, 3, -1).transpose(1, 2, 0)[..., None]       # (axis, k, P, 1)
-        # (direction, triangle) pairs whose box meets the points' box, then each point
-        xlo, xhi = x.min(axis=2), x.max(axis=2)                               # (axis, k, 1)
-        keep = (xlo[0] <= hi[0] + pad) & (xhi[0] >= lo[0] - pad) & (xlo[1] <= hi[1] + pad) \
-            & (xhi[1] >= lo[1] - pad) & (xlo[2] < hi[2] + pad)
-        keep |= (np.abs(dirs[ks] @ n.T) < GRAZING) | (size <= 0)[None]        # (k, T)
-        kk, tt = np.nonzero(keep)
-        xs = x[..., 0][:, kk]                                                  # (axis, N, P)
-        lo, hi = lo[:, kk, tt][..., None] - pad, hi[:, kk, tt][..., None] + pad  # (axis, N, 1)
-        each = (xs[0] >= lo[0]) & (xs[0] <= hi[0]) & (xs[1] >= lo[1]) & (xs[1] <= hi[1]) & (xs[2] < hi[2])
-        each |= ((np.abs(np.einsum("nx,nx->n", dirs[ks][kk], n[tt])) < GRAZING) | (size[tt] <= 0))[:, None]
-        m, p = np.nonzero(each)
-        out[0].append(kk[m] + k0)
-        out[1].append(p)
-        out[2].append(tt[m])
-    return tuple(np.concatenate(x) if x else np.zeros(0, dtype=np.intp) for x in out)
-
-
-def blocked_grid(points: np.ndarray, dirs: np.ndarray, tris: np.ndarray, stats: dict | None = None) -> np.ndarray:
+def blocked_grid(points: np.ndarray, dirs: np.ndarray, tris: np.ndarray, stats: dict | None = None,
+                 pad: float = PAD_M, chunk: int = 1 << 21) -> np.ndarray:
     """(K, P): whether the ray from each of ``points`` (P, 3) along each unit direction of
     ``dirs`` (K, 3) hits one of ``tris`` (T, 3, 3) ahead of it; equal to ``blocked`` of every
-    (point, direction) ray, testing only ``candidate_pairs``. ``stats``: gets ``tests`` (the
-    ray-triangle tests made) and ``all`` (K P T, the reference's)."""
+    (point, direction) ray bit for bit. Only the pairs that can meet are tested: per direction,
+    the triangles' corners sheared along it onto the plane across its largest component (a
+    ray's points all fall on its origin's spot there) give each triangle's box; a point
+    outside a box widened by ``pad``, or ahead of all the triangle's corners along the
+    direction, cannot hit it (first for the points' box, then point by point); a triangle
+    within ``GRAZING`` of the direction's line (cosine to its normal) or without an area is
+    tested for every point (there Moller-Trumbore's rounding can exceed ``pad``). Moller-
+    Trumbore's terms of a direction and a triangle alone are computed once per pair of them,
+    with the same arithmetic. ``stats``: gets ``tests`` (the ray-triangle tests made) and
+    ``all`` (K P T, the reference's)."""
     points, dirs = np.asarray(points, dtype=float), np.asarray(dirs, dtype=float)
-    out = np.zeros((len(dirs), len(points)), dtype=bool)
-    k = p = np.zeros(0, dtype=np.intp)
-    if len(tris):
-        k, p, t = candidate_pairs(points, dirs, tris)
-        a, e1, e2 = (x[:, t] for x in _edges(tris))
-        hit = _hits(points[p].T, dirs[k].T, a, e1, e2)
-        out[k[hit], p[hit]] = True
+    K, P, T = len(dirs), len(points), len(tris)
+    out = np.zeros((K, P), dtype=bool)
+    tests = 0
+    if not (T and P and K):
+        dirs = dirs[:0]
+    a, e1, e2 = _edges(tris)                                                  # (3, T)
+    n = np.cross(e1.T, e2.T)
+    size = np.linalg.norm(n, axis=1)
+    n = n / np.where(size > 0, size, 1.0)[:, None]
+    c = tris.transpose(2, 1, 0)                                               # (axis, corner, T)
+    major = np.abs(dirs).argmax(axis=1)
+    step = max(1, chunk // max(1, P * T))
+    for z in range(3):                     # the directions by their largest component
+        x, y = (z + 1) % 3, (z + 2) % 3
+        group = np.flatnonzero(major == z)
+        for k0 in range(0, len(group), step):
+            ks = group[k0:k0 + step]
+            d = dirs[ks]
+            sx, sy = (d[:, x] / d[:, z])[:, None], (d[:, y] / d[:, z])[:, None]      # (k, 1)
+            # the corners sheared along each direction (k, T), and the points (k, P)
+            X = [c[x, i] - sx * c[z, i] for i in range(3)]
+            Y = [c[y, i] - sy * c[z, i] for i in range(3)]
+            pX, pY = points[:, x] - sx * points[:, z], points[:, y] - sy * points[:, z]
+            box = (np.minimum(np.minimum(X[0], X[1]), X[2]) - pad, np.maximum(np.maximum(X[0], X[1]), X[2]) + pad,
+                   np.minimum(np.minimum(Y[0], Y[1]), Y[2]) - pad, np.maximum(np.maximum(Y[0], Y[1]), Y[2]) + pad)
+            along = d @ points.T                                                           # (k, P)
+            far = np.maximum(np.maximum(d @ c[:, 0], d @ c[:, 1]), d @ c[:, 2]) + pad       # (k, T)
+            grazing = (np.abs(d @ n.T) < GRAZING) | (size <= 0)[None]
+            # the (direction, triangle) pairs whose box meets the points' box...
+            keep = (pX.max(axis=1)[:, None] >= box[0]) & (pX.min(axis=1)[:, None] <= box[1]) \
+                & (pY.max(axis=1)[:, None] >= box[2]) & (pY.min(axis=1)[:, None] <= box[3]) \
+                & (along.min(axis=1)[:, None] < far)
+            kk, tt = np.nonzero(keep | grazing)
+            # ... then point by point
+            each = (pX[kk] >= box[0][kk, tt, None]) & (pX[kk] <= box[1][kk, tt, None]) \
+                & (pY[kk] >= box[2][kk, tt, None]) & (pY[kk] <= box[3][kk, tt, None]) \
+                & (along[kk] < far[kk, tt, None])
+            each |= grazing[kk, tt][:, None]
+            m, p = np.nonzero(each)
+            tests += len(m)
+            # Moller-Trumbore (``_hits``), its direction x triangle terms once per (kk, tt)
+            dd = d[kk].T
+            pv = _cross(dd, e2[:, tt])
+            det = _dot(pv, e1[:, tt])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                inv = (1.0 / det)[m]
+                t_, o = tt[m], points[p].T
+                tv = (o[0] - a[0, t_], o[1] - a[1, t_], o[2] - a[2, t_])
+                u = _dot(tv, tuple(v[m] for v in pv)) * inv
+                q = _cross(tv, e1[:, t_])
+                v = _dot(dd[:, m], q) * inv
+                t = _dot(q, e2[:, t_]) * inv
+                hit = (np.abs(det[m]) > 1e-12) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-6)
+            out[ks[kk[m[hit]]], p[hit]] = True
     if stats is not None:
-        stats["tests"] = stats.get("tests", 0) + len(k)
-        stats["all"] = stats.get("all", 0) + len(dirs) * len(points) * len(tris)
+        stats["tests"] = stats.get("tests", 0) + tests
+        stats["all"] = stats.get("all", 0) + K * P * T
     return out
 
 
