@@ -326,7 +326,7 @@ def _roller_shutter(b, o: Opening, T, n, s, pitch, head, lowered) -> None:
         b.box((a, v0 + 0.001, wc - 0.02), (c, top, wc + 0.01), s, T=T)
     bottom = top - lowered * (top - v0)
     if lowered > 0:                           # the curtain: a groove every pitch, the slat's crest between
-        k = max(int(round((top - bottom) / pitch)), 1)
+        k = max(int(round((top - bottom - 0.05) / pitch)), 1)   # the end bar below the slats
         vs = np.linspace(top, bottom + 0.05, 2 * k + 1)
         ws = np.where(np.arange(2 * k + 1) % 2 == 0, wc - 0.008, wc)
         grid = np.array([[(u, v, w) for u in (u0 + 0.035, u1 - 0.035)] for v, w in zip(vs, ws)])
