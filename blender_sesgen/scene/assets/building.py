@@ -1,7 +1,7 @@
 """Buildings: a closed shell with real window and door openings (reveals, recessed glass,
-frames with mullions, sills; roller shutters in six buildings of ten, some lowered), a base band, string courses and a cornice, balconies with
-railings on the front, shop windows on some ground floors, a flat roof with a parapet or
-a pitched tiled roof with gables, a downpipe.
+frames with mullions, sills; roller shutters in six buildings of ten, some lowered), a base
+band, string courses and a cornice, balconies with railings on the front, shop windows on
+some ground floors, a flat roof with a parapet or a pitched tiled roof with gables, a downpipe.
 
 Asset frame: footprint ``size`` = (width along x, height along y, depth along z) centred
 on the origin, ground at y = 0, the front (street) facade facing +z.
