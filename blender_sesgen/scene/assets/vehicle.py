@@ -32,35 +32,54 @@ GLYPHS = ("1111110", "0110000", "1101101", "1111001", "0110011", "1011011", "101
           "1111111", "1111011", "1110111", "0011111", "1001110", "0111101", "1001111", "1000111", "0110111")
 
 
-def _end_z(x, W, L):
-    """The body's end (plan view: the rounded ends of ``half_w``) at lateral offset x: |z| of the
-    nose or tail there, the flat end 2 cm in."""
-    u = min(abs(2 * x / W), 0.999)
-    return min(L / 2 * (1 - u ** 7) ** (1 / 7), L / 2 - 0.02)
+def _end_outline(W, L, n=800, wrap_deg=75.0):
+    """The body's plan outline round one corner (``half_w``'s rounded end, its flat end 2 cm in),
+    from the middle of the end (x = 0) to where it faces ``wrap_deg`` sideways (on the flank):
+    points (m, 2) as (x, |z|) and their arc length from that flank end, metres."""
+    x = np.linspace(0.0, 0.999 * W / 2, n)
+    z = np.minimum(L / 2 * (1 - (2 * x / W) ** 7) ** (1 / 7), L / 2 - 0.02)
+    slope = np.degrees(np.arctan(np.abs(np.gradient(z, x))))
+    keep = np.arange(n) <= np.argmax(slope > wrap_deg)
+    P = np.column_stack([x[keep], z[keep]])
+    seg = np.hypot(np.diff(P[:, 0]), np.diff(P[:, 1]))
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    return P, s[-1] - s
 
 
-def _lamp(b, rd, x_in, x_out, y0, y1, W, L, rear, colour_of):
-    """A lamp as its reflector's facets: cells of ``REFLECTOR_CELL_M`` between x_in and x_out
-    (the outer one at the body's corner), y0..y1, each on the body's end (following its
-    rounded corner) and tilted +-15 deg at random, so some face the sun or the sky (the glints
-    of real lamps); each cell a box reaching 4 cm into the body. ``colour_of(i, j, nx, ny)``:
-    the cell's surface."""
+def _lamp(b, rd, arc0, arc1, y0, y1, W, L, rear, sx, colour_of):
+    """A lamp as its reflector's facets round the body's corner: cells ``REFLECTOR_CELL_M`` wide
+    along the plan outline from arc0 to arc1 (metres of outline from the flank: a lamp that wraps
+    round the corner starts at 0), y0..y1 high, each on the outline, facing out, tilted +-30 deg
+    at random (the slopes of a reflector's bowls: some face the sun or the sky, the glints of
+    real lamps); each a box reaching 4 cm into the body. ``sx``: the side (+1 right, -1 left);
+    ``colour_of(i, j, nx, ny)``: the cell's surface, i = 0 the innermost column."""
+    P, arc = _end_outline(W, L)
     cw, ch = REFLECTOR_CELL_M
-    nx = max(2, int(round(abs(x_out - x_in) / cw)))
+    nx = max(2, int(round((arc1 - arc0) / cw)))
     ny = max(2, int(round((y1 - y0) / ch)))
-    xs = np.linspace(x_in, x_out, nx + 1)
     ys = np.linspace(y0, y1, ny + 1)
-    sgn = -1.0 if rear else 1.0
+    a_edges = np.linspace(arc1, arc0, nx + 1)          # inner end first
+    order = np.argsort(arc)
+    sz = -1.0 if rear else 1.0
     for i in range(nx):
-        xc = 0.5 * (xs[i] + xs[i + 1])
-        z = _end_z(xc, W, L)
-        dz = (_end_z(xc + 0.005, W, L) - _end_z(xc - 0.005, W, L)) / 0.01
-        yaw = np.degrees(np.arctan2(-dz, sgn))          # the end's outward normal in plan view
+        ac = 0.5 * (a_edges[i] + a_edges[i + 1])
+        x = float(np.interp(ac, arc[order], P[order, 0]))
+        z = float(np.interp(ac, arc[order], P[order, 1]))
+        xa = float(np.interp(ac + 0.005, arc[order], P[order, 0]))
+        xb = float(np.interp(ac - 0.005, arc[order], P[order, 0]))
+        za = float(np.interp(ac + 0.005, arc[order], P[order, 1]))
+        zb = float(np.interp(ac - 0.005, arc[order], P[order, 1]))
+        tx, tz = xb - xa, zb - za                        # towards the flank
+        nxn, nzn = tz, -tx                               # outward (|z| grows, x grows)
+        if nzn < 0:
+            nxn, nzn = -nxn, -nzn
+        yaw = np.degrees(np.arctan2(sx * nxn, sz * nzn))
+        w = abs(a_edges[i + 1] - a_edges[i]) / 2
         for j in range(ny):
             yc = 0.5 * (ys[j] + ys[j + 1])
-            R = rot_y(yaw) @ rot_y(rd.uniform(-15, 15)) @ rot_x(rd.uniform(-15, 15))
-            w, h = abs(xs[i + 1] - xs[i]) / 2, (ys[j + 1] - ys[j]) / 2
-            b.box((-w, -h, -0.04), (w, h, 0.004), colour_of(i, j, nx, ny), T=pose(R, (xc, yc, sgn * z)))
+            R = rot_y(yaw) @ rot_y(rd.uniform(-30, 30)) @ rot_x(rd.uniform(-30, 30))
+            h = (ys[j + 1] - ys[j]) / 2
+            b.box((-w, -h, -0.04), (w, h, 0.004), colour_of(i, j, nx, ny), T=pose(R, (sx * x, yc, sz * z)))
 
 
 def _plate(b, rd, y0, z_face, rear, white, ink, blue):
@@ -104,10 +123,10 @@ def _lamps_plates_badges(b, rd, W, L, hw_end, front_y, rear_y, clear, head):
     red, amber = b.surface("vehicle_lamp", LAMP_RED), b.surface("vehicle_lamp", LAMP_AMBER)
     white, ink = b.surface("plastic", PLATE_WHITE), b.surface("plastic", PLATE_INK)
     blue = b.surface("plastic", PLATE_BLUE)
-    lw, lh = rd.uniform(0.3, 0.42), rd.uniform(0.12, 0.2)
+    lw, lh = rd.uniform(0.4, 0.55), rd.uniform(0.13, 0.22)     # along the outline, round the corner
     reverse_inner = rd.random() < 0.6                  # the reversing lamp: the lamp's inner block
     amber_top = rd.random() < 0.35                     # the indicator: the lamp's top row
-    hlw, hlh = rd.uniform(0.3, 0.4), rd.uniform(0.1, 0.16)
+    hlw, hlh = rd.uniform(0.35, 0.5), rd.uniform(0.1, 0.16)
 
     def tail_cell(i, j, nx, ny):
         if reverse_inner and i < max(1, nx // 4) and j < ny - 1:
@@ -115,13 +134,11 @@ def _lamps_plates_badges(b, rd, W, L, hw_end, front_y, rear_y, clear, head):
         return amber if amber_top and j == ny - 1 else red
 
     def head_cell(i, j, nx, ny):
-        return amber if i == nx - 1 else head
+        return amber if i >= nx - 2 else head
 
-    x_out = hw_end - 0.03
     for sx in (-1, 1):
-        _lamp(b, rd, sx * (x_out - lw), sx * x_out, rear_y + 0.01 - lh, rear_y + 0.01, W, L, True, tail_cell)
-        _lamp(b, rd, sx * (x_out - 0.05 - hlw), sx * (x_out - 0.05), front_y + 0.02 - hlh, front_y + 0.02, W, L,
-              False, head_cell)
+        _lamp(b, rd, 0.0, lw, rear_y + 0.01 - lh, rear_y + 0.01, W, L, True, sx, tail_cell)
+        _lamp(b, rd, 0.04, 0.04 + hlw, front_y + 0.02 - hlh, front_y + 0.02, W, L, False, sx, head_cell)
         x0, x1 = sorted((sx * (hw_end - 0.1), sx * (hw_end - 0.2)))    # rear bumper reflectors
         b.box((x0, clear + 0.09, -L / 2 - 0.014), (x1, clear + 0.12, -L / 2 - 0.004), red)
     z_end = L / 2 - 0.02
