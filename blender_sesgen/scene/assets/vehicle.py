@@ -88,7 +88,7 @@ def _plate(b, rd, y0, z_face, rear, white, ink, blue):
     shapes of ``GLYPH_M``, 1.5 mm proud) in two or three groups."""
     pw, ph = PLATE_M
     sgn = -1.0 if rear else 1.0
-    right = -sgn                        # the viewer's right along x (looking at the plate)
+    right = sgn                         # the viewer's right along x (looking at the plate: +z x up)
     za, zb = sorted((z_face, z_face - sgn * 0.05))
     b.box((-pw / 2, y0, za), (pw / 2, y0 + ph, zb), white)
     zo, zi = z_face + sgn * 0.0015, z_face - sgn * 0.001
