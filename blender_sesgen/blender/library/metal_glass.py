@@ -76,9 +76,11 @@ def chrome(ctx: Ctx) -> Surface:
 
 
 def vehicle_lamp(ctx: Ctx) -> Surface:
-    """A vehicle lamp: the metallised reflector (a mirror in the lens's colour: the light passes
-    the lens twice) under the lens's own glossy face (a clear coat of PMMA, IOR 1.49); the
-    moulded optics a faint relief at 1 cm."""
+    """A vehicle lamp: the metallised reflector in the lens's colour (the light passes the lens
+    twice), rough: the lens's pillow optics spread what it returns over tens of degrees (ECE
+    R7 asks a tail lamp to show over +-45 deg and more), so a lamp returns the sky and the
+    sun's light in the lens's colour from most directions; the lens's own glossy face on top
+    (a clear coat of PMMA, IOR 1.49); the moulded optics a faint relief at 1 cm."""
     g, C = ctx.g, ctx.colour
     height = g.mul(g.noise(ctx.p, 1 / ctx.entry.scale_m * 4, detail=2.0), 0.0001)
     return Surface(C, ctx.roughness, height, metallic=ctx.metallic, grime=0.2,

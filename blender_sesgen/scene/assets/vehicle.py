@@ -21,6 +21,7 @@ from .palette import pick
 CABIN = (0.015, 0.015, 0.016)        # a car's interior under its glass: dark seats and trim
 LAMP_RED = (0.7, 0.05, 0.04)         # a metallised reflector behind a red lens: a red mirror (library ``vehicle_lamp``)
 LAMP_AMBER = (0.7, 0.35, 0.03)
+LAMP_CLEAR = (0.6, 0.6, 0.6)         # a clear lens (reversing lamps, headlamps) over its reflector
 REFLECTOR_CELL_M = (0.04, 0.035)     # a lamp's reflector facets (pillow optics), width x height
 PLATE_M = (0.52, 0.11)               # the EU plate, width x height
 PLATE_WHITE = (0.5, 0.5, 0.48)       # retro-reflective sheeting (daytime luminance factor ~0.4-0.5; assumed)
@@ -118,9 +119,10 @@ def _plate(b, rd, y0, z_face, rear, white, ink, blue):
 
 def _lamps_plates_badges(b, rd, W, L, hw_end, front_y, rear_y, clear, head):
     """Tail lamps (red facets; a clear reversing block and an amber indicator row on some cars),
-    headlamps (clear facets, amber at the outer end), both plates with their characters, a chrome
-    badge at each end and red reflectors in the rear bumper."""
+    headlamps (clear facets, amber at the outer end; all library ``vehicle_lamp``), both plates
+    with their characters, a chrome badge at each end and red reflectors in the rear bumper."""
     red, amber = b.surface("vehicle_lamp", LAMP_RED), b.surface("vehicle_lamp", LAMP_AMBER)
+    lens = b.surface("vehicle_lamp", LAMP_CLEAR)
     white, ink = b.surface("plastic", PLATE_WHITE), b.surface("plastic", PLATE_INK)
     blue = b.surface("plastic", PLATE_BLUE)
     lw, lh = rd.uniform(0.4, 0.55), rd.uniform(0.13, 0.22)     # along the outline, round the corner
@@ -130,11 +132,11 @@ def _lamps_plates_badges(b, rd, W, L, hw_end, front_y, rear_y, clear, head):
 
     def tail_cell(i, j, nx, ny):
         if reverse_inner and i < max(1, nx // 4) and j < ny - 1:
-            return head
+            return lens
         return amber if amber_top and j == ny - 1 else red
 
     def head_cell(i, j, nx, ny):
-        return amber if i >= nx - 2 else head
+        return amber if i >= nx - 2 else lens
 
     for sx in (-1, 1):
         _lamp(b, rd, 0.0, lw, rear_y + 0.01 - lh, rear_y + 0.01, W, L, True, sx, tail_cell)
