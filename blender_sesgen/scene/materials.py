@@ -135,6 +135,10 @@ LIBRARY: dict[str, LibraryEntry] = _entries(
                  semantic_class="pole", nir=0.4),
     LibraryEntry("chrome", "polished chrome: a near-perfect mirror with faint smudges",
                  (0.55, 0.56, 0.55), 0.05, metallic=1.0, scale_m=0.1, bump_m=0.0001, variation=0.05, wear=0.1),
+    LibraryEntry("vehicle_lamp", "vehicle lamp: a metallised reflector behind a lens of the colour (red, amber, clear) "
+                                 "whose pillow optics spread what it returns; the lens's gloss on top; its dyes pass "
+                                 "the near infrared", (0.7, 0.05, 0.04), 0.4, metallic=1.0, scale_m=0.04,
+                 bump_m=0.0001, variation=0.05, wear=0.1, nir=0.7),
     LibraryEntry("car_paint", "car paint: metallic base coat under a glossy clear coat (colour for the car's)",
                  (0.05, 0.09, 0.20), 0.35, metallic=0.5, scale_m=0.5, bump_m=0.00003, variation=0.5, wear=0.15,
                  semantic_class="car"),

@@ -1,5 +1,5 @@
 """Recipes for metals, paints and glass: metal_painted, metal_brushed, metal_rusty, galvanised,
-chrome, car_paint, glass_window, frosted_glass."""
+chrome, vehicle_lamp, car_paint, glass_window, frosted_glass."""
 from __future__ import annotations
 
 from .graph import Ctx, Surface
@@ -75,6 +75,18 @@ def chrome(ctx: Ctx) -> Surface:
     return Surface(C, rough, height, metallic=ctx.metallic, grime=0.0)
 
 
+def vehicle_lamp(ctx: Ctx) -> Surface:
+    """A vehicle lamp: the metallised reflector in the lens's colour (the light passes the lens
+    twice), rough: the lens's pillow optics spread what it returns over tens of degrees (ECE
+    R7 asks a tail lamp to show over +-45 deg and more), so a lamp returns the sky and the
+    sun's light in the lens's colour from most directions; the lens's own glossy face on top
+    (a clear coat of PMMA, IOR 1.49); the moulded optics a faint relief at 1 cm."""
+    g, C = ctx.g, ctx.colour
+    height = g.mul(g.noise(ctx.p, 1 / ctx.entry.scale_m * 4, detail=2.0), 0.0001)
+    return Surface(C, ctx.roughness, height, metallic=ctx.metallic, grime=0.2,
+                   extra={"Coat Weight": 1.0, "Coat Roughness": 0.02, "Coat IOR": 1.49})
+
+
 def car_paint(ctx: Ctx) -> Surface:
     g, C = ctx.g, ctx.colour
     flakes = g.remap(g.noise(ctx.p, 1 / 0.0008, detail=1.0), 0.3, 0.7, 0.96, 1.04)
@@ -106,5 +118,5 @@ def frosted_glass(ctx: Ctx) -> Surface:
 
 
 RECIPES = {"metal_painted": metal_painted, "metal_brushed": metal_brushed, "metal_rusty": metal_rusty,
-           "galvanised": galvanised, "chrome": chrome, "car_paint": car_paint, "glass_window": glass_window,
-           "frosted_glass": frosted_glass}
+           "galvanised": galvanised, "chrome": chrome, "vehicle_lamp": vehicle_lamp, "car_paint": car_paint,
+           "glass_window": glass_window, "frosted_glass": frosted_glass}

@@ -44,7 +44,8 @@ def _kinds() -> dict[str, Kind]:
         Kind("building", "outdoor", "building",
              "block with real window/door openings, frames, sills, balconies, cornice, flat or gable roof",
              ((12, 26), (9, 20), (9, 16)), "width, height (to the ridge), depth", building.generate, overhang=3.0),
-        Kind("car", "street", "car", "hatchback, saloon or estate: lofted body, glass, wheels in arches, lamps, plates, mirrors",
+        Kind("car", "street", "car", "hatchback, saloon or estate: lofted body, glass, wheels in arches, "
+             "faceted lamps, plates with characters, mirrors, door lines",
              ((1.72, 1.85), (1.42, 1.55), (3.9, 4.8)), "width, height, length (nose towards +z)",
              vehicle.generate),
         Kind("tree", "nature", "vegetation", "broadleaf tree: trunk, three levels of branches, ~20-60k leaves",

@@ -1,6 +1,9 @@
 """Cars: a lofted body (plan-view rounded ends, wheel arches cut into the sills, bonnet,
 windscreen, roof, rear window and boot or hatch), glass where the windows are, pillars in
-paint, tyres with rims and hubs in the arches, lamps, number plates, grille and mirrors.
+paint, tyres with rims and hubs in the arches, grille and mirrors; the fine detail a camera sees
+at 5-20 m: lamps as their reflectors' tilted facets (red, amber, clear: the glints), EU number
+plates with embossed dark characters, the mirrors' glass, door shut lines and handles, badges and
+the rear bumper's reflectors.
 
 Asset frame: ``size`` = (width x, height y, length z), ground at y = 0, nose towards +z.
 """
@@ -9,8 +12,144 @@ from __future__ import annotations
 import numpy as np
 
 from . import palette
-from .mesh import MeshData, pose, rot_x, rot_z, start
+from .mesh import MeshData, pose, rot_x, rot_y, rot_z, start
 from .palette import pick
+
+# the fine detail (session 16, measured in KITTI sequence_1's frames 0 and 20 at 12-14 m: the rear
+# lamps' sun glints and sky reflections carry 14-30 % of a car's finest contrast, at 5-9x the body's
+# median; plates 1.9-4.5x; wheels 2-4x; the rear window 0.26-1x, darker than a grey body)
+CABIN = (0.015, 0.015, 0.016)        # a car's interior under its glass: dark seats and trim
+LAMP_RED = (0.7, 0.05, 0.04)         # a metallised reflector behind a red lens: a red mirror (library ``vehicle_lamp``)
+LAMP_AMBER = (0.7, 0.35, 0.03)
+LAMP_CLEAR = (0.6, 0.6, 0.6)         # a clear lens (reversing lamps, headlamps) over its reflector
+REFLECTOR_CELL_M = (0.04, 0.035)     # a lamp's reflector facets (pillow optics), width x height
+PLATE_M = (0.52, 0.11)               # the EU plate, width x height
+PLATE_WHITE = (0.5, 0.5, 0.48)       # retro-reflective sheeting (daytime luminance factor ~0.4-0.5; assumed)
+PLATE_INK = (0.03, 0.03, 0.03)
+PLATE_BLUE = (0.02, 0.05, 0.25)      # the EU band at the plate's left
+GLYPH_M = (0.044, 0.075, 0.009)      # a character's width, height and stroke (FE-Schrift ~47.5 x 75 mm)
+# seven-segment glyphs (top, top right, bottom right, bottom, bottom left, top left, middle)
+GLYPHS = ("1111110", "0110000", "1101101", "1111001", "0110011", "1011011", "1011111", "1110000",
+          "1111111", "1111011", "1110111", "0011111", "1001110", "0111101", "1001111", "1000111", "0110111")
+
+
+def _end_outline(W, L, n=800, wrap_deg=75.0):
+    """The body's plan outline round one corner (``half_w``'s rounded end, its flat end 2 cm in),
+    from the middle of the end (x = 0) to where it faces ``wrap_deg`` sideways (on the flank):
+    points (m, 2) as (x, |z|) and their arc length from that flank end, metres."""
+    x = np.linspace(0.0, 0.999 * W / 2, n)
+    z = np.minimum(L / 2 * (1 - (2 * x / W) ** 7) ** (1 / 7), L / 2 - 0.02)
+    slope = np.degrees(np.arctan(np.abs(np.gradient(z, x))))
+    keep = np.arange(n) <= np.argmax(slope > wrap_deg)
+    P = np.column_stack([x[keep], z[keep]])
+    seg = np.hypot(np.diff(P[:, 0]), np.diff(P[:, 1]))
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    return P, s[-1] - s
+
+
+def _lamp(b, rd, arc0, arc1, y0, y1, W, L, rear, sx, colour_of):
+    """A lamp as its reflector's facets round the body's corner: cells ``REFLECTOR_CELL_M`` wide
+    along the plan outline from arc0 to arc1 (metres of outline from the flank: a lamp that wraps
+    round the corner starts at 0), y0..y1 high, each on the outline, facing out, tilted +-30 deg
+    at random (the slopes of a reflector's bowls: some face the sun or the sky, the glints of
+    real lamps); each a box reaching 4 cm into the body. ``sx``: the side (+1 right, -1 left);
+    ``colour_of(i, j, nx, ny)``: the cell's surface, i = 0 the innermost column."""
+    P, arc = _end_outline(W, L)
+    cw, ch = REFLECTOR_CELL_M
+    nx = max(2, int(round((arc1 - arc0) / cw)))
+    ny = max(2, int(round((y1 - y0) / ch)))
+    ys = np.linspace(y0, y1, ny + 1)
+    a_edges = np.linspace(arc1, arc0, nx + 1)          # inner end first
+    order = np.argsort(arc)
+    sz = -1.0 if rear else 1.0
+    for i in range(nx):
+        ac = 0.5 * (a_edges[i] + a_edges[i + 1])
+        x = float(np.interp(ac, arc[order], P[order, 0]))
+        z = float(np.interp(ac, arc[order], P[order, 1]))
+        xa = float(np.interp(ac + 0.005, arc[order], P[order, 0]))
+        xb = float(np.interp(ac - 0.005, arc[order], P[order, 0]))
+        za = float(np.interp(ac + 0.005, arc[order], P[order, 1]))
+        zb = float(np.interp(ac - 0.005, arc[order], P[order, 1]))
+        tx, tz = xb - xa, zb - za                        # towards the flank
+        nxn, nzn = tz, -tx                               # outward (|z| grows, x grows)
+        if nzn < 0:
+            nxn, nzn = -nxn, -nzn
+        yaw = np.degrees(np.arctan2(sx * nxn, sz * nzn))
+        w = abs(a_edges[i + 1] - a_edges[i]) / 2
+        for j in range(ny):
+            yc = 0.5 * (ys[j] + ys[j + 1])
+            R = rot_y(yaw) @ rot_y(rd.uniform(-30, 30)) @ rot_x(rd.uniform(-30, 30))
+            h = (ys[j + 1] - ys[j]) / 2
+            b.box((-w, -h, -0.04), (w, h, 0.004), colour_of(i, j, nx, ny), T=pose(R, (sx * x, yc, sz * z)))
+
+
+def _plate(b, rd, y0, z_face, rear, white, ink, blue):
+    """An EU number plate (``PLATE_M``) whose face is at z_face (facing -z at the rear, +z at
+    the front), its blue band at the viewer's left and 6-8 embossed dark characters (seven-segment
+    shapes of ``GLYPH_M``, 1.5 mm proud) in two or three groups."""
+    pw, ph = PLATE_M
+    sgn = -1.0 if rear else 1.0
+    right = sgn                         # the viewer's right along x (looking at the plate: +z x up)
+    za, zb = sorted((z_face, z_face - sgn * 0.05))
+    b.box((-pw / 2, y0, za), (pw / 2, y0 + ph, zb), white)
+    zo, zi = z_face + sgn * 0.0015, z_face - sgn * 0.001
+    zlo, zhi = min(zo, zi), max(zo, zi)
+    ux0 = -pw / 2 + 0.005
+    xa, xb = sorted((right * ux0, right * (ux0 + 0.04)))
+    b.box((xa, y0 + 0.005, zlo), (xb, y0 + ph - 0.005, zhi), blue)
+    gw, gh, st = GLYPH_M
+    n = int(rd.integers(6, 9))
+    gaps = sorted(rd.choice(np.arange(1, n), size=2, replace=False))
+    u, v0 = ux0 + 0.055, y0 + (ph - gh) / 2
+    for k in range(n):
+        if k in gaps:
+            u += 0.02
+        seg = GLYPHS[int(rd.integers(len(GLYPHS)))]
+        boxes = {0: (0, gh - st, gw, gh), 1: (gw - st, gh / 2, gw, gh), 2: (gw - st, 0, gw, gh / 2), 3: (0, 0, gw, st),
+                 4: (0, 0, st, gh / 2), 5: (0, gh / 2, st, gh), 6: (0, (gh - st) / 2, gw, (gh + st) / 2)}
+        for s, on in enumerate(seg):
+            if on == "1":
+                a0, b0, a1, b1 = boxes[s]
+                xa, xb = sorted((right * (u + a0), right * (u + a1)))
+                b.box((xa, v0 + b0, zlo), (xb, v0 + b1, zhi), ink)
+        u += gw + 0.009
+        if u + gw > pw / 2 - 0.005:
+            break
+
+
+def _lamps_plates_badges(b, rd, W, L, hw_end, front_y, rear_y, clear, head):
+    """Tail lamps (red facets; a clear reversing block and an amber indicator row on some cars),
+    headlamps (clear facets, amber at the outer end; all library ``vehicle_lamp``), both plates
+    with their characters, a chrome badge at each end and red reflectors in the rear bumper."""
+    red, amber = b.surface("vehicle_lamp", LAMP_RED), b.surface("vehicle_lamp", LAMP_AMBER)
+    lens = b.surface("vehicle_lamp", LAMP_CLEAR)
+    white, ink = b.surface("plastic", PLATE_WHITE), b.surface("plastic", PLATE_INK)
+    blue = b.surface("plastic", PLATE_BLUE)
+    lw, lh = rd.uniform(0.4, 0.55), rd.uniform(0.13, 0.22)     # along the outline, round the corner
+    reverse_inner = rd.random() < 0.6                  # the reversing lamp: the lamp's inner block
+    amber_top = rd.random() < 0.35                     # the indicator: the lamp's top row
+    hlw, hlh = rd.uniform(0.35, 0.5), rd.uniform(0.1, 0.16)
+
+    def tail_cell(i, j, nx, ny):
+        if reverse_inner and i < max(1, nx // 4) and j < ny - 1:
+            return lens
+        return amber if amber_top and j == ny - 1 else red
+
+    def head_cell(i, j, nx, ny):
+        return amber if i >= nx - 2 else lens
+
+    for sx in (-1, 1):
+        _lamp(b, rd, 0.0, lw, rear_y + 0.01 - lh, rear_y + 0.01, W, L, True, sx, tail_cell)
+        _lamp(b, rd, 0.04, 0.04 + hlw, front_y + 0.02 - hlh, front_y + 0.02, W, L, False, sx, head_cell)
+        x0, x1 = sorted((sx * (hw_end - 0.1), sx * (hw_end - 0.2)))    # rear bumper reflectors
+        b.box((x0, clear + 0.09, -L / 2 - 0.014), (x1, clear + 0.12, -L / 2 - 0.004), red)
+    z_end = L / 2 - 0.02
+    _plate(b, rd, clear + 0.2, z_end + 0.012, False, white, ink, blue)
+    _plate(b, rd, rear_y - 0.2, -z_end - 0.012, True, white, ink, blue)
+    T = pose(rot_x(90), (0.0, rear_y - 0.04, -z_end))                  # badges: discs facing out
+    b.cylinder(0.04, -0.006, 0.006, 16, head, T=T)
+    b.cylinder(0.04, -0.006, 0.006, 16, head, T=pose(rot_x(90), (0.0, front_y - 0.12, z_end + 0.012)))
+
 
 def _smoothstep(x):
     x = np.clip(x, 0.0, 1.0)
@@ -20,13 +159,11 @@ def _smoothstep(x):
 def generate(size, seed: int) -> MeshData:
     rng, W, H, L, b = start(size, seed)
     paint = b.surface("car_paint", pick(rng, palette.CAR_PAINT))
-    glass = b.surface("glass_window")
+    glass = b.surface("glass_window", CABIN)
     trim = b.surface("plastic", (0.03, 0.03, 0.03))
     tyre = b.surface("rubber")
     rim = b.surface("metal_brushed", None if rng.random() < 0.7 else (0.08, 0.08, 0.08))
     head = b.surface("chrome")
-    tail = b.surface("plastic", (0.35, 0.01, 0.01))
-    plate = b.surface("plastic", (0.75, 0.75, 0.72))
 
     style = rng.choice(["hatch", "sedan", "estate"], p=[0.45, 0.3, 0.25])
     rw = float(np.clip(0.1 * L * rng.uniform(0.68, 0.76), 0.29, 0.36))      # wheel radius
@@ -93,19 +230,25 @@ def generate(size, seed: int) -> MeshData:
     z_b = 0.5 * (z_ws + z_rr) + 0.1                                            # B pillar
     side_glass = lambda z: (z_rr - (0.25 if style == "sedan" else 0.12) < z < z_ws - 0.08  # noqa: E731
                             and abs(z - z_b) > 0.06)
+    def flank(z):
+        """The right flank's section at z, sill to belt line: (x, y) points (the loop's lower part)."""
+        hw, yt, yb = half_w(z), top_y(z), bottom_y(z)
+        yl = min(max(belt_y, yb + 0.1), yt - 0.02)                                   # belt line
+        y_side = np.clip([yb + 0.05, 0.5 * (yb + yl), yl - 0.08], yb + 0.01, yl - 0.01)
+        return [(hw - 0.07, yb), (hw - 0.01, y_side[0]), (hw, y_side[1]), (hw - 0.005, y_side[2]), (hw - 0.02, yl)]
+
     loops, bands = [], []
     tumble = rng.uniform(0.1, 0.16)
     for z in zs:
         hw, yt, yb = half_w(z), top_y(z), bottom_y(z)
         g = _smoothstep((z_ws - z) / 0.15) * _smoothstep((z - z_boot) / 0.15) if style != "estate" else \
             _smoothstep((z_ws - z) / 0.15) * _smoothstep((z - z_boot + 0.1) / 0.1)
-        yl = min(max(belt_y, yb + 0.1), yt - 0.02)                                   # belt line
-        y_side = np.clip([yb + 0.05, 0.5 * (yb + yl), yl - 0.08], yb + 0.01, yl - 0.01)
+        lower = flank(z)
+        yl = lower[-1][1]
         hg = hw - tumble
         r_top = (1 - g) * (hw - 0.05) + g * (hg + 0.02)
         y_top_side = (1 - g) * (yt - 0.015) + g * (yt - 0.06)
-        right = [(hw - 0.07, yb), (hw - 0.01, y_side[0]), (hw, y_side[1]), (hw - 0.005, y_side[2]),
-                 (hw - 0.02, yl), (r_top, max(y_top_side, yl + 0.005)), (0.55 * r_top, yt + 0.004)]
+        right = lower + [(r_top, max(y_top_side, yl + 0.005)), (0.55 * r_top, yt + 0.004)]
         loop = [(0.0, yb)] + right + [(0.0, yt + 0.01)] + [(-x, y) for x, y in right[::-1]]
         loops.append([(x, y, z) for x, y in loop])
         # band surfaces (between points j and j+1 of this loop and the next), decided at the band's middle later
@@ -129,20 +272,38 @@ def generate(size, seed: int) -> MeshData:
     hw_end = half_w(L / 2 - 0.1)
     for zc, zz in ((L / 2 - 0.12, 0.26), (-L / 2 + 0.1, 0.22)):
         b.box((-hw_end + 0.02, clear + 0.06, zc - zz / 2), (hw_end - 0.02, clear + 0.16, zc + zz / 2 + 0.015), trim)
-    # lamps, grille, plates
+    # lamps, grille, plates, badges (the rear's fine detail: _rear_and_front_detail)
+    rd = np.random.default_rng([seed, 16])           # the details' own stream: the body's draws stay
     z_front = L / 2 - 0.02
-    for sx in (-1, 1):
-        x0, x1 = sorted((sx * (hw_end - 0.08), sx * (hw_end - 0.38)))
-        b.box((x0, front_y - 0.01, z_front - 0.12), (x1, front_y + 0.09, z_front + 0.003), head)
-        b.box((x0, rear_y - 0.02, -z_front - 0.003), (x1, rear_y + 0.1, -z_front + 0.1), tail)
+    _lamps_plates_badges(b, rd, W, L, hw_end, front_y, rear_y, clear, head)
     b.box((-0.3, front_y - 0.2, z_front - 0.1), (0.3, front_y - 0.04, z_front + 0.004), trim)
-    b.box((-0.26, clear + 0.2, z_front - 0.05), (0.26, clear + 0.31, z_front + 0.012), plate)
-    b.box((-0.26, rear_y - 0.2, -z_front - 0.012), (0.26, rear_y - 0.09, -z_front + 0.05), plate)
-    # mirrors at the base of the A pillars
+    for y in (front_y - 0.16, front_y - 0.09):        # grille bars
+        b.box((-0.29, y, z_front + 0.004), (0.29, y + 0.012, z_front + 0.012), head)
+    # mirrors at the base of the A pillars, their glass facing back
     for sx in (-1, 1):
         x_in = sx * (half_w(z_ws - 0.1) - 0.02)
         x0, x1 = sorted((x_in, x_in + sx * 0.2))
         b.box((x0, belt_y + 0.03, z_ws - 0.22), (x1, belt_y + 0.15, z_ws - 0.12), paint)
+        g0, g1 = sorted((x_in + sx * 0.015, x_in + sx * 0.185))
+        b.box((g0, belt_y + 0.04, z_ws - 0.226), (g1, belt_y + 0.14, z_ws - 0.218), head)
+    # door shut lines (dark gaps) and handles on both flanks, following the flank's section
+    doors = [z_ws - 0.06, z_b] + ([z_wr + ra + 0.08] if style != "hatch" else [])
+    handles = [z_b - 0.25] + ([z_wr + ra + 0.3] if style != "hatch" else [])
+    handle = trim if rd.random() < 0.6 else head
+    for zc in doors:
+        pts = [(x, y) for x, y in flank(zc)[1:]]
+        for sx in (-1, 1):
+            for (x0, y0), (x1, y1) in zip(pts[:-1], pts[1:]):
+                if y1 - y0 < 1e-3:
+                    continue
+                b.oriented_box((sx * (x0 + 0.003), y0, zc - 0.003), (sx * (x1 - x0), y1 - y0, 0.0),
+                               (-sx * 0.015, 0.0, 0.0), (0.0, 0.0, 0.006), trim)
+    for zc in handles:
+        pts = np.array(flank(zc))
+        x = float(np.interp(belt_y - 0.09, pts[:, 1], pts[:, 0]))
+        for sx in (-1, 1):
+            x0, x1 = sorted((sx * (x - 0.006), sx * (x + 0.014)))
+            b.box((x0, belt_y - 0.105, zc - 0.09), (x1, belt_y - 0.075, zc + 0.09), handle)
     # wheels: tyre (revolved, rounded shoulders), rim disc, hub
     tw = 0.2 + 0.02 * rng.random()
     prof = [(0, -tw / 2), (rw * 0.62, -tw / 2), (rw * 0.9, -tw / 2 + 0.005), (rw - 0.012, -tw / 2 + 0.025),
