@@ -287,11 +287,16 @@ MAPS_KEPT = 1024     # irradiance maps kept in the cache (~30 KB each: the hall 
 
 
 @functools.lru_cache(maxsize=1)
-def _code_version() -> str:
+def _code_version() -> str | None:
+    """A hash of ``_SOURCES`` and numpy's version; None where the sources cannot be read (a
+    package without its .py files): then the maps are not cached."""
     root = Path(__file__).resolve().parents[1]
     h = hashlib.sha256(np.__version__.encode())
-    for name in _SOURCES:
-        h.update(name.encode() + b"\0" + (root / name).read_bytes())
+    try:
+        for name in _SOURCES:
+            h.update(name.encode() + b"\0" + (root / name).read_bytes())
+    except OSError:
+        return None
     return h.hexdigest()[:16]
 
 
@@ -317,7 +322,7 @@ def _cached_map(key, make, shape) -> np.ndarray:
     """``make()`` (an irradiance map of ``shape``), kept in the asset cache under ``key``."""
     def valid(a: np.ndarray) -> bool:
         return a.shape == shape and a.dtype == np.float64 and bool(np.isfinite(a).all())
-    if cache.folder() is None:
+    if cache.folder() is None or _code_version() is None:
         return make()
     return cache.cached_array("glow", key(), make, valid, keep=MAPS_KEPT)
 
