@@ -105,7 +105,7 @@ class _Triangles:
     the world, read from a mesh once however many instances share it."""
 
     def __init__(self, depsgraph):
-        self.items, self.meshes = [], {}
+        self.items, self.meshes, self.placed = [], {}, {}
         for inst in depsgraph.object_instances:
             ob = inst.object
             if ob.type != "MESH":
@@ -125,14 +125,16 @@ class _Triangles:
             original, mesh, M = self.items[k][:3]
             if original in skip:
                 continue
-            if mesh.name not in self.meshes:
-                mesh.calc_loop_triangles()
-                co = np.empty(3 * len(mesh.vertices))
-                mesh.vertices.foreach_get("co", co)
-                idx = np.empty(3 * len(mesh.loop_triangles), dtype=np.int64)
-                mesh.loop_triangles.foreach_get("vertices", idx)
-                self.meshes[mesh.name] = co.reshape(-1, 3)[idx.reshape(-1, 3)]
-            tris.append(self.meshes[mesh.name] @ M[:3, :3].T + M[:3, 3])
+            if k not in self.placed:             # a pane's two point sets reach the same ones
+                if mesh.name not in self.meshes:
+                    mesh.calc_loop_triangles()
+                    co = np.empty(3 * len(mesh.vertices))
+                    mesh.vertices.foreach_get("co", co)
+                    idx = np.empty(3 * len(mesh.loop_triangles), dtype=np.int64)
+                    mesh.loop_triangles.foreach_get("vertices", idx)
+                    self.meshes[mesh.name] = co.reshape(-1, 3)[idx.reshape(-1, 3)]
+                self.placed[k] = self.meshes[mesh.name] @ M[:3, :3].T + M[:3, 3]
+            tris.append(self.placed[k])
         return np.concatenate(tris) if tris else np.zeros((0, 3, 3))
 
 
