@@ -177,3 +177,21 @@ def test_a_warm_build_reads_the_maps_a_changed_input_computes_them(tmp_path, mon
     moved = _glow_maps(SCENE.format(el=70, beam=0.45))
     assert len(made) == 4 and not np.array_equal(moved[7][1], cold[7][1])
     assert len(list((tmp_path / "cache" / "glow").glob("*.npy"))) == 3
+
+
+@needs("bpy")
+def test_without_its_sources_a_map_is_not_cached(tmp_path, monkeypatch):
+    """The key hashes glazing's code: where its sources cannot be read (a package of bytecode
+    only), the maps are computed every build, never read under a key that cannot see a change."""
+    from blender_sesgen.blender import glazing
+    from blender_sesgen.scene.assets import cache
+    monkeypatch.setenv(cache.ENV, str(tmp_path))
+    monkeypatch.setattr(glazing, "_SOURCES", glazing._SOURCES + ("blender/no_such_module.py",))
+    glazing._code_version.cache_clear()
+    try:
+        made = []
+        for _ in range(2):
+            glazing._cached_map(lambda: ["key"], lambda: made.append(1) or np.ones((1, 1, 3)), (1, 1, 3))
+        assert len(made) == 2 and not (tmp_path / "glow").exists()
+    finally:
+        glazing._code_version.cache_clear()

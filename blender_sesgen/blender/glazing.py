@@ -105,7 +105,7 @@ class _Triangles:
     the world, read from a mesh once however many instances share it."""
 
     def __init__(self, depsgraph):
-        self.items, self.meshes = [], {}
+        self.items, self.meshes, self.placed = [], {}, {}
         for inst in depsgraph.object_instances:
             ob = inst.object
             if ob.type != "MESH":
@@ -125,14 +125,16 @@ class _Triangles:
             original, mesh, M = self.items[k][:3]
             if original in skip:
                 continue
-            if mesh.name not in self.meshes:
-                mesh.calc_loop_triangles()
-                co = np.empty(3 * len(mesh.vertices))
-                mesh.vertices.foreach_get("co", co)
-                idx = np.empty(3 * len(mesh.loop_triangles), dtype=np.int64)
-                mesh.loop_triangles.foreach_get("vertices", idx)
-                self.meshes[mesh.name] = co.reshape(-1, 3)[idx.reshape(-1, 3)]
-            tris.append(self.meshes[mesh.name] @ M[:3, :3].T + M[:3, 3])
+            if k not in self.placed:             # a pane's two point sets reach the same ones
+                if mesh.name not in self.meshes:
+                    mesh.calc_loop_triangles()
+                    co = np.empty(3 * len(mesh.vertices))
+                    mesh.vertices.foreach_get("co", co)
+                    idx = np.empty(3 * len(mesh.loop_triangles), dtype=np.int64)
+                    mesh.loop_triangles.foreach_get("vertices", idx)
+                    self.meshes[mesh.name] = co.reshape(-1, 3)[idx.reshape(-1, 3)]
+                self.placed[k] = self.meshes[mesh.name] @ M[:3, :3].T + M[:3, 3]
+            tris.append(self.placed[k])
         return np.concatenate(tris) if tris else np.zeros((0, 3, 3))
 
 
@@ -287,11 +289,16 @@ MAPS_KEPT = 1024     # irradiance maps kept in the cache (~30 KB each: the hall 
 
 
 @functools.lru_cache(maxsize=1)
-def _code_version() -> str:
+def _code_version() -> str | None:
+    """A hash of ``_SOURCES`` and numpy's version; None where the sources cannot be read (a
+    package without its .py files): then the maps are not cached."""
     root = Path(__file__).resolve().parents[1]
     h = hashlib.sha256(np.__version__.encode())
-    for name in _SOURCES:
-        h.update(name.encode() + b"\0" + (root / name).read_bytes())
+    try:
+        for name in _SOURCES:
+            h.update(name.encode() + b"\0" + (root / name).read_bytes())
+    except OSError:
+        return None
     return h.hexdigest()[:16]
 
 
@@ -317,7 +324,7 @@ def _cached_map(key, make, shape) -> np.ndarray:
     """``make()`` (an irradiance map of ``shape``), kept in the asset cache under ``key``."""
     def valid(a: np.ndarray) -> bool:
         return a.shape == shape and a.dtype == np.float64 and bool(np.isfinite(a).all())
-    if cache.folder() is None:
+    if cache.folder() is None or _code_version() is None:
         return make()
     return cache.cached_array("glow", key(), make, valid, keep=MAPS_KEPT)
 

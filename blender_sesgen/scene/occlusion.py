@@ -142,7 +142,7 @@ def shading_triangles(tris: np.ndarray, centre: np.ndarray, normal: np.ndarray, 
     ``normal`` from within ``radius`` of it: a corner on its outer side, and their bounding
     sphere (about the corners' mean) reaching into the ball of ``radius``."""
     tris = np.asarray(tris, dtype=float).reshape(-1, 3, 3)
-    ahead = ((tris - centre) @ normal).max(axis=1) > 0
+    tris = tris[((tris - centre) @ normal).max(axis=1) > 0]           # ahead (the walls behind: most)
     mid = tris.mean(axis=1)
     near = np.linalg.norm(mid - centre, axis=1) - np.linalg.norm(tris - mid[:, None], axis=2).max(axis=1) < radius
-    return tris[ahead & near]
+    return tris[near]

@@ -16,7 +16,8 @@ only costs the time. The newest ``KEEP_VERSIONS`` version folders are kept, olde
 removed (delete the folder to reclaim all of it: it is only a cache).
 
 ``cached_array`` keeps other things a render process would compute again (the physical sky's
-table, ``blender/sky.py``) under ``FOLDER/KIND/KEY.npy``, the ``KEEP_ARRAYS`` of a kind used last.
+table, ``blender/sky.py``; the glowing panes' irradiance maps, ``blender/glazing.py``) under
+``FOLDER/KIND/KEY.npy``, the ``KEEP_ARRAYS`` (or the kind's own ``keep``) of a kind used last.
 """
 from __future__ import annotations
 
