@@ -13,7 +13,13 @@ frame. Exposure: metered on the scene (or ``--exposure``), held for every render
 Usage: ``.venv/bin/python bench/quality_unbiased.py [--scene scenes/hall.ses] [--crop 0.25]
 [--ref-samples 1024] [--configs final] [--out DIR]`` (the window and frame as bench/quality.py's;
 ``--out``: the images as DIR/NAME.npz and the rows as DIR/unbiased.json; an existing
-DIR/ref_*.npz of the same settings is reused). Measured in bench/RESULTS.md (session 15)."""
+DIR/ref_*.npz of the same settings is reused, given ``--exposure``). ``--try NAME:base=final,samples=64``:
+configurations of one's own, as bench/quality.py's. Each row has the 90 % block bootstrap of its
+estimate (20-px tiles: the denoiser's errors are correlated over neighbours); with ``--seeds 2``
+also the part of the error a seed changes (own noise: MSE(F0, F1) / 2) and the part it does not;
+``--explain``: the error against the truth by object kind (a ``gt`` render's object index) and
+on the pixels the references show clipped white, and the pass before the denoiser's. Measured
+in bench/RESULTS.md (sessions 15 and 16)."""
 import argparse, json, os, sys
 from dataclasses import replace
 from pathlib import Path
