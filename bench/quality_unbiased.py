@@ -11,10 +11,10 @@ truth), each configuration against the averaged reference as measured, and its C
 frame. Exposure: metered on the scene (or ``--exposure``), held for every render.
 
 Usage: ``.venv/bin/python bench/quality_unbiased.py [--scene scenes/hall.ses] [--crop 0.25]
-[--ref-samples 1024] [--configs final] [--out DIR]`` (the window and frame as bench/quality.py's;
+[--ref-samples 1024] [--configs final] [--try NAME:base=final,samples=64 ...] [--device cpu|gpu] [--explain]
+[--out DIR]`` (the window, frame, ``--try`` and ``--device`` as bench/quality.py's;
 ``--out``: the images as DIR/NAME.npz and the rows as DIR/unbiased.json; an existing
-DIR/ref_*.npz of the same settings is reused, given ``--exposure``). ``--try NAME:base=final,samples=64``:
-configurations of one's own, as bench/quality.py's. Each row has the 90 % block bootstrap of its
+DIR/ref_*.npz of the same settings is reused, given ``--exposure``). Each row has the 90 % block bootstrap of its
 estimate (20-px tiles: the denoiser's errors are correlated over neighbours); with ``--seeds 2``
 also the part of the error a seed changes (own noise: MSE(F0, F1) / 2) and the part it does not;
 ``--explain``: the error against the truth by object kind (a ``gt`` render's object index) and
@@ -83,7 +83,8 @@ def main() -> int:
     p.add_argument("--ref-samples", type=int, default=1024)
     p.add_argument("--configs", nargs="*", default=["final"])
     p.add_argument("--try", dest="tries", nargs="*", default=[], metavar="NAME:key=value,...",
-                   help="extra configurations as bench/quality.py's --try (a preset with settings changed)")
+                   help="more configurations: a preset's settings changed (bench/quality.py --try)")
+    p.add_argument("--device", choices=("cpu", "gpu"), default="cpu", help="Cycles device of every render")
     p.add_argument("--explain", action="store_true",
                    help="where the error against the truth lies (object kinds from a gt render, clipped pixels, "
                         "the pass before the denoiser, the seed-independent share with --seeds 2)")
@@ -91,10 +92,11 @@ def main() -> int:
     p.add_argument("--exposure", type=float, default=None)
     p.add_argument("--out", default=None)
     a = p.parse_args()
+    configs = {}
     for c in a.configs:
-        if c not in qb.PRESETS:
-            p.error(f"--configs {c!r}: one of {', '.join(qb.PRESETS)}")
-    configs = {c: qb.PRESETS[c] for c in a.configs}
+        configs[c] = qb.PRESETS.get(c) or qb.OTHERS.get(c)
+        if configs[c] is None:
+            p.error(f"--configs {c!r}: one of {', '.join([*qb.PRESETS, *qb.OTHERS])}")
     try:
         configs.update(qb.parse_try(t) for t in a.tries)
     except (ValueError, KeyError) as e:
@@ -109,14 +111,15 @@ def main() -> int:
     except (ValueError, AssertionError):
         p.error(f"--crop-centre X,Y, got {a.crop_centre!r}")
     args = argparse.Namespace(scene=a.scene, frame=a.frame, scale=a.scale, crop=a.crop, crop_centre=centre,
-                              views="left", device="cpu")
+                              views="left", device=a.device)
     b = qb.Bench(args)
     b.exposure = a.exposure
     seed0 = b.plan.settings.seed
     out = Path(a.out) if a.out else None
     if out:
         out.mkdir(parents=True, exist_ok=True)
-    print(f"# load {os.getloadavg()[0]:.1f}; {a.scene} frame {a.frame} crop {a.crop} at {centre}", flush=True)
+    print(f"# load {os.getloadavg()[0]:.1f}; {a.scene} frame {a.frame} crop {a.crop} at {centre}, device {a.device}",
+          flush=True)
     rows, refs = {}, []
     for i in range(2):                      # the two references: seeds far from the configurations'
         seed = seed0 + 1000 + i

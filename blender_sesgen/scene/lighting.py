@@ -4,6 +4,7 @@ sky's sun as a lamp, and the default lighting's parameters. The Blender side is
 """
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -146,6 +147,11 @@ def sky_sun_light(world: World) -> Light | None:
 
 def fibonacci_directions(n: int) -> np.ndarray:
     """``n`` unit vectors spread evenly over the sphere (the enclosure test's rays)."""
+    return _fibonacci(n).copy()
+
+
+@functools.lru_cache(maxsize=8)
+def _fibonacci(n: int) -> np.ndarray:
     i = np.arange(n) + 0.5
     y = 1.0 - 2.0 * i / n
     r = np.sqrt(1.0 - y * y)
@@ -191,6 +197,17 @@ def bilinear(image: np.ndarray, x: np.ndarray, y: np.ndarray, wrap_x: bool = Fal
     top = image[y0 + 1, x0] * (1 - ax) + image[y0 + 1, x1] * ax
     bottom = image[y0, x0] * (1 - ax) + image[y0, x1] * ax
     return bottom * (1 - ay) + top * ay
+
+
+def interp_rows(x, xp, fp) -> np.ndarray:
+    """``np.interp(x, xp, f)`` of every row ``f`` of ``fp`` (..., len(xp)) at once, (..., len(x)):
+    the same values bit for bit (its slope, its ends held, its exact knots)."""
+    x, xp, fp = np.asarray(x, dtype=float), np.asarray(xp, dtype=float), np.asarray(fp, dtype=float)
+    j = np.clip(np.searchsorted(xp, x, side="right") - 1, 0, len(xp) - 2)
+    slope = (fp[..., j + 1] - fp[..., j]) / (xp[j + 1] - xp[j])
+    out = np.where(x == xp[j], fp[..., j], slope * (x - xp[j]) + fp[..., j])
+    out = np.where(x < xp[0], fp[..., :1], out)
+    return np.where(x >= xp[-1], fp[..., -1:], out)
 
 
 def hdri_uv(d_blender: np.ndarray, rotation_deg: float) -> tuple[np.ndarray, np.ndarray]:
@@ -276,14 +293,22 @@ def daylight_irradiance(world: World, normal_ses, table: np.ndarray | None = Non
     return E
 
 
+def sky_hemisphere(world: World, normal_ses, table=None, image=None,
+                   n: int = GLOW_SEEN_DIRECTIONS) -> tuple[np.ndarray, np.ndarray]:
+    """(dirs (n, 3), L (n, 3)): ``n`` cosine-distributed SES directions over the hemisphere of
+    ``normal_ses`` and the world's radiance along each (``seen_share``'s)."""
+    dirs = cosine_directions(normal_ses, n)
+    return dirs, world_radiance(world, dirs, table, image)
+
+
 def seen_share(world: World, normal_ses, visible, table=None, image=None,
-               n: int = GLOW_SEEN_DIRECTIONS) -> np.ndarray:
+               n: int = GLOW_SEEN_DIRECTIONS, hemisphere=None) -> np.ndarray:
     """(P, 3): the share of the open sky's irradiance on a face that each of P points on it
     receives, ``visible(dirs)`` (K, P) saying whether a point sees the sky along each of ``n``
     cosine-distributed directions: sum L V / sum L per channel (the open sky's own integral
-    comes from many more directions: an HDRI's sun is a few texels)."""
-    dirs = cosine_directions(normal_ses, n)
-    L = world_radiance(world, dirs, table, image)                     # (K, 3)
+    comes from many more directions: an HDRI's sun is a few texels). ``hemisphere``: this
+    face's ``sky_hemisphere`` where it is known."""
+    dirs, L = sky_hemisphere(world, normal_ses, table, image, n) if hemisphere is None else hemisphere
     V = np.asarray(visible(dirs), dtype=float)                        # (K, P)
     return (V.T @ L) / np.maximum(L.sum(axis=0), 1e-30)
 

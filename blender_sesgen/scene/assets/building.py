@@ -1,7 +1,7 @@
 """Buildings: a closed shell with real window and door openings (reveals, recessed glass,
-frames with mullions, sills), a base band, string courses and a cornice, balconies with
-railings on the front, shop windows on some ground floors, a flat roof with a parapet or
-a pitched tiled roof with gables, a downpipe.
+frames with mullions, sills; roller shutters in six buildings of ten, some lowered), a base
+band, string courses and a cornice, balconies with railings on the front, shop windows on
+some ground floors, a flat roof with a parapet or a pitched tiled roof with gables, a downpipe.
 
 Asset frame: footprint ``size`` = (width along x, height along y, depth along z) centred
 on the origin, ground at y = 0, the front (street) facade facing +z.
@@ -210,6 +210,8 @@ def generate(size, seed: int) -> MeshData:
         T_side = pose(R, origin)
         for o in ops:
             _opening_details(b, o, T_side, frame, sill, mullion, transom)
+    # --- roller shutters: their own random stream, so the rest of the building is unchanged
+    _roller_shutters(b, np.random.default_rng([int(seed) % 2 ** 63, 28]), sides, openings)
     # --- bands: base course, string course over the ground floor, cornice ------------------
     proj = rng.uniform(0.15, 0.35)
     _band(b, W, D, wall_h - cornice_h, wall_h + (0.0 if pitched else 0.25), proj, trim)
@@ -282,6 +284,57 @@ def _opening_details(b, o: Opening, T_side, frame, sill, mullion, transom):
         hu = u1 - 0.15
         b.box((hu - 0.02, 1.0, -r), (hu + 0.02, 1.08, -r + 0.06), frame, T=T_side)
         b.box((u0 - 0.2, -0.02, -0.02), (u1 + 0.2, 0.15, 0.35), sill, T=T_side)
+
+
+# roller shutters (issue 28, session 16), as on KITTI sequence_1's near right houses (frames 0 and
+# 10, full size, ~15-22 m away): 4 of the 9 windows seen have their shutter lowered 0.4-0.75 of the
+# opening, the rest up (a housing and the end bar under the head); the curtain as light as the white
+# render (0.94-0.97 of the wall's signal, the glass below it 0.21-0.50), its slats a +-3-7 % ripple.
+# Residential shutters: PVC or aluminium slats of 37-55 mm ("mini" / "maxi" profiles) in two side
+# rails, a housing of 15-25 cm at the head; most buildings of a German street have them.
+P_SHUTTERS = 0.6                # the share of buildings with roller shutters on their windows
+P_LOWERED = 0.45                # a window's shutter down, by a share of the opening from U(0.25, 1)
+SHUTTER = (((0.74, 0.74, 0.72), 5.0), ((0.58, 0.58, 0.57), 2.5), ((0.36, 0.36, 0.35), 1.5),
+           ((0.10, 0.10, 0.11), 1.0))   # white PVC, light grey, grey, anthracite aluminium
+
+
+def _roller_shutters(b, rng, sides, openings) -> None:
+    """Roller shutters in the windows (not doors or shop fronts) of a building that has them
+    (``P_SHUTTERS``): a housing at the opening's head, two side rails and the curtain lowered from
+    under the housing, its slats a sawtooth profile (the sun draws a shadow line on each)."""
+    if rng.random() >= P_SHUTTERS:
+        return
+    s = b.surface("metal_painted", pick(rng, SHUTTER))
+    pitch = rng.uniform(0.037, 0.055)         # one slat
+    head = rng.uniform(0.15, 0.25)            # the housing's height
+    for (origin, e_u, n, L), ops in zip(sides, openings):
+        T = pose(np.column_stack([e_u, [0, 1.0, 0], n]), origin)
+        for o in ops:
+            if o.kind not in ("window", "french") or o.v1 - o.v0 < head + 0.4:
+                continue
+            lowered = rng.uniform(0.25, 1.0) if rng.random() < P_LOWERED else 0.0
+            _roller_shutter(b, o, T, n, s, pitch, head, lowered)
+
+
+def _roller_shutter(b, o: Opening, T, n, s, pitch, head, lowered) -> None:
+    r = o.recess
+    wc = min(-r + 0.07 + 0.025, -0.03)        # the curtain's face: in front of the frame (-r + 0.07)
+    u0, u1, v0, v1 = o.u0 + 0.001, o.u1 - 0.001, o.v0, o.v1 - 0.001
+    top = v1 - head
+    b.box((u0, top, -r + 0.001), (u1, v1, wc + 0.005), s, T=T)                 # the housing
+    for a, c in ((u0, u0 + 0.035), (u1 - 0.035, u1)):                             # the side rails
+        b.box((a, v0 + 0.001, wc - 0.02), (c, top, wc + 0.01), s, T=T)
+    bottom = top - lowered * (top - v0)
+    if lowered > 0:                           # the curtain: a groove every pitch, the slat's crest between
+        k = max(int(round((top - bottom - 0.05) / pitch)), 1)   # the end bar below the slats
+        vs = np.linspace(top, bottom + 0.05, 2 * k + 1)
+        ws = np.where(np.arange(2 * k + 1) % 2 == 0, wc - 0.008, wc)
+        grid = np.array([[(u, v, w) for u in (u0 + 0.035, u1 - 0.035)] for v, w in zip(vs, ws)])
+        G = grid.reshape(-1, 3) @ np.asarray(T)[:3, :3].T + np.asarray(T)[:3, 3]
+        b.sheet(G.reshape(grid.shape), s, facing=tuple(float(x) for x in n))
+    # the end bar: at the curtain's foot, or under the housing when the shutter is up
+    eb = max(bottom - (0.05 if lowered == 0 else 0.0), v0 + 0.001)
+    b.box((u0 + 0.035, eb, wc - 0.012), (u1 - 0.035, eb + 0.05, wc + 0.004), s, T=T)
 
 
 def _band(b, W, D, y0, y1, proj, s):

@@ -143,10 +143,11 @@ def _prune(root: Path, keep: Path) -> None:
 
 
 def cached_array(kind: str, key, make: Callable[[], np.ndarray],
-                 valid: Callable[[np.ndarray], bool] = lambda a: True) -> np.ndarray:
+                 valid: Callable[[np.ndarray], bool] = lambda a: True, keep: Optional[int] = None) -> np.ndarray:
     """``make()``, kept in the cache under ``kind`` and the JSON of ``key`` (what it depends
     on, versions included): read back when an earlier process wrote it and ``valid`` says it
-    is whole, made (and written) otherwise; always made when the cache is off."""
+    is whole, made (and written) otherwise; always made when the cache is off. The ``keep``
+    (default ``KEEP_ARRAYS``) files of the kind used last stay."""
     root = folder()
     if root is None:
         return make()
@@ -166,7 +167,7 @@ def cached_array(kind: str, key, make: Callable[[], np.ndarray],
         with replacing(path) as tmp:
             np.save(tmp, array)
         kept = sorted((p for p in path.parent.glob("*.npy") if not p.name.startswith(".")), key=lambda p: p.stat().st_mtime, reverse=True)
-        for old in kept[KEEP_ARRAYS:]:
+        for old in kept[KEEP_ARRAYS if keep is None else keep:]:
             old.unlink(missing_ok=True)
     except OSError:
         pass   # a read-only or full disk: only the cache is lost
