@@ -46,8 +46,8 @@ def test_bspline_interpolation_equals_scipys_cubic_spline():
 
 def test_reprojecting_a_frame_wakes_no_blas_threads(monkeypatch):
     """A held frame's reprojection calls no BLAS product (issue 29): a dot of 40 x >= 231
-    values is threaded by OpenBLAS, whose threads then spin ~0.1 s for more work, so the
-    hall's still frames cost ~11 CPU s a stereo frame on 16 cores (session 16's GPU run) and
+    values is threaded by OpenBLAS, whose threads then spin ~0.1 s for more work (by that
+    reckoning the hall's +11 CPU s a stereo frame on 16 cores in session 16's GPU run), and
     the values could depend on the machine's core count. The map of a 480 x 752 image (the
     hall's full size, rows and columns both past OpenBLAS's threshold) with numpy's products
     forbidden, against scipy's cubic spline."""

@@ -137,8 +137,8 @@ def _prefilter_1d(s: np.ndarray) -> np.ndarray:
     # the causal start sum_i z^i s[i] by Horner's rule, elementwise: a BLAS dot here (the
     # tensordot this was) woke every core's BLAS thread for each image row and column of a
     # still frame (OpenBLAS threads a dot of 40 x >= 231 values), which then spin ~0.1 s
-    # waiting for more: ~11 CPU s a stereo frame on 16 cores (issue 29); and its result may
-    # depend on how the BLAS splits the work, i.e. on the machine's core count
+    # waiting for more (issue 29: the hall's +11 CPU s a stereo frame on 16 cores since session
+    # 14, by that reckoning); and its result could depend on how the BLAS splits the work
     c0 = s[horizon - 1].copy()
     for i in range(horizon - 2, -1, -1):
         c0 = s[i] + z * c0
