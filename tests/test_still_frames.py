@@ -43,6 +43,30 @@ def test_bspline_interpolation_equals_scipys_cubic_spline():
     assert np.abs(ours - nd.map_coordinates(img, [y, x], order=3, mode="mirror")).max() < 1e-12
 
 
+
+def test_reprojecting_a_frame_wakes_no_blas_threads(monkeypatch):
+    """A held frame's reprojection calls no BLAS product (issue 29): a dot of 40 x >= 231
+    values is threaded by OpenBLAS, whose threads then spin ~0.1 s for more work (by that
+    reckoning the hall's +11 CPU s a stereo frame on 16 cores in session 16's GPU run), and
+    the values could depend on the machine's core count. The map of a 480 x 752 image (the
+    hall's full size, rows and columns both past OpenBLAS's threshold) with numpy's products
+    forbidden, against scipy's cubic spline."""
+    nd = pytest.importorskip("scipy.ndimage")
+    rng = np.random.default_rng(4)
+    img = rng.random((480, 752))
+    want = nd.spline_filter(img, order=3, mode="mirror")
+
+    def forbidden(*a, **k):
+        raise AssertionError("a BLAS product in the still frames' reprojection")
+    for name in ("dot", "tensordot", "inner", "vdot", "einsum", "matmul"):
+        monkeypatch.setattr(np, name, forbidden)
+    y, x = np.mgrid[0:480, 0:752].astype(float)
+    taps = still._taps(np.clip(x + 0.3, 0, 751), np.clip(y - 0.2, 0, 479), img.shape)
+    coeffs = still.bspline_coefficients(img)
+    still._evaluate(coeffs, taps)
+    monkeypatch.undo()
+    assert np.abs(coeffs - want).max() < 1e-12
+
 def test_still_stretches_follow_the_centres_the_turns_and_the_world():
     """Frames join their stretch's first frame while every view's centre stays within 0.1 mm
     and its turn moves no image corner by more than 2 px; a moved centre, a large turn or a

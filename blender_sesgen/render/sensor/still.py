@@ -134,7 +134,15 @@ def _prefilter_1d(s: np.ndarray) -> np.ndarray:
         return s.copy()
     c = np.empty_like(s)
     horizon = min(n, 40)                                        # z^40 ~ 1e-23
-    c[0] = np.tensordot(z ** np.arange(horizon), s[:horizon], axes=1)
+    # the causal start sum_i z^i s[i] by Horner's rule, elementwise: a BLAS dot here (the
+    # tensordot this was) woke every core's BLAS thread for each image row and column of a
+    # still frame (OpenBLAS threads a dot of 40 x >= 231 values), which then spin ~0.1 s
+    # waiting for more (issue 29: the hall's +11 CPU s a stereo frame on 16 cores since session
+    # 14, by that reckoning); and its result could depend on how the BLAS splits the work
+    c0 = s[horizon - 1].copy()
+    for i in range(horizon - 2, -1, -1):
+        c0 = s[i] + z * c0
+    c[0] = c0
     for i in range(1, n):
         c[i] = s[i] + z * c[i - 1]
     c[n - 1] = (z / (z * z - 1.0)) * (c[n - 1] + z * c[n - 2])
