@@ -42,7 +42,8 @@ def _kinds() -> dict[str, Kind]:
     from . import building, indoor, industrial, nature, street, street_detail, flight_arena, vegetation, vehicle
     table = [
         Kind("building", "outdoor", "building",
-             "block with real window/door openings, frames, sills, balconies, cornice, flat or gable roof",
+             "block with real window/door openings, frames, sills, roller shutters (6 in 10 buildings; some "
+             "lowered), balconies, cornice, flat or gable roof",
              ((12, 26), (9, 20), (9, 16)), "width, height (to the ridge), depth", building.generate, overhang=3.0),
         Kind("car", "street", "car", "hatchback, saloon or estate: lofted body, glass, wheels in arches, "
              "faceted lamps, plates with characters, mirrors, door lines",

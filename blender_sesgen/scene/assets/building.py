@@ -316,6 +316,9 @@ def _roller_shutters(b, rng, sides, openings) -> None:
             _roller_shutter(b, o, T, n, s, pitch, head, lowered)
 
 
+_VUW = np.array([[0.0, 1.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, -1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
+
+
 def _roller_shutter(b, o: Opening, T, n, s, pitch, head, lowered) -> None:
     r = o.recess
     wc = min(-r + 0.07 + 0.025, -0.03)        # the curtain's face: in front of the frame (-r + 0.07)
@@ -329,9 +332,10 @@ def _roller_shutter(b, o: Opening, T, n, s, pitch, head, lowered) -> None:
         k = max(int(round((top - bottom - 0.05) / pitch)), 1)   # the end bar below the slats
         vs = np.linspace(top, bottom + 0.05, 2 * k + 1)
         ws = np.where(np.arange(2 * k + 1) % 2 == 0, wc - 0.008, wc)
-        grid = np.array([[(u, v, w) for u in (u0 + 0.035, u1 - 0.035)] for v, w in zip(vs, ws)])
-        G = grid.reshape(-1, 3) @ np.asarray(T)[:3, :3].T + np.asarray(T)[:3, 3]
-        b.sheet(G.reshape(grid.shape), s, facing=tuple(float(x) for x in n))
+        # a closed slab (the kind is closed): the slats' profile in (v, w) with a flat back 2 cm
+        # behind, swept across the opening; the prism's (x, y, z) are the side's (v, u, -w)
+        profile = np.concatenate([np.column_stack([vs, -ws]), [(bottom + 0.05, -(wc - 0.02)), (top, -(wc - 0.02))]])
+        b.prism(profile, u0 + 0.035, u1 - 0.035, s, T=np.asarray(T) @ _VUW)
     # the end bar: at the curtain's foot, or under the housing when the shutter is up
     eb = max(bottom - (0.05 if lowered == 0 else 0.0), v0 + 0.001)
     b.box((u0 + 0.035, eb, wc - 0.012), (u1 - 0.035, eb + 0.05, wc + 0.004), s, T=T)
