@@ -76,7 +76,7 @@ def test_a_lowered_shutter_covers_its_share_of_the_opening_with_slats_of_a_real_
     for pitch in (0.037, 0.055):
         b = MeshBuilder()
         s = b.surface("metal_painted", SHUTTER[0][0])
-        _roller_shutter(b, o, np.eye(4), (0.0, 0.0, 1.0), s, pitch, 0.2, 0.6)
+        _roller_shutter(b, o, np.eye(4), s, pitch, 0.2, 0.6)
         d = b.build()
         V = d.vertices
         top = o.v1 - 0.001 - 0.2
@@ -96,7 +96,7 @@ def test_a_lowered_shutter_covers_its_share_of_the_opening_with_slats_of_a_real_
         assert abs(depth - 0.008) < 1e-6, depth
     b = MeshBuilder()
     s = b.surface("metal_painted", SHUTTER[0][0])
-    _roller_shutter(b, o, np.eye(4), (0.0, 0.0, 1.0), s, 0.05, 0.2, 0.0)
+    _roller_shutter(b, o, np.eye(4), s, 0.05, 0.2, 0.0)
     V = b.build().vertices
     above = V[~np.isclose(V[:, 1], o.v0 + 0.001)]                # all but the rails' feet at the sill
     assert above[:, 1].min() >= o.v1 - 0.001 - 0.2 - 0.05 - 1e-6  # the housing and the end bar under it
@@ -108,7 +108,7 @@ def test_over_many_buildings_shutters_are_drawn_as_kitti_shows_them(monkeypatch)
     of the opening. KITTI sequence_1's near right houses (frames 0 and 10): 4 of 9 windows lowered,
     by 0.4-0.75 — inside the draw's 90 % range for nine windows, and the shares in its range."""
     got = []
-    monkeypatch.setattr(building, "_roller_shutter", lambda b, o, T, n, s, pitch, head, lowered:
+    monkeypatch.setattr(building, "_roller_shutter", lambda b, o, T, s, pitch, head, lowered:
                         got.append((o.kind, lowered, pitch, head)))
     with_shutters = 0
     for seed in range(300):

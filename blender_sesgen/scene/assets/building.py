@@ -313,13 +313,13 @@ def _roller_shutters(b, rng, sides, openings) -> None:
             if o.kind not in ("window", "french") or o.v1 - o.v0 < head + 0.4:
                 continue
             lowered = rng.uniform(0.25, 1.0) if rng.random() < P_LOWERED else 0.0
-            _roller_shutter(b, o, T, n, s, pitch, head, lowered)
+            _roller_shutter(b, o, T, s, pitch, head, lowered)
 
 
 _VUW = np.array([[0.0, 1.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, -1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
 
 
-def _roller_shutter(b, o: Opening, T, n, s, pitch, head, lowered) -> None:
+def _roller_shutter(b, o: Opening, T, s, pitch, head, lowered) -> None:
     r = o.recess
     wc = min(-r + 0.07 + 0.025, -0.03)        # the curtain's face: in front of the frame (-r + 0.07)
     u0, u1, v0, v1 = o.u0 + 0.001, o.u1 - 0.001, o.v0, o.v1 - 0.001
