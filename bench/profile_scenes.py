@@ -75,6 +75,7 @@ import os
 import re
 import resource
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -500,16 +501,20 @@ def main(argv=None) -> int:
         raise SystemExit(f"unknown feature(s): {', '.join(sorted(unknown))}")
     print(f"# profile: {', '.join(a.scenes)}; quality {a.quality}{f' at {a.samples} samples' if a.samples else ''}, "
           f"scale {a.scale}, {a.frames} frames; {os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f}", flush=True)
+    # A kill (SIGTERM) unwinds like Ctrl-C, so the `finally` below removes the base's worktree: a
+    # killed run must not leave it registered in the user's repository (killed during `git worktree
+    # add`, it is locked "initializing", perhaps without its .git file: unlock, remove, prune).
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(128 + signal.SIGTERM))
     worktree = None
-    if a.base:
-        worktree = Path(tempfile.mkdtemp(prefix="sesgen-profile-base-")) / "src"
-        subprocess.run(["git", "worktree", "add", "--detach", str(worktree), a.base], cwd=REPO, check=True,
-                       capture_output=True)
     results, pairs = [], {}
     if a.asset_cache == "warm":
         a.cache_folder = tempfile.mkdtemp(prefix="sesgen-profile-cache-")
     print(f"# asset cache: {a.asset_cache}; bytecode: {a.bytecode}", flush=True)
     try:
+        if a.base:
+            worktree = Path(tempfile.mkdtemp(prefix="sesgen-profile-base-")) / "src"
+            subprocess.run(["git", "worktree", "add", "--detach", str(worktree), a.base], cwd=REPO, check=True,
+                           capture_output=True)
         for root in (r for r in (worktree, REPO) if r is not None):
             bytecode(root / "blender_sesgen", a.bytecode == "compiled")
         for name in a.scenes:
@@ -554,7 +559,10 @@ def main(argv=None) -> int:
                     print(f"{label} -{f}: {r['per_frame']['frame']:.1f} CPU s per stereo frame", flush=True)
     finally:
         if worktree is not None:
-            subprocess.run(["git", "worktree", "remove", "--force", str(worktree)], cwd=REPO, capture_output=True)
+            for git in (["unlock"], ["remove", "--force", "--force"]):
+                subprocess.run(["git", "worktree", *git, str(worktree)], cwd=REPO, capture_output=True)
+            shutil.rmtree(worktree.parent, ignore_errors=True)
+            subprocess.run(["git", "worktree", "prune"], cwd=REPO, capture_output=True)
         if a.cache_folder:
             shutil.rmtree(a.cache_folder, ignore_errors=True)
     print_build(results)
