@@ -157,8 +157,9 @@ def tree(size, seed: int) -> MeshData:
 # that sequence's upper-right ORB keypoints lie): a leader to the top, laterals every 0.2-0.35 m
 # from the clear stem up, each with twigs, leaves 4-8 cm (a street tree's are 9-15 cm) in sprays
 # ~0.35 m apart along the twigs.
-GARDEN_TREE_SPRAY_M = 0.35     # sprays along a twig
-GARDEN_TREE_LEAF_M = (0.04, 0.08)
+GARDEN_TREE_SPRAY_M = 0.3      # sprays along a twig ...
+GARDEN_TREE_SPRAY_R = 0.07     # ... their leaf bunches around their centre (standard deviation)
+GARDEN_TREE_LEAF_M = (0.05, 0.08)
 
 
 def garden_tree(size, seed: int) -> MeshData:
@@ -201,17 +202,17 @@ def garden_tree(size, seed: int) -> MeshData:
         t0 = 0.85 if level == 0 else 0.35 if level == 1 else 0.1
         if level == 0 and pts[-1, 1] < H - 0.5:
             continue
-        m = max(int(tot * (1 - t0) / 0.04), 2)          # leaf bunches: one per 4 cm of twig
+        m = max(int(tot * (1 - t0) / 0.025), 2)         # leaf bunches: one per 2.5 cm of twig
         n_spray = max(int(tot * (1 - t0) / GARDEN_TREE_SPRAY_M), 1)
         t = np.sort(rng.uniform(t0, 1.0, n_spray))
         cum = np.concatenate([[0], np.cumsum(seg_len)]) / tot
         c = np.stack([np.interp(t, cum, pts[:, i]) for i in range(3)], axis=1)
-        q = c[rng.integers(n_spray, size=m)] + rng.normal(size=(m, 3)) * 0.06
+        q = c[rng.integers(n_spray, size=m)] + rng.normal(size=(m, 3)) * GARDEN_TREE_SPRAY_R
         leaf_pts.append(q)
         leaf_out.append(q - crown_c)
     P, O = np.concatenate(leaf_pts), np.concatenate(leaf_out)
-    reps = int(rng.integers(4, 7))
-    jitter = rng.normal(size=(len(P) * reps, 3)) * 0.035
+    reps = int(rng.integers(5, 8))
+    jitter = rng.normal(size=(len(P) * reps, 3)) * 0.04
     pts = np.repeat(P, reps, axis=0) + jitter
     inside = np.sum(((pts - crown_c) / (crown_r + 0.1)) ** 2, axis=1) <= 1.0
     pts, out = pts[inside], (np.repeat(O, reps, axis=0) + jitter * 4)[inside]
