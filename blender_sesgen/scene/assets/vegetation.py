@@ -154,11 +154,12 @@ def tree(size, seed: int) -> MeshData:
 # (full-size SGBM, frames 0-18: clusters every ~12 m 7.3-9 m right of the camera, 4.5-6 m tall,
 # their crowns from ~1.5-2.5 m up; the images: a slim stem, short ascending laterals all the way
 # up the leader, small leaves in loose sprays with the white wall showing between them - where
-# that sequence's upper-right ORB keypoints lie): a leader to the top, laterals every 0.2-0.35 m
-# from the clear stem up, each with twigs, leaves 4-8 cm (a street tree's are 9-15 cm) in sprays
-# ~0.35 m apart along the twigs.
-GARDEN_TREE_SPRAY_M = 0.3      # sprays along a twig ...
-GARDEN_TREE_SPRAY_R = 0.07     # ... their leaf bunches around their centre (standard deviation)
+# that sequence's upper-right ORB keypoints lie): a leader to the top, laterals every 0.3-0.5 m
+# from the clear stem up, each with twigs, leaves 5-8 cm (a street tree's are 9-15 cm) in sprays
+# ~0.45 m apart along the twigs: 22-34 % of the crown's outline open seen from the side (seeds
+# 0-3; the street trees' crowns in KITTI: 25-35 %, tests/test_assets.py).
+GARDEN_TREE_SPRAY_M = 0.45     # sprays along a twig ...
+GARDEN_TREE_SPRAY_R = 0.05     # ... their leaf bunches around their centre (standard deviation)
 GARDEN_TREE_LEAF_M = (0.05, 0.08)
 
 
@@ -193,7 +194,7 @@ def garden_tree(size, seed: int) -> MeshData:
             length = radius * reach * rng.uniform(0.8, 1.1) / np.sin(ang)
             rad = max(r0 * (1 - y / H) * 0.6, 0.006)
             sk.grow(q, d, length, rad, 1, 3, (0, 3, 2), segs=4, up=0.1)
-        y += rng.uniform(0.2, 0.35)
+        y += rng.uniform(0.3, 0.5)
     b.tubes([(pts, rad, _tube_sides(float(rad[0]))) for pts, rad, _ in sk.paths], bark, smooth=True)
     leaf_pts, leaf_out = [], []
     for pts, rad, level in sk.paths:
@@ -202,7 +203,7 @@ def garden_tree(size, seed: int) -> MeshData:
         t0 = 0.85 if level == 0 else 0.35 if level == 1 else 0.1
         if level == 0 and pts[-1, 1] < H - 0.5:
             continue
-        m = max(int(tot * (1 - t0) / 0.025), 2)         # leaf bunches: one per 2.5 cm of twig
+        m = max(int(tot * (1 - t0) / 0.03), 2)          # leaf bunches: one per 3 cm of twig
         n_spray = max(int(tot * (1 - t0) / GARDEN_TREE_SPRAY_M), 1)
         t = np.sort(rng.uniform(t0, 1.0, n_spray))
         cum = np.concatenate([[0], np.cumsum(seg_len)]) / tot
@@ -211,7 +212,7 @@ def garden_tree(size, seed: int) -> MeshData:
         leaf_pts.append(q)
         leaf_out.append(q - crown_c)
     P, O = np.concatenate(leaf_pts), np.concatenate(leaf_out)
-    reps = int(rng.integers(5, 8))
+    reps = int(rng.integers(4, 7))
     jitter = rng.normal(size=(len(P) * reps, 3)) * 0.04
     pts = np.repeat(P, reps, axis=0) + jitter
     inside = np.sum(((pts - crown_c) / (crown_r + 0.1)) ** 2, axis=1) <= 1.0
