@@ -680,7 +680,7 @@ def _garden_trees(rng, gardens: list, garden_lines: list[str], clear, place, ids
             p = p + np.array([0.0, kerb_h, 0.0])
             q = R.T @ (p - b["p"])                       # the trunk in the building's frame (its front +z)
             near_ = (np.abs(V[:, 0] - q[0]) < w / 2 + 0.3) & (V[:, 1] > 1.0) & (V[:, 1] < h + 0.3)
-            if near_.any() and float(V[near_, 2].max()) > q[2] - d / 2 - 0.1:
+            if near_.any() and float(V[near_, 2].max()) > q[2] - d / 2 - 0.25:
                 continue
             if any(np.linalg.norm(p[[0, 2]] - xz) < 0.5 for xz in things) or not clear(p, 0.5) \
                     or any(np.linalg.norm(p[[0, 2]] - xz) < t["apart"] for xz in trees):
