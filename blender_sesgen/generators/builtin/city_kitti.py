@@ -18,7 +18,8 @@ Seed 0 scripts its near field after KITTI sequence_1's frames (``KITTI_S1_NEAR``
 carriageway driven near its middle, the lawn from the left kerb, a parking bay on the right
 with the two cars where sequence_1 shows them, its right front row 7-10 m right of the camera
 to 37 m ahead behind front gardens (a hedge or shrubs along their edge, bikes, planters, bins,
-young trees between the houses; no trees on its grass strip), beyond a gap a deep block under
+young garden trees every 10-13.5 m and between the houses, which have no balconies; no trees on
+its grass strip), beyond a gap a deep block under
 scaffolding whose end wall faces the camera 60 m ahead, on the left a loose row of young trees
 10-16 m out on the lawn and the houses facing the street 23-24 m left, and its traffic 100-130 m
 ahead, none oncoming.
