@@ -264,3 +264,26 @@ def test_tree_crowns_show_sky_between_their_leaf_sprays():
     along every twig closed the crown to 18 % (seeds 0-3; 27 % in sprays; docs/sensors.md, Camera twins)."""
     gaps = [_side_gap(_mesh("tree", seed)) for seed in range(4)]
     assert np.mean(gaps) > 0.24, gaps
+
+
+def test_garden_trees_are_young_trees_with_small_leaves_in_open_crowns():
+    """KITTI sequence_1's front-garden trees (full-size frames 0 and 14; SGBM: 4.5-6 m high, crowns
+    from ~1.5-2.5 m up) are young trees: a clear stem to a third of the height or more, small
+    leaves in loose sprays with the white wall between them. ``garden_tree`` (seeds 0-3, 2.6 x
+    5.2 x 1.5 m): no leaf below a quarter of the height, leaves 5-8 cm long (a street tree's
+    9-15 cm: 12-18 px at KITTI's size from 10 m would be blobs, not sprays), 22-40 % of the
+    crown's outline open seen from the side (KITTI's crowns 25-35 %), inside its size."""
+    from blender_sesgen.scene.assets import generate
+    gaps = []
+    for seed in range(4):
+        md = generate("garden_tree", (2.6, 5.2, 1.5), seed)
+        leaf = np.isin(md.face_surface, [i for i, s in enumerate(md.surfaces) if s.material == "leaves"])
+        F = md.faces[leaf][: leaf.sum() // 2]          # a leaf's kite: (base, right, tip), then (base, tip, left)
+        length = np.linalg.norm(md.vertices[F[:, 2]] - md.vertices[F[:, 0]], axis=1)
+        assert 0.04 <= length.min() and length.max() <= 0.0961, (seed, length.min(), length.max())
+        assert 0.05 <= np.median(length) <= 0.08, (seed, np.median(length))
+        assert md.vertices[md.faces[leaf].ravel(), 1].min() > 0.25 * 5.2, seed
+        lo, hi = md.vertices.min(axis=0), md.vertices.max(axis=0)
+        assert np.all(np.abs([lo[0], hi[0]]) < 1.3 + 0.3) and np.all(np.abs([lo[2], hi[2]]) < 0.75 + 0.3), (lo, hi)
+        gaps.append(_side_gap(md))
+    assert 0.22 < np.mean(gaps) < 0.40, gaps

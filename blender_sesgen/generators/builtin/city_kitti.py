@@ -18,7 +18,8 @@ Seed 0 scripts its near field after KITTI sequence_1's frames (``KITTI_S1_NEAR``
 carriageway driven near its middle, the lawn from the left kerb, a parking bay on the right
 with the two cars where sequence_1 shows them, its right front row 7-10 m right of the camera
 to 37 m ahead behind front gardens (a hedge or shrubs along their edge, bikes, planters, bins,
-young trees between the houses; no trees on its grass strip), beyond a gap a deep block under
+young garden trees every 10-13.5 m and between the houses, which have no balconies; no trees on
+its grass strip), beyond a gap a deep block under
 scaffolding whose end wall faces the camera 60 m ahead, on the left a loose row of young trees
 10-16 m out on the lawn and the houses facing the street 23-24 m left, and its traffic 100-130 m
 ahead, none oncoming.
@@ -185,7 +186,20 @@ GARDEN = {"line": 7.1,          # the boundary's middle, metres right of the cen
           "p_hedge": 0.65,      # a garden's boundary a clipped hedge (else a row of shrubs)
           "gap": (1.2, 1.6),    # its entrance's width
           "p_bikes": 1.0,       # bikes in every garden (KITTI's frames 0, 16 and 24 each pass one), ...
-          "p_pots": 0.6, "p_bin": 0.4, "shrubs_per_m": 0.25}    # ... planters, a wheelie bin, shrubs
+          "p_pots": 0.6, "p_bin": 0.4, "shrubs_per_m": 0.25,    # ... planters, a wheelie bin, shrubs ...
+          "shrub_h": (1.0, 1.7)}    # ... as high as KITTI's between its garden trees (SGBM p50-p90 1.0-1.8 m)
+# KITTI sequence_1's front gardens hold a young tree every ~12 m (full-size SGBM, frames 0-18, points
+# 7.3-9 m right of the camera 8-30 m ahead: clusters 4.5-6 m high (p99 of the points' height 4.5-6.1
+# m), their crowns from ~1.5-2.5 m up, ~3-4 m along the street, at 12, 23.5, 36 and 47 m ahead of
+# frame 0; between them the boundary's shrubs and bikes 1-1.8 m high (p90 1.2-1.8 m)); those crowns
+# hold half of its upper-right ORB inliers (96 a step at 21 m where the render's facades held 41;
+# bench/twin.py, 24 frames): young garden trees (``garden_tree``: a slim stem, laterals all the way
+# up, small leaves) in every garden, their crowns clear of the facade's foremost parts
+GARDEN_TREES = {"every": (10.0, 13.5),     # along the street (m) ...
+                "first": (1.5, 4.5),        # ... the first this far into a garden
+                "size": ((2.2, 3.0), (4.5, 6.0), (1.4, 1.7)),   # crown width, height, crown depth (m)
+                "variants": 3, "trunk": 0.2,   # variants (instanced); the trunk this far inside the boundary ...
+                "apart": 5.0}   # ... and this far from another tree's (crowns apart)
 
 
 @dataclass(frozen=True)
@@ -279,6 +293,32 @@ def _white_near(lines: list[str], centreline: _Centreline, s0: float, s1: float)
                 ln += " material white_render"
         elif ln.startswith("ASSET building") and ln.endswith(" material works_blocks"):
             ln += " ground_material white_render"
+        out.append(ln)
+    return out
+
+
+def _has_front_balconies(size, seed: int) -> bool:
+    """Whether the building asset of ``size`` and ``seed`` has balconies on its front: parts above
+    its ground floor more than 0.5 m before its front wall (sills, frames and shutters stand out
+    under 0.1 m; a balcony 1.1-1.5 m)."""
+    V = asset_mesh("building", size, seed).vertices
+    return bool(np.any((V[:, 1] > 2.0) & (V[:, 2] > size[2] / 2 + 0.5)))
+
+
+def _plain_fronts(lines: list[str], centreline: _Centreline, s0: float, s1: float) -> list[str]:
+    """``lines`` with each front-row building whose nearest centreline point lies between arc
+    lengths ``s0`` and ``s1`` and that has balconies on its front (``_has_front_balconies``)
+    drawn again (its seed + 7919 k, the first k >= 1 without; size, place and material kept): a
+    scripted near field's gardens, KITTI sequence_1's near right houses (frames 0-24 at full size:
+    plain rendered walls, small windows with shutters, young trees before them; no balcony), where
+    a balcony 1.1-1.5 m deep over a garden 1-1.5 m deep left no room for a tree's crown."""
+    out = []
+    for ln in lines:
+        b = _front_row_building(ln, centreline)
+        if b is not None and s0 <= b["s"] <= s1 and _has_front_balconies(b["size"], b["seed"]):
+            seed_ = next(b["seed"] + 7919 * k for k in range(1, 100)
+                         if not _has_front_balconies(b["size"], b["seed"] + 7919 * k))
+            ln = ln.replace(f" seed {b['seed']} ", f" seed {seed_} ", 1)
         out.append(ln)
     return out
 
@@ -512,7 +552,7 @@ def _street_detail(rng, side_lines: dict, place, centreline: _Centreline, behind
 
 
 def _gardens(rng, lines: list[str], side_lines: list[str], place, centreline: _Centreline, span: tuple, pool,
-             ids: Ids, kerb_h: float) -> list[str]:
+             ids: Ids, kerb_h: float, tree_rng=None) -> list[str]:
     """Front gardens before the right front row's buildings whose front lies between arc lengths
     ``span`` (a scripted near field's ``gardens_right``, KITTI sequence_1's: ``GARDEN``): along
     each facade a boundary ``GARDEN['line']`` right of the centreline - modules of a clipped
@@ -520,10 +560,12 @@ def _gardens(rng, lines: list[str], side_lines: list[str], place, centreline: _C
     foremost part (its steps and balconies) bicycles, planters, a wheelie bin at the entrance and
     shrubs; in a gap of 2 m or more between two buildings a young tree (its crown clear of the
     walls). Hedge, shrub, planter and bike variants are a few each (instanced); nothing within
-    reach of an asset of ``lines`` (poles, signs, bins, trees, lights)."""
+    reach of an asset of ``lines`` (poles, signs, bins, trees, lights). With ``tree_rng`` (a stream
+    of its own: everything else stays as drawn without it) young garden trees (``GARDEN_TREES``)
+    every 10-13.5 m of each garden, ``_garden_trees``."""
     g = GARDEN
     hedges = [(int(x), (g["module"], h, g["thick"])) for x, h in zip(rng.integers(1, 10 ** 6, 3), g["heights"])]
-    shrubs = [(int(x), (round(float(rng.uniform(0.7, 1.0)), 2), round(float(rng.uniform(0.6, 1.2)), 2),
+    shrubs = [(int(x), (round(float(rng.uniform(0.7, 1.0)), 2), round(float(rng.uniform(*g["shrub_h"])), 2),
                         round(float(rng.uniform(0.55, 0.75)), 2))) for x in rng.integers(1, 10 ** 6, 3)]
     pots = [(int(x), (0.5, round(float(rng.uniform(0.7, 1.1)), 2), 0.5)) for x in rng.integers(1, 10 ** 6, 2)]
     bikes = [(int(x), (n * 0.6, 1.0, 1.8)) for x, n in zip(rng.integers(1, 10 ** 6, 2), (1, 2))]
@@ -548,6 +590,7 @@ def _gardens(rng, lines: list[str], side_lines: list[str], place, centreline: _C
     row = sorted((b for ln in side_lines if (b := _front_row_building(ln, centreline)) is not None),
                  key=lambda b: b["s"])
     ends = [(b["s"] - b["size"][0] / 2, b["s"] + b["size"][0] / 2) for b in row]
+    gardens = []
     for i, b in enumerate(row):
         s0, s1 = max(ends[i][0], span[0]), min(ends[i][1], span[1])
         if s1 - s0 < 2.0:
@@ -575,6 +618,7 @@ def _gardens(rng, lines: list[str], side_lines: list[str], place, centreline: _C
                 else:
                     put("bush", a + float(rng.uniform(-0.1, 0.1)), g["line"], float(rng.uniform(0, 360)),
                         shrubs[int(rng.integers(len(shrubs)))], 0.0, "veg")
+        gardens.append((b, s0, s1, entrance, gap, inner[0]))
         depth = inner[1] - inner[0]
         if depth < 0.5:
             continue
@@ -602,6 +646,50 @@ def _gardens(rng, lines: list[str], side_lines: list[str], place, centreline: _C
             if clear(p, 0.5):
                 out.append(asset("tree", ids("tree"), p + np.array([0.0, kerb_h, 0.0]), float(rng.uniform(0, 360)),
                                  size[k], seed=seed_[k]))
+    if tree_rng is not None:
+        out += _garden_trees(tree_rng, gardens, out, lambda p, r: clear(p, r - 0.3), place, ids, kerb_h)
+    return out
+
+
+def _garden_trees(rng, gardens: list, garden_lines: list[str], clear, place, ids: Ids, kerb_h: float) -> list[str]:
+    """Young garden trees (``garden_tree``, ``GARDEN_TREES``: a few variants) in ``gardens`` ((the
+    front-row building, its garden's arc lengths s0, s1, its entrance and width, the inner edge of
+    its boundary) of ``_gardens``): the first 1.5-4.5 m into each garden or at the next place
+    free, then every 10-13.5 m on, none in the entrance; the trunk ``GARDEN_TREES['trunk']`` inside the boundary, the crown's
+    width along the street and its depth towards the facade, where no part of the building
+    (balconies, sills, steps) within the crown's reach along the street and height stands nearer
+    than 0.1 m to it, nor a garden thing of ``garden_lines`` (bikes, planters, bins, shrubs)
+    within 0.5 m of its trunk, nor a tree (the young trees between the houses) within 5 m (places tried every 0.25 m along the
+    garden; a balcony over the garden leaves it fewer trees)."""
+    t = GARDEN_TREES
+    variants = [(int(x), tuple(round(float(rng.uniform(*r)), 2) for r in t["size"]))
+                for x in rng.integers(1, 10 ** 6, t["variants"])]
+    things = [_ground_xz(ln.split()) for ln in garden_lines if ln.startswith("ASSET") and not ln.startswith("ASSET hedge")]
+    trees = [_ground_xz(ln.split()) for ln in garden_lines if ln.startswith("ASSET tree")]
+    out = []
+    for b, s0, s1, entrance, gap, inner0 in gardens:
+        V = asset_mesh("building", b["size"], b["seed"]).vertices
+        yaw = np.radians(b["yaw"])
+        R = np.array([[np.cos(yaw), 0.0, np.sin(yaw)], [0.0, 1.0, 0.0], [-np.sin(yaw), 0.0, np.cos(yaw)]])
+        a = s0 + float(rng.uniform(*t["first"]))
+        for s_ in np.arange(s0 + 0.8, s1 - 0.8, 0.25):
+            if s_ < a or entrance - 1.2 < s_ < entrance + gap + 1.2:
+                continue
+            k = int(rng.integers(len(variants)))
+            seed_, (w, h, d) = variants[k]
+            p, heading = place(s_, inner0 + t["trunk"])
+            p = p + np.array([0.0, kerb_h, 0.0])
+            q = R.T @ (p - b["p"])                       # the trunk in the building's frame (its front +z)
+            near_ = (np.abs(V[:, 0] - q[0]) < w / 2 + 0.3) & (V[:, 1] > 1.0) & (V[:, 1] < h + 0.3)
+            if near_.any() and float(V[near_, 2].max()) > q[2] - d / 2 - 0.25:
+                continue
+            if any(np.linalg.norm(p[[0, 2]] - xz) < 0.5 for xz in things) or not clear(p, 0.5) \
+                    or any(np.linalg.norm(p[[0, 2]] - xz) < t["apart"] for xz in trees):
+                continue
+            trees.append(p[[0, 2]])
+            out.append(asset("garden_tree", ids("tree"), p, heading + 90.0 * int(rng.choice([-1, 1])), (w, h, d),
+                             seed=seed_))
+            a = s_ + float(rng.uniform(*t["every"]))
     return out
 
 
@@ -756,6 +844,9 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
             out.append(derived_material("white_render", "plaster", WHITE_RENDER, seed=seed))
         if side > 0 and near is not None and near.works_right:
             out.append(derived_material("works_blocks", "blockwork", seed=seed))
+        if side > 0 and near is not None and near.gardens_right:   # the gardens' houses without balconies (KITTI's)
+            lines = _plain_fronts(lines, centreline, behind + near.gardens_right[0] - 8.0,
+                                  behind + near.gardens_right[1] + 8.0)
         out += lines
         side_lines[side] = lines
 
@@ -824,7 +915,8 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     if near is not None and near.gardens_right:
         out += ["", "// front gardens before the right front row: hedges or shrubs, bikes, planters, bins, young trees"]
         out += _gardens(np.random.default_rng([seed, 0x6A7]), out, side_lines[1], place, centreline,
-                        (behind + near.gardens_right[0], behind + near.gardens_right[1]), pool, ids, kerb_h)
+                        (behind + near.gardens_right[0], behind + near.gardens_right[1]), pool, ids, kerb_h,
+                        tree_rng=np.random.default_rng([seed, 0x6A7, 0x7EE]))
 
     # --- grass (real blades) on the tree lawn and the first metres of the yards and fields --
     out += ["", "// grass: patches of blades on the lawns near the road (a few variants, instanced)"]

@@ -52,6 +52,9 @@ def _kinds() -> dict[str, Kind]:
         Kind("tree", "nature", "vegetation", "broadleaf tree: trunk, three levels of branches, ~20-60k leaves",
              ((3.5, 8), (5, 14), (3.5, 8)), "crown width, total height, crown depth", vegetation.tree,
              closed=False, overhang=2.0),
+        Kind("garden_tree", "nature", "vegetation", "young garden tree: slim stem, laterals all up the leader, "
+             "twigs, ~3-20k small leaves (5-8 cm) in open sprays", ((1.6, 3.2), (3.5, 6.5), (1.2, 3.2)),
+             "crown width, total height, crown depth", vegetation.garden_tree, closed=False, overhang=0.3),
         Kind("conifer", "nature", "vegetation", "spruce-like conifer: whorls of drooping branches with needle sprays",
              ((2.5, 5), (6, 18), (2.5, 5)), "crown width, total height, crown depth", vegetation.conifer,
              closed=False, overhang=0.7),

@@ -149,6 +149,79 @@ def tree(size, seed: int) -> MeshData:
     return b.build()
 
 
+# A young garden tree (a nursery's feathered ornamental tree - hornbeam, field maple, ornamental
+# pear or cherry - planted in a front garden), as KITTI sequence_1's front gardens show them
+# (full-size SGBM, frames 0-18: clusters every ~12 m 7.3-9 m right of the camera, 4.5-6 m tall,
+# their crowns from ~1.5-2.5 m up; the images: a slim stem, short ascending laterals all the way
+# up the leader, small leaves in loose sprays with the white wall showing between them - where
+# that sequence's upper-right ORB keypoints lie): a leader to the top, laterals every 0.3-0.5 m
+# from the clear stem up, each with twigs, leaves 5-8 cm (a street tree's are 9-15 cm) in sprays
+# ~0.45 m apart along the twigs: 22-34 % of the crown's outline open seen from the side (seeds
+# 0-3; the street trees' crowns in KITTI: 25-35 %, tests/test_assets.py).
+GARDEN_TREE_SPRAY_M = 0.45     # sprays along a twig ...
+GARDEN_TREE_SPRAY_R = 0.05     # ... their leaf bunches around their centre (standard deviation)
+GARDEN_TREE_LEAF_M = (0.05, 0.08)
+
+
+def garden_tree(size, seed: int) -> MeshData:
+    """A young garden tree: a slim stem clear to 30-45 % of the height, laterals all the way up
+    the leader (an ovoid crown of ``size``'s width and depth), twigs, small leaves in sprays."""
+    rng, Wc, H, Dc, b = start(size, seed)
+    bark = b.surface("bark", pick(rng, palette.BARK))
+    base_green = pick(rng, palette.LEAVES)
+    greens = [b.surface("leaves", scaled(base_green, f)) for f in (0.75, 0.95, 1.15)]
+    greens.append(b.surface("leaves", scaled((base_green[0] * 1.3, base_green[1], base_green[2] * 0.8), 1.05)))
+    clear = H * rng.uniform(0.3, 0.45)
+    crown_c = np.array([0.0, clear + (H - clear) * 0.48, 0.0])
+    crown_r = np.array([Wc / 2, (H - clear) / 2 + 0.05, Dc / 2])
+    sk = _Branches(rng, crown_c, crown_r)
+    r0 = float(rng.uniform(0.025, 0.04))           # a stem of 16-25 cm girth
+    ys = np.linspace(-0.1, H - 0.15, 12)
+    lean = np.cumsum(rng.normal(size=(12, 2)) * 0.015, axis=0)
+    leader = np.column_stack([lean[:, 0], ys, lean[:, 1]])
+    sk.paths.append((leader, np.linspace(r0, 0.006, 12), 0))
+    y, phi = clear, rng.uniform(0, 2 * np.pi)
+    while y < H - 0.4:
+        q = np.array([np.interp(y, ys, leader[:, 0]), y, np.interp(y, ys, leader[:, 2])])
+        t = (y - crown_c[1]) / crown_r[1]
+        reach = np.sqrt(max(1.0 - t * t, 0.05))      # the ovoid's half-width at this height, as a share
+        for _ in range(int(rng.integers(1, 3))):
+            phi += 2.39996 + rng.normal() * 0.3
+            side = np.array([np.cos(phi), 0.0, np.sin(phi)])
+            radius = np.hypot(np.cos(phi) * crown_r[0], np.sin(phi) * crown_r[2])
+            ang = np.radians(rng.uniform(35, 60))      # ascending, from the vertical
+            d = np.cos(ang) * np.array([0.0, 1.0, 0.0]) + np.sin(ang) * side
+            length = radius * reach * rng.uniform(0.8, 1.1) / np.sin(ang)
+            rad = max(r0 * (1 - y / H) * 0.6, 0.006)
+            sk.grow(q, d, length, rad, 1, 3, (0, 3, 2), segs=4, up=0.1)
+        y += rng.uniform(0.3, 0.5)
+    b.tubes([(pts, rad, _tube_sides(float(rad[0]))) for pts, rad, _ in sk.paths], bark, smooth=True)
+    leaf_pts, leaf_out = [], []
+    for pts, rad, level in sk.paths:
+        seg_len = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+        tot = seg_len.sum()
+        t0 = 0.85 if level == 0 else 0.35 if level == 1 else 0.1
+        if level == 0 and pts[-1, 1] < H - 0.5:
+            continue
+        m = max(int(tot * (1 - t0) / 0.03), 2)          # leaf bunches: one per 3 cm of twig
+        n_spray = max(int(tot * (1 - t0) / GARDEN_TREE_SPRAY_M), 1)
+        t = np.sort(rng.uniform(t0, 1.0, n_spray))
+        cum = np.concatenate([[0], np.cumsum(seg_len)]) / tot
+        c = np.stack([np.interp(t, cum, pts[:, i]) for i in range(3)], axis=1)
+        q = c[rng.integers(n_spray, size=m)] + rng.normal(size=(m, 3)) * GARDEN_TREE_SPRAY_R
+        leaf_pts.append(q)
+        leaf_out.append(q - crown_c)
+    P, O = np.concatenate(leaf_pts), np.concatenate(leaf_out)
+    reps = int(rng.integers(4, 7))
+    jitter = rng.normal(size=(len(P) * reps, 3)) * 0.04
+    pts = np.repeat(P, reps, axis=0) + jitter
+    inside = np.sum(((pts - crown_c) / (crown_r + 0.1)) ** 2, axis=1) <= 1.0
+    pts, out = pts[inside], (np.repeat(O, reps, axis=0) + jitter * 4)[inside]
+    ls = rng.uniform(*GARDEN_TREE_LEAF_M) * rng.uniform(0.8, 1.2, len(pts))
+    add_leaves(b, rng, pts, out, ls, greens, droop=0.2)
+    return b.build()
+
+
 def conifer(size, seed: int) -> MeshData:
     """A spruce-like conifer: a straight trunk, whorls of drooping branches carrying flat
     needle sprays, a narrow cone."""
