@@ -224,7 +224,7 @@ def generate(size, seed: int, shell: bool = False) -> MeshData:
     # roof cap and floor
     top = [(-W / 2, wall_h, D / 2), (W / 2, wall_h, D / 2), (W / 2, wall_h, -D / 2), (-W / 2, wall_h, -D / 2)]
     top_pts = _perimeter_points(shell_, wall_h)
-    shell_.poly(top_pts if len(top_pts) > 4 else top, slab_s if shell else roof_s if not pitched else wall)
+    shell_.poly(top_pts if len(top_pts) > 4 else top, inside if shell else roof_s if not pitched else wall)
     bottom_pts = _perimeter_points(shell_, 0.0)
     shell_.poly(bottom_pts[::-1], base)
     b.add(np.array(shell_.V), shell_.tris, shell_.surf, closed=True)
@@ -266,18 +266,17 @@ def generate(size, seed: int, shell: bool = False) -> MeshData:
 
 
 # a block under construction (issue 28, session 17), as KITTI sequence_1's scaffolded new build
-# 45-100 m ahead right (frames 15-50, full size): its openings unglazed, dark rooms behind them
-# (a box 0.24-0.32 of the frame's mean in shade, the openings' share of pixels darker than half
-# the wall's median 0.24 where the finished building's glass has 0.14); the upper floors bare
-# sand-lime blocks, slab edges as light lines at each floor; openings of a modern block of flats,
-# 1.2-2 m wide, 1.4-2.1 m high (storey-high French windows among them), sills 0.3-0.9 m.
-# Rooms 3.5-5 m deep (a flat's room behind its window); walls 30 cm thick (17.5 cm sand-lime
-# blocks + 12 cm insulation to come, less at the stage seen)
-SHELL = {"win_w": (1.4, 2.4), "win_h": (1.5, 2.2), "sill": (0.3, 0.9), "room": (3.5, 5.0), "slab_edge": 0.22}
+# 45-100 m ahead right (frames 15-50, full size): its openings unglazed, dark rooms behind them; on
+# its sunlit long side (frame 45) storey-high openings (0.85-0.9 of the floor-to-floor height),
+# on its end wall (frame 20) ~2 m wide ones; the upper floors bare sand-lime blocks, the slab
+# edges white bands ~0.3 m high at each floor (the slab-edge insulation), the ground floor's
+# walls white (its insulation: the ASSET's ground_material). Rooms 3.5-5 m deep (a flat's room
+# behind its window); walls 30 cm (17.5 cm blocks + 12 cm insulation, its strips at the edges).
+SHELL = {"win_w": (1.0, 2.4), "win_h": (1.8, 2.4), "sill": (0.1, 0.6), "room": (3.5, 5.0), "slab_edge": 0.3}
 SHELL_WALL_M = 0.3
 SHELL_STREAM = 17
 SHELL_INSIDE = (0.40, 0.39, 0.37)      # raw concrete and blocks inside, never sunlit but through the opening
-SHELL_SLAB = (0.55, 0.54, 0.51)        # the slabs' cast concrete
+SHELL_SLAB = (0.78, 0.78, 0.75)        # the slab edges' white insulation strips (KITTI: as white as the ground floor's)
 
 
 def shell(size, seed: int) -> MeshData:
