@@ -100,6 +100,8 @@ def generate(size, seed: int, shell: bool = False) -> MeshData:
 
     pitched = rng.random() < 0.45 and W <= 24
     roof_h = min(0.55 * D * np.tan(np.radians(rng.uniform(28, 42))), 0.6 * H) if pitched else 0.0
+    if shell:   # a new build: a flat roof (its floors up to it)
+        pitched, roof_h = False, 0.0
     wall_h = H - roof_h
     ground_h = float(np.clip(rng.uniform(3.0, 4.2), 2.6, wall_h))
     floor_h = rng.uniform(2.85, 3.3)
@@ -117,8 +119,8 @@ def generate(size, seed: int, shell: bool = False) -> MeshData:
     recess = rng.uniform(0.12, 0.24)
     mullion = win_w > 1.15
     transom = rng.random() < 0.35
-    if shell:   # a new build: flat roof, no balconies or shop fronts, its openings the shell's
-        pitched, roof_h, wall_h, shop, balconies = False, 0.0, H, False, False
+    if shell:   # no balconies or shop fronts; its openings the shell's
+        shop, balconies = False, False
         win_w = float(np.clip(srng.uniform(*SHELL["win_w"]), 0.6, bay - 0.7))
         win_h, sill_y = srng.uniform(*SHELL["win_h"]), srng.uniform(*SHELL["sill"])
 
