@@ -2,6 +2,8 @@
 frames with mullions, sills; roller shutters in six buildings of ten, some lowered), a base
 band, string courses and a cornice, balconies with railings on the front, shop windows on
 some ground floors, a flat roof with a parapet or a pitched tiled roof with gables, a downpipe.
+``shell``: the same block under construction (``building_shell``): its openings unglazed into
+rooms of raw concrete, white slab edges, a flat roof, nothing fitted.
 
 Asset frame: footprint ``size`` = (width along x, height along y, depth along z) centred
 on the origin, ground at y = 0, the front (street) facade facing +z.
@@ -269,7 +271,7 @@ def generate(size, seed: int, shell: bool = False) -> MeshData:
 
 # a block under construction (issue 28, session 17), as KITTI sequence_1's scaffolded new build
 # 45-100 m ahead right (frames 15-50, full size): its openings unglazed, dark rooms behind them; on
-# its sunlit long side (frame 45) storey-high openings (0.85-0.9 of the floor-to-floor height),
+# its sunlit long side (frame 45) storey-high openings (0.7-0.85 of the floor-to-floor height),
 # on its end wall (frame 20) ~2 m wide ones; the upper floors bare sand-lime blocks, the slab
 # edges white bands ~0.3 m high at each floor (the slab-edge insulation), the ground floor's
 # walls white (its insulation: the ASSET's ground_material). Rooms 3.5-5 m deep (a flat's room
