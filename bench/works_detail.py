@@ -36,17 +36,7 @@ def _figures(L, g8, mask):
 
 
 def kitti(size=(613, 185)) -> list[dict]:
-    W, H = size
-    out = []
-    for k, (x0, y0, x1, y1) in KITTI_WORKS.items():
-        img = twin.kitti_marked_frame(k)
-        sx, sy = W / img.shape[1], H / img.shape[0]
-        g8 = cv2.resize(img, (W, H), interpolation=cv2.INTER_AREA)
-        L = twin._linear(g8, "kitti")
-        m = np.zeros((H, W), bool)
-        m[int(np.ceil(y0 * sy)) + 1:int(y1 * sy) - 1, int(np.ceil(x0 * sx)) + 1:int(x1 * sx) - 1] = True
-        out.append({"frame": k, **_figures(L, g8, m)})
-    return out
+    return facade_detail.kitti(size, KITTI_WORKS, _figures)
 
 
 def works_ids(folder: Path) -> list[int]:
