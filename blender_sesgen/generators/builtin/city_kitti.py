@@ -769,6 +769,10 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     s = float(rng.uniform(3, 8))
     treeless = (behind + near.gardens_right[0] - 3.0, behind + near.gardens_right[1] + 8.0) \
         if near is not None and near.gardens_right else (0.0, 0.0)
+    if near is not None and near.works_right:   # and along the block being built: KITTI's frames 25-50 show
+        # no street tree from the side street's mouth past its end (site fences and materials stand there)
+        treeless = (treeless[0] if near.gardens_right else behind + near.open_right,
+                    max(treeless[1], behind + near.works_right[1] + 2.0))
     while s < L - 5:
         p, _ = place(s, 0.5 * (lawn[0] + lawn[1]))
         seed_, size = pool.pick("lawn_tree")
