@@ -37,17 +37,19 @@ def _figures(L: np.ndarray, grey8: np.ndarray, mask: np.ndarray) -> dict:
             "dark_top": float(top[dark].sum() / max(top[mask].sum(), 1e-12)), "px": int(mask.sum())}
 
 
-def kitti(size=(613, 185)) -> list[dict]:
+def kitti(size=(613, 185), boxes=None, figures=None) -> list[dict]:
+    """``figures`` (default ``_figures``) of KITTI's hand-marked ``boxes`` ({frame: (x0, y0, x1, y1)}
+    at 1226 x 370; default ``KITTI_FACADES``), each frame at the render's ``size``."""
     W, H = size
     out = []
-    for k, (x0, y0, x1, y1) in KITTI_FACADES.items():
+    for k, (x0, y0, x1, y1) in (boxes or KITTI_FACADES).items():
         img = twin.kitti_marked_frame(k)
         sx, sy = W / img.shape[1], H / img.shape[0]
         g8 = cv2.resize(img, (W, H), interpolation=cv2.INTER_AREA)
         L = twin._linear(g8, "kitti")
         m = np.zeros((H, W), bool)
         m[int(np.ceil(y0 * sy)) + 1:int(y1 * sy) - 1, int(np.ceil(x0 * sx)) + 1:int(x1 * sx) - 1] = True
-        out.append({"frame": k, **_figures(L, g8, m)})
+        out.append({"frame": k, **(figures or _figures)(L, g8, m)})
     return out
 
 

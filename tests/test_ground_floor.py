@@ -100,7 +100,7 @@ def test_city_kitti_works_block_stands_on_kitti_sequence_1s_white_ground_floor(s
     white, blocks = np.median(L[60:95, 895:945]), np.median(L[20:40, 740:810])
     assert white >= 1.3 * blocks, (white, blocks)
     scene = parse_string(city_kitti.generate(seed=0))
-    works = [o for o in scene.objects if getattr(o, "kind", None) == "building" and o.material == "works_blocks"]
+    works = [o for o in scene.objects if getattr(o, "kind", None) == "building_shell" and o.material == "works_blocks"]
     assert len(works) == 1
     assert works[0].ground_material is not None
     albedo = lambda name: float(np.dot(scene.material(name).colour, (0.2126, 0.7152, 0.0722)))  # noqa: E731

@@ -20,6 +20,7 @@ pytestmark = pytest.mark.slow   # subprocesses and end-to-end runs (left out of 
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 LIBRARY = ("city_kitti", "office", "forest", "hall")
+BUILDINGS = ("building", "building_shell")     # a finished building, a block under construction
 
 
 def _generator(name):
@@ -731,7 +732,7 @@ def test_city_kitti_foliage_passes_what_it_reflects_and_seed_0s_right_blocks_are
     white = s.material("white_render")
     assert min(white.colour) >= 0.75
     right = [(float((np.asarray(o.position) - T0[:3, 3]) @ T0[:3, 2]), o.material) for o in s.objects
-             if isinstance(o, Asset) and o.kind == "building" and (np.asarray(o.position) - T0[:3, 3]) @ T0[:3, 0] > 0
+             if isinstance(o, Asset) and o.kind in BUILDINGS and (np.asarray(o.position) - T0[:3, 3]) @ T0[:3, 0] > 0
              and abs((np.asarray(o.position) - T0[:3, 3]) @ T0[:3, 0]) < 30.0]
     assert {m for z, m in right if -5.0 < z < 100.0} == {"white_render", "works_blocks"}, right
     assert [m for z, m in right if m == "works_blocks"] == ["works_blocks"] and \
@@ -774,7 +775,7 @@ def test_city_kitti_near_field_detail_stands_where_kitti_sequence_1s_does():
     assert 55.0 < a0 < 62.0 and a1 > 95.0, (a0, a1)
     ahead, right = local(s, end[0])
     assert 55.0 < ahead < 62.0 and right - end[0].size[0] / 2 < 10.0 < 25.0 < right + end[0].size[0] / 2, local(s, end[0])
-    buildings = of("building")
+    buildings = of("building") + of("building_shell")
     row = [(local(s, b)[0], local(s, b)[1] - b.size[2] / 2) for b in buildings
            if 0.0 < local(s, b)[1] < 30.0 and -5.0 < local(s, b)[0] < 100.0]
     assert len(row) >= 4 and all(8.5 < x < 10.5 for _, x in row), row
@@ -784,7 +785,7 @@ def test_city_kitti_near_field_detail_stands_where_kitti_sequence_1s_does():
         assert (o.rotation_deg[1] - b.rotation_deg[1]) % 360 == pytest.approx(90 if along else 0, abs=1e-6) or \
             (along and (o.rotation_deg[1] - b.rotation_deg[1]) % 360 == pytest.approx(270)), (o.id, b.id)
         assert b.size[2 if along else 0] < o.size[0], (o.id, b.id)
-        V = assets.generate("building", b.size, b.seed).vertices     # the facade's balconies, sills, steps
+        V = assets.generate(b.kind, b.size, b.seed).vertices     # the facade's balconies, sills, steps
         d = np.subtract(o.position, b.position)[[0, 2]]
         a = np.radians(b.rotation_deg[1])
         ex = np.array([np.cos(a), -np.sin(a)])
@@ -837,7 +838,7 @@ def facing_wall_share(s, frames, f: float = 707.0, cx: float = 613.0, cy: float 
     distance, up to the image's upper half)."""
     P0, E, Hs = [], [], []
     for o in s.objects:
-        if isinstance(o, Asset) and o.kind == "building":
+        if isinstance(o, Asset) and o.kind in BUILDINGS:
             a = np.radians(o.rotation_deg[1])
             W, H, D = o.size
             ex, ez = np.array([np.cos(a), -np.sin(a)]), np.array([np.sin(a), np.cos(a)])
@@ -883,7 +884,7 @@ def test_city_kitti_right_walls_face_the_camera_as_kitti_sequence_1s(scenes):
     T0 = s.timeline.left()[0]
     ends = []
     for o in s.objects:
-        if isinstance(o, Asset) and o.kind == "building":
+        if isinstance(o, Asset) and o.kind in BUILDINGS:
             d = np.asarray(o.position) - T0[:3, 3]
             ahead, right = float(d @ T0[:3, 2]), float(d @ T0[:3, 0])
             if 0.0 < right < 40.0 and 55.0 < ahead - o.size[0] / 2 < 62.0:

@@ -109,14 +109,14 @@ CASES = {
     "negative noise": (OBJ + "NOISE sigma -1\n", 2, "-1", r"'sigma' must be zero or positive"),
     "render zero samples": (OBJ + "RENDER samples 0\n", 2, "0\n", r"'samples' must lie in 1\.\.1000000"),
     "render denoise value": (OBJ + "RENDER samples 4 denoise maybe\n", 2, "maybe", r"must be one of on, off"),
-    "asset without kind": (OBJ + "ASSET id 2 position 0 0 0\n", 2, None, r"ASSET needs exactly one kind \(building, car"),
+    "asset without kind": (OBJ + "ASSET id 2 position 0 0 0\n", 2, None, r"ASSET needs exactly one kind \(building, building_shell, car"),
     "asset with two kinds": (OBJ + "ASSET car id 2 tree position 0 0 0\n", 2, "tree", r"ASSET needs exactly one kind"),
     "asset kind misspelt": (OBJ + "ASSET buiding id 2 position 0 0 0\n", 2, "buiding",
                             r"ASSET has no tag 'buiding'; did you mean 'building'\?"),
     # the common slips: what to write instead (grammar.TAG_HINTS), echoing the user's own words
     "asset kind as a tag": (OBJ + "ASSET kind car id 2 position 0 0 -5\n", 2, "kind",
                             r"ASSET has no tag 'kind'; the kind is a word of its own right after the keyword: "
-                            r"'ASSET car \.\.\.' \(tags: id, .*; kinds: building, car, "),
+                            r"'ASSET car \.\.\.' \(tags: id, .*; kinds: building, building_shell, car, "),
     "sphere radius": (OBJ + "SPHERE id 2 position 0 0 0 radius 1\n", 2, "radius",
                       r"SPHERE has no tag 'radius'; the size is 'dim r' \("),
     "cylinder radius and height": (OBJ + "CYLINDER id 2 position 0 0 0 radius 1 height 2\n", 2, "radius",

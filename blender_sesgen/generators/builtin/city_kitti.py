@@ -336,7 +336,7 @@ def _front_row_building(ln: str, centreline: _Centreline) -> Optional[dict]:
     if dist > FRONT_ROW_M:
         return None
     return {"p": p, "yaw": float(w[i + 5]) if j - i == 7 else 0.0, "size": tuple(float(x) for x in w[j + 1:j + 4]),
-            "seed": int(w[w.index("seed") + 1]), "s": s, "dist": dist}
+            "seed": int(w[w.index("seed") + 1]), "s": s, "dist": dist, "kind": w[1]}
 
 
 def _lawn_trees(rng: np.random.Generator, place, behind: float, spec: tuple, lines: list[str], pool, ids: Ids) -> list[str]:
@@ -348,9 +348,9 @@ def _lawn_trees(rng: np.random.Generator, place, behind: float, spec: tuple, lin
     taken = []
     for ln in lines:
         w = ln.split()
-        if len(w) > 2 and w[0] == "ASSET" and w[1] in ("tree", "bush", "building"):
+        if len(w) > 2 and w[0] == "ASSET" and w[1] in ("tree", "bush", "building", "building_shell"):
             r = 3.5
-            if w[1] == "building" and "size" in w:
+            if w[1] in ("building", "building_shell") and "size" in w:
                 i = w.index("size")
                 r = 0.5 * float(np.hypot(float(w[i + 1]), float(w[i + 3]))) + 3.0
             taken.append((_ground_xz(w), r))
@@ -443,7 +443,7 @@ def _works_row(lines: list[str], centreline: _Centreline, place, s_open: float, 
                 continue
         out.append(ln)
     p, h = place((s0 + s1) / 2, near + depth / 2)
-    out.append(asset("building", ids("building"), p, h - 90, (round(s1 - s0, 2), round(float(rng.uniform(14.0, 16.0)), 2),
+    out.append(asset("building_shell", ids("building"), p, h - 90, (round(s1 - s0, 2), round(float(rng.uniform(14.0, 16.0)), 2),
                                                               round(depth, 2)), seed=int(rng.integers(1e6)),
                      extra="material works_blocks"))
     return out
@@ -513,7 +513,7 @@ def _street_detail(rng, side_lines: dict, place, centreline: _Centreline, behind
             if works:   # to the eaves (a gable's ridge is ~1/4 of the height above them), clear of
                 # what the facade carries below them (balconies, sills, steps: the building's own mesh)
                 h_s = round(max(0.75 * H, 4.5), 2)
-                V = asset_mesh("building", (W, H, D), b["seed"]).vertices
+                V = asset_mesh(b["kind"], (W, H, D), b["seed"]).vertices
                 face = float(V[V[:, 1] < h_s, 2].max()) + SCAFFOLD_GAP_M
                 p = b["p"] + front * (face + SCAFFOLD_DEPTH_M / 2)
                 out.append(asset("scaffold", ids("furniture"), p, b["yaw"], (round(W + 1.0, 2), h_s, SCAFFOLD_DEPTH_M),
@@ -600,7 +600,7 @@ def _gardens(rng, lines: list[str], side_lines: list[str], place, centreline: _C
         e1 = (ends[i][1] + ends[i + 1][0]) / 2 if i + 1 < len(row) and 0.0 < ends[i + 1][0] - ends[i][1] < 6.0 \
             else ends[i][1]
         e0, e1 = max(e0, span[0]), min(e1, span[1])
-        V = asset_mesh("building", b["size"], b["seed"]).vertices
+        V = asset_mesh(b["kind"], b["size"], b["seed"]).vertices
         front = b["dist"] - float(V[V[:, 1] < 1.5, 2].max())     # the facade's foremost part, from the centreline
         inner = (g["line"] + g["thick"] / 2 + 0.1, front - 0.15)
         gap = float(rng.uniform(*g["gap"]))
@@ -860,6 +860,10 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     s = float(rng.uniform(3, 8))
     treeless = (behind + near.gardens_right[0] - 3.0, behind + near.gardens_right[1] + 8.0) \
         if near is not None and near.gardens_right else (0.0, 0.0)
+    if near is not None and near.works_right:   # and along the block being built: KITTI's frames 25-50 show
+        # no street tree from the side street's mouth past its end (site fences and materials stand there)
+        treeless = (treeless[0] if near.gardens_right else behind + near.open_right,
+                    max(treeless[1], behind + near.works_right[1] + 2.0))
     while s < L - 5:
         p, _ = place(s, 0.5 * (lawn[0] + lawn[1]))
         seed_, size = pool.pick("lawn_tree")

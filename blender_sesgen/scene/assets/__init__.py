@@ -45,6 +45,9 @@ def _kinds() -> dict[str, Kind]:
              "block with real window/door openings, frames, sills, roller shutters (6 in 10 buildings; some "
              "lowered), balconies, cornice, flat or gable roof",
              ((12, 26), (9, 20), (9, 16)), "width, height (to the ridge), depth", building.generate, overhang=3.0),
+        Kind("building_shell", "outdoor", "building",
+             "block under construction: bare walls, unglazed openings into dark rooms, slab edges, flat roof",
+             ((12, 40), (9, 20), (9, 22)), "width, height, depth", building.shell, overhang=0.1),
         Kind("car", "street", "car", "hatchback, saloon or estate: lofted body, glass, wheels in arches, "
              "faceted lamps, plates with characters, mirrors, door lines",
              ((1.72, 1.85), (1.42, 1.55), (3.9, 4.8)), "width, height, length (nose towards +z)",

@@ -2,6 +2,8 @@
 frames with mullions, sills; roller shutters in six buildings of ten, some lowered), a base
 band, string courses and a cornice, balconies with railings on the front, shop windows on
 some ground floors, a flat roof with a parapet or a pitched tiled roof with gables, a downpipe.
+``shell``: the same block under construction (``building_shell``): its openings unglazed into
+rooms of raw concrete, white slab edges, a flat roof, nothing fitted.
 
 Asset frame: footprint ``size`` = (width along x, height along y, depth along z) centred
 on the origin, ground at y = 0, the front (street) facade facing +z.
@@ -74,7 +76,9 @@ def _sides(W, D):
             (np.array([W / 2, 0, -D / 2]), -x, -z, W), (np.array([-W / 2, 0, -D / 2]), z, -x, D)]
 
 
-def generate(size, seed: int) -> MeshData:
+def generate(size, seed: int, shell: bool = False) -> MeshData:
+    """A finished building; ``shell``: the same block under construction (``building_shell``:
+    ``SHELL``'s unglazed openings into dark rooms, slab edges, nothing fitted)."""
     rng, W, H, D, b = start(size, seed)
     brick = rng.random() < 0.25
     wall_material = ("brick", pick(rng, palette.BRICK)) if brick else ("plaster", pick(rng, palette.PLASTER))
@@ -91,9 +95,15 @@ def generate(size, seed: int) -> MeshData:
     # the ground floor's walls: the walls' material in a slot of their own, which an ASSET's
     # ``ground_material`` replaces (a white insulated ground floor under bare blockwork)
     ground = b.surface(*wall_material, part="ground")
+    if shell:   # its own stream: the finished building's draws stay as they are
+        srng = np.random.default_rng([int(seed) % 2 ** 63, SHELL_STREAM])
+        inside = b.surface("concrete", SHELL_INSIDE)
+        slab_s = b.surface("concrete", SHELL_SLAB)
 
     pitched = rng.random() < 0.45 and W <= 24
     roof_h = min(0.55 * D * np.tan(np.radians(rng.uniform(28, 42))), 0.6 * H) if pitched else 0.0
+    if shell:   # a new build: a flat roof (its floors up to it)
+        pitched, roof_h = False, 0.0
     wall_h = H - roof_h
     ground_h = float(np.clip(rng.uniform(3.0, 4.2), 2.6, wall_h))
     floor_h = rng.uniform(2.85, 3.3)
@@ -111,6 +121,10 @@ def generate(size, seed: int) -> MeshData:
     recess = rng.uniform(0.12, 0.24)
     mullion = win_w > 1.15
     transom = rng.random() < 0.35
+    if shell:   # no balconies or shop fronts; its openings the shell's
+        shop, balconies = False, False
+        win_w = float(np.clip(srng.uniform(*SHELL["win_w"]), 0.6, bay - 0.7))
+        win_h, sill_y = srng.uniform(*SHELL["win_h"]), srng.uniform(*SHELL["sill"])
 
     # --- openings per side -----------------------------------------------------------
     sides = _sides(W, D)
@@ -151,6 +165,12 @@ def generate(size, seed: int) -> MeshData:
                     ops.append(Opening(c - win_w / 2, c + win_w / 2, v0, min(v0 + win_h, top - 0.3), "window", recess))
         openings.append([Opening(*(round(float(x), 6) for x in (o.u0, o.u1, o.v0, o.v1)), o.kind, o.recess)
                          for o in ops if o.v1 - o.v0 > 0.5])
+    if shell:   # each opening a room behind it: as deep as the corners and the opposite side allow
+        room = float(srng.uniform(*SHELL["room"]))
+        openings = [[Opening(o.u0, o.u1, o.v0, o.v1, o.kind,
+                             round(max(min(room, o.u0 - 0.05, L - o.u1 - 0.05, (D if si % 2 == 0 else W) / 2 - 0.1),
+                                       SHELL_WALL_M + 0.05), 6)) for o in ops]
+                    for si, ((_, _, _, L), ops) in enumerate(zip(sides, openings))]
 
     # --- the shell -------------------------------------------------------------------
     ground_top = floor_y[1] if len(floor_y) > 1 else wall_h     # the ground floor's walls end at its ceiling
@@ -159,7 +179,7 @@ def generate(size, seed: int) -> MeshData:
         for o in ops:
             ys |= {o.v0, o.v1}
     ys = np.array(sorted(round(y, 6) for y in ys if 0 <= y <= wall_h))
-    shell = _Shell(W, D, wall_h)
+    shell_ = _Shell(W, D, wall_h)
     for (origin, e_u, n, L), ops in zip(sides, openings):
         us = {0.0, L}
         for o in ops:
@@ -178,31 +198,44 @@ def generate(size, seed: int) -> MeshData:
                 if any(o.u0 < um < o.u1 and o.v0 < vm < o.v1 for o in ops):
                     continue
                 s = base if vm < base_h else ground if vm < ground_top else wall
-                shell.poly([P(us[i], ys[j]), P(us[i + 1], ys[j]), P(us[i + 1], ys[j + 1]), P(us[i], ys[j + 1])], s)
+                shell_.poly([P(us[i], ys[j]), P(us[i + 1], ys[j]), P(us[i + 1], ys[j + 1]), P(us[i], ys[j + 1])], s)
         for o in ops:
             ui = [u for u in us if o.u0 <= u <= o.u1]
             vi = [v for v in ys if o.v0 <= v <= o.v1]
             r = o.recess
+
+            def reveal(p, q, s, P=P, r=r):
+                # the quad from the facade's edge p-q (u, v pairs) back to the recess; a shell's
+                # opening: the wall's thickness in its own material, then the room inside
+                if not shell:
+                    shell_.poly([P(*p), P(*p, r), P(*q, r), P(*q)], s)
+                    return
+                shell_.poly([P(*p), P(*p, SHELL_WALL_M), P(*q, SHELL_WALL_M), P(*q)], s)
+                shell_.poly([P(*p, SHELL_WALL_M), P(*p, r), P(*q, r), P(*q, SHELL_WALL_M)], inside)
             # reveals: bottom, right, top, left (each split where the wall grid has points)
             for a, bb in zip(ui[:-1], ui[1:]):
-                shell.poly([P(bb, o.v0), P(bb, o.v0, r), P(a, o.v0, r), P(a, o.v0)], sill if o.kind != "door" else base)
-                shell.poly([P(a, o.v1), P(a, o.v1, r), P(bb, o.v1, r), P(bb, o.v1)],
-                           ground if o.v1 <= ground_top else wall)
+                reveal((bb, o.v0), (a, o.v0), (sill if o.kind != "door" else base) if not shell else
+                       ground if o.v0 < ground_top else wall)
+                reveal((a, o.v1), (bb, o.v1), ground if o.v1 <= ground_top else wall)
             for a, bb in zip(vi[:-1], vi[1:]):
                 side = ground if (a + bb) / 2 < ground_top else wall
-                shell.poly([P(o.u1, bb), P(o.u1, bb, r), P(o.u1, a, r), P(o.u1, a)], side)
-                shell.poly([P(o.u0, a), P(o.u0, a, r), P(o.u0, bb, r), P(o.u0, bb)], side)
-            # the closing plane (glass or door leaf), with the same boundary points
+                reveal((o.u1, bb), (o.u1, a), side)
+                reveal((o.u0, a), (o.u0, bb), side)
+            # the closing plane (glass or door leaf; a shell's room's back wall), with the same boundary points
             ring = ([P(u, o.v0, r) for u in ui] + [P(o.u1, v, r) for v in vi[1:]] +
                     [P(u, o.v1, r) for u in ui[::-1][1:]] + [P(o.u0, v, r) for v in vi[::-1][1:-1]])
-            shell.poly(ring, door if o.kind == "door" else glass)
+            shell_.poly(ring, inside if shell else door if o.kind == "door" else glass)
     # roof cap and floor
     top = [(-W / 2, wall_h, D / 2), (W / 2, wall_h, D / 2), (W / 2, wall_h, -D / 2), (-W / 2, wall_h, -D / 2)]
-    top_pts = _perimeter_points(shell, wall_h)
-    shell.poly(top_pts if len(top_pts) > 4 else top, roof_s if not pitched else wall)
-    bottom_pts = _perimeter_points(shell, 0.0)
-    shell.poly(bottom_pts[::-1], base)
-    b.add(np.array(shell.V), shell.tris, shell.surf, closed=True)
+    top_pts = _perimeter_points(shell_, wall_h)
+    shell_.poly(top_pts if len(top_pts) > 4 else top, inside if shell else roof_s if not pitched else wall)
+    bottom_pts = _perimeter_points(shell_, 0.0)
+    shell_.poly(bottom_pts[::-1], base)
+    b.add(np.array(shell_.V), shell_.tris, shell_.surf, closed=True)
+    if shell:   # nothing fitted yet: the floor slabs' edges between the storeys, the roof slab's
+        for fy in floor_y[1:] + [wall_h]:
+            _band(b, W, D, fy - SHELL["slab_edge"], fy + (0.0 if fy < wall_h else 0.02), 0.015, slab_s)
+        return b.build()
 
     # --- details: frames, sills, door furniture ---------------------------
     for (origin, e_u, n, L), ops in zip(sides, openings):
@@ -234,6 +267,25 @@ def generate(size, seed: int) -> MeshData:
     px = (W / 2 - 0.15) * (1 if rng.random() < 0.5 else -1)
     b.cylinder(0.05, 0.0, wall_h - 0.1, 10, pipe, T=pose(None, (px, 0, D / 2 + 0.08)))
     return b.build()
+
+
+# a block under construction (issue 28, session 17), as KITTI sequence_1's scaffolded new build
+# 45-100 m ahead right (frames 15-50, full size): its openings unglazed, dark rooms behind them; on
+# its sunlit long side (frame 45) storey-high openings (0.7-0.85 of the floor-to-floor height),
+# on its end wall (frame 20) ~2 m wide ones; the upper floors bare sand-lime blocks, the slab
+# edges white bands ~0.3 m high at each floor (the slab-edge insulation), the ground floor's
+# walls white (its insulation: the ASSET's ground_material). Rooms 3.5-5 m deep (a flat's room
+# behind its window); walls 30 cm (17.5 cm blocks + 12 cm insulation, its strips at the edges).
+SHELL = {"win_w": (1.0, 2.4), "win_h": (1.8, 2.4), "sill": (0.1, 0.6), "room": (3.5, 5.0), "slab_edge": 0.3}
+SHELL_WALL_M = 0.3
+SHELL_STREAM = 17
+SHELL_INSIDE = (0.40, 0.39, 0.37)      # raw concrete and blocks inside, never sunlit but through the opening
+SHELL_SLAB = (0.78, 0.78, 0.75)        # the slab edges' white insulation strips (KITTI: as white as the ground floor's)
+
+
+def shell(size, seed: int) -> MeshData:
+    """A block under construction (``building_shell``): ``generate``'s building with ``shell``."""
+    return generate(size, seed, shell=True)
 
 
 def _perimeter_points(shell: _Shell, y: float) -> list:
