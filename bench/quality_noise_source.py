@@ -6,10 +6,16 @@ one sample leaves (sRGB units; rel_var_linear: in linear light over the mean's s
 a light whose removal takes most of v is what is sampled badly. noise_psnr: one render's own noise
 (MSE/2). ``glazing_glow@S``: the frosted panes as Lambertian emitters of strength S (one for every
 pane; the sky stays outside), the light-sampled path a diffuser's transmitted daylight could take.
-``--preset final``: the denoised images of a preset instead. Diagnostic only (the variants are not scenes).
+``sun_only`` / ``sky_only`` (a ``WORLD sky`` scene, e.g. city_kitti): the sky's sun lamp alone
+(the sky's background at strength 0) / the sky alone (the lamp at 0), as built: with ``--bounces
+0`` (direct light only) their variances against ``base``'s say how much is each light's own and
+how much the light tree's choice between them adds. ``--preset final``: the denoised images of a
+preset instead. Diagnostic only (the variants are not scenes).
 
-Usage: ``.venv/bin/python bench/quality_noise_source.py [--samples 32] [--frame 0] [--out DIR]``
-(centre window 188x120 of hall.ses at 752x480, left view). Measured in bench/RESULTS.md (session 14)."""
+Usage: ``.venv/bin/python bench/quality_noise_source.py [--scene scenes/hall.ses] [--samples 32]
+[--bounces N] [--frame 0] [--variants base sun_only sky_only ...] [--out DIR]`` (centre window of
+the scene's view at its own size, left view: hall.ses 188x120 of 752x480). Measured in
+bench/RESULTS.md (sessions 14 and 17)."""
 import argparse, json, os, re, sys, tempfile
 from dataclasses import replace
 from pathlib import Path
@@ -21,7 +27,29 @@ spec = importlib.util.spec_from_file_location("qb", f"{REPO}/bench/quality.py")
 qb = importlib.util.module_from_spec(spec); spec.loader.exec_module(qb)
 
 
-KNOWN = ("base", "sky_off", "lamps_off", "open_glazing")
+KNOWN = ("base", "sky_off", "lamps_off", "open_glazing", "sun_only", "sky_only")
+LIGHT_SCALES = {"sun_only": (1.0, 0.0), "sky_only": (0.0, 1.0)}   # (the sun lamp's, the sky background's)
+
+
+class LitBench(qb.Bench):
+    """The quality bench with the built scene's sun lamps and world background scaled."""
+
+    def __init__(self, args, sun: float = 1.0, sky: float = 1.0):
+        super().__init__(args)
+        self.scales = (sun, sky)
+
+    def session(self, preset):
+        s = super().session(preset)
+        sun, sky = self.scales
+        bscene = s.built.scene
+        for o in bscene.objects:
+            if o.type == "LIGHT" and o.data.type == "SUN":
+                o.data.energy *= sun
+        if bscene.world is not None and bscene.world.node_tree is not None:
+            for n in bscene.world.node_tree.nodes:
+                if n.type == "BACKGROUND":
+                    n.inputs["Strength"].default_value *= sky
+        return s
 
 
 def variant(text: str, name: str) -> str:
@@ -53,6 +81,8 @@ def main() -> int:
     p.add_argument("--preset", default=None, help="a preset of bench/quality.py (e.g. final: its denoised "
                    "images; v is then N x its variance) instead of N samples without denoiser")
     p.add_argument("--exposure", type=float, default=None, help="held exposure (default: metered on the scene)")
+    p.add_argument("--bounces", type=int, default=None, help="the light paths' max bounces without denoiser "
+                   "(default 12; 0: direct light only)")
     p.add_argument("--variants", nargs="*", default=["base", "sky_off", "lamps_off", "open_glazing"])
     p.add_argument("--out", default=None)
     a = p.parse_args()
@@ -63,9 +93,14 @@ def main() -> int:
             p.error(f"unknown variant {name!r}: {', '.join(KNOWN)}, glazing_glow[@STRENGTH]")
     if not Path(a.scene).is_file():
         p.error(f"no scene {a.scene}")
+    if a.bounces is not None and (a.bounces < 0 or a.preset):
+        p.error("--bounces N >= 0, without --preset")
     text = Path(a.scene).read_text()
     for name in a.variants:
-        if name != "base" and variant(text, name) == text:
+        if name in LIGHT_SCALES:
+            if not re.search(r"(?m)^WORLD sky", text):
+                p.error(f"variant {name!r}: {a.scene} has no WORLD sky")
+        elif name != "base" and variant(text, name) == text:
             p.error(f"variant {name!r} changes nothing in {a.scene}")
     tmp = Path(tempfile.mkdtemp(prefix="sesgen-noise-"))
     exposure, rows = a.exposure, {}
@@ -76,13 +111,16 @@ def main() -> int:
         path.write_text(variant(text, name))
         args = argparse.Namespace(scene=str(path), frame=a.frame, scale=1.0, crop=0.25, crop_centre=(0.5, 0.5),
                                   views="left", device="cpu")
-        b = qb.Bench(args)
+        b = LitBench(args, *LIGHT_SCALES.get(name, (1.0, 1.0)))
         b.exposure = exposure
         imgs, cpu = [], 0.0
         seed0 = b.plan.settings.seed
         for s in (seed0, seed0 + 1):
             b.plan = replace(b.plan, settings=replace(b.plan.settings, seed=s))
-            r = b.render(qb.PRESETS[a.preset] if a.preset else qb.reference_preset(a.samples), 1)
+            unbiased = qb.reference_preset(a.samples)
+            if a.bounces is not None:
+                unbiased = replace(unbiased, max_bounces=a.bounces)
+            r = b.render(qb.PRESETS[a.preset] if a.preset else unbiased, 1)
             imgs.append(r["images"]["left"].astype(float)); cpu += r["cpu_stereo"] / r["factor"]
         exposure = b.exposure
         mse = float(((imgs[0] - imgs[1]) ** 2).mean())

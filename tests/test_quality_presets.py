@@ -273,3 +273,57 @@ def test_gpu_without_a_gpu_fails_cleanly(tmp_path):
     lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
     assert lines == ["error: --device gpu: Cycles found no GPU (OptiX/CUDA/HIP/Metal/oneAPI)"], r.stderr
     assert r.stdout == "" and not (tmp_path / "out").exists()
+
+
+def test_sampling_pattern_is_cycles_default_and_recorded_only_when_changed(tmp_path):
+    """``Preset.sampling_pattern`` (issue 29, quality17): every preset keeps Cycles' own default
+    (``automatic``: on a render without adaptive sampling, Cycles' blue noise), which a new
+    Blender scene holds and which every folder so far was rendered with, so the manifest omits
+    it; another pattern is written to Cycles and is other pixels. The oracle: a scene Blender
+    made, its pattern untouched, renders pixels equal to one set to ``BLUE_NOISE`` and unequal
+    to ``TABULATED_SOBOL`` (a 4-sample render of a lit quad)."""
+    import bpy
+    from blender_sesgen.blender import render
+    from blender_sesgen.scene.presets import SAMPLING_PATTERNS
+    assert all(p.sampling_pattern == "automatic" for p in PRESETS.values())
+    final = _plan(tmp_path)
+    manifest = {"render": json.loads(json.dumps(final.settings.manifest_block())),
+                "resolution": [final.settings.width, final.settings.height]}
+    assert "sampling_pattern" not in manifest["render"]["sampling"]
+    sobol = replace(final.settings, preset=replace(final.settings.preset, sampling_pattern="tabulated_sobol"))
+    assert not OutputFolder.same_settings(manifest, sobol)
+    assert sobol.manifest_block()["sampling"]["sampling_pattern"] == "tabulated_sobol"
+    with pytest.raises(ValueError):
+        replace(final.settings.preset, sampling_pattern="halton")
+    bscene = bpy.data.scenes.new("q17_pattern")
+    try:
+        assert bscene.cycles.sampling_pattern == "AUTOMATIC"       # what Blender gives a new scene
+        for name in SAMPLING_PATTERNS:
+            render.configure(bscene, replace(PRESETS["final"], sampling_pattern=name))
+            assert bscene.cycles.sampling_pattern == name.upper()
+        render.configure(bscene, PRESETS["final"])
+        assert bscene.cycles.sampling_pattern == "AUTOMATIC"
+        bscene.render.engine, bscene.cycles.samples = "CYCLES", 4
+        bscene.cycles.use_denoising = bscene.cycles.use_adaptive_sampling = False
+        bscene.render.resolution_x = bscene.render.resolution_y = 24
+        bscene.render.resolution_percentage = 100
+        cam = bpy.data.objects.new("q17_cam", bpy.data.cameras.new("q17_cam"))
+        cam.location, cam.rotation_euler = (0, -4, 1), (1.4, 0, 0)
+        mesh = bpy.data.meshes.new("q17_quad")
+        mesh.from_pydata([(-1, -1, 0), (1, -1, 0), (1, 1, 1), (-1, 1, 1)], [], [(0, 1, 2, 3)])
+        lamp = bpy.data.objects.new("q17_lamp", bpy.data.lights.new("q17_lamp", "AREA"))
+        lamp.data.size, lamp.data.energy, lamp.location = 3.0, 500.0, (0, 0, 3)
+        for o in (cam, bpy.data.objects.new("q17_quad", mesh), lamp):
+            bscene.collection.objects.link(o)
+        bscene.camera = cam
+        pixels = {}
+        for name in ("automatic", "blue_noise", "tabulated_sobol"):
+            bscene.cycles.sampling_pattern = name.upper()
+            bscene.render.filepath = str(tmp_path / f"{name}.exr")
+            bpy.ops.render.render(write_still=True, scene=bscene.name)
+            ch = read_exr(tmp_path / f"{name}.exr")
+            pixels[name] = np.stack([ch[k] for k in sorted(ch) if "Combined" in k], -1)
+        assert pixels["automatic"].size and np.array_equal(pixels["automatic"], pixels["blue_noise"])
+        assert not np.array_equal(pixels["automatic"], pixels["tabulated_sobol"])
+    finally:
+        bpy.data.scenes.remove(bscene)

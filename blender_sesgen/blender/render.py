@@ -110,6 +110,7 @@ def configure(bscene, preset: Preset, *, gpu: bool = False, threads: int = 0,
     c.caustics_reflective = c.caustics_refractive = bool(preset.caustics)
     c.use_light_tree = bool(preset.light_tree)
     c.blur_glossy = float(preset.filter_glossy)
+    c.sampling_pattern = preset.sampling_pattern.upper()
     if hasattr(c, "use_guiding"):  # CPU path guiding (Cycles ignores it on a GPU)
         c.use_guiding = bool(preset.path_guiding)
     c.pixel_filter_type, c.filter_width = PIXEL_FILTER

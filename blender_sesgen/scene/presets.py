@@ -28,6 +28,7 @@ DEFAULT_QUALITY = "final"
 SHADINGS = ("full", "flat")
 DENOISE_GUIDES = ("none", "albedo", "albedo_normal")
 DENOISE_PREFILTERS = ("none", "fast", "accurate")
+SAMPLING_PATTERNS = ("automatic", "blue_noise", "tabulated_sobol")
 
 
 @dataclass(frozen=True)
@@ -53,6 +54,8 @@ class Preset:
     path_guiding: bool = False        # CPU only (Cycles ignores it on a GPU)
     filter_glossy: float = 1.0        # Cycles' Filter Glossy (its default): sharp glossy seen after a
     #                                   blurry bounce is blurred (less noise, biased); 0 = unbiased
+    sampling_pattern: str = "automatic"  # Cycles' sampling pattern: automatic (its default: blue noise on a
+    #                                   non-adaptive render), blue_noise or tabulated_sobol (classic)
     shading: str = "full"             # full | flat (gt: flat colour, no lights)
     overridden: tuple[str, ...] = ()  # which fields the user set over the preset
 
@@ -60,7 +63,7 @@ class Preset:
         if self.quality not in QUALITIES + ("custom",):
             raise ValueError(f"unknown quality {self.quality!r}")
         if self.shading not in SHADINGS or self.denoise_guides not in DENOISE_GUIDES \
-                or self.denoise_prefilter not in DENOISE_PREFILTERS:
+                or self.denoise_prefilter not in DENOISE_PREFILTERS or self.sampling_pattern not in SAMPLING_PATTERNS:
             raise ValueError(f"bad preset {self}")
 
     @property
@@ -92,6 +95,8 @@ class Preset:
             d.pop(k)
         if d["filter_glossy"] == 1.0:  # what every folder before the field was rendered with: they resume
             d.pop("filter_glossy")
+        if d["sampling_pattern"] == "automatic":  # likewise
+            d.pop("sampling_pattern")
         return d
 
 
