@@ -80,20 +80,23 @@ def run_chunk(argv: list[str], key: str, out: str, report: Optional[Callable[[di
             raise KeyboardInterrupt
         proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                 text=True, errors="replace", env=proc_env)
-        lines, rc, why = _read_lines(proc), None, ""
+        lines, rc, why, eof = _read_lines(proc), None, "", False
         try:
             _after_spawn(proc)
             send({"kind": "started", "key": key, "host": host, "pid": proc.pid})
             why = stop_asked()
-            while not why:
+            while not (why or eof):
                 try:
                     line = lines.get(timeout=POLL_S)
                 except queue.Empty:
-                    line = "" if proc.poll() is None else None   # ended, its output held open by another process
-                if line is None:
-                    break
-                take(line)
-                why = stop_asked()
+                    if proc.poll() is not None:   # ended, its output held open by another process
+                        break
+                    why = stop_asked()
+                    continue
+                eof = line is _EOF
+                if not eof:
+                    take(line)
+                    why = stop_asked()
             while not why:
                 try:
                     rc = proc.wait(POLL_S)
@@ -104,7 +107,7 @@ def run_chunk(argv: list[str], key: str, out: str, report: Optional[Callable[[di
             why = "interrupt"
         if why:
             rc = _stop(proc)
-        for line in _drain(lines):   # what it printed while it stopped (a frame it finished)
+        for line in () if eof else _drain(lines):   # what it printed as it stopped (a frame it finished)
             take(line)
         if rc is not None and rc < 0:   # killed: it cannot release its lock, we know it is dead
             _drop_lock(out, host, proc.pid)
@@ -121,6 +124,9 @@ _after_spawn_hook: Optional[Callable[[subprocess.Popen], None]] = None
 def _after_spawn(proc: subprocess.Popen) -> None:
     if _after_spawn_hook is not None:
         _after_spawn_hook(proc)
+
+
+_EOF = object()   # the end of a render's output, in its queue of lines
 
 
 class _Interrupts:
@@ -141,12 +147,12 @@ def _recorded_interrupts():
     saved = signal.signal(signal.SIGINT, record)
     try:
         yield rec
-    finally:
-        signal.signal(signal.SIGINT, saved)
+    finally:   # (None: a handler not set from Python, which cannot be put back; Python's then)
+        signal.signal(signal.SIGINT, signal.default_int_handler if saved is None else saved)
 
 
-def _read_lines(proc: subprocess.Popen) -> "queue.Queue[Optional[str]]":
-    """The render's output lines, read by a thread (None at its end) so that the task is never
+def _read_lines(proc: subprocess.Popen) -> "queue.Queue":
+    """The render's output lines, read by a thread (_EOF at its end) so that the task is never
     blocked on a render that prints nothing, and the render never on a full pipe while it stops."""
     lines: queue.Queue = queue.Queue()
 
@@ -156,12 +162,14 @@ def _read_lines(proc: subprocess.Popen) -> "queue.Queue[Optional[str]]":
                 lines.put(line)
         except (OSError, ValueError):   # closed under it
             pass
-        lines.put(None)
+        finally:
+            proc.stdout.close()
+            lines.put(_EOF)
     threading.Thread(target=pump, name=f"sesgen-render-{proc.pid}-output", daemon=True).start()
     return lines
 
 
-def _drain(lines: "queue.Queue[Optional[str]]", wait_s: float = 2.0):
+def _drain(lines: "queue.Queue", wait_s: float = 2.0):
     """The lines still to come once the render has ended, up to its end of output (or ``wait_s``
     without a line: another process still holds its output open)."""
     while True:
@@ -169,7 +177,7 @@ def _drain(lines: "queue.Queue[Optional[str]]", wait_s: float = 2.0):
             line = lines.get(timeout=wait_s)
         except queue.Empty:
             return
-        if line is None:
+        if line is _EOF:
             return
         yield line
 
