@@ -638,6 +638,46 @@ def test_a_sigint_sent_while_the_render_process_starts_stops_it(tmp_path):
     assert "Traceback" not in err and "interrupted" in err
 
 
+def test_a_render_child_keeps_a_cancel_that_came_while_it_started(tmp_path):
+    """The farm's render child records a SIGINT from its start (``farm_child``: a
+    KeyboardInterrupt raised in the middle of the command's imports came out as numpy's
+    ImportError, exit 1, or as a process killed by SIGINT at exit, -2: 13 of 120 cancels sent
+    0-0.6 s into a start, none now); the render's own ``deferred_interrupts`` keeps that request,
+    so the render stops before its first frame. Here the request is made by hand, in this
+    process: the block starts with it (before: it started afresh and the render went on)."""
+    from blender_sesgen.render.interrupt import StopRequest, deferred_interrupts
+    early = StopRequest()
+    old = signal.signal(signal.SIGINT, early)
+    try:
+        signal.raise_signal(signal.SIGINT)           # the cancel, recorded while the child started
+        with deferred_interrupts() as stop:
+            assert stop.requested and stop.signal_name == "SIGINT"
+        assert signal.getsignal(signal.SIGINT) is early
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        with deferred_interrupts() as stop:          # Python's handler: nothing asked before
+            assert not stop.requested
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+def test_a_render_child_interrupted_as_it_starts_writes_nothing(tmp_path):
+    """``farm_child render``, SIGINT pending as it starts (as from a farm task cancelled at
+    once): exit 130, one line, no folder."""
+    out = tmp_path / "out"
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        proc = subprocess.Popen([sys.executable, "-m", "blender_sesgen.commands.farm_child", "render",
+                                 str(REPO / "scenes" / "minimal.ses"), "--out", str(out), "--progress", "json"],
+                                cwd=REPO, env={**os.environ, "PYTHONPATH": str(REPO), chunk_mod.PARENT_ENV: str(os.getpid())},
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        os.kill(proc.pid, signal.SIGINT)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130 and err.strip() == "interrupted", (proc.returncode, err[-500:])
+    assert not out.exists()
+
+
 def test_the_verify_task_reports_a_tampered_manifest_as_the_folders_own_problem(tmp_path):
     """The farm then runs one chunk, whose --resume writes the manifest again from the
     script (a ContractError here used to fail the scene, and every later farm with it)."""
