@@ -169,8 +169,9 @@ def test_a_task_relays_the_render_events_and_keeps_its_error_lines(tmp_path):
 def test_a_cancel_that_came_before_the_interrupt_could_be_raised_stops_the_render(tmp_path):
     """A Ray cancel arriving while the worker still ignored SIGINT raises nothing (it was lost,
     and the render ran to its end with exit 0: test_farm_ray's cancel test, now and then);
-    Ray's flag still says so, and run_chunk asks it once the render has started: the render
-    gets SIGINT and stops like a Ctrl-C'd one, well before its end."""
+    Ray's flag still says so, and run_chunk asks it while the render runs: the render gets
+    SIGINT and stops like a Ctrl-C'd one, well before its end. A flag already up before the
+    render started: the task ends cancelled (KeyboardInterrupt) and starts nothing."""
     argv = _fake_render(tmp_path, """
         import sys, time
         from blender_sesgen.farm.child import restore_interrupts
@@ -180,15 +181,46 @@ def test_a_cancel_that_came_before_the_interrupt_could_be_raised_stops_the_rende
         except KeyboardInterrupt:
             sys.exit(130)
     """)
-    t0 = time.monotonic()
+    t0, got = time.monotonic(), []
     blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})   # as in a Ray worker: the child inherits it
     try:
-        res = chunk_mod.run_chunk(argv, "s[0:2]#1", str(tmp_path / "out"), cancelled=lambda: True)
+        asked = []                # up from its second question: the render has started
+        res = chunk_mod.run_chunk(argv, "s[0:2]#1", str(tmp_path / "out"), cancelled=lambda: bool(asked.append(1)) or
+                                  len(asked) > 1)
+        with pytest.raises(KeyboardInterrupt):
+            chunk_mod.run_chunk(argv, "s[0:2]#2", str(tmp_path / "out"), got.append, cancelled=lambda: True)
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
     assert res["cancelled"] and res["rc"] == 130 and time.monotonic() - t0 < 30, res
+    assert res["stopped_by"] == "cancel flag" and got == []     # the second: no render, nothing reported
     assert not chunk_mod._cancel_requested()     # outside a Ray task: never, and no Ray started
     assert "ray" not in sys.modules or not sys.modules["ray"].is_initialized()
+
+
+def test_a_cancel_reaches_a_render_that_prints_nothing_at_once(tmp_path):
+    """Ray cancels a running task with ``_thread.interrupt_main()``: no signal is sent, so a
+    task blocked reading its render's output (a render loading Blender, building a scene: no
+    line for seconds, minutes for a city) took the KeyboardInterrupt only at the render's next
+    line or its end -- here never within the render's 60 s. The task now watches its render
+    every POLL_S: the render gets SIGINT at once and stops (exit 130)."""
+    import _thread
+    import threading
+    argv = _fake_render(tmp_path, """
+        import sys, time
+        try:
+            time.sleep(60)                # silent
+        except KeyboardInterrupt:
+            sys.exit(130)
+    """)
+    timer = threading.Timer(1.0, _thread.interrupt_main)    # what Ray's cancel does in the worker
+    t0 = time.monotonic()
+    timer.start()
+    try:
+        res = chunk_mod.run_chunk(argv, "s[0:2]#1", str(tmp_path / "out"))
+    finally:
+        timer.cancel()
+    assert res["rc"] == 130 and res["cancelled"] and res["stopped_by"] == "interrupt", res
+    assert time.monotonic() - t0 < 1.0 + 10, res
 
 
 def test_a_cancel_repeated_while_the_render_stops_does_not_kill_it(tmp_path):
@@ -604,6 +636,46 @@ def test_a_sigint_sent_while_the_render_process_starts_stops_it(tmp_path):
     out, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, (proc.returncode, err[-500:])
     assert "Traceback" not in err and "interrupted" in err
+
+
+def test_a_render_child_keeps_a_cancel_that_came_while_it_started(tmp_path):
+    """The farm's render child records a SIGINT from its start (``farm_child``: a
+    KeyboardInterrupt raised in the middle of the command's imports came out as numpy's
+    ImportError, exit 1, or as a process killed by SIGINT at exit, -2: 13 of 120 cancels sent
+    0-0.6 s into a start, none now); the render's own ``deferred_interrupts`` keeps that request,
+    so the render stops before its first frame. Here the request is made by hand, in this
+    process: the block starts with it (before: it started afresh and the render went on)."""
+    from blender_sesgen.render.interrupt import StopRequest, deferred_interrupts
+    early = StopRequest()
+    old = signal.signal(signal.SIGINT, early)
+    try:
+        signal.raise_signal(signal.SIGINT)           # the cancel, recorded while the child started
+        with deferred_interrupts() as stop:
+            assert stop.requested and stop.signal_name == "SIGINT"
+        assert signal.getsignal(signal.SIGINT) is early
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        with deferred_interrupts() as stop:          # Python's handler: nothing asked before
+            assert not stop.requested
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+def test_a_render_child_interrupted_as_it_starts_writes_nothing(tmp_path):
+    """``farm_child render``, SIGINT pending as it starts (as from a farm task cancelled at
+    once): exit 130, one line, no folder."""
+    out = tmp_path / "out"
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        proc = subprocess.Popen([sys.executable, "-m", "blender_sesgen.commands.farm_child", "render",
+                                 str(REPO / "scenes" / "minimal.ses"), "--out", str(out), "--progress", "json"],
+                                cwd=REPO, env={**os.environ, "PYTHONPATH": str(REPO), chunk_mod.PARENT_ENV: str(os.getpid())},
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        os.kill(proc.pid, signal.SIGINT)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130 and err.strip() == "interrupted", (proc.returncode, err[-500:])
+    assert not out.exists()
 
 
 def test_the_verify_task_reports_a_tampered_manifest_as_the_folders_own_problem(tmp_path):

@@ -135,6 +135,8 @@ def run(args: argparse.Namespace) -> int:
               f"{' + denoise' if s.denoise else ''}, seed {s.seed}, {s.device.value.upper()}{gpu}", flush=True)
     with deferred_interrupts() as stop:
         try:
+            if stop.requested:   # asked while the command started (a farm's render child): no Blender to load
+                raise KeyboardInterrupt
             job.build(stop=lambda: stop.requested)
             if job.session.culling is not None and not args.quiet:
                 print(f"culling: {job.session.culling.summary()} built for {len(todo)} frame(s)", flush=True)

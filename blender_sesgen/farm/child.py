@@ -50,12 +50,13 @@ def bind_to_parent(parent_pid: int) -> str:
     return how
 
 
-def restore_interrupts() -> None:
-    """SIGINT and SIGTERM back to Python's default handling, then unblocked (see the module
-    docstring). In that order: a SIGINT sent while this process started (the farm cancelled
-    its task at once) waited, blocked; unblocked, it meets Python's handler and stops the
-    render as a Ctrl-C does, instead of an ignoring disposition that would drop it."""
-    signal.signal(signal.SIGINT, signal.default_int_handler)
+def restore_interrupts(on_sigint=signal.default_int_handler) -> None:
+    """SIGINT and SIGTERM back to Python's default handling (SIGINT: ``on_sigint``), then
+    unblocked (see the module docstring). In that order: a SIGINT sent while this process
+    started (the farm cancelled its task at once) waited, blocked; unblocked, it meets Python's
+    handler and stops the render as a Ctrl-C does, instead of an ignoring disposition that
+    would drop it."""
+    signal.signal(signal.SIGINT, on_sigint)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if hasattr(signal, "pthread_sigmask"):
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})

@@ -7,13 +7,16 @@ task's result): the exit status, the host and pid of the render, the output tail
 
 If the render dies by a signal (SIGKILL, the OOM killer) its lock on the frames stays
 behind; this process knows it is dead and removes it, so that the retry -- on any host --
-can take the frames at once. If the task itself is cancelled (KeyboardInterrupt in the
-worker) the render gets SIGINT and stops between views like a Ctrl-C'd render.
+can take the frames at once. If the task itself is cancelled (Ray's KeyboardInterrupt in the
+worker, or its cancel flag) the render gets SIGINT and stops between views like a Ctrl-C'd
+render; a task cancelled before its render started ends cancelled (KeyboardInterrupt).
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import queue
 import signal
 import socket
 import subprocess
@@ -30,12 +33,25 @@ from .work import ERROR_TAIL
 INTERRUPT_GRACE_S = 60.0   # after SIGINT, how long a render may take to finish its view
 
 
+POLL_S = 0.2               # how often a task watching its render asks whether it was cancelled
+
+
 def run_chunk(argv: list[str], key: str, out: str, report: Optional[Callable[[dict], None]] = None,
               env: Optional[dict] = None, cancelled: Callable[[], bool] = lambda: False) -> dict:
     """Run one chunk's render ``argv`` (the key names the chunk in reports; ``out`` is its
     render folder) and return its result dict (see the module docstring). ``cancelled()``:
-    asked once the render has started and at each line it prints, for a cancel whose
-    interrupt was not raised (it came before the task could take it)."""
+    Ray's cancel flag, for a cancel whose interrupt was not raised (it came before the task
+    could take it).
+
+    A cancel is taken at whatever instant it comes. In the main thread (a Ray task) SIGINT --
+    the KeyboardInterrupt of Ray's cancel -- only records the request for the length of the
+    call; the task asks that record and ``cancelled()`` before it starts the render (a cancel
+    by then: KeyboardInterrupt, no render) and every POLL_S while it runs (its output is read
+    by a thread), and stops it (``_stop``). An interrupt raised where it came (Python's
+    handler) once landed between the render's start and the ``try`` that stops it, or in the
+    stop before its SIGINT: the task ended cancelled and its render, whose parent lives on,
+    rendered the whole folder; and a task blocked reading a render that printed nothing
+    (loading Blender, building a scene) took a cancel only at the next line."""
     send = report or (lambda msg: None)
     host = socket.gethostname()
     t0 = time.monotonic()
@@ -44,32 +60,126 @@ def run_chunk(argv: list[str], key: str, out: str, report: Optional[Callable[[di
     proc_env.setdefault("PYTHONUNBUFFERED", "1")
     tail: deque[str] = deque(maxlen=ERROR_TAIL)
     frames_done = 0
-    proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True, errors="replace", env=proc_env)
-    interrupted = False
-    try:   # at once: a cancel from here on reaches the render (before, there is none to stop)
-        if cancelled():
+
+    def take(line: str) -> None:
+        nonlocal frames_done
+        event = _event(line)
+        if event is None:
+            if line.strip():
+                tail.append(line.rstrip("\n"))
+            return
+        if event.get("event") == "progress":
+            frames_done += 1
+        send({"kind": "event", "key": key, "event": event})
+
+    with _recorded_interrupts() as interrupt:
+        def stop_asked() -> str:
+            return "interrupt" if interrupt.requested else "cancel flag" if cancelled() else ""
+
+        if stop_asked():   # cancelled before its render: nothing to stop (Ray: TaskCancelledError)
             raise KeyboardInterrupt
-        send({"kind": "started", "key": key, "host": host, "pid": proc.pid})
-        for line in proc.stdout:
-            if cancelled():   # each line: a cancel whose interrupt Ray could not raise (not yet executing)
-                raise KeyboardInterrupt
-            event = _event(line)
-            if event is None:
-                if line.strip():
-                    tail.append(line.rstrip("\n"))
-                continue
-            if event.get("event") == "progress":
-                frames_done += 1
-            send({"kind": "event", "key": key, "event": event})
-        rc = proc.wait()
-    except KeyboardInterrupt:   # the task was cancelled: stop the render like a Ctrl-C
-        interrupted = True
-        rc = _stop(proc)
-    if rc is not None and rc < 0:   # killed: it cannot release its lock, we know it is dead
-        _drop_lock(out, host, proc.pid)
+        proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                text=True, errors="replace", env=proc_env)
+        lines, rc, why, eof = _read_lines(proc), None, "", False
+        try:
+            _after_spawn(proc)
+            send({"kind": "started", "key": key, "host": host, "pid": proc.pid})
+            why = stop_asked()
+            while not (why or eof):
+                try:
+                    line = lines.get(timeout=POLL_S)
+                except queue.Empty:
+                    if proc.poll() is not None:   # ended, its output held open by another process
+                        break
+                    why = stop_asked()
+                    continue
+                eof = line is _EOF
+                if not eof:
+                    take(line)
+                    why = stop_asked()
+            while not why:
+                try:
+                    rc = proc.wait(POLL_S)
+                    break
+                except subprocess.TimeoutExpired:
+                    why = stop_asked()
+        except KeyboardInterrupt:   # farm.local's cancel: raised in the task's thread
+            why = "interrupt"
+        if why:
+            rc = _stop(proc)
+        for line in () if eof else _drain(lines):   # what it printed as it stopped (a frame it finished)
+            take(line)
+        if rc is not None and rc < 0:   # killed: it cannot release its lock, we know it is dead
+            _drop_lock(out, host, proc.pid)
     return {"key": key, "rc": rc, "host": host, "pid": proc.pid, "tail": list(tail),
-            "frames_done": frames_done, "wall_s": round(time.monotonic() - t0, 3), "cancelled": interrupted}
+            "frames_done": frames_done, "wall_s": round(time.monotonic() - t0, 3), "cancelled": bool(why),
+            "stopped_by": why}
+
+
+# A test's hook (None: nothing): called with the render's Popen as soon as it has started, in the
+# task's process -- tests/test_farm_ray.py parks a task there and cancels it.
+_after_spawn_hook: Optional[Callable[[subprocess.Popen], None]] = None
+
+
+def _after_spawn(proc: subprocess.Popen) -> None:
+    if _after_spawn_hook is not None:
+        _after_spawn_hook(proc)
+
+
+_EOF = object()   # the end of a render's output, in its queue of lines
+
+
+class _Interrupts:
+    requested = False
+
+
+@contextlib.contextmanager
+def _recorded_interrupts():
+    """SIGINT sets ``requested`` instead of raising, within the block (main thread; in another
+    thread -- farm.local's tasks -- nothing changes: its cancel is an exception raised there)."""
+    rec = _Interrupts()
+    if threading.current_thread() is not threading.main_thread():
+        yield rec
+        return
+
+    def record(signum, frame) -> None:
+        rec.requested = True
+    saved = signal.signal(signal.SIGINT, record)
+    try:
+        yield rec
+    finally:   # (None: a handler not set from Python, which cannot be put back; Python's then)
+        signal.signal(signal.SIGINT, signal.default_int_handler if saved is None else saved)
+
+
+def _read_lines(proc: subprocess.Popen) -> "queue.Queue":
+    """The render's output lines, read by a thread (_EOF at its end) so that the task is never
+    blocked on a render that prints nothing, and the render never on a full pipe while it stops."""
+    lines: queue.Queue = queue.Queue()
+
+    def pump() -> None:
+        try:
+            for line in proc.stdout:
+                lines.put(line)
+        except (OSError, ValueError):   # closed under it
+            pass
+        finally:
+            proc.stdout.close()
+            lines.put(_EOF)
+    threading.Thread(target=pump, name=f"sesgen-render-{proc.pid}-output", daemon=True).start()
+    return lines
+
+
+def _drain(lines: "queue.Queue", wait_s: float = 2.0):
+    """The lines still to come once the render has ended, up to its end of output (or ``wait_s``
+    without a line: another process still holds its output open)."""
+    while True:
+        try:
+            line = lines.get(timeout=wait_s)
+        except queue.Empty:
+            return
+        if line is _EOF:
+            return
+        yield line
 
 
 def _event(line: str) -> Optional[dict]:

@@ -36,6 +36,9 @@ def deferred_interrupts():
         yield stop
         return
     saved = {s: signal.signal(s, stop) for s in (signal.SIGINT, signal.SIGTERM)}
+    before = saved[signal.SIGINT]
+    if isinstance(before, StopRequest) and before.requested:   # asked before the block (a farm's render child
+        stop.requested, stop.signal_name = True, before.signal_name   # records a cancel while it starts)
     try:
         yield stop
     finally:
