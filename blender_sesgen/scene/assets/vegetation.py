@@ -97,6 +97,31 @@ class _Branches:
                       max(rad[i] * 0.55, 0.004), level + 1, max_level, children, max(segs - 1, 3), up * 0.8)
 
 
+def _sprays(rng, path, t0: float, bunch_m: float, spray_m: float, spray_r: float) -> np.ndarray:
+    """Leaf-bunch centres along a twig ``path`` from ``t0`` of its length to its tip: one per
+    ``bunch_m`` of it, gathered in sprays ``spray_m`` apart (the bunches' spread ``spray_r``,
+    a standard deviation): open gaps between sprays, as real crowns show them."""
+    seg_len = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    tot = seg_len.sum()
+    m = max(int(tot * (1 - t0) / bunch_m), 2)
+    n_spray = max(int(tot * (1 - t0) / spray_m), 1)
+    t = np.sort(rng.uniform(t0, 1.0, n_spray))
+    cum = np.concatenate([[0], np.cumsum(seg_len)]) / tot
+    c = np.stack([np.interp(t, cum, path[:, i]) for i in range(3)], axis=1)
+    return c[rng.integers(n_spray, size=m)] + rng.normal(size=(m, 3)) * spray_r
+
+
+def _bark_and_greens(b: MeshBuilder, rng, shades, yellowed) -> tuple:
+    """A tree's bark surface and its leaves' greens: one green of the palette in ``shades``
+    (brightness factors) and a yellower one (red x ``yellowed[0]``, blue x 0.8, brightness
+    ``yellowed[1]``): leaves of one tree differ in age and light, not in species."""
+    bark = b.surface("bark", pick(rng, palette.BARK))
+    base = pick(rng, palette.LEAVES)
+    greens = [b.surface("leaves", scaled(base, f)) for f in shades]
+    greens.append(b.surface("leaves", scaled((base[0] * yellowed[0], base[1], base[2] * 0.8), yellowed[1])))
+    return bark, greens
+
+
 def _tube_sides(radius: float) -> int:
     return 10 if radius > 0.1 else 7 if radius > 0.04 else 5 if radius > 0.015 else 4
 
@@ -105,10 +130,7 @@ def tree(size, seed: int) -> MeshData:
     """A broadleaf tree: trunk, 3 levels of branches, leaf clusters along the outer twigs
     (~40-100 thousand leaves)."""
     rng, Wc, H, Dc, b = start(size, seed)
-    bark = b.surface("bark", pick(rng, palette.BARK))
-    base_green = pick(rng, palette.LEAVES)
-    greens = [b.surface("leaves", scaled(base_green, f)) for f in (0.8, 1.0, 1.2)]
-    greens.append(b.surface("leaves", scaled((base_green[0] * 1.4, base_green[1], base_green[2] * 0.8), 1.1)))
+    bark, greens = _bark_and_greens(b, rng, (0.8, 1.0, 1.2), (1.4, 1.1))
     clear = H * rng.uniform(0.25, 0.4)
     crown_c = (0.0, clear + (H - clear) * 0.5, 0.0)
     crown_r = (Wc / 2, (H - clear) / 2, Dc / 2)
@@ -127,15 +149,8 @@ def tree(size, seed: int) -> MeshData:
     b.tubes([(pts, rad, _tube_sides(float(rad[0]))) for pts, rad, _ in sk.paths], bark, smooth=True)
     for pts, rad, level in sk.paths:
         if level >= 1:   # twigs on the outer parts of the main branches and everything finer
-            seg_len = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-            tot = seg_len.sum()
-            t0 = 0.3 if level >= 2 else 0.6
-            m = max(int(tot * (1 - t0) / 0.05), 2)          # leaf bunches: one per 5 cm of twig
-            n_spray = max(int(tot * (1 - t0) / SPRAY_SPACING_M), 1)
-            t = np.sort(rng.uniform(t0, 1.0, n_spray))
-            cum = np.concatenate([[0], np.cumsum(seg_len)]) / tot
-            c = np.stack([np.interp(t, cum, pts[:, i]) for i in range(3)], axis=1)
-            q = c[rng.integers(n_spray, size=m)] + rng.normal(size=(m, 3)) * SPRAY_RADIUS_M
+            # leaf bunches: one per 5 cm of twig
+            q = _sprays(rng, pts, 0.3 if level >= 2 else 0.6, 0.05, SPRAY_SPACING_M, SPRAY_RADIUS_M)
             leaf_pts.append(q)
             leaf_out.append(q - np.asarray(crown_c))
     P = np.concatenate(leaf_pts)
@@ -167,10 +182,7 @@ def garden_tree(size, seed: int) -> MeshData:
     """A young garden tree: a slim stem clear to 30-45 % of the height, laterals all the way up
     the leader (an ovoid crown of ``size``'s width and depth), twigs, small leaves in sprays."""
     rng, Wc, H, Dc, b = start(size, seed)
-    bark = b.surface("bark", pick(rng, palette.BARK))
-    base_green = pick(rng, palette.LEAVES)
-    greens = [b.surface("leaves", scaled(base_green, f)) for f in (0.75, 0.95, 1.15)]
-    greens.append(b.surface("leaves", scaled((base_green[0] * 1.3, base_green[1], base_green[2] * 0.8), 1.05)))
+    bark, greens = _bark_and_greens(b, rng, (0.75, 0.95, 1.15), (1.3, 1.05))
     clear = H * rng.uniform(0.3, 0.45)
     crown_c = np.array([0.0, clear + (H - clear) * 0.48, 0.0])
     crown_r = np.array([Wc / 2, (H - clear) / 2 + 0.05, Dc / 2])
@@ -198,17 +210,11 @@ def garden_tree(size, seed: int) -> MeshData:
     b.tubes([(pts, rad, _tube_sides(float(rad[0]))) for pts, rad, _ in sk.paths], bark, smooth=True)
     leaf_pts, leaf_out = [], []
     for pts, rad, level in sk.paths:
-        seg_len = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-        tot = seg_len.sum()
-        t0 = 0.85 if level == 0 else 0.35 if level == 1 else 0.1
         if level == 0 and pts[-1, 1] < H - 0.5:
             continue
-        m = max(int(tot * (1 - t0) / 0.03), 2)          # leaf bunches: one per 3 cm of twig
-        n_spray = max(int(tot * (1 - t0) / GARDEN_TREE_SPRAY_M), 1)
-        t = np.sort(rng.uniform(t0, 1.0, n_spray))
-        cum = np.concatenate([[0], np.cumsum(seg_len)]) / tot
-        c = np.stack([np.interp(t, cum, pts[:, i]) for i in range(3)], axis=1)
-        q = c[rng.integers(n_spray, size=m)] + rng.normal(size=(m, 3)) * GARDEN_TREE_SPRAY_R
+        t0 = 0.85 if level == 0 else 0.35 if level == 1 else 0.1
+        # leaf bunches: one per 3 cm of twig
+        q = _sprays(rng, pts, t0, 0.03, GARDEN_TREE_SPRAY_M, GARDEN_TREE_SPRAY_R)
         leaf_pts.append(q)
         leaf_out.append(q - crown_c)
     P, O = np.concatenate(leaf_pts), np.concatenate(leaf_out)
