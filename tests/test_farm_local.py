@@ -102,3 +102,56 @@ def test_the_farms_progress_inbox_runs_its_calls_one_at_a_time():
         got += ray.get(box.take.remote())
     got += ray.get(box.take.remote())
     assert sorted(got) == [(i, k) for i in range(4) for k in range(200)]
+
+
+_PARKED_SCENE = """\
+CAMERA resolution 64 48 focal 44 baseline 0.1 near 0.1 far 100
+START position 0 1 3
+QUAD id 1 texture 4 vertices -2 0 -2  2 0 -2  2 0 4  -2 0 4
+CUBOID id 3 texture 1 position -0.8 0.4 -0.5 dim 0.8 0.8 0.8
+""" + "EGO 0.02 0 0.1 0 1 0\n" * 400
+
+
+def test_a_local_cancel_as_the_render_starts_stops_it(tmp_path):
+    """The local farm cancels a running task by raising KeyboardInterrupt in its thread, which
+    could land between the render's start and the code that stops it: the task ended cancelled
+    without stopping its render, which the kernel then killed (SIGKILL: PR_SET_PDEATHSIG follows
+    the thread that started it) with its lock left on the frames. run_chunk now takes a local
+    cancel as a flag it asks. The task is parked right after its render started
+    (``chunk._after_spawn_hook``) and cancelled there: the render must be stopped as a Ctrl-C'd
+    render (exit 130, its lock released) and gone, the task's answer saying it was cancelled."""
+    from blender_sesgen.farm import chunk
+    script = tmp_path / "parked.ses"
+    script.write_text(_PARKED_SCENE)
+    out = tmp_path / "parked" / "s"
+    out.parent.mkdir()
+    args = ["render", str(script), "--out", str(out), "--frames", "0:400", "--progress", "json",
+            "--threads", "1", "--samples", "16"]
+    spawned, go, box = threading.Event(), threading.Event(), {}
+
+    def park(proc):
+        box["proc"] = proc
+        spawned.set()
+        assert go.wait(60)
+    ray = LocalRay(1)
+    chunk._after_spawn_hook = park
+    try:
+        ref = ray.remote(chunk.task).remote(args, "s[0:400]#parked", str(out), None, str(script))
+        assert spawned.wait(60), "the task never started its render"
+        ray.cancel(ref)
+        time.sleep(0.5)           # an interrupt raised in the thread lands in the parked hook
+        go.set()
+        try:
+            res = ray.get(ref, timeout=120)
+        except TaskCancelledError:
+            res = None
+    finally:
+        chunk._after_spawn_hook = None
+    proc = box["proc"]
+    try:
+        proc.wait(timeout=30)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        pytest.fail(f"the render {proc.pid} lives on after its task was cancelled ({res})")
+    assert not list((out / ".sesgen").glob("lock-*")), f"the stopped render left its lock ({res})"
+    assert res is not None and res["cancelled"] and res["rc"] == 130, res

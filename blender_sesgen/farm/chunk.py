@@ -27,6 +27,7 @@ from collections import deque
 from pathlib import Path
 from typing import Callable, Optional
 
+from . import local
 from .child import PARENT_ENV
 from .work import ERROR_TAIL
 
@@ -80,9 +81,9 @@ def run_chunk(argv: list[str], key: str, out: str, report: Optional[Callable[[di
             raise KeyboardInterrupt
         proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                 text=True, errors="replace", env=proc_env)
+        _after_spawn(proc)   # (before the ``try`` that stops it: a cancel here must not be lost)
         lines, rc, why, eof = _read_lines(proc), None, "", False
         try:
-            _after_spawn(proc)
             send({"kind": "started", "key": key, "host": host, "pid": proc.pid})
             why = stop_asked()
             while not (why or eof):
@@ -103,7 +104,7 @@ def run_chunk(argv: list[str], key: str, out: str, report: Optional[Callable[[di
                     break
                 except subprocess.TimeoutExpired:
                     why = stop_asked()
-        except KeyboardInterrupt:   # farm.local's cancel: raised in the task's thread
+        except KeyboardInterrupt:   # an interrupt raised in the task's thread all the same (another caller's)
             why = "interrupt"
         if why:
             rc = _stop(proc)
@@ -136,10 +137,12 @@ class _Interrupts:
 @contextlib.contextmanager
 def _recorded_interrupts():
     """SIGINT sets ``requested`` instead of raising, within the block (main thread; in another
-    thread -- farm.local's tasks -- nothing changes: its cancel is an exception raised there)."""
+    thread -- farm.local's tasks -- a cancel likewise only sets the task's flag, which
+    ``_cancel_requested`` asks, instead of raising KeyboardInterrupt there)."""
     rec = _Interrupts()
     if threading.current_thread() is not threading.main_thread():
-        yield rec
+        with local.cancels_polled():
+            yield rec
         return
 
     def record(signum, frame) -> None:
@@ -260,7 +263,10 @@ def sigint_raises() -> None:
 
 def _cancel_requested() -> bool:
     """Whether Ray was asked to cancel this task (its flag; also set when the interrupt itself
-    was lost because SIGINT was still ignored). False outside a Ray task."""
+    was lost because SIGINT was still ignored), or farm.local to cancel the task this thread
+    runs. False outside a task."""
+    if local.cancel_asked():
+        return True
     ray = sys.modules.get("ray")    # never imported here, nor started: get_runtime_context() would start a Ray
     if ray is None or not ray.is_initialized():
         return False

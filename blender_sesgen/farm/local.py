@@ -14,6 +14,7 @@ is not lost: when this process dies, its children die with it, ``farm.child``).
 """
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import threading
 import time
@@ -32,6 +33,9 @@ class Ref:
         self.future: Future = Future()
         self.label = label
         self.thread: Optional[threading.Thread] = None
+        self.cancel_asked = threading.Event()   # set by ``cancel`` of the running task
+        self.polled = False                     # within ``cancels_polled``: the task asks, nothing is raised
+        self.lock = threading.Lock()
 
     def __repr__(self) -> str:
         return f"Ref({self.label})"
@@ -133,7 +137,10 @@ class LocalRay:
             ref.future.set_exception(TaskCancelledError(f"task {ref.label} cancelled"))
             self._dispatch()
         elif ref.thread is not None and ref.thread.is_alive() and not ref.future.done():
-            _raise_in(ref.thread, KeyboardInterrupt)
+            with ref.lock:   # (held while raising: the task cannot enter cancels_polled between)
+                ref.cancel_asked.set()
+                if not ref.polled:
+                    _raise_in(ref.thread, KeyboardInterrupt)
 
     def is_initialized(self) -> bool:
         return self._open
@@ -173,6 +180,7 @@ class LocalRay:
             t.ref.thread.start()
 
     def _run(self, t: _Task) -> None:
+        _RUNNING[threading.get_ident()] = t.ref
         try:
             failed = next((a.future.exception() for a in t.args if isinstance(a, Ref) and a.future.exception()),
                           None)
@@ -184,12 +192,42 @@ class LocalRay:
             self._finish(t, lambda: t.ref.future.set_exception(error))
         else:
             self._finish(t, lambda: t.ref.future.set_result(result))
+        finally:
+            _RUNNING.pop(threading.get_ident(), None)
 
     def _finish(self, t: _Task, settle: Callable[[], None]) -> None:
         with self._lock:
             self._free += t.cpus
         settle()
         self._dispatch()
+
+
+_RUNNING: dict[int, Ref] = {}   # thread id -> the task it runs
+
+
+def cancel_asked() -> bool:
+    """Whether the local task this thread runs was cancelled (False outside one)."""
+    ref = _RUNNING.get(threading.get_ident())
+    return ref is not None and ref.cancel_asked.is_set()
+
+
+@contextlib.contextmanager
+def cancels_polled():
+    """Within the block a cancel of this thread's task only sets its flag, which the task asks
+    (``cancel_asked``), instead of raising KeyboardInterrupt wherever the thread is: a task that
+    starts a child process and must stop it (farm.chunk.run_chunk) cannot be interrupted
+    between the child's start and the code that stops it. Outside a local task: nothing."""
+    ref = _RUNNING.get(threading.get_ident())
+    if ref is None:
+        yield
+        return
+    with ref.lock:
+        ref.polled = True
+    try:
+        yield
+    finally:
+        with ref.lock:
+            ref.polled = False
 
 
 def _raise_in(thread: threading.Thread, exc: type) -> None:
