@@ -27,7 +27,7 @@ from collections import deque
 from pathlib import Path
 from typing import Callable, Optional
 
-from . import local
+from .cancels import cancel_asked, cancels_polled
 from .child import PARENT_ENV
 from .work import ERROR_TAIL
 
@@ -138,10 +138,10 @@ class _Interrupts:
 def _recorded_interrupts():
     """SIGINT sets ``requested`` instead of raising, within the block (main thread; in another
     thread -- farm.local's tasks -- a cancel likewise only sets the task's flag, which
-    ``_cancel_requested`` asks, instead of raising KeyboardInterrupt there)."""
+    ``_cancel_requested`` asks, instead of raising KeyboardInterrupt there: farm.cancels)."""
     rec = _Interrupts()
     if threading.current_thread() is not threading.main_thread():
-        with local.cancels_polled():
+        with cancels_polled():
             yield rec
         return
 
@@ -264,8 +264,8 @@ def sigint_raises() -> None:
 def _cancel_requested() -> bool:
     """Whether Ray was asked to cancel this task (its flag; also set when the interrupt itself
     was lost because SIGINT was still ignored), or farm.local to cancel the task this thread
-    runs. False outside a task."""
-    if local.cancel_asked():
+    runs (farm.cancels). False outside a task."""
+    if cancel_asked():
         return True
     ray = sys.modules.get("ray")    # never imported here, nor started: get_runtime_context() would start a Ray
     if ray is None or not ray.is_initialized():

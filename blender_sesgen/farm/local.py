@@ -14,12 +14,13 @@ is not lost: when this process dies, its children die with it, ``farm.child``).
 """
 from __future__ import annotations
 
-import contextlib
 import ctypes
 import threading
 import time
 from concurrent.futures import FIRST_COMPLETED, Future, wait as wait_futures
 from typing import Any, Callable, Optional
+
+from .cancels import TaskCancel, running
 
 
 class TaskCancelledError(RuntimeError):
@@ -33,9 +34,7 @@ class Ref:
         self.future: Future = Future()
         self.label = label
         self.thread: Optional[threading.Thread] = None
-        self.cancel_asked = threading.Event()   # set by ``cancel`` of the running task
-        self.polled = False                     # within ``cancels_polled``: the task asks, nothing is raised
-        self.lock = threading.Lock()
+        self.cancel = TaskCancel()   # a running task's cancel (farm.cancels)
 
     def __repr__(self) -> str:
         return f"Ref({self.label})"
@@ -137,9 +136,9 @@ class LocalRay:
             ref.future.set_exception(TaskCancelledError(f"task {ref.label} cancelled"))
             self._dispatch()
         elif ref.thread is not None and ref.thread.is_alive() and not ref.future.done():
-            with ref.lock:   # (held while raising: the task cannot enter cancels_polled between)
-                ref.cancel_asked.set()
-                if not ref.polled:
+            with ref.cancel.lock:   # (held while raising: the task cannot enter cancels_polled between)
+                ref.cancel.asked.set()
+                if not ref.cancel.polled:
                     _raise_in(ref.thread, KeyboardInterrupt)
 
     def is_initialized(self) -> bool:
@@ -180,54 +179,24 @@ class LocalRay:
             t.ref.thread.start()
 
     def _run(self, t: _Task) -> None:
-        _RUNNING[threading.get_ident()] = t.ref
         try:
             failed = next((a.future.exception() for a in t.args if isinstance(a, Ref) and a.future.exception()),
                           None)
             if failed is not None:
                 raise failed
-            result = t.fn(*[a.future.result() if isinstance(a, Ref) else a for a in t.args])
+            with running(t.ref.cancel):
+                result = t.fn(*[a.future.result() if isinstance(a, Ref) else a for a in t.args])
         except BaseException as e:  # noqa: BLE001 - a KeyboardInterrupt here is this task's cancel
             error = TaskCancelledError(f"task {t.ref.label} cancelled") if isinstance(e, KeyboardInterrupt) else e
             self._finish(t, lambda: t.ref.future.set_exception(error))
         else:
             self._finish(t, lambda: t.ref.future.set_result(result))
-        finally:
-            _RUNNING.pop(threading.get_ident(), None)
 
     def _finish(self, t: _Task, settle: Callable[[], None]) -> None:
         with self._lock:
             self._free += t.cpus
         settle()
         self._dispatch()
-
-
-_RUNNING: dict[int, Ref] = {}   # thread id -> the task it runs
-
-
-def cancel_asked() -> bool:
-    """Whether the local task this thread runs was cancelled (False outside one)."""
-    ref = _RUNNING.get(threading.get_ident())
-    return ref is not None and ref.cancel_asked.is_set()
-
-
-@contextlib.contextmanager
-def cancels_polled():
-    """Within the block a cancel of this thread's task only sets its flag, which the task asks
-    (``cancel_asked``), instead of raising KeyboardInterrupt wherever the thread is: a task that
-    starts a child process and must stop it (farm.chunk.run_chunk) cannot be interrupted
-    between the child's start and the code that stops it. Outside a local task: nothing."""
-    ref = _RUNNING.get(threading.get_ident())
-    if ref is None:
-        yield
-        return
-    with ref.lock:
-        ref.polled = True
-    try:
-        yield
-    finally:
-        with ref.lock:
-            ref.polled = False
 
 
 def _raise_in(thread: threading.Thread, exc: type) -> None:
