@@ -502,9 +502,17 @@ def main(argv=None) -> int:
     print(f"# profile: {', '.join(a.scenes)}; quality {a.quality}{f' at {a.samples} samples' if a.samples else ''}, "
           f"scale {a.scale}, {a.frames} frames; {os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f}", flush=True)
     # A kill (SIGTERM) unwinds like Ctrl-C, so the `finally` below removes the base's worktree: a
-    # killed run must not leave it registered in the user's repository (killed during `git worktree
-    # add`, it is locked "initializing", perhaps without its .git file: unlock, remove, prune).
-    signal.signal(signal.SIGTERM, lambda *_: sys.exit(128 + signal.SIGTERM))
+    # killed run must not leave it registered in the user's repository. One during `git worktree
+    # add` waits for it to end: killed, git leaves the worktree locked "initializing" while its own
+    # child (the checkout) writes on into the folder being removed.
+    terms = []
+
+    def on_term(*_):
+        if terms is not None:
+            terms.append(1)
+        else:
+            sys.exit(128 + signal.SIGTERM)
+    signal.signal(signal.SIGTERM, on_term)
     worktree = None
     results, pairs = [], {}
     if a.asset_cache == "warm":
@@ -515,6 +523,9 @@ def main(argv=None) -> int:
             worktree = Path(tempfile.mkdtemp(prefix="sesgen-profile-base-")) / "src"
             subprocess.run(["git", "worktree", "add", "--detach", str(worktree), a.base], cwd=REPO, check=True,
                            capture_output=True)
+        kill_came, terms = bool(terms), None
+        if kill_came:
+            sys.exit(128 + signal.SIGTERM)
         for root in (r for r in (worktree, REPO) if r is not None):
             bytecode(root / "blender_sesgen", a.bytecode == "compiled")
         for name in a.scenes:
