@@ -81,8 +81,8 @@ def run_chunk(argv: list[str], key: str, out: str, report: Optional[Callable[[di
             raise KeyboardInterrupt
         proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                 text=True, errors="replace", env=proc_env)
-        _after_spawn(proc)   # (before the ``try`` that stops it: a cancel here must not be lost)
         lines, rc, why, eof = _read_lines(proc), None, "", False
+        _after_spawn(proc)   # (before the ``try`` that stops it: a cancel here must not be lost)
         try:
             send({"kind": "started", "key": key, "host": host, "pid": proc.pid})
             why = stop_asked()
@@ -118,7 +118,7 @@ def run_chunk(argv: list[str], key: str, out: str, report: Optional[Callable[[di
 
 
 # A test's hook (None: nothing): called with the render's Popen as soon as it has started, in the
-# task's process -- tests/test_farm_ray.py parks a task there and cancels it.
+# task's process -- tests/test_farm_ray.py and tests/test_farm_local.py park a task there and cancel it.
 _after_spawn_hook: Optional[Callable[[subprocess.Popen], None]] = None
 
 

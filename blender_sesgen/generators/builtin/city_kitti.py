@@ -297,6 +297,9 @@ def _white_near(lines: list[str], centreline: _Centreline, s0: float, s1: float)
     return out
 
 
+BUILDING_KINDS = ("building", "building_shell")   # the asset kinds a street's blocks are drawn with
+
+
 def _has_front_balconies(size, seed: int) -> bool:
     """Whether the building asset of ``size`` and ``seed`` has balconies on its front: parts above
     its ground floor more than 0.5 m before its front wall (sills, frames and shutters stand out
@@ -348,9 +351,9 @@ def _lawn_trees(rng: np.random.Generator, place, behind: float, spec: tuple, lin
     taken = []
     for ln in lines:
         w = ln.split()
-        if len(w) > 2 and w[0] == "ASSET" and w[1] in ("tree", "bush", "building", "building_shell"):
+        if len(w) > 2 and w[0] == "ASSET" and w[1] in ("tree", "bush", *BUILDING_KINDS):
             r = 3.5
-            if w[1] in ("building", "building_shell") and "size" in w:
+            if w[1] in BUILDING_KINDS and "size" in w:
                 i = w.index("size")
                 r = 0.5 * float(np.hypot(float(w[i + 1]), float(w[i + 3]))) + 3.0
             taken.append((_ground_xz(w), r))
@@ -668,7 +671,7 @@ def _garden_trees(rng, gardens: list, garden_lines: list[str], clear, place, ids
     trees = [_ground_xz(ln.split()) for ln in garden_lines if ln.startswith("ASSET tree")]
     out = []
     for b, s0, s1, entrance, gap, inner0 in gardens:
-        V = asset_mesh("building", b["size"], b["seed"]).vertices
+        V = asset_mesh(b["kind"], b["size"], b["seed"]).vertices
         yaw = np.radians(b["yaw"])
         R = np.array([[np.cos(yaw), 0.0, np.sin(yaw)], [0.0, 1.0, 0.0], [-np.sin(yaw), 0.0, np.cos(yaw)]])
         a = s0 + float(rng.uniform(*t["first"]))
