@@ -215,3 +215,24 @@ def test_auto_exposure_does_not_depend_on_how_the_frames_are_split(render, tmp_p
     for proc in procs:
         assert proc.wait(timeout=900) == 0, proc.stderr.read()
     _same_frames(render, chunks, range(4))
+
+
+def test_a_chunk_beginning_after_another_ended_keeps_that_chunks_exposures(render, tmp_path):
+    """A chunk prepared (built, metered) while its folder was still empty and beginning only
+    after another chunk rendered frames 0:2 there and ended keeps the exposure, gain and metered
+    brightness that chunk recorded (the order CI met once: frames 0:2 done while 2:4 metered;
+    the late chunk's manifest wrote them over with nulls)."""
+    import argparse
+    from blender_sesgen.commands.render import add_arguments, render_options
+    from blender_sesgen.render.job import RenderJob
+    script, out = render.root.parent / "s.ses", tmp_path / "chunks"
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    a = parser.parse_args([str(script), "--out", str(out), "--samples", "2", "--frames", "2:4", "--resume"])
+    late = RenderJob.prepare(a.scene, a.out, render_options(a), resume=True)
+    late.build()
+    manifest = late.new_manifest()            # the folder holds nothing yet
+    rendered(script, out, "--samples", "2", "--frames", "0:2", "--resume", here=True)
+    late.folder.begin(late.plan, manifest, resume=True, force=False)
+    late.folder.release()
+    _same_frames(render, out, range(2))

@@ -364,9 +364,11 @@ class OutputFolder:
                 manifest = manifest.with_complete(
                     [bool(prev_done[k] and k not in redo and self._files_exist(manifest, k))
                      for k in range(manifest.frames)])
+            self.manifest = manifest
+            if kept is not None:   # a chunk that ended after this render's manifest was made
+                self._merge_frame_state(kept)   # recorded its frames' exposures: keep them
             files = {**self._pose_files(plan, manifest), **(static_files or {})}
             self.checksums.update({rel: hashlib.sha256(data).hexdigest() for rel, data in files.items()})
-            self.manifest = manifest
             self._write_manifest(dead_logs_only=True, on_disk=prev)   # resuming: often what is there
         atomic.write_text(out / SCENE_COPY, plan.scene_text, durable=True)
         for view in plan.views:
