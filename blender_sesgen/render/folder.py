@@ -612,14 +612,27 @@ class OutputFolder:
         self._previous, self._loaded, self._kept_for = None, True, None
 
     def _remove_stale_temporaries(self) -> None:
-        """Temporary files of interrupted writers (never those of a live one: its pid is in the name)."""
+        """Temporary files of interrupted writers (never those of a live one: its pid is in the name).
+        The folder is scanned without the mutex (a long one takes a while) and what looks stale
+        is removed under it, the live writers read again: every writer takes its lock (under the
+        mutex) before it writes anything here, so a chunk that began during the scan -- farm
+        chunks begin together -- keeps its first files (the old single look removed them and
+        the chunk failed at its rename)."""
         live = self.locks.live_pids()
         folders = [self.root / d / v for d in (EXR_DIR, DISPLAY_DIR) for v in ("left", "right")]
         folders += [self.root, self.root / POSES_DIR, self.state]
+        stale = []
         for d in folders:
             if not d.is_dir():
                 continue
             for f in d.iterdir():
                 m = re.search(r"\.tmp-(\d+)", f.name)
-                if f.is_file() and m and atomic.is_temp_name(f.name) and int(m.group(1)) not in live:
+                if m and atomic.is_temp_name(f.name) and int(m.group(1)) not in live and f.is_file():
+                    stale.append((f, int(m.group(1))))
+        if not stale:
+            return
+        with self.locks.mutex():
+            live = self.locks.live_pids()
+            for f, pid in stale:
+                if pid not in live:
                     f.unlink(missing_ok=True)
