@@ -250,6 +250,30 @@ def test_verify_names_damaged_frames_and_resume_renders_them_again(reference, tm
     assert r.returncode == 0 and f"all {m['frames']} frames of the sequence are rendered" in r.stdout, r.stdout
 
 
+def test_a_resume_that_began_after_verify_marked_frames_bad_renders_them(reference, tmp_path):
+    """``verify`` records a damaged frame as not rendered while a ``--resume`` render of the
+    folder is starting (prepared and building its scene: no lock yet). The render begins after
+    that and renders the frame: the old code chose its frames from the manifest it read when it
+    was prepared, rendered none, said done and left frame 7 damaged and not rendered."""
+    import argparse
+    from blender_sesgen.commands.render import add_arguments, render_options
+    from blender_sesgen.render.job import RenderJob
+    text, ref = reference
+    s = script(tmp_path, text)
+    out = tmp_path / "damaged"
+    shutil.copytree(ref, out)
+    with open(out / "exr/right/000007.exr", "ab") as f:
+        f.write(b"?")
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    a = parser.parse_args([str(s), "--out", str(out), "--samples", "2", "--resume"])
+    job = RenderJob.prepare(a.scene, a.out, render_options(a), resume=True)
+    job.build()
+    assert cli_in_process("blender_sesgen", "verify", out, "--quick", "--quiet").returncode == 1
+    assert [r.frame for r in job.run()] == [7]
+    assert exr_bytes(out) == exr_bytes(ref) and all(json.loads((out / "manifest.json").read_text())["frames_complete"])
+
+
 # --- limits Blender would apply silently -----------------------------------------------------
 
 def test_a_focal_below_blenders_lens_clamp_renders_with_the_scripts_K(tmp_path):
