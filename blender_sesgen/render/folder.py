@@ -180,6 +180,7 @@ class OutputFolder:
         self._kept_for: Optional[RenderPlan] = None
         self.manifest: Optional[Manifest] = None    # this render's manifest, once begun
         self.checksums: dict[str, str] = {}
+        self._own: set[str] = set()           # the files this render wrote (their checksums are its own)
         self.locks = FolderLocks(self.state)
         self._log = None
 
@@ -370,6 +371,7 @@ class OutputFolder:
                 self._merge_frame_state(kept)   # recorded its frames' exposures: keep them
             files = {**self._pose_files(plan, manifest), **(static_files or {})}
             self.checksums.update({rel: hashlib.sha256(data).hexdigest() for rel, data in files.items()})
+            self._own.update(files)
             self._write_manifest(dead_logs_only=True, on_disk=prev)   # resuming: often what is there
         atomic.write_text(out / SCENE_COPY, plan.scene_text, durable=True)
         for view in plan.views:
@@ -405,6 +407,7 @@ class OutputFolder:
                 os.replace(tmp, self.root / exr_relpath(view, k))
         self.manifest.frames_complete[k] = True
         self.checksums.update(sums)
+        self._own.update(sums)
         self._append_log({"frame": int(k), "files": sums})
 
     def _append_log(self, record: dict) -> None:
@@ -426,7 +429,10 @@ class OutputFolder:
             done = on_disk.get("frames_complete") or []
             if on_disk.get("scene_sha256") == self.manifest.scene_sha256 and len(done) == self.manifest.frames:
                 self.manifest.frames_complete = [a or bool(b) for a, b in zip(self.manifest.frames_complete, done)]
-                self.checksums = {**dict(on_disk.get("checksums") or {}), **self.checksums}
+                # newer than what this render carried since it began (another chunk may have
+                # written a frame again since), older than what it wrote itself
+                self.checksums = {**self.checksums, **dict(on_disk.get("checksums") or {}),
+                                  **{rel: self.checksums[rel] for rel in self._own if rel in self.checksums}}
                 self._merge_frame_state(on_disk)
         except ContractError:
             pass
