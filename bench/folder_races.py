@@ -62,6 +62,13 @@ def _env(code: Path) -> dict:
         "SESGEN_SHARED_DATA", "/work/shared/data"))
 
 
+def _run_kw(code: Path) -> dict:
+    """A child's environment and folder: ``python -m``/``-c`` put the working folder first on
+    sys.path, so a child started in this checkout imports its blender_sesgen whatever PYTHONPATH
+    says; started in ``code`` it imports that one."""
+    return {"env": _env(code), "cwd": str(code)}
+
+
 def _render_cmd(script: Path, out: Path, *args) -> list[str]:
     return ["nice", "-n", "5", sys.executable, "-m", "blender_sesgen", "render", str(script), "--out", str(out),
             "--samples", "2", "--quiet", *args]
@@ -78,7 +85,7 @@ def _burn(n: int) -> list[subprocess.Popen]:
 
 def _consolidate(out: Path, code: Path) -> str:
     r = subprocess.run([sys.executable, "-c", "import sys; from blender_sesgen.render.folder import OutputFolder; "
-                        "OutputFolder(sys.argv[1]).consolidate()", str(out)], env=_env(code), capture_output=True,
+                        "OutputFolder(sys.argv[1]).consolidate()", str(out)], **_run_kw(code), capture_output=True,
                        text=True)
     return "" if r.returncode == 0 else (r.stderr.strip().splitlines() or ["?"])[-1]
 
@@ -131,7 +138,7 @@ def judge(out: Path, ref: dict, killed: bool, code: Path) -> list[str]:
         if rel not in frame_rel and (sums.get(rel) != h or _sha(out / rel) != h):
             bad.append(f"checksum: {rel} (static)")
     r = subprocess.run([sys.executable, "-m", "blender_sesgen", "verify", str(out), "--quick", "--quiet",
-                        "--dry-run"], env=_env(code), capture_output=True, text=True)
+                        "--dry-run"], **_run_kw(code), capture_output=True, text=True)
     if r.returncode != 0:
         bad.append(f"verify: {(r.stdout.strip().splitlines() or r.stderr.strip().splitlines() or ['?'])[0]}")
     return bad
@@ -153,7 +160,7 @@ def trial(i: int, args, script: Path, ref: dict, rng: random.Random) -> dict:
         while pending and delays[pending[0]] <= time.monotonic() - t0:
             j = pending.pop(0)
             procs[j] = subprocess.Popen(_render_cmd(script, out, "--frames", chunks[j], "--resume"),
-                                        env=_env(args.code), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                        **_run_kw(args.code), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                                         text=True)
             started[j] = time.monotonic()
         if victim in procs and killed_at is None and procs[victim].poll() is None \
@@ -182,6 +189,7 @@ def main(argv=None) -> int:
     ap.add_argument("--code", type=Path, default=REPO, help="the blender_sesgen to test (PYTHONPATH)")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args(argv)
+    args.out = args.out.resolve()
     args.out.mkdir(parents=True, exist_ok=True)
     args.code = args.code.resolve()
     script = args.out / "s.ses"
@@ -189,7 +197,7 @@ def main(argv=None) -> int:
     ref_out = args.out / "one_run"
     shutil.rmtree(ref_out, ignore_errors=True)
     t0 = time.monotonic()
-    subprocess.run(_render_cmd(script, ref_out), env=_env(args.code), check=True)
+    subprocess.run(_render_cmd(script, ref_out), **_run_kw(args.code), check=True)
     ref_wall = time.monotonic() - t0
     ref = json.loads((ref_out / "manifest.json").read_text())
     rng = random.Random(args.seed)
