@@ -199,3 +199,35 @@ def test_the_metering_pass_evaluates_only_its_renders(tmp_path, monkeypatch):
         assert np.array_equal(np.stack(exposure._beauty(p), axis=-1), preview)
     bscene.render.use_persistent_data = False
     assert metered == plain and len(set(metered)) == len(frames) and value > 0
+
+
+def _settings(owner) -> dict:
+    """Every plain property (not a pointer or a collection) of a bpy struct, by name."""
+    return {p.identifier: getattr(owner, p.identifier) for p in owner.bl_rna.properties
+            if p.type not in ("POINTER", "COLLECTION") and not p.is_readonly}
+
+
+def test_a_preview_leaves_every_render_and_cycles_setting_as_it_found_it():
+    """``_preview_render`` sets the scene up for a small denoised preview (OpenImageDenoise on
+    the CPU, albedo and normal guides, accurate prefilter) and restores everything afterwards:
+    every property of the scene's render and Cycles settings equals its value before. The old
+    code left the denoiser's guides, prefilter and device (the GPU one a GPU render had chosen)
+    as the preview set them."""
+    import bpy
+    from blender_sesgen.blender import exposure
+    bscene = bpy.data.scenes.new("sesgen-preview-restore")
+    try:
+        bscene.render.engine = "CYCLES"
+        c = bscene.cycles
+        c.use_denoising, c.denoising_input_passes, c.denoising_prefilter = True, "RGB_ALBEDO", "FAST"
+        c.samples, c.film_exposure = 24, 1.7
+        if hasattr(c, "denoising_use_gpu"):
+            c.denoising_use_gpu = True
+        before = (_settings(bscene.render), _settings(c))
+        with exposure._preview_render(bscene, 32, 2, 1.0, denoise=True) as path:
+            assert c.denoising_input_passes == "RGB_ALBEDO_NORMAL" and c.samples == 2 and path.endswith(".exr")
+        after = (_settings(bscene.render), _settings(c))
+        changed = {k for b, a in zip(before, after) for k in b if b[k] != a[k]}
+        assert not changed, changed
+    finally:
+        bpy.data.scenes.remove(bscene)

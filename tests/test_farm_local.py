@@ -155,3 +155,59 @@ def test_a_local_cancel_as_the_render_starts_stops_it(tmp_path):
         pytest.fail(f"the render {proc.pid} lives on after its task was cancelled ({res})")
     assert not list((out / ".sesgen").glob("lock-*")), f"the stopped render left its lock ({res})"
     assert res is not None and res["cancelled"] and res["rc"] == 130, res
+
+
+def _note(box: dict, name: str) -> str:
+    box[name] = True
+    return name
+
+
+def test_a_cancel_as_a_dispatched_task_starts_stops_it(monkeypatch):
+    """The farm cancels a failed scene's tasks once (Ray repeats a cancel by itself; this
+    runner does not). A task whose CPU has just been freed is taken off the queue, then its
+    thread started: the driver, woken by the task that ended (a chunk's user error), cancels
+    in between. The task must not run (the old code found it neither queued nor running, did
+    nothing, and the chunk rendered its whole range)."""
+    import types
+    from blender_sesgen.farm import local
+    ray = LocalRay(1)
+    box, refs = {}, {}
+
+    class Starting(threading.Thread):
+        def start(self):
+            if self.name.endswith("_note") and "late" not in refs:
+                refs["late"] = None
+                ray.cancel(refs["b"])        # the driver's cancel, between the dequeue and the start
+            super().start()
+    monkeypatch.setattr(local, "threading", types.SimpleNamespace(Thread=Starting, Lock=threading.Lock))
+    gate = threading.Event()
+    a = ray.remote(lambda: gate.wait(30)).remote()
+    refs["b"] = ray.remote(_note).remote(box, "b")       # queued behind a on the only CPU
+    gate.set()
+    assert ray.get(a, timeout=30) is True
+    with pytest.raises(TaskCancelledError):
+        ray.get(refs["b"], timeout=30)
+    assert "b" not in box, "the cancelled task ran"
+
+
+def test_a_cancel_as_a_task_returns_neither_loses_its_end_nor_the_runner(monkeypatch):
+    """A cancel that comes after a task's body has returned, before its result is settled: the
+    old runner raised KeyboardInterrupt in the task's thread there, out of the bookkeeping that
+    settles the result and frees its CPUs: ``get`` waited forever and no task started again."""
+    ray = LocalRay(1)
+    finish = ray._finish
+    gate = threading.Event()
+
+    def cancelled_first(t, settle):
+        if t.ref is a:
+            ray.cancel(t.ref)
+            time.sleep(0.1)                   # where an interrupt raised in this thread lands
+        finish(t, settle)
+    monkeypatch.setattr(ray, "_finish", cancelled_first)
+    a = ray.remote(lambda: gate.wait(30)).remote()
+    gate.set()
+    try:
+        assert ray.get(a, timeout=10) is True
+    except TaskCancelledError:
+        pass
+    assert ray.get(ray.remote(_concat).remote("c", "d"), timeout=10) == "cd"

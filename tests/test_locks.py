@@ -54,3 +54,38 @@ def test_a_folder_left_by_a_render_killed_during_its_first_writes_is_still_its_o
         with pytest.raises(SesgenError, match="holds no render"):
             OutputFolder(out).check(plan, force=False)
         (out / name).unlink()
+
+
+def test_a_writer_locking_while_stale_temporaries_are_removed_keeps_its_own(tmp_path):
+    """A render beginning removes the temporary files of writers that are gone. A chunk that
+    takes its lock after that render looked at the locks and writes its first files (the
+    script's copy, the manifest, an EXR) while the folder is being scanned (a long folder,
+    chunks of a farm beginning together) keeps them: the old code removed them (the snapshot
+    of live writers was taken before the scan) and the chunk failed at its rename."""
+    from blender_sesgen.render.folder import OutputFolder
+    out = tmp_path / "out"
+    (out / "exr" / "left").mkdir(parents=True)
+    folder = OutputFolder(out)
+    folder.state.mkdir()
+    ended = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    dead = out / "exr" / "left" / f".000003.tmp-{int(ended.stdout)}.exr"   # a killed writer's
+    dead.write_bytes(b"x")
+    sleeper = subprocess.Popen(["sleep", "30"])
+    theirs = [out / f".scene.tmp-{sleeper.pid}.ses", out / "exr" / "left" / f".000007.tmp-{sleeper.pid}.exr"]
+    snapshot = folder.locks.live_pids
+
+    def live_pids():   # the other chunk takes its lock and writes right after the first look
+        pids = snapshot()
+        if not (folder.state / f"lock-h-{sleeper.pid}.json").exists():
+            (folder.state / f"lock-h-{sleeper.pid}.json").write_text("{}")
+            for f in theirs:
+                f.write_bytes(b"y")
+        return pids
+    folder.locks.live_pids = live_pids
+    try:
+        folder._remove_stale_temporaries()
+    finally:
+        sleeper.kill()
+        sleeper.wait()
+    assert not dead.exists()
+    assert [f.exists() for f in theirs] == [True, True]

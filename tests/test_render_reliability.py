@@ -250,6 +250,72 @@ def test_verify_names_damaged_frames_and_resume_renders_them_again(reference, tm
     assert r.returncode == 0 and f"all {m['frames']} frames of the sequence are rendered" in r.stdout, r.stdout
 
 
+def test_a_resume_that_began_after_verify_marked_frames_bad_renders_them(reference, tmp_path):
+    """``verify`` records a damaged frame as not rendered while a ``--resume`` render of the
+    folder is starting (prepared and building its scene: no lock yet). The render begins after
+    that and renders the frame: the old code chose its frames from the manifest it read when it
+    was prepared, rendered none, said done and left frame 7 damaged and not rendered."""
+    import argparse
+    from blender_sesgen.commands.render import add_arguments, render_options
+    from blender_sesgen.render.job import RenderJob
+    text, ref = reference
+    s = script(tmp_path, text)
+    out = tmp_path / "damaged"
+    shutil.copytree(ref, out)
+    with open(out / "exr/right/000007.exr", "ab") as f:
+        f.write(b"?")
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    a = parser.parse_args([str(s), "--out", str(out), "--samples", "2", "--resume"])
+    job = RenderJob.prepare(a.scene, a.out, render_options(a), resume=True)
+    job.build()
+    assert cli_in_process("blender_sesgen", "verify", out, "--quick", "--quiet").returncode == 1
+    assert [r.frame for r in job.run()] == [7]
+    assert exr_bytes(out) == exr_bytes(ref) and all(json.loads((out / "manifest.json").read_text())["frames_complete"])
+
+
+def test_a_chunk_ending_after_another_rewrote_a_frame_records_that_frames_new_checksum(reference, tmp_path):
+    """Chunk Y begins in a complete folder, carrying the checksums it found; chunk X then renders
+    frame 0 again (a frame whose file was lost; here other bytes, as another device's render
+    gives: frame 1's EXR stands for them), ends and records the new SHA-256; Y ends after it.
+    The manifest must hold what X wrote for frame 0 (the old code let every checksum Y carried
+    win over the newer one on disk: frame 0 then failed verify, its file being right)."""
+    import argparse
+    import hashlib
+    import socket
+    from blender_sesgen.commands.render import add_arguments, render_options
+    from blender_sesgen.contract.atomic import temp_path
+    from blender_sesgen.render.job import RenderJob
+    from blender_sesgen.render.locks import _safe
+    text, ref = reference
+    s = script(tmp_path, text)
+    out = tmp_path / "rewritten"
+    shutil.copytree(ref, out)
+
+    def chunk(frames, *more):
+        parser = argparse.ArgumentParser()
+        add_arguments(parser)
+        a = parser.parse_args([str(s), "--out", str(out), "--samples", "2", "--frames", frames, *more])
+        return RenderJob.prepare(a.scene, a.out, render_options(a), resume="--resume" in more)
+    y = chunk("6:12", "--resume")
+    y.begin()
+    x = chunk("0:1")
+    ended = int(subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True,
+                               text=True, check=True).stdout)
+    x.folder.locks.writer = f"{_safe(socket.gethostname())}-{ended}"
+    x.begin()
+    rel = "exr/left/000000.exr"
+    tmp = temp_path(out / rel)
+    tmp.write_bytes((out / "exr/left/000001.exr").read_bytes())
+    new = hashlib.sha256(tmp.read_bytes()).hexdigest()
+    x.folder.commit_sealed(0, {"left": tmp}, {rel: new})
+    x.folder.release()
+    y.folder.release()
+    assert json.loads((out / "manifest.json").read_text())["checksums"][rel] == new
+    r = cli_in_process("blender_sesgen", "verify", out, "--quick", "--dry-run")
+    assert r.returncode == 0, r.stdout
+
+
 # --- limits Blender would apply silently -----------------------------------------------------
 
 def test_a_focal_below_blenders_lens_clamp_renders_with_the_scripts_K(tmp_path):

@@ -236,3 +236,72 @@ def test_a_chunk_beginning_after_another_ended_keeps_that_chunks_exposures(rende
     late.folder.begin(late.plan, manifest, resume=True, force=False)
     late.folder.release()
     _same_frames(render, out, range(2))
+
+
+def _chunk(script, out, frames: str):
+    """A RenderJob of ``frames`` ("a:b", --resume) into ``out``, as a farm's chunk runs it."""
+    import argparse
+    from blender_sesgen.commands.render import add_arguments, render_options
+    from blender_sesgen.render.job import RenderJob
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    a = parser.parse_args([str(script), "--out", str(out), "--samples", "2", "--frames", frames, "--resume"])
+    return RenderJob.prepare(a.scene, a.out, render_options(a), resume=True)
+
+
+def _killed_chunk(script, out, frames: str) -> None:
+    """``frames`` rendered into ``out`` by a chunk killed -9 after its last frame was committed:
+    in this process under the name of a pid that has ended, its lock then removed (what the farm
+    does for a killed render), never released: its completion log and per-frame state files are
+    all that records its frames."""
+    import socket
+    import subprocess
+    import sys
+    from blender_sesgen.render.locks import _safe
+    ended = int(subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True,
+                               text=True, check=True).stdout)
+    job = _chunk(script, out, frames)
+    job.folder.locks.writer = f"{_safe(socket.gethostname())}-{ended}"
+    for k in job.pending_frames():
+        job.render_frame(k)
+    job.folder._log.close()
+    job.folder.locks.drop()
+
+
+def test_a_chunk_prepared_before_a_killed_chunk_began_keeps_that_chunks_exposures(render, tmp_path):
+    """A chunk prepared (metered) while its folder was empty that begins after another chunk
+    rendered frames 0:2 there and was killed -9 before it ended: the killed chunk's exposures
+    are only in its per-frame state files (its manifest was written before its frames; its
+    log holds completion and checksums). They are kept (the old code recorded frames 0:2
+    complete with null exposure, gain and metered brightness, and removed the dead log)."""
+    script, out = render.root.parent / "s.ses", tmp_path / "chunks"
+    late = _chunk(script, out, "2:4")
+    late.build()
+    manifest = late.new_manifest()            # the folder holds nothing yet
+    _killed_chunk(script, out, "0:2")
+    late.folder.begin(late.plan, manifest, resume=True, force=False)
+    late.folder.release()
+    _same_frames(render, out, range(2))
+
+
+def test_a_chunk_ending_after_a_killed_one_records_its_exposures(render, tmp_path):
+    """Two chunks begun together; the one of frames 0:2 is killed -9 after its frames, the other
+    ends and takes the dead chunk's completion log into the manifest: with the exposures that
+    chunk recorded in its state files (the old code: frames 0:2 complete, exposures null)."""
+    script, out = render.root.parent / "s.ses", tmp_path / "chunks"
+    other = _chunk(script, out, "2:4")
+    other.begin()
+    _killed_chunk(script, out, "0:2")
+    other.folder.release()
+    _same_frames(render, out, range(2))
+
+
+def test_consolidating_a_folder_after_a_killed_chunk_records_its_exposures(render, tmp_path):
+    """The farm's consolidation (``verify_task``: the logs into the manifest once every chunk
+    has ended) of a folder whose only chunk was killed -9 after its frames: the exposures from
+    its state files (the old code: frames 0:2 complete, exposures null)."""
+    script, alone = render.root.parent / "s.ses", tmp_path / "alone"
+    _killed_chunk(script, alone, "0:2")
+    from blender_sesgen.render.folder import OutputFolder
+    OutputFolder(alone).consolidate()
+    _same_frames(render, alone, range(2))

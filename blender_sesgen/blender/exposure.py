@@ -53,17 +53,20 @@ def _preview_render(bscene, width_px: int, samples: int, film_exposure: float, d
 
     The preview goes to the system's temporary folder under a name with this process's pid,
     so that a later render removes it if this one is killed (``remove_stale_previews``)."""
+    from .render import probing_devices
     remove_stale_previews()
     r, c = bscene.render, bscene.cycles
     saved = (r.resolution_percentage, c.samples, c.use_denoising, c.film_exposure, r.use_motion_blur)
+    denoiser = None   # the denoiser's own settings, when the preview changes them (a preset's guides, a GPU's)
     r.resolution_percentage = max(1, min(100, int(100 * width_px / max(r.resolution_x, 1))))
     c.samples, c.use_denoising, c.film_exposure, r.use_motion_blur = samples, bool(denoise), film_exposure, False
     if denoise:
-        from .render import probing_devices
-        with probing_devices():
+        with probing_devices():   # the denoiser's choices ask Cycles whether OptiX is there
+            denoiser = (c.denoiser, c.denoising_input_passes, c.denoising_prefilter,
+                        getattr(c, "denoising_use_gpu", None))
             c.denoiser = "OPENIMAGEDENOISE"
         c.denoising_input_passes, c.denoising_prefilter = "RGB_ALBEDO_NORMAL", "ACCURATE"
-        if hasattr(c, "denoising_use_gpu"):
+        if denoiser[3] is not None:
             c.denoising_use_gpu = False
     fd, path = tempfile.mkstemp(suffix=".exr", prefix=f"{PREVIEW_PREFIX}{os.getpid()}-")
     os.close(fd)
@@ -71,6 +74,14 @@ def _preview_render(bscene, width_px: int, samples: int, film_exposure: float, d
         yield path
     finally:
         r.resolution_percentage, c.samples, c.use_denoising, c.film_exposure, r.use_motion_blur = saved
+        if denoiser is not None:   # changed values only: each write sets off Blender's updates
+            with probing_devices():
+                if c.denoiser != denoiser[0]:
+                    c.denoiser = denoiser[0]
+            for name, value in zip(("denoising_input_passes", "denoising_prefilter", "denoising_use_gpu"),
+                                   denoiser[1:]):
+                if value is not None and getattr(c, name) != value:
+                    setattr(c, name, value)
         if os.path.exists(path):
             os.remove(path)
 

@@ -11,11 +11,13 @@ import threading
 
 class TaskCancel:
     """One running task's cancel: ``asked`` once cancelled; ``polled`` while the task asks it
-    (the runner then raises nothing in its thread); ``lock`` held by both while they decide."""
+    (the runner then raises nothing in its thread); ``in_body`` while the task's own code runs
+    (the only place an interrupt may land); ``lock`` held by both while they decide."""
 
     def __init__(self):
         self.asked = threading.Event()
         self.polled = False
+        self.in_body = False
         self.lock = threading.Lock()
 
 

@@ -135,10 +135,15 @@ class LocalRay:
         if queued is not None:
             ref.future.set_exception(TaskCancelledError(f"task {ref.label} cancelled"))
             self._dispatch()
-        elif ref.thread is not None and ref.thread.is_alive() and not ref.future.done():
+        elif not ref.future.done():
+            # asked first: a task taken off the queue whose thread has not started yet sees it
+            # as it starts (``_run``; the farm cancels a failed scene's tasks once -- Ray repeats
+            # a cancel, this runner does not -- and such a task rendered its whole chunk); the
+            # interrupt only while the task's body runs (not after it returned, where it broke
+            # the settling of its result: ``get`` waited forever, its CPUs never freed)
             with ref.cancel.lock:   # (held while raising: the task cannot enter cancels_polled between)
                 ref.cancel.asked.set()
-                if not ref.cancel.polled:
+                if ref.cancel.in_body and not ref.cancel.polled:
                     _raise_in(ref.thread, KeyboardInterrupt)
 
     def is_initialized(self) -> bool:
@@ -184,8 +189,17 @@ class LocalRay:
                           None)
             if failed is not None:
                 raise failed
-            with running(t.ref.cancel):
-                result = t.fn(*[a.future.result() if isinstance(a, Ref) else a for a in t.args])
+            cancel = t.ref.cancel
+            with running(cancel):
+                with cancel.lock:
+                    if cancel.asked.is_set():   # cancelled before it started
+                        raise KeyboardInterrupt
+                    cancel.in_body = True
+                try:
+                    result = t.fn(*[a.future.result() if isinstance(a, Ref) else a for a in t.args])
+                finally:   # (an interrupt decided before this lands here at the latest: still in the try)
+                    with cancel.lock:
+                        cancel.in_body = False
         except BaseException as e:  # noqa: BLE001 - a KeyboardInterrupt here is this task's cancel
             error = TaskCancelledError(f"task {t.ref.label} cancelled") if isinstance(e, KeyboardInterrupt) else e
             self._finish(t, lambda: t.ref.future.set_exception(error))

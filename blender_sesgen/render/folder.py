@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import re
 import stat
@@ -34,7 +35,7 @@ from typing import Optional
 
 from ..contract import atomic
 from ..contract.errors import ContractError
-from ..contract.inputs import read_bytes
+from ..contract.inputs import read_bytes, read_text
 from ..contract.manifest_sections import SENSOR_STATE, camera_record
 from ..contract.pixel_settings import TIMING_KEYS, PixelSettings
 from ..contract.manifest import (DISPLAY_DIR, DONE_LOG_GLOB, EXR_DIR, FORMAT, MANIFEST, POSES_DIR, SCENE_COPY, SEAL,
@@ -179,6 +180,7 @@ class OutputFolder:
         self._kept_for: Optional[RenderPlan] = None
         self.manifest: Optional[Manifest] = None    # this render's manifest, once begun
         self.checksums: dict[str, str] = {}
+        self._own: set[str] = set()           # the files this render wrote (their checksums are its own)
         self.locks = FolderLocks(self.state)
         self._log = None
 
@@ -369,6 +371,7 @@ class OutputFolder:
                 self._merge_frame_state(kept)   # recorded its frames' exposures: keep them
             files = {**self._pose_files(plan, manifest), **(static_files or {})}
             self.checksums.update({rel: hashlib.sha256(data).hexdigest() for rel, data in files.items()})
+            self._own.update(files)
             self._write_manifest(dead_logs_only=True, on_disk=prev)   # resuming: often what is there
         atomic.write_text(out / SCENE_COPY, plan.scene_text, durable=True)
         for view in plan.views:
@@ -404,6 +407,7 @@ class OutputFolder:
                 os.replace(tmp, self.root / exr_relpath(view, k))
         self.manifest.frames_complete[k] = True
         self.checksums.update(sums)
+        self._own.update(sums)
         self._append_log({"frame": int(k), "files": sums})
 
     def _append_log(self, record: dict) -> None:
@@ -425,7 +429,10 @@ class OutputFolder:
             done = on_disk.get("frames_complete") or []
             if on_disk.get("scene_sha256") == self.manifest.scene_sha256 and len(done) == self.manifest.frames:
                 self.manifest.frames_complete = [a or bool(b) for a, b in zip(self.manifest.frames_complete, done)]
-                self.checksums = {**dict(on_disk.get("checksums") or {}), **self.checksums}
+                # newer than what this render carried since it began (another chunk may have
+                # written a frame again since), older than what it wrote itself
+                self.checksums = {**self.checksums, **dict(on_disk.get("checksums") or {}),
+                                  **{rel: self.checksums[rel] for rel in self._own if rel in self.checksums}}
                 self._merge_frame_state(on_disk)
         except ContractError:
             pass
@@ -446,7 +453,37 @@ class OutputFolder:
             if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
                 mine[key] = [x if x is not None else y for x, y in zip(a, b)]
 
+    def _state_from_files(self) -> None:
+        """The per-frame sensor state of frames complete in our manifest that it holds none for,
+        from the state file each frame's render wrote before committing it
+        (``sensor.outputs.state_relpath``): a chunk killed after its frames recorded them there
+        and in its completion log only (its manifest was written before its frames), and every
+        later writer took the log's completion in with null exposures. Only null values are
+        filled; a complete frame's file was written by the render that committed it."""
+        from .sensor.outputs import state_relpath
+        sensor = self.manifest.extra.get("sensor")
+        if not isinstance(sensor, dict):
+            return
+        state = {key: sensor.get(key) for key in SENSOR_STATE}
+        if not all(isinstance(v, list) and len(v) == self.manifest.frames for v in state.values()):
+            return
+        for k, done in enumerate(self.manifest.frames_complete):
+            if not done or all(state[key][k] is not None for key in SENSOR_STATE):
+                continue
+            try:   # a regular file of bounded size (a FIFO there must not block a writer)
+                st = json.loads(read_text(self.root / state_relpath(k), 1 << 16, "sensor state"))
+            except (ContractError, ValueError):
+                continue
+            if not isinstance(st, dict):
+                continue
+            for key in SENSOR_STATE:
+                v = st.get(key)
+                if state[key][k] is None and isinstance(v, (int, float)) and not isinstance(v, bool) \
+                        and math.isfinite(v):
+                    state[key][k] = float(v)
+
     def _write_manifest(self, dead_logs_only: bool, on_disk: Optional[dict] = None) -> None:
+        self._state_from_files()
         if self.checksums:
             self.manifest.extra["checksums"] = dict(sorted(self.checksums.items()))
         self._written_key = _file_key(self.manifest.write(self.root, on_disk=on_disk))
@@ -581,14 +618,27 @@ class OutputFolder:
         self._previous, self._loaded, self._kept_for = None, True, None
 
     def _remove_stale_temporaries(self) -> None:
-        """Temporary files of interrupted writers (never those of a live one: its pid is in the name)."""
+        """Temporary files of interrupted writers (never those of a live one: its pid is in the name).
+        The folder is scanned without the mutex (a long one takes a while) and what looks stale
+        is removed under it, the live writers read again: every writer takes its lock (under the
+        mutex) before it writes anything here, so a chunk that began during the scan -- farm
+        chunks begin together -- keeps its first files (the old single look removed them and
+        the chunk failed at its rename)."""
         live = self.locks.live_pids()
         folders = [self.root / d / v for d in (EXR_DIR, DISPLAY_DIR) for v in ("left", "right")]
         folders += [self.root, self.root / POSES_DIR, self.state]
+        stale = []
         for d in folders:
             if not d.is_dir():
                 continue
             for f in d.iterdir():
                 m = re.search(r"\.tmp-(\d+)", f.name)
-                if f.is_file() and m and atomic.is_temp_name(f.name) and int(m.group(1)) not in live:
+                if m and atomic.is_temp_name(f.name) and int(m.group(1)) not in live and f.is_file():
+                    stale.append((f, int(m.group(1))))
+        if not stale:
+            return
+        with self.locks.mutex():
+            live = self.locks.live_pids()
+            for f, pid in stale:
+                if pid not in live:
                     f.unlink(missing_ok=True)

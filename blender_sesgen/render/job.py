@@ -219,10 +219,10 @@ class RenderJob:
         sealed (read back, checked, wall-clock header fields stripped, hashed) in a worker
         process while frame k+1 renders (``sealer``); every rendered frame is committed, the
         lock released and the completion log taken into the manifest, however it ends."""
-        todo = self.pending_frames()
         out = []
         try:
-            self.begin()
+            self.begin()   # then the frames: the folder may have changed since prepare (verify marked
+            todo = self.pending_frames()   # frames bad, another chunk completed some)
             t0 = time.perf_counter()
             pending = None
             with Sealer(enabled=len(todo) > 2) as sealer:
