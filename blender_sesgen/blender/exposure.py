@@ -12,6 +12,10 @@ exposure EV`` sets a fixed factor 2^EV).
 """
 from __future__ import annotations
 
+import dataclasses
+import enum
+import functools
+import hashlib
 import os
 import tempfile
 from contextlib import contextmanager
@@ -118,6 +122,140 @@ def measure_exposure(bscene, camera, frame: int, cameras=None, width_px: int = P
     if not np.isfinite(p90) or p90 <= 1e-6:
         return 1.0, preview  # nothing lit in view: leave the exposure alone
     return float(np.clip(TARGET / p90, 1e-4, 1e4)), preview
+
+
+# --- the exposure preview kept in the asset cache ---------------------------------------------
+# The preview is a deterministic render (seed 0, fixed size and samples) of the built scene: a
+# later process that builds the same scene from the same inputs gets the same bits, so its
+# value and image are kept in the asset cache (``scene/assets/cache.py: cached_array``, kind
+# ``exposure``) under everything the build and the preview depend on (``preview_key``).
+CACHE_FORMAT = 1      # bump when what the cache holds, or how it is keyed, changes
+EXPOSURES_KEPT = 256  # previews kept (~70 KB each at 96 x 72)
+_DTYPES = (np.float32, np.float16, np.float64)
+
+
+@functools.lru_cache(maxsize=1)
+def code_version() -> Optional[str]:
+    """A hash of every module of the package (any of them may change what the scene's build
+    renders), numpy's version and Blender's (version and build hash); None where the sources
+    cannot be read (a package without its .py files): then nothing is cached."""
+    import bpy
+    root = Path(__file__).resolve().parents[1]
+    h = hashlib.sha256(f"{np.__version__}\0{bpy.app.version_string}\0{bpy.app.build_hash!r}".encode())
+    try:
+        files = sorted(root.rglob("*.py"))
+        for p in files:
+            h.update(p.relative_to(root).as_posix().encode() + b"\0" + p.read_bytes())
+    except OSError:
+        return None
+    return h.hexdigest()[:16] if files else None
+
+
+@functools.lru_cache(maxsize=1)
+def _machine() -> str:
+    """The CPU's architecture and instruction set (Cycles' CPU kernels differ by them): a cache
+    folder shared by several machines keeps a preview per kind of machine."""
+    import platform
+    flags = ""
+    try:
+        with open("/proc/cpuinfo") as f:
+            flags = next((line for line in f if line.startswith(("flags", "Features"))), "")
+    except OSError:
+        pass
+    return f"{platform.machine()} {hashlib.sha256(flags.encode()).hexdigest()[:12]}"
+
+
+def fingerprint(value, h=None):
+    """A sha256 (hex) of ``value``, exactly: dataclasses by type and fields, numpy arrays by
+    dtype, shape and bytes, floats by their repr (every bit), containers element by element."""
+    top = h is None
+    h = hashlib.sha256() if top else h
+
+    def put(v):
+        if dataclasses.is_dataclass(v) and not isinstance(v, type):
+            h.update(f"<{type(v).__qualname__}".encode())
+            for f in dataclasses.fields(v):
+                h.update(f.name.encode() + b"=")
+                put(getattr(v, f.name))
+            h.update(b">")
+        elif isinstance(v, np.ndarray):
+            h.update(f"a{v.dtype.str}{v.shape}".encode())
+            h.update(np.ascontiguousarray(v).tobytes())
+        elif isinstance(v, dict):
+            h.update(b"{")
+            for k in v:
+                put(k)
+                put(v[k])
+            h.update(b"}")
+        elif isinstance(v, (list, tuple)):
+            h.update(b"(" if isinstance(v, tuple) else b"[")
+            for x in v:
+                put(x)
+            h.update(b")")
+        elif isinstance(v, (frozenset, set)):
+            h.update(b"s")
+            for x in sorted(repr(x) for x in v):
+                h.update(x.encode() + b",")
+        elif isinstance(v, enum.Enum):
+            h.update(f"e{type(v).__qualname__}.{v.name};".encode())
+        elif v is None or isinstance(v, (bool, int, float, str, np.generic)):
+            h.update(f"{type(v).__name__}:{v!r};".encode())
+        else:
+            raise TypeError(f"cannot fingerprint {type(v).__name__}")
+    put(value)
+    return h.hexdigest() if top else None
+
+
+def reads_files(scene) -> bool:
+    """Whether building ``scene`` reads a file besides the script (an image, a mesh, a .blend,
+    an HDRI, a trajectory): any absolute path in its fields (the script's own ``source`` aside).
+    Their content is not in ``preview_key``: such a scene's preview is never cached."""
+    def walk(v, name=""):
+        if dataclasses.is_dataclass(v) and not isinstance(v, type):
+            return any(walk(getattr(v, f.name), f.name) for f in dataclasses.fields(v)
+                       if not (v is scene and f.name in ("source", "base_dir")))
+        if isinstance(v, dict):
+            return any(walk(k) or walk(x) for k, x in v.items())
+        if isinstance(v, (list, tuple, set, frozenset)):
+            return any(walk(x) for x in v)
+        return isinstance(v, str) and os.path.isabs(v)
+    return walk(scene)
+
+
+def preview_key(parts) -> Optional[list]:
+    """The asset cache's key of an exposure preview: the code (``code_version``), the machine,
+    and ``parts`` (what the session built and how it renders the preview: the scene model, the
+    sizes, poses and options, fingerprinted); None where nothing may be cached."""
+    code = code_version()
+    if code is None:
+        return None
+    return ["exposure preview", CACHE_FORMAT, code, _machine(), fingerprint(parts)]
+
+
+def cached_measure(key: Optional[list], measure: Callable[[], tuple[float, np.ndarray]]) -> tuple[float, np.ndarray]:
+    """``measure()`` (``measure_exposure``'s (film exposure, preview)), read from the asset cache
+    when an earlier process measured it under ``key`` (the same bits), measured and kept there
+    otherwise; measured whenever ``key`` is None or the cache is off."""
+    from ..scene.assets import cache
+    if key is None or cache.folder() is None:
+        return measure()
+
+    def make() -> np.ndarray:
+        value, preview = measure()
+        preview = np.asarray(preview)
+        code = next(i for i, t in enumerate(_DTYPES) if preview.dtype == t)
+        head = np.array([value, preview.shape[0], preview.shape[1], code], dtype=np.float64)
+        return np.concatenate([head, preview.astype(np.float64).ravel()])
+
+    def valid(a: np.ndarray) -> bool:
+        if a.ndim != 1 or a.dtype != np.float64 or len(a) < 4 or not np.isfinite(a).all():
+            return False
+        h, w, code = a[1], a[2], a[3]
+        return h == int(h) > 0 and w == int(w) > 0 and code in range(len(_DTYPES)) and len(a) == 4 + int(h) * int(w) * 3
+
+    a = cache.cached_array("exposure", key, make, valid, keep=EXPOSURES_KEPT)
+    h, w, code = (int(x) for x in a[1:4])
+    return float(a[0]), a[4:].reshape(h, w, 3).astype(_DTYPES[code])
 
 
 # The exposure preview is the metering preview of its frame (same size, samples, seed, no
