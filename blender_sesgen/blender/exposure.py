@@ -17,6 +17,7 @@ import enum
 import functools
 import hashlib
 import os
+import pickle
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
@@ -165,61 +166,44 @@ def _machine() -> str:
     return f"{platform.machine()} {hashlib.sha256(flags.encode()).hexdigest()[:12]}"
 
 
-def fingerprint(value, h=None):
-    """A sha256 (hex) of ``value``, exactly: dataclasses by type and fields, numpy arrays by
-    dtype, shape and bytes, floats by their repr (every bit), containers element by element."""
-    top = h is None
-    h = hashlib.sha256() if top else h
+def fingerprint(value) -> str:
+    """A sha256 (hex) of ``value``'s pickle: every bit of its plain data (dataclasses by type and
+    fields, numpy arrays by dtype, shape and bytes, floats exactly), so two values that differ
+    anywhere differ here (two equal values may differ too, which costs only a cache miss);
+    TypeError/pickle's errors for what does not pickle."""
+    return hashlib.sha256(pickle.dumps(value, protocol=4)).hexdigest()
 
-    def put(v):
-        if dataclasses.is_dataclass(v) and not isinstance(v, type):
-            h.update(f"<{type(v).__qualname__}".encode())
-            for f in dataclasses.fields(v):
-                h.update(f.name.encode() + b"=")
-                put(getattr(v, f.name))
-            h.update(b">")
-        elif isinstance(v, np.ndarray):
-            h.update(f"a{v.dtype.str}{v.shape}".encode())
-            h.update(np.ascontiguousarray(v).tobytes())
-        elif isinstance(v, dict):
-            h.update(b"{")
-            for k in v:
-                put(k)
-                put(v[k])
-            h.update(b"}")
-        elif isinstance(v, (list, tuple)):
-            h.update(b"(" if isinstance(v, tuple) else b"[")
-            for x in v:
-                put(x)
-            h.update(b")")
-        elif isinstance(v, (frozenset, set)):
-            h.update(b"s")
-            for x in sorted(repr(x) for x in v):
-                h.update(x.encode() + b",")
-        elif isinstance(v, enum.Enum):
-            h.update(f"e{type(v).__qualname__}.{v.name};".encode())
-        elif v is None or isinstance(v, (bool, int, float, str, np.generic)):
-            h.update(f"{type(v).__name__}:{v!r};".encode())
-        else:
-            raise TypeError(f"cannot fingerprint {type(v).__name__}")
-    put(value)
-    return h.hexdigest() if top else None
+
+_FIELDS: dict = {}
 
 
 def reads_files(scene) -> bool:
     """Whether building ``scene`` reads a file besides the script (an image, a mesh, a .blend,
     an HDRI, a trajectory): any absolute path in its fields (the script's own ``source`` aside).
     Their content is not in ``preview_key``: such a scene's preview is never cached."""
-    def walk(v, name=""):
-        if dataclasses.is_dataclass(v) and not isinstance(v, type):
-            return any(walk(getattr(v, f.name), f.name) for f in dataclasses.fields(v)
-                       if not (v is scene and f.name in ("source", "base_dir")))
-        if isinstance(v, dict):
-            return any(walk(k) or walk(x) for k, x in v.items())
-        if isinstance(v, (list, tuple, set, frozenset)):
-            return any(walk(x) for x in v)
-        return isinstance(v, str) and os.path.isabs(v)
-    return walk(scene)
+    stack = [getattr(scene, f.name) for f in dataclasses.fields(scene) if f.name != "source"]
+    plain = (int, float, bool, type(None), np.ndarray)
+    while stack:
+        v = stack.pop()
+        t = type(v)
+        if t is str:
+            if os.path.isabs(v):
+                return True
+        elif t in plain or isinstance(v, (enum.Enum, np.generic)):
+            continue
+        elif t is tuple or t is list or t is set or t is frozenset:
+            stack.extend(x for x in v if type(x) is not float)
+        elif t is dict:
+            stack.extend(v.keys())
+            stack.extend(v.values())
+        else:
+            names = _FIELDS.get(t)
+            if names is None:
+                if not dataclasses.is_dataclass(v):
+                    return True       # something unknown: not cached
+                names = _FIELDS[t] = tuple(f.name for f in dataclasses.fields(v))
+            stack.extend(getattr(v, n) for n in names)
+    return False
 
 
 def preview_key(parts) -> Optional[list]:
@@ -229,15 +213,22 @@ def preview_key(parts) -> Optional[list]:
     code = code_version()
     if code is None:
         return None
-    return ["exposure preview", CACHE_FORMAT, code, _machine(), fingerprint(parts)]
+    try:
+        return ["exposure preview", CACHE_FORMAT, code, _machine(), fingerprint(parts)]
+    except (TypeError, AttributeError, pickle.PicklingError):
+        return None
 
 
-def cached_measure(key: Optional[list], measure: Callable[[], tuple[float, np.ndarray]]) -> tuple[float, np.ndarray]:
+def cached_measure(key: Callable[[], Optional[list]],
+                   measure: Callable[[], tuple[float, np.ndarray]]) -> tuple[float, np.ndarray]:
     """``measure()`` (``measure_exposure``'s (film exposure, preview)), read from the asset cache
-    when an earlier process measured it under ``key`` (the same bits), measured and kept there
-    otherwise; measured whenever ``key`` is None or the cache is off."""
+    when an earlier process measured it under ``key()`` (the same bits), measured and kept there
+    otherwise; measured whenever the cache is off or ``key()`` is None."""
     from ..scene.assets import cache
-    if key is None or cache.folder() is None:
+    if cache.folder() is None:
+        return measure()
+    key = key()
+    if key is None:
         return measure()
 
     def make() -> np.ndarray:

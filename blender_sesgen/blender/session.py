@@ -151,7 +151,7 @@ class BlenderSession:
             self._show(self._exposure_ids)
         denoise = bool(previews_alike and METERING_DENOISE)
         value, luminance = exposure.cached_measure(
-            self._preview_key(share, denoise),
+            lambda: self._preview_key(share, denoise),
             lambda: exposure.measure_exposure(self.built.scene, self.built.cameras["left"], rig.blender_frame(0),
                                               self.built.cameras if share else None, denoise=denoise))
         # the metering pass's frame 0 is this preview (a plain render of the same objects)
