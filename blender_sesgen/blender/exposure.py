@@ -137,19 +137,19 @@ _DTYPES = (np.float32, np.float16, np.float64)
 
 @functools.lru_cache(maxsize=1)
 def code_version() -> Optional[str]:
-    """A hash of every module of the package (any of them may change what the scene's build
+    """A hash of every file of the package (any module may change what the scene's build
     renders), numpy's version and Blender's (version and build hash); None where the sources
     cannot be read (a package without its .py files): then nothing is cached."""
     import bpy
     root = Path(__file__).resolve().parents[1]
     h = hashlib.sha256(f"{np.__version__}\0{bpy.app.version_string}\0{bpy.app.build_hash!r}".encode())
     try:
-        files = sorted(root.rglob("*.py"))
+        files = sorted(p for p in root.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
         for p in files:
             h.update(p.relative_to(root).as_posix().encode() + b"\0" + p.read_bytes())
     except OSError:
         return None
-    return h.hexdigest()[:16] if files else None
+    return h.hexdigest()[:16] if any(p.suffix == ".py" for p in files) else None
 
 
 @functools.lru_cache(maxsize=1)
