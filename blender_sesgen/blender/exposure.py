@@ -6,7 +6,9 @@ level is arbitrary. So, once per sequence, a tiny preview of frame 0 (left view)
 film exposure (Cycles' linear ``film_exposure``: scales the beauty pass only; depth and
 object index are geometry) is set so that the 90th percentile of its luminance reads
 TARGET. The same factor is used for every frame and view, so brightness is constant over
-the sequence, as VO assumes; it is recorded in the manifest and reused on --resume.
+the sequence, as VO assumes; it is recorded in the manifest and reused on --resume, and a
+later build of the same scene from the same inputs reads the preview (its value and image) from
+the asset cache instead of rendering it (``cached_measure``, ``preview_key``).
 Scripts with their own LIGHTs are rendered with exactly the light they ask for (``LOOK
 exposure EV`` sets a fixed factor 2^EV).
 """
