@@ -163,8 +163,9 @@ class BlenderSession:
         """The asset cache's key of this session's exposure preview (blender/exposure.py:
         ``preview_key``): the scene model built, the plan's settings, poses and options (but the
         frames, where culling does not choose the objects by them, the threads and the log's
-        verbosity: the same pixels), the configuration, the objects shown and how the preview
-        renders; None (not cached) when the build reads files besides the script."""
+        verbosity: the same pixels), the configuration, the objects shown, how the preview
+        renders and the GPUs it renders on; None (not cached) when the build reads files
+        besides the script."""
         if exposure.reads_files(self._built_from):
             return None
         p = self.plan
@@ -176,7 +177,7 @@ class BlenderSession:
         ids = None if self._exposure_ids is None else sorted(self._exposure_ids)
         return exposure.preview_key([self._built_from, p.settings, p.view_poses, options, configure, ids,
                                      EXPOSURE_PREVIEW, exposure.PREVIEW_WIDTH, exposure.PREVIEW_SAMPLES,
-                                     rig.blender_frame(0), bool(share), bool(denoise), self.fast])
+                                     rig.blender_frame(0), bool(share), bool(denoise), self.fast, self.gpu])
 
     def _check_stop(self) -> None:
         if self._stop():
