@@ -16,8 +16,8 @@ Build, up to frame 0's first sample (what every render process pays before its f
 a farm chunk or a study variant pays it again): ``import`` (bpy), ``parse`` (the script and
 the plan), ``assets`` (the procedural assets' numpy generators; the rows switch the disk
 cache of asset meshes off, as a machine's first render finds it: bench/bench_asset_cache.py
-measures what it saves the others; ``--asset-cache warm``: on, filled by a warm-up row, as the
-later renders find it), ``meshes`` (their Blender
+measures what it saves the others; ``--asset-cache warm``: on, filled by a warm-up row (one per
+edited script: the exposure preview is kept per script), as the later renders find it), ``meshes`` (their Blender
 meshes), ``materials`` (node graphs), ``scene`` (the rest of the builder: objects, lights,
 world, cameras), ``exposure`` (the automatic exposure's preview render, Cycles set-up
 included when it pays it), ``metering`` (the sensor auto-exposure's metering pass: a preview of
@@ -479,7 +479,8 @@ def main(argv=None) -> int:
     p.add_argument("--base", help="also render the baseline rows with this git revision's code")
     p.add_argument("--json", help="write every row as JSON")
     p.add_argument("--asset-cache", choices=("off", "warm"), default="off",
-                   help="warm: the rows share a fresh asset cache (meshes, the sky's table), filled by a warm-up row")
+                   help="warm: the rows share a fresh asset cache (meshes, the sky's table, the glowing "
+                        "panes' maps, the exposure preview), filled by a warm-up row (one per edited script)")
     p.add_argument("--cprofile", help="FILE: cProfile (CPU clock) of each scene's build in this tree's baseline "
                    "row, written to FILE with the scene's name before its suffix (FILE.office.prof)")
     p.add_argument("--bytecode", choices=("compiled", "source"), default="compiled",
@@ -561,6 +562,8 @@ def main(argv=None) -> int:
                     if edit_script(text, f)[1] == 0:
                         base.setdefault("features", {})[f] = None
                         continue
+                    if a.cache_folder:   # its warm-up row: the edited script's own exposure preview
+                        run_child(a, scene, f, REPO)
                     r = run_child(a, scene, f, REPO)
                     results.append((f"{label} -{f}", r))
                     base.setdefault("features", {})[f] = {

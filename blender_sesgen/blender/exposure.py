@@ -6,13 +6,20 @@ level is arbitrary. So, once per sequence, a tiny preview of frame 0 (left view)
 film exposure (Cycles' linear ``film_exposure``: scales the beauty pass only; depth and
 object index are geometry) is set so that the 90th percentile of its luminance reads
 TARGET. The same factor is used for every frame and view, so brightness is constant over
-the sequence, as VO assumes; it is recorded in the manifest and reused on --resume.
+the sequence, as VO assumes; it is recorded in the manifest and reused on --resume, and a
+later build of the same scene from the same inputs reads the preview (its value and image) from
+the asset cache instead of rendering it (``cached_measure``, ``preview_key``).
 Scripts with their own LIGHTs are rendered with exactly the light they ask for (``LOOK
 exposure EV`` sets a fixed factor 2^EV).
 """
 from __future__ import annotations
 
+import dataclasses
+import enum
+import functools
+import hashlib
 import os
+import pickle
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
@@ -129,6 +136,130 @@ def measure_exposure(bscene, camera, frame: int, cameras=None, width_px: int = P
     if not np.isfinite(p90) or p90 <= 1e-6:
         return 1.0, preview  # nothing lit in view: leave the exposure alone
     return float(np.clip(TARGET / p90, 1e-4, 1e4)), preview
+
+
+# --- the exposure preview kept in the asset cache ---------------------------------------------
+# The preview is a deterministic render (seed 0, fixed size and samples) of the built scene: a
+# later process that builds the same scene from the same inputs gets the same bits, so its
+# value and image are kept in the asset cache (``scene/assets/cache.py: cached_array``, kind
+# ``exposure``) under everything the build and the preview depend on (``preview_key``).
+CACHE_FORMAT = 1      # bump when what the cache holds, or how it is keyed, changes
+EXPOSURES_KEPT = 256  # previews kept (~70 KB each at 96 x 72)
+_DTYPES = (np.float32, np.float16, np.float64)
+
+
+@functools.lru_cache(maxsize=1)
+def code_version() -> Optional[str]:
+    """A hash of every file of the package (any module may change what the scene's build
+    renders), numpy's version and Blender's (version and build hash); None where the sources
+    cannot be read (a package without its .py files): then nothing is cached."""
+    import bpy
+    root = Path(__file__).resolve().parents[1]
+    h = hashlib.sha256(f"{np.__version__}\0{bpy.app.version_string}\0{bpy.app.build_hash!r}".encode())
+    try:
+        files = sorted(p for p in root.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
+        for p in files:
+            h.update(p.relative_to(root).as_posix().encode() + b"\0" + p.read_bytes())
+    except OSError:
+        return None
+    return h.hexdigest()[:16] if any(p.suffix == ".py" for p in files) else None
+
+
+@functools.lru_cache(maxsize=1)
+def _machine() -> str:
+    """The CPU's architecture and instruction set (Cycles' CPU kernels differ by them): a cache
+    folder shared by several machines keeps a preview per kind of machine."""
+    import platform
+    flags = ""
+    try:
+        with open("/proc/cpuinfo") as f:
+            flags = next((line for line in f if line.startswith(("flags", "Features"))), "")
+    except OSError:
+        pass
+    return f"{platform.machine()} {hashlib.sha256(flags.encode()).hexdigest()[:12]}"
+
+
+def fingerprint(value) -> str:
+    """A sha256 (hex) of ``value``'s pickle: every bit of its plain data (dataclasses by type and
+    fields, numpy arrays by dtype, shape and bytes, floats exactly), so two values that differ
+    anywhere differ here (two equal values may differ too, which costs only a cache miss);
+    TypeError/pickle's errors for what does not pickle."""
+    return hashlib.sha256(pickle.dumps(value, protocol=4)).hexdigest()
+
+
+_FIELDS: dict = {}
+
+
+def reads_files(scene) -> bool:
+    """Whether building ``scene`` reads a file besides the script (an image, a mesh, a .blend,
+    an HDRI, a trajectory): any absolute path in its fields (the script's own ``source`` aside).
+    Their content is not in ``preview_key``: such a scene's preview is never cached."""
+    stack = [getattr(scene, f.name) for f in dataclasses.fields(scene) if f.name != "source"]
+    plain = (int, float, bool, type(None), np.ndarray)
+    while stack:
+        v = stack.pop()
+        t = type(v)
+        if t is str:
+            if os.path.isabs(v):
+                return True
+        elif t in plain or isinstance(v, (enum.Enum, np.generic)):
+            continue
+        elif t is tuple or t is list or t is set or t is frozenset:
+            stack.extend(x for x in v if type(x) is not float)
+        elif t is dict:
+            stack.extend(v.keys())
+            stack.extend(v.values())
+        else:
+            names = _FIELDS.get(t)
+            if names is None:
+                if not dataclasses.is_dataclass(v):
+                    return True       # something unknown: not cached
+                names = _FIELDS[t] = tuple(f.name for f in dataclasses.fields(v))
+            stack.extend(getattr(v, n) for n in names)
+    return False
+
+
+def preview_key(parts) -> Optional[list]:
+    """The asset cache's key of an exposure preview: the code (``code_version``), the machine,
+    and ``parts`` (what the session built and how it renders the preview: the scene model, the
+    sizes, poses and options, fingerprinted); None where nothing may be cached."""
+    code = code_version()
+    if code is None:
+        return None
+    try:
+        return ["exposure preview", CACHE_FORMAT, code, _machine(), fingerprint(parts)]
+    except (TypeError, AttributeError, pickle.PicklingError):
+        return None
+
+
+def cached_measure(key: Callable[[], Optional[list]],
+                   measure: Callable[[], tuple[float, np.ndarray]]) -> tuple[float, np.ndarray]:
+    """``measure()`` (``measure_exposure``'s (film exposure, preview)), read from the asset cache
+    when an earlier process measured it under ``key()`` (the same bits), measured and kept there
+    otherwise; measured whenever the cache is off or ``key()`` is None."""
+    from ..scene.assets import cache
+    if cache.folder() is None:
+        return measure()
+    key = key()
+    if key is None:
+        return measure()
+
+    def make() -> np.ndarray:
+        value, preview = measure()
+        preview = np.asarray(preview)
+        code = next(i for i, t in enumerate(_DTYPES) if preview.dtype == t)
+        head = np.array([value, preview.shape[0], preview.shape[1], code], dtype=np.float64)
+        return np.concatenate([head, preview.astype(np.float64).ravel()])
+
+    def valid(a: np.ndarray) -> bool:
+        if a.ndim != 1 or a.dtype != np.float64 or len(a) < 4 or not np.isfinite(a).all():
+            return False
+        h, w, code = a[1], a[2], a[3]
+        return h == int(h) > 0 and w == int(w) > 0 and code in range(len(_DTYPES)) and len(a) == 4 + int(h) * int(w) * 3
+
+    a = cache.cached_array("exposure", key, make, valid, keep=EXPOSURES_KEPT)
+    h, w, code = (int(x) for x in a[1:4])
+    return float(a[0]), a[4:].reshape(h, w, 3).astype(_DTYPES[code])
 
 
 # The exposure preview is the metering preview of its frame (same size, samples, seed, no

@@ -16,6 +16,7 @@ bench/identical_renders.py); ``fast=False`` renders that plain way.
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 from pathlib import Path
 from typing import Callable, Optional
@@ -66,6 +67,7 @@ class BlenderSession:
                 self._metering_ids = visible_objects(plan, range(metered_frames(plan.frames, plan.scene.frames))).keep
                 keep |= set(self._metering_ids)
             scene = culled_scene(plan.scene, keep)
+        self._built_from = scene      # the model built (the exposure preview's cache key)
         self.built = builder.build_scene(scene, width=s.width, height=s.height, K=s.K,
                                          view_poses=plan.view_poses, threads=plan.options.threads)
         if self.culling is not None:     # meshes shared in the full scene stay instanced (exact depth)
@@ -147,13 +149,35 @@ class BlenderSession:
                          **{**self._configure, "persistent": share or self._preview_session})
         if self._exposure_ids is not None:   # culled: frame 0 metered with what frame 0 sees, in every chunk
             self._show(self._exposure_ids)
-        value, luminance = exposure.measure_exposure(self.built.scene, self.built.cameras["left"],
-                                                     rig.blender_frame(0), self.built.cameras if share else None,
-                                                     denoise=previews_alike and METERING_DENOISE)
+        denoise = bool(previews_alike and METERING_DENOISE)
+        value, luminance = exposure.cached_measure(
+            lambda: self._preview_key(share, denoise),
+            lambda: exposure.measure_exposure(self.built.scene, self.built.cameras["left"], rig.blender_frame(0),
+                                              self.built.cameras if share else None, denoise=denoise))
         # the metering pass's frame 0 is this preview (a plain render of the same objects)
         if previews_alike and exposure.PREVIEW_IS_METERING:
             self._preview_luminance = luminance
         return value
+
+    def _preview_key(self, share: bool, denoise: bool) -> Optional[list]:
+        """The asset cache's key of this session's exposure preview (blender/exposure.py:
+        ``preview_key``): the scene model built, the plan's settings, poses and options (but the
+        frames, where culling does not choose the objects by them, the threads and the log's
+        verbosity: the same pixels), the configuration, the objects shown, how the preview
+        renders and the GPUs it renders on; None (not cached) when the build reads files
+        besides the script."""
+        if exposure.reads_files(self._built_from):
+            return None
+        p = self.plan
+        options = {f.name: getattr(p.options, f.name) for f in dataclasses.fields(p.options)
+                   if f.name not in ("threads", "verbose") and (f.name != "frames" or p.options.cull)}
+        if "frames" in options:
+            options["frames"] = p.frames
+        configure = {k: v for k, v in self._configure.items() if k not in ("threads", "persistent")}
+        ids = None if self._exposure_ids is None else sorted(self._exposure_ids)
+        return exposure.preview_key([self._built_from, p.settings, p.view_poses, options, configure, ids,
+                                     EXPOSURE_PREVIEW, exposure.PREVIEW_WIDTH, exposure.PREVIEW_SAMPLES,
+                                     rig.blender_frame(0), bool(share), bool(denoise), self.fast, self.gpu])
 
     def _check_stop(self) -> None:
         if self._stop():
