@@ -48,6 +48,10 @@ def _kinds() -> dict[str, Kind]:
         Kind("building_shell", "outdoor", "building",
              "block under construction: bare walls, unglazed openings into dark rooms, slab edges, flat roof",
              ((12, 40), (9, 20), (9, 22)), "width, height, depth", building.shell, overhang=0.1),
+        Kind("house", "outdoor", "building",
+             "building whose front door stands in a recessed entrance porch (timber-clad, letterboxes, lamp); "
+             "otherwise as `building`", ((12, 26), (9, 20), (9, 16)), "width, height (to the ridge), depth",
+             building.house, overhang=3.0),
         Kind("car", "street", "car", "hatchback, saloon or estate: lofted body, glass, wheels in arches, "
              "faceted lamps, plates with characters, mirrors, door lines",
              ((1.72, 1.85), (1.42, 1.55), (3.9, 4.8)), "width, height, length (nose towards +z)",
