@@ -20,7 +20,7 @@ pytestmark = pytest.mark.slow   # subprocesses and end-to-end runs (left out of 
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 LIBRARY = ("city_kitti", "office", "forest", "hall")
-BUILDINGS = ("building", "building_shell")     # a finished building, a block under construction
+BUILDINGS = ("building", "building_shell", "house")     # a finished building, a block under construction, a house
 
 
 def _generator(name):
@@ -118,7 +118,7 @@ def sunlit_road_share(s, frames: int = 45, ahead_m: float = 25.0) -> float:
     pts[:, 1] = road.position[1] + road.size[1] + 0.02
     ts = mesh_raycast.TriangleScene()
     for o in s.objects:
-        if isinstance(o, Asset) and o.kind == "building":
+        if isinstance(o, Asset) and o.kind in BUILDINGS:
             d = assets.generate(o.kind, o.size, o.seed)
             ts.add(o.id, d.vertices, d.faces, object_pose(o.position, o.rotation_deg))
     to_sun = -sun_travel(s.world.sun_elevation_deg, s.world.sun_azimuth_deg)
@@ -554,7 +554,7 @@ def _solid_scene(scene) -> mesh_raycast.TriangleScene:
         if isinstance(o, Asset) and o.kind in SOLID:
             d = assets.generate(o.kind, o.size, o.seed, o.bend, o.offset)
             ts.add(o.id, d.vertices, d.faces, object_pose(o.position, o.rotation_deg))
-        elif isinstance(o, Asset) and o.kind == "building":
+        elif isinstance(o, Asset) and o.kind in ("building", "house"):
             W, H, D = o.size
             ts.add(o.id, _box((-W / 2, 0, -D / 2), (W / 2, 0.4 * H, D / 2)), BOX_FACES,
                    object_pose(o.position, o.rotation_deg))
@@ -775,7 +775,7 @@ def test_city_kitti_near_field_detail_stands_where_kitti_sequence_1s_does():
     assert 55.0 < a0 < 62.0 and a1 > 95.0, (a0, a1)
     ahead, right = local(s, end[0])
     assert 55.0 < ahead < 62.0 and right - end[0].size[0] / 2 < 10.0 < 25.0 < right + end[0].size[0] / 2, local(s, end[0])
-    buildings = of("building") + of("building_shell")
+    buildings = of("building") + of("building_shell") + of("house")
     row = [(local(s, b)[0], local(s, b)[1] - b.size[2] / 2) for b in buildings
            if 0.0 < local(s, b)[1] < 30.0 and -5.0 < local(s, b)[0] < 100.0]
     assert len(row) >= 4 and all(8.5 < x < 10.5 for _, x in row), row
@@ -1030,13 +1030,13 @@ def test_city_kitti_gardens_hold_young_trees_where_kitti_sequence_1s_do(scenes, 
     assert gaps([a for _, a, _ in trees]) <= 13.0, sorted(a for _, a, _ in trees)
     garden = [o for o, _, _ in trees if o.kind == "garden_tree"]
     assert garden and all(4.5 <= o.size[1] <= 6.1 for o in garden), [o.size for o in garden]
-    buildings = [o for o in s.objects if isinstance(o, Asset) and o.kind == "building"]
+    buildings = [o for o in s.objects if isinstance(o, Asset) and o.kind in ("building", "house")]
     for o in garden:
         M = assets.generate("garden_tree", o.size, o.seed).vertices
         T = object_pose(o.position, o.rotation_deg)
         P = M @ T[:3, :3].T + T[:3, 3]
         for b in buildings:
-            B = assets.generate("building", b.size, b.seed).vertices
+            B = assets.generate(b.kind, b.size, b.seed).vertices
             Tb = object_pose(b.position, b.rotation_deg)
             Q = (P - Tb[:3, 3]) @ Tb[:3, :3]                        # the tree in the building's frame
             crown = (np.abs(Q[:, 0]) < b.size[0] / 2 + 1.0) & (Q[:, 1] > 1.0) & (Q[:, 2] > 0.0) & (Q[:, 2] < 5.0 + b.size[2])
@@ -1053,11 +1053,11 @@ def test_city_kitti_garden_houses_have_no_balconies_as_kitti_sequence_1s(scenes)
     buildings along its gardens (up to 37 m ahead) have none either: no part above 2 m more than
     0.5 m before the front wall (all three had 1.3-1.5 m deep balconies, over gardens 1-1.5 m deep
     where no young tree's crown found room)."""
-    row = [o for o, ahead, right in assets_ahead_right(scenes["city_kitti"], "building")
+    row = [o for kind in ("building", "house") for o, ahead, right in assets_ahead_right(scenes["city_kitti"], kind)
            if -8.0 < ahead < 45.0 and 5.0 < right < 20.0]
     assert len(row) >= 3, row
     for o in row:
-        V = assets.generate("building", o.size, o.seed).vertices
+        V = assets.generate(o.kind, o.size, o.seed).vertices
         assert not np.any((V[:, 1] > 2.0) & (V[:, 2] > o.size[2] / 2 + 0.5)), (o.id, o.seed)
 
 

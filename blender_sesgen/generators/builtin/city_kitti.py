@@ -318,10 +318,10 @@ def _has_front_balconies(size, seed: int) -> bool:
 
 def _porch_u(size, seed: int) -> float:
     """The middle of the ``house`` asset's entrance porch along its front, from its left end (m):
-    the front's points more than 1 m behind the front wall and under 3 m up."""
+    the front's points more than 1 m behind the front wall, above the floor and under 3.2 m up."""
     V = asset_mesh("house", size, seed).vertices
     W, D = size[0], size[2]
-    m = (V[:, 2] > 0.0) & (V[:, 2] < D / 2 - 1.0) & (V[:, 1] < 3.0) & (np.abs(V[:, 0]) < W / 2 - 0.35)
+    m = (V[:, 2] > 0.0) & (V[:, 2] < D / 2 - 1.0) & (V[:, 1] > 0.05) & (V[:, 1] < 3.2) & (np.abs(V[:, 0]) < W / 2 - 0.35)
     return float((V[m, 0].min() + V[m, 0].max()) / 2 + W / 2)
 
 

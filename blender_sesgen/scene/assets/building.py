@@ -156,7 +156,7 @@ def generate(size, seed: int, shell: bool = False, porch: bool = False) -> MeshD
                         dh = min(rng.uniform(2.15, 2.45), top - 0.4)
                         if porch:
                             o = _porch_opening(prng, centres, bi, bay, top, D)
-                            if ops and ops[-1].u1 > o.u0:       # it spans the bay before too
+                            while ops and ops[-1].u1 > o.u0:     # it spans bays before too
                                 ops.pop()
                             ops.append(o)
                         else:
@@ -304,13 +304,16 @@ def shell(size, seed: int) -> MeshData:
     return generate(size, seed, shell=True)
 
 
-# a house's recessed entrance porch (issue 28, session 18), as on KITTI sequence_1's near right
-# houses (frames 0-24, 12-35 m ahead, 8-12 m right): the upper storey runs on over a recess in
-# the ground floor, its back and sides clad in dark timber boards, the front door and letterboxes
-# in it, in shade all day but at a low sun straight in. KITTI's ORB inliers of the upper right
-# sixth reach 11.4 m right (p90) where the render's facade plane stopped them at 9.3 m: the
-# recess's back lies 1.2-2.2 m behind the facade. Width one bay or two (2.1-6.6 m), 2.3-2.9 m high.
-PORCH = {"depth": (1.2, 2.2), "height": (2.3, 2.9), "p_two_bays": 0.5, "pier": 0.3,
+# a house's recessed ground floor (issue 28, session 18), as KITTI sequence_1's near right houses
+# (frames 0-24 at full size): the upper storeys run on over a recess in the ground floor, its back
+# and sides clad in dark timber boards, the front door and letterboxes in it, in shade but at a
+# low sun. KITTI's SGBM points 10-22 m from the camera, 13-37 m ahead of frame 0 (frames 0, 6, 12,
+# 18; tests/test_scene_library.py): 3.5-7 m up they peak 8.5-9.5 m right (the facade), 1.5-3 m up
+# 11-11.5 m right (the recess's back, ~2-2.5 m behind it), along nearly all of 13-43 m ahead (its
+# houses' gaps and trees between); its ORB VO's upper-right inliers reach 11.4 m right (p90) where
+# the render's facade stopped them at 9.3 m. The recess: half to four fifths of the front's bays
+# (the door's among them), 1.8-2.6 m deep, 2.5-3.0 m high; a pier of 0.3 m at each end.
+PORCH = {"depth": (1.8, 2.6), "height": (2.5, 3.0), "share": (0.5, 0.8), "pier": 0.3,
          "timber": ((0.16, 0.11, 0.07), (0.24, 0.17, 0.10), (0.12, 0.11, 0.10), (0.30, 0.24, 0.17))}
 PORCH_STREAM = 18
 
@@ -321,12 +324,13 @@ def house(size, seed: int) -> MeshData:
 
 
 def _porch_opening(rng, centres, bi: int, bay: float, top: float, D: float) -> Opening:
-    """The porch in the front's ground floor: bay ``bi`` (the door's) and, by
-    ``PORCH['p_two_bays']``, the next one (the one before at the front's end); a pier of
-    ``PORCH['pier']`` to each side, as deep as the house allows."""
-    two = rng.random() < PORCH["p_two_bays"] and len(centres) > 1
-    j = (bi + 1 if bi + 1 < len(centres) else bi - 1) if two else bi
-    a, c = min(centres[bi], centres[j]) - bay / 2 + PORCH["pier"], max(centres[bi], centres[j]) + bay / 2 - PORCH["pier"]
+    """The recess in the front's ground floor: ``PORCH['share']`` of its bays (at least one),
+    bay ``bi`` (the door's) among them; a pier of ``PORCH['pier']`` at each end, as deep as the
+    house allows."""
+    n = len(centres)
+    k = int(np.clip(round(n * float(rng.uniform(*PORCH["share"]))), 1, n))
+    j0 = int(np.clip(bi - int(rng.integers(k)), 0, n - k))
+    a, c = centres[j0] - bay / 2 + PORCH["pier"], centres[j0 + k - 1] + bay / 2 - PORCH["pier"]
     v1 = min(float(rng.uniform(*PORCH["height"])), top - 0.3)
     depth = min(float(rng.uniform(*PORCH["depth"])), D / 2 - 0.5)
     return Opening(round(float(a), 6), round(float(c), 6), 0.0, round(v1, 6), "porch", round(depth, 6))
