@@ -122,15 +122,8 @@ class NearField:
     trees_left: tuple = ()      # (from, to) ahead, (near, far) left of the centreline: a loose row of young trees on the lawn
     setback_left: tuple = ()    # the left front row's setback range behind the left kerb up to LEFT_ROW_M ahead (empty: drawn)
     gardens_right: tuple = ()   # (from, to) ahead: front gardens before the right front row (``GARDEN``), the tree lawn treeless
-    porches_right: tuple = ()   # ahead: the gardens' houses' entrance porches (``house``) as near here as their variants allow
 
 
-# KITTI sequence_1's near right houses' entrance recesses (issue 28, session 18): its ORB VO's
-# inliers in the upper right sixth (frames 0-23, SGBM depth, placed along the street by its poses)
-# more than 10 m right of the camera (behind the facades' ~9 m) and under 3 m up lie ~14-20,
-# ~26-32 and ~38-44 m ahead of frame 0 (between its garden trees' crowns at ~24 and ~36 m): dark
-# timber-clad recesses under the upper storey, the doors in them
-KITTI_S1_PORCHES = (17.0, 29.0, 41.0)
 # KITTI sequence_1's street, measured in its frames (ground plane 1.65 m under the camera, f 707
 # px; SGBM for the cars; docs/sensors.md, Camera twins): the left kerb 1.84 m left of the left
 # camera and the edge of a cobbled parking bay 2.17 m right of it (frame 12, row 360: a 4.0 m
@@ -162,8 +155,7 @@ KITTI_S1_NEAR = NearField(half_road=2.0, bay=2.5, walk_left=0.0, car_offset=3.13
                           white_right=65.0, works_right=(60.0, 100.0), works_depth=22.0, open_right=37.0,
                           lawn_right=1.3,
                           walk_right=2.2, setback_right=(0.6, 1.2), gutter_right=0.4, setback_left=(20.5, 22.5),
-                          trees_left=((18.0, 80.0), (10.5, 15.5)), gardens_right=(0.0, 37.0),
-                          porches_right=KITTI_S1_PORCHES)
+                          trees_left=((18.0, 80.0), (10.5, 15.5)), gardens_right=(0.0, 37.0))
 # KITTI sequence_1's left houses (beyond its public lawn) face the street 25-27 m left of the camera
 # (SGBM, frames 20-36); the open frontage's drawn 14-28 m put seed 0's at 18.5-21 m, large smooth
 # walls where KITTI's upper left holds ~1.7x the corners (session 14: 76-88 vs 43-49 a frame);
@@ -316,43 +308,24 @@ def _has_front_balconies(size, seed: int) -> bool:
     return bool(np.any((V[:, 1] > 2.0) & (V[:, 2] > size[2] / 2 + 0.5)))
 
 
-def _porch_u(size, seed: int) -> float:
-    """The middle of the ``house`` asset's entrance porch along its front, from its left end (m):
-    the front's points more than 1 m behind the front wall, above the floor and under 3.2 m up."""
-    V = asset_mesh("house", size, seed).vertices
-    W, D = size[0], size[2]
-    m = (V[:, 2] > 0.0) & (V[:, 2] < D / 2 - 1.0) & (V[:, 1] > 0.05) & (V[:, 1] < 3.2) & (np.abs(V[:, 0]) < W / 2 - 0.35)
-    return float((V[m, 0].min() + V[m, 0].max()) / 2 + W / 2)
-
-
-def _plain_fronts(lines: list[str], centreline: _Centreline, s0: float, s1: float, porches: tuple = (),
-                  sign: float = 1.0) -> list[str]:
+def _plain_fronts(lines: list[str], centreline: _Centreline, s0: float, s1: float) -> list[str]:
     """``lines`` with each front-row building whose nearest centreline point lies between arc
     lengths ``s0`` and ``s1`` and that has balconies on its front (``_has_front_balconies``)
     drawn again (its seed + 7919 k, the first k >= 1 without; size, place and material kept): a
     scripted near field's gardens, KITTI sequence_1's near right houses (frames 0-24 at full size:
     plain rendered walls, small windows with shutters, young trees before them; no balcony), where
     a balcony 1.1-1.5 m deep over a garden 1-1.5 m deep left no room for a tree's crown. Each is a
-    ``house``: its front door at the back of a recessed entrance porch (KITTI's: dark timber-clad
-    recesses under the upper storey, 1.2-2.2 m deep; the ORB VO's inliers there reach 11.4 m right
-    where the facade stands ~9 m right). Where an arc length of ``porches`` lies on a house's
-    front, the house is the first of its balcony-free variants (seed + 7919 k, k < 40) whose porch
-    lies within 1.5 m of it (else the nearest); ``sign``: +1 where the front's left end (seen from
-    the street) is the house's farther end (a right-hand front row)."""
+    ``house``: its ground floor recessed under the storeys above over most of its front, the front
+    door in the recess (KITTI's near houses: dark timber-clad recesses ~2-2.5 m behind the
+    facade along nearly all of them; ``building.PORCH``)."""
     out = []
     for ln in lines:
         b = _front_row_building(ln, centreline)
         if b is not None and b["kind"] == "building" and s0 <= b["s"] <= s1:
-            W = b["size"][0]
-            want = [a for a in porches if b["s"] - W / 2 + 1.0 <= a <= b["s"] + W / 2 - 1.0]
-            seeds = [b["seed"] + 7919 * k for k in range(0 if want else 1, 40 if want else 100)]
-            seeds = [sd for sd in seeds if not _has_front_balconies(b["size"], sd)]
-            if want:    # the porch's middle along the street: the front's u runs against the street's s
-                off = [min(abs(b["s"] + sign * (W / 2 - _porch_u(b["size"], sd)) - a) for a in want) for sd in seeds]
-                seed_ = next((sd for sd, d in zip(seeds, off) if d <= 1.5), seeds[int(np.argmin(off))])
-            else:
-                seed_ = b["seed"] if not _has_front_balconies(b["size"], b["seed"]) else seeds[0]
-            ln = ln.replace(f" seed {b['seed']} ", f" seed {seed_} ", 1)
+            if _has_front_balconies(b["size"], b["seed"]):
+                seed_ = next(b["seed"] + 7919 * k for k in range(1, 100)
+                             if not _has_front_balconies(b["size"], b["seed"] + 7919 * k))
+                ln = ln.replace(f" seed {b['seed']} ", f" seed {seed_} ", 1)
             ln = ln.replace("ASSET building ", "ASSET house ", 1)
         out.append(ln)
     return out
@@ -881,7 +854,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
             out.append(derived_material("works_blocks", "blockwork", seed=seed))
         if side > 0 and near is not None and near.gardens_right:   # the gardens' houses without balconies (KITTI's)
             lines = _plain_fronts(lines, centreline, behind + near.gardens_right[0] - 8.0,
-                                  behind + near.gardens_right[1] + 8.0, tuple(behind + a for a in near.porches_right))
+                                  behind + near.gardens_right[1] + 8.0)
         out += lines
         side_lines[side] = lines
 

@@ -311,9 +311,9 @@ def shell(size, seed: int) -> MeshData:
 # 18; tests/test_scene_library.py): 3.5-7 m up they peak 8.5-9.5 m right (the facade), 1.5-3 m up
 # 11-11.5 m right (the recess's back, ~2-2.5 m behind it), along nearly all of 13-43 m ahead (its
 # houses' gaps and trees between); its ORB VO's upper-right inliers reach 11.4 m right (p90) where
-# the render's facade stopped them at 9.3 m. The recess: half to four fifths of the front's bays
+# the render's facade stopped them at 9.3 m. The recess: four fifths of the front's bays to all
 # (the door's among them), 1.8-2.6 m deep, 2.5-3.0 m high; a pier of 0.3 m at each end.
-PORCH = {"depth": (1.8, 2.6), "height": (2.5, 3.0), "share": (0.5, 0.8), "pier": 0.3,
+PORCH = {"depth": (1.8, 2.6), "height": (2.5, 3.0), "share": (0.8, 1.0), "pier": 0.3,
          "timber": ((0.16, 0.11, 0.07), (0.24, 0.17, 0.10), (0.12, 0.11, 0.10), (0.30, 0.24, 0.17))}
 PORCH_STREAM = 18
 
