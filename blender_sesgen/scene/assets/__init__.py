@@ -48,10 +48,6 @@ def _kinds() -> dict[str, Kind]:
         Kind("building_shell", "outdoor", "building",
              "block under construction: bare walls, unglazed openings into dark rooms, slab edges, flat roof",
              ((12, 40), (9, 20), (9, 22)), "width, height, depth", building.shell, overhang=0.1),
-        Kind("house", "outdoor", "building",
-             "building whose front door stands in a recessed entrance porch (timber-clad, letterboxes, lamp); "
-             "otherwise as `building`", ((12, 26), (9, 20), (9, 16)), "width, height (to the ridge), depth",
-             building.house, overhang=3.0),
         Kind("car", "street", "car", "hatchback, saloon or estate: lofted body, glass, wheels in arches, "
              "faceted lamps, plates with characters, mirrors, door lines",
              ((1.72, 1.85), (1.42, 1.55), (3.9, 4.8)), "width, height, length (nose towards +z)",
@@ -69,6 +65,10 @@ def _kinds() -> dict[str, Kind]:
              ((0.8, 2.2), (0.6, 1.8), (0.8, 2.2)), "width, height, depth", vegetation.bush, closed=False),
         Kind("hedge", "nature", "vegetation", "clipped hedge: leafy core box wrapped in leaves",
              ((2, 8), (0.8, 1.8), (0.6, 1.2)), "length (x), height, thickness", vegetation.hedge, closed=False),
+        Kind("house", "outdoor", "building",
+             "building whose ground floor is recessed 1.8-2.6 m under the storeys above over most of its front "
+             "(dark timber-clad, the front door, letterboxes and a lamp in it)", ((12, 26), (9, 20), (9, 16)),
+             "width, height (to the ridge), depth", building.house, overhang=3.0),
     ]
     table += [
         Kind("road", "street", "road", "asphalt slab with camber, dashed centre / edge lines, patches, covers",
