@@ -171,7 +171,7 @@ NOT_OBJECT_CLASSES = ("unlabeled", "ego vehicle", "rectification border", "out o
 
 
 # the asset kinds with a ground floor of their own (ASSET ... ground_material M)
-GROUND_FLOOR_KINDS = ("building", "building_shell")
+GROUND_FLOOR_KINDS = ("building", "building_shell", "house")
 
 
 class _Objects:

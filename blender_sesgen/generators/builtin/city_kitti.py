@@ -297,7 +297,7 @@ def _white_near(lines: list[str], centreline: _Centreline, s0: float, s1: float)
     return out
 
 
-BUILDING_KINDS = ("building", "building_shell")   # the asset kinds a street's blocks are drawn with
+BUILDING_KINDS = ("building", "building_shell", "house")   # the asset kinds a street's blocks are drawn with
 
 
 def _has_front_balconies(size, seed: int) -> bool:
@@ -314,14 +314,19 @@ def _plain_fronts(lines: list[str], centreline: _Centreline, s0: float, s1: floa
     drawn again (its seed + 7919 k, the first k >= 1 without; size, place and material kept): a
     scripted near field's gardens, KITTI sequence_1's near right houses (frames 0-24 at full size:
     plain rendered walls, small windows with shutters, young trees before them; no balcony), where
-    a balcony 1.1-1.5 m deep over a garden 1-1.5 m deep left no room for a tree's crown."""
+    a balcony 1.1-1.5 m deep over a garden 1-1.5 m deep left no room for a tree's crown. Each is a
+    ``house``: its ground floor recessed under the storeys above over most of its front, the front
+    door in the recess (KITTI's near houses: dark timber-clad recesses ~2-2.5 m behind the
+    facade along nearly all of them; ``building.PORCH``)."""
     out = []
     for ln in lines:
         b = _front_row_building(ln, centreline)
-        if b is not None and s0 <= b["s"] <= s1 and _has_front_balconies(b["size"], b["seed"]):
-            seed_ = next(b["seed"] + 7919 * k for k in range(1, 100)
-                         if not _has_front_balconies(b["size"], b["seed"] + 7919 * k))
-            ln = ln.replace(f" seed {b['seed']} ", f" seed {seed_} ", 1)
+        if b is not None and b["kind"] == "building" and s0 <= b["s"] <= s1:
+            if _has_front_balconies(b["size"], b["seed"]):
+                seed_ = next(b["seed"] + 7919 * k for k in range(1, 100)
+                             if not _has_front_balconies(b["size"], b["seed"] + 7919 * k))
+                ln = ln.replace(f" seed {b['seed']} ", f" seed {seed_} ", 1)
+            ln = ln.replace("ASSET building ", "ASSET house ", 1)
         out.append(ln)
     return out
 
@@ -330,9 +335,9 @@ def _front_row_building(ln: str, centreline: _Centreline) -> Optional[dict]:
     """A front-row building's line ``ln`` (centre within ``FRONT_ROW_M`` of the centreline) as
     its position, yaw (deg), size, seed, arc length ``s`` of the nearest centreline point and
     distance ``dist`` from it; None for any other line."""
-    if not ln.startswith("ASSET building"):
-        return None
     w = ln.split()
+    if len(w) < 2 or w[0] != "ASSET" or w[1] not in BUILDING_KINDS:
+        return None
     i, j = w.index("position"), w.index("size")
     p = np.array([float(x) for x in w[i + 1:i + 4]])
     s, dist = centreline.nearest(p[[0, 2]])

@@ -65,6 +65,10 @@ def _kinds() -> dict[str, Kind]:
              ((0.8, 2.2), (0.6, 1.8), (0.8, 2.2)), "width, height, depth", vegetation.bush, closed=False),
         Kind("hedge", "nature", "vegetation", "clipped hedge: leafy core box wrapped in leaves",
              ((2, 8), (0.8, 1.8), (0.6, 1.2)), "length (x), height, thickness", vegetation.hedge, closed=False),
+        Kind("house", "outdoor", "building",
+             "building whose ground floor is set back 1.4-2.0 m under the storeys above over most of its front "
+             "(its front door, windows, letterboxes and a lamp in the recess)", ((12, 26), (9, 20), (9, 16)),
+             "width, height (to the ridge), depth", building.house, overhang=3.0),
     ]
     table += [
         Kind("road", "street", "road", "asphalt slab with camber, dashed centre / edge lines, patches, covers",
