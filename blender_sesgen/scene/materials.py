@@ -163,9 +163,11 @@ LIBRARY: dict[str, LibraryEntry] = _entries(
     # & Baret 1990: ~0.05-0.1 in the visible, ~0.45 in the near infrared): transmittance = the
     # colour's luminance (gain 1), so a sensor's band colour (band_colour, NIR included) is
     # passed too and the crowns' and hedges' inner leaves glow as real ones do
-    LibraryEntry("leaves", "foliage mass: leaf clusters catching the light, dark gaps, yellowed leaves with wear; "
-                           "passes about what it reflects",
-                 (0.05, 0.09, 0.025), 0.6, scale_m=0.08, bump_m=0.05, variation=0.35, wear=0.15,
+    # a leaf's surface: the crowns are real leaves (scene/assets/vegetation.py), each a flat lamina
+    # folded along its mid-rib by the mesh; the shade between them is geometry (session 18)
+    LibraryEntry("leaves", "leaves: each leaf its own tone (age, sun and shade leaves), a flat lamina with veins, "
+                           "yellowed leaves with wear; passes about what it reflects",
+                 (0.05, 0.09, 0.025), 0.6, scale_m=0.08, bump_m=0.0005, variation=0.35, wear=0.15,
                  semantic_class="vegetation", nir=0.45, transmittance=0.0768),
     LibraryEntry("bark", "tree bark: vertical ridges along the object's y axis, lichen with wear",
                  (0.13, 0.10, 0.08), 0.9, scale_m=0.05, bump_m=0.01, variation=0.3, wear=0.3,

@@ -46,22 +46,19 @@ def grass(ctx: Ctx) -> Surface:
 
 def leaves(ctx: Ctx) -> Surface:
     g, p, C = ctx.g, ctx.p, ctx.colour
-    size = ctx.entry.scale_m                                  # 8 cm clusters of leaves
+    size = ctx.entry.scale_m                                  # 8 cm: about one leaf
     big = g.voronoi(p, 1 / size)
     small = g.voronoi(p, 1 / (0.4 * size))
     r_big = g.sep(big.outputs["Color"])[0]
     r_small = g.sep(small.outputs["Color"])[1]
-    # clusters facing the light, older and younger leaves: a lit crown is a mosaic of light and
-    # dark clusters at the scale one pixel covers 5-20 m away (docs/sensors.md, Camera twins)
+    # older and younger, sun and shade leaves: each leaf (or part of one) its own tone
     value = g.mul(g.remap(r_big, 0.0, 1.0, 0.5, 1.6), g.remap(r_small, 0.0, 1.0, 0.75, 1.25))
     col = g.cmul(C, value)
     yellow = g.math("GREATER_THAN", r_small, 0.97 - 0.2 * ctx.wear)
     col = g.cmix(col, g.cmul((0.13, 0.12, 0.045), value), g.mul(yellow, 0.7))
-    gaps = g.remap(g.voronoi(p, 1 / size, feature="DISTANCE_TO_EDGE").outputs["Distance"], 0.0, 0.08, 1.0, 0.0)
-    col = g.cmix(col, g.cmul(C, 0.25), g.mul(gaps, 0.8))   # the dark depth between clusters
-    dome = g.remap(big.outputs["Distance"], 0.0, 0.6, 1.0, 0.0)
-    dome_s = g.remap(small.outputs["Distance"], 0.0, 0.6, 1.0, 0.0)
-    height = g.add(g.mul(dome, 0.6 * size), g.mul(dome_s, 0.15 * size))
+    # a leaf is a flat lamina (its fold is the mesh's): veins and blades' waviness at millimetres,
+    # no cluster's dome or dark gaps (the leaves and the gaps between them are geometry)
+    height = g.mul(g.noise(p, 1 / 0.01, detail=2.0), ctx.entry.bump_m)
     return Surface(col, ctx.roughness, height, grime=0.0,
                    extra={"Subsurface Weight": 0.15, "Subsurface Radius": (0.2, 0.4, 0.1),
                           "Subsurface Scale": 0.005})
