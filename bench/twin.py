@@ -2,7 +2,7 @@
 camera profile and prints, in one run and at the same image size, the image and tracking
 figures and three stereo VOs' errors on the render and on the real excerpt, with ratios.
 
-    python bench/twin.py [--scene city] [--frames 45] [--scale 0.5] [--quality draft] [--out out/twin]
+    python bench/twin.py [--scene city] [--frames 45] [--scale 0.5] [--quality final] [--out out/twin]
                          [--no-render] [--start K] [--resensor] [--draws N]
 
 Scenes: ``city`` = scenes/city_kitti.ses (``SENSOR profile kitti``) beside KITTI sequence_1
@@ -1062,7 +1062,9 @@ def main(argv=None) -> int:
     ap.add_argument("--scene", default="city", choices=sorted(SCENES))
     ap.add_argument("--frames", type=int, default=45)
     ap.add_argument("--scale", type=float, default=0.5, help="--resolution-scale of the render (default 0.5)")
-    ap.add_argument("--quality", default="draft")
+    ap.add_argument("--quality", default="final",
+                    help="render preset (default final: draft's denoiser keeps ~0.28 of the crowns' finest band, "
+                         "final ~0.55; bench/crown_detail.py --cross)")
     ap.add_argument("--out", default="out/twin")
     ap.add_argument("--no-render", action="store_true", help="use the frames already rendered in --out")
     ap.add_argument("--start", type=int, default=0, help="compare frames K.. of both (hall; default 0)")
