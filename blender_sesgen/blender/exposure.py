@@ -154,15 +154,13 @@ def code_version() -> Optional[str]:
     renders), numpy's version and Blender's (version and build hash); None where the sources
     cannot be read (a package without its .py files): then nothing is cached."""
     import bpy
+    from ..scene.assets import cache
     root = Path(__file__).resolve().parents[1]
-    h = hashlib.sha256(f"{np.__version__}\0{bpy.app.version_string}\0{bpy.app.build_hash!r}".encode())
-    try:
-        files = sorted(p for p in root.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
-        for p in files:
-            h.update(p.relative_to(root).as_posix().encode() + b"\0" + p.read_bytes())
-    except OSError:
+    files = sorted(p for p in root.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
+    if not any(p.suffix == ".py" for p in files):
         return None
-    return h.hexdigest()[:16] if any(p.suffix == ".py" for p in files) else None
+    return cache.sources_digest(f"{np.__version__}\0{bpy.app.version_string}\0{bpy.app.build_hash!r}",
+                                ((p.relative_to(root).as_posix(), p) for p in files))
 
 
 @functools.lru_cache(maxsize=1)
@@ -240,8 +238,8 @@ def cached_measure(key: Callable[[], Optional[list]],
     from ..scene.assets import cache
     if cache.folder() is None:
         return measure()
-    key = key()
-    if key is None:
+    k = key()
+    if k is None:
         return measure()
 
     def make() -> np.ndarray:
@@ -257,7 +255,7 @@ def cached_measure(key: Callable[[], Optional[list]],
         h, w, code = a[1], a[2], a[3]
         return h == int(h) > 0 and w == int(w) > 0 and code in range(len(_DTYPES)) and len(a) == 4 + int(h) * int(w) * 3
 
-    a = cache.cached_array("exposure", key, make, valid, keep=EXPOSURES_KEPT)
+    a = cache.cached_array("exposure", k, make, valid, keep=EXPOSURES_KEPT)
     h, w, code = (int(x) for x in a[1:4])
     return float(a[0]), a[4:].reshape(h, w, 3).astype(_DTYPES[code])
 

@@ -293,13 +293,7 @@ def _code_version() -> str | None:
     """A hash of ``_SOURCES`` and numpy's version; None where the sources cannot be read (a
     package without its .py files): then the maps are not cached."""
     root = Path(__file__).resolve().parents[1]
-    h = hashlib.sha256(np.__version__.encode())
-    try:
-        for name in _SOURCES:
-            h.update(name.encode() + b"\0" + (root / name).read_bytes())
-    except OSError:
-        return None
-    return h.hexdigest()[:16]
+    return cache.sources_digest(np.__version__, ((name, root / name) for name in _SOURCES))
 
 
 def _digest(a) -> str | None:

@@ -50,13 +50,27 @@ def folder() -> Optional[Path]:
     return Path(base) / "blender-sesgen" / "assets"
 
 
+def sources_digest(head: str, files) -> Optional[str]:
+    """What a cached thing's code is, as 16 hex digits: a sha256 of ``head`` (the versions it
+    also depends on) and each ``(name, path)`` of ``files`` (its name and bytes); None where a
+    file cannot be read (a package without its .py files: then nothing is cached)."""
+    h = hashlib.sha256(head.encode())
+    try:
+        for name, path in files:
+            h.update(name.encode() + b"\0" + Path(path).read_bytes())
+    except OSError:
+        return None
+    return h.hexdigest()[:16]
+
+
 @functools.lru_cache(maxsize=1)
 def version() -> str:
     """The generators' source (every module of this package) and numpy's version, hashed."""
-    h = hashlib.sha256(np.__version__.encode())
-    for p in sorted(Path(__file__).resolve().parent.glob("*.py")):
-        h.update(p.name.encode() + b"\0" + p.read_bytes())
-    return h.hexdigest()[:16]
+    here = sorted(Path(__file__).resolve().parent.glob("*.py"))
+    digest = sources_digest(np.__version__, ((p.name, p) for p in here))
+    if digest is None:
+        raise OSError(f"the asset generators' sources in {here[0].parent if here else __file__} cannot be read")
+    return digest
 
 
 def _digest(key) -> str:
