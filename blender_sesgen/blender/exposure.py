@@ -20,6 +20,7 @@ import functools
 import hashlib
 import os
 import pickle
+import re
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
@@ -148,16 +149,87 @@ EXPOSURES_KEPT = 256  # previews kept (~70 KB each at 96 x 72)
 _DTYPES = (np.float32, np.float16, np.float64)
 
 
+# The code a preview depends on: the package's modules that building the scene and rendering
+# the preview import (``PREVIEW_MODULE``'s import closure, read from the sources: every ``import``
+# and ``from ... import`` of a module in it, at any depth, function bodies too), the packages'
+# ``__init__`` on their way, and every file of the package that is not a module (data). A change
+# to another module (the command line, the farm, the studies, the scene generators: the scene
+# model they lead to is in the key itself) keeps the previews (tests/test_exposure_cache.py).
+PREVIEW_MODULE = "blender.session"   # BlenderSession: builds the scene, renders the preview
+_IMPORT = re.compile(r"^[ \t]*(?:from[ \t]+([.\w]+)[ \t]+import[ \t]+(\([^)]*\)|[^\n#;]*)"
+                     r"|import[ \t]+([^\n#;]+))", re.M)
+_DYNAMIC = re.compile(r"(?:\bimport_module|\b__import__|\bspec_from_file_location|\bexec)[ \t]*\(")
+
+
+def _imported(text: str, package: list[str], top: str) -> set[str]:
+    """The dotted names that ``text`` (a module of the dotted ``package``) imports from ``top``
+    (each ``from M import a`` gives M and M.a: ``a`` may be a module)."""
+    out = set()
+    for m, names, plain in _IMPORT.findall(text):
+        if plain:
+            out.update(n.split()[0] for n in plain.split(",") if n.strip())
+            continue
+        dots = len(m) - len(m.lstrip("."))
+        if dots:
+            base = package[:len(package) - (dots - 1)] if dots > 1 else package
+            m = ".".join(base + ([m[dots:]] if m[dots:] else []))
+        out.add(m)
+        out.update(f"{m}.{n.split()[0]}" for n in names.strip("()").replace("\\", " ").split(",")
+                   if n.split())
+    return {n for n in out if n == top or n.startswith(top + ".")}
+
+
+def _dynamic(text: str) -> bool:
+    """Whether ``text`` imports by a computed name (``_DYNAMIC``; plain substring tests first)."""
+    return any(w in text for w in ("import_module", "__import__", "spec_from_file_location", "exec")) \
+        and _DYNAMIC.search(text) is not None
+
+
+def preview_sources(root: Path, module: str = PREVIEW_MODULE) -> list[Path]:
+    """The files of the package at ``root`` whose content the exposure preview depends on
+    (``PREVIEW_MODULE``'s import closure and the package's data files), sorted; every file of
+    the package where a module of the closure imports by a computed name (``import_module``,
+    ``__import__``, ``exec``: what it reaches cannot be read off its text). Pure."""
+    top = root.name
+    every = sorted(p for p in root.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
+    modules = {}                                     # dotted name -> its file
+    for f in every:
+        if f.suffix == ".py":
+            rel = f.relative_to(root).with_suffix("").parts
+            modules[".".join((top, *(rel[:-1] if rel[-1] == "__init__" else rel)))] = f
+    seen, done = set(), set()
+    todo = [f"{top}.{module}"]
+    while todo:
+        name = todo.pop()
+        if name in done:
+            continue
+        done.add(name)
+        parts = name.split(".")
+        for i in range(1, len(parts) + 1):           # a module's packages run their __init__
+            f = modules.get(".".join(parts[:i]))
+            if f is None or f in seen:
+                continue
+            seen.add(f)
+            text = f.read_text(encoding="utf-8")
+            if _dynamic(text):
+                return every
+            todo.extend(_imported(text, [top, *f.relative_to(root).parts[:-1]], top))
+    return sorted(seen.union(p for p in every if p.suffix not in (".py", ".pyc")))
+
+
 @functools.lru_cache(maxsize=1)
 def code_version() -> Optional[str]:
-    """A hash of every file of the package (any module may change what the scene's build
-    renders), numpy's version and Blender's (version and build hash); None where the sources
-    cannot be read (a package without its .py files): then nothing is cached."""
+    """A hash of the package's files the preview depends on (``preview_sources``), numpy's
+    version and Blender's (version and build hash); None where the sources cannot be read (a
+    package without its .py files): then nothing is cached."""
     import bpy
     from ..scene.assets import cache
     root = Path(__file__).resolve().parents[1]
-    files = sorted(p for p in root.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
-    if not any(p.suffix == ".py" for p in files):
+    if not (root / "blender" / "session.py").is_file():
+        return None
+    try:
+        files = preview_sources(root)
+    except (OSError, UnicodeDecodeError):
         return None
     return cache.sources_digest(f"{np.__version__}\0{bpy.app.version_string}\0{bpy.app.build_hash!r}",
                                 ((p.relative_to(root).as_posix(), p) for p in files))
