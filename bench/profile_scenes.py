@@ -25,6 +25,11 @@ each frame before the render's last), and the Cycles set-up of the render sessio
 first sample, split by Cycles' own status: ``sync`` (Blender objects to Cycles), ``shaders``,
 ``bvh`` (meshes, BVH), ``images`` (textures, the sky), ``lights`` (the world's importance
 map, the light tree), ``kernels``; ``total`` = script start to frame 0's first sample.
+``--samples`` below the exposure preview's 8 changes the build, not only the frames: the frames
+cannot then share the preview's Cycles session (a persistent session does not render fewer samples
+as a fresh one), so a scene without the sensor path pays a second sync and BVH that its own sample
+count (8 or more: every library script's) does not (the forest: x0.34-0.38 of a351dd9's cold at 4
+samples, x0.31-0.32 at 8; bench/RESULTS.md, session 19); ``--samples 8`` builds as the scenes do.
 
 Per stereo frame (the frames after frame 0, which pays the Cycles set-up; frame 0 when it is
 the only one): ``c:setup`` (Cycles' set-up inside the frame's renders before their first
@@ -471,7 +476,8 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--scenes", nargs="+", default=list(SCENES))
     p.add_argument("--quality", default="final")
-    p.add_argument("--samples", type=int, help="override the preset's samples (ratios: fewer samples suffice)")
+    p.add_argument("--samples", type=int, help="override the preset's samples (ratios: fewer samples suffice; "
+                   "below 8 the build pays a second Cycles session where the scene has no sensor path)")
     p.add_argument("--scale", type=float, default=0.5, help="resolution scale (1.0 = the script's size)")
     p.add_argument("--frames", type=int, default=2)
     p.add_argument("--features", nargs="+", default=["all"], help="all, none, or names: " +
