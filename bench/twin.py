@@ -929,6 +929,24 @@ def gt_error_lines(name: str, real: Frames, ours: Frames, real_figs: dict, draw_
     return lines
 
 
+def klt_at_speed(real: Frames, ours: Frames, n: int, real_klt: float) -> str:
+    """The KLT forward-backward error grows with how far the corners move, so a twin that drives
+    slower than the real rig tracks more easily (bench/klt_causes.py): the rigs' mean step, the
+    exponent of the render's KLT in the step (its KLT over pairs k, k+2 against k, k+1:
+    fb ~ step^alpha), and the render's KLT carried to the real rig's step, with its ratio."""
+    from vo_reference.evaluate.realism import klt_fb_error
+    step = lambda fr: float(np.mean(np.linalg.norm(np.diff(np.asarray(fr.T_world_cam("left"))[:n, :3, 3], axis=0),  # noqa: E731
+                                                   axis=1)))
+    sr, so = step(real), step(ours)
+    ours_klt = float(np.nanmedian([klt_fb_error(ours.image_gray(k), ours.image_gray(k + 1)) for k in range(n - 1)]))
+    two = float(np.nanmedian([klt_fb_error(ours.image_gray(k), ours.image_gray(k + 2)) for k in range(n - 2)]))
+    alpha = float(np.log2(two / ours_klt))
+    at = ours_klt * (sr / so) ** alpha
+    return (f"KLT and the rig's speed: mean step real {sr:.3f} m, render {so:.3f} m; the render's KLT over two steps "
+            f"{two:.3f} px (fb ~ step^{alpha:.2f}); at the real rig's step {at:.3f} px, render / real "
+            f"{_ratio(ours_klt, real_klt):.2f} -> {_ratio(at, real_klt):.2f} (draw 0)")
+
+
 # --- the render -----------------------------------------------------------------------------
 
 def twin_script(script: str, profile: str, out: Path, frames: int | None = None) -> Path:
@@ -1180,6 +1198,8 @@ def main(argv=None) -> int:
               f"which one excerpt cannot show. Lines below: draw 0.")
     print(f"sensor-noise draws: {a.draws}, {np.mean(cpu_s):.1f} CPU s each (develop + figures"
           + (" + three VOs" if with_vo else "") + f", {n} frames)")
+    if with_vo and n >= 4:
+        print(klt_at_speed(real, ours, n, real_figs["klt"]))
     if with_vo:
         for line in (vo_cause_lines(name, real, ours, real_figs, draw_figs, n) + gt_error_lines(name, real, ours, real_figs,
                                                                                                 draw_figs, n)

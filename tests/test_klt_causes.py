@@ -43,3 +43,22 @@ def test_flow_weights_and_speed_scaling():
     assert np.median(s) / np.median(O[:, 3]) == pytest.approx(1.2 ** 1.5, rel=0.06)
     assert np.allclose(kc.at_speed(O, np.ones(40)), O[:, 3])
     assert kc.bench_klt(O) == pytest.approx(np.median(O[:, 3]), rel=0.05)
+
+
+def test_twin_carries_the_renders_klt_to_the_real_rigs_speed(monkeypatch):
+    """bench/twin.py's klt_at_speed: a KLT error growing as the step squared (a stand-in tracker
+    reading each frame's travelled distance from its grey level) is carried from the render's
+    1.0 m steps to the real rig's 1.2 m: x 1.44, the exponent 2."""
+    import twin
+    import vo_reference.evaluate.realism as realism
+    monkeypatch.setattr(realism, "klt_fb_error", lambda a, b: 0.05 * ((float(b[0, 0]) - float(a[0, 0])) / 10.0) ** 2)
+
+    def frames(step, n=8):
+        T = np.tile(np.eye(4), (n, 1, 1))
+        T[:, 2, 3] = step * np.arange(n)
+        img = [np.full((4, 4), 10.0 * step * k) for k in range(n)]
+        return twin.Frames(img, img, np.eye(3), 0.5, T)
+    real, ours = frames(1.2), frames(1.0)
+    line = twin.klt_at_speed(real, ours, 8, real_klt=0.05 * 1.2 ** 2)
+    assert "mean step real 1.200 m, render 1.000 m" in line
+    assert "step^2.00" in line and "render / real 0.69 -> 1.00" in line
