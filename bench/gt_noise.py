@@ -2,7 +2,7 @@
 KITTI's poses (OXTS RT3003 GPS/INS, projected into the left camera) against the steps of VOs
 that never saw them, by the three-cornered hat, and a smoothness bound.
 
-    python bench/gt_noise.py [--render OUT/city] [--frames 50] [--draws 3] [--boot 2000]
+    python bench/gt_noise.py [--render OUT/city] [--frames N] [--draws 3] [--boot 2000]
 
 **The three-cornered hat** (Allan's, as for three clocks). Three estimates of each step's
 translation (in camera k's frame) -- the poses' ``g`` and two VOs' ``a``, ``b`` -- each the
@@ -24,7 +24,7 @@ rms(third difference) / sqrt(20) bounds a white pose noise, and sqrt(2) times th
 noise. A slowly varying error (the INS's heading and pitch: the step is expressed in the poses'
 own camera frame, so 0.1 deg of heading error moves a 1.2 m step 2.1 mm sideways) passes it.
 
-``main`` prints KITTI sequence_1 (its 50 steps, the three VOs of bench/twin.py at the twin's
+``main`` prints KITTI sequence_1 (all its 50 steps by default, the three VOs of bench/twin.py at the twin's
 613 px), with ``--render`` the check on a twin render's draws (bench/twin.py's folder), and
 KITTI sequence 00's poses against ORB-SLAM2's and S-PTAM's (shared/data/trajectories: 4540
 steps, the same hat with two SLAM systems; no render to calibrate their correlation).
@@ -120,9 +120,10 @@ def rpe_pct(truth, est) -> np.ndarray:
 def rpe_without_truth_error(truth, est, s_truth_total: float) -> float:
     """The median translation RPE (% of the step) of ``est`` with a ground-truth error of mean
     square ``s_truth_total`` (3D, units^2) removed in quadrature: the measured median times
-    sqrt(1 - s / mean|est - truth|^2) (the error's shape kept, its power less the truth's)."""
+    sqrt(1 - s / mean|est - truth|^2) (the error's shape kept, its power less the truth's; a
+    negative estimate of s, within its sampling scatter of 0, removes nothing)."""
     e2 = float(np.mean(np.sum((np.asarray(est, float) - np.asarray(truth, float)) ** 2, axis=1)))
-    return float(np.median(rpe_pct(truth, est)) * np.sqrt(max(e2 - s_truth_total, 0.0) / e2))
+    return float(np.median(rpe_pct(truth, est)) * np.sqrt(max(e2 - max(s_truth_total, 0.0), 0.0) / e2))
 
 
 def rpe_with_drawn_truth_error(truth, est, s_truth_axes, draws: int = 50, seed: int = 0) -> float:
@@ -171,7 +172,8 @@ def mm(v) -> str:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--render", default=None, help="a twin render folder (bench/twin.py's OUT/city) for the check")
-    ap.add_argument("--frames", type=int, default=50, help="KITTI sequence_1's frames (default all 50 poses)")
+    ap.add_argument("--frames", type=int, default=None,
+                    help="frames of KITTI sequence_1 and of the render (default all: KITTI's 51 poses, 50 steps)")
     ap.add_argument("--draws", type=int, default=3, help="the render's sensor-noise draws (default 3)")
     ap.add_argument("--boot", type=int, default=BOOT)
     a = ap.parse_args(argv)
@@ -180,7 +182,7 @@ def main(argv=None) -> int:
     if not twin.DATA.is_dir():
         print(f"real data not found at {twin.DATA} (set SESGEN_SHARED_DATA)", file=sys.stderr)
         return 2
-    if a.frames < 8 or a.draws < 1 or a.boot < 10:
+    if (a.frames is not None and a.frames < 8) or a.draws < 1 or a.boot < 10:
         print("--frames 8 or more, --draws 1 or more, --boot 10 or more", file=sys.stderr)
         return 2
     from vo_reference.io.sequence import open_sequence
@@ -192,16 +194,25 @@ def main(argv=None) -> int:
         if not (out / "manifest.json").is_file():
             print(f"{out}: not a render folder", file=sys.stderr)
             return 2
-        n_r = min(a.frames, open_sequence(out).num_frames)
-        runs = []
+        rs = open_sequence(out)
+        n_r = 0
+        while n_r < min(a.frames or 10 ** 9, rs.num_frames) and rs.frame_complete(n_r):
+            n_r += 1
+        if n_r < 8:
+            print(f"{out}: only {n_r} frame(s) rendered completely (8 at least)", file=sys.stderr)
+            return 2
+        runs, headings = [], []
         for d in range(a.draws):
             fr = twin.resensor(out, n_r, 0, d)
             t = step_vectors(fr.T_world_cam("left")[:n_r])
-            runs.append((t, *(step_vectors_of(twin.vo_steps(fr, vo, n_r)) for vo in ("opencv-baseline", "accurate"))))
+            st = {vo: step_vectors_of(twin.vo_steps(fr, vo, n_r)) for vo in twin.VOS}
+            runs.append((t, st["opencv-baseline"], st["accurate"]))
+            headings.append(np.degrees(heading_offset_rad(t, list(st.values()))))
         truths, A, B = zip(*runs)
         rho = vo_correlation(truths, A, B)
         print(f"render {out} ({n_r} frames, {a.draws} draws; exact ground truth): the OpenCV and accurate VOs' step "
-              f"errors correlate by rho x/y/z " + "/".join(f"{r:.2f}" for r in rho))
+              f"errors correlate by rho x/y/z " + "/".join(f"{r:.2f}" for r in rho)
+              + "; the poses' heading against the images' by draw " + ", ".join(f"{h:+.2f}" for h in headings) + " deg")
         for d, (t, x, y) in enumerate(runs):
             plain = hat_with_interval(t, x, y, 0.0, a.boot)
             others = [i for i in range(a.draws) if i != d] or [d]
@@ -210,7 +221,7 @@ def main(argv=None) -> int:
             print(f"  draw {d}: the hat's ground-truth error (should be 0) plain {mm(plain['axes'])} mm "
                   f"(3D {mm(plain['total'])} [{mm(plain['lo'])}, {mm(plain['hi'])}]), corrected with the other draws' "
                   f"rho {mm(corr['axes'])} (3D {mm(corr['total'])} [{mm(corr['lo'])}, {mm(corr['hi'])}])")
-    n = min(a.frames, seq.num_frames)
+    n = min(a.frames or 10 ** 9, seq.num_frames)
     real = twin.resized(seq, n, size)
     T = real.T_world_cam("left")[:n]
     n = len(T)
@@ -226,6 +237,11 @@ def main(argv=None) -> int:
                   f"[{rpe_without_truth_error(g, vos[vo], h['hi']):.3f}, {rpe_without_truth_error(g, vos[vo], h['lo']):.3f}]")
     print("  the poses' step minus the VOs' (mean, mm, x/y/z): " + ", ".join(
         f"{vo} " + "/".join(f"{v:+.1f}" for v in 1e3 * (g - vos[vo]).mean(axis=0)) for vo in twin.VOS))
+    psi = heading_offset_rad(g, list(vos.values()))
+    print(f"  the poses' heading against the images' (their step's lateral offset from the VOs' median step): "
+          f"{np.degrees(psi):+.2f} deg; RPE with it turned out: " + ", ".join(
+              f"{vo} {np.median(rpe_pct(g, vos[vo])):.3f} -> {np.median(rpe_pct(turned(g, psi), vos[vo])):.3f} %"
+              for vo in twin.VOS))
     print("  smoothness bound on a white pose noise (per step, x/y/z): "
           + "/".join(f"{v * 1e3:.1f}" for v in smoothness_bound(T)) + " mm")
     base = twin.DATA / "trajectories"

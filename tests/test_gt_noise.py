@@ -121,3 +121,16 @@ def test_vo_errors_keep_each_steps_translation(shared_data):
     g = gn.step_vectors(seq.T_world_cam("left")[:4])
     assert e["steps_m"].shape == (3, 3)
     assert np.median(gn.rpe_pct(g, e["steps_m"])) == pytest.approx(e["t_rpe_pct"], rel=1e-6)
+
+
+def test_rpe_without_truth_error_removes_the_truths_share_in_quadrature():
+    rng = np.random.default_rng(6)
+    n = 20000
+    t = _drive(n, rng)
+    est = t + 6e-3 * rng.normal(size=(n, 3))
+    noisy = t + 8e-3 * rng.normal(size=(n, 3))        # a truth with its own error: 10 mm against 6 mm
+    own = np.median(gn.rpe_pct(t, est))
+    assert np.median(gn.rpe_pct(noisy, est)) == pytest.approx(own * 10 / 6, rel=0.05)
+    assert gn.rpe_without_truth_error(noisy, est, 3 * 8e-3 ** 2) == pytest.approx(own, rel=0.05)
+    assert gn.rpe_without_truth_error(noisy, est, -1e-4) == pytest.approx(np.median(gn.rpe_pct(noisy, est)))
+    assert gn.rpe_with_drawn_truth_error(t, est, [8e-3 ** 2] * 3, draws=5) == pytest.approx(own * 10 / 6, rel=0.05)
