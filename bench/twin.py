@@ -900,7 +900,7 @@ def gt_error_lines(name: str, real: Frames, ours: Frames, real_figs: dict, draw_
     psi_r = gn.heading_offset_rad(g_real, vo_of(real_figs))
     psi_o = [gn.heading_offset_rad(g_ours, vo_of(d)) for d in draw_figs]
     deg = lambda r: f"{np.degrees(r):+.2f}"  # noqa: E731
-    rpe = []
+    rpe, added = [], []
     for vo in VOS:
         r0 = float(np.median(gn.rpe_pct(g_real, real_figs[f"{vo}/steps_m"])))
         r1 = float(np.median(gn.rpe_pct(gn.turned(g_real, psi_r), real_figs[f"{vo}/steps_m"])))
@@ -908,11 +908,16 @@ def gt_error_lines(name: str, real: Frames, ours: Frames, real_figs: dict, draw_
         o1 = [float(np.median(gn.rpe_pct(gn.turned(g_ours, p), d[f"{vo}/steps_m"]))) for d, p in zip(draw_figs, psi_o)]
         rpe.append(f"{vo} real {r0:.3f} -> {r1:.3f} %, render {np.median(o0):.3f} -> {np.median(o1):.3f} %, render / real "
                    f"{np.median([x / r0 for x in o0]):.2f} -> {np.median([x / r1 for x in o1]):.2f}")
+        # the other way round: the render's exact poses given the real poses' turn (their step right by psi)
+        o2 = [float(np.median(gn.rpe_pct(gn.turned(g_ours, -psi_r), d[f"{vo}/steps_m"]))) for d in draw_figs]
+        added.append(f"{vo} {np.median(o2):.3f} % ({np.median([x / r0 for x in o2]):.2f})")
     lateral = 1e3 * np.mean(g_real[:, 0] - np.median(np.stack(vo_of(real_figs)), axis=0)[:, 0])
     lines = [f"the poses' heading against the images' (the poses' step's lateral offset from the three VOs' median "
              f"step, mean over the steps, deg): {name} {deg(psi_r)} ({lateral:+.1f} mm a step), "
              f"render {deg(float(np.median(psi_o)))} (draws {deg(min(psi_o))} to {deg(max(psi_o))}; exact poses: the "
-             f"check); translation RPE with it turned out of each one's poses (median, % of the step): " + "; ".join(rpe)]
+             f"check); translation RPE with it turned out of each one's poses (median, % of the step): " + "; ".join(rpe)
+             + f"; the render against its poses turned by {name}'s heading instead (render / real as judged): "
+             + ", ".join(added)]
     a, b = (real_figs[f"{vo}/steps_m"] for vo in ("opencv-baseline", "accurate"))
     plain = gn.hat_with_interval(g_real, a, b, 0.0, boot)
     rho = gn.vo_correlation([g_ours] * len(draw_figs), [d["opencv-baseline/steps_m"] for d in draw_figs],
