@@ -137,3 +137,12 @@ def test_rpe_without_truth_error_removes_the_truths_share_in_quadrature():
     assert gn.rpe_without_truth_error(noisy, est, 3 * 8e-3 ** 2) == pytest.approx(own, rel=0.05)
     assert gn.rpe_without_truth_error(noisy, est, -1e-4) == pytest.approx(np.median(gn.rpe_pct(noisy, est)))
     assert gn.rpe_with_drawn_truth_error(t, est, [8e-3 ** 2] * 3, draws=5) == pytest.approx(own * 10 / 6, rel=0.05)
+
+
+def test_bad_input_exits_2(shared_data, tmp_path, capsys):
+    assert gn.main(["--frames", "3"]) == 2
+    assert gn.main(["--render", str(tmp_path / "none")]) == 2
+    import klt_causes
+    assert klt_causes.main(["--out", str(tmp_path / "none")]) == 2
+    err = capsys.readouterr().err
+    assert "--frames 8 or more" in err and "not a render folder" in err and "Traceback" not in err
