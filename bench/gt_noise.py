@@ -63,7 +63,9 @@ def cornered_hat(g, a, b, rho=0.0) -> np.ndarray:
         plain = s.copy()
         for _ in range(200):
             sa, sb = np.maximum(Vga - s, 0), np.maximum(Vgb - s, 0)
-            s = plain - rho * np.sqrt(sa * sb)
+            s, last = plain - rho * np.sqrt(sa * sb), s
+            if np.all(np.abs(s - last) <= 1e-9 * np.maximum(Vga + Vgb, 1e-30)):
+                break
     return s
 
 
