@@ -7,7 +7,7 @@ back, the median per pair, the median over the pairs) taken apart per corner, on
 
 Prints, for both: the corners' image flow (how far each moves, px) and the rig's step; the fb
 error by flow; by corner strength (the structure tensor's smaller eigenvalue, 21 x 21, terciles
-of both pooled) at equal flow; by sixth of the image; the render's KLT at KITTI's speed (each
+of both pooled) at equal flow; by sixth of the image, and the weakest third by sixth at equal flow; the render's KLT at KITTI's speed (each
 corner's fb scaled by the render's own fb-vs-flow curve from its flow to its flow times KITTI's
 step over the render's: the drive's speed alone); the render's KLT reweighted to KITTI's flow
 distribution (speed and depth); and the pixel noise: the flattest 8 x 8 blocks' residual
@@ -187,6 +187,16 @@ def main(argv=None) -> int:
     print("  by sixth (" + ", ".join(twin.REGIONS) + "): fb " + " | ".join(
         f"{np.median(R[gr == i, 3]):.3f} / {np.median(O[go == i, 3]):.3f}" for i in range(6))
         + "; flow " + " | ".join(f"{np.median(R[gr == i, 5]):.1f} / {np.median(O[go == i, 5]):.1f}" for i in range(6)))
+    weak = lambda A: A[:, 4] < lq[1]  # noqa: E731
+    cells = []
+    for i in range(6):
+        for lo, hi in ((2, 8), (8, 30)):
+            mr = (gr == i) & weak(R) & (R[:, 5] >= lo) & (R[:, 5] < hi)
+            mo = (go == i) & weak(O) & (O[:, 5] >= lo) & (O[:, 5] < hi)
+            cells.append(f"{np.median(R[mr, 3]):.3f} / {np.median(O[mo, 3]):.3f}" if mr.sum() >= 15 and mo.sum() >= 15
+                         else "-")
+    print("  the weakest third by sixth at equal flow (2-8 px, 8-30 px; where KITTI's weak corners err more): " + " | ".join(
+        f"{twin.REGIONS[i]} {cells[2 * i]}, {cells[2 * i + 1]}" for i in range(6)))
     ratio = sr.mean() / so
     sped = bench_klt(O, at_speed(O, ratio))
     w = flow_weights(O, R)
