@@ -48,6 +48,23 @@ def step_vectors(T_world_cam) -> np.ndarray:
     return np.einsum("kji,kj->ki", T[:-1, :3, :3], T[1:, :3, 3] - T[:-1, :3, 3])
 
 
+def rotvec(R) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) as rotation vectors (..., 3), rad: the axis times the angle
+    (the angle by atan2 of the skew part's norm and the trace: exact for small angles, where
+    the arccos of the trace is not)."""
+    R = np.asarray(R, float)
+    w = 0.5 * np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], -1)
+    s = np.linalg.norm(w, axis=-1)
+    angle = np.arctan2(s, 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0))
+    return w * (np.where(s > 1e-15, angle / np.maximum(s, 1e-300), 1.0))[..., None]
+
+
+def step_rotations(T_world_cam) -> np.ndarray:
+    """Each step's rotation (of inv(T_k) T_k+1) as a rotation vector, rad, (n-1, 3)."""
+    T = np.asarray(T_world_cam, float)
+    return rotvec(np.einsum("kji,kjl->kil", T[:-1, :3, :3], T[1:, :3, :3]))
+
+
 def cornered_hat(g, a, b, rho=0.0) -> np.ndarray:
     """The error variance of ``g`` per axis (units^2) from three estimates of the same steps,
     (n, 3) each: the three-cornered hat (module doc), ``rho`` (scalar or per axis) the
@@ -255,6 +272,11 @@ def main(argv=None) -> int:
               f"[{mm(h['lo'])}, {mm(h['hi'])}]); smoothness bound x/y/z "
               + "/".join(f"{v * 1e3:.1f}" for v in smoothness_bound(load_kitti_poses(base / 'KITTI_00_gt.txt'))) + " mm")
     return 0
+
+
+def step_rotations_of(steps) -> np.ndarray:
+    """The rotation vectors (rad) of a list of step transforms T_k_k1, (n, 3)."""
+    return rotvec(np.array([np.asarray(S, float)[:3, :3] for S in steps]))
 
 
 def step_vectors_of(steps) -> np.ndarray:

@@ -201,7 +201,8 @@ def vo_errors(seq: Frames, method: str, n: int) -> dict:
     """Translation RPE (% of the true step), rotation RPE (deg/step), end-point drift and
     Sim(3) RMSE (% of the path) of one VO against the sequence's ground truth; and the
     causes' figures: the steps whose translation error exceeds ``BAD_STEP_PCT``, each step's
-    translation (``steps_m``, camera k's frame: ``gt_error_lines``) and, for the ORB VO, its
+    translation (``steps_m``, camera k's frame) and rotation vector (``steps_rad``; both for
+    ``gt_error_lines``) and, for the ORB VO, its
     inliers' count and median depth (median over the steps)."""
     T_gt = seq.T_world_cam("left")[:n]
     used = []
@@ -215,7 +216,8 @@ def vo_errors(seq: Frames, method: str, n: int) -> dict:
     out = {"t_rpe_pct": float(np.median(t_rpe)), "r_rpe_deg": float(np.median(r_rpe)),
            "drift_pct": shape["end_point_drift_pct"], "sim3_pct": shape.get("sim3_position_rmse_pct", np.nan),
            "bad_steps": int(np.sum(np.asarray(t_rpe) > BAD_STEP_PCT)),
-           "steps_m": np.array([np.asarray(T, float)[:3, 3] for T in est_steps])}
+           "steps_m": np.array([np.asarray(T, float)[:3, 3] for T in est_steps]),
+           "steps_rad": np.array([cv2.Rodrigues(np.asarray(T, float)[:3, :3])[0].ravel() for T in est_steps])}
     if used:
         count, depth = np.array(used, float).T
         out.update(inliers=float(np.median(count)), inlier_depth_m=float(np.nanmedian(depth)))
@@ -931,6 +933,17 @@ def gt_error_lines(name: str, real: Frames, ours: Frames, real_figs: dict, draw_
                  + "/".join(f"{r:.2f}" for r in rho) + f"), {name} corrected with the render's rho {iv(corr)}; "
                  f"a white pose noise's bound from {name}'s third differences x/y/z "
                  + "/".join(f"{1e3 * v:.1f}" for v in gn.smoothness_bound(real.T_world_cam("left")[:n])) + " mm a step")
+    # rotation: the poses' own error by the same hat, and the two VOs' disagreement (no poses in it)
+    rr, ro = gn.step_rotations(real.T_world_cam("left")[:n]), gn.step_rotations(ours.T_world_cam("left")[:n])
+    rdeg = lambda v2: f"{np.degrees(np.sign(v2) * np.sqrt(abs(v2))):.4f}"  # noqa: E731
+    hat_r = gn.cornered_hat(rr, real_figs["opencv-baseline/steps_rad"], real_figs["accurate/steps_rad"]).sum()
+    hat_o = np.median([gn.cornered_hat(ro, d["opencv-baseline/steps_rad"], d["accurate/steps_rad"]).sum() for d in draw_figs])
+    dis = lambda f: float(np.mean(np.sum((f["opencv-baseline/steps_rad"] - f["accurate/steps_rad"]) ** 2, axis=1)))  # noqa: E731
+    dr, do = dis(real_figs), [dis(d) for d in draw_figs]
+    lines.append(f"rotation (3D rms, deg a step): the poses' own error by the same hat {name} {rdeg(hat_r)}, render "
+                 f"{rdeg(float(hat_o))} (exact poses: the check); the OpenCV and accurate VOs' disagreement (no poses in "
+                 f"it) {name} {rdeg(dr)}, render {rdeg(float(np.median(do)))}, render / real "
+                 f"{np.median([np.sqrt(x / dr) for x in do]):.2f}")
     return lines
 
 

@@ -97,11 +97,16 @@ def test_twin_prints_the_ground_truth_lines(shared_data):
     psi = np.radians(0.35)
     seen = gn.turned(g, psi)                         # the images' steps: the poses' turned by -psi relative to them
 
-    def figs(truth_steps, sd):
-        return {f"{vo}/steps_m": truth_steps + s * rng.normal(size=truth_steps.shape)
-                for vo, s in zip(twin.VOS, (sd, 5 * sd, sd))}
-    real_figs = figs(seen, 2e-3)
-    draws = [figs(g, 2e-3) for _ in range(3)]
+    rot = gn.step_rotations(T)
+
+    def figs(truth_steps, sd, truth_rot, sd_rad):
+        out = {f"{vo}/steps_m": truth_steps + s * rng.normal(size=truth_steps.shape)
+               for vo, s in zip(twin.VOS, (sd, 5 * sd, sd))}
+        out.update({f"{vo}/steps_rad": truth_rot + sd_rad * rng.normal(size=truth_rot.shape) for vo in twin.VOS})
+        return out
+    # the real VOs disagree in rotation twice as much as the render's (0.02 vs 0.01 deg a step per axis)
+    real_figs = figs(seen, 2e-3, rot, np.radians(0.02))
+    draws = [figs(g, 2e-3, rot, np.radians(0.01)) for _ in range(3)]
     lines = twin.gt_error_lines("real", real, ours, real_figs, draws, n, boot=50)
     import re
     real_deg, ours_deg = (float(x) for x in re.search(r"deg\): real ([-+][0-9.]+) .*render ([-+][0-9.]+) \(draws",
@@ -114,6 +119,24 @@ def test_twin_prints_the_ground_truth_lines(shared_data):
     # and the other way round: the render against its poses given the real turn reads as the real one
     assert float(re.search(r"instead .*accurate [0-9.]+ % \(([0-9.]+)\)", lines[0]).group(1)) == pytest.approx(1.0, abs=0.3)
     assert "three-cornered hat" in lines[1] and "rho x/y/z" in lines[1]
+    ratio = float(re.search(r"disagreement .* render / real ([0-9.]+)", lines[2]).group(1))
+    assert ratio == pytest.approx(0.5, abs=0.12)
+
+
+def test_rotvec_is_rodrigues_and_exact_for_small_angles(shared_data):
+    cv2 = pytest.importorskip("cv2")
+    rng = np.random.default_rng(7)
+    for angle in (1e-7, 1e-4, 0.01, 0.5, 2.5):
+        v = rng.normal(size=3)
+        v *= angle / np.linalg.norm(v)
+        R = cv2.Rodrigues(v)[0]
+        assert np.allclose(gn.rotvec(R), v, rtol=1e-6, atol=1e-12)
+    # the steps' rotations of KITTI s1's real poses: the car turns ~0.05 deg a step, and the
+    # rotation vectors compose back to the relative rotations
+    T = gn.load_kitti_poses(shared_data / "kitti" / "sequence_1" / "poses.txt")
+    r = gn.step_rotations(T)
+    assert np.degrees(np.median(np.linalg.norm(r, axis=1))) < 0.2
+    assert np.allclose(cv2.Rodrigues(r[0])[0], T[0, :3, :3].T @ T[1, :3, :3], atol=1e-9)
 
 
 def test_vo_errors_keep_each_steps_translation(shared_data):
