@@ -940,10 +940,14 @@ def gt_error_lines(name: str, real: Frames, ours: Frames, real_figs: dict, draw_
     hat_o = np.median([gn.cornered_hat(ro, d["opencv-baseline/steps_rad"], d["accurate/steps_rad"]).sum() for d in draw_figs])
     dis = lambda f: float(np.mean(np.sum((f["opencv-baseline/steps_rad"] - f["accurate/steps_rad"]) ** 2, axis=1)))  # noqa: E731
     dr, do = dis(real_figs), [dis(d) for d in draw_figs]
+    tdis = lambda f, g: 100 * float(np.sqrt(np.mean(np.sum((f["opencv-baseline/steps_m"] - f["accurate/steps_m"]) ** 2,  # noqa: E731
+                                                           axis=1)))) / float(np.mean(np.linalg.norm(g, axis=1)))
     lines.append(f"rotation (3D rms, deg a step): the poses' own error by the same hat {name} {rdeg(hat_r)}, render "
                  f"{rdeg(float(hat_o))} (exact poses: the check); the OpenCV and accurate VOs' disagreement (no poses in "
                  f"it) {name} {rdeg(dr)}, render {rdeg(float(np.median(do)))}, render / real "
-                 f"{np.median([np.sqrt(x / dr) for x in do]):.2f}")
+                 f"{np.median([np.sqrt(x / dr) for x in do]):.2f}; in translation (rms, % of the step) {name} "
+                 + f"{tdis(real_figs, g_real):.2f}, render {np.median([tdis(d, g_ours) for d in draw_figs]):.2f}, render / real "
+                 + f"{np.median([tdis(d, g_ours) / tdis(real_figs, g_real) for d in draw_figs]):.2f}")
     return lines
 
 
