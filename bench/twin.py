@@ -948,6 +948,17 @@ def gt_error_lines(name: str, real: Frames, ours: Frames, real_figs: dict, draw_
                  f"{np.median([np.sqrt(x / dr) for x in do]):.2f}; in translation (rms, % of the step) {name} "
                  + f"{tdis(real_figs, g_real):.2f}, render {np.median([tdis(d, g_ours) for d in draw_figs]):.2f}, render / real "
                  + f"{np.median([tdis(d, g_ours) / tdis(real_figs, g_real) for d in draw_figs]):.2f}")
+    # each VO's own rotation error by the hat with the poses as the third estimate (independent of
+    # the VOs: its noise cancels), less the two VOs' covariance (the render's check above reads it)
+    own = lambda f, g, vo, other: gn.cornered_hat(f[f"{vo}/steps_rad"], f[f"{other}/steps_rad"], g).sum()  # noqa: E731
+    parts = []
+    for vo, other in (("opencv-baseline", "accurate"), ("accurate", "opencv-baseline")):
+        r_ = own(real_figs, rr, vo, other)
+        o_ = [own(d, ro, vo, other) for d in draw_figs]
+        parts.append(f"{vo} {name} {rdeg(r_)}, render {rdeg(float(np.median(o_)))}, render / real "
+                     f"{np.median([np.sign(x) * np.sqrt(abs(x) / r_) for x in o_]) if r_ > 0 else float('nan'):.2f}")
+    lines.append("each VO's own rotation error by the hat (the poses the third estimate, their noise cancelling; less "
+                 "the two VOs' covariance; 3D rms, deg a step): " + "; ".join(parts))
     return lines
 
 

@@ -124,6 +124,9 @@ def test_twin_prints_the_ground_truth_lines(shared_data):
     # in translation the VOs disagree alike on both (2 mm a step per axis, the same steps' length)
     t_ratio = float(re.search(r"in translation .* render / real ([0-9.]+)", lines[2]).group(1))
     assert t_ratio == pytest.approx(1.0, abs=0.3)
+    # each VO's own rotation error: 0.02 deg per axis on the real side, 0.01 on the render's
+    own = re.findall(r"render / real ([0-9.]+)", lines[3])
+    assert len(own) == 2 and all(float(x) == pytest.approx(0.5, abs=0.15) for x in own)
 
 
 def test_rotvec_is_rodrigues_and_exact_for_small_angles(shared_data):
