@@ -200,8 +200,10 @@ BAD_STEP_PCT = 10.0     # a step whose translation error exceeds this share of t
 def vo_errors(seq: Frames, method: str, n: int) -> dict:
     """Translation RPE (% of the true step), rotation RPE (deg/step), end-point drift and
     Sim(3) RMSE (% of the path) of one VO against the sequence's ground truth; and the
-    causes' figures: the steps whose translation error exceeds ``BAD_STEP_PCT`` and, for the
-    ORB VO, its inliers' count and median depth (median over the steps)."""
+    causes' figures: the steps whose translation error exceeds ``BAD_STEP_PCT``, each step's
+    translation (``steps_m``, camera k's frame) and rotation vector (``steps_rad``; both for
+    ``gt_error_lines``) and, for the ORB VO, its
+    inliers' count and median depth (median over the steps)."""
     T_gt = seq.T_world_cam("left")[:n]
     used = []
     est_steps = vo_steps(seq, method, n, used)
@@ -213,7 +215,9 @@ def vo_errors(seq: Frames, method: str, n: int) -> dict:
     shape = shape_errors(Trajectory(np.asarray(T_gt), ts), Trajectory(np.asarray(poses), ts))
     out = {"t_rpe_pct": float(np.median(t_rpe)), "r_rpe_deg": float(np.median(r_rpe)),
            "drift_pct": shape["end_point_drift_pct"], "sim3_pct": shape.get("sim3_position_rmse_pct", np.nan),
-           "bad_steps": int(np.sum(np.asarray(t_rpe) > BAD_STEP_PCT))}
+           "bad_steps": int(np.sum(np.asarray(t_rpe) > BAD_STEP_PCT)),
+           "steps_m": np.array([np.asarray(T, float)[:3, 3] for T in est_steps]),
+           "steps_rad": np.array([cv2.Rodrigues(np.asarray(T, float)[:3, :3])[0].ravel() for T in est_steps])}
     if used:
         count, depth = np.array(used, float).T
         out.update(inliers=float(np.median(count)), inlier_depth_m=float(np.nanmedian(depth)))
@@ -880,6 +884,102 @@ def vo_cause_lines(name: str, real: Frames, ours: Frames, real_figs: dict, draw_
             f"{np.median(co):.3f} deg (p90 {np.percentile(co, 90):.3f})"]
 
 
+def gt_error_lines(name: str, real: Frames, ours: Frames, real_figs: dict, draw_figs: list[dict], n: int,
+                   boot: int = 2000) -> list[str]:
+    """How much of the real translation RPE is the real ground truth's own error (bench/gt_noise.py,
+    docs/sensors.md "The ground truth's own error"); printed beside the table, the table's verdicts
+    unchanged. (1) The poses' heading against the images': the mean lateral offset of the poses'
+    step from the three VOs' median step (``heading_offset_rad``; the render's exact poses: ~0, the
+    check) and each VO's RPE with each side's offset turned out of its poses (render: median over
+    the draws). (2) The poses' random step error by the three-cornered hat of the OpenCV and
+    accurate VOs (3D rms a step, 90 % block-bootstrap interval): plain on both (the render's is the
+    VOs' error correlation, its poses being exact), the real one corrected with the correlation the
+    render shows, and the smoothness bound on a white pose noise."""
+    import gt_noise as gn     # bench/gt_noise.py, beside this script
+    g_real = gn.step_vectors(real.T_world_cam("left")[:n])
+    g_ours = gn.step_vectors(ours.T_world_cam("left")[:n])
+    vo_of = lambda figs: [figs[f"{vo}/steps_m"] for vo in VOS]  # noqa: E731
+    psi_r = gn.heading_offset_rad(g_real, vo_of(real_figs))
+    psi_o = [gn.heading_offset_rad(g_ours, vo_of(d)) for d in draw_figs]
+    deg = lambda r: f"{np.degrees(r):+.2f}"  # noqa: E731
+    rpe, added = [], []
+    for vo in VOS:
+        r0 = float(np.median(gn.rpe_pct(g_real, real_figs[f"{vo}/steps_m"])))
+        r1 = float(np.median(gn.rpe_pct(gn.turned(g_real, psi_r), real_figs[f"{vo}/steps_m"])))
+        o0 = [float(np.median(gn.rpe_pct(g_ours, d[f"{vo}/steps_m"]))) for d in draw_figs]
+        o1 = [float(np.median(gn.rpe_pct(gn.turned(g_ours, p), d[f"{vo}/steps_m"]))) for d, p in zip(draw_figs, psi_o)]
+        rpe.append(f"{vo} real {r0:.3f} -> {r1:.3f} %, render {np.median(o0):.3f} -> {np.median(o1):.3f} %, render / real "
+                   f"{np.median([x / r0 for x in o0]):.2f} -> {np.median([x / r1 for x in o1]):.2f}")
+        # the other way round: the render's exact poses given the real poses' turn (their step right by psi)
+        o2 = [float(np.median(gn.rpe_pct(gn.turned(g_ours, -psi_r), d[f"{vo}/steps_m"]))) for d in draw_figs]
+        added.append(f"{vo} {np.median(o2):.3f} % ({np.median([x / r0 for x in o2]):.2f})")
+    lateral = 1e3 * np.mean(g_real[:, 0] - np.median(np.stack(vo_of(real_figs)), axis=0)[:, 0])
+    lines = [f"the poses' heading against the images' (the poses' step's lateral offset from the three VOs' median "
+             f"step, mean over the steps, deg): {name} {deg(psi_r)} ({lateral:+.1f} mm a step), "
+             f"render {deg(float(np.median(psi_o)))} (draws {deg(min(psi_o))} to {deg(max(psi_o))}; exact poses: the "
+             f"check); translation RPE with it turned out of each one's poses (median, % of the step): " + "; ".join(rpe)
+             + f"; the render against its poses turned by {name}'s heading instead (render / real as judged): "
+             + ", ".join(added)]
+    a, b = (real_figs[f"{vo}/steps_m"] for vo in ("opencv-baseline", "accurate"))
+    plain = gn.hat_with_interval(g_real, a, b, 0.0, boot)
+    rho = gn.vo_correlation([g_ours] * len(draw_figs), [d["opencv-baseline/steps_m"] for d in draw_figs],
+                            [d["accurate/steps_m"] for d in draw_figs])
+    corr = gn.hat_with_interval(g_real, a, b, rho, boot)
+    ours_plain = [gn.cornered_hat(g_ours, d["opencv-baseline/steps_m"], d["accurate/steps_m"]).sum() for d in draw_figs]
+    iv = lambda h: f"{gn.mm(h['total'])} [{gn.mm(h['lo'])}, {gn.mm(h['hi'])}]"  # noqa: E731
+    lines.append(f"the poses' random step error (three-cornered hat of the poses and the OpenCV and accurate VOs' steps; "
+                 f"3D rms, mm a step, 90 % block bootstrap): {name} plain {iv(plain)}, render plain "
+                 f"{gn.mm(float(np.median(ours_plain)))} (exact poses: the VOs' error correlation, rho x/y/z "
+                 + "/".join(f"{r:.2f}" for r in rho) + f"), {name} corrected with the render's rho {iv(corr)}; "
+                 f"a white pose noise's bound from {name}'s third differences x/y/z "
+                 + "/".join(f"{1e3 * v:.1f}" for v in gn.smoothness_bound(real.T_world_cam("left")[:n])) + " mm a step")
+    # rotation: the poses' own error by the same hat, and the two VOs' disagreement (no poses in it)
+    rr, ro = gn.step_rotations(real.T_world_cam("left")[:n]), gn.step_rotations(ours.T_world_cam("left")[:n])
+    rdeg = lambda v2: f"{np.degrees(np.sign(v2) * np.sqrt(abs(v2))):.4f}"  # noqa: E731
+    hat_r = gn.cornered_hat(rr, real_figs["opencv-baseline/steps_rad"], real_figs["accurate/steps_rad"]).sum()
+    hat_o = np.median([gn.cornered_hat(ro, d["opencv-baseline/steps_rad"], d["accurate/steps_rad"]).sum() for d in draw_figs])
+    dis = lambda f: float(np.mean(np.sum((f["opencv-baseline/steps_rad"] - f["accurate/steps_rad"]) ** 2, axis=1)))  # noqa: E731
+    dr, do = dis(real_figs), [dis(d) for d in draw_figs]
+    tdis = lambda f, g: 100 * float(np.sqrt(np.mean(np.sum((f["opencv-baseline/steps_m"] - f["accurate/steps_m"]) ** 2,  # noqa: E731
+                                                           axis=1)))) / float(np.mean(np.linalg.norm(g, axis=1)))
+    lines.append(f"rotation (3D rms, deg a step): the poses' own error by the same hat {name} {rdeg(hat_r)}, render "
+                 f"{rdeg(float(hat_o))} (exact poses: the check); the OpenCV and accurate VOs' disagreement (no poses in "
+                 f"it) {name} {rdeg(dr)}, render {rdeg(float(np.median(do)))}, render / real "
+                 f"{np.median([np.sqrt(x / dr) for x in do]):.2f}; in translation (rms, % of the step) {name} "
+                 + f"{tdis(real_figs, g_real):.2f}, render {np.median([tdis(d, g_ours) for d in draw_figs]):.2f}, render / real "
+                 + f"{np.median([tdis(d, g_ours) / tdis(real_figs, g_real) for d in draw_figs]):.2f}")
+    # each VO's own rotation error by the hat with the poses as the third estimate (independent of
+    # the VOs: its noise cancels), less the two VOs' covariance (the render's check above reads it)
+    own = lambda f, g, vo, other: gn.cornered_hat(f[f"{vo}/steps_rad"], f[f"{other}/steps_rad"], g).sum()  # noqa: E731
+    parts = []
+    for vo, other in (("opencv-baseline", "accurate"), ("accurate", "opencv-baseline")):
+        r_ = own(real_figs, rr, vo, other)
+        o_ = [own(d, ro, vo, other) for d in draw_figs]
+        parts.append(f"{vo} {name} {rdeg(r_)}, render {rdeg(float(np.median(o_)))}, render / real "
+                     f"{np.median([np.sign(x) * np.sqrt(abs(x) / r_) for x in o_]) if r_ > 0 else float('nan'):.2f}")
+    lines.append("each VO's own rotation error by the hat (the poses the third estimate, their noise cancelling; less "
+                 "the two VOs' covariance; 3D rms, deg a step): " + "; ".join(parts))
+    return lines
+
+
+def klt_at_speed(real: Frames, ours: Frames, n: int, real_klt: float) -> str:
+    """The KLT forward-backward error grows with how far the corners move, so a twin that drives
+    slower than the real rig tracks more easily (bench/klt_causes.py): the rigs' mean step, the
+    exponent of the render's KLT in the step (its KLT over pairs k, k+2 against k, k+1:
+    fb ~ step^alpha), and the render's KLT carried to the real rig's step, with its ratio."""
+    from vo_reference.evaluate.realism import klt_fb_error
+    step = lambda fr: float(np.mean(np.linalg.norm(np.diff(np.asarray(fr.T_world_cam("left"))[:n, :3, 3], axis=0),  # noqa: E731
+                                                   axis=1)))
+    sr, so = step(real), step(ours)
+    ours_klt = float(np.nanmedian([klt_fb_error(ours.image_gray(k), ours.image_gray(k + 1)) for k in range(n - 1)]))
+    two = float(np.nanmedian([klt_fb_error(ours.image_gray(k), ours.image_gray(k + 2)) for k in range(n - 2)]))
+    alpha = float(np.log2(two / ours_klt))
+    at = ours_klt * (sr / so) ** alpha
+    return (f"KLT and the rig's speed: mean step real {sr:.3f} m, render {so:.3f} m; the render's KLT over two steps "
+            f"{two:.3f} px (fb ~ step^{alpha:.2f}); at the real rig's step {at:.3f} px, render / real "
+            f"{_ratio(ours_klt, real_klt):.2f} -> {_ratio(at, real_klt):.2f} (draw 0)")
+
+
 # --- the render -----------------------------------------------------------------------------
 
 def twin_script(script: str, profile: str, out: Path, frames: int | None = None) -> Path:
@@ -1131,8 +1231,12 @@ def main(argv=None) -> int:
               f"which one excerpt cannot show. Lines below: draw 0.")
     print(f"sensor-noise draws: {a.draws}, {np.mean(cpu_s):.1f} CPU s each (develop + figures"
           + (" + three VOs" if with_vo else "") + f", {n} frames)")
+    if with_vo and n >= 4:
+        print(klt_at_speed(real, ours, n, real_figs["klt"]))
     if with_vo:
-        for line in vo_cause_lines(name, real, ours, real_figs, draw_figs, n) + orb_kind_lines(out, real, ours, name, n):
+        for line in (vo_cause_lines(name, real, ours, real_figs, draw_figs, n) + gt_error_lines(name, real, ours, real_figs,
+                                                                                                draw_figs, n)
+                     + orb_kind_lines(out, real, ours, name, n)):
             print(line)
     print(f"\nbrightness spread (median / mean of the linear signal): {name} {brightness_spread(real, profile, n):.2f}, "
           f"render {brightness_spread(ours, profile, n):.2f}")
