@@ -4,7 +4,11 @@
 scene hash and settings; it is created (and every check of the others is made) under a
 short ``flock`` on ``.sesgen/mutex``, so two renders starting together cannot both pass. A
 lock is stale, and taken over, when its process is gone (same host) or when its file has not
-been touched for ``STALE_LOCK_S`` (another host: each completed frame touches it).
+been touched for ``STALE_LOCK_S`` (another host). The writer touches it with each completed
+frame and, between frames, a child process does every ``HEARTBEAT_S`` while the writer lives
+and has completed a frame within ``HUNG_RENDER_S`` (``heartbeat``): a slow frame keeps its lock,
+a killed writer's goes stale ``STALE_LOCK_S`` after its death, a hung one's
+``HUNG_RENDER_S + STALE_LOCK_S`` after its last frame.
 """
 from __future__ import annotations
 
@@ -25,6 +29,8 @@ except ImportError:  # pragma: no cover - Windows: the lock files still guard, w
     fcntl = None
 
 STALE_LOCK_S = 900.0  # a lock of another host not refreshed for this long is taken over
+HEARTBEAT_S = 60.0    # how often a live writer's heartbeat touches its lock between frames
+HUNG_RENDER_S = 6 * 3600.0   # no frame completed for this long: the heartbeat stops (a hung render)
 
 
 class FolderLocks:
@@ -34,6 +40,7 @@ class FolderLocks:
         self.state = Path(state)
         self.writer = f"{_safe(socket.gethostname())}-{os.getpid()}"
         self.path: Optional[Path] = None            # our own lock, while held
+        self._heartbeat = None                      # heartbeat.Heartbeat, while held
 
     @contextlib.contextmanager
     def mutex(self):
@@ -97,11 +104,16 @@ class FolderLocks:
             atomic.write_json(self.path, {"host": socket.gethostname(), "pid": os.getpid(), "frames": [first, last],
                                           "started": time.time(), "scene_sha256": scene_sha256,
                                           "settings": settings_key})
+        from .heartbeat import Heartbeat
+        self._heartbeat = Heartbeat(self.path, HEARTBEAT_S, HUNG_RENDER_S)
 
     def touch(self) -> None:
-        """Show that the holder is alive (other hosts judge staleness by the file's time)."""
+        """Show that the holder is alive and not hung: a frame was completed (other hosts judge
+        staleness by the file's time; the heartbeat keeps it fresh until the next frame)."""
         if self.path is not None:
             os.utime(self.path)
+            if self._heartbeat is not None:
+                self._heartbeat.progress()
 
     def drop_dead(self, host: str, pid: int) -> bool:
         """Remove the lock of writer ``pid`` on ``host``, known to be dead by the caller (a
@@ -116,6 +128,9 @@ class FolderLocks:
         return existed
 
     def drop(self) -> None:
+        heartbeat, self._heartbeat = self._heartbeat, None
+        if heartbeat is not None:
+            heartbeat.stop()
         if self.path is not None:
             self.path.unlink(missing_ok=True)
             self.path = None
