@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from blender_sesgen.render.locks import _stale, _zombie
+from blender_sesgen.contract.writers import stale as _stale, zombie as _zombie
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="zombies are read from /proc (Linux)")
@@ -97,9 +97,9 @@ def test_a_writer_locking_while_stale_temporaries_are_removed_keeps_its_own(tmp_
 def _judged_from_another_host(monkeypatch, stale_s: float) -> None:
     """From here on this process judges locks as a writer on another host does: by the lock
     file's time, stale after ``stale_s`` without a touch."""
-    from blender_sesgen.render import locks
-    monkeypatch.setattr(locks, "STALE_LOCK_S", stale_s)
-    monkeypatch.setattr(locks.socket, "gethostname", lambda: "another-host")
+    from blender_sesgen.contract import writers
+    monkeypatch.setattr(writers, "STALE_LOCK_S", stale_s)
+    monkeypatch.setattr(writers.socket, "gethostname", lambda: "another-host")
 
 
 def _live_paths(state) -> list:

@@ -1,6 +1,6 @@
 """A live writer's lock kept fresh between its frames, by a small child process (stdlib only).
 
-Another host judges a render folder's lock by its file's time (``locks.STALE_LOCK_S``): a
+Another host judges a render folder's lock by its file's time (``contract.writers.STALE_LOCK_S``): a
 lock not touched for that long is taken over, its completion log and temporaries removed as
 a dead writer's. The writer touches its lock with every completed frame, so a frame slower
 than ``STALE_LOCK_S`` (a big scene, a single-threaded farm chunk, a 4K final) lost its lock
@@ -17,7 +17,7 @@ its stdin pipe from the writer is open:
   stops touching (it stays, so a frame that completes after all takes up the touching
   again), and the lock goes stale ``STALE_LOCK_S`` later: a hung writer holds its frames for
   at most ``limit + STALE_LOCK_S`` on other hosts (on its own host a lock lives as long as
-  its process does: ``locks._stale``);
+  its process does: ``contract.writers.stale``);
 - the lock file is gone (dropped, or taken over by another writer as stale): the child exits
   without creating it.
 
