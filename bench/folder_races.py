@@ -22,7 +22,10 @@ A trial's folder is judged after the farm's consolidation (``OutputFolder.consol
   (null: lost), or whose metered brightness is set and differs;
 - ``checksum``: a frame recorded complete, or a static file (poses, lens table, IMU), whose
   recorded SHA-256 is not the one-run render's or whose file is not what it records;
-- ``verify``: ``sesgen verify --quick`` of the folder finds a problem.
+- ``verify``: ``sesgen verify --quick`` of the folder finds a problem;
+- ``reader``: with ``--kill``, before the consolidation: a frame a reader (``Manifest.read``)
+  sees complete with an exposure or gain other than the one-run render's (a killed chunk's
+  state files not merged: null).
 
 Prints one line per trial and the counts; writes OUT/summary.json. Not a test (minutes).
 """
@@ -105,8 +108,30 @@ def _sha(path: Path) -> str:
         return "missing"
 
 
+_READ = """import json, sys
+from blender_sesgen.contract.manifest import Manifest
+m = Manifest.read(sys.argv[1])
+s = m.extra.get("sensor") or {}
+print(json.dumps({"complete": m.frames_complete, "exposure_s": s.get("exposure_s"), "gain": s.get("gain")}))
+"""
+
+
+def _as_read(out: Path, ref: dict, code: Path) -> list[str]:
+    """``reader`` problems: what a reader of the folder sees before anyone consolidated it
+    (``Manifest.read``, as vo_reference reads it): a frame it sees complete with another
+    exposure or gain than the one-run render's (null: not merged from the state files)."""
+    r = subprocess.run([sys.executable, "-c", _READ, str(out)], **_run_kw(code), capture_output=True, text=True)
+    if r.returncode != 0:
+        return [f"reader: {(r.stderr.strip().splitlines() or ['?'])[-1]}"]
+    seen = json.loads(r.stdout)
+    return [f"reader: frame {k} {key} {seen[key][k]} (one run: {ref['sensor'][key][k]})"
+            for k, done in enumerate(seen["complete"]) if done for key in ("exposure_s", "gain")
+            if seen[key][k] != ref["sensor"][key][k]]
+
+
 def judge(out: Path, ref: dict, killed: bool, code: Path) -> list[str]:
     """What the trial's folder promises and does not hold (see the module docstring)."""
+    reader = _as_read(out, ref, code) if killed else []
     why = _consolidate(out, code)
     if why:
         return [f"consolidate: {why}"]
@@ -141,7 +166,7 @@ def judge(out: Path, ref: dict, killed: bool, code: Path) -> list[str]:
                         "--dry-run"], **_run_kw(code), capture_output=True, text=True)
     if r.returncode != 0:
         bad.append(f"verify: {(r.stdout.strip().splitlines() or r.stderr.strip().splitlines() or ['?'])[0]}")
-    return bad
+    return reader + bad
 
 
 def trial(i: int, args, script: Path, ref: dict, rng: random.Random) -> dict:
