@@ -51,6 +51,7 @@ class Heartbeat:
             self._proc = subprocess.Popen([sys.executable, "-I", str(Path(__file__).resolve()), str(lock),
                                            repr(float(every)), repr(float(limit))],
                                           stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+                                          stderr=subprocess.DEVNULL,   # never holds the writer's output open
                                           start_new_session=True)   # Ctrl-C reaches the writer only
         except OSError:
             self._proc = None

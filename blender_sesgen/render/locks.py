@@ -124,12 +124,16 @@ class FolderLocks:
         return existed
 
     def drop(self) -> None:
+        """Remove our lock, then end its heartbeat (which exits by itself once the lock is gone
+        or this process is: an interrupt while it ends leaves no lock behind)."""
         heartbeat, self._heartbeat = self._heartbeat, None
-        if heartbeat is not None:
-            heartbeat.stop()
-        if self.path is not None:
-            self.path.unlink(missing_ok=True)
-            self.path = None
+        try:
+            if self.path is not None:
+                self.path.unlink(missing_ok=True)
+                self.path = None
+        finally:
+            if heartbeat is not None:
+                heartbeat.stop()
 
 
 def _safe(text: str) -> str:
