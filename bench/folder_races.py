@@ -194,12 +194,14 @@ def trial(i: int, args, script: Path, ref: dict, rng: random.Random) -> dict:
             killed_at = round(time.monotonic() - started[victim], 2)
         time.sleep(0.005)
     rcs = {chunks[j]: p.returncode for j, p in sorted(procs.items())}
+    left_logs = len(list((out / ".sesgen").glob("done-*.jsonl")))   # a killed chunk's log nobody took in yet
     bad = [f"chunk failed: {chunks[j]} exit {p.returncode}: {(p.stderr.read().strip().splitlines() or ['?'])[-1]}"
            for j, p in sorted(procs.items()) if p.returncode != 0 and not (j == victim and p.returncode == -9)]
     really_killed = victim is not None and procs[victim].returncode == -9
     bad += judge(out, ref, really_killed, args.code)
     return {"trial": i, "delays_s": [round(d, 2) for d in delays], "rc": rcs,
-            "killed": chunks[victim] if really_killed else None, "killed_after_s": killed_at, "problems": bad}
+            "killed": chunks[victim] if really_killed else None, "killed_after_s": killed_at,
+            "logs_left": left_logs, "problems": bad}
 
 
 def main(argv=None) -> int:
@@ -234,6 +236,7 @@ def main(argv=None) -> int:
             results.append(res)
             print(f"trial {i}: delays {res['delays_s']} rc {res['rc']}"
                   f"{' killed ' + res['killed'] + ' after ' + str(res['killed_after_s']) + ' s' if res['killed'] else ''}"
+                  f"{', its log left for readers' if res['logs_left'] else ''}"
                   f": {'; '.join(res['problems']) or 'ok'}", flush=True)
     finally:
         for b in burners:
@@ -244,11 +247,15 @@ def main(argv=None) -> int:
         for kind in sorted({p.split(":")[0] for p in res["problems"]}):
             kinds[kind] = kinds.get(kind, 0) + 1
     failed = sum(bool(r["problems"]) for r in results)
+    left = sum(bool(r["logs_left"]) for r in results)
     summary = {"code": str(args.code), "trials": len(results), "failed": failed, "by_kind": kinds,
                "chunks": args.chunks, "kill": args.kill, "burners": args.burners, "one_run_wall_s": round(ref_wall, 1),
                "load": os.getloadavg(), "results": results}
     (args.out / "summary.json").write_text(json.dumps(summary, indent=1))
-    print(f"folder_races: {failed} of {len(results)} trials with a problem {kinds or ''} "
+    summary["logs_left"] = left
+    (args.out / "summary.json").write_text(json.dumps(summary, indent=1))
+    print(f"folder_races: {failed} of {len(results)} trials with a problem {kinds or ''}; {left} left a killed "
+          "chunk's log for readers (not taken in by the other chunk) "
           f"(code {args.code}, {args.chunks} chunks, kill {args.kill}, burners {args.burners}, "
           f"one run {ref_wall:.1f} s, load {os.getloadavg()[0]:.2f})")
     return 0
