@@ -118,8 +118,8 @@ def test_a_live_writer_slower_than_the_stale_time_keeps_its_lock(tmp_path, monke
     writer = locks.FolderLocks(tmp_path / ".sesgen")
     writer.take((0, 3), "sha", "settings", tmp_path)
     try:
-        _judged_from_another_host(monkeypatch, 2.0)
-        time.sleep(4.5)   # more than two stale times without a frame
+        _judged_from_another_host(monkeypatch, 3.0)
+        time.sleep(7.0)   # more than two stale times without a frame
         assert _live_paths(tmp_path / ".sesgen") == [writer.path.name]
     finally:
         writer.drop()
@@ -134,8 +134,8 @@ locks.HUNG_RENDER_S = float(sys.argv[2])
 w = locks.FolderLocks(sys.argv[1])
 w.take((0, 3), "sha", "settings", sys.argv[1])
 print(getattr(w, "_heartbeat", None) and w._heartbeat.pid, flush=True)
-for _ in range(int(sys.argv[3])):   # frames completed, one every 3 s
-    time.sleep(3.0)
+for _ in range(int(sys.argv[3])):   # frames completed, one every 4 s
+    time.sleep(4.0)
     w.touch()
 time.sleep(600)
 """
@@ -173,8 +173,8 @@ def test_a_killed_writers_lock_goes_stale_though_it_had_a_heartbeat(tmp_path, mo
     state = tmp_path / ".sesgen"
     proc, beat = _start_writer(state, 3600.0, 0)
     try:
-        _judged_from_another_host(monkeypatch, 2.0)
-        time.sleep(4.0)
+        _judged_from_another_host(monkeypatch, 3.0)
+        time.sleep(6.5)
         assert len(_live_paths(state)) == 1, "a live writer without a frame for 2 stale times keeps its lock"
         proc.kill()
         proc.wait()
@@ -192,11 +192,11 @@ def test_a_hung_writers_lock_goes_stale_after_the_hung_time(tmp_path, monkeypatc
     completes none for HUNG_RENDER_S (a hung render: alive, its heartbeat running) loses it
     STALE_LOCK_S later -- the bound on a hung render's hold of its frames on other hosts."""
     state = tmp_path / ".sesgen"
-    proc, beat = _start_writer(state, 4.0, 2)     # a frame every 3 s for ~6 s, then hung
+    proc, beat = _start_writer(state, 5.0, 2)     # a frame every 4 s for ~8 s, then hung
     try:
-        _judged_from_another_host(monkeypatch, 2.0)
+        _judged_from_another_host(monkeypatch, 3.0)
         t0 = time.monotonic()
-        while time.monotonic() - t0 < 8.0:          # frames, then 2 s into the hang: still fresh
+        while time.monotonic() - t0 < 10.5:         # frames, then 2.5 s into the hang: still fresh
             assert len(_live_paths(state)) == 1
             time.sleep(0.3)
         assert _wait_until(lambda: not _live_paths(state), 15.0), "a hung writer's lock never went stale"
