@@ -22,7 +22,10 @@ A trial's folder is judged after the farm's consolidation (``OutputFolder.consol
   (null: lost), or whose metered brightness is set and differs;
 - ``checksum``: a frame recorded complete, or a static file (poses, lens table, IMU), whose
   recorded SHA-256 is not the one-run render's or whose file is not what it records;
-- ``verify``: ``sesgen verify --quick`` of the folder finds a problem.
+- ``verify``: ``sesgen verify --quick`` of the folder finds a problem;
+- ``reader``: with ``--kill``, before the consolidation: a frame a reader (``Manifest.read``)
+  sees complete with an exposure or gain other than the one-run render's (a killed chunk's
+  state files not merged: null).
 
 Prints one line per trial and the counts; writes OUT/summary.json. Not a test (minutes).
 """
@@ -105,8 +108,30 @@ def _sha(path: Path) -> str:
         return "missing"
 
 
+_READ = """import json, sys
+from blender_sesgen.contract.manifest import Manifest
+m = Manifest.read(sys.argv[1])
+s = m.extra.get("sensor") or {}
+print(json.dumps({"complete": m.frames_complete, "exposure_s": s.get("exposure_s"), "gain": s.get("gain")}))
+"""
+
+
+def _as_read(out: Path, ref: dict, code: Path) -> list[str]:
+    """``reader`` problems: what a reader of the folder sees before anyone consolidated it
+    (``Manifest.read``, as vo_reference reads it): a frame it sees complete with another
+    exposure or gain than the one-run render's (null: not merged from the state files)."""
+    r = subprocess.run([sys.executable, "-c", _READ, str(out)], **_run_kw(code), capture_output=True, text=True)
+    if r.returncode != 0:
+        return [f"reader: {(r.stderr.strip().splitlines() or ['?'])[-1]}"]
+    seen = json.loads(r.stdout)
+    return [f"reader: frame {k} {key} {seen[key][k]} (one run: {ref['sensor'][key][k]})"
+            for k, done in enumerate(seen["complete"]) if done for key in ("exposure_s", "gain")
+            if seen[key][k] != ref["sensor"][key][k]]
+
+
 def judge(out: Path, ref: dict, killed: bool, code: Path) -> list[str]:
     """What the trial's folder promises and does not hold (see the module docstring)."""
+    reader = _as_read(out, ref, code) if killed else []
     why = _consolidate(out, code)
     if why:
         return [f"consolidate: {why}"]
@@ -141,7 +166,7 @@ def judge(out: Path, ref: dict, killed: bool, code: Path) -> list[str]:
                         "--dry-run"], **_run_kw(code), capture_output=True, text=True)
     if r.returncode != 0:
         bad.append(f"verify: {(r.stdout.strip().splitlines() or r.stderr.strip().splitlines() or ['?'])[0]}")
-    return bad
+    return reader + bad
 
 
 def trial(i: int, args, script: Path, ref: dict, rng: random.Random) -> dict:
@@ -169,12 +194,14 @@ def trial(i: int, args, script: Path, ref: dict, rng: random.Random) -> dict:
             killed_at = round(time.monotonic() - started[victim], 2)
         time.sleep(0.005)
     rcs = {chunks[j]: p.returncode for j, p in sorted(procs.items())}
+    left_logs = len(list((out / ".sesgen").glob("done-*.jsonl")))   # a killed chunk's log nobody took in yet
     bad = [f"chunk failed: {chunks[j]} exit {p.returncode}: {(p.stderr.read().strip().splitlines() or ['?'])[-1]}"
            for j, p in sorted(procs.items()) if p.returncode != 0 and not (j == victim and p.returncode == -9)]
     really_killed = victim is not None and procs[victim].returncode == -9
     bad += judge(out, ref, really_killed, args.code)
     return {"trial": i, "delays_s": [round(d, 2) for d in delays], "rc": rcs,
-            "killed": chunks[victim] if really_killed else None, "killed_after_s": killed_at, "problems": bad}
+            "killed": chunks[victim] if really_killed else None, "killed_after_s": killed_at,
+            "logs_left": left_logs, "problems": bad}
 
 
 def main(argv=None) -> int:
@@ -209,6 +236,7 @@ def main(argv=None) -> int:
             results.append(res)
             print(f"trial {i}: delays {res['delays_s']} rc {res['rc']}"
                   f"{' killed ' + res['killed'] + ' after ' + str(res['killed_after_s']) + ' s' if res['killed'] else ''}"
+                  f"{', its log left for readers' if res['logs_left'] else ''}"
                   f": {'; '.join(res['problems']) or 'ok'}", flush=True)
     finally:
         for b in burners:
@@ -219,11 +247,15 @@ def main(argv=None) -> int:
         for kind in sorted({p.split(":")[0] for p in res["problems"]}):
             kinds[kind] = kinds.get(kind, 0) + 1
     failed = sum(bool(r["problems"]) for r in results)
+    left = sum(bool(r["logs_left"]) for r in results)
     summary = {"code": str(args.code), "trials": len(results), "failed": failed, "by_kind": kinds,
                "chunks": args.chunks, "kill": args.kill, "burners": args.burners, "one_run_wall_s": round(ref_wall, 1),
                "load": os.getloadavg(), "results": results}
     (args.out / "summary.json").write_text(json.dumps(summary, indent=1))
-    print(f"folder_races: {failed} of {len(results)} trials with a problem {kinds or ''} "
+    summary["logs_left"] = left
+    (args.out / "summary.json").write_text(json.dumps(summary, indent=1))
+    print(f"folder_races: {failed} of {len(results)} trials with a problem {kinds or ''}; {left} left a killed "
+          "chunk's log for readers (not taken in by the other chunk) "
           f"(code {args.code}, {args.chunks} chunks, kill {args.kill}, burners {args.burners}, "
           f"one run {ref_wall:.1f} s, load {os.getloadavg()[0]:.2f})")
     return 0

@@ -1,5 +1,6 @@
 """Whether a lock's holder is gone, on this host, and what a render killed during its first
 writes leaves (pure: no render)."""
+import os
 import socket
 import subprocess
 import sys
@@ -7,7 +8,7 @@ import time
 
 import pytest
 
-from blender_sesgen.render.locks import _stale
+from blender_sesgen.contract.writers import stale as _stale, zombie as _zombie
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="zombies are read from /proc (Linux)")
@@ -89,3 +90,117 @@ def test_a_writer_locking_while_stale_temporaries_are_removed_keeps_its_own(tmp_
         sleeper.wait()
     assert not dead.exists()
     assert [f.exists() for f in theirs] == [True, True]
+
+
+# --- a slow frame's lock on a multi-host farm (render.heartbeat) -----------------------------
+
+def _judged_from_another_host(monkeypatch, stale_s: float) -> None:
+    """From here on this process judges locks as a writer on another host does: by the lock
+    file's time, stale after ``stale_s`` without a touch."""
+    from blender_sesgen.contract import writers
+    monkeypatch.setattr(writers, "STALE_LOCK_S", stale_s)
+    monkeypatch.setattr(writers.socket, "gethostname", lambda: "another-host")
+
+
+def _live_paths(state) -> list:
+    from blender_sesgen.render.locks import FolderLocks
+    judge = FolderLocks(state)
+    with judge.mutex():
+        return [info["path"].name for info in judge.live()]
+
+
+def test_a_live_writer_slower_than_the_stale_time_keeps_its_lock(tmp_path, monkeypatch):
+    """A frame slower than STALE_LOCK_S (no frame completed, so no touch of the lock) must not
+    lose its lock to a writer on another host: the old code touched it only per frame, and the
+    next writer took it over, removing the live chunk's log and temporaries as a dead one's."""
+    from blender_sesgen.render import locks
+    monkeypatch.setattr(locks, "HEARTBEAT_S", 0.2, raising=False)
+    writer = locks.FolderLocks(tmp_path / ".sesgen")
+    writer.take((0, 3), "sha", "settings", tmp_path)
+    try:
+        _judged_from_another_host(monkeypatch, 3.0)
+        time.sleep(7.0)   # more than two stale times without a frame
+        assert _live_paths(tmp_path / ".sesgen") == [writer.path.name]
+    finally:
+        writer.drop()
+    assert not list((tmp_path / ".sesgen").glob("lock-*"))
+
+
+_WRITER = """
+import sys, time
+from blender_sesgen.render import locks
+locks.HEARTBEAT_S = 0.2
+locks.HUNG_RENDER_S = float(sys.argv[2])
+w = locks.FolderLocks(sys.argv[1])
+w.take((0, 3), "sha", "settings", sys.argv[1])
+print(getattr(w, "_heartbeat", None) and w._heartbeat.pid, flush=True)
+for _ in range(int(sys.argv[3])):   # frames completed, one every 4 s
+    time.sleep(4.0)
+    w.touch()
+time.sleep(600)
+"""
+
+
+def _start_writer(state, hung_s: float, frames: int):
+    proc = subprocess.Popen([sys.executable, "-c", _WRITER, str(state), str(hung_s), str(frames)],
+                            stdout=subprocess.PIPE, text=True)
+    line = proc.stdout.readline().strip()
+    return proc, int(line) if line.isdigit() else None
+
+
+def _wait_until(cond, timeout_s: float) -> bool:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if cond():
+            return True
+        time.sleep(0.1)
+    return cond()
+
+
+def _gone(pid) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    return _zombie(pid)
+
+
+@pytest.mark.skipif(os.name != "posix", reason="the heartbeat needs select on pipes (POSIX)")
+def test_a_killed_writers_lock_goes_stale_though_it_had_a_heartbeat(tmp_path, monkeypatch):
+    """The heartbeat dies with its writer (kill -9: its pipe closes): the lock is kept while the
+    writer lives (longer than the stale time without a frame: fails on the old code) and is
+    taken over once it is dead."""
+    state = tmp_path / ".sesgen"
+    proc, beat = _start_writer(state, 3600.0, 0)
+    try:
+        _judged_from_another_host(monkeypatch, 3.0)
+        time.sleep(6.5)
+        assert len(_live_paths(state)) == 1, "a live writer without a frame for 2 stale times keeps its lock"
+        proc.kill()
+        proc.wait()
+        assert beat is not None and _wait_until(lambda: _gone(beat), 10.0), "the heartbeat outlived its writer"
+        assert _wait_until(lambda: not _live_paths(state), 10.0), "a dead writer's lock never went stale"
+    finally:
+        proc.kill()
+        proc.wait()
+
+
+@pytest.mark.skipif(os.name != "posix", reason="the heartbeat needs select on pipes (POSIX)")
+def test_a_hung_writers_lock_goes_stale_after_the_hung_time(tmp_path, monkeypatch):
+    """A writer whose frames take longer than STALE_LOCK_S each (but less than HUNG_RENDER_S)
+    keeps its lock past HUNG_RENDER_S (the old code lost it between frames); one that then
+    completes none for HUNG_RENDER_S (a hung render: alive, its heartbeat running) loses it
+    STALE_LOCK_S later -- the bound on a hung render's hold of its frames on other hosts."""
+    state = tmp_path / ".sesgen"
+    proc, beat = _start_writer(state, 5.0, 2)     # a frame every 4 s for ~8 s, then hung
+    try:
+        _judged_from_another_host(monkeypatch, 3.0)
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < 10.5:         # frames, then 2.5 s into the hang: still fresh
+            assert len(_live_paths(state)) == 1
+            time.sleep(0.3)
+        assert _wait_until(lambda: not _live_paths(state), 15.0), "a hung writer's lock never went stale"
+        assert proc.poll() is None and not _gone(beat), "the writer and its heartbeat are alive (hung)"
+    finally:
+        proc.kill()
+        proc.wait()

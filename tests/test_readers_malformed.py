@@ -166,6 +166,65 @@ def test_vo_refuses_incomplete_frames_as_export_does(copy, tmp_path, capfd, comm
                      "--gt-depth"]) == 0
 
 
+def _incomplete_from(root: Path, first: int) -> Path:
+    """The folder as a render writing frames ``first``.. leaves it (or a killed one, or verify
+    after finding them bad): recorded not complete, their files still there."""
+    m = json.loads((root / "manifest.json").read_text())
+    m["frames_complete"] = [k < first for k in range(len(m["frames_complete"]))]
+    write_manifest_dict(root, m)
+    return root
+
+
+def test_a_frame_not_rendered_completely_is_never_read_though_its_files_are_there(render, copy):
+    """Every pixel read of a render folder (EXR passes, the camera image) refuses a frame not
+    recorded complete: the old reader read whatever file lay there (a frame verify found bad,
+    one a killed render left) and the study's ground-truth control called two folders
+    identical on it. A frame completed after the reader opened the folder (its completion log
+    appended by a render still running) is read."""
+    from vo_reference.errors import VoError
+    from vo_reference.io.render import RenderSequence
+    from vo_reference.study.evaluate import ground_truth_identical
+    root = _incomplete_from(copy(), 2)
+    seq = RenderSequence(root)
+    for read in (seq.depth, seq.ids, seq.rgb_linear, seq.image_rgb):
+        with pytest.raises(VoError, match="frame 2 is not rendered completely"):
+            read(2, "left")
+    assert seq.depth(1, "left").shape == (48, 64)
+    with pytest.raises(VoError, match="not rendered completely"):
+        ground_truth_identical(RenderSequence(root), RenderSequence(render))
+    (root / ".sesgen").mkdir(exist_ok=True)
+    (root / ".sesgen" / "done-h-1.jsonl").write_text(json.dumps({"frame": 2, "files": {}}) + "\n")
+    assert np.array_equal(seq.depth(2, "left"), RenderSequence(render).depth(2, "left"))
+
+
+@pytest.mark.parametrize("layout", ["kitti-stereo", "kitti-sceneflow", "sceneflow"])
+def test_an_export_refuses_a_neighbour_frame_a_render_is_writing(copy, tmp_path, capfd, layout):
+    """Layouts that read frame k+1 (k-1) beside the selected frames (pairs, flow) refuse while a
+    live render holds that frame, not yet complete: the old exporters wrote its pair and flow
+    as at the sequence's end (no *_11 image, NaN flow), exit 0, an export that differed from
+    the one made once the render had finished. A neighbour no render is writing (a shorter
+    render, a killed one whose lock is stale) is the sequence's end, as documented."""
+    import socket
+    root = _incomplete_from(copy(), 2)
+    for k in (2, 3):   # as mid-render: not there yet
+        for view in ("left", "right"):
+            (root / "exr" / view / f"{k:06d}.exr").unlink()
+    (root / ".sesgen").mkdir(exist_ok=True)
+    lock = root / ".sesgen" / f"lock-h-{os.getpid()}.json"    # this process: a live writer of frames 2..3
+    lock.write_text(json.dumps({"host": socket.gethostname(), "pid": os.getpid(), "frames": [2, 3]}))
+    line = fails(capfd, "export", root, tmp_path / "o", "--to", layout, "--frames", "0:2", "-q")
+    assert line == (f"error: {root}: frame(s) 2 beside the selected ones are being rendered (pid {os.getpid()} on "
+                    f"{socket.gethostname()}, frames 2..3); the {layout} layout reads them (pairs and flow across the "
+                    "selection's ends): wait for the render to finish, or choose --frames whose neighbours are rendered")
+    assert not (tmp_path / "o").exists()
+    if layout != "kitti-sceneflow":   # frames 0:1: every neighbour rendered
+        assert main(["export", str(root), str(tmp_path / "o1"), "--to", layout, "--frames", "0:1", "-q"]) == 0
+    ended = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    lock.write_text(json.dumps({"host": socket.gethostname(), "pid": int(ended.stdout), "frames": [2, 3]}))
+    if layout != "kitti-sceneflow":   # its writer is gone: frame 1 is the end (kitti-sceneflow: no pair at all)
+        assert main(["export", str(root), str(tmp_path / "o2"), "--to", layout, "--frames", "0:2", "-q"]) == 0
+
+
 def test_missing_exr_file_counts_as_incomplete(copy, tmp_path, capfd):
     root = copy()
     (root / "exr" / "right" / "000001.exr").unlink()

@@ -305,3 +305,29 @@ def test_consolidating_a_folder_after_a_killed_chunk_records_its_exposures(rende
     from blender_sesgen.render.folder import OutputFolder
     OutputFolder(alone).consolidate()
     _same_frames(render, alone, range(2))
+
+
+def test_a_reader_of_a_folder_left_by_a_killed_chunk_sees_its_exposures(render, tmp_path):
+    """A folder whose only chunk was killed -9 after its frames and never consolidated (a reader
+    during a farm's render, or after a farm that was stopped): every reader of the on-disk
+    contract (``Manifest.read``, vo_reference's RenderSequence) sees the frames complete WITH
+    the exposure, gain and metered brightness their render recorded in its state files, as the
+    manifest promises (the old reader merged the logs' completion only: exposures null)."""
+    from blender_sesgen.contract.manifest import Manifest
+    from vo_reference.io.render import RenderSequence
+    script, out = render.root.parent / "s.ses", tmp_path / "killed"
+    _killed_chunk(script, out, "0:2")
+    assert list((out / ".sesgen").glob("done-*.jsonl")), "the dead chunk's log is still there (not consolidated)"
+    import json
+    on_disk = json.loads((out / "manifest.json").read_text())   # written before the frames
+    assert on_disk["frames_complete"][:2] == [False, False] and on_disk["sensor"]["exposure_s"][:2] == [None, None]
+    whole = render.manifest["sensor"]
+    m = Manifest.read(out)
+    assert m.frames_complete == [True, True, False, False]
+    s = m.sections.sensor
+    for key, n in (("exposure_s", 2), ("gain", 2), ("metered", 1)):   # metered: frames before the chunk's last
+        assert list(getattr(s, key))[:n] == whole[key][:n], key
+        assert m.extra["sensor"][key][:n] == whole[key][:n], key
+    seq = RenderSequence(out)
+    assert seq.manifest["sensor"]["exposure_s"][:2] == whole["exposure_s"][:2]
+    assert [seq.frame_complete(k) for k in range(4)] == [True, True, False, False]

@@ -10,6 +10,8 @@ and one validating reader (:class:`Manifest`).
     OUT/poses/ego.txt          the per-step EGO table
     OUT/exr/<view>/NNNNNN.exr  one multilayer EXR per frame and view (float32, ZIP, scene-linear)
     OUT/rgb/<view>/NNNNNN.png  the display-referred 8-bit sRGB image (manifest ``display``)
+    OUT/sensor/state/NNNNNN.json  a frame's sensor state (exposure_s, gain, metered), written
+                               with the frame (state_relpath; merged by readers like the logs)
     OUT/.sesgen/               the render's own state (locks, completion logs): not data
 
 Poses are ``T_world_cam``: OpenCV camera (x right, y down, z forward) in the SES world (Y up).
@@ -18,7 +20,11 @@ Depth and disparity conventions: contract.depth. Timestamps: contract.timing.
 Frame completion is recorded in two places that readers merge: ``frames_complete`` in the
 manifest (the state when it was last written) and append-only completion logs
 ``.sesgen/done-*.jsonl`` (one JSON object per completed frame, written by a running render
-so that marking a frame complete costs O(1), whatever the sequence length).
+so that marking a frame complete costs O(1), whatever the sequence length). Likewise a
+complete frame's sensor state (``sensor.exposure_s``, ``gain``, ``metered``) is in the
+manifest once a writer took it in, and until then in the frame's state file
+(:func:`state_relpath`): :func:`fill_sensor_state` merges it, for every reader
+(:meth:`Manifest.read`) and every writer (``render.folder``).
 """
 from __future__ import annotations
 
@@ -39,7 +45,7 @@ from .depth import DEPTH_BACKGROUND
 from .errors import ContractError
 from .inputs import read_text
 from .manifest_schema import check_types
-from .manifest_sections import Sections
+from .manifest_sections import SENSOR_STATE, Sections
 from .se3 import not_rotations
 from .timing import TIME_LIMIT_S
 
@@ -50,6 +56,7 @@ POSES_DIR = "poses"
 EXR_DIR = "exr"
 DISPLAY_DIR = "rgb"           # the display-referred 8-bit PNGs (the view transform's image)
 STATE_DIR = ".sesgen"
+SENSOR_DIR = "sensor"         # the sensor images and the per-frame sensor state files
 SEAL = "seal"                 # SHA-256 of the rest of the manifest (seal_of)
 DONE_LOG_GLOB = "done-*.jsonl"
 VIEWS = ("left", "right")
@@ -84,6 +91,46 @@ def exr_relpath(view: str, frame: int) -> str:
 
 def display_relpath(view: str, frame: int) -> str:
     return f"{DISPLAY_DIR}/{view}/{frame:06d}.png"
+
+
+def state_relpath(frame: int) -> str:
+    """The per-frame sensor state (exposure, gain, metered brightness), written with the frame
+    before it is recorded complete, so that a render stopped at any point resumes the same
+    auto-exposure schedule and a reader of a folder whose writer was killed sees the frame's
+    state (:func:`fill_sensor_state`)."""
+    return f"{SENSOR_DIR}/state/{frame:06d}.json"
+
+
+def fill_sensor_state(root, sensor, complete: Sequence[bool]) -> bool:
+    """Fill, in the manifest's ``sensor`` dict (its per-frame lists ``SENSOR_STATE``), the null
+    values of frames ``complete`` says are complete from each frame's state file
+    (:func:`state_relpath`): a render killed after its frames recorded them there and in its
+    completion log only (its manifest was written before them). Only null values are filled,
+    with finite numbers; a missing or unreadable file leaves them null (a regular file of
+    bounded size only: a FIFO there must not block). True if anything was filled."""
+    if not isinstance(sensor, dict):
+        return False
+    n = len(complete)
+    state = {key: sensor.get(key) for key in SENSOR_STATE}
+    if not all(isinstance(v, list) and len(v) == n for v in state.values()):
+        return False
+    filled = False
+    for k, done in enumerate(complete):
+        if not done or all(state[key][k] is not None for key in SENSOR_STATE):
+            continue
+        try:
+            st = json.loads(read_text(Path(root) / state_relpath(k), 1 << 16, "sensor state"))
+        except (ContractError, ValueError):
+            continue
+        if not isinstance(st, dict):
+            continue
+        for key in SENSOR_STATE:
+            v = st.get(key)
+            if state[key][k] is None and isinstance(v, (int, float)) and not isinstance(v, bool) \
+                    and math.isfinite(v):
+                state[key][k] = float(v)
+                filled = True
+    return filled
 
 
 def trajectory_relpaths(views: Sequence[str]) -> dict:
@@ -321,23 +368,46 @@ class Manifest:
 
     @classmethod
     def read(cls, root, sealed: bool = True) -> "Manifest":
-        """``root/manifest.json`` validated, with the completion logs of a running or
-        interrupted render merged into ``frames_complete``. ``sealed``: ContractError when
-        the manifest's seal does not match its content (edited after it was written; a
-        manifest written before seals existed has none and is read as it is)."""
+        """``root/manifest.json`` validated, with what a running or interrupted render recorded
+        beside it merged in: its completion logs (``frames_complete``, ``checksums``) and its
+        complete frames' sensor state files (:func:`fill_sensor_state`). ``sealed``:
+        ContractError when the manifest's seal does not match its content (edited after it
+        was written; a manifest written before seals existed has none and is read as it is)."""
         root = Path(root)
         raw = load_json(root / MANIFEST)
-        m = cls.from_json(raw, str(root / MANIFEST))
+        m = cls.from_json(raw, str(root / MANIFEST))   # first: a value no render has is named as such
         if sealed and seal_problem(raw):
             raise ContractError(seal_problem(raw), str(root / MANIFEST))
-        done = completed_in_logs(root)
-        if done:
-            m = m.with_complete([c or k in done for k, c in enumerate(m.frames_complete)])
-            sums = dict(m.extra.get("checksums") or {})
+        merged = merge_written_beside(raw, root)
+        return m if merged is raw else cls.from_json(merged, str(root / MANIFEST))
+
+
+def merge_written_beside(raw: dict, root) -> dict:
+    """The manifest dict ``raw`` (as read from ``root``) with the completion logs and the
+    complete frames' sensor state files merged in (a new dict; ``raw`` is not changed and is
+    returned as it is when nothing is to merge). Malformed parts are left as they are: the
+    validating reader says what is wrong with them."""
+    if not isinstance(raw, dict):
+        return raw
+    n = raw.get("frames")
+    complete = raw.get("frames_complete", [True] * n if isinstance(n, int) and not isinstance(n, bool) else None)
+    if not isinstance(n, int) or isinstance(n, bool) or not isinstance(complete, list) or len(complete) != n:
+        return raw
+    out = raw
+    done = completed_in_logs(root)
+    if done:
+        out = {**raw, "frames_complete": [bool(c) or k in done for k, c in enumerate(complete)]}
+        sums = dict(raw.get("checksums") or {}) if isinstance(raw.get("checksums") or {}, dict) else None
+        if sums is not None:
             for files in done.values():
                 sums.update(files)
-            m.extra["checksums"] = sums
-        return m
+            out["checksums"] = sums
+    sensor = raw.get("sensor")
+    if isinstance(sensor, dict):
+        copy = {**sensor, **{key: list(sensor[key]) for key in SENSOR_STATE if isinstance(sensor.get(key), list)}}
+        if fill_sensor_state(root, copy, [bool(c) for c in out.get("frames_complete", complete)]):
+            out = {**out, "sensor": copy}
+    return out
 
 
 def seal_of(m: dict) -> str:

@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import os
 import re
 import stat
@@ -35,12 +34,12 @@ from typing import Optional
 
 from ..contract import atomic
 from ..contract.errors import ContractError
-from ..contract.inputs import read_bytes, read_text
+from ..contract.inputs import read_bytes
 from ..contract.manifest_sections import SENSOR_STATE, camera_record
 from ..contract.pixel_settings import TIMING_KEYS, PixelSettings
 from ..contract.manifest import (DISPLAY_DIR, DONE_LOG_GLOB, EXR_DIR, FORMAT, MANIFEST, POSES_DIR, SCENE_COPY, SEAL,
                                 STATE_DIR, Manifest, completed_in_logs, display_relpath, exr_relpath,
-                                load_json, seal_problem, trajectory_relpaths)
+                                fill_sensor_state, load_json, seal_problem, trajectory_relpaths)
 from ..contract.trajectory_files import format_ego_table, format_kitti, format_tum
 from ..errors import SesgenError
 from ..files.image_check import ImageFileError, check_image_bytes
@@ -456,31 +455,11 @@ class OutputFolder:
     def _state_from_files(self) -> None:
         """The per-frame sensor state of frames complete in our manifest that it holds none for,
         from the state file each frame's render wrote before committing it
-        (``sensor.outputs.state_relpath``): a chunk killed after its frames recorded them there
-        and in its completion log only (its manifest was written before its frames), and every
-        later writer took the log's completion in with null exposures. Only null values are
-        filled; a complete frame's file was written by the render that committed it."""
-        from .sensor.outputs import state_relpath
-        sensor = self.manifest.extra.get("sensor")
-        if not isinstance(sensor, dict):
-            return
-        state = {key: sensor.get(key) for key in SENSOR_STATE}
-        if not all(isinstance(v, list) and len(v) == self.manifest.frames for v in state.values()):
-            return
-        for k, done in enumerate(self.manifest.frames_complete):
-            if not done or all(state[key][k] is not None for key in SENSOR_STATE):
-                continue
-            try:   # a regular file of bounded size (a FIFO there must not block a writer)
-                st = json.loads(read_text(self.root / state_relpath(k), 1 << 16, "sensor state"))
-            except (ContractError, ValueError):
-                continue
-            if not isinstance(st, dict):
-                continue
-            for key in SENSOR_STATE:
-                v = st.get(key)
-                if state[key][k] is None and isinstance(v, (int, float)) and not isinstance(v, bool) \
-                        and math.isfinite(v):
-                    state[key][k] = float(v)
+        (``contract.manifest.fill_sensor_state``, what every reader merges too): a chunk killed
+        after its frames recorded them there and in its completion log only (its manifest was
+        written before its frames), and every later writer took the log's completion in with
+        null exposures."""
+        fill_sensor_state(self.root, self.manifest.extra.get("sensor"), self.manifest.frames_complete)
 
     def _write_manifest(self, dead_logs_only: bool, on_disk: Optional[dict] = None) -> None:
         self._state_from_files()

@@ -4,12 +4,15 @@
 scene hash and settings; it is created (and every check of the others is made) under a
 short ``flock`` on ``.sesgen/mutex``, so two renders starting together cannot both pass. A
 lock is stale, and taken over, when its process is gone (same host) or when its file has not
-been touched for ``STALE_LOCK_S`` (another host: each completed frame touches it).
+been touched for ``STALE_LOCK_S`` (another host; ``contract.writers`` judges, for readers too).
+The writer touches it with each completed frame and, between frames, a child process does every ``HEARTBEAT_S`` while the writer lives
+and has completed a frame within ``HUNG_RENDER_S`` (``heartbeat``): a slow frame keeps its lock,
+a killed writer's goes stale ``STALE_LOCK_S`` after its death, a hung one's
+``HUNG_RENDER_S + STALE_LOCK_S`` after its last frame.
 """
 from __future__ import annotations
 
 import contextlib
-import json
 import os
 import re
 import socket
@@ -18,13 +21,16 @@ from pathlib import Path
 from typing import Optional
 
 from ..contract import atomic
+from ..contract.writers import LOCK_GLOB, read_lock, stale as _stale
 
 try:
     import fcntl
 except ImportError:  # pragma: no cover - Windows: the lock files still guard, without the mutex
     fcntl = None
 
-STALE_LOCK_S = 900.0  # a lock of another host not refreshed for this long is taken over
+# contract.writers.STALE_LOCK_S: a lock of another host not refreshed for this long is taken over
+HEARTBEAT_S = 60.0    # how often a live writer's heartbeat touches its lock between frames
+HUNG_RENDER_S = 6 * 3600.0   # no frame completed for this long: the heartbeat stops (a hung render)
 
 
 class FolderLocks:
@@ -34,6 +40,7 @@ class FolderLocks:
         self.state = Path(state)
         self.writer = f"{_safe(socket.gethostname())}-{os.getpid()}"
         self.path: Optional[Path] = None            # our own lock, while held
+        self._heartbeat = None                      # heartbeat.Heartbeat, while held
 
     @contextlib.contextmanager
     def mutex(self):
@@ -52,12 +59,8 @@ class FolderLocks:
     def live(self) -> list[dict]:
         """Locks of running writers (call under :meth:`mutex`); stale ones are removed."""
         live = []
-        for path in sorted(self.state.glob("lock-*.json")):
-            try:
-                info = json.loads(path.read_text(encoding="utf-8"))
-                host, pid = str(info["host"]), int(info["pid"])
-            except (OSError, ValueError, KeyError, TypeError):
-                info, host, pid = None, "", -1
+        for path in sorted(self.state.glob(LOCK_GLOB)):
+            info, host, pid = read_lock(path) or (None, "", -1)
             if info is None or _stale(host, pid, path):
                 path.unlink(missing_ok=True)
                 continue
@@ -67,7 +70,7 @@ class FolderLocks:
 
     def live_writers(self) -> set[str]:
         """Writer names (``host-pid``) of the lock files present."""
-        return {p.stem.replace("lock-", "", 1) for p in self.state.glob("lock-*.json")}
+        return {p.stem.replace("lock-", "", 1) for p in self.state.glob(LOCK_GLOB)}
 
     def live_pids(self) -> set[int]:
         return {int(w.rsplit("-", 1)[-1]) for w in self.live_writers() if w.rsplit("-", 1)[-1].isdigit()}
@@ -97,11 +100,16 @@ class FolderLocks:
             atomic.write_json(self.path, {"host": socket.gethostname(), "pid": os.getpid(), "frames": [first, last],
                                           "started": time.time(), "scene_sha256": scene_sha256,
                                           "settings": settings_key})
+        from .heartbeat import Heartbeat
+        self._heartbeat = Heartbeat(self.path, HEARTBEAT_S, HUNG_RENDER_S)
 
     def touch(self) -> None:
-        """Show that the holder is alive (other hosts judge staleness by the file's time)."""
+        """Show that the holder is alive and not hung: a frame was completed (other hosts judge
+        staleness by the file's time; the heartbeat keeps it fresh until the next frame)."""
         if self.path is not None:
             os.utime(self.path)
+            if self._heartbeat is not None:
+                self._heartbeat.progress()
 
     def drop_dead(self, host: str, pid: int) -> bool:
         """Remove the lock of writer ``pid`` on ``host``, known to be dead by the caller (a
@@ -116,41 +124,17 @@ class FolderLocks:
         return existed
 
     def drop(self) -> None:
-        if self.path is not None:
-            self.path.unlink(missing_ok=True)
-            self.path = None
+        """Remove our lock, then end its heartbeat (which exits by itself once the lock is gone
+        or this process is: an interrupt while it ends leaves no lock behind)."""
+        heartbeat, self._heartbeat = self._heartbeat, None
+        try:
+            if self.path is not None:
+                self.path.unlink(missing_ok=True)
+                self.path = None
+        finally:
+            if heartbeat is not None:
+                heartbeat.stop()
 
 
 def _safe(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.]", "_", text) or "host"
-
-
-def _zombie(pid: int) -> bool:
-    """A process that has ended but not been reaped yet (Linux): a render orphaned by a killed
-    farm worker stays one until its new parent reaps it, and it will never release a lock."""
-    try:
-        with open(f"/proc/{pid}/stat", "rb") as f:
-            stat = f.read()
-    except OSError:
-        return False
-    state = stat[stat.rfind(b")") + 2:][:1]   # the field after "(comm)", which may hold spaces
-    return state in (b"Z", b"X")
-
-
-def _stale(host: str, pid: int, path: Path) -> bool:
-    """A lock whose writer is gone: this host and no such process, or not refreshed for
-    STALE_LOCK_S (another host)."""
-    if host == socket.gethostname():
-        if pid == os.getpid():
-            return False
-        try:
-            os.kill(pid, 0)
-        except ProcessLookupError:
-            return True
-        except PermissionError:
-            return False
-        return _zombie(pid)
-    try:
-        return time.time() - path.stat().st_mtime > STALE_LOCK_S
-    except OSError:
-        return True

@@ -153,6 +153,29 @@ def parse_frames(spec: str | None, n: int) -> range:
         return frame_range(spec, n)
 
 
+def _require_neighbours(seq, rng: range, target: str, fn) -> None:
+    """VoError naming the frames a layout reads beside the selected ones (``fn.reads_neighbours``:
+    offsets, e.g. (1,) for frame k's pair or flow to frame k+1) that a render is writing now
+    (not complete, within a live writer's lock: ``contract.writers``). A neighbour the render
+    did not render (a shorter ``--frames`` range, a render stopped) is the sequence's end for
+    the layout (no pair, NaN flow: docs/output-format.md); one being written would come out so
+    too, and the export would differ from the one made minutes later, silently."""
+    from blender_sesgen.contract.writers import live_locks
+    chosen = set(rng)
+    near = sorted({k + d for k in rng for d in getattr(fn, "reads_neighbours", ())} - chosen)
+    missing = [j for j in near if 0 <= j < seq.num_frames and not seq.frame_complete(j)]
+    if not missing or seq.root is None:
+        return
+    for lock in live_locks(seq.root):
+        first, last = lock["frames"]
+        held = [j for j in missing if first <= j <= last]
+        if held:
+            raise VoError(f"{seq.root}: frame(s) {', '.join(map(str, held[:10]))} beside the selected ones are being "
+                          f"rendered (pid {lock.get('pid')} on {lock.get('host')}, frames {first}..{last}); the "
+                          f"{target} layout reads them (pairs and flow across the selection's ends): wait for the "
+                          "render to finish, or choose --frames whose neighbours are rendered")
+
+
 def export(render_dir, target: str, out, *, frames: str | range | None = None,
            noise="manifest", progress: bool | str = "auto", extra: dict | None = None,
            sequence: str | None = None, progress_callback: Callable | None = None,
@@ -174,6 +197,7 @@ def export(render_dir, target: str, out, *, frames: str | range | None = None,
         raise VoError(f"--sequence does not apply to the {target} layout")
     rng = frames if isinstance(frames, range) else parse_frames(frames, seq.num_frames)
     require_complete(seq, rng)
+    _require_neighbours(seq, rng, target, fn)
     lens = seq.lens
     seq = _camera_of_the_layout(seq, target, fn, undistort)
     nz = seq.noise if noise == "manifest" else noise

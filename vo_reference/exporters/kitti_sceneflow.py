@@ -105,3 +105,6 @@ def export_kitti_sceneflow(seq, out: Path, opts: ExportOptions) -> None:
         atomic.write_text(out / "calib_cam_to_cam" / f"{i:06d}.txt", calib)
     atomic.write_text(out / "pairs.txt", "# pair source_frame_10 source_frame_11\n"
                       + "".join(f"{i:06d} {k} {k + 1}\n" for i, k in enumerate(pairs)))
+
+
+export_kitti_sceneflow.reads_neighbours = (1,)   # each pair is frames k, k+1 (driver.export)

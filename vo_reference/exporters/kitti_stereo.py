@@ -41,3 +41,6 @@ def export_kitti_stereo(seq, out: Path, opts: ExportOptions) -> None:
     calib = calib_cam_to_cam_text(seq)
     for i in range(len(frames)):
         atomic.write_text(out / "calib_cam_to_cam" / f"{i:06d}.txt", calib)
+
+
+export_kitti_stereo.reads_neighbours = (1,)   # frame k's *_11 image and flow are frame k+1's (driver.export)

@@ -96,6 +96,7 @@ def export_sceneflow(seq, out: Path, opts: ExportOptions) -> Path:
 
 
 export_sceneflow.takes_sequence = True
+export_sceneflow.reads_neighbours = (-1, 1)   # flow into the past and the future (driver.export)
 
 
 def _towards(seq, k: int, k_tgt: int, view: str) -> tuple[np.ndarray, np.ndarray]:

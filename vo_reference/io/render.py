@@ -84,6 +84,7 @@ class RenderSequence(Sequence):
     # --- files ------------------------------------------------------------------------
     def exr_path(self, k: int, view: str = "left") -> Path:
         check_frame_view(self, k, view)
+        self._require_rendered(k)
         rel = self._files[view][int(k)]
         if not rel:
             raise VoError(f"{self.root}: frame {k} ({view}) was not rendered")
@@ -92,6 +93,27 @@ class RenderSequence(Sequence):
     def provenance(self) -> dict:
         """The render's format and scene hash (what an export records about its source)."""
         return {"format": FORMAT, "scene_sha256": self.info.scene_sha256}
+
+    def _require_rendered(self, k: int) -> None:
+        """VoError unless frame ``k`` is recorded complete: the pixels of a frame a render is
+        writing now, one a killed render left unfinished or one ``verify`` found bad are never
+        read (its files may be missing, or there and damaged: the old reader read whatever lay
+        there). The folder is read again first: a render may have completed it since this
+        reader opened it (completion logs, or its manifest once it ended)."""
+        k = int(k)
+        if self.info.frames_complete[k]:
+            return
+        try:
+            fresh = read_manifest(self.root)
+        except VoError:
+            fresh = None
+        if fresh is not None and fresh.scene_sha256 == self.info.scene_sha256 and fresh.frames == self.num_frames \
+                and fresh.frames_complete[k]:
+            self.info = fresh
+            self.manifest = fresh.to_json()
+            return
+        raise VoError(f"{self.root}: frame {k} is not rendered completely (a render is writing it, or one was "
+                      "interrupted, or `verify` found it bad): finish the render (--resume) or choose other frames")
 
     def frame_complete(self, k: int) -> bool:
         """True when frame k is recorded complete and every file the manifest lists for it
@@ -164,6 +186,7 @@ class RenderSequence(Sequence):
         files = ((self.manifest.get("display") or {}).get("files") or {}).get(view)
         if not files:
             return None
+        self._require_rendered(k)
         path = self.root / files[int(k)]
         if not path.is_file():
             raise VoError(f"{path}: missing (the manifest lists it as frame {k}'s {view} image); "
@@ -178,6 +201,7 @@ class RenderSequence(Sequence):
         import cv2
         rel = self.sensor_file("rgb", k, view)
         if rel is not None:
+            self._require_rendered(k)
             return cv2.cvtColor(read_image(self.root / rel, cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
         path = self.display_path(k, view)
         if path is None:
@@ -202,6 +226,7 @@ class RenderSequence(Sequence):
         rel = self.sensor_file("raw", k, view)
         if rel is None:
             return None
+        self._require_rendered(k)
         from .files import read_image
         return read_image(self.root / rel)
 

@@ -11,6 +11,8 @@ from typing import Callable, Optional
 
 import numpy as np
 
+from ...contract.manifest import state_relpath   # noqa: F401 - its home is the contract; used here and by bench/
+from ...contract.manifest_sections import SENSOR_STATE
 from ...errors import SesgenError
 from ...files.png import write_png
 from .autoexposure import metered_frames
@@ -39,13 +41,7 @@ def stored_metering(plan: SensorPlan, kept: Optional[dict], upto: Optional[int] 
     return list(metered)
 
 
-STATE_KEYS = ("exposure_s", "gain", "metered")
-
-
-def state_relpath(k: int) -> str:
-    """The per-frame sensor state (exposure, gain, metered brightness), written with the frame
-    so that a render stopped at any point resumes the same auto-exposure schedule."""
-    return f"{SENSOR_DIR}/state/{k:06d}.json"
+STATE_KEYS = SENSOR_STATE   # the per-frame state, in the manifest and in each frame's state_relpath file
 
 
 def prepare_manifest(plan: SensorPlan, m, kept: Optional[dict], out: Optional[Path] = None,

@@ -27,9 +27,9 @@ from ...contract.lens import Lens, opencv_calibration_yaml, robotcar_lut_bytes, 
 from ...contract import rig
 from ...contract.manifest_sections import (ImuSection, LensSection, RigMotionSection, Sections, SensorSection,
                                          TimingSection)
+from ...contract.manifest import SENSOR_DIR   # noqa: F401 - the contract's (state_relpath's too)
 from ...contract.rig_motion import RigMotion
 
-SENSOR_DIR = "sensor"
 LENS_DIR = "lens"
 IMU_DIR = "imu"
 GROUND_TRUTH_RULE = {
