@@ -1221,6 +1221,19 @@ def test_city_kitti_drives_at_kitti_sequence_1s_speed(shared_data):
     assert np.abs(ours / real.mean() - 1).max() < 0.015, (ours.min(), ours.max(), real.min(), real.max())
 
 
+@pytest.mark.parametrize("seed", [0, 2, 4])
+def test_city_kitti_film_factor_is_fixed_as_a_cameras_sensitivity(seed):
+    """The city's film factor is fixed (LOOK exposure 1.59: 3.01, what the automatic factor chose
+    for seed 0 up to session 18), so the sensor's input is the calibrated sky's and sun's light at
+    every seed and the camera's AUTOEXPOSURE adapts; the automatic factor (the 90th percentile of
+    frame 0's preview) halved when a garden tree was re-drawn and darkened the whole sequence."""
+    from blender_sesgen.generators.builtin import city_kitti
+    from blender_sesgen.ses.parser import parse_text
+    s = parse_text(city_kitti.generate(seed, frames=5))
+    assert not s.look.auto_exposure and s.look.exposure_ev == pytest.approx(1.59)
+    assert s.autoexposure is not None           # the camera adapts
+
+
 def _heave_change_m(T: np.ndarray) -> float:
     from blender_sesgen.contract.se3 import relative
     y = np.array([relative(T[k], T[k + 1])[1, 3] for k in range(len(T) - 1)])
