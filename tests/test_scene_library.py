@@ -986,6 +986,61 @@ def test_city_kitti_right_gardens_stand_where_kitti_sequence_1s_do(scenes, share
     assert not strip, strip
 
 
+GARDEN_THINGS = ("hedge", "bush", "fence", "bin", "plant", "bicycles", "bin_store", "notice_board")
+
+
+def boundary_tops(s, ahead_m=(8.0, 36.0), right_m=(6.6, 7.8)) -> np.ndarray:
+    """The top of the right front gardens' boundary in each metre ``ahead_m`` ahead of the first
+    camera: the highest point of the garden things (``GARDEN_THINGS``: hedges, shrubs, walls and
+    fences, bikes, bins, planters, ...) ``right_m`` right of it, above the road (m; vertical rays
+    every 0.2 m along and 0.1 m across; 0 where none stands: a path)."""
+    T0 = s.timeline.left()[0]
+    ts = mesh_raycast.TriangleScene()
+    for o in s.objects:
+        if isinstance(o, Asset) and o.kind in GARDEN_THINGS:
+            d = assets.generate(o.kind, o.size, o.seed)
+            ts.add(o.id, d.vertices, d.faces, object_pose(o.position, o.rotation_deg))
+    ahead, right = T0[:3, 2] * np.array([1.0, 0.0, 1.0]), T0[:3, 0] * np.array([1.0, 0.0, 1.0])
+    ahead, right = ahead / np.linalg.norm(ahead), right / np.linalg.norm(right)
+    tops = []
+    for a in np.arange(*ahead_m, 1.0):
+        A, R = np.meshgrid(a + np.arange(0.1, 1.0, 0.2), np.arange(right_m[0], right_m[1] + 1e-6, 0.1))
+        o = T0[:3, 3] * np.array([1.0, 0.0, 1.0]) + A.ravel()[:, None] * ahead + R.ravel()[:, None] * right
+        o[:, 1] = T0[1, 3] - 1.65 + 3.0                  # 3 m above the road (the camera 1.65 m up)
+        t, _ = ts.cast(o, np.tile([0.0, -1.0, 0.0], (len(o), 1)))
+        tops.append(3.0 - float(np.min(np.where(np.isfinite(t), t, 3.0))))
+    return np.array(tops)
+
+
+def test_city_kitti_gardens_are_seen_over_a_broken_boundary_as_kitti_sequence_1s(scenes, shared_data):
+    """KITTI sequence_1's front gardens are seen over a broken boundary (hedge and shrub stretches,
+    paths, low walls and fences, low planting; bikes, bins, a bin enclosure, a notice board seen
+    over them): by SGBM at full size (frames 0-30 every 6th, points 6-16 m ahead 6.6-7.8 m right
+    of the camera, the 95th percentile of their height above the road in each metre along the view:
+    the boundary's top or what stands behind it) 30 % of the metres top out under 0.9 m and 39 %
+    under 1.2 m (frames 0-30 every 3rd: 21 % and 31 %), the median 1.5 m. Seed 0's boundary tops
+    out (its highest garden thing 6.6-7.8 m right of the first camera, each metre 8-36 m ahead)
+    under 0.9 m and under 1.2 m in at least 0.6x KITTI's share and at most 0.2 more, its median
+    over 1.2 m (session 18's unbroken row of 1.3-1.5 m shrubs: 4 % and 4 %; the garden's things
+    below ~1.2 m were hidden from the 1.65 m camera)."""
+    tops = []
+    for k in (0, 6, 12, 18, 24, 30):
+        X, Y, Z = kitti_s1_points(shared_data, (k,))
+        h = 1.65 - Y
+        for z0 in np.arange(6.0, 16.0, 1.0):
+            m = (X > 6.6) & (X < 7.8) & (h > 0.15) & (h < 2.5) & (Z >= z0) & (Z < z0 + 1.0)
+            if m.sum() > 20:
+                tops.append(np.percentile(h[m], 95))
+    kitti = np.array(tops)
+    k09, k12 = np.mean(kitti < 0.9), np.mean(kitti < 1.2)
+    assert len(kitti) >= 30 and k09 >= 0.15 and k12 >= 0.25 and np.median(kitti) > 1.2, (len(kitti), k09, k12)
+    ours = boundary_tops(scenes["city_kitti"])
+    o09, o12 = np.mean(ours < 0.9), np.mean(ours < 1.2)
+    assert 0.6 * k09 <= o09 <= k09 + 0.2, (o09, k09, np.round(ours, 2))
+    assert 0.6 * k12 <= o12 <= k12 + 0.2, (o12, k12, np.round(ours, 2))
+    assert np.median(ours) > 1.2, np.round(ours, 2)
+
+
 def _kitti_s1_tall_planting_ahead(shared_data, frames=(0, 6, 12, 18)) -> list[float]:
     """Where KITTI sequence_1's tall planting before its near right houses stands, metres ahead
     of frame 0's camera: SGBM at full size in each of ``frames``, the points 7.3-9 m right of the

@@ -193,12 +193,23 @@ SCAFFOLD_GAP_M = 0.15     # ... and its gap to the facade's foremost part below 
 # grass strip has no trees); the facades ~8.5-9.5 m right: gardens ~1-1.5 m deep
 GARDEN = {"line": 7.1,          # the boundary's middle, metres right of the centreline ...
           "thick": 0.5,         # ... its thickness (a hedge's), the hedge modules' length and heights
-          "module": 1.2, "heights": (0.85, 0.95, 1.05),
+          "module": 1.2, "heights": (1.2, 1.4, 1.6),   # its tops where high (KITTI's p50 1.52 m, below)
           "p_hedge": 0.65,      # a garden's boundary a clipped hedge (else a row of shrubs)
           "gap": (1.2, 1.6),    # its entrance's width
           "p_bikes": 1.0,       # bikes in every garden (KITTI's frames 0, 16 and 24 each pass one), ...
           "p_pots": 0.6, "p_bin": 0.4, "shrubs_per_m": 0.25,    # ... planters, a wheelie bin, shrubs ...
-          "shrub_h": (1.0, 1.7)}    # ... as high as KITTI's between its garden trees (SGBM p50-p90 1.0-1.8 m)
+          "p_bin_store": 0.35, "p_board": 0.3,   # ... a bin enclosure beside the path, a notice board (KITTI's frames 12-18)
+          "shrub_h": (1.0, 1.7),    # ... as high as KITTI's between its garden trees (SGBM p50-p90 1.0-1.8 m)
+          # KITTI sequence_1's boundary is broken (full-size SGBM, frames 0-30 every 3rd, points 6-16 m
+          # away 6.6-7.8 m right, the top (p95) of each 1 m along the view: p10/50/90 0.55/1.52/2.34 m,
+          # 21 % of them under 0.9 m and 31 % under 1.2 m; of the points 0.2-1.2 m up 5.5-12 m right 21 %
+          # lie behind it, beyond 7.8 m): stretches of hedge or shrubs broken by paths and drives, low
+          # walls, fences and low planting, the gardens' bikes, bins and planters seen over them (session
+          # 18's unbroken 1.3-1.5 m shrubs: no top under 0.9 m, 5 % under 1.2 m, 8 % behind). Each
+          # stretch 2.5-6 m (a gap 0.9-2.4 m), of a kind by these shares of the boundary's length:
+          "stretch": (2.5, 6.0), "gap_len": (0.9, 2.4),
+          "stretches": {"high": 0.5, "low_plants": 0.15, "wall": 0.1, "fence": 0.1, "gap": 0.15},
+          "low_h": (0.4, 0.7), "wall_h": (0.5, 0.75), "fence_h": (0.8, 1.0)}   # perennials; a coping's top; pickets or bars
 # KITTI sequence_1's front gardens hold a young tree every ~12 m (full-size SGBM, frames 0-18, points
 # 7.3-9 m right of the camera 8-30 m ahead: clusters 4.5-6 m high (p99 of the points' height 4.5-6.1
 # m), their crowns from ~1.5-2.5 m up, ~3-4 m along the street, at 12, 23.5, 36 and 47 m ahead of
@@ -588,6 +599,12 @@ def _gardens(rng, lines: list[str], side_lines: list[str], place, centreline: _C
                         round(float(rng.uniform(0.55, 0.75)), 2))) for x in rng.integers(1, 10 ** 6, 3)]
     pots = [(int(x), (0.5, round(float(rng.uniform(0.7, 1.1)), 2), 0.5)) for x in rng.integers(1, 10 ** 6, 2)]
     bikes = [(int(x), (n * 0.6, 1.0, 1.8)) for x, n in zip(rng.integers(1, 10 ** 6, 2), (1, 2))]
+    lows = [(int(x), (round(float(rng.uniform(0.8, 1.1)), 2), round(float(rng.uniform(*g["low_h"])), 2),
+                      round(float(rng.uniform(0.5, 0.7)), 2))) for x in rng.integers(1, 10 ** 6, 2)]
+    fences = {"wall": _fence_seeds(rng, 2, 2), "fence": _fence_seeds(rng, 0, 1) + _fence_seeds(rng, 1, 1)}
+    stores = [(int(x), (round(float(rng.uniform(1.4, 2.2)), 2), round(float(rng.uniform(1.2, 1.35)), 2), 0.8))
+              for x in rng.integers(1, 10 ** 6, 2)]
+    board = (int(rng.integers(1, 10 ** 6)), (round(float(rng.uniform(1.0, 1.5)), 2), 2.0, 0.12))
     taken = []
     for ln in lines:
         w = ln.split()
@@ -610,6 +627,7 @@ def _gardens(rng, lines: list[str], side_lines: list[str], place, centreline: _C
                  key=lambda b: b["s"])
     ends = [(b["s"] - b["size"][0] / 2, b["s"] + b["size"][0] / 2) for b in row]
     gardens = []
+    used = dict.fromkeys(g["stretches"], 0.0)          # metres of each kind of boundary stretch so far
     for i, b in enumerate(row):
         s0, s1 = max(ends[i][0], span[0]), min(ends[i][1], span[1])
         if s1 - s0 < 2.0:
@@ -626,29 +644,57 @@ def _gardens(rng, lines: list[str], side_lines: list[str], place, centreline: _C
         entrance = float(rng.uniform(s0 + 1.5, max(s1 - 1.5 - gap, s0 + 1.5)))
         hedge = rng.random() < g["p_hedge"]
         k = int(rng.integers(len(hedges)))
-        step = g["module"] if hedge else 0.8
+        open_ = [(entrance, entrance + gap)]           # where the boundary is low or open: the gardens seen
         for a0, a1 in ((e0 + 0.1, entrance), (entrance + gap, e1 - 0.1)):
-            if a1 - a0 < 0.6 * step:
-                continue
-            n = int(np.ceil((a1 - a0) / step))       # modules overlapping a little: the hedge unbroken
-            for a in np.linspace(a0 + step / 2, a1 - step / 2, n) if n > 1 else [(a0 + a1) / 2]:
-                if hedge:
-                    put("hedge", a, g["line"], -90.0 + 180.0 * int(rng.integers(2)), hedges[k], 0.0, "veg")
-                else:
-                    put("bush", a + float(rng.uniform(-0.1, 0.1)), g["line"], float(rng.uniform(0, 360)),
-                        shrubs[int(rng.integers(len(shrubs)))], 0.0, "veg")
+            for c0, c1, kind in _boundary_stretches(rng, a0, a1, used):
+                if kind != "high":
+                    open_.append((c0, c1))
+                if kind == "gap":
+                    continue
+                if kind == "wall" or kind == "fence":
+                    h = float(rng.uniform(*g[kind + "_h"]))
+                    put("fence", (c0 + c1) / 2, g["line"], -90.0, (fences[kind][int(rng.integers(2))],
+                        (round(c1 - c0, 2), round(h, 2), 0.22 if kind == "wall" else 0.1)), 0.0)
+                    continue
+                step = g["module"] if hedge and kind == "high" else 0.8
+                n = max(int(np.ceil((c1 - c0) / step)), 1)    # modules overlapping a little: the stretch unbroken
+                for a in np.linspace(c0 + step / 2, c1 - step / 2, n) if n > 1 else [(c0 + c1) / 2]:
+                    if kind == "low_plants":
+                        put("bush", a + float(rng.uniform(-0.1, 0.1)), g["line"], float(rng.uniform(0, 360)),
+                            lows[int(rng.integers(len(lows)))], 0.0, "veg")
+                    elif hedge:
+                        put("hedge", a, g["line"], -90.0 + 180.0 * int(rng.integers(2)), hedges[k], 0.0, "veg")
+                    else:
+                        put("bush", a + float(rng.uniform(-0.1, 0.1)), g["line"], float(rng.uniform(0, 360)),
+                            shrubs[int(rng.integers(len(shrubs)))], 0.0, "veg")
         gardens.append((b, s0, s1, entrance, gap, inner[0]))
         depth = inner[1] - inner[0]
         if depth < 0.5:
             continue
         mid = (inner[0] + inner[1]) / 2
-        # the garden's things, each in a 1.5 m slot of its own along the facade, the entrance's kept free
+        # the garden's things, each in a 1.5 m slot of its own along the facade, the entrance's kept free;
+        # first the slots behind a low or open stretch of the boundary (where the street sees them)
         slots = [a for a in np.arange(s0 + 0.9, s1 - 0.6, 1.5) if not entrance - 0.8 < a < entrance + gap + 0.8]
         rng.shuffle(slots)
+        slots.sort(key=lambda a: any(c0 - 0.5 < a < c1 + 0.5 for c0, c1 in open_))   # seen ones last: pop() takes them
+        store = stores[int(rng.integers(len(stores)))]
+        stored = rng.random() < g["p_bin_store"] and depth >= store[1][2] + 0.1 and entrance - store[1][0] - 0.3 > s0
+        if stored:      # a bin enclosure beside the path, its doors facing the street (KITTI's frame 12)
+            a = entrance - 0.15 - store[1][0] / 2
+            put("bin_store", a, inner[0] + store[1][2] / 2 + 0.05, -90.0, store, 0.0)
+            slots = [x for x in slots if abs(x - a) > store[1][0] / 2 + 0.6]
+        lows_ = [(c0, c1) for c0, c1 in open_[1:] if c1 - c0 >= board[1][0] + 0.4
+                 and not (stored and c0 - 0.2 < entrance and c0 + board[1][0] + 0.4 > entrance - 0.3 - store[1][0])]
+        if rng.random() < g["p_board"] and lows_:
+            # a notice board just behind a low or open stretch of the boundary, facing the street
+            c0, c1 = lows_[int(rng.integers(len(lows_)))]
+            a = c0 + 0.2 + board[1][0] / 2
+            put("notice_board", a, g["line"] + g["thick"] / 2 + 0.15, -90.0, board, 0.0)
+            slots = [x for x in slots if abs(x - a) > board[1][0] / 2 + 0.6]
         if rng.random() < g["p_bikes"] and slots:
             v = bikes[1 if depth >= 1.3 and rng.random() < 0.5 else 0]
             put("bicycles", slots.pop(), mid, 0.0, v, 0.0)
-        if rng.random() < g["p_bin"]:
+        if not stored and rng.random() < g["p_bin"]:
             put("bin", entrance + gap + 0.5, inner[0] + 0.35, -90.0, (pool.seeds["bin"][int(rng.integers(POOLS["bin"]))], None), 0.0)
         if rng.random() < g["p_pots"]:
             for _ in range(int(rng.integers(1, 3))):
@@ -667,6 +713,42 @@ def _gardens(rng, lines: list[str], side_lines: list[str], place, centreline: _C
                                  size[k], seed=seed_[k]))
     if tree_rng is not None:
         out += _garden_trees(tree_rng, gardens, out, lambda p, r: clear(p, r - 0.3), place, ids, kerb_h)
+    return out
+
+
+def _fence_seeds(rng, style: int, n: int) -> list[int]:
+    """``n`` seeds of ``fence`` assets of ``style`` (street.fence: 0 wooden pickets, 1 steel bars,
+    2 a low wall with a coping: its first draw of its own stream)."""
+    out = []
+    while len(out) < n:
+        x = int(rng.integers(1, 10 ** 6))
+        if int(np.random.default_rng(x).integers(3)) == style:
+            out.append(x)
+    return out
+
+
+def _boundary_stretches(rng, a0: float, a1: float, used: dict) -> list[tuple]:
+    """A front garden's boundary between arc lengths ``a0`` and ``a1`` as stretches (c0, c1, kind)
+    one after another: ``high`` (the garden's hedge or shrubs), ``low_plants``, ``wall``, ``fence``
+    or ``gap`` (a path or drive), each 2.5-6 m (a gap 0.9-2.4 m); each the kind furthest below its
+    share of the boundary's length so far (``GARDEN['stretches']``, KITTI sequence_1's broken
+    boundary; ``used``: metres of each kind drawn so far along the street, updated), give or take
+    a random metre; no gap first or after a gap, a rest under 1.5 m joins the stretch before it."""
+    g = GARDEN
+    out, a = [], a0
+    while a1 - a > 0.6:
+        total = sum(used.values()) + float(np.mean(g["stretch"]))
+        behind = {k: share * total - used[k] + float(rng.uniform(0.0, 1.0)) for k, share in g["stretches"].items()}
+        if not out or out[-1][2] == "gap":
+            behind.pop("gap")
+        kind = max(behind, key=behind.get)
+        L = float(rng.uniform(*(g["gap_len"] if kind == "gap" else g["stretch"])))
+        c1 = a1 if a1 - (a + L) < 1.5 else a + L
+        if kind == "gap" and a1 - c1 < 0.6:
+            kind = "high"
+        out.append((a, c1, kind))
+        used[kind] += c1 - a
+        a = c1
     return out
 
 

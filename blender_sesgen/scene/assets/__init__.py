@@ -113,6 +113,12 @@ def _kinds() -> dict[str, Kind]:
         Kind("bicycles", "street", "bicycle", "bicycles on their kickstands side by side along x, each along z "
              "(wheels, spokes, frame, bars, saddle), about half turned round", ((0.6, 3.0), (0.95, 1.1), (1.7, 1.9)),
              "row length, handlebar height, bicycle length", street_detail.bicycles, overhang=0.45),
+        Kind("bin_store", "street", "static", "a front garden's bin enclosure: timber posts, walls and doors of "
+             "slats with gaps into its dark inside, bins in it, a lid of boards", ((1.3, 2.3), (1.15, 1.4), (0.75, 0.9)),
+             "length, height, depth (doors towards +z)", street_detail.bin_store, overhang=0.1),
+        Kind("notice_board", "street", "static", "notice board on two posts: a framed board of notices with lines "
+             "of print, a small roof (face towards +z)", ((0.9, 1.6), (1.8, 2.2), (0.1, 0.15)),
+             "width, height of the posts, depth of its roof", street_detail.notice_board, overhang=0.1),
     ]
     table += [
         Kind("table", "indoor", "table", "table: top on four legs with an apron",

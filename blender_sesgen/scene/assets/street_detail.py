@@ -241,3 +241,82 @@ def bicycles(size, seed: int) -> MeshData:
         T[:3, 3] = (x, 0.0, float(rng.uniform(-0.12, 0.12)))
         b.merge(sub, T)
     return b.build()
+
+
+def bin_store(size, seed: int) -> MeshData:
+    """A front garden's bin enclosure (KITTI sequence_1's frame 12: a weathered timber box beside
+    the path): a frame of 7 cm posts, walls of horizontal slats 9-12 cm wide with 1.5-3 cm gaps
+    into its dark inside, two or three slatted front doors (one bay a bin, each with a handle),
+    a lid of boards; inside, at the back, the bins' dark bodies. size = (length along x, height,
+    depth); the doors face +z."""
+    rng, L, H, D, b = start(size, seed)
+    wood = b.surface("wood_planks", scaled(pick(rng, palette.WOOD), float(rng.uniform(0.8, 1.1))))
+    grey = b.surface("wood_planks", scaled((0.36, 0.33, 0.29), float(rng.uniform(0.8, 1.1))))   # weathered
+    slat_s = grey if rng.random() < 0.6 else wood
+    bin_s = b.surface("plastic", pick(rng, palette.PLASTIC_BIN))
+    metal = b.surface("metal_painted", (0.05, 0.05, 0.05))
+    p = 0.035
+    for x in (-L / 2 + p, L / 2 - p):
+        for z in (-D / 2 + p, D / 2 - p):
+            b.box((x - p, 0.0, z - p), (x + p, H - 0.04, z + p), wood)
+    w, gap = float(rng.uniform(0.09, 0.12)), float(rng.uniform(0.015, 0.03))
+    ys = np.arange(0.08, H - 0.1 - w, w + gap)
+    n_doors = 3 if L >= 1.9 else 2
+    bay = (L - 0.1) / n_doors
+    for y in ys:
+        for z in (-D / 2 + 0.01, ):                                 # back wall
+            b.box((-L / 2 + 0.07, y, z), (L / 2 - 0.07, y + w, z + 0.018), slat_s)
+        for x in (-L / 2 + 0.005, L / 2 - 0.023):                   # end walls
+            b.box((x, y, -D / 2 + 0.07), (x + 0.018, y + w, D / 2 - 0.07), slat_s)
+        for i in range(n_doors):                                    # the doors' slats, a door ajar now and then
+            x0 = -L / 2 + 0.05 + i * bay
+            b.box((x0 + 0.01, y, D / 2 - 0.02), (x0 + bay - 0.01, y + w, D / 2 - 0.002), slat_s)
+    for i in range(n_doors):                                        # the doors' frames (a Z of battens) and handles
+        x0 = -L / 2 + 0.05 + i * bay
+        for x in (x0 + 0.03, x0 + bay - 0.07):
+            b.box((x, 0.08, D / 2 - 0.045), (x + 0.04, ys[-1] + w, D / 2 - 0.02), wood)
+        b.box((x0 + bay - 0.16, H * 0.62, D / 2), (x0 + bay - 0.12, H * 0.62 + 0.12, D / 2 + 0.03), metal)
+        bw = min(bay - 0.12, 0.6)                                   # a bin inside, its lid under the store's
+        xc = x0 + bay / 2
+        b.box((xc - bw / 2, 0.02, -D / 2 + 0.06), (xc + bw / 2, H - 0.2, D / 2 - 0.1), bin_s)
+    for k, x in enumerate(np.arange(-L / 2, L / 2 - 0.05, 0.2)):  # the lid's boards, tilting back a little
+        x1 = min(x + 0.19, L / 2)
+        b.box((x, H - 0.04, -D / 2 - 0.02), (x1, H - 0.01 + 0.004 * (k % 2), D / 2 + 0.04), wood)
+    return b.build()
+
+
+def notice_board(size, seed: int) -> MeshData:
+    """A notice board on two posts (KITTI sequence_1's frames 12-18: one stands by the gardens'
+    boundary): square galvanised posts, a framed board (its face +z) from ~0.9 m up with
+    notices - sheets of a few tones, lines of print on them - and a small roof. size = (width,
+    height of the posts, depth)."""
+    rng, W, H, D, b = start(size, seed)
+    post = b.surface("galvanised", GALVANISED)
+    frame = b.surface("metal_painted", pick(rng, palette.METAL_PAINT))
+    board = b.surface("wood_planks", scaled(pick(rng, palette.WOOD), 0.9))
+    ink = b.surface("plastic", (0.03, 0.03, 0.035))
+    tones = ((0.78, 0.78, 0.74), (0.70, 0.68, 0.45), (0.72, 0.72, 0.70), (0.35, 0.45, 0.60), (0.75, 0.55, 0.45))
+    y0, y1 = float(H * rng.uniform(0.5, 0.6)), H - 0.08
+    for x in (-W / 2 + 0.04, W / 2 - 0.04):
+        b.box((x - 0.03, -0.3, -0.03), (x + 0.03, H, 0.03), post)
+    b.box((-W / 2 + 0.08, y0, 0.03), (W / 2 - 0.08, y1, 0.055), board)
+    for (xa, xb), (ya, yb) in (((-W / 2 + 0.02, W / 2 - 0.02), (y0 - 0.05, y0)), ((-W / 2 + 0.02, W / 2 - 0.02), (y1, y1 + 0.05)),
+                               ((-W / 2 + 0.07, -W / 2 + 0.1), (y0, y1)), ((W / 2 - 0.1, W / 2 - 0.07), (y0, y1))):
+        b.box((xa, ya, 0.03), (xb, yb, 0.07), frame)
+    b.box((-W / 2 - 0.05, y1 + 0.05, -0.08), (W / 2 + 0.05, y1 + 0.08, D), frame)      # its roof
+    x = -W / 2 + 0.14
+    while x < W / 2 - 0.3:                                          # the notices, A4 or A5, upright or across
+        w_, h_ = (0.21, 0.297) if rng.random() < 0.6 else (0.297, 0.21)
+        if x + w_ > W / 2 - 0.12:
+            break
+        ya = float(rng.uniform(y0 + 0.04, max(y1 - h_ - 0.04, y0 + 0.05)))
+        z = 0.055 + 0.001 * float(rng.integers(1, 4))
+        b.box((x, ya, 0.055), (x + w_, ya + h_, z), b.surface("plastic", tones[int(rng.integers(len(tones)))]))
+        for k in range(int(rng.integers(3, 9))):                    # lines of print (a title, then text)
+            yl = ya + h_ - 0.03 - k * (0.028 if k else 0.04)
+            if yl < ya + 0.03:
+                break
+            lw = (w_ - 0.04) * float(rng.uniform(0.5, 1.0))
+            b.box((x + 0.02, yl - (0.012 if k == 0 else 0.006), z), (x + 0.02 + lw, yl, z + 0.001), ink)
+        x += w_ + float(rng.uniform(0.03, 0.12))
+    return b.build()
