@@ -31,6 +31,13 @@ GLYPH_M = (0.044, 0.075, 0.009)      # a character's width, height and stroke (F
 # seven-segment glyphs (top, top right, bottom right, bottom, bottom left, top left, middle)
 GLYPHS = ("1111110", "0110000", "1101101", "1111001", "0110011", "1011011", "1011111", "1110000",
           "1111111", "1111011", "1110111", "0011111", "1001110", "0111101", "1001111", "1000111", "0110111")
+# session 19 (KITTI sequence_1 frames 0 and 20 at 613 px: bright spokes over the dark wheel well,
+# the tailgate's and boot lid's shut lines, the wiper and third brake lamp on the rear glass)
+RIM_R = 0.66                         # the rim's radius over the tyre's (16-17" rims in 205/55 R16 - 225/45 R17: 0.64-0.68)
+RIM_WELL_M = 0.05                    # the wheel's face sits this far into the tyre's sidewall (the well the spokes span)
+BRAKE_DISC = (0.28, 0.27, 0.26)      # a cast-iron brake disc behind the spokes (library ``metal_rusty``)
+SHUT_GAP_M = 0.005                   # panel gaps: 3.5-5 mm on a current car, seen as a dark slot
+WIPER_M = 0.018                      # a rear wiper's arm and blade, across
 
 
 def _end_outline(W, L, n=800, wrap_deg=75.0):
@@ -149,6 +156,70 @@ def _lamps_plates_badges(b, rd, W, L, hw_end, front_y, rear_y, clear, head):
     T = pose(rot_x(90), (0.0, rear_y - 0.04, -z_end))                  # badges: discs facing out
     b.cylinder(0.04, -0.006, 0.006, 16, head, T=T)
     b.cylinder(0.04, -0.006, 0.006, 16, head, T=pose(rot_x(90), (0.0, front_y - 0.12, z_end + 0.012)))
+    return lw
+
+
+def _wheel_style(rd):
+    """A wheel's spokes: (count, width m): alloys of 5-10 spokes 2.5-5 cm wide (many-spoked
+    ones narrower)."""
+    n = int(rd.choice([5, 5, 5, 6, 7, 8, 10]))
+    return n, float(rd.uniform(0.035, 0.05) if n <= 6 else rd.uniform(0.022, 0.032))
+
+
+def _wheel(b, style, face_x, sx, rw, zw, rim, cap, disc):
+    """The wheel in the tyre's rim well (``RIM_R``, ``RIM_WELL_M``) whose outer face is at x =
+    face_x (sx: the side, +1 right): the rim's lip (a ring 6 % of the tyre's radius wide, flush
+    with the sidewall), the spokes from the hub to the lip 8-35 mm in, the centre cap, and behind
+    the spokes the brake disc and the rim's barrel 4-5 cm in, where the well's shadow falls: the
+    bright spokes over a dark well a camera sees on real wheels."""
+    n, w = style
+    at = lambda d0, d1: sorted((face_x - sx * d0, face_x - sx * d1))   # noqa: E731  (depths in from the face)
+    r_lip = RIM_R * rw
+    seg = 24
+    half = np.pi * r_lip / seg * 1.08
+    x0, x1 = at(0.004, 0.016)
+    for k in range(seg):
+        b.box((x0, r_lip - 0.06 * rw, -half), (x1, r_lip + 0.003, half), rim, T=pose(rot_x(360.0 * k / seg), (0.0, rw, zw)))
+    x0, x1 = at(0.008, 0.035)
+    phase = 17.0 * sx + 40.0 * zw
+    for k in range(n):
+        b.box((x0, 0.05, -w / 2), (x1, r_lip - 0.05 * rw, w / 2), rim, T=pose(rot_x(phase + 360.0 * k / n), (0.0, rw, zw)))
+    T = lambda d: pose(rot_z(90), (face_x - sx * d, rw, zw))           # noqa: E731  (axis along x)
+    b.cylinder(0.065, -0.012, 0.012, 16, cap, T=T(0.02))
+    b.cylinder(0.45 * rw, -0.006, 0.006, 24, disc, T=T(0.042))
+    b.cylinder(r_lip - 0.01, -0.002, 0.002, 24, rim, T=T(RIM_WELL_M - 0.003))
+
+
+def _rear_detail(b, rd, W, L, H, style, clear, rear_y, z_rr, z_boot, top_y, lw, hw_cap, gap, red, pipe):
+    """The rear's shut lines (the tailgate's or boot lid's: dark ``SHUT_GAP_M`` slots up both
+    sides just inboard of the tail lamps and across under the plate), a hatch's or estate's
+    third brake lamp at the top of the rear glass and its wiper parked across the glass's foot,
+    and the exhaust's tail pipe under the bumper on most cars."""
+    P, arc = _end_outline(W, L)
+    order = np.argsort(arc)
+    x_g = min(float(np.interp(lw + 0.02, arc[order], P[order, 0])), hw_cap - 0.04)
+    z_c = -(L / 2 - 0.02)                       # the rear's flat face
+    y_low = max(clear + 0.2, rear_y - 0.2 - rd.uniform(0.04, 0.1))
+    g = SHUT_GAP_M / 2
+    z0, z1 = z_c - 0.0015, z_c + 0.01
+    for sx in (-1, 1):
+        xa, xb = sorted((sx * (x_g - g), sx * (x_g + g)))
+        b.box((xa, y_low - g, z0), (xb, rear_y - 0.01, z1), gap)
+    b.box((-x_g, y_low - g, z0), (x_g, y_low + g, z1), gap)
+    if style != "sedan":
+        z3 = z_rr - 0.06                                                   # the third brake lamp
+        hw3 = rd.uniform(0.1, 0.16)
+        b.box((-hw3, top_y(z3) - 0.005, z3), (hw3, top_y(z3) + 0.035, z3 + 0.08), red)
+        if rd.random() < 0.85:                                             # the wiper across the glass's foot
+            zw_ = z_boot + 0.1
+            side = 1.0 if rd.random() < 0.5 else -1.0
+            xa, xb = sorted((side * -0.03, side * rd.uniform(0.3, 0.4)))
+            y = top_y(zw_) + 0.006
+            b.box((xa, y, zw_ - WIPER_M / 2), (xb, y + WIPER_M, zw_ + WIPER_M / 2), gap)
+    if rd.random() < 0.7:                                                  # the tail pipe
+        xe = (1.0 if rd.random() < 0.3 else -1.0) * (hw_cap - rd.uniform(0.2, 0.3))
+        b.cylinder(0.032, -0.03, 0.05, 16, pipe, T=pose(rot_x(90), (xe, clear + 0.03, -L / 2)))
+        b.cylinder(0.024, -0.031, -0.02, 12, gap, T=pose(rot_x(90), (xe, clear + 0.03, -L / 2)))
 
 
 def _smoothstep(x):
@@ -275,7 +346,7 @@ def generate(size, seed: int) -> MeshData:
     # lamps, grille, plates, badges (the rear's fine detail: _rear_and_front_detail)
     rd = np.random.default_rng([seed, 16])           # the details' own stream: the body's draws stay
     z_front = L / 2 - 0.02
-    _lamps_plates_badges(b, rd, W, L, hw_end, front_y, rear_y, clear, head)
+    lw = _lamps_plates_badges(b, rd, W, L, hw_end, front_y, rear_y, clear, head)
     b.box((-0.3, front_y - 0.2, z_front - 0.1), (0.3, front_y - 0.04, z_front + 0.004), trim)
     for y in (front_y - 0.16, front_y - 0.09):        # grille bars
         b.box((-0.29, y, z_front + 0.004), (0.29, y + 0.012, z_front + 0.012), head)
@@ -304,20 +375,22 @@ def generate(size, seed: int) -> MeshData:
         for sx in (-1, 1):
             x0, x1 = sorted((sx * (x - 0.006), sx * (x + 0.014)))
             b.box((x0, belt_y - 0.105, zc - 0.09), (x1, belt_y - 0.075, zc + 0.09), handle)
-    # wheels: tyre (revolved, rounded shoulders), rim disc, hub
+    # wheels: tyre (revolved, rounded shoulders) whose rim well shows the wheel (_wheel)
     tw = 0.2 + 0.02 * rng.random()
-    prof = [(0, -tw / 2), (rw * 0.62, -tw / 2), (rw * 0.9, -tw / 2 + 0.005), (rw - 0.012, -tw / 2 + 0.025),
-            (rw, -tw / 4), (rw, tw / 4), (rw - 0.012, tw / 2 - 0.025), (rw * 0.9, tw / 2 - 0.005),
-            (rw * 0.62, tw / 2), (0, tw / 2)]
+    rd19 = np.random.default_rng([seed, 19])          # session 19's parts: their own stream
+    wheel = _wheel_style(rd19)
+    prof = [(0, -tw / 2 + RIM_WELL_M), (rw * RIM_R, -tw / 2 + RIM_WELL_M), (rw * RIM_R, -tw / 2 + 0.004),
+            (rw * 0.9, -tw / 2 + 0.005), (rw - 0.012, -tw / 2 + 0.025), (rw, -tw / 4), (rw, tw / 4),
+            (rw - 0.012, tw / 2 - 0.025), (rw * 0.9, tw / 2 - 0.005), (rw * RIM_R, tw / 2 - 0.004),
+            (rw * RIM_R, tw / 2 - RIM_WELL_M), (0, tw / 2 - RIM_WELL_M)]
+    disc = b.surface("metal_rusty", BRAKE_DISC)
     for zw in (z_wf, z_wr):
         for sx in (-1, 1):
             xw = sx * (half_w(zw) - tw / 2 - 0.03)
             T = pose(rot_z(90), (xw, rw, zw))          # tyre axis (local Y) along x
             b.revolve(prof, 28, tyre, T=T)
-            T_rim = pose(rot_z(90), (xw + sx * (tw / 2 - 0.015), rw, zw))
-            b.cylinder(rw * 0.6, -0.012, 0.012, 24, rim, T=T_rim)
-            for a in range(5):     # spokes, radial in the rim's plane
-                b.box((-0.014, 0.05, -0.025), (0.014, rw * 0.58, 0.025), rim,
-                      T=pose(rot_x(72.0 * a + 17.0 * sx), (xw + sx * (tw / 2 - 0.01), rw, zw)))
-            b.cylinder(0.06, -0.02, 0.02, 12, head, T=T_rim)
+            _wheel(b, wheel, xw + sx * tw / 2, sx, rw, zw, rim, head, disc)
+    # the rear's shut lines, third brake lamp, wiper and exhaust (session 19)
+    _rear_detail(b, rd19, W, L, H, style, clear, rear_y, z_rr, z_boot, top_y, lw, half_w(L / 2 - 0.02), trim,
+                 b.surface("vehicle_lamp", LAMP_RED), head)
     return b.build()
