@@ -69,6 +69,7 @@ def _lamp(b, rd, arc0, arc1, y0, y1, W, L, rear, sx, colour_of):
     a_edges = np.linspace(arc1, arc0, nx + 1)          # inner end first
     order = np.argsort(arc)
     sz = -1.0 if rear else 1.0
+    cols = []
     for i in range(nx):
         ac = 0.5 * (a_edges[i] + a_edges[i + 1])
         x = float(np.interp(ac, arc[order], P[order, 0]))
@@ -83,11 +84,13 @@ def _lamp(b, rd, arc0, arc1, y0, y1, W, L, rear, sx, colour_of):
             nxn, nzn = -nxn, -nzn
         yaw = np.degrees(np.arctan2(sx * nxn, sz * nzn))
         w = abs(a_edges[i + 1] - a_edges[i]) / 2
+        cols.append((sx * x, sz * z, yaw, w))
         for j in range(ny):
             yc = 0.5 * (ys[j] + ys[j + 1])
             R = rot_y(yaw) @ rot_y(rd.uniform(-30, 30)) @ rot_x(rd.uniform(-30, 30))
             h = (ys[j + 1] - ys[j]) / 2
             b.box((-w, -h, -0.04), (w, h, 0.004), colour_of(i, j, nx, ny), T=pose(R, (sx * x, yc, sz * z)))
+    return cols
 
 
 def _plate(b, rd, y0, z_face, rear, white, ink, blue):
@@ -145,8 +148,9 @@ def _lamps_plates_badges(b, rd, W, L, hw_end, front_y, rear_y, clear, head):
     def head_cell(i, j, nx, ny):
         return amber if i >= nx - 2 else lens
 
+    tail = []
     for sx in (-1, 1):
-        _lamp(b, rd, 0.0, lw, rear_y + 0.01 - lh, rear_y + 0.01, W, L, True, sx, tail_cell)
+        tail += _lamp(b, rd, 0.0, lw, rear_y + 0.01 - lh, rear_y + 0.01, W, L, True, sx, tail_cell)
         _lamp(b, rd, 0.04, 0.04 + hlw, front_y + 0.02 - hlh, front_y + 0.02, W, L, False, sx, head_cell)
         x0, x1 = sorted((sx * (hw_end - 0.1), sx * (hw_end - 0.2)))    # rear bumper reflectors
         b.box((x0, clear + 0.09, -L / 2 - 0.014), (x1, clear + 0.12, -L / 2 - 0.004), red)
@@ -156,7 +160,7 @@ def _lamps_plates_badges(b, rd, W, L, hw_end, front_y, rear_y, clear, head):
     T = pose(rot_x(90), (0.0, rear_y - 0.04, -z_end))                  # badges: discs facing out
     b.cylinder(0.04, -0.006, 0.006, 16, head, T=T)
     b.cylinder(0.04, -0.006, 0.006, 16, head, T=pose(rot_x(90), (0.0, front_y - 0.12, z_end + 0.012)))
-    return lw
+    return lw, (tail, rear_y + 0.01 - lh, rear_y + 0.01)
 
 
 def _wheel_style(rd):
@@ -190,11 +194,27 @@ def _wheel(b, style, face_x, sx, rw, zw, rim, cap, disc):
     b.cylinder(r_lip - 0.01, -0.002, 0.002, 24, rim, T=T(RIM_WELL_M - 0.003))
 
 
-def _rear_detail(b, rd, W, L, H, style, clear, rear_y, z_rr, z_boot, top_y, lw, hw_cap, gap, red, pipe):
+def _rear_detail(b, rd, W, L, style, clear, rear_y, z_rr, z_boot, top_y, lw, tail, hw_cap, hw_roof, paint, gap, red,
+                 pipe):
     """The rear's shut lines (the tailgate's or boot lid's: dark ``SHUT_GAP_M`` slots up both
     sides just inboard of the tail lamps and across under the plate), a hatch's or estate's
     third brake lamp at the top of the rear glass and its wiper parked across the glass's foot,
-    and the exhaust's tail pipe under the bumper on most cars."""
+    the exhaust's tail pipe under the bumper on most cars, the rear fog lamp in the bumper (ECE
+    R38: one, at the driver's side) and, on half the cars, the tail lamps' bright bezels
+    (chrome, or the clear lens's edge over its reflector: KITTI's lamps' outlines glint) along
+    their tops and feet. ``tail``: the tail lamps' columns (x, z, yaw, half width) and their
+    foot and top."""
+    cols, y_foot, y_top = tail
+    if rd.random() < 0.5:
+        for x, z, yaw, w in cols:
+            for y0 in (y_top, y_foot - 0.01):
+                b.box((-w, y0, -0.03), (w, y0 + 0.01, 0.006), pipe, T=pose(rot_y(yaw), (x, 0.0, z)))
+    xf = hw_cap - rd.uniform(0.25, 0.35)                                   # the fog lamp: the car's left (+x)
+    for i in range(3):
+        for j in range(2):
+            R = rot_y(rd.uniform(-30, 30)) @ rot_x(rd.uniform(-30, 30))
+            b.box((-0.017, -0.015, -0.004), (0.017, 0.015, 0.02), red,
+                  T=pose(R, (xf + 0.034 * (i - 1), clear + 0.095 + 0.03 * j, -L / 2 - 0.012)))
     P, arc = _end_outline(W, L)
     order = np.argsort(arc)
     x_g = min(float(np.interp(lw + 0.02, arc[order], P[order, 0])), hw_cap - 0.04)
@@ -206,10 +226,19 @@ def _rear_detail(b, rd, W, L, H, style, clear, rear_y, z_rr, z_boot, top_y, lw, 
         xa, xb = sorted((sx * (x_g - g), sx * (x_g + g)))
         b.box((xa, y_low - g, z0), (xb, rear_y - 0.01, z1), gap)
     b.box((-x_g, y_low - g, z0), (x_g, y_low + g, z1), gap)
-    if style != "sedan":
-        z3 = z_rr - 0.06                                                   # the third brake lamp
-        hw3 = rd.uniform(0.1, 0.16)
-        b.box((-hw3, top_y(z3) - 0.005, z3), (hw3, top_y(z3) + 0.035, z3 + 0.08), red)
+    # the bumper's cover in paint under the lid's foot, 4 cm proud of the tail (its top a ledge
+    # that mirrors the sky over a face that mirrors the street: the rear's brightest line), and
+    # the lid's trailing edge (a sedan's boot lip between the lamps, a hatch's roof spoiler over
+    # its glass with the third brake lamp in it)
+    b.box((-(hw_cap + 0.03), clear + 0.16, -L / 2 - 0.03), (hw_cap + 0.03, y_low - g, -L / 2 + 0.2), paint)
+    if style == "sedan":
+        b.box((-(x_g - 0.01), rear_y - 0.01, -L / 2), (x_g - 0.01, rear_y + 0.02, -L / 2 + 0.12), paint)
+    else:
+        z3 = z_rr - 0.1
+        y3 = top_y(z3)
+        b.box((-hw_roof, y3 - 0.01, z3), (hw_roof, y3 + 0.035, z_rr + 0.06), paint)
+        hw3 = rd.uniform(0.1, 0.16)                                        # the third brake lamp
+        b.box((-hw3, y3 + 0.005, z3 - 0.004), (hw3, y3 + 0.03, z3 + 0.01), red)
         if rd.random() < 0.85:                                             # the wiper across the glass's foot
             zw_ = z_boot + 0.1
             side = 1.0 if rd.random() < 0.5 else -1.0
@@ -346,7 +375,7 @@ def generate(size, seed: int) -> MeshData:
     # lamps, grille, plates, badges (the rear's fine detail: _rear_and_front_detail)
     rd = np.random.default_rng([seed, 16])           # the details' own stream: the body's draws stay
     z_front = L / 2 - 0.02
-    lw = _lamps_plates_badges(b, rd, W, L, hw_end, front_y, rear_y, clear, head)
+    lw, tail = _lamps_plates_badges(b, rd, W, L, hw_end, front_y, rear_y, clear, head)
     b.box((-0.3, front_y - 0.2, z_front - 0.1), (0.3, front_y - 0.04, z_front + 0.004), trim)
     for y in (front_y - 0.16, front_y - 0.09):        # grille bars
         b.box((-0.29, y, z_front + 0.004), (0.29, y + 0.012, z_front + 0.012), head)
@@ -391,6 +420,6 @@ def generate(size, seed: int) -> MeshData:
             b.revolve(prof, 28, tyre, T=T)
             _wheel(b, wheel, xw + sx * tw / 2, sx, rw, zw, rim, head, disc)
     # the rear's shut lines, third brake lamp, wiper and exhaust (session 19)
-    _rear_detail(b, rd19, W, L, H, style, clear, rear_y, z_rr, z_boot, top_y, lw, half_w(L / 2 - 0.02), trim,
-                 b.surface("vehicle_lamp", LAMP_RED), head)
+    _rear_detail(b, rd19, W, L, style, clear, rear_y, z_rr, z_boot, top_y, lw, tail, half_w(L / 2 - 0.02),
+                 half_w(z_rr) - tumble - 0.04, paint, trim, b.surface("vehicle_lamp", LAMP_RED), head)
     return b.build()
