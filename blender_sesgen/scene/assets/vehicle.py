@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import palette
-from .mesh import MeshData, pose, rot_x, rot_y, rot_z, start
+from .mesh import MeshData, _box_triangles, pose, rot_x, rot_y, rot_z, start
 from .palette import pick
 
 # the fine detail (session 16, measured in KITTI sequence_1's frames 0 and 20 at 12-14 m: the rear
@@ -38,6 +38,11 @@ RIM_WELL_M = 0.05                    # the wheel's face sits this far into the t
 BRAKE_DISC = (0.28, 0.27, 0.26)      # a cast-iron brake disc behind the spokes (library ``metal_rusty``)
 SHUT_GAP_M = 0.005                   # panel gaps: 3.5-5 mm on a current car, seen as a dark slot
 WIPER_M = 0.018                      # a rear wiper's arm and blade, across
+# what the rear glass shows of the cabin (under the opaque glass, as ``glass_window``'s rooms):
+# above the rear seats' backs (at the belt line) the light through the windscreen and side
+# glass beyond (the street's light through a tinted rear pane and the windscreen, ~0.3 x a
+# grey street), against it the headrests' dark shapes (0.24-0.28 m wide, 0.18-0.22 m tall)
+CABIN_THROUGH = (0.06, 0.06, 0.062)
 
 
 def _end_outline(W, L, n=800, wrap_deg=75.0):
@@ -161,6 +166,41 @@ def _lamps_plates_badges(b, rd, W, L, hw_end, front_y, rear_y, clear, head):
     b.cylinder(0.04, -0.006, 0.006, 16, head, T=T)
     b.cylinder(0.04, -0.006, 0.006, 16, head, T=pose(rot_x(90), (0.0, front_y - 0.12, z_end + 0.012)))
     return lw, (tail, rear_y + 0.01 - lh, rear_y + 0.01)
+
+
+def _cabin(b, rd, zs, glass_top, half_w, tumble, z0, z1, y_seat, through):
+    """The cabin seen through the rear glass (z0..z1 along the car, the glass's middle band,
+    |x| < 0.55 of the roof's half width): thin slabs in the ``through`` glass 2-3 mm over the
+    glass where the view passes over the rear seats' backs (above ``y_seat``) to the bright
+    windscreen, left out where a headrest stands in it (rear ones on the seat backs, the front
+    ones further on, seen higher). ``glass_top``: the glass's height at x = 0 by station."""
+    rear = [(s * rd.uniform(0.3, 0.38), rd.uniform(0.12, 0.14), y_seat, y_seat + rd.uniform(0.18, 0.22))
+            for s in (-1, 1)]
+    if rd.random() < 0.5:
+        rear.append((0.0, 0.1, y_seat, y_seat + 0.12))
+    lift = rd.uniform(0.1, 0.16)
+    front = [(s * rd.uniform(0.3, 0.37), 0.11, y_seat + lift, y_seat + lift + 0.18) for s in (-1, 1)]
+    heads = rear + front
+    ys = np.array([glass_top(z) for z in zs])
+    y_at = lambda x, z, xm: float(np.interp(z, zs, ys)) - 0.006 * abs(x) / xm   # noqa: E731
+    n = max(2, int(round((z1 - z0) / 0.02)))
+    edges = np.linspace(z0, z1, n + 1)
+    tris = _box_triangles(())
+    for za, zb in zip(edges[:-1], edges[1:]):
+        zc = 0.5 * (za + zb)
+        yc = float(np.interp(zc, zs, ys))
+        if yc < y_seat:
+            continue
+        xm = 0.55 * (half_w(zc) - tumble + 0.02)
+        cuts = sorted((xc - w, xc + w) for xc, w, y0, y1 in heads if y0 <= yc <= y1)
+        for lo, hi in ((-xm + 0.01, 0.0), (0.0, xm - 0.01)):
+            a = lo
+            for c0, c1 in cuts + [(hi, hi)]:
+                b_ = min(c0, hi)
+                if b_ - a > 0.01:
+                    V = [(x, y_at(x, z, xm) + dy, z) for x in (a, b_) for dy in (-0.002, 0.003) for z in (za, zb)]
+                    b.add(V, tris, through, closed=True)
+                a = max(a, c1)
 
 
 def _wheel_style(rd):
@@ -419,7 +459,10 @@ def generate(size, seed: int) -> MeshData:
             T = pose(rot_z(90), (xw, rw, zw))          # tyre axis (local Y) along x
             b.revolve(prof, 28, tyre, T=T)
             _wheel(b, wheel, xw + sx * tw / 2, sx, rw, zw, rim, head, disc)
-    # the rear's shut lines, third brake lamp, wiper and exhaust (session 19)
+    # the cabin through the rear glass, the rear's shut lines, third brake lamp, wiper and exhaust (session 19)
+    g0, g1 = (z_boot + 0.05, z_rr - 0.04) if style != "sedan" else (z_boot + 0.04, z_rr - 0.04)
+    _cabin(b, rd19, zs, lambda z: top_y(z) + 0.01, half_w, tumble, g0 + 0.01, g1 - 0.01, belt_y + 0.05,
+           b.surface("glass_window", CABIN_THROUGH))
     _rear_detail(b, rd19, W, L, style, clear, rear_y, z_rr, z_boot, top_y, lw, tail, half_w(L / 2 - 0.02),
                  half_w(z_rr) - tumble - 0.04, paint, trim, b.surface("vehicle_lamp", LAMP_RED), head)
     return b.build()
