@@ -33,8 +33,9 @@ def _view(seed):
     d = target - cam
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     tris = m.vertices[m.faces]
-    t, i = mesh_raycast.rays_hit_triangles(np.broadcast_to(cam, d.shape), d, tris)
-    hit = np.where(np.isfinite(t), i, -1)
+    keep = np.flatnonzero(tris.min(1)[:, 2] < 0.0)         # the rear half: what the camera sees of it
+    t, i = mesh_raycast.rays_hit_triangles(np.broadcast_to(cam, d.shape), d, tris[keep])
+    hit = np.where(np.isfinite(t), keep[np.maximum(i, 0)], -1)
     return m, hit, X.shape, cam + d * np.where(np.isfinite(t), t, 0.0)[:, None]
 
 
@@ -114,6 +115,8 @@ def _ortho(m, origins, d, lo=(-np.inf,) * 3, hi=(np.inf,) * 3):
     d = np.broadcast_to(np.asarray(d, float) / np.linalg.norm(d), origins.shape)
     tris = m.vertices[m.faces]
     keep = np.flatnonzero(np.all((tris.max(1) >= lo) & (tris.min(1) <= hi), axis=1))
+    if not keep.size:
+        return np.full(len(origins), -1), origins.copy()
     t, i = mesh_raycast.rays_hit_triangles(origins, d, tris[keep])
     hit = np.where(np.isfinite(t), keep[np.maximum(i, 0)], -1)
     return hit, origins + d * np.where(np.isfinite(t), t, 0.0)[:, None]
