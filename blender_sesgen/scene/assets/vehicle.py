@@ -3,7 +3,11 @@ windscreen, roof, rear window and boot or hatch), glass where the windows are, p
 paint, tyres with rims and hubs in the arches, grille and mirrors; the fine detail a camera sees
 at 5-20 m: lamps as their reflectors' tilted facets (red, amber, clear: the glints), EU number
 plates with embossed dark characters, the mirrors' glass, door shut lines and handles, badges and
-the rear bumper's reflectors.
+the rear bumper's reflectors; since session 19 alloy wheels in the tyres' rim wells (lip, spokes,
+brake disc in the well's shadow), the tailgate's or boot lid's shut lines, the bumper cover's
+ledge, a boot lip or roof spoiler with the third brake lamp, the rear wiper, tail pipe and rear
+fog lamp, bright lamp bezels on some cars, and the cabin seen through the rear glass (headrests
+against the windscreen's light).
 
 Asset frame: ``size`` = (width x, height y, length z), ground at y = 0, nose towards +z.
 """
