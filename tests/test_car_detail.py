@@ -96,6 +96,24 @@ def test_the_tail_lamps_are_facets_turned_many_ways_round_the_corner(view):
         assert 0.12 <= q[:, 1].max() - q[:, 1].min() <= 0.3
 
 
+def test_the_rear_glass_shows_the_cabins_headrests_against_the_light_beyond(view):
+    """From KITTI frame 0's viewpoint the rear glass (opaque, as every window here: its colour
+    is what lies behind it) shows the light through the cabin above the seats' backs and the
+    headrests' dark shapes in it: 20-85 % of the rear glass the camera sees is the lighter
+    ``CABIN_THROUGH`` (KITTI frame 0's dark car: headrests and the windscreen's light through
+    its rear window), and the headrests (0.24-0.28 m wide, 0.18-0.22 m tall) cut into the light:
+    its narrowest row 0.2-0.8 m narrower than its widest (one to three headrests). Session
+    18's car: one dark colour under all its glass."""
+    m, hit, shape, P = view
+    through = _surface_of(m, hit, "glass_window", vehicle.CABIN_THROUGH)
+    dark = _surface_of(m, hit, "glass_window", vehicle.CABIN)
+    glass = (through | dark) & (np.abs(P[:, 0]) < 0.5) & (P[:, 1] > np.percentile(P[through | dark, 1], 30))
+    assert 0.2 <= through[glass].mean() <= 0.85, through[glass].mean()
+    T = through.reshape(shape)
+    width = np.array([T[r].sum() for r in range(shape[0]) if T[r].sum() >= 2]) * PITCH_M
+    assert len(width) >= 5 and 0.2 <= width.max() - width.min() <= 0.8, width
+
+
 def test_lamps_plates_and_glass_take_their_colours_from_the_physical_parts():
     # a red lens over a mirror; the plate's retro-reflective white well below paint white; a
     # dark cabin under the glass (KITTI frame 20: the rear window 0.26 x a grey body's median)
