@@ -33,8 +33,9 @@ def _view(seed):
     d = target - cam
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     tris = m.vertices[m.faces]
-    t, i = mesh_raycast.rays_hit_triangles(np.broadcast_to(cam, d.shape), d, tris)
-    hit = np.where(np.isfinite(t), i, -1)
+    keep = np.flatnonzero(tris.min(1)[:, 2] < 0.0)         # the rear half: what the camera sees of it
+    t, i = mesh_raycast.rays_hit_triangles(np.broadcast_to(cam, d.shape), d, tris[keep])
+    hit = np.where(np.isfinite(t), keep[np.maximum(i, 0)], -1)
     return m, hit, X.shape, cam + d * np.where(np.isfinite(t), t, 0.0)[:, None]
 
 
@@ -73,7 +74,9 @@ def test_the_plate_is_an_eu_plate_with_dark_characters_a_camera_sees(view):
 
 def test_the_tail_lamps_are_facets_turned_many_ways_round_the_corner(view):
     m, hit, shape, P = view
-    lamp = _surface_of(m, hit, "vehicle_lamp") & (P[:, 1] > 0.4)      # above the bumper's reflectors
+    H = m.vertices[:, 1].max()
+    # the tail lamps: above the bumper's reflectors and fog lamp, below a hatch's third brake lamp
+    lamp = _surface_of(m, hit, "vehicle_lamp") & (P[:, 1] > 0.4) & (P[:, 1] < 0.75 * H)
     assert lamp.sum() > 50
     n = m.triangle_normals()[hit[lamp]]
     # facets: the normals the camera sees spread (a flat lens would show one); some turned
@@ -93,6 +96,24 @@ def test_the_tail_lamps_are_facets_turned_many_ways_round_the_corner(view):
         assert 0.12 <= q[:, 1].max() - q[:, 1].min() <= 0.3
 
 
+def test_the_rear_glass_shows_the_cabins_headrests_against_the_light_beyond(view):
+    """From KITTI frame 0's viewpoint the rear glass (opaque, as every window here: its colour
+    is what lies behind it) shows the light through the cabin above the seats' backs and the
+    headrests' dark shapes in it: 20-85 % of the rear glass the camera sees is the lighter
+    ``CABIN_THROUGH`` (KITTI frame 0's dark car: headrests and the windscreen's light through
+    its rear window), and the headrests (0.24-0.28 m wide, 0.18-0.22 m tall) cut into the light:
+    its narrowest row 0.2-0.8 m narrower than its widest (one to three headrests). Session
+    18's car: one dark colour under all its glass."""
+    m, hit, shape, P = view
+    through = _surface_of(m, hit, "glass_window", vehicle.CABIN_THROUGH)
+    dark = _surface_of(m, hit, "glass_window", vehicle.CABIN)
+    glass = (through | dark) & (np.abs(P[:, 0]) < 0.5) & (P[:, 1] > np.percentile(P[through | dark, 1], 30))
+    assert 0.2 <= through[glass].mean() <= 0.85, through[glass].mean()
+    T = through.reshape(shape)
+    width = np.array([T[r].sum() for r in range(shape[0]) if T[r].sum() >= 2]) * PITCH_M
+    assert len(width) >= 5 and 0.2 <= width.max() - width.min() <= 0.8, width
+
+
 def test_lamps_plates_and_glass_take_their_colours_from_the_physical_parts():
     # a red lens over a mirror; the plate's retro-reflective white well below paint white; a
     # dark cabin under the glass (KITTI frame 20: the rear window 0.26 x a grey body's median)
@@ -104,6 +125,108 @@ def test_lamps_plates_and_glass_take_their_colours_from_the_physical_parts():
     m = assets.generate("car", assets.default_size("car", 0), 0)
     names = {s.material for s in m.surfaces}
     assert {"vehicle_lamp", "glass_window", "car_paint", "rubber", "chrome"} <= names
+
+
+def _ortho(m, origins, d, lo=(-np.inf,) * 3, hi=(np.inf,) * 3):
+    """Parallel rays from ``origins`` (n, 3) along ``d``: (hit triangle or -1, hit points),
+    against the triangles reaching into the box [lo, hi] (the rays' region: the cast's cost)."""
+    d = np.broadcast_to(np.asarray(d, float) / np.linalg.norm(d), origins.shape)
+    tris = m.vertices[m.faces]
+    keep = np.flatnonzero(np.all((tris.max(1) >= lo) & (tris.min(1) <= hi), axis=1))
+    if not keep.size:
+        return np.full(len(origins), -1), origins.copy()
+    t, i = mesh_raycast.rays_hit_triangles(origins, d, tris[keep])
+    hit = np.where(np.isfinite(t), keep[np.maximum(i, 0)], -1)
+    return hit, origins + d * np.where(np.isfinite(t), t, 0.0)[:, None]
+
+
+def _is(m, hit, material):
+    idx = [k for k, s in enumerate(m.surfaces) if s.material == material]
+    return (hit >= 0) & np.isin(m.face_surface[np.maximum(hit, 0)], idx)
+
+
+WHEEL_SEEDS = (635105, 83216, 5)                # a hatch, an estate, a sedan
+
+
+@pytest.mark.parametrize("seed", WHEEL_SEEDS)
+def test_the_wheels_show_bright_spokes_and_lip_over_a_deep_dark_well(seed):
+    """The rear wheel seen square from the side (parallel rays, 4 mm apart): the rim's lip a
+    ring of metal at 0.62-0.65 of the tyre's radius (16-17" rims in 205/55 R16 - 225/45 R17
+    tyres: 0.64-0.68; the sidewall outside it), and between the hub and the lip the spokes
+    (metal, 20-75 % of the disc) over a well 2.5 cm or more deeper than their face, where the
+    brake disc and the rim's barrel lie 2.5 cm and more in, in the wheel's shadow (KITTI frame 0's dark car: its
+    rear wheel's spokes read bright over black). Session 18's car: its rims' discs were inside
+    the tyre's flat sidewall; the spokes stood 1.5 cm out of black rubber, no lip."""
+    size = assets.default_size("car", seed)
+    m = assets.generate("car", size, seed)
+    rub = m.face_surface == [k for k, s in enumerate(m.surfaces) if s.material == "rubber"][0]
+    V = m.vertices[np.unique(m.faces[rub])]
+    V = V[(V[:, 0] > 0) & (V[:, 2] < 0)]                     # the left rear tyre (+x, behind the middle)
+    yc, zc = 0.5 * (V[:, 1].min() + V[:, 1].max()), 0.5 * (V[:, 2].min() + V[:, 2].max())
+    rw = 0.5 * (V[:, 1].max() - V[:, 1].min())
+    g = np.arange(-rw, rw, 0.004)
+    Y, Z = np.meshgrid(yc + g, zc + g)
+    r = np.hypot(Y - yc, Z - zc).ravel() / rw
+    O = np.column_stack([np.full(r.size, 3.0), Y.ravel(), Z.ravel()])
+    hit, P = _ortho(m, O, (-1.0, 0.0, 0.0), (0.0, yc - 1.2 * rw, zc - 1.2 * rw), (3.0, yc + 1.2 * rw, zc + 1.2 * rw))
+    metal = _is(m, hit, "metal_brushed")
+    lip = (r > 0.62) & (r < 0.65)
+    assert metal[lip].mean() >= 0.7, metal[lip].mean()
+    disc = (r > 0.2) & (r < 0.5)
+    share = metal[disc].mean()
+    assert 0.2 <= share <= 0.75, share
+    face = np.median(P[disc & metal, 0])
+    well = disc & ~metal & (hit >= 0)
+    assert np.median(face - P[well, 0]) >= 0.025
+    assert _is(m, hit, "metal_rusty")[disc].any()             # the brake disc between the spokes
+
+
+@pytest.mark.parametrize("seed", WHEEL_SEEDS)
+def test_the_rear_has_its_lids_shut_lines_and_a_bumper_ledge(seed):
+    """Seen square from behind (parallel rays 1 mm apart): the tailgate's or boot lid's shut
+    lines, dark slots 3-7 mm wide (panel gaps of current cars 3.5-5 mm, in shadow), one each
+    side 0.3 m or more off the middle (beside the plate) at the same height, mirrored to 2 cm;
+    and the bumper's cover a ledge in paint, 3 cm or more deep behind the tail's face, 0.35-0.75 m
+    above the road, facing up (it mirrors the sky over a face that mirrors the street: the
+    line KITTI's cars' rears show). Session 18's car: neither."""
+    size = assets.default_size("car", seed)
+    m = assets.generate("car", size, seed)
+    W, H, L = size
+    dark = [k for k, s in enumerate(m.surfaces) if s.material == "plastic" and max(s.colour or (1,)) < 0.05]
+    found = []
+    x = np.r_[np.arange(-W / 2, -0.3, 0.001), np.arange(0.3, W / 2, 0.001)]
+    for y in np.arange(0.4, 0.95, 0.02):
+        O = np.column_stack([x, np.full(x.size, y), np.full(x.size, -L)])
+        hit, P = _ortho(m, O, (0.0, 0.0, 1.0), (-W, y - 0.01, -L), (W, y + 0.01, -L / 2 + 0.3))
+        d = (hit >= 0) & np.isin(m.face_surface[np.maximum(hit, 0)], dark)
+        edges = np.flatnonzero(np.diff(np.r_[0, d.astype(int), 0]))
+        runs = [(x[a], x[b - 1]) for a, b in zip(edges[::2], edges[1::2])]
+        slots = [0.5 * (a + b) for a, b in runs if 0.003 <= b - a + 0.001 <= 0.007]
+        if any(u < 0 for u in slots) and any(u > 0 for u in slots):
+            found.append(min(abs(u + v) for u in slots if u < 0 for v in slots if v > 0))
+    assert found and min(found) <= 0.02, found
+    z = np.arange(-L / 2 - 0.1, -L / 2 + 0.02, 0.002)
+    O = np.column_stack([np.zeros(z.size), np.full(z.size, 3.0), z])
+    hit, P = _ortho(m, O, (0.0, -1.0, 0.0), (-0.01, 0.0, -L), (0.01, 3.0, -L / 2 + 0.03))
+    up = m.triangle_normals()[np.maximum(hit, 0)][:, 1] > 0.9
+    ledge = _is(m, hit, "car_paint") & up & (P[:, 1] > 0.35) & (P[:, 1] < 0.75)
+    assert ledge.sum() * 0.002 >= 0.03, ledge.sum()
+
+
+def test_hatches_and_estates_carry_a_third_brake_lamp_at_the_top_of_their_rear_glass():
+    """ECE R48: a high-mounted stop lamp; on a hatch or estate at the top of the tailgate's
+    glass (1.2-1.5 m up), red, seen square from behind near the middle. Session 18's car had
+    no lamp above its tail lamps."""
+    for seed in (635105, 83216):                                # a hatch and an estate
+        size = assets.default_size("car", seed)
+        m = assets.generate("car", size, seed)
+        W, H, L = size
+        x, y = np.meshgrid(np.arange(-0.2, 0.2, 0.005), np.arange(0.8 * H, H + 0.05, 0.003))
+        O = np.column_stack([x.ravel(), y.ravel(), np.full(x.size, -L)])
+        hit, P = _ortho(m, O, (0.0, 0.0, 1.0), (-0.2, 0.8 * H, -L), (0.2, H + 0.05, L))
+        red = [k for k, s in enumerate(m.surfaces) if s.material == "vehicle_lamp" and s.colour == vehicle.LAMP_RED]
+        lamp = (hit >= 0) & np.isin(m.face_surface[np.maximum(hit, 0)], red)
+        assert lamp.sum() >= 10 and P[lamp, 1].min() > 0.8 * H
 
 
 # KITTI sequence_1's parked cars, boxes inside their outlines (full size: frame 0 the dark

@@ -48,8 +48,9 @@ def _kinds() -> dict[str, Kind]:
         Kind("building_shell", "outdoor", "building",
              "block under construction: bare walls, unglazed openings into dark rooms, slab edges, flat roof",
              ((12, 40), (9, 20), (9, 22)), "width, height, depth", building.shell, overhang=0.1),
-        Kind("car", "street", "car", "hatchback, saloon or estate: lofted body, glass, wheels in arches, "
-             "faceted lamps, plates with characters, mirrors, door lines",
+        Kind("car", "street", "car", "hatchback, saloon or estate: lofted body, glass showing the cabin's "
+             "headrests, alloy wheels in arches, faceted lamps, plates with characters, mirrors, door and lid "
+             "shut lines, bumper ledge, third brake lamp, wiper",
              ((1.72, 1.85), (1.42, 1.55), (3.9, 4.8)), "width, height, length (nose towards +z)",
              vehicle.generate),
         Kind("tree", "nature", "vegetation", "broadleaf tree: trunk, three levels of branches, ~20-60k leaves",

@@ -3,7 +3,11 @@ windscreen, roof, rear window and boot or hatch), glass where the windows are, p
 paint, tyres with rims and hubs in the arches, grille and mirrors; the fine detail a camera sees
 at 5-20 m: lamps as their reflectors' tilted facets (red, amber, clear: the glints), EU number
 plates with embossed dark characters, the mirrors' glass, door shut lines and handles, badges and
-the rear bumper's reflectors.
+the rear bumper's reflectors; since session 19 alloy wheels in the tyres' rim wells (lip, spokes,
+brake disc in the well's shadow), the tailgate's or boot lid's shut lines, the bumper cover's
+ledge, a boot lip or roof spoiler with the third brake lamp, the rear wiper, tail pipe and rear
+fog lamp, bright lamp bezels on some cars, and the cabin seen through the rear glass (headrests
+against the windscreen's light).
 
 Asset frame: ``size`` = (width x, height y, length z), ground at y = 0, nose towards +z.
 """
@@ -12,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import palette
-from .mesh import MeshData, pose, rot_x, rot_y, rot_z, start
+from .mesh import MeshData, _box_triangles, pose, rot_x, rot_y, rot_z, start
 from .palette import pick
 
 # the fine detail (session 16, measured in KITTI sequence_1's frames 0 and 20 at 12-14 m: the rear
@@ -31,6 +35,18 @@ GLYPH_M = (0.044, 0.075, 0.009)      # a character's width, height and stroke (F
 # seven-segment glyphs (top, top right, bottom right, bottom, bottom left, top left, middle)
 GLYPHS = ("1111110", "0110000", "1101101", "1111001", "0110011", "1011011", "1011111", "1110000",
           "1111111", "1111011", "1110111", "0011111", "1001110", "0111101", "1001111", "1000111", "0110111")
+# session 19 (KITTI sequence_1 frames 0 and 20 at 613 px: bright spokes over the dark wheel well,
+# the tailgate's and boot lid's shut lines, the wiper and third brake lamp on the rear glass)
+RIM_R = 0.66                         # the rim's radius over the tyre's (16-17" rims in 205/55 R16 - 225/45 R17: 0.64-0.68)
+RIM_WELL_M = 0.05                    # the wheel's face sits this far into the tyre's sidewall (the well the spokes span)
+BRAKE_DISC = (0.28, 0.27, 0.26)      # a cast-iron brake disc behind the spokes (library ``metal_rusty``)
+SHUT_GAP_M = 0.005                   # panel gaps: 3.5-5 mm on a current car, seen as a dark slot
+WIPER_M = 0.018                      # a rear wiper's arm and blade, across
+# what the rear glass shows of the cabin (under the opaque glass, as ``glass_window``'s rooms):
+# above the rear seats' backs (at the belt line) the light through the windscreen and side
+# glass beyond (the street's light through a tinted rear pane and the windscreen, ~0.3 x a
+# grey street), against it the headrests' dark shapes (0.24-0.28 m wide, 0.18-0.22 m tall)
+CABIN_THROUGH = (0.06, 0.06, 0.062)
 
 
 def _end_outline(W, L, n=800, wrap_deg=75.0):
@@ -62,6 +78,7 @@ def _lamp(b, rd, arc0, arc1, y0, y1, W, L, rear, sx, colour_of):
     a_edges = np.linspace(arc1, arc0, nx + 1)          # inner end first
     order = np.argsort(arc)
     sz = -1.0 if rear else 1.0
+    cols = []
     for i in range(nx):
         ac = 0.5 * (a_edges[i] + a_edges[i + 1])
         x = float(np.interp(ac, arc[order], P[order, 0]))
@@ -76,11 +93,13 @@ def _lamp(b, rd, arc0, arc1, y0, y1, W, L, rear, sx, colour_of):
             nxn, nzn = -nxn, -nzn
         yaw = np.degrees(np.arctan2(sx * nxn, sz * nzn))
         w = abs(a_edges[i + 1] - a_edges[i]) / 2
+        cols.append((sx * x, sz * z, yaw, w))
         for j in range(ny):
             yc = 0.5 * (ys[j] + ys[j + 1])
             R = rot_y(yaw) @ rot_y(rd.uniform(-30, 30)) @ rot_x(rd.uniform(-30, 30))
             h = (ys[j + 1] - ys[j]) / 2
             b.box((-w, -h, -0.04), (w, h, 0.004), colour_of(i, j, nx, ny), T=pose(R, (sx * x, yc, sz * z)))
+    return cols
 
 
 def _plate(b, rd, y0, z_face, rear, white, ink, blue):
@@ -138,8 +157,9 @@ def _lamps_plates_badges(b, rd, W, L, hw_end, front_y, rear_y, clear, head):
     def head_cell(i, j, nx, ny):
         return amber if i >= nx - 2 else lens
 
+    tail = []
     for sx in (-1, 1):
-        _lamp(b, rd, 0.0, lw, rear_y + 0.01 - lh, rear_y + 0.01, W, L, True, sx, tail_cell)
+        tail += _lamp(b, rd, 0.0, lw, rear_y + 0.01 - lh, rear_y + 0.01, W, L, True, sx, tail_cell)
         _lamp(b, rd, 0.04, 0.04 + hlw, front_y + 0.02 - hlh, front_y + 0.02, W, L, False, sx, head_cell)
         x0, x1 = sorted((sx * (hw_end - 0.1), sx * (hw_end - 0.2)))    # rear bumper reflectors
         b.box((x0, clear + 0.09, -L / 2 - 0.014), (x1, clear + 0.12, -L / 2 - 0.004), red)
@@ -149,6 +169,130 @@ def _lamps_plates_badges(b, rd, W, L, hw_end, front_y, rear_y, clear, head):
     T = pose(rot_x(90), (0.0, rear_y - 0.04, -z_end))                  # badges: discs facing out
     b.cylinder(0.04, -0.006, 0.006, 16, head, T=T)
     b.cylinder(0.04, -0.006, 0.006, 16, head, T=pose(rot_x(90), (0.0, front_y - 0.12, z_end + 0.012)))
+    return lw, (tail, rear_y + 0.01 - lh, rear_y + 0.01)
+
+
+def _cabin(b, rd, zs, glass_top, half_w, tumble, z0, z1, y_seat, through):
+    """The cabin seen through the rear glass (z0..z1 along the car, the glass's middle band,
+    |x| < 0.55 of the roof's half width): thin slabs in the ``through`` glass 2-3 mm over the
+    glass where the view passes over the rear seats' backs (above ``y_seat``) to the bright
+    windscreen, left out where a headrest stands in it (rear ones on the seat backs, the front
+    ones further on, seen higher). ``glass_top``: the glass's height at x = 0 by station."""
+    rear = [(s * rd.uniform(0.3, 0.38), rd.uniform(0.12, 0.14), y_seat, y_seat + rd.uniform(0.18, 0.22))
+            for s in (-1, 1)]
+    if rd.random() < 0.5:
+        rear.append((0.0, 0.1, y_seat, y_seat + 0.12))
+    lift = rd.uniform(0.1, 0.16)
+    front = [(s * rd.uniform(0.3, 0.37), 0.11, y_seat + lift, y_seat + lift + 0.18) for s in (-1, 1)]
+    heads = rear + front
+    ys = np.array([glass_top(z) for z in zs])
+    y_at = lambda x, z, xm: float(np.interp(z, zs, ys)) - 0.006 * abs(x) / xm   # noqa: E731
+    n = max(2, int(round((z1 - z0) / 0.02)))
+    edges = np.linspace(z0, z1, n + 1)
+    tris = _box_triangles(())
+    for za, zb in zip(edges[:-1], edges[1:]):
+        zc = 0.5 * (za + zb)
+        yc = float(np.interp(zc, zs, ys))
+        if yc < y_seat:
+            continue
+        xm = 0.55 * (half_w(zc) - tumble + 0.02)
+        cuts = sorted((xc - w, xc + w) for xc, w, y0, y1 in heads if y0 <= yc <= y1)
+        for lo, hi in ((-xm + 0.01, 0.0), (0.0, xm - 0.01)):
+            a = lo
+            for c0, c1 in cuts + [(hi, hi)]:
+                b_ = min(c0, hi)
+                if b_ - a > 0.01:
+                    V = [(x, y_at(x, z, xm) + dy, z) for x in (a, b_) for dy in (-0.002, 0.003) for z in (za, zb)]
+                    b.add(V, tris, through, closed=True)
+                a = max(a, c1)
+
+
+def _wheel_style(rd):
+    """A wheel's spokes: (count, width m): alloys of 5-10 spokes 2.5-5 cm wide (many-spoked
+    ones narrower)."""
+    n = int(rd.choice([5, 5, 5, 6, 7, 8, 10]))
+    return n, float(rd.uniform(0.035, 0.05) if n <= 6 else rd.uniform(0.022, 0.032))
+
+
+def _wheel(b, style, face_x, sx, rw, zw, rim, cap, disc):
+    """The wheel in the tyre's rim well (``RIM_R``, ``RIM_WELL_M``) whose outer face is at x =
+    face_x (sx: the side, +1 right): the rim's lip (a ring 6 % of the tyre's radius wide, flush
+    with the sidewall), the spokes from the hub to the lip 8-35 mm in, the centre cap, and behind
+    the spokes the brake disc and the rim's barrel 4-5 cm in, where the well's shadow falls: the
+    bright spokes over a dark well a camera sees on real wheels."""
+    n, w = style
+    at = lambda d0, d1: sorted((face_x - sx * d0, face_x - sx * d1))   # noqa: E731  (depths in from the face)
+    r_lip = RIM_R * rw
+    seg = 24
+    half = np.pi * r_lip / seg * 1.08
+    x0, x1 = at(0.004, 0.016)
+    for k in range(seg):
+        b.box((x0, r_lip - 0.06 * rw, -half), (x1, r_lip + 0.003, half), rim, T=pose(rot_x(360.0 * k / seg), (0.0, rw, zw)))
+    x0, x1 = at(0.008, 0.035)
+    phase = 17.0 * sx + 40.0 * zw
+    for k in range(n):
+        b.box((x0, 0.05, -w / 2), (x1, r_lip - 0.05 * rw, w / 2), rim, T=pose(rot_x(phase + 360.0 * k / n), (0.0, rw, zw)))
+    T = lambda d: pose(rot_z(90), (face_x - sx * d, rw, zw))           # noqa: E731  (axis along x)
+    b.cylinder(0.065, -0.012, 0.012, 16, cap, T=T(0.02))
+    b.cylinder(0.45 * rw, -0.006, 0.006, 24, disc, T=T(0.042))
+    b.cylinder(r_lip - 0.01, -0.002, 0.002, 24, rim, T=T(RIM_WELL_M - 0.003))
+
+
+def _rear_detail(b, rd, W, L, style, clear, rear_y, z_rr, z_boot, top_y, lw, tail, hw_cap, hw_roof, paint, gap, red,
+                 pipe):
+    """The rear's shut lines (the tailgate's or boot lid's: dark ``SHUT_GAP_M`` slots up both
+    sides just inboard of the tail lamps and across under the plate), a hatch's or estate's
+    third brake lamp at the top of the rear glass and its wiper parked across the glass's foot,
+    the exhaust's tail pipe under the bumper on most cars, the rear fog lamp in the bumper (ECE
+    R38: one, at the driver's side) and, on half the cars, the tail lamps' bright bezels
+    (chrome, or the clear lens's edge over its reflector: KITTI's lamps' outlines glint) along
+    their tops and feet. ``tail``: the tail lamps' columns (x, z, yaw, half width) and their
+    foot and top."""
+    cols, y_foot, y_top = tail
+    if rd.random() < 0.5:
+        for x, z, yaw, w in cols:
+            for y0 in (y_top, y_foot - 0.01):
+                b.box((-w, y0, -0.03), (w, y0 + 0.01, 0.006), pipe, T=pose(rot_y(yaw), (x, 0.0, z)))
+    xf = hw_cap - rd.uniform(0.25, 0.35)                                   # the fog lamp: the car's left (+x)
+    for i in range(3):
+        for j in range(2):
+            R = rot_y(rd.uniform(-30, 30)) @ rot_x(rd.uniform(-30, 30))
+            b.box((-0.017, -0.015, -0.004), (0.017, 0.015, 0.02), red,
+                  T=pose(R, (xf + 0.034 * (i - 1), clear + 0.095 + 0.03 * j, -L / 2 - 0.012)))
+    P, arc = _end_outline(W, L)
+    order = np.argsort(arc)
+    x_g = min(float(np.interp(lw + 0.02, arc[order], P[order, 0])), hw_cap - 0.04)
+    z_c = -(L / 2 - 0.02)                       # the rear's flat face
+    y_low = max(clear + 0.2, rear_y - 0.2 - rd.uniform(0.04, 0.1))
+    g = SHUT_GAP_M / 2
+    z0, z1 = z_c - 0.0015, z_c + 0.01
+    for sx in (-1, 1):
+        xa, xb = sorted((sx * (x_g - g), sx * (x_g + g)))
+        b.box((xa, y_low - g, z0), (xb, rear_y - 0.01, z1), gap)
+    b.box((-x_g, y_low - g, z0), (x_g, y_low + g, z1), gap)
+    # the bumper's cover in paint under the lid's foot, 4 cm proud of the tail (its top a ledge
+    # that mirrors the sky over a face that mirrors the street: the rear's brightest line), and
+    # the lid's trailing edge (a sedan's boot lip between the lamps, a hatch's roof spoiler over
+    # its glass with the third brake lamp in it)
+    b.box((-(hw_cap + 0.03), clear + 0.16, -L / 2 - 0.03), (hw_cap + 0.03, y_low - g, -L / 2 + 0.2), paint)
+    if style == "sedan":
+        b.box((-(x_g - 0.01), rear_y - 0.01, -L / 2), (x_g - 0.01, rear_y + 0.02, -L / 2 + 0.12), paint)
+    else:
+        z3 = z_rr - 0.1
+        y3 = top_y(z3)
+        b.box((-hw_roof, y3 - 0.01, z3), (hw_roof, y3 + 0.035, z_rr + 0.06), paint)
+        hw3 = rd.uniform(0.1, 0.16)                                        # the third brake lamp
+        b.box((-hw3, y3 + 0.005, z3 - 0.004), (hw3, y3 + 0.03, z3 + 0.01), red)
+        if rd.random() < 0.85:                                             # the wiper across the glass's foot
+            zw_ = z_boot + 0.1
+            side = 1.0 if rd.random() < 0.5 else -1.0
+            xa, xb = sorted((side * -0.03, side * rd.uniform(0.3, 0.4)))
+            y = top_y(zw_) + 0.006
+            b.box((xa, y, zw_ - WIPER_M / 2), (xb, y + WIPER_M, zw_ + WIPER_M / 2), gap)
+    if rd.random() < 0.7:                                                  # the tail pipe
+        xe = (1.0 if rd.random() < 0.3 else -1.0) * (hw_cap - rd.uniform(0.2, 0.3))
+        b.cylinder(0.032, -0.03, 0.05, 16, pipe, T=pose(rot_x(90), (xe, clear + 0.03, -L / 2)))
+        b.cylinder(0.024, -0.031, -0.02, 12, gap, T=pose(rot_x(90), (xe, clear + 0.03, -L / 2)))
 
 
 def _smoothstep(x):
@@ -275,7 +419,7 @@ def generate(size, seed: int) -> MeshData:
     # lamps, grille, plates, badges (the rear's fine detail: _rear_and_front_detail)
     rd = np.random.default_rng([seed, 16])           # the details' own stream: the body's draws stay
     z_front = L / 2 - 0.02
-    _lamps_plates_badges(b, rd, W, L, hw_end, front_y, rear_y, clear, head)
+    lw, tail = _lamps_plates_badges(b, rd, W, L, hw_end, front_y, rear_y, clear, head)
     b.box((-0.3, front_y - 0.2, z_front - 0.1), (0.3, front_y - 0.04, z_front + 0.004), trim)
     for y in (front_y - 0.16, front_y - 0.09):        # grille bars
         b.box((-0.29, y, z_front + 0.004), (0.29, y + 0.012, z_front + 0.012), head)
@@ -304,20 +448,25 @@ def generate(size, seed: int) -> MeshData:
         for sx in (-1, 1):
             x0, x1 = sorted((sx * (x - 0.006), sx * (x + 0.014)))
             b.box((x0, belt_y - 0.105, zc - 0.09), (x1, belt_y - 0.075, zc + 0.09), handle)
-    # wheels: tyre (revolved, rounded shoulders), rim disc, hub
+    # wheels: tyre (revolved, rounded shoulders) whose rim well shows the wheel (_wheel)
     tw = 0.2 + 0.02 * rng.random()
-    prof = [(0, -tw / 2), (rw * 0.62, -tw / 2), (rw * 0.9, -tw / 2 + 0.005), (rw - 0.012, -tw / 2 + 0.025),
-            (rw, -tw / 4), (rw, tw / 4), (rw - 0.012, tw / 2 - 0.025), (rw * 0.9, tw / 2 - 0.005),
-            (rw * 0.62, tw / 2), (0, tw / 2)]
+    rd19 = np.random.default_rng([seed, 19])          # session 19's parts: their own stream
+    wheel = _wheel_style(rd19)
+    prof = [(0, -tw / 2 + RIM_WELL_M), (rw * RIM_R, -tw / 2 + RIM_WELL_M), (rw * RIM_R, -tw / 2 + 0.004),
+            (rw * 0.9, -tw / 2 + 0.005), (rw - 0.012, -tw / 2 + 0.025), (rw, -tw / 4), (rw, tw / 4),
+            (rw - 0.012, tw / 2 - 0.025), (rw * 0.9, tw / 2 - 0.005), (rw * RIM_R, tw / 2 - 0.004),
+            (rw * RIM_R, tw / 2 - RIM_WELL_M), (0, tw / 2 - RIM_WELL_M)]
+    disc = b.surface("metal_rusty", BRAKE_DISC)
     for zw in (z_wf, z_wr):
         for sx in (-1, 1):
             xw = sx * (half_w(zw) - tw / 2 - 0.03)
             T = pose(rot_z(90), (xw, rw, zw))          # tyre axis (local Y) along x
             b.revolve(prof, 28, tyre, T=T)
-            T_rim = pose(rot_z(90), (xw + sx * (tw / 2 - 0.015), rw, zw))
-            b.cylinder(rw * 0.6, -0.012, 0.012, 24, rim, T=T_rim)
-            for a in range(5):     # spokes, radial in the rim's plane
-                b.box((-0.014, 0.05, -0.025), (0.014, rw * 0.58, 0.025), rim,
-                      T=pose(rot_x(72.0 * a + 17.0 * sx), (xw + sx * (tw / 2 - 0.01), rw, zw)))
-            b.cylinder(0.06, -0.02, 0.02, 12, head, T=T_rim)
+            _wheel(b, wheel, xw + sx * tw / 2, sx, rw, zw, rim, head, disc)
+    # the cabin through the rear glass, the rear's shut lines, third brake lamp, wiper and exhaust (session 19)
+    g0, g1 = (z_boot + 0.05, z_rr - 0.04) if style != "sedan" else (z_boot + 0.04, z_rr - 0.04)
+    _cabin(b, rd19, zs, lambda z: top_y(z) + 0.01, half_w, tumble, g0 + 0.01, g1 - 0.01, belt_y + 0.05,
+           b.surface("glass_window", CABIN_THROUGH))
+    _rear_detail(b, rd19, W, L, style, clear, rear_y, z_rr, z_boot, top_y, lw, tail, half_w(L / 2 - 0.02),
+                 half_w(z_rr) - tumble - 0.04, paint, trim, b.surface("vehicle_lamp", LAMP_RED), head)
     return b.build()
