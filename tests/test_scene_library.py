@@ -989,19 +989,25 @@ def test_city_kitti_right_gardens_stand_where_kitti_sequence_1s_do(scenes, share
 GARDEN_THINGS = ("hedge", "bush", "fence", "bin", "plant", "bicycles", "bin_store", "notice_board")
 
 
+def _kinds_from_the_first_camera(s, kinds):
+    """The first camera's pose, a ray-cast scene of the assets of ``kinds`` (their full meshes)
+    and the street's ahead and right directions there (level unit vectors)."""
+    T0 = s.timeline.left()[0]
+    ts = mesh_raycast.TriangleScene()
+    for o in s.objects:
+        if isinstance(o, Asset) and o.kind in kinds:
+            d = assets.generate(o.kind, o.size, o.seed)
+            ts.add(o.id, d.vertices, d.faces, object_pose(o.position, o.rotation_deg))
+    ahead, right = T0[:3, 2] * np.array([1.0, 0.0, 1.0]), T0[:3, 0] * np.array([1.0, 0.0, 1.0])
+    return T0, ts, ahead / np.linalg.norm(ahead), right / np.linalg.norm(right)
+
+
 def boundary_tops(s, ahead_m=(8.0, 36.0), right_m=(6.6, 7.8)) -> np.ndarray:
     """The top of the right front gardens' boundary in each metre ``ahead_m`` ahead of the first
     camera: the highest point of the garden things (``GARDEN_THINGS``: hedges, shrubs, walls and
     fences, bikes, bins, planters, ...) ``right_m`` right of it, above the road (m; vertical rays
     every 0.2 m along and 0.1 m across; 0 where none stands: a path)."""
-    T0 = s.timeline.left()[0]
-    ts = mesh_raycast.TriangleScene()
-    for o in s.objects:
-        if isinstance(o, Asset) and o.kind in GARDEN_THINGS:
-            d = assets.generate(o.kind, o.size, o.seed)
-            ts.add(o.id, d.vertices, d.faces, object_pose(o.position, o.rotation_deg))
-    ahead, right = T0[:3, 2] * np.array([1.0, 0.0, 1.0]), T0[:3, 0] * np.array([1.0, 0.0, 1.0])
-    ahead, right = ahead / np.linalg.norm(ahead), right / np.linalg.norm(right)
+    T0, ts, ahead, right = _kinds_from_the_first_camera(s, GARDEN_THINGS)
     tops = []
     for a in np.arange(*ahead_m, 1.0):
         A, R = np.meshgrid(a + np.arange(0.1, 1.0, 0.2), np.arange(right_m[0], right_m[1] + 1e-6, 0.1))
@@ -1123,14 +1129,7 @@ def recessed_front_share(s, ahead_m=(13.0, 37.0), heights=(1.6, 2.0, 2.4, 2.8), 
     building (its full mesh) more than ``deeper_m`` behind where the ray at ``facade_m`` up at the
     same place meets it (its front): the ground floor recessed under the storeys above. Places
     where the upper ray meets no building within 15 m (the gaps between houses) count not."""
-    T0 = s.timeline.left()[0]
-    ts = mesh_raycast.TriangleScene()
-    for o in s.objects:
-        if isinstance(o, Asset) and o.kind in BUILDINGS:
-            d = assets.generate(o.kind, o.size, o.seed)
-            ts.add(o.id, d.vertices, d.faces, object_pose(o.position, o.rotation_deg))
-    ahead, right = T0[:3, 2] * np.array([1.0, 0.0, 1.0]), T0[:3, 0] * np.array([1.0, 0.0, 1.0])
-    ahead, right = ahead / np.linalg.norm(ahead), right / np.linalg.norm(right)
+    T0, ts, ahead, right = _kinds_from_the_first_camera(s, BUILDINGS)
     a = np.arange(*ahead_m, 0.25)
     base = T0[:3, 3] * np.array([1.0, 0.0, 1.0]) + a[:, None] * ahead + 3.0 * right     # 3 m right: past the parked cars
 
