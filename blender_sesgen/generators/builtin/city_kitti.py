@@ -93,6 +93,7 @@ FRONTAGES = {
                      height_low=(6.0, 9.0), height_high=(9.0, 11.0), p_high=0.15, setback=(14.0, 28.0),
                      gap=(3.0, 10.0), p_second_row=0.2, p_yard_edge=0.0)}
 FRONTAGE_ODDS = {"block": 0.35, "yards": 0.45, "open": 0.2}
+SPEED_RMS = 0.06   # a drive's speed wander, RMS over its mean step (cycles per 100 frames)
 
 
 @dataclass(frozen=True)
@@ -122,7 +123,7 @@ class NearField:
     trees_left: tuple = ()      # (from, to) ahead, (near, far) left of the centreline: a loose row of young trees on the lawn
     setback_left: tuple = ()    # the left front row's setback range behind the left kerb up to LEFT_ROW_M ahead (empty: drawn)
     gardens_right: tuple = ()   # (from, to) ahead: front gardens before the right front row (``GARDEN``), the tree lawn treeless
-    speed_rms: float = 0.06     # the drive's speed wander, RMS over the mean step (cycles per 100 frames)
+    speed_rms: float = SPEED_RMS  # the drive's speed wander, RMS over the mean step
 
 
 # KITTI sequence_1's street, measured in its frames (ground plane 1.65 m under the camera, f 707
@@ -658,15 +659,13 @@ def _gardens(rng, lines: list[str], side_lines: list[str], place, centreline: _C
                     continue
                 step = g["module"] if hedge and kind == "high" else 0.8
                 n = max(int(np.ceil((c1 - c0) / step)), 1)    # modules overlapping a little: the stretch unbroken
+                plants = lows if kind == "low_plants" else shrubs
                 for a in np.linspace(c0 + step / 2, c1 - step / 2, n) if n > 1 else [(c0 + c1) / 2]:
-                    if kind == "low_plants":
-                        put("bush", a + float(rng.uniform(-0.1, 0.1)), g["line"], float(rng.uniform(0, 360)),
-                            lows[int(rng.integers(len(lows)))], 0.0, "veg")
-                    elif hedge:
+                    if hedge and kind == "high":
                         put("hedge", a, g["line"], -90.0 + 180.0 * int(rng.integers(2)), hedges[k], 0.0, "veg")
                     else:
                         put("bush", a + float(rng.uniform(-0.1, 0.1)), g["line"], float(rng.uniform(0, 360)),
-                            shrubs[int(rng.integers(len(shrubs)))], 0.0, "veg")
+                            plants[int(rng.integers(len(plants)))], 0.0, "veg")
         gardens.append((b, s0, s1, entrance, gap, inner[0]))
         depth = inner[1] - inner[0]
         if depth < 0.5:
@@ -1061,7 +1060,7 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
     def noise(cycles):
         return smooth_noise(rng, frames, 1.0, tuple(c * per_100 for c in cycles))
 
-    speed = step_m * (1 + (0.06 if near is None else near.speed_rms) * noise((0.7, 1.6)))
+    speed = step_m * (1 + (SPEED_RMS if near is None else near.speed_rms) * noise((0.7, 1.6)))
     s_cam = behind + np.concatenate([[0.0], np.cumsum(speed[:-1])])
     lane = v.lane + v.weave * noise((0.8, 1.7, 3.1))
     c, n, h = _centre(street_pos, street_yaw, s_cam, L, bends)
