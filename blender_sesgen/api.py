@@ -121,7 +121,9 @@ class Study:
     ``stage``, ``key``, ``developed``), distinct renders (``.renders``) and developed
     variants (``.develops``) without running anything; ``run(out)`` runs it (renders, every
     system, evaluation, report; resumes a folder holding the same study) and returns the
-    ``results.json`` document; ``compare(old, new)`` is ``study compare``'s verdicts."""
+    ``results.json`` document (format ``sesgen-study-results/2``: a run's ``ape_rot_rmse_deg`` is
+    None where its alignment leaves the rotation free, ``alignment_ill_posed``); ``compare(old,
+    new)`` is ``study compare``'s verdicts (worse, better, same, unmeasured)."""
 
     def __init__(self, path: "str | os.PathLike"):
         from .study.spec import load

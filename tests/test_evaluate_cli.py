@@ -179,9 +179,11 @@ def test_evaluate_aligns_as_run_does_and_says_when_an_se3_fit_is_ill_posed(tmp_p
     write_tum(tmp_path / "est.tum", est)
     r = run_cli("evaluate", "--gt", folder, "--est", tmp_path / "est.tum")
     assert r.returncode == 0 and "alignment origin" in r.stdout and "note:" not in r.stdout, r.stdout
+    r = run_cli("evaluate", "--gt", folder, "--est", tmp_path / "est.tum", "--json", tmp_path / "o.json")
+    assert json.loads((tmp_path / "o.json").read_text())["alignment_ill_posed"] is False
     # four poses on a straight line: an SE(3) fit cannot fix the rotation about it, and says so
     r = run_cli("evaluate", "--gt", folder, "--est", tmp_path / "est.tum", "--align", "se3", "--json", tmp_path / "s.json")
     assert r.returncode == 0, r.stderr
     s = json.loads((tmp_path / "s.json").read_text())
-    assert s["alignment"]["rotation_sigma_deg"] > s["ape_rot_rmse_deg"]
+    assert s["alignment"]["rotation_sigma_deg"] > s["ape_rot_rmse_deg"] and s["alignment_ill_posed"] is True
     assert "note: on this short or nearly straight path the se3 fit" in r.stdout, r.stdout

@@ -63,10 +63,11 @@ def test_metering_takes_frame_0_from_the_exposure_preview(tmp_path, monkeypatch)
     assert metered[0] == pytest.approx(before, rel=1e-5) and metered[0] != pytest.approx(metered[1], rel=1e-6)
 
 
-@pytest.mark.parametrize("frames, metered", [("0:2", 1), ("0:1", 0)])
+@pytest.mark.parametrize("frames, metered", [("0:2", 1), ("0:1", 1)])
 def test_a_render_of_the_first_frames_renders_no_metering_preview(tmp_path, monkeypatch, frames, metered):
-    """Frame k's exposure follows frames 0..k-1 only: frames 0:2 need frame 0's value, the
-    exposure preview's, and frame 0 alone none; neither renders a metering preview, so the
+    """Frame k's exposure follows frames 0..k-1 and, with the converged start (AUTOEXPOSURE's
+    default), frame 0's its own metering: frames 0:2 and frame 0 alone need frame 0's value, the
+    exposure preview's; neither renders a metering preview, so the
     build reaches frame 0 after the exposure preview (issue 29: the build) - while the metering
     preview is the exposure preview (same size and samples; denoised as the metering preview)."""
     from blender_sesgen.blender import exposure, rig

@@ -747,10 +747,11 @@ def test_city_kitti_near_field_detail_stands_where_kitti_sequence_1s_does():
     row stands ~7-10 m right of the camera (SGBM, frames 0-40, above the horizon), the block
     beyond the side street is under scaffolding from its end wall ~60 m ahead (facing the
     camera) on along the street; every young tree on its lawn stands in stakes.
-    Seed 0: the right front row's facades 8.5-10.5 m right of the camera through 100 m, scaffolds
+    Seed 0: the right front row's facades (houses, buildings; the block under works stands nearer,
+    at KITTI's sidewalk: the next test) 8.5-10.5 m right of the camera through 100 m, scaffolds
     against the block's street facade and end wall (0.1-0.3 m before the foremost part of the
     building's mesh below their top: its balconies, sills; as wide as the wall and more), the
-    street one 6.5-10 m right of the camera from 55-62 m to past 95 m ahead, the end wall's
+    street one 6-10 m right of the camera from 55-62 m to past 95 m ahead, the end wall's
     across the view 55-62 m ahead; stakes round each young tree; none of it on the carriageway. Drawn seeds draw their own
     works (a site fence before those with a deep yard) and racks (seeds 1-8: some with works,
     some without; every seed stakes some trees)."""
@@ -770,15 +771,15 @@ def test_city_kitti_near_field_detail_stands_where_kitti_sequence_1s_does():
     street = [o for o in scaffolds if abs(heading(o) - 90) < 10]        # facing the street (left)
     end = [o for o in scaffolds if abs(heading(o) - 180) < 10]          # facing the camera
     assert len(street) == len(end) == 1 and len(scaffolds) == 2, [(o.id, heading(o)) for o in scaffolds]
-    assert 6.5 < local(s, street[0])[1] < 10.0, local(s, street[0])
+    assert 6.0 < local(s, street[0])[1] < 10.0, local(s, street[0])     # its front: the next test
     a0, a1 = local(s, street[0])[0] - street[0].size[0] / 2, local(s, street[0])[0] + street[0].size[0] / 2
     assert 55.0 < a0 < 62.0 and a1 > 95.0, (a0, a1)
     ahead, right = local(s, end[0])
     assert 55.0 < ahead < 62.0 and right - end[0].size[0] / 2 < 10.0 < 25.0 < right + end[0].size[0] / 2, local(s, end[0])
     buildings = of("building") + of("building_shell") + of("house")
-    row = [(local(s, b)[0], local(s, b)[1] - b.size[2] / 2) for b in buildings
+    row = [(local(s, b)[0], local(s, b)[1] - b.size[2] / 2) for b in of("building") + of("house")   # the works block: the next test
            if 0.0 < local(s, b)[1] < 30.0 and -5.0 < local(s, b)[0] < 100.0]
-    assert len(row) >= 4 and all(8.5 < x < 10.5 for _, x in row), row
+    assert len(row) >= 3 and all(8.5 < x < 10.5 for _, x in row), row
     for o in scaffolds:        # against a wall: the building behind, clear of its mesh
         b = min(buildings, key=lambda b: np.linalg.norm(np.subtract(b.position, o.position)))
         along = o in end                         # the end wall: the building's local x, turned 90 deg
@@ -1292,3 +1293,49 @@ def _heave_change_m(T: np.ndarray) -> float:
     from blender_sesgen.contract.se3 import relative
     y = np.array([relative(T[k], T[k + 1])[1, 3] for k in range(len(T) - 1)])
     return float(np.median(np.abs(np.diff(y))))
+
+
+WORKS_THINGS = ("scaffold", "site_fence", "building_shell", "building", "house")
+
+
+def works_front_right(s, frames=(36, 40, 44)) -> float:
+    """Where seed 0's near right stands in ``frames`` seen by the left camera: rays through every
+    4th pixel of the image's right half against the scaffolds, site fences and buildings (their
+    full meshes), the hits 6-20 m ahead, 3-12 m right and 2.2-8 m above the road (the camera 1.65 m
+    up): the 5th percentile of their lateral distance (m), the wall's or scaffold's front."""
+    ts = mesh_raycast.TriangleScene()
+    for o in s.objects:
+        if isinstance(o, Asset) and o.kind in WORKS_THINGS:
+            d = assets.generate(o.kind, o.size, o.seed)
+            ts.add(o.id, d.vertices, d.faces, object_pose(o.position, o.rotation_deg))
+    W, H = s.rig.width, s.rig.height
+    u, v = np.meshgrid(np.arange(W / 2, W, 4.0) + 0.5, np.arange(0, H, 4.0) + 0.5)
+    pix = np.column_stack([u.ravel(), v.ravel()])
+    xs = []
+    for k in frames:
+        T = s.timeline.left()[k]
+        o, d, _ = mesh_raycast.pinhole_rays(s.rig.K(), T, pix)
+        t, _ = ts.cast(o, d)
+        hit = np.isfinite(t)
+        P = (o[hit] + t[hit, None] * d[hit] - T[:3, 3]) @ T[:3, :3]     # in the camera frame (X right, Y down)
+        m = (P[:, 2] > 6) & (P[:, 2] < 20) & (P[:, 0] > 3) & (P[:, 0] < 12) & (1.65 - P[:, 1] > 2.2) & (1.65 - P[:, 1] < 8)
+        xs.append(P[m, 0])
+    return float(np.percentile(np.concatenate(xs), 5))
+
+
+def test_city_kitti_works_block_stands_at_kitti_sequence_1s_sidewalk(scenes, shared_data):
+    """KITTI sequence_1's block under works (frames 34-44) stands right at its sidewalk: the site
+    takes the verge, Heras fence panels on concrete feet stand before the scaffold. By SGBM at full
+    size (frames 36, 40 and 44, points 6-20 m ahead, 3-12 m right, 2.2-8 m above the road) the
+    5th percentile of their lateral distance is ~6.2 m right of the camera (the scaffold's front;
+    6.4, 6.3, 6.0 frame by frame); seed 0's (rays against its scaffolds, fences and buildings, the
+    same rule) within 0.5 m of it. Session 19's block stood behind the grass strip and the whole
+    sidewalk (7.9 m; works_front 5.9 gave 5.6): its ORB
+    inliers nearer than 20 m there were 51 a step at 8.5 m right where KITTI's are 85 at 6.7 m
+    (bench/twin.py's near-inlier line), and its steps' length wandered."""
+    X, Y, Z = kitti_s1_points(shared_data, (36, 40, 44))
+    h = 1.65 - Y
+    kitti = float(np.percentile(X[(Z > 6) & (Z < 20) & (X > 3) & (X < 12) & (h > 2.2) & (h < 8)], 5))
+    assert 5.7 < kitti < 6.6, kitti
+    ours = works_front_right(scenes["city_kitti"])
+    assert abs(ours - kitti) < 0.5, (ours, kitti)

@@ -55,7 +55,11 @@ def test_render_reader_gives_rows_imu_and_lens(render):
     assert np.allclose(gt["p"][0], T_imu0[:3, 3]) and gt["t_s"][0] == pytest.approx(100.0)
     assert seq.lens.model == "brown" and seq.undistortion_maps()[0].shape == (48, 64)
     exp = m["sensor"]["exposure_s"]
-    assert exp[0] == 0.008 and all(e is not None and e > 0 for e in exp)
+    # frame 0 converged (AUTOEXPOSURE's default start): the exposure that brings its own metered
+    # brightness to the default target 0.18 at saturation 1, t_nom 0.008 (within 1/20 - 0.02 s, gain 1)
+    e0 = 0.18 * 1.0 * 0.008 / m["sensor"]["metered"][0]
+    assert 1e-5 < e0 < 0.03 and exp[0] == pytest.approx(e0, rel=1e-9) and m["sensor"]["gain"][0] == 1.0
+    assert all(e is not None and e > 0 for e in exp)
     assert seq.raw_dn(0).dtype == np.uint16 and seq.raw_dn(0).max() < 4096
     assert seq.image_rgb(0).shape == (48, 64, 3)
 

@@ -93,6 +93,30 @@ def test_sensor_path_with_an_exposure_preview_renders_the_plain_pixels(tmp_path,
     assert np.ptp(blurred["ViewLayer.Combined.R"]) > 0
 
 
+def test_rolling_shutter_ground_truth_does_not_depend_on_the_exposure(tmp_path):
+    """A rolling shutter's ground truth shows each row at its own capture instant, whatever
+    the frame's exposure (an auto-exposure changes it from frame to frame): depth and ids of two
+    renders that differ only in the exposure are equal, and equal the ``gt`` preset's (no beauty,
+    no exposure at all). Session 19's code keyed the beauty's shutter instants beside the rows'
+    for both renders, and Blender interpolating between them moved depth by up to 1e-4."""
+    from render_support import oracle_script
+    base = oracle_script(width=64, height=48, focal=44.0, principal=(32.1, 23.4)).splitlines()
+    base += ["MOVE id 5 twist 0.04 0 0.02 0 4 0"]
+    two = ("--frames", "0:2")
+    runs = [_render(tmp_path, name, base + [f"TIMING rate 20 exposure {e} readout 0.03"], *q, *two)
+            for name, e, q in [("short", 0.004, ("--samples", "2")), ("long", 0.021, ("--samples", "2")),
+                               ("gt", 0.004, ("--quality", "gt"))]]
+    (out_a, m_a) = runs[0]
+    assert m_a["timing"]["rolling_shutter"]
+    gt_names = [m_a["depth"]["channel"], m_a["segmentation"]["channel"]]
+    for out_b, m_b in runs[1:]:
+        for view in m_a["views"]:
+            for k in _rendered(m_a):
+                a, b = read_exr(out_a / m_a["files"][view][k]), read_exr(out_b / m_b["files"][view][k])
+                for name in gt_names:
+                    assert np.array_equal(a[name], b[name], equal_nan=True), (m_b["files"][view][k], name)
+
+
 def test_rolling_shutter_corners_land_where_the_row_poses_project_them(tmp_path):
     readout = 0.04
     out, m = _render(tmp_path, "rs", _board_scene(extra=[f"TIMING rate 20 readout {readout}"], samples=32))
@@ -242,13 +266,15 @@ def test_effects_off_render_is_pixel_identical_and_sensor_images_are_reproducibl
     assert not np.array_equal(left, right)
 
 
-def test_auto_exposure_answers_a_step_in_brightness_as_documented(tmp_path):
+@pytest.mark.parametrize("start", ["converged", "nominal"])
+def test_auto_exposure_answers_a_step_in_brightness_as_documented(tmp_path, start):
     """The camera slides from a glowing wall of radiance 1 to one of 0.1 after frame 4 (film
     exposure fixed at 1, nothing else in view): the metering pass reads each frame's radiance
     (the oracle: the wall's emission, the whole image), and log(t*g) moves towards
     log(target * saturation * t_nom / m) by 1 - exp(-speed / rate) per frame, one frame late
-    (docs/sensors.md, Optics, exposure and the raw sensor). A culled render of three later
-    frames alone meters the same."""
+    (docs/sensors.md, Optics, exposure and the raw sensor), from frame 0's steady state
+    target * t_nom / 1 (``start converged``, the default: the camera ran before the sequence)
+    or from t_nom (``start nominal``). A culled render of three later frames alone meters the same."""
     n, step, rate, speed, target, t_nom = 12, 5, 20.0, 3.0, 0.18, 0.004
     poses = [f"POSE {-10 if k < step else 10} 0 0 0 0 0" for k in range(n)]
     lines = ["CAMERA resolution 32 24 focal 20 baseline 0", "LOOK exposure 0", "WORLD colour 0 0 0",
@@ -258,7 +284,7 @@ def test_auto_exposure_answers_a_step_in_brightness_as_documented(tmp_path):
              "QUAD id 1 material bright vertices -30 -20 -5  0 -20 -5  0 20 -5  -30 20 -5",
              "QUAD id 2 material dim vertices 0 -20 -5  30 -20 -5  30 20 -5  0 20 -5",
              f"TIMING rate {rate:g} exposure {t_nom} blur off", "SENSOR seed 1",
-             f"AUTOEXPOSURE target {target} speed {speed}"] + poses
+             f"AUTOEXPOSURE target {target} speed {speed} start {start}"] + poses
     out, m = _render(tmp_path, "step", lines)
     metered = np.array(m["sensor"]["metered"][:-1])     # the last frame's is not metered (null)
     radiance = np.where(np.arange(n) < step, 1.0, 0.1)
@@ -266,12 +292,15 @@ def test_auto_exposure_answers_a_step_in_brightness_as_documented(tmp_path):
     assert m["sensor"]["metered"][-1] is None
     E = np.array(m["sensor"]["exposure_s"]) * np.array(m["sensor"]["gain"])
     alpha = 1 - np.exp(-speed / rate)
-    logE = [np.log(t_nom)]
+    logE = [np.log(t_nom if start == "nominal" else target * t_nom / radiance[0])]
     for k in range(1, n):     # frame k answers frame k-1's metering; none of these clip at 1/rate
         logE.append(logE[-1] + alpha * (np.log(target * t_nom / radiance[k - 1]) - logE[-1]))
     assert np.allclose(np.log(E), logE, atol=0.01 * alpha), (np.log(E), logE)
     assert E[step] == pytest.approx(E[step - 1] * (target * t_nom / E[step - 1]) ** alpha, rel=0.01)
-    assert E[step] < E[step - 1] < E[step + 1]   # frame 5 still answers the bright wall: one frame late
+    if start == "nominal":
+        assert E[step] < E[step - 1] < E[step + 1]   # frame 5 still answers the bright wall: one frame late
+    else:   # steady from frame 0 on; frame 5 still answers the bright wall: one frame late
+        assert E[step] == pytest.approx(E[0], rel=1e-5) and E[step + 1] > 1.2 * E[step]
     # frames 6-8 alone and culled (built: what any frame sees, for the metering pass): the same
     # schedule; the last rendered frame and those after it are not metered
     _, mc = _render(tmp_path, "step_culled", lines, "--cull", "--frames", "6:9")

@@ -126,3 +126,191 @@ def test_the_report_of_a_grid_design_plots_every_point(tmp_path):
     page = write_report(tmp_path).read_text()
     assert page.count("data:image/png;base64,") == 2 and "Every point of the design" in page
     assert "the first 6 frames, 0.25 × the script's size, draft" in html.unescape(page)   # not "6, ['scale', 0.25]"
+
+
+# --- the APE rotation an SE(3) fit leaves free (a short, nearly straight drive) ---------------------
+
+def _evo_se3_ape(gt: Trajectory, est: Trajectory) -> tuple[float, float]:
+    """evo's APE (translation m, rotation deg; RMSE) after its SE(3) Umeyama alignment: the oracle."""
+    evo_metrics = pytest.importorskip("evo.core.metrics", reason="evo (test extra) is not installed")
+    from evo.core.trajectory import PosePath3D
+    ref, e = PosePath3D(poses_se3=list(gt.T_world_cam)), PosePath3D(poses_se3=list(est.T_world_cam))
+    e.align(ref, correct_scale=False)
+    out = []
+    for relation in (evo_metrics.PoseRelation.translation_part, evo_metrics.PoseRelation.rotation_angle_deg):
+        m = evo_metrics.APE(relation)
+        m.process_data((ref, e))
+        out.append(float(m.get_statistic(evo_metrics.StatisticsType.rmse)))
+    return out[0], out[1]
+
+
+def _evo_origin_ape_rot(gt: Trajectory, est: Trajectory) -> float:
+    """evo's APE rotation (deg, RMSE) after its origin alignment (``--align_origin``)."""
+    evo_metrics = pytest.importorskip("evo.core.metrics", reason="evo (test extra) is not installed")
+    from evo.core.trajectory import PosePath3D
+    ref, e = PosePath3D(poses_se3=list(gt.T_world_cam)), PosePath3D(poses_se3=list(est.T_world_cam))
+    e.align_origin(ref)
+    m = evo_metrics.APE(evo_metrics.PoseRelation.rotation_angle_deg)
+    m.process_data((ref, e))
+    return float(m.get_statistic(evo_metrics.StatisticsType.rmse))
+
+
+def near_straight(n=10, step=1.25, wiggle=0.01) -> Trajectory:
+    """The example studies' drive: 10 frames, 1.25 m apart (11 m), a 1 cm lateral wiggle."""
+    return Trajectory(np.array([se3(np.eye(3), (wiggle * np.sin(1.3 * k), 1.6, -step * k)) for k in range(n)]),
+                      np.arange(n) / RATE)
+
+
+def test_the_rotation_a_fit_leaves_free_on_a_nearly_straight_drive_is_not_reported(tmp_path):
+    """A VO 1 deg off in yaw at the start and drifting 0.1 deg a frame, its positions a few cm off:
+    on 11 m of nearly straight road the SE(3) fit's roll about the path is free, and evo's se3 APE
+    rotation is tens of degrees (the fit's, not the VO's). The record leaves it null and says why;
+    the translation stays evo's; the rotation from the first pose is the drift's, analytically
+    0.1 deg x rms(0..9) = 0.534 deg (and evo's origin-aligned APE rotation)."""
+    gt = near_straight()
+    rng = np.random.default_rng(3)
+    est = Trajectory(np.array([se3(T[:3, :3] @ euler_xyz_deg_to_R(0, 1.0 + 0.1 * k, 0), T[:3, 3] + rng.normal(0, 0.03, 3))
+                               for k, T in enumerate(gt.T_world_cam)]), gt.timestamps_s)
+    write_kitti(tmp_path / "est.txt", est)
+    evo_trans, evo_rot = _evo_se3_ape(gt, est)
+    assert evo_rot > 10.0                                      # what session 19's studies reported (35-176 deg)
+    r = run(tmp_path / "est.txt", "kitti", gt)
+    assert r["ok"] and r["alignment"] == "se3" and r["ape_rot_rmse_deg"] is None
+    assert r["alignment_ill_posed"] is True and r["rotation_sigma_deg"] > 0.5 * evo_rot
+    assert r["ape_trans_rmse"] == pytest.approx(evo_trans, rel=1e-6)          # still the fit's minimum residual
+    drift = 0.1 * np.sqrt(np.mean(np.arange(10) ** 2))
+    assert r["ape_rot_origin_rmse_deg"] == pytest.approx(drift, rel=1e-6)
+    assert r["ape_rot_origin_rmse_deg"] == pytest.approx(_evo_origin_ape_rot(gt, est), rel=1e-6)
+    assert r["rpe_rot_rmse_deg"] == pytest.approx(0.1, rel=1e-6)               # frame to frame: the drift
+
+
+def test_a_curved_drive_keeps_evos_se3_ape_and_a_bent_one_is_measured(tmp_path):
+    """Well conditioned (a 40-frame arc, 59 m, 60 deg of turn): the record's APE is evo's, rotation
+    included, and the fit is not flagged -- also with a real rotation error (2 deg of yaw drift)."""
+    gt = curved()
+    rng = np.random.default_rng(5)
+    est = Trajectory(np.array([se3(T[:3, :3] @ euler_xyz_deg_to_R(rng.normal(0, 0.3), 2.0 * k / N, 0),
+                                   T[:3, 3] + rng.normal(0, 0.05, 3)) for k, T in enumerate(gt.T_world_cam)]),
+                     gt.timestamps_s)
+    write_kitti(tmp_path / "est.txt", est)
+    evo_trans, evo_rot = _evo_se3_ape(gt, est)
+    r = run(tmp_path / "est.txt", "kitti", gt)
+    assert r["alignment"] == "se3" and r["alignment_ill_posed"] is False and r["rotation_sigma_deg"] < 0.5 * evo_rot
+    assert r["ape_rot_rmse_deg"] == pytest.approx(evo_rot, rel=1e-6)
+    assert r["ape_trans_rmse"] == pytest.approx(evo_trans, rel=1e-6)
+
+
+@pytest.mark.data
+def test_real_kitti_excerpts_the_short_one_unmeasured_the_long_one_evos(tmp_path, shared_data):
+    """KITTI 00 with ORB-SLAM's estimate: its first 15 poses (12 m, straight) leave the se3 fit's
+    rotation free (evo: ~150 deg); its first 300 (216 m, a turn) fix it (evo: 0.9 deg)."""
+    from vo_reference.io.trajectory import read_trajectory
+    d = shared_data / "trajectories"
+    gt_all = read_trajectory(d / "KITTI_00_gt.txt", "kitti")
+    est_all = read_trajectory(d / "KITTI_00_ORB.txt", "kitti")
+    for n, free in ((15, True), (300, False)):
+        gt = Trajectory(gt_all.T_world_cam[:n], np.arange(n) / RATE)
+        est = Trajectory(est_all.T_world_cam[:n], gt.timestamps_s)
+        write_kitti(tmp_path / f"est{n}.txt", est)
+        evo_trans, evo_rot = _evo_se3_ape(gt, est)
+        r = run(tmp_path / f"est{n}.txt", "kitti", gt)
+        if free:
+            assert evo_rot > 90.0 and r["ape_rot_rmse_deg"] is None
+        else:
+            assert r["ape_rot_rmse_deg"] == pytest.approx(evo_rot, rel=1e-6) and evo_rot < 2.0
+        assert r["alignment_ill_posed"] is free and r["ape_trans_rmse"] == pytest.approx(evo_trans, rel=1e-6)
+        assert r["ape_rot_origin_rmse_deg"] == pytest.approx(_evo_origin_ape_rot(gt, est), rel=1e-6)
+
+
+def test_a_resumed_study_evaluates_again_a_run_of_an_older_evaluation(tmp_path):
+    """metrics.json written by an older definition of the record (no evaluation_version) is not
+    taken as done: the run is evaluated again (else a resumed study keeps the old figures)."""
+    import argparse
+    from synthetic_render import write_render
+    from vo_reference.commands.study import evaluate as study_evaluate
+    from vo_reference.io.trajectory import read_render_poses
+    from vo_reference.study.evaluate import EVALUATION_VERSION, sha256_file
+    K = np.array([[40.0, 0, 15.5], [0, 40.0, 11.5], [0, 0, 1]])
+    z, ids, rgb = np.full((24, 32), 3.0, np.float32), np.zeros((24, 32), np.int32), np.zeros((24, 32, 3), np.float32)
+    gt = near_straight()
+    folder = write_render(tmp_path / "render", K=K, baseline_m=0.1, T_world_left=gt.T_world_cam,
+                          frames=[{"left": (rgb, z, ids), "right": (rgb, z, ids)}] * len(gt))
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    rng = np.random.default_rng(3)
+    gtr = read_render_poses(folder)
+    est = Trajectory(np.array([se3(T[:3, :3], T[:3, 3] + rng.normal(0, 0.03, 3)) for T in gtr.T_world_cam]),
+                     gtr.timestamps_s)
+    write_kitti(run_dir / "est.txt", est)
+    settings = {"min_coverage": 0.5, "jump_factor": 5.0}
+    stale = {"ok": True, "ape_rot_rmse_deg": 87.0, "settings": settings, "est_sha256": sha256_file(run_dir / "est.txt"),
+             "gt": str(folder)}
+    (run_dir / "metrics.json").write_text(json.dumps(stale))
+    job = {"settings": settings, "runs": [{"run_dir": str(run_dir), "gt": str(folder), "est": str(run_dir / "est.txt"),
+                                           "format": "kitti", "mono": False}], "controls": []}
+    (tmp_path / "job.json").write_text(json.dumps(job))
+    assert study_evaluate(argparse.Namespace(job=str(tmp_path / "job.json"), progress="off")) == 0
+    m = json.loads((run_dir / "metrics.json").read_text())
+    assert m["evaluation_version"] == EVALUATION_VERSION and m["alignment_ill_posed"] and m["ape_rot_rmse_deg"] is None
+    before = (run_dir / "metrics.json").stat().st_mtime_ns
+    assert study_evaluate(argparse.Namespace(job=str(tmp_path / "job.json"), progress="off")) == 0
+    assert (run_dir / "metrics.json").stat().st_mtime_ns == before                 # now done: kept as it is
+
+
+def test_the_report_shows_a_rotation_the_fit_left_free_as_not_measured(tmp_path):
+    from vo_reference.study.report import write_report
+    cell = {"n": 1, "n_failed": 0, "mean": None, "std": None, "n_missing": 1, "n_ill_posed": 1}
+    run_ = {"variant": "base@s0", "system": "s", "trial": 0, "status": "ok", "failure": None, "wall_s": 1.0,
+            "metrics": {"ape_trans_rmse": 0.155, "ape_rot_rmse_deg": None, "alignment": "se3",
+                        "alignment_ill_posed": True, "rotation_sigma_deg": 216.5, "rpe_trans_rmse": 0.06,
+                        "ape_rot_origin_rmse_deg": 0.085}}
+    doc = {"format": "sesgen-study-results/2",
+           "study": {"name": "o", "description": "", "seeds": [0],
+                     "world": {"script": "x.ses", "frames": 10, "resolution": ["scale", 0.25], "quality": "draft"},
+                     "design": {"kind": "oat", "samples": 0, "seed": 0}, "metric": "ape_rot_rmse_deg",
+                     "break_multiple": 2.0},
+           "factors": [{"name": "a", "unit": "u", "doc": "", "stage": "image", "levels": [1], "base_level": None}],
+           "systems": [{"name": "s", "builtin": None, "layout": "tum", "format": "tum", "mono": False, "trials": 1}],
+           "variants": [], "runs": [run_], "points": [], "curves": {"a": {"s": [dict(cell)]}}, "base": {"s": dict(cell)},
+           "breaking_points": {"a": {"s": {"level": None, "reason": "not measured at the base"}}}, "cost": {}}
+    (tmp_path / "results.json").write_text(json.dumps(doc))
+    import re
+    page = html.unescape(re.sub(r"<[^>]+>", "", write_report(tmp_path).read_text()))
+    assert "not measured in 1 of 1 runs" in page and "rotation ±216°, free: APE rotation not measured" in page
+    assert "— (not measured: the fit leaves the rotation free; from the first pose 0.085°)" in page
+    assert page.count("not measured (missing from 1 run(s); rotation free)") == 2        # base and level cells
+
+
+def test_a_drive_that_starts_standing_loses_no_frames_but_a_jump_still_counts(tmp_path):
+    """Standing for 16 of 30 frames (as EuRoC's sequences start), then 1 m a frame: a VO 2 mm
+    off everywhere has lost nothing (the estimate's median step was its noise, and every moving
+    step counted as a jump: tracking loss 0.47); lost and found 20 m off at frame 24 is a jump."""
+    rng = np.random.default_rng(0)
+    z = [0.0] * 16 + list(np.cumsum([1.0] * 14))
+    gt = Trajectory(np.array([se3(euler_xyz_deg_to_R(0, 3 * k, 0), (0.3 * np.sin(k / 5), 1.5, -zk))
+                              for k, zk in enumerate(z)]), np.arange(30) / RATE)
+    est = Trajectory(np.array([se3(T[:3, :3], T[:3, 3] + rng.normal(0, 0.002, 3)) for T in gt.T_world_cam]),
+                     gt.timestamps_s)
+    write_kitti(tmp_path / "est.txt", est)
+    r = run(tmp_path / "est.txt", "kitti", gt)
+    assert r["tracking_loss"] == 0.0 and r["jumps"] == []
+    T = est.T_world_cam.copy()
+    T[24:, :3, 3] += (20.0, 0.0, 0.0)
+    write_kitti(tmp_path / "jump.txt", Trajectory(T, gt.timestamps_s))
+    r = run(tmp_path / "jump.txt", "kitti", gt)
+    assert r["jumps"] == [24] and r["tracking_loss"] == pytest.approx(1 / 30)
+
+
+@pytest.mark.parametrize("step", [1.25, 2.5])
+def test_rpe_per_metre_is_the_error_over_each_pieces_length(tmp_path, step):
+    """A VO whose every step is 1 % too long (a 1 % scale error, stereo: not aligned away) errs
+    0.01 m per metre whatever the frame step (a same-path factor such as rig_speed changes it);
+    the error of a piece is not its error per metre (old: 0.0125 at 1.25 m a frame, 0.025 at 2.5)."""
+    n = 12
+    gt = Trajectory(np.array([se3(euler_xyz_deg_to_R(0, 2 * k, 0), (0.4 * np.sin(k / 3), 1.5, -step * k))
+                              for k in range(n)]), np.arange(n) / RATE)
+    T = gt.T_world_cam.copy()
+    T[:, :3, 3] = T[0, :3, 3] + 1.01 * (T[:, :3, 3] - T[0, :3, 3])
+    write_kitti(tmp_path / "est.txt", Trajectory(T, gt.timestamps_s))
+    r = run(tmp_path / "est.txt", "kitti", gt)
+    assert r["rpe_trans_per_m"] == pytest.approx(0.01, rel=0.02)

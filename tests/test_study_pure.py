@@ -505,3 +505,48 @@ def test_a_render_folder_held_by_another_writer_fails_the_study(tmp_path):
     assert f"being rendered by pid {os.getpid()}" in stdout + err, stdout + err
     doc = json.loads((out / "results.json").read_text())
     assert doc["runs"] and all(r["status"] == "failed" for r in doc["runs"])
+
+
+def test_a_measure_missing_from_runs_is_not_averaged_nor_a_break_nor_a_regression(tmp_path):
+    """ape_rot_rmse_deg is null where the run's alignment left the rotation free: a point whose
+    runs lack it has no mean (not the mean of the others: a selected subset), its breaking point
+    says 'not measured' (not 'holds up to'), and compare calls it 'unmeasured' (exit 0)."""
+    from blender_sesgen.study.results import FORMAT, aggregate, compare, curves_and_breaks
+    body = ('[world]\nscript = "scene.ses"\n[factors.exposure_time]\nlevels = [0.01, 0.02]\n'
+            '[[systems]]\nname = "s"\ncmd = "x {out}"\nlayout = "tum"\nformat = "tum"\n'
+            '[evaluation]\nmetric = "ape_rot_rmse_deg"\n')
+    study = load(tmp_path, body)
+
+    def runs(points):
+        out = []
+        for point, rots in points:
+            for t, rot in enumerate(rots):
+                out.append({"point": point, "system": "s", "trial": t, "status": "ok",
+                            "metrics": {"ape_trans_rmse": 0.1, "ape_rot_rmse_deg": rot,
+                                        "alignment_ill_posed": rot is None, "rotation_sigma_deg": 90.0}})
+        return out
+    free = runs([({}, [None, None]), ({"exposure_time": 0.01}, [None, 0.4]), ({"exposure_time": 0.02}, [9.0, 9.0])])
+    aggs = aggregate(free, "ape_rot_rmse_deg")
+    curves, base, breaks = curves_and_breaks(study, aggs, "ape_rot_rmse_deg")
+    mixed = curves["exposure_time"]["s"][0]
+    assert mixed["mean"] is None and mixed["n_missing"] == 1                    # not 0.4, the one measured run
+    assert base["s"]["mean"] is None and base["s"]["n_missing"] == 2 and base["s"]["n_ill_posed"] == 2
+    b = breaks["exposure_time"]["s"]
+    assert b["level"] is None and b["reason"].startswith("not measured at the base") and "0.01" in b["reason"]
+    assert "leaves its rotation free" in b["reason"] and "holds up" not in b["reason"]
+    assert aggs[("base", "s")]["metrics"]["ape_trans_rmse"]["mean"] == pytest.approx(0.1)   # the others unchanged
+
+    def doc(rs):
+        c, bb, br = curves_and_breaks(study, aggregate(rs, "ape_rot_rmse_deg"), "ape_rot_rmse_deg")
+        return {"format": FORMAT, "study": {"metric": "ape_rot_rmse_deg"},
+                "factors": [{"name": "exposure_time", "levels": [0.01, 0.02]}], "curves": c, "base": bb}
+    old = doc(runs([({}, [120.0, 35.0]), ({"exposure_time": 0.01}, [86.0, 6.0]), ({"exposure_time": 0.02}, [9.0, 9.0])]))
+    rows = {(r["factor"], r["level"]): r for r in compare(old, doc(free))}
+    assert rows[("(base)", "")]["verdict"] == "unmeasured" and "NEW: ape_rot_rmse_deg missing from 2 of 2" \
+        in rows[("(base)", "")]["detail"]
+    assert rows[("exposure_time", "0.02")]["verdict"] == "same"
+    a, n = tmp_path / "old.json", tmp_path / "new.json"
+    a.write_text(json.dumps(old))
+    n.write_text(json.dumps(doc(free)))
+    rc, out, _ = cli("study", "compare", str(a), str(n))
+    assert rc == 0 and "unmeasured (base) / s" in out

@@ -45,10 +45,12 @@ def main() -> None:
         point = {} if lv == "base" else {f["name"]: lv}
         for s in names:
             c = cells[s]
-            per_seed = ", ".join("×" if x["status"] != "ok" else f"{x['metrics'][metric]:.2f}"
+            per_seed = ", ".join("×" if x["status"] != "ok" else "not measured" if x["metrics"].get(metric) is None
+                                 else f"{x['metrics'][metric]:.2f}"
                                  for x in sorted(r["runs"], key=lambda x: (x["world_seed"], x["trial"]))
                                  if x["system"] == s and x["point"] == point)
-            text = "failed" if c["mean"] is None else f"{c['mean']:.3f} ± {c['std'] or 0:.3f} ({per_seed})"
+            text = (f"{c['mean']:.3f} ± {c['std'] or 0:.3f} ({per_seed})" if c["mean"] is not None
+                    else "failed" if c.get("n_failed", 0) >= c.get("n", 0) else f"not measured ({per_seed})")
             if c.get("n_failed"):
                 text += f" ({c['n_failed']}/{c['n']} failed)"
             out.append(f"**{text}**" if c.get("broken") else text)

@@ -72,7 +72,10 @@ class SensorSession:
         ref = s.still_reference(k)
         beauty_shutter, beauty_duration = (shutter, duration) if ref == k else s.shutter(
             exposure_s if still_exposure_s is None else still_exposure_s)
-        self._key(ref, [beauty_shutter, gt_shutter], shift)
+        # one flat sample through the pixel centre (gt) integrates no shutter: the sharp render
+        # of both views is the whole frame, its ground truth that of the other presets
+        sharp_only = self.fast and self.plan.settings.preset.deterministic_rgb
+        self._key(ref, [gt_shutter] if sharp_only else [beauty_shutter, gt_shutter], shift)
         names = compat.exr_channel_names()
         beauty = set(names["rgb"])
         quiet = not self.plan.options.verbose
@@ -89,9 +92,6 @@ class SensorSession:
         tmp = {v: temp_path(Path(paths[v]).with_name("beauty-" + Path(paths[v]).name)) for v in views}
         tmp_gt = {v: temp_path(Path(paths[v]).with_name("gt-" + Path(paths[v]).name)) for v in views}
         stats = {}
-        # one flat sample through the pixel centre (gt) integrates no shutter: the sharp render
-        # of both views is the whole frame, its ground truth that of the other presets
-        sharp_only = self.fast and self.plan.settings.preset.deterministic_rgb
         try:
             if sharp_only:
                 if stop():
@@ -108,8 +108,11 @@ class SensorSession:
                         raise KeyboardInterrupt
                     stats.update(draw((view,), render_seed(self.plan.settings.seed, ref, vi), tmp,
                                       {view: display_paths[view]} if display_paths else None, ref))
-            if ref != k:
-                self._key(k, [shutter, gt_shutter], shift)
+            # the ground truth's own instants alone: between keys Blender interpolates, so the
+            # beauty's shutter instants beside a rolling shutter's row instants would move the
+            # rows' poses with the frame's exposure (up to 1e-4 of the depth)
+            if ref != k or (s.rolling_shutter and not sharp_only):
+                self._key(k, [gt_shutter], shift)
             if s.shutter_effects and not sharp_only:
                 with sensor.ground_truth_settings(self.scene, gt_shutter, s.rolling_shutter):
                     gt_stats = {}

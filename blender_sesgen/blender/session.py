@@ -24,7 +24,7 @@ from typing import Callable, Optional
 from ..contract.manifest import render_seed
 from ..scene.lighting import AGX_LOOKS, EXPOSURE_TARGET, VIEW_TRANSFORMS
 from ..render.plan import Device, RenderPlan
-from ..render.sensor.autoexposure import METERING_DENOISE, metered_frames
+from ..render.sensor.autoexposure import METERING_DENOISE
 from ..scene.presets import EXPOSURE_PREVIEW
 from . import builder, compat, exposure, render, rig, shading
 
@@ -64,7 +64,8 @@ class BlenderSession:
                 self._exposure_ids = visible_objects(plan, [0]).keep
                 keep |= self._exposure_ids
             if meters:   # the metering pass sees what every frame it meters sees, in every chunk
-                self._metering_ids = visible_objects(plan, range(metered_frames(plan.frames, plan.scene.frames))).keep
+                upto = plan.sensor.metered_frames(plan.frames, plan.scene.frames)
+                self._metering_ids = visible_objects(plan, range(upto)).keep
                 keep |= set(self._metering_ids)
             scene = culled_scene(plan.scene, keep)
         self._built_from = scene      # the model built (the exposure preview's cache key)
@@ -196,8 +197,10 @@ class BlenderSession:
         t0 = time.perf_counter()
         # frame k's exposure follows frames 0..k-1: meter the frames before this render's last
         # (a chunk's or --frames A:B's prefix; no render meters the sequence's last frame), the
-        # rest left unknown; frames 0:2 need frame 0 only: the exposure preview's, no render here
-        upto = metered_frames(self.plan.frames, self.plan.scene.frames)
+        # rest left unknown; frames 0:2 need frame 0 only (frames 0:1 too with the converged start,
+        # AUTOEXPOSURE's default: frame 0's exposure answers its own metering): the exposure
+        # preview's where it is the metering preview, no render here
+        upto = self.plan.sensor.metered_frames(self.plan.frames, self.plan.scene.frames)
         first = self._preview_luminance if upto else None
         if upto > (first is not None):
             render.configure(self.built.scene, EXPOSURE_PREVIEW,

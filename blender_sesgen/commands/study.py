@@ -5,7 +5,8 @@ Exit codes: ``run``: 0 the study ran (systems that failed are results, in the re
 step of the study itself failed (a render, an export, the evaluation), 2 a bad study file
 (one line: ``file:line:col`` for TOML, else the key), 130 interrupted (run the same command
 again: it resumes). ``compare``: 0 no regression, 1 a regression beyond the trials' spread,
-2 bad input.
+2 bad input (a level whose measure is missing from its runs, e.g. the APE rotation on a
+path too straight for the fit to fix it, is ``unmeasured``: said, not a regression).
 """
 from __future__ import annotations
 
@@ -80,7 +81,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_progress_argument(r)
     c = sub.add_parser("compare", help="compare two studies' results.json: exit 1 on a regression",
                        description="Per factor, level and system: did NEW get worse than OLD beyond the "
-                                   "trials' spread? Exit 1 if so (for CI).")
+                                   "trials' spread? Exit 1 if so (for CI). 'unmeasured': the measure is missing "
+                                   "from the runs of either (ape_rot_rmse_deg where the alignment leaves the "
+                                   "rotation free: alignment_ill_posed); said, not a regression.")
     c.add_argument("old", metavar="OLD.json", help="results.json of the earlier run")
     c.add_argument("new", metavar="NEW.json", help="results.json of the new run")
     c.add_argument("--sigmas", type=float, default=None, metavar="K",
@@ -139,7 +142,7 @@ def compare(args: argparse.Namespace) -> int:
     rows = compare_docs(*docs, sigmas=sigmas)
     worse = [r for r in rows if r["verdict"] == "worse"]
     for r in rows:
-        mark = {"worse": "WORSE ", "better": "better", "same": "same  "}[r["verdict"]]
+        mark = {"worse": "WORSE ", "better": "better", "same": "same  ", "unmeasured": "unmeasured"}[r["verdict"]]
         lv = f" = {r['level']}" if r["level"] else ""
         print(f"{mark} {r['factor']}{lv} / {r['system']}: {r['detail']}")
     if args.json:

@@ -119,14 +119,13 @@ class RenderJob:
             self.session = ReusedSession(self.plan, self.plan.options.reuse_exr)
             return
         from ..blender.session import BlenderSession
-        from .sensor.autoexposure import metered_frames
         from .sensor.outputs import stored_metering
         kept = self.folder.resumable(self.plan)
         self.session = BlenderSession(self.plan, known_exposure=(kept or {}).get("render", {}).get("exposure"),
                                       fast=self.plan.options.fast_pipeline,
                                       known_metering=stored_metering(
                                           self.plan.sensor, kept,
-                                          metered_frames(self.plan.frames, self.plan.scene.frames)),
+                                          self.plan.sensor.metered_frames(self.plan.frames, self.plan.scene.frames)),
                                       stop=stop)
 
     def new_manifest(self) -> Manifest:

@@ -359,14 +359,17 @@ class Sensor:
 
 @dataclass(frozen=True, kw_only=True)
 class AutoExposure:
-    """``AUTOEXPOSURE [target T] [speed S] [max_exposure S] [max_gain G]``: exposure control
-    with one frame of latency; ``speed`` in 1/s (the fraction of the log-exposure error
-    corrected over dt is 1 - exp(-speed dt))."""
+    """``AUTOEXPOSURE [target T] [speed S] [max_exposure S] [max_gain G] [min_exposure S]
+    [start converged|nominal]``: exposure control with one frame of latency; ``speed`` in 1/s
+    (the fraction of the log-exposure error corrected over dt is 1 - exp(-speed dt)); ``start``:
+    frame 0 at the controller's steady state for what frame 0 sees (``converged``, a camera
+    that ran before the sequence began) or at the nominal TIMING exposure and SENSOR gain."""
     target: float = 0.18           # mean normalised signal (0..1 of full scale) to aim for
     speed: float = 3.0
     max_exposure_s: float = 0.0    # 0: the frame period minus the readout
     max_gain: float = 8.0
     min_exposure_s: float = 1e-5
+    start: str = "converged"       # "converged" | "nominal": frame 0's exposure
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -153,7 +153,8 @@ def autoexposure(stmt: Optional[ParsedStatement], check: Checks, profile: dict =
     d = model.AutoExposure
     return model.AutoExposure(target=target, speed=float(scalar(stmt, "speed", profile.get("speed", d.speed))),
                               max_exposure_s=float(scalar(stmt, "max_exposure", 0.0)), max_gain=max_gain,
-                              min_exposure_s=float(scalar(stmt, "min_exposure", d.min_exposure_s)))
+                              min_exposure_s=float(scalar(stmt, "min_exposure", d.min_exposure_s)),
+                              start=stmt.get("start", d.start))
 
 
 def imu(stmt: Optional[ParsedStatement], check: Checks) -> Optional[model.Imu]:
@@ -203,7 +204,7 @@ def sensor_models(seen: dict[str, ParsedStatement], rig: model.Rig, check: Check
         if seen.get("SENSOR") is None:
             check.err(ae.token, "AUTOEXPOSURE needs a SENSOR statement (it drives the sensor's exposure and gain)")
         if t is None or t.exposure_s <= 0:
-            check.err(ae.token, "AUTOEXPOSURE needs TIMING with an exposure > 0 (its starting exposure time)")
+            check.err(ae.token, "AUTOEXPOSURE needs TIMING with an exposure > 0 (the nominal exposure time: the scale of its target)")
         a = out["autoexposure"]
         if a is not None and t is not None and t.rate_hz > 0:
             longest = 1.0 / t.rate_hz - t.readout_s    # an exposure ends before the next frame's readout

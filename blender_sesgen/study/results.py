@@ -1,4 +1,4 @@
-"""``results.json`` (format ``sesgen-study-results/1``): every run, its aggregates, the
+"""``results.json`` (format ``sesgen-study-results/2``): every run, its aggregates, the
 breaking points; and ``study compare`` (pure: numpy and the standard library).
 
 - A **run** is ``ok`` when the system exited 0 within its timeout and its trajectory was
@@ -6,7 +6,10 @@ breaking points; and ``study compare`` (pure: numpy and the standard library).
   exit code and the tail of its stderr.
 - **Aggregates** pool a design point's runs over trials and world seeds, per system: the
   number of runs and of failures, and per metric the mean, spread (sample standard
-  deviation; 0 for one value), min and max of the runs that did not fail.
+  deviation; 0 for one value), min and max of the runs that did not fail. A measure that
+  some of those runs lack (``n_missing``: ``ape_rot_rmse_deg`` where the run's alignment left
+  the rotation free, ``alignment_ill_posed``; the KITTI metric on a path under 100 m) has no
+  mean there: the others would be a selected subset (format 2; format 1 averaged them).
 - The **breaking point** of a factor for a system (one-factor-at-a-time designs): the first
   level, in the order the study file lists them, at which at least half the runs fail or
   the mean error exceeds ``break_multiple`` times the base's by more than ``break_sigmas``
@@ -17,7 +20,8 @@ breaking points; and ``study compare`` (pure: numpy and the standard library).
 - **compare** OLD NEW: per factor, level and system, NEW is *worse* when it fails more
   often, or when its mean error exceeds OLD's by more than ``sigmas`` times the larger of
   the two spreads (and by more than 1e-9 relative: a deterministic system run twice is
-  unchanged); *better* the other way round.
+  unchanged); *better* the other way round; *unmeasured* when either has no mean though its
+  runs did not fail (a measure missing from its runs: not a regression, but said).
 """
 from __future__ import annotations
 
@@ -27,18 +31,22 @@ from typing import Optional
 
 import numpy as np
 
-FORMAT = "sesgen-study-results/1"
-METRIC_KEYS = ("ape_trans_rmse", "ape_rot_rmse_deg", "rpe_trans_rmse", "rpe_rot_rmse_deg", "rpe_trans_per_m",
-               "kitti_t_err_pct", "kitti_r_err_deg_per_100m", "tracking_loss", "coverage")
+FORMAT = "sesgen-study-results/2"      # 2: n_missing, alignment_ill_posed, rotation_sigma_deg, ape_rot_origin_rmse_deg
+METRIC_KEYS = ("ape_trans_rmse", "ape_rot_rmse_deg", "ape_rot_origin_rmse_deg", "rpe_trans_rmse", "rpe_rot_rmse_deg",
+               "rpe_trans_per_m", "kitti_t_err_pct", "kitti_r_err_deg_per_100m", "tracking_loss", "coverage")
 REL_TOL = 1e-9
 
 
 def stats(values) -> dict:
+    """Mean, spread, min, max of ``values``; none when any is missing (None, not finite):
+    ``n_missing`` says how many (a subset would be a selection, module docstring)."""
+    values = list(values)
     v = np.asarray([x for x in values if x is not None and math.isfinite(x)], dtype=float)
-    if v.size == 0:
-        return {"n": 0, "mean": None, "std": None, "min": None, "max": None}
-    return {"n": int(v.size), "mean": float(v.mean()), "std": float(v.std(ddof=1)) if v.size > 1 else 0.0,
-            "min": float(v.min()), "max": float(v.max())}
+    missing = len(values) - int(v.size)
+    if v.size == 0 or missing:
+        return {"n": int(v.size), "n_missing": missing, "mean": None, "std": None, "min": None, "max": None}
+    return {"n": int(v.size), "n_missing": 0, "mean": float(v.mean()), "std": float(v.std(ddof=1)) if v.size > 1
+            else 0.0, "min": float(v.min()), "max": float(v.max())}
 
 
 def run_record(variant, system, trial: int, run: dict, metrics: Optional[dict], folder: str) -> dict:
@@ -49,8 +57,9 @@ def run_record(variant, system, trial: int, run: dict, metrics: Optional[dict], 
         failure = "not evaluated"
     if failure is None and not m.get("ok"):
         failure = m.get("failure") or "not evaluated"
-    keep = {k: m[k] for k in (*METRIC_KEYS, "alignment", "scale", "lost_frames", "jumps", "n_paired", "n_frames",
-                              "est_xyz", "frames", "gt_path_length_m") if k in m}
+    keep = {k: m[k] for k in (*METRIC_KEYS, "alignment", "alignment_ill_posed", "rotation_sigma_deg", "scale",
+                              "lost_frames", "jumps", "n_paired", "n_frames", "est_xyz", "frames", "gt_path_length_m")
+            if k in m}
     return {"variant": variant.name, "key": variant.key, "point": variant.point, "world_seed": variant.seed,
             "system": system.name, "trial": trial, "status": "ok" if failure is None else "failed",
             "failure": failure, "rc": run.get("rc"), "timed_out": bool(run.get("timed_out")),
@@ -68,6 +77,7 @@ def aggregate(runs: list, metric: str) -> dict:
     for key, rs in groups.items():
         ok = [r for r in rs if r["status"] == "ok"]
         out[key] = {"point": rs[0]["point"], "system": key[1], "n": len(rs), "n_failed": len(rs) - len(ok),
+                    "n_ill_posed": sum(bool(r["metrics"].get("alignment_ill_posed")) for r in ok),
                     "metrics": {m: stats([r["metrics"].get(m) for r in ok]) for m in METRIC_KEYS}}
     return out
 
@@ -77,7 +87,20 @@ def _cell(agg: Optional[dict], metric: str) -> dict:
         return {"n": 0, "n_failed": 0, "mean": None, "std": None}
     s = agg["metrics"][metric]
     return {"n": agg["n"], "n_failed": agg["n_failed"], "mean": s["mean"], "std": s["std"], "min": s["min"],
-            "max": s["max"]}
+            "max": s["max"], "n_missing": s.get("n_missing", 0), "n_ill_posed": agg.get("n_ill_posed", 0)}
+
+
+def _unmeasured(c: dict) -> bool:
+    """Runs that did not fail, but no mean: the measure is missing from (some of) them."""
+    return c["n"] > c["n_failed"] and c["mean"] is None
+
+
+def unmeasured_reason(c: dict, metric: str) -> str:
+    why = f"{metric} missing from {c.get('n_missing', 0)} of {c['n'] - c['n_failed']} runs"
+    if metric == "ape_rot_rmse_deg" and c.get("n_ill_posed"):
+        why += (f" ({c['n_ill_posed']} aligned by a fit that leaves its rotation free: a short or nearly straight "
+                "path; read ape_rot_origin_rmse_deg, the rotation drift from the first pose, or rpe_rot_rmse_deg)")
+    return why
 
 
 def _failed(c: dict) -> bool:
@@ -118,6 +141,11 @@ def curves_and_breaks(study, aggs: dict, metric: str) -> tuple[dict, dict, dict]
             if _failed(b):
                 found = {"level": "base", "reason": f"fails at the base ({b['n_failed']} of {b['n']} runs)"}
             curves[f.name][s.name] = cells
+            gaps = [("the base", b)] * _unmeasured(b) + [(str(lv), c) for lv, c in zip(f.levels, cells) if _unmeasured(c)]
+            if found is None and gaps:       # no break found, but not every level was measured: say so
+                total = {k: sum(c.get(k, 0) for _, c in gaps) for k in ("n", "n_failed", "n_missing", "n_ill_posed")}
+                found = {"level": None, "unmeasured": True, "reason": f"not measured at {', '.join(w for w, _ in gaps)}: "
+                                                                      + unmeasured_reason(total, metric)}
             if found is None:
                 near = [lv for lv, c in zip(f.levels, cells) if c["within_spread"]]
                 found = {"level": None, "reason": f"holds up to {f.levels[-1]}" + (
@@ -197,7 +225,8 @@ def _cells(doc: dict) -> dict:
         for p in doc.get("points", []):
             m = p["metrics"][metric]
             out[("(point)", p["label"], p["system"])] = {"n": p["n"], "n_failed": p["n_failed"], "mean": m["mean"],
-                                                         "std": m["std"]}
+                                                         "std": m["std"], "n_missing": m.get("n_missing", 0),
+                                                         "n_ill_posed": p.get("n_ill_posed", 0)}
     return out
 
 
@@ -217,7 +246,11 @@ def compare(old: dict, new: dict, sigmas: float = 1.0) -> list[dict]:
         fo = o["n_failed"] / o["n"] if o["n"] else 0.0
         fn = n["n_failed"] / n["n"] if n["n"] else 0.0
         verdict, why = "same", ""
-        if fn > fo:
+        if fn == fo and (_unmeasured(o) or _unmeasured(n)):
+            verdict = "unmeasured"
+            why = "; ".join(f"{w}: {unmeasured_reason(c, old['study']['metric'])}"
+                            for w, c in (("OLD", o), ("NEW", n)) if _unmeasured(c))
+        elif fn > fo:
             verdict, why = "worse", f"fails {n['n_failed']}/{n['n']} (was {o['n_failed']}/{o['n']})"
         elif fn < fo:
             verdict, why = "better", f"fails {n['n_failed']}/{n['n']} (was {o['n_failed']}/{o['n']})"

@@ -19,8 +19,8 @@ from .factors import FACTORS, STAGES, UserFactor
 
 POSE_FORMATS = ("tum", "kitti", "euroc")
 DESIGNS = ("oat", "grid", "lhs")
-METRICS = ("ape_trans_rmse", "ape_rot_rmse_deg", "rpe_trans_rmse", "rpe_rot_rmse_deg", "rpe_trans_per_m",
-           "kitti_t_err_pct", "tracking_loss")
+METRICS = ("ape_trans_rmse", "ape_rot_rmse_deg", "ape_rot_origin_rmse_deg", "rpe_trans_rmse", "rpe_rot_rmse_deg",
+           "rpe_trans_per_m", "kitti_t_err_pct", "tracking_loss")
 
 
 class StudyError(SesgenError):
@@ -78,7 +78,7 @@ class Evaluation:
     metric: str = "ape_trans_rmse"             # the error plotted, compared and used for breaking points
     break_multiple: float = 2.0                # broken: error > multiple x the base's, or failed
     min_coverage: float = 0.5                  # a trajectory with poses for fewer frames is a failure
-    jump_factor: float = 5.0                   # a step this many times the median step is a tracking loss
+    jump_factor: float = 5.0                   # a step missing the true one by this many mean true steps: lost
     regression_sigmas: float = 1.0             # compare: worse by more than this many spreads
     break_sigmas: float = 1.0                  # broken: above the multiple by more than this many spreads
 

@@ -6,7 +6,8 @@ The job file (written by the study) lists the runs to evaluate -- ``{"settings":
 {"min_coverage", "jump_factor"}, "runs": [{"run_dir", "gt", "est", "format", "mono"}],
 "controls": [{"key", "variant", "base"}], "controls_out": PATH}`` -- and each run's record
 goes to ``RUN_DIR/metrics.json`` (skipped when it is there for the same trajectory file and
-settings: a resumed study evaluates only what is new).
+settings and the same ``EVALUATION_VERSION``: a resumed study evaluates only what is new, and
+every run again when the record's definition changed).
 """
 from __future__ import annotations
 
@@ -52,7 +53,7 @@ def evaluate(args: argparse.Namespace) -> int:
     from ..evaluate.report import write_json
     from ..io.render import RenderSequence
     from ..io.trajectory import read_render_poses
-    from ..study.evaluate import evaluate_run, ground_truth_identical, sha256_file
+    from ..study.evaluate import EVALUATION_VERSION, evaluate_run, ground_truth_identical, sha256_file
 
     job = _read_json(Path(args.job))
     settings = job.get("settings") or {}
@@ -67,7 +68,8 @@ def evaluate(args: argparse.Namespace) -> int:
             sha = sha256_file(est) if est.is_file() else None
             if metrics_path.is_file():
                 old = _read_json(metrics_path)
-                if old.get("settings") == settings and old.get("est_sha256") == sha and old.get("gt") == r["gt"]:
+                if old.get("settings") == settings and old.get("est_sha256") == sha and old.get("gt") == r["gt"] \
+                        and old.get("evaluation_version") == EVALUATION_VERSION:
                     bar.update(detail=f"{r['run_dir']} (done)")
                     continue
             if r["gt"] not in gts:
@@ -76,7 +78,7 @@ def evaluate(args: argparse.Namespace) -> int:
             rec = evaluate_run(gt, est, r["format"], mono=bool(r.get("mono")), rate_hz=rate,
                                min_coverage=float(settings.get("min_coverage", 0.5)),
                                jump_factor=float(settings.get("jump_factor", 5.0)))
-            rec.update(settings=settings, est_sha256=sha, gt=r["gt"])
+            rec.update(settings=settings, est_sha256=sha, gt=r["gt"], evaluation_version=EVALUATION_VERSION)
             write_json(metrics_path, rec)
             bar.update(detail=f"{r['run_dir']}: {'ok' if rec['ok'] else rec['failure']}")
         for c in controls:

@@ -24,6 +24,17 @@ METHODS = ("none", "origin", "se3", "sim3", "scale")
 # ground-truth one -- every VO here starts there, APE is then the drift -- whereas an SE(3)
 # fit to a short or nearly straight path cannot fix the rotation about it.
 CLI_DEFAULT = "origin"
+# An se3/sim3 fit whose own rotation uncertainty (rotation_sigma_deg, 1 sigma, worst axis) is at
+# least this share of the APE rotation it yields does not measure the estimate's rotation: the
+# figure is then mostly the fit's (the roll about a nearly straight path). A ratio, not a bound
+# in degrees: a large rotation error stays measurable under a loose fit, a small one does not.
+# The fit's error adds to the estimate's roughly in quadrature (figure² ≈ true² + sigma²), so at
+# sigma < 0.5 x the figure the figure overstates the true error by at most 1/sqrt(1 - 0.25) = 1.15x.
+ILL_POSED_RATIO = 0.5
+# ... unless the fit's uncertainty is below this at all (degrees): a fit to within rounding (a
+# trajectory file's digits) fixes its rotation far better than any VO or ground truth turns
+# (KITTI's poses: ~0.06 deg a step), even where the APE rotation is ~0 too.
+ROTATION_FLOOR_DEG = 1e-3
 
 
 @dataclass(frozen=True)
@@ -89,6 +100,16 @@ def rotation_sigma_deg(x: np.ndarray, y: np.ndarray, R: np.ndarray, t: np.ndarra
     if sigma == 0.0:
         return 0.0
     return float(np.degrees(sigma / np.sqrt(perp))) if perp > 0 else float("inf")
+
+
+def fixes_rotation(alignment: Alignment, ape_rot_deg: float) -> bool:
+    """Whether an APE rotation of ``ape_rot_deg`` after ``alignment`` measures the estimate:
+    always for none/origin/scale (no fitted rotation); for se3/sim3 when the fit's own rotation
+    uncertainty is under ``ILL_POSED_RATIO`` of it, or under ``ROTATION_FLOOR_DEG``."""
+    if alignment.method not in ("se3", "sim3"):
+        return True
+    s = alignment.rotation_sigma_deg
+    return bool(np.isfinite(s)) and (s < ILL_POSED_RATIO * ape_rot_deg or s < ROTATION_FLOOR_DEG)
 
 
 def apply_alignment(est: Trajectory, alignment: Alignment) -> Trajectory:

@@ -6,7 +6,7 @@ from typing import Optional
 
 from ..errors import VoError
 from ..io.trajectory import Trajectory
-from .align import Alignment, align as align_trajectory
+from .align import Alignment, align as align_trajectory, fixes_rotation
 from .ape import APEResult, ape
 from .associate import associate, needs_association
 from .egomotion import EgomotionTable, egomotion_table
@@ -36,6 +36,8 @@ class TrajectoryEvaluation:
             "ape_rot_rmse_deg": self.ape.rot_deg.rmse,
             "rpe_trans_rmse": self.rpe.trans.rmse,
             "rpe_rot_rmse_deg": self.rpe.rot_deg.rmse,
+            # se3/sim3: the fit leaves its rotation free (summary_lines' note): ape_rot_rmse_deg measures the fit
+            "alignment_ill_posed": not fixes_rotation(self.alignment, self.ape.rot_deg.rmse),
         }
         if self.kitti is not None:
             m["kitti_t_err_pct"] = self.kitti.t_err_pct
@@ -119,11 +121,6 @@ def evaluate_trajectory(gt: Trajectory, est: Trajectory, options: Optional[Evalu
         n_gt_input=n_gt, n_est_input=n_est)
 
 
-# summary_lines' note: an se3/sim3 fit whose own rotation uncertainty is at least this share
-# of the APE rotation it yields does not measure the estimate
-ILL_POSED_RATIO = 0.5
-
-
 def summary_lines(ev: TrajectoryEvaluation) -> list[str]:
     """A short human-readable table of the headline numbers."""
     a, r = ev.ape, ev.rpe
@@ -148,7 +145,7 @@ def summary_lines(ev: TrajectoryEvaluation) -> list[str]:
     row(f"RPE trans (m) d={r.delta:g}{unit[0]}", r.trans)
     row(f"RPE rot (deg) d={r.delta:g}{unit[0]}", r.rot_deg)
     rows.append(f"(RPE: delta {r.delta:g} {unit}, {pairs}, {len(r.pairs)} pairs)")
-    if fitted and al.rotation_sigma_deg >= ILL_POSED_RATIO * a.rot_deg.rmse:
+    if not fixes_rotation(al, a.rot_deg.rmse):
         rows.append(f"note: on this short or nearly straight path the {al.method} fit fixes its rotation only to "
                     f"±{al.rotation_sigma_deg:.2g}°, about the APE rotation it yields: that figure measures the fit, "
                     "not the estimate (--align origin compares from a common first pose)")

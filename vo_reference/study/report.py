@@ -4,7 +4,9 @@ URIs, no script, nothing fetched) from the study folder's ``results.json``.
 Sections: what was run and what it cost; the ground-truth controls; per factor the error
 against the level for every system (mean and spread over trials and world seeds, failed
 runs marked), a strip of each level's first frame, each run's trajectory seen from above;
-the breaking-point table; every run with its failure and the tail of its stderr.
+the breaking-point table; every run with its alignment, failure and the tail of its stderr.
+A measure missing from a point's runs (the APE rotation where the fit leaves the rotation
+free, ``alignment_ill_posed``) is shown as not measured, never as a number.
 """
 from __future__ import annotations
 
@@ -79,16 +81,23 @@ def factor_plot(factor: dict, curves: dict, base: dict, systems: list, metric: s
             if b.get("std"):          # the base's own spread: what a level must clear to count
                 ax.axhspan(b["mean"] - b["std"], b["mean"] + b["std"], color=c, alpha=0.08, lw=0)
     top = top or 1.0
+    gaps = False
     for i, s in enumerate(systems):
         rows = curves.get(s["name"], [])
         fx = [xs[j] for j, r in enumerate(rows) if r["n_failed"] and r["n_failed"] * 2 >= r["n"]]
         if fx:
             ax.plot(fx, [top * 1.08] * len(fx), "x", color=COLOURS[i % len(COLOURS)], ms=9, mew=2)
+        ux = [xs[j] for j, r in enumerate(rows) if r["mean"] is None and r["n"] > r["n_failed"]]
+        if ux:               # ran, but the measure is missing: an open circle on the axis, not a value
+            gaps = True
+            ax.plot(ux, [0.0] * len(ux), "o", color=COLOURS[i % len(COLOURS)], mfc="none", ms=8, mew=1.5,
+                    clip_on=False)
     if factor.get("base_level") is not None and numeric and isinstance(factor["base_level"], (int, float)):
         ax.axvline(factor["base_level"], color="0.6", lw=0.8, ls="--")
     if not numeric:
         ax.set_xticks(xs, names)
-    return _finish(ax, fig, factor, metric, "mean ± spread (trials × world seeds); × = failed; dotted, band: the base ± its spread")
+    return _finish(ax, fig, factor, metric, "mean ± spread (trials × world seeds); × = failed; dotted, band: the base ± "
+                   "its spread" + ("; ○ on the axis = not measured" if gaps else ""))
 
 
 def _finish(ax, fig, factor: dict, metric: str, title: str) -> str:
@@ -244,6 +253,14 @@ class Report:
                 ("wall time (this run)", f"{c.get('wall_s', 0):.1f} s, rendering {c.get('render_wall_s', 0):.1f} s "
                                          f"({c.get('render_share', 0):.0%})"),
                 ("runs", f"{len(self.r['runs'])}, {sum(1 for x in self.r['runs'] if x['status'] != 'ok')} failed")]
+        free = [x for x in self.r["runs"] if x["status"] == "ok" and (x.get("metrics") or {}).get("alignment_ill_posed")]
+        if free:
+            rows.append(("APE rotation", f"not measured in {len(free)} of {len(self.r['runs'])} runs: their path is too "
+                                         "short or straight for the SE(3)/Sim(3) fit to fix its rotation (the roll "
+                                         "about the path is free; the runs' alignment column gives the fit's 1σ), so "
+                                         "ape_rot_rmse_deg would measure the fit, not the system. Read there "
+                                         "ape_rot_origin_rmse_deg (every run: the rotation error after putting the first "
+                                         "poses together, the drift from the start) or rpe_rot_rmse_deg (frame to frame)"))
         return "<h2>Overview</h2><table>" + "".join(
             f"<tr><th>{html.escape(k)}</th><td>{_fmt(v)}</td></tr>" for k, v in rows) + "</table>"
 
@@ -317,7 +334,7 @@ class Report:
             m = (p.get("metrics") or {}).get(self.metric) or {}
             rows.append("<tr>" + "".join(f"<td>{_fmt(p['point'].get(n))}</td>" for n in names)
                         + f"<td>{html.escape(p['system'])}</td><td>{p['n']}</td><td>{p['n_failed']}</td>"
-                        f"<td>{_fmt(m.get('mean'))} ± {_fmt(m.get('std'))}</td></tr>")
+                        f"<td>{_cell({'n': p['n'], 'n_failed': p['n_failed'], 'n_ill_posed': p.get('n_ill_posed'), **m})}</td></tr>")
         return f"<h2>Every point of the design</h2><table><tr>{head}</tr>{''.join(rows)}</table>"
 
     def breaking_points(self) -> str:
@@ -354,18 +371,40 @@ class Report:
                    if tail and run["status"] != "ok" else "")
             rows.append(f"<tr><td>{html.escape(run['variant'])}</td><td>{html.escape(run['system'])}</td>"
                         f"<td>{run['trial']}</td><td class='{run['status']}'>{run['status']}</td>"
-                        f"<td>{_fmt(m.get(self.metric))}</td><td>{_fmt(m.get('rpe_trans_rmse'))}</td>"
+                        f"<td>{_metric(m, self.metric)}</td><td>{_fmt(m.get('rpe_trans_rmse'))}</td>"
+                        f"<td>{_alignment(m)}</td><td>{_fmt(m.get('ape_rot_origin_rmse_deg'))}</td>"
                         f"<td>{_fmt(m.get('tracking_loss'))}</td><td>{_fmt(run.get('wall_s'), 3)}</td>"
                         f"<td>{fail}{det}</td></tr>")
         return ("<h2>Every run</h2><table><tr><th>variant</th><th>system</th><th>trial</th><th>status</th>"
-                f"<th>{html.escape(self.metric)}</th><th>rpe_trans_rmse</th><th>tracking loss</th><th>wall s</th>"
+                f"<th>{html.escape(self.metric)}</th><th>rpe_trans_rmse</th><th>alignment</th><th>APE rotation from the "
+                "first pose (deg)</th><th>tracking loss</th><th>wall s</th>"
                 f"<th>failure</th></tr>{''.join(rows)}</table>")
+
+
+def _metric(m: dict, metric: str) -> str:
+    """A run's measure; where it is missing, why (the rotation a fit leaves free)."""
+    if m.get(metric) is None and metric == "ape_rot_rmse_deg" and m.get("alignment_ill_posed"):
+        origin = m.get("ape_rot_origin_rmse_deg")
+        return ("— <small>(not measured: the fit leaves the rotation free" +
+                (f"; from the first pose {origin:.3g}°" if origin is not None else "") + ")</small>")
+    return _fmt(m.get(metric))
+
+
+def _alignment(m: dict) -> str:
+    how = html.escape(str(m.get("alignment") or "—"))
+    sigma = m.get("rotation_sigma_deg")
+    if sigma is not None:
+        how += f" <small>(rotation ±{sigma:.3g}°{', free: APE rotation not measured' if m.get('alignment_ill_posed') else ''})</small>"
+    return how
 
 
 def _cell(c) -> str:
     if not c:
         return "—"
-    s = f"{_fmt(c.get('mean'))} ± {_fmt(c.get('std'))}" if c.get("mean") is not None else "failed"
+    if c.get("mean") is None and c.get("n", 0) > c.get("n_failed", 0):
+        s = f"not measured <small>(missing from {c.get('n_missing', 0)} run(s){'; rotation free' if c.get('n_ill_posed') else ''})</small>"
+    else:
+        s = f"{_fmt(c.get('mean'))} ± {_fmt(c.get('std'))}" if c.get("mean") is not None else "failed"
     if c.get("n_failed"):
         s += f" <small>({c['n_failed']}/{c['n']} failed)</small>"
     if c.get("broken"):

@@ -114,6 +114,7 @@ class NearField:
     white_right: float = 0.0    # the right-hand buildings up to this far ahead have a white render (0: drawn)
     works_right: tuple = ()     # (from, to) ahead: a deep block under scaffolding on the right, its end wall facing the camera ...
     works_depth: float = 0.0    # ... this deep (m) ...
+    works_front: float = 0.0    # ... its street scaffold's front this far right of the centreline, a site fence before it (0: the setback's)
     open_right: float = 0.0     # ... and no front-row building from this far ahead to it (a side street's mouth)
     bikes_right: tuple = ()     # bike racks on the right sidewalk this far ahead
     lawn_right: float = 0.0     # the right tree lawn's and sidewalk's widths (0: drawn) ...
@@ -154,7 +155,7 @@ class NearField:
 # 12, rows 300-360: 0.38-0.44 m wide, 2.3-2.8 m right of the camera; 2.3 x the sunlit asphalt)
 KITTI_S1_NEAR = NearField(half_road=2.0, bay=2.5, walk_left=0.0, car_offset=3.13, parked_ahead=(15.4, 40.1),
                           parked_clear=100.0, traffic_lane=0.1, traffic_ahead=(100.0, 130.0), oncoming=False,
-                          white_right=65.0, works_right=(60.0, 100.0), works_depth=22.0, open_right=37.0,
+                          white_right=65.0, works_right=(60.0, 100.0), works_depth=22.0, works_front=6.4, open_right=37.0,
                           lawn_right=1.3,
                           walk_right=2.2, setback_right=(0.6, 1.2), gutter_right=0.4, setback_left=(20.5, 22.5),
                           trees_left=((18.0, 80.0), (10.5, 15.5)), gardens_right=(0.0, 37.0), speed_rms=0.005)
@@ -186,6 +187,7 @@ P_WORKS = 0.12            # the chance that a front-row building (seed != 0) is 
 P_BIKES = 0.25            # ... that a bike rack stands in its front yard
 SCAFFOLD_DEPTH_M = 0.9    # a facade scaffold's width (EN 12811 class 4: 0.9 m decks) ...
 SCAFFOLD_GAP_M = 0.15     # ... and its gap to the facade's foremost part below its top
+SITE_FENCE_GAP_M = 0.1    # a site fence's feet this far before a scaffold on a sidewalk (KITTI s1's)
 # KITTI sequence_1's near right (frames 0-36, full-size SGBM in each frame's camera frame, 6-16 m
 # from the camera): points 0.6-1.4 m above the road peak 7.0-7.5 m right of the camera in every 4 m
 # of the ~40 m before its side street (a front gardens' boundary: clipped hedges, shrubs, bikes;
@@ -441,15 +443,19 @@ def _pull_front_row(lines: list[str], centreline: _Centreline, s_end: float, edg
 
 
 def _works_row(lines: list[str], centreline: _Centreline, place, s_open: float, span: tuple, depth: float,
-               edge: float, setback: tuple, ids: Ids, rng: np.random.Generator) -> list[str]:
+               edge: float, setback: tuple, ids: Ids, rng: np.random.Generator, front: float = 0.0) -> list[str]:
     """``lines`` (one side's, right) with a deep block being built from arc length ``span[0]``
-    to ``span[1]``, ``depth`` deep, its front ``setback`` (drawn in that range) behind ``edge``,
+    to ``span[1]``, ``depth`` deep, its front ``setback`` (drawn in that range) behind ``edge``
+    (``front`` > 0: its wall a scaffold's depth and gap behind ``front``: the works site takes the
+    verge and sidewalk, KITTI sequence_1's frames 34-44),
     and no front-row building from ``s_open`` to it (KITTI sequence_1's right side: a side
     street's mouth, then a block under scaffolding whose end wall faces the camera across it).
     A front-row building reaching past ``s_open`` is cut back to end there (left out if that
     leaves less than 6 m); any building, tree or bush on the block's footprint is left out."""
     s0, s1 = span
     near = edge + float(rng.uniform(*setback))
+    if front > 0:       # (drawn all the same: the stream stays)
+        near = front + SCAFFOLD_DEPTH_M + SCAFFOLD_GAP_M
     out = []
     for ln in lines:
         w = ln.split()
@@ -560,7 +566,12 @@ def _street_detail(rng, side_lines: dict, place, centreline: _Centreline, behind
                     out.append(asset("site_fence", ids("furniture"), b["p"] + end * along * (face_x + SCAFFOLD_DEPTH_M + 1.5),
                                      b["yaw"] + 90 * end, (round(D + 0.5, 2), 2.0, 0.65), seed=int(rng.integers(1e6))))
                 site = face + SCAFFOLD_DEPTH_M + 1.5            # the site fence 1.5 m before the scaffold
-                if b["dist"] - site > edges[side] + 0.3:
+                if near is not None and near.works_front:       # KITTI's: the site takes the sidewalk, its
+                    # fence panels' feet (0.65 m) just before the scaffold (frames 36-44), a stream of its own
+                    p = b["p"] + front * (face + SCAFFOLD_DEPTH_M + SITE_FENCE_GAP_M + 0.325)
+                    out.append(asset("site_fence", ids("furniture"), p, b["yaw"], (round(W + 0.5, 2), 2.0, 0.65),
+                                     seed=int(np.random.default_rng([b["seed"], 0x5F1]).integers(1e6))))
+                elif b["dist"] - site > edges[side] + 0.3:
                     p = b["p"] + front * site
                     out.append(asset("site_fence", ids("furniture"), p, b["yaw"], (round(W + 0.5, 2), 2.0, 0.65),
                                      seed=int(rng.integers(1e6))))
@@ -939,7 +950,8 @@ def generate(seed: int = 0, frames: int = 101, step_m: Optional[float] = None, s
         if side > 0 and near is not None and near.works_right:
             lines = _works_row(lines, centreline, place, behind + near.open_right,
                                (behind + near.works_right[0], behind + near.works_right[1]), near.works_depth,
-                               right_edge, near.setback_right, ids, np.random.default_rng([seed, 0x5CA]))
+                               right_edge, near.setback_right, ids, np.random.default_rng([seed, 0x5CA]),
+                               front=near.works_front)
         if side > 0 and near is not None and near.white_right > 0:    # the block under works white too (KITTI's)
             lines = _white_near(lines, centreline, behind, behind + max(near.white_right, *near.works_right))
             out.append(derived_material("white_render", "plaster", WHITE_RENDER, seed=seed))

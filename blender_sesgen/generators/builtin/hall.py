@@ -382,14 +382,15 @@ def generate(seed: int = 0, frames: Optional[int] = None, width: float = 30.0, d
         climb_yaw, yaw, pitch, roll = _attitude(P, tt, rng, var.look, rest=(look, climb) if stand else None,
                                                     glance_rng=variation_rng(seed, 0x6A1))
         comment = f"the flight: {frames} poses of cam0 at {num(RATE_HZ, 0)} Hz"
+    keep_off: list = []           # (x0, x1, z0, z1) boxes no pallet bay's paint reaches into
     if stand:
         S = _stand_position(P[0], np.gradient(P, axis=0)[0] * RATE_HZ)
         out += _takeoff_stand(ids, S, look)
         comment += (f": standing on the take-off stand for {stand} frames (rotors shaking it from frame "
                     f"{min(ROTORS_FRAMES, stand)}), climbing for {climb}, then flying")
         P, yaw, pitch, roll = _stand_and_take_off(P, climb_yaw, yaw, pitch, roll, stand, variation_rng(seed, 0x57A))
-        out += _test_floor(ids, S, look, variation_rng(seed, 0x7E5), placed, P)
-    out += _pallet_bays(ids, D, placed, variation_rng(seed, 0xBA5))
+        out += _test_floor(ids, S, look, variation_rng(seed, 0x7E5), placed, P, keep_off)
+    out += _pallet_bays(ids, D, placed, variation_rng(seed, 0xBA5), keep_off)
     return script_with_poses(out, comment, P[:frames], yaw[:frames], pitch[:frames], roll[:frames])
 
 
@@ -477,6 +478,15 @@ MATS_STANDING = (((-2.1, 2.9), 88.0, (2.0, 0.25, 1.4)), ((-2.3, 4.0), -4.0, (2.0
 MAT_STACK = ((0.3, 4.3), 5.0, (2.2, 1.4), (0.3, 0.28, 0.3))   # centre, turn, (length, width), thicknesses
 PLAY_MAT = ((1.35, 2.1), -10.0, (1.0, 0.004, 1.8))           # centre, turn, size: 4 mm, its prints to 5.5 mm
 CABLES = (((-0.6, 1.4), 75.0, (2.6, 0.01, 0.5)), ((0.9, 3.0), -20.0, (1.8, 0.012, 0.4)))
+# EuRoC V1_01's test floor is a plain grey carpet (at 376 x 240 its pixel-scale deviation 2.1 DN at
+# 156 DN, 2-8 px band 2.0 DN, 0.12 corners per 1000 px) where the hall's power-trowelled concrete
+# showed 5.2 DN, 7.0 DN and 2.1 (its stains' weak corners: docs/sensors.md, the hall's still KLT):
+# a needle-felt carpet laid over the test area, from behind the stand to under the mat stack,
+# 3.75 mm thick (its top apart from the joints' 2 and 3.5 mm as written, the play mat's 4, the
+# sheet's 5.5, the tape's 6)
+CARPET = ((-3.4, -1.0), (3.6, 5.2))   # its (u, w) corners, the camera's (right, ahead) metres on the floor
+CARPET_H = 0.00375
+CARPET_MATERIAL = "library fabric colour 0.26 0.26 0.255 roughness 0.95 wear 0"
 MAT_CLEARANCE_M = 1.0            # a mat stands at least this far from every pose of the flight (the
                                  # MAV spans ~0.6 m): else it is left out, as it would be in the flight's way
 
@@ -490,15 +500,17 @@ def _clear_of(path: np.ndarray, centre, rotation_deg, lo, hi) -> bool:
     return bool(gap.min() >= MAT_CLEARANCE_M)
 
 
-def _test_floor(ids, S: np.ndarray, yaw_deg: float, rng, placed: list, path: np.ndarray) -> list[str]:
+def _test_floor(ids, S: np.ndarray, yaw_deg: float, rng, placed: list, path: np.ndarray,
+                keep_off: list) -> list[str]:
     """A drone test area's floor in front of the take-off stand (cam0 at ``S`` heading
     ``yaw_deg``), the things EuRoC V1_01's camera sees near it (TAPE, SHEET, BOARD, the
     crash mats, a play mat, cables); a mat (the stack as one) that the flight (cam0 at
     ``path``) would pass within MAT_CLEARANCE_M of is left out, and the footprints of those
-    placed join ``placed`` (the pallet bays keep clear). Heights keep every top face apart
-    from the floor's paint (joints 2-3 mm, aisle lines 4 mm, bays 5 mm; none under the test
-    floor): the play mat 4 mm, its prints up to 5.5 mm, tape 6 mm, its markers 7 mm, the
-    sheet 5.5 mm (not over the play mat)."""
+    placed join ``placed`` (the pallet bays keep clear); a carpet (CARPET) covers the test
+    area, its (x0, x1, z0, z1) box joins ``keep_off`` (no bay's paint under it). Heights keep
+    every top face apart from the floor's paint (joints 2 and 3.5 mm as written, aisle lines
+    4 mm, bays 5 mm; none but joints under the test floor): the carpet 3.75 mm, the play mat 4 mm, its prints up to 5.5 mm,
+    tape 6 mm, its markers 7 mm, the sheet 5.5 mm (not over the play mat)."""
     a = np.radians(yaw_deg)
     fwd, right = np.array([-np.sin(a), 0.0, -np.cos(a)]), np.array([np.cos(a), 0.0, -np.sin(a)])
     m = -1.0 if S[0] * right[0] > 0 else 1.0         # mirrored: the board's side towards the hall's middle
@@ -510,7 +522,8 @@ def _test_floor(ids, S: np.ndarray, yaw_deg: float, rng, placed: list, path: np.
         return yaw_deg + np.degrees(np.arctan2(dw, m * du))
     out = ["", "// a drone test area's floor before the stand: marker tape, a white sheet, a checkerboard",
            "MATERIAL name tape_black library rubber colour 0.03 0.03 0.03 wear 0",
-           "MATERIAL name paper_white library plastic colour 0.8 0.8 0.78 wear 0 roughness 0.6"]
+           "MATERIAL name paper_white library plastic colour 0.8 0.8 0.78 wear 0 roughness 0.6",
+           f"MATERIAL name test_carpet {CARPET_MATERIAL}"]
     for (u0, w0), (u1, w1) in TAPE:
         length = float(np.hypot(u1 - u0, w1 - w0))
         out.append(f"CUBOID id {ids('takeoff')} material tape_black class floor position "
@@ -571,6 +584,12 @@ def _test_floor(ids, S: np.ndarray, yaw_deg: float, rng, placed: list, path: np.
             c = centre + along_x * (j - (cols - 1) / 2) * q + np.array([0.0, (i - (rows - 1) / 2) * q, 0.0])
             out.append(f"CUBOID id {ids('takeoff')} material tape_black class furniture position {nums(c)} "
                        f"0 {num(face, 3)} 0 dim {nums((q, q, 0.002))}")
+    (u0, w0), (u1, w1) = CARPET
+    corners = np.array([at(u, w, 0.0) for u in (u0, u1) for w in (w0, w1)])
+    out.append(f"CUBOID id {ids('takeoff')} name test_carpet material test_carpet class floor position "
+               f"{nums(at((u0 + u1) / 2, (w0 + w1) / 2, CARPET_H / 2), 5)} 0 {num(turn(1.0, 0.0), 3)} 0 "
+               f"dim {nums((u1 - u0, CARPET_H, w1 - w0), 5)}")
+    keep_off.append((corners[:, 0].min(), corners[:, 0].max(), corners[:, 2].min(), corners[:, 2].max()))
     return out
 
 
@@ -578,7 +597,7 @@ BAY = (1.4, 1.2, 0.05)           # a pallet bay's inside (x, z) and its painted 
 BAY_ROWS_X = (5.2, 6.9)          # |x| of the two rows of bays each side of the open middle (the laps fly |x| <= 3.3)
 
 
-def _pallet_bays(ids, D: float, placed, rng) -> list[str]:
+def _pallet_bays(ids, D: float, placed, rng, keep_off=()) -> list[str]:
     """Floor storage bays marked in paint beside the open middle (halls over 1000 m2 mark their
     traffic routes and storage areas with lines >= 5 cm wide, yellow or white: the German
     workplace rule ASR A1.8), half of them holding a pallet, some loaded with a crate: the
@@ -586,7 +605,8 @@ def _pallet_bays(ids, D: float, placed, rng) -> list[str]:
     strips (long sides whole, short ones between them: no two overlap), 5 mm high, above the
     joints (2-3 mm) and aisle lines (4 mm), so no two faces are coplanar; a bay where clutter
     (``placed``: its (x, z)) stands within its largest footprint (a 1.6 x 1.4 m crate: 1.06 m
-    from its centre) of the bay's (0.75 x 0.65 m) is left out."""
+    from its centre) of the bay's (0.75 x 0.65 m) is left out, and so is one whose lines would
+    reach into a ``keep_off`` box (x0, x1, z0, z1: the test floor's carpet)."""
     w, d, lw = BAY
     h = 0.005
     out = ["", "// pallet bays: painted storage areas beside the open middle, pallets and loads on some"]
@@ -595,7 +615,9 @@ def _pallet_bays(ids, D: float, placed, rng) -> list[str]:
         for xc in BAY_ROWS_X:
             x = side * xc
             for z in np.arange(-D / 2 + 9.0, D / 2 - 5.0, d + 2 * lw + 0.25):
-                if rng.random() < 0.25 or any(abs(px - x) < 1.9 and abs(pz - z) < 1.8 for px, pz in placed):
+                if (rng.random() < 0.25 or any(abs(px - x) < 1.9 and abs(pz - z) < 1.8 for px, pz in placed)
+                        or any(x - w / 2 - lw < x1 and x + w / 2 + lw > x0 and z - d / 2 - lw < z1
+                               and z + d / 2 + lw > z0 for x0, x1, z0, z1 in keep_off)):
                     continue                     # a gap in the row (a crossing), or clutter stands there
                 for sx in (-1, 1):
                     out.append(f"CUBOID id {ids('marking')} material {paint} class floor position "

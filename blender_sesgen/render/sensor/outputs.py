@@ -15,7 +15,6 @@ from ...contract.manifest import state_relpath   # noqa: F401 - its home is the 
 from ...contract.manifest_sections import SENSOR_STATE
 from ...errors import SesgenError
 from ...files.png import write_png
-from .autoexposure import metered_frames
 from .render_plan import SENSOR_DIR, SensorPlan
 
 EXR_LAYOUT = "single part holding every pass (beauty of the sensor render, ground truth of the sharp render)"
@@ -35,7 +34,7 @@ def stored_metering(plan: SensorPlan, kept: Optional[dict], upto: Optional[int] 
     metered = (kept.get("sensor") or {}).get("metered") or []
     n = kept.get("frames")
     if upto is None:
-        upto = metered_frames(range(n or 0), n or 0)
+        upto = plan.metered_frames(range(n or 0), n or 0)
     if len(metered) != n or any(v is None for v in metered[:upto]):
         return None
     return list(metered)
@@ -95,13 +94,14 @@ def make_folders(plan: SensorPlan, out: Path) -> None:
 
 def exposure_for(plan: SensorPlan, extra: Optional[dict], k: int) -> tuple[float, float]:
     """(exposure_s, gain) of frame k: nominal, or auto-exposure from the metering pass's
-    values of frames 0..k-1 (``extra``: the manifest's extra entries)."""
+    values of frames 0..k-1 (frame 0's too with the converged start; ``extra``: the manifest's
+    extra entries)."""
     if plan.autoexposure is None:
         return plan.exposures([])[0]
     metered = ((extra or {}).get("sensor") or {}).get("metered") or []
-    have = [metered[j] if j < len(metered) else None for j in range(k)]
+    have = [metered[j] if j < len(metered) else None for j in range(max(k, int(plan.converged_start)))]
     if any(v is None for v in have):
-        raise SesgenError(f"AUTOEXPOSURE: the metering pass's values of frames before {k} are missing from the "
+        raise SesgenError(f"AUTOEXPOSURE: the metering pass's values of frames before {max(k, len(have))} are missing from the "
                           "manifest; render again with --force")
     return plan.exposures(have)[k]
 

@@ -201,11 +201,28 @@ class SensorPlan:
         cols = np.minimum(((np.arange(w) + 0.5) * self.width / w).astype(int), self.width - 1)
         return v[np.ix_(rows, cols)]
 
+    @property
+    def converged_start(self) -> bool:
+        """Whether frame 0's exposure is the fixed point of its own metering (``AUTOEXPOSURE
+        start converged``, the default; autoexposure.converged_exposure)."""
+        return self.autoexposure is not None and self.autoexposure.start == "converged"
+
+    def metered_frames(self, frames, n: int) -> int:
+        """How many leading frames a render of ``frames`` meters (``autoexposure.metered_frames``)."""
+        return autoexposure.metered_frames(frames, n, self.converged_start)
+
     def meter(self, linear_rgb: np.ndarray, metered_before: list) -> float:
         """The metered brightness of frame j = len(``metered_before``) from its linear image
         (the render's radiance, any size): what its camera meters (``autoexposure.meter``), the
         image as the sensor receives it (vignetted), each pixel clipped at the output's full
-        scale at frame j's exposure, which ``metered_before`` (frames 0..j-1) decides."""
+        scale at frame j's exposure, which ``metered_before`` (frames 0..j-1) decides; frame 0's
+        with the converged start at the exposure its own metering answers with itself
+        (``autoexposure.converged_exposure``: the fixed point)."""
+        if self.converged_start and not metered_before:
+            at = autoexposure.converged_exposure(lambda t, g: self.meter_at(linear_rgb, t, g),
+                                                 self._exposure_control())
+            self._schedule_cache = None
+            return self.meter_at(linear_rgb, *at)
         return self.meter_at(linear_rgb, *self._exposure_after(metered_before))
 
     def meter_at(self, linear_rgb: np.ndarray, exposure_s: float, gain: float) -> float:
@@ -233,10 +250,12 @@ class SensorPlan:
             nominal_exposure_s=self.nominal_exposure_s(), nominal_gain=s.gain, rate_hz=self.rate_hz,
             readout_s=self.timing.readout_s, target=a.target, speed=a.speed,
             saturation=self.full_scale(self.nominal_exposure_s(), 1.0),
-            max_exposure_s=a.max_exposure_s, max_gain=a.max_gain, min_exposure_s=a.min_exposure_s)
+            max_exposure_s=a.max_exposure_s, max_gain=a.max_gain, min_exposure_s=a.min_exposure_s,
+            converged_start=self.converged_start)
 
     def exposures(self, metered: list) -> list[tuple[float, float]]:
-        """(exposure_s, gain) for frames 0..len(metered) (auto-exposure or the nominal values)."""
+        """(exposure_s, gain) for frames 0..len(metered) (auto-exposure or the nominal values;
+        the converged start needs ``metered[0]``)."""
         gain = self.sensor.gain if self.sensor else 1.0
         if self.autoexposure is None:
             return [(self.nominal_exposure_s(), gain)] * (len(metered) + 1)

@@ -43,7 +43,8 @@ def _kinds() -> dict[str, Kind]:
     table = [
         Kind("building", "outdoor", "building",
              "block with real window/door openings, frames, sills, roller shutters (6 in 10 buildings; some "
-             "lowered), balconies, cornice, flat or gable roof",
+             "lowered), balconies, cornice, flat or gable roof; downpipes at the corners, eaves gutters, attic "
+             "windows in the gables, roof windows in some slopes",
              ((12, 26), (9, 20), (9, 16)), "width, height (to the ridge), depth", building.generate, overhang=3.0),
         Kind("building_shell", "outdoor", "building",
              "block under construction: bare walls, unglazed openings into dark rooms, slab edges, flat roof",
