@@ -217,3 +217,18 @@ def test_rosbag_tf_world_to_body(render, tmp_path):
     msgs, _ = read_bag(_export(render, tmp_path, "rosbag") / "bag")
     assert [t for t, _ in msgs["/tf"]] == [int(round(t * 1e9)) for t in STAMPS_S]
     _close([matrix(m.transforms[0].transform) for _, m in msgs["/tf"]], TRUTH_VIEW["left"])
+
+
+@pytest.mark.parametrize("stamps, why", [([-0.1, 0.0, 0.1], ">= 0"), ([0.0, 0.1, 0.1000004], "increasing")])
+def test_bayer_refuses_times_its_names_cannot_hold(tmp_path, capsys, stamps, why):
+    """The microsecond names are the layout's only stamps: negative times were shifted and
+    repeated ones nudged by 1 us before, silently; now exit 2, nothing written."""
+    from vo_reference.commands.main import main
+    rng = np.random.default_rng(5)
+    frames = [{"left": (rng.uniform(0.05, 0.9, (H, W, 3)).astype(np.float32), np.full((H, W), 5.0, np.float32),
+                        np.ones((H, W), np.int32))} for _ in range(3)]
+    root = write_render(tmp_path / "r", K=K, baseline_m=0.0, T_world_left=TRUTH, frames=frames,
+                        extra={"timestamps": stamps, "fps": 10.0})
+    assert main(["export", str(root), str(tmp_path / "b"), "--to", "bayer", "-q"]) == 2
+    err = capsys.readouterr().err
+    assert why in err and len(err.strip().splitlines()) == 1 and not (tmp_path / "b").exists()
