@@ -84,3 +84,49 @@ def test_a_rig_without_imu_has_body_at_cam0(tmp_path):
     (_, tf), = msgs["/tf_static"]
     edges = {(x.header.frame_id, x.child_frame_id): matrix(x.transform) for x in tf.transforms}
     assert sorted(edges) == [("body", "cam0"), ("cam0", "cam1")] and np.allclose(edges[("body", "cam0")], np.eye(4))
+
+
+def test_message_values_are_the_rigs_ground_truth(tmp_path):
+    """The values, not only the frames and stamps: /tf and /groundtruth/pose are the layout
+    scene's known rig poses (world -> cam0, composed here from rig_poses, not the manifest);
+    each /camN/image_raw is the grey image of its own frame and view; CameraInfo holds K, the
+    identity R, zero D (plumb_bob's five) and P with -fx*B for cam1 only, so that ROS's own
+    baseline rule (stereo_image_proc: B = -P[0,3]/P[0,0]) gives +B; the frames are the
+    selected ones (--frames 1:)."""
+    from layout_scene import K, W, H, rig_poses
+    from vo_reference.exporters.driver import export
+    from vo_reference.io.render import RenderSequence
+    root = write_layout_render(tmp_path / "r", n=3)
+    msgs, _ = read_bag(export(root, "rosbag", tmp_path / "b", frames="1:", noise=None, progress=False) / "bag")
+    seq = RenderSequence(root)
+    truth = rig_poses(3)[1:]
+    for topic in ("/tf", "/groundtruth/pose"):
+        assert len(msgs[topic]) == 2
+        for (t, m), T_ref in zip(msgs[topic], truth):
+            if topic == "/tf":
+                (x,) = m.transforms
+                assert (x.header.frame_id, x.child_frame_id) == ("world", "body")
+                T = matrix(x.transform)
+            else:
+                assert m.header.frame_id == "world"
+                T = np.eye(4)
+                o, p = m.pose.orientation, m.pose.position
+                T[:3, :3] = quat_xyzw_to_matrix([o.x, o.y, o.z, o.w])
+                T[:3, 3] = [p.x, p.y, p.z]
+            assert np.allclose(T, T_ref, atol=1e-9), topic
+    for cam, view in ((0, "left"), (1, "right")):
+        images = msgs[f"/cam{cam}/image_raw"]
+        infos = msgs[f"/cam{cam}/camera_info"]
+        assert [t for t, _ in images] == [t for t, _ in infos] == [t for t, _ in msgs["/tf"]]
+        for (_, img), k in zip(images, (1, 2)):
+            a = np.frombuffer(bytes(img.data), np.uint8).reshape(img.height, img.step)[:, :img.width]
+            assert (img.height, img.width, img.step) == (H, W, W)
+            assert np.array_equal(a, seq.image_gray(k, view)), (cam, k)
+        for _, info in infos:
+            P = np.asarray(info.p, float).reshape(3, 4)
+            assert np.allclose(np.asarray(info.k).reshape(3, 3), K) and np.allclose(P[:, :3], K)
+            assert np.allclose(np.asarray(info.r).reshape(3, 3), np.eye(3))
+            assert info.distortion_model == "plumb_bob" and list(info.d) == [0.0] * 5
+            assert (info.height, info.width) == (H, W)
+            assert -P[0, 3] / P[0, 0] == pytest.approx(B if cam == 1 else 0.0, abs=1e-15)
+            assert P[1, 3] == 0 and P[2, 3] == 0

@@ -73,8 +73,9 @@ def test_png16_round_trip_within_1_256(tmp_path):
 
 
 def test_png16_tiny_and_huge_values():
-    v = disparity_to_png16(np.array([[1e-6, 300.0, 0.0, np.inf]]))
-    assert v.tolist() == [[1, 65535, 1, 0]]  # a valid d never becomes 'invalid'
+    v = disparity_to_png16(np.array([[1e-6, 300.0, 0.0, np.inf, 255.99, 256.0]]))
+    # a tiny valid d never becomes 'invalid'; one the 16 bits cannot hold is invalid, never 255.996
+    assert v.tolist() == [[1, 0, 1, 0, 65533, 0]]
 
 
 @pytest.mark.parametrize("ext", [".pfm", ".exr", ".npy"])

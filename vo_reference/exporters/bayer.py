@@ -39,11 +39,14 @@ from ..camera.undistort import distortion_maps, lut_from_distortion, parse_disto
 
 
 def timestamp_names(timestamps_s: np.ndarray) -> list[str]:
-    """16-digit microsecond names (unique, increasing) for the frames' times."""
+    """16-digit microsecond names of the frames' times: the names are the only stamps of the
+    layout, so times that cannot be named as they are (negative, or not increasing at 1 µs)
+    are a VoError, never shifted or nudged into names."""
     us = np.round(np.asarray(timestamps_s, dtype=float) * 1e6).astype(np.int64)
-    us = us - min(0, int(us.min()))
-    for i in range(1, len(us)):          # keep names unique when times repeat
-        us[i] = max(us[i], us[i - 1] + 1)
+    if len(us) and us.min() < 0:
+        raise VoError("bayer: timestamps must be >= 0 to name the files in microseconds (TIMING start)")
+    if np.any(np.diff(us) <= 0):
+        raise VoError("bayer: timestamps are not increasing at 1 µs: cannot name the frames")
     return [f"{u:016d}" for u in us]
 
 

@@ -51,7 +51,7 @@ from ..groundtruth.noise import add_gaussian_noise
 from ..groundtruth.options import pop_number
 
 __all__ = ["EXPORTERS", "ExportOptions", "export", "register_exporter", "get_exporter", "parse_frames",
-           "sequence_folder", "check_replaceable", "progress_bar", "image_rgb", "image_gray",
+           "sequence_folder", "check_replaceable", "progress_bar", "refuse_options", "image_rgb", "image_gray",
            "pop_number"]
 
 # target name -> ("module:function", one-line help)
@@ -389,6 +389,13 @@ def sequence_folder(out: Path, sequence: str | None, default: str | None = None,
     if check:
         check_replaceable(folder)
     return folder
+
+
+def refuse_options(opts: ExportOptions, target: str) -> None:
+    """VoError for a layout that takes no ``--opt``: an option it would ignore (a typo, an
+    option of another layout) must not give an export other than the one asked for."""
+    if opts.extra:
+        raise VoError(f"{target} export: unknown option(s) {', '.join(sorted(opts.extra))} (it takes none)")
 
 
 def progress_bar(opts: ExportOptions, total: int, label: str) -> Progress:

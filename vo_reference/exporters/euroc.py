@@ -13,7 +13,7 @@ from blender_sesgen.contract.trajectory_files import format_euroc
 
 from ..errors import VoError
 from ..io.files import write_png_rgb
-from .driver import ExportOptions, image_gray, progress_bar
+from .driver import ExportOptions, image_gray, progress_bar, refuse_options
 from .slam_config import T_body_cam, write_slam_configs
 
 
@@ -55,6 +55,7 @@ def euroc_sensor_yaml(seq, cam: int) -> str:
 
 
 def export_euroc(seq, out: Path, opts: ExportOptions) -> None:
+    refuse_options(opts, "euroc")
     frames = list(opts.frames)
     ts = seq.timestamps_s[frames]
     t_ns = np.rint(ts * 1e9).astype(np.int64)

@@ -32,7 +32,7 @@ from blender_sesgen.contract.trajectory_files import format_kitti, format_times
 
 from ..errors import VoError
 from ..io.files import write_png_rgb
-from .driver import ExportOptions, calib_text, image_gray, image_rgb, progress_bar
+from .driver import ExportOptions, calib_text, image_gray, image_rgb, progress_bar, refuse_options
 
 __all__ = ["export_kitti_odometry", "export_kitti_folder", "sequence_name"]
 
@@ -51,6 +51,7 @@ def sequence_name(spec: str | None) -> str:
 
 def write_sequence_folder(seq, folder: Path, opts: ExportOptions, label: str) -> list[int]:
     """image_0..3, calib.txt, times.txt of one sequence into ``folder``; returns the frames."""
+    refuse_options(opts, label.split()[0])
     frames = list(opts.frames)
     stereo = "right" in seq.views
     with progress_bar(opts, len(frames), label) as bar:

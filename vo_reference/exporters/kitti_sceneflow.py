@@ -37,7 +37,7 @@ from blender_sesgen.contract import rig
 from ..errors import VoError
 from ..io.files import write_png16, write_png_rgb
 from ..groundtruth.disparity import disparity_from_depth, write_disparity_png16
-from .driver import ExportOptions, calib_cam_to_cam_text, image_rgb, progress_bar
+from .driver import ExportOptions, calib_cam_to_cam_text, image_rgb, progress_bar, refuse_options
 from ..groundtruth.flow import hidden_behind, sequence_stereo_occlusion, write_kitti_flow_png
 from ..groundtruth.scene_flow import SceneFlow, moving_object_ids, sequence_scene_flow
 
@@ -70,6 +70,7 @@ def object_map(sf: SceneFlow, movers: tuple[int, ...]) -> np.ndarray:
 
 
 def export_kitti_sceneflow(seq, out: Path, opts: ExportOptions) -> None:
+    refuse_options(opts, "kitti-sceneflow")
     if "right" not in seq.views or seq.baseline_m <= 0:
         raise VoError("kitti-sceneflow needs a stereo render (views left and right)")
     pairs = [k for k in opts.frames if k + 1 < seq.num_frames and seq.frame_complete(k + 1)]

@@ -13,11 +13,12 @@ from blender_sesgen.contract import atomic
 from ..errors import VoError
 from ..io.files import write_png_rgb
 from ..groundtruth.disparity import sequence_disparity, write_disparity_png16
-from .driver import ExportOptions, calib_cam_to_cam_text, image_rgb, progress_bar
+from .driver import ExportOptions, calib_cam_to_cam_text, image_rgb, progress_bar, refuse_options
 
 
 def export_kitti_stereo(seq, out: Path, opts: ExportOptions) -> None:
     from ..groundtruth.flow import sequence_flow, sequence_stereo_occlusion, write_kitti_flow_png
+    refuse_options(opts, "kitti-stereo")
     if "right" not in seq.views or seq.baseline_m <= 0:
         raise VoError("kitti-stereo needs a stereo render (views left and right)")
     frames = list(opts.frames)

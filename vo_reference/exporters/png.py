@@ -6,11 +6,12 @@ from pathlib import Path
 
 from ..io.files import write_png_rgb
 from ..groundtruth.disparity import sequence_disparity, write_disparity_png16
-from .driver import ExportOptions, image_rgb, progress_bar
+from .driver import ExportOptions, image_rgb, progress_bar, refuse_options
 
 
 def export_png(seq, out: Path, opts: ExportOptions) -> None:
     from ..groundtruth.segmentation import write_ids_colour, write_ids_png16
+    refuse_options(opts, "png")
     frames = list(opts.frames)
     stereo = "right" in seq.views and seq.baseline_m > 0
     with progress_bar(opts, len(frames) * len(seq.views), "png") as bar:

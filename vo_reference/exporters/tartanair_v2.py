@@ -22,7 +22,8 @@ finds trajectories as ``ROOT/ENV/Data_<difficulty>/<trajectory>``. Conventions:
   ``--opt background_depth`` (default 10000 m, as V1's export).
 - Flow (TartanAir V2's PNG flow, as its ``flow16to32`` and data cacher decode it): uint16
   channels (OpenCV order) 0, 1 = u·64 + 32768, v·64 + 32768 (1/64 px steps, ±512 px),
-  channel 2 = the mask of TartanAir's flow tools: 0 valid, 1 hidden in k+1, 100 out of view.
+  channel 2 = the mask of TartanAir's flow tools: 0 valid, 1 hidden in k+1, 100 out of view
+  (and where a component is beyond ±512 px, which 16 bits cannot hold: clipped, so masked).
   ``--opt flow=npz`` writes the newer ``000000_000001_lcam_front_flow.npz`` instead:
   ``flow_fwd``/``flow_bwd`` float32 (1, 2, H, W), ``fov_mask_*`` and ``covisible_mask_*``
   bool (1, H, W) (exact floats, both directions).
@@ -45,7 +46,7 @@ from ..errors import VoError
 from ..io.files import write_image_atomic, write_png_rgb
 from ..groundtruth.dense import dense_flow, pop_background_depth
 from .driver import ExportOptions, image_rgb, progress_bar, sequence_folder
-from .tartanair import _check_ids, depth_and_seg, flow_mask, ned_poses, pose_lines
+from .tartanair import MASK_OUT_OF_VIEW, _check_ids, depth_and_seg, flow_mask, ned_poses, pose_lines
 
 __all__ = ["export_tartanair_v2", "depth_rgba", "flow_png16", "CAMERA", "DEFAULT_SEQUENCE"]
 
@@ -60,10 +61,15 @@ def depth_rgba(z: np.ndarray) -> np.ndarray:
 
 
 def flow_png16(flow: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """(H, W, 3) uint16 in OpenCV channel order: u·64 + 32768, v·64 + 32768, mask."""
+    """(H, W, 3) uint16 in OpenCV channel order: u·64 + 32768, v·64 + 32768, mask. A vector
+    the 16 bits cannot hold (a component beyond −512..+511.98 px) is clipped there and masked
+    ``MASK_OUT_OF_VIEW`` (loaders that keep mask 0 drop it; ``--opt flow=npz`` holds it)."""
     f = np.nan_to_num(np.asarray(flow, dtype=np.float64), nan=0.0)
-    enc = np.clip(np.rint(f * FLOW_SCALE + FLOW_ZERO), 0, 65535).astype(np.uint16)
-    return np.dstack([enc[..., 0], enc[..., 1], np.asarray(mask, np.uint16)])
+    code = np.rint(f * FLOW_SCALE + FLOW_ZERO)
+    enc = np.clip(code, 0, 65535).astype(np.uint16)
+    m = np.asarray(mask, np.uint16).copy()
+    m[np.any((code < 0) | (code > 65535), axis=-1)] = MASK_OUT_OF_VIEW
+    return np.dstack([enc[..., 0], enc[..., 1], m])
 
 
 def _slot(sequence: str | None) -> str:

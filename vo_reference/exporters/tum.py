@@ -10,7 +10,7 @@ from blender_sesgen.contract import atomic
 
 from ..errors import VoError
 from ..io.files import write_png16, write_png_rgb
-from .driver import ExportOptions, image_rgb, progress_bar
+from .driver import ExportOptions, image_rgb, progress_bar, refuse_options
 
 
 TUM_DEPTH_SCALE = 5000.0  # 16-bit value per metre (TUM RGB-D)
@@ -26,6 +26,7 @@ def depth_to_tum_png16(depth: np.ndarray) -> np.ndarray:
 
 def export_tum(seq, out: Path, opts: ExportOptions) -> None:
     from ..io.trajectory import Trajectory, write_tum
+    refuse_options(opts, "tum")
     frames = list(opts.frames)
     ts = seq.timestamps_s[frames]
     names = [f"{t:.6f}" for t in ts]

@@ -7,7 +7,8 @@ disparity (no surface: Z = +inf) is NaN; ``np.isfinite(d)`` is the validity mask
 Formats:
 - PFM / EXR (channel 'Y') / .npy: float32, NaN invalid (PFM writes +inf for invalid, as
   Middlebury does; :func:`read_disparity` returns NaN for it).
-- KITTI PNG16: uint16 round(d·256), 0 = invalid (valid values clipped to 1..65535).
+- KITTI PNG16: uint16 round(d·256), 0 = invalid (a tiny valid d is stored as 1; one above
+  65535/256 px, which the encoding cannot hold, is invalid, never clipped).
 - colour PNG: a visualisation, black = invalid.
 """
 from __future__ import annotations
@@ -25,7 +26,7 @@ from ..io.files import load_npy
 from ..io.files import read_image, write_image_atomic, write_png16
 from ..io.pfm import read_pfm, write_pfm
 
-__all__ = ["disparity_from_depth", "sequence_disparity", "disparity_to_png16", "png16_to_disparity",
+__all__ = ["disparity_from_depth", "sequence_disparity", "disparity_to_png16", "PNG16_MAX_DISPARITY_PX", "png16_to_disparity",
            "write_disparity_png16", "read_disparity_png16", "write_disparity", "read_disparity", "disparity_color",
            "write_disparity_color"]
 
@@ -42,12 +43,18 @@ def sequence_disparity(seq, k: int, view: str = "left") -> np.ndarray:
 
 # --- KITTI PNG16 ------------------------------------------------------------------------
 
+PNG16_MAX_DISPARITY_PX = 65535 / 256.0   # the largest disparity KITTI's PNG16 holds (255.996 px)
+
+
 def disparity_to_png16(d: np.ndarray) -> np.ndarray:
-    """uint16 round(d·256), 0 = invalid; a valid d is clipped to [1/256, 65535/256]."""
+    """uint16 round(d·256), 0 = invalid; a valid d below 1/256 is stored as 1 (it never
+    reads as invalid); one above 65535/256 px, which the encoding cannot hold, is invalid
+    (0) -- clipped, it would read back as a plausible but wrong 255.996 px."""
     d = np.asarray(d, dtype=np.float64)
-    valid = np.isfinite(d) & (d >= 0)
+    v = np.rint(np.where(np.isfinite(d), d, -1.0) * 256.0)
+    valid = np.isfinite(d) & (d >= 0) & (v <= 65535)
     out = np.zeros(d.shape, dtype=np.uint16)
-    out[valid] = np.clip(np.rint(d[valid] * 256.0), 1, 65535).astype(np.uint16)
+    out[valid] = np.maximum(v[valid], 1).astype(np.uint16)
     return out
 
 

@@ -283,12 +283,16 @@ def read_flo(path) -> np.ndarray:
 
 def write_kitti_flow_png(path, flow: np.ndarray, valid: np.ndarray | None = None) -> Path:
     """KITTI flow PNG (16-bit, 3 channels R, G, B = u·64 + 2¹⁵, v·64 + 2¹⁵, valid).
-    ``valid`` defaults to the finite flow vectors; values are clipped to the 16-bit range."""
+    ``valid`` defaults to the finite flow vectors; a vector the encoding cannot hold (a
+    component beyond −512..+511.98 px) is written invalid, never clipped: clipped, it would
+    read back as a plausible but wrong flow."""
     f = np.asarray(flow, dtype=np.float64)
     ok = np.all(np.isfinite(f), axis=-1) if valid is None else (np.asarray(valid, bool) & np.all(np.isfinite(f), axis=-1))
+    code = np.rint(np.where(np.isfinite(f), f, 0.0) * 64.0 + 32768.0)
+    ok &= np.all((code >= 0) & (code <= 65535), axis=-1)
     img = np.zeros(f.shape[:2] + (3,), np.uint16)
     for c in range(2):
-        img[..., c][ok] = np.clip(np.rint(f[..., c][ok] * 64.0 + 32768.0), 0, 65535).astype(np.uint16)
+        img[..., c][ok] = code[..., c][ok].astype(np.uint16)
     img[..., 2] = ok
     return write_image_atomic(path, img[..., ::-1])  # OpenCV writes BGR
 
