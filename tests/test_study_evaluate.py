@@ -78,15 +78,121 @@ def test_a_malformed_or_missing_trajectory_is_a_failure(tmp_path):
     assert "80 poses for 40 frames" in run(tmp_path / "long.txt", "kitti", gt)["failure"]
 
 
-def test_a_straight_path_falls_back_to_the_first_pose_and_a_long_one_gets_the_kitti_metric(tmp_path):
+def test_a_long_path_gets_the_kitti_metric_and_a_perfect_straight_one_no_error(tmp_path):
     straight = Trajectory(np.array([se3(np.eye(3), (0, 0, -k * 1.0)) for k in range(N)]), np.arange(N) / RATE)
     write_kitti(tmp_path / "s.txt", straight)
     r = run(tmp_path / "s.txt", "kitti", straight)
-    assert r["ok"] and r["alignment"].startswith("origin") and r["ape_trans_rmse"] < 1e-9
+    assert r["ok"] and r["alignment"] == "se3" and r["ape_trans_rmse"] < 1e-9
+    # a perfect estimate of a straight path still leaves the roll about it free: not measured
+    assert r["alignment_ill_posed"] and r["ape_rot_rmse_deg"] is None and r["rotation_sigma_deg"] is None
+    assert r["ape_rot_origin_rmse_deg"] < 1e-9
     long = curved(n=120, radius=300.0)                                # 178 m
     write_kitti(tmp_path / "l.txt", long)
     r = run(tmp_path / "l.txt", "kitti", long)
     assert r["kitti_t_err_pct"] < 1e-6 and "kitti_t_err_pct" not in run(tmp_path / "s.txt", "kitti", straight)
+
+
+def _evo_ape_trans(gt: Trajectory, est: Trajectory, scale: bool) -> float:
+    """evo's APE translation RMSE after its SE(3) (``scale``: Sim(3)) Umeyama alignment."""
+    evo_metrics = pytest.importorskip("evo.core.metrics", reason="evo (test extra) is not installed")
+    from evo.core.trajectory import PosePath3D
+    ref, e = PosePath3D(poses_se3=list(gt.T_world_cam)), PosePath3D(poses_se3=list(est.T_world_cam))
+    e.align(ref, correct_scale=scale)
+    m = evo_metrics.APE(evo_metrics.PoseRelation.translation_part)
+    m.process_data((ref, e))
+    return float(m.get_statistic(evo_metrics.StatisticsType.rmse))
+
+
+@pytest.mark.parametrize("mono", [False, True])
+def test_a_straight_path_and_one_a_hair_off_it_report_one_definition(tmp_path, mono):
+    """An exactly straight drive and the same drive with a 1 um wiggle, the same VO (3 cm
+    position noise, a 1 deg yaw bias; mono: at a quarter of the scale): both aligned by the
+    same fit, both with the APE rotation free, and the same APE translation -- evo's se3/sim3
+    on the wiggling one (evo refuses the straight one). Session 20 aligned the straight one at
+    its first pose (and by the path-length ratio for mono): another definition, 0.488 m against
+    the wiggling one's 0.043 m (11x), and a breaking point could come from the switch alone."""
+    rng = np.random.default_rng(7)
+    noise = rng.normal(0, 0.03, (N, 3))
+    out = []
+    for name, wiggle in (("straight", 0.0), ("hair", 1e-6)):
+        gt = Trajectory(np.array([se3(np.eye(3), (wiggle * np.sin(1.3 * k), 1.6, -1.25 * k)) for k in range(N)]),
+                        np.arange(N) / RATE)
+        T = np.array([se3(G[:3, :3] @ euler_xyz_deg_to_R(0, 1.0, 0), G[:3, 3] + noise[k])
+                      for k, G in enumerate(gt.T_world_cam)])
+        if mono:
+            T[:, :3, 3] *= 0.25
+        est = Trajectory(T, gt.timestamps_s)
+        write_kitti(tmp_path / f"{name}.txt", est)
+        out.append((gt, est, run(tmp_path / f"{name}.txt", "kitti", gt, mono=mono)))
+    (_, _, rs), (gt_h, est_h, rh) = out
+    assert rs["alignment"] == rh["alignment"] == ("sim3" if mono else "se3")
+    assert rs["alignment_ill_posed"] and rh["alignment_ill_posed"] and rs["ape_rot_rmse_deg"] is None
+    assert rh["ape_trans_rmse"] == pytest.approx(_evo_ape_trans(gt_h, est_h, mono), rel=1e-6)
+    assert rs["ape_trans_rmse"] == pytest.approx(rh["ape_trans_rmse"], rel=1e-4)
+    assert rs["tracking_loss"] == rh["tracking_loss"] == 0.0
+    if mono:
+        assert rs["scale"] == pytest.approx(rh["scale"], rel=1e-6) and not rs["scale_ill_posed"]
+
+
+def _shaped(gt: Trajectory, a: float, delta: float, seed: int = 0) -> tuple[Trajectory, float, float]:
+    """A monocular estimate a·p + δ·w (w vertical, orthogonal to the constant and to the ground
+    truth's centred x and z, |w| = 1), with the ground truth's rotations. Returns it with the
+    Sim(3) fit's closed form: Σ_xy = a·Σ_y (R = I), so c = a·S_y / (a²·S_y + δ²) (S_y = Σ|p − p̄|²:
+    the noise pulls the scale under 1/a) and the scale ambiguity 1/ρ² − 1 = δ² / (a²·S_y), the
+    noise's energy over the motion's."""
+    p = gt.positions
+    basis = np.stack([np.ones(len(p)), p[:, 0] - p[:, 0].mean(), p[:, 2] - p[:, 2].mean()], axis=1)
+    w = np.random.default_rng(seed).normal(size=len(p))
+    w -= basis @ np.linalg.lstsq(basis, w, rcond=None)[0]
+    w /= np.linalg.norm(w)
+    x = a * p
+    x[:, 1] += delta * w
+    T = gt.T_world_cam.copy()
+    T[:, :3, 3] = x
+    S_y = float(np.sum((p - p.mean(axis=0)) ** 2))
+    return Trajectory(T, gt.timestamps_s), a * S_y / (a * a * S_y + delta ** 2), delta ** 2 / (a * a * S_y)
+
+
+def test_a_mono_scale_its_noise_swamps_is_refused_against_a_closed_form(tmp_path):
+    """A monocular VO that follows the arc at 1/1000 of its size (10 cm of spread for 59 m) is
+    scaled by ~1000: fine while its noise is small against its motion (scale and ambiguity the
+    closed form's), refused when the noise is as large as its motion (ambiguity ~1: the fit's
+    scale is half the true one; every translation after it would measure the fit's noise, so
+    they are null and the record says why; rotations need no scale)."""
+    gt = curved()
+    for delta, refused in ((0.0005, False), (0.02, False), (0.1, True)):
+        est, c, ambiguity = _shaped(gt, 1e-3, delta)
+        write_kitti(tmp_path / "est.txt", est)
+        r = run(tmp_path / "est.txt", "kitti", gt, mono=True)
+        assert r["ok"] and r["alignment"] == "sim3" and r["scale_ambiguity"] == pytest.approx(ambiguity, rel=1e-6)
+        assert r["scale_ill_posed"] is refused and (ambiguity >= 0.1) is refused
+        if refused:
+            assert ambiguity > 0.9 and c < 0.55e3
+            for k in ("scale", "ape_trans_rmse", "rpe_trans_rmse", "tracking_loss", "jumps"):
+                assert r[k] is None, k
+            assert "rpe_trans_per_m" not in r
+            assert r["ape_rot_origin_rmse_deg"] < 1e-6 and r["rpe_rot_rmse_deg"] < 1e-6 and r["coverage"] == 1.0
+        else:
+            assert r["scale"] == pytest.approx(c, rel=1e-6) and r["ape_trans_rmse"] is not None
+    # an estimate that does not move fixes no scale at all; a stereo record has no scale to fix
+    still = Trajectory(gt.T_world_cam.copy(), gt.timestamps_s)
+    still.T_world_cam[:, :3, 3] = 0.0
+    write_kitti(tmp_path / "still.txt", still)
+    r = run(tmp_path / "still.txt", "kitti", gt, mono=True)
+    assert r["ok"] and r["scale_ill_posed"] and r["scale_ambiguity"] is None and r["ape_trans_rmse"] is None
+    assert "scale_ill_posed" not in run(tmp_path / "est.txt", "kitti", gt, mono=False)
+
+
+def test_a_non_finite_measure_is_missing_not_nan_in_json(tmp_path, monkeypatch):
+    """A measure that comes out NaN or infinite is null in the record, named in ``non_finite``
+    (results.json refuses NaN, and a NaN averaged would poison its point's mean)."""
+    import vo_reference.study.evaluate as ev
+    gt = curved()
+    write_kitti(tmp_path / "est.txt", gt)
+    monkeypatch.setattr(ev, "rpe_per_metre", lambda g, e: float("nan"))
+    r = run(tmp_path / "est.txt", "kitti", gt)
+    assert r["ok"] and r["rpe_trans_per_m"] is None and r["non_finite"] == ["rpe_trans_per_m"]
+    json.dumps(r, allow_nan=False)
 
 
 def test_the_ground_truth_control_names_the_first_difference(tmp_path):
