@@ -385,6 +385,8 @@ def test_the_report_shows_a_rotation_the_fit_left_free_as_not_measured(tmp_path)
     assert "not measured in 1 of 1 runs" in page and "rotation ±216°, free: APE rotation not measured" in page
     assert "— (not measured: the fit leaves the rotation free; from the first pose 0.085°)" in page
     assert page.count("not measured (missing from 1 run(s); rotation free)") == 2        # base and level cells
+    assert "s: 2 of 2 points not measured (○ on the axis: ape_rot_rmse_deg missing from 2 run(s), 2 with the " \
+           "rotation free)" in page                                                    # under the plot: counted
 
 
 def test_a_drive_that_starts_standing_loses_no_frames_but_a_jump_still_counts(tmp_path):
@@ -420,3 +422,43 @@ def test_rpe_per_metre_is_the_error_over_each_pieces_length(tmp_path, step):
     write_kitti(tmp_path / "est.txt", Trajectory(T, gt.timestamps_s))
     r = run(tmp_path / "est.txt", "kitti", gt)
     assert r["rpe_trans_per_m"] == pytest.approx(0.01, rel=0.02)
+
+
+def test_the_scatter_of_a_grid_design_shows_and_counts_points_without_a_value(tmp_path, monkeypatch):
+    """A point whose measure is missing (the APE rotation left free) and one that failed are not
+    dropped from the grid design's scatter: ○ on the axis and × at the top, each with a legend
+    entry and its count, and the page says how many; a categorical factor's points are plotted
+    at their level's place (the old plot dropped all three kinds silently)."""
+    from vo_reference.study import report
+    metric = "ape_rot_rmse_deg"
+
+    def point(a, b, mean, n_failed=0):
+        m = {"mean": mean, "std": None if mean is None else 0.0, "n_missing": int(mean is None and not n_failed)}
+        return {"label": f"a={a},b={b}", "point": {"a": a, "b": b}, "system": "s", "n": 1, "n_failed": n_failed,
+                "n_ill_posed": int(mean is None and not n_failed), "metrics": {metric: m}}
+    pts = [point(1, "wet", 0.5), point(2, "wet", None), point(1, "dry", 0.7), point(2, "dry", None, n_failed=1)]
+    factors = [{"name": "a", "unit": "u", "doc": "", "stage": "image", "levels": [1, 2], "base_level": None},
+               {"name": "b", "unit": "-", "doc": "", "stage": "world", "levels": ["wet", "dry"], "base_level": None}]
+    systems = [{"name": "s", "builtin": None, "layout": "tum", "format": "tum", "mono": False, "trials": 1}]
+    drawn = {}
+
+    def capture(ax, fig, factor, metric_, title):
+        drawn[factor["name"]] = {ln.get_label(): list(zip(ln.get_xdata(), ln.get_ydata())) for ln in ax.get_lines()}
+        report.pyplot().close(fig)
+        return "data:image/png;base64,"
+    monkeypatch.setattr(report, "_finish", capture)
+    report.scatter_plot(factors[1], pts, systems, metric)
+    assert drawn["b"]["s"] == [(0, 0.5), (1, 0.7)]                         # categorical: at 0 (wet), 1 (dry)
+    assert drawn["b"]["s: not measured (1)"] == [(0, 0.0)] and drawn["b"]["s: failed (1)"][0][0] == 1
+    monkeypatch.undo()
+    doc = {"format": "sesgen-study-results/3",
+           "study": {"name": "g", "description": "", "seeds": [0],
+                     "world": {"script": "x.ses", "frames": 6, "resolution": None, "quality": "draft"},
+                     "design": {"kind": "grid", "samples": 0, "seed": 0}, "metric": metric, "break_multiple": 2.0},
+           "factors": factors, "systems": systems, "variants": [], "runs": [], "points": pts, "curves": {}, "base": {},
+           "breaking_points": {}, "cost": {}}
+    (tmp_path / "results.json").write_text(json.dumps(doc))
+    import re
+    page = html.unescape(re.sub(r"<[^>]+>", "", report.write_report(tmp_path).read_text()))
+    assert page.count("s: 1 of 4 points not measured (○ on the axis: ape_rot_rmse_deg missing from 1 run(s), "
+                      "1 with the rotation free); 1 of 4 points failed (× at the top)") == 2     # under each plot
