@@ -69,6 +69,16 @@ def test_missing_frames_and_jumps_are_tracking_loss_and_too_few_a_failure(tmp_pa
     assert r["tracking_loss"] == pytest.approx((N - len(keep) + 1) / N)
 
 
+def test_poses_stamped_on_another_clock_fail_saying_so(tmp_path):
+    """Every pose written but stamped 1000 s late (another clock): not a system that lost track,
+    and the failure says so (it read 'poses for 0 of 40 frames' alone)."""
+    gt = curved()
+    write_tum(tmp_path / "late.txt", Trajectory(gt.T_world_cam, gt.timestamps_s + 1000.0))
+    r = run(tmp_path / "late.txt", "tum", gt)
+    assert not r["ok"] and r["failure"].startswith("short trajectory: poses for 0 of 40 frames")
+    assert "40 poses written, 0 stamped within a quarter frame period of a frame" in r["failure"]
+
+
 def test_a_malformed_or_missing_trajectory_is_a_failure(tmp_path):
     assert run(tmp_path / "none.txt", "kitti")["failure"] == "wrote no trajectory file"
     (tmp_path / "nan.txt").write_text("nan " * 12 + "\n")

@@ -628,3 +628,23 @@ def test_a_switch_of_definition_is_neither_a_break_nor_a_regression(tmp_path):
     n.write_text(json.dumps(doc(runs("se3"))))
     rc, out, err = cli("study", "compare", str(a), str(n))
     assert rc == 2 and "not recorded (written before format 3)" in out + err and "Traceback" not in out + err
+
+
+def test_compare_lists_what_only_one_study_has_and_a_verdict_from_one_run(tmp_path):
+    """A renamed system or a new level was skipped silently (0 comparisons, exit 0): now each
+    is a row 'unmeasured: only in OLD/NEW'. A verdict from one run on each side says it has no
+    spread to judge by."""
+    from blender_sesgen.study.results import aggregate, compare, curves_and_breaks
+    def doc(systems, levels=(0.01, 0.02), value=1.0):
+        body = ('[world]\nscript = "scene.ses"\n[factors.exposure_time]\nlevels = [0.01, 0.02]\n' + "".join(
+            f'[[systems]]\nname = "{sy}"\ncmd = "x {{out}}"\nlayout = "tum"\nformat = "tum"\n' for sy in systems))
+        rs = [r for sy in systems for r in _runs([({}, [1.0]), *(({"exposure_time": lv}, [value]) for lv in levels)], sy)]
+        c, b, _ = curves_and_breaks(load(tmp_path, body), aggregate(rs, "ape_trans_rmse"), "ape_trans_rmse")
+        return {"format": "sesgen-study-results/3", "study": {"metric": "ape_trans_rmse"},
+                "factors": [{"name": "exposure_time", "levels": list(levels)}], "curves": c, "base": b}
+    rows = compare(doc(["s", "t"]), doc(["s", "u"]))
+    only = {(r["system"], r["detail"].split(":")[0]) for r in rows if r["verdict"] == "unmeasured"}
+    assert only == {("t", "only in OLD"), ("u", "only in NEW")}
+    assert len(rows) == 9 and {r["verdict"] for r in rows if r["system"] == "s"} == {"same"}
+    worse = [r for r in compare(doc(["s"]), doc(["s"], value=1.5)) if r["verdict"] == "worse"]
+    assert len(worse) == 2 and all("one run each: no spread to judge by" in r["detail"] for r in worse)

@@ -27,8 +27,9 @@ breaking points; and ``study compare`` (pure: numpy and the standard library).
   often, or when its mean error exceeds OLD's by more than ``sigmas`` times the larger of
   the two spreads (and by more than 1e-9 relative: a deterministic system run twice is
   unchanged); *better* the other way round; *unmeasured* when either has no mean though its
-  runs did not fail (a measure missing from its runs: not a regression, but said), or when the
-  two means are of different definitions (another alignment). Two studies evaluated by
+  runs did not fail (a measure missing from its runs: not a regression, but said), when the
+  two means are of different definitions (another alignment), or when only one study has the
+  level or system (a renamed system, a new level: listed, not skipped). Two studies evaluated by
   different evaluation versions are refused (an error): every figure may have moved.
 """
 from __future__ import annotations
@@ -149,6 +150,10 @@ def _redefined(a: dict, b: dict, names=("the base", "here")) -> str:
     if not da or not db or da == db:
         return ""
     return f"measured under different definitions ({names[0]}: {'; '.join(da)}, {names[1]}: {'; '.join(db)})"
+
+
+def _n_ok(c: dict) -> int:
+    return c["n"] - c["n_failed"]
 
 
 def _failed(c: dict) -> bool:
@@ -324,6 +329,9 @@ def compare(old: dict, new: dict, sigmas: float = 1.0) -> list[dict]:
                           "and compare its new results.json")
     a, b = _cells(old), _cells(new)
     rows = []
+    for key, only in [(k, "OLD") for k in a if k not in b] + [(k, "NEW") for k in b if k not in a]:
+        rows.append({"factor": key[0], "level": key[1], "system": key[2], "verdict": "unmeasured",
+                     "detail": f"only in {only}: the other study has no such level or system (nothing to compare)"})
     for key in [k for k in a if k in b]:
         o, n = a[key], b[key]
         fo = o["n_failed"] / o["n"] if o["n"] else 0.0
@@ -348,5 +356,7 @@ def compare(old: dict, new: dict, sigmas: float = 1.0) -> list[dict]:
             elif n["mean"] < o["mean"] - margin:
                 verdict = "better"
             why = f"{o['mean']:.4g} ± {o['std'] or 0:.2g} -> {n['mean']:.4g} ± {n['std'] or 0:.2g}"
+            if verdict != "same" and spread == 0.0 and _n_ok(o) == 1 == _n_ok(n):
+                why += " (one run each: no spread to judge by; more trials or world seeds give one)"
         rows.append({"factor": key[0], "level": key[1], "system": key[2], "verdict": verdict, "detail": why})
     return rows

@@ -133,8 +133,12 @@ def evaluate_run(gt: Trajectory, est_path, fmt: str, *, mono: bool, rate_hz: flo
     coverage = len(i_gt) / n if n else 0.0
     rec = {"n_frames": n, "n_poses": int(len(est)), "n_paired": int(len(i_gt)), "coverage": coverage}
     if coverage < min_coverage or len(i_gt) < 2:
-        rec.update(ok=False, failure=f"short trajectory: poses for {len(i_gt)} of {n} frames "
-                                     f"(at least {min_coverage:.0%} needed)")
+        why = f"short trajectory: poses for {len(i_gt)} of {n} frames (at least {min_coverage:.0%} needed)"
+        if fmt != "kitti" and len(est) >= max(min_coverage * n, 2) > len(i_gt):
+            # the poses are there, their stamps missed the frames': not a system that lost track
+            why += (f"; {len(est)} poses written, {len(i_gt)} stamped within a quarter frame period of a frame: "
+                    f"are its stamps the dataset's ({'nanoseconds' if fmt == 'euroc' else 'seconds'}, its clock)?")
+        rec.update(ok=False, failure=why)
         return rec
     g = Trajectory(gt.T_world_cam[i_gt], gt.timestamps_s[i_gt])
     e = Trajectory(est.T_world_cam[i_est], gt.timestamps_s[i_gt])
