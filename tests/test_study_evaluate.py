@@ -472,3 +472,4 @@ def test_the_scatter_of_a_grid_design_shows_and_counts_points_without_a_value(tm
     page = html.unescape(re.sub(r"<[^>]+>", "", report.write_report(tmp_path).read_text()))
     assert page.count("s: 1 of 4 points not measured (○ on the axis: ape_rot_rmse_deg missing from 1 run(s), "
                       "1 with the rotation free); 1 of 4 points failed (× at the top)") == 2     # under each plot
+    assert "0.5 (1 run: no spread)" in page and "± 0" not in page      # one run's spread is unknown, not 0

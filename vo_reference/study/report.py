@@ -489,7 +489,9 @@ def _cell(c) -> str:
         s = (f"not measured <small>(missing from {c.get('n_missing', 0)} run(s){'; rotation free' if c.get('n_ill_posed') else ''}"
              f"{'; mono scale not fixed' if c.get('n_scale_ill_posed') else ''})</small>")
     else:
-        s = f"{_fmt(c.get('mean'))} ± {_fmt(c.get('std'))}" if c.get("mean") is not None else "failed"
+        one = c.get("n", 0) - c.get("n_failed", 0) == 1     # a spread of one value is not a spread of 0
+        s = (f"{_fmt(c.get('mean'))} " + ("<small>(1 run: no spread)</small>" if one else f"± {_fmt(c.get('std'))}")
+             if c.get("mean") is not None else "failed")
     if c.get("n_failed"):
         s += f" <small>({c['n_failed']}/{c['n']} failed)</small>"
     if c.get("broken"):
