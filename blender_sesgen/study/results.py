@@ -313,7 +313,8 @@ def _version_text(v) -> str:
 
 
 def compare(old: dict, new: dict, sigmas: float = 1.0) -> list[dict]:
-    """One row per (factor, level, system) in both: ``verdict`` worse | better | same."""
+    """One row per (factor, level, system) in either: ``verdict`` worse | better | same | unmeasured
+    (module docstring); two evaluation versions: a SesgenError."""
     from ..errors import SesgenError
     for d, which in ((old, "OLD"), (new, "NEW")):
         if not str(d.get("format", "")).startswith("sesgen-study-results/"):
@@ -329,9 +330,6 @@ def compare(old: dict, new: dict, sigmas: float = 1.0) -> list[dict]:
                           "and compare its new results.json")
     a, b = _cells(old), _cells(new)
     rows = []
-    for key, only in [(k, "OLD") for k in a if k not in b] + [(k, "NEW") for k in b if k not in a]:
-        rows.append({"factor": key[0], "level": key[1], "system": key[2], "verdict": "unmeasured",
-                     "detail": f"only in {only}: the other study has no such level or system (nothing to compare)"})
     for key in [k for k in a if k in b]:
         o, n = a[key], b[key]
         fo = o["n_failed"] / o["n"] if o["n"] else 0.0
@@ -359,4 +357,7 @@ def compare(old: dict, new: dict, sigmas: float = 1.0) -> list[dict]:
             if verdict != "same" and spread == 0.0 and _n_ok(o) == 1 == _n_ok(n):
                 why += " (one run each: no spread to judge by; more trials or world seeds give one)"
         rows.append({"factor": key[0], "level": key[1], "system": key[2], "verdict": verdict, "detail": why})
+    for key, only in [(k, "OLD") for k in a if k not in b] + [(k, "NEW") for k in b if k not in a]:
+        rows.append({"factor": key[0], "level": key[1], "system": key[2], "verdict": "unmeasured",
+                     "detail": f"only in {only}: the other study has no such level or system (nothing to compare)"})
     return rows
