@@ -648,3 +648,21 @@ def test_compare_lists_what_only_one_study_has_and_a_verdict_from_one_run(tmp_pa
     assert len(rows) == 9 and {r["verdict"] for r in rows if r["system"] == "s"} == {"same"}
     worse = [r for r in compare(doc(["s"]), doc(["s"], value=1.5)) if r["verdict"] == "worse"]
     assert len(worse) == 2 and all("one run each: no spread to judge by" in r["detail"] for r in worse)
+
+
+@pytest.mark.parametrize("factor, levels, note", [("rig_speed", "[2.0, 3.0]", True), ("frame_rate", "[5.0, 20.0]", True),
+                                                  ("exposure_time", "[0.01, 0.02]", False)])
+def test_a_per_frame_measure_over_a_factor_that_changes_the_step_says_so(tmp_path, factor, levels, note):
+    """A VO with a steady 1 % error per metre reads 3x the RPE a frame at 3x the rig's speed: a
+    'breaking point' from the unit. The breaking point of a per-frame measure over a factor
+    that changes the frame's step says so (and points to the per-metre one)."""
+    from blender_sesgen.study.results import aggregate, curves_and_breaks
+    body = (f'[world]\nscript = "scene.ses"\n[factors.{factor}]\nlevels = {levels}\n'
+            '[[systems]]\nname = "s"\ncmd = "x {out}"\nlayout = "tum"\nformat = "tum"\n'
+            '[evaluation]\nmetric = "rpe_trans_rmse"\n')
+    study = load(tmp_path, body)
+    lv = [float(x) for x in levels.strip("[]").split(",")]
+    runs = _metric_runs([({}, [0.01]), ({factor: lv[0]}, [0.02]), ({factor: lv[1]}, [0.03])], "rpe_trans_rmse")
+    b = curves_and_breaks(study, aggregate(runs, "rpe_trans_rmse"), "rpe_trans_rmse")[2][factor]["s"]
+    assert b["level"] == lv[1]
+    assert ("rpe_trans_rmse is per frame and" in b["reason"] and "rpe_trans_per_m does not" in b["reason"]) is note

@@ -56,6 +56,11 @@ ALIGNMENT_FREE = ("ape_rot_origin_rmse_deg", "rpe_rot_rmse_deg", "kitti_r_err_de
 METRIC_KEYS = ("ape_trans_rmse", "ape_rot_rmse_deg", "ape_rot_origin_rmse_deg", "rpe_trans_rmse", "rpe_rot_rmse_deg",
                "rpe_trans_per_m", "kitti_t_err_pct", "kitti_r_err_deg_per_100m", "tracking_loss", "coverage")
 REL_TOL = 1e-9
+# Measures per frame, and the factors that change how far a frame moves (the step along the same
+# path): across their levels a steady error per metre reads as a trend of the per-frame figure (rig
+# speed 3x: 3x the RPE a frame; frame rate 2x: half), so a breaking point there says so.
+PER_FRAME = ("rpe_trans_rmse", "rpe_rot_rmse_deg")
+STEP_FACTORS = ("frame_rate", "rig_speed")
 
 
 def stats(values) -> dict:
@@ -216,6 +221,11 @@ def curves_and_breaks(study, aggs: dict, metric: str) -> tuple[dict, dict, dict]
                 found = {"level": None, "reason": f"holds up to {f.levels[-1]}" + (
                     f" (above {mult:g} x the base's but within the spread at {', '.join(map(str, near))})"
                     if near else "")}
+            if metric in PER_FRAME and getattr(f.factor, "name", None) in STEP_FACTORS:
+                found["per_frame"] = (f"{metric} is per frame and {f.name} changes the frame's step: a steady error "
+                                      "per metre reads as a trend of it" + (" (rpe_trans_per_m does not)"
+                                                                           if metric == "rpe_trans_rmse" else ""))
+                found["reason"] += f" — note: {found['per_frame']}"
             breaks[f.name][s.name] = found
     return curves, base, breaks
 
