@@ -69,6 +69,16 @@ def test_missing_frames_and_jumps_are_tracking_loss_and_too_few_a_failure(tmp_pa
     assert r["tracking_loss"] == pytest.approx((N - len(keep) + 1) / N)
 
 
+def test_poses_stamped_on_another_clock_fail_saying_so(tmp_path):
+    """Every pose written but stamped 1000 s late (another clock): not a system that lost track,
+    and the failure says so (it read 'poses for 0 of 40 frames' alone)."""
+    gt = curved()
+    write_tum(tmp_path / "late.txt", Trajectory(gt.T_world_cam, gt.timestamps_s + 1000.0))
+    r = run(tmp_path / "late.txt", "tum", gt)
+    assert not r["ok"] and r["failure"].startswith("short trajectory: poses for 0 of 40 frames")
+    assert "40 poses written, 0 stamped within a quarter frame period of a frame" in r["failure"]
+
+
 def test_a_malformed_or_missing_trajectory_is_a_failure(tmp_path):
     assert run(tmp_path / "none.txt", "kitti")["failure"] == "wrote no trajectory file"
     (tmp_path / "nan.txt").write_text("nan " * 12 + "\n")
@@ -78,15 +88,121 @@ def test_a_malformed_or_missing_trajectory_is_a_failure(tmp_path):
     assert "80 poses for 40 frames" in run(tmp_path / "long.txt", "kitti", gt)["failure"]
 
 
-def test_a_straight_path_falls_back_to_the_first_pose_and_a_long_one_gets_the_kitti_metric(tmp_path):
+def test_a_long_path_gets_the_kitti_metric_and_a_perfect_straight_one_no_error(tmp_path):
     straight = Trajectory(np.array([se3(np.eye(3), (0, 0, -k * 1.0)) for k in range(N)]), np.arange(N) / RATE)
     write_kitti(tmp_path / "s.txt", straight)
     r = run(tmp_path / "s.txt", "kitti", straight)
-    assert r["ok"] and r["alignment"].startswith("origin") and r["ape_trans_rmse"] < 1e-9
+    assert r["ok"] and r["alignment"] == "se3" and r["ape_trans_rmse"] < 1e-9
+    # a perfect estimate of a straight path still leaves the roll about it free: not measured
+    assert r["alignment_ill_posed"] and r["ape_rot_rmse_deg"] is None and r["rotation_sigma_deg"] is None
+    assert r["ape_rot_origin_rmse_deg"] < 1e-9
     long = curved(n=120, radius=300.0)                                # 178 m
     write_kitti(tmp_path / "l.txt", long)
     r = run(tmp_path / "l.txt", "kitti", long)
     assert r["kitti_t_err_pct"] < 1e-6 and "kitti_t_err_pct" not in run(tmp_path / "s.txt", "kitti", straight)
+
+
+def _evo_ape_trans(gt: Trajectory, est: Trajectory, scale: bool) -> float:
+    """evo's APE translation RMSE after its SE(3) (``scale``: Sim(3)) Umeyama alignment."""
+    evo_metrics = pytest.importorskip("evo.core.metrics", reason="evo (test extra) is not installed")
+    from evo.core.trajectory import PosePath3D
+    ref, e = PosePath3D(poses_se3=list(gt.T_world_cam)), PosePath3D(poses_se3=list(est.T_world_cam))
+    e.align(ref, correct_scale=scale)
+    m = evo_metrics.APE(evo_metrics.PoseRelation.translation_part)
+    m.process_data((ref, e))
+    return float(m.get_statistic(evo_metrics.StatisticsType.rmse))
+
+
+@pytest.mark.parametrize("mono", [False, True])
+def test_a_straight_path_and_one_a_hair_off_it_report_one_definition(tmp_path, mono):
+    """An exactly straight drive and the same drive with a 1 um wiggle, the same VO (3 cm
+    position noise, a 1 deg yaw bias; mono: at a quarter of the scale): both aligned by the
+    same fit, both with the APE rotation free, and the same APE translation -- evo's se3/sim3
+    on the wiggling one (evo refuses the straight one). Session 20 aligned the straight one at
+    its first pose (and by the path-length ratio for mono): another definition, 0.488 m against
+    the wiggling one's 0.043 m (11x), and a breaking point could come from the switch alone."""
+    rng = np.random.default_rng(7)
+    noise = rng.normal(0, 0.03, (N, 3))
+    out = []
+    for name, wiggle in (("straight", 0.0), ("hair", 1e-6)):
+        gt = Trajectory(np.array([se3(np.eye(3), (wiggle * np.sin(1.3 * k), 1.6, -1.25 * k)) for k in range(N)]),
+                        np.arange(N) / RATE)
+        T = np.array([se3(G[:3, :3] @ euler_xyz_deg_to_R(0, 1.0, 0), G[:3, 3] + noise[k])
+                      for k, G in enumerate(gt.T_world_cam)])
+        if mono:
+            T[:, :3, 3] *= 0.25
+        est = Trajectory(T, gt.timestamps_s)
+        write_kitti(tmp_path / f"{name}.txt", est)
+        out.append((gt, est, run(tmp_path / f"{name}.txt", "kitti", gt, mono=mono)))
+    (_, _, rs), (gt_h, est_h, rh) = out
+    assert rs["alignment"] == rh["alignment"] == ("sim3" if mono else "se3")
+    assert rs["alignment_ill_posed"] and rh["alignment_ill_posed"] and rs["ape_rot_rmse_deg"] is None
+    assert rh["ape_trans_rmse"] == pytest.approx(_evo_ape_trans(gt_h, est_h, mono), rel=1e-6)
+    assert rs["ape_trans_rmse"] == pytest.approx(rh["ape_trans_rmse"], rel=1e-4)
+    assert rs["tracking_loss"] == rh["tracking_loss"] == 0.0
+    if mono:
+        assert rs["scale"] == pytest.approx(rh["scale"], rel=1e-6) and not rs["scale_ill_posed"]
+
+
+def _shaped(gt: Trajectory, a: float, delta: float, seed: int = 0) -> tuple[Trajectory, float, float]:
+    """A monocular estimate a·p + δ·w (w vertical, orthogonal to the constant and to the ground
+    truth's centred x and z, |w| = 1), with the ground truth's rotations. Returns it with the
+    Sim(3) fit's closed form: Σ_xy = a·Σ_y (R = I), so c = a·S_y / (a²·S_y + δ²) (S_y = Σ|p − p̄|²:
+    the noise pulls the scale under 1/a) and the scale ambiguity 1/ρ² − 1 = δ² / (a²·S_y), the
+    noise's energy over the motion's."""
+    p = gt.positions
+    basis = np.stack([np.ones(len(p)), p[:, 0] - p[:, 0].mean(), p[:, 2] - p[:, 2].mean()], axis=1)
+    w = np.random.default_rng(seed).normal(size=len(p))
+    w -= basis @ np.linalg.lstsq(basis, w, rcond=None)[0]
+    w /= np.linalg.norm(w)
+    x = a * p
+    x[:, 1] += delta * w
+    T = gt.T_world_cam.copy()
+    T[:, :3, 3] = x
+    S_y = float(np.sum((p - p.mean(axis=0)) ** 2))
+    return Trajectory(T, gt.timestamps_s), a * S_y / (a * a * S_y + delta ** 2), delta ** 2 / (a * a * S_y)
+
+
+def test_a_mono_scale_its_noise_swamps_is_refused_against_a_closed_form(tmp_path):
+    """A monocular VO that follows the arc at 1/1000 of its size (10 cm of spread for 59 m) is
+    scaled by ~1000: fine while its noise is small against its motion (scale and ambiguity the
+    closed form's), refused when the noise is as large as its motion (ambiguity ~1: the fit's
+    scale is half the true one; every translation after it would measure the fit's noise, so
+    they are null and the record says why; rotations need no scale)."""
+    gt = curved()
+    for delta, refused in ((0.0005, False), (0.02, False), (0.1, True)):
+        est, c, ambiguity = _shaped(gt, 1e-3, delta)
+        write_kitti(tmp_path / "est.txt", est)
+        r = run(tmp_path / "est.txt", "kitti", gt, mono=True)
+        assert r["ok"] and r["alignment"] == "sim3" and r["scale_ambiguity"] == pytest.approx(ambiguity, rel=1e-6)
+        assert r["scale_ill_posed"] is refused and (ambiguity >= 0.1) is refused
+        if refused:
+            assert ambiguity > 0.9 and c < 0.55e3
+            for k in ("scale", "ape_trans_rmse", "rpe_trans_rmse", "tracking_loss", "jumps"):
+                assert r[k] is None, k
+            assert "rpe_trans_per_m" not in r
+            assert r["ape_rot_origin_rmse_deg"] < 1e-6 and r["rpe_rot_rmse_deg"] < 1e-6 and r["coverage"] == 1.0
+        else:
+            assert r["scale"] == pytest.approx(c, rel=1e-6) and r["ape_trans_rmse"] is not None
+    # an estimate that does not move fixes no scale at all; a stereo record has no scale to fix
+    still = Trajectory(gt.T_world_cam.copy(), gt.timestamps_s)
+    still.T_world_cam[:, :3, 3] = 0.0
+    write_kitti(tmp_path / "still.txt", still)
+    r = run(tmp_path / "still.txt", "kitti", gt, mono=True)
+    assert r["ok"] and r["scale_ill_posed"] and r["scale_ambiguity"] is None and r["ape_trans_rmse"] is None
+    assert "scale_ill_posed" not in run(tmp_path / "est.txt", "kitti", gt, mono=False)
+
+
+def test_a_non_finite_measure_is_missing_not_nan_in_json(tmp_path, monkeypatch):
+    """A measure that comes out NaN or infinite is null in the record, named in ``non_finite``
+    (results.json refuses NaN, and a NaN averaged would poison its point's mean)."""
+    import vo_reference.study.evaluate as ev
+    gt = curved()
+    write_kitti(tmp_path / "est.txt", gt)
+    monkeypatch.setattr(ev, "rpe_per_metre", lambda g, e: float("nan"))
+    r = run(tmp_path / "est.txt", "kitti", gt)
+    assert r["ok"] and r["rpe_trans_per_m"] is None and r["non_finite"] == ["rpe_trans_per_m"]
+    json.dumps(r, allow_nan=False)
 
 
 def test_the_ground_truth_control_names_the_first_difference(tmp_path):
@@ -279,6 +395,8 @@ def test_the_report_shows_a_rotation_the_fit_left_free_as_not_measured(tmp_path)
     assert "not measured in 1 of 1 runs" in page and "rotation ±216°, free: APE rotation not measured" in page
     assert "— (not measured: the fit leaves the rotation free; from the first pose 0.085°)" in page
     assert page.count("not measured (missing from 1 run(s); rotation free)") == 2        # base and level cells
+    assert "s: 2 of 2 points not measured (○ on the axis: ape_rot_rmse_deg missing from 2 run(s), 2 with the " \
+           "rotation free)" in page                                                    # under the plot: counted
 
 
 def test_a_drive_that_starts_standing_loses_no_frames_but_a_jump_still_counts(tmp_path):
@@ -314,3 +432,44 @@ def test_rpe_per_metre_is_the_error_over_each_pieces_length(tmp_path, step):
     write_kitti(tmp_path / "est.txt", Trajectory(T, gt.timestamps_s))
     r = run(tmp_path / "est.txt", "kitti", gt)
     assert r["rpe_trans_per_m"] == pytest.approx(0.01, rel=0.02)
+
+
+def test_the_scatter_of_a_grid_design_shows_and_counts_points_without_a_value(tmp_path, monkeypatch):
+    """A point whose measure is missing (the APE rotation left free) and one that failed are not
+    dropped from the grid design's scatter: ○ on the axis and × at the top, each with a legend
+    entry and its count, and the page says how many; a categorical factor's points are plotted
+    at their level's place (the old plot dropped all three kinds silently)."""
+    from vo_reference.study import report
+    metric = "ape_rot_rmse_deg"
+
+    def point(a, b, mean, n_failed=0):
+        m = {"mean": mean, "std": None if mean is None else 0.0, "n_missing": int(mean is None and not n_failed)}
+        return {"label": f"a={a},b={b}", "point": {"a": a, "b": b}, "system": "s", "n": 1, "n_failed": n_failed,
+                "n_ill_posed": int(mean is None and not n_failed), "metrics": {metric: m}}
+    pts = [point(1, "wet", 0.5), point(2, "wet", None), point(1, "dry", 0.7), point(2, "dry", None, n_failed=1)]
+    factors = [{"name": "a", "unit": "u", "doc": "", "stage": "image", "levels": [1, 2], "base_level": None},
+               {"name": "b", "unit": "-", "doc": "", "stage": "world", "levels": ["wet", "dry"], "base_level": None}]
+    systems = [{"name": "s", "builtin": None, "layout": "tum", "format": "tum", "mono": False, "trials": 1}]
+    drawn = {}
+
+    def capture(ax, fig, factor, metric_, title):
+        drawn[factor["name"]] = {ln.get_label(): list(zip(ln.get_xdata(), ln.get_ydata())) for ln in ax.get_lines()}
+        report.pyplot().close(fig)
+        return "data:image/png;base64,"
+    monkeypatch.setattr(report, "_finish", capture)
+    report.scatter_plot(factors[1], pts, systems, metric)
+    assert drawn["b"]["s"] == [(0, 0.5), (1, 0.7)]                         # categorical: at 0 (wet), 1 (dry)
+    assert drawn["b"]["s: not measured (1)"] == [(0, 0.0)] and drawn["b"]["s: failed (1)"][0][0] == 1
+    monkeypatch.undo()
+    doc = {"format": "sesgen-study-results/3",
+           "study": {"name": "g", "description": "", "seeds": [0],
+                     "world": {"script": "x.ses", "frames": 6, "resolution": None, "quality": "draft"},
+                     "design": {"kind": "grid", "samples": 0, "seed": 0}, "metric": metric, "break_multiple": 2.0},
+           "factors": factors, "systems": systems, "variants": [], "runs": [], "points": pts, "curves": {}, "base": {},
+           "breaking_points": {}, "cost": {}}
+    (tmp_path / "results.json").write_text(json.dumps(doc))
+    import re
+    page = html.unescape(re.sub(r"<[^>]+>", "", report.write_report(tmp_path).read_text()))
+    assert page.count("s: 1 of 4 points not measured (○ on the axis: ape_rot_rmse_deg missing from 1 run(s), "
+                      "1 with the rotation free); 1 of 4 points failed (× at the top)") == 2     # under each plot
+    assert "0.5 (1 run: no spread)" in page and "± 0" not in page      # one run's spread is unknown, not 0

@@ -550,3 +550,119 @@ def test_a_measure_missing_from_runs_is_not_averaged_nor_a_break_nor_a_regressio
     n.write_text(json.dumps(doc(free)))
     rc, out, _ = cli("study", "compare", str(a), str(n))
     assert rc == 0 and "unmeasured (base) / s" in out
+
+
+def _metric_runs(points, metric: str, system="s", **extra) -> list:
+    """Synthetic ok run records: [(point, [value, ...])] of ``metric`` (plus ``extra`` metrics keys)."""
+    return [{"point": point, "system": system, "trial": t, "status": "ok", "metrics": {metric: v, **extra}}
+            for point, values in points for t, v in enumerate(values)]
+
+
+@pytest.mark.parametrize("metric, base, small, large", [
+    ("tracking_loss", 0.0, 0.025, 0.1),            # none lost at the base; 1 frame in 40; 4 in 40
+    ("ape_trans_rmse", 0.0, 5e-4, 0.01),           # a perfect system; half a millimetre; a centimetre
+    ("ape_trans_rmse", 1e-9, 3e-9, 0.01)])         # rounding at the base: 3x rounding is not a break
+def test_a_base_of_zero_or_rounding_breaks_only_above_the_metrics_floor(tmp_path, metric, base, small, large):
+    """Old rule: any error above 2 x 0 (or 2 x 1e-9) was a breaking point -- a tracking loss of one
+    frame, a perfect system's rounding. Now a level breaks only above max(2 x the base's, the
+    metric's floor), and the reason says the floor decided."""
+    from blender_sesgen.study.results import BREAK_FLOOR, aggregate, curves_and_breaks
+    body = ('[world]\nscript = "scene.ses"\n[factors.exposure_time]\nlevels = [0.01, 0.02]\n'
+            '[[systems]]\nname = "s"\ncmd = "x {out}"\nlayout = "tum"\nformat = "tum"\n'
+            f'[evaluation]\nmetric = "{metric}"\n')
+    study = load(tmp_path, body)
+    assert small < BREAK_FLOOR[metric] < large
+    runs = _metric_runs([({}, [base, base]), ({"exposure_time": 0.01}, [small, small]),
+                         ({"exposure_time": 0.02}, [large, large])], metric)
+    curves, _, breaks = curves_and_breaks(study, aggregate(runs, metric), metric)
+    assert [c["broken"] for c in curves["exposure_time"]["s"]] == [False, True]
+    b = breaks["exposure_time"]["s"]
+    assert b["level"] == 0.02 and f"the floor {BREAK_FLOOR[metric]:g}" in b["reason"]
+    # above the floor, the multiple rules as before
+    runs = _metric_runs([({}, [0.2, 0.2]), ({"exposure_time": 0.01}, [0.3, 0.3]),
+                         ({"exposure_time": 0.02}, [0.5, 0.5])], metric)
+    b = curves_and_breaks(study, aggregate(runs, metric), metric)[2]["exposure_time"]["s"]
+    assert b["level"] == 0.02 and "2 x the base's 0.2" in b["reason"]
+
+
+def test_a_switch_of_definition_is_neither_a_break_nor_a_regression(tmp_path):
+    """A level whose runs were aligned otherwise than the base's (session 20's origin fallback on
+    a straight path) reads 3x the base by definition alone: not a breaking point, but said; compare
+    calls a changed alignment 'unmeasured' and refuses two evaluation versions (exit 2)."""
+    from blender_sesgen.study.results import FORMAT, aggregate, compare, curves_and_breaks
+    from blender_sesgen.errors import SesgenError
+    body = ('[world]\nscript = "scene.ses"\n[factors.exposure_time]\nlevels = [0.01, 0.02]\n'
+            '[[systems]]\nname = "s"\ncmd = "x {out}"\nlayout = "tum"\nformat = "tum"\n')
+    study = load(tmp_path, body)
+    m = "ape_trans_rmse"
+
+    def runs(how_level, version=3, how_base="se3"):
+        return (_metric_runs([({}, [0.10, 0.10])], m, alignment=how_base, evaluation_version=version)
+                + _metric_runs([({"exposure_time": 0.01}, [0.30, 0.30]), ({"exposure_time": 0.02}, [0.11, 0.11])], m,
+                               alignment=how_level, evaluation_version=version))
+    mixed = runs("origin (path too straight for se3)")
+    curves, _, breaks = curves_and_breaks(study, aggregate(mixed, m), m)
+    cell = curves["exposure_time"]["s"][0]
+    assert not cell["broken"] and "different definitions (the base: se3, evaluation 3, here: origin, evaluation 3)" in cell["redefined"]
+    b = breaks["exposure_time"]["s"]
+    assert b["level"] is None and b["unmeasured"] and "not compared with the base at 0.01, 0.02" in b["reason"]
+    assert curves_and_breaks(study, aggregate(runs("se3"), m), m)[2]["exposure_time"]["s"]["level"] == 0.01
+
+    def doc(rs):
+        c, bb, _ = curves_and_breaks(study, aggregate(rs, m), m)
+        return {"format": FORMAT, "study": {"metric": m, "evaluation_versions": sorted(
+                    {r["metrics"]["evaluation_version"] for r in rs})},
+                "factors": [{"name": "exposure_time", "levels": [0.01, 0.02]}], "curves": c, "base": bb, "runs": rs}
+    rows = {(r["factor"], r["level"]): r for r in compare(doc(runs("se3")), doc(runs("sim3", how_base="sim3")))}
+    assert {r["verdict"] for r in rows.values()} == {"unmeasured"}
+    assert "different definitions" in rows[("exposure_time", "0.01")]["detail"]
+    assert {r["verdict"] for r in compare(doc(runs("se3")), doc(runs("se3")))} == {"same"}
+    with pytest.raises(SesgenError, match="different definitions .OLD: 2, NEW: 3"):
+        compare(doc(runs("se3", version=2)), doc(runs("se3")))
+    old = doc(runs("se3"))
+    del old["study"]["evaluation_versions"]                   # a results.json of format 2: not recorded
+    for r in old["runs"]:
+        del r["metrics"]["evaluation_version"]
+    a, n = tmp_path / "old.json", tmp_path / "new.json"
+    a.write_text(json.dumps(old))
+    n.write_text(json.dumps(doc(runs("se3"))))
+    rc, out, err = cli("study", "compare", str(a), str(n))
+    assert rc == 2 and "not recorded (written before format 3)" in out + err and "Traceback" not in out + err
+
+
+def test_compare_lists_what_only_one_study_has_and_a_verdict_from_one_run(tmp_path):
+    """A renamed system or a new level was skipped silently (0 comparisons, exit 0): now each
+    is a row 'unmeasured: only in OLD/NEW'. A verdict from one run on each side says it has no
+    spread to judge by."""
+    from blender_sesgen.study.results import aggregate, compare, curves_and_breaks
+    def doc(systems, levels=(0.01, 0.02), value=1.0):
+        body = ('[world]\nscript = "scene.ses"\n[factors.exposure_time]\nlevels = [0.01, 0.02]\n' + "".join(
+            f'[[systems]]\nname = "{sy}"\ncmd = "x {{out}}"\nlayout = "tum"\nformat = "tum"\n' for sy in systems))
+        rs = [r for sy in systems for r in _runs([({}, [1.0]), *(({"exposure_time": lv}, [value]) for lv in levels)], sy)]
+        c, b, _ = curves_and_breaks(load(tmp_path, body), aggregate(rs, "ape_trans_rmse"), "ape_trans_rmse")
+        return {"format": "sesgen-study-results/3", "study": {"metric": "ape_trans_rmse"},
+                "factors": [{"name": "exposure_time", "levels": list(levels)}], "curves": c, "base": b}
+    rows = compare(doc(["s", "t"]), doc(["s", "u"]))
+    only = {(r["system"], r["detail"].split(":")[0]) for r in rows if r["verdict"] == "unmeasured"}
+    assert only == {("t", "only in OLD"), ("u", "only in NEW")}
+    assert len(rows) == 9 and {r["verdict"] for r in rows if r["system"] == "s"} == {"same"}
+    worse = [r for r in compare(doc(["s"]), doc(["s"], value=1.5)) if r["verdict"] == "worse"]
+    assert len(worse) == 2 and all("one run each: no spread to judge by" in r["detail"] for r in worse)
+
+
+@pytest.mark.parametrize("factor, levels, note", [("rig_speed", "[2.0, 3.0]", True), ("frame_rate", "[5.0, 20.0]", True),
+                                                  ("exposure_time", "[0.01, 0.02]", False)])
+def test_a_per_frame_measure_over_a_factor_that_changes_the_step_says_so(tmp_path, factor, levels, note):
+    """A VO with a steady 1 % error per metre reads 3x the RPE a frame at 3x the rig's speed: a
+    'breaking point' from the unit. The breaking point of a per-frame measure over a factor
+    that changes the frame's step says so (and points to the per-metre one)."""
+    from blender_sesgen.study.results import aggregate, curves_and_breaks
+    body = (f'[world]\nscript = "scene.ses"\n[factors.{factor}]\nlevels = {levels}\n'
+            '[[systems]]\nname = "s"\ncmd = "x {out}"\nlayout = "tum"\nformat = "tum"\n'
+            '[evaluation]\nmetric = "rpe_trans_rmse"\n')
+    study = load(tmp_path, body)
+    lv = [float(x) for x in levels.strip("[]").split(",")]
+    runs = _metric_runs([({}, [0.01]), ({factor: lv[0]}, [0.02]), ({factor: lv[1]}, [0.03])], "rpe_trans_rmse")
+    b = curves_and_breaks(study, aggregate(runs, "rpe_trans_rmse"), "rpe_trans_rmse")[2][factor]["s"]
+    assert b["level"] == lv[1]
+    assert ("rpe_trans_rmse is per frame and" in b["reason"] and "rpe_trans_per_m does not" in b["reason"]) is note

@@ -49,7 +49,9 @@ def main() -> None:
                                  else f"{x['metrics'][metric]:.2f}"
                                  for x in sorted(r["runs"], key=lambda x: (x["world_seed"], x["trial"]))
                                  if x["system"] == s and x["point"] == point)
-            text = (f"{c['mean']:.3f} ± {c['std'] or 0:.3f} ({per_seed})" if c["mean"] is not None
+            one = c.get("n", 0) - c.get("n_failed", 0) == 1         # one value: no spread, not a spread of 0
+            text = (f"{c['mean']:.3f} " + ("(1 run)" if one else f"± {c['std'] or 0:.3f} ({per_seed})")
+                    if c["mean"] is not None
                     else "failed" if c.get("n_failed", 0) >= c.get("n", 0) else f"not measured ({per_seed})")
             if c.get("n_failed"):
                 text += f" ({c['n_failed']}/{c['n']} failed)"

@@ -14,18 +14,26 @@ quarter of a frame period) -- and then:
   estimate's median step: a sequence standing still for half its frames (EuRoC's start, a
   still camera) has a median step of its noise, and every step after it would be a jump;
 - **APE**: after SE(3) alignment (Sim(3) for monocular systems; Umeyama over every paired
-  pose); on a path too straight for it (collinear positions) the estimate is aligned at its
-  first pose instead (and scaled by the path-length ratio for monocular systems), and the
-  record says so. The fit's positions fix its rotation only as well as the path spreads
-  off its main axis (``rotation_sigma_deg``, 1 sigma, worst axis): where that is at least
-  ``ILL_POSED_RATIO`` of the APE rotation it yields (a short, nearly straight drive: the roll
-  about the path is free), the APE rotation measures the fit, not the estimate, and the
-  record has ``ape_rot_rmse_deg`` null and ``alignment_ill_posed`` true. APE translation
-  stays the fit's minimum residual either way (positions barely move under the free roll).
+  pose), on every path: on a straight one (collinear positions) too, whose least residual is
+  as defined as any path's (session 20 and before: aligned at the first pose there, so a path a
+  hair off straight and a straight one reported two definitions). The fit's positions fix its
+  rotation only as well as the path spreads off its main axis (``rotation_sigma_deg``, 1 sigma,
+  worst axis; infinite on a straight path): where that is at least ``ILL_POSED_RATIO`` of the
+  APE rotation it yields (a short, nearly straight drive: the roll about the path is free), the
+  APE rotation measures the fit, not the estimate, and the record has ``ape_rot_rmse_deg`` null
+  and ``alignment_ill_posed`` true. APE translation stays the fit's minimum residual either way
+  (positions barely move under the free roll).
   ``ape_rot_origin_rmse_deg``, on every run: the APE rotation after putting the first paired
   poses together (``origin``: every VO starts at its first pose), the rotation drift from the
   start -- defined on any path, and what to read where the fit leaves the rotation free
   (besides the alignment-free RPE);
+- **the mono scale**: a Sim(3) fit fixes the estimate's scale only to within the gap between
+  the scale fitted estimate -> ground truth and the inverse of the reverse fit's
+  (``scale_ambiguity``, 1/rho^2 - 1, rho the Procrustes correlation: the estimate's noise
+  energy over its motion's); at ``SCALE_AMBIGUITY_MAX`` or more (an estimate that barely moves
+  against its noise, or does not follow the path: the scale is biased towards 0 by it) every translation measured after it -- APE and RPE translation, per
+  metre, KITTI t_err, the jumps of the tracking loss -- would scale with the fit's noise: they
+  are null, ``scale`` too, and ``scale_ill_posed`` true;
 - **RPE** per frame (consecutive frames) and per metre: the ground truth's path cut into
   consecutive pieces of at least 1 m (whole frame steps), each piece's translation error over
   its length (m/m: KITTI's t_err on 1 m pieces; session 19 and before: the error of pieces
@@ -36,12 +44,13 @@ quarter of a frame period) -- and then:
 from __future__ import annotations
 
 import hashlib
+import math
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import VoError
-from ..evaluate.align import Alignment, align, apply_alignment, fixes_rotation
+from ..evaluate.align import Alignment, align, fixes_rotation, fixes_scale
 from ..evaluate.ape import ape
 from ..evaluate.associate import matching_time_indices
 from ..evaluate.kitti import kitti_metric
@@ -52,8 +61,9 @@ KITTI_MIN_PATH_M = 100.0
 # The record's definition: a study resumed on newer code evaluates its runs again when this
 # differs from their metrics.json's (2: ape_rot_rmse_deg null where the fit leaves it free;
 # a jump measured against the ground truth's step; rpe_trans_per_m divided by its pieces' lengths;
-# ape_rot_origin_rmse_deg).
-EVALUATION_VERSION = 2
+# ape_rot_origin_rmse_deg; 3: one alignment on every path, a straight one too; the mono scale's
+# conditioning, scale_ill_posed; the rotation's 1 sigma from the fit's cross-covariance).
+EVALUATION_VERSION = 3
 FORMATS = ("tum", "kitti", "euroc")
 
 
@@ -92,22 +102,19 @@ def rpe_per_metre(gt: Trajectory, est: Trajectory) -> "float | None":
     return float(np.sqrt(np.mean((r.trans_errors_m / length) ** 2))) if len(length) else None
 
 
-def _align(gt: Trajectory, est: Trajectory, mono: bool) -> tuple[Trajectory, str, float, Alignment]:
+def _align(gt: Trajectory, est: Trajectory, mono: bool) -> tuple[Trajectory, str, Alignment]:
+    """The study's one alignment, on every path: se3 (sim3 for monocular systems) over every
+    paired pose. A straight path (collinear positions) is fitted too -- its least residual is as
+    defined as any path's; only the rotation about it is free (``fit_conditioning``: infinite), which
+    ``fixes_rotation`` then flags -- so a path a hair off straight and a straight one report APE
+    under the same definition (session 20 and before: aligned at the first pose instead)."""
     method = "sim3" if mono else "se3"
-    try:
-        aligned, a = align(est, gt, method)
-        return aligned, method, float(a.scale), a
-    except VoError:                       # a straight path: the rotation about it is not observable
-        scale = 1.0
-        if mono:
-            L_est = est.path_length()
-            scale = gt.path_length() / L_est if L_est > 1e-12 else 1.0
-        T = est.T_world_cam.copy()
-        T[:, :3, 3] *= scale
-        A = gt.T_world_cam[0] @ np.linalg.inv(T[0])
-        a = Alignment("origin", A[:3, :3].copy(), A[:3, 3].copy(), 1.0, 1)
-        return apply_alignment(Trajectory(T, est.timestamps_s), a), f"origin{'+scale' if mono else ''} " \
-            "(path too straight for " + method + ")", scale, a
+    aligned, a = align(est, gt, method, allow_degenerate=True)
+    return aligned, method, a
+
+
+def _finite(x):
+    return x if x is None or math.isfinite(x) else None
 
 
 def evaluate_run(gt: Trajectory, est_path, fmt: str, *, mono: bool, rate_hz: float, min_coverage: float,
@@ -126,41 +133,56 @@ def evaluate_run(gt: Trajectory, est_path, fmt: str, *, mono: bool, rate_hz: flo
     coverage = len(i_gt) / n if n else 0.0
     rec = {"n_frames": n, "n_poses": int(len(est)), "n_paired": int(len(i_gt)), "coverage": coverage}
     if coverage < min_coverage or len(i_gt) < 2:
-        rec.update(ok=False, failure=f"short trajectory: poses for {len(i_gt)} of {n} frames "
-                                     f"(at least {min_coverage:.0%} needed)")
+        why = f"short trajectory: poses for {len(i_gt)} of {n} frames (at least {min_coverage:.0%} needed)"
+        if fmt != "kitti" and len(est) >= max(min_coverage * n, 2) > len(i_gt):
+            # the poses are there, their stamps missed the frames': not a system that lost track
+            why += (f"; {len(est)} poses written, {len(i_gt)} stamped within a quarter frame period of a frame: "
+                    f"are its stamps the dataset's ({'nanoseconds' if fmt == 'euroc' else 'seconds'}, its clock)?")
+        rec.update(ok=False, failure=why)
         return rec
     g = Trajectory(gt.T_world_cam[i_gt], gt.timestamps_s[i_gt])
     e = Trajectory(est.T_world_cam[i_est], gt.timestamps_s[i_gt])
-    aligned, how, scale, al = _align(g, e, mono)
+    aligned, how, al = _align(g, e, mono)
+    scaled = fixes_scale(al)          # always for se3; sim3: a scale its noise does not swamp
     jumped = jumps(aligned.positions, jump_factor, g.positions)
     lost = (n - len(i_gt)) + len(jumped)
     a = ape(g, aligned)
     r = rpe(g, aligned, 1, "f")
     fixed = fixes_rotation(al, a.rot_deg.rmse)
     rot_origin = ape(g, align(e, g, "origin")[0]).rot_deg.rmse      # rotations: no scale involved
-    sigma = al.rotation_sigma_deg if al.method in ("se3", "sim3") else None
-    rec.update(ok=True, failure=None, alignment=how, scale=scale, tracking_loss=lost / n,
-               lost_frames=int(n - len(i_gt)), jumps=[int(i_gt[k + 1]) for k in jumped],
-               ape_trans_rmse=a.trans.rmse, ape_rot_rmse_deg=a.rot_deg.rmse if fixed else None,
+    rec.update(ok=True, failure=None, alignment=how, scale=al.scale if scaled else None,
+               tracking_loss=lost / n if scaled else None,
+               lost_frames=int(n - len(i_gt)), jumps=[int(i_gt[k + 1]) for k in jumped] if scaled else None,
+               ape_trans_rmse=a.trans.rmse if scaled else None, ape_rot_rmse_deg=a.rot_deg.rmse if fixed else None,
                ape_rot_origin_rmse_deg=rot_origin,
-               rpe_trans_rmse=r.trans.rmse, rpe_rot_rmse_deg=r.rot_deg.rmse,
+               rpe_trans_rmse=r.trans.rmse if scaled else None, rpe_rot_rmse_deg=r.rot_deg.rmse,
                gt_path_length_m=g.path_length(),
-               rotation_sigma_deg=sigma if sigma is None or np.isfinite(sigma) else None,
+               rotation_sigma_deg=_finite(al.rotation_sigma_deg),
                alignment_ill_posed=not fixed)
-    if g.path_length() >= 2.0:
+    if mono:
+        rec.update(scale_ambiguity=_finite(al.scale_ambiguity), scale_ill_posed=not scaled)
+    if g.path_length() >= 2.0 and scaled:
         rec["rpe_trans_per_m"] = rpe_per_metre(g, aligned)
     if g.path_length() >= KITTI_MIN_PATH_M:
         est_k = e
         if mono:
             T = e.T_world_cam.copy()
-            T[:, :3, 3] *= scale
+            T[:, :3, 3] *= al.scale
             est_k = Trajectory(T, e.timestamps_s)
         k = kitti_metric(g, est_k, frame_period_s=1.0 / rate_hz)
         if k.n_segments:
-            rec["kitti_t_err_pct"] = k.t_err_pct
-            rec["kitti_r_err_deg_per_100m"] = k.r_err_deg_per_100m
+            if scaled:
+                rec["kitti_t_err_pct"] = k.t_err_pct
+            rec["kitti_r_err_deg_per_100m"] = k.r_err_deg_per_100m     # rotations: no scale involved
     rec["frames"] = [int(k) for k in i_gt]
     rec["est_xyz"] = np.round(aligned.positions, 6).tolist()
+    # NaN and infinities are not JSON (results.json refuses them): a measure that is not a finite
+    # number is missing -- counted as such by the aggregates, never averaged -- and named here
+    bad = [k for k, v in rec.items() if isinstance(v, float) and not math.isfinite(v)]
+    for k in bad:
+        rec[k] = None
+    if bad:
+        rec["non_finite"] = bad
     return rec
 
 

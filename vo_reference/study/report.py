@@ -6,7 +6,9 @@ against the level for every system (mean and spread over trials and world seeds,
 runs marked), a strip of each level's first frame, each run's trajectory seen from above;
 the breaking-point table; every run with its alignment, failure and the tail of its stderr.
 A measure missing from a point's runs (the APE rotation where the fit leaves the rotation
-free, ``alignment_ill_posed``) is shown as not measured, never as a number.
+free, ``alignment_ill_posed``; a monocular run's translations where its Sim(3) fit does not fix
+the scale, ``scale_ill_posed``) is shown as not measured, never as a number; in the plots as ○
+on the axis (× at the top: failed), and the text under each plot counts them: no point vanishes.
 """
 from __future__ import annotations
 
@@ -128,18 +130,73 @@ def frame_strip(images: list, titles: list) -> str:
     return _png(fig)
 
 
+def _unplotted(c: dict) -> str:
+    """'failed' (at least half the runs: × at the top), 'unmeasured' (ran, but no mean: ○ on the
+    axis) or '' (a value) for a cell or point aggregate."""
+    if c.get("n") and 2 * c.get("n_failed", 0) >= c["n"]:
+        return "failed"
+    if c.get("mean") is None and c.get("n", 0) > c.get("n_failed", 0):
+        return "unmeasured"
+    return ""
+
+
 def scatter_plot(factor: dict, points: list, systems: list, metric: str) -> str:
     """Every design point's mean error against this factor's level (grid and Latin-hypercube
-    designs: the other factors vary too)."""
+    designs: the other factors vary too); points without a value are not dropped: × at the top
+    (failed), ○ on the axis (not measured), each with a legend entry and its count."""
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.2, 3.6))
+    xs, names, numeric = _xs(factor["levels"])
+    where = dict(zip(map(str, factor["levels"]), xs))
+    rows = []
     for i, s in enumerate(systems):
-        xy = [(p["point"][factor["name"]], (p["metrics"].get(metric) or {}).get("mean")) for p in points
-              if p["system"] == s["name"] and factor["name"] in p["point"]]
-        xy = [(x, y) for x, y in xy if y is not None and isinstance(x, (int, float))]
+        for p in points:
+            if p["system"] == s["name"] and factor["name"] in p["point"] and str(p["point"][factor["name"]]) in where:
+                cell = {"n": p["n"], "n_failed": p["n_failed"], **((p.get("metrics") or {}).get(metric) or {})}
+                rows.append((i, s["name"], where[str(p["point"][factor["name"]])], cell))
+    values = [c["mean"] for _, _, _, c in rows if c.get("mean") is not None]
+    top = max(values) if values else 1.0
+    for i, s in enumerate(systems):
+        colour = COLOURS[i % len(COLOURS)]
+        mine = [(x, c) for j, _, x, c in rows if j == i]
+        xy = [(x, c["mean"]) for x, c in mine if c.get("mean") is not None]
         if xy:
-            ax.plot(*zip(*xy), "o", color=COLOURS[i % len(COLOURS)], ms=5, label=s["name"])
-    return _finish(ax, fig, factor, metric, "every point of the design (the other factors vary too)")
+            ax.plot(*zip(*xy), "o", color=colour, ms=5, label=s["name"])
+        fx = [x for x, c in mine if _unplotted(c) == "failed"]
+        if fx:
+            ax.plot(fx, [top * 1.08] * len(fx), "x", color=colour, ms=9, mew=2, clip_on=False,
+                    label=f"{s['name']}: failed ({len(fx)})")
+        ux = [x for x, c in mine if _unplotted(c) == "unmeasured"]
+        if ux:
+            ax.plot(ux, [0.0] * len(ux), "o", color=colour, mfc="none", ms=8, mew=1.5, clip_on=False,
+                    label=f"{s['name']}: not measured ({len(ux)})")
+    if not numeric:
+        ax.set_xticks(xs, names)
+    return _finish(ax, fig, factor, metric, "every point of the design (the other factors vary too); × = failed, "
+                   "○ on the axis = not measured")
+
+
+def plot_note(groups: list, metric: str, what: str = "point") -> str:
+    """The HTML sentence under a plot: per system, how many of its cells (``groups``: [(system,
+    [cell, ...])]) the plot shows without a value, and why -- so that none vanishes unsaid."""
+    parts = []
+    for name, cells in groups:
+        cells = [c for c in cells if c]
+        failed = sum(_unplotted(c) == "failed" for c in cells)
+        gaps = [c for c in cells if _unplotted(c) == "unmeasured"]
+        bits = []
+        if gaps:
+            free = sum(c.get("n_ill_posed", 0) for c in gaps)
+            scale = sum(c.get("n_scale_ill_posed", 0) for c in gaps)
+            bits.append(f"{len(gaps)} of {len(cells)} {what}s not measured (○ on the axis: {metric} missing from "
+                        f"{sum(c.get('n_missing', 0) for c in gaps)} run(s)"
+                        + (f", {free} with the rotation free" if free and metric == "ape_rot_rmse_deg" else "")
+                        + (f", {scale} with the mono scale not fixed" if scale else "") + ")")
+        if failed:
+            bits.append(f"{failed} of {len(cells)} {what}s failed (× at the top)")
+        if bits:
+            parts.append(f"{html.escape(name)}: {'; '.join(bits)}")
+    return f"<p class='note'>Without a value in the plot — {'. '.join(parts)}.</p>" if parts else ""
 
 
 def trajectory_grid(rows: list, systems: list) -> str:
@@ -261,6 +318,12 @@ class Report:
                                          "ape_rot_rmse_deg would measure the fit, not the system. Read there "
                                          "ape_rot_origin_rmse_deg (every run: the rotation error after putting the first "
                                          "poses together, the drift from the start) or rpe_rot_rmse_deg (frame to frame)"))
+        unscaled = [x for x in self.r["runs"] if x["status"] == "ok" and (x.get("metrics") or {}).get("scale_ill_posed")]
+        if unscaled:
+            rows.append(("mono scale", f"not fixed in {len(unscaled)} of {len(self.r['runs'])} runs: the Sim(3) fit's scale "
+                                       "ambiguity is 0.1 or more (the estimate barely moves against its noise, or does "
+                                       "not follow the path), so their translations — APE, RPE, per metre, KITTI, the "
+                                       "tracking loss's jumps — are not measured. Their rotations are"))
         return "<h2>Overview</h2><table>" + "".join(
             f"<tr><th>{html.escape(k)}</th><td>{_fmt(v)}</td></tr>" for k, v in rows) + "</table>"
 
@@ -287,10 +350,17 @@ class Report:
         if curves is not None:
             out.append(_img(factor_plot(f, curves, self.r.get("base", {}), self.systems, self.metric),
                             f"{self.metric} against {name}"))
+            out.append(plot_note([(s["name"], [(self.r.get("base") or {}).get(s["name"]), *(curves.get(s["name"]) or [])])
+                                  for s in self.systems], self.metric))
             out.append(self.curve_table(f, curves))
         elif self.r.get("points"):
             out.append(_img(scatter_plot(f, self.r["points"], self.systems, self.metric),
                             f"{self.metric} against {name} at every point"))
+            out.append(plot_note([(s["name"], [{"n": p["n"], "n_failed": p["n_failed"], "n_ill_posed": p.get("n_ill_posed", 0),
+                                                "n_scale_ill_posed": p.get("n_scale_ill_posed", 0),
+                                                **((p.get("metrics") or {}).get(self.metric) or {})}
+                                               for p in self.r["points"] if p["system"] == s["name"]])
+                                  for s in self.systems], self.metric))
         images, titles, rows = [], [], []
         base = next((v for v in self.r["variants"] if v["world_seed"] == seed0 and not v["point"]), None)
         for lv in [None, *f["levels"]]:
@@ -357,9 +427,11 @@ class Report:
 
     def broken_rule(self) -> str:
         st = self.r["study"]
-        mult, k = st["break_multiple"], st.get("break_sigmas", 0.0)
+        mult, k, floor = st["break_multiple"], st.get("break_sigmas", 0.0), st.get("break_floor")
         spread = (f" by more than {k:g} × the spread of the difference (√(σ² + ({mult:g} σ_base)²))" if k else "")
-        return f"the mean error exceeds {mult:g} × the base's{spread}, or at least half the runs fail"
+        least = f" and {floor:g} (the least error that breaks: a base of 0 does not make every error a break)" \
+            if floor else ""
+        return f"the mean error exceeds {mult:g} × the base's{least}{spread}, or at least half the runs fail"
 
     def runs_table(self) -> str:
         rows = []
@@ -387,6 +459,12 @@ def _metric(m: dict, metric: str) -> str:
         origin = m.get("ape_rot_origin_rmse_deg")
         return ("— <small>(not measured: the fit leaves the rotation free" +
                 (f"; from the first pose {origin:.3g}°" if origin is not None else "") + ")</small>")
+    if m.get(metric) is None and m.get("scale_ill_posed"):
+        amb = m.get("scale_ambiguity")
+        return ("— <small>(not measured: the Sim(3) fit does not fix the scale" +
+                (f", ambiguity {amb:.2g}" if amb is not None else "") + ")</small>")
+    if m.get(metric) is None and metric in (m.get("non_finite") or []):
+        return "— <small>(not a finite number)</small>"
     return _fmt(m.get(metric))
 
 
@@ -395,6 +473,12 @@ def _alignment(m: dict) -> str:
     sigma = m.get("rotation_sigma_deg")
     if sigma is not None:
         how += f" <small>(rotation ±{sigma:.3g}°{', free: APE rotation not measured' if m.get('alignment_ill_posed') else ''})</small>"
+    elif m.get("alignment_ill_posed"):
+        how += " <small>(rotation free: a straight path; APE rotation not measured)</small>"
+    if "scale_ambiguity" in m or m.get("scale_ill_posed"):
+        amb = m.get("scale_ambiguity")
+        how += (f" <small>(scale {_fmt(m.get('scale'))}, ambiguity {'∞' if amb is None else f'{amb:.2g}'}"
+                f"{', not fixed: translations not measured' if m.get('scale_ill_posed') else ''})</small>")
     return how
 
 
@@ -402,13 +486,18 @@ def _cell(c) -> str:
     if not c:
         return "—"
     if c.get("mean") is None and c.get("n", 0) > c.get("n_failed", 0):
-        s = f"not measured <small>(missing from {c.get('n_missing', 0)} run(s){'; rotation free' if c.get('n_ill_posed') else ''})</small>"
+        s = (f"not measured <small>(missing from {c.get('n_missing', 0)} run(s){'; rotation free' if c.get('n_ill_posed') else ''}"
+             f"{'; mono scale not fixed' if c.get('n_scale_ill_posed') else ''})</small>")
     else:
-        s = f"{_fmt(c.get('mean'))} ± {_fmt(c.get('std'))}" if c.get("mean") is not None else "failed"
+        one = c.get("n", 0) - c.get("n_failed", 0) == 1     # a spread of one value is not a spread of 0
+        s = (f"{_fmt(c.get('mean'))} " + ("<small>(1 run: no spread)</small>" if one else f"± {_fmt(c.get('std'))}")
+             if c.get("mean") is not None else "failed")
     if c.get("n_failed"):
         s += f" <small>({c['n_failed']}/{c['n']} failed)</small>"
     if c.get("broken"):
         s = f"<b>{s}</b>"
+    if c.get("redefined"):
+        s += f" <small>(not compared with the base: {html.escape(c['redefined'])})</small>"
     return s
 
 
