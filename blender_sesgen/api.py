@@ -121,9 +121,11 @@ class Study:
     ``stage``, ``key``, ``developed``), distinct renders (``.renders``) and developed
     variants (``.develops``) without running anything; ``run(out)`` runs it (renders, every
     system, evaluation, report; resumes a folder holding the same study) and returns the
-    ``results.json`` document (format ``sesgen-study-results/2``: a run's ``ape_rot_rmse_deg`` is
-    None where its alignment leaves the rotation free, ``alignment_ill_posed``); ``compare(old,
-    new)`` is ``study compare``'s verdicts (worse, better, same, unmeasured)."""
+    ``results.json`` document (format ``sesgen-study-results/3``: a run's ``ape_rot_rmse_deg`` is
+    None where its alignment leaves the rotation free, ``alignment_ill_posed``; a monocular run's
+    scale and translation measures None where the fit does not fix the scale, ``scale_ill_posed``);
+    ``compare(old, new)`` is ``study compare``'s verdicts (worse, better, same, unmeasured; a
+    SesgenError for results of two evaluation versions)."""
 
     def __init__(self, path: "str | os.PathLike"):
         from .study.spec import load
