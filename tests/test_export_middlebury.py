@@ -53,6 +53,48 @@ def _stereo_visibility(k: int):
     return d, vis, occ
 
 
+def _cvkit_points(cal: dict, disp: np.ndarray) -> np.ndarray:
+    """Camera-frame points (mm) of every left pixel as Middlebury's viewer cvkit builds them
+    (roboception/cvkit gimage/view.cc reads calib.txt's cam0 as camera.A with the origin at
+    the image corner; gvr/model.cc back-projects pixel (i, k) at (i + 0.5, k + 0.5))."""
+    A = cal["cam0"]
+    Z = cal["baseline"] * A[0, 0] / (disp + cal["doffs"])
+    k, i = np.mgrid[0:disp.shape[0], 0:disp.shape[1]].astype(float)
+    return np.stack([(i + 0.5 - A[0, 2]) / A[0, 0] * Z, (k + 0.5 - A[1, 2]) / A[1, 1] * Z, Z], -1)
+
+
+def _true_points_mm(k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The closed-form scene's point at each left pixel centre, camera frame, mm."""
+    z, _ = raycast(view_pose(N, k, "left"))
+    fin = np.isfinite(z)
+    zz = np.where(fin, z, 1.0) * 1000.0
+    v, u = np.mgrid[0:H, 0:W].astype(float)
+    return np.stack([(u - K[0, 2]) / K[0, 0] * zz, (v - K[1, 2]) / K[1, 1] * zz, zz], -1), fin
+
+
+def test_calib_principal_point_as_the_datasets_read_it(layout_render, tmp_path):
+    """Middlebury's and ETH3D's calib.txt put (0, 0) at the image corner: cvkit's
+    reconstruction from our calib.txt and disp0 lands on the scene's points, and ETH3D's
+    calib.txt holds its cameras.txt numbers (as in ETH3D's own two-view download). An
+    OpenCV principal point (the code before) puts every point 0.5 px·Z/f aside."""
+    mb = export_layout(layout_render, tmp_path / "mb", "middlebury")
+    eth = export_layout(layout_render, tmp_path / "eth", "eth3d")
+    for k in range(N):
+        X_true, fin = _true_points_mm(k)
+        for cal, disp in ((read_calib(mb / f"sesgen_{k:06d}/calib.txt"), read_pfm(mb / f"sesgen_{k:06d}/disp0.pfm")),
+                          (read_calib(eth / f"two_view_training/sesgen_{k:06d}/calib.txt"),
+                           read_pfm(eth / f"two_view_training_gt/sesgen_{k:06d}/disp0GT.pfm"))):
+            X = _cvkit_points(cal, disp)
+            err = np.abs(X - X_true)[fin]
+            assert np.all(err <= 1e-6 * X_true[fin][:, 2:3]), err.max()
+        cams = [ln.split() for ln in (eth / f"two_view_training/sesgen_{k:06d}/cameras.txt").read_text().splitlines()
+                if ln and not ln.startswith("#")]
+        cal = read_calib(eth / f"two_view_training/sesgen_{k:06d}/calib.txt")
+        for c in cams:                      # PINHOLE fx fy cx cy == calib.txt's f, f, cx, cy
+            assert c[1] == "PINHOLE" and np.allclose([float(x) for x in c[4:8]],
+                                                     [cal["cam0"][0, 0], cal["cam0"][1, 1], cal["cam0"][0, 2], cal["cam0"][1, 2]])
+
+
 def test_middlebury_scene_folders(layout_render, tmp_path):
     out = export_layout(layout_render, tmp_path / "mb", "middlebury")
     scenes = sorted(p.name for p in out.iterdir() if p.is_dir())
@@ -60,7 +102,8 @@ def test_middlebury_scene_folders(layout_render, tmp_path):
     for k, scene in enumerate(scenes):
         s = out / scene
         cal = read_calib(s / "calib.txt")
-        assert np.allclose(cal["cam0"], K) and np.allclose(cal["cam1"], K) and cal["doffs"] == 0
+        K_corner = K + [[0, 0, 0.5], [0, 0, 0.5], [0, 0, 0]]      # (0, 0) at the image corner
+        assert np.allclose(cal["cam0"], K_corner) and np.allclose(cal["cam1"], K_corner) and cal["doffs"] == 0
         assert (cal["width"], cal["height"], cal["isint"], cal["dyavg"], cal["dymax"]) == (W, H, 0, 0, 0)
         assert cal["baseline"] == pytest.approx(B * 1000)
         d0, d1 = read_pfm(s / "disp0.pfm"), read_pfm(s / "disp1.pfm")
@@ -103,7 +146,8 @@ def test_eth3d_tree_and_colmap_pair(layout_render, tmp_path):
         nocc = cv2.imread(str(g.parent / "mask0nocc.png"), cv2.IMREAD_UNCHANGED) == 255
         assert np.all(nocc[vis]) and not np.any(nocc[occ])
         cal = read_calib(a.parent / "calib.txt")
-        assert cal["baseline"] == pytest.approx(B * 1000) and np.allclose(cal["cam0"], K)
+        assert cal["baseline"] == pytest.approx(B * 1000)
+        assert np.allclose(cal["cam0"], K + [[0, 0, 0.5], [0, 0, 0.5], [0, 0, 0]])
     pycolmap = pytest.importorskip("pycolmap")
     rec = pycolmap.Reconstruction(str(im0[0].parent))
     by = {im.name: im for im in rec.images.values()}

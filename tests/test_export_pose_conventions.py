@@ -138,6 +138,20 @@ def test_tartanair_ned_poses(render, tmp_path, target, files):
             _close(r[:3], _ned(T[:3, 3]))
 
 
+@pytest.mark.parametrize("target, name", [("tartanair", "pose_left.txt"), ("tartanair-v2", "pose_lcam_front.txt")])
+def test_tartanair_tools_ned2cam(render, tmp_path, target, name):
+    """TartanAir's own evaluation recipe (castacks/tartanair_tools evaluation/
+    trajectory_transform.py: pos_quats2SE_matrices, then ned2cam = T·pose·T^-1 with
+    T = [[0,1,0],[0,0,1],[1,0,0]]) turns our NED file into camera-axis poses: the SES world
+    turned 180 degrees about x, so every relative motion is the rig's own."""
+    T_axes = np.eye(4)
+    T_axes[:3, :3] = [[0, 1, 0], [0, 0, 1], [1, 0, 0]]
+    cam = [T_axes @ _pose(quat_xyzw_to_matrix(r[3:7]), r[:3]) @ np.linalg.inv(T_axes)
+           for r in _rows(_export(render, tmp_path, target) / name)]
+    _close(cam, [np.diag([1.0, -1.0, -1.0, 1.0]) @ T for T in TRUTH_VIEW["left"]])
+    _close(np.linalg.inv(cam[0]) @ cam[1], np.linalg.inv(TRUTH_VIEW["left"][0]) @ TRUTH_VIEW["left"][1])
+
+
 def test_vkitti2_extrinsics(render, tmp_path):
     """vKITTI 2: extrinsic.txt is world -> camera (4x4) per frame and camera, its world the
     SES world turned 180 degrees about x (y down): a world point (x, y, z) is (x, -y, -z) there."""

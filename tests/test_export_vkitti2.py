@@ -192,3 +192,42 @@ def test_a_moving_car_takes_its_pose_of_each_frame(tmp_path):
         assert row[7] == pytest.approx(0.1 * min(int(row[0]), N - 2))
     moving = {(int(f[0]), int(f[1])): f[10] for f in (ln.split() for ln in (out / "bbox.txt").read_text().splitlines()[1:])}
     assert all(v == ("True" if k < N - 2 else "False") for (k, _), v in moving.items())
+
+
+def _bilinear(field: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """field (H, W, C) sampled at pixel-centre coordinates (x, y), as grid_sample with
+    align_corners=True does in the loaders below."""
+    x0 = np.clip(np.floor(x).astype(int), 0, W - 2)
+    y0 = np.clip(np.floor(y).astype(int), 0, H - 2)
+    fx, fy = (x - x0)[..., None], (y - y0)[..., None]
+    return ((1 - fx) * (1 - fy) * field[y0, x0] + fx * (1 - fy) * field[y0, x0 + 1]
+            + (1 - fx) * fy * field[y0 + 1, x0] + fx * fy * field[y0 + 1, x0 + 1])
+
+
+def test_backward_flow_pairs_as_vkitti2_loaders_pair_it(exported):
+    """Virtual KITTI 2's backwardFlow_%05d.png lives on its own frame and flows to the one
+    before (there is no backwardFlow_00000): loaders pair by name — a forward/backward
+    consistency check reads flow_t with backwardFlow_{t+1} and depth_{t+1} — or by position
+    in sorted listings (forwardFlow[i] with backwardFlow[i]). Both readings must give the
+    two directions between the same two frames: p + fwd_t(p) = q and bwd_{t+1}(q) = -fwd_t(p).
+    A backward flow named by its target frame, or holding t -> t+1, fails this."""
+    for c in (0, 1):
+        fwd_files = sorted((exported / f"frames/forwardFlow/Camera_{c}").glob("*.png"))
+        bwd_files = sorted((exported / f"frames/backwardFlow/Camera_{c}").glob("*.png"))
+        assert len(fwd_files) == len(bwd_files) == N - 1
+        for t, (f_sorted, b_sorted) in enumerate(zip(fwd_files, bwd_files)):
+            f_named = exported / f"frames/forwardFlow/Camera_{c}/flow_{t:05d}.png"
+            b_named = exported / f"frames/backwardFlow/Camera_{c}/backwardFlow_{t + 1:05d}.png"
+            assert (f_sorted, b_sorted) == (f_named, b_named)          # both readings agree
+            fwd, inv_f = read_vkitti_png_flow(f_named)
+            bwd, inv_b = read_vkitti_png_flow(b_named)
+            v, u = np.mgrid[0:H, 0:W].astype(float)
+            x, y = u + fwd[..., 0], v + fwd[..., 1]
+            inside = ~inv_f & (x >= 0) & (x <= W - 1) & (y >= 0) & (y <= H - 1)
+            # the four backward samples around q must be valid (no sky, no edge mixing)
+            x0 = np.clip(np.floor(x).astype(int), 0, W - 2)
+            y0 = np.clip(np.floor(y).astype(int), 0, H - 2)
+            ok = inside & ~(inv_b[y0, x0] | inv_b[y0, x0 + 1] | inv_b[y0 + 1, x0] | inv_b[y0 + 1, x0 + 1])
+            err = np.linalg.norm(fwd + _bilinear(bwd, x, y), axis=-1)[ok]
+            assert ok.sum() > 0.5 * H * W and np.abs(fwd[ok]).max() > 0.5   # the camera moves
+            assert np.median(err) < 0.01 and np.mean(err < 0.05) > 0.9, (c, t, np.median(err), np.mean(err < 0.05))

@@ -155,3 +155,29 @@ def test_every_euroc_yaml_loads_with_pyyaml_and_opencv(tmp_path):
         assert y[key] == imu[key]
     assert np.array_equal(np.array(y["T_BS"]["data"]).reshape(4, 4), np.eye(4))
     assert np.array_equal(np.array(y["T_cam_imu"]["data"]).reshape(4, 4), np.array(imu["T_cam_imu"], float))
+
+
+def test_camera_T_BS_is_the_camera_pose_in_the_body(tmp_path):
+    """EuRoC's camN/sensor.yaml T_BS ("Sensor extrinsics wrt. the body-frame") is the camera's
+    pose in the body (IMU) frame, p_B = T_BS·p_S: EuRoC's own cam0 T_BS holds the camera's
+    position in the IMU frame, and Kimera-VIO reads it as body_Pose_cam and its stereo pair as
+    camL_Pose_camR = inv(T_BS0)·T_BS1 (right camera at +B along the left camera's x). With
+    a non-symmetric T_cam_imu, the world pose of the body T_world_cam0·inv(T_BS0) must be the
+    IMU's, T_world_cam0·T_cam_imu; a T_BS written as T_cam_imu (uninverted) fails."""
+    yaml = pytest.importorskip("yaml")
+    root = _render(tmp_path / "r")
+    T_cam_imu = np.eye(4)
+    T_cam_imu[:3, :3] = _rot(2, 0.7) @ _rot(0, -0.4)
+    T_cam_imu[:3, 3] = [0.05, -0.02, 0.01]
+    add_imu(root, T_cam_imu)
+    mav = export(root, "euroc", tmp_path / "e", progress=False) / "mav0"
+
+    def T_BS(cam):
+        y = yaml.safe_load((mav / cam / "sensor.yaml").read_text())
+        return np.array(y["T_BS"]["data"], dtype=float).reshape(4, 4)
+
+    body_pose_cam0, body_pose_cam1 = T_BS("cam0"), T_BS("cam1")
+    T_world_cam0 = _poses(len(TS))[2]
+    assert np.allclose(T_world_cam0 @ np.linalg.inv(body_pose_cam0), T_world_cam0 @ T_cam_imu, atol=1e-12)
+    camL_pose_camR = np.linalg.inv(body_pose_cam0) @ body_pose_cam1
+    assert np.allclose(camL_pose_camR, [[1, 0, 0, B], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], atol=1e-12)

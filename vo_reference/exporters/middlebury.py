@@ -13,7 +13,8 @@ networks' loaders (RAFT-Stereo, IGEV, CREStereo, ...) and the benchmarks' SDKs r
 ``NAME`` is ``--opt name=NAME`` (default ``sesgen``). ``calib.txt`` (Middlebury's format,
 which ETH3D shares)::
 
-    cam0=[f 0 cx; 0 f cy; 0 0 1]      the left camera (OpenCV pixels: the top-left pixel's centre is (0, 0))
+    cam0=[f 0 cx; 0 f cy; 0 0 1]      the left camera; (0, 0) is the image's top-left corner: cx, cy are
+                                      the OpenCV ones + 0.5 (see below)
     cam1=[f 0 cx; 0 f cy; 0 0 1]      the right camera: the same K (a rectified, parallel rig)
     doffs=0                           cx1 - cx0
     baseline=B                        millimetres
@@ -23,7 +24,13 @@ which ETH3D shares)::
     vmin=a  vmax=b                    floor / ceil of the frame's smallest and largest left disparity
     dyavg=0  dymax=0                  no vertical disparity (exact rectification)
 
-so that Z = baseline · f / (d + doffs) is the planar depth in millimetres. Disparity is the
+so that Z = baseline · f / (d + doffs) is the planar depth in millimetres. The principal point
+is in the convention both datasets' own data and tools use: ETH3D's two-view ``calib.txt``
+holds the very numbers of its COLMAP ``cameras.txt`` (delivery_area_1l: 553.869 232.396 in
+both), whose pipeline shifts its pixel-centre cameras by +0.5 when it writes them
+(ETH3D/dataset-pipeline ``src/io/colmap_model.cc``); Middlebury's viewer cvkit (Hirschmüller)
+reads ``cam0`` with the origin at the corner and back-projects pixel (i, k) at
+(i + 0.5, k + 0.5) (roboception/cvkit ``gvr/model.cc``). Disparity is the
 exact d = f·B/Z of the depth (left view: x_right = x − d; right view ``disp1``: x_left = x + d);
 the masks are the stereo occlusion test of :mod:`.flow` (a left pixel whose point the right
 camera does not see, hidden or outside its image, is 128). Both layouts describe pinhole
@@ -61,7 +68,8 @@ def calib_text(seq, disp0: np.ndarray) -> str:
     """Middlebury / ETH3D ``calib.txt`` of one frame (module docstring)."""
     K = np.asarray(seq.K, dtype=float)
     W, H = seq.resolution
-    cam = f"[{_num(K[0, 0])} 0 {_num(K[0, 2])}; 0 {_num(K[1, 1])} {_num(K[1, 2])}; 0 0 1]"
+    cx, cy = K[0, 2] + 0.5, K[1, 2] + 0.5          # OpenCV pixel centres -> image-corner origin
+    cam = f"[{_num(K[0, 0])} 0 {_num(cx)}; 0 {_num(K[1, 1])} {_num(cy)}; 0 0 1]"
     valid = np.isfinite(disp0)
     vmin = int(np.floor(disp0[valid].min())) if valid.any() else 0
     vmax = int(np.ceil(disp0[valid].max())) if valid.any() else 0

@@ -19,7 +19,8 @@ the camera's forward, the y-axis ... right, the z-axis ... downward"; position o
 optical centre and orientation of the camera in a fixed world frame):
 
 - camera: the NED body frame of the camera, v_cv = (y, z, x)_ned, i.e.
-  ``R_cv_ned = [[0,1,0],[0,0,1],[1,0,0]]`` (the inverse of TartanAir's ``ned2cam``);
+  ``R_cv_ned = [[0,1,0],[0,0,1],[1,0,0]]`` (the matrix of TartanAir's ``ned2cam``, which
+  undoes this conversion: ned2cam of our file is diag(1, −1, −1)·T_world_cam);
 - world: north = the view direction of an unrotated START camera (−Z of the SES world),
   east = +X, down = −Y (gravity), i.e. ``R_ned_ses = [[0,0,-1],[1,0,0],[0,-1,0]]``;
 - ``T_ned = R_ned_ses · T_world_cam · R_cv_ned`` (as 4x4), quaternion with qw >= 0.
