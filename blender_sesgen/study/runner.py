@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -102,6 +103,7 @@ class StudyRun:
         self.mode, self.chunk, self.retries = progress, int(chunk), int(retries)
         self.stream = stream if stream is not None else sys.stderr
         self.vo = vo_command(study)
+        self.env = dict(os.environ)          # the systems' environment, on Ray too (not a worker's, before ray.init)
         self.rerun = set(rerun)              # systems whose finished runs are run again
         self.render_failed: dict = {}        # key -> why
         self.frames_rendered = 0             # by Cycles, in this run
@@ -303,7 +305,8 @@ class StudyRun:
                 for t in range(s.trials):
                     rk = f"run/{v.key}/{s.name}/{t}"
                     graph.add(rk, run_trial, After(f"export/{v.key}/{s.layout}"), list(s.cmd), self.vo,
-                              str(self.run_dir(v.key, s, t)), t, frames, s.timeout_s, dict(s.env), est_name(s.format))
+                              str(self.run_dir(v.key, s, t)), t, frames, s.timeout_s, dict(s.env), est_name(s.format),
+                              self.env)
                     labels[rk] = f"{s.name} trial {t} on {v.name}"
         if not graph.refs:
             return

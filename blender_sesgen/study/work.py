@@ -51,7 +51,8 @@ def export_variant(vo: list, render_dir: str, out_dir: str, layout: str) -> dict
     out.mkdir(parents=True, exist_ok=True)
     cmd = [*vo, "export", render_dir, str(data), "--to", layout, "--progress", "off"]
     t0 = time.monotonic()
-    proc = subprocess.run([sys.executable, "-m", "blender_sesgen.study.launch", str(out), "--", *cmd],
+    from .launch import command
+    proc = subprocess.run(command(out, cmd),
                           stdin=subprocess.DEVNULL, capture_output=True, text=True, errors="replace")
     rec = {"render": render_dir, "layout": layout, "dataset": str(data), "wall_s": round(time.monotonic() - t0, 3),
            "ok": proc.returncode == 0}
@@ -69,9 +70,11 @@ def export_variant(vo: list, render_dir: str, out_dir: str, layout: str) -> dict
 
 
 def run_trial(export: dict, cmd: list, vo: list, run_dir: str, trial: int, frames: int, timeout_s: float,
-              env: dict, est_name: str) -> dict:
+              env: dict, est_name: str, base_env: Optional[dict] = None) -> dict:
     """One trial of one system on an exported dataset; ``run_dir/run.json`` records how it
-    ended (and is returned by a rerun). A failed export is this run's failure."""
+    ended (and is returned by a rerun). A failed export is this run's failure. ``base_env``:
+    the environment the study started in (a Ray worker's adds Ray's own variables and
+    OMP_NUM_THREADS; the system gets the study's on every path)."""
     rd = Path(run_dir)
     done = _read(rd / "run.json")
     if done is not None:
@@ -86,7 +89,7 @@ def run_trial(export: dict, cmd: list, vo: list, run_dir: str, trial: int, frame
     values = {"dataset": export["dataset"], "sequence": export["sequence"], "out": str(est),
               "workdir": str(rd / "work"), "trial": trial, "frames": frames, "python": sys.executable}
     argv = systems.expand(cmd, values, vo)
-    rec = systems.run(argv, rd, timeout_s, env)
+    rec = systems.run(argv, rd, timeout_s, env, base_env)
     rec.update(est=str(est), trial=trial)
     atomic.write_json(rd / "run.json", rec)
     return rec
