@@ -199,3 +199,33 @@ def test_the_launcher_is_this_package_whatever_the_systems_path_finds(tmp_path):
                     tmp_path / "run", 30.0, {"PYTHONPATH": str(fake)})
     assert r["rc"] == 0, r
     assert out.read_text() == str(fake)
+
+
+def test_render_folders_left_read_only_by_a_killed_study_are_writable_again(tmp_path):
+    """The render folders are read-only while the systems run; a study killed then leaves them
+    so, and the next ``study run`` (its render step resumes into them) makes them writable first."""
+    from blender_sesgen.study.runner import StudyRun
+    from blender_sesgen.study.spec import load
+    from study_scenes import study_file
+    study = load(study_file(tmp_path, '[world]\nscript = "scene.ses"\n[factors.gain]\nlevels = [2.0]\n'
+                            '[[systems]]\nname = "s"\ncmd = "{python} -c pass {out}"\nlayout = "kitti-folder"\n'
+                            'format = "kitti"\n'))
+    out = tmp_path / "out"
+    StudyRun(study, out, progress="off").prepare()
+    render = out / "renders" / "r0123456789abcdef"
+    (render / "exr").mkdir(parents=True)
+    (render / "exr" / "f.exr").write_text("x")
+    systems.set_read_only(render)
+    StudyRun(study, out, progress="off").prepare()
+    assert render.stat().st_mode & 0o777 == 0o755 and (render / "exr" / "f.exr").stat().st_mode & 0o777 == 0o644
+    (render / "exr" / "g.exr").write_text("y")
+
+
+def test_a_system_killed_by_a_signal_is_reported_so(tmp_path):
+    """The launcher ends as its system did: the same signal, no core of its own."""
+    r = systems.run([PY, "-c", "import os, signal; os.kill(os.getpid(), signal.SIGSEGV)"], tmp_path / "run", 30.0)
+    assert r["rc"] == -signal.SIGSEGV and r["error"] == "killed by signal SIGSEGV" and not r["timed_out"]
+    r = systems.run([PY, "-c", "import sys; sys.exit(200)"], tmp_path / "run", 30.0)
+    assert r["rc"] == 200 and r["error"] == "exit code 200"
+    r = systems.run(["/no/such/vo", "{out}"], tmp_path / "run", 30.0)
+    assert r["rc"] == 127 and r["stderr_tail"] == ["error: cannot run /no/such/vo: No such file or directory"]

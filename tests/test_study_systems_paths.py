@@ -1,7 +1,9 @@
 """A user's system in a real study (docs/studies.md, "Systems"): a study folder whose path
-has spaces and quotes reaches the system as whole words, and the system's environment is the
+has spaces and quotes reaches the system as whole words; the system's environment is the
 study's own on a local Ray and with ``--no-ray`` alike (a Ray worker's adds RAY_JOB_ID,
-OMP_NUM_THREADS=1, ...: a system's speed or threads must not depend on the path it ran on)."""
+OMP_NUM_THREADS=1, ...: a system's speed or threads must not depend on the path it ran on);
+the render folders (the ground truth) are read-only to it; a run that writes no trajectory,
+and one that exits non-zero after writing a whole one, are failures saying so."""
 from __future__ import annotations
 
 import json
@@ -23,6 +25,13 @@ REPO = Path(__file__).resolve().parents[1]
 DUMP = ("import json, os, shutil, sys; json.dump(dict(argv=sys.argv[1:], cwd=os.getcwd(), "
         "env=dict(os.environ)), open(os.path.join(os.environ['DUMP_TO'], sys.argv[2].split(os.sep)[-4]), 'w')); "
         "shutil.copy(os.path.join(sys.argv[1], 'poses.txt'), sys.argv[2])")
+
+# writes into its variant's render folder (the ground truth), found from its dataset's path
+VANDAL = ("import os, sys; top, rest = sys.argv[1].split(os.sep + 'exports' + os.sep); "
+          "open(os.path.join(top, 'renders', rest.split(os.sep)[0], 'manifest.json'), 'a').write('x')")
+# writes a whole trajectory, then exits 3
+REGRETS = ("import os, shutil, sys; shutil.copy(os.path.join(sys.argv[1], 'poses.txt'), sys.argv[2]); "
+           "sys.exit(3)")
 
 
 def run_study(study: Path, out: Path, *extra) -> "subprocess.CompletedProcess":
@@ -48,13 +57,44 @@ cmd = {json.dumps('{python} -c "' + DUMP + '" {sequence} {out} {workdir} {trial}
 layout = "kitti-folder"
 format = "kitti"
 env = {{ DUMP_TO = {json.dumps(str(dump))}, MY_SETTING = "a b 'c'" }}
+
+[[systems]]
+name = "vandal"
+cmd = {json.dumps('{python} -c "' + VANDAL + '" {dataset} {out}')}
+layout = "kitti-folder"
+format = "kitti"
+
+[[systems]]
+name = "silent"
+cmd = "{{python}} -c pass {{out}}"
+layout = "kitti-folder"
+format = "kitti"
+
+[[systems]]
+name = "regrets"
+cmd = {json.dumps('{python} -c "' + REGRETS + '" {sequence} {out}')}
+layout = "kitti-folder"
+format = "kitti"
 """
     study = study_file(folder, body, ROOM)
     out = folder / "out dir"
     p = run_study(study, out)
     assert p.returncode == 0, p.stdout + p.stderr
     doc = json.loads((out / "results.json").read_text())
-    assert [r["status"] for r in doc["runs"]] == ["ok", "ok"], [r.get("failure") for r in doc["runs"]]
+    runs = {}
+    for r in doc["runs"]:
+        runs.setdefault(r["system"], []).append(r)
+    assert [r["status"] for r in runs["dump"]] == ["ok", "ok"], [r.get("failure") for r in runs["dump"]]
+    for r in runs["vandal"]:          # the ground truth is read-only to the systems, as their datasets
+        assert r["status"] == "failed" and "exit code 1" in r["failure"] and \
+            "Permission denied" in "\n".join(r["stderr_tail"]), r
+    for v in doc["variants"]:         # ... and writable again after the runs
+        render = out / v["render"]
+        json.loads((render / "manifest.json").read_text())
+        assert (render / "manifest.json").stat().st_mode & 0o777 == 0o644 and render.stat().st_mode & 0o777 == 0o755
+    assert all(r["status"] == "failed" and r["failure"] == "wrote no trajectory file" for r in runs["silent"]), \
+        runs["silent"]
+    assert all(r["status"] == "failed" and r["failure"] == "exit code 3" for r in runs["regrets"]), runs["regrets"]
     on_ray = {p.name: json.loads(p.read_text()) for p in dump.iterdir()}
     assert len(on_ray) == 2
     for key, seen in on_ray.items():

@@ -43,6 +43,7 @@ from ..contract.cli import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK
 from ..contract.progress import Progress
 from ..errors import SesgenError
 from .spec import Study, StudyError
+from .systems import set_read_only
 from .variants import Plan, make_plan, render_options
 
 MARKER = "plan.json"
@@ -124,6 +125,9 @@ class StudyRun:
         for sub in ("scripts", "renders"):
             (self.out / sub).mkdir(parents=True, exist_ok=True)
         self._hold_folder()
+        for folder in (self.out / "renders").iterdir():   # left read-only by a study killed while its systems ran
+            if folder.is_dir() and not folder.stat().st_mode & 0o200:   # (os.access: always for root)
+                set_read_only(folder, False)
         for key, text in [*plan.renders.items(), *((k, t) for k, (t, _) in plan.develops.items())]:
             path = self.out / "scripts" / f"{key}.ses"
             if not path.is_file() or path.read_text(encoding="utf-8") != text:
@@ -311,6 +315,16 @@ class StudyRun:
         if not graph.refs:
             return
         self.say(f"study: {len(graph.refs)} task(s): exports and system runs")
+        renders = [self.out / "renders" / k for k in sorted(seen)]
+        for folder in renders:             # the ground truth, read-only to the systems (as their datasets)
+            set_read_only(folder)
+        try:
+            self._run_graph(graph, labels)
+        finally:
+            for folder in renders:
+                set_read_only(folder, False)
+
+    def _run_graph(self, graph, labels: dict) -> None:
         from ..farm.tasks import TaskError
         with Progress(len(graph.refs), "study", mode=self.mode, stream=self.stream, unit="task",
                       every_line=True) as bar:
