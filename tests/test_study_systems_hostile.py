@@ -229,3 +229,17 @@ def test_a_system_killed_by_a_signal_is_reported_so(tmp_path):
     assert r["rc"] == 200 and r["error"] == "exit code 200"
     r = systems.run(["/no/such/vo", "{out}"], tmp_path / "run", 30.0)
     assert r["rc"] == 127 and r["stderr_tail"] == ["error: cannot run /no/such/vo: No such file or directory"]
+
+
+def test_a_huge_trajectory_is_a_failure_not_read(tmp_path):
+    """Past 4 KiB a frame (+ 1 MiB) the trajectory is not handed to the evaluation; the record
+    says how big it was."""
+    export = _export(tmp_path)
+    big = "import sys; open(sys.argv[1], 'w').write('1 0 0 0 0 1 0 0 0 0 1 0\\n' * 100000)"
+    rec = work.run_trial(export, ["{python}", "-c", big, "{out}"], [], str(tmp_path / "t0"), 0, 10, 30.0, {}, "est.txt")
+    size = len("1 0 0 0 0 1 0 0 0 0 1 0\n") * 100000
+    assert rec["rc"] == 0 and rec["est_bytes"] == size
+    assert rec["error"] == f"wrote a trajectory of {size} bytes for 10 frame(s) (more than {10 * 4096 + (1 << 20)}: not read)"
+    rec = work.run_trial(export, ["{python}", "-c", big, "{out}"], [], str(tmp_path / "t1"), 0, 1000, 30.0, {}, "est.txt")
+    assert rec["rc"] == 0 and "error" not in rec                 # 2.4 MB for 1000 frames: read
+    systems.remove_tree(tmp_path / "a \"quoted\" dataset's folder")

@@ -29,6 +29,8 @@ DUMP = ("import json, os, shutil, sys; json.dump(dict(argv=sys.argv[1:], cwd=os.
 # writes into its variant's render folder (the ground truth), found from its dataset's path
 VANDAL = ("import os, sys; top, rest = sys.argv[1].split(os.sep + 'exports' + os.sep); "
           "open(os.path.join(top, 'renders', rest.split(os.sep)[0], 'manifest.json'), 'a').write('x')")
+# 2.4 MB of poses for 2 frames
+HUGE = "import sys; open(sys.argv[1], 'w').write(('1 0 0 0 0 1 0 0 0 0 1 0' + chr(10)) * 100000)"
 # writes a whole trajectory, then exits 3
 REGRETS = ("import os, shutil, sys; shutil.copy(os.path.join(sys.argv[1], 'poses.txt'), sys.argv[2]); "
            "sys.exit(3)")
@@ -71,6 +73,12 @@ layout = "kitti-folder"
 format = "kitti"
 
 [[systems]]
+name = "huge"
+cmd = {json.dumps('{python} -c "' + HUGE + '" {out}')}
+layout = "kitti-folder"
+format = "kitti"
+
+[[systems]]
 name = "regrets"
 cmd = {json.dumps('{python} -c "' + REGRETS + '" {sequence} {out}')}
 layout = "kitti-folder"
@@ -95,6 +103,8 @@ format = "kitti"
     assert all(r["status"] == "failed" and r["failure"] == "wrote no trajectory file" for r in runs["silent"]), \
         runs["silent"]
     assert all(r["status"] == "failed" and r["failure"] == "exit code 3" for r in runs["regrets"]), runs["regrets"]
+    assert all(r["status"] == "failed" and r["failure"].startswith("wrote a trajectory of 2400000 bytes for 2 frame(s)")
+               for r in runs["huge"]), runs["huge"]
     on_ray = {p.name: json.loads(p.read_text()) for p in dump.iterdir()}
     assert len(on_ray) == 2
     for key, seen in on_ray.items():

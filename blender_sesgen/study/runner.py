@@ -359,7 +359,7 @@ class StudyRun:
                         continue
                     seen.add(rd)
                     rec = _read(rd / "run.json")
-                    if rec is not None and rec.get("rc") == 0 and not rec.get("timed_out"):
+                    if rec is not None and rec.get("rc") == 0 and not rec.get("timed_out") and not rec.get("error"):
                         runs.append({"run_dir": str(rd), "gt": str(self.out / "renders" / v.key), "est": rec["est"],
                                      "format": s.format, "mono": s.mono})
         controls, seen = [], set()
