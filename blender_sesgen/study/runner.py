@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -42,6 +43,7 @@ from ..contract.cli import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK
 from ..contract.progress import Progress
 from ..errors import SesgenError
 from .spec import Study, StudyError
+from .systems import set_read_only
 from .variants import Plan, make_plan, render_options
 
 MARKER = "plan.json"
@@ -102,6 +104,7 @@ class StudyRun:
         self.mode, self.chunk, self.retries = progress, int(chunk), int(retries)
         self.stream = stream if stream is not None else sys.stderr
         self.vo = vo_command(study)
+        self.env = dict(os.environ)          # the systems' environment, on Ray too (not a worker's, before ray.init)
         self.rerun = set(rerun)              # systems whose finished runs are run again
         self.render_failed: dict = {}        # key -> why
         self.frames_rendered = 0             # by Cycles, in this run
@@ -122,6 +125,9 @@ class StudyRun:
         for sub in ("scripts", "renders"):
             (self.out / sub).mkdir(parents=True, exist_ok=True)
         self._hold_folder()
+        for folder in (self.out / "renders").iterdir():   # left read-only by a study killed while its systems ran
+            if folder.is_dir() and not folder.stat().st_mode & 0o200:   # (os.access: always for root)
+                set_read_only(folder, False)
         for key, text in [*plan.renders.items(), *((k, t) for k, (t, _) in plan.develops.items())]:
             path = self.out / "scripts" / f"{key}.ses"
             if not path.is_file() or path.read_text(encoding="utf-8") != text:
@@ -303,11 +309,22 @@ class StudyRun:
                 for t in range(s.trials):
                     rk = f"run/{v.key}/{s.name}/{t}"
                     graph.add(rk, run_trial, After(f"export/{v.key}/{s.layout}"), list(s.cmd), self.vo,
-                              str(self.run_dir(v.key, s, t)), t, frames, s.timeout_s, dict(s.env), est_name(s.format))
+                              str(self.run_dir(v.key, s, t)), t, frames, s.timeout_s, dict(s.env), est_name(s.format),
+                              self.env)
                     labels[rk] = f"{s.name} trial {t} on {v.name}"
         if not graph.refs:
             return
         self.say(f"study: {len(graph.refs)} task(s): exports and system runs")
+        renders = [self.out / "renders" / k for k in sorted(seen)]
+        for folder in renders:             # the ground truth, read-only to the systems (as their datasets)
+            set_read_only(folder)
+        try:
+            self._run_graph(graph, labels)
+        finally:
+            for folder in renders:
+                set_read_only(folder, False)
+
+    def _run_graph(self, graph, labels: dict) -> None:
         from ..farm.tasks import TaskError
         with Progress(len(graph.refs), "study", mode=self.mode, stream=self.stream, unit="task",
                       every_line=True) as bar:
@@ -342,7 +359,7 @@ class StudyRun:
                         continue
                     seen.add(rd)
                     rec = _read(rd / "run.json")
-                    if rec is not None and rec.get("rc") == 0 and not rec.get("timed_out"):
+                    if rec is not None and rec.get("rc") == 0 and not rec.get("timed_out") and not rec.get("error"):
                         runs.append({"run_dir": str(rd), "gt": str(self.out / "renders" / v.key), "est": rec["est"],
                                      "format": s.format, "mono": s.mono})
         controls, seen = [], set()

@@ -31,9 +31,7 @@ import signal
 import stat
 import string
 import subprocess
-import sys
 import time
-from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional, Sequence
@@ -137,27 +135,39 @@ def remove_tree(folder: Path) -> None:
 
 # --- one run ------------------------------------------------------------------------------------
 
-def _tail(path: Path, n: int = TAIL_LINES) -> list[str]:
+def _tail(path: Path, n: int = TAIL_LINES, max_bytes: int = 64 * 1024) -> list[str]:
+    """The last ``n`` lines of a log, read from its last ``max_bytes`` (a system may write
+    gigabytes)."""
     try:
-        with open(path, encoding="utf-8", errors="replace") as f:
-            return [ln.rstrip("\n") for ln in deque(f, maxlen=n)]
+        with open(path, "rb") as f:
+            size = f.seek(0, os.SEEK_END)
+            f.seek(max(0, size - max_bytes))
+            data = f.read()
     except OSError:
         return []
+    lines = data.decode("utf-8", errors="replace").splitlines()
+    if size > max_bytes and lines:
+        lines = lines[1:]                      # the first may be cut
+    return lines[-n:]
 
 
-def run(argv: Sequence[str], run_dir: Path, timeout_s: float, env: Optional[dict] = None) -> dict:
+def run(argv: Sequence[str], run_dir: Path, timeout_s: float, env: Optional[dict] = None,
+        base_env: Optional[dict] = None) -> dict:
     """Run one system command in ``run_dir/work`` (made fresh) with its output in
-    ``run_dir/stdout.txt`` and ``stderr.txt``; the record of how it ended (module docstring)."""
+    ``run_dir/stdout.txt`` and ``stderr.txt``; the record of how it ended (module docstring).
+    Its environment: ``base_env`` (the study's own; default this process's), ``env`` over it,
+    and ``TMPDIR``."""
     run_dir = Path(run_dir)
     work = run_dir / "work"
     remove_tree(work)
     (work / "tmp").mkdir(parents=True)
-    proc_env = dict(os.environ)
+    proc_env = dict(os.environ if base_env is None else base_env)
     proc_env.update(env or {})
     proc_env["TMPDIR"] = str(work / "tmp")
     from ..farm.child import PARENT_ENV
     proc_env[PARENT_ENV] = str(os.getpid())
-    launcher = [sys.executable, "-m", "blender_sesgen.study.launch", str(work), "--", *argv]
+    from .launch import command
+    launcher = command(work, argv)
     t0 = time.monotonic()
     timed_out = False
     with open(run_dir / "stdout.txt", "wb") as out, open(run_dir / "stderr.txt", "wb") as err:
@@ -192,14 +202,30 @@ def run(argv: Sequence[str], run_dir: Path, timeout_s: float, env: Optional[dict
 
 
 def _kill_group(proc: subprocess.Popen) -> Optional[int]:
-    """SIGTERM to the run's whole process group, SIGKILL after a grace period."""
-    for sig, wait in ((signal.SIGTERM, KILL_GRACE_S), (signal.SIGKILL, None)):
-        try:
-            os.killpg(proc.pid, sig)
-        except (ProcessLookupError, PermissionError):
-            pass
-        try:
-            return proc.wait(timeout=wait)
-        except subprocess.TimeoutExpired:
-            continue
-    return proc.returncode
+    """SIGTERM to the run's whole process group, SIGKILL after a grace period -- to the
+    group, not only its leader: a child that ignores SIGTERM outlives a leader that obeys it
+    (and would go on writing the trajectory after the record was made)."""
+    try:
+        os.killpg(proc.pid, signal.SIGTERM)
+    except (ProcessLookupError, PermissionError):
+        pass
+    deadline = time.monotonic() + KILL_GRACE_S
+    try:
+        proc.wait(timeout=KILL_GRACE_S)
+    except subprocess.TimeoutExpired:
+        pass
+    while _group_alive(proc.pid) and time.monotonic() < deadline:   # the rest of the group's grace
+        time.sleep(0.05)
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        pass
+    return proc.wait()
+
+
+def _group_alive(pgid: int) -> bool:
+    try:
+        os.killpg(pgid, 0)
+        return True
+    except (ProcessLookupError, PermissionError):
+        return False

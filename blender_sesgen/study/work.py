@@ -18,6 +18,11 @@ from . import systems
 
 DONE = "done.json"
 FAILED = "failed.json"
+# A trajectory over this size is not read: a pose line is at most ~400 bytes in any format
+# (EuRoC's 17 columns), so 4 KiB a frame leaves room for 10 poses a frame; reading a 100 MB
+# KITTI file to say "4369066 poses for 10 frames" took the evaluation 95 s and 3.7 GB.
+TRAJECTORY_BYTES_PER_FRAME = 4096
+TRAJECTORY_BYTES_SLACK = 1 << 20
 
 
 def export_failure(out_dir) -> Optional[str]:
@@ -51,7 +56,8 @@ def export_variant(vo: list, render_dir: str, out_dir: str, layout: str) -> dict
     out.mkdir(parents=True, exist_ok=True)
     cmd = [*vo, "export", render_dir, str(data), "--to", layout, "--progress", "off"]
     t0 = time.monotonic()
-    proc = subprocess.run([sys.executable, "-m", "blender_sesgen.study.launch", str(out), "--", *cmd],
+    from .launch import command
+    proc = subprocess.run(command(out, cmd),
                           stdin=subprocess.DEVNULL, capture_output=True, text=True, errors="replace")
     rec = {"render": render_dir, "layout": layout, "dataset": str(data), "wall_s": round(time.monotonic() - t0, 3),
            "ok": proc.returncode == 0}
@@ -69,9 +75,11 @@ def export_variant(vo: list, render_dir: str, out_dir: str, layout: str) -> dict
 
 
 def run_trial(export: dict, cmd: list, vo: list, run_dir: str, trial: int, frames: int, timeout_s: float,
-              env: dict, est_name: str) -> dict:
+              env: dict, est_name: str, base_env: Optional[dict] = None) -> dict:
     """One trial of one system on an exported dataset; ``run_dir/run.json`` records how it
-    ended (and is returned by a rerun). A failed export is this run's failure."""
+    ended (and is returned by a rerun). A failed export is this run's failure. ``base_env``:
+    the environment the study started in (a Ray worker's adds Ray's own variables and
+    OMP_NUM_THREADS; the system gets the study's on every path)."""
     rd = Path(run_dir)
     done = _read(rd / "run.json")
     if done is not None:
@@ -79,6 +87,7 @@ def run_trial(export: dict, cmd: list, vo: list, run_dir: str, trial: int, frame
     rd.mkdir(parents=True, exist_ok=True)
     est = rd / est_name
     est.unlink(missing_ok=True)
+    (rd / "metrics.json").unlink(missing_ok=True)     # a record of a trajectory no longer there
     if not isinstance(export, dict) or not export.get("ok"):
         why = export.get("error") if isinstance(export, dict) else getattr(export, "message", str(export))
         return {"rc": None, "timed_out": False, "error": f"the dataset could not be exported: {why}",
@@ -86,7 +95,11 @@ def run_trial(export: dict, cmd: list, vo: list, run_dir: str, trial: int, frame
     values = {"dataset": export["dataset"], "sequence": export["sequence"], "out": str(est),
               "workdir": str(rd / "work"), "trial": trial, "frames": frames, "python": sys.executable}
     argv = systems.expand(cmd, values, vo)
-    rec = systems.run(argv, rd, timeout_s, env)
-    rec.update(est=str(est), trial=trial)
+    rec = systems.run(argv, rd, timeout_s, env, base_env)
+    rec.update(est=str(est), trial=trial, est_bytes=est.stat().st_size if est.is_file() else None)
+    limit = TRAJECTORY_BYTES_PER_FRAME * max(int(frames), 0) + TRAJECTORY_BYTES_SLACK
+    if rec.get("error") is None and (rec["est_bytes"] or 0) > limit:
+        rec["error"] = (f"wrote a trajectory of {rec['est_bytes']} bytes for {frames} frame(s) "
+                        f"(more than {limit}: not read)")
     atomic.write_json(rd / "run.json", rec)
     return rec
