@@ -57,6 +57,12 @@ def main() -> int:
     p.add_argument("--variants", nargs="+", default=["full", "lod"],
                    help="full | lod | lod@T (both tolerances T) | lod@relief (the relief as roughness at every "
                         "distance) | lod@all (every LOD material its means at every distance): bounds, not settings")
+    p.add_argument("--states", nargs="+", default=None,
+                   help="instead of --variants: one LOD scene, its switches set per state and the states' renders "
+                        "interleaved --repeat times (load drifts cancel): off (distances infinite: the full graph) | "
+                        "lod | relief (the relief as roughness at every distance) | all (every LOD material its means "
+                        "everywhere)")
+    p.add_argument("--repeat", type=int, default=2)
     p.add_argument("--out", default=None)
     a = p.parse_args()
     for v in a.variants:
@@ -89,6 +95,8 @@ def main() -> int:
     build = builder.build_scene
     rows, images = {}, {}
     exposure = a.exposure
+    if a.states:
+        return interleaved(a, args, preset, out, exposure, lo, hi)
     tolerances = (lodm.TOLERANCE, lodm.TILT_TOLERANCE)
     for v in a.variants:
         lodm.TOLERANCE, lodm.TILT_TOLERANCE = tolerances
@@ -154,6 +162,97 @@ def main() -> int:
         rows[f"compare {v}"] = cmp
         print(f"compare {v} {json.dumps(cmp)}", flush=True)
     print(f"# exposure held {exposure}; load {os.getloadavg()[0]:.1f} at the end", flush=True)
+    if out:
+        json.dump(rows, open(out / "material_lod.json", "w"), indent=1)
+    return 0
+
+
+def interleaved(a, args, preset, out, exposure, lo, hi) -> int:
+    """--states: one LOD scene; per repeat, each state at LOW then HIGH samples (seed 0); then
+    each state at HIGH under seed 1 (its noise, its bias against ``off``)."""
+    import bpy
+    from blender_sesgen.blender import builder, render as brender, rig
+    from blender_sesgen.blender.library import lod as lodm
+    from blender_sesgen.contract.manifest import render_seed
+    for st in a.states:
+        if st not in ("off", "lod", "relief", "all"):
+            raise SystemExit(f"--states: unknown {st!r}")
+    build = builder.build_scene
+    builder.build_scene = lambda *x, **kw: build(*x, material_lod=True, **kw)
+    b = qb.Bench(args)
+    b.exposure = exposure
+    c0, t0 = qb.cpu_s(), time.perf_counter()
+    s = b.session(preset)
+    rows = {"build": {"s": time.perf_counter() - t0, "cpu_s": qb.cpu_s() - c0, "load": os.getloadavg()[0],
+                      "lod_materials": len(s.built.lod)}}
+    print(f"build {json.dumps(rows['build'])}", flush=True)
+    mats = [m for m in bpy.data.materials if lodm.has_lod(m)]
+    measured = {m.name: (m.node_tree.nodes[lodm.LOD_RELIEF_DISTANCE_NODE].outputs[0].default_value,
+                         m.node_tree.nodes[lodm.LOD_DISTANCE_NODE].outputs[0].default_value) for m in mats}
+
+    def set_state(st):
+        for m in mats:
+            relief, recipe = measured[m.name]
+            if st == "off":
+                relief = recipe = lodm.FAR_AWAY
+            elif st == "relief":
+                relief = 0.0
+            elif st == "all":
+                relief = recipe = 0.0
+            nodes = m.node_tree.nodes
+            nodes[lodm.LOD_RELIEF_DISTANCE_NODE].outputs[0].default_value = relief
+            nodes[lodm.LOD_DISTANCE_NODE].outputs[0].default_value = recipe
+    bscene, k = s.built.scene, a.frame
+    cpu, images = {}, {}
+
+    def render(st, n, seed):
+        set_state(st)
+        bscene.cycles.samples = n
+        path = b.tmp / f"{st}_{n}_{seed}.exr"
+        c0 = qb.cpu_s()
+        brender.render_views(bscene, s.built.cameras, ("left",), rig.blender_frame(k), render_seed(seed, k, 0),
+                             {"left": path})
+        c = 2 * (qb.cpu_s() - c0)
+        ch = qb.read_exr(path)
+        rgb = np.stack([next(x for name, x in ch.items() if name.endswith(f"{qb.PASS_COMBINED[0]}.{c_}"))
+                        for c_ in "RGB"], -1)
+        images[(st, n, seed)] = qb.linear_to_srgb(rgb).astype(float)
+        print(f"{st} {n} spp seed {seed}: {c:.2f} CPU s a stereo frame, load {os.getloadavg()[0]:.1f}", flush=True)
+        return c
+    for r in range(a.repeat):
+        for st in a.states:
+            cpu.setdefault(st, []).append(-render(st, lo, 0))
+        for st in a.states:
+            cpu[st][-1] += render(st, hi, 0)
+    for st in a.states:
+        render(st, hi, 1)
+    for st in a.states:
+        A, B = images[(st, hi, 0)], images[(st, hi, 1)]
+        slopes = [c / (hi - lo) for c in cpu[st]]
+        rows[st] = {"cpu_per_sample": float(np.median(slopes)), "cpu_per_sample_each": slopes,
+                    "var_per_sample": hi * float(((A - B) ** 2).mean()) / 2, "mean_srgb": float((A + B).mean() / 2)}
+        print(f"{st} {json.dumps(rows[st])}", flush=True)
+        if out:
+            np.save(out / f"{st}_{hi}_0.npy", A.astype(np.float32))
+            np.save(out / f"{st}_{hi}_1.npy", B.astype(np.float32))
+    base = "off" if "off" in a.states else None
+    for st in a.states:
+        if base is None or st == base:
+            continue
+        L0, L1, F0, F1 = images[(st, hi, 0)], images[(st, hi, 1)], images[(base, hi, 0)], images[(base, hi, 1)]
+        m = bias_mse(L0, L1, F0, F1)
+        f, l = rows[base], rows[st]
+        ratio = f["cpu_per_sample"] / l["cpu_per_sample"]
+        each = [x / y for x, y in zip(f["cpu_per_sample_each"], l["cpu_per_sample_each"])]
+        cmp = {"bias_mse": m, "bias_psnr": psnr(m), "bias_psnr_90": list(qb_boot(bias_map(L0, L1, F0, F1))),
+               "samples_ratio_equal_cpu": ratio, "ratio_each_repeat": each,
+               "mean_srgb_minus_off": l["mean_srgb"] - f["mean_srgb"]}
+        for n in sorted({hi, 32}):
+            cmp[f"off_{n}_psnr_vs_truth"] = psnr(f["var_per_sample"] / n)
+            cmp[f"equal_cpu_{n}_psnr_vs_truth"] = psnr(l["var_per_sample"] / (n * ratio) + max(m, 0.0))
+        rows[f"compare {st}"] = cmp
+        print(f"compare {st} {json.dumps(cmp)}", flush=True)
+    print(f"# exposure held {b.exposure}; load {os.getloadavg()[0]:.1f} at the end", flush=True)
     if out:
         json.dump(rows, open(out / "material_lod.json", "w"), indent=1)
     return 0

@@ -55,7 +55,7 @@ def test_measured_means_equal_the_recipes_means_in_closed_form():
     colour times a tone remapped symmetrically about the noise's centre (0.97 ... 1.03 over
     0.3 ... 0.7): mean 1 by symmetry; both roughnesses within the recipes' ranges."""
     colour = (0.55, 0.35, 0.2)
-    chrome, plastic = lod.measure([(library_material(n), colour) for n in ("chrome", "plastic")], threads=2)
+    chrome, plastic = library.measure_lod([(library_material(n), colour) for n in ("chrome", "plastic")], threads=2)
     assert chrome.colour == pytest.approx(colour, rel=1e-4)          # (Cycles' float32 film)
     assert chrome.metallic == pytest.approx(library_material("chrome").metallic, abs=1e-4)
     assert chrome.footprint_m == pytest.approx(PX_M)                   # no pattern: the finest box
@@ -65,7 +65,7 @@ def test_measured_means_equal_the_recipes_means_in_closed_form():
     assert plastic.metallic == pytest.approx(0.0, abs=1e-6)
     r = library_material("plastic").roughness
     assert r - 0.05 <= plastic.roughness <= lod.toksvig(r + 0.05, plastic.slope2) + 1e-4
-    brick = lod.measure([(library_material("brick"), colour)], threads=2)[0]
+    brick = library.measure_lod([(library_material("brick"), colour)], threads=2)[0]
     assert brick.slope2 > 1e-3 and math.isfinite(brick.relief_footprint_m)   # the mortar's relief
 
 

@@ -68,7 +68,7 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict, t
             built.movers[o.id] = object_motion.attach_motion(o, motion, objs, coll, tag)
 
     if material_lod:
-        built.lod = library.lod_module.apply(factory.library_made, float(K[0][0]), threads)
+        built.lod = library.apply_lod(factory.library_made, float(K[0][0]), threads)
 
     used_ids = {o.id for o in scene.objects}
     file_lamps = False

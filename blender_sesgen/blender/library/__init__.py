@@ -230,6 +230,17 @@ def build_shader(nt, m: Material, colour, *, fog_mix=None, shared_parts: bool = 
     return out
 
 
+def measure_lod(sources: list, threads: int = 0) -> list:
+    """``lod.measure`` of (Material, colour) pairs with this package's recipes."""
+    return lod_module.measure(sources, threads, recipe, (SCALE_PROP, OFFSET_PROP, RAND_PROP))
+
+
+def apply_lod(made: list, focal_px: float, threads: int = 0) -> dict:
+    """``lod.apply``: the level of detail of every LOD material among ``made`` ((material,
+    Material, colour) triples) measured and set for ``focal_px``; {material name: lod.Means}."""
+    return lod_module.apply(made, focal_px, lambda sources: measure_lod(sources, threads))
+
+
 GLOW_NODE = "sesgen_glow"                # the Emission node of a glowing pane (``MATERIAL ... glow``)
 GLOW_MAP_NODE = "sesgen_glow_map"        # the daylight over the pane over its strength (blender/glazing.py)
 

@@ -182,13 +182,14 @@ def toksvig(roughness: float, slope2: float) -> float:
     return float(min(1.0, (roughness ** 4 + slope2) ** 0.25))
 
 
-def measure(sources: list, threads: int = 0) -> list[Means]:
+def measure(sources: list, threads: int, recipe, props: tuple[str, str, str]) -> list[Means]:
     """The :class:`Means` of library materials ``sources`` ((Material model, colour) pairs: their
-    recipes rebuilt on patches), one render."""
+    recipes rebuilt on patches by ``recipe(nt, m, colour)``; ``props``: the names of the objects'
+    scale, offset and random properties the recipes read), one render (library.measure_lod)."""
     from ...files.exr import read_exr
     from ..datablocks import tag
     from ..render import _render
-    from . import OFFSET_PROP, RAND_PROP, SCALE_PROP, recipe
+    SCALE_PROP, OFFSET_PROP, RAND_PROP = props
     made = []
 
     def new(collection, *args, **kw):
@@ -282,13 +283,13 @@ def measure(sources: list, threads: int = 0) -> list[Means]:
     return out
 
 
-def apply(made: list, focal_px: float, threads: int = 0) -> dict:
-    """Measure the LOD materials among ``made`` ((material, Material model, colour) triples) and
-    set their cheap branches and distances; {material name: Means}."""
+def apply(made: list, focal_px: float, measure_means) -> dict:
+    """Measure (``measure_means(sources)``) the LOD materials among ``made`` ((material, Material
+    model, colour) triples) and set their cheap branches and distances; {material name: Means}."""
     todo = [(mat, m, colour) for mat, m, colour in made if has_lod(mat)]
     if not todo:
         return {}
-    means = measure([(m, colour) for _, m, colour in todo], threads)
+    means = measure_means([(m, colour) for _, m, colour in todo])
     for (mat, _, _), mm in zip(todo, means):
         write(mat, mm, focal_px)
     return {mat.name: mm for (mat, _, _), mm in zip(todo, means)}
