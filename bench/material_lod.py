@@ -14,9 +14,15 @@ equal CPU the LOD takes ``ratio`` times the samples: its error against the truth
 v_lod / (N ratio) + bias^2 against the full scene's v_full / N (printed for N = the largest count
 and for 32).
 
+``--states off lod relief all`` (the figures in docs): one LOD scene instead, its switches set per
+state (``off``: the full graph everywhere; ``relief`` / ``all``: bounds, the relief / every recipe
+dropped at every distance), the states' renders interleaved ``--repeat`` times so that the shared
+machine's load drifts cancel; biases against ``off``.
+
 Usage: ``PYTHONPATH=. .venv/bin/python bench/material_lod.py [--scene scenes/city_kitti.ses]
-[--crop 0.25] [--crop-centre 0.5,0.5] [--samples 8 32] [--exposure E] [--variants full lod]
-[--out DIR]``. Measured in bench/RESULTS.md (session 21, lod21)."""
+[--crop 0.25] [--crop-centre 0.5,0.5] [--samples 8 32] [--exposure E] [--variants full lod lod@0.1]
+[--states off lod relief all --repeat 2] [--out DIR]``. Measured in bench/RESULTS.md (session 21,
+lod21)."""
 import argparse, json, os, sys, time
 from dataclasses import replace
 from pathlib import Path
@@ -65,6 +71,11 @@ def main() -> int:
     p.add_argument("--repeat", type=int, default=2)
     p.add_argument("--out", default=None)
     a = p.parse_args()
+    for st in a.states or ():
+        if st not in ("off", "lod", "relief", "all"):
+            p.error(f"--states: unknown {st!r}")
+    if a.repeat < 1:
+        p.error("--repeat must be >= 1")
     for v in a.variants:
         if v not in ("full", "lod", "lod@relief", "lod@all") and not v.startswith("lod@"):
             p.error(f"--variants: unknown {v!r}")
@@ -174,9 +185,6 @@ def interleaved(a, args, preset, out, exposure, lo, hi) -> int:
     from blender_sesgen.blender import builder, render as brender, rig
     from blender_sesgen.blender.library import lod as lodm
     from blender_sesgen.contract.manifest import render_seed
-    for st in a.states:
-        if st not in ("off", "lod", "relief", "all"):
-            raise SystemExit(f"--states: unknown {st!r}")
     build = builder.build_scene
     builder.build_scene = lambda *x, **kw: build(*x, material_lod=True, **kw)
     b = qb.Bench(args)
