@@ -69,6 +69,9 @@ def main() -> int:
                         "lod | relief (the relief as roughness at every distance) | all (every LOD material its means "
                         "everywhere)")
     p.add_argument("--repeat", type=int, default=2)
+    p.add_argument("--bare", action="store_true",
+                   help="the far branch a plain Principled BSDF of the means, without the object's variation and the "
+                        "dirt (a bound: the per-object differences go)")
     p.add_argument("--out", default=None)
     a = p.parse_args()
     for st in a.states or ():
@@ -187,6 +190,9 @@ def interleaved(a, args, preset, out, exposure, lo, hi) -> int:
     from blender_sesgen.contract.manifest import render_seed
     build = builder.build_scene
     builder.build_scene = lambda *x, **kw: build(*x, material_lod=True, **kw)
+    if a.bare:
+        switch = lodm.switch
+        lodm.switch = lambda g, ctx, full, bsdf, s, finish: switch(g, ctx, full, bsdf, s, lambda c, r: (c, r))
     b = qb.Bench(args)
     b.exposure = exposure
     c0, t0 = qb.cpu_s(), time.perf_counter()

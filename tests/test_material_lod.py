@@ -127,14 +127,7 @@ def test_the_switch_draws_the_full_graph_near_and_the_cheap_branches_far(tmp_pat
     def lod_material(means):
         def build(nt):
             shader = library.build_shader(nt, m, colour, lod=True)
-            nodes = nt.nodes
-            nodes[lod.LOD_COLOUR_NODE].outputs[0].default_value = (*means.colour, 1.0)
-            nodes[lod.LOD_ROUGHNESS_NODE].outputs[0].default_value = means.roughness
-            nodes[lod.LOD_METALLIC_NODE].outputs[0].default_value = means.metallic
-            nodes[lod.LOD_DISTANCE_NODE].outputs[0].default_value = min(means.distance(focal), lod.FAR_AWAY)
-            nodes[lod.LOD_RELIEF_DISTANCE_NODE].outputs[0].default_value = min(means.relief_distance(focal),
-                                                                               lod.FAR_AWAY)
-            nodes[lod.LOD_SLOPE_NODE].outputs[0].default_value = means.slope2
+            lod.write(nt, means, focal)
             return shader
         return build
 

@@ -220,7 +220,7 @@ def build_shader(nt, m: Material, colour, *, fog_mix=None, shared_parts: bool = 
             g.set(bsdf.inputs["Coat Normal"], coat.outputs["Normal"])
     out = bsdf.outputs["BSDF"]
     if lod and lod_module.eligible(entry, s):
-        out = lod_module.switch(g, ctx, out, bsdf, lib, s, shared_parts,
+        out = lod_module.switch(g, ctx, out, bsdf, s,
                                 lambda c, r: _finish_surface(g, ctx, lib, c, r, s.grime, shared_parts))
     if entry.transmittance > 0 and getattr(m, "glow", False):
         out = _glow(g, out, col, entry)

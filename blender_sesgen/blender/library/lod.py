@@ -1,25 +1,29 @@
-"""The library materials' level of detail: far away, a material's recipe (its texture layers
-and its relief, the graph's costly part) is replaced by its measured pixel mean.
+"""The library materials' level of detail: far away, the costly parts of a material's graph
+(its relief, then its recipe's texture layers) are replaced by their measured pixel means.
 
 Cycles' SVM jumps over the branch of a Mix Shader whose factor is exactly 0 or 1 (the nodes
-only that branch uses). :func:`switch` puts the full material and a cheap one side by side
-under a Mix Shader whose factor is ``view distance > LOD_DISTANCE_NODE``: the cheap branch is a
-Principled BSDF of the recipe's mean colour, mean roughness widened by the relief's mean
-squared slope (Toksvig: GGX alpha^2 + slope variance), mean metallic, with the per-object
-variation and the dirt of the full material (large patches, not below a pixel). Built with an
-infinite distance (the full graph everywhere); :func:`apply` measures every LOD material of a
-scene in one small render and writes the means and the distance.
+only that branch uses). :func:`switch` puts three levels under two Mix Shaders switched on the
+Camera Data's view distance: the full material near; beyond ``LOD_RELIEF_DISTANCE_NODE`` the
+same colour graph on a Principled BSDF without the relief (the Bump evaluates its height graph
+three times), the roughness widened by the relief's mean squared slope (Toksvig: GGX alpha^2 +
+slope variance); beyond ``LOD_DISTANCE_NODE`` a Principled BSDF of the recipe's mean colour,
+roughness and metallic, with the per-object variation and the dirt of the full material (large
+patches, not below a pixel). Built with infinite distances (the full graph everywhere);
+:func:`apply` measures every LOD material of a scene in one small render and writes the means
+and distances (:func:`write`). Measured in bench/RESULTS.md (session 21): at distances that keep
+the picture it buys nothing in city_kitti, so it is off by default.
 
 The measurement (:func:`measure`): each material's recipe on square patches ``PATCH_M`` metres
 wide, seen from above by an orthographic camera (``PATCH_PX`` pixels a side, ``PATCH_SAMPLES``
 samples: each pixel is the mean over its footprint), as Emission: its colour on a horizontal
-and on a vertical patch (the recipes box-map by the normal), its (roughness, metallic, squared
-slope of the relief's normal) on a third. The switch footprint is the smallest box (pixels of
-the patch averaged) over which the colour's box means deviate from the patch mean by less than
-``TOLERANCE`` of it (relative RMS, worst channel, both orientations), and both orientations'
-means agree within it; the distance is that footprint times the focal length in pixels (a
-pixel's footprint at distance z is z / f). A material whose pattern holds contrast at the
-largest box, or whose two orientations differ, keeps the full graph everywhere.
+and on an upright patch (the recipes box-map by the normal), its (roughness, metallic, squared
+slope of the relief's normal), the relief's normal. The recipe's footprint is the smallest box
+(pixels of the patch averaged) over which the colour's box means deviate from the patch mean by
+less than ``TOLERANCE`` of it (relative RMS, worst channel, both orientations), both
+orientations' means agreeing within it; the relief's, the smallest box whose mean normal tilts
+by less than ``TILT_TOLERANCE`` (RMS; Lambert is linear in the normal). A distance is its
+footprint times the focal length in pixels (a pixel's footprint at distance z is z / f); a
+pattern that holds contrast at the largest box keeps its level everywhere.
 """
 from __future__ import annotations
 
@@ -74,7 +78,7 @@ def eligible(entry, s) -> bool:
     return entry.transmittance <= 0 and not any(isinstance(v, bpy.types.NodeSocket) for v in s.extra.values())
 
 
-def switch(g: G, ctx, full, bsdf, lib, s, shared_parts: bool, finish) -> object:
+def switch(g: G, ctx, full, bsdf, s, finish) -> object:
     """Three levels under two Mix Shaders: ``full`` near; beyond LOD_RELIEF_DISTANCE_NODE the
     same colour graph (its nodes shared) on a Principled BSDF without the relief, its roughness
     widened by the relief's squared slope (Toksvig); beyond LOD_DISTANCE_NODE the recipe's means.
@@ -130,9 +134,9 @@ def has_lod(mat) -> bool:
     return nt is not None and LOD_DISTANCE_NODE in nt.nodes
 
 
-def write(mat, means: Means, focal_px: float) -> None:
-    """Set a LOD material's cheap branch and switch distance from ``means``."""
-    nodes = mat.node_tree.nodes
+def write(nt, means: Means, focal_px: float) -> None:
+    """Set the cheap branches and switch distances of a LOD material's node tree from ``means``."""
+    nodes = nt.nodes
     nodes[LOD_COLOUR_NODE].outputs[0].default_value = (*means.colour, 1.0)
     nodes[LOD_ROUGHNESS_NODE].outputs[0].default_value = means.roughness
     nodes[LOD_METALLIC_NODE].outputs[0].default_value = means.metallic
@@ -291,5 +295,5 @@ def apply(made: list, focal_px: float, measure_means) -> dict:
         return {}
     means = measure_means([(m, colour) for _, m, colour in todo])
     for (mat, _, _), mm in zip(todo, means):
-        write(mat, mm, focal_px)
+        write(mat.node_tree, mm, focal_px)
     return {mat.name: mm for (mat, _, _), mm in zip(todo, means)}
