@@ -111,15 +111,17 @@ def switch(g: G, ctx, full, bsdf, s, finish) -> object:
     mid = principled(link_of("Base Color"), widened, link_of("Metallic"))
     col, r = finish(_rgb(g), value(LOD_ROUGHNESS_NODE, float(ctx.roughness)))
     far = principled(col, r, value(LOD_METALLIC_NODE, float(ctx.metallic)))
-    outer = g.node("ShaderNodeMixShader")
-    g.set(outer.inputs[0], g.math("GREATER_THAN", view, value(LOD_DISTANCE_NODE, FAR_AWAY)))
-    g.set(outer.inputs[1], mid)
-    g.set(outer.inputs[2], far)
+    # the recipe's switch outside the relief's: the colour graph, which the full and the
+    # relief-less levels share, then lies in one branch of the outer mix and is skipped far away
     inner = g.node("ShaderNodeMixShader")
     g.set(inner.inputs[0], g.math("GREATER_THAN", view, value(LOD_RELIEF_DISTANCE_NODE, FAR_AWAY)))
     g.set(inner.inputs[1], full)
-    g.set(inner.inputs[2], outer.outputs[0])
-    return inner.outputs[0]
+    g.set(inner.inputs[2], mid)
+    outer = g.node("ShaderNodeMixShader")
+    g.set(outer.inputs[0], g.math("GREATER_THAN", view, value(LOD_DISTANCE_NODE, FAR_AWAY)))
+    g.set(outer.inputs[1], inner.outputs[0])
+    g.set(outer.inputs[2], far)
+    return outer.outputs[0]
 
 
 def _rgb(g: G):
