@@ -32,14 +32,17 @@ class BuiltScene:
     imported: list = field(default_factory=list)  # manifest rows of BLEND objects
     movers: dict = field(default_factory=dict)    # moving object id -> its keyed empty (object_motion)
     glow: dict = field(default_factory=dict)      # glowing pane id -> its emitted RGB radiance (glazing)
+    lod: dict = field(default_factory=dict)       # library material name -> its level of detail's Means
 
 
-def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict, threads: int = 0) -> BuiltScene:
+def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict, threads: int = 0,
+                material_lod: bool = False) -> BuiltScene:
     """Build ``scene`` into a fresh Blender scene named SCENE_NAME (replacing any previous).
 
     ``view_poses``: {view: (N, 4, 4) T_world_cam} (OpenCV camera, SES world); ``K`` the
     (possibly rescaled) intrinsics for ``width`` x ``height``; ``threads``: the CPU threads of
-    the renders the build makes (the sky table's bake; 0: automatic).
+    the renders the build makes (the sky table's bake; 0: automatic); ``material_lod``: the
+    library materials' level of detail (library/lod.py), measured for this focal length.
     """
     clear_previous()
     bscene = bpy.data.scenes.new(SCENE_NAME)
@@ -48,7 +51,8 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict, t
     bscene.collection.children.link(coll)
     built = BuiltScene(scene=bscene, collection=coll)
 
-    ctx = ShapeContext(scene, coll, MaterialFactory(scene), max(float(K[0][0]), scene.rig.focal_px),
+    factory = MaterialFactory(scene, lod=material_lod)
+    ctx = ShapeContext(scene, coll, factory, max(float(K[0][0]), scene.rig.focal_px),
                        built.segments)
     for o in scene.objects:
         objs = build_shape(o, ctx)
@@ -62,6 +66,9 @@ def build_scene(scene: Scene, *, width: int, height: int, K, view_poses: dict, t
         motion = scene.motion_of(o.id)
         if motion is not None:  # a moving object hangs from an empty keyed with its motion
             built.movers[o.id] = object_motion.attach_motion(o, motion, objs, coll, tag)
+
+    if material_lod:
+        built.lod = library.apply_lod(factory.library_made, float(K[0][0]), threads)
 
     used_ids = {o.id for o in scene.objects}
     file_lamps = False

@@ -24,8 +24,10 @@ DEFAULT_ROUGHNESS = 0.6
 
 
 class MaterialFactory:
-    def __init__(self, scene: Scene):
+    def __init__(self, scene: Scene, lod: bool = False):
         self.scene = scene
+        self.lod = lod             # the library materials' level of detail (library/lod.py)
+        self.library_made: list = []   # (material, Material, colour) of every library material
         self.cache: dict = {}
         self._library: dict = {}   # library material (colour aside) -> the first one built
         # a sensor without an IR-cut filter sees library materials in its own band
@@ -58,6 +60,7 @@ class MaterialFactory:
                 mat = tag(first.copy())
                 mat.name = name
                 library.set_colour(compat.node_tree(mat), colour)
+                self.library_made.append((mat, m, colour))
                 return mat
         mat = tag(bpy.data.materials.new(name))
         nt = compat.node_tree(mat)
@@ -66,7 +69,8 @@ class MaterialFactory:
         out.target = "ALL"
         if m is not None and m.library is not None:
             self._library[key] = mat
-            return self._finish(mat, nt, out, library.build_shader(nt, m, colour))
+            self.library_made.append((mat, m, colour))
+            return self._finish(mat, nt, out, library.build_shader(nt, m, colour, lod=self.lod))
         if m is not None and m.maps is not None:
             bsdf = library.build_image_maps(nt, m.maps, colour, m.roughness, tag)
             bsdf.inputs["Metallic"].default_value = m.metallic

@@ -26,6 +26,7 @@ from ...scene.model import ImageMaps, Material
 from .. import compat
 from ..datablocks import TAG, load_image, tag
 from . import built, interior, metal_glass, nature
+from . import lod as lod_module
 from .graph import Ctx, G, Surface, box_uv
 
 RECIPES: dict[str, Callable[[Ctx], Surface]] = {**built.RECIPES, **interior.RECIPES, **metal_glass.RECIPES,
@@ -159,13 +160,10 @@ def _dirt(g: G, p, colour, roughness, amount):
 COLOUR_NODE = "sesgen_colour"
 
 
-def build_shader(nt, m: Material, colour, *, fog_mix=None, shared_parts: bool = True):
-    """The library material ``m`` (its ``library`` params) in node tree ``nt``; returns the
-    output shader socket. ``colour``: the main albedo (material colour times object colour),
-    held by the one RGB node named ``COLOUR_NODE`` (``set_colour`` changes it in a copy).
-    ``shared_parts``: the coordinates, the per-object variation and the dirt through the
-    scene's node groups (False: written into the tree, as the groups expand:
-    tests/test_material_graph.py renders both)."""
+def recipe(nt, m: Material, colour, shared_parts: bool = True):
+    """The library material ``m``'s coordinates and recipe in node tree ``nt``: (the builder,
+    its :class:`Ctx`, the recipe's :class:`Surface`). ``build_shader`` adds the rest; ``lod``
+    measures the Surface's means on a patch."""
     g = G(nt)
     lib = m.library
     entry = materials.entry(lib.name)
@@ -181,13 +179,32 @@ def build_shader(nt, m: Material, colour, *, fog_mix=None, shared_parts: bool = 
     set_colour(nt, colour)
     ctx = Ctx(g=g, p=p, uv=uv, n=n, rand=rand, colour=rgb.outputs[0], roughness=float(m.roughness),
               metallic=float(m.metallic), wear=float(lib.wear), entry=entry)
-    s = RECIPES[entry.name](ctx)
-    col = _variation(g, s.colour, rand, lib.variation, shared_parts)
-    rough = s.roughness
-    col, rough = _grime(g, ctx, col, rough, lib.wear * s.grime, shared_parts)
-    # the object's own small roughness shift
-    rough = g.math("MULTIPLY_ADD", g.sub(rand[1], 0.5), 0.1 * lib.variation, rough, clamp=True) \
-        if lib.variation > 0 else rough
+    return g, ctx, RECIPES[entry.name](ctx)
+
+
+def _finish_surface(g: G, ctx: Ctx, lib, colour, roughness, grime: float, shared_parts: bool):
+    """The recipe's colour and roughness with what every library material adds: the object's
+    colour variation, the dirt, the object's roughness shift."""
+    col = _variation(g, colour, ctx.rand, lib.variation, shared_parts)
+    col, rough = _grime(g, ctx, col, roughness, lib.wear * grime, shared_parts)
+    if lib.variation > 0:     # the object's own small roughness shift
+        rough = g.math("MULTIPLY_ADD", g.sub(ctx.rand[1], 0.5), 0.1 * lib.variation, rough, clamp=True)
+    return col, rough
+
+
+def build_shader(nt, m: Material, colour, *, fog_mix=None, shared_parts: bool = True, lod: bool = False):
+    """The library material ``m`` (its ``library`` params) in node tree ``nt``; returns the
+    output shader socket. ``colour``: the main albedo (material colour times object colour),
+    held by the one RGB node named ``COLOUR_NODE`` (``set_colour`` changes it in a copy).
+    ``shared_parts``: the coordinates, the per-object variation and the dirt through the
+    scene's node groups (False: written into the tree, as the groups expand:
+    tests/test_material_graph.py renders both). ``lod``: where the material allows it, the
+    graph's level of detail (``lod.py``): a cheap branch beside the full one, off (its switch
+    distance infinite) until ``lod.apply`` has measured it."""
+    lib = m.library
+    g, ctx, s = recipe(nt, m, colour, shared_parts)
+    entry = ctx.entry
+    col, rough = _finish_surface(g, ctx, lib, s.colour, s.roughness, s.grime, shared_parts)
     bsdf = g.node("ShaderNodeBsdfPrincipled")
     g.set(bsdf.inputs["Base Color"], col)
     g.set(bsdf.inputs["Roughness"], rough)
@@ -202,12 +219,26 @@ def build_shader(nt, m: Material, colour, *, fog_mix=None, shared_parts: bool = 
                                              "Height": s.height})
             g.set(bsdf.inputs["Coat Normal"], coat.outputs["Normal"])
     out = bsdf.outputs["BSDF"]
+    if lod and lod_module.eligible(entry, s):
+        out = lod_module.switch(g, ctx, out, bsdf, s,
+                                lambda c, r: _finish_surface(g, ctx, lib, c, r, s.grime, shared_parts))
     if entry.transmittance > 0 and getattr(m, "glow", False):
         out = _glow(g, out, col, entry)
     elif entry.transmittance > 0:
         out = _translucent(g, out, col, entry)
     g.layout()
     return out
+
+
+def measure_lod(sources: list, threads: int = 0) -> list:
+    """``lod.measure`` of (Material, colour) pairs with this package's recipes."""
+    return lod_module.measure(sources, threads, recipe, (SCALE_PROP, OFFSET_PROP, RAND_PROP))
+
+
+def apply_lod(made: list, focal_px: float, threads: int = 0) -> dict:
+    """``lod.apply``: the level of detail of every LOD material among ``made`` ((material,
+    Material, colour) triples) measured and set for ``focal_px``; {material name: lod.Means}."""
+    return lod_module.apply(made, focal_px, lambda sources: measure_lod(sources, threads))
 
 
 GLOW_NODE = "sesgen_glow"                # the Emission node of a glowing pane (``MATERIAL ... glow``)
