@@ -86,6 +86,14 @@ def test_a_malformed_or_missing_trajectory_is_a_failure(tmp_path):
     gt = curved()
     write_kitti(tmp_path / "long.txt", Trajectory(np.concatenate([gt.T_world_cam] * 2), np.arange(2 * N)))
     assert "80 poses for 40 frames" in run(tmp_path / "long.txt", "kitti", gt)["failure"]
+    # two poses for one instant (a stamp repeated, or stamps going back): malformed, not the first one judged
+    twice = np.repeat(np.arange(N), 2)
+    write_tum(tmp_path / "twice.txt", Trajectory(gt.T_world_cam[twice], gt.timestamps_s[twice]))
+    r = run(tmp_path / "twice.txt", "tum", gt)
+    assert not r["ok"] and r["failure"].startswith("malformed trajectory: timestamps not increasing: pose 2")
+    back = np.r_[np.arange(N // 2), np.arange(N // 2 - 3, N)]
+    write_tum(tmp_path / "back.txt", Trajectory(gt.T_world_cam[back], gt.timestamps_s[back]))
+    assert "timestamps not increasing" in run(tmp_path / "back.txt", "tum", gt)["failure"]
 
 
 def test_a_long_path_gets_the_kitti_metric_and_a_perfect_straight_one_no_error(tmp_path):

@@ -78,8 +78,15 @@ def pair(gt: Trajectory, est: Trajectory, fmt: str, rate_hz: float) -> tuple[np.
             raise VoError(f"{len(est)} poses for {len(gt)} frames")
         n = len(est)
         return np.arange(n), np.arange(n)
+    # A file whose stamps repeat or go back holds two answers for one instant: which one the
+    # system meant is unknown, so the file is malformed (judging the first would be a guess).
+    back = np.nonzero(np.diff(est.timestamps_s) <= 0.0)[0]
+    if len(back):
+        k = int(back[0]) + 1
+        raise VoError(f"timestamps not increasing: pose {k + 1} at {est.timestamps_s[k]:.9g} s "
+                      f"after {est.timestamps_s[k - 1]:.9g} s")
     i_est, i_gt = matching_time_indices(est.timestamps_s, gt.timestamps_s, max_diff=0.25 / rate_hz)
-    keep = np.unique(i_gt, return_index=True)[1]         # one pose per frame: the first
+    keep = np.unique(i_gt, return_index=True)[1]         # one pose per frame (stamps within 1/4 frame)
     return i_gt[keep], i_est[keep]
 
 
