@@ -174,6 +174,26 @@ def _render(bscene, quiet: bool) -> tuple[float, Optional[float]]:
     return wall, stats.last
 
 
+def render_linear_rgb(bscene, prefix: str):
+    """One quiet render of ``bscene`` to a temporary 32-bit EXR, removed after: its linear RGB,
+    (H, W, 3) float32, row 0 at the top (the bakes that read Cycles' own result: the sky's
+    table, the library materials' means)."""
+    import tempfile
+    import numpy as np
+    from ..files.exr import read_exr
+    ims = bscene.render.image_settings
+    ims.file_format, ims.color_depth = "OPEN_EXR", "32"
+    fd, path = tempfile.mkstemp(suffix=".exr", prefix=f"sesgen-{prefix}-{os.getpid()}-")
+    os.close(fd)
+    try:
+        bscene.render.filepath = path
+        _render(bscene, quiet=True)
+        ch = read_exr(path)
+    finally:
+        os.remove(path)
+    return np.stack([ch[k] for k in "RGB"], axis=-1)
+
+
 def _set(owner, name: str, value) -> None:
     """Assign only a changed value: every RNA write triggers Blender's update machinery
     (a new camera even rebuilds the dependency graph's relations)."""

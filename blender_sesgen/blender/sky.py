@@ -15,8 +15,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 
 import bpy
 import numpy as np
@@ -95,9 +93,8 @@ def bake(params: dict, threads: int = 0) -> np.ndarray:
     looks at a plane whose emission is the sky node at the direction of each cell's centre
     (snapped to it, whatever the pixel filter), one sample, no denoiser; ``threads`` CPU threads
     (0: automatic) for the render and Cycles' precompute of the table inside it."""
-    from ..files.exr import read_exr
     from .datablocks import tag
-    from .render import _render
+    from .render import render_linear_rgb
     made = []
 
     def new(collection, *args, **kw):
@@ -151,15 +148,8 @@ def bake(params: dict, threads: int = 0) -> np.ndarray:
     sky = g.node("ShaderNodeTexSky", {"Vector": direction}, sky_type=TYPE, sun_disc=False, sun_rotation=0.0,
                  **params)
     g.set(emit.inputs["Color"], sky.outputs["Color"])
-    ims = r.image_settings
-    ims.file_format, ims.color_depth = "OPEN_EXR", "32"
-    fd, path = tempfile.mkstemp(suffix=".exr", prefix=f"sesgen-sky-{os.getpid()}-")
-    os.close(fd)
     try:
-        r.filepath = path
-        _render(scene, quiet=True)
-        ch = read_exr(path)
+        rgb = render_linear_rgb(scene, "sky")
     finally:
-        os.remove(path)
         bpy.data.batch_remove(made)
-    return np.ascontiguousarray(np.stack([ch[k] for k in "RGB"], axis=-1)[::-1], dtype=np.float32)
+    return np.ascontiguousarray(rgb[::-1], dtype=np.float32)

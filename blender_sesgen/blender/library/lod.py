@@ -28,8 +28,6 @@ pattern that holds contrast at the largest box keeps its level everywhere.
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from dataclasses import dataclass
 
 import bpy
@@ -192,9 +190,8 @@ def measure(sources: list, threads: int, recipe, props: tuple[str, str, str]) ->
     """The :class:`Means` of library materials ``sources`` ((Material model, colour) pairs: their
     recipes rebuilt on patches by ``recipe(nt, m, colour)``; ``props``: the names of the objects'
     scale, offset and random properties the recipes read), one render (library.measure_lod)."""
-    from ...files.exr import read_exr
     from ..datablocks import tag
-    from ..render import _render
+    from ..render import render_linear_rgb
     SCALE_PROP, OFFSET_PROP, RAND_PROP = props
     made = []
 
@@ -264,18 +261,10 @@ def measure(sources: list, threads: int, recipe, props: tuple[str, str, str]) ->
             obj[OFFSET_PROP] = [0.0, 0.0, 0.0]
             obj[RAND_PROP] = [0.5, 0.5, 0.5]
             scene.collection.objects.link(obj)
-    ims = r.image_settings
-    ims.file_format, ims.color_depth = "OPEN_EXR", "32"
-    fd, path = tempfile.mkstemp(suffix=".exr", prefix=f"sesgen-lod-{os.getpid()}-")
-    os.close(fd)
     try:
-        r.filepath = path
-        _render(scene, quiet=True)
-        ch = read_exr(path)
+        img = render_linear_rgb(scene, "lod")             # row 0 at the top
     finally:
-        os.remove(path)
         bpy.data.batch_remove(made)
-    img = np.stack([ch[k] for k in "RGB"], axis=-1)   # row 0 at the top
     out = []
     P = PATCH_PX
     for i in range(n):
