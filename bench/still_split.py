@@ -70,19 +70,29 @@ def image_turn(a: np.ndarray, b: np.ndarray, K: np.ndarray, iterations: int = 12
         return p[0] / p[2], p[1] / p[2]
 
     eps = 1e-6
-    base = np.stack(where(np.zeros(3)))
-    J = np.stack([(np.stack(where(np.eye(3)[i] * eps)) - base) / eps for i in range(3)], axis=-1)   # (2, N, 3)
+    base = where(np.zeros(3))
+    moved = [where(np.eye(3)[i] * eps) for i in range(3)]
+    # d(where)/dw as six 1-D columns (u and v by each of w's three); the normal equations are built
+    # on the usable pixels only, by 1-D takes: the same sums as the full (N, 5) matrix, ~1.4 x faster
+    # (the suite reads 300 pairs)
+    J = [[(moved[i][k] - base[k]) / eps for i in range(3)] for k in range(2)]
+    Af = A.ravel()
+    a_lit = Af < 250
     w = np.zeros(3)
-    ok = np.zeros(u.size, bool)
     for _ in range(iterations):
         pu, pv = where(w)
         Bw = cv2.remap(B, pu.reshape(H_, W_).astype(np.float32), pv.reshape(H_, W_).astype(np.float32), cv2.INTER_LINEAR)
         gy, gx = np.gradient(Bw)
-        ok = (pu > 2) & (pu < W_ - 3) & (pv > 2) & (pv < H_ - 3) & (A.ravel() < 250) & (Bw.ravel() < 250)
-        G = gx.ravel()[:, None] * J[0] + gy.ravel()[:, None] * J[1]          # d(b at the warp)/dw
-        M = np.column_stack([G, -A.ravel(), -np.ones(u.size)])[ok]
-        r = (Bw.ravel() - A.ravel())[ok]
-        sol = np.linalg.solve(M.T @ M, -M.T @ r)
+        Bf = Bw.ravel()
+        ok = np.flatnonzero((pu > 2) & (pu < W_ - 3) & (pv > 2) & (pv < H_ - 3) & a_lit & (Bf < 250))
+        gu, gv = gx.ravel().take(ok).astype(float), gy.ravel().take(ok).astype(float)
+        M = np.empty((5, ok.size))                   # rows: d(b at the warp)/dw (3), gain, offset
+        for i in range(3):
+            np.add(gu * J[0][i].take(ok), gv * J[1][i].take(ok), out=M[i])
+        M[3] = -Af.take(ok)
+        M[4] = -1.0
+        r = Bf.take(ok) - Af.take(ok)
+        sol = np.linalg.solve(M @ M.T, -M @ r)
         w = w + sol[:3]
         if np.abs(sol[:3]).max() < 2e-7:       # 0.0001 px at 436 px
             break

@@ -18,6 +18,12 @@ from hypothesis import HealthCheck, settings
 
 from markers import FULL_EXAMPLES
 
+# Under `make test` two workers share the two cores: OpenBLAS's second thread per worker only spins
+# (test_still_split alone, load ~6: 44.2 -> 33.5 CPU s and 35.3 -> 31.0 s wall with one thread). Set
+# before numpy loads in the worker (nothing imports it before this file); the renders' children inherit it.
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 REPO = Path(__file__).resolve().parents[1]
 settings.register_profile("fuzz", max_examples=FULL_EXAMPLES, deadline=None)
 settings.register_profile("quick", max_examples=FULL_EXAMPLES // 5, deadline=None,
@@ -84,21 +90,29 @@ if _TIMES_PATH:
             _file.clear()
 
 
-# The test files that take longest, longest first: wall seconds of the whole suite on the idle 2-core
-# machine (aa11b9f, bench/RESULTS.md "Test suite"), with the cuts measured since ("Session 7: suite6").
-# Ray's workers are not the worker's waited-for children, so SESGEN_TEST_TIMES counts little of the
-# Ray files' CPU (test_farm_ray: 29 of 110 CPU s, test_study_render: ~2/3): order by wall seconds,
-# not by that figure. `make test` hands whole files to whichever worker is free, in collection order
-# (pytest-xdist --dist loadfile --no-loadscope-reorder): these start first, so that the short files
-# fill in at the end instead of one long file running alone on one worker.
+# The test files that take longest, longest first: every file of 5 CPU s or more in the fresh-clone run of
+# 1218a88 (session 21, SESGEN_TEST_TIMES; test_scene_library and test_still_split at their suite21 figures),
+# by CPU seconds. Ray's workers are not the worker's waited-for children, so SESGEN_TEST_TIMES counts little
+# of the Ray files' CPU (test_farm_ray: 29 of 110 CPU s, test_study_render: ~2/3): they stand by their trees'
+# CPU (bench/cpu_tree.py), test_farm_ray third so that its waits on Ray overlap the other worker's files.
+# `make test` hands whole files to whichever worker is free, in collection order (pytest-xdist --dist
+# loadfile --no-loadscope-reorder): these start first, so that the short files fill in at the end instead
+# of one long file running alone on one worker (session 20's test_study_pure, test_twin_bench and
+# test_vo_install, 7 CPU s each, started last in alphabetical order; test_scene_library, 88, 17th).
 SLOWEST_FIRST = [
-    "test_study_render.py", "test_still_split.py", "test_farm_ray.py", "test_sensor_render.py", "test_addon_blender.py",
-    "test_render_cli.py", "test_render_reliability.py", "test_render_photoreal.py", "test_culling_render.py",
-    "test_culling.py", "test_quality_presets.py", "test_scene_variations.py", "test_evaluate_evo.py",
-    "test_stereo_dynamic.py", "test_mono_pipeline.py", "test_render_oracle.py", "test_render_integrity.py",
-    "test_scene_library.py", "test_ses_property.py", "test_sensor_exports.py", "test_render_byo.py",
-    "test_render_textures.py", "test_render_assets.py", "test_sensor_motion_imu.py", "test_mono_render.py",
-    "test_render_lighting.py",
+    "test_study_render.py", "test_scene_library.py", "test_farm_ray.py", "test_sensor_render.py",
+    "test_still_split.py", "test_addon_blender.py", "test_mono_pipeline.py", "test_render_reliability.py",
+    "test_render_cli.py", "test_render_photoreal.py", "test_scene_variations.py", "test_stereo_dynamic.py",
+    "test_car_detail.py", "test_culling_render.py", "test_culling.py", "test_sensor_exports.py",
+    "test_evaluate_evo.py", "test_render_integrity.py", "test_render_byo.py", "test_stereo_render.py",
+    "test_building_shell.py", "test_quality_presets.py", "test_api_docs.py", "test_ground_floor.py",
+    "test_still_frames.py", "test_sky_table.py", "test_assets.py", "test_exposure_metering.py",
+    "test_render_dynamics.py", "test_exposure_cache.py", "test_render_textures.py", "test_mono_render.py",
+    "test_vo_install.py", "test_twin_bench.py", "test_glow_glazing.py", "test_contract_homes.py",
+    "test_evaluate_cli.py", "test_render_oracle.py", "test_study_pure.py", "test_render_assets.py",
+    "test_cli_startup.py", "test_render_lighting.py", "test_city_grid.py", "test_refusals.py",
+    "test_roller_shutters.py", "test_generate.py", "test_products_kitti_sceneflow.py", "test_stereo_cli.py",
+    "test_fuzz_readers.py",
 ]
 
 

@@ -3,6 +3,7 @@ generators, parsing, with the rigs and motions promised, and cameras that see su
 at every frame (rays cast against the scenes' own meshes)."""
 from __future__ import annotations
 
+import functools
 import importlib.util
 from pathlib import Path
 
@@ -25,6 +26,27 @@ BUILDINGS = ("building", "building_shell", "house")     # a finished building, a
 
 def _generator(name):
     return importlib.import_module(f"blender_sesgen.generators.builtin.{name}")
+
+
+@functools.lru_cache(maxsize=None)
+def city_kitti_script(seed: int, **kw) -> str:
+    """``city_kitti.generate(seed, **kw)``, made once per module: the tests read seeds 0 and 2
+    five and six times (the generator's determinism is a test of its own)."""
+    return _generator("city_kitti").generate(seed, **kw)
+
+
+@functools.lru_cache(maxsize=None)
+def _mesh(kind: str, size: tuple, seed: int, bend: tuple, offset: float):
+    d = assets.generate(kind, size, seed, bend, offset)
+    for a in (d.vertices, d.faces, d.face_surface, d.smooth):
+        a.setflags(write=False)      # shared between tests: none may change it
+    return d
+
+
+def mesh(kind: str, size, seed: int, bend=(0.0,), offset: float = 0.0):
+    """``assets.generate``, each mesh made once per module (the tests read seed 0's buildings
+    again and again)."""
+    return _mesh(kind, tuple(map(float, size)), int(seed), tuple(map(float, np.atleast_1d(bend))), float(offset))
 
 
 class _Scenes(dict):
@@ -119,7 +141,7 @@ def sunlit_road_share(s, frames: int = 45, ahead_m: float = 25.0) -> float:
     ts = mesh_raycast.TriangleScene()
     for o in s.objects:
         if isinstance(o, Asset) and o.kind in BUILDINGS:
-            d = assets.generate(o.kind, o.size, o.seed)
+            d = mesh(o.kind, o.size, o.seed)
             ts.add(o.id, d.vertices, d.faces, object_pose(o.position, o.rotation_deg))
     to_sun = -sun_travel(s.world.sun_elevation_deg, s.world.sun_azimuth_deg)
     t, _ = ts.cast(pts, np.tile(to_sun, (len(pts), 1)))
@@ -141,9 +163,8 @@ def test_city_kitti_has_moving_traffic_in_the_lanes(scenes, seed, lane_m, ways):
     camera's car (9 m in its lane; oncoming cars pass beside it); on a drawn street (seed 2)
     some drive ahead with the camera, some come towards it; on seed 0's (KITTI sequence_1's
     narrow street, where no car comes the other way) all drive ahead."""
-    from blender_sesgen.generators.builtin import city_kitti
     from blender_sesgen.ses.parser import parse_text
-    s = scenes["city_kitti"] if seed == 0 else parse_text(city_kitti.generate(seed))
+    s = scenes["city_kitti"] if seed == 0 else parse_text(city_kitti_script(seed))
     moving = [o for o in s.objects if s.motion_of(o.id) is not None]
     assert len(moving) >= (3 if seed == 0 else 6) and all(isinstance(o, Asset) and o.kind == "car" for o in moving)
     road = next(o for o in s.objects if isinstance(o, Asset) and o.kind == "road")
@@ -370,7 +391,7 @@ def test_hall_stand_is_closed_in_within_4_m_as_euroc_v1_01s(scenes, shared_data)
     ts = _solid_scene(s)
     for o in s.objects:          # the test floor's mats, play mat and cables
         if isinstance(o, Asset) and o.id >= 2000:
-            d = assets.generate(o.kind, o.size, o.seed)
+            d = mesh(o.kind, o.size, o.seed)
             ts.add(o.id, d.vertices, d.faces, object_pose(o.position, o.rotation_deg))
     pix = np.array([(u, v) for v in np.arange(124, s.rig.height, 8.0) for u in np.arange(4, s.rig.width, 8.0)])
     for k in (0, 50, 99):
@@ -395,7 +416,7 @@ def test_hall_crash_mats_stand_clear_of_the_flight(scenes):
         assert len(mats) == 6 if seed == 0 else len(mats) >= 2, (seed, len(mats))
         for o in mats:
             T = object_pose(o.position, o.rotation_deg)
-            V = np.asarray(assets.generate(o.kind, o.size, o.seed).vertices) @ T[:3, :3].T + T[:3, 3]
+            V = np.asarray(mesh(o.kind, o.size, o.seed).vertices) @ T[:3, :3].T + T[:3, 3]
             assert V[:, 1].min() > -1e-6, (seed, o.id)
             local = (cams - T[:3, 3]) @ T[:3, :3]
             L, H, D = o.size
@@ -491,7 +512,7 @@ def test_hall_pallet_bays_stay_clear_of_the_flight_and_the_clutter(scenes):
                            for f in (lambda t: t.left()[:, :3, 3], lambda t: t.right(s.rig.baseline)[:, :3, 3])])
 
     def vertices(o):
-        d = assets.generate(o.kind, o.size, o.seed)
+        d = mesh(o.kind, o.size, o.seed)
         T = object_pose(o.position, o.rotation_deg)
         return np.asarray(d.vertices) @ T[:3, :3].T + T[:3, 3]
     for o in loads:
@@ -533,7 +554,7 @@ def test_a_buildings_lower_box_lies_inside_its_shell():
     a ray that meets the box meets the building."""
     for seed in range(6):
         W, H, D = assets.default_size("building", seed)
-        d = assets.generate("building", (W, H, D), seed)
+        d = mesh("building", (W, H, D), seed)
         ts = mesh_raycast.TriangleScene()
         ts.add(1, d.vertices, d.faces)
         rng = np.random.default_rng(seed)
@@ -552,7 +573,7 @@ def _solid_scene(scene) -> mesh_raycast.TriangleScene:
     ts = mesh_raycast.TriangleScene()
     for o in scene.objects:
         if isinstance(o, Asset) and o.kind in SOLID:
-            d = assets.generate(o.kind, o.size, o.seed, o.bend, o.offset)
+            d = mesh(o.kind, o.size, o.seed, o.bend, o.offset)
             ts.add(o.id, d.vertices, d.faces, object_pose(o.position, o.rotation_deg))
         elif isinstance(o, Asset) and o.kind in ("building", "house"):
             W, H, D = o.size
@@ -629,7 +650,6 @@ def test_city_kitti_near_field_is_kitti_sequence_1s(scenes):
     90 m of the camera over its 51 frames, and mown lawns (blades of at most 10 cm: taller ones
     gave the near lawn twice KITTI's corners and KLT error). A drawn seed keeps its own (seed 2:
     the left kerb beyond 5 m, a parked car within 3 m of the camera's line, 16 cm blades)."""
-    from blender_sesgen.generators.builtin import city_kitti
     from blender_sesgen.ses.parser import parse_text
 
     def left_kerb_m(s, frames=45):
@@ -660,7 +680,7 @@ def test_city_kitti_near_field_is_kitti_sequence_1s(scenes):
             assert np.linalg.norm(p - cam, axis=1).min() > 90.0, o.id
     blades = lambda s: {o.size[1] for o in s.objects if isinstance(o, Asset) and o.kind == "grass_tuft"}  # noqa: E731
     assert max(blades(s)) <= 0.10, blades(s)
-    s2 = parse_text(city_kitti.generate(2))
+    s2 = parse_text(city_kitti_script(2))
     assert blades(s2) == {0.16}
     assert np.all(left_kerb_m(s2) > 5.0)
     assert min(abs(x) for c in parked_cars(s2).values() for _, x in c) < 3.0
@@ -672,7 +692,6 @@ def test_city_kitti_has_kitti_sequence_1s_gutter_before_the_bay(scenes):
     bright as its kerb tops): seed 0 has a 0.3-0.5 m gutter strip from the road's right edge to
     the bay's, lighter than the asphalt and the setts, no lighter than weathered concrete (fresh,
     0.37, rendered 3.4 x the asphalt); a drawn seed has none."""
-    from blender_sesgen.generators.builtin import city_kitti
     from blender_sesgen.scene.assets.street import gutter
     s = scenes["city_kitti"]
     strips = {o.kind: o for o in s.objects if isinstance(o, Asset) and o.kind in ("road", "gutter")}
@@ -684,7 +703,7 @@ def test_city_kitti_has_kitti_sequence_1s_gutter_before_the_bay(scenes):
     from blender_sesgen.scene.materials import entry
     tones = [c for surf in gutter(g.size, g.seed, g.bend, g.offset).surfaces for c in surf.colour]
     assert max(max(entry(m).colour) for m in ("setts", "asphalt")) < min(tones) and max(tones) <= 0.3, tones
-    assert " gutter " not in city_kitti.generate(2)
+    assert " gutter " not in city_kitti_script(2)
 
 
 def test_city_kitti_lawns_hide_their_ground_at_the_cameras_grazing_view():
@@ -696,7 +715,7 @@ def test_city_kitti_lawns_hide_their_ground_at_the_cameras_grazing_view():
     from blender_sesgen.scene.assets import street
 
     def seen_blades(H, dist=10.0, n=400):
-        m = assets.generate("grass_tuft", (2.875, H, 2.875), 123)
+        m = mesh("grass_tuft", (2.875, H, 2.875), 123)
         sc = mesh_raycast.TriangleScene()
         sc.add(1, m.vertices, m.faces)
         g = np.column_stack([np.random.default_rng(0).uniform(-0.5, 0.5, (n, 2)), np.zeros(n)])[:, [0, 2, 1]]
@@ -709,7 +728,7 @@ def test_city_kitti_lawns_hide_their_ground_at_the_cameras_grazing_view():
     lawn, _ = seen_blades(0.08)
     assert lawn > 0.75, lawn
     assert seen_blades(0.35)[1] == 3 * (int(200 * 2.875 ** 2 / 0.25) + 30)    # 800 per m^2, as before
-    verge = assets.generate("verge", (3.0, 0.13, 20.0), 4)
+    verge = mesh("verge", (3.0, 0.13, 20.0), 4)
     tones = {s.colour for s in verge.surfaces if s.material == "grass"}
     assert max(max(c) for c in tones) <= 0.6 * max(street.GRASS), tones
 
@@ -720,7 +739,6 @@ def test_city_kitti_foliage_passes_what_it_reflects_and_seed_0s_right_blocks_are
     so lit crowns glow from within; seed 0's front-row blocks on the right through ~100 m have
     KITTI sequence_1's white render (its burnt-out pixels), the block under works its bare
     sand-lime blockwork (frames 20 and 40), a drawn seed's are its own."""
-    from blender_sesgen.generators.builtin import city_kitti
     from blender_sesgen.scene.materials import band_colour, entry, transmitted_colour
     for name in ("leaves", "grass"):
         e = entry(name)
@@ -738,7 +756,7 @@ def test_city_kitti_foliage_passes_what_it_reflects_and_seed_0s_right_blocks_are
     assert [m for z, m in right if m == "works_blocks"] == ["works_blocks"] and \
         s.material("works_blocks").library.name == "blockwork", right
     assert all(m is None for z, m in right if z > 100.0), right
-    drawn = city_kitti.generate(2)
+    drawn = city_kitti_script(2)
     assert "white_render" not in drawn and "works_blocks" not in drawn
 
 
@@ -755,7 +773,6 @@ def test_city_kitti_near_field_detail_stands_where_kitti_sequence_1s_does():
     across the view 55-62 m ahead; stakes round each young tree; none of it on the carriageway. Drawn seeds draw their own
     works (a site fence before those with a deep yard) and racks (seeds 1-8: some with works,
     some without; every seed stakes some trees)."""
-    from blender_sesgen.generators.builtin import city_kitti
     from blender_sesgen.ses.parser import parse_text
 
     def local(s, o):            # (ahead, right) of the first camera (m)
@@ -763,7 +780,7 @@ def test_city_kitti_near_field_detail_stands_where_kitti_sequence_1s_does():
         d = np.asarray(o.position) - T0[:3, 3]
         return float(d @ T0[:3, 2]), float(d @ T0[:3, 0])
 
-    s = parse_text(city_kitti.generate(0))     # the generator's (the file is its output: another test)
+    s = parse_text(city_kitti_script(0))     # the generator's (the file is its output: another test)
     objs = [o for o in s.objects if isinstance(o, Asset)]
     of = lambda k: [o for o in objs if o.kind == k]  # noqa: E731
     scaffolds = of("scaffold")
@@ -786,7 +803,7 @@ def test_city_kitti_near_field_detail_stands_where_kitti_sequence_1s_does():
         assert (o.rotation_deg[1] - b.rotation_deg[1]) % 360 == pytest.approx(90 if along else 0, abs=1e-6) or \
             (along and (o.rotation_deg[1] - b.rotation_deg[1]) % 360 == pytest.approx(270)), (o.id, b.id)
         assert b.size[2 if along else 0] < o.size[0], (o.id, b.id)
-        V = assets.generate(b.kind, b.size, b.seed).vertices     # the facade's balconies, sills, steps
+        V = mesh(b.kind, b.size, b.seed).vertices     # the facade's balconies, sills, steps
         d = np.subtract(o.position, b.position)[[0, 2]]
         a = np.radians(b.rotation_deg[1])
         ex = np.array([np.cos(a), -np.sin(a)])
@@ -799,7 +816,7 @@ def test_city_kitti_near_field_detail_stands_where_kitti_sequence_1s_does():
     assert len(young) >= 10 and all(tuple(np.round(y, 3)) in stakes for y in young)
     for o in scaffolds + of("site_fence") + of("tree_stakes") + of("bike_rack"):   # off the 4 m carriageway
         assert abs(local(s, o)[1] + 0.17) > 2.5 or not -40.0 < local(s, o)[0] < 100.0, o.id
-    kinds = [[o.kind for o in parse_text(city_kitti.generate(seed, frames=45)).objects if isinstance(o, Asset)]
+    kinds = [[o.kind for o in parse_text(city_kitti_script(seed, frames=45)).objects if isinstance(o, Asset)]
              for seed in range(1, 9)]
     assert all(k.count("site_fence") <= k.count("scaffold") for k in kinds) and any("site_fence" in k for k in kinds)
     assert all("tree_stakes" in k for k in kinds)
@@ -811,11 +828,10 @@ def test_city_kitti_works_footprints_are_clear():
     site, no bush reaching into it (seeds 1, 3, 4, 5, 6, 8 and 9 had one or the other;
     footprints as axis boxes in each works asset's frame, a bush or rack as the circle round
     its footprint)."""
-    from blender_sesgen.generators.builtin import city_kitti
     from blender_sesgen.ses.parser import parse_text
     with_works = 0
     for seed in range(10):
-        objs = [o for o in parse_text(city_kitti.generate(seed)).objects if isinstance(o, Asset)]
+        objs = [o for o in parse_text(city_kitti_script(seed)).objects if isinstance(o, Asset)]
         works = [o for o in objs if o.kind in ("scaffold", "site_fence")]
         with_works += bool(works)
         for w in works:
@@ -997,7 +1013,7 @@ def _kinds_from_the_first_camera(s, kinds):
     ts = mesh_raycast.TriangleScene()
     for o in s.objects:
         if isinstance(o, Asset) and o.kind in kinds:
-            d = assets.generate(o.kind, o.size, o.seed)
+            d = mesh(o.kind, o.size, o.seed)
             ts.add(o.id, d.vertices, d.faces, object_pose(o.position, o.rotation_deg))
     ahead, right = T0[:3, 2] * np.array([1.0, 0.0, 1.0]), T0[:3, 0] * np.array([1.0, 0.0, 1.0])
     return T0, ts, ahead / np.linalg.norm(ahead), right / np.linalg.norm(right)
@@ -1094,11 +1110,11 @@ def test_city_kitti_gardens_hold_young_trees_where_kitti_sequence_1s_do(scenes, 
     assert garden and all(4.5 <= o.size[1] <= 6.1 for o in garden), [o.size for o in garden]
     buildings = [o for o in s.objects if isinstance(o, Asset) and o.kind in ("building", "house")]
     for o in garden:
-        M = assets.generate("garden_tree", o.size, o.seed).vertices
+        M = mesh("garden_tree", o.size, o.seed).vertices
         T = object_pose(o.position, o.rotation_deg)
         P = M @ T[:3, :3].T + T[:3, 3]
         for b in buildings:
-            B = assets.generate(b.kind, b.size, b.seed).vertices
+            B = mesh(b.kind, b.size, b.seed).vertices
             Tb = object_pose(b.position, b.rotation_deg)
             Q = (P - Tb[:3, 3]) @ Tb[:3, :3]                        # the tree in the building's frame
             crown = (np.abs(Q[:, 0]) < b.size[0] / 2 + 1.0) & (Q[:, 1] > 1.0) & (Q[:, 2] > 0.0) & (Q[:, 2] < 5.0 + b.size[2])
@@ -1119,7 +1135,7 @@ def test_city_kitti_garden_houses_have_no_balconies_as_kitti_sequence_1s(scenes)
            if -8.0 < ahead < 45.0 and 5.0 < right < 20.0]
     assert len(row) >= 3, row
     for o in row:
-        V = assets.generate(o.kind, o.size, o.seed).vertices
+        V = mesh(o.kind, o.size, o.seed).vertices
         assert not np.any((V[:, 1] > 2.0) & (V[:, 2] > o.size[2] / 2 + 0.5)), (o.id, o.seed)
 
 
@@ -1178,7 +1194,6 @@ def test_city_kitti_parks_its_kerbs_as_kitti_sequence_1_and_seeds_vary_it(scenes
     the right kerb over the ~90 m its frames 0-45 see (one per 30-45 m) and none on the lawn
     side, so seed 0 parks the right kerb at one car per 25-70 m over the street ahead and leaves
     the left one empty; another seed parks its own kerbs (seed 2: the left one too)."""
-    from blender_sesgen.generators.builtin import city_kitti
     from blender_sesgen.ses.parser import parse_text
     parked = lambda s: {side: [z for z, _ in cars] for side, cars in parked_cars(s).items()}  # noqa: E731
 
@@ -1186,7 +1201,7 @@ def test_city_kitti_parks_its_kerbs_as_kitti_sequence_1_and_seeds_vary_it(scenes
     assert not p0["left"], p0
     metres_per_car = max(p0["right"]) / len(p0["right"])
     assert 25.0 <= metres_per_car <= 70.0, p0
-    assert parked(parse_text(city_kitti.generate(2)))["left"], "seed 2 parks its left kerb"
+    assert parked(parse_text(city_kitti_script(2)))["left"], "seed 2 parks its left kerb"
 
 
 @pytest.mark.parametrize("seed", [0, 2])
@@ -1194,11 +1209,10 @@ def test_city_kitti_short_drive_is_a_stretch_of_the_long_one(seed):
     """The drive's wander and body motion are cycles per distance, not per sequence: the
     studies' 10 frames turn less than 1 deg a frame, as KITTI's rig (cycles per sequence gave
     them yaw steps of 3-9 deg, 30-90 deg/s at 45 km/h)."""
-    from blender_sesgen.generators.builtin import city_kitti
     from blender_sesgen.ses.parser import parse_text
     from blender_sesgen.contract.se3 import relative, rotation_angle_rad
     for frames in (10, 30):
-        T = parse_text(city_kitti.generate(seed, frames=frames, step_m=1.25)).timeline.left()
+        T = parse_text(city_kitti_script(seed, frames=frames, step_m=1.25)).timeline.left()
         turn = np.degrees([float(rotation_angle_rad(relative(T[k], T[k + 1])[:3, :3])) for k in range(len(T) - 1)])
         assert turn.max() < 1.0, (frames, np.round(turn, 2))
 
@@ -1245,13 +1259,12 @@ def test_city_kitti_body_turns_as_kitti_sequence_1(shared_data):
     its 50 steps: 0.019 / 0.034 deg), within a factor 1.5 over the bench's 45 frames and the whole
     drive (the old 0.3 / 0.2 deg body motion turned 8x / 3x that; its frame-to-frame changes of
     rotation made the accurate VO's constant-velocity check prefer outliers)."""
-    from blender_sesgen.generators.builtin import city_kitti
     from blender_sesgen.ses.parser import parse_text
     P = np.loadtxt(shared_data / "kitti" / "sequence_1" / "poses.txt").reshape(-1, 3, 4)
     T_real = np.tile(np.eye(4), (len(P), 1, 1))
     T_real[:, :3] = P
     real = _body_turn_deg(T_real)
-    T = parse_text(city_kitti.generate(0)).timeline.left()
+    T = parse_text(city_kitti_script(0)).timeline.left()
     for ours in (_body_turn_deg(T[:45]), _body_turn_deg(T)):
         ratio = ours / real
         assert np.all((ratio > 1 / 1.5) & (ratio < 1.5)), (np.round(ours, 3), np.round(real, 3))
@@ -1266,11 +1279,10 @@ def test_city_kitti_drives_at_kitti_sequence_1s_speed(shared_data):
     1.208 m, mean 1.197), each within 1.5 % and their mean within 0.5 %. A drive that wandered 6 %
     in speed drove 1.07-1.23 m a frame over the twin bench's 45 frames (6 % slower: less image
     motion than KITTI's, smaller KLT errors)."""
-    from blender_sesgen.generators.builtin import city_kitti
     from blender_sesgen.ses.parser import parse_text
     P = np.loadtxt(shared_data / "kitti" / "sequence_1" / "poses.txt").reshape(-1, 3, 4)
     real = np.linalg.norm(np.diff(P[:, :, 3], axis=0), axis=1)
-    T = parse_text(city_kitti.generate(0)).timeline.left()
+    T = parse_text(city_kitti_script(0)).timeline.left()
     ours = np.linalg.norm(np.diff(T[:, :3, 3], axis=0), axis=1)[:len(real)]
     assert abs(ours.mean() / real.mean() - 1) < 0.005, (ours.mean(), real.mean())
     assert np.abs(ours / real.mean() - 1).max() < 0.015, (ours.min(), ours.max(), real.min(), real.max())
@@ -1282,9 +1294,8 @@ def test_city_kitti_film_factor_is_fixed_as_a_cameras_sensitivity(seed):
     for seed 0 up to session 18), so the sensor's input is the calibrated sky's and sun's light at
     every seed and the camera's AUTOEXPOSURE adapts; the automatic factor (the 90th percentile of
     frame 0's preview) halved when a garden tree was re-drawn and darkened the whole sequence."""
-    from blender_sesgen.generators.builtin import city_kitti
     from blender_sesgen.ses.parser import parse_text
-    s = parse_text(city_kitti.generate(seed, frames=5))
+    s = parse_text(city_kitti_script(seed, frames=5))
     assert not s.look.auto_exposure and s.look.exposure_ev == pytest.approx(1.59)
     assert s.autoexposure is not None           # the camera adapts
 
@@ -1306,7 +1317,7 @@ def works_front_right(s, frames=(36, 40, 44)) -> float:
     ts = mesh_raycast.TriangleScene()
     for o in s.objects:
         if isinstance(o, Asset) and o.kind in WORKS_THINGS:
-            d = assets.generate(o.kind, o.size, o.seed)
+            d = mesh(o.kind, o.size, o.seed)
             ts.add(o.id, d.vertices, d.faces, object_pose(o.position, o.rotation_deg))
     W, H = s.rig.width, s.rig.height
     u, v = np.meshgrid(np.arange(W / 2, W, 4.0) + 0.5, np.arange(0, H, 4.0) + 0.5)
