@@ -6,7 +6,7 @@ import os
 import signal
 import sys
 
-from ..contract.cli import EXIT_INTERRUPTED
+from ..contract.cli import EXIT_INTERRUPTED, forget_caught_interrupt
 from ..farm.child import PARENT_ENV, bind_to_parent, restore_interrupts
 from ..render.interrupt import StopRequest
 
@@ -30,6 +30,7 @@ def main(argv=None) -> int:
         early.requested = True
     if early.requested:         # interrupted before the command began: nothing was written
         print("interrupted", file=sys.stderr)
+        forget_caught_interrupt()   # (a KeyboardInterrupt caught in an import's exec: 130, not SIGINT)
         return EXIT_INTERRUPTED
     if argv[:1] != ["render"]:
         signal.signal(signal.SIGINT, signal.default_int_handler)

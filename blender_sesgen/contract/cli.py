@@ -56,7 +56,7 @@ def chosen_command(argv: Sequence[str], commands: dict) -> str:
     return first if first in commands else ""
 
 
-def _forget_caught_interrupt() -> None:
+def forget_caught_interrupt() -> None:
     """Let a caught Ctrl-C end the process with exit code 130. CPython (3.11, run as ``python -m``)
     marks a KeyboardInterrupt that left an ``exec`` of source text -- the class bodies dataclasses
     and namedtuple build, met by a Ctrl-C or SIGTERM during an import -- as unhandled even when a
@@ -80,14 +80,14 @@ def dispatch(argv: Optional[Sequence[str]], *, prog: str, description: str, comm
         module = importlib.import_module(commands[args.command][0], package)
         code = int(module.run(args) or EXIT_OK)
         if code == EXIT_INTERRUPTED:
-            _forget_caught_interrupt()
+            forget_caught_interrupt()
         return code
     except (ContractError, *user_errors) as e:
         print(describe(e), file=sys.stderr)
         return EXIT_USER_ERROR
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
-        _forget_caught_interrupt()
+        forget_caught_interrupt()
         return EXIT_INTERRUPTED
     except BrokenPipeError:  # output piped into a reader that stopped early (e.g. `| head`)
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
