@@ -174,24 +174,62 @@ def _render(bscene, quiet: bool) -> tuple[float, Optional[float]]:
     return wall, stats.last
 
 
-def render_linear_rgb(bscene, prefix: str):
-    """One quiet render of ``bscene`` to a temporary 32-bit EXR, removed after: its linear RGB,
-    (H, W, 3) float32, row 0 at the top (the bakes that read Cycles' own result: the sky's
-    table, the library materials' means)."""
-    import tempfile
-    import numpy as np
-    from ..files.exr import read_exr
-    ims = bscene.render.image_settings
-    ims.file_format, ims.color_depth = "OPEN_EXR", "32"
-    fd, path = tempfile.mkstemp(suffix=".exr", prefix=f"sesgen-{prefix}-{os.getpid()}-")
-    os.close(fd)
-    try:
-        bscene.render.filepath = path
-        _render(bscene, quiet=True)
-        ch = read_exr(path)
-    finally:
-        os.remove(path)
-    return np.stack([ch[k] for k in "RGB"], axis=-1)
+class Bake:
+    """The throw-away scene of a bake that reads Cycles' own RGB off emitting planes under an
+    orthographic camera (the sky's table, the library materials' means): CPU, no denoiser, no
+    adaptive sampling, no bounce, the Standard view, ``threads`` CPU threads (0: automatic).
+    The caller adds its planes through :meth:`new`; :meth:`close` removes every datablock made."""
+
+    def __init__(self, name: str, width_px: int, height_px: int, samples: int, threads: int,
+                 ortho_scale: float, camera_location: tuple):
+        self.made: list = []
+        self.scene = scene = self.new("scenes", name)
+        scene.render.engine = "CYCLES"
+        c = scene.cycles
+        c.device, c.samples, c.use_denoising, c.use_adaptive_sampling = "CPU", samples, False, False
+        c.max_bounces = 0
+        r = scene.render
+        r.resolution_x, r.resolution_y, r.resolution_percentage = width_px, height_px, 100
+        r.threads_mode = "FIXED" if threads > 0 else "AUTO"
+        if threads > 0:
+            r.threads = int(threads)
+        scene.view_settings.view_transform = "Standard"
+        scene.view_settings.look = "None"
+        scene.world = self.new("worlds", name)
+        self.camera = cam = self.new("objects", f"{name}_camera", self.new("cameras", f"{name}_camera"))
+        cam.data.type, cam.data.ortho_scale = "ORTHO", float(ortho_scale)
+        cam.location = camera_location
+        scene.collection.objects.link(cam)
+        scene.camera = cam
+
+    def new(self, collection: str, *args, **kw):
+        """``bpy.data.<collection>.new(...)``, tagged and removed by :meth:`close`."""
+        from .datablocks import tag
+        block = tag(getattr(bpy.data, collection).new(*args, **kw))
+        self.made.append(block)
+        return block
+
+    def render_rgb(self, prefix: str):
+        """One quiet render to a temporary 32-bit EXR, removed after: its linear RGB, (H, W, 3)
+        float32, row 0 at the top."""
+        import tempfile
+        import numpy as np
+        from ..files.exr import read_exr
+        ims = self.scene.render.image_settings
+        ims.file_format, ims.color_depth = "OPEN_EXR", "32"
+        fd, path = tempfile.mkstemp(suffix=".exr", prefix=f"sesgen-{prefix}-{os.getpid()}-")
+        os.close(fd)
+        try:
+            self.scene.render.filepath = path
+            _render(self.scene, quiet=True)
+            ch = read_exr(path)
+        finally:
+            os.remove(path)
+        return np.stack([ch[k] for k in "RGB"], axis=-1)
+
+    def close(self) -> None:
+        bpy.data.batch_remove(self.made)
+        self.made = []
 
 
 def _set(owner, name: str, value) -> None:

@@ -93,36 +93,15 @@ def bake(params: dict, threads: int = 0) -> np.ndarray:
     looks at a plane whose emission is the sky node at the direction of each cell's centre
     (snapped to it, whatever the pixel filter), one sample, no denoiser; ``threads`` CPU threads
     (0: automatic) for the render and Cycles' precompute of the table inside it."""
-    from .datablocks import tag
-    from .render import render_linear_rgb
-    made = []
-
-    def new(collection, *args, **kw):
-        block = tag(getattr(bpy.data, collection).new(*args, **kw))
-        made.append(block)
-        return block
-    scene = new("scenes", "sesgen_sky_bake")
-    scene.render.engine = "CYCLES"
-    c = scene.cycles
-    c.device, c.samples, c.use_denoising, c.use_adaptive_sampling = "CPU", 1, False, False
-    c.filter_width, c.max_bounces = 0.01, 0
-    r = scene.render
-    r.resolution_x, r.resolution_y, r.resolution_percentage = WIDTH, HEIGHT, 100
-    r.threads_mode = "FIXED" if threads > 0 else "AUTO"
-    if threads > 0:
-        r.threads = int(threads)
-    scene.view_settings.view_transform = "Standard"
-    scene.view_settings.look = "None"
-    scene.world = new("worlds", "sesgen_sky_bake")
-    cam = new("objects", "sesgen_sky_bake_camera", new("cameras", "sesgen_sky_bake_camera"))
-    cam.data.type, cam.data.ortho_scale = "ORTHO", 1.0     # x in [0, 1], y in [0.25, 0.75]
-    cam.location = (0.5, 0.5, 1.0)
+    from .render import Bake
+    baking = Bake("sesgen_sky_bake", WIDTH, HEIGHT, samples=1, threads=threads, ortho_scale=1.0,
+                camera_location=(0.5, 0.5, 1.0))     # x in [0, 1], y in [0.25, 0.75]
+    baking.scene.cycles.filter_width = 0.01
+    new = baking.new
     mesh = new("meshes", "sesgen_sky_bake_plane")
     mesh.from_pydata([(-1, -1, 0), (2, -1, 0), (2, 2, 0), (-1, 2, 0)], [], [(0, 1, 2, 3)])
     plane = new("objects", "sesgen_sky_bake_plane", mesh)
-    for o in (cam, plane):
-        scene.collection.objects.link(o)
-    scene.camera = cam
+    baking.scene.collection.objects.link(plane)
     mat = new("materials", "sesgen_sky_bake")
     mesh.materials.append(mat)
     nt = compat.node_tree(mat)
@@ -149,7 +128,7 @@ def bake(params: dict, threads: int = 0) -> np.ndarray:
                  **params)
     g.set(emit.inputs["Color"], sky.outputs["Color"])
     try:
-        rgb = render_linear_rgb(scene, "sky")
+        rgb = baking.render_rgb("sky")
     finally:
-        bpy.data.batch_remove(made)
+        baking.close()
     return np.ascontiguousarray(rgb[::-1], dtype=np.float32)

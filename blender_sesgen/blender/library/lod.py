@@ -191,36 +191,16 @@ def measure(sources: list, threads: int, recipe, props: tuple[str, str, str]) ->
     recipes rebuilt on patches by ``recipe(nt, m, colour)``; ``props``: the names of the objects'
     scale, offset and random properties the recipes read), one render (library.measure_lod)."""
     from ..datablocks import tag
-    from ..render import render_linear_rgb
+    from ..render import Bake
     SCALE_PROP, OFFSET_PROP, RAND_PROP = props
-    made = []
-
-    def new(collection, *args, **kw):
-        block = tag(getattr(bpy.data, collection).new(*args, **kw))
-        made.append(block)
-        return block
     n = len(sources)
     cols = 4          # colour flat, colour upright, (rough, metal, slope2), the relief's normal (x, y) upright
-    scene = new("scenes", "sesgen_lod_measure")
-    scene.render.engine = "CYCLES"
-    c = scene.cycles
-    c.device, c.samples, c.use_denoising, c.use_adaptive_sampling = "CPU", PATCH_SAMPLES, False, False
-    c.pixel_filter_type, c.filter_width, c.max_bounces = "BOX", 1.0, 0
-    c.seed = 0
-    r = scene.render
-    r.resolution_x, r.resolution_y, r.resolution_percentage = cols * PATCH_PX, n * PATCH_PX, 100
-    r.threads_mode = "FIXED" if threads > 0 else "AUTO"
-    if threads > 0:
-        r.threads = int(threads)
-    scene.view_settings.view_transform = "Standard"
-    scene.view_settings.look = "None"
-    scene.world = new("worlds", "sesgen_lod_measure")
-    cam = new("objects", "sesgen_lod_camera", new("cameras", "sesgen_lod_camera"))
-    cam.data.type, cam.data.ortho_scale = "ORTHO", float(max(cols, n) * PATCH_M)
-    cam.location = (cols * PATCH_M / 2, -n * PATCH_M / 2, 10.0)
-    cam.data.clip_end = 100.0
-    scene.collection.objects.link(cam)
-    scene.camera = cam
+    bake = Bake("sesgen_lod_measure", cols * PATCH_PX, n * PATCH_PX, samples=PATCH_SAMPLES, threads=threads,
+                ortho_scale=max(cols, n) * PATCH_M, camera_location=(cols * PATCH_M / 2, -n * PATCH_M / 2, 10.0))
+    c = bake.scene.cycles
+    c.pixel_filter_type, c.filter_width, c.seed = "BOX", 1.0, 0
+    bake.camera.data.clip_end = 100.0
+    scene, made, new = bake.scene, bake.made, bake.new
     L = PATCH_M
     flat = new("meshes", "sesgen_lod_flat")
     flat.from_pydata([(0, 0, 0), (L, 0, 0), (L, L, 0), (0, L, 0)], [], [(0, 1, 2, 3)])
@@ -262,9 +242,9 @@ def measure(sources: list, threads: int, recipe, props: tuple[str, str, str]) ->
             obj[RAND_PROP] = [0.5, 0.5, 0.5]
             scene.collection.objects.link(obj)
     try:
-        img = render_linear_rgb(scene, "lod")             # row 0 at the top
+        img = bake.render_rgb("lod")                     # row 0 at the top
     finally:
-        bpy.data.batch_remove(made)
+        bake.close()
     out = []
     P = PATCH_PX
     for i in range(n):
